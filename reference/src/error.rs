@@ -1,0 +1,48 @@
+//! Scene errors: each names where the problem is (file, field, and for
+//! JSON the line and column) so the CLI can print one clear line.
+
+use std::path::PathBuf;
+
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    /// A value the scene model rejects; `field` is a path like
+    /// `objects[3].radius` or `camera.vfov`.
+    #[error("{field}: {message}")]
+    Invalid { field: String, message: String },
+    /// The document does not parse or does not match the format.
+    #[error("{path}:{line}:{column}: {field}: {message}", path = path.display())]
+    Parse { path: PathBuf, line: usize, column: usize, field: String, message: String },
+    /// A file the scene refers to (or the scene itself) cannot be read.
+    #[error("{path}: {message}", path = path.display())]
+    Io { path: PathBuf, message: String },
+    /// A problem inside a scene file, with the file named.
+    #[error("{path}: {source}", path = path.display())]
+    InFile { path: PathBuf, source: Box<SceneError> },
+    /// A built-in scene name that does not exist.
+    #[error("unknown built-in scene `{0}` (known: {known})", known = crate::builtin::NAMES.join(", "))]
+    UnknownBuiltin(String),
+}
+
+impl SceneError {
+    pub fn invalid(field: &str, message: String) -> Self {
+        SceneError::Invalid { field: field.to_string(), message }
+    }
+
+    /// Prefixes the field path of an `Invalid` error (`radius` → `objects[3].radius`).
+    pub fn within(self, prefix: &str) -> Self {
+        match self {
+            SceneError::Invalid { field, message } => {
+                SceneError::Invalid { field: if field.is_empty() { prefix.to_string() } else { format!("{prefix}.{field}") }, message }
+            }
+            other => other,
+        }
+    }
+
+    /// Attaches the file the error was found in.
+    pub fn in_file(self, path: impl Into<PathBuf>) -> Self {
+        match self {
+            e @ (SceneError::Parse { .. } | SceneError::Io { .. } | SceneError::InFile { .. }) => e,
+            e => SceneError::InFile { path: path.into(), source: Box::new(e) },
+        }
+    }
+}

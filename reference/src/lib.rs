@@ -1,0 +1,32 @@
+//! `reference`: what a twintrace scene means.
+//!
+//! The scene model ([`scene::Scene`]), its loaders (JSON, glTF, built-in
+//! scenes), the BVH whose flattened node array every backend walks, the
+//! counter-based RNG and sampling routines, and the scalar path tracer that
+//! the GPU kernels are checked against. Written to be obviously correct
+//! first: scalar f32, closed `enum` dispatch, no unsafe.
+//!
+//! This crate knows nothing of wgpu or of any GPU.
+
+pub mod background;
+pub mod builtin;
+pub mod bvh;
+pub mod camera;
+pub mod error;
+pub mod film;
+pub mod geometry;
+pub mod integrator;
+pub mod loader;
+pub mod material;
+pub mod procedural;
+pub mod rng;
+pub mod sampling;
+pub mod scene;
+pub mod shapes;
+pub mod texture;
+
+pub use error::SceneError;
+pub use film::Film;
+pub use integrator::render;
+pub use loader::load_scene;
+pub use scene::{RenderSettings, Scene, SceneBuilder};

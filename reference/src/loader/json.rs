@@ -1,0 +1,598 @@
+//! The JSON scene format (see docs/scene-format.md for every field, its
+//! unit and its default). Parsing is strict: unknown fields and unknown
+//! `type` values are errors, reported as `file:line:column: field: message`.
+//! Semantic errors (a bad radius, an unknown material name) name the file
+//! and the field path, e.g. `objects[3].radius`.
+
+use crate::background::Background;
+use crate::camera::CameraSettings;
+use crate::error::SceneError;
+use crate::loader::image::load_image;
+use crate::material::Material;
+use crate::scene::{RenderSettings, Scene, SceneBuilder, Transform};
+use crate::texture::Texture;
+use glam::{Quat, Vec3};
+use serde::de::{self, Deserializer, SeqAccess, Visitor};
+use serde::Deserialize;
+use std::collections::{BTreeMap, HashMap};
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// A colour field: `[r, g, b]` or the name of a texture.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ColorRef {
+    Rgb(Vec3),
+    Texture(String),
+}
+
+impl<'de> Deserialize<'de> for ColorRef {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = ColorRef;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a colour [r, g, b] or the name of a texture")
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<ColorRef, E> {
+                Ok(ColorRef::Texture(v.to_string()))
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<ColorRef, A::Error> {
+                let mut c = [0.0f32; 3];
+                for (i, x) in c.iter_mut().enumerate() {
+                    *x = seq.next_element()?.ok_or_else(|| de::Error::invalid_length(i, &self))?;
+                }
+                if seq.next_element::<f32>()?.is_some() {
+                    return Err(de::Error::invalid_length(4, &self));
+                }
+                Ok(ColorRef::Rgb(Vec3::from(c)))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// A uniform or per-axis scale.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(untagged, expecting = "a number or [x, y, z]")]
+pub enum ScaleJson {
+    Uniform(f32),
+    PerAxis([f32; 3]),
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AxisAngleJson {
+    pub axis: [f32; 3],
+    /// Degrees.
+    pub angle: f32,
+}
+
+/// Scale, then rotations (x, y, z, or axis-angle), then translation.
+#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TransformJson {
+    pub scale: Option<ScaleJson>,
+    pub rotate_x: Option<f32>,
+    pub rotate_y: Option<f32>,
+    pub rotate_z: Option<f32>,
+    pub rotate: Option<AxisAngleJson>,
+    pub translate: Option<[f32; 3]>,
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraJson {
+    pub look_from: [f32; 3],
+    pub look_at: [f32; 3],
+    #[serde(default = "default_up")]
+    pub up: [f32; 3],
+    #[serde(default = "default_vfov")]
+    pub vfov: f32,
+    #[serde(default)]
+    pub aperture: f32,
+    /// Defaults to the distance from `look_from` to `look_at`.
+    pub focus_distance: Option<f32>,
+}
+
+fn default_up() -> [f32; 3] {
+    [0.0, 1.0, 0.0]
+}
+fn default_vfov() -> f32 {
+    40.0
+}
+
+#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RenderJson {
+    pub width: Option<u32>,
+    pub height: Option<u32>,
+    pub spp: Option<u32>,
+    pub max_depth: Option<u32>,
+    pub seed: Option<u32>,
+    pub roulette_depth: Option<u32>,
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum BackgroundJson {
+    Solid(SolidBackgroundJson),
+    Sky(SkyBackgroundJson),
+    Envmap(EnvmapBackgroundJson),
+}
+
+fn default_horizon() -> [f32; 3] {
+    [1.0, 1.0, 1.0]
+}
+fn default_zenith() -> [f32; 3] {
+    [0.5, 0.7, 1.0]
+}
+fn one() -> f32 {
+    1.0
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum TextureJson {
+    Constant(ConstantTextureJson),
+    Checker(CheckerTextureJson),
+    Image(ImageTextureJson),
+}
+
+fn default_checker_scale() -> f32 {
+    10.0
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum MaterialJson {
+    Lambertian(LambertianMaterialJson),
+    Metal(MetalMaterialJson),
+    Dielectric(DielectricMaterialJson),
+    DiffuseLight(DiffuseLightMaterialJson),
+    Ggx(GgxMaterialJson),
+}
+
+fn default_roughness() -> f32 {
+    0.5
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum ObjectJson {
+    Sphere(SphereJson),
+    Quad(QuadJson),
+    Box(BoxJson),
+    Mesh(MeshJson),
+    Gltf(GltfJson),
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SolidBackgroundJson {
+    pub color: [f32; 3],
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SkyBackgroundJson {
+    #[serde(default = "default_horizon")]
+    pub horizon: [f32; 3],
+    #[serde(default = "default_zenith")]
+    pub zenith: [f32; 3],
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EnvmapBackgroundJson {
+    pub path: PathBuf,
+    #[serde(default = "one")]
+    pub intensity: f32,
+    #[serde(default)]
+    pub rotate_y: f32,
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ConstantTextureJson {
+    pub color: [f32; 3],
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CheckerTextureJson {
+    #[serde(default = "default_checker_scale")]
+    pub scale: f32,
+    pub even: ColorRef,
+    pub odd: ColorRef,
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImageTextureJson {
+    pub path: PathBuf,
+    /// Decode the sRGB curve; default: yes for PNG/JPEG, no for HDR/EXR.
+    pub srgb: Option<bool>,
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LambertianMaterialJson {
+    pub albedo: ColorRef,
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MetalMaterialJson {
+    pub albedo: ColorRef,
+    #[serde(default)]
+    pub fuzz: f32,
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DielectricMaterialJson {
+    pub ior: f32,
+    #[serde(default)]
+    pub absorption: [f32; 3],
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DiffuseLightMaterialJson {
+    pub emission: ColorRef,
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GgxMaterialJson {
+    pub base_color: ColorRef,
+    #[serde(default)]
+    pub metallic: f32,
+    #[serde(default = "default_roughness")]
+    pub roughness: f32,
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SphereJson {
+    pub center: [f32; 3],
+    pub radius: f32,
+    pub material: String,
+    #[serde(default)]
+    pub transform: TransformJson,
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct QuadJson {
+    pub corner: [f32; 3],
+    pub u: [f32; 3],
+    pub v: [f32; 3],
+    pub material: String,
+    #[serde(default)]
+    pub transform: TransformJson,
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoxJson {
+    pub min: [f32; 3],
+    pub max: [f32; 3],
+    pub material: String,
+    #[serde(default)]
+    pub transform: TransformJson,
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshJson {
+    pub path: PathBuf,
+    pub material: String,
+    #[serde(default)]
+    pub transform: TransformJson,
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GltfJson {
+    pub path: PathBuf,
+    #[serde(default)]
+    pub transform: TransformJson,
+}
+
+/// A whole scene document.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneJson {
+    pub camera: Option<CameraJson>,
+    #[serde(default)]
+    pub render: RenderJson,
+    pub background: Option<BackgroundJson>,
+    #[serde(default)]
+    pub textures: BTreeMap<String, TextureJson>,
+    #[serde(default)]
+    pub materials: BTreeMap<String, MaterialJson>,
+    pub objects: Vec<ObjectJson>,
+}
+
+/// Parses a scene document; errors carry the path to the field and the
+/// line and column.
+pub fn parse_scene_json(text: &str, path: &Path) -> Result<SceneJson, SceneError> {
+    let de = &mut serde_json::Deserializer::from_str(text);
+    let parsed: Result<SceneJson, _> = serde_path_to_error::deserialize(de);
+    parsed.map_err(|e| {
+        let mut field = e.path().to_string();
+        let inner = e.inner();
+        let mut message = strip_location(&inner.to_string());
+        // Internally tagged enums (`"type": ...`) buffer their content, so
+        // the path stops at the element; find the field inside it.
+        if let Some((sub, msg)) = refine_tagged_error(text, &field) {
+            field = format!("{field}.{sub}");
+            message = msg;
+        }
+        SceneError::Parse {
+            path: path.to_path_buf(),
+            line: inner.line(),
+            column: inner.column(),
+            field: if field == "." { "(document)".into() } else { field },
+            message,
+        }
+    })
+}
+
+/// serde_json appends " at line L column C"; the error prints those first.
+fn strip_location(full: &str) -> String {
+    full.rsplit_once(" at line ").map_or(full, |(m, _)| m).to_string()
+}
+
+/// The error of deserializing `value` as `T`, with its inner path.
+fn inner_error<T: serde::de::DeserializeOwned>(value: serde_json::Value) -> Option<(String, String)> {
+    serde_path_to_error::deserialize::<_, T>(value).err().map(|e| (e.path().to_string(), strip_location(&e.inner().to_string())))
+}
+
+/// Re-deserializes the tagged element at `field` (`objects[3]`,
+/// `materials.NAME`, `textures.NAME`, `background`) as its variant's
+/// struct to learn which field inside it is wrong.
+fn refine_tagged_error(text: &str, field: &str) -> Option<(String, String)> {
+    let doc: serde_json::Value = serde_json::from_str(text).ok()?;
+    let (family, node) = if let Some(rest) = field.strip_prefix("objects[") {
+        ("objects", doc.get("objects")?.get(rest.strip_suffix(']')?.parse::<usize>().ok()?)?)
+    } else if let Some(name) = field.strip_prefix("materials.") {
+        ("materials", doc.get("materials")?.get(name)?)
+    } else if let Some(name) = field.strip_prefix("textures.") {
+        ("textures", doc.get("textures")?.get(name)?)
+    } else if field == "background" {
+        ("background", doc.get("background")?)
+    } else {
+        return None;
+    };
+    let mut map = node.as_object()?.clone();
+    let tag = map.remove("type")?;
+    let v = serde_json::Value::Object(map);
+    let refined = match (family, tag.as_str()?) {
+        ("objects", "sphere") => inner_error::<SphereJson>(v),
+        ("objects", "quad") => inner_error::<QuadJson>(v),
+        ("objects", "box") => inner_error::<BoxJson>(v),
+        ("objects", "mesh") => inner_error::<MeshJson>(v),
+        ("objects", "gltf") => inner_error::<GltfJson>(v),
+        ("materials", "lambertian") => inner_error::<LambertianMaterialJson>(v),
+        ("materials", "metal") => inner_error::<MetalMaterialJson>(v),
+        ("materials", "dielectric") => inner_error::<DielectricMaterialJson>(v),
+        ("materials", "diffuse_light") => inner_error::<DiffuseLightMaterialJson>(v),
+        ("materials", "ggx") => inner_error::<GgxMaterialJson>(v),
+        ("textures", "constant") => inner_error::<ConstantTextureJson>(v),
+        ("textures", "checker") => inner_error::<CheckerTextureJson>(v),
+        ("textures", "image") => inner_error::<ImageTextureJson>(v),
+        ("background", "solid") => inner_error::<SolidBackgroundJson>(v),
+        ("background", "sky") => inner_error::<SkyBackgroundJson>(v),
+        ("background", "envmap") => inner_error::<EnvmapBackgroundJson>(v),
+        _ => None,
+    };
+    // A path of "." is the element itself (a missing field): the original
+    // error already says that.
+    refined.filter(|(p, _)| p != ".")
+}
+
+/// Reads, parses and builds a scene file.
+pub fn load_json_scene(path: &Path) -> Result<Scene, SceneError> {
+    let text = std::fs::read_to_string(path).map_err(|e| SceneError::Io { path: path.to_path_buf(), message: format!("cannot read scene: {e}") })?;
+    let doc = parse_scene_json(&text, path)?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    build_scene(&doc, base).map_err(|e| e.in_file(path))
+}
+
+impl TransformJson {
+    pub fn to_transform(&self) -> Result<Transform, SceneError> {
+        let scale = match self.scale {
+            None => Vec3::ONE,
+            Some(ScaleJson::Uniform(s)) => Vec3::splat(s),
+            Some(ScaleJson::PerAxis(s)) => Vec3::from(s),
+        };
+        if !scale.is_finite() || scale.cmpeq(Vec3::ZERO).any() {
+            return Err(SceneError::invalid("scale", format!("{scale} must be finite and non-zero")));
+        }
+        let xyz = self.rotate_x.is_some() || self.rotate_y.is_some() || self.rotate_z.is_some();
+        let rotation = match &self.rotate {
+            Some(_) if xyz => return Err(SceneError::invalid("rotate", "give either rotate or rotate_x/rotate_y/rotate_z, not both".into())),
+            Some(AxisAngleJson { axis, angle }) => {
+                let axis =
+                    Vec3::from(*axis).try_normalize().ok_or_else(|| SceneError::invalid("rotate.axis", "the axis must be a finite non-zero vector".into()))?;
+                if !angle.is_finite() {
+                    return Err(SceneError::invalid("rotate.angle", format!("{angle} is not finite")));
+                }
+                Quat::from_axis_angle(axis, angle.to_radians())
+            }
+            None => Transform::rotation_xyz(self.rotate_x.unwrap_or(0.0), self.rotate_y.unwrap_or(0.0), self.rotate_z.unwrap_or(0.0)),
+        };
+        let translate = Vec3::from(self.translate.unwrap_or([0.0; 3]));
+        let t = Transform::from_parts(scale, rotation, translate);
+        if !t.is_finite() {
+            return Err(SceneError::invalid("", "the transform is not finite".into()));
+        }
+        Ok(t)
+    }
+}
+
+/// Turns names into indices while building.
+struct Resolver<'a> {
+    doc: &'a SceneJson,
+    base: &'a Path,
+    builder: SceneBuilder,
+    textures: HashMap<String, u32>,
+    materials: HashMap<String, u32>,
+    images: HashMap<(PathBuf, Option<bool>), u32>,
+}
+
+impl Resolver<'_> {
+    fn image(&mut self, rel: &Path, srgb: Option<bool>) -> Result<u32, SceneError> {
+        let path = self.base.join(rel);
+        if let Some(&id) = self.images.get(&(path.clone(), srgb)) {
+            return Ok(id);
+        }
+        let img = load_image(&path, srgb)?;
+        let id = self.builder.add_image(img);
+        self.images.insert((path, srgb), id);
+        Ok(id)
+    }
+
+    /// A colour field as a texture index (constants become textures).
+    fn colour(&mut self, c: &ColorRef, depth: u32) -> Result<u32, SceneError> {
+        match c {
+            ColorRef::Rgb(rgb) => self.builder.constant(*rgb),
+            ColorRef::Texture(name) => self.texture(name, depth),
+        }
+    }
+
+    fn texture(&mut self, name: &str, depth: u32) -> Result<u32, SceneError> {
+        if let Some(&id) = self.textures.get(name) {
+            return Ok(id);
+        }
+        let doc = self.doc;
+        let Some(t) = doc.textures.get(name) else {
+            let known: Vec<&str> = doc.textures.keys().map(String::as_str).collect();
+            return Err(SceneError::invalid(
+                "",
+                format!("unknown texture `{name}` (defined: {})", if known.is_empty() { "none".into() } else { known.join(", ") }),
+            ));
+        };
+        if depth > 1 {
+            return Err(SceneError::invalid(&format!("textures.{name}"), "a checker cannot nest another checker".into()));
+        }
+        let at = |e: SceneError| e.within(&format!("textures.{name}"));
+        let id = match t {
+            TextureJson::Constant(ConstantTextureJson { color }) => self.builder.constant(Vec3::from(*color)).map_err(at)?,
+            TextureJson::Checker(CheckerTextureJson { scale, even, odd }) => {
+                let even = self.colour(even, depth + 1).map_err(|e| e.within(&format!("textures.{name}.even")))?;
+                let odd = self.colour(odd, depth + 1).map_err(|e| e.within(&format!("textures.{name}.odd")))?;
+                self.builder.add_texture(Texture::Checker { scale: *scale, even, odd }).map_err(at)?
+            }
+            TextureJson::Image(ImageTextureJson { path, srgb }) => {
+                let image = self.image(path, *srgb)?;
+                self.builder.add_texture(Texture::Image { image, factor: Vec3::ONE }).map_err(at)?
+            }
+        };
+        self.textures.insert(name.to_string(), id);
+        Ok(id)
+    }
+
+    fn material(&mut self, name: &str) -> Result<u32, SceneError> {
+        if let Some(&id) = self.materials.get(name) {
+            return Ok(id);
+        }
+        let doc = self.doc;
+        let Some(m) = doc.materials.get(name) else {
+            let known: Vec<&str> = doc.materials.keys().map(String::as_str).collect();
+            return Err(SceneError::invalid(
+                "material",
+                format!("unknown material `{name}` (defined: {})", if known.is_empty() { "none".into() } else { known.join(", ") }),
+            ));
+        };
+        let field = |f: &'static str| move |e: SceneError| e.within(&format!("materials.{name}.{f}"));
+        let material = match m {
+            MaterialJson::Lambertian(LambertianMaterialJson { albedo }) => Material::Lambertian { albedo: self.colour(albedo, 0).map_err(field("albedo"))? },
+            MaterialJson::Metal(MetalMaterialJson { albedo, fuzz }) => {
+                Material::Metal { albedo: self.colour(albedo, 0).map_err(field("albedo"))?, fuzz: *fuzz }
+            }
+            MaterialJson::Dielectric(DielectricMaterialJson { ior, absorption }) => Material::Dielectric { ior: *ior, absorption: Vec3::from(*absorption) },
+            MaterialJson::DiffuseLight(DiffuseLightMaterialJson { emission }) => {
+                Material::DiffuseLight { emission: self.colour(emission, 0).map_err(field("emission"))? }
+            }
+            MaterialJson::Ggx(GgxMaterialJson { base_color, metallic, roughness }) => {
+                Material::Ggx { base_color: self.colour(base_color, 0).map_err(field("base_color"))?, metallic: *metallic, roughness: *roughness }
+            }
+        };
+        let id = self.builder.add_material(material).map_err(|e| e.within(&format!("materials.{name}")))?;
+        self.materials.insert(name.to_string(), id);
+        Ok(id)
+    }
+
+    fn object(&mut self, o: &ObjectJson) -> Result<(), SceneError> {
+        let transform = |t: &TransformJson| t.to_transform().map_err(|e| e.within("transform"));
+        match o {
+            ObjectJson::Sphere(SphereJson { center, radius, material, transform: t }) => {
+                let m = self.material(material)?;
+                self.builder.add_sphere(Vec3::from(*center), *radius, m, &transform(t)?)
+            }
+            ObjectJson::Quad(QuadJson { corner, u, v, material, transform: t }) => {
+                let m = self.material(material)?;
+                self.builder.add_quad(Vec3::from(*corner), Vec3::from(*u), Vec3::from(*v), m, &transform(t)?)
+            }
+            ObjectJson::Box(BoxJson { min, max, material, transform: t }) => {
+                let m = self.material(material)?;
+                self.builder.add_box(Vec3::from(*min), Vec3::from(*max), m, &transform(t)?)
+            }
+            ObjectJson::Mesh(MeshJson { path, material, transform: t }) => {
+                let m = self.material(material)?;
+                let mesh = crate::loader::gltf::load_gltf_mesh(&self.base.join(path))?;
+                self.builder.add_mesh(&mesh, m, &transform(t)?)
+            }
+            ObjectJson::Gltf(GltfJson { path, transform: t }) => {
+                let t = transform(t)?;
+                let take_camera = self.doc.camera.is_none();
+                crate::loader::gltf::add_gltf_scene(&mut self.builder, &self.base.join(path), &t, take_camera)
+            }
+        }
+    }
+}
+
+/// Builds a parsed document; relative paths resolve against `base`.
+pub fn build_scene(doc: &SceneJson, base: &Path) -> Result<Scene, SceneError> {
+    let mut r = Resolver { doc, base, builder: SceneBuilder::new(), textures: HashMap::new(), materials: HashMap::new(), images: HashMap::new() };
+    let defaults = RenderSettings::default();
+    let rj = &doc.render;
+    r.builder.render = RenderSettings {
+        width: rj.width.unwrap_or(defaults.width),
+        height: rj.height.unwrap_or(defaults.height),
+        spp: rj.spp.unwrap_or(defaults.spp),
+        max_depth: rj.max_depth.unwrap_or(defaults.max_depth),
+        seed: rj.seed.unwrap_or(defaults.seed),
+        roulette_depth: rj.roulette_depth.unwrap_or(defaults.roulette_depth),
+    };
+    if let Some(c) = &doc.camera {
+        let (from, at) = (Vec3::from(c.look_from), Vec3::from(c.look_at));
+        r.builder.camera = CameraSettings {
+            look_from: from,
+            look_at: at,
+            up: Vec3::from(c.up),
+            vfov: c.vfov,
+            aperture: c.aperture,
+            focus_distance: c.focus_distance.unwrap_or((at - from).length()),
+        };
+    }
+    r.builder.background = Some(match &doc.background {
+        None => Background::Solid(Vec3::ZERO),
+        Some(BackgroundJson::Solid(SolidBackgroundJson { color })) => Background::Solid(Vec3::from(*color)),
+        Some(BackgroundJson::Sky(SkyBackgroundJson { horizon, zenith })) => Background::Sky { horizon: Vec3::from(*horizon), zenith: Vec3::from(*zenith) },
+        Some(BackgroundJson::Envmap(EnvmapBackgroundJson { path, intensity, rotate_y })) => {
+            let image = r.image(path, None).map_err(|e| e.within("background.path"))?;
+            Background::Envmap { image, intensity: *intensity, rotate_y: *rotate_y }
+        }
+    });
+    for (i, o) in doc.objects.iter().enumerate() {
+        r.object(o).map_err(|e| e.within(&format!("objects[{i}]")))?;
+    }
+    if doc.camera.is_none() && !doc.objects.iter().any(|o| matches!(o, ObjectJson::Gltf(_))) {
+        return Err(SceneError::invalid("camera", "the scene has no camera (and no glTF document to take one from)".into()));
+    }
+    r.builder.build()
+}

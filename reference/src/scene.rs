@@ -1,0 +1,568 @@
+//! The scene: what an image means. Built through [`SceneBuilder`], which
+//! validates every parameter and builds the BVH; a `Scene` is immutable
+//! and always valid.
+
+use crate::background::Background;
+use crate::bvh::{Bvh, BvhBuildStats};
+use crate::camera::{Camera, CameraSettings};
+use crate::error::SceneError;
+use crate::geometry::{gamma, Aabb, Hit, Ray, SurfaceInteraction};
+use crate::material::Material;
+use crate::shapes::{MeshData, Quad, Sphere, Triangle, TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_UVS};
+use crate::texture::{ImageData, Texture};
+use glam::{Affine3A, Mat3, Quat, Vec2, Vec3};
+use std::f32::consts::PI;
+
+/// Numeric tags of primitive kinds, shared with the GPU.
+pub mod primitive_tag {
+    pub const SPHERE: u32 = 0;
+    pub const QUAD: u32 = 1;
+    pub const TRIANGLE: u32 = 2;
+}
+
+/// One entry of the scene's primitive list: a kind and an index into that
+/// kind's array. The position in `Scene::primitives` is the primitive id.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Primitive {
+    pub tag: u32,
+    pub index: u32,
+}
+
+/// Render parameters a scene proposes; the command line overrides them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub max_depth: u32,
+    pub seed: u32,
+    /// Path vertex index from which Russian roulette may end paths.
+    pub roulette_depth: u32,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        Self { width: 400, height: 300, spp: 64, max_depth: 16, seed: 0, roulette_depth: 3 }
+    }
+}
+
+/// Limits on render parameters: beyond them an image is a mistake, not a
+/// request (16384² RGB f64 mean+variance accumulators are ~12 GiB).
+pub const MAX_IMAGE_SIDE: u32 = 16_384;
+pub const MAX_SPP: u32 = 1 << 24;
+pub const MAX_DEPTH: u32 = 1024;
+
+impl RenderSettings {
+    /// Checks the parameters; the error names the offending field.
+    pub fn validate(&self) -> Result<(), SceneError> {
+        let bad = |field: &str, msg: String| Err(SceneError::invalid(field, msg));
+        if self.width == 0 || self.height == 0 || self.width > MAX_IMAGE_SIDE || self.height > MAX_IMAGE_SIDE {
+            return bad("render.width/height", format!("image size {}x{} must be between 1x1 and {MAX_IMAGE_SIDE}x{MAX_IMAGE_SIDE}", self.width, self.height));
+        }
+        if self.spp == 0 || self.spp > MAX_SPP {
+            return bad("render.spp", format!("{} samples per pixel must be between 1 and {MAX_SPP}", self.spp));
+        }
+        if self.max_depth == 0 || self.max_depth > MAX_DEPTH {
+            return bad("render.max_depth", format!("max depth {} must be between 1 and {MAX_DEPTH}", self.max_depth));
+        }
+        Ok(())
+    }
+}
+
+/// An affine placement: scale, then rotations, then translation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Transform {
+    pub matrix: Affine3A,
+}
+
+impl Default for Transform {
+    fn default() -> Self {
+        Self { matrix: Affine3A::IDENTITY }
+    }
+}
+
+impl Transform {
+    /// `translate · rotation · scale`. `rotation` is applied to the scaled object.
+    pub fn from_parts(scale: Vec3, rotation: Quat, translate: Vec3) -> Self {
+        Self { matrix: Affine3A::from_scale_rotation_translation(scale, rotation, translate) }
+    }
+
+    /// Rotations about x, then y, then z (degrees), as the scene format states.
+    pub fn rotation_xyz(x_deg: f32, y_deg: f32, z_deg: f32) -> Quat {
+        Quat::from_rotation_z(z_deg.to_radians()) * Quat::from_rotation_y(y_deg.to_radians()) * Quat::from_rotation_x(x_deg.to_radians())
+    }
+
+    pub fn point(&self, p: Vec3) -> Vec3 {
+        self.matrix.transform_point3(p)
+    }
+
+    pub fn vector(&self, v: Vec3) -> Vec3 {
+        self.matrix.transform_vector3(v)
+    }
+
+    /// Normals transform by the inverse transpose.
+    pub fn normal_matrix(&self) -> Mat3 {
+        Mat3::from(self.matrix.matrix3).inverse().transpose()
+    }
+
+    /// The uniform scale factor, if the linear part is a similarity.
+    pub fn uniform_scale(&self) -> Option<f32> {
+        let m = Mat3::from(self.matrix.matrix3);
+        let (a, b, c) = (m.x_axis.length(), m.y_axis.length(), m.z_axis.length());
+        let tol = 1e-4 * a.max(b).max(c);
+        let orthogonal = m.x_axis.dot(m.y_axis).abs() <= tol * a * b + 1e-12
+            && m.y_axis.dot(m.z_axis).abs() <= tol * b * c + 1e-12
+            && m.x_axis.dot(m.z_axis).abs() <= tol * a * c + 1e-12;
+        ((a - b).abs() <= tol && (b - c).abs() <= tol && orthogonal).then_some(a)
+    }
+
+    pub fn is_finite(&self) -> bool {
+        self.matrix.is_finite()
+    }
+}
+
+/// An indexed triangle mesh before placement.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshInput {
+    pub positions: Vec<Vec3>,
+    pub normals: Option<Vec<Vec3>>,
+    pub uvs: Option<Vec<Vec2>>,
+    /// Three indices per triangle.
+    pub indices: Vec<u32>,
+}
+
+/// A validated scene with its BVH.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub camera_settings: CameraSettings,
+    pub render: RenderSettings,
+    pub background: Background,
+    pub spheres: Vec<Sphere>,
+    pub quads: Vec<Quad>,
+    pub triangles: Vec<Triangle>,
+    pub mesh: MeshData,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    pub images: Vec<ImageData>,
+    /// All primitives in scene order; the index is the primitive id.
+    pub primitives: Vec<Primitive>,
+    pub bvh: Bvh,
+    pub bvh_stats: BvhBuildStats,
+}
+
+impl Scene {
+    /// The camera for an image of `width x height`.
+    pub fn camera(&self, width: u32, height: u32) -> Camera {
+        Camera::new(&self.camera_settings, width as f32 / height as f32)
+    }
+
+    pub fn bounds(&self) -> Aabb {
+        self.bvh.nodes.first().map(|n| n.bounds()).unwrap_or(Aabb::EMPTY)
+    }
+
+    /// Intersects one primitive (by id).
+    #[inline]
+    pub fn intersect_primitive(&self, prim: u32, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        use crate::shapes::{intersect_quad, intersect_sphere, intersect_triangle};
+        let p = self.primitives[prim as usize];
+        match p.tag {
+            primitive_tag::SPHERE => {
+                let s = &self.spheres[p.index as usize];
+                intersect_sphere(s.center, s.radius, ray, t_min, t_max).map(|t| Hit { t, prim, uv: Vec2::ZERO })
+            }
+            primitive_tag::QUAD => {
+                let q = &self.quads[p.index as usize];
+                intersect_quad(q.corner, q.u, q.v, ray, t_min, t_max).map(|(t, uv)| Hit { t, prim, uv })
+            }
+            _ => {
+                let tri = &self.triangles[p.index as usize];
+                let [a, b, c] = tri.vertices.map(|i| self.mesh.positions[i as usize]);
+                intersect_triangle(a, b, c, ray, t_min, t_max).map(|(t, uv)| Hit { t, prim, uv })
+            }
+        }
+    }
+
+    /// Closest hit through the BVH.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        self.bvh.intersect(ray, t_max, |prim, t_max| self.intersect_primitive(prim, ray, t_min, t_max))
+    }
+
+    /// Closest hit by testing every primitive: the oracle for the BVH.
+    /// Ties in t go to the smaller primitive id, as in the BVH traversal.
+    pub fn intersect_brute_force(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        let mut best: Option<Hit> = None;
+        for prim in 0..self.primitives.len() as u32 {
+            if let Some(h) = self.intersect_primitive(prim, ray, t_min, t_max) {
+                if best.is_none_or(|b| h.t < b.t) {
+                    best = Some(h);
+                }
+            }
+        }
+        best
+    }
+
+    /// Everything shading needs about a hit.
+    pub fn surface_interaction(&self, ray: &Ray, hit: &Hit) -> SurfaceInteraction {
+        let p = self.primitives[hit.prim as usize];
+        let (pos, ng, ns, uv, material, p_error) = match p.tag {
+            primitive_tag::SPHERE => {
+                let s = &self.spheres[p.index as usize];
+                let outward = (ray.at(hit.t) - s.center) / s.radius.abs();
+                let outward = outward.normalize_or(Vec3::Y);
+                // Re-project onto the surface (pbrt-v4 does the same): the
+                // hit point then carries only a few ulps of error.
+                let pos = s.center + s.radius.abs() * outward;
+                let n = if s.radius < 0.0 { -outward } else { outward };
+                let uv = Vec2::new(((-outward.z).atan2(outward.x) + PI) / (2.0 * PI), (-outward.y).clamp(-1.0, 1.0).acos() / PI);
+                // r·n̂ carries a few ulps of r (normalize, scale), the sum
+                // with the centre a few ulps of the result.
+                let err = gamma(5) * (s.radius.abs() + s.center.abs().max_element() + pos.abs().max_element());
+                (pos, n, n, uv, s.material, err)
+            }
+            primitive_tag::QUAD => {
+                let q = &self.quads[p.index as usize];
+                let n = q.normal();
+                let pos = q.corner + hit.uv.x * q.u + hit.uv.y * q.v;
+                let err = gamma(4) * (q.corner.abs() + (hit.uv.x * q.u).abs() + (hit.uv.y * q.v).abs() + pos.abs()).max_element();
+                (pos, n, n, hit.uv, q.material, err)
+            }
+            _ => {
+                let tri = &self.triangles[p.index as usize];
+                let [i0, i1, i2] = tri.vertices.map(|i| i as usize);
+                let m = &self.mesh;
+                let (b1, b2) = (hit.uv.x, hit.uv.y);
+                let b0 = 1.0 - b1 - b2;
+                let pos = b0 * m.positions[i0] + b1 * m.positions[i1] + b2 * m.positions[i2];
+                // pbrt-v4's bound for barycentric interpolation.
+                let err = gamma(7) * ((b0 * m.positions[i0]).abs() + (b1 * m.positions[i1]).abs() + (b2 * m.positions[i2]).abs()).max_element();
+                let ng = (m.positions[i1] - m.positions[i0]).cross(m.positions[i2] - m.positions[i0]).normalize_or(Vec3::Y);
+                let mut ns = ng;
+                if tri.flags & TRIANGLE_HAS_NORMALS != 0 {
+                    let n = (b0 * m.normals[i0] + b1 * m.normals[i1] + b2 * m.normals[i2]).normalize_or(ng);
+                    ns = if n.dot(ng) < 0.0 { -n } else { n };
+                }
+                let uv = if tri.flags & TRIANGLE_HAS_UVS != 0 { b0 * m.uvs[i0] + b1 * m.uvs[i1] + b2 * m.uvs[i2] } else { hit.uv };
+                (pos, ng, ns, uv, tri.material, err)
+            }
+        };
+        SurfaceInteraction { p: pos, geometric_normal: ng, shading_normal: ns, uv, p_error, front_face: ray.direction.dot(ng) < 0.0, material }
+    }
+}
+
+/// Collects a scene, checks it, and builds its BVH.
+#[derive(Clone, Debug, Default)]
+pub struct SceneBuilder {
+    pub camera: CameraSettings,
+    pub render: RenderSettings,
+    pub background: Option<Background>,
+    spheres: Vec<Sphere>,
+    quads: Vec<Quad>,
+    triangles: Vec<Triangle>,
+    mesh: MeshData,
+    materials: Vec<Material>,
+    textures: Vec<Texture>,
+    images: Vec<ImageData>,
+    primitives: Vec<Primitive>,
+}
+
+fn check_finite_vec(field: &str, v: Vec3) -> Result<(), SceneError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(SceneError::invalid(field, format!("{v} is not finite")))
+    }
+}
+
+fn check_colour(field: &str, c: Vec3) -> Result<(), SceneError> {
+    check_finite_vec(field, c)?;
+    if c.min_element() < 0.0 {
+        return Err(SceneError::invalid(field, format!("colour {c} has a negative component")));
+    }
+    Ok(())
+}
+
+impl SceneBuilder {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    pub fn add_image(&mut self, image: ImageData) -> u32 {
+        self.images.push(image);
+        self.images.len() as u32 - 1
+    }
+
+    /// Adds a texture after checking its references and values.
+    pub fn add_texture(&mut self, texture: Texture) -> Result<u32, SceneError> {
+        match texture {
+            Texture::Constant(c) => check_colour("texture", c)?,
+            Texture::Checker { scale, even, odd } => {
+                if !scale.is_finite() {
+                    return Err(SceneError::invalid("texture.scale", format!("{scale} is not finite")));
+                }
+                for (name, id) in [("even", even), ("odd", odd)] {
+                    match self.textures.get(id as usize) {
+                        None => return Err(SceneError::invalid(&format!("texture.{name}"), format!("texture index {id} does not exist"))),
+                        Some(Texture::Checker { .. }) => {
+                            return Err(SceneError::invalid(&format!("texture.{name}"), "a checker cannot nest another checker".into()))
+                        }
+                        Some(_) => {}
+                    }
+                }
+            }
+            Texture::Image { image, factor } => {
+                check_colour("texture.factor", factor)?;
+                if image as usize >= self.images.len() {
+                    return Err(SceneError::invalid("texture.image", format!("image index {image} does not exist")));
+                }
+            }
+        }
+        self.textures.push(texture);
+        Ok(self.textures.len() as u32 - 1)
+    }
+
+    /// Shorthand for a constant texture.
+    pub fn constant(&mut self, c: Vec3) -> Result<u32, SceneError> {
+        self.add_texture(Texture::Constant(c))
+    }
+
+    /// Adds a material after checking its parameters.
+    pub fn add_material(&mut self, material: Material) -> Result<u32, SceneError> {
+        let tex_ok = |field: &str, id: u32| {
+            if (id as usize) < self.textures.len() {
+                Ok(())
+            } else {
+                Err(SceneError::invalid(field, format!("texture index {id} does not exist")))
+            }
+        };
+        match material {
+            Material::Lambertian { albedo } => tex_ok("albedo", albedo)?,
+            Material::Metal { albedo, fuzz } => {
+                tex_ok("albedo", albedo)?;
+                if !(0.0..=1.0).contains(&fuzz) {
+                    return Err(SceneError::invalid("fuzz", format!("{fuzz} is outside [0, 1]")));
+                }
+            }
+            Material::Dielectric { ior, absorption } => {
+                if !(ior.is_finite() && ior > 0.0) {
+                    return Err(SceneError::invalid("ior", format!("{ior} must be a positive finite number")));
+                }
+                check_colour("absorption", absorption)?;
+            }
+            Material::DiffuseLight { emission } => tex_ok("emission", emission)?,
+            Material::Ggx { base_color, metallic, roughness } => {
+                tex_ok("base_color", base_color)?;
+                if !(0.0..=1.0).contains(&metallic) {
+                    return Err(SceneError::invalid("metallic", format!("{metallic} is outside [0, 1]")));
+                }
+                if !(0.0..=1.0).contains(&roughness) {
+                    return Err(SceneError::invalid("roughness", format!("{roughness} is outside [0, 1]")));
+                }
+            }
+        }
+        self.materials.push(material);
+        Ok(self.materials.len() as u32 - 1)
+    }
+
+    fn check_material(&self, material: u32) -> Result<(), SceneError> {
+        if (material as usize) < self.materials.len() {
+            Ok(())
+        } else {
+            Err(SceneError::invalid("material", format!("material index {material} does not exist")))
+        }
+    }
+
+    fn push_primitive(&mut self, tag: u32, index: usize) {
+        self.primitives.push(Primitive { tag, index: index as u32 });
+    }
+
+    /// A sphere, placed by `transform` (which must be a similarity: a
+    /// sphere under non-uniform scale is an ellipsoid, not a sphere).
+    pub fn add_sphere(&mut self, center: Vec3, radius: f32, material: u32, transform: &Transform) -> Result<(), SceneError> {
+        self.check_material(material)?;
+        check_finite_vec("center", center)?;
+        if !(radius.is_finite() && radius != 0.0) {
+            return Err(SceneError::invalid("radius", format!("{radius} must be a finite non-zero number")));
+        }
+        let scale = transform.uniform_scale().ok_or_else(|| SceneError::invalid("transform", "a sphere accepts only uniform scale".into()))?;
+        let s = Sphere { center: transform.point(center), radius: radius * scale, material };
+        check_finite_vec("transform", s.center)?;
+        if !(s.radius.is_finite() && s.radius != 0.0) {
+            return Err(SceneError::invalid("transform", format!("the placed radius {} is degenerate", s.radius)));
+        }
+        self.spheres.push(s);
+        self.push_primitive(primitive_tag::SPHERE, self.spheres.len() - 1);
+        Ok(())
+    }
+
+    /// A parallelogram `corner + s·u + t·v`, placed by `transform`.
+    pub fn add_quad(&mut self, corner: Vec3, u: Vec3, v: Vec3, material: u32, transform: &Transform) -> Result<(), SceneError> {
+        self.check_material(material)?;
+        for (f, x) in [("corner", corner), ("u", u), ("v", v)] {
+            check_finite_vec(f, x)?;
+        }
+        let q = Quad { corner: transform.point(corner), u: transform.vector(u), v: transform.vector(v), material };
+        let n = q.u.cross(q.v);
+        if !(n.is_finite() && n.length_squared() > 0.0 && q.corner.is_finite()) {
+            return Err(SceneError::invalid("u/v", "the quad is degenerate (u and v are parallel or zero)".into()));
+        }
+        self.quads.push(q);
+        self.push_primitive(primitive_tag::QUAD, self.quads.len() - 1);
+        Ok(())
+    }
+
+    /// An axis-aligned box in its own frame (six quads, outward normals).
+    pub fn add_box(&mut self, min: Vec3, max: Vec3, material: u32, transform: &Transform) -> Result<(), SceneError> {
+        check_finite_vec("min", min)?;
+        check_finite_vec("max", max)?;
+        if !min.cmplt(max).all() {
+            return Err(SceneError::invalid("min/max", format!("min {min} must be below max {max} on every axis")));
+        }
+        let d = max - min;
+        let (dx, dy, dz) = (Vec3::new(d.x, 0.0, 0.0), Vec3::new(0.0, d.y, 0.0), Vec3::new(0.0, 0.0, d.z));
+        // Each face: corner, u, v with u × v pointing out of the box.
+        let faces = [
+            (Vec3::new(min.x, min.y, max.z), dx, dy),  // front (+z)
+            (Vec3::new(max.x, min.y, max.z), -dz, dy), // right (+x)
+            (Vec3::new(max.x, min.y, min.z), -dx, dy), // back (-z)
+            (Vec3::new(min.x, min.y, min.z), dz, dy),  // left (-x)
+            (Vec3::new(min.x, max.y, max.z), dx, -dz), // top (+y)
+            (Vec3::new(min.x, min.y, min.z), dx, dz),  // bottom (-y)
+        ];
+        let mirror = Mat3::from(transform.matrix.matrix3).determinant() < 0.0;
+        for (corner, u, v) in faces {
+            // A mirroring transform flips u × v; swap to keep normals outward.
+            let (u, v, c) = if mirror { (v, u, corner) } else { (u, v, corner) };
+            self.add_quad(c, u, v, material, transform)?;
+        }
+        Ok(())
+    }
+
+    /// An indexed triangle mesh placed by `transform`. Degenerate
+    /// triangles are kept (they never report a hit); out-of-range indices
+    /// and non-finite data are errors.
+    pub fn add_mesh(&mut self, mesh: &MeshInput, material: u32, transform: &Transform) -> Result<(), SceneError> {
+        self.check_material(material)?;
+        let n = mesh.positions.len();
+        if mesh.indices.len() % 3 != 0 {
+            return Err(SceneError::invalid("indices", format!("{} indices is not a multiple of 3", mesh.indices.len())));
+        }
+        if let Some(bad) = mesh.indices.iter().find(|&&i| i as usize >= n) {
+            return Err(SceneError::invalid("indices", format!("index {bad} is out of range for {n} vertices")));
+        }
+        for (name, len) in [("normals", mesh.normals.as_ref().map(Vec::len)), ("uvs", mesh.uvs.as_ref().map(Vec::len))] {
+            if let Some(len) = len.filter(|&l| l != n) {
+                return Err(SceneError::invalid(name, format!("{len} entries for {n} vertices")));
+            }
+        }
+        if mesh.indices.is_empty() {
+            return Err(SceneError::invalid("indices", "the mesh has no triangles".into()));
+        }
+        let base = self.mesh.positions.len() as u32;
+        if (base as usize + n) > u32::MAX as usize / 2 {
+            return Err(SceneError::invalid("positions", "too many vertices".into()));
+        }
+        let nm = transform.normal_matrix();
+        for (i, &p) in mesh.positions.iter().enumerate() {
+            let wp = transform.point(p);
+            if !wp.is_finite() {
+                return Err(SceneError::invalid("positions", format!("vertex {i} ({p}) is not finite once placed")));
+            }
+            self.mesh.positions.push(wp);
+            let wn = mesh.normals.as_ref().map_or(Vec3::ZERO, |ns| (nm * ns[i]).normalize_or_zero());
+            self.mesh.normals.push(if wn.is_finite() { wn } else { Vec3::ZERO });
+            let uv = mesh.uvs.as_ref().map_or(Vec2::ZERO, |uvs| uvs[i]);
+            self.mesh.uvs.push(if uv.is_finite() { uv } else { Vec2::ZERO });
+        }
+        let flags = if mesh.normals.is_some() { TRIANGLE_HAS_NORMALS } else { 0 } | if mesh.uvs.is_some() { TRIANGLE_HAS_UVS } else { 0 };
+        for tri in mesh.indices.chunks_exact(3) {
+            self.triangles.push(Triangle { vertices: [base + tri[0], base + tri[1], base + tri[2]], material, flags });
+            self.push_primitive(primitive_tag::TRIANGLE, self.triangles.len() - 1);
+        }
+        Ok(())
+    }
+
+    pub fn material_count(&self) -> usize {
+        self.materials.len()
+    }
+
+    pub fn texture_count(&self) -> usize {
+        self.textures.len()
+    }
+
+    pub fn image(&self, id: u32) -> Option<&ImageData> {
+        self.images.get(id as usize)
+    }
+
+    /// Checks the camera and settings and builds the BVH.
+    pub fn build(self) -> Result<Scene, SceneError> {
+        if self.primitives.is_empty() {
+            return Err(SceneError::invalid("objects", "the scene has no objects".into()));
+        }
+        self.render.validate()?;
+        let c = &self.camera;
+        for (f, v) in [("camera.look_from", c.look_from), ("camera.look_at", c.look_at), ("camera.up", c.up)] {
+            check_finite_vec(f, v)?;
+        }
+        let view = c.look_at - c.look_from;
+        if view.length_squared() == 0.0 {
+            return Err(SceneError::invalid("camera.look_at", "look_at equals look_from".into()));
+        }
+        if view.normalize().cross(c.up.normalize_or_zero()).length_squared() < 1e-12 {
+            return Err(SceneError::invalid("camera.up", "up is zero or parallel to the view direction".into()));
+        }
+        if !(c.vfov > 0.0 && c.vfov < 180.0) {
+            return Err(SceneError::invalid("camera.vfov", format!("{} must lie strictly between 0 and 180 degrees", c.vfov)));
+        }
+        if !(c.aperture.is_finite() && c.aperture >= 0.0) {
+            return Err(SceneError::invalid("camera.aperture", format!("{} must be finite and non-negative", c.aperture)));
+        }
+        if !(c.focus_distance.is_finite() && c.focus_distance > 0.0) {
+            return Err(SceneError::invalid("camera.focus_distance", format!("{} must be finite and positive", c.focus_distance)));
+        }
+        let background = self.background.unwrap_or(Background::Solid(Vec3::ZERO));
+        match background {
+            Background::Solid(col) => check_colour("background.color", col)?,
+            Background::Sky { horizon, zenith } => {
+                check_colour("background.horizon", horizon)?;
+                check_colour("background.zenith", zenith)?;
+            }
+            Background::Envmap { image, intensity, rotate_y } => {
+                if image as usize >= self.images.len() {
+                    return Err(SceneError::invalid("background.path", "envmap image missing".into()));
+                }
+                if !(intensity.is_finite() && intensity >= 0.0 && rotate_y.is_finite()) {
+                    return Err(SceneError::invalid(
+                        "background.intensity",
+                        format!("intensity {intensity} / rotate_y {rotate_y} must be finite, intensity non-negative"),
+                    ));
+                }
+            }
+        }
+        let bounds: Vec<Aabb> = self
+            .primitives
+            .iter()
+            .map(|p| match p.tag {
+                primitive_tag::SPHERE => self.spheres[p.index as usize].bounds(),
+                primitive_tag::QUAD => self.quads[p.index as usize].bounds(),
+                _ => self.triangles[p.index as usize].bounds(&self.mesh),
+            })
+            .collect();
+        let (bvh, bvh_stats) = Bvh::build(&bounds);
+        Ok(Scene {
+            camera_settings: self.camera,
+            render: self.render,
+            background,
+            spheres: self.spheres,
+            quads: self.quads,
+            triangles: self.triangles,
+            mesh: self.mesh,
+            materials: self.materials,
+            textures: self.textures,
+            images: self.images,
+            primitives: self.primitives,
+            bvh,
+            bvh_stats,
+        })
+    }
+}

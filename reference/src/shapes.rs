@@ -1,0 +1,305 @@
+//! Shape records and their ray intersection routines.
+//!
+//! Each routine returns the nearest hit with `t_min < t < t_max`, or `None`.
+//! They are written for robustness first; the WGSL twins keep the same
+//! names and the same arithmetic.
+
+use crate::geometry::{Aabb, Ray};
+use glam::{Vec2, Vec3};
+
+/// A sphere. A negative radius keeps the same surface but flips the normal
+/// inward (the hollow-glass bubble of Ray Tracing in One Weekend).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sphere {
+    pub center: Vec3,
+    pub radius: f32,
+    pub material: u32,
+}
+
+/// The parallelogram `corner + s·u + t·v`, `s, t ∈ [0, 1]`; geometric normal
+/// `normalize(u × v)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Quad {
+    pub corner: Vec3,
+    pub u: Vec3,
+    pub v: Vec3,
+    pub material: u32,
+}
+
+/// A triangle of the scene's shared vertex arrays.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Triangle {
+    /// Indices into `MeshData::positions` (and `normals`/`uvs` when present).
+    pub vertices: [u32; 3],
+    pub material: u32,
+    /// `TRIANGLE_HAS_NORMALS | TRIANGLE_HAS_UVS`.
+    pub flags: u32,
+}
+
+/// The triangle carries per-vertex shading normals.
+pub const TRIANGLE_HAS_NORMALS: u32 = 1;
+/// The triangle carries per-vertex texture coordinates.
+pub const TRIANGLE_HAS_UVS: u32 = 2;
+
+/// Vertex arrays shared by all triangles of a scene (world space).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshData {
+    pub positions: Vec<Vec3>,
+    /// Same length as `positions`; zero where a mesh had no normals.
+    pub normals: Vec<Vec3>,
+    /// Same length as `positions`; zero where a mesh had no uvs.
+    pub uvs: Vec<Vec2>,
+}
+
+impl Sphere {
+    pub fn bounds(&self) -> Aabb {
+        let r = Vec3::splat(self.radius.abs());
+        Aabb { min: self.center - r, max: self.center + r }
+    }
+}
+
+impl Quad {
+    pub fn bounds(&self) -> Aabb {
+        Aabb::from_points(&[self.corner, self.corner + self.u, self.corner + self.v, self.corner + self.u + self.v])
+    }
+
+    pub fn normal(&self) -> Vec3 {
+        self.u.cross(self.v).normalize()
+    }
+}
+
+impl Triangle {
+    pub fn bounds(&self, mesh: &MeshData) -> Aabb {
+        Aabb::from_points(&self.vertices.map(|i| mesh.positions[i as usize]))
+    }
+}
+
+/// Ray/sphere. Solves `|o + t d - c|^2 = r^2` with the discriminant written
+/// as `r^2 - |f - (f·d̂)d̂|^2` (Haines et al., "Precision Improvements for
+/// Ray/Sphere Intersection", Ray Tracing Gems ch. 7), which keeps its
+/// precision for small spheres far away and for huge ones, and the smaller
+/// root from the stable form `c / q`.
+#[inline]
+pub fn intersect_sphere(center: Vec3, radius: f32, ray: &Ray, t_min: f32, t_max: f32) -> Option<f32> {
+    let f = ray.origin - center;
+    let a = ray.direction.length_squared();
+    let b_half = -f.dot(ray.direction); // = -b/2
+    let r2 = radius * radius;
+    let perp = f + (b_half / a) * ray.direction;
+    let disc = a * (r2 - perp.length_squared());
+    if disc < 0.0 || a == 0.0 {
+        return None;
+    }
+    let c = f.length_squared() - r2;
+    let q = b_half + disc.sqrt().copysign(b_half);
+    let (t0, t1) = if q == 0.0 {
+        (0.0, 0.0)
+    } else {
+        let ta = c / q;
+        let tb = q / a;
+        if ta <= tb {
+            (ta, tb)
+        } else {
+            (tb, ta)
+        }
+    };
+    if t0 > t_min && t0 < t_max {
+        Some(t0)
+    } else if t1 > t_min && t1 < t_max {
+        Some(t1)
+    } else {
+        None
+    }
+}
+
+/// Ray/parallelogram: intersect the plane, then express the hit in the
+/// (u, v) frame and test `s, t ∈ [0, 1]`. Returns `(t, (s, t))`.
+#[inline]
+pub fn intersect_quad(corner: Vec3, u: Vec3, v: Vec3, ray: &Ray, t_min: f32, t_max: f32) -> Option<(f32, Vec2)> {
+    let n = u.cross(v);
+    let denom = n.dot(ray.direction);
+    if denom == 0.0 {
+        return None;
+    }
+    let t = n.dot(corner - ray.origin) / denom;
+    if !(t > t_min && t < t_max) {
+        return None;
+    }
+    // Planar coordinates: w = n / |n|^2 gives s = w·(q × v), t = w·(u × q).
+    let w = n / n.length_squared();
+    let q = ray.at(t) - corner;
+    let a = w.dot(q.cross(v));
+    let b = w.dot(u.cross(q));
+    if (0.0..=1.0).contains(&a) && (0.0..=1.0).contains(&b) {
+        Some((t, Vec2::new(a, b)))
+    } else {
+        None
+    }
+}
+
+/// Watertight ray/triangle (Woop, Benthin, Wald, "Watertight Ray/Triangle
+/// Intersection", JCGT 2013): shear the triangle into ray space, compute
+/// edge functions (recomputed in f64 when one is exactly zero) so that rays
+/// through shared edges and vertices hit exactly one of the neighbours.
+/// Returns `(t, (b1, b2))` with barycentrics of vertices 1 and 2.
+#[inline]
+pub fn intersect_triangle(p0: Vec3, p1: Vec3, p2: Vec3, ray: &Ray, t_min: f32, t_max: f32) -> Option<(f32, Vec2)> {
+    let d = ray.direction;
+    // kz: the dimension where |d| is largest; kx, ky follow it, swapped to
+    // keep the winding.
+    let ad = d.abs();
+    let kz = if ad.x > ad.y {
+        if ad.x > ad.z {
+            0
+        } else {
+            2
+        }
+    } else if ad.y > ad.z {
+        1
+    } else {
+        2
+    };
+    let mut kx = (kz + 1) % 3;
+    let mut ky = (kx + 1) % 3;
+    if d[kz] < 0.0 {
+        std::mem::swap(&mut kx, &mut ky);
+    }
+    if d[kz] == 0.0 {
+        return None; // a zero direction
+    }
+    let sz = 1.0 / d[kz];
+    let sx = d[kx] * sz;
+    let sy = d[ky] * sz;
+
+    let a = p0 - ray.origin;
+    let b = p1 - ray.origin;
+    let c = p2 - ray.origin;
+    let ax = a[kx] - sx * a[kz];
+    let ay = a[ky] - sy * a[kz];
+    let bx = b[kx] - sx * b[kz];
+    let by = b[ky] - sy * b[kz];
+    let cx = c[kx] - sx * c[kz];
+    let cy = c[ky] - sy * c[kz];
+
+    let mut u = cx * by - cy * bx;
+    let mut v = ax * cy - ay * cx;
+    let mut w = bx * ay - by * ax;
+    if u == 0.0 || v == 0.0 || w == 0.0 {
+        let (ax, ay, bx, by, cx, cy) = (ax as f64, ay as f64, bx as f64, by as f64, cx as f64, cy as f64);
+        u = (cx * by - cy * bx) as f32;
+        v = (ax * cy - ay * cx) as f32;
+        w = (bx * ay - by * ax) as f32;
+    }
+    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        return None;
+    }
+    let det = u + v + w;
+    if det == 0.0 {
+        return None;
+    }
+    let az = sz * a[kz];
+    let bz = sz * b[kz];
+    let cz = sz * c[kz];
+    let t_scaled = u * az + v * bz + w * cz;
+    let inv_det = 1.0 / det;
+    let t = t_scaled * inv_det;
+    // The only range test: the computed t against the interval, so whether
+    // a hit is reported never depends on t_max except through t itself
+    // (the BVH and the brute-force oracle must agree bit for bit).
+    if !(t > t_min && t < t_max) {
+        return None;
+    }
+    Some((t, Vec2::new(v * inv_det, w * inv_det)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    fn ray(o: [f32; 3], d: [f32; 3]) -> Ray {
+        Ray::new(Vec3::from(o), Vec3::from(d))
+    }
+
+    #[test]
+    fn sphere_hits_near_then_far_and_misses() {
+        let r = ray([0.0, 0.0, -5.0], [0.0, 0.0, 1.0]);
+        assert_relative_eq!(intersect_sphere(Vec3::ZERO, 1.0, &r, 1e-4, f32::INFINITY).unwrap(), 4.0);
+        // From inside: the far root.
+        let r_in = ray([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]);
+        assert_relative_eq!(intersect_sphere(Vec3::ZERO, 1.0, &r_in, 1e-4, f32::INFINITY).unwrap(), 1.0);
+        // t_max excludes it.
+        assert!(intersect_sphere(Vec3::ZERO, 1.0, &r, 1e-4, 3.9).is_none());
+        // Miss.
+        let r_miss = ray([0.0, 1.01, -5.0], [0.0, 0.0, 1.0]);
+        assert!(intersect_sphere(Vec3::ZERO, 1.0, &r_miss, 1e-4, f32::INFINITY).is_none());
+        // A negative radius is the same surface.
+        assert_relative_eq!(intersect_sphere(Vec3::ZERO, -1.0, &r, 1e-4, f32::INFINITY).unwrap(), 4.0);
+        // Unnormalized direction: t scales.
+        let r2 = ray([0.0, 0.0, -5.0], [0.0, 0.0, 2.0]);
+        assert_relative_eq!(intersect_sphere(Vec3::ZERO, 1.0, &r2, 1e-4, f32::INFINITY).unwrap(), 2.0);
+    }
+
+    #[test]
+    fn small_sphere_far_away_keeps_precision() {
+        // Radius 1e-2 at distance 1e4: the naive b^2 - 4ac loses all bits.
+        let c = Vec3::new(0.0, 0.0, 1e4);
+        let r = ray([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]);
+        let t = intersect_sphere(c, 1e-2, &r, 0.0, f32::INFINITY).unwrap();
+        assert_relative_eq!(t, 1e4 - 1e-2, max_relative = 1e-6);
+    }
+
+    #[test]
+    fn quad_hit_reports_planar_coordinates() {
+        let (corner, u, v) = (Vec3::new(-1.0, -1.0, 0.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 2.0, 0.0));
+        let (t, st) = intersect_quad(corner, u, v, &ray([0.5, 0.0, -3.0], [0.0, 0.0, 1.0]), 1e-4, f32::INFINITY).unwrap();
+        assert_relative_eq!(t, 3.0);
+        assert_relative_eq!(st.x, 0.75);
+        assert_relative_eq!(st.y, 0.5);
+        // Outside the parallelogram, parallel, and behind.
+        assert!(intersect_quad(corner, u, v, &ray([1.5, 0.0, -3.0], [0.0, 0.0, 1.0]), 1e-4, f32::INFINITY).is_none());
+        assert!(intersect_quad(corner, u, v, &ray([0.0, 0.0, -3.0], [1.0, 0.0, 0.0]), 1e-4, f32::INFINITY).is_none());
+        assert!(intersect_quad(corner, u, v, &ray([0.0, 0.0, 3.0], [0.0, 0.0, 1.0]), 1e-4, f32::INFINITY).is_none());
+    }
+
+    #[test]
+    fn sheared_quad_is_a_parallelogram() {
+        let (corner, u, v) = (Vec3::ZERO, Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 0.0));
+        // (1.5, 0.9) lies inside: s = 0.6, t = 0.9.
+        let (_, st) = intersect_quad(corner, u, v, &ray([1.5, 0.9, 1.0], [0.0, 0.0, -1.0]), 0.0, 10.0).unwrap();
+        assert_relative_eq!(st.x, 0.6, epsilon = 1e-6);
+        assert_relative_eq!(st.y, 0.9, epsilon = 1e-6);
+        // (0.1, 0.9) lies outside (left of the slanted edge).
+        assert!(intersect_quad(corner, u, v, &ray([0.1, 0.9, 1.0], [0.0, 0.0, -1.0]), 0.0, 10.0).is_none());
+    }
+
+    #[test]
+    fn triangle_hit_barycentrics_and_both_windings() {
+        let (p0, p1, p2) = (Vec3::ZERO, Vec3::X, Vec3::Y);
+        let r = ray([0.25, 0.5, 2.0], [0.0, 0.0, -1.0]);
+        let (t, b) = intersect_triangle(p0, p1, p2, &r, 0.0, f32::INFINITY).unwrap();
+        assert_relative_eq!(t, 2.0);
+        assert_relative_eq!(b.x, 0.25);
+        assert_relative_eq!(b.y, 0.5);
+        // Back side (reverse winding) hits too.
+        let (t2, _) = intersect_triangle(p0, p2, p1, &r, 0.0, f32::INFINITY).unwrap();
+        assert_relative_eq!(t2, 2.0);
+        // Outside, and degenerate.
+        assert!(intersect_triangle(p0, p1, p2, &ray([0.75, 0.5, 2.0], [0.0, 0.0, -1.0]), 0.0, 9.0).is_none());
+        assert!(intersect_triangle(p0, p1, p1, &r, 0.0, 9.0).is_none());
+    }
+
+    #[test]
+    fn shared_edge_is_hit_by_exactly_one_side_or_both_never_none() {
+        // Two triangles sharing the diagonal of the unit square; rays exactly
+        // on the diagonal must hit at least one of them (watertightness).
+        let (a, b, c, d) = (Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y);
+        for i in 1..100 {
+            let x = i as f32 / 100.0;
+            let r = ray([x, x, 1.0], [0.0, 0.0, -1.0]);
+            let h1 = intersect_triangle(a, b, c, &r, 0.0, 9.0);
+            let h2 = intersect_triangle(a, c, d, &r, 0.0, 9.0);
+            assert!(h1.is_some() || h2.is_some(), "leak at x = {x}");
+        }
+    }
+}
