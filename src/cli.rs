@@ -1,0 +1,349 @@
+//! The `twintrace` command line: argument definitions and the commands.
+//!
+//! - `twintrace render SCENE -o OUT [options]`: renders with a backend and
+//!   writes `OUT.exr` (linear mean + variance, see [`crate::image_io`]) and
+//!   `OUT.png` (tone mapped), then prints a one-line summary on stdout.
+//! - `twintrace info SCENE`: what a scene holds, its render defaults and
+//!   its BVH.
+//!
+//! Render settings resolve in three layers: the scene's own defaults
+//! (`scene.render`), then a `--quality` preset (spp and depth together),
+//! then explicit `--spp`, `--max-depth`, `--size`, `--seed`. The result is
+//! checked with [`reference::RenderSettings::validate`] before any work.
+//!
+//! Every failure is an [`anyhow::Error`]; the binary prints it as one line
+//! `error: <message>` and exits with status 1.
+
+use crate::image_io::{self, AtomicFile, RenderImage, RenderMetadata};
+use crate::tonemap::Tonemap;
+use anyhow::{anyhow, bail, Context, Result};
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use reference::{RenderSettings, Scene, SceneError};
+use std::fmt::Write as _;
+use std::io::Write as _;
+use std::path::PathBuf;
+use std::time::Instant;
+
+#[derive(Debug, Parser)]
+#[command(name = "twintrace", version, about = "A path tracer written twice: a scalar CPU reference and GPU kernels, each checked against the other")]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Render a scene to OUT.exr (linear mean + variance) and OUT.png (tone mapped).
+    Render(RenderArgs),
+    /// Print what a scene holds: primitives, materials, camera, render defaults, BVH.
+    Info(InfoArgs),
+}
+
+/// Which renderer runs the paths.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
+pub enum Backend {
+    /// The scalar CPU reference (`reference::render`).
+    Cpu,
+    /// The wgpu kernels.
+    Gpu,
+    /// The GPU if one is usable, else the CPU reference.
+    #[default]
+    Auto,
+}
+
+/// Quality presets: samples per pixel and path depth together.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Quality {
+    /// 64 spp, depth 4.
+    Low,
+    /// 256 spp, depth 16.
+    Medium,
+    /// 2048 spp, depth 64.
+    High,
+}
+
+impl Quality {
+    /// `(spp, max_depth)` of the preset.
+    pub fn preset(self) -> (u32, u32) {
+        match self {
+            Quality::Low => (64, 4),
+            Quality::Medium => (256, 16),
+            Quality::High => (2048, 64),
+        }
+    }
+}
+
+#[derive(Debug, Args)]
+pub struct RenderArgs {
+    /// A scene file (.json, .gltf, .glb) or a built-in scene name such as cornell or rtow-final.
+    pub scene: String,
+    /// Output path; `.exr` and `.png` are added (a given .exr/.png extension is dropped).
+    #[arg(short = 'o', long = "output", value_name = "OUT")]
+    pub output: PathBuf,
+    #[arg(long, value_enum, default_value_t = Backend::Auto)]
+    pub backend: Backend,
+    /// Samples per pixel (overrides the preset and the scene).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Image size as WIDTHxHEIGHT, e.g. 1200x800 (overrides the scene).
+    #[arg(long, value_name = "WxH")]
+    pub size: Option<String>,
+    /// RNG seed (overrides the scene).
+    #[arg(long)]
+    pub seed: Option<u32>,
+    /// Maximum number of ray segments per path (overrides the preset and the scene).
+    #[arg(long)]
+    pub max_depth: Option<u32>,
+    /// Preset for spp and depth: low = 64/4, medium = 256/16, high = 2048/64.
+    #[arg(long, value_enum)]
+    pub quality: Option<Quality>,
+    /// Display transform for the PNG (the EXR is always linear).
+    #[arg(long, value_enum, default_value_t = Tonemap::Aces)]
+    pub tonemap: Tonemap,
+    /// Worker threads for the CPU backend (default: one per core).
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+#[derive(Debug, Args)]
+pub struct InfoArgs {
+    /// A scene file (.json, .gltf, .glb) or a built-in scene name.
+    pub scene: String,
+}
+
+/// Runs one command.
+pub fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Render(args) => render(&args),
+        Command::Info(args) => info(&args),
+    }
+}
+
+/// Parses `WIDTHxHEIGHT` (`x` or `X`, no spaces inside): `1200x800`.
+/// Zero sizes parse; [`RenderSettings::validate`] rejects them.
+pub fn parse_size(s: &str) -> Result<(u32, u32)> {
+    let bad = || anyhow!("--size `{s}`: expected WIDTHxHEIGHT, as in 1200x800");
+    let (w, h) = s.trim().split_once(['x', 'X']).ok_or_else(bad)?;
+    let parse = |t: &str| if t.bytes().all(|b| b.is_ascii_digit()) { t.parse::<u32>().ok() } else { None };
+    match (parse(w), parse(h)) {
+        (Some(w), Some(h)) => Ok((w, h)),
+        _ => Err(bad()),
+    }
+}
+
+/// The scene's defaults, then the quality preset, then explicit options; validated.
+pub fn resolve_settings(scene_defaults: RenderSettings, args: &RenderArgs) -> Result<RenderSettings> {
+    let mut s = scene_defaults;
+    if let Some(q) = args.quality {
+        (s.spp, s.max_depth) = q.preset();
+    }
+    if let Some(spp) = args.spp {
+        s.spp = spp;
+    }
+    if let Some(depth) = args.max_depth {
+        s.max_depth = depth;
+    }
+    if let Some(size) = &args.size {
+        (s.width, s.height) = parse_size(size)?;
+    }
+    if let Some(seed) = args.seed {
+        s.seed = seed;
+    }
+    s.validate().map_err(|e| anyhow!("invalid render settings: {e}"))?;
+    Ok(s)
+}
+
+/// Loads a scene; an error without a file name gets the scene's name.
+pub fn load_scene(spec: &str) -> Result<Scene> {
+    reference::load_scene(spec).map_err(|e| match e {
+        e @ SceneError::Invalid { .. } => anyhow!("scene `{spec}`: {e}"),
+        e => anyhow!(e),
+    })
+}
+
+fn render(args: &RenderArgs) -> Result<()> {
+    if args.backend == Backend::Gpu {
+        bail!("the GPU backend is not implemented yet; use --backend cpu");
+    }
+    if args.threads == Some(0) {
+        bail!("--threads 0: at least one thread is needed");
+    }
+    // Fail on an unusable output path now, not after a long render.
+    let paths = image_io::output_paths(&args.output)?;
+    drop(AtomicFile::create(&paths.exr)?);
+    if let Some(size) = &args.size {
+        parse_size(size)?;
+    }
+    let scene = load_scene(&args.scene)?;
+    let settings = resolve_settings(scene.render, args)?;
+    let pool = match args.threads {
+        Some(n) => Some(rayon::ThreadPoolBuilder::new().num_threads(n).build().context("cannot start the worker threads")?),
+        None => None,
+    };
+
+    if args.backend == Backend::Auto {
+        // Printed only once everything is checked, so that a failing run
+        // prints nothing but its error line.
+        eprintln!("backend auto: no GPU backend yet, using cpu reference");
+    }
+
+    let pixels = settings.width as u64 * settings.height as u64;
+    let bar = indicatif::ProgressBar::new(pixels);
+    if let Ok(style) = indicatif::ProgressStyle::with_template("rendering {wide_bar} {percent:>3}% {elapsed_precise} (eta {eta})") {
+        bar.set_style(style);
+    }
+    let progress = |n: u64| bar.inc(n);
+    let start = Instant::now();
+    let film = match &pool {
+        Some(pool) => pool.install(|| reference::render(&scene, &settings, &progress)),
+        None => reference::render(&scene, &settings, &progress),
+    };
+    let seconds = start.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+
+    let metadata = RenderMetadata {
+        spp: Some(settings.spp),
+        max_depth: Some(settings.max_depth),
+        seed: Some(settings.seed),
+        scene: Some(args.scene.clone()),
+        software: Some(format!("twintrace {} (cpu reference)", env!("CARGO_PKG_VERSION"))),
+    };
+    let image = RenderImage::from_film(&film, metadata);
+    image_io::write_render_outputs(&paths, &image, args.tonemap)?;
+
+    let paths_per_second = (pixels * settings.spp as u64) as f64 / seconds.max(1e-9);
+    print_stdout(&format!(
+        "rendered {} {}x{}, {} spp, depth {} in {:.2} s: {:.2e} samples/s, {} NaN/Inf samples -> {}, {}\n",
+        args.scene,
+        settings.width,
+        settings.height,
+        settings.spp,
+        settings.max_depth,
+        seconds,
+        paths_per_second,
+        film.nonfinite_samples(),
+        paths.exr.display(),
+        paths.png.display()
+    ))
+}
+
+/// Writes to stdout; a closed pipe (`twintrace info x | head -1`) is not an error.
+fn print_stdout(text: &str) -> Result<()> {
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|_| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(anyhow!("cannot write to stdout: {e}")),
+        _ => Ok(()),
+    }
+}
+
+fn info(args: &InfoArgs) -> Result<()> {
+    let scene = load_scene(&args.scene)?;
+    print_stdout(&scene_summary(&args.scene, &scene))
+}
+
+/// The text `twintrace info` prints.
+pub fn scene_summary(name: &str, scene: &Scene) -> String {
+    use reference::background::Background;
+    use reference::material::Material;
+    use reference::texture::Texture;
+    let mut o = String::new();
+    // Writing to a String cannot fail.
+    macro_rules! say {
+        ($($t:tt)*) => {{
+            let _ = writeln!(o, $($t)*);
+        }};
+    }
+    say!("scene: {name}");
+    say!(
+        "primitives: {} ({} spheres, {} quads, {} triangles; {} mesh vertices)",
+        scene.primitives.len(),
+        scene.spheres.len(),
+        scene.quads.len(),
+        scene.triangles.len(),
+        scene.mesh.positions.len()
+    );
+    let b = scene.bounds();
+    say!("bounds: {} .. {}", b.min, b.max);
+    let count = |names: &[&'static str], of: &dyn Fn(usize) -> &'static str, n: usize| {
+        let kinds: Vec<String> = names
+            .iter()
+            .filter_map(|&k| {
+                let c = (0..n).filter(|&i| of(i) == k).count();
+                (c > 0).then(|| format!("{c} {k}"))
+            })
+            .collect();
+        if kinds.is_empty() {
+            n.to_string()
+        } else {
+            format!("{n} ({})", kinds.join(", "))
+        }
+    };
+    let material_kind = |i: usize| match scene.materials[i] {
+        Material::Lambertian { .. } => "lambertian",
+        Material::Metal { .. } => "metal",
+        Material::Dielectric { .. } => "dielectric",
+        Material::DiffuseLight { .. } => "diffuse light",
+        Material::Ggx { .. } => "ggx",
+    };
+    say!("materials: {}", count(&["lambertian", "metal", "dielectric", "diffuse light", "ggx"], &material_kind, scene.materials.len()));
+    let texture_kind = |i: usize| match scene.textures[i] {
+        Texture::Constant(_) => "constant",
+        Texture::Checker { .. } => "checker",
+        Texture::Image { .. } => "image",
+    };
+    say!("textures: {}", count(&["constant", "checker", "image"], &texture_kind, scene.textures.len()));
+    let sizes: Vec<String> = scene.images.iter().map(|im| format!("{}x{}", im.width, im.height)).collect();
+    if sizes.is_empty() {
+        say!("images: 0");
+    } else {
+        say!("images: {} ({})", sizes.len(), sizes.join(", "));
+    }
+    match scene.background {
+        Background::Solid(c) => say!("background: solid {c}"),
+        Background::Sky { horizon, zenith } => say!("background: sky gradient, horizon {horizon}, zenith {zenith}"),
+        Background::Envmap { image, intensity, rotate_y } => {
+            let size = scene.images.get(image as usize).map(|im| format!("{}x{}", im.width, im.height)).unwrap_or_default();
+            say!("background: environment map, image {image} ({size}), intensity {intensity}, rotated {rotate_y}° about +y");
+        }
+    }
+    let c = &scene.camera_settings;
+    say!("camera: from {} looking at {}, up {}, vfov {}°, aperture {}, focus distance {}", c.look_from, c.look_at, c.up, c.vfov, c.aperture, c.focus_distance);
+    let r = &scene.render;
+    say!(
+        "render defaults: {}x{}, {} spp, max depth {}, seed {}, Russian roulette from depth {}",
+        r.width,
+        r.height,
+        r.spp,
+        r.max_depth,
+        r.seed,
+        r.roulette_depth
+    );
+    let s = &scene.bvh_stats;
+    say!(
+        "bvh: built in {:.3} ms, {} primitives, {} nodes, {} leaves, max depth {}, max leaf size {}, SAH cost {:.3}",
+        s.build_time.as_secs_f64() * 1e3,
+        s.primitives,
+        s.nodes,
+        s.leaves,
+        s.max_depth,
+        s.max_leaf_size,
+        s.sah_cost
+    );
+    o
+}
+
+/// Prints a panic as one `error:` line (no backtrace): a panic is a bug,
+/// but the user still sees a single line.
+pub fn install_panic_hook() {
+    std::panic::set_hook(Box::new(|info| {
+        let payload = info.payload();
+        let message = payload.downcast_ref::<&str>().copied().or_else(|| payload.downcast_ref::<String>().map(String::as_str)).unwrap_or("unknown panic");
+        let location = info.location().map(|l| format!(" at {}:{}", l.file(), l.line())).unwrap_or_default();
+        let _ = writeln!(std::io::stderr(), "error: internal error{location}: {} (this is a bug in twintrace)", one_line(message));
+    }));
+}
+
+/// Joins a possibly multi-line message into one line.
+pub fn one_line(message: &str) -> String {
+    message.lines().map(str::trim).filter(|l| !l.is_empty()).collect::<Vec<_>>().join(" ")
+}

@@ -1,0 +1,373 @@
+//! Render outputs on disk: the linear EXR (mean and variance), the
+//! tone-mapped PNG, and all-or-nothing file writes.
+//!
+//! # The EXR layout
+//!
+//! `twintrace render -o OUT` writes `OUT.exr`, a single-part scan-line
+//! OpenEXR file, ZIP compressed (16 lines per block, lossless), increasing
+//! line order, data window = display window = `(0, 0)–(width−1, height−1)`,
+//! row 0 at the top. It holds six 32-bit float channels (stored in the
+//! alphabetical order the format requires):
+//!
+//! | channel | meaning |
+//! |---|---|
+//! | `R`, `G`, `B` | per-pixel mean of linear radiance (the estimate) |
+//! | `variance.R`, `variance.G`, `variance.B` | variance of that **mean**, per channel: the unbiased sample variance divided by the sample count (`Film::variance()`); 0 where fewer than 2 samples were accepted |
+//!
+//! `variance.*` is the standard OpenEXR layer naming, so viewers (tev,
+//! Nuke, `exrheader`) show a second layer called `variance`. Its square
+//! root is the standard error of each pixel, which is what the z and Welch
+//! tests need. Header attributes (all optional on reading):
+//!
+//! | attribute | type | meaning |
+//! |---|---|---|
+//! | `spp` | int | samples per pixel requested |
+//! | `maxDepth` | int | the path depth limit |
+//! | `seed` | string | the RNG seed, decimal (a `u32`, beyond `int`'s range) |
+//! | `scene` | string | the scene as named on the command line |
+//! | `software` | string | `twintrace <version> (<backend>)`, the standard attribute |
+//!
+//! [`read_exr`] reads such a file back bit-exactly; it also accepts a
+//! multi-part file whose second part is named `variance`, and a file with
+//! no variance at all (`variance` is then `None`).
+//!
+//! # The PNG
+//!
+//! `OUT.png` is 8-bit sRGB RGB, tone mapped as [`crate::tonemap`] says.
+//!
+//! # No half-written files
+//!
+//! [`AtomicFile`] writes to a temporary file in the destination directory
+//! and renames it over the destination only on [`AtomicFile::commit`]; if
+//! anything fails first, dropping it removes the temporary file. A missing
+//! destination directory is an error naming that directory (nothing is
+//! created).
+
+use crate::tonemap::Tonemap;
+use anyhow::{anyhow, bail, Context, Result};
+use exr::prelude::{
+    AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Image, ImageAttributes, Layer, LayerAttributes, ReadChannels, ReadLayers, SmallVec, Text,
+    WritableImage,
+};
+use glam::Vec3;
+use reference::film::Film;
+use std::ffi::OsString;
+use std::fs::File;
+use std::io::{BufWriter, Seek, Write};
+use std::path::{Path, PathBuf};
+
+/// Name of the variance layer (channel prefix) in the EXR.
+pub const VARIANCE_LAYER: &str = "variance";
+
+/// Where a render and its settings came from; stored as EXR attributes.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct RenderMetadata {
+    pub spp: Option<u32>,
+    pub max_depth: Option<u32>,
+    pub seed: Option<u32>,
+    pub scene: Option<String>,
+    pub software: Option<String>,
+}
+
+/// A linear render: per-pixel mean radiance and, optionally, the variance
+/// of each pixel's mean. Row-major, top row first.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RenderImage {
+    pub width: u32,
+    pub height: u32,
+    pub mean: Vec<Vec3>,
+    pub variance: Option<Vec<Vec3>>,
+    pub metadata: RenderMetadata,
+}
+
+impl RenderImage {
+    /// The mean and the variance of the mean of a film.
+    pub fn from_film(film: &Film, metadata: RenderMetadata) -> Self {
+        Self { width: film.width, height: film.height, mean: film.mean(), variance: Some(film.variance()), metadata }
+    }
+
+    /// Checks that the pixel arrays match the size.
+    pub fn check(&self) -> Result<()> {
+        let n = self.width as usize * self.height as usize;
+        if n == 0 {
+            bail!("image size {}x{} is empty", self.width, self.height);
+        }
+        if self.mean.len() != n {
+            bail!("{} mean pixels for a {}x{} image", self.mean.len(), self.width, self.height);
+        }
+        if let Some(v) = &self.variance {
+            if v.len() != n {
+                bail!("{} variance pixels for a {}x{} image", v.len(), self.width, self.height);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The two files of a render.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct OutputPaths {
+    pub exr: PathBuf,
+    pub png: PathBuf,
+}
+
+/// `OUT`, `OUT.exr` or `OUT.png` (any case) → `OUT.exr` and `OUT.png`.
+/// Any other extension is kept as part of the name (`a.v1` → `a.v1.exr`).
+pub fn output_paths(out: &Path) -> Result<OutputPaths> {
+    if out.as_os_str().is_empty() {
+        bail!("the output path is empty");
+    }
+    let trailing_separator = out.as_os_str().to_string_lossy().ends_with(std::path::is_separator);
+    if out.file_name().is_none() || trailing_separator || out.is_dir() {
+        bail!("output path `{}` is a directory; give a file name, as in `{}`", out.display(), out.join("render").display());
+    }
+    let ext = out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    let base = match ext.as_deref() {
+        Some("exr") | Some("png") => out.with_extension(""),
+        _ => out.to_path_buf(),
+    };
+    let with = |suffix: &str| {
+        let mut s = OsString::from(base.as_os_str());
+        s.push(suffix);
+        PathBuf::from(s)
+    };
+    Ok(OutputPaths { exr: with(".exr"), png: with(".png") })
+}
+
+/// The directory a file would be written to: it must exist.
+pub fn existing_parent_dir(path: &Path) -> Result<PathBuf> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    match std::fs::metadata(&dir) {
+        Ok(m) if m.is_dir() => Ok(dir),
+        Ok(_) => bail!("cannot write `{}`: `{}` is not a directory", path.display(), dir.display()),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => bail!("cannot write `{}`: directory `{}` does not exist", path.display(), dir.display()),
+        Err(e) => bail!("cannot write `{}`: directory `{}`: {e}", path.display(), dir.display()),
+    }
+}
+
+/// A file that appears at its destination only when committed.
+///
+/// The data goes to a temporary file beside the destination (same
+/// directory, so the final rename is atomic); dropping an uncommitted
+/// `AtomicFile` deletes the temporary file.
+#[derive(Debug)]
+pub struct AtomicFile {
+    temp: tempfile::NamedTempFile,
+    dest: PathBuf,
+}
+
+impl AtomicFile {
+    /// Creates the temporary file; fails, naming the directory, if the
+    /// destination directory is missing or not writable.
+    pub fn create(dest: &Path) -> Result<Self> {
+        let dir = existing_parent_dir(dest)?;
+        let name = dest.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let prefix = format!(".{name}.");
+        let mut builder = tempfile::Builder::new();
+        builder.prefix(&prefix).suffix(".tmp");
+        #[cfg(unix)]
+        {
+            // tempfile's default is 0600; ask for what `File::create` gives
+            // (0666 less the umask), as users expect of an output image.
+            use std::os::unix::fs::PermissionsExt;
+            builder.permissions(std::fs::Permissions::from_mode(0o666));
+        }
+        let temp = builder
+            .tempfile_in(&dir)
+            .map_err(|e| anyhow!("cannot write `{}`: cannot create a file in `{}`: {}", dest.display(), dir.display(), without_path(&e)))?;
+        Ok(Self { temp, dest: dest.to_path_buf() })
+    }
+
+    pub fn file(&mut self) -> &mut File {
+        self.temp.as_file_mut()
+    }
+
+    pub fn destination(&self) -> &Path {
+        &self.dest
+    }
+
+    /// Flushes the data to disk and renames the file into place.
+    pub fn commit(self) -> Result<PathBuf> {
+        let dest = self.dest;
+        self.temp.as_file().sync_all().with_context(|| format!("cannot write `{}`", dest.display()))?;
+        self.temp.persist(&dest).map_err(|e| anyhow!("cannot write `{}`: {}", dest.display(), without_path(&e.error)))?;
+        Ok(dest)
+    }
+}
+
+/// tempfile's errors end in ` at path "<random temporary name>"`; the
+/// user needs only the cause (the message already names the directory).
+fn without_path(e: &std::io::Error) -> String {
+    let s = e.to_string();
+    match s.find(" at path ") {
+        Some(i) => s[..i].to_string(),
+        None => s,
+    }
+}
+
+/// Writes `path` all at once: `write` fills the temporary file, which is
+/// renamed into place only if it succeeds.
+pub fn write_atomic(path: &Path, write: impl FnOnce(&mut File) -> Result<()>) -> Result<()> {
+    let mut file = AtomicFile::create(path)?;
+    write(file.file()).with_context(|| format!("cannot write `{}`", path.display()))?;
+    file.commit()?;
+    Ok(())
+}
+
+/// EXR text is Latin-1: other characters become `?`.
+fn latin1(s: &str) -> Text {
+    let bytes: Vec<u8> = s.chars().map(|c| u8::try_from(u32::from(c)).unwrap_or(b'?')).collect();
+    Text::from_bytes_unchecked(SmallVec::from_vec(bytes))
+}
+
+fn channel(name: &str, values: impl Iterator<Item = f32>) -> AnyChannel<FlatSamples> {
+    AnyChannel::new(name, FlatSamples::F32(values.collect()))
+}
+
+fn rgb_channels(prefix: &str, pixels: &[Vec3]) -> [AnyChannel<FlatSamples>; 3] {
+    [0, 1, 2].map(|c| channel(&format!("{prefix}{}", ["R", "G", "B"][c]), pixels.iter().map(move |p| p[c])))
+}
+
+/// Encodes an image as the EXR layout described in the module docs.
+pub fn write_exr_to(writer: impl Write + Seek, image: &RenderImage) -> Result<()> {
+    image.check()?;
+    let mut channels: Vec<AnyChannel<FlatSamples>> = rgb_channels("", &image.mean).into();
+    if let Some(variance) = &image.variance {
+        channels.extend(rgb_channels(&format!("{VARIANCE_LAYER}."), variance));
+    }
+    let mut attributes = LayerAttributes::default();
+    let m = &image.metadata;
+    let int = |v: u32| AttributeValue::I32(i32::try_from(v).unwrap_or(i32::MAX));
+    let other = &mut attributes.other;
+    if let Some(spp) = m.spp {
+        other.insert(Text::from("spp"), int(spp));
+    }
+    if let Some(depth) = m.max_depth {
+        other.insert(Text::from("maxDepth"), int(depth));
+    }
+    if let Some(seed) = m.seed {
+        other.insert(Text::from("seed"), AttributeValue::Text(Text::from(seed.to_string().as_str())));
+    }
+    if let Some(scene) = &m.scene {
+        other.insert(Text::from("scene"), AttributeValue::Text(latin1(scene)));
+    }
+    if let Some(software) = &m.software {
+        attributes.software_name = Some(latin1(software));
+    }
+    let size = (image.width as usize, image.height as usize);
+    let layer = Layer::new(size, attributes, Encoding::SMALL_LOSSLESS, AnyChannels::sort(SmallVec::from_vec(channels)));
+    let exr_image = Image::new(ImageAttributes::with_size(size), layer);
+    let mut buffered = BufWriter::new(writer);
+    exr_image.write().to_buffered(&mut buffered).map_err(|e| anyhow!("EXR encoding failed: {e}"))?;
+    buffered.flush()?;
+    Ok(())
+}
+
+/// Writes `path` as an EXR (mean and, if present, variance), atomically.
+pub fn write_exr(path: &Path, image: &RenderImage) -> Result<()> {
+    write_atomic(path, |f| write_exr_to(f, image))
+}
+
+/// Encodes linear pixels as an 8-bit sRGB PNG after `tonemap`.
+pub fn write_png_to(writer: impl Write, width: u32, height: u32, pixels: &[Vec3], tonemap: Tonemap) -> Result<()> {
+    use image::ImageEncoder;
+    if pixels.len() != width as usize * height as usize || pixels.is_empty() {
+        bail!("{} pixels for a {width}x{height} image", pixels.len());
+    }
+    let bytes = tonemap.to_srgb8_image(pixels);
+    let mut buffered = BufWriter::new(writer);
+    image::codecs::png::PngEncoder::new(&mut buffered).write_image(&bytes, width, height, image::ExtendedColorType::Rgb8)?;
+    buffered.flush()?;
+    Ok(())
+}
+
+/// Writes `path` as a tone-mapped 8-bit sRGB PNG, atomically.
+pub fn write_png(path: &Path, width: u32, height: u32, pixels: &[Vec3], tonemap: Tonemap) -> Result<()> {
+    write_atomic(path, |f| write_png_to(f, width, height, pixels, tonemap))
+}
+
+/// Writes both files of a render. Both are complete in their temporary
+/// files before either is renamed into place, so a failure while encoding
+/// leaves neither behind.
+pub fn write_render_outputs(paths: &OutputPaths, image: &RenderImage, tonemap: Tonemap) -> Result<()> {
+    image.check()?;
+    let mut exr = AtomicFile::create(&paths.exr)?;
+    let mut png = AtomicFile::create(&paths.png)?;
+    write_exr_to(exr.file(), image).with_context(|| format!("cannot write `{}`", paths.exr.display()))?;
+    write_png_to(png.file(), image.width, image.height, &image.mean, tonemap).with_context(|| format!("cannot write `{}`", paths.png.display()))?;
+    exr.commit()?;
+    png.commit()?;
+    Ok(())
+}
+
+fn attribute_u32(value: &AttributeValue) -> Option<u32> {
+    match value {
+        AttributeValue::I32(v) => u32::try_from(*v).ok(),
+        AttributeValue::Text(t) => t.to_string().trim().parse().ok(),
+        _ => None,
+    }
+}
+
+/// Reads an EXR written by [`write_exr`] (or any EXR with `R`, `G`, `B`
+/// channels) back: the mean, the variance if the file has one, and the
+/// metadata attributes. 32-bit float channels come back bit-exactly.
+pub fn read_exr(path: &Path) -> Result<RenderImage> {
+    let what = || format!("cannot read EXR `{}`", path.display());
+    let image = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| anyhow!("{e}"))
+        .with_context(what)?;
+    let Some(first) = image.layer_data.first() else {
+        return Err(anyhow!("the file has no image part")).with_context(what);
+    };
+    let size = first.size;
+    let (width, height) = (u32::try_from(size.0).with_context(what)?, u32::try_from(size.1).with_context(what)?);
+    // Channel full names: a part named `variance` contributes `variance.X`.
+    let mut channels: Vec<(String, &FlatSamples)> = Vec::new();
+    for (i, layer) in image.layer_data.iter().enumerate() {
+        let prefix = match &layer.attributes.layer_name {
+            Some(name) if i > 0 => format!("{name}."),
+            _ => String::new(),
+        };
+        if layer.size != size {
+            return Err(anyhow!("part {i} is {}x{}, the first part {}x{}", layer.size.0, layer.size.1, size.0, size.1)).with_context(what);
+        }
+        for c in &layer.channel_data.list {
+            channels.push((format!("{prefix}{}", c.name), &c.sample_data));
+        }
+    }
+    let find = |name: &str| channels.iter().find(|(n, _)| n == name).map(|(_, s)| *s);
+    let read_rgb = |prefix: &str| -> Result<Option<Vec<Vec3>>> {
+        let names = ["R", "G", "B"].map(|c| format!("{prefix}{c}"));
+        let found = names.each_ref().map(|n| find(n));
+        if found.iter().all(Option::is_none) {
+            return Ok(None);
+        }
+        let mut planes = Vec::with_capacity(3);
+        for (name, samples) in names.iter().zip(found) {
+            let samples = samples.ok_or_else(|| anyhow!("channel `{name}` is missing"))?;
+            planes.push(samples.values_as_f32().collect::<Vec<f32>>());
+        }
+        Ok(Some((0..size.0 * size.1).map(|i| Vec3::new(planes[0][i], planes[1][i], planes[2][i])).collect()))
+    };
+    let mean = read_rgb("").with_context(what)?.ok_or_else(|| anyhow!("no `R`, `G`, `B` channels")).with_context(what)?;
+    let variance = read_rgb(&format!("{VARIANCE_LAYER}.")).with_context(what)?;
+    let attrs = &first.attributes;
+    let get = |name: &str| attrs.other.get(&Text::from(name)).or_else(|| image.attributes.other.get(&Text::from(name)));
+    let metadata = RenderMetadata {
+        spp: get("spp").and_then(attribute_u32),
+        max_depth: get("maxDepth").and_then(attribute_u32),
+        seed: get("seed").and_then(attribute_u32),
+        scene: get("scene").and_then(|v| if let AttributeValue::Text(t) = v { Some(t.to_string()) } else { None }),
+        software: attrs.software_name.as_ref().map(|t| t.to_string()),
+    };
+    Ok(RenderImage { width, height, mean, variance, metadata })
+}

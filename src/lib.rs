@@ -1,0 +1,18 @@
+//! `twintrace`: the command line and the tools around the renderers.
+//!
+//! The scene model and the scalar reference renderer live in the
+//! `reference` crate, the wgpu kernels in `gpu`. This crate holds what
+//! users and later tools (`twintrace diff`, `cargo xtask bless`) share:
+//!
+//! - [`image_io`]: the render EXR (linear mean + variance of the mean, its
+//!   exact layout documented there), the tone-mapped PNG, reading an EXR
+//!   back, and all-or-nothing file writes;
+//! - [`tonemap`]: ACES filmic (Narkowicz's fit) and the sRGB OETF;
+//! - [`cli`]: the `twintrace` commands (`render`, `info`).
+
+pub mod cli;
+pub mod image_io;
+pub mod tonemap;
+
+pub use image_io::{read_exr, write_exr, write_png, OutputPaths, RenderImage, RenderMetadata};
+pub use tonemap::Tonemap;
