@@ -1,0 +1,112 @@
+//! The `twintrace` binary fails cleanly: one `error:` line on stderr,
+//! exit status 1, no panic, and no output files; and a small render
+//! succeeds with both files in place.
+
+use std::path::Path;
+use std::process::{Command, Stdio};
+
+struct Outcome {
+    code: Option<i32>,
+    stdout: String,
+    stderr: String,
+}
+
+fn twintrace(dir: &Path, args: &[&str]) -> Outcome {
+    let out = Command::new(env!("CARGO_BIN_EXE_twintrace")).args(args).current_dir(dir).stdin(Stdio::null()).output().expect("the binary runs");
+    Outcome { code: out.status.code(), stdout: String::from_utf8_lossy(&out.stdout).into_owned(), stderr: String::from_utf8_lossy(&out.stderr).into_owned() }
+}
+
+fn files_in(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    names.sort();
+    names
+}
+
+/// Runs a failing command in a fresh directory holding only `setup`
+/// files; checks the error contract and returns the error line.
+fn fails(setup: &[(&str, &str)], args: &[&str]) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, text) in setup {
+        std::fs::write(dir.path().join(name), text).unwrap();
+    }
+    let before = files_in(dir.path());
+    let o = twintrace(dir.path(), args);
+    assert_eq!(o.code, Some(1), "{args:?}: exit status; stderr: {}", o.stderr);
+    assert!(!o.stderr.contains("panicked") && !o.stderr.contains("RUST_BACKTRACE"), "{args:?} panicked: {}", o.stderr);
+    let lines: Vec<&str> = o.stderr.lines().collect();
+    assert_eq!(lines.len(), 1, "{args:?}: expected one stderr line, got {:?}", o.stderr);
+    assert!(lines[0].starts_with("error: "), "{args:?}: {}", lines[0]);
+    assert!(o.stdout.is_empty(), "{args:?}: stdout {:?}", o.stdout);
+    assert_eq!(files_in(dir.path()), before, "{args:?} created files");
+    lines[0].to_string()
+}
+
+#[test]
+fn missing_scene_file() {
+    let e = fails(&[], &["render", "no-such-scene.json", "-o", "out"]);
+    assert!(e.contains("no-such-scene.json"), "{e}");
+}
+
+#[test]
+fn malformed_json_scene() {
+    let e = fails(&[("bad.json", r#"{"objects": [}"#)], &["render", "bad.json", "-o", "out"]);
+    assert!(e.contains("bad.json"), "{e}");
+    let e = fails(&[("bad.json", r#"{"objects": [}"#)], &["info", "bad.json"]);
+    assert!(e.contains("bad.json"), "{e}");
+}
+
+#[test]
+fn bad_sizes() {
+    let e = fails(&[], &["render", "cornell", "--size", "0x0", "-o", "out"]);
+    assert!(e.contains("0x0"), "{e}");
+    let e = fails(&[], &["render", "cornell", "--size", "abc", "-o", "out"]);
+    assert!(e.contains("--size") && e.contains("abc") && e.contains("1200x800"), "{e}");
+    let e = fails(&[], &["render", "cornell", "--size", "12x", "-o", "out"]);
+    assert!(e.contains("--size"), "{e}");
+}
+
+#[test]
+fn zero_spp() {
+    let e = fails(&[], &["render", "cornell", "--spp", "0", "-o", "out"]);
+    assert!(e.contains("spp"), "{e}");
+}
+
+#[test]
+fn gpu_backend_is_not_there_yet() {
+    let e = fails(&[], &["render", "cornell", "--backend", "gpu", "-o", "out"]);
+    assert_eq!(e, "error: the GPU backend is not implemented yet; use --backend cpu");
+}
+
+#[test]
+fn unknown_builtin_scene() {
+    let e = fails(&[], &["render", "no-such-builtin", "-o", "out"]);
+    assert!(e.contains("no-such-builtin") && e.contains("cornell"), "{e}");
+}
+
+#[test]
+fn unusable_output_paths() {
+    let e = fails(&[], &["render", "cornell", "--backend", "cpu", "-o", "missing-dir/out"]);
+    assert!(e.contains("missing-dir") && e.contains("does not exist"), "{e}");
+    let e = fails(&[("a-file", "")], &["render", "cornell", "--backend", "cpu", "-o", "a-file/out"]);
+    assert!(e.contains("a-file") && e.contains("not a directory"), "{e}");
+}
+
+#[test]
+fn small_cornell_render_writes_both_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let o =
+        twintrace(dir.path(), &["render", "cornell", "--backend", "cpu", "--size", "16x16", "--spp", "2", "--seed", "7", "--threads", "2", "-o", "out.exr"]);
+    assert_eq!(o.code, Some(0), "stderr: {}", o.stderr);
+    assert!(o.stdout.starts_with("rendered cornell 16x16, 2 spp,"), "{}", o.stdout);
+    assert!(o.stdout.contains("NaN/Inf samples -> out.exr, out.png"), "{}", o.stdout);
+    assert_eq!(files_in(dir.path()), ["out.exr", "out.png"]);
+    let exr = twintrace::read_exr(&dir.path().join("out.exr")).unwrap();
+    assert_eq!((exr.width, exr.height, exr.mean.len()), (16, 16, 256));
+    assert!(exr.variance.is_some());
+    assert_eq!((exr.metadata.spp, exr.metadata.seed), (Some(2), Some(7)));
+    assert_eq!(image::image_dimensions(dir.path().join("out.png")).unwrap(), (16, 16));
+
+    let o = twintrace(dir.path(), &["info", "cornell"]);
+    assert_eq!(o.code, Some(0), "stderr: {}", o.stderr);
+    assert!(o.stdout.contains("quads") && o.stdout.contains("bvh:") && o.stdout.contains("SAH cost"), "{}", o.stdout);
+}
