@@ -107,8 +107,9 @@ pub struct RenderArgs {
 
 #[derive(Debug, Args)]
 pub struct InfoArgs {
-    /// A scene file (.json, .gltf, .glb) or a built-in scene name.
-    pub scene: String,
+    /// A scene file (.json, .gltf, .glb) or a built-in scene name; without
+    /// one, only the GPU adapters are listed.
+    pub scene: Option<String>,
 }
 
 /// Runs one command.
@@ -161,10 +162,37 @@ pub fn load_scene(spec: &str) -> Result<Scene> {
     })
 }
 
-fn render(args: &RenderArgs) -> Result<()> {
-    if args.backend == Backend::Gpu {
-        bail!("the GPU backend is not implemented yet; use --backend cpu");
+/// The device a render runs on, once chosen.
+enum Device {
+    Cpu,
+    Gpu(gpu::GpuContext),
+}
+
+/// `gpu` must open a device; `auto` takes a hardware GPU if there is one
+/// and otherwise the CPU reference (on a machine without a GPU, Mesa's
+/// software Vulkan is no faster than the reference and less trusted).
+fn choose_device(backend: Backend) -> Result<(Device, String)> {
+    match backend {
+        Backend::Cpu => Ok((Device::Cpu, "cpu reference".into())),
+        Backend::Gpu => {
+            let ctx = gpu::GpuContext::new().map_err(|e| anyhow!("--backend gpu: {e}"))?;
+            let name = format!("gpu `{}` ({})", ctx.adapter.name, ctx.adapter.backend);
+            Ok((Device::Gpu(ctx), name))
+        }
+        Backend::Auto => match gpu::GpuContext::new() {
+            Ok(ctx) if !ctx.is_software => {
+                let name = format!("gpu `{}` ({})", ctx.adapter.name, ctx.adapter.backend);
+                Ok((Device::Gpu(ctx), name))
+            }
+            Ok(ctx) => {
+                Ok((Device::Cpu, format!("cpu reference (the only GPU adapter is the software `{}`; use --backend gpu to run on it)", ctx.adapter.name)))
+            }
+            Err(e) => Ok((Device::Cpu, format!("cpu reference ({e})"))),
+        },
     }
+}
+
+fn render(args: &RenderArgs) -> Result<()> {
     if args.threads == Some(0) {
         bail!("--threads 0: at least one thread is needed");
     }
@@ -181,22 +209,34 @@ fn render(args: &RenderArgs) -> Result<()> {
         None => None,
     };
 
+    let (device, device_name) = choose_device(args.backend)?;
     if args.backend == Backend::Auto {
         // Printed only once everything is checked, so that a failing run
         // prints nothing but its error line.
-        eprintln!("backend auto: no GPU backend yet, using cpu reference");
+        eprintln!("backend auto: {device_name}");
     }
 
     let pixels = settings.width as u64 * settings.height as u64;
-    let bar = indicatif::ProgressBar::new(pixels);
+    let bar = indicatif::ProgressBar::new(pixels * settings.spp as u64);
     if let Ok(style) = indicatif::ProgressStyle::with_template("rendering {wide_bar} {percent:>3}% {elapsed_precise} (eta {eta})") {
         bar.set_style(style);
     }
-    let progress = |n: u64| bar.inc(n);
     let start = Instant::now();
-    let film = match &pool {
-        Some(pool) => pool.install(|| reference::render(&scene, &settings, &progress)),
-        None => reference::render(&scene, &settings, &progress),
+    let mut gpu_time = None;
+    let film = match &device {
+        Device::Cpu => {
+            let progress = |n: u64| bar.inc(n * settings.spp as u64);
+            match &pool {
+                Some(pool) => pool.install(|| reference::render(&scene, &settings, &progress)),
+                None => reference::render(&scene, &settings, &progress),
+            }
+        }
+        Device::Gpu(ctx) => {
+            let renderer = gpu::GpuRenderer::new(ctx, &scene)?;
+            let out = renderer.render(&settings, &|done, _| bar.set_position(done))?;
+            gpu_time = out.gpu_time;
+            out.film
+        }
     };
     let seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
@@ -206,14 +246,18 @@ fn render(args: &RenderArgs) -> Result<()> {
         max_depth: Some(settings.max_depth),
         seed: Some(settings.seed),
         scene: Some(args.scene.clone()),
-        software: Some(format!("twintrace {} (cpu reference)", env!("CARGO_PKG_VERSION"))),
+        software: Some(format!("twintrace {} ({device_name})", env!("CARGO_PKG_VERSION"))),
     };
     let image = RenderImage::from_film(&film, metadata);
     image_io::write_render_outputs(&paths, &image, args.tonemap)?;
 
     let paths_per_second = (pixels * settings.spp as u64) as f64 / seconds.max(1e-9);
+    let gpu_note = match gpu_time {
+        Some(t) => format!(" (GPU time {:.3} s: {:.2e} samples/s)", t.as_secs_f64(), (pixels * settings.spp as u64) as f64 / t.as_secs_f64().max(1e-9)),
+        None => String::new(),
+    };
     print_stdout(&format!(
-        "rendered {} {}x{}, {} spp, depth {} in {:.2} s: {:.2e} samples/s, {} NaN/Inf samples -> {}, {}\n",
+        "rendered {} {}x{}, {} spp, depth {} on {device_name} in {:.2} s{gpu_note}: {:.2e} samples/s, {} NaN/Inf samples -> {}, {}\n",
         args.scene,
         settings.width,
         settings.height,
@@ -237,8 +281,38 @@ fn print_stdout(text: &str) -> Result<()> {
 }
 
 fn info(args: &InfoArgs) -> Result<()> {
-    let scene = load_scene(&args.scene)?;
-    print_stdout(&scene_summary(&args.scene, &scene))
+    let mut text = String::new();
+    if let Some(spec) = &args.scene {
+        let scene = load_scene(spec)?;
+        text += &scene_summary(spec, &scene);
+    }
+    text += &adapter_summary(&gpu::list_adapters());
+    print_stdout(&text)
+}
+
+/// The adapter list `twintrace info` prints.
+pub fn adapter_summary(adapters: &[gpu::AdapterSummary]) -> String {
+    if adapters.is_empty() {
+        return "GPU adapters: none (the gpu backend needs a Vulkan, Metal, DX12 or GL driver; Mesa lavapipe is one: apt-get install mesa-vulkan-drivers)\n"
+            .into();
+    }
+    let mut o = format!("GPU adapters: {}\n", adapters.len());
+    for a in adapters {
+        let _ = writeln!(
+            o,
+            "  {} ({}, {}; {}): max storage buffer binding {} MiB, max buffer {} MiB, {} storage buffers per stage, {} invocations per workgroup, timestamps {}",
+            a.name,
+            a.backend,
+            a.device_type,
+            a.driver,
+            a.max_storage_buffer_binding_size >> 20,
+            a.max_buffer_size >> 20,
+            a.max_storage_buffers_per_shader_stage,
+            a.max_compute_invocations_per_workgroup,
+            if a.timestamp_queries { "yes" } else { "no" }
+        );
+    }
+    o
 }
 
 /// The text `twintrace info` prints.

@@ -9,6 +9,12 @@ use twintrace::cli::{self, Cli};
 
 fn main() -> ExitCode {
     cli::install_panic_hook();
+    // The Vulkan loader's Wayland probe prints "error: XDG_RUNTIME_DIR is
+    // invalid or not set" on headless machines; an empty runtime dir (no
+    // compositor socket) keeps it quiet. Set before any thread starts.
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+        std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir());
+    }
     let args = Cli::parse();
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,

@@ -12,7 +12,17 @@ struct Outcome {
 }
 
 fn twintrace(dir: &Path, args: &[&str]) -> Outcome {
-    let out = Command::new(env!("CARGO_BIN_EXE_twintrace")).args(args).current_dir(dir).stdin(Stdio::null()).output().expect("the binary runs");
+    twintrace_env(dir, args, &[])
+}
+
+fn twintrace_env(dir: &Path, args: &[&str], env: &[(&str, &str)]) -> Outcome {
+    let out = Command::new(env!("CARGO_BIN_EXE_twintrace"))
+        .args(args)
+        .envs(env.iter().copied())
+        .current_dir(dir)
+        .stdin(Stdio::null())
+        .output()
+        .expect("the binary runs");
     Outcome { code: out.status.code(), stdout: String::from_utf8_lossy(&out.stdout).into_owned(), stderr: String::from_utf8_lossy(&out.stderr).into_owned() }
 }
 
@@ -25,12 +35,16 @@ fn files_in(dir: &Path) -> Vec<String> {
 /// Runs a failing command in a fresh directory holding only `setup`
 /// files; checks the error contract and returns the error line.
 fn fails(setup: &[(&str, &str)], args: &[&str]) -> String {
+    fails_env(setup, args, &[])
+}
+
+fn fails_env(setup: &[(&str, &str)], args: &[&str], env: &[(&str, &str)]) -> String {
     let dir = tempfile::tempdir().unwrap();
     for (name, text) in setup {
         std::fs::write(dir.path().join(name), text).unwrap();
     }
     let before = files_in(dir.path());
-    let o = twintrace(dir.path(), args);
+    let o = twintrace_env(dir.path(), args, env);
     assert_eq!(o.code, Some(1), "{args:?}: exit status; stderr: {}", o.stderr);
     assert!(!o.stderr.contains("panicked") && !o.stderr.contains("RUST_BACKTRACE"), "{args:?} panicked: {}", o.stderr);
     let lines: Vec<&str> = o.stderr.lines().collect();
@@ -71,10 +85,35 @@ fn zero_spp() {
     assert!(e.contains("spp"), "{e}");
 }
 
+/// `WGPU_BACKEND=metal` on Linux leaves wgpu with no adapter at all.
+const NO_ADAPTER: &[(&str, &str)] = &[("WGPU_BACKEND", "metal")];
+
 #[test]
-fn gpu_backend_is_not_there_yet() {
-    let e = fails(&[], &["render", "cornell", "--backend", "gpu", "-o", "out"]);
-    assert_eq!(e, "error: the GPU backend is not implemented yet; use --backend cpu");
+fn gpu_backend_without_an_adapter_fails_cleanly() {
+    let e = fails_env(&[], &["render", "cornell", "--backend", "gpu", "-o", "out"], NO_ADAPTER);
+    assert!(e.starts_with("error: --backend gpu: no GPU adapter found"), "{e}");
+}
+
+#[test]
+fn auto_backend_says_what_it_picked() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = twintrace_env(dir.path(), &["render", "cornell", "--size", "8x8", "--spp", "1", "-o", "out"], NO_ADAPTER);
+    assert_eq!(o.code, Some(0), "stderr: {}", o.stderr);
+    assert!(o.stderr.starts_with("backend auto: cpu reference (no GPU adapter found"), "{}", o.stderr);
+}
+
+#[test]
+fn gpu_backend_renders_and_info_lists_the_adapter() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = twintrace(dir.path(), &["render", "cornell", "--backend", "gpu", "--size", "16x16", "--spp", "4", "-o", "gpu"]);
+    assert_eq!(o.code, Some(0), "stderr: {}", o.stderr);
+    assert!(o.stdout.contains(" on gpu `"), "{}", o.stdout);
+    assert_eq!(files_in(dir.path()), ["gpu.exr", "gpu.png"]);
+    let exr = twintrace::read_exr(&dir.path().join("gpu.exr")).unwrap();
+    assert!(exr.mean.iter().all(|m| m.is_finite()) && exr.mean.iter().any(|m| m.max_element() > 0.0));
+    let o = twintrace(dir.path(), &["info"]);
+    assert_eq!(o.code, Some(0), "stderr: {}", o.stderr);
+    assert!(o.stdout.starts_with("GPU adapters: ") && o.stdout.contains("storage buffers per stage"), "{}", o.stdout);
 }
 
 #[test]

@@ -1,1 +1,20 @@
+//! `gpu`: twintrace's wgpu backend.
+//!
+//! Packs a `reference::Scene` (and its one BVH node array) into GPU records
+//! (`records`), assembles the WGSL program from shaders/ with constants
+//! generated from `reference` (`shader`), opens an adapter (`context`) and
+//! runs the megakernel in short batches of samples (`renderer`). It never
+//! re-defines what a scene means: every tag, constant and the camera come
+//! from `reference`.
 
+pub mod context;
+pub mod error;
+pub mod records;
+pub mod renderer;
+pub mod scene_buffers;
+pub mod shader;
+pub mod testing;
+
+pub use context::{list_adapters, AdapterSummary, GpuContext};
+pub use error::GpuError;
+pub use renderer::{GpuRender, GpuRenderer};

@@ -1,0 +1,146 @@
+//! GPU records: one `#[repr(C)]` `Pod` struct per record, defined once
+//! here. The [`gpu_record!`] macro emits the Rust struct and its WGSL
+//! mirror from the same field list, so the two cannot drift; a layout test
+//! (tests/buffer_layout.rs) still checks what the shader reads. Fields are
+//! scalar `f32`/`u32` only: no `vec3` in storage structs, so WGSL's layout
+//! equals C's (align 4, stride = size).
+
+macro_rules! gpu_record {
+    ($(#[$m:meta])* $name:ident { $($(#[$fm:meta])* $field:ident : $ty:ident),* $(,)? }) => {
+        $(#[$m])*
+        #[repr(C)]
+        #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+        pub struct $name {
+            $($(#[$fm])* pub $field: $ty),*
+        }
+
+        impl $name {
+            /// The WGSL declaration of this record.
+            pub const WGSL: &'static str = concat!("struct ", stringify!($name), " {\n", $("    ", stringify!($field), ": ", stringify!($ty), ",\n",)* "}\n");
+            /// Field names in declaration order (for the layout test).
+            pub const FIELDS: &'static [&'static str] = &[$(stringify!($field)),*];
+        }
+    };
+}
+
+gpu_record! {
+    /// A sphere (`reference::shapes::Sphere`).
+    GpuSphere { center_x: f32, center_y: f32, center_z: f32, radius: f32, material: u32, _pad0: u32, _pad1: u32, _pad2: u32 }
+}
+
+gpu_record! {
+    /// A parallelogram (`reference::shapes::Quad`).
+    GpuQuad {
+        corner_x: f32, corner_y: f32, corner_z: f32, material: u32,
+        u_x: f32, u_y: f32, u_z: f32, _pad0: u32,
+        v_x: f32, v_y: f32, v_z: f32, _pad1: u32,
+    }
+}
+
+gpu_record! {
+    /// A triangle of the shared vertex array (`reference::shapes::Triangle`).
+    GpuTriangle { v0: u32, v1: u32, v2: u32, material: u32, flags: u32, _pad0: u32, _pad1: u32, _pad2: u32 }
+}
+
+gpu_record! {
+    /// One vertex: world position, shading normal (zero if absent), uv.
+    GpuVertex { p_x: f32, p_y: f32, p_z: f32, n_x: f32, n_y: f32, n_z: f32, u: f32, v: f32 }
+}
+
+gpu_record! {
+    /// An entry of the primitive list (`reference::scene::Primitive`).
+    GpuPrimitive { tag: u32, index: u32 }
+}
+
+gpu_record! {
+    /// A material (`reference::material::Material`), by tag:
+    /// LAMBERTIAN `texture` = albedo; METAL `texture` = albedo, `p0` = fuzz;
+    /// DIELECTRIC `p0` = ior, `absorption_*`; DIFFUSE_LIGHT `texture` =
+    /// emission; GGX `texture` = base colour, `p0` = metallic, `p1` = roughness.
+    GpuMaterial { tag: u32, texture: u32, p0: f32, p1: f32, absorption_r: f32, absorption_g: f32, absorption_b: f32, _pad0: u32 }
+}
+
+gpu_record! {
+    /// A texture (`reference::texture::Texture`), by tag: CONSTANT colour
+    /// in `r, g, b`; CHECKER `scale`, `even`, `odd`; IMAGE `image` with the
+    /// factor in `r, g, b`.
+    GpuTexture { tag: u32, even: u32, odd: u32, image: u32, r: f32, g: f32, b: f32, scale: f32 }
+}
+
+gpu_record! {
+    /// An image's place in the shared texel array (3 floats per texel).
+    GpuImage { offset: u32, width: u32, height: u32, _pad0: u32 }
+}
+
+gpu_record! {
+    /// A pixel's running statistics (Welford, f32): the GPU film.
+    GpuPixel { count: u32, nonfinite: u32, mean_r: f32, mean_g: f32, mean_b: f32, m2_r: f32, m2_g: f32, m2_b: f32 }
+}
+
+gpu_record! {
+    /// Per-dispatch parameters (a uniform buffer): image, sample range,
+    /// path settings, background, and the camera as `reference::Camera`
+    /// computed it on the host (so both renderers start from the same floats).
+    GpuParams {
+        width: u32, height: u32, sample_start: u32, sample_count: u32,
+        seed: u32, max_depth: u32, roulette_depth: u32, bg_tag: u32,
+        bg_a_r: f32, bg_a_g: f32, bg_a_b: f32, bg_image: u32,
+        bg_b_r: f32, bg_b_g: f32, bg_b_b: f32, bg_intensity: f32,
+        bg_rot_sin: f32, bg_rot_cos: f32, lens_radius: f32, primitive_count: u32,
+        cam_origin_x: f32, cam_origin_y: f32, cam_origin_z: f32,
+        cam_upper_left_x: f32, cam_upper_left_y: f32, cam_upper_left_z: f32,
+        cam_horizontal_x: f32, cam_horizontal_y: f32, cam_horizontal_z: f32,
+        cam_vertical_x: f32, cam_vertical_y: f32, cam_vertical_z: f32,
+        cam_u_x: f32, cam_u_y: f32, cam_u_z: f32,
+        cam_v_x: f32, cam_v_y: f32, cam_v_z: f32,
+        _pad0: u32, _pad1: u32,
+    }
+}
+
+/// WGSL mirror of `reference::bvh::BvhNode` (defined in `reference`, the
+/// one BVH; its layout is checked by the same layout test).
+pub const BVH_NODE_WGSL: &str = "struct BvhNode {\n    min_x: f32,\n    min_y: f32,\n    min_z: f32,\n    index: u32,\n    max_x: f32,\n    max_y: f32,\n    max_z: f32,\n    meta_bits: u32,\n}\n";
+
+/// Every record's WGSL, in one block.
+pub fn wgsl_records() -> String {
+    [
+        GpuSphere::WGSL,
+        GpuQuad::WGSL,
+        GpuTriangle::WGSL,
+        GpuVertex::WGSL,
+        GpuPrimitive::WGSL,
+        GpuMaterial::WGSL,
+        GpuTexture::WGSL,
+        GpuImage::WGSL,
+        GpuPixel::WGSL,
+        GpuParams::WGSL,
+        BVH_NODE_WGSL,
+    ]
+    .concat()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_are_multiples_of_16_where_arrays_need_it() {
+        assert_eq!(std::mem::size_of::<GpuSphere>(), 32);
+        assert_eq!(std::mem::size_of::<GpuQuad>(), 48);
+        assert_eq!(std::mem::size_of::<GpuTriangle>(), 32);
+        assert_eq!(std::mem::size_of::<GpuVertex>(), 32);
+        assert_eq!(std::mem::size_of::<GpuPrimitive>(), 8);
+        assert_eq!(std::mem::size_of::<GpuMaterial>(), 32);
+        assert_eq!(std::mem::size_of::<GpuTexture>(), 32);
+        assert_eq!(std::mem::size_of::<GpuPixel>(), 32);
+        // Uniform buffers need a size that is a multiple of 16.
+        assert_eq!(std::mem::size_of::<GpuParams>() % 16, 0);
+        assert_eq!(GpuParams::FIELDS.len() * 4, std::mem::size_of::<GpuParams>());
+    }
+
+    #[test]
+    fn wgsl_mirror_lists_every_field() {
+        assert!(GpuQuad::WGSL.starts_with("struct GpuQuad {\n    corner_x: f32,"));
+        assert_eq!(GpuQuad::WGSL.matches(':').count(), GpuQuad::FIELDS.len());
+    }
+}

@@ -1,0 +1,128 @@
+//! Packs a `reference::Scene` into GPU records. The BVH node array is
+//! uploaded as the reference built it (the one BVH).
+
+use crate::records::*;
+use reference::background::Background;
+use reference::material::Material;
+use reference::texture::Texture;
+use reference::Scene;
+
+/// The scene as flat record arrays, ready to upload.
+#[derive(Clone, Debug, Default)]
+pub struct PackedScene {
+    pub nodes: Vec<reference::bvh::BvhNode>,
+    pub prim_order: Vec<u32>,
+    pub primitives: Vec<GpuPrimitive>,
+    pub spheres: Vec<GpuSphere>,
+    pub quads: Vec<GpuQuad>,
+    pub triangles: Vec<GpuTriangle>,
+    pub vertices: Vec<GpuVertex>,
+    pub materials: Vec<GpuMaterial>,
+    pub textures: Vec<GpuTexture>,
+    pub images: Vec<GpuImage>,
+    pub texels: Vec<f32>,
+}
+
+pub fn pack_material(m: &Material) -> GpuMaterial {
+    let tag = m.tag();
+    match *m {
+        Material::Lambertian { albedo } => GpuMaterial { tag, texture: albedo, ..Default::default() },
+        Material::Metal { albedo, fuzz } => GpuMaterial { tag, texture: albedo, p0: fuzz, ..Default::default() },
+        Material::Dielectric { ior, absorption } => {
+            GpuMaterial { tag, p0: ior, absorption_r: absorption.x, absorption_g: absorption.y, absorption_b: absorption.z, ..Default::default() }
+        }
+        Material::DiffuseLight { emission } => GpuMaterial { tag, texture: emission, ..Default::default() },
+        Material::Ggx { base_color, metallic, roughness } => GpuMaterial { tag, texture: base_color, p0: metallic, p1: roughness, ..Default::default() },
+    }
+}
+
+pub fn pack_texture(t: &Texture) -> GpuTexture {
+    let tag = t.tag();
+    match *t {
+        Texture::Constant(c) => GpuTexture { tag, r: c.x, g: c.y, b: c.z, ..Default::default() },
+        Texture::Checker { scale, even, odd } => GpuTexture { tag, even, odd, scale, ..Default::default() },
+        Texture::Image { image, factor } => GpuTexture { tag, image, r: factor.x, g: factor.y, b: factor.z, ..Default::default() },
+    }
+}
+
+impl PackedScene {
+    pub fn new(scene: &Scene) -> Self {
+        let mut images = Vec::with_capacity(scene.images.len());
+        let mut texels = Vec::new();
+        for img in &scene.images {
+            images.push(GpuImage { offset: texels.len() as u32, width: img.width, height: img.height, _pad0: 0 });
+            texels.extend(img.texels.iter().flat_map(|t| t.to_array()));
+        }
+        let m = &scene.mesh;
+        PackedScene {
+            nodes: scene.bvh.nodes.clone(),
+            prim_order: scene.bvh.prim_order.clone(),
+            primitives: scene.primitives.iter().map(|p| GpuPrimitive { tag: p.tag, index: p.index }).collect(),
+            spheres: scene
+                .spheres
+                .iter()
+                .map(|s| GpuSphere {
+                    center_x: s.center.x,
+                    center_y: s.center.y,
+                    center_z: s.center.z,
+                    radius: s.radius,
+                    material: s.material,
+                    ..Default::default()
+                })
+                .collect(),
+            quads: scene
+                .quads
+                .iter()
+                .map(|q| GpuQuad {
+                    corner_x: q.corner.x,
+                    corner_y: q.corner.y,
+                    corner_z: q.corner.z,
+                    material: q.material,
+                    u_x: q.u.x,
+                    u_y: q.u.y,
+                    u_z: q.u.z,
+                    v_x: q.v.x,
+                    v_y: q.v.y,
+                    v_z: q.v.z,
+                    ..Default::default()
+                })
+                .collect(),
+            triangles: scene
+                .triangles
+                .iter()
+                .map(|t| GpuTriangle { v0: t.vertices[0], v1: t.vertices[1], v2: t.vertices[2], material: t.material, flags: t.flags, ..Default::default() })
+                .collect(),
+            vertices: (0..m.positions.len())
+                .map(|i| {
+                    let (p, n, uv) = (m.positions[i], m.normals[i], m.uvs[i]);
+                    GpuVertex { p_x: p.x, p_y: p.y, p_z: p.z, n_x: n.x, n_y: n.y, n_z: n.z, u: uv.x, v: uv.y }
+                })
+                .collect(),
+            materials: scene.materials.iter().map(pack_material).collect(),
+            textures: scene.textures.iter().map(pack_texture).collect(),
+            images,
+            texels,
+        }
+    }
+}
+
+/// The background's part of the per-dispatch parameters.
+pub fn pack_background(bg: &Background, p: &mut GpuParams) {
+    p.bg_tag = bg.tag();
+    match *bg {
+        Background::Solid(c) => [p.bg_a_r, p.bg_a_g, p.bg_a_b] = c.to_array(),
+        Background::Sky { horizon, zenith } => {
+            [p.bg_a_r, p.bg_a_g, p.bg_a_b] = horizon.to_array();
+            [p.bg_b_r, p.bg_b_g, p.bg_b_b] = zenith.to_array();
+        }
+        Background::Envmap { image, intensity, rotate_y } => {
+            p.bg_image = image;
+            p.bg_intensity = intensity;
+            // The same expression as reference::background, so both
+            // renderers rotate by the same floats.
+            let (s, c) = (-rotate_y.to_radians()).sin_cos();
+            p.bg_rot_sin = s;
+            p.bg_rot_cos = c;
+        }
+    }
+}

@@ -1,0 +1,117 @@
+//! Running WGSL test kernels against the library functions: the layout
+//! test, CPU-vs-GPU RNG streams and hit records use it. A test kernel is
+//! the shader library plus a snippet declaring
+//! `@group(1) @binding(0) var<storage, read> input: array<u32>;` and
+//! `@group(1) @binding(1) var<storage, read_write> output: array<u32>;`
+//! and an entry point; group 0 is the scene, as in the render kernel.
+
+use crate::context::GpuContext;
+use crate::error::GpuError;
+use crate::records::{GpuParams, GpuPixel};
+use crate::renderer::{bind_group_layout, read_buffer, GpuRenderer};
+use wgpu::util::DeviceExt;
+
+/// Declarations every test kernel gets after the library.
+pub const TEST_IO_WGSL: &str = "
+@group(0) @binding(12) var<storage, read_write> film: array<GpuPixel>;
+@group(1) @binding(0) var<storage, read> input: array<u32>;
+@group(1) @binding(1) var<storage, read_write> output: array<u32>;
+";
+
+/// A test kernel run.
+pub struct TestKernel<'a> {
+    /// WGSL appended to the library and [`TEST_IO_WGSL`].
+    pub snippet: &'a str,
+    pub entry: &'a str,
+    /// Words of `input` (group 1, binding 0).
+    pub input: &'a [u32],
+    /// Threads to launch (workgroups of 64).
+    pub invocations: u32,
+    /// Words of `output` to read back.
+    pub output_words: usize,
+    /// Parameters (binding 0); default: the renderer's for a 1x1 image.
+    pub params: Option<GpuParams>,
+    /// Film contents (binding 12); default: one zero pixel.
+    pub film: Option<&'a [GpuPixel]>,
+}
+
+/// Runs `entry` of `library + TEST_IO_WGSL + snippet`, returning
+/// `output_words` words. The output buffer is poisoned with 0xDEADBEEF
+/// first, so words a kernel never wrote cannot pass for results.
+pub fn run_test_kernel(ctx: &GpuContext, renderer: &GpuRenderer, k: &TestKernel) -> Result<Vec<u32>, GpuError> {
+    let TestKernel { snippet, entry, input, invocations, output_words, .. } = *k;
+    let device = &ctx.device;
+    let source = [crate::shader::library_source().as_str(), TEST_IO_WGSL, snippet].join("\n");
+    let io_entry = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Storage { read_only }, has_dynamic_offset: false, min_binding_size: None },
+        count: None,
+    };
+    let io_layout =
+        device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("test io"), entries: &[io_entry(0, true), io_entry(1, false)] });
+    let scene_layout = bind_group_layout(device);
+    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(entry), source: wgpu::ShaderSource::Wgsl(source.into()) });
+    let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(entry),
+        bind_group_layouts: &[Some(&scene_layout), Some(&io_layout)],
+        immediate_size: 0,
+    });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(entry),
+        layout: Some(&pl),
+        module: &module,
+        entry_point: Some(entry),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    if let Some(e) = pollster::block_on(scope.pop()) {
+        return Err(GpuError::Shader(e.to_string()));
+    }
+    let input_words: &[u32] = if input.is_empty() { &[0] } else { input };
+    let input_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("test input"),
+        contents: bytemuck::cast_slice(input_words),
+        usage: wgpu::BufferUsages::STORAGE,
+    });
+    let poison = vec![0xDEAD_BEEFu32; output_words.max(1)];
+    let output_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("test output"),
+        contents: bytemuck::cast_slice(&poison),
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+    });
+    let p = k.params.unwrap_or_else(|| renderer.params(&reference::RenderSettings { width: 1, height: 1, ..Default::default() }));
+    let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("params"),
+        contents: bytemuck::bytes_of(&p),
+        usage: wgpu::BufferUsages::UNIFORM,
+    });
+    let zero_pixel = [GpuPixel::default()];
+    let film = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("film"),
+        contents: bytemuck::cast_slice(k.film.unwrap_or(&zero_pixel)),
+        usage: wgpu::BufferUsages::STORAGE,
+    });
+    let scene_group = renderer.bind_group(&params, &film);
+    let io_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("test io"),
+        layout: &io_layout,
+        entries: &[
+            wgpu::BindGroupEntry { binding: 0, resource: input_buf.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 1, resource: output_buf.as_entire_binding() },
+        ],
+    });
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(entry) });
+    {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(entry), timestamp_writes: None });
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &scene_group, &[]);
+        pass.set_bind_group(1, &io_group, &[]);
+        pass.dispatch_workgroups(invocations.div_ceil(64), 1, 1);
+    }
+    ctx.queue.submit([encoder.finish()]);
+    ctx.wait()?;
+    let out: Vec<u32> = read_buffer(ctx, &output_buf, (output_words.max(1) * 4) as u64)?;
+    Ok(out[..output_words].to_vec())
+}

@@ -1,0 +1,241 @@
+// The scene's buffers and the BVH traversal: the twin of
+// reference::Scene::intersect / intersect_primitive / surface_interaction.
+// Record structs and constants come from the Rust-generated prelude.
+
+@group(0) @binding(0) var<uniform> params: GpuParams;
+@group(0) @binding(1) var<storage, read> nodes: array<BvhNode>;
+@group(0) @binding(2) var<storage, read> prim_order: array<u32>;
+@group(0) @binding(3) var<storage, read> primitives: array<GpuPrimitive>;
+@group(0) @binding(4) var<storage, read> spheres: array<GpuSphere>;
+@group(0) @binding(5) var<storage, read> quads: array<GpuQuad>;
+@group(0) @binding(6) var<storage, read> triangles: array<GpuTriangle>;
+@group(0) @binding(7) var<storage, read> vertices: array<GpuVertex>;
+@group(0) @binding(8) var<storage, read> materials: array<GpuMaterial>;
+@group(0) @binding(9) var<storage, read> textures: array<GpuTexture>;
+@group(0) @binding(10) var<storage, read> images: array<GpuImage>;
+@group(0) @binding(11) var<storage, read> texels: array<f32>;
+
+struct Hit {
+    hit: bool,
+    t: f32,
+    prim: u32,
+    uv: vec2<f32>,
+}
+
+fn vertex_position(i: u32) -> vec3<f32> {
+    let v = vertices[i];
+    return vec3<f32>(v.p_x, v.p_y, v.p_z);
+}
+
+fn intersect_primitive(prim: u32, ray: Ray, t_min: f32, t_max: f32) -> ShapeHit {
+    let p = primitives[prim];
+    switch p.tag {
+        case PRIMITIVE_SPHERE: {
+            let s = spheres[p.index];
+            return intersect_sphere(vec3<f32>(s.center_x, s.center_y, s.center_z), s.radius, ray, t_min, t_max);
+        }
+        case PRIMITIVE_QUAD: {
+            let q = quads[p.index];
+            return intersect_quad(vec3<f32>(q.corner_x, q.corner_y, q.corner_z), vec3<f32>(q.u_x, q.u_y, q.u_z), vec3<f32>(q.v_x, q.v_y, q.v_z), ray, t_min, t_max);
+        }
+        default: {
+            let tri = triangles[p.index];
+            return intersect_triangle(vertex_position(tri.v0), vertex_position(tri.v1), vertex_position(tri.v2), ray, t_min, t_max);
+        }
+    }
+}
+
+fn next_up(x: f32) -> f32 {
+    if x >= 3.0e38 {
+        return x;
+    }
+    return bitcast<f32>(bitcast<u32>(x) + 1u);
+}
+
+fn node_min(n: BvhNode) -> vec3<f32> {
+    return vec3<f32>(n.min_x, n.min_y, n.min_z);
+}
+
+fn node_max(n: BvhNode) -> vec3<f32> {
+    return vec3<f32>(n.max_x, n.max_y, n.max_z);
+}
+
+// Closest hit: iterative, explicit stack, near child first; ties in t go to
+// the smaller primitive id (as on the CPU).
+fn intersect_scene(ray: Ray, t_min: f32, t_max: f32) -> Hit {
+    var best = Hit(false, t_max, 0u, vec2<f32>(0.0));
+    let inv_dir = safe_inv_dir(ray.direction);
+    let root = nodes[0];
+    if intersect_aabb(node_min(root), node_max(root), ray.origin, inv_dir, best.t) < 0.0 {
+        return best;
+    }
+    var stack: array<u32, BVH_STACK_SIZE>;
+    var sp = 0u;
+    var node = 0u;
+    loop {
+        let n = nodes[node];
+        if (n.meta_bits & 3u) == BVH_LEAF {
+            let first = n.index;
+            let count = n.meta_bits >> 2u;
+            for (var i = 0u; i < count; i++) {
+                let prim = prim_order[first + i];
+                var limit = best.t;
+                if best.hit {
+                    limit = next_up(best.t);
+                }
+                let h = intersect_primitive(prim, ray, t_min, limit);
+                if h.hit && (!best.hit || h.t < best.t || (h.t == best.t && prim < best.prim)) {
+                    best = Hit(true, h.t, prim, h.uv);
+                }
+            }
+        } else {
+            let l = node + 1u;
+            let r = n.index;
+            let tl = intersect_aabb(node_min(nodes[l]), node_max(nodes[l]), ray.origin, inv_dir, best.t);
+            let tr = intersect_aabb(node_min(nodes[r]), node_max(nodes[r]), ray.origin, inv_dir, best.t);
+            if tl >= 0.0 && tr >= 0.0 {
+                var near = l;
+                var far = r;
+                if tr < tl {
+                    near = r;
+                    far = l;
+                }
+                stack[sp] = far;
+                sp += 1u;
+                node = near;
+                continue;
+            }
+            if tl >= 0.0 {
+                node = l;
+                continue;
+            }
+            if tr >= 0.0 {
+                node = r;
+                continue;
+            }
+        }
+        if sp == 0u {
+            break;
+        }
+        sp -= 1u;
+        node = stack[sp];
+    }
+    return best;
+}
+
+struct SurfaceInteraction {
+    p: vec3<f32>,
+    geometric_normal: vec3<f32>,
+    shading_normal: vec3<f32>,
+    uv: vec2<f32>,
+    p_error: f32,
+    front_face: bool,
+    material: u32,
+}
+
+fn gamma(n: f32) -> f32 {
+    let e = n * (1.1920929e-7 * 0.5);
+    return e / (1.0 - e);
+}
+
+fn normalize_or(v: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
+    let l2 = dot(v, v);
+    if l2 > 0.0 && l2 < 3.0e38 {
+        return v * inverseSqrt(l2);
+    }
+    return fallback;
+}
+
+fn max3(v: vec3<f32>) -> f32 {
+    return max(max(v.x, v.y), v.z);
+}
+
+fn surface_interaction(ray: Ray, hit: Hit) -> SurfaceInteraction {
+    let p = primitives[hit.prim];
+    var si: SurfaceInteraction;
+    switch p.tag {
+        case PRIMITIVE_SPHERE: {
+            let s = spheres[p.index];
+            let c = vec3<f32>(s.center_x, s.center_y, s.center_z);
+            let outward = normalize_or(((ray.origin + hit.t * ray.direction) - c) / abs(s.radius), vec3<f32>(0.0, 1.0, 0.0));
+            si.p = c + abs(s.radius) * outward;
+            var n = outward;
+            if s.radius < 0.0 {
+                n = -outward;
+            }
+            si.geometric_normal = n;
+            si.shading_normal = n;
+            si.uv = vec2<f32>((atan2(-outward.z, outward.x) + PI) / (2.0 * PI), acos(clamp(-outward.y, -1.0, 1.0)) / PI);
+            si.p_error = gamma(5.0) * (abs(s.radius) + max3(abs(c)) + max3(abs(si.p)));
+            si.material = s.material;
+        }
+        case PRIMITIVE_QUAD: {
+            let q = quads[p.index];
+            let corner = vec3<f32>(q.corner_x, q.corner_y, q.corner_z);
+            let u = vec3<f32>(q.u_x, q.u_y, q.u_z);
+            let v = vec3<f32>(q.v_x, q.v_y, q.v_z);
+            let n = normalize(cross(u, v));
+            si.p = corner + hit.uv.x * u + hit.uv.y * v;
+            si.geometric_normal = n;
+            si.shading_normal = n;
+            si.uv = hit.uv;
+            si.p_error = gamma(4.0) * max3(abs(corner) + abs(hit.uv.x * u) + abs(hit.uv.y * v) + abs(si.p));
+            si.material = q.material;
+        }
+        default: {
+            let tri = triangles[p.index];
+            let a = vertices[tri.v0];
+            let b = vertices[tri.v1];
+            let c = vertices[tri.v2];
+            let pa = vec3<f32>(a.p_x, a.p_y, a.p_z);
+            let pb = vec3<f32>(b.p_x, b.p_y, b.p_z);
+            let pc = vec3<f32>(c.p_x, c.p_y, c.p_z);
+            let b1 = hit.uv.x;
+            let b2 = hit.uv.y;
+            let b0 = 1.0 - b1 - b2;
+            si.p = b0 * pa + b1 * pb + b2 * pc;
+            si.p_error = gamma(7.0) * max3(abs(b0 * pa) + abs(b1 * pb) + abs(b2 * pc));
+            let ng = normalize_or(cross(pb - pa, pc - pa), vec3<f32>(0.0, 1.0, 0.0));
+            var ns = ng;
+            if (tri.flags & TRIANGLE_HAS_NORMALS) != 0u {
+                let nn = normalize_or(b0 * vec3<f32>(a.n_x, a.n_y, a.n_z) + b1 * vec3<f32>(b.n_x, b.n_y, b.n_z) + b2 * vec3<f32>(c.n_x, c.n_y, c.n_z), ng);
+                ns = select(nn, -nn, dot(nn, ng) < 0.0);
+            }
+            var uv = hit.uv;
+            if (tri.flags & TRIANGLE_HAS_UVS) != 0u {
+                uv = b0 * vec2<f32>(a.u, a.v) + b1 * vec2<f32>(b.u, b.v) + b2 * vec2<f32>(c.u, c.v);
+            }
+            si.geometric_normal = ng;
+            si.shading_normal = ns;
+            si.uv = uv;
+            si.material = tri.material;
+        }
+    }
+    si.front_face = dot(ray.direction, si.geometric_normal) < 0.0;
+    return si;
+}
+
+// Wächter & Binder's integer-ulp nudge (reference::geometry::offset_ray_origin).
+fn offset_ray_origin(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let of_i = vec3<i32>(n * 256.0);
+    var out: vec3<f32>;
+    for (var k = 0u; k < 3u; k++) {
+        let bits = bitcast<i32>(p[k]);
+        var step = of_i[k];
+        if p[k] < 0.0 {
+            step = -step;
+        }
+        let stepped = bitcast<f32>(bits + step);
+        if abs(p[k]) < (1.0 / 32.0) {
+            out[k] = p[k] + (1.0 / 65536.0) * n[k];
+        } else {
+            out[k] = stepped;
+        }
+    }
+    return out;
+}
+
+fn spawn_origin(p: vec3<f32>, n: vec3<f32>, p_error: f32) -> vec3<f32> {
+    let an = abs(n);
+    return offset_ray_origin(p + n * (p_error * (an.x + an.y + an.z)), n);
+}

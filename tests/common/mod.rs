@@ -1,0 +1,13 @@
+//! Shared by the GPU test files: one device per test binary. No adapter is
+//! a failure, never a skip (`cargo xtask test` installs Mesa lavapipe).
+#![allow(dead_code)]
+
+use std::sync::OnceLock;
+
+pub fn gpu() -> &'static gpu::GpuContext {
+    static CTX: OnceLock<gpu::GpuContext> = OnceLock::new();
+    CTX.get_or_init(|| match gpu::GpuContext::new() {
+        Ok(ctx) => ctx,
+        Err(e) => panic!("GPU tests need an adapter (run `cargo xtask test`, which installs Mesa lavapipe): {e}"),
+    })
+}
