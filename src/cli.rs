@@ -170,24 +170,29 @@ enum Device {
 
 /// `gpu` must open a device; `auto` takes a hardware GPU if there is one
 /// and otherwise the CPU reference (on a machine without a GPU, Mesa's
-/// software Vulkan is no faster than the reference and less trusted).
-fn choose_device(backend: Backend) -> Result<(Device, String)> {
+/// software Vulkan is 12x slower than the reference there: docs/benchmarks.md).
+/// Returns the device, its name for the summary line, and why it was
+/// chosen (for `auto`'s note).
+fn choose_device(backend: Backend) -> Result<(Device, String, String)> {
+    let gpu_name = |ctx: &gpu::GpuContext| format!("gpu `{}` ({})", ctx.adapter.name, ctx.adapter.backend);
     match backend {
-        Backend::Cpu => Ok((Device::Cpu, "cpu reference".into())),
+        Backend::Cpu => Ok((Device::Cpu, "cpu reference".into(), String::new())),
         Backend::Gpu => {
             let ctx = gpu::GpuContext::new().map_err(|e| anyhow!("--backend gpu: {e}"))?;
-            let name = format!("gpu `{}` ({})", ctx.adapter.name, ctx.adapter.backend);
-            Ok((Device::Gpu(ctx), name))
+            let name = gpu_name(&ctx);
+            Ok((Device::Gpu(ctx), name, String::new()))
         }
         Backend::Auto => match gpu::GpuContext::new() {
             Ok(ctx) if !ctx.is_software => {
-                let name = format!("gpu `{}` ({})", ctx.adapter.name, ctx.adapter.backend);
-                Ok((Device::Gpu(ctx), name))
+                let name = gpu_name(&ctx);
+                Ok((Device::Gpu(ctx), name, String::new()))
             }
-            Ok(ctx) => {
-                Ok((Device::Cpu, format!("cpu reference (the only GPU adapter is the software `{}`; use --backend gpu to run on it)", ctx.adapter.name)))
-            }
-            Err(e) => Ok((Device::Cpu, format!("cpu reference ({e})"))),
+            Ok(ctx) => Ok((
+                Device::Cpu,
+                "cpu reference".into(),
+                format!(" (the only GPU adapter is the software `{}`; use --backend gpu to run on it)", ctx.adapter.name),
+            )),
+            Err(e) => Ok((Device::Cpu, "cpu reference".into(), format!(" ({e})"))),
         },
     }
 }
@@ -209,11 +214,11 @@ fn render(args: &RenderArgs) -> Result<()> {
         None => None,
     };
 
-    let (device, device_name) = choose_device(args.backend)?;
+    let (device, device_name, why) = choose_device(args.backend)?;
     if args.backend == Backend::Auto {
         // Printed only once everything is checked, so that a failing run
         // prints nothing but its error line.
-        eprintln!("backend auto: {device_name}");
+        eprintln!("backend auto: {device_name}{why}");
     }
 
     let pixels = settings.width as u64 * settings.height as u64;
