@@ -77,6 +77,9 @@ fn bad_sizes() {
     assert!(e.contains("--size") && e.contains("abc") && e.contains("1200x800"), "{e}");
     let e = fails(&[], &["render", "cornell", "--size", "12x", "-o", "out"]);
     assert!(e.contains("--size"), "{e}");
+    // Absurd: 16384² is within the per-side limit but 2^28 pixels.
+    let e = fails(&[], &["render", "cornell", "--size", "16384x16384", "-o", "out"]);
+    assert!(e.contains("16384x16384") && e.contains("pixels"), "{e}");
 }
 
 #[test]

@@ -49,6 +49,9 @@ impl Default for RenderSettings {
 /// Limits on render parameters: beyond them an image is a mistake, not a
 /// request (16384² RGB f64 mean+variance accumulators are ~12 GiB).
 pub const MAX_IMAGE_SIDE: u32 = 16_384;
+/// At most 2^26 pixels (8192²): the film alone is 64 bytes a pixel on the
+/// CPU (4 GiB here), so larger images fail up front instead of in the allocator.
+pub const MAX_PIXELS: u64 = 1 << 26;
 pub const MAX_SPP: u32 = 1 << 24;
 pub const MAX_DEPTH: u32 = 1024;
 
@@ -58,6 +61,9 @@ impl RenderSettings {
         let bad = |field: &str, msg: String| Err(SceneError::invalid(field, msg));
         if self.width == 0 || self.height == 0 || self.width > MAX_IMAGE_SIDE || self.height > MAX_IMAGE_SIDE {
             return bad("render.width/height", format!("image size {}x{} must be between 1x1 and {MAX_IMAGE_SIDE}x{MAX_IMAGE_SIDE}", self.width, self.height));
+        }
+        if self.width as u64 * self.height as u64 > MAX_PIXELS {
+            return bad("render.width/height", format!("image size {}x{} has more than {MAX_PIXELS} pixels", self.width, self.height));
         }
         if self.spp == 0 || self.spp > MAX_SPP {
             return bad("render.spp", format!("{} samples per pixel must be between 1 and {MAX_SPP}", self.spp));
