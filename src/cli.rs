@@ -5,6 +5,7 @@
 //!   `OUT.png` (tone mapped), then prints a one-line summary on stdout.
 //! - `twintrace info SCENE`: what a scene holds, its render defaults and
 //!   its BVH.
+//! - `twintrace diff A.exr B.exr`: statistical comparison, see [`crate::diff`].
 //!
 //! Render settings resolve in three layers: the scene's own defaults
 //! (`scene.render`), then a `--quality` preset (spp and depth together),
@@ -37,6 +38,8 @@ pub enum Command {
     Render(RenderArgs),
     /// Print what a scene holds: primitives, materials, camera, render defaults, BVH.
     Info(InfoArgs),
+    /// Compare two renders statistically and write an HTML report (exit 0: no difference, 1: different, 2: cannot compare).
+    Diff(crate::diff::DiffArgs),
 }
 
 /// Which renderer runs the paths.
@@ -117,6 +120,7 @@ pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Render(args) => render(&args),
         Command::Info(args) => info(&args),
+        Command::Diff(args) => crate::diff::run(&args),
     }
 }
 

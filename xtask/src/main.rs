@@ -2,6 +2,7 @@
 //! command (one module each) runs cargo or the twintrace CLI; heavy work
 //! lives there.
 
+mod bless;
 mod fixtures;
 mod install;
 mod test;
@@ -18,6 +19,10 @@ Commands:
              cargo fmt --check, cargo clippy -D warnings, cargo test --workspace
              (extra arguments go to cargo test)
   fixtures   regenerate the generated fixture files (mesh, textures)
+  bless [--scene NAME]... [--spp N]
+             regenerate stored references (fixtures/refs/NAME.exr + provenance
+             note) listed in fixtures/refs/manifest.txt with the CPU reference;
+             --spp also updates the manifest
   help       this text
 ";
 
@@ -36,6 +41,7 @@ fn main() -> ExitCode {
     let result = match args.first().map(String::as_str) {
         Some("test") => install::ensure_vulkan().and_then(|()| test::run(&args[1..])),
         Some("fixtures") => fixtures::run(),
+        Some("bless") => bless::run(&args[1..]),
         None | Some("help") | Some("--help") | Some("-h") => {
             print!("{HELP}");
             Ok(())

@@ -1,0 +1,137 @@
+//! `twintrace diff` tells equal renders from different ones by its exit
+//! status (0 same, 1 different, 2 cannot compare), prints the verdict and
+//! the metrics, and writes a self-contained HTML report; a failing image
+//! gate leaves the same evidence under `target/diff/<test>/`.
+
+use reference::RenderSettings;
+use std::path::Path;
+use std::process::{Command, Stdio};
+use twintrace::compare::gate::{artifact_dir, assert_passes, cpu_reference, load_reference, load_scene, manifest_entry, run_gate};
+use twintrace::{write_exr, RenderImage, RenderMetadata};
+
+struct Outcome {
+    code: Option<i32>,
+    stdout: String,
+    stderr: String,
+}
+
+fn diff(dir: &Path, args: &[&str]) -> Outcome {
+    let out = Command::new(env!("CARGO_BIN_EXE_twintrace")).arg("diff").args(args).current_dir(dir).stdin(Stdio::null()).output().expect("the binary runs");
+    Outcome { code: out.status.code(), stdout: String::from_utf8_lossy(&out.stdout).into_owned(), stderr: String::from_utf8_lossy(&out.stderr).into_owned() }
+}
+
+/// Renders the GGX fixture (sky-lit, so pixel means are close to normal;
+/// 32x12, 256 spp) with `seed`, colours scaled by `albedo`, into `dir/name.exr`.
+fn render(dir: &Path, name: &str, seed: u32, albedo: f32) {
+    render_spp(dir, name, seed, albedo, 256);
+}
+
+fn render_spp(dir: &Path, name: &str, seed: u32, albedo: f32, spp: u32) {
+    let mut scene = reference::load_scene(concat!(env!("CARGO_MANIFEST_DIR"), "/fixtures/scenes/ggx-roughness.json")).unwrap();
+    for t in &mut scene.textures {
+        if let reference::texture::Texture::Constant(c) = t {
+            if c.max_element() < 1.0 {
+                *c *= albedo;
+            }
+        }
+    }
+    let settings = RenderSettings { width: 32, height: 12, spp, max_depth: 12, seed, ..scene.render };
+    let film = reference::render(&scene, &settings, &|_| {});
+    let meta = RenderMetadata { spp: Some(settings.spp), seed: Some(seed), scene: Some("ggx-roughness".into()), ..Default::default() };
+    write_exr(&dir.join(format!("{name}.exr")), &RenderImage::from_film(&film, meta)).unwrap();
+}
+
+fn assert_report(path: &Path) {
+    let html = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    assert!(html.starts_with("<!DOCTYPE html>") && html.trim_end().ends_with("</html>"));
+    // Render, reference, error, statistic, FLIP and p-value maps, all embedded.
+    assert_eq!(html.matches("src=\"data:image/png;base64,").count(), 6, "six embedded images");
+    assert!(!html.contains("src=\"http") && !html.contains("<script"), "self-contained, no scripts");
+    for row in ["per-pixel tests", "image sum", "tile sums", "RMSE", "relMSE", "FLIP mean", "NaN/Inf values"] {
+        assert!(html.contains(row), "the summary table lacks `{row}`");
+    }
+}
+
+#[test]
+fn two_seeds_of_one_render_are_the_same() {
+    let dir = tempfile::tempdir().unwrap();
+    render(dir.path(), "a", 1, 1.0);
+    render(dir.path(), "b", 2, 1.0);
+    let o = diff(dir.path(), &["a.exr", "b.exr", "--report", "r.html"]);
+    assert_eq!(o.code, Some(0), "stdout: {}\nstderr: {}", o.stdout, o.stderr);
+    assert!(o.stdout.contains("Welch") && o.stdout.contains("verdict: PASS"), "{}", o.stdout);
+    assert!(o.stdout.contains("RMSE") && o.stdout.contains("FLIP") && o.stdout.contains("NaN/Inf"), "{}", o.stdout);
+    assert_report(&dir.path().join("r.html"));
+}
+
+#[test]
+fn a_brighter_render_is_different() {
+    let dir = tempfile::tempdir().unwrap();
+    render(dir.path(), "a", 1, 1.1);
+    render(dir.path(), "b", 2, 1.0);
+    let o = diff(dir.path(), &["a.exr", "b.exr", "--report", "r.html"]);
+    assert_eq!(o.code, Some(1), "stdout: {}\nstderr: {}", o.stdout, o.stderr);
+    assert!(o.stdout.contains("verdict: FAIL") && o.stdout.contains("report: r.html"), "{}", o.stdout);
+    assert_report(&dir.path().join("r.html"));
+    // The same pair as a render against a reference (Mitsuba's z-test).
+    let o = diff(dir.path(), &["a.exr", "b.exr", "--method", "reference", "--report", "r2.html"]);
+    assert_eq!(o.code, Some(1), "{}", o.stdout);
+    assert!(o.stdout.contains("against a reference"), "{}", o.stdout);
+}
+
+#[test]
+fn a_separate_variance_image_is_used_and_no_variance_cannot_be_tested() {
+    let dir = tempfile::tempdir().unwrap();
+    // A render and a reference whose per-sample variance is well estimated.
+    render_spp(dir.path(), "a", 1, 1.0, 256);
+    render_spp(dir.path(), "b", 2, 1.0, 8192);
+    // b's mean alone, and its variance as the RGB of another file.
+    let b = twintrace::read_exr(&dir.path().join("b.exr")).unwrap();
+    let mean_only = RenderImage { variance: None, ..b.clone() };
+    write_exr(&dir.path().join("b-mean.exr"), &mean_only).unwrap();
+    let var = RenderImage { mean: b.variance.clone().unwrap(), variance: None, ..b };
+    write_exr(&dir.path().join("b-var.exr"), &var).unwrap();
+    let a_mean = RenderImage { variance: None, ..twintrace::read_exr(&dir.path().join("a.exr")).unwrap() };
+    write_exr(&dir.path().join("a-mean.exr"), &a_mean).unwrap();
+
+    let o = diff(dir.path(), &["a-mean.exr", "b-mean.exr", "--variance-b", "b-var.exr", "--report", "r.html"]);
+    assert_eq!(o.code, Some(0), "stdout: {}\nstderr: {}", o.stdout, o.stderr);
+    assert!(o.stdout.contains("the second image's per-sample variance predicts") && o.stdout.contains("spp 256 and 8192"), "{}", o.stdout);
+
+    let o = diff(dir.path(), &["a-mean.exr", "b-mean.exr", "--report", "r2.html"]);
+    assert_eq!(o.code, Some(2), "stdout: {}\nstderr: {}", o.stdout, o.stderr);
+    assert!(o.stderr.starts_with("error: ") && o.stderr.contains("variance"), "{}", o.stderr);
+    assert!(o.stdout.contains("RMSE"), "metrics are still printed: {}", o.stdout);
+
+    let o = diff(dir.path(), &["a.exr", "missing.exr"]);
+    assert_eq!(o.code, Some(2));
+    assert!(o.stderr.starts_with("error: ") && o.stderr.contains("missing.exr"), "{}", o.stderr);
+    assert_eq!(o.stderr.lines().count(), 1, "{}", o.stderr);
+}
+
+#[test]
+fn a_failing_image_gate_writes_its_evidence_and_names_it() {
+    let spec = manifest_entry("cornell-spheres").unwrap();
+    let reference = load_reference(&spec).unwrap();
+    let mut scene = load_scene(&spec).unwrap();
+    for t in &mut scene.textures {
+        if let reference::texture::Texture::Constant(c) = t {
+            if c.max_element() < 1.0 {
+                *c *= 1.2;
+            }
+        }
+    }
+    let run = run_gate(&reference, &scene, 64, 9, &cpu_reference).unwrap();
+    let test = "diff_command/evidence";
+    let dir = artifact_dir(test);
+    let _ = std::fs::remove_dir_all(&dir);
+    let panic = std::panic::catch_unwind(|| assert_passes(test, &reference, &run)).expect_err("a 20 % brighter render must fail");
+    let message = panic.downcast_ref::<String>().cloned().unwrap_or_default();
+    let report = dir.join("report.html");
+    assert!(message.contains(&report.display().to_string()), "the failure names its report: {message}");
+    assert_report(&report);
+    for f in ["render.exr", "reference.exr"] {
+        let img = twintrace::read_exr(&dir.join(f)).unwrap();
+        assert!(img.variance.is_some() && img.width == 32, "{f}");
+    }
+}

@@ -1,0 +1,191 @@
+//! Sampling routines draw from the densities they claim: chi-square
+//! goodness of fit (pbrt-v4 bsdfs_test.cpp, Mitsuba 3 chi2.py: 10^6
+//! samples per run, cells expected below 5 pooled, Šidák over the runs of
+//! each test at α = 0.01), and the two-sample test for the lobes that have
+//! no density (mirror, dielectric, fuzzy metal), here CPU against CPU with
+//! another seed; the GPU gets the same cases later.
+//!
+//! The environment map is not importance-sampled by either renderer (paths
+//! find it by BSDF sampling alone), so it has no sampling routine to test.
+
+use glam::{DVec3, Vec2, Vec3};
+use reference::geometry::SurfaceInteraction;
+use reference::material::{scatter, GgxLobes, Material, TextureContext};
+use reference::rng::{dims, vertex_randoms};
+use reference::sampling::{
+    cosine_hemisphere_pdf, ggx, sample_cosine_hemisphere, sample_uniform_sphere, sample_unit_ball, sample_unit_disk, UNIFORM_SPHERE_PDF,
+};
+use reference::texture::Texture;
+use std::f64::consts::PI;
+use twintrace::compare::chi2::{test_density, test_same_distribution, Chi2Outcome, Domain};
+use twintrace::compare::lobes::standard_cases;
+use twintrace::stats::sidak;
+
+/// Samples per run: pbrt-v4's CHI2_SAMPLECOUNT and Mitsuba's default.
+const N: u32 = 1_000_000;
+/// 64 θ bands over the sphere (32 over a hemisphere) × 64 φ sectors:
+/// about 500 expected samples per hemisphere cell at 10^6 samples.
+const SPHERE: Domain = Domain::Sphere { theta_bins: 64, phi_bins: 64 };
+
+/// The eight uniform numbers of sample `i` in run `seed` (the slots of a
+/// path's first bounce).
+fn u(seed: u32, i: u32) -> [f32; 8] {
+    vertex_randoms(seed, i, 0, 1)
+}
+
+fn dir_u(seed: u32, i: u32) -> Vec2 {
+    let r = u(seed, i);
+    Vec2::new(r[dims::DIRECTION_U], r[dims::DIRECTION_V])
+}
+
+fn samples(f: impl Fn(u32) -> Option<DVec3>) -> Vec<Option<DVec3>> {
+    (0..N).map(f).collect()
+}
+
+/// Asserts that every run passes at Šidák's level for the family.
+fn assert_all_pass(what: &str, runs: &[(String, Chi2Outcome)]) {
+    let level = sidak(0.01, runs.len());
+    let mut failures = String::new();
+    for (name, o) in runs {
+        println!("{what} / {name}: {}", o.summary());
+        if !o.passes(level) {
+            failures += &format!("\n  {name}: {}", o.summary());
+        }
+    }
+    assert!(failures.is_empty(), "{what}: runs fail at the Šidák level {level:.2e} of {} runs:{failures}", runs.len());
+}
+
+/// The local frame's surface point of the material tests: normal +z.
+fn surface() -> SurfaceInteraction {
+    SurfaceInteraction { p: Vec3::ZERO, geometric_normal: Vec3::Z, shading_normal: Vec3::Z, uv: Vec2::ZERO, p_error: 0.0, front_face: true, material: 0 }
+}
+
+fn towards(theta_deg: f64) -> Vec3 {
+    let t = theta_deg.to_radians() as f32;
+    Vec3::new(t.sin(), 0.0, t.cos())
+}
+
+#[test]
+fn cosine_hemisphere_matches_cos_over_pi() {
+    let runs: Vec<(String, Chi2Outcome)> = (1..=3)
+        .map(|seed| {
+            let o =
+                test_density(&SPHERE, samples(|i| Some(sample_cosine_hemisphere(dir_u(seed, i)).as_dvec3())), &|d| cosine_hemisphere_pdf(d.z as f32) as f64);
+            (format!("seed {seed}"), o)
+        })
+        .collect();
+    assert_all_pass("cosine hemisphere", &runs);
+}
+
+#[test]
+fn uniform_sphere_is_uniform() {
+    let runs: Vec<(String, Chi2Outcome)> = (1..=2)
+        .map(|seed| {
+            (format!("seed {seed}"), test_density(&SPHERE, samples(|i| Some(sample_uniform_sphere(dir_u(seed, i)).as_dvec3())), &|_| UNIFORM_SPHERE_PDF as f64))
+        })
+        .collect();
+    assert_all_pass("uniform sphere", &runs);
+}
+
+#[test]
+fn concentric_disk_is_uniform() {
+    // 32 rings of equal area × 64 sectors: ~490 samples per cell.
+    let disk = Domain::Disk { r2_bins: 32, phi_bins: 64 };
+    let runs: Vec<(String, Chi2Outcome)> = (1..=2)
+        .map(|seed| {
+            let o = test_density(&disk, samples(|i| Some(sample_unit_disk(dir_u(seed, i)).extend(0.0).as_dvec3())), &|_| 1.0 / PI);
+            (format!("seed {seed}"), o)
+        })
+        .collect();
+    assert_all_pass("unit disk", &runs);
+}
+
+#[test]
+fn unit_ball_is_uniform() {
+    // 8 shells × 16 cos θ × 32 φ = 4096 equal volumes, ~240 per cell.
+    let ball = Domain::Ball { r3_bins: 8, cos_theta_bins: 16, phi_bins: 32 };
+    let runs: Vec<(String, Chi2Outcome)> = (1..=2)
+        .map(|seed| {
+            let o = test_density(
+                &ball,
+                samples(|i| {
+                    let r = u(seed, i);
+                    Some(sample_unit_ball(Vec3::new(r[dims::BALL_X], r[dims::BALL_Y], r[dims::BALL_Z])).as_dvec3())
+                }),
+                &|_| 3.0 / (4.0 * PI),
+            );
+            (format!("seed {seed}"), o)
+        })
+        .collect();
+    assert_all_pass("unit ball", &runs);
+}
+
+#[test]
+fn ggx_visible_normals_match_their_density() {
+    // Roughness from near-mirror to rough, viewers from normal to grazing.
+    let mut runs = Vec::new();
+    for (k, &alpha) in [0.15f32, 0.4, 1.0].iter().enumerate() {
+        for (j, &theta) in [0.0, 30.0, 60.0, 85.0].iter().enumerate() {
+            let wo = towards(theta);
+            let density = |m: DVec3| ggx::visible_normal_pdf(wo, m.as_vec3(), alpha) as f64;
+            // The quadrature itself must be accurate: ∫ D_wo(m) dm = 1. A
+            // relative error δ in the expected counts adds about N δ² to X²:
+            // 4 at δ = 2e-3, against a standard deviation of X² near 60.
+            let mass: f64 = SPHERE.integrate(&density).iter().sum();
+            assert!((mass - 1.0).abs() < 2e-3, "α {alpha}, θo {theta}°: the density integrates to {mass}");
+            let seed = 100 + (4 * k + j) as u32;
+            let o = test_density(&SPHERE, samples(|i| Some(ggx::sample_visible_normal(wo, alpha, dir_u(seed, i)).as_dvec3())), &density);
+            runs.push((format!("α {alpha}, θo {theta}°"), o));
+        }
+    }
+    assert_all_pass("GGX visible normals", &runs);
+}
+
+#[test]
+fn ggx_material_samples_its_mixture_density() {
+    // The material's scatter (lobe choice, visible normals, reflection,
+    // cosine lobe) against GgxLobes::pdf; the mass below the horizon is
+    // absorbed and lands in the rejected-samples cell.
+    let mut runs = Vec::new();
+    for (k, &(metallic, roughness, theta)) in [(0.0f32, 0.5f32, 20.0), (1.0, 0.4, 50.0), (0.5, 0.8, 75.0), (1.0, 1.0, 0.0)].iter().enumerate() {
+        let textures = [Texture::Constant(Vec3::new(0.9, 0.6, 0.3))];
+        let ctx = TextureContext { textures: &textures, images: &[] };
+        let material = Material::Ggx { base_color: 0, metallic, roughness };
+        let wo = towards(theta);
+        let lobes = GgxLobes::new(Vec3::new(0.9, 0.6, 0.3), metallic, roughness, wo);
+        let seed = 200 + k as u32;
+        let o = test_density(&SPHERE, samples(|i| scatter(&material, ctx, -wo, &surface(), &u(seed, i)).map(|s| s.direction.as_dvec3())), &|wi| {
+            lobes.pdf(wo, wi.as_vec3()) as f64
+        });
+        runs.push((format!("metallic {metallic}, roughness {roughness}, θo {theta}°"), o));
+    }
+    assert_all_pass("GGX material", &runs);
+}
+
+#[test]
+fn lambertian_material_scatters_cosine_about_the_normal() {
+    let textures = [Texture::Constant(Vec3::splat(0.5))];
+    let ctx = TextureContext { textures: &textures, images: &[] };
+    let material = Material::Lambertian { albedo: 0 };
+    let wo = towards(40.0);
+    let o = test_density(&SPHERE, samples(|i| scatter(&material, ctx, -wo, &surface(), &u(300, i)).map(|s| s.direction.as_dvec3())), &|d| {
+        cosine_hemisphere_pdf(d.z as f32) as f64
+    });
+    assert_all_pass("Lambertian material", &[("θo 40°".into(), o)]);
+}
+
+#[test]
+fn delta_and_densityless_lobes_agree_across_seeds() {
+    // Two independent sample sets of the same sampler: the two-sample
+    // statistic must look like chi-square (the same test later compares
+    // CPU and GPU samples of these cases).
+    let runs: Vec<(String, Chi2Outcome)> = standard_cases()
+        .iter()
+        .enumerate()
+        .map(|(k, case)| {
+            let seed = 400 + 2 * k as u32;
+            (case.name.clone(), test_same_distribution(&SPHERE, case.cpu_samples(seed, N), case.cpu_samples(seed + 1, N)))
+        })
+        .collect();
+    assert_all_pass("two-sample, CPU vs CPU", &runs);
+}

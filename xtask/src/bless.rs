@@ -1,0 +1,169 @@
+//! `cargo xtask bless [--scene NAME]... [--spp N]`: regenerates stored
+//! references. Tests never write them; this command does, explicitly.
+//!
+//! For each line of `fixtures/refs/manifest.txt` (`name scene WIDTHxHEIGHT
+//! spp seed max_depth`; all lines, or those named by `--scene`) it runs
+//! `twintrace render --backend cpu` (the scalar reference, release build)
+//! into `fixtures/refs/NAME.exr` and writes `NAME.provenance.txt`:
+//! renderer, source revision, command, spp, seed, date, machine, time.
+//! `--spp N` also rewrites the spp column of the selected lines, so the
+//! manifest keeps describing the files (the image tests check that).
+
+use crate::util::run as sh;
+use std::path::Path;
+use std::process::Command;
+use std::time::Instant;
+
+const MANIFEST: &str = "fixtures/refs/manifest.txt";
+const REFS: &str = "fixtures/refs";
+
+struct Line {
+    name: String,
+    scene: String,
+    size: String,
+    spp: String,
+    seed: String,
+    depth: String,
+}
+
+fn parse(text: &str) -> Result<Vec<(usize, Line)>, String> {
+    let mut out = Vec::new();
+    for (i, raw) in text.lines().enumerate() {
+        let line = raw.split('#').next().unwrap_or("").trim();
+        if line.is_empty() {
+            continue;
+        }
+        let f: Vec<&str> = line.split_whitespace().collect();
+        if f.len() != 6 {
+            return Err(format!("{MANIFEST}:{}: expected `name scene WIDTHxHEIGHT spp seed max_depth`", i + 1));
+        }
+        let [name, scene, size, spp, seed, depth] = [f[0], f[1], f[2], f[3], f[4], f[5]].map(String::from);
+        out.push((i, Line { name, scene, size, spp, seed, depth }));
+    }
+    Ok(out)
+}
+
+/// `line` with its whitespace-separated field `index` replaced, the
+/// column alignment kept where the new value is no wider.
+fn replace_field(line: &str, index: usize, value: &str) -> String {
+    // Byte spans of the fields.
+    let mut spans = Vec::new();
+    let mut start = None;
+    for (i, c) in line.char_indices().chain(std::iter::once((line.len(), ' '))) {
+        match (c.is_whitespace(), start) {
+            (false, None) => start = Some(i),
+            (true, Some(s)) => {
+                spans.push((s, i));
+                start = None;
+            }
+            _ => {}
+        }
+    }
+    let Some(&(s, e)) = spans.get(index) else { return line.to_string() };
+    match spans.get(index + 1) {
+        Some(&(next, _)) => format!("{}{value:<width$}{}", &line[..s], &line[next..], width = (next - s).max(value.len() + 1)),
+        None => format!("{}{value}{}", &line[..s], &line[e..]),
+    }
+}
+
+/// Output of a command, or a note that it could not run.
+fn capture(program: &str, args: &[&str]) -> String {
+    match Command::new(program).args(args).output() {
+        Ok(o) if o.status.success() => String::from_utf8_lossy(&o.stdout).trim().to_string(),
+        _ => format!("unknown ({program} failed)"),
+    }
+}
+
+fn machine() -> String {
+    let host = std::fs::read_to_string("/etc/hostname").map(|s| s.trim().to_string()).unwrap_or_else(|_| capture("hostname", &[]));
+    let cpu = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| s.lines().find(|l| l.starts_with("model name")).and_then(|l| l.split(':').nth(1)).map(|m| m.trim().to_string()))
+        .unwrap_or_else(|| "unknown CPU".into());
+    let threads = std::thread::available_parallelism().map_or(0, |n| n.get());
+    format!("{host}: {cpu}, {threads} hardware threads, {}-{}", std::env::consts::OS, std::env::consts::ARCH)
+}
+
+fn usage() -> String {
+    "usage: cargo xtask bless [--scene NAME]... [--spp N]".into()
+}
+
+pub fn run(args: &[String]) -> Result<(), String> {
+    let mut scenes: Vec<String> = Vec::new();
+    let mut spp: Option<u32> = None;
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        match a.as_str() {
+            "--scene" => scenes.push(it.next().ok_or_else(usage)?.clone()),
+            "--spp" => {
+                spp = Some(it.next().and_then(|s| s.parse().ok()).filter(|&n| n > 0).ok_or_else(|| format!("--spp needs a positive number; {}", usage()))?)
+            }
+            other => return Err(format!("unknown argument `{other}`; {}", usage())),
+        }
+    }
+    let text = std::fs::read_to_string(MANIFEST).map_err(|e| format!("cannot read {MANIFEST}: {e}"))?;
+    let mut lines = parse(&text)?;
+    if let Some(missing) = scenes.iter().find(|s| !lines.iter().any(|(_, l)| &l.name == *s)) {
+        let names: Vec<&str> = lines.iter().map(|(_, l)| l.name.as_str()).collect();
+        return Err(format!("no reference `{missing}` in {MANIFEST}; known: {}", names.join(", ")));
+    }
+    lines.retain(|(_, l)| scenes.is_empty() || scenes.contains(&l.name));
+    if let Some(n) = spp {
+        // Rewrite the spp column of the selected lines, keeping the rest of the file.
+        let mut rows: Vec<String> = text.lines().map(String::from).collect();
+        for (i, l) in &mut lines {
+            l.spp = n.to_string();
+            rows[*i] = replace_field(&rows[*i], 3, &l.spp);
+        }
+        std::fs::write(MANIFEST, rows.join("\n") + "\n").map_err(|e| format!("cannot write {MANIFEST}: {e}"))?;
+    }
+    sh("cargo", &["build", "--release", "--quiet", "--bin", "twintrace"])?;
+    let revision = capture("git", &["rev-parse", "--short", "HEAD"]);
+    let dirty = if capture("git", &["status", "--porcelain", "--untracked-files=no"]).is_empty() { "" } else { " with uncommitted changes" };
+    let machine = machine();
+    for (_, l) in &lines {
+        let out = format!("{REFS}/{}", l.name);
+        let render_args = ["render", &l.scene, "-o", &out, "--backend", "cpu", "--size", &l.size, "--spp", &l.spp, "--seed", &l.seed, "--max-depth", &l.depth];
+        let start = Instant::now();
+        let mut cargo_args = vec!["run", "--release", "--quiet", "--bin", "twintrace", "--"];
+        cargo_args.extend(render_args);
+        sh("cargo", &cargo_args)?;
+        let seconds = start.elapsed().as_secs_f64();
+        // The render command also writes a PNG preview; references keep only the EXR.
+        let png = format!("{out}.png");
+        if Path::new(&png).exists() {
+            std::fs::remove_file(&png).map_err(|e| format!("cannot remove {png}: {e}"))?;
+        }
+        let note = format!(
+            "reference: {name}\nscene: {scene}\nrenderer: twintrace {version} scalar CPU reference (--backend cpu), release build\nsource: git {revision}{dirty}\n\
+             command: twintrace {command}\nsize: {size}, spp {spp}, seed {seed}, max depth {depth}\ndate: {date}\nmachine: {machine}\nrender time: {seconds:.1} s\n",
+            name = l.name,
+            scene = l.scene,
+            version = env!("CARGO_PKG_VERSION"),
+            command = render_args.join(" "),
+            size = l.size,
+            spp = l.spp,
+            seed = l.seed,
+            depth = l.depth,
+            date = capture("date", &["-u", "+%Y-%m-%dT%H:%M:%SZ"]),
+        );
+        let path = format!("{REFS}/{}.provenance.txt", l.name);
+        std::fs::write(&path, note).map_err(|e| format!("cannot write {path}: {e}"))?;
+        eprintln!("xtask: blessed {out}.exr in {seconds:.1} s");
+    }
+    eprintln!("xtask: {} reference(s) written; gate them with `cargo test --test reference_images`", lines.len());
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::replace_field;
+
+    #[test]
+    fn replacing_a_field_keeps_the_columns() {
+        let line = "cornell   scenes/c.json  64x64  16384  1     50";
+        assert_eq!(replace_field(line, 3, "4096"), "cornell   scenes/c.json  64x64  4096   1     50");
+        assert_eq!(replace_field(line, 5, "12"), "cornell   scenes/c.json  64x64  16384  1     12");
+        assert_eq!(replace_field("a b 4x4 8 1 2", 3, "123456"), "a b 4x4 123456 1 2");
+    }
+}
