@@ -5,24 +5,11 @@
 //! per family). Every check takes the renderer as a function, so the GPU
 //! backend runs the same cases.
 
-use twintrace::compare::furnace::{self, FurnaceCase};
-use twintrace::compare::gate::{cpu_reference, RenderFn};
+use twintrace::compare::furnace::{self, assert_known_answer};
+use twintrace::compare::gate::cpu_reference;
 
 /// Seeds of the furnace renders (any; fixed so that the tests are deterministic).
 const SEED: u32 = 11;
-
-fn assert_known_answer(case: &FurnaceCase, render: RenderFn) {
-    let out = furnace::check(case, render).unwrap_or_else(|e| panic!("{e:#}"));
-    let mean = out.image_mean();
-    println!("{}: expected {}, image mean {mean:.6}, {}", case.name, case.expected, if case.exact { "exact check" } else { "z-tests" });
-    if case.exact {
-        if let Some(m) = &out.exact_mismatch {
-            panic!("{}: not exact: {m}", case.name);
-        }
-    } else {
-        assert!(out.verdict.passes(), "{}: expected {} per pixel, image mean {mean}\n{}", case.name, case.expected, out.verdict.summary());
-    }
-}
 
 #[test]
 fn white_furnace_cornell_box_is_exact_without_roulette() {

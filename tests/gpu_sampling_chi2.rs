@@ -1,0 +1,207 @@
+//! The GPU's sampling routines, run in a compute shader, draw from the
+//! densities the reference states (chi-square goodness of fit, same
+//! domains and sample counts as tests/sampling_chi2.rs, Šidák over all
+//! runs at α = 0.01), and the GPU's delta and density-less lobes (mirror,
+//! dielectric, fuzzy metal) produce the CPU's distribution (two-sample
+//! chi-square, independent seeds). A GPU lobe with a 0.7 % change in the
+//! index of refraction must fail that comparison.
+
+mod common;
+
+use glam::{DVec3, Vec3};
+use gpu::scene_buffers::pack_material;
+use gpu::testing::{run_test_kernel, TestKernel};
+use reference::material::{GgxLobes, Material};
+use reference::sampling::{cosine_hemisphere_pdf, ggx, UNIFORM_SPHERE_PDF};
+use reference::scene::Transform;
+use std::f64::consts::PI;
+use twintrace::compare::chi2::{test_density, test_same_distribution, Chi2Outcome, Domain};
+use twintrace::compare::lobes::{standard_cases, Incidence, LobeCase};
+use twintrace::stats::sidak;
+
+/// Samples per run: pbrt-v4's CHI2_SAMPLECOUNT and Mitsuba's default.
+const N: u32 = 1_000_000;
+const SPHERE: Domain = Domain::Sphere { theta_bins: 64, phi_bins: 64 };
+/// The base colour of texture 0 in the kernel's scene (the GGX material
+/// cases use it, as tests/sampling_chi2.rs does).
+const BASE: Vec3 = Vec3::new(0.9, 0.6, 0.3);
+
+const SNIPPET: &str = "
+// input: [seed, mode, n, front_face, random_incidence, wo.x, wo.y, wo.z, alpha, material (8 words)]
+@compute @workgroup_size(64)
+fn sample_main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if i >= input[2] {
+        return;
+    }
+    let seed = input[0];
+    let mode = input[1];
+    let u = vertex_randoms(seed, i, 0u, 1u);
+    let dir_u = vec2<f32>(vr_get(u, DIM_DIRECTION_U), vr_get(u, DIM_DIRECTION_V));
+    let wo = vec3<f32>(bitcast<f32>(input[5]), bitcast<f32>(input[6]), bitcast<f32>(input[7]));
+    var d = vec3<f32>(0.0);
+    var ok = true;
+    switch mode {
+        case 0u: { d = sample_cosine_hemisphere(dir_u); }
+        case 1u: { d = sample_uniform_sphere(dir_u); }
+        case 2u: { d = vec3<f32>(sample_unit_disk(dir_u), 0.0); }
+        case 3u: { d = sample_unit_ball(vec3<f32>(vr_get(u, DIM_BALL_X), vr_get(u, DIM_BALL_Y), vr_get(u, DIM_BALL_Z))); }
+        case 4u: { d = ggx_sample_visible_normal(wo, bitcast<f32>(input[8]), dir_u); }
+        default: {
+            let m = GpuMaterial(input[9], input[10], bitcast<f32>(input[11]), bitcast<f32>(input[12]), bitcast<f32>(input[13]), bitcast<f32>(input[14]), bitcast<f32>(input[15]), input[16]);
+            let front = input[3] != 0u;
+            var ray_dir = -wo;
+            if input[4] != 0u {
+                let r = vertex_randoms(seed, i, 0u, 2u);
+                let c = sample_cosine_hemisphere(vec2<f32>(r.a.x, r.a.y));
+                ray_dir = select(c, -c, front);
+            }
+            let z = vec3<f32>(0.0, 0.0, 1.0);
+            let si = SurfaceInteraction(vec3<f32>(0.0), z, z, vec2<f32>(0.0), 0.0, front, 0u);
+            let s = scatter(m, ray_dir, si, u);
+            ok = s.ok;
+            d = s.direction;
+        }
+    }
+    output[4u * i] = bitcast<u32>(d.x);
+    output[4u * i + 1u] = bitcast<u32>(d.y);
+    output[4u * i + 2u] = bitcast<u32>(d.z);
+    output[4u * i + 3u] = select(0u, 1u, ok);
+}
+";
+
+#[derive(Clone, Copy)]
+enum Mode {
+    Cosine = 0,
+    Sphere = 1,
+    Disk = 2,
+    Ball = 3,
+    VisibleNormal = 4,
+    Scatter = 5,
+}
+
+struct Job {
+    mode: Mode,
+    seed: u32,
+    front_face: bool,
+    random_incidence: bool,
+    /// Fixed incoming direction `wo` (toward the viewer), or GGX's viewer.
+    wo: Vec3,
+    alpha: f32,
+    material: Option<Material>,
+}
+
+impl Job {
+    fn new(mode: Mode, seed: u32) -> Self {
+        Job { mode, seed, front_face: true, random_incidence: false, wo: Vec3::Z, alpha: 0.0, material: None }
+    }
+}
+
+fn gpu_samples(job: &Job) -> Vec<Option<DVec3>> {
+    let ctx = common::gpu();
+    // Texture 0 of this scene is BASE: what the material cases read.
+    let mut b = reference::SceneBuilder::new();
+    let t = b.constant(BASE).unwrap();
+    let m = b.add_material(Material::Lambertian { albedo: t }).unwrap();
+    b.add_sphere(Vec3::ZERO, 1.0, m, &Transform::default()).unwrap();
+    b.camera.look_from = Vec3::new(0.0, 0.0, 5.0);
+    let scene = b.build().unwrap();
+    let renderer = gpu::GpuRenderer::new(ctx, &scene).unwrap();
+    let mat = job.material.map(|m| pack_material(&m)).unwrap_or_default();
+    let mut input = vec![
+        job.seed,
+        job.mode as u32,
+        N,
+        job.front_face as u32,
+        job.random_incidence as u32,
+        job.wo.x.to_bits(),
+        job.wo.y.to_bits(),
+        job.wo.z.to_bits(),
+        job.alpha.to_bits(),
+    ];
+    input.extend_from_slice(bytemuck::cast_slice(&[mat]));
+    let out = run_test_kernel(
+        ctx,
+        &renderer,
+        &TestKernel { snippet: SNIPPET, entry: "sample_main", input: &input, invocations: N, output_words: 4 * N as usize, params: None, film: None },
+    )
+    .unwrap();
+    out.chunks_exact(4).map(|w| (w[3] == 1).then(|| Vec3::new(f32::from_bits(w[0]), f32::from_bits(w[1]), f32::from_bits(w[2])).as_dvec3())).collect()
+}
+
+fn assert_all_pass(what: &str, runs: &[(String, Chi2Outcome)]) {
+    let level = sidak(0.01, runs.len());
+    let mut failures = String::new();
+    for (name, o) in runs {
+        println!("{what} / {name}: {}", o.summary());
+        if !o.passes(level) {
+            failures += &format!("\n  {name}: {}", o.summary());
+        }
+    }
+    assert!(failures.is_empty(), "{what}: runs fail at the Šidák level {level:.2e} of {} runs:{failures}", runs.len());
+}
+
+fn towards(theta_deg: f32) -> Vec3 {
+    let t = theta_deg.to_radians();
+    Vec3::new(t.sin(), 0.0, t.cos())
+}
+
+#[test]
+fn gpu_sampling_routines_match_their_densities() {
+    let mut runs = Vec::new();
+    let cos = |d: DVec3| cosine_hemisphere_pdf(d.z as f32) as f64;
+    runs.push(("cosine hemisphere".to_string(), test_density(&SPHERE, gpu_samples(&Job::new(Mode::Cosine, 1001)), &cos)));
+    runs.push(("uniform sphere".to_string(), test_density(&SPHERE, gpu_samples(&Job::new(Mode::Sphere, 1002)), &|_| UNIFORM_SPHERE_PDF as f64)));
+    let disk = Domain::Disk { r2_bins: 32, phi_bins: 64 };
+    runs.push(("unit disk".to_string(), test_density(&disk, gpu_samples(&Job::new(Mode::Disk, 1003)), &|_| 1.0 / PI)));
+    let ball = Domain::Ball { r3_bins: 8, cos_theta_bins: 16, phi_bins: 32 };
+    runs.push(("unit ball".to_string(), test_density(&ball, gpu_samples(&Job::new(Mode::Ball, 1004)), &|_| 3.0 / (4.0 * PI))));
+    for (k, (alpha, theta)) in [(0.15f32, 0.0f32), (0.4, 30.0), (1.0, 60.0), (0.4, 85.0)].into_iter().enumerate() {
+        let wo = towards(theta);
+        let job = Job { wo, alpha, ..Job::new(Mode::VisibleNormal, 1010 + k as u32) };
+        let o = test_density(&SPHERE, gpu_samples(&job), &|m: DVec3| ggx::visible_normal_pdf(wo, m.as_vec3(), alpha) as f64);
+        runs.push((format!("GGX visible normals α {alpha}, θo {theta}°"), o));
+    }
+    let lambert = Job { wo: towards(40.0), material: Some(Material::Lambertian { albedo: 0 }), ..Job::new(Mode::Scatter, 1020) };
+    runs.push(("Lambertian material".to_string(), test_density(&SPHERE, gpu_samples(&lambert), &cos)));
+    for (k, (metallic, roughness, theta)) in [(0.0f32, 0.5f32, 20.0f32), (1.0, 0.4, 50.0), (0.5, 0.8, 75.0)].into_iter().enumerate() {
+        let wo = towards(theta);
+        let lobes = GgxLobes::new(BASE, metallic, roughness, wo);
+        let job = Job { wo, material: Some(Material::Ggx { base_color: 0, metallic, roughness }), ..Job::new(Mode::Scatter, 1030 + k as u32) };
+        let o = test_density(&SPHERE, gpu_samples(&job), &|wi: DVec3| lobes.pdf(wo, wi.as_vec3()) as f64);
+        runs.push((format!("GGX material metallic {metallic}, roughness {roughness}, θo {theta}°"), o));
+    }
+    assert_all_pass("GPU sampling", &runs);
+}
+
+fn gpu_job_for(case: &LobeCase, seed: u32) -> Job {
+    let (wo, random) = match case.incidence {
+        Incidence::Fixed(d) => (-d, false),
+        Incidence::Random => (Vec3::Z, true),
+    };
+    Job { front_face: case.front_face, random_incidence: random, wo, material: Some(case.material), ..Job::new(Mode::Scatter, seed) }
+}
+
+#[test]
+fn gpu_lobes_match_the_cpu_and_a_changed_lobe_does_not() {
+    let cases = standard_cases();
+    let runs: Vec<(String, Chi2Outcome)> = cases
+        .iter()
+        .enumerate()
+        .map(|(k, case)| {
+            // Independent seeds: the CPU's and the GPU's samples must not share randoms.
+            let cpu = case.cpu_samples(2000 + 2 * k as u32, N);
+            let gpu = gpu_samples(&gpu_job_for(case, 2001 + 2 * k as u32));
+            (case.name.clone(), test_same_distribution(&SPHERE, cpu, gpu))
+        })
+        .collect();
+    assert_all_pass("two-sample, CPU vs GPU", &runs);
+
+    // Mutation: glass with ior 1.51 on the GPU against 1.5 on the CPU.
+    let case = cases.iter().find(|c| c.name.starts_with("glass from outside, random")).expect("the standard cases include random-incidence glass");
+    let mut job = gpu_job_for(case, 3001);
+    job.material = Some(Material::Dielectric { ior: 1.51, absorption: Vec3::ZERO });
+    let o = test_same_distribution(&SPHERE, case.cpu_samples(3000, N), gpu_samples(&job));
+    println!("mutant (ior 1.51 vs 1.5): {}", o.summary());
+    assert!(!o.passes(sidak(0.01, 1)), "an ior change of 0.7 % went unnoticed: {}", o.summary());
+}
