@@ -27,7 +27,55 @@ fn vertex_position(i: u32) -> vec3<f32> {
     return vec3<f32>(v.p_x, v.p_y, v.p_z);
 }
 
-fn intersect_primitive(prim: u32, ray: Ray, t_min: f32, t_max: f32) -> ShapeHit {
+struct Bounds {
+    lo: vec3<f32>,
+    hi: vec3<f32>,
+}
+
+// The primitive's box exactly as the reference's BVH build computed it.
+fn primitive_bounds(prim: u32) -> Bounds {
+    let p = primitives[prim];
+    switch p.tag {
+        case PRIMITIVE_SPHERE: {
+            let s = spheres[p.index];
+            let c = vec3<f32>(s.center_x, s.center_y, s.center_z);
+            let r = vec3<f32>(abs(s.radius));
+            return Bounds(c - r, c + r);
+        }
+        case PRIMITIVE_QUAD: {
+            let q = quads[p.index];
+            let c = vec3<f32>(q.corner_x, q.corner_y, q.corner_z);
+            let u = vec3<f32>(q.u_x, q.u_y, q.u_z);
+            let v = vec3<f32>(q.v_x, q.v_y, q.v_z);
+            let a = c + u;
+            let b = c + v;
+            let d = (c + u) + v;
+            return Bounds(min(min(c, a), min(b, d)), max(max(c, a), max(b, d)));
+        }
+        default: {
+            let t = triangles[p.index];
+            let a = vertex_position(t.v0);
+            let b = vertex_position(t.v1);
+            let c = vertex_position(t.v2);
+            return Bounds(min(min(a, b), c), max(max(a, b), c));
+        }
+    }
+}
+
+// The shape's routine, then reference::bvh::Bvh::admits: a hit counts only
+// where the primitive's own box passes the padded box test up to it.
+fn intersect_primitive(prim: u32, ray: Ray, inv_dir: vec3<f32>, pad: f32, t_min: f32, t_max: f32) -> ShapeHit {
+    let h = intersect_shape(prim, ray, t_min, t_max);
+    if h.hit {
+        let b = primitive_bounds(prim);
+        if intersect_aabb(b.lo, b.hi, ray.origin, inv_dir, pad, h.t) < 0.0 {
+            return no_hit();
+        }
+    }
+    return h;
+}
+
+fn intersect_shape(prim: u32, ray: Ray, t_min: f32, t_max: f32) -> ShapeHit {
     let p = primitives[prim];
     switch p.tag {
         case PRIMITIVE_SPHERE: {
@@ -66,7 +114,8 @@ fn intersect_scene(ray: Ray, t_min: f32, t_max: f32) -> Hit {
     var best = Hit(false, t_max, 0u, vec2<f32>(0.0));
     let inv_dir = safe_inv_dir(ray.direction);
     let root = nodes[0];
-    if intersect_aabb(node_min(root), node_max(root), ray.origin, inv_dir, best.t) < 0.0 {
+    let pad = box_pad(node_min(root), node_max(root), ray.origin, ray.direction);
+    if intersect_aabb(node_min(root), node_max(root), ray.origin, inv_dir, pad, best.t) < 0.0 {
         return best;
     }
     var stack: array<u32, BVH_STACK_SIZE>;
@@ -83,7 +132,7 @@ fn intersect_scene(ray: Ray, t_min: f32, t_max: f32) -> Hit {
                 if best.hit {
                     limit = next_up(best.t);
                 }
-                let h = intersect_primitive(prim, ray, t_min, limit);
+                let h = intersect_primitive(prim, ray, inv_dir, pad, t_min, limit);
                 if h.hit && (!best.hit || h.t < best.t || (h.t == best.t && prim < best.prim)) {
                     best = Hit(true, h.t, prim, h.uv);
                 }
@@ -91,8 +140,8 @@ fn intersect_scene(ray: Ray, t_min: f32, t_max: f32) -> Hit {
         } else {
             let l = node + 1u;
             let r = n.index;
-            let tl = intersect_aabb(node_min(nodes[l]), node_max(nodes[l]), ray.origin, inv_dir, best.t);
-            let tr = intersect_aabb(node_min(nodes[r]), node_max(nodes[r]), ray.origin, inv_dir, best.t);
+            let tl = intersect_aabb(node_min(nodes[l]), node_max(nodes[l]), ray.origin, inv_dir, pad, best.t);
+            let tr = intersect_aabb(node_min(nodes[r]), node_max(nodes[r]), ray.origin, inv_dir, pad, best.t);
             if tl >= 0.0 && tr >= 0.0 {
                 var near = l;
                 var far = r;

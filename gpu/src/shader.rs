@@ -51,6 +51,7 @@ pub fn prelude() -> String {
     s += &u("BVH_STACK_SIZE", reference::bvh::BVH_STACK_SIZE as u32);
     s += &f("SLAB_FAR_SCALE", reference::bvh::SLAB_FAR_SCALE);
     s += &f("BOX_NEAR_SLACK", reference::bvh::BOX_NEAR_SLACK);
+    s += &f("BOX_T_PAD", reference::bvh::BOX_T_PAD);
     s += &f("GGX_MIN_ALPHA", GGX_MIN_ALPHA);
     s += &f("ROULETTE_MAX_SURVIVAL", reference::integrator::ROULETTE_MAX_SURVIVAL);
     for (name, v) in [
@@ -90,7 +91,7 @@ mod tests {
 
     #[test]
     fn prelude_floats_round_trip() {
-        for x in [reference::bvh::SLAB_FAR_SCALE, reference::bvh::BOX_NEAR_SLACK, GGX_MIN_ALPHA, 0.95f32] {
+        for x in [reference::bvh::SLAB_FAR_SCALE, reference::bvh::BOX_NEAR_SLACK, reference::bvh::BOX_T_PAD, GGX_MIN_ALPHA, 0.95f32] {
             assert_eq!(f32_literal(x).parse::<f32>().unwrap(), x);
         }
     }

@@ -247,25 +247,102 @@ pub const SLAB_FAR_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 
 /// condition number reaches ~10^3, far beyond what rounding gave there.
 pub const BOX_NEAR_SLACK: f32 = 1.0 - 1.0 / 4096.0;
 
+/// Absolute slack of every box test, in units of the ray's reach: 16 unit
+/// roundoffs (16·2^-24) times the largest coordinate distance from the ray
+/// origin to the scene's bounds, over `|d|_∞` (see [`box_pad`]). Why it is
+/// needed: the watertight triangle test computes t as a barycentric blend
+/// of the vertices' depths along the ray's dominant axis, so its absolute
+/// error is up to ~γ(10)·max|z_i| (Woop et al. 2013, §4; pbrt-v4's
+/// `Triangle::Intersect` bounds the same quantity as `deltaT`), which is
+/// not relative to t: a floor triangle 10^3 units wide, hit at t = 10^-2
+/// along a 45° ray, has t wrong by ~10^-4, far beyond any relative slack.
+/// 16 > 10 covers that bound and the few roundings of the pad itself.
+pub const BOX_T_PAD: f32 = 16.0 * (f32::EPSILON * 0.5);
+
+/// The absolute t slack of `ray`'s box tests (the same for every box of
+/// the traversal and for [`Bvh::admits`]; see [`BOX_T_PAD`]).
+#[inline]
+pub fn box_pad(root_min: Vec3, root_max: Vec3, ray: &Ray) -> f32 {
+    let reach = (root_max - ray.origin).max(ray.origin - root_min).max_element();
+    BOX_T_PAD * reach / ray.direction.abs().max_element()
+}
+
 /// Entry distance of `ray` into the box, if it enters before `t_max`.
 ///
 /// Slabs are ordered by the sign of the direction, and the scalar
 /// `f32::max`/`min` drop a NaN operand: a ray lying in a slab plane gets
 /// `0 · ∞ = NaN` for that bound, which is then ignored, so the test stays
 /// conservative (Williams et al., "An Efficient and Robust Ray–Box
-/// Intersection Algorithm", JGT 2005).
+/// Intersection Algorithm", JGT 2005). Without the pad of
+/// [`intersect_aabb_padded`].
 #[inline]
 pub fn intersect_aabb(min: Vec3, max: Vec3, origin: Vec3, inv_dir: Vec3, t_max: f32) -> Option<f32> {
+    intersect_aabb_padded(min, max, origin, inv_dir, 0.0, t_max)
+}
+
+/// [`intersect_aabb`] with both ends of the interval widened by `pad`
+/// (from [`box_pad`]): the box passes when
+/// `t_near · BOX_NEAR_SLACK − pad <= min(t_far, t_max) + pad`.
+///
+/// Every operation here is monotone in the box bounds (IEEE rounding is
+/// monotone), so a box that contains another passes whenever the inner
+/// one does, for the same ray, pad and `t_max`. [`Bvh::admits`] relies on
+/// exactly that.
+#[inline]
+pub fn intersect_aabb_padded(min: Vec3, max: Vec3, origin: Vec3, inv_dir: Vec3, pad: f32, t_max: f32) -> Option<f32> {
     let mut t_near = 0.0f32;
     let mut t_far = t_max;
     for k in 0..3 {
         let (lo, hi) = if inv_dir[k].is_sign_negative() { (max[k], min[k]) } else { (min[k], max[k]) };
         let near = (lo - origin[k]) * inv_dir[k];
         let far = (hi - origin[k]) * inv_dir[k] * SLAB_FAR_SCALE;
-        t_near = t_near.max(near);
-        t_far = t_far.min(far);
+        // `f32::max`/`min` semantics (a NaN operand is dropped) written as
+        // comparisons, which compile to single max/min instructions.
+        t_near = if near > t_near { near } else { t_near };
+        t_far = if far < t_far { far } else { t_far };
     }
-    (t_near * BOX_NEAR_SLACK <= t_far).then_some(t_near)
+    (t_near * BOX_NEAR_SLACK - pad <= t_far + pad).then_some(t_near)
+}
+
+/// One ray's constants for [`NodeSlabs::test`]: which word of a node
+/// (viewed as eight 32-bit words: `min`, `index`, `max`, `meta`) bounds
+/// each slab on the near and the far side.
+struct NodeSlabs {
+    origin: [f32; 3],
+    inv_dir: [f32; 3],
+    near_at: [usize; 3],
+    far_at: [usize; 3],
+    pad: f32,
+}
+
+impl NodeSlabs {
+    fn new(ray: &Ray, inv_dir: Vec3, pad: f32) -> Self {
+        let neg = inv_dir.to_array().map(f32::is_sign_negative);
+        Self {
+            origin: ray.origin.to_array(),
+            inv_dir: inv_dir.to_array(),
+            near_at: [0, 1, 2].map(|k| if neg[k] { 4 + k } else { k }),
+            far_at: [0, 1, 2].map(|k| if neg[k] { k } else { 4 + k }),
+            pad,
+        }
+    }
+
+    /// [`intersect_aabb_padded`] on a node's box: the same operations in
+    /// the same order (so the same bits), with the near/far bound of each
+    /// slab picked once per ray instead of once per box.
+    #[inline(always)]
+    fn test(&self, node: &BvhNode, t_max: f32) -> Option<f32> {
+        let words: &[f32; 8] = bytemuck::cast_ref(node);
+        let mut t_near = 0.0f32;
+        let mut t_far = t_max;
+        for k in 0..3 {
+            let near = (words[self.near_at[k]] - self.origin[k]) * self.inv_dir[k];
+            let far = (words[self.far_at[k]] - self.origin[k]) * self.inv_dir[k] * SLAB_FAR_SCALE;
+            t_near = if near > t_near { near } else { t_near };
+            t_far = if far < t_far { far } else { t_far };
+        }
+        (t_near * BOX_NEAR_SLACK - self.pad <= t_far + self.pad).then_some(t_near)
+    }
 }
 
 /// Smallest float above `x` (for x ≥ 0 finite; +∞ stays +∞).
@@ -317,9 +394,33 @@ impl Bvh {
         s
     }
 
+    /// Whether a primitive hit at `t` counts: the primitive's own box
+    /// (`bounds`, exactly as the build saw it) must pass the traversal's
+    /// box test for the segment `[0, t]`. Every node above the primitive
+    /// contains its box and the traversal compares against `best_t >= t`,
+    /// so by monotonicity no node on the way to an admitted hit is ever
+    /// culled: the BVH then returns what a scan over all primitives
+    /// returns, bit for bit, even for hits whose computed t lies outside
+    /// the box (a ray starting on a surface whose t rounds to just above 0
+    /// while the primitive is behind it; a grazing quad or sphere whose t
+    /// error exceeds the slack). Found by reference/tests/bvh_property.rs.
+    /// Real hits are kept: the box test is conservative for the exact
+    /// geometry, and [`BOX_T_PAD`] covers the triangle routine's t error,
+    /// so a triangle hit is never refused; a quad or sphere hit is refused
+    /// only where its own t error exceeds both slacks (extreme grazing, at
+    /// the edge of its box), that is where hit or miss is within rounding.
+    #[inline]
+    pub fn admits(&self, bounds: Aabb, ray: &Ray, t: f32) -> bool {
+        let Some(root) = self.nodes.first() else { return false };
+        let pad = box_pad(Vec3::from(root.min), Vec3::from(root.max), ray);
+        intersect_aabb_padded(bounds.min, bounds.max, ray.origin, ray.direction.recip(), pad, t).is_some()
+    }
+
     /// Closest hit: `intersect_prim(id, t_max)` tests one primitive. Ties
     /// in t go to the smaller primitive id, so the result equals a
-    /// brute-force scan in id order bit for bit.
+    /// brute-force scan in id order bit for bit, provided `intersect_prim`
+    /// reports only hits that [`Bvh::admits`] (as
+    /// `Scene::intersect_primitive` does).
     #[inline]
     pub fn intersect(&self, ray: &Ray, t_max: f32, mut intersect_prim: impl FnMut(u32, f32) -> Option<Hit>) -> Option<Hit> {
         let mut best: Option<Hit> = None;
@@ -329,8 +430,12 @@ impl Bvh {
         }
         let inv_dir = ray.direction.recip();
         let root = &self.nodes[0];
-        intersect_aabb(Vec3::from(root.min), Vec3::from(root.max), ray.origin, inv_dir, best_t)?;
+        let pad = box_pad(Vec3::from(root.min), Vec3::from(root.max), ray);
+        let slabs = NodeSlabs::new(ray, inv_dir, pad);
+        slabs.test(root, best_t)?;
+        // Deferred subtrees and their entry distances.
         let mut stack = [0u32; BVH_STACK_SIZE];
+        let mut stack_t = [0f32; BVH_STACK_SIZE];
         let mut sp = 0usize;
         let mut node = 0u32;
         loop {
@@ -350,12 +455,13 @@ impl Bvh {
             } else {
                 let (l, r) = (node + 1, n.index);
                 let (ln, rn) = (&self.nodes[l as usize], &self.nodes[r as usize]);
-                let tl = intersect_aabb(Vec3::from(ln.min), Vec3::from(ln.max), ray.origin, inv_dir, best_t);
-                let tr = intersect_aabb(Vec3::from(rn.min), Vec3::from(rn.max), ray.origin, inv_dir, best_t);
+                let tl = slabs.test(ln, best_t);
+                let tr = slabs.test(rn, best_t);
                 match (tl, tr) {
                     (Some(a), Some(b)) => {
-                        let (near, far) = if a <= b { (l, r) } else { (r, l) };
+                        let (near, far, far_t) = if a <= b { (l, r, b) } else { (r, l, a) };
                         stack[sp] = far;
+                        stack_t[sp] = far_t;
                         sp += 1;
                         node = near;
                         continue;
@@ -371,13 +477,22 @@ impl Bvh {
                     (None, None) => {}
                 }
             }
-            if sp == 0 {
-                break;
+            // Resume with the next deferred subtree that can still hold a
+            // closer hit: its box's test against the current best, which
+            // may have shrunk since the push, is the t_max half of
+            // `intersect_aabb_padded` evaluated on the same stored entry
+            // distance (bit for bit what re-testing the box would give).
+            loop {
+                if sp == 0 {
+                    return best;
+                }
+                sp -= 1;
+                if stack_t[sp] * BOX_NEAR_SLACK - pad <= best_t + pad {
+                    node = stack[sp];
+                    break;
+                }
             }
-            sp -= 1;
-            node = stack[sp];
         }
-        best
     }
 }
 

@@ -12,7 +12,10 @@ pub mod background;
 pub mod builtin;
 pub mod bvh;
 pub mod camera;
+#[cfg(feature = "embree")]
+pub mod embree;
 pub mod error;
+pub mod f64_oracle;
 pub mod film;
 pub mod geometry;
 pub mod integrator;

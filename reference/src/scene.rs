@@ -166,9 +166,24 @@ impl Scene {
         self.bvh.nodes.first().map(|n| n.bounds()).unwrap_or(Aabb::EMPTY)
     }
 
-    /// Intersects one primitive (by id).
+    /// The bounding box of one primitive (by id), as the BVH build saw it.
+    #[inline]
+    pub fn primitive_bounds(&self, prim: u32) -> Aabb {
+        primitive_bounds(self.primitives[prim as usize], &self.spheres, &self.quads, &self.triangles, &self.mesh)
+    }
+
+    /// Intersects one primitive (by id). A hit counts only where the
+    /// primitive's own box passes the traversal's box test up to the hit
+    /// ([`Bvh::admits`]): that is what makes the BVH and the brute-force
+    /// scan agree bit for bit.
     #[inline]
     pub fn intersect_primitive(&self, prim: u32, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        self.intersect_shape(prim, ray, t_min, t_max).filter(|h| self.bvh.admits(self.primitive_bounds(prim), ray, h.t))
+    }
+
+    /// The shape's own intersection routine, without [`Bvh::admits`].
+    #[inline]
+    fn intersect_shape(&self, prim: u32, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
         use crate::shapes::{intersect_quad, intersect_sphere, intersect_triangle};
         let p = self.primitives[prim as usize];
         match p.tag {
@@ -253,6 +268,17 @@ impl Scene {
             }
         };
         SurfaceInteraction { p: pos, geometric_normal: ng, shading_normal: ns, uv, p_error, front_face: ray.direction.dot(ng) < 0.0, material }
+    }
+}
+
+/// A primitive's bounding box: the BVH build and [`Bvh::admits`] must see
+/// the same bits, so both come here.
+#[inline]
+fn primitive_bounds(p: Primitive, spheres: &[Sphere], quads: &[Quad], triangles: &[Triangle], mesh: &MeshData) -> Aabb {
+    match p.tag {
+        primitive_tag::SPHERE => spheres[p.index as usize].bounds(),
+        primitive_tag::QUAD => quads[p.index as usize].bounds(),
+        _ => triangles[p.index as usize].bounds(mesh),
     }
 }
 
@@ -545,15 +571,7 @@ impl SceneBuilder {
                 }
             }
         }
-        let bounds: Vec<Aabb> = self
-            .primitives
-            .iter()
-            .map(|p| match p.tag {
-                primitive_tag::SPHERE => self.spheres[p.index as usize].bounds(),
-                primitive_tag::QUAD => self.quads[p.index as usize].bounds(),
-                _ => self.triangles[p.index as usize].bounds(&self.mesh),
-            })
-            .collect();
+        let bounds: Vec<Aabb> = self.primitives.iter().map(|&p| primitive_bounds(p, &self.spheres, &self.quads, &self.triangles, &self.mesh)).collect();
         let (bvh, bvh_stats) = Bvh::build(&bounds);
         Ok(Scene {
             camera_settings: self.camera,

@@ -1,12 +1,184 @@
 //! `cargo xtask test`: the README's test command. Installs what the tests
-//! need, then runs formatting, lints and the whole suite.
+//! need, then runs formatting, lints and the whole suite, with the Embree
+//! oracle (`reference`'s feature `embree`) switched on.
+//!
+//! Embree 4: Debian 12 ships only Embree 3, so the library comes from the
+//! PyPI wheel `embreex==4.4.0.post1`, which bundles `libembree4` and the
+//! `libtbb` it needs (RPATH `$ORIGIN`). It is unpacked once into
+//! `<target dir>/embree/lib` with a `libembree4.so` link for the linker.
+//! `embree4-sys` links `-lembree4` and names no search path; rather than
+//! RUSTFLAGS (which would change the build hash of the whole workspace),
+//! the linker finds the library through `LIBRARY_PATH` (read by the `cc`
+//! driver) and the test binaries load it through `LD_LIBRARY_PATH`, both
+//! set only for the cargo commands run here. `embree4-sys` generates its
+//! bindings with bindgen, which needs libclang (`libclang-dev`).
+//!
+//! Nothing is skipped: a piece that cannot be installed is an error.
 
 use crate::util::run as sh;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The wheel that carries Embree 4 (see GPU.md in the project notes).
+const EMBREE_WHEEL: &str = "embreex==4.4.0.post1";
+/// The wheel is built per CPython version; any one carries the same
+/// libraries, so pin the one that exists for x86_64 Linux.
+const WHEEL_PYTHON: &str = "3.11";
+const WHEEL_PLATFORM: &str = "manylinux_2_28_x86_64";
 
 pub fn run(extra: &[String]) -> Result<(), String> {
+    let lib = ensure_embree()?;
+    ensure_libclang()?;
     sh("cargo", &["fmt", "--all", "--check"])?;
-    sh("cargo", &["clippy", "--workspace", "--all-targets", "--", "-D", "warnings"])?;
-    let mut args = vec!["test", "--workspace"];
+    let env = embree_env(&lib);
+    sh_env("cargo", &["clippy", "--workspace", "--all-targets", "--features", "reference/embree", "--", "-D", "warnings"], &env)?;
+    let mut args = vec!["test", "--workspace", "--features", "reference/embree"];
     args.extend(extra.iter().map(String::as_str));
-    sh("cargo", &args)
+    sh_env("cargo", &args, &env)
+}
+
+/// The cargo target directory (`CARGO_TARGET_DIR` or `./target`).
+fn target_dir() -> PathBuf {
+    std::env::var_os("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|| PathBuf::from("target"))
+}
+
+/// `LIBRARY_PATH` and `LD_LIBRARY_PATH` with `lib` in front.
+fn embree_env(lib: &Path) -> Vec<(String, String)> {
+    let lib = std::fs::canonicalize(lib).unwrap_or_else(|_| lib.to_path_buf());
+    ["LIBRARY_PATH", "LD_LIBRARY_PATH"]
+        .iter()
+        .map(|var| {
+            let old = std::env::var(var).unwrap_or_default();
+            let new = if old.is_empty() { lib.display().to_string() } else { format!("{}:{old}", lib.display()) };
+            (var.to_string(), new)
+        })
+        .collect()
+}
+
+/// Runs a program with extra environment variables, echoing them.
+fn sh_env(program: &str, args: &[&str], env: &[(String, String)]) -> Result<(), String> {
+    let shown: Vec<String> = env.iter().map(|(k, v)| format!("{k}={v}")).collect();
+    eprintln!("xtask: {} {program} {}", shown.join(" "), args.join(" "));
+    let status = Command::new(program).args(args).envs(env.iter().map(|(k, v)| (k, v))).status().map_err(|e| format!("cannot run {program}: {e}"))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("`{program} {}` failed ({status})", args.join(" ")))
+    }
+}
+
+/// Makes sure `<target>/embree/lib/libembree4.so` exists; returns the folder.
+fn ensure_embree() -> Result<PathBuf, String> {
+    let root = target_dir().join("embree");
+    let lib = root.join("lib");
+    let link = lib.join("libembree4.so");
+    // `exists` follows the link: a dangling one means a broken unpack.
+    if link.exists() {
+        return Ok(lib);
+    }
+    eprintln!("xtask: installing Embree 4 from the PyPI wheel {EMBREE_WHEEL} into {}", lib.display());
+    let wheel_dir = root.join("wheel");
+    std::fs::create_dir_all(&wheel_dir).map_err(|e| format!("{}: {e}", wheel_dir.display()))?;
+    let python = find_python()?;
+    let wd = wheel_dir.display().to_string();
+    let pip = [
+        "-m",
+        "pip",
+        "download",
+        "--no-deps",
+        "--only-binary=:all:",
+        "--python-version",
+        WHEEL_PYTHON,
+        "--platform",
+        WHEEL_PLATFORM,
+        "--disable-pip-version-check",
+        "-d",
+        &wd,
+        EMBREE_WHEEL,
+    ];
+    sh(&python, &pip)?;
+    let wheel = std::fs::read_dir(&wheel_dir)
+        .map_err(|e| format!("{wd}: {e}"))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .find(|p| p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with("embreex-") && n.ends_with(".whl")))
+        .ok_or_else(|| format!("pip left no embreex wheel in {wd}"))?;
+    // A wheel is a zip file; Python's zipfile unpacks it (no unzip needed).
+    let unpacked = root.join("unpacked");
+    let _ = std::fs::remove_dir_all(&unpacked);
+    sh(&python, &["-m", "zipfile", "-e", &wheel.display().to_string(), &unpacked.display().to_string()])?;
+    std::fs::create_dir_all(&lib).map_err(|e| format!("{}: {e}", lib.display()))?;
+    let libs = unpacked.join("embreex.libs");
+    let mut embree_so = None;
+    for entry in std::fs::read_dir(&libs).map_err(|e| format!("{}: {e} (the wheel's layout changed?)", libs.display()))? {
+        let path = entry.map_err(|e| e.to_string())?.path();
+        let name = path.file_name().and_then(|n| n.to_str()).unwrap_or_default().to_string();
+        std::fs::copy(&path, lib.join(&name)).map_err(|e| format!("copying {name}: {e}"))?;
+        if name.starts_with("libembree4") {
+            embree_so = Some(name);
+        }
+    }
+    let embree_so = embree_so.ok_or_else(|| format!("no libembree4 in {}", libs.display()))?;
+    let _ = std::fs::remove_file(&link);
+    std::os::unix::fs::symlink(&embree_so, &link).map_err(|e| format!("{}: {e}", link.display()))?;
+    let _ = std::fs::remove_dir_all(&unpacked);
+    if link.exists() {
+        Ok(lib)
+    } else {
+        Err(format!("{} does not resolve after unpacking", link.display()))
+    }
+}
+
+/// A Python with pip: `python3`, else Debian's python3-pip through apt.
+fn find_python() -> Result<String, String> {
+    let has_pip = |py: &str| Command::new(py).args(["-m", "pip", "--version"]).output().is_ok_and(|o| o.status.success());
+    for py in ["python3", "python"] {
+        if has_pip(py) {
+            return Ok(py.to_string());
+        }
+    }
+    eprintln!("xtask: no Python with pip found; installing python3-pip");
+    apt_install(&["python3-pip"])?;
+    if has_pip("python3") {
+        Ok("python3".into())
+    } else {
+        Err("installed python3-pip but `python3 -m pip` still does not run".into())
+    }
+}
+
+/// bindgen (in embree4-sys's build script) loads libclang at build time.
+fn ensure_libclang() -> Result<(), String> {
+    if has_libclang() {
+        return Ok(());
+    }
+    eprintln!("xtask: libclang not found (embree4-sys's bindgen needs it); installing libclang-dev");
+    apt_install(&["libclang-dev"])?;
+    if has_libclang() {
+        Ok(())
+    } else {
+        Err("installed libclang-dev but found no libclang.so".into())
+    }
+}
+
+/// A libclang library and clang's own headers (`stddef.h`, which
+/// Embree's headers include) under some `/usr/lib/llvm-*`, as
+/// `libclang-dev` installs them; or an explicit `LIBCLANG_PATH`.
+fn has_libclang() -> bool {
+    if std::env::var_os("LIBCLANG_PATH").is_some() {
+        return true;
+    }
+    let Ok(entries) = std::fs::read_dir("/usr/lib") else { return false };
+    entries.filter_map(|e| e.ok()).filter(|e| e.file_name().to_string_lossy().starts_with("llvm-")).any(|llvm| {
+        let lib = llvm.path().join("lib");
+        let has_lib = lib.join("libclang.so").exists() || lib.join("libclang.so.1").exists();
+        let has_headers =
+            std::fs::read_dir(lib.join("clang")).is_ok_and(|mut versions| versions.any(|v| v.is_ok_and(|v| v.path().join("include/stddef.h").exists())));
+        has_lib && has_headers
+    })
+}
+
+fn apt_install(packages: &[&str]) -> Result<(), String> {
+    let root = Command::new("id").arg("-u").output().map(|o| String::from_utf8_lossy(&o.stdout).trim() == "0").unwrap_or(false);
+    let apt = |args: &[&str]| if root { sh("apt-get", args) } else { sh("sudo", &[&["apt-get"], args].concat()) };
+    apt(&["update", "-qq"])?;
+    apt(&[&["install", "-y", "-qq"], packages].concat())
 }

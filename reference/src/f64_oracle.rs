@@ -1,0 +1,352 @@
+//! The f64 intersection oracle: the reference's shapes intersected in
+//! double precision, to measure the f32 error of the reference (and of
+//! Embree) against an answer some 2^29 times more precise.
+//!
+//! Every input (ray origin and direction, sphere centre and radius, quad
+//! corner and edges, triangle vertices) is an f32 value and so exact in
+//! f64: the oracle answers for exactly the geometry the f32 routines see.
+//! Its own rounding is ~1e-16 relative, invisible next to f32's ~6e-8,
+//! except where a problem is ill-conditioned (a ray tangent to a sphere,
+//! a ray in a triangle's plane); the agreement tests classify those by the
+//! geometric measures below, not by t.
+//!
+//! This module is test tooling, never a hot path: it is not mirrored in
+//! WGSL and is free to use f64.
+
+use crate::geometry::Ray;
+use crate::scene::{primitive_tag, Scene};
+use glam::{DVec2, DVec3};
+
+/// ε of f32: the unit roundoff 2^-24 (half of `f32::EPSILON`).
+pub const F32_UNIT_ROUNDOFF: f64 = f32::EPSILON as f64 * 0.5;
+
+/// The ray in f64 (exact).
+#[inline]
+pub fn ray_f64(ray: &Ray) -> (DVec3, DVec3) {
+    (ray.origin.as_dvec3(), ray.direction.as_dvec3())
+}
+
+/// Ray/sphere in f64, same semantics as `shapes::intersect_sphere`: the
+/// nearest root with `t_min < t < t_max`.
+pub fn intersect_sphere_f64(center: DVec3, radius: f64, o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> Option<f64> {
+    let f = o - center;
+    let a = d.length_squared();
+    if a == 0.0 {
+        return None;
+    }
+    let b_half = -f.dot(d);
+    let perp = f + (b_half / a) * d;
+    let disc = a * (radius * radius - perp.length_squared());
+    if disc < 0.0 {
+        return None;
+    }
+    let c = f.length_squared() - radius * radius;
+    let q = b_half + disc.sqrt().copysign(b_half);
+    let (t0, t1) = if q == 0.0 {
+        (0.0, 0.0)
+    } else {
+        let (ta, tb) = (c / q, q / a);
+        (ta.min(tb), ta.max(tb))
+    };
+    [t0, t1].into_iter().find(|&t| t > t_min && t < t_max)
+}
+
+/// Ray/plane-polygon helper: the plane crossing `t` and point, if the ray
+/// is not parallel to the plane through `p0` with normal `n`.
+fn plane_crossing(p0: DVec3, n: DVec3, o: DVec3, d: DVec3) -> Option<(f64, DVec3)> {
+    let denom = n.dot(d);
+    if denom == 0.0 {
+        return None;
+    }
+    let t = n.dot(p0 - o) / denom;
+    Some((t, o + t * d))
+}
+
+/// Ray/triangle in f64: plane crossing, then barycentrics from sub-areas.
+/// Returns `(t, (b1, b2))`; points on an edge count as inside (the f64
+/// oracle need not be watertight: it measures, it does not decide).
+pub fn intersect_triangle_f64(p0: DVec3, p1: DVec3, p2: DVec3, o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> Option<(f64, DVec2)> {
+    let n = (p1 - p0).cross(p2 - p0);
+    let nn = n.length_squared();
+    if nn == 0.0 {
+        return None;
+    }
+    let (t, q) = plane_crossing(p0, n, o, d)?;
+    if !(t > t_min && t < t_max) {
+        return None;
+    }
+    let b1 = (q - p0).cross(p2 - p0).dot(n) / nn;
+    let b2 = (p1 - p0).cross(q - p0).dot(n) / nn;
+    let b0 = 1.0 - b1 - b2;
+    (b0 >= 0.0 && b1 >= 0.0 && b2 >= 0.0).then_some((t, DVec2::new(b1, b2)))
+}
+
+/// Ray/parallelogram `corner + s·u + t·v` in f64. Returns `(t, (s, t))`.
+pub fn intersect_quad_f64(corner: DVec3, u: DVec3, v: DVec3, o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> Option<(f64, DVec2)> {
+    let n = u.cross(v);
+    let nn = n.length_squared();
+    if nn == 0.0 {
+        return None;
+    }
+    let (t, q) = plane_crossing(corner, n, o, d)?;
+    if !(t > t_min && t < t_max) {
+        return None;
+    }
+    let w = q - corner;
+    let s = w.cross(v).dot(n) / nn;
+    let r = u.cross(w).dot(n) / nn;
+    ((0.0..=1.0).contains(&s) && (0.0..=1.0).contains(&r)).then_some((t, DVec2::new(s, r)))
+}
+
+/// The geometry of one primitive in f64.
+#[derive(Clone, Copy, Debug)]
+pub enum Shape64 {
+    Sphere { center: DVec3, radius: f64 },
+    Quad { corner: DVec3, u: DVec3, v: DVec3 },
+    Triangle { p: [DVec3; 3] },
+}
+
+impl Shape64 {
+    /// Primitive `prim` of `scene`, exactly.
+    pub fn of(scene: &Scene, prim: u32) -> Self {
+        let p = scene.primitives[prim as usize];
+        match p.tag {
+            primitive_tag::SPHERE => {
+                let s = &scene.spheres[p.index as usize];
+                Shape64::Sphere { center: s.center.as_dvec3(), radius: s.radius.abs() as f64 }
+            }
+            primitive_tag::QUAD => {
+                let q = &scene.quads[p.index as usize];
+                Shape64::Quad { corner: q.corner.as_dvec3(), u: q.u.as_dvec3(), v: q.v.as_dvec3() }
+            }
+            _ => {
+                let t = &scene.triangles[p.index as usize];
+                Shape64::Triangle { p: t.vertices.map(|i| scene.mesh.positions[i as usize].as_dvec3()) }
+            }
+        }
+    }
+
+    /// The f64 hit `t` with `t_min < t < t_max`.
+    pub fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<f64> {
+        let (o, d) = ray_f64(ray);
+        match *self {
+            Shape64::Sphere { center, radius } => intersect_sphere_f64(center, radius, o, d, t_min, t_max),
+            Shape64::Quad { corner, u, v } => intersect_quad_f64(corner, u, v, o, d, t_min, t_max).map(|h| h.0),
+            Shape64::Triangle { p } => intersect_triangle_f64(p[0], p[1], p[2], o, d, t_min, t_max).map(|h| h.0),
+        }
+    }
+
+    /// The exact ray parameter where the ray's line meets the surface
+    /// nearest to `guess`: for a sphere the closer of its two roots, for a
+    /// quad or triangle the plane crossing (not bounded by the edges).
+    /// `None` where the line misses the sphere or parallels the plane.
+    /// This compares an f32 t with the exact one for the same crossing.
+    pub fn t_near(&self, ray: &Ray, guess: f64) -> Option<f64> {
+        let (o, d) = ray_f64(ray);
+        match *self {
+            Shape64::Sphere { center, radius } => {
+                let t0 = intersect_sphere_f64(center, radius, o, d, f64::NEG_INFINITY, f64::INFINITY)?;
+                match intersect_sphere_f64(center, radius, o, d, t0, f64::INFINITY) {
+                    Some(t1) if (t1 - guess).abs() < (t0 - guess).abs() => Some(t1),
+                    _ => Some(t0),
+                }
+            }
+            Shape64::Quad { corner, u, v } => plane_crossing(corner, u.cross(v), o, d).map(|h| h.0),
+            Shape64::Triangle { p } => plane_crossing(p[0], (p[1] - p[0]).cross(p[2] - p[0]), o, d).map(|h| h.0),
+        }
+    }
+
+    /// Unsigned distance of `x` from the shape's surface: from the sphere,
+    /// or from the plane of a quad or triangle (not bounded by the edges;
+    /// this measures how far off the surface a hit point lies).
+    pub fn surface_distance(&self, x: DVec3) -> f64 {
+        match *self {
+            Shape64::Sphere { center, radius } => ((x - center).length() - radius).abs(),
+            Shape64::Quad { corner, u, v } => plane_distance(corner, u.cross(v), x),
+            Shape64::Triangle { p } => plane_distance(p[0], (p[1] - p[0]).cross(p[2] - p[0]), x),
+        }
+    }
+
+    /// How close the ray's line passes to the shape's boundary: the
+    /// distance to the nearest edge segment (quads, triangles; vertices are
+    /// segment ends), or, for a sphere, `|dist(centre, line) − r|`, the
+    /// gap to the silhouette. Where this is within an intersector's
+    /// rounding, hit-or-miss is legitimately up to that intersector.
+    pub fn boundary_distance(&self, ray: &Ray) -> f64 {
+        let (o, d) = ray_f64(ray);
+        match *self {
+            Shape64::Sphere { center, radius } => (line_point_distance(o, d, center) - radius).abs(),
+            Shape64::Quad { corner, u, v } => {
+                let c = [corner, corner + u, corner + u + v, corner + v];
+                (0..4).map(|i| line_segment_distance(o, d, c[i], c[(i + 1) % 4])).fold(f64::INFINITY, f64::min)
+            }
+            Shape64::Triangle { p } => (0..3).map(|i| line_segment_distance(o, d, p[i], p[(i + 1) % 3])).fold(f64::INFINITY, f64::min),
+        }
+    }
+
+    /// The largest distance from `x` to any point the f32 routines combine
+    /// with it: the vertices (or the sphere's far extent). With `x` the ray
+    /// origin, this bounds the magnitudes the f32 arithmetic works on.
+    pub fn reach(&self, x: DVec3) -> f64 {
+        match *self {
+            Shape64::Sphere { center, radius } => (center - x).length() + radius,
+            Shape64::Quad { corner, u, v } => [corner, corner + u, corner + v, corner + u + v].iter().map(|c| (*c - x).length()).fold(0.0, f64::max),
+            Shape64::Triangle { p } => p.iter().map(|c| (*c - x).length()).fold(0.0, f64::max),
+        }
+    }
+
+    /// |cos| of the angle between the ray and the surface normal at `x`.
+    pub fn cos_incidence(&self, d: DVec3, x: DVec3) -> f64 {
+        let n = match *self {
+            Shape64::Sphere { center, .. } => x - center,
+            Shape64::Quad { u, v, .. } => u.cross(v),
+            Shape64::Triangle { p } => (p[1] - p[0]).cross(p[2] - p[0]),
+        };
+        let len = n.length() * d.length();
+        if len == 0.0 {
+            0.0
+        } else {
+            (n.dot(d) / len).abs()
+        }
+    }
+}
+
+fn plane_distance(p0: DVec3, n: DVec3, x: DVec3) -> f64 {
+    let len = n.length();
+    if len == 0.0 {
+        (x - p0).length()
+    } else {
+        (n.dot(x - p0) / len).abs()
+    }
+}
+
+/// Distance from the point `c` to the line `o + s·d`.
+pub fn line_point_distance(o: DVec3, d: DVec3, c: DVec3) -> f64 {
+    let w = c - o;
+    let dd = d.length_squared();
+    if dd == 0.0 {
+        return w.length();
+    }
+    (w - (w.dot(d) / dd) * d).length()
+}
+
+/// Distance between the line `o + s·d` and the segment `[a, b]`.
+pub fn line_segment_distance(o: DVec3, d: DVec3, a: DVec3, b: DVec3) -> f64 {
+    let dd = d.length_squared();
+    // Project out the ray direction: the distance is then planar.
+    let project = |x: DVec3| if dd == 0.0 { x } else { x - (x.dot(d) / dd) * d };
+    let (pw, pu) = (project(a - o), project(b - a));
+    let uu = pu.length_squared();
+    let r = if uu == 0.0 { 0.0 } else { (-pw.dot(pu) / uu).clamp(0.0, 1.0) };
+    (pw + r * pu).length()
+}
+
+/// The spacing of f32 values around `x` (ulp of |x| as an f32; the
+/// smallest subnormal spacing at 0).
+pub fn ulp_f32(x: f64) -> f64 {
+    let a = (x.abs() as f32).max(f32::MIN_POSITIVE);
+    (f32::from_bits(a.to_bits() + 1) - a) as f64
+}
+
+/// Error of an f32 value against the f64 answer, in ulps of the answer.
+pub fn ulps_error(value: f32, exact: f64) -> f64 {
+    (value as f64 - exact) / ulp_f32(exact)
+}
+
+/// A sample of non-negative errors, summarized by quantiles.
+#[derive(Clone, Debug, Default)]
+pub struct Distribution {
+    values: Vec<f64>,
+}
+
+impl Distribution {
+    pub fn push(&mut self, x: f64) {
+        self.values.push(x);
+    }
+
+    pub fn extend(&mut self, other: Distribution) {
+        self.values.extend(other.values);
+    }
+
+    pub fn len(&self) -> usize {
+        self.values.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.values.is_empty()
+    }
+
+    /// The `q` quantile (nearest rank), `q` in [0, 1]; NaN when empty.
+    pub fn quantile(&mut self, q: f64) -> f64 {
+        if self.values.is_empty() {
+            return f64::NAN;
+        }
+        self.values.sort_by(f64::total_cmp);
+        let i = ((q * self.values.len() as f64).ceil() as usize).clamp(1, self.values.len()) - 1;
+        self.values[i]
+    }
+
+    pub fn max(&self) -> f64 {
+        self.values.iter().copied().fold(f64::NAN, f64::max)
+    }
+
+    pub fn mean(&self) -> f64 {
+        self.values.iter().sum::<f64>() / self.values.len() as f64
+    }
+
+    /// `n=.. p50 .. p90 .. p99 .. p99.9 .. p99.99 .. max ..` on one line.
+    pub fn summary(&mut self) -> String {
+        if self.values.is_empty() {
+            return "n=0".into();
+        }
+        let qs = [0.5, 0.9, 0.99, 0.999, 0.9999].map(|q| self.quantile(q));
+        format!(
+            "n={} mean={:.3} p50={:.3} p90={:.3} p99={:.3} p99.9={:.3} p99.99={:.3} max={:.3}",
+            self.values.len(),
+            self.mean(),
+            qs[0],
+            qs[1],
+            qs[2],
+            qs[3],
+            qs[4],
+            self.max()
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    #[test]
+    fn f64_shapes_give_exact_answers() {
+        let r = Ray::new(Vec3::new(0.0, 0.0, -5.0), Vec3::Z);
+        let s = Shape64::Sphere { center: DVec3::ZERO, radius: 1.0 };
+        assert_eq!(s.intersect(&r, 0.0, f64::INFINITY), Some(4.0));
+        assert_eq!(s.intersect(&r, 4.5, f64::INFINITY), Some(6.0));
+        let q = Shape64::Quad { corner: DVec3::new(-1.0, -1.0, 0.0), u: DVec3::X * 2.0, v: DVec3::Y * 2.0 };
+        assert_eq!(q.intersect(&r, 0.0, f64::INFINITY), Some(5.0));
+        let t = Shape64::Triangle { p: [DVec3::new(-1.0, -1.0, 1.0), DVec3::new(1.0, -1.0, 1.0), DVec3::new(0.0, 1.0, 1.0)] };
+        assert_eq!(t.intersect(&r, 0.0, f64::INFINITY), Some(6.0));
+        // The ray through x = 0.5 passes 0.5 from the sphere's silhouette
+        // and 0.5 from the quad's right edge.
+        let r2 = Ray::new(Vec3::new(0.5, 0.0, -5.0), Vec3::Z);
+        assert!((s.boundary_distance(&r2) - 0.5).abs() < 1e-15);
+        assert!((q.boundary_distance(&r2) - 0.5).abs() < 1e-15);
+        assert!((q.surface_distance(DVec3::new(0.3, 0.2, 0.25)) - 0.25).abs() < 1e-15);
+        assert_eq!(ulps_error(1.0, 1.0), 0.0);
+        assert_eq!(ulps_error(f32::from_bits(1.0f32.to_bits() + 2), 1.0), 2.0);
+    }
+
+    #[test]
+    fn distribution_quantiles() {
+        let mut d = Distribution::default();
+        for i in 1..=1000 {
+            d.push(i as f64);
+        }
+        assert_eq!(d.quantile(0.5), 500.0);
+        assert_eq!(d.quantile(0.999), 999.0);
+        assert_eq!(d.max(), 1000.0);
+    }
+}
