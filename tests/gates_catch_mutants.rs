@@ -21,7 +21,7 @@
 //! | exact (bitwise) | BVH drops a child |
 
 use glam::{DVec3, Vec2, Vec3};
-use reference::bvh::BvhNode;
+use reference::bvh::{Bvh, BvhNode};
 use reference::film::{Film, PixelStats};
 use reference::geometry::{reflect, refract, spawn_origin, Onb, Ray, SurfaceInteraction};
 use reference::integrator::{ROULETTE_MAX_SURVIVAL, TILE_SIZE};
@@ -34,7 +34,7 @@ use std::f32::consts::PI;
 use twintrace::compare::chi2::{test_density, test_same_distribution, Chi2Outcome, Domain};
 use twintrace::compare::exact::compare_films;
 use twintrace::compare::furnace;
-use twintrace::compare::gate::{cpu_reference, load_reference, load_scene, manifest_entry, run_gate, GateRun, StoredReference};
+use twintrace::compare::gate::{cpu_reference, load_reference, load_scene, manifest_entry, run_gate, scaled_albedo, GateRun, StoredReference};
 use twintrace::compare::lobes::{standard_cases, ScatterFn};
 use twintrace::compare::{compare, Method, NoisyImage, TestSettings};
 use twintrace::stats::sidak;
@@ -60,10 +60,12 @@ enum Mutation {
 /// traversal that forgets to push a child does to the rays through it).
 fn drop_bvh_child(scene: &Scene) -> Scene {
     let mut s = scene.clone();
-    let node = s.bvh.nodes.iter().rposition(|n| !n.is_leaf()).expect("the scene has an interior BVH node");
-    let right = s.bvh.nodes[s.bvh.nodes[node].index as usize];
-    s.bvh.nodes.push(BvhNode { meta: BvhNode::LEAF, index: 0, ..right });
-    s.bvh.nodes[node].index = s.bvh.nodes.len() as u32 - 1;
+    let mut nodes = s.bvh.nodes().to_vec();
+    let node = nodes.iter().rposition(|n| !n.is_leaf()).expect("the scene has an interior BVH node");
+    let right = nodes[nodes[node].index as usize];
+    nodes.push(BvhNode { meta: BvhNode::LEAF, index: 0, ..right });
+    nodes[node].index = nodes.len() as u32 - 1;
+    s.bvh = Bvh::from_parts(nodes, s.bvh.prim_order().to_vec());
     s
 }
 
@@ -162,20 +164,6 @@ fn render_mutant(scene: &Scene, settings: &RenderSettings, mutation: Mutation) -
         }
     }
     film
-}
-
-/// Scales every constant Lambertian albedo of a scene by `factor`.
-fn scaled_albedo(scene: &Scene, factor: f32) -> Scene {
-    let mut s = scene.clone();
-    let mut ids: Vec<u32> = s.materials.iter().filter_map(|m| if let Material::Lambertian { albedo } = m { Some(*albedo) } else { None }).collect();
-    ids.sort();
-    ids.dedup();
-    for id in ids {
-        if let Texture::Constant(c) = &mut s.textures[id as usize] {
-            *c *= factor;
-        }
-    }
-    s
 }
 
 #[test]

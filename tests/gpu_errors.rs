@@ -10,7 +10,7 @@ use reference::RenderSettings;
 fn a_broken_shader_is_a_shader_error() {
     let ctx = common::gpu();
     let layout = gpu::renderer::bind_group_layout(&ctx.device);
-    let Err(err) = gpu::renderer::compile(ctx, "fn main( {", "main", &layout) else { panic!("garbage compiled") };
+    let Err(err) = gpu::renderer::compile(ctx, "fn main( {", "main", &[&layout]) else { panic!("garbage compiled") };
     assert!(matches!(err, GpuError::Shader(_)), "{err}");
     // The library still compiles afterwards: the error did not poison the device.
     let scene = reference::load_scene("cornell").unwrap();

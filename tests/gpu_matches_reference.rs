@@ -10,10 +10,8 @@
 mod common;
 
 use anyhow::Result;
-use reference::material::Material;
-use reference::texture::Texture;
 use reference::{Film, RenderSettings, Scene};
-use twintrace::compare::gate::{assert_passes, cpu_reference, load_reference, load_scene, manifest_entry, run_gate};
+use twintrace::compare::gate::{cpu_reference, gate_fixture, load_reference, load_scene, manifest_entry, run_gate, scaled_albedo};
 use twintrace::compare::image::{compare, Method, NoisyImage, TestSettings};
 
 /// The seed of the GPU renders; the references use 1, the CPU gates 7.
@@ -21,15 +19,6 @@ const GPU_SEED: u32 = 11;
 
 fn gpu_render(scene: &Scene, settings: &RenderSettings) -> Result<Film> {
     Ok(gpu::GpuRenderer::new(common::gpu(), scene)?.render(settings, &|_, _| {})?.film)
-}
-
-fn gate(name: &str, spp: u32) {
-    let spec = manifest_entry(name).unwrap_or_else(|e| panic!("{e:#}"));
-    let reference = load_reference(&spec).unwrap_or_else(|e| panic!("{e:#}"));
-    let scene = load_scene(&spec).unwrap_or_else(|e| panic!("{e:#}"));
-    let run = run_gate(&reference, &scene, spp, GPU_SEED, &gpu_render).unwrap_or_else(|e| panic!("{e:#}"));
-    println!("{name} on the GPU: {}x{} at {spp} spp in {:.2} s\n{}", spec.width, spec.height, run.seconds, run.verdict.summary());
-    assert_passes(&format!("gpu_matches_reference/{name}"), &reference, &run);
 }
 
 /// 1024 spp, the CPU gates' budget (at 256 spp the Cornell box's rare
@@ -42,7 +31,7 @@ macro_rules! gpu_gates {
         $(
             #[test]
             fn $test() {
-                gate($name, $spp);
+                gate_fixture("gpu_matches_reference", $name, $spp, GPU_SEED, &gpu_render);
             }
         )*
     };
@@ -57,20 +46,6 @@ gpu_gates! {
     gltf_mesh: "gltf-mesh", 1024;
     skybox: "skybox", 1024;
     textures: "textures", 1024;
-}
-
-/// Scales every constant Lambertian albedo by `factor`.
-fn scaled_albedo(scene: &Scene, factor: f32) -> Scene {
-    let mut s = scene.clone();
-    let mut ids: Vec<u32> = s.materials.iter().filter_map(|m| if let Material::Lambertian { albedo } = m { Some(*albedo) } else { None }).collect();
-    ids.sort();
-    ids.dedup();
-    for id in ids {
-        if let Texture::Constant(c) = &mut s.textures[id as usize] {
-            *c *= factor;
-        }
-    }
-    s
 }
 
 #[test]

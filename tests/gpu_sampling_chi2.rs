@@ -15,7 +15,7 @@ use reference::material::{GgxLobes, Material};
 use reference::sampling::{cosine_hemisphere_pdf, ggx, UNIFORM_SPHERE_PDF};
 use reference::scene::Transform;
 use std::f64::consts::PI;
-use twintrace::compare::chi2::{test_density, test_same_distribution, Chi2Outcome, Domain};
+use twintrace::compare::chi2::{assert_family_passes, test_density, test_same_distribution, Chi2Outcome, Domain};
 use twintrace::compare::lobes::{standard_cases, Incidence, LobeCase};
 use twintrace::stats::sidak;
 
@@ -129,18 +129,6 @@ fn gpu_samples(job: &Job) -> Vec<Option<DVec3>> {
     out.chunks_exact(4).map(|w| (w[3] == 1).then(|| Vec3::new(f32::from_bits(w[0]), f32::from_bits(w[1]), f32::from_bits(w[2])).as_dvec3())).collect()
 }
 
-fn assert_all_pass(what: &str, runs: &[(String, Chi2Outcome)]) {
-    let level = sidak(0.01, runs.len());
-    let mut failures = String::new();
-    for (name, o) in runs {
-        println!("{what} / {name}: {}", o.summary());
-        if !o.passes(level) {
-            failures += &format!("\n  {name}: {}", o.summary());
-        }
-    }
-    assert!(failures.is_empty(), "{what}: runs fail at the Šidák level {level:.2e} of {} runs:{failures}", runs.len());
-}
-
 fn towards(theta_deg: f32) -> Vec3 {
     let t = theta_deg.to_radians();
     Vec3::new(t.sin(), 0.0, t.cos())
@@ -171,7 +159,7 @@ fn gpu_sampling_routines_match_their_densities() {
         let o = test_density(&SPHERE, gpu_samples(&job), &|wi: DVec3| lobes.pdf(wo, wi.as_vec3()) as f64);
         runs.push((format!("GGX material metallic {metallic}, roughness {roughness}, θo {theta}°"), o));
     }
-    assert_all_pass("GPU sampling", &runs);
+    assert_family_passes("GPU sampling", &runs);
 }
 
 fn gpu_job_for(case: &LobeCase, seed: u32) -> Job {
@@ -195,7 +183,7 @@ fn gpu_lobes_match_the_cpu_and_a_changed_lobe_does_not() {
             (case.name.clone(), test_same_distribution(&SPHERE, cpu, gpu))
         })
         .collect();
-    assert_all_pass("two-sample, CPU vs GPU", &runs);
+    assert_family_passes("two-sample, CPU vs GPU", &runs);
 
     // Mutation: glass with ior 1.51 on the GPU against 1.5 on the CPU.
     let case = cases.iter().find(|c| c.name.starts_with("glass from outside, random")).expect("the standard cases include random-incidence glass");

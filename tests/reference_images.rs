@@ -6,19 +6,10 @@
 //! sum and 8x8 tile sums all pass. A failure writes the render, the
 //! reference and an HTML report under `target/diff/reference_images_<scene>/`.
 
-use twintrace::compare::gate::{assert_passes, cpu_reference, load_reference, load_scene, manifest_entry, read_manifest, run_gate};
+use twintrace::compare::gate::{cpu_reference, gate_fixture, read_manifest};
 
 /// The seed of every test render; the references use seed 1.
 const TEST_SEED: u32 = 7;
-
-fn gate(name: &str, spp: u32) {
-    let spec = manifest_entry(name).unwrap_or_else(|e| panic!("{e:#}"));
-    let reference = load_reference(&spec).unwrap_or_else(|e| panic!("{e:#}"));
-    let scene = load_scene(&spec).unwrap_or_else(|e| panic!("{e:#}"));
-    let run = run_gate(&reference, &scene, spp, TEST_SEED, &cpu_reference).unwrap_or_else(|e| panic!("{e:#}"));
-    println!("{name}: {}x{} at {spp} spp in {:.2} s\n{}", spec.width, spec.height, run.seconds, run.verdict.summary());
-    assert_passes(&format!("reference_images/{name}"), &reference, &run);
-}
 
 /// One test per reference, with its budget in samples per pixel: 1024
 /// everywhere (the DESIGN.md measurement: a 64x64 Cornell box at 1024 spp
@@ -29,7 +20,7 @@ macro_rules! gates {
         $(
             #[test]
             fn $test() {
-                gate($name, $spp);
+                gate_fixture("reference_images", $name, $spp, TEST_SEED, &cpu_reference);
             }
         )*
         const CASES: &[&str] = &[$($name),*];

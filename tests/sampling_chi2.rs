@@ -17,9 +17,8 @@ use reference::sampling::{
 };
 use reference::texture::Texture;
 use std::f64::consts::PI;
-use twintrace::compare::chi2::{test_density, test_same_distribution, Chi2Outcome, Domain};
+use twintrace::compare::chi2::{assert_family_passes, test_density, test_same_distribution, Chi2Outcome, Domain};
 use twintrace::compare::lobes::standard_cases;
-use twintrace::stats::sidak;
 
 /// Samples per run: pbrt-v4's CHI2_SAMPLECOUNT and Mitsuba's default.
 const N: u32 = 1_000_000;
@@ -42,19 +41,6 @@ fn samples(f: impl Fn(u32) -> Option<DVec3>) -> Vec<Option<DVec3>> {
     (0..N).map(f).collect()
 }
 
-/// Asserts that every run passes at Šidák's level for the family.
-fn assert_all_pass(what: &str, runs: &[(String, Chi2Outcome)]) {
-    let level = sidak(0.01, runs.len());
-    let mut failures = String::new();
-    for (name, o) in runs {
-        println!("{what} / {name}: {}", o.summary());
-        if !o.passes(level) {
-            failures += &format!("\n  {name}: {}", o.summary());
-        }
-    }
-    assert!(failures.is_empty(), "{what}: runs fail at the Šidák level {level:.2e} of {} runs:{failures}", runs.len());
-}
-
 /// The local frame's surface point of the material tests: normal +z.
 fn surface() -> SurfaceInteraction {
     SurfaceInteraction { p: Vec3::ZERO, geometric_normal: Vec3::Z, shading_normal: Vec3::Z, uv: Vec2::ZERO, p_error: 0.0, front_face: true, material: 0 }
@@ -74,7 +60,7 @@ fn cosine_hemisphere_matches_cos_over_pi() {
             (format!("seed {seed}"), o)
         })
         .collect();
-    assert_all_pass("cosine hemisphere", &runs);
+    assert_family_passes("cosine hemisphere", &runs);
 }
 
 #[test]
@@ -84,7 +70,7 @@ fn uniform_sphere_is_uniform() {
             (format!("seed {seed}"), test_density(&SPHERE, samples(|i| Some(sample_uniform_sphere(dir_u(seed, i)).as_dvec3())), &|_| UNIFORM_SPHERE_PDF as f64))
         })
         .collect();
-    assert_all_pass("uniform sphere", &runs);
+    assert_family_passes("uniform sphere", &runs);
 }
 
 #[test]
@@ -97,7 +83,7 @@ fn concentric_disk_is_uniform() {
             (format!("seed {seed}"), o)
         })
         .collect();
-    assert_all_pass("unit disk", &runs);
+    assert_family_passes("unit disk", &runs);
 }
 
 #[test]
@@ -117,7 +103,7 @@ fn unit_ball_is_uniform() {
             (format!("seed {seed}"), o)
         })
         .collect();
-    assert_all_pass("unit ball", &runs);
+    assert_family_passes("unit ball", &runs);
 }
 
 #[test]
@@ -138,7 +124,7 @@ fn ggx_visible_normals_match_their_density() {
             runs.push((format!("α {alpha}, θo {theta}°"), o));
         }
     }
-    assert_all_pass("GGX visible normals", &runs);
+    assert_family_passes("GGX visible normals", &runs);
 }
 
 #[test]
@@ -159,7 +145,7 @@ fn ggx_material_samples_its_mixture_density() {
         });
         runs.push((format!("metallic {metallic}, roughness {roughness}, θo {theta}°"), o));
     }
-    assert_all_pass("GGX material", &runs);
+    assert_family_passes("GGX material", &runs);
 }
 
 #[test]
@@ -171,7 +157,7 @@ fn lambertian_material_scatters_cosine_about_the_normal() {
     let o = test_density(&SPHERE, samples(|i| scatter(&material, ctx, -wo, &surface(), &u(300, i)).map(|s| s.direction.as_dvec3())), &|d| {
         cosine_hemisphere_pdf(d.z as f32) as f64
     });
-    assert_all_pass("Lambertian material", &[("θo 40°".into(), o)]);
+    assert_family_passes("Lambertian material", &[("θo 40°".into(), o)]);
 }
 
 #[test]
@@ -187,5 +173,5 @@ fn delta_and_densityless_lobes_agree_across_seeds() {
             (case.name.clone(), test_same_distribution(&SPHERE, case.cpu_samples(seed, N), case.cpu_samples(seed + 1, N)))
         })
         .collect();
-    assert_all_pass("two-sample, CPU vs CPU", &runs);
+    assert_family_passes("two-sample, CPU vs CPU", &runs);
 }

@@ -59,11 +59,15 @@ pub fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
 
 /// Compiles a WGSL program and one entry point into a compute pipeline,
 /// reporting compile and validation errors as `GpuError::Shader`.
-pub fn compile(ctx: &GpuContext, source: &str, entry: &str, layout: &wgpu::BindGroupLayout) -> Result<wgpu::ComputePipeline, GpuError> {
+pub fn compile(ctx: &GpuContext, source: &str, entry: &str, layouts: &[&wgpu::BindGroupLayout]) -> Result<wgpu::ComputePipeline, GpuError> {
     let device = &ctx.device;
     let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(entry), source: wgpu::ShaderSource::Wgsl(source.into()) });
-    let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some(entry), bind_group_layouts: &[Some(layout)], immediate_size: 0 });
+    let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(entry),
+        bind_group_layouts: &layouts.iter().map(|l| Some(*l)).collect::<Vec<_>>(),
+        immediate_size: 0,
+    });
     let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
         label: Some(entry),
         layout: Some(&pl),
@@ -117,7 +121,7 @@ impl<'a> GpuRenderer<'a> {
         upload("images", bytemuck::cast_slice(&packed.images))?;
         upload("texels", bytemuck::cast_slice(&packed.texels))?;
         let layout = bind_group_layout(device);
-        let pipeline = compile(ctx, &shader::render_source(), "render_main", &layout)?;
+        let pipeline = compile(ctx, &shader::render_source(), "render_main", &[&layout])?;
         Ok(Self { ctx, pipeline, layout, scene_buffers, scene })
     }
 

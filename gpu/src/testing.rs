@@ -8,7 +8,7 @@
 use crate::context::GpuContext;
 use crate::error::GpuError;
 use crate::records::{GpuParams, GpuPixel};
-use crate::renderer::{bind_group_layout, read_buffer, GpuRenderer};
+use crate::renderer::{bind_group_layout, compile, read_buffer, GpuRenderer};
 use wgpu::util::DeviceExt;
 
 /// Declarations every test kernel gets after the library.
@@ -51,24 +51,7 @@ pub fn run_test_kernel(ctx: &GpuContext, renderer: &GpuRenderer, k: &TestKernel)
     let io_layout =
         device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("test io"), entries: &[io_entry(0, true), io_entry(1, false)] });
     let scene_layout = bind_group_layout(device);
-    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(entry), source: wgpu::ShaderSource::Wgsl(source.into()) });
-    let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some(entry),
-        bind_group_layouts: &[Some(&scene_layout), Some(&io_layout)],
-        immediate_size: 0,
-    });
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(entry),
-        layout: Some(&pl),
-        module: &module,
-        entry_point: Some(entry),
-        compilation_options: Default::default(),
-        cache: None,
-    });
-    if let Some(e) = pollster::block_on(scope.pop()) {
-        return Err(GpuError::Shader(e.to_string()));
-    }
+    let pipeline = compile(ctx, &source, entry, &[&scene_layout, &io_layout])?;
     let input_words: &[u32] = if input.is_empty() { &[0] } else { input };
     let input_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("test input"),

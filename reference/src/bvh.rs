@@ -9,7 +9,7 @@
 
 use crate::geometry::{Aabb, Hit, Ray};
 use bytemuck::{Pod, Zeroable};
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 use std::time::{Duration, Instant};
 
 /// Traversal stack size, shared with the GPU kernels. The build bounds the
@@ -63,12 +63,72 @@ impl BvhNode {
     }
 }
 
-/// A built BVH: the node array and the primitive order its leaves index.
+/// A built BVH: the node array and the primitive order its leaves index,
+/// plus the CPU traversal's 4-wide view of the same tree ([`Wide4`]).
+/// The fields are private so the two can never disagree: a tree is made by
+/// [`Bvh::build`] or, for tests that need a broken one, [`Bvh::from_parts`].
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Bvh {
-    pub nodes: Vec<BvhNode>,
+    nodes: Vec<BvhNode>,
     /// Primitive ids in leaf order.
-    pub prim_order: Vec<u32>,
+    prim_order: Vec<u32>,
+    /// `wide[0]` holds the root alone; the rest, the binary tree's interior
+    /// nodes collapsed four children at a time.
+    wide: Vec<Wide4>,
+}
+
+/// Up to four children of a collapsed node, boxes in SoA form so that one
+/// step tests all four with the same arithmetic as [`NodeSlabs`] on each
+/// (lane by lane, no fused operations: the same bits), the layout of
+/// Embree's BVH4 and of Wald et al., "Getting Rid of Packets" (2008),
+/// built as Wald et al. do by collapsing the binary tree: an interior node
+/// takes its children and keeps opening the largest interior one until it
+/// has four. The boxes and leaves are the binary tree's, bit for bit; only
+/// the interior nodes in between are skipped. `bounds` rows are min x, y, z
+/// then max x, y, z (the words `NodeSlabs` picks by ray direction).
+#[repr(C, align(64))]
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Wide4 {
+    bounds: [[f32; 4]; 6],
+    /// Interior lane: index into `wide`. Leaf lane: first entry in
+    /// `prim_order`. Empty lane: 0.
+    child: [u32; 4],
+    /// A binary node's `meta` (leaf: `count << 2 | 3`; interior: its axis);
+    /// [`Wide4::EMPTY`] for an unused lane.
+    meta: [u32; 4],
+}
+
+impl Wide4 {
+    const EMPTY: u32 = u32::MAX;
+    /// Empty lanes have the inverted infinite box (min +∞, max −∞): every
+    /// slab then gives `t_near = +∞` and `t_far = −∞` (never a NaN: the
+    /// bound minus a finite origin is infinite, times a nonzero or infinite
+    /// inverse direction), so the box test fails without a check of its own.
+    const NONE: Wide4 = Wide4 {
+        bounds: [[f32::INFINITY; 4], [f32::INFINITY; 4], [f32::INFINITY; 4], [f32::NEG_INFINITY; 4], [f32::NEG_INFINITY; 4], [f32::NEG_INFINITY; 4]],
+        child: [0; 4],
+        meta: [Self::EMPTY; 4],
+    };
+
+    fn set(&mut self, lane: usize, n: &BvhNode, child: u32) {
+        for k in 0..3 {
+            self.bounds[k][lane] = n.min[k];
+            self.bounds[3 + k][lane] = n.max[k];
+        }
+        self.child[lane] = child;
+        self.meta[lane] = n.meta;
+    }
+
+    /// The lane as a binary node (for tests).
+    #[cfg(test)]
+    fn lane(&self, lane: usize) -> BvhNode {
+        BvhNode {
+            min: [0, 1, 2].map(|k| self.bounds[k][lane]),
+            max: [0, 1, 2].map(|k| self.bounds[3 + k][lane]),
+            index: self.child[lane],
+            meta: self.meta[lane],
+        }
+    }
 }
 
 /// What `twintrace info` reports about a build.
@@ -220,6 +280,31 @@ fn bin_of(c: f32, lo: f32, scale: f32) -> usize {
     (((c - lo) * scale) as usize).min(SAH_BINS - 1)
 }
 
+/// Collapses binary interior node `i` into a new [`Wide4`] (and its
+/// subtree after it) and returns the new node's index.
+fn collapse(nodes: &[BvhNode], i: usize, wide: &mut Vec<Wide4>) -> u32 {
+    let mut kids = [0usize; 4];
+    kids[..2].copy_from_slice(&[i + 1, nodes[i].index as usize]);
+    let mut n = 2;
+    while n < 4 {
+        let area = |k: usize| nodes[kids[k]].bounds().surface_area();
+        let Some(k) = (0..n).filter(|&k| !nodes[kids[k]].is_leaf()).max_by(|&a, &b| area(a).total_cmp(&area(b))) else { break };
+        let c = kids[k];
+        kids.copy_within(k + 1..n, k + 2);
+        kids[k] = c + 1;
+        kids[k + 1] = nodes[c].index as usize;
+        n += 1;
+    }
+    let at = wide.len();
+    wide.push(Wide4::NONE);
+    for (lane, &c) in kids[..n].iter().enumerate() {
+        let node = &nodes[c];
+        let child = if node.is_leaf() { node.index } else { collapse(nodes, c, wide) };
+        wide[at].set(lane, node, child);
+    }
+    at as u32
+}
+
 /// Stable-enough in-place partition; returns the count of `pred` items.
 fn partition(xs: &mut [u32], pred: impl Fn(u32) -> bool) -> usize {
     let mut i = 0;
@@ -312,6 +397,12 @@ struct NodeSlabs {
     inv_dir: [f32; 3],
     near_at: [usize; 3],
     far_at: [usize; 3],
+    /// The same choice as rows of [`Wide4::bounds`].
+    near_row: [usize; 3],
+    far_row: [usize; 3],
+    /// `origin` and `inv_dir` splatted, for [`NodeSlabs::test4`].
+    origin4: [Vec4; 3],
+    inv_dir4: [Vec4; 3],
     pad: f32,
 }
 
@@ -323,6 +414,10 @@ impl NodeSlabs {
             inv_dir: inv_dir.to_array(),
             near_at: [0, 1, 2].map(|k| if neg[k] { 4 + k } else { k }),
             far_at: [0, 1, 2].map(|k| if neg[k] { k } else { 4 + k }),
+            near_row: [0, 1, 2].map(|k| if neg[k] { 3 + k } else { k }),
+            far_row: [0, 1, 2].map(|k| if neg[k] { k } else { 3 + k }),
+            origin4: ray.origin.to_array().map(Vec4::splat),
+            inv_dir4: inv_dir.to_array().map(Vec4::splat),
             pad,
         }
     }
@@ -342,6 +437,32 @@ impl NodeSlabs {
             t_far = if far < t_far { far } else { t_far };
         }
         (t_near * BOX_NEAR_SLACK - self.pad <= t_far + self.pad).then_some(t_near)
+    }
+}
+
+impl NodeSlabs {
+    /// [`NodeSlabs::test`] on the four lanes of a [`Wide4`] at once, with
+    /// per lane the same operations in the same order, so the same bits:
+    /// `Vec4::max`/`min` are SSE `maxps`/`minps` on x86-64, defined as
+    /// `a > b ? a : b` and `a < b ? a : b`, exactly the scalar selects of
+    /// [`NodeSlabs::test`] (NaN operands dropped the same way); glam's
+    /// scalar fallback uses `f32::max`/`min`, which also drop a NaN.
+    /// Returns the entry distances and the mask of lanes that pass.
+    #[inline(always)]
+    fn test4(&self, n: &Wide4, t_max: f32) -> (Vec4, u32) {
+        let mut t_near = Vec4::ZERO;
+        let mut t_far = Vec4::splat(t_max);
+        for k in 0..3 {
+            let lo = Vec4::from_array(n.bounds[self.near_row[k]]);
+            let hi = Vec4::from_array(n.bounds[self.far_row[k]]);
+            let near = (lo - self.origin4[k]) * self.inv_dir4[k];
+            let far = (hi - self.origin4[k]) * self.inv_dir4[k] * Vec4::splat(SLAB_FAR_SCALE);
+            t_near = near.max(t_near);
+            t_far = far.min(t_far);
+        }
+        let pad = Vec4::splat(self.pad);
+        let pass = (t_near * Vec4::splat(BOX_NEAR_SLACK) - pad).cmple(t_far + pad);
+        (t_near, pass.bitmask())
     }
 }
 
@@ -369,11 +490,41 @@ impl Bvh {
         if !bounds.is_empty() {
             b.build(0, bounds.len(), 0);
         }
-        let bvh = Bvh { nodes: b.nodes, prim_order: b.order };
+        let bvh = Bvh::from_parts(b.nodes, b.order);
         let mut stats = bvh.stats();
         stats.build_time = t0.elapsed();
         stats.max_depth = b.max_depth;
         (bvh, stats)
+    }
+
+    /// A tree from its node array and primitive order, as [`Bvh::build`]
+    /// makes them (depth-first, left child next, see the module comment).
+    /// For tests that hand-edit a tree; panics if an index is out of range.
+    pub fn from_parts(nodes: Vec<BvhNode>, prim_order: Vec<u32>) -> Bvh {
+        for (i, n) in nodes.iter().enumerate() {
+            if n.is_leaf() {
+                assert!(n.index as usize + n.count() as usize <= prim_order.len(), "leaf {i} runs past the primitive order");
+            } else {
+                assert!(i + 1 < nodes.len() && (n.index as usize) < nodes.len(), "interior node {i} has a child out of range");
+            }
+        }
+        let mut wide = Vec::new();
+        if let Some(root) = nodes.first() {
+            wide.push(Wide4::NONE);
+            let child = if root.is_leaf() { root.index } else { collapse(&nodes, 0, &mut wide) };
+            wide[0].set(0, root, child);
+        }
+        Bvh { nodes, prim_order, wide }
+    }
+
+    /// The node array: what the GPU uploads and [`Bvh`]'s layout describes.
+    pub fn nodes(&self) -> &[BvhNode] {
+        &self.nodes
+    }
+
+    /// Primitive ids in leaf order.
+    pub fn prim_order(&self) -> &[u32] {
+        &self.prim_order
     }
 
     fn stats(&self) -> BvhBuildStats {
@@ -416,13 +567,13 @@ impl Bvh {
         intersect_aabb_padded(bounds.min, bounds.max, ray.origin, ray.direction.recip(), pad, t).is_some()
     }
 
-    /// Closest hit: `intersect_prim(id, t_max)` tests one primitive. Ties
-    /// in t go to the smaller primitive id, so the result equals a
-    /// brute-force scan in id order bit for bit, provided `intersect_prim`
-    /// reports only hits that [`Bvh::admits`] (as
-    /// `Scene::intersect_primitive` does).
+    /// Closest hit: `intersect_entry(i, t_max)` tests primitive
+    /// `prim_order()[i]` (the caller may keep its geometry in that order).
+    /// Ties in t go to the smaller primitive id, so the result equals a
+    /// brute-force scan in id order bit for bit, provided `intersect_entry`
+    /// reports only hits that [`Bvh::admits`] (as `Scene::intersect` does).
     #[inline]
-    pub fn intersect(&self, ray: &Ray, t_max: f32, mut intersect_prim: impl FnMut(u32, f32) -> Option<Hit>) -> Option<Hit> {
+    pub fn intersect(&self, ray: &Ray, t_max: f32, mut intersect_entry: impl FnMut(usize, f32) -> Option<Hit>) -> Option<Hit> {
         let mut best: Option<Hit> = None;
         let mut best_t = t_max;
         if self.nodes.is_empty() {
@@ -433,48 +584,72 @@ impl Bvh {
         let pad = box_pad(Vec3::from(root.min), Vec3::from(root.max), ray);
         let slabs = NodeSlabs::new(ray, inv_dir, pad);
         slabs.test(root, best_t)?;
-        // Deferred subtrees and their entry distances.
-        let mut stack = [0u32; BVH_STACK_SIZE];
-        let mut stack_t = [0f32; BVH_STACK_SIZE];
+        // Deferred subtrees (a lane's `(child, meta)`) and their entry
+        // distances; each 4-wide step defers at most three, and takes at
+        // least one level of the binary tree.
+        let mut stack = [(0u32, 0u32); 3 * BVH_STACK_SIZE];
+        let mut stack_t = [0f32; 3 * BVH_STACK_SIZE];
         let mut sp = 0usize;
-        let mut node = 0u32;
+        let (mut child, mut meta) = (self.wide[0].child[0], self.wide[0].meta[0]);
         loop {
-            let n = &self.nodes[node as usize];
-            if n.is_leaf() {
-                let first = n.index as usize;
-                for &prim in &self.prim_order[first..first + n.count() as usize] {
+            if meta & 3 == BvhNode::LEAF {
+                let first = child as usize;
+                for entry in first..first + (meta >> 2) as usize {
                     // Query up to just past best_t so exact ties are seen.
                     let limit = if best.is_some() { next_up(best_t) } else { best_t };
-                    if let Some(h) = intersect_prim(prim, limit) {
-                        if h.t < best_t || best.is_some_and(|b| h.t == b.t && prim < b.prim) || best.is_none() {
+                    if let Some(h) = intersect_entry(entry, limit) {
+                        if h.t < best_t || best.is_some_and(|b| h.t == b.t && h.prim < b.prim) || best.is_none() {
                             best_t = h.t;
                             best = Some(h);
                         }
                     }
                 }
             } else {
-                let (l, r) = (node + 1, n.index);
-                let (ln, rn) = (&self.nodes[l as usize], &self.nodes[r as usize]);
-                let tl = slabs.test(ln, best_t);
-                let tr = slabs.test(rn, best_t);
-                match (tl, tr) {
-                    (Some(a), Some(b)) => {
-                        let (near, far, far_t) = if a <= b { (l, r, b) } else { (r, l, a) };
-                        stack[sp] = far;
-                        stack_t[sp] = far_t;
+                let node = &self.wide[child as usize];
+                let (t_near, mask) = slabs.test4(node, best_t);
+                let lane = |l: u32| (node.child[l as usize], node.meta[l as usize]);
+                match mask.count_ones() {
+                    0 => {}
+                    1 => {
+                        (child, meta) = lane(mask.trailing_zeros());
+                        continue;
+                    }
+                    2 => {
+                        // The common case, without the sort.
+                        let (a, b) = (mask.trailing_zeros(), 31 - mask.leading_zeros());
+                        let (near, far) = if t_near[a as usize] <= t_near[b as usize] { (a, b) } else { (b, a) };
+                        stack[sp] = lane(far);
+                        stack_t[sp] = t_near[far as usize];
                         sp += 1;
-                        node = near;
+                        (child, meta) = lane(near);
                         continue;
                     }
-                    (Some(_), None) => {
-                        node = l;
+                    _ => {
+                        // Hit lanes nearest first (insertion sort, ties in
+                        // lane order); the nearest is visited now, the
+                        // others deferred farthest-first.
+                        let mut order = [(0.0f32, 0u32); 4];
+                        let mut n = 0;
+                        for l in 0..4u32 {
+                            if mask >> l & 1 != 0 {
+                                let t = t_near[l as usize];
+                                let mut j = n;
+                                while j > 0 && order[j - 1].0 > t {
+                                    order[j] = order[j - 1];
+                                    j -= 1;
+                                }
+                                order[j] = (t, l);
+                                n += 1;
+                            }
+                        }
+                        for &(t, l) in order[1..n].iter().rev() {
+                            stack[sp] = lane(l);
+                            stack_t[sp] = t;
+                            sp += 1;
+                        }
+                        (child, meta) = lane(order[0].1);
                         continue;
                     }
-                    (None, Some(_)) => {
-                        node = r;
-                        continue;
-                    }
-                    (None, None) => {}
                 }
             }
             // Resume with the next deferred subtree that can still hold a
@@ -488,7 +663,7 @@ impl Bvh {
                 }
                 sp -= 1;
                 if stack_t[sp] * BOX_NEAR_SLACK - pad <= best_t + pad {
-                    node = stack[sp];
+                    (child, meta) = stack[sp];
                     break;
                 }
             }
@@ -561,7 +736,95 @@ mod tests {
     }
 
     #[test]
-    fn node_is_32_bytes() {
+    fn node_is_32_bytes_and_a_wide_node_two_cache_lines() {
         assert_eq!(std::mem::size_of::<BvhNode>(), 32);
+        assert_eq!(std::mem::size_of::<Wide4>(), 128);
+        assert_eq!(std::mem::align_of::<Wide4>(), 64);
+    }
+
+    /// The 4-wide box test is the binary one, lane by lane, bit for bit:
+    /// random boxes and rays, including rays parallel to slab planes and
+    /// starting on them (the NaN cases) and empty lanes.
+    #[test]
+    fn wide_box_test_is_the_binary_test_per_lane() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut checked = 0;
+        for case in 0..20_000 {
+            fn pick(next: &mut impl FnMut() -> f32, snap: bool) -> f32 {
+                let v = next() * 8.0 - 4.0;
+                if snap {
+                    v.round()
+                } else {
+                    v
+                }
+            }
+            let snap = case % 3 == 0; // integer coordinates: rays on slab planes
+            let origin = Vec3::new(pick(&mut next, snap), pick(&mut next, snap), pick(&mut next, snap));
+            let mut dir = Vec3::new(pick(&mut next, false), pick(&mut next, false), pick(&mut next, false));
+            if case % 4 == 0 {
+                dir[case % 3] = 0.0;
+            }
+            if case % 8 == 0 {
+                dir[(case + 1) % 3] = -0.0;
+            }
+            let ray = Ray::new(origin, dir);
+            let inv = dir.recip();
+            let slabs = NodeSlabs::new(&ray, inv, next() * 1e-3);
+            let mut w = Wide4::NONE;
+            let mut lanes = [BvhNode::zeroed(); 4];
+            let used = 1 + case % 4;
+            for (l, lane) in lanes.iter_mut().enumerate().take(used) {
+                let a = Vec3::new(pick(&mut next, snap), pick(&mut next, snap), pick(&mut next, snap));
+                let b = Vec3::new(pick(&mut next, snap), pick(&mut next, snap), pick(&mut next, snap));
+                *lane = node_from(Aabb { min: a.min(b), max: a.max(b) }, 0, BvhNode::LEAF);
+                w.set(l, lane, 0);
+            }
+            let t_max = if case % 5 == 0 { f32::INFINITY } else { next() * 10.0 };
+            let (t4, mask) = slabs.test4(&w, t_max);
+            for (l, lane) in lanes.iter().enumerate() {
+                let one = if l < used { slabs.test(lane, t_max) } else { None };
+                assert_eq!(mask >> l & 1 == 1, one.is_some(), "case {case} lane {l}");
+                if let Some(t) = one {
+                    assert_eq!(t4[l].to_bits(), t.to_bits(), "case {case} lane {l}");
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 5_000, "only {checked} passing lanes compared");
+    }
+
+    /// Every leaf of the binary tree is a lane of the wide tree, with its
+    /// box bit for bit, and every wide interior lane is a binary node with
+    /// its box; wide nodes are full unless their subtree has fewer leaves.
+    #[test]
+    fn the_wide_tree_holds_the_binary_leaves_bit_for_bit() {
+        for count in [1, 3, 7, 1000] {
+            let b = boxes(count);
+            let (bvh, _) = Bvh::build(&b);
+            let mut leaves: Vec<BvhNode> = bvh.nodes.iter().filter(|n| n.is_leaf()).copied().collect();
+            let mut found = Vec::new();
+            let mut todo = vec![(0usize, 0usize)];
+            while let Some((w, lane)) = todo.pop() {
+                let c = bvh.wide[w].lane(lane);
+                assert!(bvh.nodes.iter().any(|n| (n.min, n.max, n.meta) == (c.min, c.max, c.meta)), "wide lane {w}/{lane} is no binary node");
+                if c.is_leaf() {
+                    found.push(c);
+                } else {
+                    let kids = (0..4).filter(|&l| bvh.wide[c.index as usize].meta[l] != Wide4::EMPTY).count();
+                    assert!(kids >= 2);
+                    todo.extend((0..kids).map(|l| (c.index as usize, l)));
+                }
+            }
+            let key = |n: &BvhNode| n.index;
+            leaves.sort_by_key(key);
+            found.sort_by_key(key);
+            assert_eq!(found, leaves, "{count} boxes");
+        }
     }
 }

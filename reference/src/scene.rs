@@ -3,12 +3,12 @@
 //! and always valid.
 
 use crate::background::Background;
-use crate::bvh::{Bvh, BvhBuildStats};
+use crate::bvh::{box_pad, intersect_aabb_padded, Bvh, BvhBuildStats};
 use crate::camera::{Camera, CameraSettings};
 use crate::error::SceneError;
 use crate::geometry::{gamma, Aabb, Hit, Ray, SurfaceInteraction};
 use crate::material::Material;
-use crate::shapes::{MeshData, Quad, Sphere, Triangle, TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_UVS};
+use crate::shapes::{MeshData, Quad, RayShear, Sphere, Triangle, TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_UVS};
 use crate::texture::{ImageData, Texture};
 use glam::{Affine3A, Mat3, Quat, Vec2, Vec3};
 use std::f32::consts::PI;
@@ -154,6 +154,11 @@ pub struct Scene {
     pub primitives: Vec<Primitive>,
     pub bvh: Bvh,
     pub bvh_stats: BvhBuildStats,
+    /// The traversal's copy of every primitive's geometry in BVH leaf
+    /// order (`bvh.prim_order()`), made by `SceneBuilder::build`. The
+    /// geometry above is read-only once built; tests that hand-edit the
+    /// BVH keep its primitive order.
+    leaf_prims: Vec<LeafPrim>,
 }
 
 impl Scene {
@@ -163,7 +168,7 @@ impl Scene {
     }
 
     pub fn bounds(&self) -> Aabb {
-        self.bvh.nodes.first().map(|n| n.bounds()).unwrap_or(Aabb::EMPTY)
+        self.bvh.nodes().first().map(|n| n.bounds()).unwrap_or(Aabb::EMPTY)
     }
 
     /// The bounding box of one primitive (by id), as the BVH build saw it.
@@ -178,43 +183,37 @@ impl Scene {
     /// scan agree bit for bit.
     #[inline]
     pub fn intersect_primitive(&self, prim: u32, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-        self.intersect_shape(prim, ray, t_min, t_max).filter(|h| self.bvh.admits(self.primitive_bounds(prim), ray, h.t))
+        LeafPrim::of(self, prim).intersect(ray, &self.ray_constants(ray)?, t_min, t_max)
     }
 
-    /// The shape's own intersection routine, without [`Bvh::admits`].
+    /// The per-ray constants of the primitive tests; `None` for an empty
+    /// scene.
     #[inline]
-    fn intersect_shape(&self, prim: u32, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-        use crate::shapes::{intersect_quad, intersect_sphere, intersect_triangle};
-        let p = self.primitives[prim as usize];
-        match p.tag {
-            primitive_tag::SPHERE => {
-                let s = &self.spheres[p.index as usize];
-                intersect_sphere(s.center, s.radius, ray, t_min, t_max).map(|t| Hit { t, prim, uv: Vec2::ZERO })
-            }
-            primitive_tag::QUAD => {
-                let q = &self.quads[p.index as usize];
-                intersect_quad(q.corner, q.u, q.v, ray, t_min, t_max).map(|(t, uv)| Hit { t, prim, uv })
-            }
-            _ => {
-                let tri = &self.triangles[p.index as usize];
-                let [a, b, c] = tri.vertices.map(|i| self.mesh.positions[i as usize]);
-                intersect_triangle(a, b, c, ray, t_min, t_max).map(|(t, uv)| Hit { t, prim, uv })
-            }
-        }
+    fn ray_constants(&self, ray: &Ray) -> Option<RayConstants> {
+        let root = self.bvh.nodes().first()?;
+        Some(RayConstants {
+            shear: RayShear::new(ray.direction),
+            inv_dir: ray.direction.recip(),
+            pad: box_pad(Vec3::from(root.min), Vec3::from(root.max), ray),
+        })
     }
 
-    /// Closest hit through the BVH.
+    /// Closest hit in `(t_min, t_max)`, through the BVH. Leaves read the
+    /// leaf-ordered copies in `leaf_prims`.
     #[inline]
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-        self.bvh.intersect(ray, t_max, |prim, t_max| self.intersect_primitive(prim, ray, t_min, t_max))
+        let c = self.ray_constants(ray)?;
+        self.bvh.intersect(ray, t_max, |entry, t_max| self.leaf_prims[entry].intersect(ray, &c, t_min, t_max))
     }
 
     /// Closest hit by testing every primitive: the oracle for the BVH.
     /// Ties in t go to the smaller primitive id, as in the BVH traversal.
+    /// Reads the scene's own arrays, not the traversal's copies.
     pub fn intersect_brute_force(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        let c = self.ray_constants(ray)?;
         let mut best: Option<Hit> = None;
         for prim in 0..self.primitives.len() as u32 {
-            if let Some(h) = self.intersect_primitive(prim, ray, t_min, t_max) {
+            if let Some(h) = LeafPrim::of(self, prim).intersect(ray, &c, t_min, t_max) {
                 if best.is_none_or(|b| h.t < b.t) {
                     best = Some(h);
                 }
@@ -280,6 +279,76 @@ fn primitive_bounds(p: Primitive, spheres: &[Sphere], quads: &[Quad], triangles:
         primitive_tag::QUAD => quads[p.index as usize].bounds(),
         _ => triangles[p.index as usize].bounds(mesh),
     }
+}
+
+/// One primitive with its geometry copied in: a BVH leaf entry reads one
+/// contiguous 48-byte record instead of chasing primitive → shape → vertex
+/// indices → positions (four dependent loads, most of them cache misses on
+/// large meshes). The floats are the scene's own, so every test and box is
+/// bit for bit what the scene's arrays give.
+#[repr(C, align(16))]
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct LeafPrim {
+    /// Sphere: center, (radius, 0, 0). Quad: corner, u, v. Triangle: its
+    /// three vertices.
+    p: [Vec3; 3],
+    prim: u32,
+    tag: u32,
+}
+
+impl LeafPrim {
+    fn of(scene: &Scene, prim: u32) -> Self {
+        let p = scene.primitives[prim as usize];
+        let geometry = match p.tag {
+            primitive_tag::SPHERE => {
+                let s = &scene.spheres[p.index as usize];
+                [s.center, Vec3::new(s.radius, 0.0, 0.0), Vec3::ZERO]
+            }
+            primitive_tag::QUAD => {
+                let q = &scene.quads[p.index as usize];
+                [q.corner, q.u, q.v]
+            }
+            _ => scene.triangles[p.index as usize].vertices.map(|i| scene.mesh.positions[i as usize]),
+        };
+        LeafPrim { p: geometry, prim, tag: p.tag }
+    }
+
+    /// [`primitive_bounds`], from the copied floats (the same operations).
+    #[inline]
+    fn bounds(&self) -> Aabb {
+        let [a, b, c] = self.p;
+        match self.tag {
+            primitive_tag::SPHERE => Sphere { center: a, radius: b.x, material: 0 }.bounds(),
+            primitive_tag::QUAD => Quad { corner: a, u: b, v: c, material: 0 }.bounds(),
+            _ => Aabb::from_points(&[a, b, c]),
+        }
+    }
+
+    /// The shape's test, then [`Bvh::admits`] with the ray's inverse
+    /// direction and pad from `k`.
+    #[inline]
+    fn intersect(&self, ray: &Ray, k: &RayConstants, t_min: f32, t_max: f32) -> Option<Hit> {
+        use crate::shapes::{intersect_quad, intersect_sphere, intersect_triangle_sheared};
+        let [a, b, c] = self.p;
+        let prim = self.prim;
+        let hit = match self.tag {
+            primitive_tag::SPHERE => intersect_sphere(a, b.x, ray, t_min, t_max).map(|t| Hit { t, prim, uv: Vec2::ZERO }),
+            primitive_tag::QUAD => intersect_quad(a, b, c, ray, t_min, t_max).map(|(t, uv)| Hit { t, prim, uv }),
+            _ => intersect_triangle_sheared(a, b, c, ray, k.shear.as_ref()?, t_min, t_max).map(|(t, uv)| Hit { t, prim, uv }),
+        }?;
+        let bounds = self.bounds();
+        intersect_aabb_padded(bounds.min, bounds.max, ray.origin, k.inv_dir, k.pad, hit.t).map(|_| hit)
+    }
+}
+
+/// One ray's constants for the primitive tests of a traversal: the
+/// triangle shear ([`RayShear`]; `None` for a zero direction) and what
+/// [`Bvh::admits`] computes (inverse direction, box pad).
+#[derive(Clone, Copy, Debug)]
+struct RayConstants {
+    shear: Option<RayShear>,
+    inv_dir: Vec3,
+    pad: f32,
 }
 
 /// Collects a scene, checks it, and builds its BVH.
@@ -573,7 +642,7 @@ impl SceneBuilder {
         }
         let bounds: Vec<Aabb> = self.primitives.iter().map(|&p| primitive_bounds(p, &self.spheres, &self.quads, &self.triangles, &self.mesh)).collect();
         let (bvh, bvh_stats) = Bvh::build(&bounds);
-        Ok(Scene {
+        let mut scene = Scene {
             camera_settings: self.camera,
             render: self.render,
             background,
@@ -587,6 +656,9 @@ impl SceneBuilder {
             primitives: self.primitives,
             bvh,
             bvh_stats,
-        })
+            leaf_prims: Vec::new(),
+        };
+        scene.leaf_prims = scene.bvh.prim_order().iter().map(|&prim| LeafPrim::of(&scene, prim)).collect();
+        Ok(scene)
     }
 }

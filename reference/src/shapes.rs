@@ -144,33 +144,57 @@ pub fn intersect_quad(corner: Vec3, u: Vec3, v: Vec3, ray: &Ray, t_min: f32, t_m
 /// Returns `(t, (b1, b2))` with barycentrics of vertices 1 and 2.
 #[inline]
 pub fn intersect_triangle(p0: Vec3, p1: Vec3, p2: Vec3, ray: &Ray, t_min: f32, t_max: f32) -> Option<(f32, Vec2)> {
-    let d = ray.direction;
-    // kz: the dimension where |d| is largest; kx, ky follow it, swapped to
-    // keep the winding.
-    let ad = d.abs();
-    let kz = if ad.x > ad.y {
-        if ad.x > ad.z {
-            0
+    intersect_triangle_sheared(p0, p1, p2, ray, &RayShear::new(ray.direction)?, t_min, t_max)
+}
+
+/// The per-ray half of [`intersect_triangle`]: the permutation and shear
+/// that map the ray onto +z. A traversal computes it once per ray; the
+/// bits are the same as computing it in every triangle test.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayShear {
+    kx: usize,
+    ky: usize,
+    kz: usize,
+    sx: f32,
+    sy: f32,
+    sz: f32,
+}
+
+impl RayShear {
+    /// `None` for a zero direction (no triangle can be hit).
+    #[inline]
+    pub fn new(d: Vec3) -> Option<Self> {
+        // kz: the dimension where |d| is largest; kx, ky follow it, swapped
+        // to keep the winding.
+        let ad = d.abs();
+        let kz = if ad.x > ad.y {
+            if ad.x > ad.z {
+                0
+            } else {
+                2
+            }
+        } else if ad.y > ad.z {
+            1
         } else {
             2
+        };
+        let mut kx = (kz + 1) % 3;
+        let mut ky = (kx + 1) % 3;
+        if d[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
         }
-    } else if ad.y > ad.z {
-        1
-    } else {
-        2
-    };
-    let mut kx = (kz + 1) % 3;
-    let mut ky = (kx + 1) % 3;
-    if d[kz] < 0.0 {
-        std::mem::swap(&mut kx, &mut ky);
+        if d[kz] == 0.0 {
+            return None;
+        }
+        let sz = 1.0 / d[kz];
+        Some(Self { kx, ky, kz, sx: d[kx] * sz, sy: d[ky] * sz, sz })
     }
-    if d[kz] == 0.0 {
-        return None; // a zero direction
-    }
-    let sz = 1.0 / d[kz];
-    let sx = d[kx] * sz;
-    let sy = d[ky] * sz;
+}
 
+/// [`intersect_triangle`] with the ray's [`RayShear`] given.
+#[inline]
+pub fn intersect_triangle_sheared(p0: Vec3, p1: Vec3, p2: Vec3, ray: &Ray, shear: &RayShear, t_min: f32, t_max: f32) -> Option<(f32, Vec2)> {
+    let RayShear { kx, ky, kz, sx, sy, sz } = *shear;
     let a = p0 - ray.origin;
     let b = p1 - ray.origin;
     let c = p2 - ray.origin;

@@ -16,6 +16,8 @@ use super::metrics::metrics;
 use crate::image_io::{self, RenderImage, RenderMetadata};
 use crate::report::{self, Report};
 use anyhow::{anyhow, bail, Context, Result};
+use reference::material::Material;
+use reference::texture::Texture;
 use reference::{Film, RenderSettings, Scene};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -256,6 +258,35 @@ pub fn assert_passes(test: &str, reference: &StoredReference, run: &GateRun) {
         Err(e) => format!("(could not write the report: {e:#})"),
     };
     panic!("{test}: the render differs from reference `{}`\n{}{evidence}", reference.spec.name, run.verdict.summary());
+}
+
+/// One image gate as a test runs it: the fixture `name` from the
+/// manifest, rendered by `render` at `spp` with `seed`, checked against its
+/// stored reference; panics (after [`assert_passes`]) on any failure. The
+/// evidence of a failure goes to `target/diff/<suite>/<name>/`.
+pub fn gate_fixture(suite: &str, name: &str, spp: u32, seed: u32, render: RenderFn) {
+    let spec = manifest_entry(name).unwrap_or_else(|e| panic!("{e:#}"));
+    let reference = load_reference(&spec).unwrap_or_else(|e| panic!("{e:#}"));
+    let scene = load_scene(&spec).unwrap_or_else(|e| panic!("{e:#}"));
+    let run = run_gate(&reference, &scene, spp, seed, render).unwrap_or_else(|e| panic!("{e:#}"));
+    println!("{suite} / {name}: {}x{} at {spp} spp in {:.2} s\n{}", spec.width, spec.height, run.seconds, run.verdict.summary());
+    assert_passes(&format!("{suite}/{name}"), &reference, &run);
+}
+
+/// A mutant scene for gates that must fail: every constant Lambertian
+/// albedo scaled by `factor` (each texture once, however many materials
+/// share it).
+pub fn scaled_albedo(scene: &Scene, factor: f32) -> Scene {
+    let mut s = scene.clone();
+    let mut ids: Vec<u32> = s.materials.iter().filter_map(|m| if let Material::Lambertian { albedo } = m { Some(*albedo) } else { None }).collect();
+    ids.sort_unstable();
+    ids.dedup();
+    for id in ids {
+        if let Texture::Constant(c) = &mut s.textures[id as usize] {
+            *c *= factor;
+        }
+    }
+    s
 }
 
 #[cfg(test)]
