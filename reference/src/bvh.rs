@@ -1,6 +1,7 @@
 //! The bounding volume hierarchy: a binned-SAH build flattened into one
-//! linear node array. This array is THE BVH: the reference traversal here
-//! and every GPU traversal walk the same nodes.
+//! linear node array. This array is THE BVH: the GPU traversals walk these
+//! nodes, and the reference traversal here walks their 8-wide collapse
+//! ([`Bvh`] makes it from the nodes; same boxes and leaves, bit for bit).
 //!
 //! Layout: depth-first; an interior node's left child follows it directly
 //! and its right child is at `index`; a leaf covers `count` entries of
@@ -64,7 +65,7 @@ impl BvhNode {
 }
 
 /// A built BVH: the node array and the primitive order its leaves index,
-/// plus the CPU traversal's 4-wide view of the same tree ([`Wide4`]).
+/// plus the CPU traversal's wide view of the same tree ([`WideNode`]).
 /// The fields are private so the two can never disagree: a tree is made by
 /// [`Bvh::build`] or, for tests that need a broken one, [`Bvh::from_parts`].
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -73,41 +74,52 @@ pub struct Bvh {
     /// Primitive ids in leaf order.
     prim_order: Vec<u32>,
     /// `wide[0]` holds the root alone; the rest, the binary tree's interior
-    /// nodes collapsed four children at a time.
-    wide: Vec<Wide4>,
+    /// nodes collapsed [`WIDTH`] children at a time.
+    wide: Vec<WideNode>,
 }
 
-/// Up to four children of a collapsed node, boxes in SoA form so that one
-/// step tests all four with the same arithmetic as [`NodeSlabs`] on each
-/// (lane by lane, no fused operations: the same bits), the layout of
-/// Embree's BVH4 and of Wald et al., "Getting Rid of Packets" (2008),
-/// built as Wald et al. do by collapsing the binary tree: an interior node
-/// takes its children and keeps opening the largest interior one until it
-/// has four. The boxes and leaves are the binary tree's, bit for bit; only
+/// Children per collapsed node; a multiple of 4 (boxes are tested four
+/// at a time, see [`NodeSlabs::test_wide`]).
+const WIDTH: usize = 8;
+
+/// Up to [`WIDTH`] children of a collapsed node, boxes in SoA form so that
+/// one step tests them all with the same arithmetic as [`NodeSlabs`] on
+/// each (lane by lane, no fused operations: the same bits), the layout of
+/// Embree's BVH4/BVH8 and of Wald et al., "Getting Rid of Packets" (2008),
+/// built as they do by collapsing the binary tree: an interior node takes
+/// its children and keeps opening the largest interior one until it has
+/// [`WIDTH`]. The boxes and leaves are the binary tree's, bit for bit; only
 /// the interior nodes in between are skipped. `bounds` rows are min x, y, z
 /// then max x, y, z (the words `NodeSlabs` picks by ray direction).
 #[repr(C, align(64))]
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Wide4 {
-    bounds: [[f32; 4]; 6],
+struct WideNode {
+    bounds: [[f32; WIDTH]; 6],
     /// Interior lane: index into `wide`. Leaf lane: first entry in
     /// `prim_order`. Empty lane: 0.
-    child: [u32; 4],
+    child: [u32; WIDTH],
     /// A binary node's `meta` (leaf: `count << 2 | 3`; interior: its axis);
-    /// [`Wide4::EMPTY`] for an unused lane.
-    meta: [u32; 4],
+    /// [`WideNode::EMPTY`] for an unused lane.
+    meta: [u32; WIDTH],
 }
 
-impl Wide4 {
+impl WideNode {
     const EMPTY: u32 = u32::MAX;
     /// Empty lanes have the inverted infinite box (min +∞, max −∞): every
     /// slab then gives `t_near = +∞` and `t_far = −∞` (never a NaN: the
     /// bound minus a finite origin is infinite, times a nonzero or infinite
     /// inverse direction), so the box test fails without a check of its own.
-    const NONE: Wide4 = Wide4 {
-        bounds: [[f32::INFINITY; 4], [f32::INFINITY; 4], [f32::INFINITY; 4], [f32::NEG_INFINITY; 4], [f32::NEG_INFINITY; 4], [f32::NEG_INFINITY; 4]],
-        child: [0; 4],
-        meta: [Self::EMPTY; 4],
+    const NONE: WideNode = WideNode {
+        bounds: [
+            [f32::INFINITY; WIDTH],
+            [f32::INFINITY; WIDTH],
+            [f32::INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+        ],
+        child: [0; WIDTH],
+        meta: [Self::EMPTY; WIDTH],
     };
 
     fn set(&mut self, lane: usize, n: &BvhNode, child: u32) {
@@ -280,13 +292,13 @@ fn bin_of(c: f32, lo: f32, scale: f32) -> usize {
     (((c - lo) * scale) as usize).min(SAH_BINS - 1)
 }
 
-/// Collapses binary interior node `i` into a new [`Wide4`] (and its
+/// Collapses binary interior node `i` into a new [`WideNode`] (and its
 /// subtree after it) and returns the new node's index.
-fn collapse(nodes: &[BvhNode], i: usize, wide: &mut Vec<Wide4>) -> u32 {
-    let mut kids = [0usize; 4];
+fn collapse(nodes: &[BvhNode], i: usize, wide: &mut Vec<WideNode>) -> u32 {
+    let mut kids = [0usize; WIDTH];
     kids[..2].copy_from_slice(&[i + 1, nodes[i].index as usize]);
     let mut n = 2;
-    while n < 4 {
+    while n < WIDTH {
         let area = |k: usize| nodes[kids[k]].bounds().surface_area();
         let Some(k) = (0..n).filter(|&k| !nodes[kids[k]].is_leaf()).max_by(|&a, &b| area(a).total_cmp(&area(b))) else { break };
         let c = kids[k];
@@ -296,7 +308,7 @@ fn collapse(nodes: &[BvhNode], i: usize, wide: &mut Vec<Wide4>) -> u32 {
         n += 1;
     }
     let at = wide.len();
-    wide.push(Wide4::NONE);
+    wide.push(WideNode::NONE);
     for (lane, &c) in kids[..n].iter().enumerate() {
         let node = &nodes[c];
         let child = if node.is_leaf() { node.index } else { collapse(nodes, c, wide) };
@@ -397,10 +409,10 @@ struct NodeSlabs {
     inv_dir: [f32; 3],
     near_at: [usize; 3],
     far_at: [usize; 3],
-    /// The same choice as rows of [`Wide4::bounds`].
+    /// The same choice as rows of [`WideNode::bounds`].
     near_row: [usize; 3],
     far_row: [usize; 3],
-    /// `origin` and `inv_dir` splatted, for [`NodeSlabs::test4`].
+    /// `origin` and `inv_dir` splatted, for [`NodeSlabs::test_wide`].
     origin4: [Vec4; 3],
     inv_dir4: [Vec4; 3],
     pad: f32,
@@ -441,28 +453,38 @@ impl NodeSlabs {
 }
 
 impl NodeSlabs {
-    /// [`NodeSlabs::test`] on the four lanes of a [`Wide4`] at once, with
-    /// per lane the same operations in the same order, so the same bits:
-    /// `Vec4::max`/`min` are SSE `maxps`/`minps` on x86-64, defined as
-    /// `a > b ? a : b` and `a < b ? a : b`, exactly the scalar selects of
-    /// [`NodeSlabs::test`] (NaN operands dropped the same way); glam's
+    /// [`NodeSlabs::test`] on all lanes of a [`WideNode`], four at a time,
+    /// with per lane the same operations in the same order, so the same
+    /// bits: `Vec4::max`/`min` are SSE `maxps`/`minps` on x86-64, defined
+    /// as `a > b ? a : b` and `a < b ? a : b`, exactly the scalar selects
+    /// of [`NodeSlabs::test`] (NaN operands dropped the same way); glam's
     /// scalar fallback uses `f32::max`/`min`, which also drop a NaN.
     /// Returns the entry distances and the mask of lanes that pass.
     #[inline(always)]
-    fn test4(&self, n: &Wide4, t_max: f32) -> (Vec4, u32) {
-        let mut t_near = Vec4::ZERO;
-        let mut t_far = Vec4::splat(t_max);
-        for k in 0..3 {
-            let lo = Vec4::from_array(n.bounds[self.near_row[k]]);
-            let hi = Vec4::from_array(n.bounds[self.far_row[k]]);
-            let near = (lo - self.origin4[k]) * self.inv_dir4[k];
-            let far = (hi - self.origin4[k]) * self.inv_dir4[k] * Vec4::splat(SLAB_FAR_SCALE);
-            t_near = near.max(t_near);
-            t_far = far.min(t_far);
+    fn test_wide(&self, n: &WideNode, t_max: f32) -> ([f32; WIDTH], u32) {
+        let mut entry = [0.0f32; WIDTH];
+        let mut mask = 0;
+        for c in (0..WIDTH).step_by(4) {
+            // Lanes are filled in order: the rest are empty.
+            if n.meta[c] == WideNode::EMPTY {
+                break;
+            }
+            let mut t_near = Vec4::ZERO;
+            let mut t_far = Vec4::splat(t_max);
+            for k in 0..3 {
+                let lo = Vec4::from_slice(&n.bounds[self.near_row[k]][c..c + 4]);
+                let hi = Vec4::from_slice(&n.bounds[self.far_row[k]][c..c + 4]);
+                let near = (lo - self.origin4[k]) * self.inv_dir4[k];
+                let far = (hi - self.origin4[k]) * self.inv_dir4[k] * Vec4::splat(SLAB_FAR_SCALE);
+                t_near = near.max(t_near);
+                t_far = far.min(t_far);
+            }
+            let pad = Vec4::splat(self.pad);
+            let pass = (t_near * Vec4::splat(BOX_NEAR_SLACK) - pad).cmple(t_far + pad);
+            mask |= pass.bitmask() << c;
+            t_near.write_to_slice(&mut entry[c..c + 4]);
         }
-        let pad = Vec4::splat(self.pad);
-        let pass = (t_near * Vec4::splat(BOX_NEAR_SLACK) - pad).cmple(t_far + pad);
-        (t_near, pass.bitmask())
+        (entry, mask)
     }
 }
 
@@ -510,7 +532,7 @@ impl Bvh {
         }
         let mut wide = Vec::new();
         if let Some(root) = nodes.first() {
-            wide.push(Wide4::NONE);
+            wide.push(WideNode::NONE);
             let child = if root.is_leaf() { root.index } else { collapse(&nodes, 0, &mut wide) };
             wide[0].set(0, root, child);
         }
@@ -585,10 +607,10 @@ impl Bvh {
         let slabs = NodeSlabs::new(ray, inv_dir, pad);
         slabs.test(root, best_t)?;
         // Deferred subtrees (a lane's `(child, meta)`) and their entry
-        // distances; each 4-wide step defers at most three, and takes at
+        // distances; each wide step defers at most WIDTH - 1, and takes at
         // least one level of the binary tree.
-        let mut stack = [(0u32, 0u32); 3 * BVH_STACK_SIZE];
-        let mut stack_t = [0f32; 3 * BVH_STACK_SIZE];
+        let mut stack = [(0u32, 0u32); (WIDTH - 1) * BVH_STACK_SIZE];
+        let mut stack_t = [0f32; (WIDTH - 1) * BVH_STACK_SIZE];
         let mut sp = 0usize;
         let (mut child, mut meta) = (self.wide[0].child[0], self.wide[0].meta[0]);
         loop {
@@ -606,7 +628,7 @@ impl Bvh {
                 }
             } else {
                 let node = &self.wide[child as usize];
-                let (t_near, mask) = slabs.test4(node, best_t);
+                let (t_near, mask) = slabs.test_wide(node, best_t);
                 let lane = |l: u32| (node.child[l as usize], node.meta[l as usize]);
                 match mask.count_ones() {
                     0 => {}
@@ -628,19 +650,20 @@ impl Bvh {
                         // Hit lanes nearest first (insertion sort, ties in
                         // lane order); the nearest is visited now, the
                         // others deferred farthest-first.
-                        let mut order = [(0.0f32, 0u32); 4];
+                        let mut order = [(0.0f32, 0u32); WIDTH];
                         let mut n = 0;
-                        for l in 0..4u32 {
-                            if mask >> l & 1 != 0 {
-                                let t = t_near[l as usize];
-                                let mut j = n;
-                                while j > 0 && order[j - 1].0 > t {
-                                    order[j] = order[j - 1];
-                                    j -= 1;
-                                }
-                                order[j] = (t, l);
-                                n += 1;
+                        let mut bits = mask;
+                        while bits != 0 {
+                            let l = bits.trailing_zeros();
+                            bits &= bits - 1;
+                            let t = t_near[l as usize];
+                            let mut j = n;
+                            while j > 0 && order[j - 1].0 > t {
+                                order[j] = order[j - 1];
+                                j -= 1;
                             }
+                            order[j] = (t, l);
+                            n += 1;
                         }
                         for &(t, l) in order[1..n].iter().rev() {
                             stack[sp] = lane(l);
@@ -736,13 +759,13 @@ mod tests {
     }
 
     #[test]
-    fn node_is_32_bytes_and_a_wide_node_two_cache_lines() {
+    fn node_is_32_bytes_and_a_wide_node_whole_cache_lines() {
         assert_eq!(std::mem::size_of::<BvhNode>(), 32);
-        assert_eq!(std::mem::size_of::<Wide4>(), 128);
-        assert_eq!(std::mem::align_of::<Wide4>(), 64);
+        assert_eq!(std::mem::size_of::<WideNode>(), 32 * WIDTH);
+        assert_eq!(std::mem::align_of::<WideNode>(), 64);
     }
 
-    /// The 4-wide box test is the binary one, lane by lane, bit for bit:
+    /// The wide box test is the binary one, lane by lane, bit for bit:
     /// random boxes and rays, including rays parallel to slab planes and
     /// starting on them (the NaN cases) and empty lanes.
     #[test]
@@ -776,9 +799,9 @@ mod tests {
             let ray = Ray::new(origin, dir);
             let inv = dir.recip();
             let slabs = NodeSlabs::new(&ray, inv, next() * 1e-3);
-            let mut w = Wide4::NONE;
-            let mut lanes = [BvhNode::zeroed(); 4];
-            let used = 1 + case % 4;
+            let mut w = WideNode::NONE;
+            let mut lanes = [BvhNode::zeroed(); WIDTH];
+            let used = 1 + case % WIDTH;
             for (l, lane) in lanes.iter_mut().enumerate().take(used) {
                 let a = Vec3::new(pick(&mut next, snap), pick(&mut next, snap), pick(&mut next, snap));
                 let b = Vec3::new(pick(&mut next, snap), pick(&mut next, snap), pick(&mut next, snap));
@@ -786,7 +809,7 @@ mod tests {
                 w.set(l, lane, 0);
             }
             let t_max = if case % 5 == 0 { f32::INFINITY } else { next() * 10.0 };
-            let (t4, mask) = slabs.test4(&w, t_max);
+            let (t4, mask) = slabs.test_wide(&w, t_max);
             for (l, lane) in lanes.iter().enumerate() {
                 let one = if l < used { slabs.test(lane, t_max) } else { None };
                 assert_eq!(mask >> l & 1 == 1, one.is_some(), "case {case} lane {l}");
@@ -816,7 +839,7 @@ mod tests {
                 if c.is_leaf() {
                     found.push(c);
                 } else {
-                    let kids = (0..4).filter(|&l| bvh.wide[c.index as usize].meta[l] != Wide4::EMPTY).count();
+                    let kids = (0..WIDTH).filter(|&l| bvh.wide[c.index as usize].meta[l] != WideNode::EMPTY).count();
                     assert!(kids >= 2);
                     todo.extend((0..kids).map(|l| (c.index as usize, l)));
                 }
