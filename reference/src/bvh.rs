@@ -76,6 +76,28 @@ pub struct Bvh {
     /// `wide[0]` holds the root alone; the rest, the binary tree's interior
     /// nodes collapsed [`WIDTH`] children at a time.
     wide: Vec<WideNode>,
+    /// Most subtrees the traversal can hold deferred at once: the largest
+    /// Σ (lanes − 1) over the wide nodes of any root-to-node chain (each
+    /// defers at most all but one of its lanes, and an ancestor's deferred
+    /// lanes wait below its descendants' on the stack).
+    stack_need: usize,
+}
+
+/// The traversal stack of a typical tree: on the stack and not on the heap,
+/// and small, because it is initialised on every query (a stack sized for
+/// the worst-case tree, 7 × 64 entries, spent about 15 % of the query time
+/// in memset on the 10^4-triangle torus of reference/benches/traversal.rs,
+/// by `perf`). Built trees of 10^3 and 2·10^4 boxes need 24 and 36 (unit
+/// test `stack_need_bounds_the_deferred_subtrees`); trees that need more
+/// get a heap stack of their exact need.
+const INLINE_STACK: usize = 64;
+
+/// A deferred subtree: a lane's `(child, meta)` and its entry distance.
+#[derive(Clone, Copy, Debug, Default)]
+struct Deferred {
+    child: u32,
+    meta: u32,
+    t: f32,
 }
 
 /// Children per collapsed node; a multiple of 4 (boxes are tested four
@@ -95,8 +117,9 @@ const WIDTH: usize = 8;
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct WideNode {
     bounds: [[f32; WIDTH]; 6],
-    /// Interior lane: index into `wide`. Leaf lane: first entry in
-    /// `prim_order`. Empty lane: 0.
+    /// Interior lane: index into `wide`. Leaf lane: the leaf's number
+    /// (binary leaves counted in node order, as [`Bvh::leaves`] lists
+    /// them). Empty lane: 0.
     child: [u32; WIDTH],
     /// A binary node's `meta` (leaf: `count << 2 | 3`; interior: its axis);
     /// [`WideNode::EMPTY`] for an unused lane.
@@ -294,7 +317,8 @@ fn bin_of(c: f32, lo: f32, scale: f32) -> usize {
 
 /// Collapses binary interior node `i` into a new [`WideNode`] (and its
 /// subtree after it) and returns the new node's index.
-fn collapse(nodes: &[BvhNode], i: usize, wide: &mut Vec<WideNode>) -> u32 {
+/// `leaf_number[n]`: how many leaves precede node `n` in the node array.
+fn collapse(nodes: &[BvhNode], leaf_number: &[u32], i: usize, wide: &mut Vec<WideNode>) -> (u32, usize) {
     let mut kids = [0usize; WIDTH];
     kids[..2].copy_from_slice(&[i + 1, nodes[i].index as usize]);
     let mut n = 2;
@@ -309,12 +333,19 @@ fn collapse(nodes: &[BvhNode], i: usize, wide: &mut Vec<WideNode>) -> u32 {
     }
     let at = wide.len();
     wide.push(WideNode::NONE);
+    let mut below = 0;
     for (lane, &c) in kids[..n].iter().enumerate() {
         let node = &nodes[c];
-        let child = if node.is_leaf() { node.index } else { collapse(nodes, c, wide) };
+        let child = if node.is_leaf() {
+            leaf_number[c]
+        } else {
+            let (child, need) = collapse(nodes, leaf_number, c, wide);
+            below = below.max(need);
+            child
+        };
         wide[at].set(lane, node, child);
     }
-    at as u32
+    (at as u32, n - 1 + below)
 }
 
 /// Stable-enough in-place partition; returns the count of `pred` items.
@@ -521,22 +552,36 @@ impl Bvh {
 
     /// A tree from its node array and primitive order, as [`Bvh::build`]
     /// makes them (depth-first, left child next, see the module comment).
-    /// For tests that hand-edit a tree; panics if an index is out of range.
+    /// For tests that hand-edit a tree; panics if an index is out of range
+    /// or a leaf holds more than [`MAX_LEAF_SIZE`] entries (the traversal's
+    /// callers keep a leaf's primitives in one packet of that size).
     pub fn from_parts(nodes: Vec<BvhNode>, prim_order: Vec<u32>) -> Bvh {
+        let mut leaf_number = Vec::with_capacity(nodes.len());
+        let mut leaves = 0;
         for (i, n) in nodes.iter().enumerate() {
+            leaf_number.push(leaves);
             if n.is_leaf() {
+                leaves += 1;
+                assert!(n.count() as usize <= MAX_LEAF_SIZE, "leaf {i} holds more than {MAX_LEAF_SIZE} entries");
                 assert!(n.index as usize + n.count() as usize <= prim_order.len(), "leaf {i} runs past the primitive order");
             } else {
                 assert!(i + 1 < nodes.len() && (n.index as usize) < nodes.len(), "interior node {i} has a child out of range");
             }
         }
         let mut wide = Vec::new();
+        let mut stack_need = 0;
         if let Some(root) = nodes.first() {
             wide.push(WideNode::NONE);
-            let child = if root.is_leaf() { root.index } else { collapse(&nodes, 0, &mut wide) };
+            let child = if root.is_leaf() {
+                0
+            } else {
+                let (child, need) = collapse(&nodes, &leaf_number, 0, &mut wide);
+                stack_need = need;
+                child
+            };
             wide[0].set(0, root, child);
         }
-        Bvh { nodes, prim_order, wide }
+        Bvh { nodes, prim_order, wide, stack_need }
     }
 
     /// The node array: what the GPU uploads and [`Bvh`]'s layout describes.
@@ -547,6 +592,13 @@ impl Bvh {
     /// Primitive ids in leaf order.
     pub fn prim_order(&self) -> &[u32] {
         &self.prim_order
+    }
+
+    /// Each leaf's entries (indices into [`Bvh::prim_order`]), leaves in
+    /// node order: the numbering [`Bvh::intersect`] passes to its callback.
+    /// At most [`MAX_LEAF_SIZE`] entries each.
+    pub fn leaves(&self) -> impl Iterator<Item = std::ops::Range<usize>> + '_ {
+        self.nodes.iter().filter(|n| n.is_leaf()).map(|n| n.index as usize..(n.index + n.count()) as usize)
     }
 
     fn stats(&self) -> BvhBuildStats {
@@ -589,13 +641,26 @@ impl Bvh {
         intersect_aabb_padded(bounds.min, bounds.max, ray.origin, ray.direction.recip(), pad, t).is_some()
     }
 
-    /// Closest hit: `intersect_entry(i, t_max)` tests primitive
-    /// `prim_order()[i]` (the caller may keep its geometry in that order).
-    /// Ties in t go to the smaller primitive id, so the result equals a
-    /// brute-force scan in id order bit for bit, provided `intersect_entry`
-    /// reports only hits that [`Bvh::admits`] (as `Scene::intersect` does).
+    /// Closest hit: `intersect_leaf(k, limit)` tests the primitives of leaf
+    /// `k` (numbered as [`Bvh::leaves`] lists them; the caller may keep
+    /// their geometry by leaf) and returns, among their hits with
+    /// `t < limit`, the one with the smallest t, ties to the smaller
+    /// primitive id. Ties across leaves go the same way, so the result
+    /// equals a brute-force scan in id order bit for bit, provided
+    /// `intersect_leaf` reports only hits that [`Bvh::admits`] (as
+    /// `Scene::intersect` does).
     #[inline]
-    pub fn intersect(&self, ray: &Ray, t_max: f32, mut intersect_entry: impl FnMut(usize, f32) -> Option<Hit>) -> Option<Hit> {
+    pub fn intersect(&self, ray: &Ray, t_max: f32, intersect_leaf: impl FnMut(usize, f32) -> Option<Hit>) -> Option<Hit> {
+        if self.stack_need <= INLINE_STACK {
+            self.walk(ray, t_max, &mut [Deferred::default(); INLINE_STACK], intersect_leaf)
+        } else {
+            self.walk(ray, t_max, &mut vec![Deferred::default(); self.stack_need], intersect_leaf)
+        }
+    }
+
+    /// [`Bvh::intersect`] with a stack of at least `stack_need` entries.
+    #[inline(always)]
+    fn walk(&self, ray: &Ray, t_max: f32, stack: &mut [Deferred], mut intersect_leaf: impl FnMut(usize, f32) -> Option<Hit>) -> Option<Hit> {
         let mut best: Option<Hit> = None;
         let mut best_t = t_max;
         if self.nodes.is_empty() {
@@ -606,44 +671,36 @@ impl Bvh {
         let pad = box_pad(Vec3::from(root.min), Vec3::from(root.max), ray);
         let slabs = NodeSlabs::new(ray, inv_dir, pad);
         slabs.test(root, best_t)?;
-        // Deferred subtrees (a lane's `(child, meta)`) and their entry
-        // distances; each wide step defers at most WIDTH - 1, and takes at
-        // least one level of the binary tree.
-        let mut stack = [(0u32, 0u32); (WIDTH - 1) * BVH_STACK_SIZE];
-        let mut stack_t = [0f32; (WIDTH - 1) * BVH_STACK_SIZE];
         let mut sp = 0usize;
         let (mut child, mut meta) = (self.wide[0].child[0], self.wide[0].meta[0]);
         loop {
             if meta & 3 == BvhNode::LEAF {
-                let first = child as usize;
-                for entry in first..first + (meta >> 2) as usize {
-                    // Query up to just past best_t so exact ties are seen.
-                    let limit = if best.is_some() { next_up(best_t) } else { best_t };
-                    if let Some(h) = intersect_entry(entry, limit) {
-                        if h.t < best_t || best.is_some_and(|b| h.t == b.t && h.prim < b.prim) || best.is_none() {
-                            best_t = h.t;
-                            best = Some(h);
-                        }
+                // Query up to just past best_t so exact ties are seen.
+                let limit = if best.is_some() { next_up(best_t) } else { best_t };
+                if let Some(h) = intersect_leaf(child as usize, limit) {
+                    if h.t < best_t || best.is_some_and(|b| h.t == b.t && h.prim < b.prim) || best.is_none() {
+                        best_t = h.t;
+                        best = Some(h);
                     }
                 }
             } else {
                 let node = &self.wide[child as usize];
                 let (t_near, mask) = slabs.test_wide(node, best_t);
-                let lane = |l: u32| (node.child[l as usize], node.meta[l as usize]);
+                let lane = |l: u32| Deferred { child: node.child[l as usize], meta: node.meta[l as usize], t: t_near[l as usize] };
                 match mask.count_ones() {
                     0 => {}
                     1 => {
-                        (child, meta) = lane(mask.trailing_zeros());
+                        let d = lane(mask.trailing_zeros());
+                        (child, meta) = (d.child, d.meta);
                         continue;
                     }
                     2 => {
                         // The common case, without the sort.
-                        let (a, b) = (mask.trailing_zeros(), 31 - mask.leading_zeros());
-                        let (near, far) = if t_near[a as usize] <= t_near[b as usize] { (a, b) } else { (b, a) };
-                        stack[sp] = lane(far);
-                        stack_t[sp] = t_near[far as usize];
+                        let (a, b) = (lane(mask.trailing_zeros()), lane(31 - mask.leading_zeros()));
+                        let (near, far) = if a.t <= b.t { (a, b) } else { (b, a) };
+                        stack[sp] = far;
                         sp += 1;
-                        (child, meta) = lane(near);
+                        (child, meta) = (near.child, near.meta);
                         continue;
                     }
                     _ => {
@@ -665,12 +722,12 @@ impl Bvh {
                             order[j] = (t, l);
                             n += 1;
                         }
-                        for &(t, l) in order[1..n].iter().rev() {
+                        for &(_, l) in order[1..n].iter().rev() {
                             stack[sp] = lane(l);
-                            stack_t[sp] = t;
                             sp += 1;
                         }
-                        (child, meta) = lane(order[0].1);
+                        let d = lane(order[0].1);
+                        (child, meta) = (d.child, d.meta);
                         continue;
                     }
                 }
@@ -685,8 +742,9 @@ impl Bvh {
                     return best;
                 }
                 sp -= 1;
-                if stack_t[sp] * BOX_NEAR_SLACK - pad <= best_t + pad {
-                    (child, meta) = stack[sp];
+                let d = stack[sp];
+                if d.t * BOX_NEAR_SLACK - pad <= best_t + pad {
+                    (child, meta) = (d.child, d.meta);
                     break;
                 }
             }
@@ -822,6 +880,58 @@ mod tests {
         assert!(checked > 5_000, "only {checked} passing lanes compared");
     }
 
+    /// `stack_need` bounds the deferred subtrees: rays that hit nothing
+    /// (so the best never shrinks and every box on the way is opened)
+    /// walk with a stack of exactly `stack_need` entries, which panics on
+    /// overflow. Built trees stay within the inline stack; a hand-made
+    /// caterpillar (every interior node with a leaf on the left, all boxes
+    /// the same) needs more and gets it on the heap.
+    #[test]
+    fn stack_need_bounds_the_deferred_subtrees() {
+        let mut next = {
+            let mut state = 0x853c_49e6_748f_ea9bu64;
+            move || {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                (state >> 40) as f32 / (1u64 << 24) as f32
+            }
+        };
+        let unit = Aabb { min: Vec3::ZERO, max: Vec3::ONE };
+        let legs = 200;
+        let mut nodes = Vec::new();
+        for i in 0..legs - 1 {
+            nodes.push(node_from(unit, 2 * i + 2, 0));
+            nodes.push(node_from(unit, i, 1 << 2 | BvhNode::LEAF));
+        }
+        nodes.push(node_from(unit, legs - 1, 1 << 2 | BvhNode::LEAF));
+        let caterpillar = Bvh::from_parts(nodes, (0..legs).collect());
+        assert!(caterpillar.stack_need > INLINE_STACK, "the caterpillar needs only {}", caterpillar.stack_need);
+        let trees = [("1000 boxes", Bvh::build(&boxes(1000)).0), ("20000 boxes", Bvh::build(&boxes(20_000)).0), ("caterpillar", caterpillar)];
+        for (name, bvh) in &trees {
+            if *name != "caterpillar" {
+                // Measured: 24 and 36.
+                assert!(bvh.stack_need <= INLINE_STACK, "{name}: needs {}", bvh.stack_need);
+            }
+            let bounds = bvh.nodes[0].bounds();
+            let mut leaves = 0;
+            for _ in 0..20_000 {
+                let inside = |next: &mut dyn FnMut() -> f32| bounds.min + (bounds.max - bounds.min) * Vec3::new(next(), next(), next());
+                let origin = inside(&mut next);
+                let ray = Ray::new(origin, inside(&mut next) - origin);
+                let mut stack = vec![Deferred::default(); bvh.stack_need];
+                let none = bvh.walk(&ray, f32::INFINITY, &mut stack, |_, _| {
+                    leaves += 1;
+                    None
+                });
+                assert!(none.is_none() && bvh.intersect(&ray, f32::INFINITY, |_, _| None).is_none());
+            }
+            // Provenance: 8,553, 169,986 and 4,000,000 on the first run;
+            // the bound only checks that the rays go through the trees.
+            assert!(leaves > 5_000, "{name}: the rays reached only {leaves} leaves");
+        }
+    }
+
     /// Every leaf of the binary tree is a lane of the wide tree, with its
     /// box bit for bit, and every wide interior lane is a binary node with
     /// its box; wide nodes are full unless their subtree has fewer leaves.
@@ -844,6 +954,10 @@ mod tests {
                     todo.extend((0..kids).map(|l| (c.index as usize, l)));
                 }
             }
+            // A wide leaf lane holds the leaf's number, the binary leaf its
+            // first entry.
+            let firsts: Vec<u32> = bvh.leaves().map(|r| r.start as u32).collect();
+            found.iter_mut().for_each(|n| n.index = firsts[n.index as usize]);
             let key = |n: &BvhNode| n.index;
             leaves.sort_by_key(key);
             found.sort_by_key(key);
