@@ -157,7 +157,8 @@ pub struct Scene {
     pub bvh_stats: BvhBuildStats,
     /// The traversal's copy of the geometry, one packet per BVH leaf (in
     /// the numbering of [`Bvh::leaves`]), made with the BVH: the two are
-    /// private so that they always match.
+    /// private so that they always match. The geometry fields above are
+    /// read-only once built (the copies and the BVH's boxes are theirs).
     packets: Vec<LeafPacket>,
 }
 
