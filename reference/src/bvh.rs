@@ -117,9 +117,8 @@ const WIDTH: usize = 8;
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct WideNode {
     bounds: [[f32; WIDTH]; 6],
-    /// Interior lane: index into `wide`. Leaf lane: the leaf's number
-    /// (binary leaves counted in node order, as [`Bvh::leaves`] lists
-    /// them). Empty lane: 0.
+    /// Interior lane: index into `wide`. Leaf lane: first entry in
+    /// `prim_order`. Empty lane: 0.
     child: [u32; WIDTH],
     /// A binary node's `meta` (leaf: `count << 2 | 3`; interior: its axis);
     /// [`WideNode::EMPTY`] for an unused lane.
@@ -317,8 +316,7 @@ fn bin_of(c: f32, lo: f32, scale: f32) -> usize {
 
 /// Collapses binary interior node `i` into a new [`WideNode`] (and its
 /// subtree after it) and returns the new node's index.
-/// `leaf_number[n]`: how many leaves precede node `n` in the node array.
-fn collapse(nodes: &[BvhNode], leaf_number: &[u32], i: usize, wide: &mut Vec<WideNode>) -> (u32, usize) {
+fn collapse(nodes: &[BvhNode], i: usize, wide: &mut Vec<WideNode>) -> (u32, usize) {
     let mut kids = [0usize; WIDTH];
     kids[..2].copy_from_slice(&[i + 1, nodes[i].index as usize]);
     let mut n = 2;
@@ -337,9 +335,9 @@ fn collapse(nodes: &[BvhNode], leaf_number: &[u32], i: usize, wide: &mut Vec<Wid
     for (lane, &c) in kids[..n].iter().enumerate() {
         let node = &nodes[c];
         let child = if node.is_leaf() {
-            leaf_number[c]
+            node.index
         } else {
-            let (child, need) = collapse(nodes, leaf_number, c, wide);
+            let (child, need) = collapse(nodes, c, wide);
             below = below.max(need);
             child
         };
@@ -552,17 +550,10 @@ impl Bvh {
 
     /// A tree from its node array and primitive order, as [`Bvh::build`]
     /// makes them (depth-first, left child next, see the module comment).
-    /// For tests that hand-edit a tree; panics if an index is out of range
-    /// or a leaf holds more than [`MAX_LEAF_SIZE`] entries (the traversal's
-    /// callers keep a leaf's primitives in one packet of that size).
+    /// For tests that hand-edit a tree; panics if an index is out of range.
     pub fn from_parts(nodes: Vec<BvhNode>, prim_order: Vec<u32>) -> Bvh {
-        let mut leaf_number = Vec::with_capacity(nodes.len());
-        let mut leaves = 0;
         for (i, n) in nodes.iter().enumerate() {
-            leaf_number.push(leaves);
             if n.is_leaf() {
-                leaves += 1;
-                assert!(n.count() as usize <= MAX_LEAF_SIZE, "leaf {i} holds more than {MAX_LEAF_SIZE} entries");
                 assert!(n.index as usize + n.count() as usize <= prim_order.len(), "leaf {i} runs past the primitive order");
             } else {
                 assert!(i + 1 < nodes.len() && (n.index as usize) < nodes.len(), "interior node {i} has a child out of range");
@@ -573,9 +564,9 @@ impl Bvh {
         if let Some(root) = nodes.first() {
             wide.push(WideNode::NONE);
             let child = if root.is_leaf() {
-                0
+                root.index
             } else {
-                let (child, need) = collapse(&nodes, &leaf_number, 0, &mut wide);
+                let (child, need) = collapse(&nodes, 0, &mut wide);
                 stack_need = need;
                 child
             };
@@ -592,13 +583,6 @@ impl Bvh {
     /// Primitive ids in leaf order.
     pub fn prim_order(&self) -> &[u32] {
         &self.prim_order
-    }
-
-    /// Each leaf's entries (indices into [`Bvh::prim_order`]), leaves in
-    /// node order: the numbering [`Bvh::intersect`] passes to its callback.
-    /// At most [`MAX_LEAF_SIZE`] entries each.
-    pub fn leaves(&self) -> impl Iterator<Item = std::ops::Range<usize>> + '_ {
-        self.nodes.iter().filter(|n| n.is_leaf()).map(|n| n.index as usize..(n.index + n.count()) as usize)
     }
 
     fn stats(&self) -> BvhBuildStats {
@@ -641,26 +625,23 @@ impl Bvh {
         intersect_aabb_padded(bounds.min, bounds.max, ray.origin, ray.direction.recip(), pad, t).is_some()
     }
 
-    /// Closest hit: `intersect_leaf(k, limit)` tests the primitives of leaf
-    /// `k` (numbered as [`Bvh::leaves`] lists them; the caller may keep
-    /// their geometry by leaf) and returns, among their hits with
-    /// `t < limit`, the one with the smallest t, ties to the smaller
-    /// primitive id. Ties across leaves go the same way, so the result
-    /// equals a brute-force scan in id order bit for bit, provided
-    /// `intersect_leaf` reports only hits that [`Bvh::admits`] (as
-    /// `Scene::intersect` does).
+    /// Closest hit: `intersect_entry(i, t_max)` tests primitive
+    /// `prim_order()[i]` (the caller may keep its geometry in that order).
+    /// Ties in t go to the smaller primitive id, so the result equals a
+    /// brute-force scan in id order bit for bit, provided `intersect_entry`
+    /// reports only hits that [`Bvh::admits`] (as `Scene::intersect` does).
     #[inline]
-    pub fn intersect(&self, ray: &Ray, t_max: f32, intersect_leaf: impl FnMut(usize, f32) -> Option<Hit>) -> Option<Hit> {
+    pub fn intersect(&self, ray: &Ray, t_max: f32, intersect_entry: impl FnMut(usize, f32) -> Option<Hit>) -> Option<Hit> {
         if self.stack_need <= INLINE_STACK {
-            self.walk(ray, t_max, &mut [Deferred::default(); INLINE_STACK], intersect_leaf)
+            self.walk(ray, t_max, &mut [Deferred::default(); INLINE_STACK], intersect_entry)
         } else {
-            self.walk(ray, t_max, &mut vec![Deferred::default(); self.stack_need], intersect_leaf)
+            self.walk(ray, t_max, &mut vec![Deferred::default(); self.stack_need], intersect_entry)
         }
     }
 
     /// [`Bvh::intersect`] with a stack of at least `stack_need` entries.
     #[inline(always)]
-    fn walk(&self, ray: &Ray, t_max: f32, stack: &mut [Deferred], mut intersect_leaf: impl FnMut(usize, f32) -> Option<Hit>) -> Option<Hit> {
+    fn walk(&self, ray: &Ray, t_max: f32, stack: &mut [Deferred], mut intersect_entry: impl FnMut(usize, f32) -> Option<Hit>) -> Option<Hit> {
         let mut best: Option<Hit> = None;
         let mut best_t = t_max;
         if self.nodes.is_empty() {
@@ -675,12 +656,15 @@ impl Bvh {
         let (mut child, mut meta) = (self.wide[0].child[0], self.wide[0].meta[0]);
         loop {
             if meta & 3 == BvhNode::LEAF {
-                // Query up to just past best_t so exact ties are seen.
-                let limit = if best.is_some() { next_up(best_t) } else { best_t };
-                if let Some(h) = intersect_leaf(child as usize, limit) {
-                    if h.t < best_t || best.is_some_and(|b| h.t == b.t && h.prim < b.prim) || best.is_none() {
-                        best_t = h.t;
-                        best = Some(h);
+                let first = child as usize;
+                for entry in first..first + (meta >> 2) as usize {
+                    // Query up to just past best_t so exact ties are seen.
+                    let limit = if best.is_some() { next_up(best_t) } else { best_t };
+                    if let Some(h) = intersect_entry(entry, limit) {
+                        if h.t < best_t || best.is_some_and(|b| h.t == b.t && h.prim < b.prim) || best.is_none() {
+                            best_t = h.t;
+                            best = Some(h);
+                        }
                     }
                 }
             } else {
@@ -914,21 +898,21 @@ mod tests {
                 assert!(bvh.stack_need <= INLINE_STACK, "{name}: needs {}", bvh.stack_need);
             }
             let bounds = bvh.nodes[0].bounds();
-            let mut leaves = 0;
+            let mut entries = 0;
             for _ in 0..20_000 {
                 let inside = |next: &mut dyn FnMut() -> f32| bounds.min + (bounds.max - bounds.min) * Vec3::new(next(), next(), next());
                 let origin = inside(&mut next);
                 let ray = Ray::new(origin, inside(&mut next) - origin);
                 let mut stack = vec![Deferred::default(); bvh.stack_need];
                 let none = bvh.walk(&ray, f32::INFINITY, &mut stack, |_, _| {
-                    leaves += 1;
+                    entries += 1;
                     None
                 });
                 assert!(none.is_none() && bvh.intersect(&ray, f32::INFINITY, |_, _| None).is_none());
             }
-            // Provenance: 8,553, 169,986 and 4,000,000 on the first run;
+            // Provenance: 8,553, 238,412 and 4,000,000 on the first run;
             // the bound only checks that the rays go through the trees.
-            assert!(leaves > 5_000, "{name}: the rays reached only {leaves} leaves");
+            assert!(entries > 5_000, "{name}: the rays reached only {entries} primitive entries");
         }
     }
 
@@ -954,10 +938,6 @@ mod tests {
                     todo.extend((0..kids).map(|l| (c.index as usize, l)));
                 }
             }
-            // A wide leaf lane holds the leaf's number, the binary leaf its
-            // first entry.
-            let firsts: Vec<u32> = bvh.leaves().map(|r| r.start as u32).collect();
-            found.iter_mut().for_each(|n| n.index = firsts[n.index as usize]);
             let key = |n: &BvhNode| n.index;
             leaves.sort_by_key(key);
             found.sort_by_key(key);

@@ -4,9 +4,7 @@
 //! scenes), the BVH whose flattened node array every backend walks, the
 //! counter-based RNG and sampling routines, and the scalar path tracer that
 //! the GPU kernels are checked against. Written to be obviously correct
-//! first: f32, closed `enum` dispatch, no unsafe. Where the traversal
-//! tests four boxes or triangles at once (`Vec4`), it runs the scalar
-//! routine's operations lane by lane, so the bits are the scalar ones.
+//! first: scalar f32, closed `enum` dispatch, no unsafe.
 //!
 //! This crate knows nothing of wgpu or of any GPU.
 
@@ -21,7 +19,6 @@ pub mod f64_oracle;
 pub mod film;
 pub mod geometry;
 pub mod integrator;
-mod leaf;
 pub mod loader;
 pub mod material;
 pub mod procedural;

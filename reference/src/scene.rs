@@ -3,11 +3,10 @@
 //! and always valid.
 
 use crate::background::Background;
-use crate::bvh::{box_pad, Bvh, BvhBuildStats};
+use crate::bvh::{box_pad, intersect_aabb_padded, Bvh, BvhBuildStats};
 use crate::camera::{Camera, CameraSettings};
 use crate::error::SceneError;
 use crate::geometry::{gamma, Aabb, Hit, Ray, SurfaceInteraction};
-use crate::leaf::{LeafPacket, LeafPrim, RayConstants};
 use crate::material::Material;
 use crate::shapes::{MeshData, Quad, RayShear, Sphere, Triangle, TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_UVS};
 use crate::texture::{ImageData, Texture};
@@ -153,51 +152,19 @@ pub struct Scene {
     pub images: Vec<ImageData>,
     /// All primitives in scene order; the index is the primitive id.
     pub primitives: Vec<Primitive>,
-    bvh: Bvh,
+    pub bvh: Bvh,
     pub bvh_stats: BvhBuildStats,
-    /// The traversal's copy of the geometry, one packet per BVH leaf (in
-    /// the numbering of [`Bvh::leaves`]), made with the BVH: the two are
-    /// private so that they always match. The geometry fields above are
-    /// read-only once built (the copies and the BVH's boxes are theirs).
-    packets: Vec<LeafPacket>,
+    /// The traversal's copy of every primitive's geometry in BVH leaf
+    /// order (`bvh.prim_order()`), made by `SceneBuilder::build`. The
+    /// geometry above is read-only once built; tests that hand-edit the
+    /// BVH keep its primitive order.
+    leaf_prims: Vec<LeafPrim>,
 }
 
 impl Scene {
     /// The camera for an image of `width x height`.
     pub fn camera(&self, width: u32, height: u32) -> Camera {
         Camera::new(&self.camera_settings, width as f32 / height as f32)
-    }
-
-    /// The BVH over [`Scene::primitives`].
-    pub fn bvh(&self) -> &Bvh {
-        &self.bvh
-    }
-
-    /// Replaces the BVH (for tests that hand-edit one: a mutation must
-    /// reach the traversal) and re-copies the geometry into its leaves.
-    /// Panics if `bvh` does not index this scene's primitives.
-    pub fn set_bvh(&mut self, bvh: Bvh) {
-        assert!(bvh.prim_order().iter().all(|&p| (p as usize) < self.primitives.len()), "the BVH indexes a primitive the scene lacks");
-        self.bvh = bvh;
-        self.packets =
-            self.bvh.leaves().map(|entries| LeafPacket::new(&entries.map(|e| self.leaf_prim(self.bvh.prim_order()[e])).collect::<Vec<_>>())).collect();
-    }
-
-    /// One primitive's geometry as the leaf tests read it.
-    fn leaf_prim(&self, prim: u32) -> LeafPrim {
-        let p = self.primitives[prim as usize];
-        let geometry = match p.tag {
-            primitive_tag::SPHERE => {
-                let s = &self.spheres[p.index as usize];
-                [s.center, Vec3::new(s.radius, 0.0, 0.0), Vec3::ZERO]
-            }
-            primitive_tag::QUAD => {
-                let q = &self.quads[p.index as usize];
-                [q.corner, q.u, q.v]
-            }
-            _ => self.triangles[p.index as usize].vertices.map(|i| self.mesh.positions[i as usize]),
-        };
-        LeafPrim { p: geometry, prim, tag: p.tag }
     }
 
     pub fn bounds(&self) -> Aabb {
@@ -216,7 +183,7 @@ impl Scene {
     /// scan agree bit for bit.
     #[inline]
     pub fn intersect_primitive(&self, prim: u32, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-        self.leaf_prim(prim).intersect(ray, &self.ray_constants(ray)?, t_min, t_max)
+        LeafPrim::of(self, prim).intersect(ray, &self.ray_constants(ray)?, t_min, t_max)
     }
 
     /// The per-ray constants of the primitive tests; `None` for an empty
@@ -231,12 +198,12 @@ impl Scene {
         })
     }
 
-    /// Closest hit in `(t_min, t_max)`, through the BVH. Leaves read their
-    /// packets ([`crate::leaf`]).
+    /// Closest hit in `(t_min, t_max)`, through the BVH. Leaves read the
+    /// leaf-ordered copies in `leaf_prims`.
     #[inline]
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
         let c = self.ray_constants(ray)?;
-        self.bvh.intersect(ray, t_max, |leaf, t_max| self.packets[leaf].intersect(ray, &c, t_min, t_max))
+        self.bvh.intersect(ray, t_max, |entry, t_max| self.leaf_prims[entry].intersect(ray, &c, t_min, t_max))
     }
 
     /// Closest hit by testing every primitive: the oracle for the BVH.
@@ -246,7 +213,7 @@ impl Scene {
         let c = self.ray_constants(ray)?;
         let mut best: Option<Hit> = None;
         for prim in 0..self.primitives.len() as u32 {
-            if let Some(h) = self.leaf_prim(prim).intersect(ray, &c, t_min, t_max) {
+            if let Some(h) = LeafPrim::of(self, prim).intersect(ray, &c, t_min, t_max) {
                 if best.is_none_or(|b| h.t < b.t) {
                     best = Some(h);
                 }
@@ -312,6 +279,76 @@ fn primitive_bounds(p: Primitive, spheres: &[Sphere], quads: &[Quad], triangles:
         primitive_tag::QUAD => quads[p.index as usize].bounds(),
         _ => triangles[p.index as usize].bounds(mesh),
     }
+}
+
+/// One primitive with its geometry copied in: a BVH leaf entry reads one
+/// contiguous 48-byte record instead of chasing primitive → shape → vertex
+/// indices → positions (four dependent loads, most of them cache misses on
+/// large meshes). The floats are the scene's own, so every test and box is
+/// bit for bit what the scene's arrays give.
+#[repr(C, align(16))]
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct LeafPrim {
+    /// Sphere: center, (radius, 0, 0). Quad: corner, u, v. Triangle: its
+    /// three vertices.
+    p: [Vec3; 3],
+    prim: u32,
+    tag: u32,
+}
+
+impl LeafPrim {
+    fn of(scene: &Scene, prim: u32) -> Self {
+        let p = scene.primitives[prim as usize];
+        let geometry = match p.tag {
+            primitive_tag::SPHERE => {
+                let s = &scene.spheres[p.index as usize];
+                [s.center, Vec3::new(s.radius, 0.0, 0.0), Vec3::ZERO]
+            }
+            primitive_tag::QUAD => {
+                let q = &scene.quads[p.index as usize];
+                [q.corner, q.u, q.v]
+            }
+            _ => scene.triangles[p.index as usize].vertices.map(|i| scene.mesh.positions[i as usize]),
+        };
+        LeafPrim { p: geometry, prim, tag: p.tag }
+    }
+
+    /// [`primitive_bounds`], from the copied floats (the same operations).
+    #[inline]
+    fn bounds(&self) -> Aabb {
+        let [a, b, c] = self.p;
+        match self.tag {
+            primitive_tag::SPHERE => Sphere { center: a, radius: b.x, material: 0 }.bounds(),
+            primitive_tag::QUAD => Quad { corner: a, u: b, v: c, material: 0 }.bounds(),
+            _ => Aabb::from_points(&[a, b, c]),
+        }
+    }
+
+    /// The shape's test, then [`Bvh::admits`] with the ray's inverse
+    /// direction and pad from `k`.
+    #[inline]
+    fn intersect(&self, ray: &Ray, k: &RayConstants, t_min: f32, t_max: f32) -> Option<Hit> {
+        use crate::shapes::{intersect_quad, intersect_sphere, intersect_triangle_sheared};
+        let [a, b, c] = self.p;
+        let prim = self.prim;
+        let hit = match self.tag {
+            primitive_tag::SPHERE => intersect_sphere(a, b.x, ray, t_min, t_max).map(|t| Hit { t, prim, uv: Vec2::ZERO }),
+            primitive_tag::QUAD => intersect_quad(a, b, c, ray, t_min, t_max).map(|(t, uv)| Hit { t, prim, uv }),
+            _ => intersect_triangle_sheared(a, b, c, ray, k.shear.as_ref()?, t_min, t_max).map(|(t, uv)| Hit { t, prim, uv }),
+        }?;
+        let bounds = self.bounds();
+        intersect_aabb_padded(bounds.min, bounds.max, ray.origin, k.inv_dir, k.pad, hit.t).map(|_| hit)
+    }
+}
+
+/// One ray's constants for the primitive tests of a traversal: the
+/// triangle shear ([`RayShear`]; `None` for a zero direction) and what
+/// [`Bvh::admits`] computes (inverse direction, box pad).
+#[derive(Clone, Copy, Debug)]
+struct RayConstants {
+    shear: Option<RayShear>,
+    inv_dir: Vec3,
+    pad: f32,
 }
 
 /// Collects a scene, checks it, and builds its BVH.
@@ -617,11 +654,11 @@ impl SceneBuilder {
             textures: self.textures,
             images: self.images,
             primitives: self.primitives,
-            bvh: Bvh::default(),
+            bvh,
             bvh_stats,
-            packets: Vec::new(),
+            leaf_prims: Vec::new(),
         };
-        scene.set_bvh(bvh);
+        scene.leaf_prims = scene.bvh.prim_order().iter().map(|&prim| LeafPrim::of(&scene, prim)).collect();
         Ok(scene)
     }
 }

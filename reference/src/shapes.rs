@@ -191,101 +191,42 @@ impl RayShear {
     }
 }
 
-/// Number types the watertight test runs on: `f32` for one triangle,
-/// `Vec4` for four ([`crate::leaf`]). Only `+ − ×` are used in the shared
-/// part, each an IEEE operation lane by lane (never fused), so every lane
-/// of a `Vec4` gets the bits the `f32` routine gets.
-pub(crate) trait Lanes: Copy + std::ops::Add<Output = Self> + std::ops::Sub<Output = Self> + std::ops::Mul<Output = Self> {
-    fn splat(x: f32) -> Self;
-}
-
-impl Lanes for f32 {
-    #[inline(always)]
-    fn splat(x: f32) -> Self {
-        x
-    }
-}
-
-impl Lanes for glam::Vec4 {
-    #[inline(always)]
-    fn splat(x: f32) -> Self {
-        glam::Vec4::splat(x)
-    }
-}
-
-/// The triangle in ray space: the shear applied to the vertices taken
-/// relative to the ray origin (`a`, `b`, `c`, indexed by axis), and the
-/// three edge functions. The part of the watertight test shared by the
-/// scalar and the four-wide routines.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct ShearedTriangle<T> {
-    /// Sheared x, y of the three vertices: `[ax, ay, bx, by, cx, cy]`.
-    pub xy: [T; 6],
-    pub u: T,
-    pub v: T,
-    pub w: T,
-}
-
-impl RayShear {
-    /// Shears a triangle given relative to the ray origin.
-    #[inline(always)]
-    pub(crate) fn triangle<T: Lanes>(&self, a: [T; 3], b: [T; 3], c: [T; 3]) -> ShearedTriangle<T> {
-        let (kx, ky, kz) = (self.kx, self.ky, self.kz);
-        let (sx, sy) = (T::splat(self.sx), T::splat(self.sy));
-        let ax = a[kx] - sx * a[kz];
-        let ay = a[ky] - sy * a[kz];
-        let bx = b[kx] - sx * b[kz];
-        let by = b[ky] - sy * b[kz];
-        let cx = c[kx] - sx * c[kz];
-        let cy = c[ky] - sy * c[kz];
-        ShearedTriangle { xy: [ax, ay, bx, by, cx, cy], u: cx * by - cy * bx, v: ax * cy - ay * cx, w: bx * ay - by * ax }
-    }
-
-    /// `det · t`: the edge-function-weighted sheared depths.
-    #[inline(always)]
-    pub(crate) fn scaled_t<T: Lanes>(&self, a: [T; 3], b: [T; 3], c: [T; 3], u: T, v: T, w: T) -> T {
-        let sz = T::splat(self.sz);
-        let (az, bz, cz) = (sz * a[self.kz], sz * b[self.kz], sz * c[self.kz]);
-        u * az + v * bz + w * cz
-    }
-}
-
-/// The edge functions in f64, for the case where one is exactly zero in f32
-/// (the ray passes through an edge or vertex to within f32 rounding): the
-/// products are then exact, so neighbours sharing the edge agree on its
-/// sign. `xy` as in [`ShearedTriangle::xy`].
-#[inline(never)]
-pub(crate) fn edge_functions_f64(xy: [f32; 6]) -> (f32, f32, f32) {
-    let [ax, ay, bx, by, cx, cy] = xy.map(f64::from);
-    ((cx * by - cy * bx) as f32, (ax * cy - ay * cx) as f32, (bx * ay - by * ax) as f32)
-}
-
-/// Whether edge functions that are not all of one sign (zero counts as
-/// either) put the ray outside the triangle.
-#[inline(always)]
-pub(crate) fn edge_signs_differ(u: f32, v: f32, w: f32) -> bool {
-    (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0)
-}
-
 /// [`intersect_triangle`] with the ray's [`RayShear`] given.
 #[inline]
 pub fn intersect_triangle_sheared(p0: Vec3, p1: Vec3, p2: Vec3, ray: &Ray, shear: &RayShear, t_min: f32, t_max: f32) -> Option<(f32, Vec2)> {
-    let a = (p0 - ray.origin).to_array();
-    let b = (p1 - ray.origin).to_array();
-    let c = (p2 - ray.origin).to_array();
-    let ShearedTriangle { xy, mut u, mut v, mut w } = shear.triangle(a, b, c);
+    let RayShear { kx, ky, kz, sx, sy, sz } = *shear;
+    let a = p0 - ray.origin;
+    let b = p1 - ray.origin;
+    let c = p2 - ray.origin;
+    let ax = a[kx] - sx * a[kz];
+    let ay = a[ky] - sy * a[kz];
+    let bx = b[kx] - sx * b[kz];
+    let by = b[ky] - sy * b[kz];
+    let cx = c[kx] - sx * c[kz];
+    let cy = c[ky] - sy * c[kz];
+
+    let mut u = cx * by - cy * bx;
+    let mut v = ax * cy - ay * cx;
+    let mut w = bx * ay - by * ax;
     if u == 0.0 || v == 0.0 || w == 0.0 {
-        (u, v, w) = edge_functions_f64(xy);
+        let (ax, ay, bx, by, cx, cy) = (ax as f64, ay as f64, bx as f64, by as f64, cx as f64, cy as f64);
+        u = (cx * by - cy * bx) as f32;
+        v = (ax * cy - ay * cx) as f32;
+        w = (bx * ay - by * ax) as f32;
     }
-    if edge_signs_differ(u, v, w) {
+    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
         return None;
     }
     let det = u + v + w;
     if det == 0.0 {
         return None;
     }
+    let az = sz * a[kz];
+    let bz = sz * b[kz];
+    let cz = sz * c[kz];
+    let t_scaled = u * az + v * bz + w * cz;
     let inv_det = 1.0 / det;
-    let t = shear.scaled_t(a, b, c, u, v, w) * inv_det;
+    let t = t_scaled * inv_det;
     // The only range test: the computed t against the interval, so whether
     // a hit is reported never depends on t_max except through t itself
     // (the BVH and the brute-force oracle must agree bit for bit).
