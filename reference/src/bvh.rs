@@ -315,7 +315,8 @@ fn bin_of(c: f32, lo: f32, scale: f32) -> usize {
 }
 
 /// Collapses binary interior node `i` into a new [`WideNode`] (and its
-/// subtree after it) and returns the new node's index.
+/// subtree after it) and returns the new node's index and its subtree's
+/// stack need (see [`Bvh`]'s `stack_need`).
 fn collapse(nodes: &[BvhNode], i: usize, wide: &mut Vec<WideNode>) -> (u32, usize) {
     let mut kids = [0usize; WIDTH];
     kids[..2].copy_from_slice(&[i + 1, nodes[i].index as usize]);
@@ -740,6 +741,17 @@ impl Bvh {
 mod tests {
     use super::*;
 
+    /// Uniform floats in [0, 1) from a xorshift64 generator: the tests'
+    /// deterministic stream.
+    fn uniform(mut state: u64) -> impl FnMut() -> f32 {
+        move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        }
+    }
+
     fn boxes(n: usize) -> Vec<Aabb> {
         (0..n)
             .map(|i| {
@@ -812,13 +824,7 @@ mod tests {
     /// starting on them (the NaN cases) and empty lanes.
     #[test]
     fn wide_box_test_is_the_binary_test_per_lane() {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut next = uniform(0x2545_f491_4f6c_dd1d);
         let mut checked = 0;
         for case in 0..20_000 {
             fn pick(next: &mut impl FnMut() -> f32, snap: bool) -> f32 {
@@ -872,15 +878,7 @@ mod tests {
     /// the same) needs more and gets it on the heap.
     #[test]
     fn stack_need_bounds_the_deferred_subtrees() {
-        let mut next = {
-            let mut state = 0x853c_49e6_748f_ea9bu64;
-            move || {
-                state ^= state << 13;
-                state ^= state >> 7;
-                state ^= state << 17;
-                (state >> 40) as f32 / (1u64 << 24) as f32
-            }
-        };
+        let mut next = uniform(0x853c_49e6_748f_ea9b);
         let unit = Aabb { min: Vec3::ZERO, max: Vec3::ONE };
         let legs = 200;
         let mut nodes = Vec::new();
