@@ -12,10 +12,12 @@
 //! spheres, 0.05–3 above the ground, in uniform directions), and closed
 //! meshes with rays from random interior points in uniform directions:
 //! tori of exactly 10^4 and 10^6 triangles, and the bumpy spheres that
-//! DESIGN.md's Embree anchors name (bumpy_sphere(4): 5,120 triangles;
-//! bumpy_sphere(7): 327,680). `TWINTRACE_BENCH_RAYS` sets the ray count
-//! (default 10^6), `TWINTRACE_BENCH_ONLY` a substring of the scene names
-//! to run. Each figure is the best of three passes after a warm-up.
+//! DESIGN.md's Embree anchors name, at the icosphere levels on either side
+//! of its 10^4 and 10^6 triangles (bumpy_sphere(4, 5, 7, 8): 5,120,
+//! 20,480, 327,680 and 1,310,720 triangles). `TWINTRACE_BENCH_RAYS` sets
+//! the ray count (default 10^6), `TWINTRACE_BENCH_ONLY` a substring of the
+//! scene names to run (only those scenes are built). Each figure is the
+//! best of three passes after a warm-up.
 
 use glam::Vec3;
 use reference::embree::EmbreeScene;
@@ -85,23 +87,34 @@ fn main() {
         }
     };
     let in_ball = |radius: f32| move |r: &mut Rng| r.unit() * (radius * r.f32().cbrt());
-    type Case = (&'static str, Scene, Vec<Ray>);
+    type Case = (&'static str, Box<dyn Fn() -> (Scene, Vec<Ray>)>);
+    let torus = |segments: u32, rings: u32, seed: u64| {
+        move || (mesh_scene(&reference::procedural::torus(1.0, 0.35, segments, rings)), rays(n, seed, in_tube(1.0, 0.35)))
+    };
+    let bumpy = |level: u32, seed: u64| move || (mesh_scene(&reference::procedural::bumpy_sphere(level, 0.08, 6.0)), rays(n, seed, in_ball(0.5)));
+    // Built lazily: only the scenes `TWINTRACE_BENCH_ONLY` selects.
     let cases: Vec<Case> = vec![
         (
             "rtow-final (488 spheres)",
-            reference::builtin::load("rtow-final").unwrap(),
-            rays(n, 1, |r| Vec3::new(24.0 * r.f32() - 12.0, 0.05 + 2.95 * r.f32(), 24.0 * r.f32() - 12.0)),
+            Box::new(move || {
+                let rays = rays(n, 1, |r| Vec3::new(24.0 * r.f32() - 12.0, 0.05 + 2.95 * r.f32(), 24.0 * r.f32() - 12.0));
+                (reference::builtin::load("rtow-final").unwrap(), rays)
+            }),
         ),
-        ("torus, 10^4 triangles", mesh_scene(&reference::procedural::torus(1.0, 0.35, 100, 50)), rays(n, 2, in_tube(1.0, 0.35))),
-        ("torus, 10^6 triangles", mesh_scene(&reference::procedural::torus(1.0, 0.35, 1000, 500)), rays(n, 3, in_tube(1.0, 0.35))),
-        ("bumpy sphere, 5,120 triangles", mesh_scene(&reference::procedural::bumpy_sphere(4, 0.08, 6.0)), rays(n, 4, in_ball(0.5))),
-        ("bumpy sphere, 327,680 triangles", mesh_scene(&reference::procedural::bumpy_sphere(7, 0.08, 6.0)), rays(n, 5, in_ball(0.5))),
+        ("torus, 10^4 triangles", Box::new(torus(100, 50, 2))),
+        ("torus, 10^6 triangles", Box::new(torus(1000, 500, 3))),
+        ("bumpy sphere, 5,120 triangles", Box::new(bumpy(4, 4))),
+        ("bumpy sphere, 20,480 triangles", Box::new(bumpy(5, 6))),
+        ("bumpy sphere, 327,680 triangles", Box::new(bumpy(7, 5))),
+        ("bumpy sphere, 1,310,720 triangles", Box::new(bumpy(8, 7))),
     ];
     println!("{n} incoherent rays per scene, one thread, best of 3 passes\n");
     println!("| scene | reference rays/s | Embree rtcIntersect1 rays/s | reference / Embree |");
     println!("|---|---|---|---|");
     let only = std::env::var("TWINTRACE_BENCH_ONLY").unwrap_or_default();
-    for (name, scene, rays) in cases.iter().filter(|c| c.0.contains(only.as_str())) {
+    for (name, make) in cases.iter().filter(|c| c.0.contains(only.as_str())) {
+        let (scene, rays) = make();
+        let (scene, rays) = (&scene, &rays);
         let embree = EmbreeScene::new(scene).expect("embree scene");
         let (ref_rate, ref_hits) = measure(rays, |r| scene.intersect(r, 0.0, f32::INFINITY).is_some());
         let (emb_rate, emb_hits) = measure(rays, |r| embree.intersect(r, 0.0, f32::INFINITY).is_some());

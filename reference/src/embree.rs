@@ -26,8 +26,9 @@
 //! the next float above `t_min` and below `t_max`, so both answer the
 //! same question.
 //!
-//! This is the only module of the crate with `unsafe` code: FFI calls into
-//! libembree4 through `embree4-sys`. Every call's error state is checked.
+//! Besides one prefetch hint ([`crate::bvh::prefetch`]), this is the only
+//! module of the crate with `unsafe` code: FFI calls into libembree4
+//! through `embree4-sys`. Every call's error state is checked.
 
 use crate::geometry::Ray;
 use crate::scene::{primitive_tag, Scene};

@@ -4,7 +4,9 @@
 //! scenes), the BVH whose flattened node array every backend walks, the
 //! counter-based RNG and sampling routines, and the scalar path tracer that
 //! the GPU kernels are checked against. Written to be obviously correct
-//! first: scalar f32, closed `enum` dispatch, no unsafe.
+//! first: scalar f32, closed `enum` dispatch, no unsafe except the Embree
+//! bindings and one cache prefetch hint ([`bvh::prefetch`], sound for any
+//! address).
 //!
 //! This crate knows nothing of wgpu or of any GPU.
 

@@ -3,7 +3,7 @@
 //! and always valid.
 
 use crate::background::Background;
-use crate::bvh::{box_pad, intersect_aabb_padded, Bvh, BvhBuildStats};
+use crate::bvh::{box_pad, intersect_aabb_padded, Bvh, BvhBuildStats, Leaves};
 use crate::camera::{Camera, CameraSettings};
 use crate::error::SceneError;
 use crate::geometry::{gamma, Aabb, Hit, Ray, SurfaceInteraction};
@@ -203,7 +203,7 @@ impl Scene {
     #[inline]
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
         let c = self.ray_constants(ray)?;
-        self.bvh.intersect(ray, t_max, |entry, t_max| self.leaf_prims[entry].intersect(ray, &c, t_min, t_max))
+        self.bvh.intersect(ray, t_max, LeafTests { prims: &self.leaf_prims, ray, constants: c, t_min })
     }
 
     /// Closest hit by testing every primitive: the oracle for the BVH.
@@ -338,6 +338,26 @@ impl LeafPrim {
         }?;
         let bounds = self.bounds();
         intersect_aabb_padded(bounds.min, bounds.max, ray.origin, k.inv_dir, k.pad, hit.t).map(|_| hit)
+    }
+}
+
+/// One ray's tests of the leaf-ordered primitives, for [`Bvh::intersect`].
+struct LeafTests<'a> {
+    prims: &'a [LeafPrim],
+    ray: &'a Ray,
+    constants: RayConstants,
+    t_min: f32,
+}
+
+impl Leaves for LeafTests<'_> {
+    #[inline]
+    fn intersect(&mut self, entry: usize, t_max: f32) -> Option<Hit> {
+        self.prims[entry].intersect(self.ray, &self.constants, self.t_min, t_max)
+    }
+
+    #[inline]
+    fn prefetch(&self, first: usize, count: usize) {
+        crate::bvh::prefetch(&self.prims[first..first + count]);
     }
 }
 
