@@ -13,8 +13,8 @@
 //! meshes with rays from random interior points in uniform directions:
 //! tori of exactly 10^4 and 10^6 triangles, and the bumpy spheres that
 //! DESIGN.md's Embree anchors name, at the icosphere levels on either side
-//! of its 10^4 and 10^6 triangles (bumpy_sphere(4, 5, 7, 8): 5,120,
-//! 20,480, 327,680 and 1,310,720 triangles). `TWINTRACE_BENCH_RAYS` sets
+//! of its 10^4 and 10^6 triangles (`bumpy_sphere` levels 4, 5, 7 and 8:
+//! 5,120, 20,480, 327,680 and 1,310,720 triangles). `TWINTRACE_BENCH_RAYS` sets
 //! the ray count (default 10^6), `TWINTRACE_BENCH_ONLY` a substring of the
 //! scene names to run (only those scenes are built). Each figure is the
 //! best of three passes after a warm-up.

@@ -525,9 +525,9 @@ pub trait Leaves {
     /// Tests entry `entry` against the ray up to `t_max`.
     fn intersect(&mut self, entry: usize, t_max: f32) -> Option<Hit>;
 
-    /// A hint that entries `first..first + count` will be tested soon (a
-    /// leaf deferred behind a nearer one): start loading them, see
-    /// [`prefetch`]. It must change nothing else.
+    /// A hint that entries `first..first + count` may be tested soon (a
+    /// hit leaf lane of a node with several hit lanes): start loading
+    /// them, see [`crate::bvh::prefetch`]. It must change nothing else.
     #[inline(always)]
     fn prefetch(&self, first: usize, count: usize) {
         let _ = (first, count);
@@ -545,19 +545,20 @@ impl<F: FnMut(usize, f32) -> Option<Hit>> Leaves for F {
 /// that a later read finds them in L1: a hint, with no effect on any
 /// result. The traversal's largest single costs are the first loads of a
 /// wide node and of a leaf's primitives (cache misses, by `perf annotate`
-/// on reference/benches/traversal.rs); prefetching the subtrees that a
-/// node defers lets those misses overlap the nearer subtree's work. On
-/// reference/benches/traversal.rs it raised the reference / Embree ratio
-/// by 8–19 % on the meshes of 327,680 to 1,310,720 triangles and left the
-/// small ones, whose trees stay in cache, within the noise
+/// on reference/benches/traversal.rs); prefetching every hit child of a
+/// node with several hit lanes lets the misses of the subtrees it defers
+/// overlap the nearer subtree's work. On that benchmark it raised the
+/// reference / Embree ratio by 8–19 % on the meshes of 327,680 to
+/// 1,310,720 triangles, by 6–22 % on the 20,480-triangle sphere, and left
+/// the 5,120-triangle sphere and the 10^4-triangle torus within the noise
 /// (docs/benchmarks.md).
 ///
-/// The crate's one `unsafe` outside the Embree bindings: stable Rust has no
-/// safe prefetch (`core::hint::prefetch_read` is unstable). It is sound
+/// The crate's one `unsafe` outside the Embree bindings: `_mm_prefetch` is
+/// declared `#[target_feature(enable = "sse")]`, so a caller without that
+/// attribute needs `unsafe` although SSE is part of every x86-64 target,
+/// and the safe `core::hint::prefetch_read` is unstable. It is sound
 /// because a prefetch instruction never faults and reads nothing the
-/// program can observe, whatever the address, and SSE (which has
-/// `prefetcht0`) is part of every x86-64 target; the addresses here lie
-/// within a live reference anyway. Elsewhere it does nothing.
+/// program can observe, whatever the address. Elsewhere it does nothing.
 #[inline(always)]
 pub fn prefetch<T: ?Sized>(value: &T) {
     #[cfg(target_arch = "x86_64")]
@@ -565,11 +566,13 @@ pub fn prefetch<T: ?Sized>(value: &T) {
         use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
         let start = (value as *const T).cast::<i8>();
         let len = std::mem::size_of_val(value);
-        // Every 64-byte line that the value touches.
+        // Every 64-byte line from the one holding the first byte to the
+        // one holding the last (one line for a zero-sized value).
         let mut offset = -((start as usize % 64) as isize);
         while offset < len as isize {
-            // SAFETY: see above; `wrapping_offset` computes the address
-            // without claiming it is in bounds.
+            // SAFETY: a prefetch never faults, whatever the address (see
+            // above); `wrapping_offset` computes it without claiming it is
+            // in bounds.
             unsafe { _mm_prefetch::<_MM_HINT_T0>(start.wrapping_offset(offset)) };
             offset += 64;
         }
@@ -733,8 +736,9 @@ impl Bvh {
                 let (t_near, mask) = slabs.test_wide(node, best_t);
                 let lane = |l: u32| Deferred { child: node.child[l as usize], meta: node.meta[l as usize], t: t_near[l as usize] };
                 if mask.count_ones() > 1 {
-                    // Several lanes hit: all but the nearest wait on the
-                    // stack, so start their loads now (see [`prefetch`]).
+                    // Several lanes hit: all but the nearest will wait on
+                    // the stack, so start loading every hit child now
+                    // (see [`prefetch`]).
                     let mut bits = mask;
                     while bits != 0 {
                         let l = bits.trailing_zeros() as usize;
