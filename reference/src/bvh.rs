@@ -735,7 +735,8 @@ impl Bvh {
                 let node = &self.wide[child as usize];
                 let (t_near, mask) = slabs.test_wide(node, best_t);
                 let lane = |l: u32| Deferred { child: node.child[l as usize], meta: node.meta[l as usize], t: t_near[l as usize] };
-                if mask.count_ones() > 1 {
+                let hits = mask.count_ones();
+                if hits > 1 {
                     // Several lanes hit: all but the nearest will wait on
                     // the stack, so start loading every hit child now
                     // (see [`prefetch`]).
@@ -750,7 +751,7 @@ impl Bvh {
                         }
                     }
                 }
-                match mask.count_ones() {
+                match hits {
                     0 => {}
                     1 => {
                         let d = lane(mask.trailing_zeros());
