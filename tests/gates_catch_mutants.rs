@@ -60,12 +60,12 @@ enum Mutation {
 /// traversal that forgets to push a child does to the rays through it).
 fn drop_bvh_child(scene: &Scene) -> Scene {
     let mut s = scene.clone();
-    let mut nodes = s.bvh.nodes().to_vec();
+    let mut nodes = s.bvh().nodes().to_vec();
     let node = nodes.iter().rposition(|n| !n.is_leaf()).expect("the scene has an interior BVH node");
     let right = nodes[nodes[node].index as usize];
     nodes.push(BvhNode { meta: BvhNode::LEAF, index: 0, ..right });
     nodes[node].index = nodes.len() as u32 - 1;
-    s.bvh = Bvh::from_parts(nodes, s.bvh.prim_order().to_vec());
+    s.set_bvh(Bvh::from_parts(nodes, s.bvh().prim_order().to_vec()));
     s
 }
 

@@ -55,8 +55,8 @@ impl PackedScene {
         }
         let m = &scene.mesh;
         PackedScene {
-            nodes: scene.bvh.nodes().to_vec(),
-            prim_order: scene.bvh.prim_order().to_vec(),
+            nodes: scene.bvh().nodes().to_vec(),
+            prim_order: scene.bvh().prim_order().to_vec(),
             primitives: scene.primitives.iter().map(|p| GpuPrimitive { tag: p.tag, index: p.index }).collect(),
             spheres: scene
                 .spheres

@@ -152,12 +152,13 @@ pub struct Scene {
     pub images: Vec<ImageData>,
     /// All primitives in scene order; the index is the primitive id.
     pub primitives: Vec<Primitive>,
-    pub bvh: Bvh,
+    /// Private: `leaf_prims` is derived from it ([`Scene::set_bvh`]).
+    bvh: Bvh,
+    /// What [`SceneBuilder::build`]'s BVH build reported.
     pub bvh_stats: BvhBuildStats,
     /// The traversal's copy of every primitive's geometry in BVH leaf
-    /// order (`bvh.prim_order()`), made by `SceneBuilder::build`. The
-    /// geometry above is read-only once built; tests that hand-edit the
-    /// BVH keep its primitive order.
+    /// order (`bvh.prim_order()`), made by [`Scene::set_bvh`]. The
+    /// geometry above is read-only once built.
     leaf_prims: Vec<LeafPrim>,
 }
 
@@ -165,6 +166,20 @@ impl Scene {
     /// The camera for an image of `width x height`.
     pub fn camera(&self, width: u32, height: u32) -> Camera {
         Camera::new(&self.camera_settings, width as f32 / height as f32)
+    }
+
+    /// The BVH over `primitives` (what the GPU uploads).
+    pub fn bvh(&self) -> &Bvh {
+        &self.bvh
+    }
+
+    /// Replaces the BVH and re-copies the geometry into its leaf order: for
+    /// tests that hand-edit a tree (a mutation must reach the traversal).
+    /// Panics if `bvh` indexes a primitive this scene lacks.
+    pub fn set_bvh(&mut self, bvh: Bvh) {
+        assert!(bvh.prim_order().iter().all(|&p| (p as usize) < self.primitives.len()), "the BVH indexes a primitive the scene lacks");
+        self.leaf_prims = bvh.prim_order().iter().map(|&prim| LeafPrim::of(self, prim)).collect();
+        self.bvh = bvh;
     }
 
     pub fn bounds(&self) -> Aabb {
@@ -674,11 +689,11 @@ impl SceneBuilder {
             textures: self.textures,
             images: self.images,
             primitives: self.primitives,
-            bvh,
+            bvh: Bvh::default(),
             bvh_stats,
             leaf_prims: Vec::new(),
         };
-        scene.leaf_prims = scene.bvh.prim_order().iter().map(|&prim| LeafPrim::of(&scene, prim)).collect();
+        scene.set_bvh(bvh);
         Ok(scene)
     }
 }

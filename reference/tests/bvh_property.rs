@@ -90,10 +90,10 @@ fn bvh_equals_brute_force_on_every_fixture() {
 #[test]
 fn a_dropped_bvh_leaf_entry_is_caught() {
     let mut scene = load("cornell");
-    let mut nodes = scene.bvh.nodes().to_vec();
+    let mut nodes = scene.bvh().nodes().to_vec();
     let leaf = nodes.iter().position(|n| n.is_leaf() && n.count() > 1).expect("a leaf with two primitives");
     nodes[leaf].meta -= 1 << 2; // count - 1: the last primitive of the leaf is never tested
-    scene.bvh = reference::bvh::Bvh::from_parts(nodes, scene.bvh.prim_order().to_vec());
+    scene.set_bvh(reference::bvh::Bvh::from_parts(nodes, scene.bvh().prim_order().to_vec()));
     let qs = queries(&scene, 7, 20_000);
     assert!(first_mismatch(&scene, &qs).is_some(), "dropping a primitive from leaf {leaf} went unnoticed");
 }
