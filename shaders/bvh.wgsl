@@ -32,6 +32,52 @@ struct Bounds {
     hi: vec3<f32>,
 }
 
+// reference::geometry::next_up, on the bits (so a GPU that flushes
+// subnormals in arithmetic still steps through them): NaN and +inf stay,
+// both zeros step to the smallest subnormal.
+fn float_up(x: f32) -> f32 {
+    let b = bitcast<u32>(x);
+    let mag = b & 0x7fffffffu;
+    if mag > 0x7f800000u || b == 0x7f800000u {
+        return x;
+    }
+    if mag == 0u {
+        return bitcast<f32>(1u);
+    }
+    if b < 0x80000000u {
+        return bitcast<f32>(b + 1u);
+    }
+    return bitcast<f32>(b - 1u);
+}
+
+// reference::geometry::next_down: NaN and -inf stay, both zeros step to
+// the negative smallest subnormal.
+fn float_down(x: f32) -> f32 {
+    let b = bitcast<u32>(x);
+    let mag = b & 0x7fffffffu;
+    if mag > 0x7f800000u || b == 0xff800000u {
+        return x;
+    }
+    if mag == 0u {
+        return bitcast<f32>(0x80000001u);
+    }
+    if b < 0x80000000u {
+        return bitcast<f32>(b - 1u);
+    }
+    return bitcast<f32>(b + 1u);
+}
+
+// reference::geometry::add_round_down / add_round_up.
+fn add_round_down(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
+    let s = a + b;
+    return vec3<f32>(float_down(s.x), float_down(s.y), float_down(s.z));
+}
+
+fn add_round_up(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
+    let s = a + b;
+    return vec3<f32>(float_up(s.x), float_up(s.y), float_up(s.z));
+}
+
 // The primitive's box exactly as the reference's BVH build computed it.
 fn primitive_bounds(prim: u32) -> Bounds {
     let p = primitives[prim];
@@ -40,17 +86,18 @@ fn primitive_bounds(prim: u32) -> Bounds {
             let s = spheres[p.index];
             let c = vec3<f32>(s.center_x, s.center_y, s.center_z);
             let r = vec3<f32>(abs(s.radius));
-            return Bounds(c - r, c + r);
+            return Bounds(add_round_down(c, -r), add_round_up(c, r));
         }
         case PRIMITIVE_QUAD: {
             let q = quads[p.index];
             let c = vec3<f32>(q.corner_x, q.corner_y, q.corner_z);
             let u = vec3<f32>(q.u_x, q.u_y, q.u_z);
             let v = vec3<f32>(q.v_x, q.v_y, q.v_z);
-            let a = c + u;
-            let b = c + v;
-            let d = (c + u) + v;
-            return Bounds(min(min(c, a), min(b, d)), max(max(c, a), max(b, d)));
+            let cu_lo = add_round_down(c, u);
+            let cu_hi = add_round_up(c, u);
+            let lo = min(min(c, cu_lo), min(add_round_down(c, v), add_round_down(cu_lo, v)));
+            let hi = max(max(c, cu_hi), max(add_round_up(c, v), add_round_up(cu_hi, v)));
+            return Bounds(lo, hi);
         }
         default: {
             let t = triangles[p.index];

@@ -30,7 +30,7 @@
 //! module of the crate with `unsafe` code: FFI calls into libembree4
 //! through `embree4-sys`. Every call's error state is checked.
 
-use crate::geometry::Ray;
+use crate::geometry::{next_down, next_up, Ray};
 use crate::scene::{primitive_tag, Scene};
 use embree4_sys as sys;
 use glam::{Vec2, Vec3};
@@ -82,28 +82,6 @@ fn check(device: sys::RTCDevice, step: &'static str) -> Result<(), EmbreeError> 
         Ok(())
     } else {
         Err(EmbreeError { step, code: Some(code) })
-    }
-}
-
-/// The next float above `x` (both zeros step to the smallest subnormal).
-fn next_up(x: f32) -> f32 {
-    if x.is_nan() || x == f32::INFINITY {
-        x
-    } else if x == 0.0 {
-        f32::from_bits(1)
-    } else if x > 0.0 {
-        f32::from_bits(x.to_bits() + 1)
-    } else {
-        f32::from_bits(x.to_bits() - 1)
-    }
-}
-
-/// The next float below `x`; +∞ stays +∞ (an open interval to infinity).
-fn next_down(x: f32) -> f32 {
-    if x.is_nan() || x.is_infinite() {
-        x
-    } else {
-        -next_up(-x)
     }
 }
 
@@ -230,7 +208,9 @@ impl EmbreeScene {
                 dir_y: ray.direction.y,
                 dir_z: ray.direction.z,
                 time: 0.0,
-                tfar: next_down(t_max),
+                // The open interval (t_min, t_max); an infinite t_max stays
+                // infinite (Embree's "no limit").
+                tfar: if t_max == f32::INFINITY { t_max } else { next_down(t_max) },
                 mask: u32::MAX,
                 id: 0,
                 flags: 0,

@@ -52,6 +52,44 @@ pub struct SurfaceInteraction {
     pub material: u32,
 }
 
+/// The next float above `x`: both zeros step to the smallest subnormal,
+/// +∞ and NaN stay. (`f32::next_up` is newer than the crate's MSRV.)
+#[inline]
+pub fn next_up(x: f32) -> f32 {
+    if x.is_nan() || x == f32::INFINITY {
+        x
+    } else if x == 0.0 {
+        f32::from_bits(1)
+    } else if x > 0.0 {
+        f32::from_bits(x.to_bits() + 1)
+    } else {
+        f32::from_bits(x.to_bits() - 1)
+    }
+}
+
+/// The next float below `x`: both zeros step to the negative smallest
+/// subnormal, −∞ and NaN stay.
+#[inline]
+pub fn next_down(x: f32) -> f32 {
+    -next_up(-x)
+}
+
+/// `a + b` rounded to nearest, then one step down: never above the exact
+/// sum (round to nearest errs by at most half the gap to the neighbour on
+/// the exact sum's side), the directed rounding of interval arithmetic.
+#[inline]
+pub fn add_round_down(a: Vec3, b: Vec3) -> Vec3 {
+    let s = a + b;
+    Vec3::new(next_down(s.x), next_down(s.y), next_down(s.z))
+}
+
+/// `a + b` rounded to nearest, then one step up: never below the exact sum.
+#[inline]
+pub fn add_round_up(a: Vec3, b: Vec3) -> Vec3 {
+    let s = a + b;
+    Vec3::new(next_up(s.x), next_up(s.y), next_up(s.z))
+}
+
 /// An axis-aligned bounding box. The empty box has `min > max`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Aabb {
@@ -197,6 +235,24 @@ pub fn refract(d: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn float_steps_match_the_ieee_successor() {
+        for x in [0.0f32, -0.0, 1.0, -1.0, 0.5, -2.0, f32::MIN_POSITIVE, -f32::MIN_POSITIVE, 1e-45, -1e-45, f32::MAX, f32::MIN, 3.7e12, -4.173655] {
+            let (up, down) = (next_up(x), next_down(x));
+            assert!(up > x && down < x, "{x}: {down} {up}");
+            // Nothing lies strictly between (f64 holds every f32 exactly).
+            let mid_up = (x as f64 + up as f64) / 2.0;
+            assert!(mid_up as f32 == x || mid_up as f32 == up, "{x} -> {up} skips a float");
+            assert_eq!(next_down(up), if x == 0.0 { 0.0 } else { x });
+            assert_eq!(next_up(down), if x == 0.0 { 0.0 } else { x });
+        }
+        assert_eq!(next_up(f32::INFINITY), f32::INFINITY);
+        assert_eq!(next_down(f32::NEG_INFINITY), f32::NEG_INFINITY);
+        assert_eq!(next_up(f32::NEG_INFINITY), f32::MIN);
+        assert_eq!(next_down(f32::INFINITY), f32::MAX);
+        assert!(next_up(f32::NAN).is_nan());
+    }
     use approx::assert_relative_eq;
 
     #[test]

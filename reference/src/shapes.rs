@@ -4,7 +4,7 @@
 //! They are written for robustness first; the WGSL twins keep the same
 //! names and the same arithmetic.
 
-use crate::geometry::{Aabb, Ray};
+use crate::geometry::{add_round_down, add_round_up, Aabb, Ray};
 use glam::{Vec2, Vec3};
 
 /// A sphere. A negative radius keeps the same surface but flips the normal
@@ -52,15 +52,30 @@ pub struct MeshData {
 }
 
 impl Sphere {
+    /// A box that contains the exact sphere: `center ± |radius|` rounded
+    /// outward. Rounded to nearest, the box of a small sphere far from the
+    /// origin can sit half an ulp of the *coordinate* inside the surface,
+    /// more than the box test's slacks (relative to t and to the ray's
+    /// reach) cover, so a head-on hit at its pole was refused by
+    /// [`crate::bvh::Bvh::admits`] (tests/embree_agreement.rs, the saved
+    /// case in proptest-regressions/embree_agreement.txt).
     pub fn bounds(&self) -> Aabb {
         let r = Vec3::splat(self.radius.abs());
-        Aabb { min: self.center - r, max: self.center + r }
+        Aabb { min: add_round_down(self.center, -r), max: add_round_up(self.center, r) }
     }
 }
 
 impl Quad {
+    /// A box that contains the exact parallelogram: its corners are
+    /// computed in interval arithmetic (every sum rounded down for `min`
+    /// and up for `max`, the far corner from the already-widened
+    /// `corner + u`), for the reason given at [`Sphere::bounds`].
     pub fn bounds(&self) -> Aabb {
-        Aabb::from_points(&[self.corner, self.corner + self.u, self.corner + self.v, self.corner + self.u + self.v])
+        let (c, u, v) = (self.corner, self.u, self.v);
+        let (cu_lo, cu_hi) = (add_round_down(c, u), add_round_up(c, u));
+        let min = c.min(cu_lo).min(add_round_down(c, v)).min(add_round_down(cu_lo, v));
+        let max = c.max(cu_hi).max(add_round_up(c, v)).max(add_round_up(cu_hi, v));
+        Aabb { min, max }
     }
 
     pub fn normal(&self) -> Vec3 {
@@ -271,6 +286,61 @@ mod tests {
         let r = ray([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]);
         let t = intersect_sphere(c, 1e-2, &r, 0.0, f32::INFINITY).unwrap();
         assert_relative_eq!(t, 1e4 - 1e-2, max_relative = 1e-6);
+    }
+
+    /// Whether `b` contains the exact point `p` (given in f64, where the
+    /// sums of a few f32 of moderate exponent range are exact).
+    fn contains_exact(b: Aabb, p: [f64; 3]) -> bool {
+        (0..3).all(|k| b.min[k] as f64 <= p[k] && p[k] <= b.max[k] as f64)
+    }
+
+    fn exact_sum(vs: &[Vec3]) -> [f64; 3] {
+        [0, 1, 2].map(|k| vs.iter().map(|v| v[k] as f64).sum())
+    }
+
+    #[test]
+    fn sphere_bounds_contain_the_exact_sphere() {
+        // The saved tests/embree_agreement.rs case: rounded to nearest,
+        // center.y + r lands 1.8e-7 below the exact pole.
+        let s = Sphere { center: Vec3::new(0.0, -4.173655, 0.0), radius: 0.0129515575, material: 0 };
+        let pole = s.center.y as f64 + s.radius as f64;
+        assert!(((s.center.y + s.radius) as f64) < pole, "the case no longer exercises rounding");
+        assert!(contains_exact(s.bounds(), [0.0, pole, 0.0]));
+        let mut n = 0;
+        let mut f = |scale: f32| {
+            n += 1;
+            (crate::rng::random_f32(3, n, 0, 0, 0) * 2.0 - 1.0) * scale
+        };
+        for i in 0..20_000 {
+            let center = Vec3::new(f(1e3), f(1e2), f(10.0));
+            let radius = f(1.0) * if i % 2 == 0 { 1e-2 } else { 1.0 };
+            let s = Sphere { center, radius, material: 0 };
+            let b = s.bounds();
+            for k in 0..3 {
+                let r = radius.abs() as f64;
+                let mut lo = [center.x as f64, center.y as f64, center.z as f64];
+                let mut hi = lo;
+                lo[k] -= r;
+                hi[k] += r;
+                assert!(contains_exact(b, lo) && contains_exact(b, hi), "{s:?}: {b:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn quad_bounds_contain_the_exact_corners() {
+        let mut n = 0;
+        let mut f = |scale: f32| {
+            n += 1;
+            (crate::rng::random_f32(4, n, 0, 0, 0) * 2.0 - 1.0) * scale
+        };
+        for _ in 0..20_000 {
+            let (c, u, v) = (Vec3::new(f(1e3), f(1e2), f(10.0)), Vec3::new(f(1.0), f(1e-2), f(3.0)), Vec3::new(f(1e-1), f(2.0), f(1.0)));
+            let b = Quad { corner: c, u, v, material: 0 }.bounds();
+            for corner in [exact_sum(&[c]), exact_sum(&[c, u]), exact_sum(&[c, v]), exact_sum(&[c, u, v])] {
+                assert!(contains_exact(b, corner), "{c} {u} {v}: {b:?} misses {corner:?}");
+            }
+        }
     }
 
     #[test]
