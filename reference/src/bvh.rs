@@ -101,8 +101,10 @@ struct Deferred {
 }
 
 /// Children per collapsed node; a multiple of 4 (boxes are tested four
-/// at a time, see [`NodeSlabs::test_wide`]).
+/// at a time, see [`NodeSlabs::test_wide`]) and a power of two (lane
+/// numbers from a mask's bits are masked with `WIDTH - 1`).
 const WIDTH: usize = 8;
+const _: () = assert!(WIDTH % 4 == 0 && WIDTH.is_power_of_two() && WIDTH <= 32);
 
 /// Up to [`WIDTH`] children of a collapsed node, boxes in SoA form so that
 /// one step tests them all with the same arithmetic as [`NodeSlabs`] on
@@ -431,17 +433,16 @@ pub fn intersect_aabb_padded(min: Vec3, max: Vec3, origin: Vec3, inv_dir: Vec3, 
     (t_near * BOX_NEAR_SLACK - pad <= t_far + pad).then_some(t_near)
 }
 
-/// One ray's constants for [`NodeSlabs::test`]: which word of a node
-/// (viewed as eight 32-bit words: `min`, `index`, `max`, `meta`) bounds
-/// each slab on the near and the far side.
+/// One ray's constants for [`NodeSlabs::test`]: per axis, whether the
+/// direction is negative, which picks the word of a node (viewed as eight
+/// 32-bit words: `min`, `index`, `max`, `meta`) or the row of a
+/// [`WideNode::bounds`] that bounds the slab on the near and the far side.
+/// Kept as `bool`s so that the indices they give are provably in bounds (no
+/// bounds checks in the loop).
 struct NodeSlabs {
     origin: [f32; 3],
     inv_dir: [f32; 3],
-    near_at: [usize; 3],
-    far_at: [usize; 3],
-    /// The same choice as rows of [`WideNode::bounds`].
-    near_row: [usize; 3],
-    far_row: [usize; 3],
+    neg: [bool; 3],
     /// `origin` and `inv_dir` splatted, for [`NodeSlabs::test_wide`].
     origin4: [Vec4; 3],
     inv_dir4: [Vec4; 3],
@@ -454,10 +455,7 @@ impl NodeSlabs {
         Self {
             origin: ray.origin.to_array(),
             inv_dir: inv_dir.to_array(),
-            near_at: [0, 1, 2].map(|k| if neg[k] { 4 + k } else { k }),
-            far_at: [0, 1, 2].map(|k| if neg[k] { k } else { 4 + k }),
-            near_row: [0, 1, 2].map(|k| if neg[k] { 3 + k } else { k }),
-            far_row: [0, 1, 2].map(|k| if neg[k] { k } else { 3 + k }),
+            neg,
             origin4: ray.origin.to_array().map(Vec4::splat),
             inv_dir4: inv_dir.to_array().map(Vec4::splat),
             pad,
@@ -473,8 +471,9 @@ impl NodeSlabs {
         let mut t_near = 0.0f32;
         let mut t_far = t_max;
         for k in 0..3 {
-            let near = (words[self.near_at[k]] - self.origin[k]) * self.inv_dir[k];
-            let far = (words[self.far_at[k]] - self.origin[k]) * self.inv_dir[k] * SLAB_FAR_SCALE;
+            let (near_at, far_at) = (k + 4 * self.neg[k] as usize, k + 4 * !self.neg[k] as usize);
+            let near = (words[near_at] - self.origin[k]) * self.inv_dir[k];
+            let far = (words[far_at] - self.origin[k]) * self.inv_dir[k] * SLAB_FAR_SCALE;
             t_near = if near > t_near { near } else { t_near };
             t_far = if far < t_far { far } else { t_far };
         }
@@ -502,8 +501,9 @@ impl NodeSlabs {
             let mut t_near = Vec4::ZERO;
             let mut t_far = Vec4::splat(t_max);
             for k in 0..3 {
-                let lo = Vec4::from_slice(&n.bounds[self.near_row[k]][c..c + 4]);
-                let hi = Vec4::from_slice(&n.bounds[self.far_row[k]][c..c + 4]);
+                let (near_row, far_row) = (k + 3 * self.neg[k] as usize, k + 3 * !self.neg[k] as usize);
+                let lo = Vec4::from_slice(&n.bounds[near_row][c..c + 4]);
+                let hi = Vec4::from_slice(&n.bounds[far_row][c..c + 4]);
                 let near = (lo - self.origin4[k]) * self.inv_dir4[k];
                 let far = (hi - self.origin4[k]) * self.inv_dir4[k] * Vec4::splat(SLAB_FAR_SCALE);
                 t_near = near.max(t_near);
@@ -734,15 +734,23 @@ impl Bvh {
             } else {
                 let node = &self.wide[child as usize];
                 let (t_near, mask) = slabs.test_wide(node, best_t);
-                let lane = |l: u32| Deferred { child: node.child[l as usize], meta: node.meta[l as usize], t: t_near[l as usize] };
-                let hits = mask.count_ones();
-                if hits > 1 {
+                // Lane numbers come from the bits of an 8-lane mask; `& 7`
+                // lets the compiler drop the bounds checks.
+                let lane = |l: u32| {
+                    let l = l as usize & (WIDTH - 1);
+                    Deferred { child: node.child[l], meta: node.meta[l], t: t_near[l] }
+                };
+                // The hit lanes past the first (bit tricks rather than
+                // `count_ones`, which is a dozen instructions without POPCNT
+                // in the baseline x86-64 target).
+                let rest = mask & mask.wrapping_sub(1);
+                if rest != 0 {
                     // Several lanes hit: all but the nearest will wait on
                     // the stack, so start loading every hit child now
                     // (see [`prefetch`]).
                     let mut bits = mask;
                     while bits != 0 {
-                        let l = bits.trailing_zeros() as usize;
+                        let l = bits.trailing_zeros() as usize & (WIDTH - 1);
                         bits &= bits - 1;
                         if node.meta[l] & 3 == BvhNode::LEAF {
                             leaves.prefetch(node.child[l] as usize, (node.meta[l] >> 2) as usize);
@@ -751,16 +759,16 @@ impl Bvh {
                         }
                     }
                 }
-                match hits {
-                    0 => {}
-                    1 => {
+                match (mask, rest, rest & rest.wrapping_sub(1)) {
+                    (0, _, _) => {}
+                    (_, 0, _) => {
                         let d = lane(mask.trailing_zeros());
                         (child, meta) = (d.child, d.meta);
                         continue;
                     }
-                    2 => {
-                        // The common case, without the sort.
-                        let (a, b) = (lane(mask.trailing_zeros()), lane(31 - mask.leading_zeros()));
+                    (_, _, 0) => {
+                        // Two lanes, the common case, without the sort.
+                        let (a, b) = (lane(mask.trailing_zeros()), lane(rest.trailing_zeros()));
                         let (near, far) = if a.t <= b.t { (a, b) } else { (b, a) };
                         stack[sp] = far;
                         sp += 1;
@@ -775,7 +783,7 @@ impl Bvh {
                         let mut n = 0;
                         let mut bits = mask;
                         while bits != 0 {
-                            let l = bits.trailing_zeros();
+                            let l = bits.trailing_zeros() & (WIDTH as u32 - 1);
                             bits &= bits - 1;
                             let t = t_near[l as usize];
                             let mut j = n;
