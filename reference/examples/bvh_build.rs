@@ -5,8 +5,11 @@ use glam::Vec3;
 use reference::material::Material;
 use reference::scene::{MeshInput, SceneBuilder, Transform};
 
+/// A benchmark mesh: its name and how to make it.
+type Mesh = (&'static str, Box<dyn Fn() -> MeshInput>);
+
 fn main() {
-    let meshes: [(&str, Box<dyn Fn() -> MeshInput>); 4] = [
+    let meshes: [Mesh; 4] = [
         ("torus, 10^4 triangles", Box::new(|| reference::procedural::torus(1.0, 0.35, 100, 50))),
         ("torus, 10^6 triangles", Box::new(|| reference::procedural::torus(1.0, 0.35, 1000, 500))),
         ("bumpy sphere, 20,480 triangles", Box::new(|| reference::procedural::bumpy_sphere(5, 0.08, 6.0))),
