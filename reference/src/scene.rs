@@ -3,12 +3,12 @@
 //! and always valid.
 
 use crate::background::Background;
-use crate::bvh::{box_pad, intersect_aabb_padded, Bvh, BvhBuildStats, Leaves};
+use crate::bvh::{box_pad, intersect_aabb_padded, Bvh, BvhBuildStats, Closest, LeafRef, Leaves};
 use crate::camera::{Camera, CameraSettings};
 use crate::error::SceneError;
 use crate::geometry::{gamma, Aabb, Hit, Ray, SurfaceInteraction};
 use crate::material::Material;
-use crate::shapes::{MeshData, Quad, RayShear, Sphere, Triangle, TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_UVS};
+use crate::shapes::{intersect_triangles4, MeshData, Quad, RayShear, Sphere, Triangle, Triangles4, TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_UVS};
 use crate::texture::{ImageData, Texture};
 use glam::{Affine3A, Mat3, Quat, Vec2, Vec3};
 use std::f32::consts::PI;
@@ -160,6 +160,10 @@ pub struct Scene {
     /// order (`bvh.prim_order()`), made by [`Scene::set_bvh`]. The
     /// geometry above is read-only once built.
     leaf_prims: Vec<LeafPrim>,
+    /// By BVH leaf ([`Bvh::leaves`]): one to four triangles by lane for
+    /// the four-wide triangle test, or a mark that the leaf is tested
+    /// entry by entry from `leaf_prims`. Made by [`Scene::set_bvh`].
+    leaf_blocks: Vec<LeafBlock>,
 }
 
 impl Scene {
@@ -179,6 +183,7 @@ impl Scene {
     pub fn set_bvh(&mut self, bvh: Bvh) {
         assert!(bvh.prim_order().iter().all(|&p| (p as usize) < self.primitives.len()), "the BVH indexes a primitive the scene lacks");
         self.leaf_prims = bvh.prim_order().iter().map(|&prim| LeafPrim::of(self, prim)).collect();
+        self.leaf_blocks = bvh.leaves().map(|entries| LeafBlock::of(&self.leaf_prims[entries])).collect();
         self.bvh = bvh;
     }
 
@@ -218,7 +223,8 @@ impl Scene {
     #[inline]
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
         let c = self.ray_constants(ray)?;
-        self.bvh.intersect(ray, t_max, LeafTests { prims: &self.leaf_prims, ray, constants: c, t_min })
+        let leaves = LeafTests { prims: &self.leaf_prims, blocks: &self.leaf_blocks, ray, constants: c, t_min };
+        self.bvh.intersect(ray, t_max, leaves)
     }
 
     /// Closest hit by testing every primitive: the oracle for the BVH.
@@ -356,9 +362,39 @@ impl LeafPrim {
     }
 }
 
+/// One BVH leaf as the four-wide triangle test reads it: a leaf of one to
+/// four triangles holds their vertices by lane in entry order and their
+/// primitive ids (`u32::MAX` in an empty lane); any other leaf only the
+/// mark `by_entry`, and is tested entry by entry.
+#[repr(C, align(16))]
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct LeafBlock {
+    tris: Triangles4,
+    prim: [u32; 4],
+    by_entry: bool,
+}
+
+// A batched leaf fills the four lanes of `Triangles4`.
+const _: () = assert!(crate::bvh::LEAF_BATCH == 4);
+
+impl LeafBlock {
+    fn of(prims: &[LeafPrim]) -> Self {
+        let mut block = LeafBlock { tris: Triangles4::EMPTY, prim: [u32::MAX; 4], by_entry: true };
+        if (1..=4).contains(&prims.len()) && prims.iter().all(|p| p.tag == primitive_tag::TRIANGLE) {
+            block.by_entry = false;
+            for (lane, p) in prims.iter().enumerate() {
+                block.tris.set(lane, p.p);
+                block.prim[lane] = p.prim;
+            }
+        }
+        block
+    }
+}
+
 /// One ray's tests of the leaf-ordered primitives, for [`Bvh::intersect`].
 struct LeafTests<'a> {
     prims: &'a [LeafPrim],
+    blocks: &'a [LeafBlock],
     ray: &'a Ray,
     constants: RayConstants,
     t_min: f32,
@@ -370,9 +406,47 @@ impl Leaves for LeafTests<'_> {
         self.prims[entry].intersect(self.ray, &self.constants, self.t_min, t_max)
     }
 
+    /// A leaf of triangles in one four-wide test, at the limit the first
+    /// entry would be tested with; then, in entry order, each lane's hit
+    /// is taken only if it lies below the limit as it stands by then
+    /// (which only shrinks) and passes [`Bvh::admits`]: what testing the
+    /// entries one by one gives, bit for bit.
     #[inline]
-    fn prefetch(&self, first: usize, count: usize) {
-        crate::bvh::prefetch(&self.prims[first..first + count]);
+    fn intersect_leaf(&mut self, leaf: LeafRef, closest: &mut Closest) {
+        let block = &self.blocks[leaf.index()];
+        if block.by_entry {
+            for entry in leaf.entries() {
+                if let Some(h) = self.intersect(entry, closest.limit()) {
+                    closest.offer(h);
+                }
+            }
+            return;
+        }
+        // No shear: a zero direction, which hits no triangle.
+        let Some(shear) = self.constants.shear.as_ref() else { return };
+        let hits = intersect_triangles4(&block.tris, self.ray, shear, self.t_min, closest.limit());
+        let mut bits = hits.mask;
+        while bits != 0 {
+            let lane = bits.trailing_zeros() as usize & 3;
+            bits &= bits - 1;
+            let t = hits.t[lane];
+            if t < closest.limit() {
+                let bounds = Aabb::from_points(&block.tris.get(lane));
+                if intersect_aabb_padded(bounds.min, bounds.max, self.ray.origin, self.constants.inv_dir, self.constants.pad, t).is_some() {
+                    closest.offer(Hit { t, prim: block.prim[lane], uv: Vec2::new(hits.b1[lane], hits.b2[lane]) });
+                }
+            }
+        }
+    }
+
+    #[inline]
+    fn prefetch(&self, leaf: LeafRef) {
+        let block = &self.blocks[leaf.index()];
+        if block.by_entry {
+            crate::bvh::prefetch(&self.prims[leaf.entries()]);
+        } else {
+            crate::bvh::prefetch(block);
+        }
     }
 }
 
@@ -676,7 +750,9 @@ impl SceneBuilder {
             }
         }
         let bounds: Vec<Aabb> = self.primitives.iter().map(|&p| primitive_bounds(p, &self.spheres, &self.quads, &self.triangles, &self.mesh)).collect();
-        let (bvh, bvh_stats) = Bvh::build(&bounds);
+        // Triangles are tested four at a time (`LeafBlock`).
+        let batched: Vec<bool> = self.primitives.iter().map(|p| p.tag == primitive_tag::TRIANGLE).collect();
+        let (bvh, bvh_stats) = Bvh::build_batched(&bounds, &batched);
         let mut scene = Scene {
             camera_settings: self.camera,
             render: self.render,
@@ -692,6 +768,7 @@ impl SceneBuilder {
             bvh: Bvh::default(),
             bvh_stats,
             leaf_prims: Vec::new(),
+            leaf_blocks: Vec::new(),
         };
         scene.set_bvh(bvh);
         Ok(scene)
