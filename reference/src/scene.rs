@@ -183,7 +183,7 @@ impl Scene {
     pub fn set_bvh(&mut self, bvh: Bvh) {
         assert!(bvh.prim_order().iter().all(|&p| (p as usize) < self.primitives.len()), "the BVH indexes a primitive the scene lacks");
         self.leaf_prims = bvh.prim_order().iter().map(|&prim| LeafPrim::of(self, prim)).collect();
-        self.leaf_blocks = bvh.leaves().map(|entries| LeafBlock::of(&self.leaf_prims[entries])).collect();
+        self.leaf_blocks = bvh.leaves().map(|entries| LeafBlock::of(&self.leaf_prims, entries)).collect();
         self.bvh = bvh;
     }
 
@@ -364,13 +364,15 @@ impl LeafPrim {
 
 /// One BVH leaf as the four-wide triangle test reads it: a leaf of one to
 /// four triangles holds their vertices by lane in entry order and their
-/// primitive ids (`u32::MAX` in an empty lane); any other leaf only the
-/// mark `by_entry`, and is tested entry by entry.
+/// primitive ids (`u32::MAX` in an empty lane); any other leaf is marked
+/// `by_entry` and tested entry by entry, `entries` of `leaf_prims` (kept
+/// here so that the leaf needs no other load).
 #[repr(C, align(16))]
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct LeafBlock {
     tris: Triangles4,
     prim: [u32; 4],
+    entries: [u32; 2],
     by_entry: bool,
 }
 
@@ -378,8 +380,12 @@ struct LeafBlock {
 const _: () = assert!(crate::bvh::LEAF_BATCH == 4);
 
 impl LeafBlock {
-    fn of(prims: &[LeafPrim]) -> Self {
-        let mut block = LeafBlock { tris: Triangles4::EMPTY, prim: [u32::MAX; 4], by_entry: true };
+    /// The block of the leaf of `entries` in `prims`.
+    fn of(prims: &[LeafPrim], entries: std::ops::Range<usize>) -> Self {
+        // The Bvh keeps its leaves' entries as u32: they fit.
+        let [first, end] = [entries.start as u32, entries.end as u32];
+        let prims = &prims[entries];
+        let mut block = LeafBlock { tris: Triangles4::EMPTY, prim: [u32::MAX; 4], entries: [first, end], by_entry: true };
         if (1..=4).contains(&prims.len()) && prims.iter().all(|p| p.tag == primitive_tag::TRIANGLE) {
             block.by_entry = false;
             for (lane, p) in prims.iter().enumerate() {
@@ -415,7 +421,7 @@ impl Leaves for LeafTests<'_> {
     fn intersect_leaf(&mut self, leaf: LeafRef, closest: &mut Closest) {
         let block = &self.blocks[leaf.index()];
         if block.by_entry {
-            for entry in leaf.entries() {
+            for entry in block.entries[0] as usize..block.entries[1] as usize {
                 if let Some(h) = self.intersect(entry, closest.limit()) {
                     closest.offer(h);
                 }
@@ -443,7 +449,7 @@ impl Leaves for LeafTests<'_> {
     fn prefetch(&self, leaf: LeafRef) {
         let block = &self.blocks[leaf.index()];
         if block.by_entry {
-            crate::bvh::prefetch(&self.prims[leaf.entries()]);
+            crate::bvh::prefetch(&self.prims[block.entries[0] as usize..block.entries[1] as usize]);
         } else {
             crate::bvh::prefetch(block);
         }
