@@ -392,6 +392,16 @@ mod tests {
         Ray::new(Vec3::from(o), Vec3::from(d))
     }
 
+    /// Stream `stream` of uniform floats in [-scale, scale), from the
+    /// renderer's counter-based generator.
+    fn signed_uniform(stream: u32) -> impl FnMut(f32) -> f32 {
+        let mut n = 0;
+        move |scale| {
+            n += 1;
+            (crate::rng::random_f32(stream, n, 0, 0, 0) * 2.0 - 1.0) * scale
+        }
+    }
+
     #[test]
     fn sphere_hits_near_then_far_and_misses() {
         let r = ray([0.0, 0.0, -5.0], [0.0, 0.0, 1.0]);
@@ -438,11 +448,7 @@ mod tests {
         let pole = s.center.y as f64 + s.radius as f64;
         assert!(((s.center.y + s.radius) as f64) < pole, "the case no longer exercises rounding");
         assert!(contains_exact(s.bounds(), [0.0, pole, 0.0]));
-        let mut n = 0;
-        let mut f = |scale: f32| {
-            n += 1;
-            (crate::rng::random_f32(3, n, 0, 0, 0) * 2.0 - 1.0) * scale
-        };
+        let mut f = signed_uniform(3);
         for i in 0..20_000 {
             let center = Vec3::new(f(1e3), f(1e2), f(10.0));
             let radius = f(1.0) * if i % 2 == 0 { 1e-2 } else { 1.0 };
@@ -461,11 +467,7 @@ mod tests {
 
     #[test]
     fn quad_bounds_contain_the_exact_corners() {
-        let mut n = 0;
-        let mut f = |scale: f32| {
-            n += 1;
-            (crate::rng::random_f32(4, n, 0, 0, 0) * 2.0 - 1.0) * scale
-        };
+        let mut f = signed_uniform(4);
         for _ in 0..20_000 {
             let (c, u, v) = (Vec3::new(f(1e3), f(1e2), f(10.0)), Vec3::new(f(1.0), f(1e-2), f(3.0)), Vec3::new(f(1e-1), f(2.0), f(1.0)));
             let b = Quad { corner: c, u, v, material: 0 }.bounds();
@@ -482,11 +484,7 @@ mod tests {
     #[test]
     fn triangle_test_is_the_same_under_every_axis_permutation() {
         let rot = |v: Vec3| Vec3::new(v.z, v.x, v.y);
-        let mut n = 0;
-        let mut f = |scale: f32| {
-            n += 1;
-            (crate::rng::random_f32(9, n, 0, 0, 0) * 2.0 - 1.0) * scale
-        };
+        let mut f = signed_uniform(9);
         let (mut hits, mut perms) = (0, std::collections::HashSet::new());
         for _ in 0..20_000 {
             let o = Vec3::new(f(2.0), f(2.0), f(2.0));
@@ -521,11 +519,7 @@ mod tests {
     /// `u·az + (v·bz + w·cz)`, and the f64 path removed).
     #[test]
     fn four_wide_triangle_test_is_the_scalar_test_per_lane() {
-        let mut n = 0;
-        let mut f = |scale: f32| {
-            n += 1;
-            (crate::rng::random_f32(11, n, 0, 0, 0) * 2.0 - 1.0) * scale
-        };
+        let mut f = signed_uniform(11);
         let (mut hits, mut on_edges, mut perms) = (0, 0, std::collections::HashSet::new());
         for i in 0..40_000u32 {
             let grid = i % 2 == 0;
