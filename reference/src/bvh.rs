@@ -1,14 +1,15 @@
 //! The bounding volume hierarchy: a binned-SAH build flattened into one
 //! linear node array. This array is THE BVH: the GPU traversals walk these
 //! nodes, and the reference traversal here walks their 8-wide collapse
-//! ([`Bvh`] makes it from the nodes; same boxes and leaves, bit for bit).
+//! ([`Bvh`] makes it from the nodes; every lane a node's box bit for bit,
+//! a leaf lane a leaf or, in a batched build, a small subtree's entries).
 //!
 //! Layout: depth-first; an interior node's left child follows it directly
 //! and its right child is at `index`; a leaf covers `count` entries of
 //! `prim_order` from `index`. Nodes are 32-byte `Pod` records, uploaded
 //! to the GPU as they are.
 
-use crate::geometry::{Aabb, Hit, Ray};
+use crate::geometry::{next_up, Aabb, Hit, Ray};
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
 use std::time::{Duration, Instant};
@@ -69,7 +70,8 @@ impl BvhNode {
 /// A built BVH: the node array and the primitive order its leaves index,
 /// plus the CPU traversal's wide view of the same tree ([`WideNode`]).
 /// The fields are private so the two can never disagree: a tree is made by
-/// [`Bvh::build`] or, for tests that need a broken one, [`Bvh::from_parts`].
+/// [`Bvh::build`] or [`Bvh::build_batched`] or, for tests that need a
+/// broken one, [`Bvh::from_parts`].
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Bvh {
     nodes: Vec<BvhNode>,
@@ -364,7 +366,7 @@ impl CollapsePlan {
     fn new(nodes: &[BvhNode], prim_order: &[u32], batched: &[bool]) -> Self {
         let mut plan = CollapsePlan { split: vec![[0u8; WIDTH]; nodes.len()], own: vec![0u8; nodes.len()] };
         if !nodes.is_empty() {
-            let batched = |entries: std::ops::Range<usize>| prim_order[entries].iter().all(|&p| batched.get(p as usize) == Some(&true));
+            let batched = |entries: std::ops::Range<usize>| !entries.is_empty() && prim_order[entries].iter().all(|&p| batched.get(p as usize) == Some(&true));
             plan.solve(nodes, 0, &batched);
         }
         plan
@@ -793,16 +795,6 @@ pub fn prefetch<T: ?Sized>(value: &T) {
     let _ = value;
 }
 
-/// Smallest float above `x` (for x ≥ 0 finite; +∞ stays +∞).
-#[inline]
-fn next_up(x: f32) -> f32 {
-    if x.is_infinite() {
-        x
-    } else {
-        f32::from_bits(x.to_bits() + 1)
-    }
-}
-
 impl Bvh {
     /// Builds over primitive bounds (index = primitive id).
     pub fn build(bounds: &[Aabb]) -> (Bvh, BvhBuildStats) {
@@ -906,7 +898,8 @@ impl Bvh {
     /// Whether a primitive hit at `t` counts: the primitive's own box
     /// (`bounds`, exactly as the build saw it) must pass the traversal's
     /// box test for the segment `[0, t]`. Every node above the primitive
-    /// contains its box and the traversal compares against `best_t >= t`,
+    /// contains its box and the traversal compares against the best
+    /// hit's t (`Closest::t`), which is `>= t`,
     /// so by monotonicity no node on the way to an admitted hit is ever
     /// culled: the BVH then returns what a scan over all primitives
     /// returns, bit for bit, even for hits whose computed t lies outside
@@ -926,10 +919,13 @@ impl Bvh {
     }
 
     /// Closest hit: `leaves.intersect(i, t_max)` tests primitive
-    /// `prim_order()[i]` (the caller may keep its geometry in that order).
-    /// Ties in t go to the smaller primitive id, so the result equals a
-    /// brute-force scan in id order bit for bit, provided the leaves report
-    /// only hits that [`Bvh::admits`] (as `Scene::intersect` does).
+    /// `prim_order()[i]` (the caller may keep its geometry in that order),
+    /// called per entry by [`Leaves::intersect_leaf`] unless the caller
+    /// overrides that with a test of the whole leaf that leaves
+    /// [`Closest`] as the entry loop would. Ties in t go to the smaller
+    /// primitive id, so the result equals a brute-force scan in id order
+    /// bit for bit, provided the leaves report only hits that
+    /// [`Bvh::admits`] (as `Scene::intersect` does).
     #[inline]
     pub fn intersect(&self, ray: &Ray, t_max: f32, leaves: impl Leaves) -> Option<Hit> {
         if self.stack_need <= INLINE_STACK {
@@ -1180,6 +1176,22 @@ mod tests {
             }
         }
         assert!(checked > 5_000, "only {checked} passing lanes compared");
+    }
+
+    /// A hit at any t, negative and zero included, leaves room below
+    /// [`Closest::limit`] for an exact tie, which goes to the smaller id
+    /// (a `next_up` on the bits alone stepped a negative t down and cut the
+    /// tie off).
+    #[test]
+    fn closest_sees_ties_at_every_t() {
+        for t in [-1.0f32, -f32::MIN_POSITIVE, -0.0, 0.0, 1e-30, 2.5, f32::MAX] {
+            let mut c = Closest::new(f32::INFINITY);
+            c.offer(Hit { t, prim: 5, uv: glam::Vec2::ZERO });
+            assert!(t < c.limit(), "{t}: the limit {} cuts off a tie", c.limit());
+            c.offer(Hit { t, prim: 3, uv: glam::Vec2::ZERO });
+            c.offer(Hit { t, prim: 4, uv: glam::Vec2::ZERO });
+            assert_eq!(c.hit().map(|h| h.prim), Some(3), "{t}");
+        }
     }
 
     /// `stack_need` bounds the deferred subtrees: rays that hit nothing

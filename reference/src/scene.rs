@@ -152,7 +152,8 @@ pub struct Scene {
     pub images: Vec<ImageData>,
     /// All primitives in scene order; the index is the primitive id.
     pub primitives: Vec<Primitive>,
-    /// Private: `leaf_prims` is derived from it ([`Scene::set_bvh`]).
+    /// Private: `leaf_prims` and `leaf_blocks` are derived from it
+    /// ([`Scene::set_bvh`]).
     bvh: Bvh,
     /// What [`SceneBuilder::build`]'s BVH build reported.
     pub bvh_stats: BvhBuildStats,

@@ -321,8 +321,8 @@ pub struct Hits4 {
 
 /// [`intersect_triangle_sheared`] on four triangles at once: lane for lane
 /// the same operations on the same values in SSE registers (IEEE
-/// add/sub/mul/div are exact per lane, and Rust never fuses a multiply and
-/// an add), so each lane's hit, t and barycentrics are the scalar test's
+/// add/sub/mul/div are correctly rounded per lane, and Rust never fuses a
+/// multiply and an add), so each lane's hit, t and barycentrics are the scalar test's
 /// bits. A lane with an edge function of exactly zero redoes the three in
 /// f64, as the scalar test does.
 #[inline]
