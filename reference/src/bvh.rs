@@ -665,10 +665,18 @@ pub trait Leaves {
     /// would.
     #[inline(always)]
     fn intersect_leaf(&mut self, leaf: LeafRef, closest: &mut Closest) {
-        for entry in leaf.entries() {
-            if let Some(h) = self.intersect(entry, closest.limit()) {
-                closest.offer(h);
-            }
+        intersect_entries(self, leaf.entries(), closest);
+    }
+}
+
+/// [`Leaves::intersect_leaf`]'s default: `entries` one by one in order,
+/// each up to [`Closest::limit`] as it stands then (for an override that
+/// takes some leaves this way).
+#[inline(always)]
+pub fn intersect_entries<L: Leaves + ?Sized>(leaves: &mut L, entries: std::ops::Range<usize>, closest: &mut Closest) {
+    for entry in entries {
+        if let Some(h) = leaves.intersect(entry, closest.limit()) {
+            closest.offer(h);
         }
     }
 }

@@ -3,7 +3,7 @@
 //! and always valid.
 
 use crate::background::Background;
-use crate::bvh::{box_pad, intersect_aabb_padded, Bvh, BvhBuildStats, Closest, LeafRef, Leaves};
+use crate::bvh::{box_pad, intersect_aabb_padded, intersect_entries, Bvh, BvhBuildStats, Closest, LeafRef, Leaves, LEAF_BATCH};
 use crate::camera::{Camera, CameraSettings};
 use crate::error::SceneError;
 use crate::geometry::{gamma, Aabb, Hit, Ray, SurfaceInteraction};
@@ -358,8 +358,7 @@ impl LeafPrim {
             primitive_tag::QUAD => intersect_quad(a, b, c, ray, t_min, t_max).map(|(t, uv)| Hit { t, prim, uv }),
             _ => intersect_triangle_sheared(a, b, c, ray, k.shear.as_ref()?, t_min, t_max).map(|(t, uv)| Hit { t, prim, uv }),
         }?;
-        let bounds = self.bounds();
-        intersect_aabb_padded(bounds.min, bounds.max, ray.origin, k.inv_dir, k.pad, hit.t).map(|_| hit)
+        k.admits(self.bounds(), ray, hit.t).then_some(hit)
     }
 }
 
@@ -378,7 +377,13 @@ struct LeafBlock {
 }
 
 // A batched leaf fills the four lanes of `Triangles4`.
-const _: () = assert!(crate::bvh::LEAF_BATCH == 4);
+const _: () = assert!(LEAF_BATCH == 4);
+
+/// Whether the leaf tests take primitives of this tag four at a time
+/// ([`LeafBlock`]; what [`Bvh::build_batched`] is told): triangles.
+fn batched(tag: u32) -> bool {
+    tag == primitive_tag::TRIANGLE
+}
 
 impl LeafBlock {
     /// The block of the leaf of `entries` in `prims`.
@@ -387,7 +392,7 @@ impl LeafBlock {
         let [first, end] = [entries.start as u32, entries.end as u32];
         let prims = &prims[entries];
         let mut block = LeafBlock { tris: Triangles4::EMPTY, prim: [u32::MAX; 4], entries: [first, end], by_entry: true };
-        if (1..=4).contains(&prims.len()) && prims.iter().all(|p| p.tag == primitive_tag::TRIANGLE) {
+        if (1..=LEAF_BATCH).contains(&prims.len()) && prims.iter().all(|p| batched(p.tag)) {
             block.by_entry = false;
             for (lane, p) in prims.iter().enumerate() {
                 block.tris.set(lane, p.p);
@@ -422,12 +427,7 @@ impl Leaves for LeafTests<'_> {
     fn intersect_leaf(&mut self, leaf: LeafRef, closest: &mut Closest) {
         let block = &self.blocks[leaf.index()];
         if block.by_entry {
-            for entry in block.entries[0] as usize..block.entries[1] as usize {
-                if let Some(h) = self.intersect(entry, closest.limit()) {
-                    closest.offer(h);
-                }
-            }
-            return;
+            return intersect_entries(self, block.entries[0] as usize..block.entries[1] as usize, closest);
         }
         // No shear: a zero direction, which hits no triangle.
         let Some(shear) = self.constants.shear.as_ref() else { return };
@@ -437,11 +437,8 @@ impl Leaves for LeafTests<'_> {
             let lane = bits.trailing_zeros() as usize & 3;
             bits &= bits - 1;
             let t = hits.t[lane];
-            if t < closest.limit() {
-                let bounds = Aabb::from_points(&block.tris.get(lane));
-                if intersect_aabb_padded(bounds.min, bounds.max, self.ray.origin, self.constants.inv_dir, self.constants.pad, t).is_some() {
-                    closest.offer(Hit { t, prim: block.prim[lane], uv: Vec2::new(hits.b1[lane], hits.b2[lane]) });
-                }
+            if t < closest.limit() && self.constants.admits(Aabb::from_points(&block.tris.get(lane)), self.ray, t) {
+                closest.offer(Hit { t, prim: block.prim[lane], uv: Vec2::new(hits.b1[lane], hits.b2[lane]) });
             }
         }
     }
@@ -465,6 +462,14 @@ struct RayConstants {
     shear: Option<RayShear>,
     inv_dir: Vec3,
     pad: f32,
+}
+
+impl RayConstants {
+    /// [`Bvh::admits`] for a hit at `t` on a primitive with box `bounds`.
+    #[inline]
+    fn admits(&self, bounds: Aabb, ray: &Ray, t: f32) -> bool {
+        intersect_aabb_padded(bounds.min, bounds.max, ray.origin, self.inv_dir, self.pad, t).is_some()
+    }
 }
 
 /// Collects a scene, checks it, and builds its BVH.
@@ -757,8 +762,7 @@ impl SceneBuilder {
             }
         }
         let bounds: Vec<Aabb> = self.primitives.iter().map(|&p| primitive_bounds(p, &self.spheres, &self.quads, &self.triangles, &self.mesh)).collect();
-        // Triangles are tested four at a time (`LeafBlock`).
-        let batched: Vec<bool> = self.primitives.iter().map(|p| p.tag == primitive_tag::TRIANGLE).collect();
+        let batched: Vec<bool> = self.primitives.iter().map(|p| batched(p.tag)).collect();
         let (bvh, bvh_stats) = Bvh::build_batched(&bounds, &batched);
         let mut scene = Scene {
             camera_settings: self.camera,
