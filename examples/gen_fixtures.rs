@@ -48,9 +48,21 @@ fn sky_hdr(path: &Path) -> anyhow::Result<()> {
         let v = 1.0 - (y as f32 + 0.5) / h as f32;
         let phi = (u - 0.5) * 2.0 * std::f32::consts::PI;
         let theta = (1.0 - v) * std::f32::consts::PI;
-        let d = Vec3::new(theta.sin() * phi.sin(), theta.cos(), -theta.sin() * phi.cos());
-        let c = if d.y < 0.0 { Vec3::new(0.25, 0.2, 0.15) } else { Vec3::new(0.9, 0.95, 1.0).lerp(Vec3::new(0.25, 0.45, 0.9), d.y.sqrt()) };
-        let c = if d.dot(sun) > 0.995 { Vec3::splat(60.0) } else { c };
+        let d = Vec3::new(
+            theta.sin() * phi.sin(),
+            theta.cos(),
+            -theta.sin() * phi.cos(),
+        );
+        let c = if d.y < 0.0 {
+            Vec3::new(0.25, 0.2, 0.15)
+        } else {
+            Vec3::new(0.9, 0.95, 1.0).lerp(Vec3::new(0.25, 0.45, 0.9), d.y.sqrt())
+        };
+        let c = if d.dot(sun) > 0.995 {
+            Vec3::splat(60.0)
+        } else {
+            c
+        };
         image::Rgb(c.to_array())
     });
     image::DynamicImage::ImageRgb32F(img).save(path)?;

@@ -26,7 +26,11 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 #[derive(Debug, Parser)]
-#[command(name = "twintrace", version, about = "A path tracer written twice: a scalar CPU reference and GPU kernels, each checked against the other")]
+#[command(
+    name = "twintrace",
+    version,
+    about = "A path tracer written twice: a scalar CPU reference and GPU kernels, each checked against the other"
+)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
@@ -129,7 +133,13 @@ pub fn run(cli: Cli) -> Result<()> {
 pub fn parse_size(s: &str) -> Result<(u32, u32)> {
     let bad = || anyhow!("--size `{s}`: expected WIDTHxHEIGHT, as in 1200x800");
     let (w, h) = s.trim().split_once(['x', 'X']).ok_or_else(bad)?;
-    let parse = |t: &str| if t.bytes().all(|b| b.is_ascii_digit()) { t.parse::<u32>().ok() } else { None };
+    let parse = |t: &str| {
+        if t.bytes().all(|b| b.is_ascii_digit()) {
+            t.parse::<u32>().ok()
+        } else {
+            None
+        }
+    };
     match (parse(w), parse(h)) {
         (Some(w), Some(h)) => Ok((w, h)),
         _ => Err(bad()),
@@ -137,7 +147,10 @@ pub fn parse_size(s: &str) -> Result<(u32, u32)> {
 }
 
 /// The scene's defaults, then the quality preset, then explicit options; validated.
-pub fn resolve_settings(scene_defaults: RenderSettings, args: &RenderArgs) -> Result<RenderSettings> {
+pub fn resolve_settings(
+    scene_defaults: RenderSettings,
+    args: &RenderArgs,
+) -> Result<RenderSettings> {
     let mut s = scene_defaults;
     if let Some(q) = args.quality {
         (s.spp, s.max_depth) = q.preset();
@@ -154,7 +167,8 @@ pub fn resolve_settings(scene_defaults: RenderSettings, args: &RenderArgs) -> Re
     if let Some(seed) = args.seed {
         s.seed = seed;
     }
-    s.validate().map_err(|e| anyhow!("invalid render settings: {e}"))?;
+    s.validate()
+        .map_err(|e| anyhow!("invalid render settings: {e}"))?;
     Ok(s)
 }
 
@@ -178,7 +192,8 @@ enum Device {
 /// Returns the device, its name for the summary line, and why it was
 /// chosen (for `auto`'s note).
 fn choose_device(backend: Backend) -> Result<(Device, String, String)> {
-    let gpu_name = |ctx: &gpu::GpuContext| format!("gpu `{}` ({})", ctx.adapter.name, ctx.adapter.backend);
+    let gpu_name =
+        |ctx: &gpu::GpuContext| format!("gpu `{}` ({})", ctx.adapter.name, ctx.adapter.backend);
     match backend {
         Backend::Cpu => Ok((Device::Cpu, "cpu reference".into(), String::new())),
         Backend::Gpu => {
@@ -194,7 +209,10 @@ fn choose_device(backend: Backend) -> Result<(Device, String, String)> {
             Ok(ctx) => Ok((
                 Device::Cpu,
                 "cpu reference".into(),
-                format!(" (the only GPU adapter is the software `{}`; use --backend gpu to run on it)", ctx.adapter.name),
+                format!(
+                    " (the only GPU adapter is the software `{}`; use --backend gpu to run on it)",
+                    ctx.adapter.name
+                ),
             )),
             Err(e) => Ok((Device::Cpu, "cpu reference".into(), format!(" ({e})"))),
         },
@@ -214,7 +232,12 @@ fn render(args: &RenderArgs) -> Result<()> {
     let scene = load_scene(&args.scene)?;
     let settings = resolve_settings(scene.render, args)?;
     let pool = match args.threads {
-        Some(n) => Some(rayon::ThreadPoolBuilder::new().num_threads(n).build().context("cannot start the worker threads")?),
+        Some(n) => Some(
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build()
+                .context("cannot start the worker threads")?,
+        ),
         None => None,
     };
 
@@ -227,7 +250,9 @@ fn render(args: &RenderArgs) -> Result<()> {
 
     let pixels = settings.width as u64 * settings.height as u64;
     let bar = indicatif::ProgressBar::new(pixels * settings.spp as u64);
-    if let Ok(style) = indicatif::ProgressStyle::with_template("rendering {wide_bar} {percent:>3}% {elapsed_precise} (eta {eta})") {
+    if let Ok(style) = indicatif::ProgressStyle::with_template(
+        "rendering {wide_bar} {percent:>3}% {elapsed_precise} (eta {eta})",
+    ) {
         bar.set_style(style);
     }
     let start = Instant::now();
@@ -255,14 +280,21 @@ fn render(args: &RenderArgs) -> Result<()> {
         max_depth: Some(settings.max_depth),
         seed: Some(settings.seed),
         scene: Some(args.scene.clone()),
-        software: Some(format!("twintrace {} ({device_name})", env!("CARGO_PKG_VERSION"))),
+        software: Some(format!(
+            "twintrace {} ({device_name})",
+            env!("CARGO_PKG_VERSION")
+        )),
     };
     let image = RenderImage::from_film(&film, metadata);
     image_io::write_render_outputs(&paths, &image, args.tonemap)?;
 
     let paths_per_second = (pixels * settings.spp as u64) as f64 / seconds.max(1e-9);
     let gpu_note = match gpu_time {
-        Some(t) => format!(" (GPU time {:.3} s: {:.2e} samples/s)", t.as_secs_f64(), (pixels * settings.spp as u64) as f64 / t.as_secs_f64().max(1e-9)),
+        Some(t) => format!(
+            " (GPU time {:.3} s: {:.2e} samples/s)",
+            t.as_secs_f64(),
+            (pixels * settings.spp as u64) as f64 / t.as_secs_f64().max(1e-9)
+        ),
         None => String::new(),
     };
     print_stdout(&format!(
@@ -284,7 +316,9 @@ fn render(args: &RenderArgs) -> Result<()> {
 fn print_stdout(text: &str) -> Result<()> {
     let mut out = std::io::stdout().lock();
     match out.write_all(text.as_bytes()).and_then(|_| out.flush()) {
-        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(anyhow!("cannot write to stdout: {e}")),
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+            Err(anyhow!("cannot write to stdout: {e}"))
+        }
         _ => Ok(()),
     }
 }
@@ -368,14 +402,32 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
         Material::DiffuseLight { .. } => "diffuse light",
         Material::Ggx { .. } => "ggx",
     };
-    say!("materials: {}", count(&["lambertian", "metal", "dielectric", "diffuse light", "ggx"], &material_kind, scene.materials.len()));
+    say!(
+        "materials: {}",
+        count(
+            &["lambertian", "metal", "dielectric", "diffuse light", "ggx"],
+            &material_kind,
+            scene.materials.len()
+        )
+    );
     let texture_kind = |i: usize| match scene.textures[i] {
         Texture::Constant(_) => "constant",
         Texture::Checker { .. } => "checker",
         Texture::Image { .. } => "image",
     };
-    say!("textures: {}", count(&["constant", "checker", "image"], &texture_kind, scene.textures.len()));
-    let sizes: Vec<String> = scene.images.iter().map(|im| format!("{}x{}", im.width, im.height)).collect();
+    say!(
+        "textures: {}",
+        count(
+            &["constant", "checker", "image"],
+            &texture_kind,
+            scene.textures.len()
+        )
+    );
+    let sizes: Vec<String> = scene
+        .images
+        .iter()
+        .map(|im| format!("{}x{}", im.width, im.height))
+        .collect();
     if sizes.is_empty() {
         say!("images: 0");
     } else {
@@ -383,14 +435,32 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
     }
     match scene.background {
         Background::Solid(c) => say!("background: solid {c}"),
-        Background::Sky { horizon, zenith } => say!("background: sky gradient, horizon {horizon}, zenith {zenith}"),
-        Background::Envmap { image, intensity, rotate_y } => {
-            let size = scene.images.get(image as usize).map(|im| format!("{}x{}", im.width, im.height)).unwrap_or_default();
+        Background::Sky { horizon, zenith } => {
+            say!("background: sky gradient, horizon {horizon}, zenith {zenith}")
+        }
+        Background::Envmap {
+            image,
+            intensity,
+            rotate_y,
+        } => {
+            let size = scene
+                .images
+                .get(image as usize)
+                .map(|im| format!("{}x{}", im.width, im.height))
+                .unwrap_or_default();
             say!("background: environment map, image {image} ({size}), intensity {intensity}, rotated {rotate_y}° about +y");
         }
     }
     let c = &scene.camera_settings;
-    say!("camera: from {} looking at {}, up {}, vfov {}°, aperture {}, focus distance {}", c.look_from, c.look_at, c.up, c.vfov, c.aperture, c.focus_distance);
+    say!(
+        "camera: from {} looking at {}, up {}, vfov {}°, aperture {}, focus distance {}",
+        c.look_from,
+        c.look_at,
+        c.up,
+        c.vfov,
+        c.aperture,
+        c.focus_distance
+    );
     let r = &scene.render;
     say!(
         "render defaults: {}x{}, {} spp, max depth {}, seed {}, Russian roulette from depth {}",
@@ -420,13 +490,29 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
 pub fn install_panic_hook() {
     std::panic::set_hook(Box::new(|info| {
         let payload = info.payload();
-        let message = payload.downcast_ref::<&str>().copied().or_else(|| payload.downcast_ref::<String>().map(String::as_str)).unwrap_or("unknown panic");
-        let location = info.location().map(|l| format!(" at {}:{}", l.file(), l.line())).unwrap_or_default();
-        let _ = writeln!(std::io::stderr(), "error: internal error{location}: {} (this is a bug in twintrace)", one_line(message));
+        let message = payload
+            .downcast_ref::<&str>()
+            .copied()
+            .or_else(|| payload.downcast_ref::<String>().map(String::as_str))
+            .unwrap_or("unknown panic");
+        let location = info
+            .location()
+            .map(|l| format!(" at {}:{}", l.file(), l.line()))
+            .unwrap_or_default();
+        let _ = writeln!(
+            std::io::stderr(),
+            "error: internal error{location}: {} (this is a bug in twintrace)",
+            one_line(message)
+        );
     }));
 }
 
 /// Joins a possibly multi-line message into one line.
 pub fn one_line(message: &str) -> String {
-    message.lines().map(str::trim).filter(|l| !l.is_empty()).collect::<Vec<_>>().join(" ")
+    message
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .collect::<Vec<_>>()
+        .join(" ")
 }

@@ -80,7 +80,15 @@ fn load(path: &Path, variance: Option<&Path>, spp: Option<u32>) -> Result<NoisyI
     if let Some(v) = variance {
         let var = read_exr(v)?;
         if (var.width, var.height) != (image.width, image.height) {
-            bail!("variance image `{}` is {}x{}, the image `{}` {}x{}", v.display(), var.width, var.height, path.display(), image.width, image.height);
+            bail!(
+                "variance image `{}` is {}x{}, the image `{}` {}x{}",
+                v.display(),
+                var.width,
+                var.height,
+                path.display(),
+                image.width,
+                image.height
+            );
         }
         image.variance = Some(var.mean.iter().map(|p| p.as_dvec3()).collect());
     }
@@ -95,28 +103,62 @@ pub fn execute(args: &DiffArgs) -> Result<DiffOutcome> {
     let a = load(&args.a, args.variance_a.as_deref(), args.spp_a)?;
     let b = load(&args.b, args.variance_b.as_deref(), args.spp_b)?;
     if (a.width, a.height) != (b.width, b.height) {
-        bail!("`{}` is {}x{} but `{}` is {}x{}", args.a.display(), a.width, a.height, args.b.display(), b.width, b.height);
+        bail!(
+            "`{}` is {}x{} but `{}` is {}x{}",
+            args.a.display(),
+            a.width,
+            a.height,
+            args.b.display(),
+            b.width,
+            b.height
+        );
     }
     let method = match args.method {
         DiffMethod::Auto => Method::for_images(&a, &b),
         DiffMethod::Welch => Some(Method::Welch),
         DiffMethod::Reference => Some(Method::Reference(Side::B)),
     };
-    let verdict = method.map(|m| compare(&a, &b, m, &TestSettings::default())).transpose()?;
+    let verdict = method
+        .map(|m| compare(&a, &b, m, &TestSettings::default()))
+        .transpose()?;
     let m = metrics(&a, &b);
     let labels = [args.a.display().to_string(), args.b.display().to_string()];
     let spp = |s: Option<u32>| s.map_or("unknown".to_string(), |s| s.to_string());
-    let notes = vec![("spp (A, B)".to_string(), format!("{}, {}", spp(a.spp), spp(b.spp)))];
+    let notes = vec![(
+        "spp (A, B)".to_string(),
+        format!("{}, {}", spp(a.spp), spp(b.spp)),
+    )];
     let title = format!("twintrace diff: {} vs {}", labels[0], labels[1]);
-    report::write_html(&args.report, &Report { title: title.clone(), labels: labels.clone(), a: &a, b: &b, verdict: verdict.as_ref(), metrics: &m, notes })?;
-    let mut text = format!("{title} ({}x{}, spp {} and {})\n", a.width, a.height, spp(a.spp), spp(b.spp));
+    report::write_html(
+        &args.report,
+        &Report {
+            title: title.clone(),
+            labels: labels.clone(),
+            a: &a,
+            b: &b,
+            verdict: verdict.as_ref(),
+            metrics: &m,
+            notes,
+        },
+    )?;
+    let mut text = format!(
+        "{title} ({}x{}, spp {} and {})\n",
+        a.width,
+        a.height,
+        spp(a.spp),
+        spp(b.spp)
+    );
     match &verdict {
         Some(v) => text += &v.summary(),
         None => text += "no statistical test: neither image has a variance (give --variance-a or --variance-b)\n",
     }
     text += &m.summary();
     text += &format!("report: {}\n", args.report.display());
-    Ok(DiffOutcome { text, passed: verdict.map(|v| v.passes()), report: args.report.clone() })
+    Ok(DiffOutcome {
+        text,
+        passed: verdict.map(|v| v.passes()),
+        report: args.report.clone(),
+    })
 }
 
 /// Runs the command and ends the process with its exit status (0 same,
@@ -125,14 +167,23 @@ pub fn run(args: &DiffArgs) -> Result<()> {
     let status = match execute(args) {
         Ok(out) => {
             let mut stdout = std::io::stdout().lock();
-            let _ = stdout.write_all(out.text.as_bytes()).and_then(|_| stdout.flush());
+            let _ = stdout
+                .write_all(out.text.as_bytes())
+                .and_then(|_| stdout.flush());
             match out.passed {
                 Some(true) => return Ok(()),
                 Some(false) => 1,
                 None => {
                     eprintln!(
                         "error: {}",
-                        one_line(&format!("{:#}", anyhow!("cannot test `{}` against `{}`: neither has a variance", args.a.display(), args.b.display())))
+                        one_line(&format!(
+                            "{:#}",
+                            anyhow!(
+                                "cannot test `{}` against `{}`: neither has a variance",
+                                args.a.display(),
+                                args.b.display()
+                            )
+                        ))
                     );
                     2
                 }

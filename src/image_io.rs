@@ -46,8 +46,8 @@
 use crate::tonemap::Tonemap;
 use anyhow::{anyhow, bail, Context, Result};
 use exr::prelude::{
-    AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Image, ImageAttributes, Layer, LayerAttributes, ReadChannels, ReadLayers, SmallVec, Text,
-    WritableImage,
+    AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Image, ImageAttributes, Layer,
+    LayerAttributes, ReadChannels, ReadLayers, SmallVec, Text, WritableImage,
 };
 use glam::Vec3;
 use reference::film::Film;
@@ -83,7 +83,13 @@ pub struct RenderImage {
 impl RenderImage {
     /// The mean and the variance of the mean of a film.
     pub fn from_film(film: &Film, metadata: RenderMetadata) -> Self {
-        Self { width: film.width, height: film.height, mean: film.mean(), variance: Some(film.variance()), metadata }
+        Self {
+            width: film.width,
+            height: film.height,
+            mean: film.mean(),
+            variance: Some(film.variance()),
+            metadata,
+        }
     }
 
     /// Checks that the pixel arrays match the size.
@@ -93,11 +99,21 @@ impl RenderImage {
             bail!("image size {}x{} is empty", self.width, self.height);
         }
         if self.mean.len() != n {
-            bail!("{} mean pixels for a {}x{} image", self.mean.len(), self.width, self.height);
+            bail!(
+                "{} mean pixels for a {}x{} image",
+                self.mean.len(),
+                self.width,
+                self.height
+            );
         }
         if let Some(v) = &self.variance {
             if v.len() != n {
-                bail!("{} variance pixels for a {}x{} image", v.len(), self.width, self.height);
+                bail!(
+                    "{} variance pixels for a {}x{} image",
+                    v.len(),
+                    self.width,
+                    self.height
+                );
             }
         }
         Ok(())
@@ -117,11 +133,21 @@ pub fn output_paths(out: &Path) -> Result<OutputPaths> {
     if out.as_os_str().is_empty() {
         bail!("the output path is empty");
     }
-    let trailing_separator = out.as_os_str().to_string_lossy().ends_with(std::path::is_separator);
+    let trailing_separator = out
+        .as_os_str()
+        .to_string_lossy()
+        .ends_with(std::path::is_separator);
     if out.file_name().is_none() || trailing_separator || out.is_dir() {
-        bail!("output path `{}` is a directory; give a file name, as in `{}`", out.display(), out.join("render").display());
+        bail!(
+            "output path `{}` is a directory; give a file name, as in `{}`",
+            out.display(),
+            out.join("render").display()
+        );
     }
-    let ext = out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    let ext = out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
     let base = match ext.as_deref() {
         Some("exr") | Some("png") => out.with_extension(""),
         _ => out.to_path_buf(),
@@ -131,7 +157,10 @@ pub fn output_paths(out: &Path) -> Result<OutputPaths> {
         s.push(suffix);
         PathBuf::from(s)
     };
-    Ok(OutputPaths { exr: with(".exr"), png: with(".png") })
+    Ok(OutputPaths {
+        exr: with(".exr"),
+        png: with(".png"),
+    })
 }
 
 /// The directory a file would be written to: it must exist.
@@ -142,9 +171,21 @@ pub fn existing_parent_dir(path: &Path) -> Result<PathBuf> {
     };
     match std::fs::metadata(&dir) {
         Ok(m) if m.is_dir() => Ok(dir),
-        Ok(_) => bail!("cannot write `{}`: `{}` is not a directory", path.display(), dir.display()),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => bail!("cannot write `{}`: directory `{}` does not exist", path.display(), dir.display()),
-        Err(e) => bail!("cannot write `{}`: directory `{}`: {e}", path.display(), dir.display()),
+        Ok(_) => bail!(
+            "cannot write `{}`: `{}` is not a directory",
+            path.display(),
+            dir.display()
+        ),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => bail!(
+            "cannot write `{}`: directory `{}` does not exist",
+            path.display(),
+            dir.display()
+        ),
+        Err(e) => bail!(
+            "cannot write `{}`: directory `{}`: {e}",
+            path.display(),
+            dir.display()
+        ),
     }
 }
 
@@ -164,7 +205,10 @@ impl AtomicFile {
     /// destination directory is missing or not writable.
     pub fn create(dest: &Path) -> Result<Self> {
         let dir = existing_parent_dir(dest)?;
-        let name = dest.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let name = dest
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
         let prefix = format!(".{name}.");
         let mut builder = tempfile::Builder::new();
         builder.prefix(&prefix).suffix(".tmp");
@@ -175,10 +219,18 @@ impl AtomicFile {
             use std::os::unix::fs::PermissionsExt;
             builder.permissions(std::fs::Permissions::from_mode(0o666));
         }
-        let temp = builder
-            .tempfile_in(&dir)
-            .map_err(|e| anyhow!("cannot write `{}`: cannot create a file in `{}`: {}", dest.display(), dir.display(), without_path(&e)))?;
-        Ok(Self { temp, dest: dest.to_path_buf() })
+        let temp = builder.tempfile_in(&dir).map_err(|e| {
+            anyhow!(
+                "cannot write `{}`: cannot create a file in `{}`: {}",
+                dest.display(),
+                dir.display(),
+                without_path(&e)
+            )
+        })?;
+        Ok(Self {
+            temp,
+            dest: dest.to_path_buf(),
+        })
     }
 
     pub fn file(&mut self) -> &mut File {
@@ -192,8 +244,17 @@ impl AtomicFile {
     /// Flushes the data to disk and renames the file into place.
     pub fn commit(self) -> Result<PathBuf> {
         let dest = self.dest;
-        self.temp.as_file().sync_all().with_context(|| format!("cannot write `{}`", dest.display()))?;
-        self.temp.persist(&dest).map_err(|e| anyhow!("cannot write `{}`: {}", dest.display(), without_path(&e.error)))?;
+        self.temp
+            .as_file()
+            .sync_all()
+            .with_context(|| format!("cannot write `{}`", dest.display()))?;
+        self.temp.persist(&dest).map_err(|e| {
+            anyhow!(
+                "cannot write `{}`: {}",
+                dest.display(),
+                without_path(&e.error)
+            )
+        })?;
         Ok(dest)
     }
 }
@@ -219,7 +280,10 @@ pub fn write_atomic(path: &Path, write: impl FnOnce(&mut File) -> Result<()>) ->
 
 /// EXR text is Latin-1: other characters become `?`.
 fn latin1(s: &str) -> Text {
-    let bytes: Vec<u8> = s.chars().map(|c| u8::try_from(u32::from(c)).unwrap_or(b'?')).collect();
+    let bytes: Vec<u8> = s
+        .chars()
+        .map(|c| u8::try_from(u32::from(c)).unwrap_or(b'?'))
+        .collect();
     Text::from_bytes_unchecked(SmallVec::from_vec(bytes))
 }
 
@@ -228,7 +292,12 @@ fn channel(name: &str, values: impl Iterator<Item = f32>) -> AnyChannel<FlatSamp
 }
 
 fn rgb_channels(prefix: &str, pixels: &[Vec3]) -> [AnyChannel<FlatSamples>; 3] {
-    [0, 1, 2].map(|c| channel(&format!("{prefix}{}", ["R", "G", "B"][c]), pixels.iter().map(move |p| p[c])))
+    [0, 1, 2].map(|c| {
+        channel(
+            &format!("{prefix}{}", ["R", "G", "B"][c]),
+            pixels.iter().map(move |p| p[c]),
+        )
+    })
 }
 
 /// Encodes an image as the EXR layout described in the module docs.
@@ -249,7 +318,10 @@ pub fn write_exr_to(writer: impl Write + Seek, image: &RenderImage) -> Result<()
         other.insert(Text::from("maxDepth"), int(depth));
     }
     if let Some(seed) = m.seed {
-        other.insert(Text::from("seed"), AttributeValue::Text(Text::from(seed.to_string().as_str())));
+        other.insert(
+            Text::from("seed"),
+            AttributeValue::Text(Text::from(seed.to_string().as_str())),
+        );
     }
     if let Some(scene) = &m.scene {
         other.insert(Text::from("scene"), AttributeValue::Text(latin1(scene)));
@@ -258,10 +330,18 @@ pub fn write_exr_to(writer: impl Write + Seek, image: &RenderImage) -> Result<()
         attributes.software_name = Some(latin1(software));
     }
     let size = (image.width as usize, image.height as usize);
-    let layer = Layer::new(size, attributes, Encoding::SMALL_LOSSLESS, AnyChannels::sort(SmallVec::from_vec(channels)));
+    let layer = Layer::new(
+        size,
+        attributes,
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(SmallVec::from_vec(channels)),
+    );
     let exr_image = Image::new(ImageAttributes::with_size(size), layer);
     let mut buffered = BufWriter::new(writer);
-    exr_image.write().to_buffered(&mut buffered).map_err(|e| anyhow!("EXR encoding failed: {e}"))?;
+    exr_image
+        .write()
+        .to_buffered(&mut buffered)
+        .map_err(|e| anyhow!("EXR encoding failed: {e}"))?;
     buffered.flush()?;
     Ok(())
 }
@@ -272,32 +352,55 @@ pub fn write_exr(path: &Path, image: &RenderImage) -> Result<()> {
 }
 
 /// Encodes linear pixels as an 8-bit sRGB PNG after `tonemap`.
-pub fn write_png_to(writer: impl Write, width: u32, height: u32, pixels: &[Vec3], tonemap: Tonemap) -> Result<()> {
+pub fn write_png_to(
+    writer: impl Write,
+    width: u32,
+    height: u32,
+    pixels: &[Vec3],
+    tonemap: Tonemap,
+) -> Result<()> {
     use image::ImageEncoder;
     if pixels.len() != width as usize * height as usize || pixels.is_empty() {
         bail!("{} pixels for a {width}x{height} image", pixels.len());
     }
     let bytes = tonemap.to_srgb8_image(pixels);
     let mut buffered = BufWriter::new(writer);
-    image::codecs::png::PngEncoder::new(&mut buffered).write_image(&bytes, width, height, image::ExtendedColorType::Rgb8)?;
+    image::codecs::png::PngEncoder::new(&mut buffered).write_image(
+        &bytes,
+        width,
+        height,
+        image::ExtendedColorType::Rgb8,
+    )?;
     buffered.flush()?;
     Ok(())
 }
 
 /// Writes `path` as a tone-mapped 8-bit sRGB PNG, atomically.
-pub fn write_png(path: &Path, width: u32, height: u32, pixels: &[Vec3], tonemap: Tonemap) -> Result<()> {
+pub fn write_png(
+    path: &Path,
+    width: u32,
+    height: u32,
+    pixels: &[Vec3],
+    tonemap: Tonemap,
+) -> Result<()> {
     write_atomic(path, |f| write_png_to(f, width, height, pixels, tonemap))
 }
 
 /// Writes both files of a render. Both are complete in their temporary
 /// files before either is renamed into place, so a failure while encoding
 /// leaves neither behind.
-pub fn write_render_outputs(paths: &OutputPaths, image: &RenderImage, tonemap: Tonemap) -> Result<()> {
+pub fn write_render_outputs(
+    paths: &OutputPaths,
+    image: &RenderImage,
+    tonemap: Tonemap,
+) -> Result<()> {
     image.check()?;
     let mut exr = AtomicFile::create(&paths.exr)?;
     let mut png = AtomicFile::create(&paths.png)?;
-    write_exr_to(exr.file(), image).with_context(|| format!("cannot write `{}`", paths.exr.display()))?;
-    write_png_to(png.file(), image.width, image.height, &image.mean, tonemap).with_context(|| format!("cannot write `{}`", paths.png.display()))?;
+    write_exr_to(exr.file(), image)
+        .with_context(|| format!("cannot write `{}`", paths.exr.display()))?;
+    write_png_to(png.file(), image.width, image.height, &image.mean, tonemap)
+        .with_context(|| format!("cannot write `{}`", paths.png.display()))?;
     exr.commit()?;
     png.commit()?;
     Ok(())
@@ -329,7 +432,10 @@ pub fn read_exr(path: &Path) -> Result<RenderImage> {
         return Err(anyhow!("the file has no image part")).with_context(what);
     };
     let size = first.size;
-    let (width, height) = (u32::try_from(size.0).with_context(what)?, u32::try_from(size.1).with_context(what)?);
+    let (width, height) = (
+        u32::try_from(size.0).with_context(what)?,
+        u32::try_from(size.1).with_context(what)?,
+    );
     // Channel full names: a part named `variance` contributes `variance.X`.
     let mut channels: Vec<(String, &FlatSamples)> = Vec::new();
     for (i, layer) in image.layer_data.iter().enumerate() {
@@ -338,7 +444,14 @@ pub fn read_exr(path: &Path) -> Result<RenderImage> {
             _ => String::new(),
         };
         if layer.size != size {
-            return Err(anyhow!("part {i} is {}x{}, the first part {}x{}", layer.size.0, layer.size.1, size.0, size.1)).with_context(what);
+            return Err(anyhow!(
+                "part {i} is {}x{}, the first part {}x{}",
+                layer.size.0,
+                layer.size.1,
+                size.0,
+                size.1
+            ))
+            .with_context(what);
         }
         for c in &layer.channel_data.list {
             channels.push((format!("{prefix}{}", c.name), &c.sample_data));
@@ -356,18 +469,42 @@ pub fn read_exr(path: &Path) -> Result<RenderImage> {
             let samples = samples.ok_or_else(|| anyhow!("channel `{name}` is missing"))?;
             planes.push(samples.values_as_f32().collect::<Vec<f32>>());
         }
-        Ok(Some((0..size.0 * size.1).map(|i| Vec3::new(planes[0][i], planes[1][i], planes[2][i])).collect()))
+        Ok(Some(
+            (0..size.0 * size.1)
+                .map(|i| Vec3::new(planes[0][i], planes[1][i], planes[2][i]))
+                .collect(),
+        ))
     };
-    let mean = read_rgb("").with_context(what)?.ok_or_else(|| anyhow!("no `R`, `G`, `B` channels")).with_context(what)?;
+    let mean = read_rgb("")
+        .with_context(what)?
+        .ok_or_else(|| anyhow!("no `R`, `G`, `B` channels"))
+        .with_context(what)?;
     let variance = read_rgb(&format!("{VARIANCE_LAYER}.")).with_context(what)?;
     let attrs = &first.attributes;
-    let get = |name: &str| attrs.other.get(&Text::from(name)).or_else(|| image.attributes.other.get(&Text::from(name)));
+    let get = |name: &str| {
+        attrs
+            .other
+            .get(&Text::from(name))
+            .or_else(|| image.attributes.other.get(&Text::from(name)))
+    };
     let metadata = RenderMetadata {
         spp: get("spp").and_then(attribute_u32),
         max_depth: get("maxDepth").and_then(attribute_u32),
         seed: get("seed").and_then(attribute_u32),
-        scene: get("scene").and_then(|v| if let AttributeValue::Text(t) = v { Some(t.to_string()) } else { None }),
+        scene: get("scene").and_then(|v| {
+            if let AttributeValue::Text(t) = v {
+                Some(t.to_string())
+            } else {
+                None
+            }
+        }),
         software: attrs.software_name.as_ref().map(|t| t.to_string()),
     };
-    Ok(RenderImage { width, height, mean, variance, metadata })
+    Ok(RenderImage {
+        width,
+        height,
+        mean,
+        variance,
+        metadata,
+    })
 }

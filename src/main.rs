@@ -19,7 +19,11 @@ fn main() -> ExitCode {
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            let _ = writeln!(std::io::stderr(), "error: {}", cli::one_line(&format!("{e:#}")));
+            let _ = writeln!(
+                std::io::stderr(),
+                "error: {}",
+                cli::one_line(&format!("{e:#}"))
+            );
             ExitCode::FAILURE
         }
     }

@@ -38,7 +38,11 @@ pub fn base64(bytes: &[u8]) -> String {
     const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
     for chunk in bytes.chunks(3) {
-        let b = [chunk[0], *chunk.get(1).unwrap_or(&0), *chunk.get(2).unwrap_or(&0)];
+        let b = [
+            chunk[0],
+            *chunk.get(1).unwrap_or(&0),
+            *chunk.get(2).unwrap_or(&0),
+        ];
         let n = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
         for k in 0..4 {
             if k <= chunk.len() {
@@ -53,19 +57,31 @@ pub fn base64(bytes: &[u8]) -> String {
 
 /// HTML-escapes text.
 fn esc(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
 }
 
 /// An 8-bit RGB image as a `data:image/png;base64,…` URI.
 fn png_data_uri(width: u32, height: u32, rgb: &[u8]) -> Result<String> {
     use image::ImageEncoder;
     let mut png = Vec::new();
-    image::codecs::png::PngEncoder::new(&mut png).write_image(rgb, width, height, image::ExtendedColorType::Rgb8)?;
+    image::codecs::png::PngEncoder::new(&mut png).write_image(
+        rgb,
+        width,
+        height,
+        image::ExtendedColorType::Rgb8,
+    )?;
     Ok(format!("data:image/png;base64,{}", base64(&png)))
 }
 
 fn lerp_colour(stops: &[[f32; 3]], t: f32) -> [u8; 3] {
-    let t = if t.is_finite() { t.clamp(0.0, 1.0) } else { 1.0 };
+    let t = if t.is_finite() {
+        t.clamp(0.0, 1.0)
+    } else {
+        1.0
+    };
     let x = t * (stops.len() - 1) as f32;
     let i = (x.floor() as usize).min(stops.len() - 2);
     let f = x - i as f32;
@@ -73,7 +89,13 @@ fn lerp_colour(stops: &[[f32; 3]], t: f32) -> [u8; 3] {
 }
 
 /// Black → purple → orange → white, for magnitudes.
-const HEAT: [[f32; 3]; 5] = [[0.0, 0.0, 0.0], [0.35, 0.05, 0.5], [0.85, 0.25, 0.3], [1.0, 0.7, 0.2], [1.0, 1.0, 1.0]];
+const HEAT: [[f32; 3]; 5] = [
+    [0.0, 0.0, 0.0],
+    [0.35, 0.05, 0.5],
+    [0.85, 0.25, 0.3],
+    [1.0, 0.7, 0.2],
+    [1.0, 1.0, 1.0],
+];
 /// Blue → white → red, for signed statistics.
 const DIVERGING: [[f32; 3]; 3] = [[0.15, 0.3, 0.85], [1.0, 1.0, 1.0], [0.85, 0.15, 0.1]];
 
@@ -82,13 +104,43 @@ fn figures(r: &Report) -> Result<Vec<(String, String)>> {
     let (w, h) = (r.a.width, r.a.height);
     let mut out = Vec::new();
     let (ma, mb) = (mean_f32(r.a), mean_f32(r.b));
-    out.push((format!("{} (ACES)", r.labels[0]), png_data_uri(w, h, &Tonemap::Aces.to_srgb8_image(&sanitized(&ma)))?));
-    out.push((format!("{} (ACES)", r.labels[1]), png_data_uri(w, h, &Tonemap::Aces.to_srgb8_image(&sanitized(&mb)))?));
+    out.push((
+        format!("{} (ACES)", r.labels[0]),
+        png_data_uri(w, h, &Tonemap::Aces.to_srgb8_image(&sanitized(&ma)))?,
+    ));
+    out.push((
+        format!("{} (ACES)", r.labels[1]),
+        png_data_uri(w, h, &Tonemap::Aces.to_srgb8_image(&sanitized(&mb)))?,
+    ));
 
-    let err: Vec<f64> = r.a.mean.iter().zip(&r.b.mean).map(|(p, q)| (*p - *q).abs().element_sum() / 3.0).collect();
-    let max_err = err.iter().copied().filter(|e| e.is_finite()).fold(0.0f64, f64::max);
-    let heat: Vec<u8> = err.iter().flat_map(|&e| lerp_colour(&HEAT, if max_err > 0.0 { (e / max_err) as f32 } else { 0.0 })).collect();
-    out.push((format!("error |a − b|, mean over channels: black 0, white {max_err:.3e}"), png_data_uri(w, h, &heat)?));
+    let err: Vec<f64> =
+        r.a.mean
+            .iter()
+            .zip(&r.b.mean)
+            .map(|(p, q)| (*p - *q).abs().element_sum() / 3.0)
+            .collect();
+    let max_err = err
+        .iter()
+        .copied()
+        .filter(|e| e.is_finite())
+        .fold(0.0f64, f64::max);
+    let heat: Vec<u8> = err
+        .iter()
+        .flat_map(|&e| {
+            lerp_colour(
+                &HEAT,
+                if max_err > 0.0 {
+                    (e / max_err) as f32
+                } else {
+                    0.0
+                },
+            )
+        })
+        .collect();
+    out.push((
+        format!("error |a − b|, mean over channels: black 0, white {max_err:.3e}"),
+        png_data_uri(w, h, &heat)?,
+    ));
 
     if let Some(v) = r.verdict {
         let stat: Vec<u8> = v
@@ -96,17 +148,34 @@ fn figures(r: &Report) -> Result<Vec<(String, String)>> {
             .statistic
             .iter()
             .flat_map(|s| {
-                let c = (0..3).max_by(|&i, &j| s[i].abs().total_cmp(&s[j].abs())).unwrap_or(0);
-                let t = if s[c].is_nan() { 1.0 } else { (s[c] / 5.0).clamp(-1.0, 1.0) * 0.5 + 0.5 };
+                let c = (0..3)
+                    .max_by(|&i, &j| s[i].abs().total_cmp(&s[j].abs()))
+                    .unwrap_or(0);
+                let t = if s[c].is_nan() {
+                    1.0
+                } else {
+                    (s[c] / 5.0).clamp(-1.0, 1.0) * 0.5 + 0.5
+                };
                 lerp_colour(&DIVERGING, t as f32)
             })
             .collect();
-        out.push(("test statistic (largest |z| or |t| of R, G, B): blue −5, white 0, red +5".into(), png_data_uri(w, h, &stat)?));
+        out.push((
+            "test statistic (largest |z| or |t| of R, G, B): blue −5, white 0, red +5".into(),
+            png_data_uri(w, h, &stat)?,
+        ));
     }
 
     let flip = flip_map(w, h, &ma, &mb);
-    let flip_rgb = nv_flip::FlipImageFloat::with_data(w, h, &flip).apply_color_lut(&nv_flip::magma_lut()).to_vec();
-    out.push((format!("FLIP (ACES tone mapped, magma: 0 black … 1 yellow-white); mean {:.4}", r.metrics.flip_mean), png_data_uri(w, h, &flip_rgb)?));
+    let flip_rgb = nv_flip::FlipImageFloat::with_data(w, h, &flip)
+        .apply_color_lut(&nv_flip::magma_lut())
+        .to_vec();
+    out.push((
+        format!(
+            "FLIP (ACES tone mapped, magma: 0 black … 1 yellow-white); mean {:.4}",
+            r.metrics.flip_mean
+        ),
+        png_data_uri(w, h, &flip_rgb)?,
+    ));
 
     if let Some(v) = r.verdict {
         let level = -v.pixels.alpha_per_test.log10();
@@ -141,7 +210,9 @@ fn figures(r: &Report) -> Result<Vec<(String, String)>> {
 }
 
 fn sanitized(p: &[glam::Vec3]) -> Vec<glam::Vec3> {
-    p.iter().map(|v| if v.is_finite() { *v } else { glam::Vec3::ZERO }).collect()
+    p.iter()
+        .map(|v| if v.is_finite() { *v } else { glam::Vec3::ZERO })
+        .collect()
 }
 
 fn table_rows(r: &Report) -> Vec<(String, String)> {
@@ -152,9 +223,18 @@ fn table_rows(r: &Report) -> Vec<(String, String)> {
         None => "not tested: neither image has a variance".to_string(),
     };
     rows.push(("verdict".into(), verdict));
-    rows.push(("images".into(), format!("{} vs {} ({}x{})", r.labels[0], r.labels[1], r.a.width, r.a.height)));
+    rows.push((
+        "images".into(),
+        format!(
+            "{} vs {} ({}x{})",
+            r.labels[0], r.labels[1], r.a.width, r.a.height
+        ),
+    ));
     let spp = |s: Option<u32>| s.map_or("unknown".into(), |s| s.to_string());
-    rows.push(("samples per pixel".into(), format!("{}, {}", spp(r.a.spp), spp(r.b.spp))));
+    rows.push((
+        "samples per pixel".into(),
+        format!("{}, {}", spp(r.a.spp), spp(r.b.spp)),
+    ));
     if let Some(v) = r.verdict {
         let px = &v.pixels;
         rows.push(("method".into(), v.method.describe().into()));
@@ -175,7 +255,12 @@ fn table_rows(r: &Report) -> Vec<(String, String)> {
             ),
         ));
         let ag = &v.aggregate;
-        let sums: Vec<String> = ag.image.iter().zip(["R", "G", "B"]).map(|(t, c)| format!("{c}: {:+.3} (p {:.2e})", t.statistic, t.p)).collect();
+        let sums: Vec<String> = ag
+            .image
+            .iter()
+            .zip(["R", "G", "B"])
+            .map(|(t, c)| format!("{c}: {:+.3} (p {:.2e})", t.statistic, t.p))
+            .collect();
         rows.push((
             "image sum".into(),
             format!(
@@ -186,20 +271,46 @@ fn table_rows(r: &Report) -> Vec<(String, String)> {
             ),
         ));
         let worst = ag.worst_tile().map_or(String::new(), |t| {
-            format!("; worst ({}..{}, {}..{}) {}: {:+.3} (p {:.2e})", t.x0, t.x1, t.y0, t.y1, ["R", "G", "B"][t.channel], t.statistic, t.p)
+            format!(
+                "; worst ({}..{}, {}..{}) {}: {:+.3} (p {:.2e})",
+                t.x0,
+                t.x1,
+                t.y0,
+                t.y1,
+                ["R", "G", "B"][t.channel],
+                t.statistic,
+                t.p
+            )
         });
         rows.push((
             format!("{0}x{0} tile sums", ag.tile_size),
-            format!("{} of {} fail at Šidák level {:.2e}{worst}", ag.failing_tiles().count(), ag.tiles.len(), ag.tile_alpha),
+            format!(
+                "{} of {} fail at Šidák level {:.2e}{worst}",
+                ag.failing_tiles().count(),
+                ag.tiles.len(),
+                ag.tile_alpha
+            ),
         ));
-        rows.push(("variance floor".into(), format!("{:e} per sample (Mitsuba 3's clamp)", v.settings.variance_floor)));
+        rows.push((
+            "variance floor".into(),
+            format!(
+                "{:e} per sample (Mitsuba 3's clamp)",
+                v.settings.variance_floor
+            ),
+        ));
     }
     let m = r.metrics;
     rows.push(("RMSE".into(), format!("{:.5e}", m.rmse)));
     rows.push(("relMSE (ε = 0.01)".into(), format!("{:.5e}", m.relmse)));
     rows.push(("FLIP mean".into(), format!("{:.5}", m.flip_mean)));
-    rows.push(("NaN/Inf values".into(), format!("{}, {}", m.nonfinite_values[0], m.nonfinite_values[1])));
-    rows.push(("rejected NaN/Inf samples".into(), format!("{}, {}", m.nonfinite_samples[0], m.nonfinite_samples[1])));
+    rows.push((
+        "NaN/Inf values".into(),
+        format!("{}, {}", m.nonfinite_values[0], m.nonfinite_values[1]),
+    ));
+    rows.push((
+        "rejected NaN/Inf samples".into(),
+        format!("{}, {}", m.nonfinite_samples[0], m.nonfinite_samples[1]),
+    ));
     rows.extend(r.notes.iter().cloned());
     rows
 }
@@ -232,7 +343,11 @@ pub fn render_html(r: &Report) -> Result<String> {
         word = banner.1,
     );
     for (caption, uri) in &figs {
-        let _ = writeln!(o, "<figure><img src=\"{uri}\" alt=\"{c}\"><figcaption>{c}</figcaption></figure>", c = esc(caption));
+        let _ = writeln!(
+            o,
+            "<figure><img src=\"{uri}\" alt=\"{c}\"><figcaption>{c}</figcaption></figure>",
+            c = esc(caption)
+        );
     }
     o.push_str("</div>\n<table>\n");
     for (k, v) in table_rows(r) {
@@ -258,7 +373,15 @@ mod tests {
 
     #[test]
     fn base64_matches_rfc_4648_vectors() {
-        for (input, out) in [("", ""), ("f", "Zg=="), ("fo", "Zm8="), ("foo", "Zm9v"), ("foob", "Zm9vYg=="), ("fooba", "Zm9vYmE="), ("foobar", "Zm9vYmFy")] {
+        for (input, out) in [
+            ("", ""),
+            ("f", "Zg=="),
+            ("fo", "Zm8="),
+            ("foo", "Zm9v"),
+            ("foob", "Zm9vYg=="),
+            ("fooba", "Zm9vYmE="),
+            ("foobar", "Zm9vYmFy"),
+        ] {
             assert_eq!(base64(input.as_bytes()), out);
         }
         assert_eq!(base64(&[0xff, 0xfe, 0xfd]), "//79");

@@ -43,7 +43,10 @@ pub fn ln_gamma(x: f64) -> f64 {
     let inv = 1.0 / y;
     let inv2 = inv * inv;
     // Bernoulli-number coefficients B_2k / (2k (2k−1)): 1/12, −1/360, 1/1260, −1/1680, 1/1188.
-    let series = inv * (1.0 / 12.0 + inv2 * (-1.0 / 360.0 + inv2 * (1.0 / 1260.0 + inv2 * (-1.0 / 1680.0 + inv2 / 1188.0))));
+    let series = inv
+        * (1.0 / 12.0
+            + inv2
+                * (-1.0 / 360.0 + inv2 * (1.0 / 1260.0 + inv2 * (-1.0 / 1680.0 + inv2 / 1188.0))));
     (y - 0.5) * y.ln() - y + 0.5 * (2.0 * PI).ln() + series - shift
 }
 
@@ -141,7 +144,10 @@ pub fn normal_two_sided_p(z: f64) -> f64 {
 /// The `|z|` above which a two-sided normal test at level `alpha` rejects:
 /// the root of `normal_two_sided_p(z) = alpha`, by bisection to 1e-12.
 pub fn normal_two_sided_bound(alpha: f64) -> f64 {
-    assert!(alpha > 0.0 && alpha < 1.0, "level {alpha} must lie in (0, 1)");
+    assert!(
+        alpha > 0.0 && alpha < 1.0,
+        "level {alpha} must lie in (0, 1)"
+    );
     let (mut lo, mut hi) = (0.0f64, 40.0f64);
     while hi - lo > 1e-12 {
         let mid = 0.5 * (lo + hi);
@@ -231,7 +237,10 @@ pub fn student_t_two_sided_p(t: f64, dof: f64) -> f64 {
 /// with probability `1 − alpha` when every null hypothesis holds.
 /// Computed as `−expm1(ln1p(−alpha)/m)`, exact for tiny levels too.
 pub fn sidak(alpha: f64, tests: usize) -> f64 {
-    assert!(alpha > 0.0 && alpha < 1.0, "level {alpha} must lie in (0, 1)");
+    assert!(
+        alpha > 0.0 && alpha < 1.0,
+        "level {alpha} must lie in (0, 1)"
+    );
     -((-alpha).ln_1p() / tests.max(1) as f64).exp_m1()
 }
 
@@ -244,7 +253,12 @@ mod tests {
     fn ln_gamma_matches_factorials_and_half_integers() {
         let mut fact = 1.0f64;
         for n in 1..30 {
-            assert_relative_eq!(ln_gamma(n as f64), fact.ln(), max_relative = 1e-13, epsilon = 1e-13);
+            assert_relative_eq!(
+                ln_gamma(n as f64),
+                fact.ln(),
+                max_relative = 1e-13,
+                epsilon = 1e-13
+            );
             fact *= n as f64;
         }
         // Γ(½) = √π, Γ(3/2) = √π/2.
@@ -260,14 +274,30 @@ mod tests {
         assert_relative_eq!(erfc(1.0), 0.157_299_207_050_285_1, max_relative = 1e-12);
         assert_relative_eq!(erfc(2.0), 0.004_677_734_981_047_266, max_relative = 1e-12);
         assert_relative_eq!(erfc(5.0), 1.537_459_794_428_035e-12, max_relative = 1e-10);
-        assert_relative_eq!(erfc(-1.0), 2.0 - 0.157_299_207_050_285_1, max_relative = 1e-12);
+        assert_relative_eq!(
+            erfc(-1.0),
+            2.0 - 0.157_299_207_050_285_1,
+            max_relative = 1e-12
+        );
     }
 
     #[test]
     fn normal_bounds_are_the_familiar_quantiles() {
-        assert_relative_eq!(normal_two_sided_bound(0.05), 1.959_963_984_540_054, max_relative = 1e-9);
-        assert_relative_eq!(normal_two_sided_bound(0.01), 2.575_829_303_548_901, max_relative = 1e-9);
-        assert_relative_eq!(normal_two_sided_p(3.0), 0.002_699_796_063_260_2, max_relative = 1e-10);
+        assert_relative_eq!(
+            normal_two_sided_bound(0.05),
+            1.959_963_984_540_054,
+            max_relative = 1e-9
+        );
+        assert_relative_eq!(
+            normal_two_sided_bound(0.01),
+            2.575_829_303_548_901,
+            max_relative = 1e-9
+        );
+        assert_relative_eq!(
+            normal_two_sided_p(3.0),
+            0.002_699_796_063_260_2,
+            max_relative = 1e-10
+        );
     }
 
     #[test]
@@ -275,25 +305,49 @@ mod tests {
         // dof 2: e^{−x/2}; dof 1: erfc(√(x/2)).
         for x in [0.1, 1.0, 5.0, 30.0, 200.0] {
             assert_relative_eq!(chi2_sf(x, 2.0), (-x / 2.0f64).exp(), max_relative = 1e-12);
-            assert_relative_eq!(chi2_sf(x, 1.0), erfc((x / 2.0f64).sqrt()), max_relative = 1e-12);
+            assert_relative_eq!(
+                chi2_sf(x, 1.0),
+                erfc((x / 2.0f64).sqrt()),
+                max_relative = 1e-12
+            );
         }
         // The 0.99 quantile of χ²₁₀ is 23.209.
-        assert_relative_eq!(chi2_sf(23.209_251_158_954_36, 10.0), 0.01, max_relative = 1e-8);
+        assert_relative_eq!(
+            chi2_sf(23.209_251_158_954_36, 10.0),
+            0.01,
+            max_relative = 1e-8
+        );
     }
 
     #[test]
     fn student_t_matches_closed_forms_and_the_normal_limit() {
         // ν = 1 is Cauchy: P[|T| > t] = 1 − 2 atan(t)/π.
         for t in [0.3f64, 1.0, 4.0, 50.0] {
-            assert_relative_eq!(student_t_two_sided_p(t, 1.0), 1.0 - 2.0 * t.atan() / PI, max_relative = 1e-10);
+            assert_relative_eq!(
+                student_t_two_sided_p(t, 1.0),
+                1.0 - 2.0 * t.atan() / PI,
+                max_relative = 1e-10
+            );
         }
         // ν = 2: P = 1 − t/√(2+t²).
         for t in [0.3f64, 1.0, 4.0] {
-            assert_relative_eq!(student_t_two_sided_p(t, 2.0), 1.0 - t / (2.0 + t * t).sqrt(), max_relative = 1e-10);
+            assert_relative_eq!(
+                student_t_two_sided_p(t, 2.0),
+                1.0 - t / (2.0 + t * t).sqrt(),
+                max_relative = 1e-10
+            );
         }
         // The 0.995 quantile of t₁₀ is 3.169273.
-        assert_relative_eq!(student_t_two_sided_p(3.169_272_672_616_951, 10.0), 0.01, max_relative = 1e-7);
-        assert_relative_eq!(student_t_two_sided_p(3.0, 1e7), normal_two_sided_p(3.0), max_relative = 1e-5);
+        assert_relative_eq!(
+            student_t_two_sided_p(3.169_272_672_616_951, 10.0),
+            0.01,
+            max_relative = 1e-7
+        );
+        assert_relative_eq!(
+            student_t_two_sided_p(3.0, 1e7),
+            normal_two_sided_p(3.0),
+            max_relative = 1e-5
+        );
     }
 
     #[test]

@@ -49,15 +49,27 @@ pub fn aces_narkowicz(x: f32) -> f32 {
 /// f32, `1.055 - 0.055` falls one ulp short of 1).
 #[inline]
 pub fn srgb_oetf(linear: f32) -> f32 {
-    let x = if linear.is_nan() { 0.0 } else { f64::from(linear.clamp(0.0, 1.0)) };
-    let y = if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 };
+    let x = if linear.is_nan() {
+        0.0
+    } else {
+        f64::from(linear.clamp(0.0, 1.0))
+    };
+    let y = if x <= 0.003_130_8 {
+        12.92 * x
+    } else {
+        1.055 * x.powf(1.0 / 2.4) - 0.055
+    };
     y as f32
 }
 
 /// Encoded [0, 1] to 8 bits, rounding to nearest.
 #[inline]
 pub fn quantize_u8(encoded: f32) -> u8 {
-    let x = if encoded.is_nan() { 0.0 } else { encoded.clamp(0.0, 1.0) };
+    let x = if encoded.is_nan() {
+        0.0
+    } else {
+        encoded.clamp(0.0, 1.0)
+    };
     (x * 255.0 + 0.5) as u8
 }
 
@@ -81,7 +93,9 @@ impl Tonemap {
     /// Linear radiance to an 8-bit sRGB pixel.
     #[inline]
     pub fn to_srgb8(self, radiance: Vec3) -> [u8; 3] {
-        radiance.to_array().map(|c| quantize_u8(srgb_oetf(self.apply(c))))
+        radiance
+            .to_array()
+            .map(|c| quantize_u8(srgb_oetf(self.apply(c))))
     }
 
     /// A whole image, row-major, to packed 8-bit RGB.

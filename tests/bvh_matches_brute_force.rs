@@ -18,7 +18,13 @@ fn check_scene(name: &str, rays: u32) {
     let b = scene.bounds();
     let mut hits = 0;
     for i in 0..rays {
-        let o = b.min + (b.max - b.min) * Vec3::new(random_f32(9, i, 1, 0, 0), random_f32(9, i, 1, 0, 1), random_f32(9, i, 1, 0, 2));
+        let o = b.min
+            + (b.max - b.min)
+                * Vec3::new(
+                    random_f32(9, i, 1, 0, 0),
+                    random_f32(9, i, 1, 0, 1),
+                    random_f32(9, i, 1, 0, 2),
+                );
         let ray = Ray::new(o, random_unit(i, 3));
         let fast = scene.intersect(&ray, 0.0, f32::INFINITY);
         let slow = scene.intersect_brute_force(&ray, 0.0, f32::INFINITY);
@@ -32,7 +38,10 @@ fn check_scene(name: &str, rays: u32) {
             (f, s) => panic!("{name} ray {i}: bvh {f:?} vs brute force {s:?}"),
         }
     }
-    assert!(hits > rays / 10, "{name}: only {hits} of {rays} rays hit anything; the test is not exercising the BVH");
+    assert!(
+        hits > rays / 10,
+        "{name}: only {hits} of {rays} rays hit anything; the test is not exercising the BVH"
+    );
 }
 
 #[test]
@@ -55,14 +64,29 @@ fn ties_go_to_the_smaller_id() {
     // Two identical quads: every hit ties in t, the first must win.
     let mut b = reference::SceneBuilder::new();
     let white = b.constant(Vec3::ONE).unwrap();
-    let m = b.add_material(reference::material::Material::Lambertian { albedo: white }).unwrap();
+    let m = b
+        .add_material(reference::material::Material::Lambertian { albedo: white })
+        .unwrap();
     let id = reference::scene::Transform::default();
     for _ in 0..3 {
-        b.add_quad(Vec3::new(-1.0, -1.0, 0.0), Vec3::X * 2.0, Vec3::Y * 2.0, m, &id).unwrap();
+        b.add_quad(
+            Vec3::new(-1.0, -1.0, 0.0),
+            Vec3::X * 2.0,
+            Vec3::Y * 2.0,
+            m,
+            &id,
+        )
+        .unwrap();
     }
     b.camera.look_from = Vec3::new(0.0, 0.0, 5.0);
     let scene = b.build().unwrap();
     let ray = Ray::new(Vec3::new(0.1, 0.2, 3.0), -Vec3::Z);
     assert_eq!(scene.intersect(&ray, 0.0, f32::INFINITY).unwrap().prim, 0);
-    assert_eq!(scene.intersect_brute_force(&ray, 0.0, f32::INFINITY).unwrap().prim, 0);
+    assert_eq!(
+        scene
+            .intersect_brute_force(&ray, 0.0, f32::INFINITY)
+            .unwrap()
+            .prim,
+        0
+    );
 }

@@ -23,11 +23,18 @@ fn twintrace_env(dir: &Path, args: &[&str], env: &[(&str, &str)]) -> Outcome {
         .stdin(Stdio::null())
         .output()
         .expect("the binary runs");
-    Outcome { code: out.status.code(), stdout: String::from_utf8_lossy(&out.stdout).into_owned(), stderr: String::from_utf8_lossy(&out.stderr).into_owned() }
+    Outcome {
+        code: out.status.code(),
+        stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
+        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
+    }
 }
 
 fn files_in(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
     names.sort();
     names
 }
@@ -45,10 +52,24 @@ fn fails_env(setup: &[(&str, &str)], args: &[&str], env: &[(&str, &str)]) -> Str
     }
     let before = files_in(dir.path());
     let o = twintrace_env(dir.path(), args, env);
-    assert_eq!(o.code, Some(1), "{args:?}: exit status; stderr: {}", o.stderr);
-    assert!(!o.stderr.contains("panicked") && !o.stderr.contains("RUST_BACKTRACE"), "{args:?} panicked: {}", o.stderr);
+    assert_eq!(
+        o.code,
+        Some(1),
+        "{args:?}: exit status; stderr: {}",
+        o.stderr
+    );
+    assert!(
+        !o.stderr.contains("panicked") && !o.stderr.contains("RUST_BACKTRACE"),
+        "{args:?} panicked: {}",
+        o.stderr
+    );
     let lines: Vec<&str> = o.stderr.lines().collect();
-    assert_eq!(lines.len(), 1, "{args:?}: expected one stderr line, got {:?}", o.stderr);
+    assert_eq!(
+        lines.len(),
+        1,
+        "{args:?}: expected one stderr line, got {:?}",
+        o.stderr
+    );
     assert!(lines[0].starts_with("error: "), "{args:?}: {}", lines[0]);
     assert!(o.stdout.is_empty(), "{args:?}: stdout {:?}", o.stdout);
     assert_eq!(files_in(dir.path()), before, "{args:?} created files");
@@ -63,7 +84,10 @@ fn missing_scene_file() {
 
 #[test]
 fn malformed_json_scene() {
-    let e = fails(&[("bad.json", r#"{"objects": [}"#)], &["render", "bad.json", "-o", "out"]);
+    let e = fails(
+        &[("bad.json", r#"{"objects": [}"#)],
+        &["render", "bad.json", "-o", "out"],
+    );
     assert!(e.contains("bad.json"), "{e}");
     let e = fails(&[("bad.json", r#"{"objects": [}"#)], &["info", "bad.json"]);
     assert!(e.contains("bad.json"), "{e}");
@@ -74,11 +98,17 @@ fn bad_sizes() {
     let e = fails(&[], &["render", "cornell", "--size", "0x0", "-o", "out"]);
     assert!(e.contains("0x0"), "{e}");
     let e = fails(&[], &["render", "cornell", "--size", "abc", "-o", "out"]);
-    assert!(e.contains("--size") && e.contains("abc") && e.contains("1200x800"), "{e}");
+    assert!(
+        e.contains("--size") && e.contains("abc") && e.contains("1200x800"),
+        "{e}"
+    );
     let e = fails(&[], &["render", "cornell", "--size", "12x", "-o", "out"]);
     assert!(e.contains("--size"), "{e}");
     // Absurd: 16384² is within the per-side limit but 2^28 pixels.
-    let e = fails(&[], &["render", "cornell", "--size", "16384x16384", "-o", "out"]);
+    let e = fails(
+        &[],
+        &["render", "cornell", "--size", "16384x16384", "-o", "out"],
+    );
     assert!(e.contains("16384x16384") && e.contains("pixels"), "{e}");
 }
 
@@ -93,62 +123,151 @@ const NO_ADAPTER: &[(&str, &str)] = &[("WGPU_BACKEND", "metal")];
 
 #[test]
 fn gpu_backend_without_an_adapter_fails_cleanly() {
-    let e = fails_env(&[], &["render", "cornell", "--backend", "gpu", "-o", "out"], NO_ADAPTER);
-    assert!(e.starts_with("error: --backend gpu: no GPU adapter found"), "{e}");
+    let e = fails_env(
+        &[],
+        &["render", "cornell", "--backend", "gpu", "-o", "out"],
+        NO_ADAPTER,
+    );
+    assert!(
+        e.starts_with("error: --backend gpu: no GPU adapter found"),
+        "{e}"
+    );
 }
 
 #[test]
 fn auto_backend_says_what_it_picked() {
     let dir = tempfile::tempdir().unwrap();
-    let o = twintrace_env(dir.path(), &["render", "cornell", "--size", "8x8", "--spp", "1", "-o", "out"], NO_ADAPTER);
+    let o = twintrace_env(
+        dir.path(),
+        &[
+            "render", "cornell", "--size", "8x8", "--spp", "1", "-o", "out",
+        ],
+        NO_ADAPTER,
+    );
     assert_eq!(o.code, Some(0), "stderr: {}", o.stderr);
-    assert!(o.stderr.starts_with("backend auto: cpu reference (no GPU adapter found"), "{}", o.stderr);
+    assert!(
+        o.stderr
+            .starts_with("backend auto: cpu reference (no GPU adapter found"),
+        "{}",
+        o.stderr
+    );
 }
 
 #[test]
 fn gpu_backend_renders_and_info_lists_the_adapter() {
     let dir = tempfile::tempdir().unwrap();
-    let o = twintrace(dir.path(), &["render", "cornell", "--backend", "gpu", "--size", "16x16", "--spp", "4", "-o", "gpu"]);
+    let o = twintrace(
+        dir.path(),
+        &[
+            "render",
+            "cornell",
+            "--backend",
+            "gpu",
+            "--size",
+            "16x16",
+            "--spp",
+            "4",
+            "-o",
+            "gpu",
+        ],
+    );
     assert_eq!(o.code, Some(0), "stderr: {}", o.stderr);
     assert!(o.stdout.contains(" on gpu `"), "{}", o.stdout);
     assert_eq!(files_in(dir.path()), ["gpu.exr", "gpu.png"]);
     let exr = twintrace::read_exr(&dir.path().join("gpu.exr")).unwrap();
-    assert!(exr.mean.iter().all(|m| m.is_finite()) && exr.mean.iter().any(|m| m.max_element() > 0.0));
+    assert!(
+        exr.mean.iter().all(|m| m.is_finite()) && exr.mean.iter().any(|m| m.max_element() > 0.0)
+    );
     let o = twintrace(dir.path(), &["info"]);
     assert_eq!(o.code, Some(0), "stderr: {}", o.stderr);
-    assert!(o.stdout.starts_with("GPU adapters: ") && o.stdout.contains("storage buffers per stage"), "{}", o.stdout);
+    assert!(
+        o.stdout.starts_with("GPU adapters: ") && o.stdout.contains("storage buffers per stage"),
+        "{}",
+        o.stdout
+    );
 }
 
 #[test]
 fn unknown_builtin_scene() {
     let e = fails(&[], &["render", "no-such-builtin", "-o", "out"]);
-    assert!(e.contains("no-such-builtin") && e.contains("cornell"), "{e}");
+    assert!(
+        e.contains("no-such-builtin") && e.contains("cornell"),
+        "{e}"
+    );
 }
 
 #[test]
 fn unusable_output_paths() {
-    let e = fails(&[], &["render", "cornell", "--backend", "cpu", "-o", "missing-dir/out"]);
-    assert!(e.contains("missing-dir") && e.contains("does not exist"), "{e}");
-    let e = fails(&[("a-file", "")], &["render", "cornell", "--backend", "cpu", "-o", "a-file/out"]);
+    let e = fails(
+        &[],
+        &[
+            "render",
+            "cornell",
+            "--backend",
+            "cpu",
+            "-o",
+            "missing-dir/out",
+        ],
+    );
+    assert!(
+        e.contains("missing-dir") && e.contains("does not exist"),
+        "{e}"
+    );
+    let e = fails(
+        &[("a-file", "")],
+        &["render", "cornell", "--backend", "cpu", "-o", "a-file/out"],
+    );
     assert!(e.contains("a-file") && e.contains("not a directory"), "{e}");
 }
 
 #[test]
 fn small_cornell_render_writes_both_files() {
     let dir = tempfile::tempdir().unwrap();
-    let o =
-        twintrace(dir.path(), &["render", "cornell", "--backend", "cpu", "--size", "16x16", "--spp", "2", "--seed", "7", "--threads", "2", "-o", "out.exr"]);
+    let o = twintrace(
+        dir.path(),
+        &[
+            "render",
+            "cornell",
+            "--backend",
+            "cpu",
+            "--size",
+            "16x16",
+            "--spp",
+            "2",
+            "--seed",
+            "7",
+            "--threads",
+            "2",
+            "-o",
+            "out.exr",
+        ],
+    );
     assert_eq!(o.code, Some(0), "stderr: {}", o.stderr);
-    assert!(o.stdout.starts_with("rendered cornell 16x16, 2 spp,"), "{}", o.stdout);
-    assert!(o.stdout.contains("NaN/Inf samples -> out.exr, out.png"), "{}", o.stdout);
+    assert!(
+        o.stdout.starts_with("rendered cornell 16x16, 2 spp,"),
+        "{}",
+        o.stdout
+    );
+    assert!(
+        o.stdout.contains("NaN/Inf samples -> out.exr, out.png"),
+        "{}",
+        o.stdout
+    );
     assert_eq!(files_in(dir.path()), ["out.exr", "out.png"]);
     let exr = twintrace::read_exr(&dir.path().join("out.exr")).unwrap();
     assert_eq!((exr.width, exr.height, exr.mean.len()), (16, 16, 256));
     assert!(exr.variance.is_some());
     assert_eq!((exr.metadata.spp, exr.metadata.seed), (Some(2), Some(7)));
-    assert_eq!(image::image_dimensions(dir.path().join("out.png")).unwrap(), (16, 16));
+    assert_eq!(
+        image::image_dimensions(dir.path().join("out.png")).unwrap(),
+        (16, 16)
+    );
 
     let o = twintrace(dir.path(), &["info", "cornell"]);
     assert_eq!(o.code, Some(0), "stderr: {}", o.stderr);
-    assert!(o.stdout.contains("quads") && o.stdout.contains("bvh:") && o.stdout.contains("SAH cost"), "{}", o.stdout);
+    assert!(
+        o.stdout.contains("quads") && o.stdout.contains("bvh:") && o.stdout.contains("SAH cost"),
+        "{}",
+        o.stdout
+    );
 }

@@ -6,7 +6,10 @@
 use reference::RenderSettings;
 use std::path::Path;
 use std::process::{Command, Stdio};
-use twintrace::compare::gate::{artifact_dir, assert_passes, cpu_reference, load_reference, load_scene, manifest_entry, run_gate};
+use twintrace::compare::gate::{
+    artifact_dir, assert_passes, cpu_reference, load_reference, load_scene, manifest_entry,
+    run_gate,
+};
 use twintrace::{write_exr, RenderImage, RenderMetadata};
 
 struct Outcome {
@@ -16,8 +19,18 @@ struct Outcome {
 }
 
 fn diff(dir: &Path, args: &[&str]) -> Outcome {
-    let out = Command::new(env!("CARGO_BIN_EXE_twintrace")).arg("diff").args(args).current_dir(dir).stdin(Stdio::null()).output().expect("the binary runs");
-    Outcome { code: out.status.code(), stdout: String::from_utf8_lossy(&out.stdout).into_owned(), stderr: String::from_utf8_lossy(&out.stderr).into_owned() }
+    let out = Command::new(env!("CARGO_BIN_EXE_twintrace"))
+        .arg("diff")
+        .args(args)
+        .current_dir(dir)
+        .stdin(Stdio::null())
+        .output()
+        .expect("the binary runs");
+    Outcome {
+        code: out.status.code(),
+        stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
+        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
+    }
 }
 
 /// Renders the GGX fixture (sky-lit, so pixel means are close to normal;
@@ -27,7 +40,11 @@ fn render(dir: &Path, name: &str, seed: u32, albedo: f32) {
 }
 
 fn render_spp(dir: &Path, name: &str, seed: u32, albedo: f32, spp: u32) {
-    let mut scene = reference::load_scene(concat!(env!("CARGO_MANIFEST_DIR"), "/fixtures/scenes/ggx-roughness.json")).unwrap();
+    let mut scene = reference::load_scene(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/fixtures/scenes/ggx-roughness.json"
+    ))
+    .unwrap();
     for t in &mut scene.textures {
         if let reference::texture::Texture::Constant(c) = t {
             if c.max_element() < 1.0 {
@@ -35,19 +52,50 @@ fn render_spp(dir: &Path, name: &str, seed: u32, albedo: f32, spp: u32) {
             }
         }
     }
-    let settings = RenderSettings { width: 32, height: 12, spp, max_depth: 12, seed, ..scene.render };
+    let settings = RenderSettings {
+        width: 32,
+        height: 12,
+        spp,
+        max_depth: 12,
+        seed,
+        ..scene.render
+    };
     let film = reference::render(&scene, &settings, &|_| {});
-    let meta = RenderMetadata { spp: Some(settings.spp), seed: Some(seed), scene: Some("ggx-roughness".into()), ..Default::default() };
-    write_exr(&dir.join(format!("{name}.exr")), &RenderImage::from_film(&film, meta)).unwrap();
+    let meta = RenderMetadata {
+        spp: Some(settings.spp),
+        seed: Some(seed),
+        scene: Some("ggx-roughness".into()),
+        ..Default::default()
+    };
+    write_exr(
+        &dir.join(format!("{name}.exr")),
+        &RenderImage::from_film(&film, meta),
+    )
+    .unwrap();
 }
 
 fn assert_report(path: &Path) {
     let html = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     assert!(html.starts_with("<!DOCTYPE html>") && html.trim_end().ends_with("</html>"));
     // Render, reference, error, statistic, FLIP and p-value maps, all embedded.
-    assert_eq!(html.matches("src=\"data:image/png;base64,").count(), 6, "six embedded images");
-    assert!(!html.contains("src=\"http") && !html.contains("<script"), "self-contained, no scripts");
-    for row in ["per-pixel tests", "image sum", "tile sums", "RMSE", "relMSE", "FLIP mean", "NaN/Inf values"] {
+    assert_eq!(
+        html.matches("src=\"data:image/png;base64,").count(),
+        6,
+        "six embedded images"
+    );
+    assert!(
+        !html.contains("src=\"http") && !html.contains("<script"),
+        "self-contained, no scripts"
+    );
+    for row in [
+        "per-pixel tests",
+        "image sum",
+        "tile sums",
+        "RMSE",
+        "relMSE",
+        "FLIP mean",
+        "NaN/Inf values",
+    ] {
         assert!(html.contains(row), "the summary table lacks `{row}`");
     }
 }
@@ -58,9 +106,23 @@ fn two_seeds_of_one_render_are_the_same() {
     render(dir.path(), "a", 1, 1.0);
     render(dir.path(), "b", 2, 1.0);
     let o = diff(dir.path(), &["a.exr", "b.exr", "--report", "r.html"]);
-    assert_eq!(o.code, Some(0), "stdout: {}\nstderr: {}", o.stdout, o.stderr);
-    assert!(o.stdout.contains("Welch") && o.stdout.contains("verdict: PASS"), "{}", o.stdout);
-    assert!(o.stdout.contains("RMSE") && o.stdout.contains("FLIP") && o.stdout.contains("NaN/Inf"), "{}", o.stdout);
+    assert_eq!(
+        o.code,
+        Some(0),
+        "stdout: {}\nstderr: {}",
+        o.stdout,
+        o.stderr
+    );
+    assert!(
+        o.stdout.contains("Welch") && o.stdout.contains("verdict: PASS"),
+        "{}",
+        o.stdout
+    );
+    assert!(
+        o.stdout.contains("RMSE") && o.stdout.contains("FLIP") && o.stdout.contains("NaN/Inf"),
+        "{}",
+        o.stdout
+    );
     assert_report(&dir.path().join("r.html"));
 }
 
@@ -70,11 +132,31 @@ fn a_brighter_render_is_different() {
     render(dir.path(), "a", 1, 1.1);
     render(dir.path(), "b", 2, 1.0);
     let o = diff(dir.path(), &["a.exr", "b.exr", "--report", "r.html"]);
-    assert_eq!(o.code, Some(1), "stdout: {}\nstderr: {}", o.stdout, o.stderr);
-    assert!(o.stdout.contains("verdict: FAIL") && o.stdout.contains("report: r.html"), "{}", o.stdout);
+    assert_eq!(
+        o.code,
+        Some(1),
+        "stdout: {}\nstderr: {}",
+        o.stdout,
+        o.stderr
+    );
+    assert!(
+        o.stdout.contains("verdict: FAIL") && o.stdout.contains("report: r.html"),
+        "{}",
+        o.stdout
+    );
     assert_report(&dir.path().join("r.html"));
     // The same pair as a render against a reference (Mitsuba's z-test).
-    let o = diff(dir.path(), &["a.exr", "b.exr", "--method", "reference", "--report", "r2.html"]);
+    let o = diff(
+        dir.path(),
+        &[
+            "a.exr",
+            "b.exr",
+            "--method",
+            "reference",
+            "--report",
+            "r2.html",
+        ],
+    );
     assert_eq!(o.code, Some(1), "{}", o.stdout);
     assert!(o.stdout.contains("against a reference"), "{}", o.stdout);
 }
@@ -87,25 +169,78 @@ fn a_separate_variance_image_is_used_and_no_variance_cannot_be_tested() {
     render_spp(dir.path(), "b", 2, 1.0, 8192);
     // b's mean alone, and its variance as the RGB of another file.
     let b = twintrace::read_exr(&dir.path().join("b.exr")).unwrap();
-    let mean_only = RenderImage { variance: None, ..b.clone() };
+    let mean_only = RenderImage {
+        variance: None,
+        ..b.clone()
+    };
     write_exr(&dir.path().join("b-mean.exr"), &mean_only).unwrap();
-    let var = RenderImage { mean: b.variance.clone().unwrap(), variance: None, ..b };
+    let var = RenderImage {
+        mean: b.variance.clone().unwrap(),
+        variance: None,
+        ..b
+    };
     write_exr(&dir.path().join("b-var.exr"), &var).unwrap();
-    let a_mean = RenderImage { variance: None, ..twintrace::read_exr(&dir.path().join("a.exr")).unwrap() };
+    let a_mean = RenderImage {
+        variance: None,
+        ..twintrace::read_exr(&dir.path().join("a.exr")).unwrap()
+    };
     write_exr(&dir.path().join("a-mean.exr"), &a_mean).unwrap();
 
-    let o = diff(dir.path(), &["a-mean.exr", "b-mean.exr", "--variance-b", "b-var.exr", "--report", "r.html"]);
-    assert_eq!(o.code, Some(0), "stdout: {}\nstderr: {}", o.stdout, o.stderr);
-    assert!(o.stdout.contains("the second image's per-sample variance predicts") && o.stdout.contains("spp 256 and 8192"), "{}", o.stdout);
+    let o = diff(
+        dir.path(),
+        &[
+            "a-mean.exr",
+            "b-mean.exr",
+            "--variance-b",
+            "b-var.exr",
+            "--report",
+            "r.html",
+        ],
+    );
+    assert_eq!(
+        o.code,
+        Some(0),
+        "stdout: {}\nstderr: {}",
+        o.stdout,
+        o.stderr
+    );
+    assert!(
+        o.stdout
+            .contains("the second image's per-sample variance predicts")
+            && o.stdout.contains("spp 256 and 8192"),
+        "{}",
+        o.stdout
+    );
 
-    let o = diff(dir.path(), &["a-mean.exr", "b-mean.exr", "--report", "r2.html"]);
-    assert_eq!(o.code, Some(2), "stdout: {}\nstderr: {}", o.stdout, o.stderr);
-    assert!(o.stderr.starts_with("error: ") && o.stderr.contains("variance"), "{}", o.stderr);
-    assert!(o.stdout.contains("RMSE"), "metrics are still printed: {}", o.stdout);
+    let o = diff(
+        dir.path(),
+        &["a-mean.exr", "b-mean.exr", "--report", "r2.html"],
+    );
+    assert_eq!(
+        o.code,
+        Some(2),
+        "stdout: {}\nstderr: {}",
+        o.stdout,
+        o.stderr
+    );
+    assert!(
+        o.stderr.starts_with("error: ") && o.stderr.contains("variance"),
+        "{}",
+        o.stderr
+    );
+    assert!(
+        o.stdout.contains("RMSE"),
+        "metrics are still printed: {}",
+        o.stdout
+    );
 
     let o = diff(dir.path(), &["a.exr", "missing.exr"]);
     assert_eq!(o.code, Some(2));
-    assert!(o.stderr.starts_with("error: ") && o.stderr.contains("missing.exr"), "{}", o.stderr);
+    assert!(
+        o.stderr.starts_with("error: ") && o.stderr.contains("missing.exr"),
+        "{}",
+        o.stderr
+    );
     assert_eq!(o.stderr.lines().count(), 1, "{}", o.stderr);
 }
 
@@ -125,10 +260,14 @@ fn a_failing_image_gate_writes_its_evidence_and_names_it() {
     let test = "diff_command/evidence";
     let dir = artifact_dir(test);
     let _ = std::fs::remove_dir_all(&dir);
-    let panic = std::panic::catch_unwind(|| assert_passes(test, &reference, &run)).expect_err("a 20 % brighter render must fail");
+    let panic = std::panic::catch_unwind(|| assert_passes(test, &reference, &run))
+        .expect_err("a 20 % brighter render must fail");
     let message = panic.downcast_ref::<String>().cloned().unwrap_or_default();
     let report = dir.join("report.html");
-    assert!(message.contains(&report.display().to_string()), "the failure names its report: {message}");
+    assert!(
+        message.contains(&report.display().to_string()),
+        "the failure names its report: {message}"
+    );
     assert_report(&report);
     for f in ["render.exr", "reference.exr"] {
         let img = twintrace::read_exr(&dir.join(f)).unwrap();

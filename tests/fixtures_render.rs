@@ -25,11 +25,25 @@ fn every_fixture_renders_small_without_nonfinite_samples() {
     assert!(scenes.len() >= 12, "found only {} scenes", scenes.len());
     for spec in scenes {
         let scene = reference::load_scene(&spec).unwrap_or_else(|e| panic!("{spec}: {e}"));
-        let settings = RenderSettings { width: 24, height: 16, spp: 4, max_depth: 8, ..scene.render };
+        let settings = RenderSettings {
+            width: 24,
+            height: 16,
+            spp: 4,
+            max_depth: 8,
+            ..scene.render
+        };
         let film = reference::render(&scene, &settings, &|_| {});
         assert_eq!(film.nonfinite_samples(), 0, "{spec}: NaN/Inf samples");
         assert_eq!(film.samples(), 24 * 16 * 4, "{spec}: samples went missing");
-        let mean: f64 = film.pixels.iter().map(|p| p.mean.element_sum()).sum::<f64>() / film.pixels.len() as f64;
-        assert!(mean.is_finite() && mean > 1e-3, "{spec}: image is black (mean {mean})");
+        let mean: f64 = film
+            .pixels
+            .iter()
+            .map(|p| p.mean.element_sum())
+            .sum::<f64>()
+            / film.pixels.len() as f64;
+        assert!(
+            mean.is_finite() && mean > 1e-3,
+            "{spec}: image is black (mean {mean})"
+        );
     }
 }

@@ -14,26 +14,38 @@ const SEED: u32 = 11;
 #[test]
 fn white_furnace_cornell_box_is_exact_without_roulette() {
     // 32x32 at 64 spp: ~65k paths of ~7 lossless bounces each.
-    assert_known_answer(&furnace::white_furnace(false, 64, SEED).unwrap(), &cpu_reference);
+    assert_known_answer(
+        &furnace::white_furnace(false, 64, SEED).unwrap(),
+        &cpu_reference,
+    );
 }
 
 #[test]
 fn white_furnace_cornell_box_keeps_its_mean_under_roulette() {
     // 256 spp: roulette from depth 3 survives with 0.95 and divides by it,
     // so the per-sample value is L_b / 0.95^k; the mean must stay L_b.
-    assert_known_answer(&furnace::white_furnace(true, 256, SEED).unwrap(), &cpu_reference);
+    assert_known_answer(
+        &furnace::white_furnace(true, 256, SEED).unwrap(),
+        &cpu_reference,
+    );
 }
 
 #[test]
 fn inside_out_emitter_is_exact() {
-    assert_known_answer(&furnace::inside_out_emitter(64, SEED).unwrap(), &cpu_reference);
+    assert_known_answer(
+        &furnace::inside_out_emitter(64, SEED).unwrap(),
+        &cpu_reference,
+    );
 }
 
 #[test]
 fn concentric_spheres_match_the_radiosity_solution() {
     // 256 spp at 32x32: the image sum's relative standard error is ~0.2 %.
     for roulette in [false, true] {
-        assert_known_answer(&furnace::concentric_spheres(0.5, roulette, 256, SEED).unwrap(), &cpu_reference);
+        assert_known_answer(
+            &furnace::concentric_spheres(0.5, roulette, 256, SEED).unwrap(),
+            &cpu_reference,
+        );
     }
 }
 
@@ -44,7 +56,12 @@ fn ggx_metal_white_furnace_matches_its_albedo_and_conserves_energy() {
     for roughness in [0.0f32, 0.3, 0.6, 1.0] {
         for theta in [0.0, 45.0, 75.0] {
             let case = furnace::ggx_metal_plane(roughness, theta, 1024, SEED).unwrap();
-            assert!(case.expected.x <= 1.0, "{}: the BRDF's albedo {} exceeds 1", case.name, case.expected.x);
+            assert!(
+                case.expected.x <= 1.0,
+                "{}: the BRDF's albedo {} exceeds 1",
+                case.name,
+                case.expected.x
+            );
             assert_known_answer(&case, &cpu_reference);
         }
     }

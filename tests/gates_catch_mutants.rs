@@ -25,16 +25,24 @@ use reference::bvh::{Bvh, BvhNode};
 use reference::film::{Film, PixelStats};
 use reference::geometry::{reflect, refract, spawn_origin, Onb, Ray, SurfaceInteraction};
 use reference::integrator::{ROULETTE_MAX_SURVIVAL, TILE_SIZE};
-use reference::material::{emitted, scatter, schlick_reflectance, Material, Scatter, TextureContext};
+use reference::material::{
+    emitted, scatter, schlick_reflectance, Material, Scatter, TextureContext,
+};
 use reference::rng::{dims, vertex_randoms};
-use reference::sampling::{cosine_hemisphere_pdf, ggx, sample_cosine_hemisphere, sample_uniform_sphere, sample_unit_ball, sample_unit_disk};
+use reference::sampling::{
+    cosine_hemisphere_pdf, ggx, sample_cosine_hemisphere, sample_uniform_sphere, sample_unit_ball,
+    sample_unit_disk,
+};
 use reference::texture::Texture;
 use reference::{RenderSettings, Scene};
 use std::f32::consts::PI;
 use twintrace::compare::chi2::{test_density, test_same_distribution, Chi2Outcome, Domain};
 use twintrace::compare::exact::compare_films;
 use twintrace::compare::furnace;
-use twintrace::compare::gate::{cpu_reference, load_reference, load_scene, manifest_entry, run_gate, scaled_albedo, GateRun, StoredReference};
+use twintrace::compare::gate::{
+    cpu_reference, load_reference, load_scene, manifest_entry, run_gate, scaled_albedo, GateRun,
+    StoredReference,
+};
 use twintrace::compare::lobes::{standard_cases, ScatterFn};
 use twintrace::compare::{compare, Method, NoisyImage, TestSettings};
 use twintrace::stats::sidak;
@@ -61,9 +69,16 @@ enum Mutation {
 fn drop_bvh_child(scene: &Scene) -> Scene {
     let mut s = scene.clone();
     let mut nodes = s.bvh().nodes().to_vec();
-    let node = nodes.iter().rposition(|n| !n.is_leaf()).expect("the scene has an interior BVH node");
+    let node = nodes
+        .iter()
+        .rposition(|n| !n.is_leaf())
+        .expect("the scene has an interior BVH node");
     let right = nodes[nodes[node].index as usize];
-    nodes.push(BvhNode { meta: BvhNode::LEAF, index: 0, ..right });
+    nodes.push(BvhNode {
+        meta: BvhNode::LEAF,
+        index: 0,
+        ..right
+    });
     nodes[node].index = nodes.len() as u32 - 1;
     s.set_bvh(Bvh::from_parts(nodes, s.bvh().prim_order().to_vec()));
     s
@@ -75,11 +90,25 @@ fn naive_polar_cosine(u: Vec2) -> Vec3 {
     Vec3::new(r * phi.cos(), r * phi.sin(), (1.0 - r * r).max(0.0).sqrt())
 }
 
-fn scatter_mutated(material: &Material, ctx: TextureContext, ray_dir: Vec3, si: &SurfaceInteraction, u: &[f32; 8], mutation: Mutation) -> Option<Scatter> {
+fn scatter_mutated(
+    material: &Material,
+    ctx: TextureContext,
+    ray_dir: Vec3,
+    si: &SurfaceInteraction,
+    u: &[f32; 8],
+    mutation: Mutation,
+) -> Option<Scatter> {
     if let (Mutation::WrongCosinePdf, Material::Lambertian { albedo }) = (mutation, material) {
-        let n = if si.front_face { si.shading_normal } else { -si.shading_normal };
+        let n = if si.front_face {
+            si.shading_normal
+        } else {
+            -si.shading_normal
+        };
         let local = naive_polar_cosine(Vec2::new(u[dims::DIRECTION_U], u[dims::DIRECTION_V]));
-        return Some(Scatter { direction: Onb::from_normal(n).to_world(local), weight: ctx.eval(*albedo, si) });
+        return Some(Scatter {
+            direction: Onb::from_normal(n).to_world(local),
+            weight: ctx.eval(*albedo, si),
+        });
     }
     scatter(material, ctx, ray_dir, si, u)
 }
@@ -93,13 +122,28 @@ fn key(pixel: u32, mutation: Mutation) -> u32 {
 }
 
 /// `reference::integrator::trace_path`, copied, with the mutation hooks.
-fn trace_path(scene: &Scene, mut ray: Ray, settings: &RenderSettings, pixel: u32, sample: u32, mutation: Mutation) -> Vec3 {
-    let ctx = TextureContext { textures: &scene.textures, images: &scene.images };
+fn trace_path(
+    scene: &Scene,
+    mut ray: Ray,
+    settings: &RenderSettings,
+    pixel: u32,
+    sample: u32,
+    mutation: Mutation,
+) -> Vec3 {
+    let ctx = TextureContext {
+        textures: &scene.textures,
+        images: &scene.images,
+    };
     let mut radiance = Vec3::ZERO;
     let mut throughput = Vec3::ONE;
     for segment in 0..settings.max_depth {
         let Some(hit) = scene.intersect(&ray, 0.0, f32::INFINITY) else {
-            radiance += throughput * reference::background::evaluate_background(&scene.background, &scene.images, ray.direction);
+            radiance += throughput
+                * reference::background::evaluate_background(
+                    &scene.background,
+                    &scene.images,
+                    ray.direction,
+                );
             break;
         };
         let si = scene.surface_interaction(&ray, &hit);
@@ -111,7 +155,9 @@ fn trace_path(scene: &Scene, mut ray: Ray, settings: &RenderSettings, pixel: u32
         }
         radiance += throughput * emitted(material, ctx, &si);
         let u = vertex_randoms(settings.seed, key(pixel, mutation), sample, segment + 1);
-        let Some(s) = scatter_mutated(material, ctx, ray.direction, &si, &u, mutation) else { break };
+        let Some(s) = scatter_mutated(material, ctx, ray.direction, &si, &u, mutation) else {
+            break;
+        };
         throughput *= s.weight;
         if segment + 1 >= settings.roulette_depth {
             let q = throughput.max_element().min(ROULETTE_MAX_SURVIVAL);
@@ -122,7 +168,11 @@ fn trace_path(scene: &Scene, mut ray: Ray, settings: &RenderSettings, pixel: u32
                 throughput /= q;
             }
         }
-        let side = if s.direction.dot(si.geometric_normal) >= 0.0 { si.geometric_normal } else { -si.geometric_normal };
+        let side = if s.direction.dot(si.geometric_normal) >= 0.0 {
+            si.geometric_normal
+        } else {
+            -si.geometric_normal
+        };
         ray = Ray::new(spawn_origin(si.p, side, si.p_error), s.direction);
     }
     radiance
@@ -145,8 +195,12 @@ fn render_mutant(scene: &Scene, settings: &RenderSettings, mutation: Mutation) -
                     let pixel = y * w + x;
                     for sample in 0..settings.spp {
                         let u = vertex_randoms(settings.seed, key(pixel, mutation), sample, 0);
-                        let film = Vec2::new((x as f32 + u[dims::PIXEL_X]) / w as f32, (y as f32 + u[dims::PIXEL_Y]) / h as f32);
-                        let ray = camera.generate_ray(film, Vec2::new(u[dims::LENS_U], u[dims::LENS_V]));
+                        let film = Vec2::new(
+                            (x as f32 + u[dims::PIXEL_X]) / w as f32,
+                            (y as f32 + u[dims::PIXEL_Y]) / h as f32,
+                        );
+                        let ray =
+                            camera.generate_ray(film, Vec2::new(u[dims::LENS_U], u[dims::LENS_V]));
                         stats.add(trace_path(scene, ray, settings, pixel, sample, mutation));
                     }
                     out.push(stats);
@@ -169,17 +223,39 @@ fn render_mutant(scene: &Scene, settings: &RenderSettings, mutation: Mutation) -
 #[test]
 fn the_copied_tracer_is_the_reference_bit_for_bit_and_the_exact_gate_sees_a_dropped_child() {
     // Every material, texture kind, background and shape among these.
-    for name in ["cornell-boxes", "four-materials", "textures", "skybox", "gltf-mesh"] {
+    for name in [
+        "cornell-boxes",
+        "four-materials",
+        "textures",
+        "skybox",
+        "gltf-mesh",
+    ] {
         let scene = load_scene(&manifest_entry(name).unwrap()).unwrap();
-        let settings = RenderSettings { width: 24, height: 16, spp: 8, max_depth: 12, seed: 5, roulette_depth: scene.render.roulette_depth };
+        let settings = RenderSettings {
+            width: 24,
+            height: 16,
+            spp: 8,
+            max_depth: 12,
+            seed: 5,
+            roulette_depth: scene.render.roulette_depth,
+        };
         let reference = reference::render(&scene, &settings, &|_| {});
-        let copy = compare_films(&render_mutant(&scene, &settings, Mutation::None), &reference);
+        let copy = compare_films(
+            &render_mutant(&scene, &settings, Mutation::None),
+            &reference,
+        );
         assert!(
             copy.identical(),
             "{name}: the unmutated copy of the path loop in this file differs from reference::integrator ({copy:?}); bring the copy up to date"
         );
-        let dropped = compare_films(&reference::render(&drop_bvh_child(&scene), &settings, &|_| {}), &reference);
-        assert!(!dropped.identical(), "{name}: the exact gate missed a BVH that drops a child");
+        let dropped = compare_films(
+            &reference::render(&drop_bvh_child(&scene), &settings, &|_| {}),
+            &reference,
+        );
+        assert!(
+            !dropped.identical(),
+            "{name}: the exact gate missed a BVH that drops a child"
+        );
     }
 }
 
@@ -192,7 +268,10 @@ const TEST_SEED: u32 = 7;
 
 fn cornell_reference() -> (StoredReference, Scene) {
     let spec = manifest_entry(CORNELL).unwrap();
-    (load_reference(&spec).unwrap_or_else(|e| panic!("{e:#}")), load_scene(&spec).unwrap())
+    (
+        load_reference(&spec).unwrap_or_else(|e| panic!("{e:#}")),
+        load_scene(&spec).unwrap(),
+    )
 }
 
 fn assert_caught(what: &str, run: &GateRun) {
@@ -201,23 +280,43 @@ fn assert_caught(what: &str, run: &GateRun) {
         "{what}: per-pixel {:.3} % pass ({}), image sum z = {:?} ({}), failing tiles {} ({:.2} s)",
         100.0 * v.pixels.pass_fraction(),
         if v.pixels.passes() { "pass" } else { "FAIL" },
-        v.aggregate.image.map(|t| (t.statistic * 100.0).round() / 100.0),
-        if v.aggregate.image_passes() { "pass" } else { "FAIL" },
+        v.aggregate
+            .image
+            .map(|t| (t.statistic * 100.0).round() / 100.0),
+        if v.aggregate.image_passes() {
+            "pass"
+        } else {
+            "FAIL"
+        },
         v.aggregate.failing_tiles().count(),
         run.seconds
     );
-    assert!(!run.passes(), "{what} passed the Cornell-box gate:\n{}", v.summary());
+    assert!(
+        !run.passes(),
+        "{what} passed the Cornell-box gate:\n{}",
+        v.summary()
+    );
 }
 
 fn mutant_gate(mutation: Mutation) -> GateRun {
     let (reference, scene) = cornell_reference();
-    run_gate(&reference, &scene, CORNELL_SPP, TEST_SEED, &|s, st| Ok(render_mutant(s, st, mutation))).unwrap()
+    run_gate(&reference, &scene, CORNELL_SPP, TEST_SEED, &|s, st| {
+        Ok(render_mutant(s, st, mutation))
+    })
+    .unwrap()
 }
 
 #[test]
 fn albedo_times_1_02_fails_the_image_gate() {
     let (reference, scene) = cornell_reference();
-    let run = run_gate(&reference, &scaled_albedo(&scene, 1.02), CORNELL_SPP, TEST_SEED, &cpu_reference).unwrap();
+    let run = run_gate(
+        &reference,
+        &scaled_albedo(&scene, 1.02),
+        CORNELL_SPP,
+        TEST_SEED,
+        &cpu_reference,
+    )
+    .unwrap();
     assert_caught("albedo ×1.02", &run);
 }
 
@@ -228,13 +327,23 @@ fn wrong_cosine_pdf_fails_the_image_gate() {
 
 #[test]
 fn uncompensated_roulette_fails_the_image_gate() {
-    assert_caught("uncompensated roulette", &mutant_gate(Mutation::UncompensatedRoulette));
+    assert_caught(
+        "uncompensated roulette",
+        &mutant_gate(Mutation::UncompensatedRoulette),
+    );
 }
 
 #[test]
 fn dropped_bvh_child_fails_the_image_gate() {
     let (reference, scene) = cornell_reference();
-    let run = run_gate(&reference, &drop_bvh_child(&scene), CORNELL_SPP, TEST_SEED, &cpu_reference).unwrap();
+    let run = run_gate(
+        &reference,
+        &drop_bvh_child(&scene),
+        CORNELL_SPP,
+        TEST_SEED,
+        &cpu_reference,
+    )
+    .unwrap();
     assert_caught("BVH drops a child", &run);
 }
 
@@ -243,21 +352,48 @@ fn rng_keyed_by_thread_fails_the_image_gate() {
     // Each pixel alone is still an unbiased, independent-sample estimate;
     // what breaks is independence between pixels, which the tile and
     // image sums see.
-    assert_caught("RNG keyed by thread", &mutant_gate(Mutation::RngKeyedByThread));
+    assert_caught(
+        "RNG keyed by thread",
+        &mutant_gate(Mutation::RngKeyedByThread),
+    );
 }
 
 #[test]
 fn welch_passes_two_seeds_and_fails_albedo_times_1_02() {
     // Two noisy renders (what CPU vs GPU will be): 64x64 at 1024 spp each.
     let (reference, scene) = cornell_reference();
-    let settings =
-        RenderSettings { width: 64, height: 64, spp: CORNELL_SPP, max_depth: reference.spec.max_depth, seed: 21, roulette_depth: scene.render.roulette_depth };
+    let settings = RenderSettings {
+        width: 64,
+        height: 64,
+        spp: CORNELL_SPP,
+        max_depth: reference.spec.max_depth,
+        seed: 21,
+        roulette_depth: scene.render.roulette_depth,
+    };
     let a = NoisyImage::from_film(&reference::render(&scene, &settings, &|_| {}));
-    let b = NoisyImage::from_film(&reference::render(&scene, &RenderSettings { seed: 22, ..settings }, &|_| {}));
+    let b = NoisyImage::from_film(&reference::render(
+        &scene,
+        &RenderSettings {
+            seed: 22,
+            ..settings
+        },
+        &|_| {},
+    ));
     let same = compare(&a, &b, Method::Welch, &TestSettings::default()).unwrap();
     println!("Welch, seeds 21 vs 22:\n{}", same.summary());
-    assert!(same.passes(), "two seeds of one renderer differ:\n{}", same.summary());
-    let biased = NoisyImage::from_film(&reference::render(&scaled_albedo(&scene, 1.02), &RenderSettings { seed: 22, ..settings }, &|_| {}));
+    assert!(
+        same.passes(),
+        "two seeds of one renderer differ:\n{}",
+        same.summary()
+    );
+    let biased = NoisyImage::from_film(&reference::render(
+        &scaled_albedo(&scene, 1.02),
+        &RenderSettings {
+            seed: 22,
+            ..settings
+        },
+        &|_| {},
+    ));
     let v = compare(&a, &biased, Method::Welch, &TestSettings::default()).unwrap();
     println!("Welch, albedo ×1.02:\n{}", v.summary());
     assert!(!v.passes(), "Welch missed albedo ×1.02:\n{}", v.summary());
@@ -267,14 +403,21 @@ fn welch_passes_two_seeds_and_fails_albedo_times_1_02() {
 
 /// Samples per run, as in tests/sampling_chi2.rs.
 const N: u32 = 1_000_000;
-const SPHERE: Domain = Domain::Sphere { theta_bins: 64, phi_bins: 64 };
+const SPHERE: Domain = Domain::Sphere {
+    theta_bins: 64,
+    phi_bins: 64,
+};
 
 /// A mutant is caught when its run fails at the Šidák level of a family of
 /// up to 16 runs (the largest family in tests/sampling_chi2.rs has 12).
 fn assert_rejected(what: &str, o: &Chi2Outcome) {
     let level = sidak(0.01, 16);
     println!("{what}: {}", o.summary());
-    assert!(!o.passes(level), "{what} passed the chi-square test at level {level:.2e}: {}", o.summary());
+    assert!(
+        !o.passes(level),
+        "{what} passed the chi-square test at level {level:.2e}: {}",
+        o.summary()
+    );
 }
 
 fn du(i: u32) -> Vec2 {
@@ -289,8 +432,18 @@ fn directions(f: impl Fn(u32) -> Vec3) -> Vec<Option<DVec3>> {
 #[test]
 fn chi_square_rejects_mutated_samplers() {
     let cosine = |d: DVec3| cosine_hemisphere_pdf(d.z as f32) as f64;
-    assert_rejected("cosine warp without the square root", &test_density(&SPHERE, directions(|i| naive_polar_cosine(du(i))), &cosine));
-    assert_rejected("cosine samples, claimed pdf cos θ / 2π", &test_density(&SPHERE, directions(|i| sample_cosine_hemisphere(du(i))), &|d| cosine(d) / 2.0));
+    assert_rejected(
+        "cosine warp without the square root",
+        &test_density(&SPHERE, directions(|i| naive_polar_cosine(du(i))), &cosine),
+    );
+    assert_rejected(
+        "cosine samples, claimed pdf cos θ / 2π",
+        &test_density(
+            &SPHERE,
+            directions(|i| sample_cosine_hemisphere(du(i))),
+            &|d| cosine(d) / 2.0,
+        ),
+    );
     let (wo, alpha) = (Vec3::new(0.866_025_4, 0.0, 0.5), 0.4);
     let unstretched = |u: Vec2| {
         // The spherical-cap sampler fed the unstretched view vector.
@@ -302,24 +455,58 @@ fn chi_square_rejects_mutated_samplers() {
     };
     assert_rejected(
         "GGX visible normals, view not stretched",
-        &test_density(&SPHERE, directions(|i| unstretched(du(i))), &|m| ggx::visible_normal_pdf(wo, m.as_vec3(), alpha) as f64),
+        &test_density(&SPHERE, directions(|i| unstretched(du(i))), &|m| {
+            ggx::visible_normal_pdf(wo, m.as_vec3(), alpha) as f64
+        }),
     );
     let half_phi = |u: Vec2| sample_uniform_sphere(Vec2::new(u.x, 0.5 * u.y));
     assert_rejected(
         "uniform sphere with φ over half the circle",
-        &test_density(&SPHERE, directions(|i| half_phi(du(i))), &|_| 1.0 / (4.0 * std::f64::consts::PI)),
+        &test_density(&SPHERE, directions(|i| half_phi(du(i))), &|_| {
+            1.0 / (4.0 * std::f64::consts::PI)
+        }),
     );
-    let disk = Domain::Disk { r2_bins: 32, phi_bins: 64 };
-    let radial = |u: Vec2| Vec3::new(u.x * (2.0 * PI * u.y).cos(), u.x * (2.0 * PI * u.y).sin(), 0.0);
-    assert_rejected("disk with a uniform radius", &test_density(&disk, directions(|i| radial(du(i))), &|_| 1.0 / std::f64::consts::PI));
+    let disk = Domain::Disk {
+        r2_bins: 32,
+        phi_bins: 64,
+    };
+    let radial = |u: Vec2| {
+        Vec3::new(
+            u.x * (2.0 * PI * u.y).cos(),
+            u.x * (2.0 * PI * u.y).sin(),
+            0.0,
+        )
+    };
+    assert_rejected(
+        "disk with a uniform radius",
+        &test_density(&disk, directions(|i| radial(du(i))), &|_| {
+            1.0 / std::f64::consts::PI
+        }),
+    );
     // Sanity: the real disk passes this harness with these samples.
-    assert!(test_density(&disk, directions(|i| sample_unit_disk(du(i)).extend(0.0)), &|_| 1.0 / std::f64::consts::PI).p > sidak(0.01, 16));
-    let ball = Domain::Ball { r3_bins: 8, cos_theta_bins: 16, phi_bins: 32 };
+    assert!(
+        test_density(
+            &disk,
+            directions(|i| sample_unit_disk(du(i)).extend(0.0)),
+            &|_| 1.0 / std::f64::consts::PI
+        )
+        .p > sidak(0.01, 16)
+    );
+    let ball = Domain::Ball {
+        r3_bins: 8,
+        cos_theta_bins: 16,
+        phi_bins: 32,
+    };
     let no_cbrt = |i: u32| {
         let u = vertex_randoms(900, i, 0, 1);
         sample_uniform_sphere(Vec2::new(u[dims::BALL_X], u[dims::BALL_Y])) * u[dims::BALL_Z]
     };
-    assert_rejected("ball without the cube root", &test_density(&ball, directions(no_cbrt), &|_| 3.0 / (4.0 * std::f64::consts::PI)));
+    assert_rejected(
+        "ball without the cube root",
+        &test_density(&ball, directions(no_cbrt), &|_| {
+            3.0 / (4.0 * std::f64::consts::PI)
+        }),
+    );
     let _ = sample_unit_ball;
 }
 
@@ -333,31 +520,59 @@ enum LobeMutation {
     FuzzOnTheSphere,
 }
 
-fn mutated_lobe(m: LobeMutation) -> impl Fn(&Material, TextureContext, Vec3, &SurfaceInteraction, &[f32; 8]) -> Option<Scatter> {
+fn mutated_lobe(
+    m: LobeMutation,
+) -> impl Fn(&Material, TextureContext, Vec3, &SurfaceInteraction, &[f32; 8]) -> Option<Scatter> {
     move |material, ctx, ray_dir, si, u| {
-        let (n, ng) = if si.front_face { (si.shading_normal, si.geometric_normal) } else { (-si.shading_normal, -si.geometric_normal) };
+        let (n, ng) = if si.front_face {
+            (si.shading_normal, si.geometric_normal)
+        } else {
+            (-si.shading_normal, -si.geometric_normal)
+        };
         match *material {
             Material::Metal { albedo, fuzz } => {
                 let p = Vec3::new(u[dims::BALL_X], u[dims::BALL_Y], u[dims::BALL_Z]);
-                let ball = if m == LobeMutation::FuzzOnTheSphere { sample_uniform_sphere(Vec2::new(p.x, p.y)) } else { sample_unit_ball(p) };
+                let ball = if m == LobeMutation::FuzzOnTheSphere {
+                    sample_uniform_sphere(Vec2::new(p.x, p.y))
+                } else {
+                    sample_unit_ball(p)
+                };
                 // A 1° tilt of the mirror's normal.
-                let normal = if m == LobeMutation::TiltedMirrorNormal { (n + 0.017_455 * Vec3::X).normalize() } else { n };
+                let normal = if m == LobeMutation::TiltedMirrorNormal {
+                    (n + 0.017_455 * Vec3::X).normalize()
+                } else {
+                    n
+                };
                 let direction = reflect(ray_dir, normal) + fuzz * ball;
                 if direction.dot(ng) <= 0.0 {
                     return None;
                 }
-                Some(Scatter { direction: direction.normalize(), weight: ctx.eval(albedo, si) })
+                Some(Scatter {
+                    direction: direction.normalize(),
+                    weight: ctx.eval(albedo, si),
+                })
             }
             Material::Dielectric { ior, .. } => {
-                let eta = if si.front_face && m != LobeMutation::EtaNotInvertedOnEntry { 1.0 / ior } else { ior };
+                let eta = if si.front_face && m != LobeMutation::EtaNotInvertedOnEntry {
+                    1.0 / ior
+                } else {
+                    ior
+                };
                 let cos_i = (-ray_dir).dot(n).min(1.0);
                 let r = schlick_reflectance(cos_i, eta);
-                let refracts = if m == LobeMutation::InvertedFresnelChoice { r > u[dims::LOBE] } else { r <= u[dims::LOBE] };
+                let refracts = if m == LobeMutation::InvertedFresnelChoice {
+                    r > u[dims::LOBE]
+                } else {
+                    r <= u[dims::LOBE]
+                };
                 let direction = match refract(ray_dir, n, eta) {
                     Some(t) if refracts => t.normalize(),
                     _ => reflect(ray_dir, n),
                 };
-                Some(Scatter { direction, weight: Vec3::ONE })
+                Some(Scatter {
+                    direction,
+                    weight: Vec3::ONE,
+                })
             }
             _ => scatter(material, ctx, ray_dir, si, u),
         }
@@ -367,19 +582,37 @@ fn mutated_lobe(m: LobeMutation) -> impl Fn(&Material, TextureContext, Vec3, &Su
 #[test]
 fn two_sample_test_rejects_mutated_lobes() {
     let cases = standard_cases();
-    let find = |name: &str| cases.iter().find(|c| c.name.starts_with(name)).unwrap_or_else(|| panic!("no lobe case `{name}`"));
+    let find = |name: &str| {
+        cases
+            .iter()
+            .find(|c| c.name.starts_with(name))
+            .unwrap_or_else(|| panic!("no lobe case `{name}`"))
+    };
     for (mutation, case_name) in [
         (LobeMutation::TiltedMirrorNormal, "mirror, random incidence"),
-        (LobeMutation::InvertedFresnelChoice, "glass from outside, 0°"),
-        (LobeMutation::InvertedFresnelChoice, "glass from inside, 30°"),
-        (LobeMutation::EtaNotInvertedOnEntry, "glass from outside, random incidence"),
+        (
+            LobeMutation::InvertedFresnelChoice,
+            "glass from outside, 0°",
+        ),
+        (
+            LobeMutation::InvertedFresnelChoice,
+            "glass from inside, 30°",
+        ),
+        (
+            LobeMutation::EtaNotInvertedOnEntry,
+            "glass from outside, random incidence",
+        ),
         (LobeMutation::FuzzOnTheSphere, "fuzzy metal 0.3, 45°"),
         (LobeMutation::FuzzOnTheSphere, "fuzzy metal 1.0, 60°"),
     ] {
         let case = find(case_name);
         let f = mutated_lobe(mutation);
         let mutant: &ScatterFn = &f;
-        let o = test_same_distribution(&SPHERE, case.cpu_samples(500, N), case.samples_with(501, N, mutant));
+        let o = test_same_distribution(
+            &SPHERE,
+            case.cpu_samples(500, N),
+            case.samples_with(501, N, mutant),
+        );
         assert_rejected(&format!("{mutation:?} on `{}`", case.name), &o);
     }
 }
@@ -388,22 +621,44 @@ fn two_sample_test_rejects_mutated_lobes() {
 
 fn assert_furnace_fails(what: &str, case: &furnace::FurnaceCase, mutation: Mutation) {
     let out = furnace::check(case, &|s, st| Ok(render_mutant(s, st, mutation))).unwrap();
-    println!("{what}: expected {}, image mean {:.5}, exact mismatch {:?}", case.expected, out.image_mean(), out.exact_mismatch.is_some());
-    assert!(!out.passes(case), "{what} passed the furnace `{}`:\n{}", case.name, out.verdict.summary());
+    println!(
+        "{what}: expected {}, image mean {:.5}, exact mismatch {:?}",
+        case.expected,
+        out.image_mean(),
+        out.exact_mismatch.is_some()
+    );
+    assert!(
+        !out.passes(case),
+        "{what} passed the furnace `{}`:\n{}",
+        case.name,
+        out.verdict.summary()
+    );
 }
 
 #[test]
 fn furnaces_reject_mutants() {
     let concentric = furnace::concentric_spheres(0.5, true, 256, 11).unwrap();
-    assert_furnace_fails("uncompensated roulette", &concentric, Mutation::UncompensatedRoulette);
+    assert_furnace_fails(
+        "uncompensated roulette",
+        &concentric,
+        Mutation::UncompensatedRoulette,
+    );
     let mut brighter = furnace::concentric_spheres(0.5, false, 256, 11).unwrap();
     brighter.scene = scaled_albedo(&brighter.scene, 1.02);
-    assert_furnace_fails("albedo ×1.02 (concentric spheres)", &brighter, Mutation::None);
+    assert_furnace_fails(
+        "albedo ×1.02 (concentric spheres)",
+        &brighter,
+        Mutation::None,
+    );
     let mut white = furnace::white_furnace(false, 64, 11).unwrap();
     white.scene = scaled_albedo(&white.scene, 1.02);
     assert_furnace_fails("albedo ×1.02 (exact white furnace)", &white, Mutation::None);
     let roulette_white = furnace::white_furnace(true, 256, 11).unwrap();
-    assert_furnace_fails("uncompensated roulette (white furnace)", &roulette_white, Mutation::UncompensatedRoulette);
+    assert_furnace_fails(
+        "uncompensated roulette (white furnace)",
+        &roulette_white,
+        Mutation::UncompensatedRoulette,
+    );
     let mut dimmer = furnace::ggx_metal_plane(0.6, 45.0, 1024, 11).unwrap();
     for t in &mut dimmer.scene.textures {
         if let Texture::Constant(c) = t {

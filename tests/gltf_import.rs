@@ -15,9 +15,16 @@ fn base64(data: &[u8]) -> String {
     const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     let mut out = String::new();
     for chunk in data.chunks(3) {
-        let n = chunk.iter().enumerate().fold(0u32, |acc, (i, &b)| acc | (b as u32) << (16 - 8 * i));
+        let n = chunk
+            .iter()
+            .enumerate()
+            .fold(0u32, |acc, (i, &b)| acc | (b as u32) << (16 - 8 * i));
         for k in 0..4 {
-            out.push(if k <= chunk.len() { ALPHABET[(n >> (18 - 6 * k) & 63) as usize] as char } else { '=' });
+            out.push(if k <= chunk.len() {
+                ALPHABET[(n >> (18 - 6 * k) & 63) as usize] as char
+            } else {
+                '='
+            });
         }
     }
     out
@@ -27,7 +34,10 @@ fn base64(data: &[u8]) -> String {
 /// material and an emissive one (with KHR_materials_emissive_strength);
 /// a camera two nodes deep.
 fn two_material_gltf() -> String {
-    let positions: Vec<u8> = [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0].iter().flat_map(|v| v.to_le_bytes()).collect();
+    let positions: Vec<u8> = [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
     let doc = serde_json::json!({
         "asset": { "version": "2.0" },
         "extensionsUsed": ["KHR_materials_emissive_strength"],
@@ -69,25 +79,49 @@ fn procedural_glb_loads_frames_and_renders() {
     let scene = reference::load_scene(path.to_str().unwrap()).unwrap();
     assert_eq!(scene.triangles.len(), 320);
     // No material in the file: the glTF default (white, metallic 1, roughness 1).
-    assert_eq!(scene.materials, vec![Material::Ggx { base_color: 0, metallic: 1.0, roughness: 1.0 }]);
+    assert_eq!(
+        scene.materials,
+        vec![Material::Ggx {
+            base_color: 0,
+            metallic: 1.0,
+            roughness: 1.0
+        }]
+    );
     assert_eq!(scene.textures, vec![Texture::Constant(Vec3::ONE)]);
     // No camera in the file: one on +z frames the unit sphere.
     let c = scene.camera_settings;
     assert_eq!(c.vfov, DEFAULT_VFOV);
-    assert!(c.look_at.length() < 1e-5 && c.look_from.x.abs() < 1e-5 && c.look_from.z > 2.0, "{c:?}");
+    assert!(
+        c.look_at.length() < 1e-5 && c.look_from.x.abs() < 1e-5 && c.look_from.z > 2.0,
+        "{c:?}"
+    );
     let camera = scene.camera(16, 16);
     let centre = camera.generate_ray(Vec2::splat(0.5), Vec2::ZERO);
-    assert!(scene.intersect(&centre, 1e-4, f32::INFINITY).is_some(), "the centre of the image sees the sphere");
+    assert!(
+        scene.intersect(&centre, 1e-4, f32::INFINITY).is_some(),
+        "the centre of the image sees the sphere"
+    );
     let corner = camera.generate_ray(Vec2::ZERO, Vec2::ZERO);
-    assert!(scene.intersect(&corner, 1e-4, f32::INFINITY).is_none(), "the whole sphere fits in the frame");
+    assert!(
+        scene.intersect(&corner, 1e-4, f32::INFINITY).is_none(),
+        "the whole sphere fits in the frame"
+    );
 
-    let settings = RenderSettings { width: 16, height: 16, spp: 4, ..scene.render };
+    let settings = RenderSettings {
+        width: 16,
+        height: 16,
+        spp: 4,
+        ..scene.render
+    };
     let film = reference::render(&scene, &settings, &|_| {});
     let mean = film.mean();
     assert_eq!(mean.len(), 256);
     assert!(mean.iter().all(|p| p.is_finite()));
     let average = mean.iter().copied().sum::<Vec3>() / mean.len() as f32;
-    assert!(average.is_finite() && average.min_element() > 0.0, "mean {average}");
+    assert!(
+        average.is_finite() && average.min_element() > 0.0,
+        "mean {average}"
+    );
     assert_eq!(film.nonfinite_samples(), 0);
 }
 
@@ -98,26 +132,46 @@ fn gltf_materials_emission_and_camera_come_through() {
     let scene = reference::load_scene(path.to_str().unwrap()).unwrap();
     assert_eq!(scene.triangles.len(), 2);
     let texture = |id: u32| scene.textures[id as usize];
-    let (ggx, light) = (scene.materials[scene.triangles[0].material as usize], scene.materials[scene.triangles[1].material as usize]);
+    let (ggx, light) = (
+        scene.materials[scene.triangles[0].material as usize],
+        scene.materials[scene.triangles[1].material as usize],
+    );
     match ggx {
-        Material::Ggx { base_color, metallic, roughness } => {
-            assert_eq!(texture(base_color), Texture::Constant(Vec3::new(0.8, 0.2, 0.1)), "alpha is ignored");
+        Material::Ggx {
+            base_color,
+            metallic,
+            roughness,
+        } => {
+            assert_eq!(
+                texture(base_color),
+                Texture::Constant(Vec3::new(0.8, 0.2, 0.1)),
+                "alpha is ignored"
+            );
             assert_eq!((metallic, roughness), (0.0, 0.5));
         }
         other => panic!("expected GGX, got {other:?}"),
     }
     match light {
-        Material::DiffuseLight { emission } => assert_eq!(texture(emission), Texture::Constant(Vec3::new(4.0, 2.0, 1.0))),
+        Material::DiffuseLight { emission } => assert_eq!(
+            texture(emission),
+            Texture::Constant(Vec3::new(4.0, 2.0, 1.0))
+        ),
         other => panic!("expected a light, got {other:?}"),
     }
     // The camera node sits under a translated parent and looks down -z.
     let c = scene.camera_settings;
-    assert!((c.look_from - Vec3::new(1.0, 0.0, 3.0)).length() < 1e-6, "{c:?}");
+    assert!(
+        (c.look_from - Vec3::new(1.0, 0.0, 3.0)).length() < 1e-6,
+        "{c:?}"
+    );
     assert!(((c.look_at - c.look_from).normalize() - Vec3::NEG_Z).length() < 1e-6);
     assert!((c.up - Vec3::Y).length() < 1e-6);
     assert!((c.vfov - 0.6f32.to_degrees()).abs() < 1e-4);
     assert_eq!(c.aperture, 0.0);
-    assert_eq!((scene.render.width, scene.render.height), (2 * scene.render.height, RenderSettings::default().height));
+    assert_eq!(
+        (scene.render.width, scene.render.height),
+        (2 * scene.render.height, RenderSettings::default().height)
+    );
 
     // The merged mesh has both primitives' triangles.
     let mesh = load_gltf_mesh(&path).unwrap();
@@ -130,25 +184,52 @@ fn gltf_materials_emission_and_camera_come_through() {
     assert_eq!(builder.camera, reference::camera::CameraSettings::default());
     assert_eq!(builder.material_count(), 2);
     let placed = builder.build().unwrap();
-    assert_eq!(placed.mesh.positions[..3], [Vec3::new(0.0, 5.0, 0.0), Vec3::new(2.0, 5.0, 0.0), Vec3::new(0.0, 7.0, 0.0)]);
+    assert_eq!(
+        placed.mesh.positions[..3],
+        [
+            Vec3::new(0.0, 5.0, 0.0),
+            Vec3::new(2.0, 5.0, 0.0),
+            Vec3::new(0.0, 7.0, 0.0)
+        ]
+    );
 }
 
 #[test]
 fn broken_files_are_errors_naming_the_file() {
     let dir = tempfile::tempdir().unwrap();
     let missing = dir.path().join("nowhere.glb");
-    let garbage = write(dir.path(), "garbage.glb", b"\x00\x01not a glTF at all\xff\xfe");
-    let fake_glb = write(dir.path(), "truncated.glb", b"glTF\x02\x00\x00\x00\x00\x10\x00\x00JSON");
+    let garbage = write(
+        dir.path(),
+        "garbage.glb",
+        b"\x00\x01not a glTF at all\xff\xfe",
+    );
+    let fake_glb = write(
+        dir.path(),
+        "truncated.glb",
+        b"glTF\x02\x00\x00\x00\x00\x10\x00\x00JSON",
+    );
     let doc = two_material_gltf();
     let start = doc.find("data:").unwrap();
     let end = start + doc[start..].find('"').unwrap();
-    let external = write(dir.path(), "external.gltf", format!("{}missing.bin{}", &doc[..start], &doc[end..]));
-    for (path, needle) in [(&missing, "cannot read"), (&garbage, "cannot read glTF"), (&fake_glb, "not a valid GLB"), (&external, "missing.bin")] {
+    let external = write(
+        dir.path(),
+        "external.gltf",
+        format!("{}missing.bin{}", &doc[..start], &doc[end..]),
+    );
+    for (path, needle) in [
+        (&missing, "cannot read"),
+        (&garbage, "cannot read glTF"),
+        (&fake_glb, "not a valid GLB"),
+        (&external, "missing.bin"),
+    ] {
         let err = match reference::load_scene(path.to_str().unwrap()) {
             Ok(_) => panic!("{} loaded", path.display()),
             Err(e) => e.to_string(),
         };
-        assert!(err.contains(&path.display().to_string()), "the message names the file: {err}");
+        assert!(
+            err.contains(&path.display().to_string()),
+            "the message names the file: {err}"
+        );
         assert!(err.contains(needle), "{err}");
         assert!(load_gltf_mesh(path).is_err());
     }

@@ -10,7 +10,16 @@ use gpu::scene_buffers::PackedScene;
 use gpu::testing::{run_test_kernel, TestKernel};
 
 /// `reference::bvh::BvhNode`'s words in Rust memory order, by their WGSL names.
-const BVH_NODE_FIELDS: &[&str] = &["min_x", "min_y", "min_z", "index", "max_x", "max_y", "max_z", "meta_bits"];
+const BVH_NODE_FIELDS: &[&str] = &[
+    "min_x",
+    "min_y",
+    "min_z",
+    "index",
+    "max_x",
+    "max_y",
+    "max_z",
+    "meta_bits",
+];
 
 fn counting<T: bytemuck::Pod>() -> T {
     let n = std::mem::size_of::<T>() / 4;
@@ -20,24 +29,45 @@ fn counting<T: bytemuck::Pod>() -> T {
 
 /// Reads element 0 of an array (or the uniform `params`) field by field,
 /// in Rust's field order: word i must be field i.
-fn read_back(packed: &PackedScene, fields: &[&str], access: &str, params: Option<GpuParams>, film: Option<&[GpuPixel]>) -> Vec<u32> {
+fn read_back(
+    packed: &PackedScene,
+    fields: &[&str],
+    access: &str,
+    params: Option<GpuParams>,
+    film: Option<&[GpuPixel]>,
+) -> Vec<u32> {
     let ctx = common::gpu();
     let scene = reference::load_scene("cornell").unwrap();
     let renderer = gpu::GpuRenderer::from_packed(ctx, packed, &scene).unwrap();
-    let body: String = fields.iter().enumerate().map(|(i, f)| format!("    output[{i}u] = bitcast<u32>({access}.{f});\n")).collect();
+    let body: String = fields
+        .iter()
+        .enumerate()
+        .map(|(i, f)| format!("    output[{i}u] = bitcast<u32>({access}.{f});\n"))
+        .collect();
     let snippet =
         format!("@compute @workgroup_size(64)\nfn layout_main(@builtin(global_invocation_id) gid: vec3<u32>) {{\n    if gid.x != 0u {{ return; }}\n{body}}}\n");
     run_test_kernel(
         ctx,
         &renderer,
-        &TestKernel { snippet: &snippet, entry: "layout_main", input: &[], invocations: 1, output_words: fields.len(), params, film },
+        &TestKernel {
+            snippet: &snippet,
+            entry: "layout_main",
+            input: &[],
+            invocations: 1,
+            output_words: fields.len(),
+            params,
+            film,
+        },
     )
     .unwrap()
 }
 
 fn expect_counting(words: Vec<u32>, record: &str) {
     let expected: Vec<u32> = (1..=words.len() as u32).collect();
-    assert_eq!(words, expected, "{record}: the shader reads fields from the wrong offsets");
+    assert_eq!(
+        words, expected,
+        "{record}: the shader reads fields from the wrong offsets"
+    );
 }
 
 fn base() -> PackedScene {
@@ -48,38 +78,71 @@ fn base() -> PackedScene {
 fn scene_records() {
     let mut p = base();
     p.nodes[0] = counting();
-    expect_counting(read_back(&p, BVH_NODE_FIELDS, "nodes[0]", None, None), "BvhNode");
+    expect_counting(
+        read_back(&p, BVH_NODE_FIELDS, "nodes[0]", None, None),
+        "BvhNode",
+    );
     let mut p = base();
     p.primitives[0] = counting();
-    expect_counting(read_back(&p, GpuPrimitive::FIELDS, "primitives[0]", None, None), "GpuPrimitive");
+    expect_counting(
+        read_back(&p, GpuPrimitive::FIELDS, "primitives[0]", None, None),
+        "GpuPrimitive",
+    );
     let mut p = base();
     p.spheres = vec![counting()];
-    expect_counting(read_back(&p, GpuSphere::FIELDS, "spheres[0]", None, None), "GpuSphere");
+    expect_counting(
+        read_back(&p, GpuSphere::FIELDS, "spheres[0]", None, None),
+        "GpuSphere",
+    );
     let mut p = base();
     p.quads[0] = counting();
-    expect_counting(read_back(&p, GpuQuad::FIELDS, "quads[0]", None, None), "GpuQuad");
+    expect_counting(
+        read_back(&p, GpuQuad::FIELDS, "quads[0]", None, None),
+        "GpuQuad",
+    );
     let mut p = base();
     p.triangles = vec![counting()];
-    expect_counting(read_back(&p, GpuTriangle::FIELDS, "triangles[0]", None, None), "GpuTriangle");
+    expect_counting(
+        read_back(&p, GpuTriangle::FIELDS, "triangles[0]", None, None),
+        "GpuTriangle",
+    );
     let mut p = base();
     p.vertices = vec![counting()];
-    expect_counting(read_back(&p, GpuVertex::FIELDS, "vertices[0]", None, None), "GpuVertex");
+    expect_counting(
+        read_back(&p, GpuVertex::FIELDS, "vertices[0]", None, None),
+        "GpuVertex",
+    );
     let mut p = base();
     p.materials[0] = counting();
-    expect_counting(read_back(&p, GpuMaterial::FIELDS, "materials[0]", None, None), "GpuMaterial");
+    expect_counting(
+        read_back(&p, GpuMaterial::FIELDS, "materials[0]", None, None),
+        "GpuMaterial",
+    );
     let mut p = base();
     p.textures[0] = counting();
-    expect_counting(read_back(&p, GpuTexture::FIELDS, "textures[0]", None, None), "GpuTexture");
+    expect_counting(
+        read_back(&p, GpuTexture::FIELDS, "textures[0]", None, None),
+        "GpuTexture",
+    );
     let mut p = base();
     p.images = vec![counting()];
-    expect_counting(read_back(&p, GpuImage::FIELDS, "images[0]", None, None), "GpuImage");
+    expect_counting(
+        read_back(&p, GpuImage::FIELDS, "images[0]", None, None),
+        "GpuImage",
+    );
 }
 
 #[test]
 fn params_and_film_records() {
-    expect_counting(read_back(&base(), GpuParams::FIELDS, "params", Some(counting()), None), "GpuParams");
+    expect_counting(
+        read_back(&base(), GpuParams::FIELDS, "params", Some(counting()), None),
+        "GpuParams",
+    );
     let film = [counting::<GpuPixel>()];
-    expect_counting(read_back(&base(), GpuPixel::FIELDS, "film[0]", None, Some(&film)), "GpuPixel");
+    expect_counting(
+        read_back(&base(), GpuPixel::FIELDS, "film[0]", None, Some(&film)),
+        "GpuPixel",
+    );
 }
 
 #[test]
@@ -92,5 +155,8 @@ fn the_layout_check_catches_a_swapped_field() {
     p.spheres = vec![counting()];
     let words = read_back(&p, &swapped, "spheres[0]", None, None);
     let expected: Vec<u32> = (1..=words.len() as u32).collect();
-    assert_ne!(words, expected, "reading fields in a swapped order went unnoticed");
+    assert_ne!(
+        words, expected,
+        "reading fields in a swapped order went unnoticed"
+    );
 }

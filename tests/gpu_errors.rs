@@ -10,7 +10,9 @@ use reference::RenderSettings;
 fn a_broken_shader_is_a_shader_error() {
     let ctx = common::gpu();
     let layout = gpu::renderer::bind_group_layout(&ctx.device);
-    let Err(err) = gpu::renderer::compile(ctx, "fn main( {", "main", &[&layout]) else { panic!("garbage compiled") };
+    let Err(err) = gpu::renderer::compile(ctx, "fn main( {", "main", &[&layout]) else {
+        panic!("garbage compiled")
+    };
     assert!(matches!(err, GpuError::Shader(_)), "{err}");
     // The library still compiles afterwards: the error did not poison the device.
     let scene = reference::load_scene("cornell").unwrap();
@@ -24,9 +26,17 @@ fn a_film_beyond_the_buffer_limit_is_refused() {
     // The largest image the settings allow: 8192² pixels of 32 bytes (2 GiB)
     // exceeds the binding limits wgpu reports (lavapipe: 128 MiB, the H100:
     // 2047 MiB).
-    let settings = RenderSettings { width: 8192, height: 8192, spp: 1, ..RenderSettings::default() };
+    let settings = RenderSettings {
+        width: 8192,
+        height: 8192,
+        spp: 1,
+        ..RenderSettings::default()
+    };
     let needed = 8192u64 * 8192 * 32;
-    assert!(needed > limit, "this adapter allows {limit} bytes: pick a larger film for the test");
+    assert!(
+        needed > limit,
+        "this adapter allows {limit} bytes: pick a larger film for the test"
+    );
     let scene = reference::load_scene("cornell").unwrap();
     let r = gpu::GpuRenderer::new(ctx, &scene).unwrap();
     match r.render(&settings, &|_, _| {}) {
@@ -43,7 +53,20 @@ fn a_lost_device_is_reported() {
     let scene = reference::load_scene("cornell").unwrap();
     let r = gpu::GpuRenderer::new(&ctx, &scene).unwrap();
     ctx.device.destroy();
-    let settings = RenderSettings { width: 8, height: 8, spp: 1, ..scene.render };
-    let Err(err) = r.render(&settings, &|_, _| {}) else { panic!("rendering on a destroyed device succeeded") };
-    assert!(matches!(err, GpuError::DeviceLost(_) | GpuError::Validation(_) | GpuError::Readback(_)), "{err}");
+    let settings = RenderSettings {
+        width: 8,
+        height: 8,
+        spp: 1,
+        ..scene.render
+    };
+    let Err(err) = r.render(&settings, &|_, _| {}) else {
+        panic!("rendering on a destroyed device succeeded")
+    };
+    assert!(
+        matches!(
+            err,
+            GpuError::DeviceLost(_) | GpuError::Validation(_) | GpuError::Readback(_)
+        ),
+        "{err}"
+    );
 }

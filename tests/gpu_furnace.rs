@@ -10,22 +10,36 @@ use twintrace::compare::furnace::{self, assert_known_answer};
 const SEED: u32 = 13;
 
 fn gpu_render(scene: &Scene, settings: &RenderSettings) -> Result<Film> {
-    Ok(gpu::GpuRenderer::new(common::gpu(), scene)?.render(settings, &|_, _| {})?.film)
+    Ok(gpu::GpuRenderer::new(common::gpu(), scene)?
+        .render(settings, &|_, _| {})?
+        .film)
 }
 
 #[test]
 fn white_furnaces_are_exact_or_unbiased_on_the_gpu() {
-    assert_known_answer(&furnace::white_furnace(false, 64, SEED).unwrap(), &gpu_render);
-    assert_known_answer(&furnace::white_furnace(true, 256, SEED).unwrap(), &gpu_render);
+    assert_known_answer(
+        &furnace::white_furnace(false, 64, SEED).unwrap(),
+        &gpu_render,
+    );
+    assert_known_answer(
+        &furnace::white_furnace(true, 256, SEED).unwrap(),
+        &gpu_render,
+    );
     assert_known_answer(&furnace::inside_out_emitter(64, SEED).unwrap(), &gpu_render);
 }
 
 #[test]
 fn concentric_spheres_and_ggx_metal_match_their_answers_on_the_gpu() {
     for roulette in [false, true] {
-        assert_known_answer(&furnace::concentric_spheres(0.5, roulette, 256, SEED).unwrap(), &gpu_render);
+        assert_known_answer(
+            &furnace::concentric_spheres(0.5, roulette, 256, SEED).unwrap(),
+            &gpu_render,
+        );
     }
     for roughness in [0.0f32, 0.3, 1.0] {
-        assert_known_answer(&furnace::ggx_metal_plane(roughness, 45.0, 1024, SEED).unwrap(), &gpu_render);
+        assert_known_answer(
+            &furnace::ggx_metal_plane(roughness, 45.0, 1024, SEED).unwrap(),
+            &gpu_render,
+        );
     }
 }

@@ -50,13 +50,25 @@ fn rays_for(scene: &Scene) -> Vec<Ray> {
     let cam = scene.camera(64, 64);
     for y in 0..64 {
         for x in 0..64 {
-            rays.push(cam.generate_ray(Vec2::new((x as f32 + 0.5) / 64.0, (y as f32 + 0.5) / 64.0), Vec2::splat(0.5)));
+            rays.push(cam.generate_ray(
+                Vec2::new((x as f32 + 0.5) / 64.0, (y as f32 + 0.5) / 64.0),
+                Vec2::splat(0.5),
+            ));
         }
     }
     let b = scene.bounds();
     for i in 0..4096u32 {
-        let o = b.min + (b.max - b.min) * Vec3::new(random_f32(5, i, 0, 0, 0), random_f32(5, i, 0, 0, 1), random_f32(5, i, 0, 0, 2));
-        let d = reference::sampling::sample_uniform_sphere(Vec2::new(random_f32(5, i, 0, 0, 3), random_f32(5, i, 0, 0, 4)));
+        let o = b.min
+            + (b.max - b.min)
+                * Vec3::new(
+                    random_f32(5, i, 0, 0, 0),
+                    random_f32(5, i, 0, 0, 1),
+                    random_f32(5, i, 0, 0, 2),
+                );
+        let d = reference::sampling::sample_uniform_sphere(Vec2::new(
+            random_f32(5, i, 0, 0, 3),
+            random_f32(5, i, 0, 0, 4),
+        ));
         rays.push(Ray::new(o, d));
     }
     rays
@@ -93,7 +105,11 @@ fn check_scene(spec: &str, scene: &Scene) {
     let ctx = common::gpu();
     let renderer = gpu::GpuRenderer::new(ctx, scene).unwrap();
     let rays = rays_for(scene);
-    let input: Vec<u32> = rays.iter().flat_map(|r| [r.origin.to_array(), r.direction.to_array()].concat()).map(f32::to_bits).collect();
+    let input: Vec<u32> = rays
+        .iter()
+        .flat_map(|r| [r.origin.to_array(), r.direction.to_array()].concat())
+        .map(f32::to_bits)
+        .collect();
     let out = run_test_kernel(
         ctx,
         &renderer,
@@ -117,24 +133,45 @@ fn check_scene(spec: &str, scene: &Scene) {
             (None, None) => same += 1,
             (Some(c), Some((prim, t))) if c.prim == prim => {
                 let u = ulps(c.t, t);
-                assert!(u <= MAX_T_ULPS, "{spec} ray {i}: t {} (cpu) vs {t} (gpu): {u} ulps", c.t);
+                assert!(
+                    u <= MAX_T_ULPS,
+                    "{spec} ray {i}: t {} (cpu) vs {t} (gpu): {u} ulps",
+                    c.t
+                );
                 max_ulps = max_ulps.max(u);
                 same += 1;
             }
             (Some(c), gpu) => {
-                assert!(near_edge(scene, ray, c.prim, c.uv, c.t, gpu.map(|g| g.1)), "{spec} ray {i}: cpu prim {} t {} uv {} vs gpu {gpu:?}", c.prim, c.t, c.uv);
+                assert!(
+                    near_edge(scene, ray, c.prim, c.uv, c.t, gpu.map(|g| g.1)),
+                    "{spec} ray {i}: cpu prim {} t {} uv {} vs gpu {gpu:?}",
+                    c.prim,
+                    c.t,
+                    c.uv
+                );
                 explained += 1;
             }
             (None, Some((prim, t))) => {
-                let hit = reference::geometry::Hit { t, prim, uv: Vec2::new(f32::from_bits(g[3]), f32::from_bits(g[4])) };
-                assert!(near_edge(scene, ray, prim, hit.uv, t, None), "{spec} ray {i}: cpu miss vs gpu prim {prim} t {t}");
+                let hit = reference::geometry::Hit {
+                    t,
+                    prim,
+                    uv: Vec2::new(f32::from_bits(g[3]), f32::from_bits(g[4])),
+                };
+                assert!(
+                    near_edge(scene, ray, prim, hit.uv, t, None),
+                    "{spec} ray {i}: cpu miss vs gpu prim {prim} t {t}"
+                );
                 explained += 1;
             }
         }
     }
     println!("{spec}: {same} identical, {explained} edge/tie cases, max t difference {max_ulps} ulps over {} rays", rays.len());
     // Edge cases must stay rare, or the "explained" escape hides a bug.
-    assert!(explained * 1000 <= rays.len(), "{spec}: {explained} disagreements of {}", rays.len());
+    assert!(
+        explained * 1000 <= rays.len(),
+        "{spec}: {explained} disagreements of {}",
+        rays.len()
+    );
 }
 
 #[test]
@@ -149,12 +186,18 @@ fn cornell_boxes() {
 
 #[test]
 fn triangle_mesh() {
-    check(concat!(env!("CARGO_MANIFEST_DIR"), "/fixtures/scenes/gltf-mesh.json"));
+    check(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/fixtures/scenes/gltf-mesh.json"
+    ));
 }
 
 #[test]
 fn textured_quads_and_boxes() {
-    check(concat!(env!("CARGO_MANIFEST_DIR"), "/fixtures/scenes/textures.json"));
+    check(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/fixtures/scenes/textures.json"
+    ));
 }
 
 const BOUNDS_SNIPPET: &str = "
@@ -180,9 +223,12 @@ fn far_small_shapes(count: u32) -> Scene {
     use reference::scene::{SceneBuilder, Transform};
     let mut b = SceneBuilder::new();
     let white = b.constant(Vec3::splat(0.7)).unwrap();
-    let m = b.add_material(Material::Lambertian { albedo: white }).unwrap();
+    let m = b
+        .add_material(Material::Lambertian { albedo: white })
+        .unwrap();
     let id = Transform::default();
-    b.add_sphere(Vec3::new(0.0, -4.173655, 0.0), 0.0129515575, m, &id).unwrap();
+    b.add_sphere(Vec3::new(0.0, -4.173655, 0.0), 0.0129515575, m, &id)
+        .unwrap();
     let f = |i: u32, d: u32, scale: f32| (random_f32(11, i, 0, 0, d) * 2.0 - 1.0) * scale;
     for i in 0..count {
         let c = Vec3::new(f(i, 0, 1e3), f(i, 1, 1e2), f(i, 2, 10.0));
@@ -212,13 +258,28 @@ fn primitive_bounds_match_reference_bit_for_bit() {
         let renderer = gpu::GpuRenderer::new(ctx, &scene).unwrap();
         let n = scene.primitives.len() as u32;
         let input: Vec<u32> = (0..n).collect();
-        let kernel =
-            TestKernel { snippet: BOUNDS_SNIPPET, entry: "bounds_main", input: &input, invocations: n, output_words: 6 * n as usize, params: None, film: None };
+        let kernel = TestKernel {
+            snippet: BOUNDS_SNIPPET,
+            entry: "bounds_main",
+            input: &input,
+            invocations: n,
+            output_words: 6 * n as usize,
+            params: None,
+            film: None,
+        };
         let out = run_test_kernel(ctx, &renderer, &kernel).unwrap();
         for prim in 0..n {
             let b = scene.primitive_bounds(prim);
-            let want: Vec<u32> = [b.min.to_array(), b.max.to_array()].concat().into_iter().map(f32::to_bits).collect();
-            assert_eq!(&out[6 * prim as usize..6 * prim as usize + 6], &want[..], "{name}: primitive {prim} box differs from the reference's {b:?}");
+            let want: Vec<u32> = [b.min.to_array(), b.max.to_array()]
+                .concat()
+                .into_iter()
+                .map(f32::to_bits)
+                .collect();
+            assert_eq!(
+                &out[6 * prim as usize..6 * prim as usize + 6],
+                &want[..],
+                "{name}: primitive {prim} box differs from the reference's {b:?}"
+            );
         }
     }
 }
@@ -231,14 +292,33 @@ fn primitive_bounds_match_reference_bit_for_bit() {
 fn head_on_hit_on_a_small_far_sphere() {
     let scene = far_small_shapes(0);
     let ray = Ray::new(Vec3::new(0.0, -4.160674, 0.0), Vec3::new(0.0, -1.0, 0.0));
-    let cpu = scene.intersect(&ray, 0.0, f32::INFINITY).expect("the reference hits the pole");
+    let cpu = scene
+        .intersect(&ray, 0.0, f32::INFINITY)
+        .expect("the reference hits the pole");
     assert_eq!(cpu.prim, 0);
     let ctx = common::gpu();
     let renderer = gpu::GpuRenderer::new(ctx, &scene).unwrap();
-    let input: Vec<u32> = [ray.origin.to_array(), ray.direction.to_array()].concat().into_iter().map(f32::to_bits).collect();
-    let kernel = TestKernel { snippet: SNIPPET, entry: "hits_main", input: &input, invocations: 1, output_words: 5, params: None, film: None };
+    let input: Vec<u32> = [ray.origin.to_array(), ray.direction.to_array()]
+        .concat()
+        .into_iter()
+        .map(f32::to_bits)
+        .collect();
+    let kernel = TestKernel {
+        snippet: SNIPPET,
+        entry: "hits_main",
+        input: &input,
+        invocations: 1,
+        output_words: 5,
+        params: None,
+        film: None,
+    };
     let out = run_test_kernel(ctx, &renderer, &kernel).unwrap();
-    assert_eq!((out[0], out[1]), (1, 0), "the GPU misses the pole the reference hits at t = {}", cpu.t);
+    assert_eq!(
+        (out[0], out[1]),
+        (1, 0),
+        "the GPU misses the pole the reference hits at t = {}",
+        cpu.t
+    );
     assert!(ulps(cpu.t, f32::from_bits(out[2])) <= MAX_T_ULPS);
 }
 

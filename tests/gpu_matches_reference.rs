@@ -11,14 +11,19 @@ mod common;
 
 use anyhow::Result;
 use reference::{Film, RenderSettings, Scene};
-use twintrace::compare::gate::{cpu_reference, gate_fixture, load_reference, load_scene, manifest_entry, run_gate, scaled_albedo};
+use twintrace::compare::gate::{
+    cpu_reference, gate_fixture, load_reference, load_scene, manifest_entry, run_gate,
+    scaled_albedo,
+};
 use twintrace::compare::image::{compare, Method, NoisyImage, TestSettings};
 
 /// The seed of the GPU renders; the references use 1, the CPU gates 7.
 const GPU_SEED: u32 = 11;
 
 fn gpu_render(scene: &Scene, settings: &RenderSettings) -> Result<Film> {
-    Ok(gpu::GpuRenderer::new(common::gpu(), scene)?.render(settings, &|_, _| {})?.film)
+    Ok(gpu::GpuRenderer::new(common::gpu(), scene)?
+        .render(settings, &|_, _| {})?
+        .film)
 }
 
 /// 1024 spp, the CPU gates' budget (at 256 spp the Cornell box's rare
@@ -52,10 +57,25 @@ gpu_gates! {
 fn gpu_and_cpu_agree_by_welch_at_equal_budgets_and_a_biased_gpu_does_not() {
     let spec = manifest_entry("cornell-spheres").unwrap();
     let scene = load_scene(&spec).unwrap();
-    let settings =
-        RenderSettings { width: spec.width, height: spec.height, spp: 1024, max_depth: spec.max_depth, seed: 21, roulette_depth: scene.render.roulette_depth };
+    let settings = RenderSettings {
+        width: spec.width,
+        height: spec.height,
+        spp: 1024,
+        max_depth: spec.max_depth,
+        seed: 21,
+        roulette_depth: scene.render.roulette_depth,
+    };
     let cpu = NoisyImage::from_film(&cpu_reference(&scene, &settings).unwrap());
-    let gpu = NoisyImage::from_film(&gpu_render(&scene, &RenderSettings { seed: 22, ..settings }).unwrap());
+    let gpu = NoisyImage::from_film(
+        &gpu_render(
+            &scene,
+            &RenderSettings {
+                seed: 22,
+                ..settings
+            },
+        )
+        .unwrap(),
+    );
     let v = compare(&gpu, &cpu, Method::Welch, &TestSettings::default()).unwrap();
     println!("GPU vs CPU, Welch:\n{}", v.summary());
     assert!(v.passes(), "GPU and CPU differ:\n{}", v.summary());

@@ -66,6 +66,11 @@ fn rng_streams_are_bit_identical() {
         let b = reference::rng::random_block(seed, pixel, sample, bounce, 1);
         let f = reference::rng::vertex_randoms(seed, pixel, sample, bounce).map(f32::to_bits);
         let expected: Vec<u32> = a.iter().chain(&b).chain(&f).copied().collect();
-        assert_eq!(&out[16 * i..16 * i + 16], &expected[..], "key {:?}", keys[i]);
+        assert_eq!(
+            &out[16 * i..16 * i + 16],
+            &expected[..],
+            "key {:?}",
+            keys[i]
+        );
     }
 }

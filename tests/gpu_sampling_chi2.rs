@@ -15,13 +15,18 @@ use reference::material::{GgxLobes, Material};
 use reference::sampling::{cosine_hemisphere_pdf, ggx, UNIFORM_SPHERE_PDF};
 use reference::scene::Transform;
 use std::f64::consts::PI;
-use twintrace::compare::chi2::{assert_family_passes, test_density, test_same_distribution, Chi2Outcome, Domain};
+use twintrace::compare::chi2::{
+    assert_family_passes, test_density, test_same_distribution, Chi2Outcome, Domain,
+};
 use twintrace::compare::lobes::{standard_cases, Incidence, LobeCase};
 use twintrace::stats::sidak;
 
 /// Samples per run: pbrt-v4's CHI2_SAMPLECOUNT and Mitsuba's default.
 const N: u32 = 1_000_000;
-const SPHERE: Domain = Domain::Sphere { theta_bins: 64, phi_bins: 64 };
+const SPHERE: Domain = Domain::Sphere {
+    theta_bins: 64,
+    phi_bins: 64,
+};
 /// The base colour of texture 0 in the kernel's scene (the GGX material
 /// cases use it, as tests/sampling_chi2.rs does).
 const BASE: Vec3 = Vec3::new(0.9, 0.6, 0.3);
@@ -93,7 +98,15 @@ struct Job {
 
 impl Job {
     fn new(mode: Mode, seed: u32) -> Self {
-        Job { mode, seed, front_face: true, random_incidence: false, wo: Vec3::Z, alpha: 0.0, material: None }
+        Job {
+            mode,
+            seed,
+            front_face: true,
+            random_incidence: false,
+            wo: Vec3::Z,
+            alpha: 0.0,
+            material: None,
+        }
     }
 }
 
@@ -103,7 +116,8 @@ fn gpu_samples(job: &Job) -> Vec<Option<DVec3>> {
     let mut b = reference::SceneBuilder::new();
     let t = b.constant(BASE).unwrap();
     let m = b.add_material(Material::Lambertian { albedo: t }).unwrap();
-    b.add_sphere(Vec3::ZERO, 1.0, m, &Transform::default()).unwrap();
+    b.add_sphere(Vec3::ZERO, 1.0, m, &Transform::default())
+        .unwrap();
     b.camera.look_from = Vec3::new(0.0, 0.0, 5.0);
     let scene = b.build().unwrap();
     let renderer = gpu::GpuRenderer::new(ctx, &scene).unwrap();
@@ -123,10 +137,29 @@ fn gpu_samples(job: &Job) -> Vec<Option<DVec3>> {
     let out = run_test_kernel(
         ctx,
         &renderer,
-        &TestKernel { snippet: SNIPPET, entry: "sample_main", input: &input, invocations: N, output_words: 4 * N as usize, params: None, film: None },
+        &TestKernel {
+            snippet: SNIPPET,
+            entry: "sample_main",
+            input: &input,
+            invocations: N,
+            output_words: 4 * N as usize,
+            params: None,
+            film: None,
+        },
     )
     .unwrap();
-    out.chunks_exact(4).map(|w| (w[3] == 1).then(|| Vec3::new(f32::from_bits(w[0]), f32::from_bits(w[1]), f32::from_bits(w[2])).as_dvec3())).collect()
+    out.chunks_exact(4)
+        .map(|w| {
+            (w[3] == 1).then(|| {
+                Vec3::new(
+                    f32::from_bits(w[0]),
+                    f32::from_bits(w[1]),
+                    f32::from_bits(w[2]),
+                )
+                .as_dvec3()
+            })
+        })
+        .collect()
 }
 
 fn towards(theta_deg: f32) -> Vec3 {
@@ -138,26 +171,87 @@ fn towards(theta_deg: f32) -> Vec3 {
 fn gpu_sampling_routines_match_their_densities() {
     let mut runs = Vec::new();
     let cos = |d: DVec3| cosine_hemisphere_pdf(d.z as f32) as f64;
-    runs.push(("cosine hemisphere".to_string(), test_density(&SPHERE, gpu_samples(&Job::new(Mode::Cosine, 1001)), &cos)));
-    runs.push(("uniform sphere".to_string(), test_density(&SPHERE, gpu_samples(&Job::new(Mode::Sphere, 1002)), &|_| UNIFORM_SPHERE_PDF as f64)));
-    let disk = Domain::Disk { r2_bins: 32, phi_bins: 64 };
-    runs.push(("unit disk".to_string(), test_density(&disk, gpu_samples(&Job::new(Mode::Disk, 1003)), &|_| 1.0 / PI)));
-    let ball = Domain::Ball { r3_bins: 8, cos_theta_bins: 16, phi_bins: 32 };
-    runs.push(("unit ball".to_string(), test_density(&ball, gpu_samples(&Job::new(Mode::Ball, 1004)), &|_| 3.0 / (4.0 * PI))));
-    for (k, (alpha, theta)) in [(0.15f32, 0.0f32), (0.4, 30.0), (1.0, 60.0), (0.4, 85.0)].into_iter().enumerate() {
+    runs.push((
+        "cosine hemisphere".to_string(),
+        test_density(&SPHERE, gpu_samples(&Job::new(Mode::Cosine, 1001)), &cos),
+    ));
+    runs.push((
+        "uniform sphere".to_string(),
+        test_density(&SPHERE, gpu_samples(&Job::new(Mode::Sphere, 1002)), &|_| {
+            UNIFORM_SPHERE_PDF as f64
+        }),
+    ));
+    let disk = Domain::Disk {
+        r2_bins: 32,
+        phi_bins: 64,
+    };
+    runs.push((
+        "unit disk".to_string(),
+        test_density(&disk, gpu_samples(&Job::new(Mode::Disk, 1003)), &|_| {
+            1.0 / PI
+        }),
+    ));
+    let ball = Domain::Ball {
+        r3_bins: 8,
+        cos_theta_bins: 16,
+        phi_bins: 32,
+    };
+    runs.push((
+        "unit ball".to_string(),
+        test_density(&ball, gpu_samples(&Job::new(Mode::Ball, 1004)), &|_| {
+            3.0 / (4.0 * PI)
+        }),
+    ));
+    for (k, (alpha, theta)) in [(0.15f32, 0.0f32), (0.4, 30.0), (1.0, 60.0), (0.4, 85.0)]
+        .into_iter()
+        .enumerate()
+    {
         let wo = towards(theta);
-        let job = Job { wo, alpha, ..Job::new(Mode::VisibleNormal, 1010 + k as u32) };
-        let o = test_density(&SPHERE, gpu_samples(&job), &|m: DVec3| ggx::visible_normal_pdf(wo, m.as_vec3(), alpha) as f64);
+        let job = Job {
+            wo,
+            alpha,
+            ..Job::new(Mode::VisibleNormal, 1010 + k as u32)
+        };
+        let o = test_density(&SPHERE, gpu_samples(&job), &|m: DVec3| {
+            ggx::visible_normal_pdf(wo, m.as_vec3(), alpha) as f64
+        });
         runs.push((format!("GGX visible normals α {alpha}, θo {theta}°"), o));
     }
-    let lambert = Job { wo: towards(40.0), material: Some(Material::Lambertian { albedo: 0 }), ..Job::new(Mode::Scatter, 1020) };
-    runs.push(("Lambertian material".to_string(), test_density(&SPHERE, gpu_samples(&lambert), &cos)));
-    for (k, (metallic, roughness, theta)) in [(0.0f32, 0.5f32, 20.0f32), (1.0, 0.4, 50.0), (0.5, 0.8, 75.0)].into_iter().enumerate() {
+    let lambert = Job {
+        wo: towards(40.0),
+        material: Some(Material::Lambertian { albedo: 0 }),
+        ..Job::new(Mode::Scatter, 1020)
+    };
+    runs.push((
+        "Lambertian material".to_string(),
+        test_density(&SPHERE, gpu_samples(&lambert), &cos),
+    ));
+    for (k, (metallic, roughness, theta)) in [
+        (0.0f32, 0.5f32, 20.0f32),
+        (1.0, 0.4, 50.0),
+        (0.5, 0.8, 75.0),
+    ]
+    .into_iter()
+    .enumerate()
+    {
         let wo = towards(theta);
         let lobes = GgxLobes::new(BASE, metallic, roughness, wo);
-        let job = Job { wo, material: Some(Material::Ggx { base_color: 0, metallic, roughness }), ..Job::new(Mode::Scatter, 1030 + k as u32) };
-        let o = test_density(&SPHERE, gpu_samples(&job), &|wi: DVec3| lobes.pdf(wo, wi.as_vec3()) as f64);
-        runs.push((format!("GGX material metallic {metallic}, roughness {roughness}, θo {theta}°"), o));
+        let job = Job {
+            wo,
+            material: Some(Material::Ggx {
+                base_color: 0,
+                metallic,
+                roughness,
+            }),
+            ..Job::new(Mode::Scatter, 1030 + k as u32)
+        };
+        let o = test_density(&SPHERE, gpu_samples(&job), &|wi: DVec3| {
+            lobes.pdf(wo, wi.as_vec3()) as f64
+        });
+        runs.push((
+            format!("GGX material metallic {metallic}, roughness {roughness}, θo {theta}°"),
+            o,
+        ));
     }
     assert_family_passes("GPU sampling", &runs);
 }
@@ -167,7 +261,13 @@ fn gpu_job_for(case: &LobeCase, seed: u32) -> Job {
         Incidence::Fixed(d) => (-d, false),
         Incidence::Random => (Vec3::Z, true),
     };
-    Job { front_face: case.front_face, random_incidence: random, wo, material: Some(case.material), ..Job::new(Mode::Scatter, seed) }
+    Job {
+        front_face: case.front_face,
+        random_incidence: random,
+        wo,
+        material: Some(case.material),
+        ..Job::new(Mode::Scatter, seed)
+    }
 }
 
 #[test]
@@ -186,10 +286,20 @@ fn gpu_lobes_match_the_cpu_and_a_changed_lobe_does_not() {
     assert_family_passes("two-sample, CPU vs GPU", &runs);
 
     // Mutation: glass with ior 1.51 on the GPU against 1.5 on the CPU.
-    let case = cases.iter().find(|c| c.name.starts_with("glass from outside, random")).expect("the standard cases include random-incidence glass");
+    let case = cases
+        .iter()
+        .find(|c| c.name.starts_with("glass from outside, random"))
+        .expect("the standard cases include random-incidence glass");
     let mut job = gpu_job_for(case, 3001);
-    job.material = Some(Material::Dielectric { ior: 1.51, absorption: Vec3::ZERO });
+    job.material = Some(Material::Dielectric {
+        ior: 1.51,
+        absorption: Vec3::ZERO,
+    });
     let o = test_same_distribution(&SPHERE, case.cpu_samples(3000, N), gpu_samples(&job));
     println!("mutant (ior 1.51 vs 1.5): {}", o.summary());
-    assert!(!o.passes(sidak(0.01, 1)), "an ior change of 0.7 % went unnoticed: {}", o.summary());
+    assert!(
+        !o.passes(sidak(0.01, 1)),
+        "an ior change of 0.7 % went unnoticed: {}",
+        o.summary()
+    );
 }

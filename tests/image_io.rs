@@ -5,11 +5,17 @@
 use approx::assert_relative_eq;
 use glam::Vec3;
 use std::path::Path;
-use twintrace::image_io::{output_paths, read_exr, write_atomic, write_exr, write_png, write_render_outputs, OutputPaths, RenderImage, RenderMetadata};
+use twintrace::image_io::{
+    output_paths, read_exr, write_atomic, write_exr, write_png, write_render_outputs, OutputPaths,
+    RenderImage, RenderMetadata,
+};
 use twintrace::tonemap::{aces_narkowicz, quantize_u8, srgb_oetf, Tonemap};
 
 fn files_in(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
     names.sort();
     names
 }
@@ -17,7 +23,20 @@ fn files_in(dir: &Path) -> Vec<String> {
 /// An odd-sized image whose values exercise every kind of f32 bit pattern.
 fn test_image(with_variance: bool) -> RenderImage {
     let (width, height) = (7u32, 5u32);
-    let special = [0.0, -0.0, 1.0, f32::MIN_POSITIVE / 8.0, 1e-30, 3.4e38, 0.1, 1.0 / 3.0, 65504.0, 1e6, f32::NAN, f32::INFINITY];
+    let special = [
+        0.0,
+        -0.0,
+        1.0,
+        f32::MIN_POSITIVE / 8.0,
+        1e-30,
+        3.4e38,
+        0.1,
+        1.0 / 3.0,
+        65504.0,
+        1e6,
+        f32::NAN,
+        f32::INFINITY,
+    ];
     let value = |i: usize, c: usize| {
         let k = i * 3 + c;
         if k & 1 == 0 {
@@ -27,11 +46,28 @@ fn test_image(with_variance: bool) -> RenderImage {
         }
     };
     let n = (width * height) as usize;
-    let mean = (0..n).map(|i| Vec3::new(value(i, 0), value(i, 1), value(i, 2))).collect();
-    let variance = with_variance.then(|| (0..n).map(|i| Vec3::new(value(i, 3).abs(), value(i, 4).abs(), value(i, 5).abs())).collect());
-    let metadata =
-        RenderMetadata { spp: Some(64), max_depth: Some(50), seed: Some(u32::MAX - 1), scene: Some("cornell".into()), software: Some("twintrace test".into()) };
-    RenderImage { width, height, mean, variance, metadata }
+    let mean = (0..n)
+        .map(|i| Vec3::new(value(i, 0), value(i, 1), value(i, 2)))
+        .collect();
+    let variance = with_variance.then(|| {
+        (0..n)
+            .map(|i| Vec3::new(value(i, 3).abs(), value(i, 4).abs(), value(i, 5).abs()))
+            .collect()
+    });
+    let metadata = RenderMetadata {
+        spp: Some(64),
+        max_depth: Some(50),
+        seed: Some(u32::MAX - 1),
+        scene: Some("cornell".into()),
+        software: Some("twintrace test".into()),
+    };
+    RenderImage {
+        width,
+        height,
+        mean,
+        variance,
+        metadata,
+    }
 }
 
 fn bits(v: &[Vec3]) -> Vec<[u32; 3]> {
@@ -47,9 +83,16 @@ fn exr_round_trip_is_bit_exact_for_mean_and_variance() {
     let back = read_exr(&path).unwrap();
     assert_eq!((back.width, back.height), (image.width, image.height));
     assert_eq!(bits(&back.mean), bits(&image.mean));
-    assert_eq!(bits(back.variance.as_ref().unwrap()), bits(image.variance.as_ref().unwrap()));
+    assert_eq!(
+        bits(back.variance.as_ref().unwrap()),
+        bits(image.variance.as_ref().unwrap())
+    );
     assert_eq!(back.metadata, image.metadata);
-    assert_eq!(files_in(dir.path()), ["render.exr"], "no temporary file is left");
+    assert_eq!(
+        files_in(dir.path()),
+        ["render.exr"],
+        "no temporary file is left"
+    );
 }
 
 #[test]
@@ -90,11 +133,21 @@ fn render_outputs_strip_a_given_extension() {
     let base = dir.path().join("out");
     for given in ["out", "out.exr", "out.png", "out.EXR"] {
         let p = output_paths(&dir.path().join(given)).unwrap();
-        assert_eq!(p, OutputPaths { exr: base.with_extension("exr"), png: base.with_extension("png") }, "{given}");
+        assert_eq!(
+            p,
+            OutputPaths {
+                exr: base.with_extension("exr"),
+                png: base.with_extension("png")
+            },
+            "{given}"
+        );
     }
     let p = output_paths(&dir.path().join("out.v1")).unwrap();
     assert_eq!(p.exr, dir.path().join("out.v1.exr"));
-    assert!(output_paths(dir.path()).is_err(), "a directory is not an output name");
+    assert!(
+        output_paths(dir.path()).is_err(),
+        "a directory is not an output name"
+    );
 
     let image = test_image(true);
     write_render_outputs(&output_paths(&base).unwrap(), &image, Tonemap::Aces).unwrap();
@@ -136,7 +189,10 @@ fn srgb_oetf_matches_iec_61966_2_1() {
     assert_eq!(quantize_u8(0.0), 0);
     assert_eq!(quantize_u8(1.0), 255);
     assert_eq!(quantize_u8(0.5), 128);
-    assert_eq!(Tonemap::None.to_srgb8(Vec3::new(0.0, 0.5, 1.0)), [0, 188, 255]);
+    assert_eq!(
+        Tonemap::None.to_srgb8(Vec3::new(0.0, 0.5, 1.0)),
+        [0, 188, 255]
+    );
 }
 
 #[test]
@@ -145,7 +201,10 @@ fn a_failed_write_leaves_no_file() {
     let missing = dir.path().join("no-such-dir").join("out.exr");
     let err = write_exr(&missing, &test_image(true)).unwrap_err();
     let message = format!("{err:#}");
-    assert!(message.contains("no-such-dir") && message.contains("does not exist"), "{message}");
+    assert!(
+        message.contains("no-such-dir") && message.contains("does not exist"),
+        "{message}"
+    );
     assert!(files_in(dir.path()).is_empty());
 
     // An error after some bytes were written removes the temporary file.
@@ -157,11 +216,20 @@ fn a_failed_write_leaves_no_file() {
     })
     .unwrap_err();
     assert!(format!("{err:#}").contains("encoder failed"));
-    assert!(files_in(dir.path()).is_empty(), "left behind: {:?}", files_in(dir.path()));
+    assert!(
+        files_in(dir.path()).is_empty(),
+        "left behind: {:?}",
+        files_in(dir.path())
+    );
 
     // A mismatched image is refused before anything is created.
     let mut bad = test_image(true);
     bad.mean.pop();
-    assert!(write_render_outputs(&output_paths(&dir.path().join("bad")).unwrap(), &bad, Tonemap::Aces).is_err());
+    assert!(write_render_outputs(
+        &output_paths(&dir.path().join("bad")).unwrap(),
+        &bad,
+        Tonemap::Aces
+    )
+    .is_err());
     assert!(files_in(dir.path()).is_empty());
 }

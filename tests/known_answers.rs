@@ -12,39 +12,80 @@ const BG: f32 = 0.8;
 
 /// Renders one sphere of `material` filling the centre of the view under
 /// a uniform background and returns the centre pixel and a corner pixel.
-fn centre_and_corner(material: impl FnOnce(&mut SceneBuilder) -> Material, spp: u32) -> (Vec3, Vec3, u64) {
+fn centre_and_corner(
+    material: impl FnOnce(&mut SceneBuilder) -> Material,
+    spp: u32,
+) -> (Vec3, Vec3, u64) {
     let mut b = SceneBuilder::new();
     let m = material(&mut b);
     let m = b.add_material(m).unwrap();
-    b.add_sphere(Vec3::ZERO, 1.0, m, &Transform::default()).unwrap();
+    b.add_sphere(Vec3::ZERO, 1.0, m, &Transform::default())
+        .unwrap();
     b.camera.look_from = Vec3::new(0.0, 0.0, 4.0);
     b.camera.vfov = 40.0;
     b.background = Some(Background::Solid(Vec3::splat(BG)));
     let scene = b.build().unwrap();
-    let settings = RenderSettings { width: 9, height: 9, spp, max_depth: 64, roulette_depth: 1000, seed: 3 };
+    let settings = RenderSettings {
+        width: 9,
+        height: 9,
+        spp,
+        max_depth: 64,
+        roulette_depth: 1000,
+        seed: 3,
+    };
     let film = reference::render(&scene, &settings, &|_| {});
-    (film.pixel(4, 4).mean.as_vec3(), film.pixel(0, 0).mean.as_vec3(), film.nonfinite_samples())
+    (
+        film.pixel(4, 4).mean.as_vec3(),
+        film.pixel(0, 0).mean.as_vec3(),
+        film.nonfinite_samples(),
+    )
 }
 
 #[test]
 fn lambertian_sphere_reflects_albedo_times_background() {
     // A convex diffuser never sees itself: every path is albedo × background.
-    let (c, corner, bad) = centre_and_corner(|b| Material::Lambertian { albedo: b.constant(Vec3::new(0.5, 0.25, 1.0)).unwrap() }, 16);
+    let (c, corner, bad) = centre_and_corner(
+        |b| Material::Lambertian {
+            albedo: b.constant(Vec3::new(0.5, 0.25, 1.0)).unwrap(),
+        },
+        16,
+    );
     assert_eq!(bad, 0);
-    assert!((c - Vec3::new(0.5, 0.25, 1.0) * BG).abs().max_element() < 1e-6, "{c}");
-    assert!((corner - Vec3::splat(BG)).abs().max_element() < 1e-6, "{corner}");
+    assert!(
+        (c - Vec3::new(0.5, 0.25, 1.0) * BG).abs().max_element() < 1e-6,
+        "{c}"
+    );
+    assert!(
+        (corner - Vec3::splat(BG)).abs().max_element() < 1e-6,
+        "{corner}"
+    );
 }
 
 #[test]
 fn mirror_sphere_reflects_albedo_times_background() {
-    let (c, _, _) = centre_and_corner(|b| Material::Metal { albedo: b.constant(Vec3::splat(0.9)).unwrap(), fuzz: 0.0 }, 16);
-    assert!((c - Vec3::splat(0.9 * BG)).abs().max_element() < 1e-6, "{c}");
+    let (c, _, _) = centre_and_corner(
+        |b| Material::Metal {
+            albedo: b.constant(Vec3::splat(0.9)).unwrap(),
+            fuzz: 0.0,
+        },
+        16,
+    );
+    assert!(
+        (c - Vec3::splat(0.9 * BG)).abs().max_element() < 1e-6,
+        "{c}"
+    );
 }
 
 #[test]
 fn glass_sphere_is_lossless() {
     // Reflection or refraction, the weight is 1 and the background uniform.
-    let (c, _, _) = centre_and_corner(|_| Material::Dielectric { ior: 1.5, absorption: Vec3::ZERO }, 64);
+    let (c, _, _) = centre_and_corner(
+        |_| Material::Dielectric {
+            ior: 1.5,
+            absorption: Vec3::ZERO,
+        },
+        64,
+    );
     assert!((c - Vec3::splat(BG)).abs().max_element() < 1e-6, "{c}");
 }
 
@@ -55,11 +96,19 @@ fn russian_roulette_keeps_the_expectation() {
     let mut b = SceneBuilder::new();
     let a = b.constant(Vec3::splat(0.3)).unwrap();
     let m = b.add_material(Material::Lambertian { albedo: a }).unwrap();
-    b.add_sphere(Vec3::ZERO, 1.0, m, &Transform::default()).unwrap();
+    b.add_sphere(Vec3::ZERO, 1.0, m, &Transform::default())
+        .unwrap();
     b.camera.look_from = Vec3::new(0.0, 0.0, 4.0);
     b.background = Some(Background::Solid(Vec3::splat(BG)));
     let scene = b.build().unwrap();
-    let settings = RenderSettings { width: 5, height: 5, spp: 20_000, max_depth: 64, roulette_depth: 1, seed: 1 };
+    let settings = RenderSettings {
+        width: 5,
+        height: 5,
+        spp: 20_000,
+        max_depth: 64,
+        roulette_depth: 1,
+        seed: 1,
+    };
     let film = reference::render(&scene, &settings, &|_| {});
     let p = film.pixel(2, 2);
     let expected = 0.3 * BG as f64;

@@ -45,16 +45,29 @@ fn every_fixture_scene_has_a_reference_and_a_gate() {
     listed.sort();
     let mut tested = CASES.to_vec();
     tested.sort();
-    assert_eq!(listed, tested, "every reference in the manifest has exactly one gate above");
+    assert_eq!(
+        listed, tested,
+        "every reference in the manifest has exactly one gate above"
+    );
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/scenes");
     for entry in std::fs::read_dir(&dir).unwrap() {
         let path = entry.unwrap().path();
         if path.extension().is_some_and(|e| e == "json") {
-            let rel = format!("fixtures/scenes/{}", path.file_name().unwrap().to_string_lossy());
-            assert!(manifest.iter().any(|s| s.scene == rel), "{rel} has no reference in fixtures/refs/manifest.txt");
+            let rel = format!(
+                "fixtures/scenes/{}",
+                path.file_name().unwrap().to_string_lossy()
+            );
+            assert!(
+                manifest.iter().any(|s| s.scene == rel),
+                "{rel} has no reference in fixtures/refs/manifest.txt"
+            );
         }
     }
     for spec in &manifest {
-        assert_ne!(spec.seed, TEST_SEED, "{}: the test seed must differ from the reference's", spec.name);
+        assert_ne!(
+            spec.seed, TEST_SEED,
+            "{}: the test seed must differ from the reference's",
+            spec.name
+        );
     }
 }

@@ -4,8 +4,15 @@
 
 use reference::{RenderSettings, Scene};
 
-fn render_with_threads(scene: &Scene, settings: &RenderSettings, threads: usize) -> reference::Film {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+fn render_with_threads(
+    scene: &Scene,
+    settings: &RenderSettings,
+    threads: usize,
+) -> reference::Film {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
     pool.install(|| reference::render(scene, settings, &|_| {}))
 }
 
@@ -13,7 +20,13 @@ fn render_with_threads(scene: &Scene, settings: &RenderSettings, threads: usize)
 fn one_thread_and_many_give_identical_images() {
     // Glass, fuzzy metal and diffuse (all sampling paths), thin lens camera.
     let scene = reference::load_scene("rtow-final").unwrap();
-    let settings = RenderSettings { width: 40, height: 27, spp: 3, max_depth: 12, ..scene.render };
+    let settings = RenderSettings {
+        width: 40,
+        height: 27,
+        spp: 3,
+        max_depth: 12,
+        ..scene.render
+    };
     let one = render_with_threads(&scene, &settings, 1);
     let many = render_with_threads(&scene, &settings, 5);
     assert_eq!(one, many, "films differ between 1 and 5 threads");
@@ -23,10 +36,23 @@ fn one_thread_and_many_give_identical_images() {
 #[test]
 fn the_seed_changes_the_image_and_only_the_seed() {
     let scene = reference::load_scene("cornell").unwrap();
-    let settings = RenderSettings { width: 16, height: 16, spp: 2, max_depth: 6, ..scene.render };
+    let settings = RenderSettings {
+        width: 16,
+        height: 16,
+        spp: 2,
+        max_depth: 6,
+        ..scene.render
+    };
     let a = reference::render(&scene, &settings, &|_| {});
     let b = reference::render(&scene, &settings, &|_| {});
     assert_eq!(a, b, "same seed, different images");
-    let c = reference::render(&scene, &RenderSettings { seed: 1, ..settings }, &|_| {});
+    let c = reference::render(
+        &scene,
+        &RenderSettings {
+            seed: 1,
+            ..settings
+        },
+        &|_| {},
+    );
     assert_ne!(a, c, "a different seed gave the same image");
 }

@@ -13,18 +13,24 @@ use reference::geometry::SurfaceInteraction;
 use reference::material::{scatter, GgxLobes, Material, TextureContext};
 use reference::rng::{dims, vertex_randoms};
 use reference::sampling::{
-    cosine_hemisphere_pdf, ggx, sample_cosine_hemisphere, sample_uniform_sphere, sample_unit_ball, sample_unit_disk, UNIFORM_SPHERE_PDF,
+    cosine_hemisphere_pdf, ggx, sample_cosine_hemisphere, sample_uniform_sphere, sample_unit_ball,
+    sample_unit_disk, UNIFORM_SPHERE_PDF,
 };
 use reference::texture::Texture;
 use std::f64::consts::PI;
-use twintrace::compare::chi2::{assert_family_passes, test_density, test_same_distribution, Chi2Outcome, Domain};
+use twintrace::compare::chi2::{
+    assert_family_passes, test_density, test_same_distribution, Chi2Outcome, Domain,
+};
 use twintrace::compare::lobes::standard_cases;
 
 /// Samples per run: pbrt-v4's CHI2_SAMPLECOUNT and Mitsuba's default.
 const N: u32 = 1_000_000;
 /// 64 θ bands over the sphere (32 over a hemisphere) × 64 φ sectors:
 /// about 500 expected samples per hemisphere cell at 10^6 samples.
-const SPHERE: Domain = Domain::Sphere { theta_bins: 64, phi_bins: 64 };
+const SPHERE: Domain = Domain::Sphere {
+    theta_bins: 64,
+    phi_bins: 64,
+};
 
 /// The eight uniform numbers of sample `i` in run `seed` (the slots of a
 /// path's first bounce).
@@ -43,7 +49,15 @@ fn samples(f: impl Fn(u32) -> Option<DVec3>) -> Vec<Option<DVec3>> {
 
 /// The local frame's surface point of the material tests: normal +z.
 fn surface() -> SurfaceInteraction {
-    SurfaceInteraction { p: Vec3::ZERO, geometric_normal: Vec3::Z, shading_normal: Vec3::Z, uv: Vec2::ZERO, p_error: 0.0, front_face: true, material: 0 }
+    SurfaceInteraction {
+        p: Vec3::ZERO,
+        geometric_normal: Vec3::Z,
+        shading_normal: Vec3::Z,
+        uv: Vec2::ZERO,
+        p_error: 0.0,
+        front_face: true,
+        material: 0,
+    }
 }
 
 fn towards(theta_deg: f64) -> Vec3 {
@@ -55,8 +69,11 @@ fn towards(theta_deg: f64) -> Vec3 {
 fn cosine_hemisphere_matches_cos_over_pi() {
     let runs: Vec<(String, Chi2Outcome)> = (1..=3)
         .map(|seed| {
-            let o =
-                test_density(&SPHERE, samples(|i| Some(sample_cosine_hemisphere(dir_u(seed, i)).as_dvec3())), &|d| cosine_hemisphere_pdf(d.z as f32) as f64);
+            let o = test_density(
+                &SPHERE,
+                samples(|i| Some(sample_cosine_hemisphere(dir_u(seed, i)).as_dvec3())),
+                &|d| cosine_hemisphere_pdf(d.z as f32) as f64,
+            );
             (format!("seed {seed}"), o)
         })
         .collect();
@@ -67,7 +84,14 @@ fn cosine_hemisphere_matches_cos_over_pi() {
 fn uniform_sphere_is_uniform() {
     let runs: Vec<(String, Chi2Outcome)> = (1..=2)
         .map(|seed| {
-            (format!("seed {seed}"), test_density(&SPHERE, samples(|i| Some(sample_uniform_sphere(dir_u(seed, i)).as_dvec3())), &|_| UNIFORM_SPHERE_PDF as f64))
+            (
+                format!("seed {seed}"),
+                test_density(
+                    &SPHERE,
+                    samples(|i| Some(sample_uniform_sphere(dir_u(seed, i)).as_dvec3())),
+                    &|_| UNIFORM_SPHERE_PDF as f64,
+                ),
+            )
         })
         .collect();
     assert_family_passes("uniform sphere", &runs);
@@ -76,10 +100,17 @@ fn uniform_sphere_is_uniform() {
 #[test]
 fn concentric_disk_is_uniform() {
     // 32 rings of equal area × 64 sectors: ~490 samples per cell.
-    let disk = Domain::Disk { r2_bins: 32, phi_bins: 64 };
+    let disk = Domain::Disk {
+        r2_bins: 32,
+        phi_bins: 64,
+    };
     let runs: Vec<(String, Chi2Outcome)> = (1..=2)
         .map(|seed| {
-            let o = test_density(&disk, samples(|i| Some(sample_unit_disk(dir_u(seed, i)).extend(0.0).as_dvec3())), &|_| 1.0 / PI);
+            let o = test_density(
+                &disk,
+                samples(|i| Some(sample_unit_disk(dir_u(seed, i)).extend(0.0).as_dvec3())),
+                &|_| 1.0 / PI,
+            );
             (format!("seed {seed}"), o)
         })
         .collect();
@@ -89,14 +120,25 @@ fn concentric_disk_is_uniform() {
 #[test]
 fn unit_ball_is_uniform() {
     // 8 shells × 16 cos θ × 32 φ = 4096 equal volumes, ~240 per cell.
-    let ball = Domain::Ball { r3_bins: 8, cos_theta_bins: 16, phi_bins: 32 };
+    let ball = Domain::Ball {
+        r3_bins: 8,
+        cos_theta_bins: 16,
+        phi_bins: 32,
+    };
     let runs: Vec<(String, Chi2Outcome)> = (1..=2)
         .map(|seed| {
             let o = test_density(
                 &ball,
                 samples(|i| {
                     let r = u(seed, i);
-                    Some(sample_unit_ball(Vec3::new(r[dims::BALL_X], r[dims::BALL_Y], r[dims::BALL_Z])).as_dvec3())
+                    Some(
+                        sample_unit_ball(Vec3::new(
+                            r[dims::BALL_X],
+                            r[dims::BALL_Y],
+                            r[dims::BALL_Z],
+                        ))
+                        .as_dvec3(),
+                    )
                 }),
                 &|_| 3.0 / (4.0 * PI),
             );
@@ -118,9 +160,16 @@ fn ggx_visible_normals_match_their_density() {
             // relative error δ in the expected counts adds about N δ² to X²:
             // 4 at δ = 2e-3, against a standard deviation of X² near 60.
             let mass: f64 = SPHERE.integrate(&density).iter().sum();
-            assert!((mass - 1.0).abs() < 2e-3, "α {alpha}, θo {theta}°: the density integrates to {mass}");
+            assert!(
+                (mass - 1.0).abs() < 2e-3,
+                "α {alpha}, θo {theta}°: the density integrates to {mass}"
+            );
             let seed = 100 + (4 * k + j) as u32;
-            let o = test_density(&SPHERE, samples(|i| Some(ggx::sample_visible_normal(wo, alpha, dir_u(seed, i)).as_dvec3())), &density);
+            let o = test_density(
+                &SPHERE,
+                samples(|i| Some(ggx::sample_visible_normal(wo, alpha, dir_u(seed, i)).as_dvec3())),
+                &density,
+            );
             runs.push((format!("α {alpha}, θo {theta}°"), o));
         }
     }
@@ -133,17 +182,40 @@ fn ggx_material_samples_its_mixture_density() {
     // cosine lobe) against GgxLobes::pdf; the mass below the horizon is
     // absorbed and lands in the rejected-samples cell.
     let mut runs = Vec::new();
-    for (k, &(metallic, roughness, theta)) in [(0.0f32, 0.5f32, 20.0), (1.0, 0.4, 50.0), (0.5, 0.8, 75.0), (1.0, 1.0, 0.0)].iter().enumerate() {
+    for (k, &(metallic, roughness, theta)) in [
+        (0.0f32, 0.5f32, 20.0),
+        (1.0, 0.4, 50.0),
+        (0.5, 0.8, 75.0),
+        (1.0, 1.0, 0.0),
+    ]
+    .iter()
+    .enumerate()
+    {
         let textures = [Texture::Constant(Vec3::new(0.9, 0.6, 0.3))];
-        let ctx = TextureContext { textures: &textures, images: &[] };
-        let material = Material::Ggx { base_color: 0, metallic, roughness };
+        let ctx = TextureContext {
+            textures: &textures,
+            images: &[],
+        };
+        let material = Material::Ggx {
+            base_color: 0,
+            metallic,
+            roughness,
+        };
         let wo = towards(theta);
         let lobes = GgxLobes::new(Vec3::new(0.9, 0.6, 0.3), metallic, roughness, wo);
         let seed = 200 + k as u32;
-        let o = test_density(&SPHERE, samples(|i| scatter(&material, ctx, -wo, &surface(), &u(seed, i)).map(|s| s.direction.as_dvec3())), &|wi| {
-            lobes.pdf(wo, wi.as_vec3()) as f64
-        });
-        runs.push((format!("metallic {metallic}, roughness {roughness}, θo {theta}°"), o));
+        let o = test_density(
+            &SPHERE,
+            samples(|i| {
+                scatter(&material, ctx, -wo, &surface(), &u(seed, i))
+                    .map(|s| s.direction.as_dvec3())
+            }),
+            &|wi| lobes.pdf(wo, wi.as_vec3()) as f64,
+        );
+        runs.push((
+            format!("metallic {metallic}, roughness {roughness}, θo {theta}°"),
+            o,
+        ));
     }
     assert_family_passes("GGX material", &runs);
 }
@@ -151,12 +223,19 @@ fn ggx_material_samples_its_mixture_density() {
 #[test]
 fn lambertian_material_scatters_cosine_about_the_normal() {
     let textures = [Texture::Constant(Vec3::splat(0.5))];
-    let ctx = TextureContext { textures: &textures, images: &[] };
+    let ctx = TextureContext {
+        textures: &textures,
+        images: &[],
+    };
     let material = Material::Lambertian { albedo: 0 };
     let wo = towards(40.0);
-    let o = test_density(&SPHERE, samples(|i| scatter(&material, ctx, -wo, &surface(), &u(300, i)).map(|s| s.direction.as_dvec3())), &|d| {
-        cosine_hemisphere_pdf(d.z as f32) as f64
-    });
+    let o = test_density(
+        &SPHERE,
+        samples(|i| {
+            scatter(&material, ctx, -wo, &surface(), &u(300, i)).map(|s| s.direction.as_dvec3())
+        }),
+        &|d| cosine_hemisphere_pdf(d.z as f32) as f64,
+    );
     assert_family_passes("Lambertian material", &[("θo 40°".into(), o)]);
 }
 
@@ -170,7 +249,14 @@ fn delta_and_densityless_lobes_agree_across_seeds() {
         .enumerate()
         .map(|(k, case)| {
             let seed = 400 + 2 * k as u32;
-            (case.name.clone(), test_same_distribution(&SPHERE, case.cpu_samples(seed, N), case.cpu_samples(seed + 1, N)))
+            (
+                case.name.clone(),
+                test_same_distribution(
+                    &SPHERE,
+                    case.cpu_samples(seed, N),
+                    case.cpu_samples(seed + 1, N),
+                ),
+            )
         })
         .collect();
     assert_family_passes("two-sample, CPU vs CPU", &runs);

@@ -24,7 +24,10 @@ fn error_of(text: &str) -> String {
         Ok(_) => panic!("scene loaded but should have failed:\n{text}"),
         Err(e) => {
             let msg = e.to_string();
-            assert!(msg.contains("scene.json"), "error does not name the file: {msg}");
+            assert!(
+                msg.contains("scene.json"),
+                "error does not name the file: {msg}"
+            );
             assert!(!msg.contains('\n'), "error is not one line: {msg}");
             msg
         }
@@ -41,7 +44,11 @@ fn check(text: &str, expected: &[&str]) {
 #[test]
 fn valid_minimal_scene_loads() {
     let dir = tempfile::tempdir().unwrap();
-    let p = write_scene(dir.path(), "ok.json", &scene_with(r#"{ "type": "sphere", "center": [0,0,0], "radius": 1, "material": "m" }"#));
+    let p = write_scene(
+        dir.path(),
+        "ok.json",
+        &scene_with(r#"{ "type": "sphere", "center": [0,0,0], "radius": 1, "material": "m" }"#),
+    );
     let scene = reference::load_scene(p.to_str().unwrap()).unwrap();
     assert_eq!(scene.spheres.len(), 1);
 }
@@ -53,32 +60,76 @@ fn malformed_json_reports_line_and_column() {
 
 #[test]
 fn unknown_types_and_fields_are_named() {
-    check(&scene_with(r#"{ "type": "cone", "material": "m" }"#), &["objects[0]", "unknown variant `cone`"]);
-    check(&scene_with(r#"{ "type": "sphere", "center": [0,0,0], "radius": 1, "material": "m", "colour": 1 }"#), &["objects[0]", "unknown field `colour`"]);
-    check(&format!("{{ {HEADER}, \"textures\": {{ \"t\": {{ \"type\": \"noise\" }} }}, \"objects\": [] }}"), &["textures.t", "unknown variant `noise`"]);
+    check(
+        &scene_with(r#"{ "type": "cone", "material": "m" }"#),
+        &["objects[0]", "unknown variant `cone`"],
+    );
+    check(
+        &scene_with(
+            r#"{ "type": "sphere", "center": [0,0,0], "radius": 1, "material": "m", "colour": 1 }"#,
+        ),
+        &["objects[0]", "unknown field `colour`"],
+    );
+    check(
+        &format!(
+            "{{ {HEADER}, \"textures\": {{ \"t\": {{ \"type\": \"noise\" }} }}, \"objects\": [] }}"
+        ),
+        &["textures.t", "unknown variant `noise`"],
+    );
     check(
         r#"{ "camera": { "look_from": [0,0,5], "look_at": [0,0,0] }, "materials": { "m": { "type": "plastic" } }, "objects": [] }"#,
         &["materials.m", "unknown variant `plastic`"],
     );
-    check(r#"{ "camera": { "look_from": [0,0,5], "look_at": [0,0,0], "fov": 30 }, "objects": [] }"#, &["camera", "unknown field `fov`"]);
+    check(
+        r#"{ "camera": { "look_from": [0,0,5], "look_at": [0,0,0], "fov": 30 }, "objects": [] }"#,
+        &["camera", "unknown field `fov`"],
+    );
 }
 
 #[test]
 fn wrong_value_types_are_named() {
-    check(&scene_with(r#"{ "type": "sphere", "center": [0,0], "radius": 1, "material": "m" }"#), &["objects[0].center"]);
-    check(&scene_with(r#"{ "type": "sphere", "center": [0,0,0], "radius": "big", "material": "m" }"#), &["objects[0].radius"]);
-    check(&scene_with(r#"{ "type": "sphere", "center": [0,0,0], "radius": 1 }"#), &["missing field `material`"]);
+    check(
+        &scene_with(r#"{ "type": "sphere", "center": [0,0], "radius": 1, "material": "m" }"#),
+        &["objects[0].center"],
+    );
+    check(
+        &scene_with(r#"{ "type": "sphere", "center": [0,0,0], "radius": "big", "material": "m" }"#),
+        &["objects[0].radius"],
+    );
+    check(
+        &scene_with(r#"{ "type": "sphere", "center": [0,0,0], "radius": 1 }"#),
+        &["missing field `material`"],
+    );
 }
 
 #[test]
 fn invalid_values_are_named() {
-    check(&scene_with(r#"{ "type": "sphere", "center": [0,0,0], "radius": 0, "material": "m" }"#), &["objects[0].radius"]);
-    check(&scene_with(r#"{ "type": "sphere", "center": [0,0,0], "radius": 1e39, "material": "m" }"#), &["objects[0]"]);
-    check(&scene_with(r#"{ "type": "sphere", "center": [0,0,0], "radius": 1, "material": "nope" }"#), &["objects[0].material", "unknown material `nope`"]);
-    check(&scene_with(r#"{ "type": "quad", "corner": [0,0,0], "u": [1,0,0], "v": [2,0,0], "material": "m" }"#), &["objects[0]", "degenerate"]);
-    check(&scene_with(r#"{ "type": "box", "min": [0,0,0], "max": [1,0,1], "material": "m" }"#), &["objects[0].min/max"]);
     check(
-        &scene_with(r#"{ "type": "sphere", "center": [0,0,0], "radius": 1, "material": "m", "transform": { "scale": [1, 2, 1] } }"#),
+        &scene_with(r#"{ "type": "sphere", "center": [0,0,0], "radius": 0, "material": "m" }"#),
+        &["objects[0].radius"],
+    );
+    check(
+        &scene_with(r#"{ "type": "sphere", "center": [0,0,0], "radius": 1e39, "material": "m" }"#),
+        &["objects[0]"],
+    );
+    check(
+        &scene_with(r#"{ "type": "sphere", "center": [0,0,0], "radius": 1, "material": "nope" }"#),
+        &["objects[0].material", "unknown material `nope`"],
+    );
+    check(
+        &scene_with(
+            r#"{ "type": "quad", "corner": [0,0,0], "u": [1,0,0], "v": [2,0,0], "material": "m" }"#,
+        ),
+        &["objects[0]", "degenerate"],
+    );
+    check(
+        &scene_with(r#"{ "type": "box", "min": [0,0,0], "max": [1,0,1], "material": "m" }"#),
+        &["objects[0].min/max"],
+    );
+    check(
+        &scene_with(
+            r#"{ "type": "sphere", "center": [0,0,0], "radius": 1, "material": "m", "transform": { "scale": [1, 2, 1] } }"#,
+        ),
         &["objects[0].transform", "uniform scale"],
     );
     check(
@@ -107,45 +158,90 @@ fn invalid_values_are_named() {
 #[test]
 fn camera_and_render_errors_are_named() {
     let objects = r#""materials": { "m": { "type": "lambertian", "albedo": [0.5,0.5,0.5] } }, "objects": [ { "type": "sphere", "center": [0,0,0], "radius": 1, "material": "m" } ]"#;
-    check(&format!(r#"{{ "camera": {{ "look_from": [0,0,5], "look_at": [0,0,5] }}, {objects} }}"#), &["camera.look_at"]);
-    check(&format!(r#"{{ "camera": {{ "look_from": [0,0,5], "look_at": [0,0,0], "up": [0,0,1] }}, {objects} }}"#), &["camera.up"]);
-    check(&format!(r#"{{ "camera": {{ "look_from": [0,0,5], "look_at": [0,0,0], "vfov": 180 }}, {objects} }}"#), &["camera.vfov"]);
-    check(&format!(r#"{{ "camera": {{ "look_from": [0,0,5], "look_at": [0,0,0] }}, "render": {{ "width": 0 }}, {objects} }}"#), &["render.width"]);
-    check(&format!(r#"{{ "camera": {{ "look_from": [0,0,5], "look_at": [0,0,0] }}, "render": {{ "spp": 0 }}, {objects} }}"#), &["render.spp"]);
+    check(
+        &format!(r#"{{ "camera": {{ "look_from": [0,0,5], "look_at": [0,0,5] }}, {objects} }}"#),
+        &["camera.look_at"],
+    );
+    check(
+        &format!(
+            r#"{{ "camera": {{ "look_from": [0,0,5], "look_at": [0,0,0], "up": [0,0,1] }}, {objects} }}"#
+        ),
+        &["camera.up"],
+    );
+    check(
+        &format!(
+            r#"{{ "camera": {{ "look_from": [0,0,5], "look_at": [0,0,0], "vfov": 180 }}, {objects} }}"#
+        ),
+        &["camera.vfov"],
+    );
+    check(
+        &format!(
+            r#"{{ "camera": {{ "look_from": [0,0,5], "look_at": [0,0,0] }}, "render": {{ "width": 0 }}, {objects} }}"#
+        ),
+        &["render.width"],
+    );
+    check(
+        &format!(
+            r#"{{ "camera": {{ "look_from": [0,0,5], "look_at": [0,0,0] }}, "render": {{ "spp": 0 }}, {objects} }}"#
+        ),
+        &["render.spp"],
+    );
     check(&format!(r#"{{ {objects} }}"#), &["camera"]);
 }
 
 #[test]
 fn empty_scene_is_an_error() {
-    check(&format!("{{ {HEADER}, \"objects\": [] }}"), &["objects", "no objects"]);
+    check(
+        &format!("{{ {HEADER}, \"objects\": [] }}"),
+        &["objects", "no objects"],
+    );
 }
 
 #[test]
 fn missing_and_unreadable_files_are_named() {
     let dir = tempfile::tempdir().unwrap();
     let missing = dir.path().join("nope.json");
-    let e = reference::load_scene(missing.to_str().unwrap()).unwrap_err().to_string();
-    assert!(e.contains("nope.json") && e.contains("cannot read scene"), "{e}");
+    let e = reference::load_scene(missing.to_str().unwrap())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("nope.json") && e.contains("cannot read scene"),
+        "{e}"
+    );
 
     let bad_texture = r#"{ "camera": { "look_from": [0,0,5], "look_at": [0,0,0] }, "textures": { "t": { "type": "image", "path": "gone.png" } },
             "materials": { "m": { "type": "lambertian", "albedo": "t" } }, "objects": [ { "type": "sphere", "center": [0,0,0], "radius": 1, "material": "m" } ] }"#;
     let p = write_scene(dir.path(), "tex.json", bad_texture);
-    let e = reference::load_scene(p.to_str().unwrap()).unwrap_err().to_string();
-    assert!(e.contains("gone.png") && e.contains("cannot read image"), "{e}");
+    let e = reference::load_scene(p.to_str().unwrap())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("gone.png") && e.contains("cannot read image"),
+        "{e}"
+    );
 
     // A file that is not an image.
     std::fs::write(dir.path().join("gone.png"), b"this is not a png").unwrap();
-    let e = reference::load_scene(p.to_str().unwrap()).unwrap_err().to_string();
+    let e = reference::load_scene(p.to_str().unwrap())
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("gone.png"), "{e}");
 
     let mesh = scene_with(r#"{ "type": "mesh", "path": "nothing.glb", "material": "m" }"#);
     let p = write_scene(dir.path(), "mesh.json", &mesh);
-    let e = reference::load_scene(p.to_str().unwrap()).unwrap_err().to_string();
+    let e = reference::load_scene(p.to_str().unwrap())
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("nothing.glb"), "{e}");
 }
 
 #[test]
 fn unknown_builtin_is_reported() {
-    let e = reference::load_scene("no-such-scene").unwrap_err().to_string();
-    assert!(e.contains("unknown built-in scene `no-such-scene`") && e.contains("cornell"), "{e}");
+    let e = reference::load_scene("no-such-scene")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("unknown built-in scene `no-such-scene`") && e.contains("cornell"),
+        "{e}"
+    );
 }

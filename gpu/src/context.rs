@@ -36,7 +36,9 @@ fn summarize(a: &wgpu::Adapter) -> AdapterSummary {
         name: info.name,
         backend: format!("{:?}", info.backend),
         device_type: format!("{:?}", info.device_type),
-        driver: format!("{} {}", info.driver, info.driver_info).trim().to_string(),
+        driver: format!("{} {}", info.driver, info.driver_info)
+            .trim()
+            .to_string(),
         max_storage_buffer_binding_size: l.max_storage_buffer_binding_size,
         max_buffer_size: l.max_buffer_size,
         max_storage_buffers_per_shader_stage: l.max_storage_buffers_per_shader_stage,
@@ -72,7 +74,11 @@ fn rank(a: &wgpu::Adapter) -> (u32, u32) {
         wgpu::DeviceType::Cpu => 3,
         wgpu::DeviceType::Other => 4,
     };
-    let b = if info.backend == wgpu::Backend::Vulkan { 0 } else { 1 };
+    let b = if info.backend == wgpu::Backend::Vulkan {
+        0
+    } else {
+        1
+    };
     (t, b)
 }
 
@@ -116,19 +122,28 @@ impl GpuContext {
         }
         let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
         let limits = wgpu::Limits {
-            max_storage_buffers_per_shader_stage: al.max_storage_buffers_per_shader_stage.min(STORAGE_BUFFERS_WANTED),
+            max_storage_buffers_per_shader_stage: al
+                .max_storage_buffers_per_shader_stage
+                .min(STORAGE_BUFFERS_WANTED),
             max_storage_buffer_binding_size: al.max_storage_buffer_binding_size,
             max_buffer_size: al.max_buffer_size,
             ..wgpu::Limits::downlevel_defaults()
         };
         let desc = wgpu::DeviceDescriptor {
             label: Some("twintrace"),
-            required_features: if timestamps { wgpu::Features::TIMESTAMP_QUERY } else { wgpu::Features::empty() },
+            required_features: if timestamps {
+                wgpu::Features::TIMESTAMP_QUERY
+            } else {
+                wgpu::Features::empty()
+            },
             required_limits: limits,
             ..Default::default()
         };
         let (device, queue) =
-            pollster::block_on(adapter.request_device(&desc)).map_err(|e| GpuError::Device { adapter: summary.name.clone(), reason: e.to_string() })?;
+            pollster::block_on(adapter.request_device(&desc)).map_err(|e| GpuError::Device {
+                adapter: summary.name.clone(),
+                reason: e.to_string(),
+            })?;
         let lost = Arc::new(Mutex::new(None));
         let lost2 = lost.clone();
         device.set_device_lost_callback(move |reason, msg| {
@@ -145,7 +160,15 @@ impl GpuContext {
             }
         }));
         let is_software = adapter.get_info().device_type == wgpu::DeviceType::Cpu;
-        Ok(Self { device, queue, adapter: summary, is_software, timestamps, lost, uncaptured })
+        Ok(Self {
+            device,
+            queue,
+            adapter: summary,
+            is_software,
+            timestamps,
+            lost,
+            uncaptured,
+        })
     }
 
     /// Fails if the device was lost or an error went unreported.
@@ -153,7 +176,12 @@ impl GpuContext {
         if let Some(m) = self.lost.lock().unwrap_or_else(|p| p.into_inner()).clone() {
             return Err(GpuError::DeviceLost(m));
         }
-        if let Some(m) = self.uncaptured.lock().unwrap_or_else(|p| p.into_inner()).clone() {
+        if let Some(m) = self
+            .uncaptured
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .clone()
+        {
             return Err(GpuError::Validation(m));
         }
         Ok(())
@@ -161,7 +189,9 @@ impl GpuContext {
 
     /// Waits for all submitted work.
     pub fn wait(&self) -> Result<(), GpuError> {
-        self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::DeviceLost(e.to_string()))?;
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| GpuError::DeviceLost(e.to_string()))?;
         self.check()
     }
 }

@@ -9,7 +9,12 @@ pub enum GpuError {
     #[error("cannot open the GPU device on `{adapter}`: {reason}")]
     Device { adapter: String, reason: String },
     #[error("the scene does not fit the adapter `{adapter}`: {what} needs {needed} bytes, the limit is {limit} bytes")]
-    TooLarge { adapter: String, what: &'static str, needed: u64, limit: u64 },
+    TooLarge {
+        adapter: String,
+        what: &'static str,
+        needed: u64,
+        limit: u64,
+    },
     #[error("the WGSL shaders failed to compile: {0}")]
     Shader(String),
     #[error("GPU validation error: {0}")]

@@ -135,7 +135,10 @@ mod tests {
         assert_eq!(std::mem::size_of::<GpuPixel>(), 32);
         // Uniform buffers need a size that is a multiple of 16.
         assert_eq!(std::mem::size_of::<GpuParams>() % 16, 0);
-        assert_eq!(GpuParams::FIELDS.len() * 4, std::mem::size_of::<GpuParams>());
+        assert_eq!(
+            GpuParams::FIELDS.len() * 4,
+            std::mem::size_of::<GpuParams>()
+        );
     }
 
     #[test]

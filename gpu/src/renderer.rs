@@ -38,7 +38,11 @@ fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Storage { read_only }, has_dynamic_offset: false, min_binding_size: None },
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
         count: None,
     }
 }
@@ -49,20 +53,35 @@ pub fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     let mut entries = vec![wgpu::BindGroupLayoutEntry {
         binding: 0,
         visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Uniform, has_dynamic_offset: false, min_binding_size: None },
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
         count: None,
     }];
     entries.extend((1..=11).map(|b| storage_entry(b, true)));
     entries.push(storage_entry(12, false));
-    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("twintrace scene"), entries: &entries })
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("twintrace scene"),
+        entries: &entries,
+    })
 }
 
 /// Compiles a WGSL program and one entry point into a compute pipeline,
 /// reporting compile and validation errors as `GpuError::Shader`.
-pub fn compile(ctx: &GpuContext, source: &str, entry: &str, layouts: &[&wgpu::BindGroupLayout]) -> Result<wgpu::ComputePipeline, GpuError> {
+pub fn compile(
+    ctx: &GpuContext,
+    source: &str,
+    entry: &str,
+    layouts: &[&wgpu::BindGroupLayout],
+) -> Result<wgpu::ComputePipeline, GpuError> {
     let device = &ctx.device;
     let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(entry), source: wgpu::ShaderSource::Wgsl(source.into()) });
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(entry),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    });
     let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some(entry),
         bind_group_layouts: &layouts.iter().map(|l| Some(*l)).collect::<Vec<_>>(),
@@ -91,22 +110,33 @@ impl<'a> GpuRenderer<'a> {
 
     /// Uploads already packed records (tests overwrite some first); `scene`
     /// supplies the camera and background.
-    pub fn from_packed(ctx: &'a GpuContext, packed: &PackedScene, scene: &'a Scene) -> Result<Self, GpuError> {
+    pub fn from_packed(
+        ctx: &'a GpuContext,
+        packed: &PackedScene,
+        scene: &'a Scene,
+    ) -> Result<Self, GpuError> {
         let limit = ctx.device.limits().max_storage_buffer_binding_size;
         let device = &ctx.device;
         let mut scene_buffers = Vec::new();
         let mut upload = |what: &'static str, bytes: &[u8]| -> Result<(), GpuError> {
             if bytes.len() as u64 > limit {
-                return Err(GpuError::TooLarge { adapter: ctx.adapter.name.clone(), what, needed: bytes.len() as u64, limit });
+                return Err(GpuError::TooLarge {
+                    adapter: ctx.adapter.name.clone(),
+                    what,
+                    needed: bytes.len() as u64,
+                    limit,
+                });
             }
             // Bindings may not be empty: an empty array gets one zero record.
             let zeros = [0u8; 64]; // at least one of the largest record (48 bytes)
             let contents = if bytes.is_empty() { &zeros[..] } else { bytes };
-            scene_buffers.push(device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(what),
-                contents,
-                usage: wgpu::BufferUsages::STORAGE,
-            }));
+            scene_buffers.push(
+                device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(what),
+                    contents,
+                    usage: wgpu::BufferUsages::STORAGE,
+                }),
+            );
             Ok(())
         };
         upload("BVH nodes", bytemuck::cast_slice(&packed.nodes))?;
@@ -122,7 +152,13 @@ impl<'a> GpuRenderer<'a> {
         upload("texels", bytemuck::cast_slice(&packed.texels))?;
         let layout = bind_group_layout(device);
         let pipeline = compile(ctx, &shader::render_source(), "render_main", &[&layout])?;
-        Ok(Self { ctx, pipeline, layout, scene_buffers, scene })
+        Ok(Self {
+            ctx,
+            pipeline,
+            layout,
+            scene_buffers,
+            scene,
+        })
     }
 
     /// The scene arrays as bindings 1..=11.
@@ -159,23 +195,54 @@ impl<'a> GpuRenderer<'a> {
 
     /// A bind group over the scene with the given params and film buffers.
     pub fn bind_group(&self, params: &wgpu::Buffer, film: &wgpu::Buffer) -> wgpu::BindGroup {
-        let mut entries = vec![wgpu::BindGroupEntry { binding: 0, resource: params.as_entire_binding() }];
-        entries.extend(self.scene_buffers.iter().enumerate().map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32 + 1, resource: b.as_entire_binding() }));
-        entries.push(wgpu::BindGroupEntry { binding: 12, resource: film.as_entire_binding() });
-        self.ctx.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("twintrace"), layout: &self.layout, entries: &entries })
+        let mut entries = vec![wgpu::BindGroupEntry {
+            binding: 0,
+            resource: params.as_entire_binding(),
+        }];
+        entries.extend(
+            self.scene_buffers
+                .iter()
+                .enumerate()
+                .map(|(i, b)| wgpu::BindGroupEntry {
+                    binding: i as u32 + 1,
+                    resource: b.as_entire_binding(),
+                }),
+        );
+        entries.push(wgpu::BindGroupEntry {
+            binding: 12,
+            resource: film.as_entire_binding(),
+        });
+        self.ctx
+            .device
+            .create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("twintrace"),
+                layout: &self.layout,
+                entries: &entries,
+            })
     }
 
     /// Renders `settings.spp` samples per pixel; `progress(pixels·samples
     /// done so far, total)` after each dispatch.
-    pub fn render(&self, settings: &RenderSettings, progress: &dyn Fn(u64, u64)) -> Result<GpuRender, GpuError> {
-        settings.validate().map_err(|e| GpuError::Validation(e.to_string()))?;
+    pub fn render(
+        &self,
+        settings: &RenderSettings,
+        progress: &dyn Fn(u64, u64),
+    ) -> Result<GpuRender, GpuError> {
+        settings
+            .validate()
+            .map_err(|e| GpuError::Validation(e.to_string()))?;
         let ctx = self.ctx;
         let device = &ctx.device;
         let pixels = settings.width as u64 * settings.height as u64;
         let film_bytes = pixels * std::mem::size_of::<GpuPixel>() as u64;
         let limit = device.limits().max_storage_buffer_binding_size;
         if film_bytes > limit {
-            return Err(GpuError::TooLarge { adapter: ctx.adapter.name.clone(), what: "the film", needed: film_bytes, limit });
+            return Err(GpuError::TooLarge {
+                adapter: ctx.adapter.name.clone(),
+                what: "the film",
+                needed: film_bytes,
+                limit,
+            });
         }
         let film = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("film"),
@@ -190,29 +257,50 @@ impl<'a> GpuRenderer<'a> {
             mapped_at_creation: false,
         });
         let bind_group = self.bind_group(&params_buf, &film);
-        let target = if ctx.is_software { PATHS_PER_DISPATCH_SOFTWARE } else { PATHS_PER_DISPATCH_GPU };
+        let target = if ctx.is_software {
+            PATHS_PER_DISPATCH_SOFTWARE
+        } else {
+            PATHS_PER_DISPATCH_GPU
+        };
         let per_dispatch = (target / pixels.max(1)).clamp(1, settings.spp as u64) as u32;
         let dispatches = settings.spp.div_ceil(per_dispatch);
         // Two timestamps per dispatch; wgpu caps a query set at 4096 queries.
         let timestamps = ctx.timestamps && dispatches * 2 <= 4096;
-        let query_set = timestamps
-            .then(|| device.create_query_set(&wgpu::QuerySetDescriptor { label: Some("kernel time"), ty: wgpu::QueryType::Timestamp, count: dispatches * 2 }));
+        let query_set = timestamps.then(|| {
+            device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("kernel time"),
+                ty: wgpu::QueryType::Timestamp,
+                count: dispatches * 2,
+            })
+        });
         let mut params = self.params(settings);
-        let groups = (settings.width.div_ceil(shader::WORKGROUP.0), settings.height.div_ceil(shader::WORKGROUP.1));
+        let groups = (
+            settings.width.div_ceil(shader::WORKGROUP.0),
+            settings.height.div_ceil(shader::WORKGROUP.1),
+        );
         let mut done = 0u32;
         let mut index = 0u32;
         while done < settings.spp {
             params.sample_start = done;
             params.sample_count = per_dispatch.min(settings.spp - done);
-            ctx.queue.write_buffer(&params_buf, 0, bytemuck::bytes_of(&params));
-            let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("render") });
+            ctx.queue
+                .write_buffer(&params_buf, 0, bytemuck::bytes_of(&params));
+            let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("render"),
+            });
             {
-                let timestamp_writes = query_set.as_ref().map(|qs| wgpu::ComputePassTimestampWrites {
-                    query_set: qs,
-                    beginning_of_pass_write_index: Some(2 * index),
-                    end_of_pass_write_index: Some(2 * index + 1),
+                let timestamp_writes =
+                    query_set
+                        .as_ref()
+                        .map(|qs| wgpu::ComputePassTimestampWrites {
+                            query_set: qs,
+                            beginning_of_pass_write_index: Some(2 * index),
+                            end_of_pass_write_index: Some(2 * index + 1),
+                        });
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("render"),
+                    timestamp_writes,
                 });
-                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("render"), timestamp_writes });
                 pass.set_pipeline(&self.pipeline);
                 pass.set_bind_group(0, &bind_group, &[]);
                 pass.dispatch_workgroups(groups.0, groups.1, 1);
@@ -244,12 +332,20 @@ impl<'a> GpuRenderer<'a> {
                 m2: glam::DVec3::new(src.m2_r as f64, src.m2_g as f64, src.m2_b as f64),
             };
         }
-        Ok(GpuRender { film: out, gpu_time, dispatches })
+        Ok(GpuRender {
+            film: out,
+            gpu_time,
+            dispatches,
+        })
     }
 }
 
 /// Copies a storage buffer into a mappable one and reads it.
-pub fn read_buffer<T: bytemuck::Pod>(ctx: &GpuContext, src: &wgpu::Buffer, size: u64) -> Result<Vec<T>, GpuError> {
+pub fn read_buffer<T: bytemuck::Pod>(
+    ctx: &GpuContext,
+    src: &wgpu::Buffer,
+    size: u64,
+) -> Result<Vec<T>, GpuError> {
     let device = &ctx.device;
     let staging = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("readback"),
@@ -257,7 +353,9 @@ pub fn read_buffer<T: bytemuck::Pod>(ctx: &GpuContext, src: &wgpu::Buffer, size:
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
-    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+        label: Some("readback"),
+    });
     encoder.copy_buffer_to_buffer(src, 0, &staging, 0, size);
     ctx.queue.submit([encoder.finish()]);
     let slice = staging.slice(..);
@@ -266,15 +364,23 @@ pub fn read_buffer<T: bytemuck::Pod>(ctx: &GpuContext, src: &wgpu::Buffer, size:
         let _ = tx.send(r);
     });
     ctx.wait()?;
-    rx.recv().map_err(|e| GpuError::Readback(e.to_string()))?.map_err(|e| GpuError::Readback(e.to_string()))?;
-    let data = slice.get_mapped_range().map_err(|e| GpuError::Readback(e.to_string()))?;
+    rx.recv()
+        .map_err(|e| GpuError::Readback(e.to_string()))?
+        .map_err(|e| GpuError::Readback(e.to_string()))?;
+    let data = slice
+        .get_mapped_range()
+        .map_err(|e| GpuError::Readback(e.to_string()))?;
     let out = bytemuck::cast_slice::<u8, T>(&data).to_vec();
     drop(data);
     staging.unmap();
     Ok(out)
 }
 
-fn read_timestamps(ctx: &GpuContext, qs: &wgpu::QuerySet, dispatches: u32) -> Result<Duration, GpuError> {
+fn read_timestamps(
+    ctx: &GpuContext,
+    qs: &wgpu::QuerySet,
+    dispatches: u32,
+) -> Result<Duration, GpuError> {
     let device = &ctx.device;
     let size = dispatches as u64 * 2 * 8;
     let resolve = device.create_buffer(&wgpu::BufferDescriptor {
@@ -283,11 +389,16 @@ fn read_timestamps(ctx: &GpuContext, qs: &wgpu::QuerySet, dispatches: u32) -> Re
         usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
         mapped_at_creation: false,
     });
-    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("timestamps") });
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+        label: Some("timestamps"),
+    });
     encoder.resolve_query_set(qs, 0..dispatches * 2, &resolve, 0);
     ctx.queue.submit([encoder.finish()]);
     let ticks: Vec<u64> = read_buffer(ctx, &resolve, size)?;
     let period = ctx.queue.get_timestamp_period() as f64;
-    let ns: f64 = ticks.chunks_exact(2).map(|p| p[1].saturating_sub(p[0]) as f64 * period).sum();
+    let ns: f64 = ticks
+        .chunks_exact(2)
+        .map(|p| p[1].saturating_sub(p[0]) as f64 * period)
+        .sum();
     Ok(Duration::from_nanos(ns as u64))
 }

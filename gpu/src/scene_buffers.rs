@@ -26,22 +26,69 @@ pub struct PackedScene {
 pub fn pack_material(m: &Material) -> GpuMaterial {
     let tag = m.tag();
     match *m {
-        Material::Lambertian { albedo } => GpuMaterial { tag, texture: albedo, ..Default::default() },
-        Material::Metal { albedo, fuzz } => GpuMaterial { tag, texture: albedo, p0: fuzz, ..Default::default() },
-        Material::Dielectric { ior, absorption } => {
-            GpuMaterial { tag, p0: ior, absorption_r: absorption.x, absorption_g: absorption.y, absorption_b: absorption.z, ..Default::default() }
-        }
-        Material::DiffuseLight { emission } => GpuMaterial { tag, texture: emission, ..Default::default() },
-        Material::Ggx { base_color, metallic, roughness } => GpuMaterial { tag, texture: base_color, p0: metallic, p1: roughness, ..Default::default() },
+        Material::Lambertian { albedo } => GpuMaterial {
+            tag,
+            texture: albedo,
+            ..Default::default()
+        },
+        Material::Metal { albedo, fuzz } => GpuMaterial {
+            tag,
+            texture: albedo,
+            p0: fuzz,
+            ..Default::default()
+        },
+        Material::Dielectric { ior, absorption } => GpuMaterial {
+            tag,
+            p0: ior,
+            absorption_r: absorption.x,
+            absorption_g: absorption.y,
+            absorption_b: absorption.z,
+            ..Default::default()
+        },
+        Material::DiffuseLight { emission } => GpuMaterial {
+            tag,
+            texture: emission,
+            ..Default::default()
+        },
+        Material::Ggx {
+            base_color,
+            metallic,
+            roughness,
+        } => GpuMaterial {
+            tag,
+            texture: base_color,
+            p0: metallic,
+            p1: roughness,
+            ..Default::default()
+        },
     }
 }
 
 pub fn pack_texture(t: &Texture) -> GpuTexture {
     let tag = t.tag();
     match *t {
-        Texture::Constant(c) => GpuTexture { tag, r: c.x, g: c.y, b: c.z, ..Default::default() },
-        Texture::Checker { scale, even, odd } => GpuTexture { tag, even, odd, scale, ..Default::default() },
-        Texture::Image { image, factor } => GpuTexture { tag, image, r: factor.x, g: factor.y, b: factor.z, ..Default::default() },
+        Texture::Constant(c) => GpuTexture {
+            tag,
+            r: c.x,
+            g: c.y,
+            b: c.z,
+            ..Default::default()
+        },
+        Texture::Checker { scale, even, odd } => GpuTexture {
+            tag,
+            even,
+            odd,
+            scale,
+            ..Default::default()
+        },
+        Texture::Image { image, factor } => GpuTexture {
+            tag,
+            image,
+            r: factor.x,
+            g: factor.y,
+            b: factor.z,
+            ..Default::default()
+        },
     }
 }
 
@@ -50,14 +97,26 @@ impl PackedScene {
         let mut images = Vec::with_capacity(scene.images.len());
         let mut texels = Vec::new();
         for img in &scene.images {
-            images.push(GpuImage { offset: texels.len() as u32, width: img.width, height: img.height, _pad0: 0 });
+            images.push(GpuImage {
+                offset: texels.len() as u32,
+                width: img.width,
+                height: img.height,
+                _pad0: 0,
+            });
             texels.extend(img.texels.iter().flat_map(|t| t.to_array()));
         }
         let m = &scene.mesh;
         PackedScene {
             nodes: scene.bvh().nodes().to_vec(),
             prim_order: scene.bvh().prim_order().to_vec(),
-            primitives: scene.primitives.iter().map(|p| GpuPrimitive { tag: p.tag, index: p.index }).collect(),
+            primitives: scene
+                .primitives
+                .iter()
+                .map(|p| GpuPrimitive {
+                    tag: p.tag,
+                    index: p.index,
+                })
+                .collect(),
             spheres: scene
                 .spheres
                 .iter()
@@ -90,12 +149,28 @@ impl PackedScene {
             triangles: scene
                 .triangles
                 .iter()
-                .map(|t| GpuTriangle { v0: t.vertices[0], v1: t.vertices[1], v2: t.vertices[2], material: t.material, flags: t.flags, ..Default::default() })
+                .map(|t| GpuTriangle {
+                    v0: t.vertices[0],
+                    v1: t.vertices[1],
+                    v2: t.vertices[2],
+                    material: t.material,
+                    flags: t.flags,
+                    ..Default::default()
+                })
                 .collect(),
             vertices: (0..m.positions.len())
                 .map(|i| {
                     let (p, n, uv) = (m.positions[i], m.normals[i], m.uvs[i]);
-                    GpuVertex { p_x: p.x, p_y: p.y, p_z: p.z, n_x: n.x, n_y: n.y, n_z: n.z, u: uv.x, v: uv.y }
+                    GpuVertex {
+                        p_x: p.x,
+                        p_y: p.y,
+                        p_z: p.z,
+                        n_x: n.x,
+                        n_y: n.y,
+                        n_z: n.z,
+                        u: uv.x,
+                        v: uv.y,
+                    }
                 })
                 .collect(),
             materials: scene.materials.iter().map(pack_material).collect(),
@@ -115,7 +190,11 @@ pub fn pack_background(bg: &Background, p: &mut GpuParams) {
             [p.bg_a_r, p.bg_a_g, p.bg_a_b] = horizon.to_array();
             [p.bg_b_r, p.bg_b_g, p.bg_b_b] = zenith.to_array();
         }
-        Background::Envmap { image, intensity, rotate_y } => {
+        Background::Envmap {
+            image,
+            intensity,
+            rotate_y,
+        } => {
             p.bg_image = image;
             p.bg_intensity = intensity;
             // The same expression as reference::background, so both

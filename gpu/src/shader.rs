@@ -53,7 +53,10 @@ pub fn prelude() -> String {
     s += &f("BOX_NEAR_SLACK", reference::bvh::BOX_NEAR_SLACK);
     s += &f("BOX_T_PAD", reference::bvh::BOX_T_PAD);
     s += &f("GGX_MIN_ALPHA", GGX_MIN_ALPHA);
-    s += &f("ROULETTE_MAX_SURVIVAL", reference::integrator::ROULETTE_MAX_SURVIVAL);
+    s += &f(
+        "ROULETTE_MAX_SURVIVAL",
+        reference::integrator::ROULETTE_MAX_SURVIVAL,
+    );
     for (name, v) in [
         ("DIM_PIXEL_X", dims::PIXEL_X),
         ("DIM_PIXEL_Y", dims::PIXEL_Y),
@@ -77,7 +80,16 @@ pub fn prelude() -> String {
 /// The library part shared by the render kernel and the test kernels:
 /// prelude, records, rng, sampling, intersection, scene access, materials.
 pub fn library_source() -> String {
-    [prelude().as_str(), &records::wgsl_records(), RNG_WGSL, SAMPLING_WGSL, INTERSECT_WGSL, BVH_WGSL, MATERIALS_WGSL].join("\n")
+    [
+        prelude().as_str(),
+        &records::wgsl_records(),
+        RNG_WGSL,
+        SAMPLING_WGSL,
+        INTERSECT_WGSL,
+        BVH_WGSL,
+        MATERIALS_WGSL,
+    ]
+    .join("\n")
 }
 
 /// The render program.
@@ -91,7 +103,13 @@ mod tests {
 
     #[test]
     fn prelude_floats_round_trip() {
-        for x in [reference::bvh::SLAB_FAR_SCALE, reference::bvh::BOX_NEAR_SLACK, reference::bvh::BOX_T_PAD, GGX_MIN_ALPHA, 0.95f32] {
+        for x in [
+            reference::bvh::SLAB_FAR_SCALE,
+            reference::bvh::BOX_NEAR_SLACK,
+            reference::bvh::BOX_T_PAD,
+            GGX_MIN_ALPHA,
+            0.95f32,
+        ] {
             assert_eq!(f32_literal(x).parse::<f32>().unwrap(), x);
         }
     }
@@ -101,9 +119,13 @@ mod tests {
     #[test]
     fn render_program_validates() {
         let src = render_source();
-        let module = naga::front::wgsl::parse_str(&src).unwrap_or_else(|e| panic!("{}", e.emit_to_string(&src)));
-        naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::empty())
-            .validate(&module)
+        let module = naga::front::wgsl::parse_str(&src)
             .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&src)));
+        naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::empty(),
+        )
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&src)));
     }
 }

@@ -38,18 +38,40 @@ pub struct TestKernel<'a> {
 /// Runs `entry` of `library + TEST_IO_WGSL + snippet`, returning
 /// `output_words` words. The output buffer is poisoned with 0xDEADBEEF
 /// first, so words a kernel never wrote cannot pass for results.
-pub fn run_test_kernel(ctx: &GpuContext, renderer: &GpuRenderer, k: &TestKernel) -> Result<Vec<u32>, GpuError> {
-    let TestKernel { snippet, entry, input, invocations, output_words, .. } = *k;
+pub fn run_test_kernel(
+    ctx: &GpuContext,
+    renderer: &GpuRenderer,
+    k: &TestKernel,
+) -> Result<Vec<u32>, GpuError> {
+    let TestKernel {
+        snippet,
+        entry,
+        input,
+        invocations,
+        output_words,
+        ..
+    } = *k;
     let device = &ctx.device;
-    let source = [crate::shader::library_source().as_str(), TEST_IO_WGSL, snippet].join("\n");
+    let source = [
+        crate::shader::library_source().as_str(),
+        TEST_IO_WGSL,
+        snippet,
+    ]
+    .join("\n");
     let io_entry = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Storage { read_only }, has_dynamic_offset: false, min_binding_size: None },
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
         count: None,
     };
-    let io_layout =
-        device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("test io"), entries: &[io_entry(0, true), io_entry(1, false)] });
+    let io_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("test io"),
+        entries: &[io_entry(0, true), io_entry(1, false)],
+    });
     let scene_layout = bind_group_layout(device);
     let pipeline = compile(ctx, &source, entry, &[&scene_layout, &io_layout])?;
     let input_words: &[u32] = if input.is_empty() { &[0] } else { input };
@@ -64,7 +86,13 @@ pub fn run_test_kernel(ctx: &GpuContext, renderer: &GpuRenderer, k: &TestKernel)
         contents: bytemuck::cast_slice(&poison),
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
     });
-    let p = k.params.unwrap_or_else(|| renderer.params(&reference::RenderSettings { width: 1, height: 1, ..Default::default() }));
+    let p = k.params.unwrap_or_else(|| {
+        renderer.params(&reference::RenderSettings {
+            width: 1,
+            height: 1,
+            ..Default::default()
+        })
+    });
     let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("params"),
         contents: bytemuck::bytes_of(&p),
@@ -81,13 +109,23 @@ pub fn run_test_kernel(ctx: &GpuContext, renderer: &GpuRenderer, k: &TestKernel)
         label: Some("test io"),
         layout: &io_layout,
         entries: &[
-            wgpu::BindGroupEntry { binding: 0, resource: input_buf.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 1, resource: output_buf.as_entire_binding() },
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: input_buf.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: output_buf.as_entire_binding(),
+            },
         ],
     });
-    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(entry) });
+    let mut encoder =
+        device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(entry) });
     {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(entry), timestamp_writes: None });
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(entry),
+            timestamp_writes: None,
+        });
         pass.set_pipeline(&pipeline);
         pass.set_bind_group(0, &scene_group, &[]);
         pass.set_bind_group(1, &io_group, &[]);

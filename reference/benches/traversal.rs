@@ -47,7 +47,9 @@ impl Rng {
 fn mesh_scene(mesh: &MeshInput) -> Scene {
     let mut b = SceneBuilder::new();
     let white = b.constant(Vec3::splat(0.7)).unwrap();
-    let m = b.add_material(Material::Lambertian { albedo: white }).unwrap();
+    let m = b
+        .add_material(Material::Lambertian { albedo: white })
+        .unwrap();
     b.add_mesh(mesh, m, &Transform::default()).unwrap();
     b.camera.look_from = Vec3::new(0.0, 0.0, 5.0);
     b.build().unwrap()
@@ -55,7 +57,9 @@ fn mesh_scene(mesh: &MeshInput) -> Scene {
 
 fn rays(n: usize, seed: u64, origin: impl Fn(&mut Rng) -> Vec3) -> Vec<Ray> {
     let mut rng = Rng(seed);
-    (0..n).map(|_| Ray::new(origin(&mut rng), rng.unit())).collect()
+    (0..n)
+        .map(|_| Ray::new(origin(&mut rng), rng.unit()))
+        .collect()
 }
 
 /// Best of three timed passes (after one warm-up) in rays per second, and
@@ -79,7 +83,10 @@ fn measure(rays: &[Ray], mut intersect: impl FnMut(&Ray) -> bool) -> (f64, usize
 }
 
 fn main() {
-    let n: usize = std::env::var("TWINTRACE_BENCH_RAYS").ok().and_then(|v| v.parse().ok()).unwrap_or(1_000_000);
+    let n: usize = std::env::var("TWINTRACE_BENCH_RAYS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(1_000_000);
     let in_tube = |major: f32, minor: f32| {
         move |r: &mut Rng| {
             let phi = r.f32() * std::f32::consts::TAU;
@@ -89,15 +96,33 @@ fn main() {
     let in_ball = |radius: f32| move |r: &mut Rng| r.unit() * (radius * r.f32().cbrt());
     type Case = (&'static str, Box<dyn Fn() -> (Scene, Vec<Ray>)>);
     let torus = |segments: u32, rings: u32, seed: u64| {
-        move || (mesh_scene(&reference::procedural::torus(1.0, 0.35, segments, rings)), rays(n, seed, in_tube(1.0, 0.35)))
+        move || {
+            (
+                mesh_scene(&reference::procedural::torus(1.0, 0.35, segments, rings)),
+                rays(n, seed, in_tube(1.0, 0.35)),
+            )
+        }
     };
-    let bumpy = |level: u32, seed: u64| move || (mesh_scene(&reference::procedural::bumpy_sphere(level, 0.08, 6.0)), rays(n, seed, in_ball(0.5)));
+    let bumpy = |level: u32, seed: u64| {
+        move || {
+            (
+                mesh_scene(&reference::procedural::bumpy_sphere(level, 0.08, 6.0)),
+                rays(n, seed, in_ball(0.5)),
+            )
+        }
+    };
     // Built lazily: only the scenes `TWINTRACE_BENCH_ONLY` selects.
     let cases: Vec<Case> = vec![
         (
             "rtow-final (488 spheres)",
             Box::new(move || {
-                let rays = rays(n, 1, |r| Vec3::new(24.0 * r.f32() - 12.0, 0.05 + 2.95 * r.f32(), 24.0 * r.f32() - 12.0));
+                let rays = rays(n, 1, |r| {
+                    Vec3::new(
+                        24.0 * r.f32() - 12.0,
+                        0.05 + 2.95 * r.f32(),
+                        24.0 * r.f32() - 12.0,
+                    )
+                });
                 (reference::builtin::load("rtow-final").unwrap(), rays)
             }),
         ),
@@ -116,11 +141,21 @@ fn main() {
         let (scene, rays) = make();
         let (scene, rays) = (&scene, &rays);
         let embree = EmbreeScene::new(scene).expect("embree scene");
-        let (ref_rate, ref_hits) = measure(rays, |r| scene.intersect(r, 0.0, f32::INFINITY).is_some());
-        let (emb_rate, emb_hits) = measure(rays, |r| embree.intersect(r, 0.0, f32::INFINITY).is_some());
+        let (ref_rate, ref_hits) =
+            measure(rays, |r| scene.intersect(r, 0.0, f32::INFINITY).is_some());
+        let (emb_rate, emb_hits) =
+            measure(rays, |r| embree.intersect(r, 0.0, f32::INFINITY).is_some());
         // The same rays, so the same number of hits (closed meshes: all).
         let differ = ref_hits.abs_diff(emb_hits);
-        assert!(differ * 10_000 <= rays.len(), "{name}: reference {ref_hits} hits, Embree {emb_hits}");
-        println!("| {name} | {:.3}·10^6 | {:.3}·10^6 | {:.2}× |", ref_rate / 1e6, emb_rate / 1e6, ref_rate / emb_rate);
+        assert!(
+            differ * 10_000 <= rays.len(),
+            "{name}: reference {ref_hits} hits, Embree {emb_hits}"
+        );
+        println!(
+            "| {name} | {:.3}·10^6 | {:.3}·10^6 | {:.2}× |",
+            ref_rate / 1e6,
+            emb_rate / 1e6,
+            ref_rate / emb_rate
+        );
     }
 }

@@ -54,7 +54,11 @@ pub fn evaluate_background(bg: &Background, images: &[ImageData], d: Vec3) -> Ve
     match *bg {
         Background::Solid(c) => c,
         Background::Sky { horizon, zenith } => horizon.lerp(zenith, 0.5 * (d.y + 1.0)),
-        Background::Envmap { image, intensity, rotate_y } => {
+        Background::Envmap {
+            image,
+            intensity,
+            rotate_y,
+        } => {
             // Rotating the map by +θ equals looking up the direction rotated by −θ.
             let (s, c) = (-rotate_y.to_radians()).sin_cos();
             let dr = Vec3::new(c * d.x + s * d.z, d.y, -s * d.x + c * d.z);
@@ -70,8 +74,14 @@ mod tests {
 
     #[test]
     fn sky_gradient_ends() {
-        let bg = Background::Sky { horizon: Vec3::ONE, zenith: Vec3::new(0.5, 0.7, 1.0) };
-        assert_eq!(evaluate_background(&bg, &[], Vec3::Y), Vec3::new(0.5, 0.7, 1.0));
+        let bg = Background::Sky {
+            horizon: Vec3::ONE,
+            zenith: Vec3::new(0.5, 0.7, 1.0),
+        };
+        assert_eq!(
+            evaluate_background(&bg, &[], Vec3::Y),
+            Vec3::new(0.5, 0.7, 1.0)
+        );
         assert_eq!(evaluate_background(&bg, &[], -Vec3::Y), Vec3::ONE);
     }
 
@@ -88,11 +98,27 @@ mod tests {
     #[test]
     fn envmap_rotation_turns_the_map() {
         // A 4x1 map: -z quarter red... columns at u = 0.125, 0.375, 0.625, 0.875.
-        let img = ImageData { width: 4, height: 1, texels: vec![Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE] };
-        let unrotated = Background::Envmap { image: 0, intensity: 1.0, rotate_y: 0.0 };
-        let rotated = Background::Envmap { image: 0, intensity: 2.0, rotate_y: 90.0 };
+        let img = ImageData {
+            width: 4,
+            height: 1,
+            texels: vec![Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE],
+        };
+        let unrotated = Background::Envmap {
+            image: 0,
+            intensity: 1.0,
+            rotate_y: 0.0,
+        };
+        let rotated = Background::Envmap {
+            image: 0,
+            intensity: 2.0,
+            rotate_y: 90.0,
+        };
         let d = Vec3::new(1.0, 0.0, -1.0).normalize(); // u = 0.625: blue column centre
-        assert_relative_eq!(evaluate_background(&unrotated, std::slice::from_ref(&img), d).z, 1.0, epsilon = 1e-5);
+        assert_relative_eq!(
+            evaluate_background(&unrotated, std::slice::from_ref(&img), d).z,
+            1.0,
+            epsilon = 1e-5
+        );
         // Turning the map by 90° about +y moves what was at d to R(90°)·d.
         let (s, c) = 90f32.to_radians().sin_cos();
         let d_rot = Vec3::new(c * d.x + s * d.z, d.y, -s * d.x + c * d.z);

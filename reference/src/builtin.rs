@@ -38,9 +38,14 @@ pub fn rtow_final(seed: u32) -> Result<Scene, SceneError> {
     };
     let id = Transform::default();
     let ground_albedo = b.constant(Vec3::splat(0.5))?;
-    let ground = b.add_material(Material::Lambertian { albedo: ground_albedo })?;
+    let ground = b.add_material(Material::Lambertian {
+        albedo: ground_albedo,
+    })?;
     b.add_sphere(Vec3::new(0.0, -1000.0, 0.0), 1000.0, ground, &id)?;
-    let glass = b.add_material(Material::Dielectric { ior: 1.5, absorption: Vec3::ZERO })?;
+    let glass = b.add_material(Material::Dielectric {
+        ior: 1.5,
+        absorption: Vec3::ZERO,
+    })?;
     for a in -11..11 {
         for c in -11..11 {
             let choose = rnd();
@@ -49,8 +54,15 @@ pub fn rtow_final(seed: u32) -> Result<Scene, SceneError> {
                 let albedo = b.constant(Vec3::new(rnd() * rnd(), rnd() * rnd(), rnd() * rnd()))?;
                 b.add_material(Material::Lambertian { albedo })?
             } else if choose < 0.95 {
-                let albedo = b.constant(Vec3::new(0.5 * (1.0 + rnd()), 0.5 * (1.0 + rnd()), 0.5 * (1.0 + rnd())))?;
-                b.add_material(Material::Metal { albedo, fuzz: 0.5 * rnd() })?
+                let albedo = b.constant(Vec3::new(
+                    0.5 * (1.0 + rnd()),
+                    0.5 * (1.0 + rnd()),
+                    0.5 * (1.0 + rnd()),
+                ))?;
+                b.add_material(Material::Metal {
+                    albedo,
+                    fuzz: 0.5 * rnd(),
+                })?
             } else {
                 glass
             };
@@ -62,11 +74,30 @@ pub fn rtow_final(seed: u32) -> Result<Scene, SceneError> {
     let brown = b.add_material(Material::Lambertian { albedo: brown })?;
     b.add_sphere(Vec3::new(-4.0, 1.0, 0.0), 1.0, brown, &id)?;
     let steel = b.constant(Vec3::new(0.7, 0.6, 0.5))?;
-    let steel = b.add_material(Material::Metal { albedo: steel, fuzz: 0.0 })?;
+    let steel = b.add_material(Material::Metal {
+        albedo: steel,
+        fuzz: 0.0,
+    })?;
     b.add_sphere(Vec3::new(4.0, 1.0, 0.0), 1.0, steel, &id)?;
-    b.camera = CameraSettings { look_from: Vec3::new(13.0, 2.0, 3.0), look_at: Vec3::ZERO, up: Vec3::Y, vfov: 20.0, aperture: 0.1, focus_distance: 10.0 };
-    b.background = Some(Background::Sky { horizon: Vec3::ONE, zenith: Vec3::new(0.5, 0.7, 1.0) });
-    b.render = RenderSettings { width: 1200, height: 800, spp: 10, max_depth: 50, ..RenderSettings::default() };
+    b.camera = CameraSettings {
+        look_from: Vec3::new(13.0, 2.0, 3.0),
+        look_at: Vec3::ZERO,
+        up: Vec3::Y,
+        vfov: 20.0,
+        aperture: 0.1,
+        focus_distance: 10.0,
+    };
+    b.background = Some(Background::Sky {
+        horizon: Vec3::ONE,
+        zenith: Vec3::new(0.5, 0.7, 1.0),
+    });
+    b.render = RenderSettings {
+        width: 1200,
+        height: 800,
+        spp: 10,
+        max_depth: 50,
+        ..RenderSettings::default()
+    };
     b.build()
 }
 
@@ -82,9 +113,14 @@ pub fn spheres_10k(seed: u32) -> Result<Scene, SceneError> {
     };
     let id = Transform::default();
     let ground_albedo = b.constant(Vec3::splat(0.5))?;
-    let ground = b.add_material(Material::Lambertian { albedo: ground_albedo })?;
+    let ground = b.add_material(Material::Lambertian {
+        albedo: ground_albedo,
+    })?;
     b.add_sphere(Vec3::new(0.0, -1000.0, 0.0), 1000.0, ground, &id)?;
-    let glass = b.add_material(Material::Dielectric { ior: 1.5, absorption: Vec3::ZERO })?;
+    let glass = b.add_material(Material::Dielectric {
+        ior: 1.5,
+        absorption: Vec3::ZERO,
+    })?;
     // A small palette keeps the material count bounded.
     let mut palette = Vec::new();
     for _ in 0..32 {
@@ -92,13 +128,24 @@ pub fn spheres_10k(seed: u32) -> Result<Scene, SceneError> {
         palette.push(b.add_material(Material::Lambertian { albedo })?);
     }
     for _ in 0..8 {
-        let albedo = b.constant(Vec3::new(0.5 * (1.0 + rnd()), 0.5 * (1.0 + rnd()), 0.5 * (1.0 + rnd())))?;
-        palette.push(b.add_material(Material::Metal { albedo, fuzz: 0.5 * rnd() })?);
+        let albedo = b.constant(Vec3::new(
+            0.5 * (1.0 + rnd()),
+            0.5 * (1.0 + rnd()),
+            0.5 * (1.0 + rnd()),
+        ))?;
+        palette.push(b.add_material(Material::Metal {
+            albedo,
+            fuzz: 0.5 * rnd(),
+        })?);
     }
     for i in 0..100 {
         for j in 0..100 {
             let choose = rnd();
-            let center = Vec3::new((i - 50) as f32 * 0.5 + 0.3 * rnd(), 0.2, (j - 50) as f32 * 0.5 + 0.3 * rnd());
+            let center = Vec3::new(
+                (i - 50) as f32 * 0.5 + 0.3 * rnd(),
+                0.2,
+                (j - 50) as f32 * 0.5 + 0.3 * rnd(),
+            );
             let m = if choose < 0.8 {
                 palette[(rnd() * 32.0) as usize % 32]
             } else if choose < 0.95 {
@@ -117,8 +164,17 @@ pub fn spheres_10k(seed: u32) -> Result<Scene, SceneError> {
         aperture: 0.0,
         focus_distance: 30.0,
     };
-    b.background = Some(Background::Sky { horizon: Vec3::ONE, zenith: Vec3::new(0.5, 0.7, 1.0) });
-    b.render = RenderSettings { width: 800, height: 450, spp: 16, max_depth: 16, ..RenderSettings::default() };
+    b.background = Some(Background::Sky {
+        horizon: Vec3::ONE,
+        zenith: Vec3::new(0.5, 0.7, 1.0),
+    });
+    b.render = RenderSettings {
+        width: 800,
+        height: 450,
+        spp: 16,
+        max_depth: 16,
+        ..RenderSettings::default()
+    };
     b.build()
 }
 
@@ -137,23 +193,73 @@ pub fn cornell(spheres: bool) -> Result<Scene, SceneError> {
     let light = b.constant(Vec3::splat(15.0))?;
     let light = b.add_material(Material::DiffuseLight { emission: light })?;
     let s = 555.0;
-    b.add_quad(Vec3::new(s, 0.0, 0.0), Vec3::new(0.0, s, 0.0), Vec3::new(0.0, 0.0, s), green, &id)?;
-    b.add_quad(Vec3::ZERO, Vec3::new(0.0, s, 0.0), Vec3::new(0.0, 0.0, s), red, &id)?;
+    b.add_quad(
+        Vec3::new(s, 0.0, 0.0),
+        Vec3::new(0.0, s, 0.0),
+        Vec3::new(0.0, 0.0, s),
+        green,
+        &id,
+    )?;
+    b.add_quad(
+        Vec3::ZERO,
+        Vec3::new(0.0, s, 0.0),
+        Vec3::new(0.0, 0.0, s),
+        red,
+        &id,
+    )?;
     // The light faces down: u × v = (130,0,0) × (0,0,105) points to −y.
-    b.add_quad(Vec3::new(213.0, 554.0, 227.0), Vec3::new(130.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 105.0), light, &id)?;
-    b.add_quad(Vec3::ZERO, Vec3::new(s, 0.0, 0.0), Vec3::new(0.0, 0.0, s), white, &id)?;
-    b.add_quad(Vec3::new(s, s, s), Vec3::new(-s, 0.0, 0.0), Vec3::new(0.0, 0.0, -s), white, &id)?;
-    b.add_quad(Vec3::new(0.0, 0.0, s), Vec3::new(s, 0.0, 0.0), Vec3::new(0.0, s, 0.0), white, &id)?;
+    b.add_quad(
+        Vec3::new(213.0, 554.0, 227.0),
+        Vec3::new(130.0, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, 105.0),
+        light,
+        &id,
+    )?;
+    b.add_quad(
+        Vec3::ZERO,
+        Vec3::new(s, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, s),
+        white,
+        &id,
+    )?;
+    b.add_quad(
+        Vec3::new(s, s, s),
+        Vec3::new(-s, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, -s),
+        white,
+        &id,
+    )?;
+    b.add_quad(
+        Vec3::new(0.0, 0.0, s),
+        Vec3::new(s, 0.0, 0.0),
+        Vec3::new(0.0, s, 0.0),
+        white,
+        &id,
+    )?;
     if spheres {
-        let glass = b.add_material(Material::Dielectric { ior: 1.5, absorption: Vec3::ZERO })?;
+        let glass = b.add_material(Material::Dielectric {
+            ior: 1.5,
+            absorption: Vec3::ZERO,
+        })?;
         let steel = b.constant(Vec3::new(0.8, 0.85, 0.88))?;
-        let steel = b.add_material(Material::Metal { albedo: steel, fuzz: 0.0 })?;
+        let steel = b.add_material(Material::Metal {
+            albedo: steel,
+            fuzz: 0.0,
+        })?;
         b.add_sphere(Vec3::new(190.0, 90.0, 190.0), 90.0, glass, &id)?;
         b.add_sphere(Vec3::new(370.0, 90.0, 370.0), 90.0, steel, &id)?;
     } else {
-        let tall = Transform::from_parts(Vec3::ONE, Quat::from_rotation_y(15f32.to_radians()), Vec3::new(265.0, 0.0, 295.0));
+        let tall = Transform::from_parts(
+            Vec3::ONE,
+            Quat::from_rotation_y(15f32.to_radians()),
+            Vec3::new(265.0, 0.0, 295.0),
+        );
         b.add_box(Vec3::ZERO, Vec3::new(165.0, 330.0, 165.0), white, &tall)?;
-        let short = Transform::from_parts(Vec3::ONE, Quat::from_rotation_y((-18f32).to_radians()), Vec3::new(130.0, 0.0, 65.0));
+        let short = Transform::from_parts(
+            Vec3::ONE,
+            Quat::from_rotation_y((-18f32).to_radians()),
+            Vec3::new(130.0, 0.0, 65.0),
+        );
         b.add_box(Vec3::ZERO, Vec3::splat(165.0), white, &short)?;
     }
     b.camera = CameraSettings {
@@ -165,7 +271,13 @@ pub fn cornell(spheres: bool) -> Result<Scene, SceneError> {
         focus_distance: 10.0,
     };
     b.background = Some(Background::Solid(Vec3::ZERO));
-    b.render = RenderSettings { width: 512, height: 512, spp: 64, max_depth: 50, ..RenderSettings::default() };
+    b.render = RenderSettings {
+        width: 512,
+        height: 512,
+        spp: 64,
+        max_depth: 50,
+        ..RenderSettings::default()
+    };
     b.build()
 }
 
@@ -181,7 +293,15 @@ mod tests {
         assert_eq!(a.spheres, b.spheres);
         assert_ne!(rtow_final(1).unwrap().spheres, a.spheres);
         // Roughly 80 / 15 / 5 % of the 484 small spheres.
-        let glass = a.spheres[1..485].iter().filter(|s| matches!(a.materials[s.material as usize], Material::Dielectric { .. })).count();
+        let glass = a.spheres[1..485]
+            .iter()
+            .filter(|s| {
+                matches!(
+                    a.materials[s.material as usize],
+                    Material::Dielectric { .. }
+                )
+            })
+            .count();
         assert!((5..=50).contains(&glass), "{glass} glass spheres");
     }
 

@@ -48,7 +48,10 @@ impl BvhNode {
     pub const LEAF: u32 = 3;
 
     pub fn bounds(&self) -> Aabb {
-        Aabb { min: Vec3::from(self.min), max: Vec3::from(self.max) }
+        Aabb {
+            min: Vec3::from(self.min),
+            max: Vec3::from(self.max),
+        }
     }
 
     #[inline]
@@ -200,7 +203,12 @@ struct Builder<'a> {
 }
 
 fn node_from(b: Aabb, index: u32, meta: u32) -> BvhNode {
-    BvhNode { min: b.min.to_array(), index, max: b.max.to_array(), meta }
+    BvhNode {
+        min: b.min.to_array(),
+        index,
+        max: b.max.to_array(),
+        meta,
+    }
 }
 
 impl Builder<'_> {
@@ -229,9 +237,20 @@ impl Builder<'_> {
                 self.nodes.push(leaf(start));
                 return me;
             }
-            return self.split_at(bounds, start, start + n / 2, end, extent.max_position() as u32, depth);
+            return self.split_at(
+                bounds,
+                start,
+                start + n / 2,
+                end,
+                extent.max_position() as u32,
+                depth,
+            );
         }
-        let axis_split = if depth < SAH_MAX_DEPTH { self.best_sah_split(start, end, bounds, cbounds) } else { None };
+        let axis_split = if depth < SAH_MAX_DEPTH {
+            self.best_sah_split(start, end, bounds, cbounds)
+        } else {
+            None
+        };
         match axis_split {
             Some((axis, bin, cost)) => {
                 if cost >= n as f32 * SAH_INTERSECT_COST && n <= MAX_LEAF_SIZE {
@@ -240,7 +259,10 @@ impl Builder<'_> {
                 }
                 let (lo, scale) = (cbounds.min[axis], SAH_BINS as f32 / extent[axis]);
                 let centroids = &self.centroids;
-                let mid = start + partition(&mut self.order[start..end], |p| bin_of(centroids[p as usize][axis], lo, scale) <= bin);
+                let mid = start
+                    + partition(&mut self.order[start..end], |p| {
+                        bin_of(centroids[p as usize][axis], lo, scale) <= bin
+                    });
                 if mid == start || mid == end {
                     let a = extent.max_position();
                     return self.median_split(bounds, start, end, a, depth);
@@ -257,16 +279,34 @@ impl Builder<'_> {
         }
     }
 
-    fn median_split(&mut self, bounds: Aabb, start: usize, end: usize, axis: usize, depth: u32) -> u32 {
+    fn median_split(
+        &mut self,
+        bounds: Aabb,
+        start: usize,
+        end: usize,
+        axis: usize,
+        depth: u32,
+    ) -> u32 {
         let mid = start + (end - start) / 2;
         let centroids = &self.centroids;
         // Ties broken by id so the build is deterministic.
-        self.order[start..end]
-            .select_nth_unstable_by(mid - start, |&a, &b| centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis]).then(a.cmp(&b)));
+        self.order[start..end].select_nth_unstable_by(mid - start, |&a, &b| {
+            centroids[a as usize][axis]
+                .total_cmp(&centroids[b as usize][axis])
+                .then(a.cmp(&b))
+        });
         self.split_at(bounds, start, mid, end, axis as u32, depth)
     }
 
-    fn split_at(&mut self, bounds: Aabb, start: usize, mid: usize, end: usize, axis: u32, depth: u32) -> u32 {
+    fn split_at(
+        &mut self,
+        bounds: Aabb,
+        start: usize,
+        mid: usize,
+        end: usize,
+        axis: u32,
+        depth: u32,
+    ) -> u32 {
         let me = self.nodes.len();
         self.nodes.push(node_from(bounds, 0, axis));
         self.build(start, mid, depth + 1);
@@ -276,7 +316,13 @@ impl Builder<'_> {
     }
 
     /// The cheapest binned split: (axis, last bin on the left, SAH cost).
-    fn best_sah_split(&self, start: usize, end: usize, bounds: Aabb, cbounds: Aabb) -> Option<(usize, usize, f32)> {
+    fn best_sah_split(
+        &self,
+        start: usize,
+        end: usize,
+        bounds: Aabb,
+        cbounds: Aabb,
+    ) -> Option<(usize, usize, f32)> {
         let extent = cbounds.extent();
         let parent_area = bounds.surface_area();
         let mut best: Option<(usize, usize, f32)> = None;
@@ -311,7 +357,9 @@ impl Builder<'_> {
                     continue;
                 }
                 let cost = SAH_TRAVERSAL_COST
-                    + SAH_INTERSECT_COST * (acc.surface_area() * cnt as f32 + right_area[i + 1] * rc as f32) / parent_area.max(f32::MIN_POSITIVE);
+                    + SAH_INTERSECT_COST
+                        * (acc.surface_area() * cnt as f32 + right_area[i + 1] * rc as f32)
+                        / parent_area.max(f32::MIN_POSITIVE);
                 if best.is_none_or(|b| cost < b.2) {
                     best = Some((axis, i, cost));
                 }
@@ -364,9 +412,17 @@ struct CollapsePlan {
 impl CollapsePlan {
     /// The plan for `nodes`; `batched` as for [`Bvh::build_batched`].
     fn new(nodes: &[BvhNode], prim_order: &[u32], batched: &[bool]) -> Self {
-        let mut plan = CollapsePlan { split: vec![[0u8; WIDTH]; nodes.len()], own: vec![0u8; nodes.len()] };
+        let mut plan = CollapsePlan {
+            split: vec![[0u8; WIDTH]; nodes.len()],
+            own: vec![0u8; nodes.len()],
+        };
         if !nodes.is_empty() {
-            let batched = |entries: std::ops::Range<usize>| !entries.is_empty() && prim_order[entries].iter().all(|&p| batched.get(p as usize) == Some(&true));
+            let batched = |entries: std::ops::Range<usize>| {
+                !entries.is_empty()
+                    && prim_order[entries]
+                        .iter()
+                        .all(|&p| batched.get(p as usize) == Some(&true))
+            };
             plan.solve(nodes, 0, &batched);
         }
         plan
@@ -377,12 +433,19 @@ impl CollapsePlan {
     /// tree is alive: 9 bytes of plan per node, not 41).
     /// Also returns the subtree's entries as `(first, count)` if they are
     /// one run of batched primitives, short enough for one leaf.
-    fn solve(&mut self, nodes: &[BvhNode], n: usize, batched: &impl Fn(std::ops::Range<usize>) -> bool) -> ([f32; WIDTH], Option<(u32, u32)>) {
+    fn solve(
+        &mut self,
+        nodes: &[BvhNode],
+        n: usize,
+        batched: &impl Fn(std::ops::Range<usize>) -> bool,
+    ) -> ([f32; WIDTH], Option<(u32, u32)>) {
         let node = &nodes[n];
         let area = node.bounds().surface_area();
         if node.is_leaf() {
             let (first, count) = (node.index, node.count());
-            let batch = (count as usize <= LEAF_BATCH && batched(first as usize..(first + count) as usize)).then_some((first, count));
+            let batch = (count as usize <= LEAF_BATCH
+                && batched(first as usize..(first + count) as usize))
+            .then_some((first, count));
             // A batched leaf is one four-wide test, another one test per
             // entry.
             let tests = if batch.is_some() { 1 } else { count };
@@ -393,12 +456,21 @@ impl CollapsePlan {
         // The entries of the whole subtree, if they are one run of batched
         // primitives short enough for a leaf.
         let span = match (left_span, right_span) {
-            (Some((a, m)), Some((b, k))) if a.checked_add(m) == Some(b) && (m + k) as usize <= LEAF_BATCH => Some((a, m + k)),
+            (Some((a, m)), Some((b, k)))
+                if a.checked_add(m) == Some(b) && (m + k) as usize <= LEAF_BATCH =>
+            {
+                Some((a, m + k))
+            }
             _ => None,
         };
         // The cheapest way to spread both children over at most j lanes
         // (the first k on ties).
-        let pair = |j: usize| (1..j).map(|k| (left[k - 1] + right[j - k - 1], k)).min_by(|a, b| a.0.total_cmp(&b.0)).unwrap_or((f32::INFINITY, 0));
+        let pair = |j: usize| {
+            (1..j)
+                .map(|k| (left[k - 1] + right[j - k - 1], k))
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+                .unwrap_or((f32::INFINITY, 0))
+        };
         let (children, k_own) = pair(WIDTH);
         let mut as_node = area * COLLAPSE_NODE_COST + children;
         self.own[n] = k_own as u8;
@@ -435,7 +507,13 @@ impl CollapsePlan {
 /// Collapses binary interior node `i` into a new [`WideNode`] (and its
 /// subtree after it) as `plan` says, and returns the new node's index and
 /// its subtree's stack need (see [`Bvh`]'s `stack_need`).
-fn collapse(nodes: &[BvhNode], plan: &CollapsePlan, i: usize, wide: &mut Vec<WideNode>, leaves: &mut Vec<[u32; 2]>) -> (u32, usize) {
+fn collapse(
+    nodes: &[BvhNode],
+    plan: &CollapsePlan,
+    i: usize,
+    wide: &mut Vec<WideNode>,
+    leaves: &mut Vec<[u32; 2]>,
+) -> (u32, usize) {
     let mut kids = Vec::with_capacity(WIDTH);
     let k = plan.own[i] as usize;
     plan.lanes(nodes, i + 1, k, &mut kids);
@@ -491,7 +569,8 @@ fn partition(xs: &mut [u32], pred: impl Fn(u32) -> bool) -> usize {
 /// distance by this makes the ray/box test conservative (Ize, "Robust BVH
 /// Ray Traversal", JCGT 2013), so a box never hides a hit that the
 /// primitive test reports.
-pub const SLAB_FAR_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+pub const SLAB_FAR_SCALE: f32 =
+    1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
 /// The entry distance is compared against the best hit so far with this
 /// slack. Primitive routines compute t with their own rounding, which can
@@ -518,7 +597,9 @@ pub const BOX_T_PAD: f32 = 16.0 * (f32::EPSILON * 0.5);
 /// the traversal and for [`Bvh::admits`]; see [`BOX_T_PAD`]).
 #[inline]
 pub fn box_pad(root_min: Vec3, root_max: Vec3, ray: &Ray) -> f32 {
-    let reach = (root_max - ray.origin).max(ray.origin - root_min).max_element();
+    let reach = (root_max - ray.origin)
+        .max(ray.origin - root_min)
+        .max_element();
     BOX_T_PAD * reach / ray.direction.abs().max_element()
 }
 
@@ -531,7 +612,13 @@ pub fn box_pad(root_min: Vec3, root_max: Vec3, ray: &Ray) -> f32 {
 /// Intersection Algorithm", JGT 2005). Without the pad of
 /// [`intersect_aabb_padded`].
 #[inline]
-pub fn intersect_aabb(min: Vec3, max: Vec3, origin: Vec3, inv_dir: Vec3, t_max: f32) -> Option<f32> {
+pub fn intersect_aabb(
+    min: Vec3,
+    max: Vec3,
+    origin: Vec3,
+    inv_dir: Vec3,
+    t_max: f32,
+) -> Option<f32> {
     intersect_aabb_padded(min, max, origin, inv_dir, 0.0, t_max)
 }
 
@@ -544,11 +631,22 @@ pub fn intersect_aabb(min: Vec3, max: Vec3, origin: Vec3, inv_dir: Vec3, t_max: 
 /// one does, for the same ray, pad and `t_max`. [`Bvh::admits`] relies on
 /// exactly that.
 #[inline]
-pub fn intersect_aabb_padded(min: Vec3, max: Vec3, origin: Vec3, inv_dir: Vec3, pad: f32, t_max: f32) -> Option<f32> {
+pub fn intersect_aabb_padded(
+    min: Vec3,
+    max: Vec3,
+    origin: Vec3,
+    inv_dir: Vec3,
+    pad: f32,
+    t_max: f32,
+) -> Option<f32> {
     let mut t_near = 0.0f32;
     let mut t_far = t_max;
     for k in 0..3 {
-        let (lo, hi) = if inv_dir[k].is_sign_negative() { (max[k], min[k]) } else { (min[k], max[k]) };
+        let (lo, hi) = if inv_dir[k].is_sign_negative() {
+            (max[k], min[k])
+        } else {
+            (min[k], max[k])
+        };
         let near = (lo - origin[k]) * inv_dir[k];
         let far = (hi - origin[k]) * inv_dir[k] * SLAB_FAR_SCALE;
         // `f32::max`/`min` semantics (a NaN operand is dropped) written as
@@ -627,7 +725,8 @@ impl NodeSlabs {
             let mut t_near = Vec4::ZERO;
             let mut t_far = Vec4::splat(t_max);
             for k in 0..3 {
-                let (near_row, far_row) = (k + 3 * self.neg[k] as usize, k + 3 * !self.neg[k] as usize);
+                let (near_row, far_row) =
+                    (k + 3 * self.neg[k] as usize, k + 3 * !self.neg[k] as usize);
                 let lo = Vec4::from_slice(&n.bounds[near_row][c..c + 4]);
                 let hi = Vec4::from_slice(&n.bounds[far_row][c..c + 4]);
                 let near = (lo - self.origin4[k]) * self.inv_dir4[k];
@@ -673,7 +772,11 @@ pub trait Leaves {
 /// each up to [`Closest::limit`] as it stands then (for an override that
 /// takes some leaves this way).
 #[inline(always)]
-pub fn intersect_entries<L: Leaves + ?Sized>(leaves: &mut L, entries: std::ops::Range<usize>, closest: &mut Closest) {
+pub fn intersect_entries<L: Leaves + ?Sized>(
+    leaves: &mut L,
+    entries: std::ops::Range<usize>,
+    closest: &mut Closest,
+) {
     for entry in entries {
         if let Some(h) = leaves.intersect(entry, closest.limit()) {
             closest.offer(h);
@@ -718,7 +821,10 @@ impl Closest {
     /// No hit yet; hits must lie below `t_max`.
     #[inline(always)]
     pub fn new(t_max: f32) -> Self {
-        Closest { hit: None, t: t_max }
+        Closest {
+            hit: None,
+            t: t_max,
+        }
     }
 
     /// The best hit's t, or `t_max` while there is none: the bound of the
@@ -749,7 +855,10 @@ impl Closest {
     /// close with a smaller primitive id.
     #[inline(always)]
     pub fn offer(&mut self, h: Hit) {
-        if h.t < self.t || self.hit.is_some_and(|b| h.t == b.t && h.prim < b.prim) || self.hit.is_none() {
+        if h.t < self.t
+            || self.hit.is_some_and(|b| h.t == b.t && h.prim < b.prim)
+            || self.hit.is_none()
+        {
             self.t = h.t;
             self.hit = Some(h);
         }
@@ -845,9 +954,15 @@ impl Bvh {
     fn assemble(nodes: Vec<BvhNode>, prim_order: Vec<u32>, batched: &[bool]) -> Bvh {
         for (i, n) in nodes.iter().enumerate() {
             if n.is_leaf() {
-                assert!(n.index as usize + n.count() as usize <= prim_order.len(), "leaf {i} runs past the primitive order");
+                assert!(
+                    n.index as usize + n.count() as usize <= prim_order.len(),
+                    "leaf {i} runs past the primitive order"
+                );
             } else {
-                assert!(i + 1 < nodes.len() && (n.index as usize) < nodes.len(), "interior node {i} has a child out of range");
+                assert!(
+                    i + 1 < nodes.len() && (n.index as usize) < nodes.len(),
+                    "interior node {i} has a child out of range"
+                );
             }
         }
         let (mut wide, mut leaf_ranges) = (Vec::new(), Vec::new());
@@ -858,13 +973,25 @@ impl Bvh {
                 leaf_ranges.push([root.index, root.count()]);
                 0
             } else {
-                let (child, need) = collapse(&nodes, &CollapsePlan::new(&nodes, &prim_order, batched), 0, &mut wide, &mut leaf_ranges);
+                let (child, need) = collapse(
+                    &nodes,
+                    &CollapsePlan::new(&nodes, &prim_order, batched),
+                    0,
+                    &mut wide,
+                    &mut leaf_ranges,
+                );
                 stack_need = need;
                 child
             };
             wide[0].set(0, root, child);
         }
-        Bvh { nodes, prim_order, wide, leaf_ranges, stack_need }
+        Bvh {
+            nodes,
+            prim_order,
+            wide,
+            leaf_ranges,
+            stack_need,
+        }
     }
 
     /// The leaves the CPU traversal tests, as `(first entry, count)`: the
@@ -872,7 +999,9 @@ impl Bvh {
     /// leaf ([`CollapsePlan`]). Each is what one
     /// [`Leaves::intersect_leaf`] call gets.
     pub fn leaves(&self) -> impl ExactSizeIterator<Item = std::ops::Range<usize>> + '_ {
-        self.leaf_ranges.iter().map(|&[first, count]| first as usize..(first + count) as usize)
+        self.leaf_ranges
+            .iter()
+            .map(|&[first, count]| first as usize..(first + count) as usize)
     }
 
     /// The node array: what the GPU uploads and [`Bvh`]'s layout describes.
@@ -886,8 +1015,16 @@ impl Bvh {
     }
 
     fn stats(&self) -> BvhBuildStats {
-        let root_area = self.nodes.first().map_or(0.0, |n| n.bounds().surface_area()).max(f32::MIN_POSITIVE);
-        let mut s = BvhBuildStats { primitives: self.prim_order.len(), nodes: self.nodes.len(), ..Default::default() };
+        let root_area = self
+            .nodes
+            .first()
+            .map_or(0.0, |n| n.bounds().surface_area())
+            .max(f32::MIN_POSITIVE);
+        let mut s = BvhBuildStats {
+            primitives: self.prim_order.len(),
+            nodes: self.nodes.len(),
+            ..Default::default()
+        };
         let mut cost = 0.0f64;
         for n in &self.nodes {
             let rel = (n.bounds().surface_area() / root_area) as f64;
@@ -921,9 +1058,19 @@ impl Bvh {
     /// the edge of its box), that is where hit or miss is within rounding.
     #[inline]
     pub fn admits(&self, bounds: Aabb, ray: &Ray, t: f32) -> bool {
-        let Some(root) = self.nodes.first() else { return false };
+        let Some(root) = self.nodes.first() else {
+            return false;
+        };
         let pad = box_pad(Vec3::from(root.min), Vec3::from(root.max), ray);
-        intersect_aabb_padded(bounds.min, bounds.max, ray.origin, ray.direction.recip(), pad, t).is_some()
+        intersect_aabb_padded(
+            bounds.min,
+            bounds.max,
+            ray.origin,
+            ray.direction.recip(),
+            pad,
+            t,
+        )
+        .is_some()
     }
 
     /// Closest hit: `leaves.intersect(i, t_max)` tests primitive
@@ -939,13 +1086,24 @@ impl Bvh {
         if self.stack_need <= INLINE_STACK {
             self.walk(ray, t_max, &mut [Deferred::default(); INLINE_STACK], leaves)
         } else {
-            self.walk(ray, t_max, &mut vec![Deferred::default(); self.stack_need], leaves)
+            self.walk(
+                ray,
+                t_max,
+                &mut vec![Deferred::default(); self.stack_need],
+                leaves,
+            )
         }
     }
 
     /// [`Bvh::intersect`] with a stack of at least `stack_need` entries.
     #[inline(always)]
-    fn walk(&self, ray: &Ray, t_max: f32, stack: &mut [Deferred], mut leaves: impl Leaves) -> Option<Hit> {
+    fn walk(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        stack: &mut [Deferred],
+        mut leaves: impl Leaves,
+    ) -> Option<Hit> {
         let mut closest = Closest::new(t_max);
         if self.nodes.is_empty() {
             return None;
@@ -959,7 +1117,13 @@ impl Bvh {
         let (mut child, mut meta) = (self.wide[0].child[0], self.wide[0].meta[0]);
         loop {
             if meta & 3 == BvhNode::LEAF {
-                leaves.intersect_leaf(LeafRef { index: child as usize, ranges: &self.leaf_ranges }, &mut closest);
+                leaves.intersect_leaf(
+                    LeafRef {
+                        index: child as usize,
+                        ranges: &self.leaf_ranges,
+                    },
+                    &mut closest,
+                );
             } else {
                 let node = &self.wide[child as usize];
                 let (t_near, mask) = slabs.test_wide(node, closest.t());
@@ -967,7 +1131,11 @@ impl Bvh {
                 // lets the compiler drop the bounds checks.
                 let lane = |l: u32| {
                     let l = l as usize & (WIDTH - 1);
-                    Deferred { child: node.child[l], meta: node.meta[l], t: t_near[l] }
+                    Deferred {
+                        child: node.child[l],
+                        meta: node.meta[l],
+                        t: t_near[l],
+                    }
                 };
                 // The hit lanes past the first (bit tricks rather than
                 // `count_ones`, which is a dozen instructions without POPCNT
@@ -982,7 +1150,10 @@ impl Bvh {
                         let l = bits.trailing_zeros() as usize & (WIDTH - 1);
                         bits &= bits - 1;
                         if node.meta[l] & 3 == BvhNode::LEAF {
-                            leaves.prefetch(LeafRef { index: node.child[l] as usize, ranges: &self.leaf_ranges });
+                            leaves.prefetch(LeafRef {
+                                index: node.child[l] as usize,
+                                ranges: &self.leaf_ranges,
+                            });
                         } else {
                             prefetch(&self.wide[node.child[l] as usize]);
                         }
@@ -1071,8 +1242,15 @@ mod tests {
     fn boxes(n: usize) -> Vec<Aabb> {
         (0..n)
             .map(|i| {
-                let c = Vec3::new((i * 37 % 101) as f32, (i * 53 % 97) as f32, (i * 11 % 89) as f32);
-                Aabb { min: c, max: c + Vec3::splat(0.5 + (i % 3) as f32) }
+                let c = Vec3::new(
+                    (i * 37 % 101) as f32,
+                    (i * 53 % 97) as f32,
+                    (i * 11 % 89) as f32,
+                );
+                Aabb {
+                    min: c,
+                    max: c + Vec3::splat(0.5 + (i % 3) as f32),
+                }
             })
             .collect()
     }
@@ -1086,10 +1264,21 @@ mod tests {
             assert!(depth < BVH_STACK_SIZE);
             let n = &bvh.nodes[i];
             let b = if n.is_leaf() {
-                assert!(n.count() as usize <= MAX_LEAF_SIZE || bounds.len() <= MAX_LEAF_SIZE || n.count() > 0);
-                bvh.prim_order[n.index as usize..(n.index + n.count()) as usize].iter().fold(Aabb::EMPTY, |a, &p| a.union(bounds[p as usize]))
+                assert!(
+                    n.count() as usize <= MAX_LEAF_SIZE
+                        || bounds.len() <= MAX_LEAF_SIZE
+                        || n.count() > 0
+                );
+                bvh.prim_order[n.index as usize..(n.index + n.count()) as usize]
+                    .iter()
+                    .fold(Aabb::EMPTY, |a, &p| a.union(bounds[p as usize]))
             } else {
-                walk(bvh, bounds, i + 1, depth + 1).union(walk(bvh, bounds, n.index as usize, depth + 1))
+                walk(bvh, bounds, i + 1, depth + 1).union(walk(
+                    bvh,
+                    bounds,
+                    n.index as usize,
+                    depth + 1,
+                ))
             };
             assert_eq!(b, n.bounds(), "node {i} bounds are not tight");
             b
@@ -1110,7 +1299,13 @@ mod tests {
 
     #[test]
     fn coincident_centroids_still_split_into_small_leaves() {
-        let b = vec![Aabb { min: Vec3::ZERO, max: Vec3::ONE }; 1000];
+        let b = vec![
+            Aabb {
+                min: Vec3::ZERO,
+                max: Vec3::ONE
+            };
+            1000
+        ];
         let (bvh, stats) = Bvh::build(&b);
         check_tree(&bvh, &b);
         assert!(stats.max_leaf_size as usize <= MAX_LEAF_SIZE);
@@ -1152,8 +1347,16 @@ mod tests {
                 }
             }
             let snap = case % 3 == 0; // integer coordinates: rays on slab planes
-            let origin = Vec3::new(pick(&mut next, snap), pick(&mut next, snap), pick(&mut next, snap));
-            let mut dir = Vec3::new(pick(&mut next, false), pick(&mut next, false), pick(&mut next, false));
+            let origin = Vec3::new(
+                pick(&mut next, snap),
+                pick(&mut next, snap),
+                pick(&mut next, snap),
+            );
+            let mut dir = Vec3::new(
+                pick(&mut next, false),
+                pick(&mut next, false),
+                pick(&mut next, false),
+            );
             if case % 4 == 0 {
                 dir[case % 3] = 0.0;
             }
@@ -1167,15 +1370,38 @@ mod tests {
             let mut lanes = [BvhNode::zeroed(); WIDTH];
             let used = 1 + case % WIDTH;
             for (l, lane) in lanes.iter_mut().enumerate().take(used) {
-                let a = Vec3::new(pick(&mut next, snap), pick(&mut next, snap), pick(&mut next, snap));
-                let b = Vec3::new(pick(&mut next, snap), pick(&mut next, snap), pick(&mut next, snap));
-                *lane = node_from(Aabb { min: a.min(b), max: a.max(b) }, 0, BvhNode::LEAF);
+                let a = Vec3::new(
+                    pick(&mut next, snap),
+                    pick(&mut next, snap),
+                    pick(&mut next, snap),
+                );
+                let b = Vec3::new(
+                    pick(&mut next, snap),
+                    pick(&mut next, snap),
+                    pick(&mut next, snap),
+                );
+                *lane = node_from(
+                    Aabb {
+                        min: a.min(b),
+                        max: a.max(b),
+                    },
+                    0,
+                    BvhNode::LEAF,
+                );
                 w.set(l, lane, 0);
             }
-            let t_max = if case % 5 == 0 { f32::INFINITY } else { next() * 10.0 };
+            let t_max = if case % 5 == 0 {
+                f32::INFINITY
+            } else {
+                next() * 10.0
+            };
             let (t4, mask) = slabs.test_wide(&w, t_max);
             for (l, lane) in lanes.iter().enumerate() {
-                let one = if l < used { slabs.test(lane, t_max) } else { None };
+                let one = if l < used {
+                    slabs.test(lane, t_max)
+                } else {
+                    None
+                };
                 assert_eq!(mask >> l & 1 == 1, one.is_some(), "case {case} lane {l}");
                 if let Some(t) = one {
                     assert_eq!(t4[l].to_bits(), t.to_bits(), "case {case} lane {l}");
@@ -1194,10 +1420,22 @@ mod tests {
     fn closest_sees_ties_at_every_t() {
         for t in [-1.0f32, -f32::MIN_POSITIVE, -0.0, 0.0, 1e-30, 2.5, f32::MAX] {
             let mut c = Closest::new(f32::INFINITY);
-            c.offer(Hit { t, prim: 5, uv: glam::Vec2::ZERO });
+            c.offer(Hit {
+                t,
+                prim: 5,
+                uv: glam::Vec2::ZERO,
+            });
             assert!(t < c.limit(), "{t}: the limit {} cuts off a tie", c.limit());
-            c.offer(Hit { t, prim: 3, uv: glam::Vec2::ZERO });
-            c.offer(Hit { t, prim: 4, uv: glam::Vec2::ZERO });
+            c.offer(Hit {
+                t,
+                prim: 3,
+                uv: glam::Vec2::ZERO,
+            });
+            c.offer(Hit {
+                t,
+                prim: 4,
+                uv: glam::Vec2::ZERO,
+            });
             assert_eq!(c.hit().map(|h| h.prim), Some(3), "{t}");
         }
     }
@@ -1211,7 +1449,10 @@ mod tests {
     #[test]
     fn stack_need_bounds_the_deferred_subtrees() {
         let mut next = uniform(0x853c_49e6_748f_ea9b);
-        let unit = Aabb { min: Vec3::ZERO, max: Vec3::ONE };
+        let unit = Aabb {
+            min: Vec3::ZERO,
+            max: Vec3::ONE,
+        };
         let legs = 200;
         let mut nodes = Vec::new();
         for i in 0..legs - 1 {
@@ -1220,7 +1461,11 @@ mod tests {
         }
         nodes.push(node_from(unit, legs - 1, 1 << 2 | BvhNode::LEAF));
         let caterpillar = Bvh::from_parts(nodes, (0..legs).collect());
-        assert!(caterpillar.stack_need > INLINE_STACK, "the caterpillar needs only {}", caterpillar.stack_need);
+        assert!(
+            caterpillar.stack_need > INLINE_STACK,
+            "the caterpillar needs only {}",
+            caterpillar.stack_need
+        );
         let batched = Bvh::build_batched(&boxes(20_000), &[true; 20_000]).0;
         let trees = [
             ("1000 boxes", Bvh::build(&boxes(1000)).0),
@@ -1232,12 +1477,18 @@ mod tests {
             if *name != "caterpillar" {
                 // Measured: 28, 44 and 39 (24 and 36 with the greedy
                 // collapse).
-                assert!(bvh.stack_need <= INLINE_STACK, "{name}: needs {}", bvh.stack_need);
+                assert!(
+                    bvh.stack_need <= INLINE_STACK,
+                    "{name}: needs {}",
+                    bvh.stack_need
+                );
             }
             let bounds = bvh.nodes[0].bounds();
             let mut entries = 0;
             for _ in 0..20_000 {
-                let inside = |next: &mut dyn FnMut() -> f32| bounds.min + (bounds.max - bounds.min) * Vec3::new(next(), next(), next());
+                let inside = |next: &mut dyn FnMut() -> f32| {
+                    bounds.min + (bounds.max - bounds.min) * Vec3::new(next(), next(), next())
+                };
                 let origin = inside(&mut next);
                 let ray = Ray::new(origin, inside(&mut next) - origin);
                 let mut stack = vec![Deferred::default(); bvh.stack_need];
@@ -1245,11 +1496,16 @@ mod tests {
                     entries += 1;
                     None
                 });
-                assert!(none.is_none() && bvh.intersect(&ray, f32::INFINITY, |_, _| None).is_none());
+                assert!(
+                    none.is_none() && bvh.intersect(&ray, f32::INFINITY, |_, _| None).is_none()
+                );
             }
             // Provenance: 8,553, 238,412 and 4,000,000 on the first run;
             // the bound only checks that the rays go through the trees.
-            assert!(entries > 5_000, "{name}: the rays reached only {entries} primitive entries");
+            assert!(
+                entries > 5_000,
+                "{name}: the rays reached only {entries} primitive entries"
+            );
         }
     }
 
@@ -1264,40 +1520,73 @@ mod tests {
         for count in [1, 3, 7, 1000] {
             let b = boxes(count);
             let every_third: Vec<bool> = (0..count).map(|i| i % 3 != 0).collect();
-            for (name, batched) in [("none", vec![]), ("all", vec![true; count]), ("two in three", every_third)] {
+            for (name, batched) in [
+                ("none", vec![]),
+                ("all", vec![true; count]),
+                ("two in three", every_third),
+            ] {
                 let (bvh, _) = Bvh::build_batched(&b, &batched);
-                let (mut ranges, mut seen, mut merged) = (Vec::new(), vec![false; bvh.leaf_ranges.len()], 0);
+                let (mut ranges, mut seen, mut merged) =
+                    (Vec::new(), vec![false; bvh.leaf_ranges.len()], 0);
                 let mut todo = vec![(0usize, 0usize)];
                 while let Some((w, lane)) = todo.pop() {
                     let c = bvh.wide[w].lane(lane);
                     let same_box = |n: &&BvhNode| (n.min, n.max) == (c.min, c.max);
                     if c.is_leaf() {
                         let [first, n] = bvh.leaf_ranges[c.index as usize];
-                        assert!(!std::mem::replace(&mut seen[c.index as usize], true), "leaf {} twice", c.index);
+                        assert!(
+                            !std::mem::replace(&mut seen[c.index as usize], true),
+                            "leaf {} twice",
+                            c.index
+                        );
                         assert_eq!(c.count(), n);
-                        let is_binary_leaf = bvh.nodes.iter().filter(same_box).any(|b| b.is_leaf() && (b.index, b.count()) == (first, n));
+                        let is_binary_leaf = bvh
+                            .nodes
+                            .iter()
+                            .filter(same_box)
+                            .any(|b| b.is_leaf() && (b.index, b.count()) == (first, n));
                         if !is_binary_leaf {
                             let entries = first as usize..(first + n) as usize;
-                            let all_batched = bvh.prim_order[entries].iter().all(|&p| batched.get(p as usize) == Some(&true));
-                            let subtree =
-                                bvh.nodes.iter().enumerate().filter(|(_, b)| same_box(b) && !b.is_leaf()).any(|(i, _)| leaf_span(&bvh.nodes, i) == (first, n));
-                            assert!(all_batched && n as usize <= LEAF_BATCH && subtree, "{name}: leaf lane {w}/{lane} is no binary leaf or batched subtree");
+                            let all_batched = bvh.prim_order[entries]
+                                .iter()
+                                .all(|&p| batched.get(p as usize) == Some(&true));
+                            let subtree = bvh
+                                .nodes
+                                .iter()
+                                .enumerate()
+                                .filter(|(_, b)| same_box(b) && !b.is_leaf())
+                                .any(|(i, _)| leaf_span(&bvh.nodes, i) == (first, n));
+                            assert!(
+                                all_batched && n as usize <= LEAF_BATCH && subtree,
+                                "{name}: leaf lane {w}/{lane} is no binary leaf or batched subtree"
+                            );
                             merged += 1;
                         }
                         ranges.push((first, n));
                     } else {
-                        assert!(bvh.nodes.iter().any(|n| same_box(&n) && n.meta == c.meta), "wide lane {w}/{lane} is no binary node");
-                        let kids = (0..WIDTH).filter(|&l| bvh.wide[c.index as usize].meta[l] != WideNode::EMPTY).count();
+                        assert!(
+                            bvh.nodes.iter().any(|n| same_box(&n) && n.meta == c.meta),
+                            "wide lane {w}/{lane} is no binary node"
+                        );
+                        let kids = (0..WIDTH)
+                            .filter(|&l| bvh.wide[c.index as usize].meta[l] != WideNode::EMPTY)
+                            .count();
                         assert!(kids >= 2);
                         todo.extend((0..kids).map(|l| (c.index as usize, l)));
                     }
                 }
                 assert!(seen.iter().all(|&s| s), "{name}: a leaf no lane reaches");
-                assert!(bvh.leaves().eq(bvh.leaf_ranges.iter().map(|&[f, n]| f as usize..(f + n) as usize)));
+                assert!(bvh.leaves().eq(bvh
+                    .leaf_ranges
+                    .iter()
+                    .map(|&[f, n]| f as usize..(f + n) as usize)));
                 ranges.sort();
                 let mut next = 0;
                 for (first, n) in ranges {
-                    assert_eq!(first, next, "{name}, {count} boxes: the leaves do not tile the entries");
+                    assert_eq!(
+                        first, next,
+                        "{name}, {count} boxes: the leaves do not tile the entries"
+                    );
                     next += n;
                 }
                 assert_eq!(next as usize, count);
@@ -1318,7 +1607,10 @@ mod tests {
     fn wide_cost(bvh: &Bvh) -> f64 {
         let mut cost = 0.0;
         for w in &bvh.wide[1..] {
-            let lanes: Vec<BvhNode> = (0..WIDTH).filter(|&l| w.meta[l] != WideNode::EMPTY).map(|l| w.lane(l)).collect();
+            let lanes: Vec<BvhNode> = (0..WIDTH)
+                .filter(|&l| w.meta[l] != WideNode::EMPTY)
+                .map(|l| w.lane(l))
+                .collect();
             let union = lanes.iter().fold(Aabb::EMPTY, |b, n| b.union(n.bounds()));
             cost += (union.surface_area() * COLLAPSE_NODE_COST) as f64;
             for n in lanes.iter().filter(|n| n.is_leaf()) {
@@ -1334,14 +1626,23 @@ mod tests {
         let mut kids = vec![i + 1, nodes[i].index as usize];
         while kids.len() < WIDTH {
             let area = |k: usize| nodes[kids[k]].bounds().surface_area();
-            let Some(k) = (0..kids.len()).filter(|&k| !nodes[kids[k]].is_leaf()).max_by(|&a, &b| area(a).total_cmp(&area(b))) else { break };
+            let Some(k) = (0..kids.len())
+                .filter(|&k| !nodes[kids[k]].is_leaf())
+                .max_by(|&a, &b| area(a).total_cmp(&area(b)))
+            else {
+                break;
+            };
             let c = kids.remove(k);
             kids.splice(k..k, [c + 1, nodes[c].index as usize]);
         }
         let mut cost = (nodes[i].bounds().surface_area() * COLLAPSE_NODE_COST) as f64;
         for &c in &kids {
             let n = &nodes[c];
-            cost += if n.is_leaf() { (n.bounds().surface_area() * n.count() as f32 * COLLAPSE_PRIM_COST) as f64 } else { greedy_cost(nodes, c) };
+            cost += if n.is_leaf() {
+                (n.bounds().surface_area() * n.count() as f32 * COLLAPSE_PRIM_COST) as f64
+            } else {
+                greedy_cost(nodes, c)
+            };
         }
         cost
     }
@@ -1354,19 +1655,32 @@ mod tests {
         let scattered: Vec<Aabb> = (0..5000)
             .map(|_| {
                 let c = Vec3::new(next(), next(), next()) * 100.0;
-                Aabb { min: c, max: c + Vec3::new(next(), next(), next()) * 3.0 }
+                Aabb {
+                    min: c,
+                    max: c + Vec3::new(next(), next(), next()) * 3.0,
+                }
             })
             .collect();
-        for (name, b) in [("1000 boxes", boxes(1000)), ("20000 boxes", boxes(20_000)), ("5000 scattered", scattered)] {
+        for (name, b) in [
+            ("1000 boxes", boxes(1000)),
+            ("20000 boxes", boxes(20_000)),
+            ("5000 scattered", scattered),
+        ] {
             let (bvh, _) = Bvh::build(&b);
             let (planned, greedy) = (wide_cost(&bvh), greedy_cost(&bvh.nodes, 0));
-            let lanes =
-                bvh.wide[1..].iter().map(|w| w.meta.iter().filter(|&&m| m != WideNode::EMPTY).count()).sum::<usize>() as f64 / (bvh.wide.len() - 1) as f64;
+            let lanes = bvh.wide[1..]
+                .iter()
+                .map(|w| w.meta.iter().filter(|&&m| m != WideNode::EMPTY).count())
+                .sum::<usize>() as f64
+                / (bvh.wide.len() - 1) as f64;
             println!("{name}: planned cost {planned:.4e}, greedy {greedy:.4e}, {lanes:.2} lanes per wide node");
             // Strictly cheaper on each of these trees (measured: by 0.5 %,
             // 4.5 % and 0.8 %), far beyond the f32 rounding of the plan's
             // sums (~1e-6 relative).
-            assert!(planned < greedy, "{name}: planned {planned} is not below greedy {greedy}");
+            assert!(
+                planned < greedy,
+                "{name}: planned {planned} is not below greedy {greedy}"
+            );
         }
         let (small, _) = Bvh::build(&boxes(7));
         assert_eq!(small.wide.len(), 2, "seven boxes fit one wide node");

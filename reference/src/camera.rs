@@ -20,7 +20,14 @@ pub struct CameraSettings {
 
 impl Default for CameraSettings {
     fn default() -> Self {
-        Self { look_from: Vec3::new(0.0, 0.0, 1.0), look_at: Vec3::ZERO, up: Vec3::Y, vfov: 40.0, aperture: 0.0, focus_distance: 1.0 }
+        Self {
+            look_from: Vec3::new(0.0, 0.0, 1.0),
+            look_at: Vec3::ZERO,
+            up: Vec3::Y,
+            vfov: 40.0,
+            aperture: 0.0,
+            focus_distance: 1.0,
+        }
     }
 }
 
@@ -52,7 +59,15 @@ impl Camera {
         let horizontal = f * width * u;
         let vertical = -f * height * v;
         let upper_left = settings.look_from - 0.5 * horizontal - 0.5 * vertical - f * w;
-        Self { origin: settings.look_from, upper_left, horizontal, vertical, u, v, lens_radius: 0.5 * settings.aperture }
+        Self {
+            origin: settings.look_from,
+            upper_left,
+            horizontal,
+            vertical,
+            u,
+            v,
+            lens_radius: 0.5 * settings.aperture,
+        }
     }
 
     /// The ray through film position `film` (`[0,1]²`, (0,0) top-left),
@@ -74,7 +89,14 @@ mod tests {
 
     #[test]
     fn centre_ray_looks_at_target_and_fov_is_vertical() {
-        let s = CameraSettings { look_from: Vec3::new(0.0, 0.0, 5.0), look_at: Vec3::ZERO, up: Vec3::Y, vfov: 90.0, aperture: 0.0, focus_distance: 5.0 };
+        let s = CameraSettings {
+            look_from: Vec3::new(0.0, 0.0, 5.0),
+            look_at: Vec3::ZERO,
+            up: Vec3::Y,
+            vfov: 90.0,
+            aperture: 0.0,
+            focus_distance: 5.0,
+        };
         let cam = Camera::new(&s, 2.0);
         let r = cam.generate_ray(Vec2::splat(0.5), Vec2::splat(0.5));
         assert_relative_eq!(r.direction.z, -1.0, epsilon = 1e-6);
@@ -89,11 +111,22 @@ mod tests {
 
     #[test]
     fn thin_lens_rays_converge_on_the_focus_plane() {
-        let s = CameraSettings { look_from: Vec3::new(0.0, 0.0, 5.0), look_at: Vec3::ZERO, up: Vec3::Y, vfov: 40.0, aperture: 1.0, focus_distance: 3.0 };
+        let s = CameraSettings {
+            look_from: Vec3::new(0.0, 0.0, 5.0),
+            look_at: Vec3::ZERO,
+            up: Vec3::Y,
+            vfov: 40.0,
+            aperture: 1.0,
+            focus_distance: 3.0,
+        };
         let cam = Camera::new(&s, 1.0);
         let film = Vec2::new(0.3, 0.7);
         let mut focus_points = vec![];
-        for lens in [Vec2::new(0.1, 0.2), Vec2::new(0.9, 0.5), Vec2::new(0.5, 0.95)] {
+        for lens in [
+            Vec2::new(0.1, 0.2),
+            Vec2::new(0.9, 0.5),
+            Vec2::new(0.5, 0.95),
+        ] {
             let r = cam.generate_ray(film, lens);
             let t = (5.0 - 3.0 - r.origin.z) / r.direction.z;
             focus_points.push(r.at(t));

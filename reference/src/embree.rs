@@ -81,7 +81,10 @@ fn check(device: sys::RTCDevice, step: &'static str) -> Result<(), EmbreeError> 
     if code == sys::RTCError::NONE {
         Ok(())
     } else {
-        Err(EmbreeError { step, code: Some(code) })
+        Err(EmbreeError {
+            step,
+            code: Some(code),
+        })
     }
 }
 
@@ -102,15 +105,25 @@ impl EmbreeScene {
         // SAFETY: a null config string selects Embree's defaults.
         let device = unsafe { sys::rtcNewDevice(ptr::null()) };
         if device.is_null() {
-            return Err(EmbreeError { step: "rtcNewDevice", code: None });
+            return Err(EmbreeError {
+                step: "rtcNewDevice",
+                code: None,
+            });
         }
         // From here on `me` owns the device (and the scene) and releases them on error.
-        let mut me = EmbreeScene { device, scene: ptr::null_mut(), prim_ids: Vec::new() };
+        let mut me = EmbreeScene {
+            device,
+            scene: ptr::null_mut(),
+            prim_ids: Vec::new(),
+        };
         // SAFETY: `device` is live.
         me.scene = unsafe { sys::rtcNewScene(device) };
         check(device, "rtcNewScene")?;
         if me.scene.is_null() {
-            return Err(EmbreeError { step: "rtcNewScene", code: None });
+            return Err(EmbreeError {
+                step: "rtcNewScene",
+                code: None,
+            });
         }
         // SAFETY: `me.scene` is live and not yet committed.
         unsafe {
@@ -128,21 +141,44 @@ impl EmbreeScene {
             }
         }
         if !tris.is_empty() {
-            let vertices: Vec<[f32; 3]> = scene.mesh.positions.iter().map(|p| p.to_array()).collect();
-            let indices: Vec<[u32; 3]> = tris.iter().map(|&(_, i)| scene.triangles[i as usize].vertices).collect();
-            me.attach(sys::RTCGeometryType::TRIANGLE, sys::RTCFormat::FLOAT3, &vertices, sys::RTCFormat::UINT3, &indices)?;
+            let vertices: Vec<[f32; 3]> =
+                scene.mesh.positions.iter().map(|p| p.to_array()).collect();
+            let indices: Vec<[u32; 3]> = tris
+                .iter()
+                .map(|&(_, i)| scene.triangles[i as usize].vertices)
+                .collect();
+            me.attach(
+                sys::RTCGeometryType::TRIANGLE,
+                sys::RTCFormat::FLOAT3,
+                &vertices,
+                sys::RTCFormat::UINT3,
+                &indices,
+            )?;
             me.prim_ids.push(tris.iter().map(|&(id, _)| id).collect());
         }
         if !quads.is_empty() {
             let mut vertices: Vec<[f32; 3]> = Vec::with_capacity(4 * quads.len());
             for &(_, i) in &quads {
                 let q = &scene.quads[i as usize];
-                for v in [q.corner, q.corner + q.u, q.corner + q.u + q.v, q.corner + q.v] {
+                for v in [
+                    q.corner,
+                    q.corner + q.u,
+                    q.corner + q.u + q.v,
+                    q.corner + q.v,
+                ] {
                     vertices.push(v.to_array());
                 }
             }
-            let indices: Vec<[u32; 4]> = (0..quads.len() as u32).map(|k| [4 * k, 4 * k + 1, 4 * k + 2, 4 * k + 3]).collect();
-            me.attach(sys::RTCGeometryType::QUAD, sys::RTCFormat::FLOAT3, &vertices, sys::RTCFormat::UINT4, &indices)?;
+            let indices: Vec<[u32; 4]> = (0..quads.len() as u32)
+                .map(|k| [4 * k, 4 * k + 1, 4 * k + 2, 4 * k + 3])
+                .collect();
+            me.attach(
+                sys::RTCGeometryType::QUAD,
+                sys::RTCFormat::FLOAT3,
+                &vertices,
+                sys::RTCFormat::UINT4,
+                &indices,
+            )?;
             me.prim_ids.push(quads.iter().map(|&(id, _)| id).collect());
         }
         if !spheres.is_empty() {
@@ -153,8 +189,15 @@ impl EmbreeScene {
                     [s.center.x, s.center.y, s.center.z, s.radius.abs()]
                 })
                 .collect();
-            me.attach::<[f32; 4], [u32; 0]>(sys::RTCGeometryType::SPHERE_POINT, sys::RTCFormat::FLOAT4, &points, sys::RTCFormat::UNDEFINED, &[])?;
-            me.prim_ids.push(spheres.iter().map(|&(id, _)| id).collect());
+            me.attach::<[f32; 4], [u32; 0]>(
+                sys::RTCGeometryType::SPHERE_POINT,
+                sys::RTCFormat::FLOAT4,
+                &points,
+                sys::RTCFormat::UNDEFINED,
+                &[],
+            )?;
+            me.prim_ids
+                .push(spheres.iter().map(|&(id, _)| id).collect());
         }
         // SAFETY: every geometry is committed and attached.
         unsafe { sys::rtcCommitScene(me.scene) };
@@ -178,10 +221,24 @@ impl EmbreeScene {
         unsafe {
             let geometry = GeometryGuard(sys::rtcNewGeometry(self.device, kind));
             check(self.device, "rtcNewGeometry")?;
-            fill(geometry.0, sys::RTCBufferType::VERTEX, vertex_format, vertices).ok_or(EmbreeError { step: "vertex buffer", code: None })?;
+            fill(
+                geometry.0,
+                sys::RTCBufferType::VERTEX,
+                vertex_format,
+                vertices,
+            )
+            .ok_or(EmbreeError {
+                step: "vertex buffer",
+                code: None,
+            })?;
             check(self.device, "vertex buffer")?;
             if !indices.is_empty() {
-                fill(geometry.0, sys::RTCBufferType::INDEX, index_format, indices).ok_or(EmbreeError { step: "index buffer", code: None })?;
+                fill(geometry.0, sys::RTCBufferType::INDEX, index_format, indices).ok_or(
+                    EmbreeError {
+                        step: "index buffer",
+                        code: None,
+                    },
+                )?;
                 check(self.device, "index buffer")?;
             }
             sys::rtcCommitGeometry(geometry.0);
@@ -189,7 +246,10 @@ impl EmbreeScene {
             let id = sys::rtcAttachGeometry(self.scene, geometry.0);
             check(self.device, "rtcAttachGeometry")?;
             if id as usize != self.prim_ids.len() {
-                return Err(EmbreeError { step: "geometry ids out of order", code: None });
+                return Err(EmbreeError {
+                    step: "geometry ids out of order",
+                    code: None,
+                });
             }
         }
         Ok(())
@@ -210,7 +270,11 @@ impl EmbreeScene {
                 time: 0.0,
                 // The open interval (t_min, t_max); an infinite t_max stays
                 // infinite (Embree's "no limit").
-                tfar: if t_max == f32::INFINITY { t_max } else { next_down(t_max) },
+                tfar: if t_max == f32::INFINITY {
+                    t_max
+                } else {
+                    next_down(t_max)
+                },
                 mask: u32::MAX,
                 id: 0,
                 flags: 0,
@@ -234,7 +298,12 @@ impl EmbreeScene {
             return None;
         }
         let prim = self.prim_ids[h.geomID as usize][h.primID as usize];
-        Some(EmbreeHit { t: rayhit.ray.tfar, prim, uv: Vec2::new(h.u, h.v), ng: Vec3::new(h.Ng_x, h.Ng_y, h.Ng_z) })
+        Some(EmbreeHit {
+            t: rayhit.ray.tfar,
+            prim,
+            uv: Vec2::new(h.u, h.v),
+            ng: Vec3::new(h.Ng_x, h.Ng_y, h.Ng_z),
+        })
     }
 
     /// The library's version string, e.g. `4.4.0`.
@@ -249,12 +318,21 @@ impl EmbreeScene {
 ///
 /// # Safety
 /// `geometry` must be a live, uncommitted geometry handle.
-unsafe fn fill<T: Copy>(geometry: sys::RTCGeometry, kind: sys::RTCBufferType, format: sys::RTCFormat, items: &[T]) -> Option<()> {
+unsafe fn fill<T: Copy>(
+    geometry: sys::RTCGeometry,
+    kind: sys::RTCBufferType,
+    format: sys::RTCFormat,
+    items: &[T],
+) -> Option<()> {
     let dst = sys::rtcSetNewGeometryBuffer(geometry, kind, 0, format, size_of::<T>(), items.len());
     if dst.is_null() {
         return None;
     }
-    ptr::copy_nonoverlapping(items.as_ptr() as *const c_void as *const u8, dst as *mut u8, std::mem::size_of_val(items));
+    ptr::copy_nonoverlapping(
+        items.as_ptr() as *const c_void as *const u8,
+        dst as *mut u8,
+        std::mem::size_of_val(items),
+    );
     Some(())
 }
 
@@ -281,12 +359,26 @@ mod tests {
     fn one_of_each_shape_is_hit_with_reference_ids() {
         let mut b = SceneBuilder::new();
         let white = b.constant(Vec3::ONE).unwrap();
-        let m = b.add_material(Material::Lambertian { albedo: white }).unwrap();
+        let m = b
+            .add_material(Material::Lambertian { albedo: white })
+            .unwrap();
         let id = Transform::default();
-        b.add_sphere(Vec3::new(0.0, 0.0, -5.0), -1.0, m, &id).unwrap();
-        b.add_quad(Vec3::new(2.0, -1.0, -5.0), Vec3::X * 2.0, Vec3::Y * 2.0, m, &id).unwrap();
+        b.add_sphere(Vec3::new(0.0, 0.0, -5.0), -1.0, m, &id)
+            .unwrap();
+        b.add_quad(
+            Vec3::new(2.0, -1.0, -5.0),
+            Vec3::X * 2.0,
+            Vec3::Y * 2.0,
+            m,
+            &id,
+        )
+        .unwrap();
         let tri = crate::scene::MeshInput {
-            positions: vec![Vec3::new(-4.0, -1.0, -5.0), Vec3::new(-2.0, -1.0, -5.0), Vec3::new(-3.0, 1.0, -5.0)],
+            positions: vec![
+                Vec3::new(-4.0, -1.0, -5.0),
+                Vec3::new(-2.0, -1.0, -5.0),
+                Vec3::new(-3.0, 1.0, -5.0),
+            ],
             indices: vec![0, 1, 2],
             ..Default::default()
         };
@@ -296,10 +388,16 @@ mod tests {
         assert!(e.version().starts_with("4."), "{}", e.version());
         for (x, prim, t) in [(0.0, 0u32, 4.0f32), (3.0, 1, 5.0), (-3.0, 2, 5.0)] {
             let ray = Ray::new(Vec3::new(x, 0.0, 0.0), -Vec3::Z);
-            let h = e.intersect(&ray, 0.0, f32::INFINITY).unwrap_or_else(|| panic!("x = {x}: no hit"));
+            let h = e
+                .intersect(&ray, 0.0, f32::INFINITY)
+                .unwrap_or_else(|| panic!("x = {x}: no hit"));
             assert_eq!(h.prim, prim, "x = {x}");
             // Embree's t is within a few ulps of the exact answer (GPU.md: 0.99999994 for 1).
-            assert!((h.t - t).abs() <= 4.0 * f32::EPSILON * t, "x = {x}: t = {}", h.t);
+            assert!(
+                (h.t - t).abs() <= 4.0 * f32::EPSILON * t,
+                "x = {x}: t = {}",
+                h.t
+            );
         }
         // From inside the sphere: the far side.
         let inside = Ray::new(Vec3::new(0.0, 0.0, -5.0), Vec3::Z);
@@ -307,7 +405,15 @@ mod tests {
         assert_eq!(h.prim, 0);
         assert!((h.t - 1.0).abs() < 1e-5);
         // The open interval: a hit exactly at t_max is not reported.
-        assert!(e.intersect(&Ray::new(Vec3::new(3.0, 0.0, 0.0), -Vec3::Z), 0.0, 4.5).is_none());
-        assert!(e.intersect(&Ray::new(Vec3::new(9.0, 0.0, 0.0), -Vec3::Z), 0.0, f32::INFINITY).is_none());
+        assert!(e
+            .intersect(&Ray::new(Vec3::new(3.0, 0.0, 0.0), -Vec3::Z), 0.0, 4.5)
+            .is_none());
+        assert!(e
+            .intersect(
+                &Ray::new(Vec3::new(9.0, 0.0, 0.0), -Vec3::Z),
+                0.0,
+                f32::INFINITY
+            )
+            .is_none());
     }
 }

@@ -11,13 +11,22 @@ pub enum SceneError {
     Invalid { field: String, message: String },
     /// The document does not parse or does not match the format.
     #[error("{path}:{line}:{column}: {field}: {message}", path = path.display())]
-    Parse { path: PathBuf, line: usize, column: usize, field: String, message: String },
+    Parse {
+        path: PathBuf,
+        line: usize,
+        column: usize,
+        field: String,
+        message: String,
+    },
     /// A file the scene refers to (or the scene itself) cannot be read.
     #[error("{path}: {message}", path = path.display())]
     Io { path: PathBuf, message: String },
     /// A problem inside a scene file, with the file named.
     #[error("{path}: {source}", path = path.display())]
-    InFile { path: PathBuf, source: Box<SceneError> },
+    InFile {
+        path: PathBuf,
+        source: Box<SceneError>,
+    },
     /// A built-in scene name that does not exist.
     #[error("unknown built-in scene `{0}` (known: {known})", known = crate::builtin::NAMES.join(", "))]
     UnknownBuiltin(String),
@@ -25,15 +34,23 @@ pub enum SceneError {
 
 impl SceneError {
     pub fn invalid(field: &str, message: String) -> Self {
-        SceneError::Invalid { field: field.to_string(), message }
+        SceneError::Invalid {
+            field: field.to_string(),
+            message,
+        }
     }
 
     /// Prefixes the field path of an `Invalid` error (`radius` → `objects[3].radius`).
     pub fn within(self, prefix: &str) -> Self {
         match self {
-            SceneError::Invalid { field, message } => {
-                SceneError::Invalid { field: if field.is_empty() { prefix.to_string() } else { format!("{prefix}.{field}") }, message }
-            }
+            SceneError::Invalid { field, message } => SceneError::Invalid {
+                field: if field.is_empty() {
+                    prefix.to_string()
+                } else {
+                    format!("{prefix}.{field}")
+                },
+                message,
+            },
             other => other,
         }
     }
@@ -42,7 +59,10 @@ impl SceneError {
     pub fn in_file(self, path: impl Into<PathBuf>) -> Self {
         match self {
             e @ (SceneError::Parse { .. } | SceneError::Io { .. } | SceneError::InFile { .. }) => e,
-            e => SceneError::InFile { path: path.into(), source: Box::new(e) },
+            e => SceneError::InFile {
+                path: path.into(),
+                source: Box::new(e),
+            },
         }
     }
 }

@@ -28,7 +28,14 @@ pub fn ray_f64(ray: &Ray) -> (DVec3, DVec3) {
 
 /// Ray/sphere in f64, same semantics as `shapes::intersect_sphere`: the
 /// nearest root with `t_min < t < t_max`.
-pub fn intersect_sphere_f64(center: DVec3, radius: f64, o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> Option<f64> {
+pub fn intersect_sphere_f64(
+    center: DVec3,
+    radius: f64,
+    o: DVec3,
+    d: DVec3,
+    t_min: f64,
+    t_max: f64,
+) -> Option<f64> {
     let f = o - center;
     let a = d.length_squared();
     if a == 0.0 {
@@ -65,7 +72,15 @@ fn plane_crossing(p0: DVec3, n: DVec3, o: DVec3, d: DVec3) -> Option<(f64, DVec3
 /// Ray/triangle in f64: plane crossing, then barycentrics from sub-areas.
 /// Returns `(t, (b1, b2))`; points on an edge count as inside (the f64
 /// oracle need not be watertight: it measures, it does not decide).
-pub fn intersect_triangle_f64(p0: DVec3, p1: DVec3, p2: DVec3, o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> Option<(f64, DVec2)> {
+pub fn intersect_triangle_f64(
+    p0: DVec3,
+    p1: DVec3,
+    p2: DVec3,
+    o: DVec3,
+    d: DVec3,
+    t_min: f64,
+    t_max: f64,
+) -> Option<(f64, DVec2)> {
     let n = (p1 - p0).cross(p2 - p0);
     let nn = n.length_squared();
     if nn == 0.0 {
@@ -82,7 +97,15 @@ pub fn intersect_triangle_f64(p0: DVec3, p1: DVec3, p2: DVec3, o: DVec3, d: DVec
 }
 
 /// Ray/parallelogram `corner + s·u + t·v` in f64. Returns `(t, (s, t))`.
-pub fn intersect_quad_f64(corner: DVec3, u: DVec3, v: DVec3, o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> Option<(f64, DVec2)> {
+pub fn intersect_quad_f64(
+    corner: DVec3,
+    u: DVec3,
+    v: DVec3,
+    o: DVec3,
+    d: DVec3,
+    t_min: f64,
+    t_max: f64,
+) -> Option<(f64, DVec2)> {
     let n = u.cross(v);
     let nn = n.length_squared();
     if nn == 0.0 {
@@ -113,15 +136,25 @@ impl Shape64 {
         match p.tag {
             primitive_tag::SPHERE => {
                 let s = &scene.spheres[p.index as usize];
-                Shape64::Sphere { center: s.center.as_dvec3(), radius: s.radius.abs() as f64 }
+                Shape64::Sphere {
+                    center: s.center.as_dvec3(),
+                    radius: s.radius.abs() as f64,
+                }
             }
             primitive_tag::QUAD => {
                 let q = &scene.quads[p.index as usize];
-                Shape64::Quad { corner: q.corner.as_dvec3(), u: q.u.as_dvec3(), v: q.v.as_dvec3() }
+                Shape64::Quad {
+                    corner: q.corner.as_dvec3(),
+                    u: q.u.as_dvec3(),
+                    v: q.v.as_dvec3(),
+                }
             }
             _ => {
                 let t = &scene.triangles[p.index as usize];
-                Shape64::Triangle { p: t.vertices.map(|i| scene.mesh.positions[i as usize].as_dvec3()) }
+                Shape64::Triangle {
+                    p: t.vertices
+                        .map(|i| scene.mesh.positions[i as usize].as_dvec3()),
+                }
             }
         }
     }
@@ -130,9 +163,15 @@ impl Shape64 {
     pub fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<f64> {
         let (o, d) = ray_f64(ray);
         match *self {
-            Shape64::Sphere { center, radius } => intersect_sphere_f64(center, radius, o, d, t_min, t_max),
-            Shape64::Quad { corner, u, v } => intersect_quad_f64(corner, u, v, o, d, t_min, t_max).map(|h| h.0),
-            Shape64::Triangle { p } => intersect_triangle_f64(p[0], p[1], p[2], o, d, t_min, t_max).map(|h| h.0),
+            Shape64::Sphere { center, radius } => {
+                intersect_sphere_f64(center, radius, o, d, t_min, t_max)
+            }
+            Shape64::Quad { corner, u, v } => {
+                intersect_quad_f64(corner, u, v, o, d, t_min, t_max).map(|h| h.0)
+            }
+            Shape64::Triangle { p } => {
+                intersect_triangle_f64(p[0], p[1], p[2], o, d, t_min, t_max).map(|h| h.0)
+            }
         }
     }
 
@@ -145,14 +184,17 @@ impl Shape64 {
         let (o, d) = ray_f64(ray);
         match *self {
             Shape64::Sphere { center, radius } => {
-                let t0 = intersect_sphere_f64(center, radius, o, d, f64::NEG_INFINITY, f64::INFINITY)?;
+                let t0 =
+                    intersect_sphere_f64(center, radius, o, d, f64::NEG_INFINITY, f64::INFINITY)?;
                 match intersect_sphere_f64(center, radius, o, d, t0, f64::INFINITY) {
                     Some(t1) if (t1 - guess).abs() < (t0 - guess).abs() => Some(t1),
                     _ => Some(t0),
                 }
             }
             Shape64::Quad { corner, u, v } => plane_crossing(corner, u.cross(v), o, d).map(|h| h.0),
-            Shape64::Triangle { p } => plane_crossing(p[0], (p[1] - p[0]).cross(p[2] - p[0]), o, d).map(|h| h.0),
+            Shape64::Triangle { p } => {
+                plane_crossing(p[0], (p[1] - p[0]).cross(p[2] - p[0]), o, d).map(|h| h.0)
+            }
         }
     }
 
@@ -175,12 +217,18 @@ impl Shape64 {
     pub fn boundary_distance(&self, ray: &Ray) -> f64 {
         let (o, d) = ray_f64(ray);
         match *self {
-            Shape64::Sphere { center, radius } => (line_point_distance(o, d, center) - radius).abs(),
+            Shape64::Sphere { center, radius } => {
+                (line_point_distance(o, d, center) - radius).abs()
+            }
             Shape64::Quad { corner, u, v } => {
                 let c = [corner, corner + u, corner + u + v, corner + v];
-                (0..4).map(|i| line_segment_distance(o, d, c[i], c[(i + 1) % 4])).fold(f64::INFINITY, f64::min)
+                (0..4)
+                    .map(|i| line_segment_distance(o, d, c[i], c[(i + 1) % 4]))
+                    .fold(f64::INFINITY, f64::min)
             }
-            Shape64::Triangle { p } => (0..3).map(|i| line_segment_distance(o, d, p[i], p[(i + 1) % 3])).fold(f64::INFINITY, f64::min),
+            Shape64::Triangle { p } => (0..3)
+                .map(|i| line_segment_distance(o, d, p[i], p[(i + 1) % 3]))
+                .fold(f64::INFINITY, f64::min),
         }
     }
 
@@ -190,7 +238,10 @@ impl Shape64 {
     pub fn reach(&self, x: DVec3) -> f64 {
         match *self {
             Shape64::Sphere { center, radius } => (center - x).length() + radius,
-            Shape64::Quad { corner, u, v } => [corner, corner + u, corner + v, corner + u + v].iter().map(|c| (*c - x).length()).fold(0.0, f64::max),
+            Shape64::Quad { corner, u, v } => [corner, corner + u, corner + v, corner + u + v]
+                .iter()
+                .map(|c| (*c - x).length())
+                .fold(0.0, f64::max),
             Shape64::Triangle { p } => p.iter().map(|c| (*c - x).length()).fold(0.0, f64::max),
         }
     }
@@ -234,10 +285,20 @@ pub fn line_point_distance(o: DVec3, d: DVec3, c: DVec3) -> f64 {
 pub fn line_segment_distance(o: DVec3, d: DVec3, a: DVec3, b: DVec3) -> f64 {
     let dd = d.length_squared();
     // Project out the ray direction: the distance is then planar.
-    let project = |x: DVec3| if dd == 0.0 { x } else { x - (x.dot(d) / dd) * d };
+    let project = |x: DVec3| {
+        if dd == 0.0 {
+            x
+        } else {
+            x - (x.dot(d) / dd) * d
+        }
+    };
     let (pw, pu) = (project(a - o), project(b - a));
     let uu = pu.length_squared();
-    let r = if uu == 0.0 { 0.0 } else { (-pw.dot(pu) / uu).clamp(0.0, 1.0) };
+    let r = if uu == 0.0 {
+        0.0
+    } else {
+        (-pw.dot(pu) / uu).clamp(0.0, 1.0)
+    };
     (pw + r * pu).length()
 }
 
@@ -322,12 +383,25 @@ mod tests {
     #[test]
     fn f64_shapes_give_exact_answers() {
         let r = Ray::new(Vec3::new(0.0, 0.0, -5.0), Vec3::Z);
-        let s = Shape64::Sphere { center: DVec3::ZERO, radius: 1.0 };
+        let s = Shape64::Sphere {
+            center: DVec3::ZERO,
+            radius: 1.0,
+        };
         assert_eq!(s.intersect(&r, 0.0, f64::INFINITY), Some(4.0));
         assert_eq!(s.intersect(&r, 4.5, f64::INFINITY), Some(6.0));
-        let q = Shape64::Quad { corner: DVec3::new(-1.0, -1.0, 0.0), u: DVec3::X * 2.0, v: DVec3::Y * 2.0 };
+        let q = Shape64::Quad {
+            corner: DVec3::new(-1.0, -1.0, 0.0),
+            u: DVec3::X * 2.0,
+            v: DVec3::Y * 2.0,
+        };
         assert_eq!(q.intersect(&r, 0.0, f64::INFINITY), Some(5.0));
-        let t = Shape64::Triangle { p: [DVec3::new(-1.0, -1.0, 1.0), DVec3::new(1.0, -1.0, 1.0), DVec3::new(0.0, 1.0, 1.0)] };
+        let t = Shape64::Triangle {
+            p: [
+                DVec3::new(-1.0, -1.0, 1.0),
+                DVec3::new(1.0, -1.0, 1.0),
+                DVec3::new(0.0, 1.0, 1.0),
+            ],
+        };
         assert_eq!(t.intersect(&r, 0.0, f64::INFINITY), Some(6.0));
         // The ray through x = 0.5 passes 0.5 from the sphere's silhouette
         // and 0.5 from the quad's right edge.

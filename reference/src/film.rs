@@ -61,7 +61,11 @@ pub struct Film {
 
 impl Film {
     pub fn new(width: u32, height: u32) -> Self {
-        Self { width, height, pixels: vec![PixelStats::default(); (width * height) as usize] }
+        Self {
+            width,
+            height,
+            pixels: vec![PixelStats::default(); (width * height) as usize],
+        }
     }
 
     pub fn pixel(&self, x: u32, y: u32) -> &PixelStats {
@@ -75,7 +79,10 @@ impl Film {
 
     /// Variance of each pixel's mean (f32).
     pub fn variance(&self) -> Vec<Vec3> {
-        self.pixels.iter().map(|p| p.variance_of_mean().as_vec3()).collect()
+        self.pixels
+            .iter()
+            .map(|p| p.variance_of_mean().as_vec3())
+            .collect()
     }
 
     /// Total rejected (NaN/Inf) samples.

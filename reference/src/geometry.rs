@@ -98,7 +98,10 @@ pub struct Aabb {
 }
 
 impl Aabb {
-    pub const EMPTY: Aabb = Aabb { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) };
+    pub const EMPTY: Aabb = Aabb {
+        min: Vec3::splat(f32::INFINITY),
+        max: Vec3::splat(f32::NEG_INFINITY),
+    };
 
     #[inline]
     pub fn from_points(points: &[Vec3]) -> Self {
@@ -107,12 +110,18 @@ impl Aabb {
 
     #[inline]
     pub fn grow(self, p: Vec3) -> Self {
-        Self { min: self.min.min(p), max: self.max.max(p) }
+        Self {
+            min: self.min.min(p),
+            max: self.max.max(p),
+        }
     }
 
     #[inline]
     pub fn union(self, o: Aabb) -> Self {
-        Self { min: self.min.min(o.min), max: self.max.max(o.max) }
+        Self {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
     }
 
     pub fn is_empty(&self) -> bool {
@@ -186,8 +195,13 @@ pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
     let mut out = [0.0f32; 3];
     for k in 0..3 {
         let bits = pa[k].to_bits() as i32;
-        let stepped = f32::from_bits(bits.wrapping_add(if pa[k] < 0.0 { -of_i[k] } else { of_i[k] }) as u32);
-        out[k] = if pa[k].abs() < ORIGIN { pa[k] + FLOAT_SCALE * na[k] } else { stepped };
+        let stepped =
+            f32::from_bits(bits.wrapping_add(if pa[k] < 0.0 { -of_i[k] } else { of_i[k] }) as u32);
+        out[k] = if pa[k].abs() < ORIGIN {
+            pa[k] + FLOAT_SCALE * na[k]
+        } else {
+            stepped
+        };
     }
     Vec3::from_array(out)
 }
@@ -239,12 +253,30 @@ mod tests {
 
     #[test]
     fn float_steps_match_the_ieee_successor() {
-        for x in [0.0f32, -0.0, 1.0, -1.0, 0.5, -2.0, f32::MIN_POSITIVE, -f32::MIN_POSITIVE, 1e-45, -1e-45, f32::MAX, f32::MIN, 3.7e12, -4.173655] {
+        for x in [
+            0.0f32,
+            -0.0,
+            1.0,
+            -1.0,
+            0.5,
+            -2.0,
+            f32::MIN_POSITIVE,
+            -f32::MIN_POSITIVE,
+            1e-45,
+            -1e-45,
+            f32::MAX,
+            f32::MIN,
+            3.7e12,
+            -4.173655,
+        ] {
             let (up, down) = (next_up(x), next_down(x));
             assert!(up > x && down < x, "{x}: {down} {up}");
             // Nothing lies strictly between (f64 holds every f32 exactly).
             let mid_up = (x as f64 + up as f64) / 2.0;
-            assert!(mid_up as f32 == x || mid_up as f32 == up, "{x} -> {up} skips a float");
+            assert!(
+                mid_up as f32 == x || mid_up as f32 == up,
+                "{x} -> {up} skips a float"
+            );
             assert_eq!(next_down(up), if x == 0.0 { 0.0 } else { x });
             assert_eq!(next_up(down), if x == 0.0 { 0.0 } else { x });
         }
@@ -265,7 +297,9 @@ mod tests {
             let f = Onb::from_normal(n);
             assert_relative_eq!(f.s.length(), 1.0, epsilon = 1e-5);
             assert_relative_eq!(f.t.length(), 1.0, epsilon = 1e-5);
-            assert!(f.s.dot(f.t).abs() < 1e-5 && f.s.dot(n).abs() < 1e-5 && f.t.dot(n).abs() < 1e-5);
+            assert!(
+                f.s.dot(f.t).abs() < 1e-5 && f.s.dot(n).abs() < 1e-5 && f.t.dot(n).abs() < 1e-5
+            );
             let v = Vec3::new(0.3, -0.2, 0.9);
             assert_relative_eq!(f.to_local(f.to_world(v)).x, v.x, epsilon = 1e-5);
         }
@@ -278,7 +312,10 @@ mod tests {
             let p = Vec3::new(1.0, -2.0, 3.0) * scale;
             let q = offset_ray_origin(p, n);
             assert!((q - p).dot(n) > 0.0, "scale {scale}");
-            assert!((q - p).length() < 1e-3 * scale.max(1.0), "offset too big at scale {scale}");
+            assert!(
+                (q - p).length() < 1e-3 * scale.max(1.0),
+                "offset too big at scale {scale}"
+            );
         }
         let q = offset_ray_origin(Vec3::ZERO, n);
         assert!(q.dot(n) > 0.0);

@@ -23,13 +23,23 @@ pub const ROULETTE_MAX_SURVIVAL: f32 = 0.95;
 pub const TILE_SIZE: u32 = 16;
 
 /// Traces one path and returns its radiance estimate.
-pub fn trace_path(scene: &Scene, mut ray: Ray, settings: &RenderSettings, pixel: u32, sample: u32) -> Vec3 {
-    let ctx = TextureContext { textures: &scene.textures, images: &scene.images };
+pub fn trace_path(
+    scene: &Scene,
+    mut ray: Ray,
+    settings: &RenderSettings,
+    pixel: u32,
+    sample: u32,
+) -> Vec3 {
+    let ctx = TextureContext {
+        textures: &scene.textures,
+        images: &scene.images,
+    };
     let mut radiance = Vec3::ZERO;
     let mut throughput = Vec3::ONE;
     for segment in 0..settings.max_depth {
         let Some(hit) = scene.intersect(&ray, 0.0, f32::INFINITY) else {
-            radiance += throughput * evaluate_background(&scene.background, &scene.images, ray.direction);
+            radiance +=
+                throughput * evaluate_background(&scene.background, &scene.images, ray.direction);
             break;
         };
         let si = scene.surface_interaction(&ray, &hit);
@@ -42,7 +52,9 @@ pub fn trace_path(scene: &Scene, mut ray: Ray, settings: &RenderSettings, pixel:
         }
         radiance += throughput * emitted(material, ctx, &si);
         let u = vertex_randoms(settings.seed, pixel, sample, segment + 1);
-        let Some(s) = scatter(material, ctx, ray.direction, &si, &u) else { break };
+        let Some(s) = scatter(material, ctx, ray.direction, &si, &u) else {
+            break;
+        };
         throughput *= s.weight;
         if segment + 1 >= settings.roulette_depth {
             let q = throughput.max_element().min(ROULETTE_MAX_SURVIVAL);
@@ -51,7 +63,11 @@ pub fn trace_path(scene: &Scene, mut ray: Ray, settings: &RenderSettings, pixel:
             }
             throughput /= q;
         }
-        let side = if s.direction.dot(si.geometric_normal) >= 0.0 { si.geometric_normal } else { -si.geometric_normal };
+        let side = if s.direction.dot(si.geometric_normal) >= 0.0 {
+            si.geometric_normal
+        } else {
+            -si.geometric_normal
+        };
         ray = Ray::new(spawn_origin(si.p, side, si.p_error), s.direction);
     }
     radiance
@@ -59,10 +75,19 @@ pub fn trace_path(scene: &Scene, mut ray: Ray, settings: &RenderSettings, pixel:
 
 /// The camera ray of one sample.
 #[inline]
-pub fn camera_ray(camera: &crate::camera::Camera, settings: &RenderSettings, x: u32, y: u32, sample: u32) -> Ray {
+pub fn camera_ray(
+    camera: &crate::camera::Camera,
+    settings: &RenderSettings,
+    x: u32,
+    y: u32,
+    sample: u32,
+) -> Ray {
     let pixel = y * settings.width + x;
     let u = vertex_randoms(settings.seed, pixel, sample, 0);
-    let film = Vec2::new((x as f32 + u[dims::PIXEL_X]) / settings.width as f32, (y as f32 + u[dims::PIXEL_Y]) / settings.height as f32);
+    let film = Vec2::new(
+        (x as f32 + u[dims::PIXEL_X]) / settings.width as f32,
+        (y as f32 + u[dims::PIXEL_Y]) / settings.height as f32,
+    );
     camera.generate_ray(film, Vec2::new(u[dims::LENS_U], u[dims::LENS_V]))
 }
 

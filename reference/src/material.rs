@@ -27,7 +27,11 @@ pub enum Material {
     /// glTF metallic-roughness: Lambertian base weighted by `1 - F` and
     /// `1 - metallic`, plus GGX specular (height-correlated Smith G2,
     /// Schlick F with `F0 = lerp(0.04, base, metallic)`), `alpha = roughness²`.
-    Ggx { base_color: u32, metallic: f32, roughness: f32 },
+    Ggx {
+        base_color: u32,
+        metallic: f32,
+        roughness: f32,
+    },
 }
 
 /// Numeric tags of [`Material`], shared with the GPU.
@@ -89,21 +93,39 @@ pub fn emitted(material: &Material, ctx: TextureContext, si: &SurfaceInteraction
 
 /// Samples the continuation of a path arriving along `ray_dir` (unit) at
 /// `si`, reading the vertex's random slots `u`. `None`: absorbed.
-pub fn scatter(material: &Material, ctx: TextureContext, ray_dir: Vec3, si: &SurfaceInteraction, u: &[f32; 8]) -> Option<Scatter> {
+pub fn scatter(
+    material: &Material,
+    ctx: TextureContext,
+    ray_dir: Vec3,
+    si: &SurfaceInteraction,
+    u: &[f32; 8],
+) -> Option<Scatter> {
     // Shade both sides: work with the normals flipped to face the viewer.
-    let (n, ng) = if si.front_face { (si.shading_normal, si.geometric_normal) } else { (-si.shading_normal, -si.geometric_normal) };
+    let (n, ng) = if si.front_face {
+        (si.shading_normal, si.geometric_normal)
+    } else {
+        (-si.shading_normal, -si.geometric_normal)
+    };
     match *material {
         Material::Lambertian { albedo } => {
-            let local = sample_cosine_hemisphere(Vec2::new(u[dims::DIRECTION_U], u[dims::DIRECTION_V]));
-            Some(Scatter { direction: Onb::from_normal(n).to_world(local), weight: ctx.eval(albedo, si) })
+            let local =
+                sample_cosine_hemisphere(Vec2::new(u[dims::DIRECTION_U], u[dims::DIRECTION_V]));
+            Some(Scatter {
+                direction: Onb::from_normal(n).to_world(local),
+                weight: ctx.eval(albedo, si),
+            })
         }
         Material::Metal { albedo, fuzz } => {
-            let ball = sample_unit_ball(Vec3::new(u[dims::BALL_X], u[dims::BALL_Y], u[dims::BALL_Z]));
+            let ball =
+                sample_unit_ball(Vec3::new(u[dims::BALL_X], u[dims::BALL_Y], u[dims::BALL_Z]));
             let direction = reflect(ray_dir, n) + fuzz * ball;
             if direction.dot(ng) <= 0.0 {
                 return None;
             }
-            Some(Scatter { direction: direction.normalize(), weight: ctx.eval(albedo, si) })
+            Some(Scatter {
+                direction: direction.normalize(),
+                weight: ctx.eval(albedo, si),
+            })
         }
         Material::Dielectric { ior, .. } => {
             let eta = if si.front_face { 1.0 / ior } else { ior };
@@ -112,10 +134,17 @@ pub fn scatter(material: &Material, ctx: TextureContext, ray_dir: Vec3, si: &Sur
                 Some(t) if schlick_reflectance(cos_i, eta) <= u[dims::LOBE] => t.normalize(),
                 _ => reflect(ray_dir, n),
             };
-            Some(Scatter { direction, weight: Vec3::ONE })
+            Some(Scatter {
+                direction,
+                weight: Vec3::ONE,
+            })
         }
         Material::DiffuseLight { .. } => None,
-        Material::Ggx { base_color, metallic, roughness } => {
+        Material::Ggx {
+            base_color,
+            metallic,
+            roughness,
+        } => {
             let frame = Onb::from_normal(n);
             let wo = frame.to_local(-ray_dir);
             if wo.z <= 0.0 {
@@ -136,7 +165,10 @@ pub fn scatter(material: &Material, ctx: TextureContext, ray_dir: Vec3, si: &Sur
             if pdf <= 0.0 {
                 return None;
             }
-            Some(Scatter { direction: frame.to_world(wi), weight: lobes.eval(wo, wi) * wi.z / pdf })
+            Some(Scatter {
+                direction: frame.to_world(wi),
+                weight: lobes.eval(wo, wi) * wi.z / pdf,
+            })
         }
     }
 }
@@ -173,8 +205,18 @@ impl GgxLobes {
         let f_wo = fresnel_schlick(f0, wo.z);
         let spec = luminance(f_wo);
         let diff = luminance(base_color) * (1.0 - metallic) * (1.0 - spec);
-        let specular_probability = if diff <= 0.0 { 1.0 } else { (spec / (spec + diff)).clamp(0.05, 0.95) };
-        Self { base_color, metallic, alpha, f0, specular_probability }
+        let specular_probability = if diff <= 0.0 {
+            1.0
+        } else {
+            (spec / (spec + diff)).clamp(0.05, 0.95)
+        };
+        Self {
+            base_color,
+            metallic,
+            alpha,
+            f0,
+            specular_probability,
+        }
     }
 
     /// The BRDF `f(wo, wi)` (cosine not included).
@@ -213,11 +255,22 @@ mod tests {
     use approx::assert_relative_eq;
 
     fn si(front_face: bool) -> SurfaceInteraction {
-        SurfaceInteraction { p: Vec3::ZERO, geometric_normal: Vec3::Y, shading_normal: Vec3::Y, uv: Vec2::ZERO, p_error: 0.0, front_face, material: 0 }
+        SurfaceInteraction {
+            p: Vec3::ZERO,
+            geometric_normal: Vec3::Y,
+            shading_normal: Vec3::Y,
+            uv: Vec2::ZERO,
+            p_error: 0.0,
+            front_face,
+            material: 0,
+        }
     }
 
     fn ctx(textures: &[Texture]) -> TextureContext<'_> {
-        TextureContext { textures, images: &[] }
+        TextureContext {
+            textures,
+            images: &[],
+        }
     }
 
     fn randoms(i: u32) -> [f32; 8] {
@@ -242,31 +295,69 @@ mod tests {
     fn smooth_metal_is_a_mirror_and_fuzz_stays_above() {
         let tex = [Texture::Constant(Vec3::ONE)];
         let d = Vec3::new(1.0, -1.0, 0.0).normalize();
-        let s = scatter(&Material::Metal { albedo: 0, fuzz: 0.0 }, ctx(&tex), d, &si(true), &randoms(0)).unwrap();
+        let s = scatter(
+            &Material::Metal {
+                albedo: 0,
+                fuzz: 0.0,
+            },
+            ctx(&tex),
+            d,
+            &si(true),
+            &randoms(0),
+        )
+        .unwrap();
         assert_relative_eq!(s.direction.x, d.x, epsilon = 1e-6);
         assert_relative_eq!(s.direction.y, -d.y, epsilon = 1e-6);
         let mut absorbed = 0;
         for i in 0..1000 {
-            match scatter(&Material::Metal { albedo: 0, fuzz: 1.0 }, ctx(&tex), d, &si(true), &randoms(i)) {
-                Some(s) => assert!(s.direction.y > 0.0 && (s.direction.length() - 1.0).abs() < 1e-5),
+            match scatter(
+                &Material::Metal {
+                    albedo: 0,
+                    fuzz: 1.0,
+                },
+                ctx(&tex),
+                d,
+                &si(true),
+                &randoms(i),
+            ) {
+                Some(s) => {
+                    assert!(s.direction.y > 0.0 && (s.direction.length() - 1.0).abs() < 1e-5)
+                }
                 None => absorbed += 1,
             }
         }
-        assert!(absorbed > 0 && absorbed < 1000, "fuzz 1 at 45°: some but not all absorbed ({absorbed})");
+        assert!(
+            absorbed > 0 && absorbed < 1000,
+            "fuzz 1 at 45°: some but not all absorbed ({absorbed})"
+        );
     }
 
     #[test]
     fn dielectric_reflects_with_schlick_probability_and_tir() {
-        let m = Material::Dielectric { ior: 1.5, absorption: Vec3::ZERO };
+        let m = Material::Dielectric {
+            ior: 1.5,
+            absorption: Vec3::ZERO,
+        };
         // Normal incidence from outside: R = 0.04.
         let n = 20_000;
-        let reflected = (0..n).filter(|&i| scatter(&m, ctx(&[]), -Vec3::Y, &si(true), &randoms(i)).unwrap().direction.y > 0.0).count();
+        let reflected = (0..n)
+            .filter(|&i| {
+                scatter(&m, ctx(&[]), -Vec3::Y, &si(true), &randoms(i))
+                    .unwrap()
+                    .direction
+                    .y
+                    > 0.0
+            })
+            .count();
         assert_relative_eq!(reflected as f32 / n as f32, 0.04, epsilon = 0.006);
         // Inside at 60° from normal: sin θt = 1.5 · 0.866 > 1 → always reflect.
         let d = Vec3::new(0.866_025_4, 0.5, 0.0);
         for i in 0..100 {
             let s = scatter(&m, ctx(&[]), d, &si(false), &randoms(i)).unwrap();
-            assert!(s.direction.y < 0.0, "total internal reflection stays inside");
+            assert!(
+                s.direction.y < 0.0,
+                "total internal reflection stays inside"
+            );
         }
     }
 
@@ -283,7 +374,11 @@ mod tests {
     fn ggx_weight_matches_eval_cos_over_pdf_and_conserves_energy() {
         let tex = [Texture::Constant(Vec3::new(0.9, 0.5, 0.2))];
         for (metallic, roughness) in [(0.0, 0.5), (1.0, 0.3), (0.5, 0.8), (1.0, 0.0)] {
-            let m = Material::Ggx { base_color: 0, metallic, roughness };
+            let m = Material::Ggx {
+                base_color: 0,
+                metallic,
+                roughness,
+            };
             let d = Vec3::new(0.5, -1.0, 0.2).normalize();
             let n = 20_000;
             let mut mean = Vec3::ZERO;
@@ -291,7 +386,12 @@ mod tests {
                 if let Some(s) = scatter(&m, ctx(&tex), d, &si(true), &randoms(i)) {
                     assert!(s.weight.is_finite() && s.direction.y > 0.0);
                     let frame = Onb::from_normal(Vec3::Y);
-                    let lobes = GgxLobes::new(Vec3::new(0.9, 0.5, 0.2), metallic, roughness, frame.to_local(-d));
+                    let lobes = GgxLobes::new(
+                        Vec3::new(0.9, 0.5, 0.2),
+                        metallic,
+                        roughness,
+                        frame.to_local(-d),
+                    );
                     let (wo, wi) = (frame.to_local(-d), frame.to_local(s.direction));
                     let expect = lobes.eval(wo, wi) * wi.z / lobes.pdf(wo, wi);
                     assert_relative_eq!(s.weight.x, expect.x, max_relative = 1e-4);
@@ -300,7 +400,10 @@ mod tests {
             }
             // Directional albedo of a passive BRDF is at most 1 per channel.
             mean /= n as f32;
-            assert!(mean.max_element() <= 1.0 + 0.02, "metallic {metallic} roughness {roughness}: albedo {mean}");
+            assert!(
+                mean.max_element() <= 1.0 + 0.02,
+                "metallic {metallic} roughness {roughness}: albedo {mean}"
+            );
             assert!(mean.min_element() > 0.0);
         }
     }

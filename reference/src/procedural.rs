@@ -52,7 +52,12 @@ pub fn icosphere(subdivisions: u32) -> MeshInput {
         }
         triangles = finer;
     }
-    MeshInput { normals: Some(positions.clone()), positions, uvs: None, indices: triangles.into_iter().flatten().collect() }
+    MeshInput {
+        normals: Some(positions.clone()),
+        positions,
+        uvs: None,
+        indices: triangles.into_iter().flatten().collect(),
+    }
 }
 
 /// The 12 unit vertices and 20 outward-wound faces of a regular icosahedron.
@@ -68,7 +73,8 @@ fn icosahedron() -> (Vec<Vec3>, Vec<[u32; 3]>) {
         }
     }
     // Faces are the triples of mutually adjacent corners (edge length 2).
-    let adjacent = |i: usize, j: usize| (corners[i].distance_squared(corners[j]) - 4.0).abs() < 1e-3;
+    let adjacent =
+        |i: usize, j: usize| (corners[i].distance_squared(corners[j]) - 4.0).abs() < 1e-3;
     let mut faces = Vec::with_capacity(20);
     for i in 0..12 {
         for j in i + 1..12 {
@@ -76,7 +82,11 @@ fn icosahedron() -> (Vec<Vec3>, Vec<[u32; 3]>) {
                 if adjacent(i, j) && adjacent(j, k) && adjacent(i, k) {
                     let (a, b, c) = (corners[i], corners[j], corners[k]);
                     let outward = (b - a).cross(c - a).dot(a + b + c) > 0.0;
-                    faces.push(if outward { [i as u32, j as u32, k as u32] } else { [i as u32, k as u32, j as u32] });
+                    faces.push(if outward {
+                        [i as u32, j as u32, k as u32]
+                    } else {
+                        [i as u32, k as u32, j as u32]
+                    });
                 }
             }
         }
@@ -92,7 +102,10 @@ fn icosahedron() -> (Vec<Vec3>, Vec<[u32; 3]>) {
 /// ideal torus. With `minor >= major` the surface intersects itself (still
 /// closed and consistently wound).
 pub fn torus(major: f32, minor: f32, segments_major: u32, segments_minor: u32) -> MeshInput {
-    let (n, m) = (segments_major.clamp(3, MAX_TORUS_SEGMENTS), segments_minor.clamp(3, MAX_TORUS_SEGMENTS));
+    let (n, m) = (
+        segments_major.clamp(3, MAX_TORUS_SEGMENTS),
+        segments_minor.clamp(3, MAX_TORUS_SEGMENTS),
+    );
     let mut positions = Vec::with_capacity((n * m) as usize);
     let mut normals = Vec::with_capacity((n * m) as usize);
     for i in 0..n {
@@ -115,7 +128,12 @@ pub fn torus(major: f32, minor: f32, segments_major: u32, segments_minor: u32) -
             indices.extend([a, b, c, a, c, d]);
         }
     }
-    MeshInput { positions, normals: Some(normals), uvs: None, indices }
+    MeshInput {
+        positions,
+        normals: Some(normals),
+        uvs: None,
+        indices,
+    }
 }
 
 /// An icosphere displaced along its normals by `amplitude · f(p)`, where
@@ -126,7 +144,10 @@ pub fn torus(major: f32, minor: f32, segments_major: u32, segments_minor: u32) -
 pub fn bumpy_sphere(subdivisions: u32, amplitude: f32, frequency: f32) -> MeshInput {
     let mut mesh = icosphere(subdivisions);
     for p in &mut mesh.positions {
-        let bump = ((frequency * p.x + 1.3).sin() + (frequency * p.y + 2.1).sin() + (frequency * p.z + 0.7).sin()) / 3.0;
+        let bump = ((frequency * p.x + 1.3).sin()
+            + (frequency * p.y + 2.1).sin()
+            + (frequency * p.z + 0.7).sin())
+            / 3.0;
         *p *= 1.0 + amplitude * bump;
     }
     mesh.normals = Some(area_weighted_normals(&mesh.positions, &mesh.indices));
@@ -166,15 +187,26 @@ mod gl {
 /// arrays of the wrong length are `InvalidInput` errors.
 pub fn write_glb(path: &Path, mesh: &MeshInput) -> io::Result<()> {
     let bytes = glb_bytes(mesh)?;
-    let invalid = |m: &str| io::Error::new(io::ErrorKind::InvalidInput, format!("{}: {m}", path.display()));
-    let name = path.file_name().ok_or_else(|| invalid("the path has no file name"))?;
+    let invalid = |m: &str| {
+        io::Error::new(
+            io::ErrorKind::InvalidInput,
+            format!("{}: {m}", path.display()),
+        )
+    };
+    let name = path
+        .file_name()
+        .ok_or_else(|| invalid("the path has no file name"))?;
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
     static COUNTER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
     let unique = COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let tmp = dir.join(format!(".{}.{}-{unique}.tmp", name.to_string_lossy(), std::process::id()));
+    let tmp = dir.join(format!(
+        ".{}.{}-{unique}.tmp",
+        name.to_string_lossy(),
+        std::process::id()
+    ));
     let result = (|| {
         let mut file = std::fs::File::create(&tmp)?;
         file.write_all(&bytes)?;
@@ -193,15 +225,25 @@ pub fn glb_bytes(mesh: &MeshInput) -> io::Result<Vec<u8>> {
     let invalid = |m: String| io::Error::new(io::ErrorKind::InvalidInput, m);
     let n = mesh.positions.len();
     if n == 0 || mesh.indices.is_empty() || !mesh.indices.chunks_exact(3).remainder().is_empty() {
-        return Err(invalid(format!("a mesh needs vertices and whole triangles ({n} vertices, {} indices)", mesh.indices.len())));
+        return Err(invalid(format!(
+            "a mesh needs vertices and whole triangles ({n} vertices, {} indices)",
+            mesh.indices.len()
+        )));
     }
     if let Some(bad) = mesh.indices.iter().find(|&&i| i as usize >= n) {
-        return Err(invalid(format!("index {bad} is out of range for {n} vertices")));
+        return Err(invalid(format!(
+            "index {bad} is out of range for {n} vertices"
+        )));
     }
     if n > u32::MAX as usize {
-        return Err(invalid(format!("{n} vertices are too many for 32-bit indices")));
+        return Err(invalid(format!(
+            "{n} vertices are too many for 32-bit indices"
+        )));
     }
-    for (name, len) in [("normals", mesh.normals.as_ref().map(Vec::len)), ("uvs", mesh.uvs.as_ref().map(Vec::len))] {
+    for (name, len) in [
+        ("normals", mesh.normals.as_ref().map(Vec::len)),
+        ("uvs", mesh.uvs.as_ref().map(Vec::len)),
+    ] {
         if let Some(len) = len.filter(|&l| l != n) {
             return Err(invalid(format!("{len} {name} for {n} vertices")));
         }
@@ -220,24 +262,47 @@ pub fn glb_bytes(mesh: &MeshInput) -> io::Result<Vec<u8>> {
         bin.extend(data);
         views.len() - 1
     };
-    let floats = |values: &mut dyn Iterator<Item = f32>| -> Vec<u8> { values.flat_map(f32::to_le_bytes).collect() };
+    let floats = |values: &mut dyn Iterator<Item = f32>| -> Vec<u8> {
+        values.flat_map(f32::to_le_bytes).collect()
+    };
 
-    let (min, max) = mesh.positions.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
-    let view = add_view(&mut bin, floats(&mut mesh.positions.iter().flat_map(|p| p.to_array())), gl::ARRAY_BUFFER);
+    let (min, max) = mesh
+        .positions
+        .iter()
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| {
+            (lo.min(p), hi.max(p))
+        });
+    let view = add_view(
+        &mut bin,
+        floats(&mut mesh.positions.iter().flat_map(|p| p.to_array())),
+        gl::ARRAY_BUFFER,
+    );
     accessors
         .push(serde_json::json!({ "bufferView": view, "componentType": gl::FLOAT, "count": n, "type": "VEC3", "min": min.to_array(), "max": max.to_array() }));
     attributes.insert("POSITION".into(), (accessors.len() - 1).into());
     if let Some(normals) = &mesh.normals {
-        let view = add_view(&mut bin, floats(&mut normals.iter().flat_map(|v| v.to_array())), gl::ARRAY_BUFFER);
+        let view = add_view(
+            &mut bin,
+            floats(&mut normals.iter().flat_map(|v| v.to_array())),
+            gl::ARRAY_BUFFER,
+        );
         accessors.push(serde_json::json!({ "bufferView": view, "componentType": gl::FLOAT, "count": n, "type": "VEC3" }));
         attributes.insert("NORMAL".into(), (accessors.len() - 1).into());
     }
     if let Some(uvs) = &mesh.uvs {
-        let view = add_view(&mut bin, floats(&mut uvs.iter().flat_map(|uv: &Vec2| [uv.x, 1.0 - uv.y])), gl::ARRAY_BUFFER);
+        let view = add_view(
+            &mut bin,
+            floats(&mut uvs.iter().flat_map(|uv: &Vec2| [uv.x, 1.0 - uv.y])),
+            gl::ARRAY_BUFFER,
+        );
         accessors.push(serde_json::json!({ "bufferView": view, "componentType": gl::FLOAT, "count": n, "type": "VEC2" }));
         attributes.insert("TEXCOORD_0".into(), (accessors.len() - 1).into());
     }
-    let view = add_view(&mut bin, mesh.indices.iter().flat_map(|i| i.to_le_bytes()).collect(), gl::ELEMENT_ARRAY_BUFFER);
+    let view = add_view(
+        &mut bin,
+        mesh.indices.iter().flat_map(|i| i.to_le_bytes()).collect(),
+        gl::ELEMENT_ARRAY_BUFFER,
+    );
     accessors.push(serde_json::json!({ "bufferView": view, "componentType": gl::UNSIGNED_INT, "count": mesh.indices.len(), "type": "SCALAR" }));
     let indices = accessors.len() - 1;
 
@@ -255,7 +320,8 @@ pub fn glb_bytes(mesh: &MeshInput) -> io::Result<Vec<u8>> {
     json.resize(json.len().next_multiple_of(4), b' ');
     bin.resize(bin.len().next_multiple_of(4), 0);
     let total = 12 + 8 + json.len() + 8 + bin.len();
-    let total = u32::try_from(total).map_err(|_| invalid(format!("{total} bytes exceed the GLB size limit of 4 GiB")))?;
+    let total = u32::try_from(total)
+        .map_err(|_| invalid(format!("{total} bytes exceed the GLB size limit of 4 GiB")))?;
     let mut out = Vec::with_capacity(total as usize);
     out.extend(b"glTF");
     out.extend(2u32.to_le_bytes());
@@ -282,11 +348,17 @@ mod tests {
         for t in mesh.indices.chunks_exact(3) {
             for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
                 assert_ne!(a, b, "{what}: degenerate edge");
-                assert!(directed.insert((a, b)), "{what}: directed edge ({a}, {b}) used twice");
+                assert!(
+                    directed.insert((a, b)),
+                    "{what}: directed edge ({a}, {b}) used twice"
+                );
             }
         }
         for &(a, b) in &directed {
-            assert!(directed.contains(&(b, a)), "{what}: edge ({a}, {b}) is a border");
+            assert!(
+                directed.contains(&(b, a)),
+                "{what}: edge ({a}, {b}) is a border"
+            );
         }
     }
 
@@ -305,7 +377,10 @@ mod tests {
         let normals = mesh.normals.as_ref().expect("normals");
         assert_eq!(normals.len(), mesh.positions.len());
         for n in normals {
-            assert!((n.length() - 1.0).abs() < 1e-5, "{what}: normal {n} is not unit length");
+            assert!(
+                (n.length() - 1.0).abs() < 1e-5,
+                "{what}: normal {n} is not unit length"
+            );
         }
     }
 
@@ -313,13 +388,24 @@ mod tests {
     fn icosphere_counts_closure_and_orientation() {
         for k in 0..5 {
             let m = icosphere(k);
-            assert_eq!(m.indices.len() / 3, 20 * 4usize.pow(k), "triangles at level {k}");
-            assert_eq!(m.positions.len(), 10 * 4usize.pow(k) + 2, "vertices at level {k}");
+            assert_eq!(
+                m.indices.len() / 3,
+                20 * 4usize.pow(k),
+                "triangles at level {k}"
+            );
+            assert_eq!(
+                m.positions.len(),
+                10 * 4usize.pow(k) + 2,
+                "vertices at level {k}"
+            );
             assert_closed(&m, &format!("icosphere({k})"));
             assert_unit_normals(&m, "icosphere");
             for t in m.indices.chunks_exact(3) {
                 let [a, b, c] = [t[0], t[1], t[2]].map(|i| m.positions[i as usize]);
-                assert!((b - a).cross(c - a).dot(a + b + c) > 0.0, "icosphere({k}): a face winds inward");
+                assert!(
+                    (b - a).cross(c - a).dot(a + b + c) > 0.0,
+                    "icosphere({k}): a face winds inward"
+                );
             }
             for (p, n) in m.positions.iter().zip(m.normals.as_ref().unwrap()) {
                 assert_eq!(p, n);
@@ -327,7 +413,10 @@ mod tests {
         }
         // Volume approaches the ball's 4π/3 from below.
         let v = signed_volume(&icosphere(4));
-        assert!(v > 4.12 && v < 4.0 * std::f64::consts::PI / 3.0, "volume {v}");
+        assert!(
+            v > 4.12 && v < 4.0 * std::f64::consts::PI / 3.0,
+            "volume {v}"
+        );
         assert_eq!(icosphere(3), icosphere(3), "deterministic");
     }
 
@@ -359,8 +448,13 @@ mod tests {
         assert_closed(&m, "bumpy sphere");
         assert_unit_normals(&m, "bumpy sphere");
         let radii: Vec<f32> = m.positions.iter().map(|p| p.length()).collect();
-        let (lo, hi) = radii.iter().fold((f32::MAX, 0.0f32), |(lo, hi), &r| (lo.min(r), hi.max(r)));
-        assert!(lo >= 0.92 - 1e-5 && hi <= 1.08 + 1e-5 && hi - lo > 0.05, "radii in [{lo}, {hi}]");
+        let (lo, hi) = radii
+            .iter()
+            .fold((f32::MAX, 0.0f32), |(lo, hi), &r| (lo.min(r), hi.max(r)));
+        assert!(
+            lo >= 0.92 - 1e-5 && hi <= 1.08 + 1e-5 && hi - lo > 0.05,
+            "radii in [{lo}, {hi}]"
+        );
         assert!(signed_volume(&m) > 0.0);
         // Normals point away from the centre (the bumps are gentle).
         for (p, n) in m.positions.iter().zip(m.normals.as_ref().unwrap()) {
@@ -374,28 +468,63 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let mut mesh = bumpy_sphere(2, 0.1, 5.0);
         // Dyadic texture coordinates survive the v flip exactly.
-        mesh.uvs = Some((0..mesh.positions.len()).map(|i| Vec2::new((i % 64) as f32 / 64.0, (i % 37) as f32 / 256.0)).collect());
+        mesh.uvs = Some(
+            (0..mesh.positions.len())
+                .map(|i| Vec2::new((i % 64) as f32 / 64.0, (i % 37) as f32 / 256.0))
+                .collect(),
+        );
         let path = dir.path().join("sphere.glb");
         write_glb(&path, &mesh).unwrap();
         let back = load_gltf_mesh(&path).unwrap();
         assert_eq!(back, mesh);
-        let leftovers: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
-        assert_eq!(leftovers, vec![std::ffi::OsString::from("sphere.glb")], "no temporary file is left behind");
+        let leftovers: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(
+            leftovers,
+            vec![std::ffi::OsString::from("sphere.glb")],
+            "no temporary file is left behind"
+        );
 
         // Without normals and uvs; arbitrary uvs come back within 2^-24.
-        let plain = MeshInput { normals: None, ..icosphere(1) };
+        let plain = MeshInput {
+            normals: None,
+            ..icosphere(1)
+        };
         write_glb(&path, &plain).unwrap();
         assert_eq!(load_gltf_mesh(&path).unwrap(), plain);
-        let odd_uvs = MeshInput { uvs: Some(plain.positions.iter().map(|p| Vec2::new(p.x, 0.1 + 0.3 * p.y.abs())).collect()), ..plain.clone() };
+        let odd_uvs = MeshInput {
+            uvs: Some(
+                plain
+                    .positions
+                    .iter()
+                    .map(|p| Vec2::new(p.x, 0.1 + 0.3 * p.y.abs()))
+                    .collect(),
+            ),
+            ..plain.clone()
+        };
         write_glb(&path, &odd_uvs).unwrap();
-        for (a, b) in load_gltf_mesh(&path).unwrap().uvs.unwrap().iter().zip(odd_uvs.uvs.as_ref().unwrap()) {
-            assert!((a.x - b.x).abs() == 0.0 && (a.y - b.y).abs() <= 1.0 / (1 << 24) as f32, "{a} vs {b}");
+        for (a, b) in load_gltf_mesh(&path)
+            .unwrap()
+            .uvs
+            .unwrap()
+            .iter()
+            .zip(odd_uvs.uvs.as_ref().unwrap())
+        {
+            assert!(
+                (a.x - b.x).abs() == 0.0 && (a.y - b.y).abs() <= 1.0 / (1 << 24) as f32,
+                "{a} vs {b}"
+            );
         }
 
         // The container is 4-byte aligned and says so in its header.
         let bytes = std::fs::read(&path).unwrap();
         assert_eq!(&bytes[..4], b"glTF");
-        assert_eq!(u32::from_le_bytes(bytes[8..12].try_into().unwrap()) as usize, bytes.len());
+        assert_eq!(
+            u32::from_le_bytes(bytes[8..12].try_into().unwrap()) as usize,
+            bytes.len()
+        );
         assert_eq!(bytes.len() % 4, 0);
     }
 
@@ -406,9 +535,18 @@ mod tests {
         let good = icosphere(0);
         let bad = [
             MeshInput::default(),
-            MeshInput { indices: vec![0, 1, 99], ..good.clone() },
-            MeshInput { indices: vec![0, 1], ..good.clone() },
-            MeshInput { normals: Some(vec![Vec3::Z]), ..good.clone() },
+            MeshInput {
+                indices: vec![0, 1, 99],
+                ..good.clone()
+            },
+            MeshInput {
+                indices: vec![0, 1],
+                ..good.clone()
+            },
+            MeshInput {
+                normals: Some(vec![Vec3::Z]),
+                ..good.clone()
+            },
             MeshInput {
                 positions: {
                     let mut p = good.positions.clone();

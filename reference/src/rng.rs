@@ -68,7 +68,12 @@ pub const DIMENSIONS_PER_VERTEX: usize = 8;
 /// dimension serves what is fixed in [`dims`], so every material reads the
 /// same slots whatever the others use.
 #[inline]
-pub fn vertex_randoms(seed: u32, pixel: u32, sample: u32, bounce: u32) -> [f32; DIMENSIONS_PER_VERTEX] {
+pub fn vertex_randoms(
+    seed: u32,
+    pixel: u32,
+    sample: u32,
+    bounce: u32,
+) -> [f32; DIMENSIONS_PER_VERTEX] {
     let a = random_block(seed, pixel, sample, bounce, 0);
     let b = random_block(seed, pixel, sample, bounce, 1);
     [a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]].map(u32_to_unit_f32)
@@ -105,7 +110,11 @@ mod tests {
         for bounce in 0..3 {
             let v = vertex_randoms(7, 1234, 56, bounce);
             for (d, x) in v.iter().enumerate() {
-                assert_eq!(*x, random_f32(7, 1234, 56, bounce, d as u32), "bounce {bounce} dim {d}");
+                assert_eq!(
+                    *x,
+                    random_f32(7, 1234, 56, bounce, d as u32),
+                    "bounce {bounce} dim {d}"
+                );
             }
         }
     }
@@ -139,7 +148,10 @@ mod tests {
             bins[(x * 100.0) as usize] += 1;
         }
         let expected = n as f64 / 100.0;
-        let chi2: f64 = bins.iter().map(|&c| (c as f64 - expected).powi(2) / expected).sum();
+        let chi2: f64 = bins
+            .iter()
+            .map(|&c| (c as f64 - expected).powi(2) / expected)
+            .sum();
         assert!(chi2 < 157.0, "chi2 = {chi2}");
     }
 }

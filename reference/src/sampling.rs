@@ -13,7 +13,11 @@ pub fn sample_unit_disk(u: Vec2) -> Vec2 {
     if o.x == 0.0 && o.y == 0.0 {
         return Vec2::ZERO;
     }
-    let (r, theta) = if o.x.abs() > o.y.abs() { (o.x, FRAC_PI_4 * (o.y / o.x)) } else { (o.y, FRAC_PI_2 - FRAC_PI_4 * (o.x / o.y)) };
+    let (r, theta) = if o.x.abs() > o.y.abs() {
+        (o.x, FRAC_PI_4 * (o.y / o.x))
+    } else {
+        (o.y, FRAC_PI_2 - FRAC_PI_4 * (o.x / o.y))
+    };
     r * Vec2::new(theta.cos(), theta.sin())
 }
 
@@ -122,7 +126,12 @@ mod tests {
     use approx::assert_relative_eq;
 
     fn grid(n: usize) -> impl Iterator<Item = Vec2> {
-        (0..n * n).map(move |i| Vec2::new(((i % n) as f32 + 0.5) / n as f32, ((i / n) as f32 + 0.5) / n as f32))
+        (0..n * n).map(move |i| {
+            Vec2::new(
+                ((i % n) as f32 + 0.5) / n as f32,
+                ((i / n) as f32 + 0.5) / n as f32,
+            )
+        })
     }
 
     #[test]
@@ -137,7 +146,9 @@ mod tests {
     #[test]
     fn cosine_hemisphere_has_unit_vectors_and_mean_cos_two_thirds() {
         let ds: Vec<Vec3> = grid(300).map(sample_cosine_hemisphere).collect();
-        assert!(ds.iter().all(|d| (d.length() - 1.0).abs() < 1e-5 && d.z >= 0.0));
+        assert!(ds
+            .iter()
+            .all(|d| (d.length() - 1.0).abs() < 1e-5 && d.z >= 0.0));
         // E[cos θ] under pdf cos θ/π is 2/3.
         let mean: f32 = ds.iter().map(|d| d.z).sum::<f32>() / ds.len() as f32;
         assert_relative_eq!(mean, 2.0 / 3.0, epsilon = 1e-3);
@@ -153,7 +164,11 @@ mod tests {
         let n = 40;
         let mut inside = 0;
         for i in 0..n * n * n {
-            let u = Vec3::new(((i % n) as f32 + 0.5) / n as f32, (((i / n) % n) as f32 + 0.5) / n as f32, ((i / (n * n)) as f32 + 0.5) / n as f32);
+            let u = Vec3::new(
+                ((i % n) as f32 + 0.5) / n as f32,
+                (((i / n) % n) as f32 + 0.5) / n as f32,
+                ((i / (n * n)) as f32 + 0.5) / n as f32,
+            );
             let p = sample_unit_ball(u);
             assert!(p.length() <= 1.0 + 1e-6);
             inside += (p.length() < 0.5) as usize;

@@ -3,12 +3,18 @@
 //! and always valid.
 
 use crate::background::Background;
-use crate::bvh::{box_pad, intersect_aabb_padded, intersect_entries, Bvh, BvhBuildStats, Closest, LeafRef, Leaves, LEAF_BATCH};
+use crate::bvh::{
+    box_pad, intersect_aabb_padded, intersect_entries, Bvh, BvhBuildStats, Closest, LeafRef,
+    Leaves, LEAF_BATCH,
+};
 use crate::camera::{Camera, CameraSettings};
 use crate::error::SceneError;
 use crate::geometry::{gamma, Aabb, Hit, Ray, SurfaceInteraction};
 use crate::material::Material;
-use crate::shapes::{intersect_triangles4, MeshData, Quad, RayShear, Sphere, Triangle, Triangles4, TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_UVS};
+use crate::shapes::{
+    intersect_triangles4, MeshData, Quad, RayShear, Sphere, Triangle, Triangles4,
+    TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_UVS,
+};
 use crate::texture::{ImageData, Texture};
 use glam::{Affine3A, Mat3, Quat, Vec2, Vec3};
 use std::f32::consts::PI;
@@ -42,7 +48,14 @@ pub struct RenderSettings {
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        Self { width: 400, height: 300, spp: 64, max_depth: 16, seed: 0, roulette_depth: 3 }
+        Self {
+            width: 400,
+            height: 300,
+            spp: 64,
+            max_depth: 16,
+            seed: 0,
+            roulette_depth: 3,
+        }
     }
 }
 
@@ -59,17 +72,45 @@ impl RenderSettings {
     /// Checks the parameters; the error names the offending field.
     pub fn validate(&self) -> Result<(), SceneError> {
         let bad = |field: &str, msg: String| Err(SceneError::invalid(field, msg));
-        if self.width == 0 || self.height == 0 || self.width > MAX_IMAGE_SIDE || self.height > MAX_IMAGE_SIDE {
-            return bad("render.width/height", format!("image size {}x{} must be between 1x1 and {MAX_IMAGE_SIDE}x{MAX_IMAGE_SIDE}", self.width, self.height));
+        if self.width == 0
+            || self.height == 0
+            || self.width > MAX_IMAGE_SIDE
+            || self.height > MAX_IMAGE_SIDE
+        {
+            return bad(
+                "render.width/height",
+                format!(
+                    "image size {}x{} must be between 1x1 and {MAX_IMAGE_SIDE}x{MAX_IMAGE_SIDE}",
+                    self.width, self.height
+                ),
+            );
         }
         if self.width as u64 * self.height as u64 > MAX_PIXELS {
-            return bad("render.width/height", format!("image size {}x{} has more than {MAX_PIXELS} pixels", self.width, self.height));
+            return bad(
+                "render.width/height",
+                format!(
+                    "image size {}x{} has more than {MAX_PIXELS} pixels",
+                    self.width, self.height
+                ),
+            );
         }
         if self.spp == 0 || self.spp > MAX_SPP {
-            return bad("render.spp", format!("{} samples per pixel must be between 1 and {MAX_SPP}", self.spp));
+            return bad(
+                "render.spp",
+                format!(
+                    "{} samples per pixel must be between 1 and {MAX_SPP}",
+                    self.spp
+                ),
+            );
         }
         if self.max_depth == 0 || self.max_depth > MAX_DEPTH {
-            return bad("render.max_depth", format!("max depth {} must be between 1 and {MAX_DEPTH}", self.max_depth));
+            return bad(
+                "render.max_depth",
+                format!(
+                    "max depth {} must be between 1 and {MAX_DEPTH}",
+                    self.max_depth
+                ),
+            );
         }
         Ok(())
     }
@@ -83,19 +124,25 @@ pub struct Transform {
 
 impl Default for Transform {
     fn default() -> Self {
-        Self { matrix: Affine3A::IDENTITY }
+        Self {
+            matrix: Affine3A::IDENTITY,
+        }
     }
 }
 
 impl Transform {
     /// `translate · rotation · scale`. `rotation` is applied to the scaled object.
     pub fn from_parts(scale: Vec3, rotation: Quat, translate: Vec3) -> Self {
-        Self { matrix: Affine3A::from_scale_rotation_translation(scale, rotation, translate) }
+        Self {
+            matrix: Affine3A::from_scale_rotation_translation(scale, rotation, translate),
+        }
     }
 
     /// Rotations about x, then y, then z (degrees), as the scene format states.
     pub fn rotation_xyz(x_deg: f32, y_deg: f32, z_deg: f32) -> Quat {
-        Quat::from_rotation_z(z_deg.to_radians()) * Quat::from_rotation_y(y_deg.to_radians()) * Quat::from_rotation_x(x_deg.to_radians())
+        Quat::from_rotation_z(z_deg.to_radians())
+            * Quat::from_rotation_y(y_deg.to_radians())
+            * Quat::from_rotation_x(x_deg.to_radians())
     }
 
     pub fn point(&self, p: Vec3) -> Vec3 {
@@ -182,20 +229,42 @@ impl Scene {
     /// tests that hand-edit a tree (a mutation must reach the traversal).
     /// Panics if `bvh` indexes a primitive this scene lacks.
     pub fn set_bvh(&mut self, bvh: Bvh) {
-        assert!(bvh.prim_order().iter().all(|&p| (p as usize) < self.primitives.len()), "the BVH indexes a primitive the scene lacks");
-        self.leaf_prims = bvh.prim_order().iter().map(|&prim| LeafPrim::of(self, prim)).collect();
-        self.leaf_blocks = bvh.leaves().map(|entries| LeafBlock::of(&self.leaf_prims, entries)).collect();
+        assert!(
+            bvh.prim_order()
+                .iter()
+                .all(|&p| (p as usize) < self.primitives.len()),
+            "the BVH indexes a primitive the scene lacks"
+        );
+        self.leaf_prims = bvh
+            .prim_order()
+            .iter()
+            .map(|&prim| LeafPrim::of(self, prim))
+            .collect();
+        self.leaf_blocks = bvh
+            .leaves()
+            .map(|entries| LeafBlock::of(&self.leaf_prims, entries))
+            .collect();
         self.bvh = bvh;
     }
 
     pub fn bounds(&self) -> Aabb {
-        self.bvh.nodes().first().map(|n| n.bounds()).unwrap_or(Aabb::EMPTY)
+        self.bvh
+            .nodes()
+            .first()
+            .map(|n| n.bounds())
+            .unwrap_or(Aabb::EMPTY)
     }
 
     /// The bounding box of one primitive (by id), as the BVH build saw it.
     #[inline]
     pub fn primitive_bounds(&self, prim: u32) -> Aabb {
-        primitive_bounds(self.primitives[prim as usize], &self.spheres, &self.quads, &self.triangles, &self.mesh)
+        primitive_bounds(
+            self.primitives[prim as usize],
+            &self.spheres,
+            &self.quads,
+            &self.triangles,
+            &self.mesh,
+        )
     }
 
     /// Intersects one primitive (by id). A hit counts only where the
@@ -224,7 +293,13 @@ impl Scene {
     #[inline]
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
         let c = self.ray_constants(ray)?;
-        let leaves = LeafTests { prims: &self.leaf_prims, blocks: &self.leaf_blocks, ray, constants: c, t_min };
+        let leaves = LeafTests {
+            prims: &self.leaf_prims,
+            blocks: &self.leaf_blocks,
+            ray,
+            constants: c,
+            t_min,
+        };
         self.bvh.intersect(ray, t_max, leaves)
     }
 
@@ -256,17 +331,26 @@ impl Scene {
                 // hit point then carries only a few ulps of error.
                 let pos = s.center + s.radius.abs() * outward;
                 let n = if s.radius < 0.0 { -outward } else { outward };
-                let uv = Vec2::new(((-outward.z).atan2(outward.x) + PI) / (2.0 * PI), (-outward.y).clamp(-1.0, 1.0).acos() / PI);
+                let uv = Vec2::new(
+                    ((-outward.z).atan2(outward.x) + PI) / (2.0 * PI),
+                    (-outward.y).clamp(-1.0, 1.0).acos() / PI,
+                );
                 // r·n̂ carries a few ulps of r (normalize, scale), the sum
                 // with the centre a few ulps of the result.
-                let err = gamma(5) * (s.radius.abs() + s.center.abs().max_element() + pos.abs().max_element());
+                let err = gamma(5)
+                    * (s.radius.abs() + s.center.abs().max_element() + pos.abs().max_element());
                 (pos, n, n, uv, s.material, err)
             }
             primitive_tag::QUAD => {
                 let q = &self.quads[p.index as usize];
                 let n = q.normal();
                 let pos = q.corner + hit.uv.x * q.u + hit.uv.y * q.v;
-                let err = gamma(4) * (q.corner.abs() + (hit.uv.x * q.u).abs() + (hit.uv.y * q.v).abs() + pos.abs()).max_element();
+                let err = gamma(4)
+                    * (q.corner.abs()
+                        + (hit.uv.x * q.u).abs()
+                        + (hit.uv.y * q.v).abs()
+                        + pos.abs())
+                    .max_element();
                 (pos, n, n, hit.uv, q.material, err)
             }
             _ => {
@@ -277,25 +361,50 @@ impl Scene {
                 let b0 = 1.0 - b1 - b2;
                 let pos = b0 * m.positions[i0] + b1 * m.positions[i1] + b2 * m.positions[i2];
                 // pbrt-v4's bound for barycentric interpolation.
-                let err = gamma(7) * ((b0 * m.positions[i0]).abs() + (b1 * m.positions[i1]).abs() + (b2 * m.positions[i2]).abs()).max_element();
-                let ng = (m.positions[i1] - m.positions[i0]).cross(m.positions[i2] - m.positions[i0]).normalize_or(Vec3::Y);
+                let err = gamma(7)
+                    * ((b0 * m.positions[i0]).abs()
+                        + (b1 * m.positions[i1]).abs()
+                        + (b2 * m.positions[i2]).abs())
+                    .max_element();
+                let ng = (m.positions[i1] - m.positions[i0])
+                    .cross(m.positions[i2] - m.positions[i0])
+                    .normalize_or(Vec3::Y);
                 let mut ns = ng;
                 if tri.flags & TRIANGLE_HAS_NORMALS != 0 {
-                    let n = (b0 * m.normals[i0] + b1 * m.normals[i1] + b2 * m.normals[i2]).normalize_or(ng);
+                    let n = (b0 * m.normals[i0] + b1 * m.normals[i1] + b2 * m.normals[i2])
+                        .normalize_or(ng);
                     ns = if n.dot(ng) < 0.0 { -n } else { n };
                 }
-                let uv = if tri.flags & TRIANGLE_HAS_UVS != 0 { b0 * m.uvs[i0] + b1 * m.uvs[i1] + b2 * m.uvs[i2] } else { hit.uv };
+                let uv = if tri.flags & TRIANGLE_HAS_UVS != 0 {
+                    b0 * m.uvs[i0] + b1 * m.uvs[i1] + b2 * m.uvs[i2]
+                } else {
+                    hit.uv
+                };
                 (pos, ng, ns, uv, tri.material, err)
             }
         };
-        SurfaceInteraction { p: pos, geometric_normal: ng, shading_normal: ns, uv, p_error, front_face: ray.direction.dot(ng) < 0.0, material }
+        SurfaceInteraction {
+            p: pos,
+            geometric_normal: ng,
+            shading_normal: ns,
+            uv,
+            p_error,
+            front_face: ray.direction.dot(ng) < 0.0,
+            material,
+        }
     }
 }
 
 /// A primitive's bounding box: the BVH build and [`Bvh::admits`] must see
 /// the same bits, so both come here.
 #[inline]
-fn primitive_bounds(p: Primitive, spheres: &[Sphere], quads: &[Quad], triangles: &[Triangle], mesh: &MeshData) -> Aabb {
+fn primitive_bounds(
+    p: Primitive,
+    spheres: &[Sphere],
+    quads: &[Quad],
+    triangles: &[Triangle],
+    mesh: &MeshData,
+) -> Aabb {
     match p.tag {
         primitive_tag::SPHERE => spheres[p.index as usize].bounds(),
         primitive_tag::QUAD => quads[p.index as usize].bounds(),
@@ -330,9 +439,15 @@ impl LeafPrim {
                 let q = &scene.quads[p.index as usize];
                 [q.corner, q.u, q.v]
             }
-            _ => scene.triangles[p.index as usize].vertices.map(|i| scene.mesh.positions[i as usize]),
+            _ => scene.triangles[p.index as usize]
+                .vertices
+                .map(|i| scene.mesh.positions[i as usize]),
         };
-        LeafPrim { p: geometry, prim, tag: p.tag }
+        LeafPrim {
+            p: geometry,
+            prim,
+            tag: p.tag,
+        }
     }
 
     /// [`primitive_bounds`], from the copied floats (the same operations).
@@ -340,8 +455,19 @@ impl LeafPrim {
     fn bounds(&self) -> Aabb {
         let [a, b, c] = self.p;
         match self.tag {
-            primitive_tag::SPHERE => Sphere { center: a, radius: b.x, material: 0 }.bounds(),
-            primitive_tag::QUAD => Quad { corner: a, u: b, v: c, material: 0 }.bounds(),
+            primitive_tag::SPHERE => Sphere {
+                center: a,
+                radius: b.x,
+                material: 0,
+            }
+            .bounds(),
+            primitive_tag::QUAD => Quad {
+                corner: a,
+                u: b,
+                v: c,
+                material: 0,
+            }
+            .bounds(),
             _ => Aabb::from_points(&[a, b, c]),
         }
     }
@@ -354,9 +480,16 @@ impl LeafPrim {
         let [a, b, c] = self.p;
         let prim = self.prim;
         let hit = match self.tag {
-            primitive_tag::SPHERE => intersect_sphere(a, b.x, ray, t_min, t_max).map(|t| Hit { t, prim, uv: Vec2::ZERO }),
-            primitive_tag::QUAD => intersect_quad(a, b, c, ray, t_min, t_max).map(|(t, uv)| Hit { t, prim, uv }),
-            _ => intersect_triangle_sheared(a, b, c, ray, k.shear.as_ref()?, t_min, t_max).map(|(t, uv)| Hit { t, prim, uv }),
+            primitive_tag::SPHERE => intersect_sphere(a, b.x, ray, t_min, t_max).map(|t| Hit {
+                t,
+                prim,
+                uv: Vec2::ZERO,
+            }),
+            primitive_tag::QUAD => {
+                intersect_quad(a, b, c, ray, t_min, t_max).map(|(t, uv)| Hit { t, prim, uv })
+            }
+            _ => intersect_triangle_sheared(a, b, c, ray, k.shear.as_ref()?, t_min, t_max)
+                .map(|(t, uv)| Hit { t, prim, uv }),
         }?;
         k.admits(self.bounds(), ray, hit.t).then_some(hit)
     }
@@ -391,7 +524,12 @@ impl LeafBlock {
         // The Bvh keeps its leaves' entries as u32: they fit.
         let [first, end] = [entries.start as u32, entries.end as u32];
         let prims = &prims[entries];
-        let mut block = LeafBlock { tris: Triangles4::EMPTY, prim: [u32::MAX; 4], entries: [first, end], by_entry: true };
+        let mut block = LeafBlock {
+            tris: Triangles4::EMPTY,
+            prim: [u32::MAX; 4],
+            entries: [first, end],
+            by_entry: true,
+        };
         if (1..=LEAF_BATCH).contains(&prims.len()) && prims.iter().all(|p| batched(p.tag)) {
             block.by_entry = false;
             for (lane, p) in prims.iter().enumerate() {
@@ -427,18 +565,32 @@ impl Leaves for LeafTests<'_> {
     fn intersect_leaf(&mut self, leaf: LeafRef, closest: &mut Closest) {
         let block = &self.blocks[leaf.index()];
         if block.by_entry {
-            return intersect_entries(self, block.entries[0] as usize..block.entries[1] as usize, closest);
+            return intersect_entries(
+                self,
+                block.entries[0] as usize..block.entries[1] as usize,
+                closest,
+            );
         }
         // No shear: a zero direction, which hits no triangle.
-        let Some(shear) = self.constants.shear.as_ref() else { return };
+        let Some(shear) = self.constants.shear.as_ref() else {
+            return;
+        };
         let hits = intersect_triangles4(&block.tris, self.ray, shear, self.t_min, closest.limit());
         let mut bits = hits.mask;
         while bits != 0 {
             let lane = bits.trailing_zeros() as usize & 3;
             bits &= bits - 1;
             let t = hits.t[lane];
-            if t < closest.limit() && self.constants.admits(Aabb::from_points(&block.tris.get(lane)), self.ray, t) {
-                closest.offer(Hit { t, prim: block.prim[lane], uv: Vec2::new(hits.b1[lane], hits.b2[lane]) });
+            if t < closest.limit()
+                && self
+                    .constants
+                    .admits(Aabb::from_points(&block.tris.get(lane)), self.ray, t)
+            {
+                closest.offer(Hit {
+                    t,
+                    prim: block.prim[lane],
+                    uv: Vec2::new(hits.b1[lane], hits.b2[lane]),
+                });
             }
         }
     }
@@ -468,7 +620,15 @@ impl RayConstants {
     /// [`Bvh::admits`] for a hit at `t` on a primitive with box `bounds`.
     #[inline]
     fn admits(&self, bounds: Aabb, ray: &Ray, t: f32) -> bool {
-        intersect_aabb_padded(bounds.min, bounds.max, ray.origin, self.inv_dir, self.pad, t).is_some()
+        intersect_aabb_padded(
+            bounds.min,
+            bounds.max,
+            ray.origin,
+            self.inv_dir,
+            self.pad,
+            t,
+        )
+        .is_some()
     }
 }
 
@@ -499,7 +659,10 @@ fn check_finite_vec(field: &str, v: Vec3) -> Result<(), SceneError> {
 fn check_colour(field: &str, c: Vec3) -> Result<(), SceneError> {
     check_finite_vec(field, c)?;
     if c.min_element() < 0.0 {
-        return Err(SceneError::invalid(field, format!("colour {c} has a negative component")));
+        return Err(SceneError::invalid(
+            field,
+            format!("colour {c} has a negative component"),
+        ));
     }
     Ok(())
 }
@@ -520,13 +683,24 @@ impl SceneBuilder {
             Texture::Constant(c) => check_colour("texture", c)?,
             Texture::Checker { scale, even, odd } => {
                 if !scale.is_finite() {
-                    return Err(SceneError::invalid("texture.scale", format!("{scale} is not finite")));
+                    return Err(SceneError::invalid(
+                        "texture.scale",
+                        format!("{scale} is not finite"),
+                    ));
                 }
                 for (name, id) in [("even", even), ("odd", odd)] {
                     match self.textures.get(id as usize) {
-                        None => return Err(SceneError::invalid(&format!("texture.{name}"), format!("texture index {id} does not exist"))),
+                        None => {
+                            return Err(SceneError::invalid(
+                                &format!("texture.{name}"),
+                                format!("texture index {id} does not exist"),
+                            ))
+                        }
                         Some(Texture::Checker { .. }) => {
-                            return Err(SceneError::invalid(&format!("texture.{name}"), "a checker cannot nest another checker".into()))
+                            return Err(SceneError::invalid(
+                                &format!("texture.{name}"),
+                                "a checker cannot nest another checker".into(),
+                            ))
                         }
                         Some(_) => {}
                     }
@@ -535,7 +709,10 @@ impl SceneBuilder {
             Texture::Image { image, factor } => {
                 check_colour("texture.factor", factor)?;
                 if image as usize >= self.images.len() {
-                    return Err(SceneError::invalid("texture.image", format!("image index {image} does not exist")));
+                    return Err(SceneError::invalid(
+                        "texture.image",
+                        format!("image index {image} does not exist"),
+                    ));
                 }
             }
         }
@@ -554,7 +731,10 @@ impl SceneBuilder {
             if (id as usize) < self.textures.len() {
                 Ok(())
             } else {
-                Err(SceneError::invalid(field, format!("texture index {id} does not exist")))
+                Err(SceneError::invalid(
+                    field,
+                    format!("texture index {id} does not exist"),
+                ))
             }
         };
         match material {
@@ -562,23 +742,39 @@ impl SceneBuilder {
             Material::Metal { albedo, fuzz } => {
                 tex_ok("albedo", albedo)?;
                 if !(0.0..=1.0).contains(&fuzz) {
-                    return Err(SceneError::invalid("fuzz", format!("{fuzz} is outside [0, 1]")));
+                    return Err(SceneError::invalid(
+                        "fuzz",
+                        format!("{fuzz} is outside [0, 1]"),
+                    ));
                 }
             }
             Material::Dielectric { ior, absorption } => {
                 if !(ior.is_finite() && ior > 0.0) {
-                    return Err(SceneError::invalid("ior", format!("{ior} must be a positive finite number")));
+                    return Err(SceneError::invalid(
+                        "ior",
+                        format!("{ior} must be a positive finite number"),
+                    ));
                 }
                 check_colour("absorption", absorption)?;
             }
             Material::DiffuseLight { emission } => tex_ok("emission", emission)?,
-            Material::Ggx { base_color, metallic, roughness } => {
+            Material::Ggx {
+                base_color,
+                metallic,
+                roughness,
+            } => {
                 tex_ok("base_color", base_color)?;
                 if !(0.0..=1.0).contains(&metallic) {
-                    return Err(SceneError::invalid("metallic", format!("{metallic} is outside [0, 1]")));
+                    return Err(SceneError::invalid(
+                        "metallic",
+                        format!("{metallic} is outside [0, 1]"),
+                    ));
                 }
                 if !(0.0..=1.0).contains(&roughness) {
-                    return Err(SceneError::invalid("roughness", format!("{roughness} is outside [0, 1]")));
+                    return Err(SceneError::invalid(
+                        "roughness",
+                        format!("{roughness} is outside [0, 1]"),
+                    ));
                 }
             }
         }
@@ -590,27 +786,51 @@ impl SceneBuilder {
         if (material as usize) < self.materials.len() {
             Ok(())
         } else {
-            Err(SceneError::invalid("material", format!("material index {material} does not exist")))
+            Err(SceneError::invalid(
+                "material",
+                format!("material index {material} does not exist"),
+            ))
         }
     }
 
     fn push_primitive(&mut self, tag: u32, index: usize) {
-        self.primitives.push(Primitive { tag, index: index as u32 });
+        self.primitives.push(Primitive {
+            tag,
+            index: index as u32,
+        });
     }
 
     /// A sphere, placed by `transform` (which must be a similarity: a
     /// sphere under non-uniform scale is an ellipsoid, not a sphere).
-    pub fn add_sphere(&mut self, center: Vec3, radius: f32, material: u32, transform: &Transform) -> Result<(), SceneError> {
+    pub fn add_sphere(
+        &mut self,
+        center: Vec3,
+        radius: f32,
+        material: u32,
+        transform: &Transform,
+    ) -> Result<(), SceneError> {
         self.check_material(material)?;
         check_finite_vec("center", center)?;
         if !(radius.is_finite() && radius != 0.0) {
-            return Err(SceneError::invalid("radius", format!("{radius} must be a finite non-zero number")));
+            return Err(SceneError::invalid(
+                "radius",
+                format!("{radius} must be a finite non-zero number"),
+            ));
         }
-        let scale = transform.uniform_scale().ok_or_else(|| SceneError::invalid("transform", "a sphere accepts only uniform scale".into()))?;
-        let s = Sphere { center: transform.point(center), radius: radius * scale, material };
+        let scale = transform.uniform_scale().ok_or_else(|| {
+            SceneError::invalid("transform", "a sphere accepts only uniform scale".into())
+        })?;
+        let s = Sphere {
+            center: transform.point(center),
+            radius: radius * scale,
+            material,
+        };
         check_finite_vec("transform", s.center)?;
         if !(s.radius.is_finite() && s.radius != 0.0) {
-            return Err(SceneError::invalid("transform", format!("the placed radius {} is degenerate", s.radius)));
+            return Err(SceneError::invalid(
+                "transform",
+                format!("the placed radius {} is degenerate", s.radius),
+            ));
         }
         self.spheres.push(s);
         self.push_primitive(primitive_tag::SPHERE, self.spheres.len() - 1);
@@ -618,15 +838,30 @@ impl SceneBuilder {
     }
 
     /// A parallelogram `corner + s·u + t·v`, placed by `transform`.
-    pub fn add_quad(&mut self, corner: Vec3, u: Vec3, v: Vec3, material: u32, transform: &Transform) -> Result<(), SceneError> {
+    pub fn add_quad(
+        &mut self,
+        corner: Vec3,
+        u: Vec3,
+        v: Vec3,
+        material: u32,
+        transform: &Transform,
+    ) -> Result<(), SceneError> {
         self.check_material(material)?;
         for (f, x) in [("corner", corner), ("u", u), ("v", v)] {
             check_finite_vec(f, x)?;
         }
-        let q = Quad { corner: transform.point(corner), u: transform.vector(u), v: transform.vector(v), material };
+        let q = Quad {
+            corner: transform.point(corner),
+            u: transform.vector(u),
+            v: transform.vector(v),
+            material,
+        };
         let n = q.u.cross(q.v);
         if !(n.is_finite() && n.length_squared() > 0.0 && q.corner.is_finite()) {
-            return Err(SceneError::invalid("u/v", "the quad is degenerate (u and v are parallel or zero)".into()));
+            return Err(SceneError::invalid(
+                "u/v",
+                "the quad is degenerate (u and v are parallel or zero)".into(),
+            ));
         }
         self.quads.push(q);
         self.push_primitive(primitive_tag::QUAD, self.quads.len() - 1);
@@ -634,14 +869,27 @@ impl SceneBuilder {
     }
 
     /// An axis-aligned box in its own frame (six quads, outward normals).
-    pub fn add_box(&mut self, min: Vec3, max: Vec3, material: u32, transform: &Transform) -> Result<(), SceneError> {
+    pub fn add_box(
+        &mut self,
+        min: Vec3,
+        max: Vec3,
+        material: u32,
+        transform: &Transform,
+    ) -> Result<(), SceneError> {
         check_finite_vec("min", min)?;
         check_finite_vec("max", max)?;
         if !min.cmplt(max).all() {
-            return Err(SceneError::invalid("min/max", format!("min {min} must be below max {max} on every axis")));
+            return Err(SceneError::invalid(
+                "min/max",
+                format!("min {min} must be below max {max} on every axis"),
+            ));
         }
         let d = max - min;
-        let (dx, dy, dz) = (Vec3::new(d.x, 0.0, 0.0), Vec3::new(0.0, d.y, 0.0), Vec3::new(0.0, 0.0, d.z));
+        let (dx, dy, dz) = (
+            Vec3::new(d.x, 0.0, 0.0),
+            Vec3::new(0.0, d.y, 0.0),
+            Vec3::new(0.0, 0.0, d.z),
+        );
         // Each face: corner, u, v with u × v pointing out of the box.
         let faces = [
             (Vec3::new(min.x, min.y, max.z), dx, dy),  // front (+z)
@@ -654,7 +902,11 @@ impl SceneBuilder {
         let mirror = Mat3::from(transform.matrix.matrix3).determinant() < 0.0;
         for (corner, u, v) in faces {
             // A mirroring transform flips u × v; swap to keep normals outward.
-            let (u, v, c) = if mirror { (v, u, corner) } else { (u, v, corner) };
+            let (u, v, c) = if mirror {
+                (v, u, corner)
+            } else {
+                (u, v, corner)
+            };
             self.add_quad(c, u, v, material, transform)?;
         }
         Ok(())
@@ -663,22 +915,42 @@ impl SceneBuilder {
     /// An indexed triangle mesh placed by `transform`. Degenerate
     /// triangles are kept (they never report a hit); out-of-range indices
     /// and non-finite data are errors.
-    pub fn add_mesh(&mut self, mesh: &MeshInput, material: u32, transform: &Transform) -> Result<(), SceneError> {
+    pub fn add_mesh(
+        &mut self,
+        mesh: &MeshInput,
+        material: u32,
+        transform: &Transform,
+    ) -> Result<(), SceneError> {
         self.check_material(material)?;
         let n = mesh.positions.len();
         if mesh.indices.len() % 3 != 0 {
-            return Err(SceneError::invalid("indices", format!("{} indices is not a multiple of 3", mesh.indices.len())));
+            return Err(SceneError::invalid(
+                "indices",
+                format!("{} indices is not a multiple of 3", mesh.indices.len()),
+            ));
         }
         if let Some(bad) = mesh.indices.iter().find(|&&i| i as usize >= n) {
-            return Err(SceneError::invalid("indices", format!("index {bad} is out of range for {n} vertices")));
+            return Err(SceneError::invalid(
+                "indices",
+                format!("index {bad} is out of range for {n} vertices"),
+            ));
         }
-        for (name, len) in [("normals", mesh.normals.as_ref().map(Vec::len)), ("uvs", mesh.uvs.as_ref().map(Vec::len))] {
+        for (name, len) in [
+            ("normals", mesh.normals.as_ref().map(Vec::len)),
+            ("uvs", mesh.uvs.as_ref().map(Vec::len)),
+        ] {
             if let Some(len) = len.filter(|&l| l != n) {
-                return Err(SceneError::invalid(name, format!("{len} entries for {n} vertices")));
+                return Err(SceneError::invalid(
+                    name,
+                    format!("{len} entries for {n} vertices"),
+                ));
             }
         }
         if mesh.indices.is_empty() {
-            return Err(SceneError::invalid("indices", "the mesh has no triangles".into()));
+            return Err(SceneError::invalid(
+                "indices",
+                "the mesh has no triangles".into(),
+            ));
         }
         let base = self.mesh.positions.len() as u32;
         if (base as usize + n) > u32::MAX as usize / 2 {
@@ -688,17 +960,39 @@ impl SceneBuilder {
         for (i, &p) in mesh.positions.iter().enumerate() {
             let wp = transform.point(p);
             if !wp.is_finite() {
-                return Err(SceneError::invalid("positions", format!("vertex {i} ({p}) is not finite once placed")));
+                return Err(SceneError::invalid(
+                    "positions",
+                    format!("vertex {i} ({p}) is not finite once placed"),
+                ));
             }
             self.mesh.positions.push(wp);
-            let wn = mesh.normals.as_ref().map_or(Vec3::ZERO, |ns| (nm * ns[i]).normalize_or_zero());
-            self.mesh.normals.push(if wn.is_finite() { wn } else { Vec3::ZERO });
+            let wn = mesh
+                .normals
+                .as_ref()
+                .map_or(Vec3::ZERO, |ns| (nm * ns[i]).normalize_or_zero());
+            self.mesh
+                .normals
+                .push(if wn.is_finite() { wn } else { Vec3::ZERO });
             let uv = mesh.uvs.as_ref().map_or(Vec2::ZERO, |uvs| uvs[i]);
-            self.mesh.uvs.push(if uv.is_finite() { uv } else { Vec2::ZERO });
+            self.mesh
+                .uvs
+                .push(if uv.is_finite() { uv } else { Vec2::ZERO });
         }
-        let flags = if mesh.normals.is_some() { TRIANGLE_HAS_NORMALS } else { 0 } | if mesh.uvs.is_some() { TRIANGLE_HAS_UVS } else { 0 };
+        let flags = if mesh.normals.is_some() {
+            TRIANGLE_HAS_NORMALS
+        } else {
+            0
+        } | if mesh.uvs.is_some() {
+            TRIANGLE_HAS_UVS
+        } else {
+            0
+        };
         for tri in mesh.indices.chunks_exact(3) {
-            self.triangles.push(Triangle { vertices: [base + tri[0], base + tri[1], base + tri[2]], material, flags });
+            self.triangles.push(Triangle {
+                vertices: [base + tri[0], base + tri[1], base + tri[2]],
+                material,
+                flags,
+            });
             self.push_primitive(primitive_tag::TRIANGLE, self.triangles.len() - 1);
         }
         Ok(())
@@ -719,28 +1013,55 @@ impl SceneBuilder {
     /// Checks the camera and settings and builds the BVH.
     pub fn build(self) -> Result<Scene, SceneError> {
         if self.primitives.is_empty() {
-            return Err(SceneError::invalid("objects", "the scene has no objects".into()));
+            return Err(SceneError::invalid(
+                "objects",
+                "the scene has no objects".into(),
+            ));
         }
         self.render.validate()?;
         let c = &self.camera;
-        for (f, v) in [("camera.look_from", c.look_from), ("camera.look_at", c.look_at), ("camera.up", c.up)] {
+        for (f, v) in [
+            ("camera.look_from", c.look_from),
+            ("camera.look_at", c.look_at),
+            ("camera.up", c.up),
+        ] {
             check_finite_vec(f, v)?;
         }
         let view = c.look_at - c.look_from;
         if view.length_squared() == 0.0 {
-            return Err(SceneError::invalid("camera.look_at", "look_at equals look_from".into()));
+            return Err(SceneError::invalid(
+                "camera.look_at",
+                "look_at equals look_from".into(),
+            ));
         }
-        if view.normalize().cross(c.up.normalize_or_zero()).length_squared() < 1e-12 {
-            return Err(SceneError::invalid("camera.up", "up is zero or parallel to the view direction".into()));
+        if view
+            .normalize()
+            .cross(c.up.normalize_or_zero())
+            .length_squared()
+            < 1e-12
+        {
+            return Err(SceneError::invalid(
+                "camera.up",
+                "up is zero or parallel to the view direction".into(),
+            ));
         }
         if !(c.vfov > 0.0 && c.vfov < 180.0) {
-            return Err(SceneError::invalid("camera.vfov", format!("{} must lie strictly between 0 and 180 degrees", c.vfov)));
+            return Err(SceneError::invalid(
+                "camera.vfov",
+                format!("{} must lie strictly between 0 and 180 degrees", c.vfov),
+            ));
         }
         if !(c.aperture.is_finite() && c.aperture >= 0.0) {
-            return Err(SceneError::invalid("camera.aperture", format!("{} must be finite and non-negative", c.aperture)));
+            return Err(SceneError::invalid(
+                "camera.aperture",
+                format!("{} must be finite and non-negative", c.aperture),
+            ));
         }
         if !(c.focus_distance.is_finite() && c.focus_distance > 0.0) {
-            return Err(SceneError::invalid("camera.focus_distance", format!("{} must be finite and positive", c.focus_distance)));
+            return Err(SceneError::invalid(
+                "camera.focus_distance",
+                format!("{} must be finite and positive", c.focus_distance),
+            ));
         }
         let background = self.background.unwrap_or(Background::Solid(Vec3::ZERO));
         match background {
@@ -749,9 +1070,16 @@ impl SceneBuilder {
                 check_colour("background.horizon", horizon)?;
                 check_colour("background.zenith", zenith)?;
             }
-            Background::Envmap { image, intensity, rotate_y } => {
+            Background::Envmap {
+                image,
+                intensity,
+                rotate_y,
+            } => {
                 if image as usize >= self.images.len() {
-                    return Err(SceneError::invalid("background.path", "envmap image missing".into()));
+                    return Err(SceneError::invalid(
+                        "background.path",
+                        "envmap image missing".into(),
+                    ));
                 }
                 if !(intensity.is_finite() && intensity >= 0.0 && rotate_y.is_finite()) {
                     return Err(SceneError::invalid(
@@ -761,7 +1089,11 @@ impl SceneBuilder {
                 }
             }
         }
-        let bounds: Vec<Aabb> = self.primitives.iter().map(|&p| primitive_bounds(p, &self.spheres, &self.quads, &self.triangles, &self.mesh)).collect();
+        let bounds: Vec<Aabb> = self
+            .primitives
+            .iter()
+            .map(|&p| primitive_bounds(p, &self.spheres, &self.quads, &self.triangles, &self.mesh))
+            .collect();
         let batched: Vec<bool> = self.primitives.iter().map(|p| batched(p.tag)).collect();
         let (bvh, bvh_stats) = Bvh::build_batched(&bounds, &batched);
         let mut scene = Scene {

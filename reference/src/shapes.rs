@@ -61,7 +61,10 @@ impl Sphere {
     /// case in proptest-regressions/embree_agreement.txt).
     pub fn bounds(&self) -> Aabb {
         let r = Vec3::splat(self.radius.abs());
-        Aabb { min: add_round_down(self.center, -r), max: add_round_up(self.center, r) }
+        Aabb {
+            min: add_round_down(self.center, -r),
+            max: add_round_up(self.center, r),
+        }
     }
 }
 
@@ -73,8 +76,14 @@ impl Quad {
     pub fn bounds(&self) -> Aabb {
         let (c, u, v) = (self.corner, self.u, self.v);
         let (cu_lo, cu_hi) = (add_round_down(c, u), add_round_up(c, u));
-        let min = c.min(cu_lo).min(add_round_down(c, v)).min(add_round_down(cu_lo, v));
-        let max = c.max(cu_hi).max(add_round_up(c, v)).max(add_round_up(cu_hi, v));
+        let min = c
+            .min(cu_lo)
+            .min(add_round_down(c, v))
+            .min(add_round_down(cu_lo, v));
+        let max = c
+            .max(cu_hi)
+            .max(add_round_up(c, v))
+            .max(add_round_up(cu_hi, v));
         Aabb { min, max }
     }
 
@@ -95,7 +104,13 @@ impl Triangle {
 /// precision for small spheres far away and for huge ones, and the smaller
 /// root from the stable form `c / q`.
 #[inline]
-pub fn intersect_sphere(center: Vec3, radius: f32, ray: &Ray, t_min: f32, t_max: f32) -> Option<f32> {
+pub fn intersect_sphere(
+    center: Vec3,
+    radius: f32,
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+) -> Option<f32> {
     let f = ray.origin - center;
     let a = ray.direction.length_squared();
     let b_half = -f.dot(ray.direction); // = -b/2
@@ -130,7 +145,14 @@ pub fn intersect_sphere(center: Vec3, radius: f32, ray: &Ray, t_min: f32, t_max:
 /// Ray/parallelogram: intersect the plane, then express the hit in the
 /// (u, v) frame and test `s, t ∈ [0, 1]`. Returns `(t, (s, t))`.
 #[inline]
-pub fn intersect_quad(corner: Vec3, u: Vec3, v: Vec3, ray: &Ray, t_min: f32, t_max: f32) -> Option<(f32, Vec2)> {
+pub fn intersect_quad(
+    corner: Vec3,
+    u: Vec3,
+    v: Vec3,
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+) -> Option<(f32, Vec2)> {
     let n = u.cross(v);
     let denom = n.dot(ray.direction);
     if denom == 0.0 {
@@ -158,8 +180,23 @@ pub fn intersect_quad(corner: Vec3, u: Vec3, v: Vec3, ray: &Ray, t_min: f32, t_m
 /// through shared edges and vertices hit exactly one of the neighbours.
 /// Returns `(t, (b1, b2))` with barycentrics of vertices 1 and 2.
 #[inline]
-pub fn intersect_triangle(p0: Vec3, p1: Vec3, p2: Vec3, ray: &Ray, t_min: f32, t_max: f32) -> Option<(f32, Vec2)> {
-    intersect_triangle_sheared(p0, p1, p2, ray, &RayShear::new(ray.direction)?, t_min, t_max)
+pub fn intersect_triangle(
+    p0: Vec3,
+    p1: Vec3,
+    p2: Vec3,
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+) -> Option<(f32, Vec2)> {
+    intersect_triangle_sheared(
+        p0,
+        p1,
+        p2,
+        ray,
+        &RayShear::new(ray.direction)?,
+        t_min,
+        t_max,
+    )
 }
 
 /// The per-ray half of [`intersect_triangle`]: the permutation and shear
@@ -202,7 +239,14 @@ impl RayShear {
             return None;
         }
         let sz = 1.0 / d[kz];
-        Some(Self { kx, ky, kz, sx: d[kx] * sz, sy: d[ky] * sz, sz })
+        Some(Self {
+            kx,
+            ky,
+            kz,
+            sx: d[kx] * sz,
+            sy: d[ky] * sz,
+            sz,
+        })
     }
 }
 
@@ -214,7 +258,15 @@ impl RayShear {
 /// instead of through nine run-time `Vec3` indexings (select chains and
 /// spills). The same operations on the same values: bit for bit what the
 /// run-time indices give.
-pub fn intersect_triangle_sheared(p0: Vec3, p1: Vec3, p2: Vec3, ray: &Ray, shear: &RayShear, t_min: f32, t_max: f32) -> Option<(f32, Vec2)> {
+pub fn intersect_triangle_sheared(
+    p0: Vec3,
+    p1: Vec3,
+    p2: Vec3,
+    ray: &Ray,
+    shear: &RayShear,
+    t_min: f32,
+    t_max: f32,
+) -> Option<(f32, Vec2)> {
     // (kx, ky) names the permutation (kz is the third axis).
     match (shear.kx, shear.ky) {
         (1, 2) => sheared::<1, 2, 0>(p0, p1, p2, ray, shear, t_min, t_max),
@@ -253,7 +305,9 @@ fn sheared<const KX: usize, const KY: usize, const KZ: usize>(
     let mut v = ax * cy - ay * cx;
     let mut w = bx * ay - by * ax;
     if u == 0.0 || v == 0.0 || w == 0.0 {
-        let (ax, ay, bx, by, cx, cy) = (ax as f64, ay as f64, bx as f64, by as f64, cx as f64, cy as f64);
+        let (ax, ay, bx, by, cx, cy) = (
+            ax as f64, ay as f64, bx as f64, by as f64, cx as f64, cy as f64,
+        );
         u = (cx * by - cy * bx) as f32;
         v = (ax * cy - ay * cx) as f32;
         w = (bx * ay - by * ax) as f32;
@@ -291,7 +345,9 @@ pub struct Triangles4 {
 
 impl Triangles4 {
     /// Four NaN lanes.
-    pub const EMPTY: Triangles4 = Triangles4 { p: [[Vec4::NAN; 3]; 3] };
+    pub const EMPTY: Triangles4 = Triangles4 {
+        p: [[Vec4::NAN; 3]; 3],
+    };
 
     /// Puts triangle `vertices` in lane `lane`.
     pub fn set(&mut self, lane: usize, vertices: [Vec3; 3]) {
@@ -305,7 +361,8 @@ impl Triangles4 {
     /// Lane `lane`'s vertices.
     #[inline]
     pub fn get(&self, lane: usize) -> [Vec3; 3] {
-        self.p.map(|row| Vec3::new(row[0][lane], row[1][lane], row[2][lane]))
+        self.p
+            .map(|row| Vec3::new(row[0][lane], row[1][lane], row[2][lane]))
     }
 }
 
@@ -326,7 +383,13 @@ pub struct Hits4 {
 /// bits. A lane with an edge function of exactly zero redoes the three in
 /// f64, as the scalar test does.
 #[inline]
-pub fn intersect_triangles4(tris: &Triangles4, ray: &Ray, shear: &RayShear, t_min: f32, t_max: f32) -> Hits4 {
+pub fn intersect_triangles4(
+    tris: &Triangles4,
+    ray: &Ray,
+    shear: &RayShear,
+    t_min: f32,
+    t_max: f32,
+) -> Hits4 {
     match (shear.kx, shear.ky) {
         (1, 2) => sheared4::<1, 2, 0>(tris, ray, shear, t_min, t_max),
         (2, 1) => sheared4::<2, 1, 0>(tris, ray, shear, t_min, t_max),
@@ -340,11 +403,27 @@ pub fn intersect_triangles4(tris: &Triangles4, ray: &Ray, shear: &RayShear, t_mi
 /// [`intersect_triangles4`] for the permutation `(KX, KY, KZ)`; the steps
 /// of [`sheared`], four lanes wide.
 #[inline(always)]
-fn sheared4<const KX: usize, const KY: usize, const KZ: usize>(tris: &Triangles4, ray: &Ray, shear: &RayShear, t_min: f32, t_max: f32) -> Hits4 {
+fn sheared4<const KX: usize, const KY: usize, const KZ: usize>(
+    tris: &Triangles4,
+    ray: &Ray,
+    shear: &RayShear,
+    t_min: f32,
+    t_max: f32,
+) -> Hits4 {
     let o = ray.origin.to_array().map(Vec4::splat);
-    let (sx, sy, sz) = (Vec4::splat(shear.sx), Vec4::splat(shear.sy), Vec4::splat(shear.sz));
+    let (sx, sy, sz) = (
+        Vec4::splat(shear.sx),
+        Vec4::splat(shear.sy),
+        Vec4::splat(shear.sz),
+    );
     // Vertex `i` relative to the origin, in the permuted axes.
-    let rel = |i: usize| [tris.p[i][KX] - o[KX], tris.p[i][KY] - o[KY], tris.p[i][KZ] - o[KZ]];
+    let rel = |i: usize| {
+        [
+            tris.p[i][KX] - o[KX],
+            tris.p[i][KY] - o[KY],
+            tris.p[i][KZ] - o[KZ],
+        ]
+    };
     let (a, b, c) = (rel(0), rel(1), rel(2));
     let ax = a[0] - sx * a[2];
     let ay = a[1] - sy * a[2];
@@ -359,16 +438,34 @@ fn sheared4<const KX: usize, const KY: usize, const KZ: usize>(tris: &Triangles4
     let zero = (u.cmpeq(Vec4::ZERO) | v.cmpeq(Vec4::ZERO) | w.cmpeq(Vec4::ZERO)).bitmask();
     if zero != 0 {
         let (mut ua, mut va, mut wa) = (u.to_array(), v.to_array(), w.to_array());
-        let (ax, ay, bx, by, cx, cy) = (ax.to_array(), ay.to_array(), bx.to_array(), by.to_array(), cx.to_array(), cy.to_array());
+        let (ax, ay, bx, by, cx, cy) = (
+            ax.to_array(),
+            ay.to_array(),
+            bx.to_array(),
+            by.to_array(),
+            cx.to_array(),
+            cy.to_array(),
+        );
         for l in 0..4 {
             if zero & (1 << l) != 0 {
-                let (ax, ay, bx, by, cx, cy) = (ax[l] as f64, ay[l] as f64, bx[l] as f64, by[l] as f64, cx[l] as f64, cy[l] as f64);
+                let (ax, ay, bx, by, cx, cy) = (
+                    ax[l] as f64,
+                    ay[l] as f64,
+                    bx[l] as f64,
+                    by[l] as f64,
+                    cx[l] as f64,
+                    cy[l] as f64,
+                );
                 ua[l] = (cx * by - cy * bx) as f32;
                 va[l] = (ax * cy - ay * cx) as f32;
                 wa[l] = (bx * ay - by * ax) as f32;
             }
         }
-        (u, v, w) = (Vec4::from_array(ua), Vec4::from_array(va), Vec4::from_array(wa));
+        (u, v, w) = (
+            Vec4::from_array(ua),
+            Vec4::from_array(va),
+            Vec4::from_array(wa),
+        );
     }
     let negative = u.cmplt(Vec4::ZERO) | v.cmplt(Vec4::ZERO) | w.cmplt(Vec4::ZERO);
     let positive = u.cmpgt(Vec4::ZERO) | v.cmpgt(Vec4::ZERO) | w.cmpgt(Vec4::ZERO);
@@ -379,8 +476,16 @@ fn sheared4<const KX: usize, const KY: usize, const KZ: usize>(tris: &Triangles4
     let t_scaled = u * az + v * bz + w * cz;
     let inv_det = Vec4::ONE / det;
     let t = t_scaled * inv_det;
-    let hit = !(negative & positive) & det.cmpne(Vec4::ZERO) & t.cmpgt(Vec4::splat(t_min)) & t.cmplt(Vec4::splat(t_max));
-    Hits4 { t: t.to_array(), b1: (v * inv_det).to_array(), b2: (w * inv_det).to_array(), mask: hit.bitmask() }
+    let hit = !(negative & positive)
+        & det.cmpne(Vec4::ZERO)
+        & t.cmpgt(Vec4::splat(t_min))
+        & t.cmplt(Vec4::splat(t_max));
+    Hits4 {
+        t: t.to_array(),
+        b1: (v * inv_det).to_array(),
+        b2: (w * inv_det).to_array(),
+        mask: hit.bitmask(),
+    }
 }
 
 #[cfg(test)]
@@ -405,20 +510,32 @@ mod tests {
     #[test]
     fn sphere_hits_near_then_far_and_misses() {
         let r = ray([0.0, 0.0, -5.0], [0.0, 0.0, 1.0]);
-        assert_relative_eq!(intersect_sphere(Vec3::ZERO, 1.0, &r, 1e-4, f32::INFINITY).unwrap(), 4.0);
+        assert_relative_eq!(
+            intersect_sphere(Vec3::ZERO, 1.0, &r, 1e-4, f32::INFINITY).unwrap(),
+            4.0
+        );
         // From inside: the far root.
         let r_in = ray([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]);
-        assert_relative_eq!(intersect_sphere(Vec3::ZERO, 1.0, &r_in, 1e-4, f32::INFINITY).unwrap(), 1.0);
+        assert_relative_eq!(
+            intersect_sphere(Vec3::ZERO, 1.0, &r_in, 1e-4, f32::INFINITY).unwrap(),
+            1.0
+        );
         // t_max excludes it.
         assert!(intersect_sphere(Vec3::ZERO, 1.0, &r, 1e-4, 3.9).is_none());
         // Miss.
         let r_miss = ray([0.0, 1.01, -5.0], [0.0, 0.0, 1.0]);
         assert!(intersect_sphere(Vec3::ZERO, 1.0, &r_miss, 1e-4, f32::INFINITY).is_none());
         // A negative radius is the same surface.
-        assert_relative_eq!(intersect_sphere(Vec3::ZERO, -1.0, &r, 1e-4, f32::INFINITY).unwrap(), 4.0);
+        assert_relative_eq!(
+            intersect_sphere(Vec3::ZERO, -1.0, &r, 1e-4, f32::INFINITY).unwrap(),
+            4.0
+        );
         // Unnormalized direction: t scales.
         let r2 = ray([0.0, 0.0, -5.0], [0.0, 0.0, 2.0]);
-        assert_relative_eq!(intersect_sphere(Vec3::ZERO, 1.0, &r2, 1e-4, f32::INFINITY).unwrap(), 2.0);
+        assert_relative_eq!(
+            intersect_sphere(Vec3::ZERO, 1.0, &r2, 1e-4, f32::INFINITY).unwrap(),
+            2.0
+        );
     }
 
     #[test]
@@ -444,15 +561,26 @@ mod tests {
     fn sphere_bounds_contain_the_exact_sphere() {
         // The saved tests/embree_agreement.rs case: rounded to nearest,
         // center.y + r lands 1.8e-7 below the exact pole.
-        let s = Sphere { center: Vec3::new(0.0, -4.173655, 0.0), radius: 0.0129515575, material: 0 };
+        let s = Sphere {
+            center: Vec3::new(0.0, -4.173655, 0.0),
+            radius: 0.0129515575,
+            material: 0,
+        };
         let pole = s.center.y as f64 + s.radius as f64;
-        assert!(((s.center.y + s.radius) as f64) < pole, "the case no longer exercises rounding");
+        assert!(
+            ((s.center.y + s.radius) as f64) < pole,
+            "the case no longer exercises rounding"
+        );
         assert!(contains_exact(s.bounds(), [0.0, pole, 0.0]));
         let mut f = signed_uniform(3);
         for i in 0..20_000 {
             let center = Vec3::new(f(1e3), f(1e2), f(10.0));
             let radius = f(1.0) * if i % 2 == 0 { 1e-2 } else { 1.0 };
-            let s = Sphere { center, radius, material: 0 };
+            let s = Sphere {
+                center,
+                radius,
+                material: 0,
+            };
             let b = s.bounds();
             for k in 0..3 {
                 let r = radius.abs() as f64;
@@ -460,7 +588,10 @@ mod tests {
                 let mut hi = lo;
                 lo[k] -= r;
                 hi[k] += r;
-                assert!(contains_exact(b, lo) && contains_exact(b, hi), "{s:?}: {b:?}");
+                assert!(
+                    contains_exact(b, lo) && contains_exact(b, hi),
+                    "{s:?}: {b:?}"
+                );
             }
         }
     }
@@ -469,10 +600,28 @@ mod tests {
     fn quad_bounds_contain_the_exact_corners() {
         let mut f = signed_uniform(4);
         for _ in 0..20_000 {
-            let (c, u, v) = (Vec3::new(f(1e3), f(1e2), f(10.0)), Vec3::new(f(1.0), f(1e-2), f(3.0)), Vec3::new(f(1e-1), f(2.0), f(1.0)));
-            let b = Quad { corner: c, u, v, material: 0 }.bounds();
-            for corner in [exact_sum(&[c]), exact_sum(&[c, u]), exact_sum(&[c, v]), exact_sum(&[c, u, v])] {
-                assert!(contains_exact(b, corner), "{c} {u} {v}: {b:?} misses {corner:?}");
+            let (c, u, v) = (
+                Vec3::new(f(1e3), f(1e2), f(10.0)),
+                Vec3::new(f(1.0), f(1e-2), f(3.0)),
+                Vec3::new(f(1e-1), f(2.0), f(1.0)),
+            );
+            let b = Quad {
+                corner: c,
+                u,
+                v,
+                material: 0,
+            }
+            .bounds();
+            for corner in [
+                exact_sum(&[c]),
+                exact_sum(&[c, u]),
+                exact_sum(&[c, v]),
+                exact_sum(&[c, u, v]),
+            ] {
+                assert!(
+                    contains_exact(b, corner),
+                    "{c} {u} {v}: {b:?} misses {corner:?}"
+                );
             }
         }
     }
@@ -496,11 +645,22 @@ mod tests {
             for _ in 0..3 {
                 let Some(shear) = RayShear::new(d) else { break };
                 perms.insert((shear.kx, shear.ky));
-                let r = intersect_triangle_sheared(p[0], p[1], p[2], &Ray::new(o, d), &shear, 0.0, f32::INFINITY);
+                let r = intersect_triangle_sheared(
+                    p[0],
+                    p[1],
+                    p[2],
+                    &Ray::new(o, d),
+                    &shear,
+                    0.0,
+                    f32::INFINITY,
+                );
                 results.push(r.map(|(t, uv)| (t.to_bits(), uv.x.to_bits(), uv.y.to_bits())));
                 (o, d, p) = (rot(o), rot(d), p.map(rot));
             }
-            assert!(results.windows(2).all(|w| w[0] == w[1]), "{o} {d} {p:?}: {results:?}");
+            assert!(
+                results.windows(2).all(|w| w[0] == w[1]),
+                "{o} {d} {p:?}: {results:?}"
+            );
             hits += results[0].is_some() as u32;
         }
         assert_eq!(perms.len(), 6, "not every permutation was exercised");
@@ -542,21 +702,37 @@ mod tests {
             // Aim at a vertex, an edge midpoint or a random point.
             let target = match (i / 2) % 3 {
                 0 => lanes.iter().flatten().next().map_or(c, |p| p[0]),
-                1 => lanes.iter().flatten().next().map_or(c, |p| (p[0] + p[1]) * 0.5),
+                1 => lanes
+                    .iter()
+                    .flatten()
+                    .next()
+                    .map_or(c, |p| (p[0] + p[1]) * 0.5),
                 _ => c + Vec3::new(f(1.0), f(1.0), f(1.0)),
             };
             let ray = Ray::new(o, target - o);
-            let Some(shear) = RayShear::new(ray.direction) else { continue };
+            let Some(shear) = RayShear::new(ray.direction) else {
+                continue;
+            };
             perms.insert((shear.kx, shear.ky));
-            let first = lanes.iter().flatten().find_map(|p| intersect_triangle_sheared(p[0], p[1], p[2], &ray, &shear, 0.0, f32::INFINITY));
+            let first = lanes.iter().flatten().find_map(|p| {
+                intersect_triangle_sheared(p[0], p[1], p[2], &ray, &shear, 0.0, f32::INFINITY)
+            });
             let t_max = match i % 3 {
                 0 => f32::INFINITY,
                 _ => first.map_or(f32::INFINITY, |(t, _)| t),
             };
             let wide = intersect_triangles4(&tris, &ray, &shear, 0.0, t_max);
             for (lane, p) in lanes.iter().enumerate() {
-                let scalar = p.and_then(|p| intersect_triangle_sheared(p[0], p[1], p[2], &ray, &shear, 0.0, t_max));
-                let got = (wide.mask >> lane & 1 == 1).then(|| (wide.t[lane].to_bits(), wide.b1[lane].to_bits(), wide.b2[lane].to_bits()));
+                let scalar = p.and_then(|p| {
+                    intersect_triangle_sheared(p[0], p[1], p[2], &ray, &shear, 0.0, t_max)
+                });
+                let got = (wide.mask >> lane & 1 == 1).then(|| {
+                    (
+                        wide.t[lane].to_bits(),
+                        wide.b1[lane].to_bits(),
+                        wide.b2[lane].to_bits(),
+                    )
+                });
                 let want = scalar.map(|(t, uv)| (t.to_bits(), uv.x.to_bits(), uv.y.to_bits()));
                 assert_eq!(got, want, "ray {ray:?}, lane {lane}: {p:?}");
                 if let Some((_, uv)) = scalar {
@@ -568,31 +744,90 @@ mod tests {
         assert_eq!(perms.len(), 6, "not every permutation was exercised");
         // Provenance: 10,255 hits, 4,900 of them on an edge or a vertex on
         // the first run; the bounds only check that both kinds are compared.
-        assert!(hits > 5_000 && on_edges > 1_000, "{hits} hits, {on_edges} on edges");
+        assert!(
+            hits > 5_000 && on_edges > 1_000,
+            "{hits} hits, {on_edges} on edges"
+        );
     }
 
     #[test]
     fn quad_hit_reports_planar_coordinates() {
-        let (corner, u, v) = (Vec3::new(-1.0, -1.0, 0.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 2.0, 0.0));
-        let (t, st) = intersect_quad(corner, u, v, &ray([0.5, 0.0, -3.0], [0.0, 0.0, 1.0]), 1e-4, f32::INFINITY).unwrap();
+        let (corner, u, v) = (
+            Vec3::new(-1.0, -1.0, 0.0),
+            Vec3::new(2.0, 0.0, 0.0),
+            Vec3::new(0.0, 2.0, 0.0),
+        );
+        let (t, st) = intersect_quad(
+            corner,
+            u,
+            v,
+            &ray([0.5, 0.0, -3.0], [0.0, 0.0, 1.0]),
+            1e-4,
+            f32::INFINITY,
+        )
+        .unwrap();
         assert_relative_eq!(t, 3.0);
         assert_relative_eq!(st.x, 0.75);
         assert_relative_eq!(st.y, 0.5);
         // Outside the parallelogram, parallel, and behind.
-        assert!(intersect_quad(corner, u, v, &ray([1.5, 0.0, -3.0], [0.0, 0.0, 1.0]), 1e-4, f32::INFINITY).is_none());
-        assert!(intersect_quad(corner, u, v, &ray([0.0, 0.0, -3.0], [1.0, 0.0, 0.0]), 1e-4, f32::INFINITY).is_none());
-        assert!(intersect_quad(corner, u, v, &ray([0.0, 0.0, 3.0], [0.0, 0.0, 1.0]), 1e-4, f32::INFINITY).is_none());
+        assert!(intersect_quad(
+            corner,
+            u,
+            v,
+            &ray([1.5, 0.0, -3.0], [0.0, 0.0, 1.0]),
+            1e-4,
+            f32::INFINITY
+        )
+        .is_none());
+        assert!(intersect_quad(
+            corner,
+            u,
+            v,
+            &ray([0.0, 0.0, -3.0], [1.0, 0.0, 0.0]),
+            1e-4,
+            f32::INFINITY
+        )
+        .is_none());
+        assert!(intersect_quad(
+            corner,
+            u,
+            v,
+            &ray([0.0, 0.0, 3.0], [0.0, 0.0, 1.0]),
+            1e-4,
+            f32::INFINITY
+        )
+        .is_none());
     }
 
     #[test]
     fn sheared_quad_is_a_parallelogram() {
-        let (corner, u, v) = (Vec3::ZERO, Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 0.0));
+        let (corner, u, v) = (
+            Vec3::ZERO,
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+        );
         // (1.5, 0.9) lies inside: s = 0.6, t = 0.9.
-        let (_, st) = intersect_quad(corner, u, v, &ray([1.5, 0.9, 1.0], [0.0, 0.0, -1.0]), 0.0, 10.0).unwrap();
+        let (_, st) = intersect_quad(
+            corner,
+            u,
+            v,
+            &ray([1.5, 0.9, 1.0], [0.0, 0.0, -1.0]),
+            0.0,
+            10.0,
+        )
+        .unwrap();
         assert_relative_eq!(st.x, 0.6, epsilon = 1e-6);
         assert_relative_eq!(st.y, 0.9, epsilon = 1e-6);
         // (0.1, 0.9) lies outside (left of the slanted edge).
-        assert!(intersect_quad(corner, u, v, &ray([0.1, 0.9, 1.0], [0.0, 0.0, -1.0]), 0.0, 10.0).is_none());
+        assert!(intersect_quad(
+            corner,
+            u,
+            v,
+            &ray([0.1, 0.9, 1.0], [0.0, 0.0, -1.0]),
+            0.0,
+            10.0
+        )
+        .is_none());
     }
 
     #[test]
@@ -607,7 +842,15 @@ mod tests {
         let (t2, _) = intersect_triangle(p0, p2, p1, &r, 0.0, f32::INFINITY).unwrap();
         assert_relative_eq!(t2, 2.0);
         // Outside, and degenerate.
-        assert!(intersect_triangle(p0, p1, p2, &ray([0.75, 0.5, 2.0], [0.0, 0.0, -1.0]), 0.0, 9.0).is_none());
+        assert!(intersect_triangle(
+            p0,
+            p1,
+            p2,
+            &ray([0.75, 0.5, 2.0], [0.0, 0.0, -1.0]),
+            0.0,
+            9.0
+        )
+        .is_none());
         assert!(intersect_triangle(p0, p1, p1, &r, 0.0, 9.0).is_none());
     }
 

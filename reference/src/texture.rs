@@ -73,7 +73,13 @@ impl Texture {
 }
 
 /// Evaluates texture `id` at point `p` with coordinates `uv`.
-pub fn evaluate_texture(textures: &[Texture], images: &[ImageData], id: u32, p: Vec3, uv: Vec2) -> Vec3 {
+pub fn evaluate_texture(
+    textures: &[Texture],
+    images: &[ImageData],
+    id: u32,
+    p: Vec3,
+    uv: Vec2,
+) -> Vec3 {
     match textures[id as usize] {
         Texture::Constant(c) => c,
         Texture::Checker { scale, even, odd } => {
@@ -110,7 +116,11 @@ mod tests {
 
     fn two_by_two() -> ImageData {
         // top row: red, green; bottom row: blue, white
-        ImageData { width: 2, height: 2, texels: vec![Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE] }
+        ImageData {
+            width: 2,
+            height: 2,
+            texels: vec![Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE],
+        }
     }
 
     #[test]
@@ -132,17 +142,40 @@ mod tests {
 
     #[test]
     fn checker_alternates_with_sign_of_sines() {
-        let textures = [Texture::Constant(Vec3::ONE), Texture::Constant(Vec3::ZERO), Texture::Checker { scale: 1.0, even: 0, odd: 1 }];
+        let textures = [
+            Texture::Constant(Vec3::ONE),
+            Texture::Constant(Vec3::ZERO),
+            Texture::Checker {
+                scale: 1.0,
+                even: 0,
+                odd: 1,
+            },
+        ];
         let p_even = Vec3::splat(1.0); // sin(1)^3 > 0
         let p_odd = Vec3::new(-1.0, 1.0, 1.0);
-        assert_eq!(evaluate_texture(&textures, &[], 2, p_even, Vec2::ZERO), Vec3::ONE);
-        assert_eq!(evaluate_texture(&textures, &[], 2, p_odd, Vec2::ZERO), Vec3::ZERO);
+        assert_eq!(
+            evaluate_texture(&textures, &[], 2, p_even, Vec2::ZERO),
+            Vec3::ONE
+        );
+        assert_eq!(
+            evaluate_texture(&textures, &[], 2, p_odd, Vec2::ZERO),
+            Vec3::ZERO
+        );
     }
 
     #[test]
     fn image_texture_applies_factor() {
-        let textures = [Texture::Image { image: 0, factor: Vec3::splat(0.5) }];
-        let c = evaluate_texture(&textures, &[two_by_two()], 0, Vec3::ZERO, Vec2::new(0.75, 0.25));
+        let textures = [Texture::Image {
+            image: 0,
+            factor: Vec3::splat(0.5),
+        }];
+        let c = evaluate_texture(
+            &textures,
+            &[two_by_two()],
+            0,
+            Vec3::ZERO,
+            Vec2::new(0.75, 0.25),
+        );
         assert_eq!(c, Vec3::splat(0.5));
     }
 

@@ -23,12 +23,17 @@ fn first_mismatch(scene: &Scene, qs: &[Query]) -> Option<String> {
         let fast = scene.intersect(&q.ray, q.t_min, q.t_max);
         let slow = scene.intersect_brute_force(&q.ray, q.t_min, q.t_max);
         let same = match (fast, slow) {
-            (Some(f), Some(s)) => f.prim == s.prim && f.t.to_bits() == s.t.to_bits() && f.uv == s.uv,
+            (Some(f), Some(s)) => {
+                f.prim == s.prim && f.t.to_bits() == s.t.to_bits() && f.uv == s.uv
+            }
             (None, None) => true,
             _ => false,
         };
         if !same {
-            return Some(format!("query {i} ({:?}): {q:?}\n  bvh:         {fast:?}\n  brute force: {slow:?}", q.kind));
+            return Some(format!(
+                "query {i} ({:?}): {q:?}\n  bvh:         {fast:?}\n  brute force: {slow:?}",
+                q.kind
+            ));
         }
     }
     None
@@ -37,8 +42,13 @@ fn first_mismatch(scene: &Scene, qs: &[Query]) -> Option<String> {
 /// `cases` per run; PROPTEST_CASES overrides it for a longer soak.
 fn config(cases: u32) -> ProptestConfig {
     ProptestConfig {
-        cases: std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(cases),
-        failure_persistence: Some(Box::new(FileFailurePersistence::Direct("proptest-regressions/bvh_property.txt"))),
+        cases: std::env::var("PROPTEST_CASES")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(cases),
+        failure_persistence: Some(Box::new(FileFailurePersistence::Direct(
+            "proptest-regressions/bvh_property.txt",
+        ))),
         ..ProptestConfig::default()
     }
 }
@@ -78,8 +88,15 @@ fn bvh_equals_brute_force_on_every_fixture() {
         // The scan costs one test per primitive: fewer rays where there are many.
         let n = (4_000_000 / scene.primitives.len()).clamp(500, 20_000);
         let qs = queries(&scene, 0x5eed ^ scene.primitives.len() as u64, n);
-        let hits = qs.iter().filter(|q| scene.intersect(&q.ray, q.t_min, q.t_max).is_some()).count();
-        assert!(hits * 5 > n, "{}: only {hits} of {n} queries hit: the test is not exercising the BVH", short(&name));
+        let hits = qs
+            .iter()
+            .filter(|q| scene.intersect(&q.ray, q.t_min, q.t_max).is_some())
+            .count();
+        assert!(
+            hits * 5 > n,
+            "{}: only {hits} of {n} queries hit: the test is not exercising the BVH",
+            short(&name)
+        );
         if let Some(m) = first_mismatch(&scene, &qs) {
             panic!("{}: {m}", short(&name));
         }
@@ -93,17 +110,35 @@ fn bvh_equals_brute_force_on_every_fixture() {
 #[test]
 fn a_dropped_bvh_leaf_entry_is_caught() {
     // 72 triangles, so that the queries hit each of them.
-    let grid = ShapeSpec::Grid { corner: Vec3::new(-1.0, -1.0, 0.0), u: Vec3::new(2.0, 0.0, 0.0), v: Vec3::new(0.0, 2.0, 0.0), n: 6 };
+    let grid = ShapeSpec::Grid {
+        corner: Vec3::new(-1.0, -1.0, 0.0),
+        u: Vec3::new(2.0, 0.0, 0.0),
+        v: Vec3::new(0.0, 2.0, 0.0),
+        n: 6,
+    };
     for (name, triangles) in [("cornell", false), ("a grid of triangles", true)] {
-        let mut scene = if triangles { build_scene(std::slice::from_ref(&grid)).expect("the grid") } else { load(name) };
+        let mut scene = if triangles {
+            build_scene(std::slice::from_ref(&grid)).expect("the grid")
+        } else {
+            load(name)
+        };
         let order = scene.bvh().prim_order().to_vec();
         let mut nodes = scene.bvh().nodes().to_vec();
-        let all_triangles =
-            |n: &BvhNode| order[n.index as usize..(n.index + n.count()) as usize].iter().all(|&p| scene.primitives[p as usize].tag == primitive_tag::TRIANGLE);
-        let leaf = nodes.iter().position(|n| n.is_leaf() && n.count() > 1 && all_triangles(n) == triangles).expect("a leaf with two primitives");
+        let all_triangles = |n: &BvhNode| {
+            order[n.index as usize..(n.index + n.count()) as usize]
+                .iter()
+                .all(|&p| scene.primitives[p as usize].tag == primitive_tag::TRIANGLE)
+        };
+        let leaf = nodes
+            .iter()
+            .position(|n| n.is_leaf() && n.count() > 1 && all_triangles(n) == triangles)
+            .expect("a leaf with two primitives");
         nodes[leaf].meta -= 1 << 2; // count - 1: the last primitive of the leaf is never tested
         scene.set_bvh(Bvh::from_parts(nodes, order));
         let qs = queries(&scene, 7, 20_000);
-        assert!(first_mismatch(&scene, &qs).is_some(), "{name}: dropping a primitive from leaf {leaf} went unnoticed");
+        assert!(
+            first_mismatch(&scene, &qs).is_some(),
+            "{name}: dropping a primitive from leaf {leaf} went unnoticed"
+        );
     }
 }

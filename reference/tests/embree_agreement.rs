@@ -25,7 +25,10 @@
 
 mod common;
 
-use common::{build_scene, fixture_names, load, queries, queries_of, scene_spec, short, Query, RayKind, ALL_KINDS, TARGETED_KINDS};
+use common::{
+    build_scene, fixture_names, load, queries, queries_of, scene_spec, short, Query, RayKind,
+    ALL_KINDS, TARGETED_KINDS,
+};
 use glam::DVec3;
 use proptest::prelude::*;
 use proptest::test_runner::FileFailurePersistence;
@@ -155,7 +158,13 @@ fn sci(d: &mut Distribution) -> String {
         return "n=0".into();
     }
     let q = [0.5, 0.99, 0.9999].map(|q| d.quantile(q));
-    format!("p50={:.2e} p99={:.2e} p99.99={:.2e} max={:.2e}", q[0], q[1], q[2], d.max())
+    format!(
+        "p50={:.2e} p99={:.2e} p99.99={:.2e} max={:.2e}",
+        q[0],
+        q[1],
+        q[2],
+        d.max()
+    )
 }
 
 /// The magnitudes the f32 arithmetic of a hit on `shape` works on.
@@ -183,7 +192,8 @@ fn near_edge(scene: &Scene, prim: u32, t: f32, q: &Query) -> bool {
 fn at_interval_end(scene: &Scene, prim: u32, t: f32, q: &Query) -> bool {
     let shape = Shape64::of(scene, prim);
     let bound = t_bound(&shape, q, t as f64);
-    (t as f64 - q.t_min as f64).abs() <= bound || (q.t_max.is_finite() && (q.t_max as f64 - t as f64).abs() <= bound)
+    (t as f64 - q.t_min as f64).abs() <= bound
+        || (q.t_max.is_finite() && (q.t_max as f64 - t as f64).abs() <= bound)
 }
 
 /// Both surfaces are crossed within the sum of the two t error bounds.
@@ -200,7 +210,10 @@ fn classify(scene: &Scene, embree: &EmbreeScene, q: &Query, t: &mut Tally) {
     t.rays += 1;
     let r = scene.intersect(&q.ray, q.t_min, q.t_max);
     let e = embree.intersect(&q.ray, q.t_min, q.t_max);
-    let hits: Vec<(u32, f32)> = [r.map(|h| (h.prim, h.t)), e.map(|h| (h.prim, h.t))].into_iter().flatten().collect();
+    let hits: Vec<(u32, f32)> = [r.map(|h| (h.prim, h.t)), e.map(|h| (h.prim, h.t))]
+        .into_iter()
+        .flatten()
+        .collect();
     match (r, e) {
         (None, None) => t.agree_miss += 1,
         (Some(a), Some(b)) if a.prim == b.prim => {
@@ -220,7 +233,9 @@ fn classify(scene: &Scene, embree: &EmbreeScene, q: &Query, t: &mut Tally) {
             if ratio > T_ULPS {
                 t.dt_bound_violations += 1;
                 if t.examples.len() < 8 {
-                    t.examples.push(format!("|Δt| {dt:e} = {ratio:.1} u·L/cos θ on {q:?}: ref {a:?} embree {b:?}"));
+                    t.examples.push(format!(
+                        "|Δt| {dt:e} = {ratio:.1} u·L/cos θ on {q:?}: ref {a:?} embree {b:?}"
+                    ));
                 }
             }
             if q.kind == RayKind::OnSurface {
@@ -245,7 +260,8 @@ fn classify(scene: &Scene, embree: &EmbreeScene, q: &Query, t: &mut Tally) {
             } else {
                 t.unexplained += 1;
                 if t.examples.len() < 8 {
-                    t.examples.push(format!("{q:?}\n    reference {r:?}\n    embree    {e:?}"));
+                    t.examples
+                        .push(format!("{q:?}\n    reference {r:?}\n    embree    {e:?}"));
                 }
             }
         }
@@ -263,11 +279,17 @@ fn compare(scene: &Scene, embree: &EmbreeScene, qs: &[Query]) -> Vec<Tally> {
             }
             tallies
         })
-        .reduce(|| ALL_KINDS.iter().map(|_| Tally::default()).collect(), |a, b| a.into_iter().zip(b).map(|(x, y)| x.merge(y)).collect())
+        .reduce(
+            || ALL_KINDS.iter().map(|_| Tally::default()).collect(),
+            |a, b| a.into_iter().zip(b).map(|(x, y)| x.merge(y)).collect(),
+        )
 }
 
 fn rays_per_fixture() -> usize {
-    std::env::var("TWINTRACE_AGREEMENT_RAYS").ok().and_then(|v| v.parse().ok()).unwrap_or(RAYS_PER_FIXTURE)
+    std::env::var("TWINTRACE_AGREEMENT_RAYS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(RAYS_PER_FIXTURE)
 }
 
 /// Hard-case queries per fixture (vertices, edges, axis-parallel, on and
@@ -284,21 +306,42 @@ fn reference_agrees_with_embree_on_every_fixture() {
         let embree = EmbreeScene::new(&scene).unwrap_or_else(|e| panic!("{}: {e}", short(&name)));
         let seed = 0xe3b0 + scene.primitives.len() as u64;
         let mut qs = queries_of(&scene, seed, n, &[RayKind::Random]);
-        qs.extend(queries_of(&scene, seed + 1, TARGETED_PER_FIXTURE.min(n), TARGETED_KINDS));
+        qs.extend(queries_of(
+            &scene,
+            seed + 1,
+            TARGETED_PER_FIXTURE.min(n),
+            TARGETED_KINDS,
+        ));
         let tallies = compare(&scene, &embree, &qs);
         let random = &tallies[0];
         println!("{:<16} random rays: {}", short(&name), random.counts());
         if random.well_posed_agreement() < MIN_AGREEMENT {
-            failures.push(format!("{}: random-ray agreement {:.5} % is below the target 99.999 %", short(&name), 100.0 * random.well_posed_agreement()));
+            failures.push(format!(
+                "{}: random-ray agreement {:.5} % is below the target 99.999 %",
+                short(&name),
+                100.0 * random.well_posed_agreement()
+            ));
         }
         for (k, t) in ALL_KINDS.iter().zip(&tallies) {
             if t.failed() {
-                failures.push(format!("{} ({k:?} rays): {}\n  {}", short(&name), t.counts(), t.examples.join("\n  ")));
+                failures.push(format!(
+                    "{} ({k:?} rays): {}\n  {}",
+                    short(&name),
+                    t.counts(),
+                    t.examples.join("\n  ")
+                ));
             }
         }
-        totals = totals.into_iter().zip(tallies).map(|(a, b)| a.merge(b)).collect();
+        totals = totals
+            .into_iter()
+            .zip(tallies)
+            .map(|(a, b)| a.merge(b))
+            .collect();
     }
-    println!("All fixtures (embree {}), by ray kind:", EmbreeScene::new(&load("cornell")).unwrap().version());
+    println!(
+        "All fixtures (embree {}), by ray kind:",
+        EmbreeScene::new(&load("cornell")).unwrap().version()
+    );
     for (k, t) in ALL_KINDS.iter().zip(totals.iter_mut()) {
         println!("{k:?}: {}\n{}", t.counts(), t.errors());
     }
@@ -307,8 +350,13 @@ fn reference_agrees_with_embree_on_every_fixture() {
 
 fn config(cases: u32) -> ProptestConfig {
     ProptestConfig {
-        cases: std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(cases),
-        failure_persistence: Some(Box::new(FileFailurePersistence::Direct("proptest-regressions/embree_agreement.txt"))),
+        cases: std::env::var("PROPTEST_CASES")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(cases),
+        failure_persistence: Some(Box::new(FileFailurePersistence::Direct(
+            "proptest-regressions/embree_agreement.txt",
+        ))),
         ..ProptestConfig::default()
     }
 }

@@ -28,7 +28,9 @@ use reference::shapes::{intersect_quad, intersect_sphere, intersect_triangle};
 fn mesh_scene(mesh: &MeshInput, placement: &Transform) -> Scene {
     let mut b = SceneBuilder::new();
     let white = b.constant(Vec3::splat(0.7)).unwrap();
-    let m = b.add_material(Material::Lambertian { albedo: white }).unwrap();
+    let m = b
+        .add_material(Material::Lambertian { albedo: white })
+        .unwrap();
     b.add_mesh(mesh, m, placement).unwrap();
     b.camera.look_from = placement.point(Vec3::new(0.0, 0.0, 10.0));
     b.camera.look_at = placement.point(Vec3::ZERO);
@@ -39,7 +41,12 @@ fn mesh_scene(mesh: &MeshInput, placement: &Transform) -> Scene {
 /// draws, a third aimed at random directions, a third exactly at
 /// vertices, a third at points of edges (which are all shared: the mesh
 /// is closed), including edge midpoints.
-fn interior_rays(scene: &Scene, n: usize, seed: u64, inside: impl Fn(&mut Rng) -> Vec3) -> Vec<Ray> {
+fn interior_rays(
+    scene: &Scene,
+    n: usize,
+    seed: u64,
+    inside: impl Fn(&mut Rng) -> Vec3,
+) -> Vec<Ray> {
     let mut rng = Rng::new(seed);
     let edges = common::feature_edges(scene);
     let mut rays = Vec::with_capacity(n);
@@ -64,16 +71,37 @@ fn interior_rays(scene: &Scene, n: usize, seed: u64, inside: impl Fn(&mut Rng) -
 /// Rays that hit nothing (leaks), by the reference and (with the feature)
 /// by Embree; the reference must have none.
 fn check_watertight(name: &str, scene: &Scene, rays: &[Ray]) -> usize {
-    let leaks: Vec<&Ray> = rays.par_iter().filter(|r| scene.intersect(r, 0.0, f32::INFINITY).is_none()).collect();
+    let leaks: Vec<&Ray> = rays
+        .par_iter()
+        .filter(|r| scene.intersect(r, 0.0, f32::INFINITY).is_none())
+        .collect();
     #[cfg(feature = "embree")]
     {
         let embree = reference::embree::EmbreeScene::new(scene).unwrap();
-        let embree_leaks = rays.par_iter().filter(|r| embree.intersect(r, 0.0, f32::INFINITY).is_none()).count();
-        println!("{name}: {} interior rays, reference leaks {}, Embree {} (ROBUST) leaks {embree_leaks}", rays.len(), leaks.len(), embree.version());
+        let embree_leaks = rays
+            .par_iter()
+            .filter(|r| embree.intersect(r, 0.0, f32::INFINITY).is_none())
+            .count();
+        println!(
+            "{name}: {} interior rays, reference leaks {}, Embree {} (ROBUST) leaks {embree_leaks}",
+            rays.len(),
+            leaks.len(),
+            embree.version()
+        );
     }
     #[cfg(not(feature = "embree"))]
-    println!("{name}: {} interior rays, reference leaks {}", rays.len(), leaks.len());
-    assert!(leaks.is_empty(), "{name}: {} of {} rays from inside escaped, e.g. {:?}", leaks.len(), rays.len(), &leaks[..leaks.len().min(5)]);
+    println!(
+        "{name}: {} interior rays, reference leaks {}",
+        rays.len(),
+        leaks.len()
+    );
+    assert!(
+        leaks.is_empty(),
+        "{name}: {} of {} rays from inside escaped, e.g. {:?}",
+        leaks.len(),
+        rays.len(),
+        &leaks[..leaks.len().min(5)]
+    );
     rays.len()
 }
 
@@ -84,18 +112,35 @@ fn rays_from_inside_closed_meshes_never_leak() {
     // Icosphere level 4: 5,120 triangles; the inscribed radius of the
     // faces is above 0.99, so |o| < 0.9 is inside.
     let ico = mesh_scene(&reference::procedural::icosphere(4), &id);
-    total += check_watertight("icosphere(4)", &ico, &interior_rays(&ico, 300_000, 1, |r| r.point_in(Vec3::splat(-0.52), Vec3::splat(0.52))));
+    total += check_watertight(
+        "icosphere(4)",
+        &ico,
+        &interior_rays(&ico, 300_000, 1, |r| {
+            r.point_in(Vec3::splat(-0.52), Vec3::splat(0.52))
+        }),
+    );
     // From the exact centre, straight at the vertices.
-    let centre_rays: Vec<Ray> = ico.mesh.positions.iter().map(|&v| Ray::new(Vec3::ZERO, v)).collect();
+    let centre_rays: Vec<Ray> = ico
+        .mesh
+        .positions
+        .iter()
+        .map(|&v| Ray::new(Vec3::ZERO, v))
+        .collect();
     total += check_watertight("icosphere(4) centre → vertices", &ico, &centre_rays);
     // The same sphere scaled by 10 and placed 10^3 from the origin.
-    let far = Transform::from_parts(Vec3::splat(10.0), Quat::from_rotation_y(0.3), Vec3::new(1000.0, -2000.0, 500.0));
+    let far = Transform::from_parts(
+        Vec3::splat(10.0),
+        Quat::from_rotation_y(0.3),
+        Vec3::new(1000.0, -2000.0, 500.0),
+    );
     let ico_far = mesh_scene(&reference::procedural::icosphere(4), &far);
     let c = far.point(Vec3::ZERO);
     total += check_watertight(
         "icosphere(4) ×10 at (1e3, -2e3, 5e2)",
         &ico_far,
-        &interior_rays(&ico_far, 150_000, 2, |r| c + r.point_in(Vec3::splat(-5.0), Vec3::splat(5.0))),
+        &interior_rays(&ico_far, 150_000, 2, |r| {
+            c + r.point_in(Vec3::splat(-5.0), Vec3::splat(5.0))
+        }),
     );
     // Torus: major 1, minor 0.35, 96 × 48 segments (9,216 triangles). The
     // polygonal tube's inscribed radius exceeds 0.35·cos(π/48)·cos(π/96)
@@ -113,22 +158,57 @@ fn rays_from_inside_closed_meshes_never_leak() {
     );
     // The glTF fixture: bumpy_sphere(5, 0.08, 6): 20,480 triangles, every
     // vertex at radius ≥ 0.92; |o| < 0.5 is well inside.
-    let glb = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/meshes/bumpy_sphere.glb");
+    let glb = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../fixtures/meshes/bumpy_sphere.glb");
     let bumpy = mesh_scene(&reference::loader::gltf::load_gltf_mesh(&glb).unwrap(), &id);
-    total += check_watertight("bumpy_sphere.glb", &bumpy, &interior_rays(&bumpy, 300_000, 4, |r| r.point_in(Vec3::splat(-0.28), Vec3::splat(0.28))));
+    total += check_watertight(
+        "bumpy_sphere.glb",
+        &bumpy,
+        &interior_rays(&bumpy, 300_000, 4, |r| {
+            r.point_in(Vec3::splat(-0.28), Vec3::splat(0.28))
+        }),
+    );
     assert!(total >= 1_000_000, "only {total} rays");
 }
 
 /// A scene of every shape kind, scaled by `scale` and moved by `shift`.
 fn stress_shapes() -> Vec<ShapeSpec> {
     vec![
-        ShapeSpec::Sphere { center: Vec3::new(-2.0, 0.0, 0.0), radius: 0.8 },
-        ShapeSpec::Sphere { center: Vec3::new(0.0, 2.2, 0.3), radius: -0.6 },
-        ShapeSpec::Quad { corner: Vec3::new(-3.0, -1.0, -3.0), u: Vec3::new(0.0, 0.0, 6.0), v: Vec3::new(6.0, 0.0, 0.0) },
-        ShapeSpec::Quad { corner: Vec3::new(1.2, 0.5, -0.4), u: Vec3::new(0.9, 0.3, 0.1), v: Vec3::new(-0.2, 0.7, 0.8) },
-        ShapeSpec::Cuboid { min: Vec3::new(0.5, -0.9, 0.8), size: Vec3::new(1.0, 1.4, 0.9), rotate_y: 23.0 },
-        ShapeSpec::Icosphere { center: Vec3::new(2.2, 0.2, -1.0), radius: 0.7, subdivisions: 2 },
-        ShapeSpec::Triangle { p: [Vec3::new(-1.0, 0.0, 1.5), Vec3::new(0.3, 0.4, 2.5), Vec3::new(-0.6, 1.6, 1.9)] },
+        ShapeSpec::Sphere {
+            center: Vec3::new(-2.0, 0.0, 0.0),
+            radius: 0.8,
+        },
+        ShapeSpec::Sphere {
+            center: Vec3::new(0.0, 2.2, 0.3),
+            radius: -0.6,
+        },
+        ShapeSpec::Quad {
+            corner: Vec3::new(-3.0, -1.0, -3.0),
+            u: Vec3::new(0.0, 0.0, 6.0),
+            v: Vec3::new(6.0, 0.0, 0.0),
+        },
+        ShapeSpec::Quad {
+            corner: Vec3::new(1.2, 0.5, -0.4),
+            u: Vec3::new(0.9, 0.3, 0.1),
+            v: Vec3::new(-0.2, 0.7, 0.8),
+        },
+        ShapeSpec::Cuboid {
+            min: Vec3::new(0.5, -0.9, 0.8),
+            size: Vec3::new(1.0, 1.4, 0.9),
+            rotate_y: 23.0,
+        },
+        ShapeSpec::Icosphere {
+            center: Vec3::new(2.2, 0.2, -1.0),
+            radius: 0.7,
+            subdivisions: 2,
+        },
+        ShapeSpec::Triangle {
+            p: [
+                Vec3::new(-1.0, 0.0, 1.5),
+                Vec3::new(0.3, 0.4, 2.5),
+                Vec3::new(-0.6, 1.6, 1.9),
+            ],
+        },
     ]
 }
 
@@ -147,12 +227,19 @@ struct SpawnReport {
 /// the surface, and looks for re-hits of the surface the ray left.
 fn spawn_check(scene: &Scene, centre: Vec3, scale: f32, seed: u64, n: usize) -> SpawnReport {
     let mut rng = Rng::new(seed);
-    let mut rep = SpawnReport { hits: 0, spawned: 0, self_hits: Vec::new(), off_by_more_than_offset: Vec::new() };
+    let mut rep = SpawnReport {
+        hits: 0,
+        spawned: 0,
+        self_hits: Vec::new(),
+        off_by_more_than_offset: Vec::new(),
+    };
     for _ in 0..n {
         let o = centre + rng.unit_vector() * (8.0 * scale);
         let target = centre + rng.point_in(Vec3::splat(-3.0), Vec3::splat(3.0)) * scale;
         let ray = Ray::new(o, (target - o).normalize());
-        let Some(hit) = scene.intersect(&ray, 0.0, f32::INFINITY) else { continue };
+        let Some(hit) = scene.intersect(&ray, 0.0, f32::INFINITY) else {
+            continue;
+        };
         rep.hits += 1;
         let si = scene.surface_interaction(&ray, &hit);
         let ng = si.geometric_normal;
@@ -162,12 +249,19 @@ fn spawn_check(scene: &Scene, centre: Vec3, scale: f32, seed: u64, n: usize) -> 
         let dist = shape.surface_distance(si.p.as_dvec3());
         let offset = si.p_error as f64 * ng.abs().element_sum() as f64;
         if dist > offset && rep.off_by_more_than_offset.len() < 5 {
-            rep.off_by_more_than_offset.push(format!("prim {} p {} is {dist:e} off its surface, offset {offset:e}", hit.prim, si.p));
+            rep.off_by_more_than_offset.push(format!(
+                "prim {} p {} is {dist:e} off its surface, offset {offset:e}",
+                hit.prim, si.p
+            ));
         }
         let tag = scene.primitives[hit.prim as usize].tag;
         for outward in [true, false] {
             // A random direction on the chosen side of the geometric normal.
-            let side = if outward == (ray.direction.dot(ng) < 0.0) { ng } else { -ng };
+            let side = if outward == (ray.direction.dot(ng) < 0.0) {
+                ng
+            } else {
+                -ng
+            };
             let mut dir = rng.unit_vector();
             if dir.dot(side) < 0.0 {
                 dir = -dir;
@@ -178,7 +272,9 @@ fn spawn_check(scene: &Scene, centre: Vec3, scale: f32, seed: u64, n: usize) -> 
             rep.spawned += 1;
             let o2 = spawn_origin(si.p, side, si.p_error);
             let r2 = Ray::new(o2, dir);
-            let Some(h2) = scene.intersect(&r2, 0.0, f32::INFINITY) else { continue };
+            let Some(h2) = scene.intersect(&r2, 0.0, f32::INFINITY) else {
+                continue;
+            };
             if h2.prim != hit.prim {
                 continue;
             }
@@ -186,7 +282,9 @@ fn spawn_check(scene: &Scene, centre: Vec3, scale: f32, seed: u64, n: usize) -> 
             // after a chord: only a hit well short of it is a re-hit.
             let legit = match tag {
                 primitive_tag::SPHERE => {
-                    let Shape64::Sphere { center, radius } = shape else { unreachable!() };
+                    let Shape64::Sphere { center, radius } = shape else {
+                        unreachable!()
+                    };
                     let (o64, d64) = (o2.as_dvec3(), dir.as_dvec3());
                     let chord = intersect_sphere_f64(center, radius, o64, d64, 0.0, f64::INFINITY);
                     chord.is_some_and(|t| h2.t as f64 > 0.5 * t)
@@ -194,7 +292,10 @@ fn spawn_check(scene: &Scene, centre: Vec3, scale: f32, seed: u64, n: usize) -> 
                 _ => false,
             };
             if !legit && rep.self_hits.len() < 5 {
-                rep.self_hits.push(format!("prim {} (tag {tag}) at t = {:e} from {o2} dir {dir} (hit at {} on {:?})", hit.prim, h2.t, si.p, ray));
+                rep.self_hits.push(format!(
+                    "prim {} (tag {tag}) at t = {:e} from {o2} dir {dir} (hit at {} on {:?})",
+                    hit.prim, h2.t, si.p, ray
+                ));
             }
         }
     }
@@ -208,24 +309,48 @@ fn spawned_rays_never_rehit_their_surface_at_any_scale_or_offset() {
         .par_iter()
         .flat_map(|&scale| SHIFTS.par_iter().map(move |&shift| (scale, shift)))
         .map(|(scale, shift)| {
-            let placement = Transform::from_parts(Vec3::splat(scale), Quat::from_rotation_z(0.4) * Quat::from_rotation_x(-0.2), shift_dir * shift);
-            let scene = build_scene_placed(&stress_shapes(), &placement).expect("the stress scene builds");
-            let rep = spawn_check(&scene, placement.point(Vec3::ZERO), scale, (scale.to_bits() ^ shift.to_bits()) as u64, 20_000);
+            let placement = Transform::from_parts(
+                Vec3::splat(scale),
+                Quat::from_rotation_z(0.4) * Quat::from_rotation_x(-0.2),
+                shift_dir * shift,
+            );
+            let scene =
+                build_scene_placed(&stress_shapes(), &placement).expect("the stress scene builds");
+            let rep = spawn_check(
+                &scene,
+                placement.point(Vec3::ZERO),
+                scale,
+                (scale.to_bits() ^ shift.to_bits()) as u64,
+                20_000,
+            );
             (scale, shift, rep)
         })
         .collect();
     let mut failures = Vec::new();
     for (scale, shift, rep) in &results {
-        println!("scale {scale:e}, shift {shift:e}: {} hits, {} spawned rays, {} self-hits", rep.hits, rep.spawned, rep.self_hits.len());
+        println!(
+            "scale {scale:e}, shift {shift:e}: {} hits, {} spawned rays, {} self-hits",
+            rep.hits,
+            rep.spawned,
+            rep.self_hits.len()
+        );
         if !rep.self_hits.is_empty() || !rep.off_by_more_than_offset.is_empty() {
-            failures.push(format!("scale {scale:e}, shift {shift:e}:\n  {}\n  {}", rep.self_hits.join("\n  "), rep.off_by_more_than_offset.join("\n  ")));
+            failures.push(format!(
+                "scale {scale:e}, shift {shift:e}:\n  {}\n  {}",
+                rep.self_hits.join("\n  "),
+                rep.off_by_more_than_offset.join("\n  ")
+            ));
         }
         // Where the objects are larger than ~10^3 ulps of their position
         // they must be hit (at 1e-4 placed 1e5 away the floats are 8e-3
         // apart and every vertex collapses; that case only must not fail).
         let ulp = f32::EPSILON * (*shift).max(*scale);
         if *scale >= 1e3 * ulp {
-            assert!(rep.hits > 5_000, "scale {scale:e}, shift {shift:e}: only {} of 20000 rays hit", rep.hits);
+            assert!(
+                rep.hits > 5_000,
+                "scale {scale:e}, shift {shift:e}: only {} of 20000 rays hit",
+                rep.hits
+            );
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
@@ -234,11 +359,24 @@ fn spawned_rays_never_rehit_their_surface_at_any_scale_or_offset() {
 /// Every hit of a query is finite, and so is what shading and spawning
 /// make of it.
 fn assert_finite(scene: &Scene, ray: &Ray, t_min: f32, t_max: f32, what: &str) {
-    for hit in [scene.intersect(ray, t_min, t_max), scene.intersect_brute_force(ray, t_min, t_max)].into_iter().flatten() {
-        assert!(hit.t.is_finite() && hit.uv.is_finite(), "{what}: {hit:?} for {ray:?}");
+    for hit in [
+        scene.intersect(ray, t_min, t_max),
+        scene.intersect_brute_force(ray, t_min, t_max),
+    ]
+    .into_iter()
+    .flatten()
+    {
+        assert!(
+            hit.t.is_finite() && hit.uv.is_finite(),
+            "{what}: {hit:?} for {ray:?}"
+        );
         let si = scene.surface_interaction(ray, &hit);
         assert!(
-            si.p.is_finite() && si.geometric_normal.is_finite() && si.shading_normal.is_finite() && si.uv.is_finite() && si.p_error.is_finite(),
+            si.p.is_finite()
+                && si.geometric_normal.is_finite()
+                && si.shading_normal.is_finite()
+                && si.uv.is_finite()
+                && si.p_error.is_finite(),
             "{what}: {si:?}"
         );
         let o = spawn_origin(si.p, si.geometric_normal, si.p_error);
@@ -251,7 +389,9 @@ fn grazing_and_degenerate_inputs_give_no_nan_inf_or_panic() {
     let mut rng = Rng::new(99);
     let mut b = SceneBuilder::new();
     let white = b.constant(Vec3::ONE).unwrap();
-    let m = b.add_material(Material::Lambertian { albedo: white }).unwrap();
+    let m = b
+        .add_material(Material::Lambertian { albedo: white })
+        .unwrap();
     let id = Transform::default();
     // Degenerate triangles are kept by the builder and never hit: zero
     // area (collinear, repeated vertex, one point), a 10^-7 sliver, and
@@ -260,56 +400,122 @@ fn grazing_and_degenerate_inputs_give_no_nan_inf_or_panic() {
         [Vec3::ZERO, Vec3::X, Vec3::X * 2.0],
         [Vec3::ONE, Vec3::ONE, Vec3::new(2.0, 1.0, 1.0)],
         [Vec3::splat(0.5); 3],
-        [Vec3::new(-1.0, 0.0, 0.2), Vec3::new(1.0, 0.0, 0.2), Vec3::new(0.0, 1e-7, 0.2)],
-        [Vec3::new(-1e30, 0.0, -1e30), Vec3::new(1e30, 0.0, -1e30), Vec3::new(0.0, 1e30, 1e30)],
-        [Vec3::new(-1e-30, 0.0, 0.1), Vec3::new(1e-30, 0.0, 0.1), Vec3::new(0.0, 1e-30, 0.1)],
+        [
+            Vec3::new(-1.0, 0.0, 0.2),
+            Vec3::new(1.0, 0.0, 0.2),
+            Vec3::new(0.0, 1e-7, 0.2),
+        ],
+        [
+            Vec3::new(-1e30, 0.0, -1e30),
+            Vec3::new(1e30, 0.0, -1e30),
+            Vec3::new(0.0, 1e30, 1e30),
+        ],
+        [
+            Vec3::new(-1e-30, 0.0, 0.1),
+            Vec3::new(1e-30, 0.0, 0.1),
+            Vec3::new(0.0, 1e-30, 0.1),
+        ],
     ];
     for t in &tris {
-        b.add_mesh(&MeshInput { positions: t.to_vec(), indices: vec![0, 1, 2], ..Default::default() }, m, &id).unwrap();
+        b.add_mesh(
+            &MeshInput {
+                positions: t.to_vec(),
+                indices: vec![0, 1, 2],
+                ..Default::default()
+            },
+            m,
+            &id,
+        )
+        .unwrap();
     }
-    b.add_quad(Vec3::new(-2.0, -2.0, 0.0), Vec3::X * 4.0, Vec3::Y * 4.0, m, &id).unwrap();
+    b.add_quad(
+        Vec3::new(-2.0, -2.0, 0.0),
+        Vec3::X * 4.0,
+        Vec3::Y * 4.0,
+        m,
+        &id,
+    )
+    .unwrap();
     b.add_sphere(Vec3::new(0.0, 0.0, 3.0), 1.0, m, &id).unwrap();
-    b.add_sphere(Vec3::new(0.0, 0.0, -1e6 - 10.0), 1e6, m, &id).unwrap();
-    b.add_sphere(Vec3::new(5.0, 5.0, 5.0), 1e-30, m, &id).unwrap();
+    b.add_sphere(Vec3::new(0.0, 0.0, -1e6 - 10.0), 1e6, m, &id)
+        .unwrap();
+    b.add_sphere(Vec3::new(5.0, 5.0, 5.0), 1e-30, m, &id)
+        .unwrap();
     let scene = b.build().unwrap();
 
     // A zero-radius sphere is an invalid scene, not a NaN factory.
     let mut b0 = SceneBuilder::new();
     let w0 = b0.constant(Vec3::ONE).unwrap();
-    let m0 = b0.add_material(Material::Lambertian { albedo: w0 }).unwrap();
+    let m0 = b0
+        .add_material(Material::Lambertian { albedo: w0 })
+        .unwrap();
     assert!(b0.add_sphere(Vec3::ZERO, 0.0, m0, &id).is_err());
     assert!(b0.add_sphere(Vec3::ZERO, f32::NAN, m0, &id).is_err());
     // The routine itself, given radius 0, answers without NaN.
     let r0 = Ray::new(Vec3::new(0.0, 0.0, -1.0), Vec3::Z);
-    assert!(intersect_sphere(Vec3::ZERO, 0.0, &r0, 0.0, f32::INFINITY).is_none_or(|t| t.is_finite()));
+    assert!(
+        intersect_sphere(Vec3::ZERO, 0.0, &r0, 0.0, f32::INFINITY).is_none_or(|t| t.is_finite())
+    );
 
     for i in 0..200_000 {
         let ray = match i % 8 {
             // Grazing the quad (z = 0): in-plane direction, tiny normal part.
             0 => {
-                let e = 10f32.powf(rng.range(-9.0, -2.0)) * if rng.below(2) == 0 { 1.0 } else { -1.0 };
+                let e =
+                    10f32.powf(rng.range(-9.0, -2.0)) * if rng.below(2) == 0 { 1.0 } else { -1.0 };
                 let d = Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), e);
-                Ray::new(Vec3::new(rng.range(-3.0, 3.0), rng.range(-3.0, 3.0), rng.range(-1e-3, 1e-3)), d)
+                Ray::new(
+                    Vec3::new(
+                        rng.range(-3.0, 3.0),
+                        rng.range(-3.0, 3.0),
+                        rng.range(-1e-3, 1e-3),
+                    ),
+                    d,
+                )
             }
             // Tangent to the unit sphere at (0, 0, 3): passing at r·(1 ± 1e-7..1e-2).
             1 => {
-                let gap = 1.0 + 10f32.powf(rng.range(-7.0, -2.0)) * if rng.below(2) == 0 { 1.0 } else { -1.0 };
-                Ray::new(Vec3::new(-5.0, gap, 3.0), Vec3::new(1.0, 0.0, rng.range(-1e-6, 1e-6)))
+                let gap = 1.0
+                    + 10f32.powf(rng.range(-7.0, -2.0))
+                        * if rng.below(2) == 0 { 1.0 } else { -1.0 };
+                Ray::new(
+                    Vec3::new(-5.0, gap, 3.0),
+                    Vec3::new(1.0, 0.0, rng.range(-1e-6, 1e-6)),
+                )
             }
             // Starting exactly on the quad, and exactly on the sphere.
-            2 => Ray::new(Vec3::new(rng.range(-2.0, 2.0), rng.range(-2.0, 2.0), 0.0), rng.unit_vector()),
+            2 => Ray::new(
+                Vec3::new(rng.range(-2.0, 2.0), rng.range(-2.0, 2.0), 0.0),
+                rng.unit_vector(),
+            ),
             3 => Ray::new(Vec3::new(0.0, 0.0, 3.0) + Vec3::X, rng.unit_vector()),
             // At the sliver and the degenerate triangles, along their lines.
-            4 => Ray::new(Vec3::new(rng.range(-1.0, 1.0), rng.range(-1e-6, 1e-6), 1.0), Vec3::new(0.0, 0.0, -1.0)),
-            5 => Ray::new(Vec3::new(-3.0, 0.0, 0.0), Vec3::X + Vec3::new(0.0, rng.range(-1e-7, 1e-7), 0.0)),
+            4 => Ray::new(
+                Vec3::new(rng.range(-1.0, 1.0), rng.range(-1e-6, 1e-6), 1.0),
+                Vec3::new(0.0, 0.0, -1.0),
+            ),
+            5 => Ray::new(
+                Vec3::new(-3.0, 0.0, 0.0),
+                Vec3::X + Vec3::new(0.0, rng.range(-1e-7, 1e-7), 0.0),
+            ),
             // Inside the huge sphere, any direction; and odd directions.
             6 => Ray::new(Vec3::new(0.0, 0.0, -1e5), rng.unit_vector()),
             _ => {
-                let d = [Vec3::ZERO, Vec3::new(0.0, 0.0, -0.0), Vec3::splat(1e-38), Vec3::splat(1e30), Vec3::new(f32::MIN_POSITIVE, 0.0, -1.0)][rng.below(5)];
+                let d = [
+                    Vec3::ZERO,
+                    Vec3::new(0.0, 0.0, -0.0),
+                    Vec3::splat(1e-38),
+                    Vec3::splat(1e30),
+                    Vec3::new(f32::MIN_POSITIVE, 0.0, -1.0),
+                ][rng.below(5)];
                 Ray::new(rng.point_in(Vec3::splat(-4.0), Vec3::splat(4.0)), d)
             }
         };
-        let (t_min, t_max) = if i % 5 == 0 { (rng.range(0.0, 2.0), rng.range(0.0, 4.0)) } else { (0.0, f32::INFINITY) };
+        let (t_min, t_max) = if i % 5 == 0 {
+            (rng.range(0.0, 2.0), rng.range(0.0, 4.0))
+        } else {
+            (0.0, f32::INFINITY)
+        };
         assert_finite(&scene, &ray, t_min, t_max, &format!("ray {i}"));
     }
 
@@ -318,11 +524,17 @@ fn grazing_and_degenerate_inputs_give_no_nan_inf_or_panic() {
     // crosses the sphere once, at the far side).
     let quad_id = tris.len() as u32;
     let on_quad = Ray::new(Vec3::new(0.3, 0.2, 0.0), Vec3::new(0.1, 0.2, 0.9));
-    assert!(scene.intersect(&on_quad, 0.0, f32::INFINITY).is_none_or(|h| h.prim != quad_id));
+    assert!(scene
+        .intersect(&on_quad, 0.0, f32::INFINITY)
+        .is_none_or(|h| h.prim != quad_id));
     let on_sphere = Vec3::new(1.0, 0.0, 3.0);
     let out = Ray::new(on_sphere, Vec3::X);
-    assert!(scene.intersect(&out, 0.0, f32::INFINITY).is_none_or(|h| h.prim != quad_id + 1));
-    let inward = scene.intersect(&Ray::new(on_sphere, -Vec3::X), 0.0, f32::INFINITY).expect("the far side");
+    assert!(scene
+        .intersect(&out, 0.0, f32::INFINITY)
+        .is_none_or(|h| h.prim != quad_id + 1));
+    let inward = scene
+        .intersect(&Ray::new(on_sphere, -Vec3::X), 0.0, f32::INFINITY)
+        .expect("the far side");
     assert_eq!((inward.prim, inward.t), (quad_id + 1, 2.0));
 
     // Huge spheres: hit from inside at the right distance up to r = 1e18
@@ -341,7 +553,9 @@ fn grazing_and_degenerate_inputs_give_no_nan_inf_or_panic() {
     }
     // The routines on their own, with zero-area input.
     let ray = Ray::new(Vec3::new(0.5, 0.0, 1.0), -Vec3::Z);
-    assert!(intersect_triangle(Vec3::ZERO, Vec3::X, Vec3::X * 2.0, &ray, 0.0, f32::INFINITY).is_none());
+    assert!(
+        intersect_triangle(Vec3::ZERO, Vec3::X, Vec3::X * 2.0, &ray, 0.0, f32::INFINITY).is_none()
+    );
     assert!(intersect_quad(Vec3::ZERO, Vec3::X, Vec3::X * 2.0, &ray, 0.0, f32::INFINITY).is_none());
 }
 
@@ -371,7 +585,9 @@ fn compare_films(a: &reference::Film, b: &reference::Film) -> (f64, f64) {
             failed += (z > z_crit) as usize;
         }
     }
-    let z_sum = (0..3).map(|c| sum_diff[c].abs() / sum_var[c].sqrt().max(1e-300)).fold(0.0, f64::max);
+    let z_sum = (0..3)
+        .map(|c| sum_diff[c].abs() / sum_var[c].sqrt().max(1e-300))
+        .fold(0.0, f64::max);
     (failed as f64 / tests as f64, z_sum)
 }
 
@@ -416,28 +632,109 @@ fn erfc(x: f64) -> f64 {
 /// length (and the camera) multiplied by `scale`; `albedo` tints the walls.
 fn scaled_scene(scale: f32, albedo: f32) -> Scene {
     let mut b = SceneBuilder::new();
-    let wall = b.constant(Vec3::new(albedo, albedo * 0.9, albedo * 0.8)).unwrap();
-    let wall = b.add_material(Material::Lambertian { albedo: wall }).unwrap();
+    let wall = b
+        .constant(Vec3::new(albedo, albedo * 0.9, albedo * 0.8))
+        .unwrap();
+    let wall = b
+        .add_material(Material::Lambertian { albedo: wall })
+        .unwrap();
     let red = b.constant(Vec3::new(0.7, 0.1, 0.1)).unwrap();
-    let red = b.add_material(Material::Lambertian { albedo: red }).unwrap();
+    let red = b
+        .add_material(Material::Lambertian { albedo: red })
+        .unwrap();
     let metal = b.constant(Vec3::splat(0.8)).unwrap();
-    let metal = b.add_material(Material::Metal { albedo: metal, fuzz: 0.2 }).unwrap();
-    let glass = b.add_material(Material::Dielectric { ior: 1.5, absorption: Vec3::ZERO }).unwrap();
+    let metal = b
+        .add_material(Material::Metal {
+            albedo: metal,
+            fuzz: 0.2,
+        })
+        .unwrap();
+    let glass = b
+        .add_material(Material::Dielectric {
+            ior: 1.5,
+            absorption: Vec3::ZERO,
+        })
+        .unwrap();
     let light = b.constant(Vec3::splat(8.0)).unwrap();
-    let light = b.add_material(Material::DiffuseLight { emission: light }).unwrap();
+    let light = b
+        .add_material(Material::DiffuseLight { emission: light })
+        .unwrap();
     let s = Transform::from_parts(Vec3::splat(scale), Quat::IDENTITY, Vec3::ZERO);
     let room = 2.0;
-    b.add_quad(Vec3::new(-room, -room, -room), Vec3::X * 2.0 * room, Vec3::Z * 2.0 * room, wall, &s).unwrap();
-    b.add_quad(Vec3::new(-room, room, -room), Vec3::Z * 2.0 * room, Vec3::X * 2.0 * room, wall, &s).unwrap();
-    b.add_quad(Vec3::new(-room, -room, -room), Vec3::Y * 2.0 * room, Vec3::X * 2.0 * room, wall, &s).unwrap();
-    b.add_quad(Vec3::new(-room, -room, -room), Vec3::Z * 2.0 * room, Vec3::Y * 2.0 * room, red, &s).unwrap();
-    b.add_quad(Vec3::new(room, -room, -room), Vec3::Y * 2.0 * room, Vec3::Z * 2.0 * room, wall, &s).unwrap();
-    b.add_quad(Vec3::new(-0.6, room - 1e-3, -0.6), Vec3::X * 1.2, Vec3::Z * 1.2, light, &s).unwrap();
-    b.add_sphere(Vec3::new(-0.8, -1.3, 0.2), 0.7, glass, &s).unwrap();
-    let block = Transform { matrix: s.matrix * Affine3A::from_rotation_translation(Quat::from_rotation_y(0.4), Vec3::new(0.7, -room, -0.6)) };
-    b.add_box(Vec3::new(-0.5, 0.0, -0.5), Vec3::new(0.5, 1.6, 0.5), wall, &block).unwrap();
-    let ball = Transform { matrix: s.matrix * Affine3A::from_scale_rotation_translation(Vec3::splat(0.45), Quat::IDENTITY, Vec3::new(0.9, -1.55, 1.0)) };
-    b.add_mesh(&reference::procedural::icosphere(2), metal, &ball).unwrap();
+    b.add_quad(
+        Vec3::new(-room, -room, -room),
+        Vec3::X * 2.0 * room,
+        Vec3::Z * 2.0 * room,
+        wall,
+        &s,
+    )
+    .unwrap();
+    b.add_quad(
+        Vec3::new(-room, room, -room),
+        Vec3::Z * 2.0 * room,
+        Vec3::X * 2.0 * room,
+        wall,
+        &s,
+    )
+    .unwrap();
+    b.add_quad(
+        Vec3::new(-room, -room, -room),
+        Vec3::Y * 2.0 * room,
+        Vec3::X * 2.0 * room,
+        wall,
+        &s,
+    )
+    .unwrap();
+    b.add_quad(
+        Vec3::new(-room, -room, -room),
+        Vec3::Z * 2.0 * room,
+        Vec3::Y * 2.0 * room,
+        red,
+        &s,
+    )
+    .unwrap();
+    b.add_quad(
+        Vec3::new(room, -room, -room),
+        Vec3::Y * 2.0 * room,
+        Vec3::Z * 2.0 * room,
+        wall,
+        &s,
+    )
+    .unwrap();
+    b.add_quad(
+        Vec3::new(-0.6, room - 1e-3, -0.6),
+        Vec3::X * 1.2,
+        Vec3::Z * 1.2,
+        light,
+        &s,
+    )
+    .unwrap();
+    b.add_sphere(Vec3::new(-0.8, -1.3, 0.2), 0.7, glass, &s)
+        .unwrap();
+    let block = Transform {
+        matrix: s.matrix
+            * Affine3A::from_rotation_translation(
+                Quat::from_rotation_y(0.4),
+                Vec3::new(0.7, -room, -0.6),
+            ),
+    };
+    b.add_box(
+        Vec3::new(-0.5, 0.0, -0.5),
+        Vec3::new(0.5, 1.6, 0.5),
+        wall,
+        &block,
+    )
+    .unwrap();
+    let ball = Transform {
+        matrix: s.matrix
+            * Affine3A::from_scale_rotation_translation(
+                Vec3::splat(0.45),
+                Quat::IDENTITY,
+                Vec3::new(0.9, -1.55, 1.0),
+            ),
+    };
+    b.add_mesh(&reference::procedural::icosphere(2), metal, &ball)
+        .unwrap();
     b.camera.look_from = Vec3::new(0.0, 0.0, 7.5) * scale;
     b.camera.look_at = Vec3::ZERO;
     b.camera.vfov = 38.0;
@@ -447,9 +744,20 @@ fn scaled_scene(scale: f32, albedo: f32) -> Scene {
 
 fn render_scaled(scale: f32, albedo: f32, seed: u32) -> reference::Film {
     let scene = scaled_scene(scale, albedo);
-    let settings = reference::RenderSettings { width: 24, height: 24, spp: 256, max_depth: 8, seed, roulette_depth: 3 };
+    let settings = reference::RenderSettings {
+        width: 24,
+        height: 24,
+        spp: 256,
+        max_depth: 8,
+        seed,
+        roulette_depth: 3,
+    };
     let film = reference::render(&scene, &settings, &|_| {});
-    assert_eq!(film.nonfinite_samples(), 0, "scale {scale:e}: NaN/Inf samples");
+    assert_eq!(
+        film.nonfinite_samples(),
+        0,
+        "scale {scale:e}: NaN/Inf samples"
+    );
     film
 }
 
@@ -466,8 +774,15 @@ fn a_scene_scaled_by_1e_3_and_1e3_renders_the_same_image() {
     for (scale, seed) in [(1e-3f32, 2u32), (1e3, 3)] {
         let other = render_scaled(scale, 0.73, seed);
         let (failing, z_sum) = compare_films(&base, &other);
-        println!("scale {scale:e} vs 1: {:.3} % of per-pixel tests fail, image-sum |z| = {z_sum:.2}", 100.0 * failing);
-        assert!(failing <= MAX_FAILING_FRACTION && z_sum < Z_SUM_CRIT, "scale {scale:e}: {:.3} % failing, |z_sum| = {z_sum:.2}", 100.0 * failing);
+        println!(
+            "scale {scale:e} vs 1: {:.3} % of per-pixel tests fail, image-sum |z| = {z_sum:.2}",
+            100.0 * failing
+        );
+        assert!(
+            failing <= MAX_FAILING_FRACTION && z_sum < Z_SUM_CRIT,
+            "scale {scale:e}: {:.3} % failing, |z_sum| = {z_sum:.2}",
+            100.0 * failing
+        );
     }
 }
 
@@ -478,8 +793,15 @@ fn the_scale_invariance_gate_catches_a_changed_scene() {
     let base = render_scaled(1.0, 0.73, 1);
     let darker = render_scaled(1e3, 0.73 * 0.95, 3);
     let (failing, z_sum) = compare_films(&base, &darker);
-    println!("walls ×0.95: {:.3} % of per-pixel tests fail, image-sum |z| = {z_sum:.2}", 100.0 * failing);
-    assert!(failing > MAX_FAILING_FRACTION || z_sum >= Z_SUM_CRIT, "a 5 % darker scene passed: {:.3} % failing, |z_sum| = {z_sum:.2}", 100.0 * failing);
+    println!(
+        "walls ×0.95: {:.3} % of per-pixel tests fail, image-sum |z| = {z_sum:.2}",
+        100.0 * failing
+    );
+    assert!(
+        failing > MAX_FAILING_FRACTION || z_sum >= Z_SUM_CRIT,
+        "a 5 % darker scene passed: {:.3} % failing, |z_sum| = {z_sum:.2}",
+        100.0 * failing
+    );
 }
 
 #[test]

@@ -54,7 +54,11 @@ pub enum Domain {
     Disk { r2_bins: usize, phi_bins: usize },
     /// The unit ball: `r³ ∈ [0, 1]` × `cos θ` × `φ`; equal volumes.
     /// Densities are per unit volume.
-    Ball { r3_bins: usize, cos_theta_bins: usize, phi_bins: usize },
+    Ball {
+        r3_bins: usize,
+        cos_theta_bins: usize,
+        phi_bins: usize,
+    },
 }
 
 /// Counts of samples per cell.
@@ -88,9 +92,16 @@ const BOUNDARY_SLACK: f64 = 1e-4;
 impl Domain {
     pub fn cells(&self) -> usize {
         match *self {
-            Domain::Sphere { theta_bins, phi_bins } => theta_bins * phi_bins,
+            Domain::Sphere {
+                theta_bins,
+                phi_bins,
+            } => theta_bins * phi_bins,
             Domain::Disk { r2_bins, phi_bins } => r2_bins * phi_bins,
-            Domain::Ball { r3_bins, cos_theta_bins, phi_bins } => r3_bins * cos_theta_bins * phi_bins,
+            Domain::Ball {
+                r3_bins,
+                cos_theta_bins,
+                phi_bins,
+            } => r3_bins * cos_theta_bins * phi_bins,
         }
     }
 
@@ -100,13 +111,19 @@ impl Domain {
             return None;
         }
         match *self {
-            Domain::Sphere { theta_bins, phi_bins } => {
+            Domain::Sphere {
+                theta_bins,
+                phi_bins,
+            } => {
                 let len = p.length();
                 if (len - 1.0).abs() > BOUNDARY_SLACK {
                     return None;
                 }
                 let d = p / len;
-                Some(bin(d.z.clamp(-1.0, 1.0).acos(), 0.0, PI, theta_bins) * phi_bins + bin(phi(d.x, d.y), -PI, PI, phi_bins))
+                Some(
+                    bin(d.z.clamp(-1.0, 1.0).acos(), 0.0, PI, theta_bins) * phi_bins
+                        + bin(phi(d.x, d.y), -PI, PI, phi_bins),
+                )
             }
             Domain::Disk { r2_bins, phi_bins } => {
                 let r2 = p.x * p.x + p.y * p.y;
@@ -115,14 +132,20 @@ impl Domain {
                 }
                 Some(bin(r2, 0.0, 1.0, r2_bins) * phi_bins + bin(phi(p.x, p.y), -PI, PI, phi_bins))
             }
-            Domain::Ball { r3_bins, cos_theta_bins, phi_bins } => {
+            Domain::Ball {
+                r3_bins,
+                cos_theta_bins,
+                phi_bins,
+            } => {
                 let r = p.length();
                 if r > 1.0 + BOUNDARY_SLACK {
                     return None;
                 }
                 let cos = if r > 0.0 { p.z / r } else { 1.0 };
                 Some(
-                    (bin(r * r * r, 0.0, 1.0, r3_bins) * cos_theta_bins + bin(cos.clamp(-1.0, 1.0), -1.0, 1.0, cos_theta_bins)) * phi_bins
+                    (bin(r * r * r, 0.0, 1.0, r3_bins) * cos_theta_bins
+                        + bin(cos.clamp(-1.0, 1.0), -1.0, 1.0, cos_theta_bins))
+                        * phi_bins
                         + bin(phi(p.x, p.y), -PI, PI, phi_bins),
                 )
             }
@@ -131,7 +154,11 @@ impl Domain {
 
     /// Counts samples into cells.
     pub fn histogram(&self, samples: impl IntoIterator<Item = Option<DVec3>>) -> Histogram {
-        let mut h = Histogram { counts: vec![0.0; self.cells()], rejected: 0.0, outside: 0.0 };
+        let mut h = Histogram {
+            counts: vec![0.0; self.cells()],
+            rejected: 0.0,
+            outside: 0.0,
+        };
         for s in samples {
             match s {
                 None => h.rejected += 1.0,
@@ -152,9 +179,22 @@ impl Domain {
             (lo + i as f64 * w, lo + (i + 1) as f64 * w)
         };
         match *self {
-            Domain::Sphere { theta_bins, phi_bins } => vec![span(cell / phi_bins, theta_bins, 0.0, PI), span(cell % phi_bins, phi_bins, -PI, PI)],
-            Domain::Disk { r2_bins, phi_bins } => vec![span(cell / phi_bins, r2_bins, 0.0, 1.0), span(cell % phi_bins, phi_bins, -PI, PI)],
-            Domain::Ball { cos_theta_bins, phi_bins, r3_bins } => {
+            Domain::Sphere {
+                theta_bins,
+                phi_bins,
+            } => vec![
+                span(cell / phi_bins, theta_bins, 0.0, PI),
+                span(cell % phi_bins, phi_bins, -PI, PI),
+            ],
+            Domain::Disk { r2_bins, phi_bins } => vec![
+                span(cell / phi_bins, r2_bins, 0.0, 1.0),
+                span(cell % phi_bins, phi_bins, -PI, PI),
+            ],
+            Domain::Ball {
+                cos_theta_bins,
+                phi_bins,
+                r3_bins,
+            } => {
                 let per_shell = cos_theta_bins * phi_bins;
                 vec![
                     span(cell / per_shell, r3_bins, 0.0, 1.0),
@@ -262,7 +302,10 @@ impl Chi2Outcome {
     }
 
     pub fn summary(&self) -> String {
-        let mut s = format!("X² = {:.1} with {} dof (p = {:.3e}; {} cells, {} pooled)", self.statistic, self.dof, self.p, self.cells, self.pooled);
+        let mut s = format!(
+            "X² = {:.1} with {} dof (p = {:.3e}; {} cells, {} pooled)",
+            self.statistic, self.dof, self.p, self.cells, self.pooled
+        );
         if let Some(n) = &self.note {
             s += &format!("; {n}");
         }
@@ -281,14 +324,27 @@ pub fn assert_family_passes(what: &str, runs: &[(String, Chi2Outcome)]) {
             failures += &format!("\n  {name}: {}", o.summary());
         }
     }
-    assert!(failures.is_empty(), "{what}: runs fail at the Šidák level {level:.2e} of {} runs:{failures}", runs.len());
+    assert!(
+        failures.is_empty(),
+        "{what}: runs fail at the Šidák level {level:.2e} of {} runs:{failures}",
+        runs.len()
+    );
 }
 
 /// Goodness of fit of observed counts to expected counts (same cells).
 pub fn goodness_of_fit(observed: &[f64], expected: &[f64]) -> Chi2Outcome {
-    assert_eq!(observed.len(), expected.len(), "observed and expected cells differ in number");
+    assert_eq!(
+        observed.len(),
+        expected.len(),
+        "observed and expected cells differ in number"
+    );
     let total: f64 = observed.iter().sum();
-    let impossible: f64 = observed.iter().zip(expected).filter(|(_, &e)| e <= 0.0).map(|(o, _)| *o).sum();
+    let impossible: f64 = observed
+        .iter()
+        .zip(expected)
+        .filter(|(_, &e)| e <= 0.0)
+        .map(|(o, _)| *o)
+        .sum();
     if impossible > IMPOSSIBLE_TOLERANCE * total {
         return Chi2Outcome {
             statistic: f64::INFINITY,
@@ -320,7 +376,15 @@ pub fn goodness_of_fit(observed: &[f64], expected: &[f64]) -> Chi2Outcome {
         cells += 1;
     }
     let dof = cells.saturating_sub(1);
-    Chi2Outcome { statistic, dof, p: stats::chi2_sf(statistic, dof as f64), cells, pooled, impossible, note: None }
+    Chi2Outcome {
+        statistic,
+        dof,
+        p: stats::chi2_sf(statistic, dof as f64),
+        cells,
+        pooled,
+        impossible,
+        note: None,
+    }
 }
 
 /// Two-sample chi-square: do two histograms (same cells) come from one distribution?
@@ -328,7 +392,15 @@ pub fn two_sample(r: &[f64], s: &[f64]) -> Chi2Outcome {
     assert_eq!(r.len(), s.len(), "the histograms differ in cells");
     let (nr, ns): (f64, f64) = (r.iter().sum(), s.iter().sum());
     if nr <= 0.0 || ns <= 0.0 {
-        return Chi2Outcome { statistic: f64::INFINITY, dof: 0, p: 0.0, cells: 0, pooled: 0, impossible: 0.0, note: Some("a histogram is empty".into()) };
+        return Chi2Outcome {
+            statistic: f64::INFINITY,
+            dof: 0,
+            p: 0.0,
+            cells: 0,
+            pooled: 0,
+            impossible: 0.0,
+            note: Some("a histogram is empty".into()),
+        };
     }
     let (kr, ks) = ((ns / nr).sqrt(), (nr / ns).sqrt());
     let term = |a: f64, b: f64| (kr * a - ks * b).powi(2) / (a + b);
@@ -352,18 +424,38 @@ pub fn two_sample(r: &[f64], s: &[f64]) -> Chi2Outcome {
         cells += 1;
     }
     let dof = cells.saturating_sub(1);
-    let p = if dof == 0 { 1.0 } else { stats::chi2_sf(statistic, dof as f64) };
-    Chi2Outcome { statistic, dof, p, cells, pooled, impossible: 0.0, note: None }
+    let p = if dof == 0 {
+        1.0
+    } else {
+        stats::chi2_sf(statistic, dof as f64)
+    };
+    Chi2Outcome {
+        statistic,
+        dof,
+        p,
+        cells,
+        pooled,
+        impossible: 0.0,
+        note: None,
+    }
 }
 
 /// Goodness of fit of samples to a density on a domain: histogram,
 /// expected counts by quadrature, and a rejected-samples cell with
 /// expected count `N (1 − ∫ p)` (clamped at 0). Samples outside the
 /// domain count as impossible.
-pub fn test_density(domain: &Domain, samples: impl IntoIterator<Item = Option<DVec3>>, density: &dyn Fn(DVec3) -> f64) -> Chi2Outcome {
+pub fn test_density(
+    domain: &Domain,
+    samples: impl IntoIterator<Item = Option<DVec3>>,
+    density: &dyn Fn(DVec3) -> f64,
+) -> Chi2Outcome {
     let h = domain.histogram(samples);
     let n = h.total();
-    let mut expected: Vec<f64> = domain.integrate(density).into_iter().map(|m| m * n).collect();
+    let mut expected: Vec<f64> = domain
+        .integrate(density)
+        .into_iter()
+        .map(|m| m * n)
+        .collect();
     let mass: f64 = expected.iter().sum();
     let mut observed = h.counts.clone();
     observed.push(h.rejected);
@@ -375,7 +467,11 @@ pub fn test_density(domain: &Domain, samples: impl IntoIterator<Item = Option<DV
 
 /// Two-sample test of two sample sets on a domain (rejected samples and
 /// out-of-domain samples are cells of their own).
-pub fn test_same_distribution(domain: &Domain, a: impl IntoIterator<Item = Option<DVec3>>, b: impl IntoIterator<Item = Option<DVec3>>) -> Chi2Outcome {
+pub fn test_same_distribution(
+    domain: &Domain,
+    a: impl IntoIterator<Item = Option<DVec3>>,
+    b: impl IntoIterator<Item = Option<DVec3>>,
+) -> Chi2Outcome {
     let cells = |h: Histogram| {
         let mut v = h.counts;
         v.push(h.rejected);
@@ -392,18 +488,28 @@ mod tests {
     #[test]
     fn cells_have_equal_measure_and_points_land_in_their_cell() {
         let uniform_sphere = |_: DVec3| 1.0 / (4.0 * PI);
-        let d = Domain::Sphere { theta_bins: 4, phi_bins: 8 };
+        let d = Domain::Sphere {
+            theta_bins: 4,
+            phi_bins: 8,
+        };
         for (cell, m) in d.integrate(&uniform_sphere).into_iter().enumerate() {
             // Solid angle of the band, split over φ: (cos θ₀ − cos θ₁) 2π / 8, over 4π.
             let t = (cell / 8) as f64 * PI / 4.0;
             let expect = (t.cos() - (t + PI / 4.0).cos()) / 16.0;
             assert!((m - expect).abs() < 1e-7, "{m} vs {expect}");
         }
-        let ball = Domain::Ball { r3_bins: 2, cos_theta_bins: 2, phi_bins: 4 };
+        let ball = Domain::Ball {
+            r3_bins: 2,
+            cos_theta_bins: 2,
+            phi_bins: 4,
+        };
         for m in ball.integrate(&|_| 3.0 / (4.0 * PI)) {
             assert!((m - 1.0 / 16.0).abs() < 1e-12, "{m}");
         }
-        let disk = Domain::Disk { r2_bins: 3, phi_bins: 5 };
+        let disk = Domain::Disk {
+            r2_bins: 3,
+            phi_bins: 5,
+        };
         for m in disk.integrate(&|_| 1.0 / PI) {
             assert!((m - 1.0 / 15.0).abs() < 1e-12, "{m}");
         }
@@ -425,7 +531,10 @@ mod tests {
         assert!(goodness_of_fit(&off, &expected).p < 1e-3);
         // An empty zero-density cell is harmless; one sample there is not.
         assert!(goodness_of_fit(&[100.0, 100.0, 0.0], &[100.0, 99.0, 0.0]).p > 0.9);
-        assert_eq!(goodness_of_fit(&[100.0, 100.0, 1.0], &[100.0, 100.0, 0.0]).p, 0.0);
+        assert_eq!(
+            goodness_of_fit(&[100.0, 100.0, 1.0], &[100.0, 100.0, 0.0]).p,
+            0.0
+        );
     }
 
     #[test]

@@ -64,7 +64,11 @@ impl ExactComparison {
 
 /// Compares two films bit for bit (same size required).
 pub fn compare_films(a: &Film, b: &Film) -> ExactComparison {
-    assert_eq!((a.width, a.height), (b.width, b.height), "films differ in size");
+    assert_eq!(
+        (a.width, a.height),
+        (b.width, b.height),
+        "films differ in size"
+    );
     let mut out = ExactComparison::default();
     for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
         let mut differs = false;
@@ -101,9 +105,15 @@ mod tests {
     fn ulps_count_representable_values_across_zero() {
         assert_eq!(ulp_distance_f32(1.0, 1.0), 0);
         assert_eq!(ulp_distance_f32(0.0, -0.0), 0);
-        assert_eq!(ulp_distance_f32(1.0, f32::from_bits(1.0f32.to_bits() + 3)), 3);
+        assert_eq!(
+            ulp_distance_f32(1.0, f32::from_bits(1.0f32.to_bits() + 3)),
+            3
+        );
         assert_eq!(ulp_distance_f32(f32::from_bits(1), -f32::from_bits(1)), 2);
-        assert_eq!(ulp_distance_f64(1.0, f64::from_bits(1.0f64.to_bits() + 1)), 1);
+        assert_eq!(
+            ulp_distance_f64(1.0, f64::from_bits(1.0f64.to_bits() + 1)),
+            1
+        );
         assert_eq!(ulp_distance_f32(f32::NAN, 1.0), u64::MAX);
     }
 
@@ -115,6 +125,9 @@ mod tests {
         assert!(compare_films(&a, &b).identical());
         b.pixels[4].mean.y = f64::from_bits(b.pixels[4].mean.y.to_bits() + 2);
         let c = compare_films(&a, &b);
-        assert_eq!((c.differing, c.max_ulps, c.first_difference), (1, 2, Some((1, 1))));
+        assert_eq!(
+            (c.differing, c.max_ulps, c.first_difference),
+            (1, 2, Some((1, 1)))
+        );
     }
 }

@@ -73,9 +73,23 @@ pub const FURNACE_BACKGROUND: f32 = 0.8;
 /// ceiling traps paths for thousands of bounces.)
 pub const LOSSLESS_DEPTH: u32 = 1024;
 
-fn settings(width: u32, height: u32, spp: u32, max_depth: u32, roulette: bool, seed: u32) -> RenderSettings {
+fn settings(
+    width: u32,
+    height: u32,
+    spp: u32,
+    max_depth: u32,
+    roulette: bool,
+    seed: u32,
+) -> RenderSettings {
     // roulette_depth beyond max_depth: roulette never runs.
-    RenderSettings { width, height, spp, max_depth, seed, roulette_depth: if roulette { 3 } else { max_depth + 1 } }
+    RenderSettings {
+        width,
+        height,
+        spp,
+        max_depth,
+        seed,
+        roulette_depth: if roulette { 3 } else { max_depth + 1 },
+    }
 }
 
 /// The Cornell room (open at the front, no light) with its short box, a
@@ -85,16 +99,30 @@ pub fn white_furnace(roulette: bool, spp: u32, seed: u32) -> Result<FurnaceCase>
     let id = Transform::default();
     let white = b.constant(Vec3::ONE)?;
     let diffuse = b.add_material(Material::Lambertian { albedo: white })?;
-    let glass = b.add_material(Material::Dielectric { ior: 1.5, absorption: Vec3::ZERO })?;
-    let mirror = b.add_material(Material::Metal { albedo: white, fuzz: 0.0 })?;
+    let glass = b.add_material(Material::Dielectric {
+        ior: 1.5,
+        absorption: Vec3::ZERO,
+    })?;
+    let mirror = b.add_material(Material::Metal {
+        albedo: white,
+        fuzz: 0.0,
+    })?;
     let s = 555.0;
-    let (x, y, z) = (Vec3::new(s, 0.0, 0.0), Vec3::new(0.0, s, 0.0), Vec3::new(0.0, 0.0, s));
+    let (x, y, z) = (
+        Vec3::new(s, 0.0, 0.0),
+        Vec3::new(0.0, s, 0.0),
+        Vec3::new(0.0, 0.0, s),
+    );
     b.add_quad(Vec3::ZERO, y, z, diffuse, &id)?; // left
     b.add_quad(x, y, z, diffuse, &id)?; // right
     b.add_quad(Vec3::ZERO, x, z, diffuse, &id)?; // floor
     b.add_quad(y, x, z, diffuse, &id)?; // ceiling
     b.add_quad(z, x, y, diffuse, &id)?; // back
-    let short = Transform::from_parts(Vec3::ONE, glam::Quat::from_rotation_y((-18f32).to_radians()), Vec3::new(130.0, 0.0, 65.0));
+    let short = Transform::from_parts(
+        Vec3::ONE,
+        glam::Quat::from_rotation_y((-18f32).to_radians()),
+        Vec3::new(130.0, 0.0, 65.0),
+    );
     b.add_box(Vec3::ZERO, Vec3::splat(165.0), diffuse, &short)?;
     b.add_sphere(Vec3::new(370.0, 90.0, 370.0), 90.0, glass, &id)?;
     b.add_sphere(Vec3::new(400.0, 300.0, 200.0), 60.0, mirror, &id)?;
@@ -108,7 +136,10 @@ pub fn white_furnace(roulette: bool, spp: u32, seed: u32) -> Result<FurnaceCase>
     };
     b.background = Some(Background::Solid(Vec3::splat(FURNACE_BACKGROUND)));
     Ok(FurnaceCase {
-        name: format!("white furnace, open Cornell room with box, glass and mirror, roulette {}", if roulette { "on" } else { "off" }),
+        name: format!(
+            "white furnace, open Cornell room with box, glass and mirror, roulette {}",
+            if roulette { "on" } else { "off" }
+        ),
         scene: b.build()?,
         settings: settings(32, 32, spp, LOSSLESS_DEPTH, roulette, seed),
         expected: Vec3::splat(FURNACE_BACKGROUND),
@@ -126,13 +157,31 @@ pub fn inside_out_emitter(spp: u32, seed: u32) -> Result<FurnaceCase> {
     let light = b.constant(Vec3::splat(le))?;
     let emitter = b.add_material(Material::DiffuseLight { emission: light })?;
     let diffuse = b.add_material(Material::Lambertian { albedo: white })?;
-    let glass = b.add_material(Material::Dielectric { ior: 1.5, absorption: Vec3::ZERO })?;
-    let mirror = b.add_material(Material::Metal { albedo: white, fuzz: 0.0 })?;
+    let glass = b.add_material(Material::Dielectric {
+        ior: 1.5,
+        absorption: Vec3::ZERO,
+    })?;
+    let mirror = b.add_material(Material::Metal {
+        albedo: white,
+        fuzz: 0.0,
+    })?;
     b.add_sphere(Vec3::ZERO, -10.0, emitter, &id)?;
-    b.add_box(Vec3::new(-2.0, -1.0, -2.0), Vec3::new(0.0, 1.0, 0.0), diffuse, &Transform::from_parts(Vec3::ONE, glam::Quat::from_rotation_y(0.4), Vec3::ZERO))?;
+    b.add_box(
+        Vec3::new(-2.0, -1.0, -2.0),
+        Vec3::new(0.0, 1.0, 0.0),
+        diffuse,
+        &Transform::from_parts(Vec3::ONE, glam::Quat::from_rotation_y(0.4), Vec3::ZERO),
+    )?;
     b.add_sphere(Vec3::new(1.2, -0.2, 0.3), 0.8, glass, &id)?;
     b.add_sphere(Vec3::new(-0.3, 0.3, 1.5), 0.5, mirror, &id)?;
-    b.camera = CameraSettings { look_from: Vec3::new(0.5, 1.5, 6.0), look_at: Vec3::ZERO, up: Vec3::Y, vfov: 45.0, aperture: 0.0, focus_distance: 6.0 };
+    b.camera = CameraSettings {
+        look_from: Vec3::new(0.5, 1.5, 6.0),
+        look_at: Vec3::ZERO,
+        up: Vec3::Y,
+        vfov: 45.0,
+        aperture: 0.0,
+        focus_distance: 6.0,
+    };
     b.background = Some(Background::Solid(Vec3::ZERO));
     Ok(FurnaceCase {
         name: "inside-out emitting sphere around lossless objects".into(),
@@ -159,7 +208,9 @@ pub fn concentric_spheres(albedo: f32, roulette: bool, spp: u32, seed: u32) -> R
     let mut b = SceneBuilder::new();
     let id = Transform::default();
     let wall_albedo = b.constant(Vec3::splat(albedo))?;
-    let wall = b.add_material(Material::Lambertian { albedo: wall_albedo })?;
+    let wall = b.add_material(Material::Lambertian {
+        albedo: wall_albedo,
+    })?;
     let light = b.constant(Vec3::splat(le))?;
     let emitter = b.add_material(Material::DiffuseLight { emission: light })?;
     // A negative radius turns the normal inward (Lambertian shades both
@@ -169,12 +220,21 @@ pub fn concentric_spheres(albedo: f32, roulette: bool, spp: u32, seed: u32) -> R
     // From z = 1.5, looking along +z with a 40° field of view, the inner
     // sphere (behind the camera, half-angle asin(1/1.5) ≈ 42° about −z)
     // is never in view: every pixel sees the outer wall.
-    b.camera =
-        CameraSettings { look_from: Vec3::new(0.0, 0.0, 1.5), look_at: Vec3::new(0.0, 0.0, 3.0), up: Vec3::Y, vfov: 40.0, aperture: 0.0, focus_distance: 1.0 };
+    b.camera = CameraSettings {
+        look_from: Vec3::new(0.0, 0.0, 1.5),
+        look_at: Vec3::new(0.0, 0.0, 3.0),
+        up: Vec3::Y,
+        vfov: 40.0,
+        aperture: 0.0,
+        focus_distance: 1.0,
+    };
     b.background = Some(Background::Solid(Vec3::ZERO));
     let expected = concentric_radiance(albedo as f64, inner as f64, outer as f64, le as f64) as f32;
     Ok(FurnaceCase {
-        name: format!("concentric spheres, albedo {albedo}, roulette {}", if roulette { "on" } else { "off" }),
+        name: format!(
+            "concentric spheres, albedo {albedo}, roulette {}",
+            if roulette { "on" } else { "off" }
+        ),
         scene: b.build()?,
         settings: settings(32, 32, spp, 64, roulette, seed),
         expected: Vec3::splat(expected),
@@ -193,7 +253,10 @@ pub fn ggx_albedo(metallic: f32, roughness: f32, theta_o_deg: f64, n: usize) -> 
     let t = theta_o_deg.to_radians();
     let wo = Vec3::new(t.sin() as f32, 0.0, t.cos() as f32);
     let lobes = GgxLobes::new(Vec3::ONE, metallic, roughness, wo);
-    let (dtheta, dphi) = (std::f64::consts::FRAC_PI_2 / n as f64, std::f64::consts::PI / n as f64);
+    let (dtheta, dphi) = (
+        std::f64::consts::FRAC_PI_2 / n as f64,
+        std::f64::consts::PI / n as f64,
+    );
     let mut sum = 0.0f64;
     for i in 0..n {
         let theta = (i as f64 + 0.5) * dtheta;
@@ -216,13 +279,31 @@ pub const GGX_QUADRATURE: usize = 1024;
 /// from roughness 0.3 up (the quadrature's limit); at roughness 0
 /// (α = 1e-4 after the clamp) the surface is a mirror with `F = 1` and
 /// `G2/G1 = 1 − O(α²)`, so the answer is 1.
-pub fn ggx_metal_plane(roughness: f32, theta_o_deg: f64, spp: u32, seed: u32) -> Result<FurnaceCase> {
-    assert!(roughness == 0.0 || roughness >= 0.3, "the quadrature of ggx_albedo resolves roughness ≥ 0.3");
+pub fn ggx_metal_plane(
+    roughness: f32,
+    theta_o_deg: f64,
+    spp: u32,
+    seed: u32,
+) -> Result<FurnaceCase> {
+    assert!(
+        roughness == 0.0 || roughness >= 0.3,
+        "the quadrature of ggx_albedo resolves roughness ≥ 0.3"
+    );
     let mut b = SceneBuilder::new();
     let white = b.constant(Vec3::ONE)?;
-    let metal = b.add_material(Material::Ggx { base_color: white, metallic: 1.0, roughness })?;
+    let metal = b.add_material(Material::Ggx {
+        base_color: white,
+        metallic: 1.0,
+        roughness,
+    })?;
     // The plane y = 0, normal +y: u × v = (0,0,1000) × (1000,0,0) = +y.
-    b.add_quad(Vec3::new(-500.0, 0.0, -500.0), Vec3::new(0.0, 0.0, 1000.0), Vec3::new(1000.0, 0.0, 0.0), metal, &Transform::default())?;
+    b.add_quad(
+        Vec3::new(-500.0, 0.0, -500.0),
+        Vec3::new(0.0, 0.0, 1000.0),
+        Vec3::new(1000.0, 0.0, 0.0),
+        metal,
+        &Transform::default(),
+    )?;
     let t = theta_o_deg.to_radians() as f32;
     b.camera = CameraSettings {
         look_from: 100.0 * Vec3::new(t.sin(), t.cos(), 0.0),
@@ -237,7 +318,11 @@ pub fn ggx_metal_plane(roughness: f32, theta_o_deg: f64, spp: u32, seed: u32) ->
         name: format!("GGX metal white furnace, roughness {roughness}, θo {theta_o_deg}°"),
         scene: b.build()?,
         settings: settings(8, 8, spp, 4, false, seed),
-        expected: Vec3::splat(if roughness == 0.0 { 1.0 } else { ggx_albedo(1.0, roughness, theta_o_deg, GGX_QUADRATURE) as f32 }),
+        expected: Vec3::splat(if roughness == 0.0 {
+            1.0
+        } else {
+            ggx_albedo(1.0, roughness, theta_o_deg, GGX_QUADRATURE) as f32
+        }),
         exact: false,
         pooled_variance: true,
     })
@@ -266,7 +351,8 @@ impl FurnaceOutcome {
 
     /// Mean over the image, per channel.
     pub fn image_mean(&self) -> DVec3 {
-        self.film.pixels.iter().map(|p| p.mean).sum::<DVec3>() / self.film.pixels.len().max(1) as f64
+        self.film.pixels.iter().map(|p| p.mean).sum::<DVec3>()
+            / self.film.pixels.len().max(1) as f64
     }
 }
 
@@ -278,13 +364,35 @@ pub fn check(case: &FurnaceCase, render: RenderFn) -> Result<FurnaceOutcome> {
     let film = render(&case.scene, &case.settings)?;
     let mut image = NoisyImage::from_film(&film);
     if case.pooled_variance {
-        let pooled = film.pixels.iter().map(|p| p.sample_variance()).sum::<DVec3>() / film.pixels.len().max(1) as f64;
-        image.variance = Some(film.pixels.iter().map(|p| pooled / p.count.max(1) as f64).collect());
+        let pooled = film
+            .pixels
+            .iter()
+            .map(|p| p.sample_variance())
+            .sum::<DVec3>()
+            / film.pixels.len().max(1) as f64;
+        image.variance = Some(
+            film.pixels
+                .iter()
+                .map(|p| pooled / p.count.max(1) as f64)
+                .collect(),
+        );
     }
     let n = image.pixel_count();
-    let truth =
-        NoisyImage { width: image.width, height: image.height, mean: vec![case.expected.as_dvec3(); n], variance: None, spp: None, nonfinite_samples: 0 };
-    let verdict = compare(&image, &truth, Method::KnownVariance(Side::A), &TestSettings::default()).map_err(|e| anyhow!("{}: {e}", case.name))?;
+    let truth = NoisyImage {
+        width: image.width,
+        height: image.height,
+        mean: vec![case.expected.as_dvec3(); n],
+        variance: None,
+        spp: None,
+        nonfinite_samples: 0,
+    };
+    let verdict = compare(
+        &image,
+        &truth,
+        Method::KnownVariance(Side::A),
+        &TestSettings::default(),
+    )
+    .map_err(|e| anyhow!("{}: {e}", case.name))?;
     let expected = case.expected.as_dvec3();
     let exact_mismatch = film.pixels.iter().enumerate().find_map(|(i, p)| {
         let ok = p.count == case.settings.spp && p.nonfinite == 0 && p.mean == expected && p.m2 == DVec3::ZERO;
@@ -301,7 +409,11 @@ pub fn check(case: &FurnaceCase, render: RenderFn) -> Result<FurnaceOutcome> {
             )
         })
     });
-    Ok(FurnaceOutcome { film, verdict, exact_mismatch })
+    Ok(FurnaceOutcome {
+        film,
+        verdict,
+        exact_mismatch,
+    })
 }
 
 /// Renders `case` with `render` and panics unless it gives the known
@@ -310,13 +422,24 @@ pub fn check(case: &FurnaceCase, render: RenderFn) -> Result<FurnaceOutcome> {
 pub fn assert_known_answer(case: &FurnaceCase, render: RenderFn) {
     let out = check(case, render).unwrap_or_else(|e| panic!("{e:#}"));
     let mean = out.image_mean();
-    println!("{}: expected {}, image mean {mean:.6}, {}", case.name, case.expected, if case.exact { "exact check" } else { "z-tests" });
+    println!(
+        "{}: expected {}, image mean {mean:.6}, {}",
+        case.name,
+        case.expected,
+        if case.exact { "exact check" } else { "z-tests" }
+    );
     if case.exact {
         if let Some(m) = &out.exact_mismatch {
             panic!("{}: not exact: {m}", case.name);
         }
     } else {
-        assert!(out.verdict.passes(), "{}: expected {} per pixel, image mean {mean}\n{}", case.name, case.expected, out.verdict.summary());
+        assert!(
+            out.verdict.passes(),
+            "{}: expected {} per pixel, image mean {mean}\n{}",
+            case.name,
+            case.expected,
+            out.verdict.summary()
+        );
     }
 }
 
@@ -331,7 +454,10 @@ mod tests {
         assert!((concentric_radiance(1.0, 1.0, 3.0, 2.0) - 2.0).abs() < 1e-15);
         // GGX at α = 1 seen head-on: D = 1/π, G2 = G1(ω_i) = 2μ/(1+μ), so
         // E = ½ ∫₀¹ 2μ/(1+μ) dμ · 2 = 1 − ln 2.
-        assert!((ggx_albedo(1.0, 1.0, 0.0, GGX_QUADRATURE) - (1.0 - std::f64::consts::LN_2)).abs() < 1e-5);
+        assert!(
+            (ggx_albedo(1.0, 1.0, 0.0, GGX_QUADRATURE) - (1.0 - std::f64::consts::LN_2)).abs()
+                < 1e-5
+        );
     }
 
     #[test]
@@ -339,12 +465,18 @@ mod tests {
         for roughness in [0.3f32, 0.6, 1.0] {
             for theta in [0.0, 45.0, 75.0] {
                 let e = ggx_albedo(1.0, roughness, theta, GGX_QUADRATURE);
-                assert!(e <= 1.0 && e > 0.3, "roughness {roughness}, θ {theta}: E = {e}");
+                assert!(
+                    e <= 1.0 && e > 0.3,
+                    "roughness {roughness}, θ {theta}: E = {e}"
+                );
             }
         }
         // The narrowest lobe the furnace uses, head-on and grazing.
         for theta in [0.0, 75.0] {
-            let (e, fine) = (ggx_albedo(1.0, 0.3, theta, GGX_QUADRATURE), ggx_albedo(1.0, 0.3, theta, 2 * GGX_QUADRATURE));
+            let (e, fine) = (
+                ggx_albedo(1.0, 0.3, theta, GGX_QUADRATURE),
+                ggx_albedo(1.0, 0.3, theta, 2 * GGX_QUADRATURE),
+            );
             assert!((e - fine).abs() < 1e-4, "θ {theta}: {e} vs {fine}");
         }
     }

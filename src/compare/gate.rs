@@ -65,10 +65,17 @@ pub fn parse_manifest(text: &str) -> Result<Vec<RefSpec>> {
         let at = || format!("{MANIFEST}:{}", i + 1);
         let f: Vec<&str> = line.split_whitespace().collect();
         if f.len() != 6 {
-            bail!("{}: expected `name scene WIDTHxHEIGHT spp seed max_depth`, found {} fields", at(), f.len());
+            bail!(
+                "{}: expected `name scene WIDTHxHEIGHT spp seed max_depth`, found {} fields",
+                at(),
+                f.len()
+            );
         }
         let (w, h) = crate::cli::parse_size(f[2]).with_context(at)?;
-        let num = |s: &str, what: &str| s.parse::<u32>().map_err(|_| anyhow!("{}: {what} `{s}` is not a number", at()));
+        let num = |s: &str, what: &str| {
+            s.parse::<u32>()
+                .map_err(|_| anyhow!("{}: {what} `{s}` is not a number", at()))
+        };
         let spec = RefSpec {
             name: f[0].into(),
             scene: f[1].into(),
@@ -89,12 +96,18 @@ pub fn parse_manifest(text: &str) -> Result<Vec<RefSpec>> {
 /// Reads `fixtures/refs/manifest.txt`.
 pub fn read_manifest() -> Result<Vec<RefSpec>> {
     let path = workspace_root().join(MANIFEST);
-    parse_manifest(&std::fs::read_to_string(&path).with_context(|| format!("cannot read {}", path.display()))?)
+    parse_manifest(
+        &std::fs::read_to_string(&path)
+            .with_context(|| format!("cannot read {}", path.display()))?,
+    )
 }
 
 /// The manifest entry called `name`.
 pub fn manifest_entry(name: &str) -> Result<RefSpec> {
-    read_manifest()?.into_iter().find(|s| s.name == name).ok_or_else(|| anyhow!("no reference `{name}` in {MANIFEST}"))
+    read_manifest()?
+        .into_iter()
+        .find(|s| s.name == name)
+        .ok_or_else(|| anyhow!("no reference `{name}` in {MANIFEST}"))
 }
 
 /// The command that regenerates one reference.
@@ -105,7 +118,10 @@ pub fn bless_command(name: &str) -> String {
 /// The EXR and provenance paths of a reference.
 pub fn reference_paths(name: &str) -> (PathBuf, PathBuf) {
     let dir = workspace_root().join(REFS_DIR);
-    (dir.join(format!("{name}.exr")), dir.join(format!("{name}.provenance.txt")))
+    (
+        dir.join(format!("{name}.exr")),
+        dir.join(format!("{name}.provenance.txt")),
+    )
 }
 
 /// A reference as loaded.
@@ -123,17 +139,30 @@ pub fn load_reference(spec: &RefSpec) -> Result<StoredReference> {
     let (exr, prov) = reference_paths(&spec.name);
     let bless = bless_command(&spec.name);
     if !exr.exists() {
-        bail!("reference `{}` is missing: run `{bless}` (tests never write references)", exr.display());
+        bail!(
+            "reference `{}` is missing: run `{bless}` (tests never write references)",
+            exr.display()
+        );
     }
-    let provenance =
-        std::fs::read_to_string(&prov).map_err(|e| anyhow!("provenance note `{}` of reference `{}`: {e}; run `{bless}`", prov.display(), spec.name))?;
+    let provenance = std::fs::read_to_string(&prov).map_err(|e| {
+        anyhow!(
+            "provenance note `{}` of reference `{}`: {e}; run `{bless}`",
+            prov.display(),
+            spec.name
+        )
+    })?;
     let image = image_io::read_exr(&exr)?;
     if image.variance.is_none() {
-        bail!("reference `{}` has no variance layer: run `{bless}`", exr.display());
+        bail!(
+            "reference `{}` has no variance layer: run `{bless}`",
+            exr.display()
+        );
     }
     let m = &image.metadata;
-    let stale =
-        (image.width, image.height) != (spec.width, spec.height) || m.spp != Some(spec.spp) || m.seed != Some(spec.seed) || m.max_depth != Some(spec.max_depth);
+    let stale = (image.width, image.height) != (spec.width, spec.height)
+        || m.spp != Some(spec.spp)
+        || m.seed != Some(spec.seed)
+        || m.max_depth != Some(spec.max_depth);
     if stale {
         bail!(
             "reference `{}` ({}x{}, spp {:?}, seed {:?}, depth {:?}) does not match its line in {MANIFEST} ({}x{}, spp {}, seed {}, depth {}): run `{bless}`",
@@ -150,14 +179,24 @@ pub fn load_reference(spec: &RefSpec) -> Result<StoredReference> {
             spec.max_depth
         );
     }
-    Ok(StoredReference { spec: spec.clone(), image: NoisyImage::from_render_image(&image), metadata: image.metadata, provenance })
+    Ok(StoredReference {
+        spec: spec.clone(),
+        image: NoisyImage::from_render_image(&image),
+        metadata: image.metadata,
+        provenance,
+    })
 }
 
 /// Loads a reference's scene: a file relative to the workspace root, or a built-in.
 pub fn load_scene(spec: &RefSpec) -> Result<Scene> {
     let path = workspace_root().join(&spec.scene);
-    let name = if path.exists() { path.to_string_lossy().into_owned() } else { spec.scene.clone() };
-    reference::load_scene(&name).map_err(|e| anyhow!("scene `{}` of reference `{}`: {e}", spec.scene, spec.name))
+    let name = if path.exists() {
+        path.to_string_lossy().into_owned()
+    } else {
+        spec.scene.clone()
+    };
+    reference::load_scene(&name)
+        .map_err(|e| anyhow!("scene `{}` of reference `{}`: {e}", spec.scene, spec.name))
 }
 
 /// A render at a test budget, compared with its reference.
@@ -178,16 +217,34 @@ impl GateRun {
 
 /// The settings of a gate render: the reference's size and depth, the
 /// scene's roulette depth, the test's spp and seed.
-pub fn gate_settings(reference: &StoredReference, scene: &Scene, spp: u32, seed: u32) -> RenderSettings {
+pub fn gate_settings(
+    reference: &StoredReference,
+    scene: &Scene,
+    spp: u32,
+    seed: u32,
+) -> RenderSettings {
     let s = &reference.spec;
-    RenderSettings { width: s.width, height: s.height, spp, seed, max_depth: s.max_depth, roulette_depth: scene.render.roulette_depth }
+    RenderSettings {
+        width: s.width,
+        height: s.height,
+        spp,
+        seed,
+        max_depth: s.max_depth,
+        roulette_depth: scene.render.roulette_depth,
+    }
 }
 
 /// Renders `scene` (normally the reference's, possibly altered by a
 /// mutation test) at `spp` with `seed`, which must differ from the
 /// reference's (the two must be independent estimates), and runs the
 /// z-test against the reference with the default thresholds.
-pub fn run_gate(reference: &StoredReference, scene: &Scene, spp: u32, seed: u32, render: RenderFn) -> Result<GateRun> {
+pub fn run_gate(
+    reference: &StoredReference,
+    scene: &Scene,
+    spp: u32,
+    seed: u32,
+    render: RenderFn,
+) -> Result<GateRun> {
     if seed == reference.spec.seed {
         bail!("the test seed {seed} equals the reference's: the render would repeat the reference's first samples");
     }
@@ -196,8 +253,19 @@ pub fn run_gate(reference: &StoredReference, scene: &Scene, spp: u32, seed: u32,
     let film = render(scene, &settings)?;
     let seconds = start.elapsed().as_secs_f64();
     let image = NoisyImage::from_film(&film);
-    let verdict = compare(&image, &reference.image, Method::Reference(Side::B), &TestSettings::default())?;
-    Ok(GateRun { settings, film, render: image, verdict, seconds })
+    let verdict = compare(
+        &image,
+        &reference.image,
+        Method::Reference(Side::B),
+        &TestSettings::default(),
+    )?;
+    Ok(GateRun {
+        settings,
+        film,
+        render: image,
+        verdict,
+        seconds,
+    })
 }
 
 /// `target/diff/<test>` (under `CARGO_TARGET_DIR` if set).
@@ -207,7 +275,9 @@ pub fn artifact_dir(test: &str) -> PathBuf {
         Some(t) => root.join(t),
         None => root.join("target"),
     };
-    target.join("diff").join(test.replace(['/', '\\', ':'], "_"))
+    target
+        .join("diff")
+        .join(test.replace(['/', '\\', ':'], "_"))
 }
 
 /// Writes a comparison's evidence into `dir`: `render.exr`,
@@ -226,8 +296,15 @@ pub fn write_artifacts(
         width: img.width,
         height: img.height,
         mean: img.mean.iter().map(|p| p.as_vec3()).collect(),
-        variance: img.variance.as_ref().map(|v| v.iter().map(|p| p.as_vec3()).collect()),
-        metadata: RenderMetadata { spp: img.spp, scene: Some(scene.into()), ..Default::default() },
+        variance: img
+            .variance
+            .as_ref()
+            .map(|v| v.iter().map(|p| p.as_vec3()).collect()),
+        metadata: RenderMetadata {
+            spp: img.spp,
+            scene: Some(scene.into()),
+            ..Default::default()
+        },
     };
     image_io::write_exr(&dir.join("render.exr"), &to_exr(render, labels[0]))?;
     image_io::write_exr(&dir.join("reference.exr"), &to_exr(reference, labels[1]))?;
@@ -235,7 +312,15 @@ pub fn write_artifacts(
     let report_path = dir.join("report.html");
     report::write_html(
         &report_path,
-        &Report { title: title.into(), labels: labels.map(String::from), a: render, b: reference, verdict: Some(verdict), metrics: &m, notes },
+        &Report {
+            title: title.into(),
+            labels: labels.map(String::from),
+            a: render,
+            b: reference,
+            verdict: Some(verdict),
+            metrics: &m,
+            notes,
+        },
     )?;
     Ok(report_path)
 }
@@ -249,15 +334,30 @@ pub fn assert_passes(test: &str, reference: &StoredReference, run: &GateRun) {
     let dir = artifact_dir(test);
     let notes = vec![
         ("render settings".to_string(), format!("{:?}", run.settings)),
-        ("reference provenance".to_string(), reference.provenance.trim().replace('\n', "; ")),
+        (
+            "reference provenance".to_string(),
+            reference.provenance.trim().replace('\n', "; "),
+        ),
     ];
     let label = format!("reference {}", reference.spec.name);
-    let written = write_artifacts(&dir, &format!("{test}: render vs reference"), ["render", &label], &run.render, &reference.image, &run.verdict, notes);
+    let written = write_artifacts(
+        &dir,
+        &format!("{test}: render vs reference"),
+        ["render", &label],
+        &run.render,
+        &reference.image,
+        &run.verdict,
+        notes,
+    );
     let evidence = match written {
         Ok(path) => format!("report: {}", path.display()),
         Err(e) => format!("(could not write the report: {e:#})"),
     };
-    panic!("{test}: the render differs from reference `{}`\n{}{evidence}", reference.spec.name, run.verdict.summary());
+    panic!(
+        "{test}: the render differs from reference `{}`\n{}{evidence}",
+        reference.spec.name,
+        run.verdict.summary()
+    );
 }
 
 /// One image gate as a test runs it: the fixture `name` from the
@@ -269,7 +369,13 @@ pub fn gate_fixture(suite: &str, name: &str, spp: u32, seed: u32, render: Render
     let reference = load_reference(&spec).unwrap_or_else(|e| panic!("{e:#}"));
     let scene = load_scene(&spec).unwrap_or_else(|e| panic!("{e:#}"));
     let run = run_gate(&reference, &scene, spp, seed, render).unwrap_or_else(|e| panic!("{e:#}"));
-    println!("{suite} / {name}: {}x{} at {spp} spp in {:.2} s\n{}", spec.width, spec.height, run.seconds, run.verdict.summary());
+    println!(
+        "{suite} / {name}: {}x{} at {spp} spp in {:.2} s\n{}",
+        spec.width,
+        spec.height,
+        run.seconds,
+        run.verdict.summary()
+    );
     assert_passes(&format!("{suite}/{name}"), &reference, &run);
 }
 
@@ -278,7 +384,17 @@ pub fn gate_fixture(suite: &str, name: &str, spp: u32, seed: u32, render: Render
 /// share it).
 pub fn scaled_albedo(scene: &Scene, factor: f32) -> Scene {
     let mut s = scene.clone();
-    let mut ids: Vec<u32> = s.materials.iter().filter_map(|m| if let Material::Lambertian { albedo } = m { Some(*albedo) } else { None }).collect();
+    let mut ids: Vec<u32> = s
+        .materials
+        .iter()
+        .filter_map(|m| {
+            if let Material::Lambertian { albedo } = m {
+                Some(*albedo)
+            } else {
+                None
+            }
+        })
+        .collect();
     ids.sort_unstable();
     ids.dedup();
     for id in ids {
@@ -299,18 +415,39 @@ mod tests {
         let v = parse_manifest(text).unwrap();
         assert_eq!(
             v,
-            vec![RefSpec { name: "cornell".into(), scene: "fixtures/scenes/c.json".into(), width: 64, height: 32, spp: 16384, seed: 1, max_depth: 50 }]
+            vec![RefSpec {
+                name: "cornell".into(),
+                scene: "fixtures/scenes/c.json".into(),
+                width: 64,
+                height: 32,
+                spp: 16384,
+                seed: 1,
+                max_depth: 50
+            }]
         );
         let e = parse_manifest("a b 4x4 1 2\n").unwrap_err().to_string();
         assert!(e.contains(":1:") && e.contains("5 fields"), "{e}");
-        let e = parse_manifest("a b 4x4 1 2 3\na c 4x4 1 2 3\n").unwrap_err().to_string();
+        let e = parse_manifest("a b 4x4 1 2 3\na c 4x4 1 2 3\n")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("twice"), "{e}");
     }
 
     #[test]
     fn a_missing_reference_names_the_bless_command() {
-        let spec = RefSpec { name: "no-such-reference".into(), scene: "cornell".into(), width: 4, height: 4, spp: 1, seed: 1, max_depth: 1 };
+        let spec = RefSpec {
+            name: "no-such-reference".into(),
+            scene: "cornell".into(),
+            width: 4,
+            height: 4,
+            spp: 1,
+            seed: 1,
+            max_depth: 1,
+        };
         let e = load_reference(&spec).unwrap_err().to_string();
-        assert!(e.contains("cargo xtask bless --scene no-such-reference"), "{e}");
+        assert!(
+            e.contains("cargo xtask bless --scene no-such-reference"),
+            "{e}"
+        );
     }
 }

@@ -78,7 +78,10 @@ impl NoisyImage {
             width: image.width,
             height: image.height,
             mean: image.mean.iter().map(|v| v.as_dvec3()).collect(),
-            variance: image.variance.as_ref().map(|v| v.iter().map(|x| x.as_dvec3()).collect()),
+            variance: image
+                .variance
+                .as_ref()
+                .map(|v| v.iter().map(|x| x.as_dvec3()).collect()),
             spp: image.metadata.spp,
             nonfinite_samples: 0,
         }
@@ -90,7 +93,11 @@ impl NoisyImage {
 
     /// NaN or infinite values among the means and variances.
     pub fn nonfinite_values(&self) -> u64 {
-        let count = |v: &[DVec3]| v.iter().map(|p| (0..3).filter(|&c| !p[c].is_finite()).count() as u64).sum::<u64>();
+        let count = |v: &[DVec3]| {
+            v.iter()
+                .map(|p| (0..3).filter(|&c| !p[c].is_finite()).count() as u64)
+                .sum::<u64>()
+        };
         count(&self.mean) + self.variance.as_deref().map_or(0, count)
     }
 
@@ -100,7 +107,11 @@ impl NoisyImage {
             bail!("{what} is empty ({}x{})", self.width, self.height);
         }
         if self.mean.len() != n || self.variance.as_ref().is_some_and(|v| v.len() != n) {
-            bail!("{what}: pixel arrays do not match its size {}x{}", self.width, self.height);
+            bail!(
+                "{what}: pixel arrays do not match its size {}x{}",
+                self.width,
+                self.height
+            );
         }
         Ok(())
     }
@@ -197,7 +208,12 @@ pub struct TestSettings {
 
 impl Default for TestSettings {
     fn default() -> Self {
-        Self { alpha: 0.01, min_pass_fraction: 0.9975, variance_floor: 1e-4, tile_size: 8 }
+        Self {
+            alpha: 0.01,
+            min_pass_fraction: 0.9975,
+            variance_floor: 1e-4,
+            tile_size: 8,
+        }
     }
 }
 
@@ -223,37 +239,67 @@ fn floored(var_of_mean: f64, n: Option<u32>, floor: f64) -> f64 {
 }
 
 /// Computes the differences of `a` and `b` under `method`.
-pub fn differences(a: &NoisyImage, b: &NoisyImage, method: Method, settings: &TestSettings) -> Result<Differences> {
+pub fn differences(
+    a: &NoisyImage,
+    b: &NoisyImage,
+    method: Method,
+    settings: &TestSettings,
+) -> Result<Differences> {
     a.check("the first image")?;
     b.check("the second image")?;
     if (a.width, a.height) != (b.width, b.height) {
-        bail!("the images differ in size: {}x{} and {}x{}", a.width, a.height, b.width, b.height);
+        bail!(
+            "the images differ in size: {}x{} and {}x{}",
+            a.width,
+            a.height,
+            b.width,
+            b.height
+        );
     }
     let floor = settings.variance_floor;
     let n = a.pixel_count();
     fn need_var<'a>(img: &'a NoisyImage, which: &str, method: Method) -> Result<&'a Vec<DVec3>> {
-        img.variance.as_ref().ok_or_else(|| anyhow::anyhow!("{} needs a variance for the {which} image", method.describe()))
+        img.variance.as_ref().ok_or_else(|| {
+            anyhow::anyhow!(
+                "{} needs a variance for the {which} image",
+                method.describe()
+            )
+        })
     }
     let mut variance = Vec::with_capacity(n);
     let mut dof = Vec::with_capacity(n);
     match method {
         Method::Reference(side) => {
-            let (reference, what) = if side == Side::B { (b, "reference (second)") } else { (a, "reference (first)") };
+            let (reference, what) = if side == Side::B {
+                (b, "reference (second)")
+            } else {
+                (a, "reference (first)")
+            };
             let var = need_var(reference, what, method)?;
             let (Some(na), Some(nb)) = (a.spp, b.spp) else {
-                bail!("the z-test against a reference needs both sample counts (spp): {:?} and {:?}", a.spp, b.spp);
+                bail!(
+                    "the z-test against a reference needs both sample counts (spp): {:?} and {:?}",
+                    a.spp,
+                    b.spp
+                );
             };
             let n_ref = if side == Side::B { nb } else { na };
             let scale = 1.0 / na.max(1) as f64 + 1.0 / nb.max(1) as f64;
             for v in var {
-                variance.push(DVec3::from_array([0, 1, 2].map(|c| (v[c] * n_ref as f64).max(floor) * scale)));
+                variance.push(DVec3::from_array(
+                    [0, 1, 2].map(|c| (v[c] * n_ref as f64).max(floor) * scale),
+                ));
                 dof.push(DVec3::INFINITY);
             }
         }
         Method::Welch => {
-            let (va, vb) = (need_var(a, "first", method)?, need_var(b, "second", method)?);
+            let (va, vb) = (
+                need_var(a, "first", method)?,
+                need_var(b, "second", method)?,
+            );
             // 1/(n − 1) per side; 0 where the count is unknown (infinite dof).
-            let inv_dof = |n: Option<u32>| n.filter(|&n| n > 1).map_or(0.0, |n| 1.0 / (n - 1) as f64);
+            let inv_dof =
+                |n: Option<u32>| n.filter(|&n| n > 1).map_or(0.0, |n| 1.0 / (n - 1) as f64);
             let (ia, ib) = (inv_dof(a.spp), inv_dof(b.spp));
             for (pa, pb) in va.iter().zip(vb) {
                 let mut v = DVec3::ZERO;
@@ -262,7 +308,11 @@ pub fn differences(a: &NoisyImage, b: &NoisyImage, method: Method, settings: &Te
                     let (x, y) = (floored(pa[c], a.spp, floor), floored(pb[c], b.spp, floor));
                     v[c] = x + y;
                     let denom = x * x * ia + y * y * ib;
-                    nu[c] = if denom > 0.0 { (x + y) * (x + y) / denom } else { f64::INFINITY };
+                    nu[c] = if denom > 0.0 {
+                        (x + y) * (x + y) / denom
+                    } else {
+                        f64::INFINITY
+                    };
                 }
                 variance.push(v);
                 dof.push(nu);
@@ -270,15 +320,28 @@ pub fn differences(a: &NoisyImage, b: &NoisyImage, method: Method, settings: &Te
         }
         Method::KnownVariance(side) => {
             let img = if side == Side::A { a } else { b };
-            let v = need_var(img, if side == Side::A { "first" } else { "second" }, method)?;
+            let v = need_var(
+                img,
+                if side == Side::A { "first" } else { "second" },
+                method,
+            )?;
             for p in v {
-                variance.push(DVec3::from_array([0, 1, 2].map(|c| floored(p[c], img.spp, floor))));
+                variance.push(DVec3::from_array(
+                    [0, 1, 2].map(|c| floored(p[c], img.spp, floor)),
+                ));
                 dof.push(DVec3::INFINITY);
             }
         }
     }
     let diff = a.mean.iter().zip(&b.mean).map(|(x, y)| *x - *y).collect();
-    Ok(Differences { width: a.width, height: a.height, method, diff, variance, dof })
+    Ok(Differences {
+        width: a.width,
+        height: a.height,
+        method,
+        diff,
+        variance,
+        dof,
+    })
 }
 
 /// Two-sided p-value of `d / √v` with `dof` degrees of freedom. A zero
@@ -289,7 +352,11 @@ fn p_value(d: f64, v: f64, dof: f64) -> (f64, f64) {
         return (f64::NAN, 0.0);
     }
     if v <= 0.0 {
-        return if d == 0.0 { (0.0, 1.0) } else { (f64::INFINITY.copysign(d), 0.0) };
+        return if d == 0.0 {
+            (0.0, 1.0)
+        } else {
+            (f64::INFINITY.copysign(d), 0.0)
+        };
     }
     let s = d / v.sqrt();
     (s, stats::student_t_two_sided_p(s, dof))
@@ -420,9 +487,18 @@ impl Verdict {
             pass_word(px.passes())
         );
         let ag = &self.aggregate;
-        let img: Vec<String> = ag.image.iter().map(|t| format!("{s} = {:+.2} (p {:.2e})", t.statistic, t.p)).collect();
+        let img: Vec<String> = ag
+            .image
+            .iter()
+            .map(|t| format!("{s} = {:+.2} (p {:.2e})", t.statistic, t.p))
+            .collect();
         let bound = stats::normal_two_sided_bound(ag.image_alpha);
-        let _ = writeln!(o, "image sum R, G, B: {} ; |{s}| bound about {bound:.2}: {}", img.join(", "), pass_word(ag.image_passes()));
+        let _ = writeln!(
+            o,
+            "image sum R, G, B: {} ; |{s}| bound about {bound:.2}: {}",
+            img.join(", "),
+            pass_word(ag.image_passes())
+        );
         let failing = ag.failing_tiles().count();
         match ag.worst_tile() {
             Some(w) => {
@@ -446,7 +522,15 @@ impl Verdict {
             }
             None => o.push_str("tile sums: none\n"),
         }
-        let _ = writeln!(o, "verdict: {}", if self.passes() { "PASS (no difference detected)" } else { "FAIL (the images differ)" });
+        let _ = writeln!(
+            o,
+            "verdict: {}",
+            if self.passes() {
+                "PASS (no difference detected)"
+            } else {
+                "FAIL (the images differ)"
+            }
+        );
         o
     }
 }
@@ -459,7 +543,11 @@ fn pass_word(pass: bool) -> &'static str {
     }
 }
 
-fn region_test(d: &Differences, (x0, y0, x1, y1): (u32, u32, u32, u32), channel: usize) -> RegionTest {
+fn region_test(
+    d: &Differences,
+    (x0, y0, x1, y1): (u32, u32, u32, u32),
+    channel: usize,
+) -> RegionTest {
     let (mut sd, mut sv, mut sv2_over_dof) = (0.0f64, 0.0f64, 0.0f64);
     for y in y0..y1 {
         for x in x0..x1 {
@@ -473,9 +561,24 @@ fn region_test(d: &Differences, (x0, y0, x1, y1): (u32, u32, u32, u32), channel:
             }
         }
     }
-    let dof = if sv2_over_dof > 0.0 { sv * sv / sv2_over_dof } else { f64::INFINITY };
+    let dof = if sv2_over_dof > 0.0 {
+        sv * sv / sv2_over_dof
+    } else {
+        f64::INFINITY
+    };
     let (statistic, p) = p_value(sd, sv, dof);
-    RegionTest { x0, y0, x1, y1, channel, diff: sd, std_dev: sv.sqrt(), statistic, dof, p }
+    RegionTest {
+        x0,
+        y0,
+        x1,
+        y1,
+        channel,
+        diff: sd,
+        std_dev: sv.sqrt(),
+        statistic,
+        dof,
+        p,
+    }
 }
 
 /// Runs the per-pixel and aggregate tests on precomputed differences.
@@ -501,7 +604,16 @@ pub fn test_differences(d: &Differences, settings: &TestSettings) -> Verdict {
         statistic.push(s);
         p.push(q);
     }
-    let pixels = PixelTests { statistic, p, tests, passed, alpha_per_test, min_pass_fraction: settings.min_pass_fraction, min_p, min_p_at };
+    let pixels = PixelTests {
+        statistic,
+        p,
+        tests,
+        passed,
+        alpha_per_test,
+        min_pass_fraction: settings.min_pass_fraction,
+        min_p,
+        min_p_at,
+    };
 
     let image = [0, 1, 2].map(|c| region_test(d, (0, 0, d.width, d.height), c));
     let t = settings.tile_size.max(1);
@@ -512,14 +624,32 @@ pub fn test_differences(d: &Differences, settings: &TestSettings) -> Verdict {
             tiles.extend((0..3).map(|c| region_test(d, rect, c)));
         }
     }
-    let aggregate =
-        AggregateTests { image, image_alpha: stats::sidak(settings.alpha, 3), tile_alpha: stats::sidak(settings.alpha, tiles.len()), tiles, tile_size: t };
-    Verdict { method: d.method, settings: *settings, pixels, aggregate }
+    let aggregate = AggregateTests {
+        image,
+        image_alpha: stats::sidak(settings.alpha, 3),
+        tile_alpha: stats::sidak(settings.alpha, tiles.len()),
+        tiles,
+        tile_size: t,
+    };
+    Verdict {
+        method: d.method,
+        settings: *settings,
+        pixels,
+        aggregate,
+    }
 }
 
 /// Compares `a` with `b` under `method`: differences, then all tests.
-pub fn compare(a: &NoisyImage, b: &NoisyImage, method: Method, settings: &TestSettings) -> Result<Verdict> {
-    Ok(test_differences(&differences(a, b, method, settings)?, settings))
+pub fn compare(
+    a: &NoisyImage,
+    b: &NoisyImage,
+    method: Method,
+    settings: &TestSettings,
+) -> Result<Verdict> {
+    Ok(test_differences(
+        &differences(a, b, method, settings)?,
+        settings,
+    ))
 }
 
 #[cfg(test)]
@@ -545,7 +675,13 @@ mod tests {
         assert!(v.passes(), "{}", v.summary());
         assert_eq!(v.pixels.passed, v.pixels.tests);
         // A shift of 2σ per pixel passes most pixel tests but not the sums.
-        let b = image(16, 16, |i| 0.5 + 0.01 * (i % 7) as f64 + 2.0 * (2e-4f64).sqrt(), 1e-4, 100);
+        let b = image(
+            16,
+            16,
+            |i| 0.5 + 0.01 * (i % 7) as f64 + 2.0 * (2e-4f64).sqrt(),
+            1e-4,
+            100,
+        );
         let v = compare(&b, &a, Method::Welch, &TestSettings::default()).unwrap();
         assert!(v.pixels.passes(), "{}", v.summary());
         assert!(!v.aggregate.passes(), "{}", v.summary());
@@ -556,7 +692,16 @@ mod tests {
     fn welch_dof_follows_satterthwaite() {
         let a = image(1, 1, |_| 1.0, 0.04 / 10.0, 10);
         let b = image(1, 1, |_| 1.0, 0.01 / 30.0, 30);
-        let d = differences(&a, &b, Method::Welch, &TestSettings { variance_floor: 0.0, ..Default::default() }).unwrap();
+        let d = differences(
+            &a,
+            &b,
+            Method::Welch,
+            &TestSettings {
+                variance_floor: 0.0,
+                ..Default::default()
+            },
+        )
+        .unwrap();
         let (va, vb) = (0.004f64, 0.01 / 30.0);
         let expect = (va + vb).powi(2) / (va * va / 9.0 + vb * vb / 29.0);
         assert!((d.dof[0].x - expect).abs() < 1e-9 * expect);
@@ -566,10 +711,22 @@ mod tests {
     fn reference_method_uses_the_reference_noise_and_its_floor() {
         let test = image(2, 2, |_| 1.0, 0.0, 64);
         let reference = image(2, 2, |_| 1.0, 0.5 / 1024.0, 1024);
-        let d = differences(&test, &reference, Method::Reference(Side::B), &TestSettings::default()).unwrap();
+        let d = differences(
+            &test,
+            &reference,
+            Method::Reference(Side::B),
+            &TestSettings::default(),
+        )
+        .unwrap();
         assert!((d.variance[0].x - 0.5 * (1.0 / 64.0 + 1.0 / 1024.0)).abs() < 1e-15);
         let flat = image(2, 2, |_| 1.0, 0.0, 1024);
-        let d = differences(&test, &flat, Method::Reference(Side::B), &TestSettings::default()).unwrap();
+        let d = differences(
+            &test,
+            &flat,
+            Method::Reference(Side::B),
+            &TestSettings::default(),
+        )
+        .unwrap();
         assert!((d.variance[0].x - 1e-4 * (1.0 / 64.0 + 1.0 / 1024.0)).abs() < 1e-18);
     }
 
@@ -581,6 +738,12 @@ mod tests {
         let v = compare(&a, &b, Method::Welch, &TestSettings::default()).unwrap();
         assert_eq!(v.pixels.passed, v.pixels.tests - 1);
         assert!(!v.aggregate.image_passes());
-        assert!(compare(&a, &image(4, 3, |_| 1.0, 1e-3, 10), Method::Welch, &TestSettings::default()).is_err());
+        assert!(compare(
+            &a,
+            &image(4, 3, |_| 1.0, 1e-3, 10),
+            Method::Welch,
+            &TestSettings::default()
+        )
+        .is_err());
     }
 }

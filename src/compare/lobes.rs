@@ -41,7 +41,8 @@ pub struct LobeCase {
 
 /// The signature of [`reference::material::scatter`], so that a mutated
 /// copy can stand in for it.
-pub type ScatterFn = dyn Fn(&Material, TextureContext, Vec3, &SurfaceInteraction, &[f32; 8]) -> Option<Scatter>;
+pub type ScatterFn =
+    dyn Fn(&Material, TextureContext, Vec3, &SurfaceInteraction, &[f32; 8]) -> Option<Scatter>;
 
 impl LobeCase {
     /// The surface point: origin, normal +z.
@@ -77,11 +78,15 @@ impl LobeCase {
     /// `n` scattered directions (`None`: absorbed) from `scatter`.
     pub fn samples_with(&self, seed: u32, n: u32, scatter: &ScatterFn) -> Vec<Option<DVec3>> {
         let si = self.surface();
-        let ctx = TextureContext { textures: &self.textures, images: &[] };
+        let ctx = TextureContext {
+            textures: &self.textures,
+            images: &[],
+        };
         (0..n)
             .map(|i| {
                 let u = rng::vertex_randoms(seed, i, 0, 1);
-                scatter(&self.material, ctx, self.ray_direction(seed, i), &si, &u).map(|s| s.direction.as_dvec3())
+                scatter(&self.material, ctx, self.ray_direction(seed, i), &si, &u)
+                    .map(|s| s.direction.as_dvec3())
             })
             .collect()
     }
@@ -109,22 +114,82 @@ pub fn standard_cases() -> Vec<LobeCase> {
         front_face,
         incidence,
     };
-    let mirror = Material::Metal { albedo: 0, fuzz: 0.0 };
-    let glass = Material::Dielectric { ior: 1.5, absorption: Vec3::ZERO };
+    let mirror = Material::Metal {
+        albedo: 0,
+        fuzz: 0.0,
+    };
+    let glass = Material::Dielectric {
+        ior: 1.5,
+        absorption: Vec3::ZERO,
+    };
     let inside = |deg: f32| {
         let d = at(deg);
         Vec3::new(d.x, d.y, -d.z)
     };
     vec![
-        case("mirror, 30° incidence", mirror, true, Incidence::Fixed(at(30.0))),
+        case(
+            "mirror, 30° incidence",
+            mirror,
+            true,
+            Incidence::Fixed(at(30.0)),
+        ),
         case("mirror, random incidence", mirror, true, Incidence::Random),
-        case("glass from outside, 0°", glass, true, Incidence::Fixed(at(0.0))),
-        case("glass from outside, 70°", glass, true, Incidence::Fixed(at(70.0))),
-        case("glass from outside, random incidence", glass, true, Incidence::Random),
-        case("glass from inside, 30° (refracts or reflects)", glass, false, Incidence::Fixed(inside(30.0))),
-        case("glass from inside, random incidence (total internal reflection beyond 41.8°)", glass, false, Incidence::Random),
-        case("fuzzy metal 0.3, 45°", Material::Metal { albedo: 0, fuzz: 0.3 }, true, Incidence::Fixed(at(45.0))),
-        case("fuzzy metal 1.0, 60° (some absorbed)", Material::Metal { albedo: 0, fuzz: 1.0 }, true, Incidence::Fixed(at(60.0))),
-        case("fuzzy metal 0.5, random incidence", Material::Metal { albedo: 0, fuzz: 0.5 }, true, Incidence::Random),
+        case(
+            "glass from outside, 0°",
+            glass,
+            true,
+            Incidence::Fixed(at(0.0)),
+        ),
+        case(
+            "glass from outside, 70°",
+            glass,
+            true,
+            Incidence::Fixed(at(70.0)),
+        ),
+        case(
+            "glass from outside, random incidence",
+            glass,
+            true,
+            Incidence::Random,
+        ),
+        case(
+            "glass from inside, 30° (refracts or reflects)",
+            glass,
+            false,
+            Incidence::Fixed(inside(30.0)),
+        ),
+        case(
+            "glass from inside, random incidence (total internal reflection beyond 41.8°)",
+            glass,
+            false,
+            Incidence::Random,
+        ),
+        case(
+            "fuzzy metal 0.3, 45°",
+            Material::Metal {
+                albedo: 0,
+                fuzz: 0.3,
+            },
+            true,
+            Incidence::Fixed(at(45.0)),
+        ),
+        case(
+            "fuzzy metal 1.0, 60° (some absorbed)",
+            Material::Metal {
+                albedo: 0,
+                fuzz: 1.0,
+            },
+            true,
+            Incidence::Fixed(at(60.0)),
+        ),
+        case(
+            "fuzzy metal 0.5, random incidence",
+            Material::Metal {
+                albedo: 0,
+                fuzz: 0.5,
+            },
+            true,
+            Incidence::Random,
+        ),
     ]
 }

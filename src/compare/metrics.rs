@@ -37,10 +37,18 @@ pub struct Metrics {
 /// ACES tone mapped; one value in [0, 1] per pixel.
 pub fn flip_map(width: u32, height: u32, test: &[Vec3], reference: &[Vec3]) -> Vec<f32> {
     let to_flip = |pixels: &[Vec3]| {
-        let clean: Vec<Vec3> = pixels.iter().map(|p| if p.is_finite() { *p } else { Vec3::ZERO }).collect();
+        let clean: Vec<Vec3> = pixels
+            .iter()
+            .map(|p| if p.is_finite() { *p } else { Vec3::ZERO })
+            .collect();
         nv_flip::FlipImageRgb8::with_data(width, height, &Tonemap::Aces.to_srgb8_image(&clean))
     };
-    nv_flip::flip(to_flip(reference), to_flip(test), nv_flip::DEFAULT_PIXELS_PER_DEGREE).to_vec()
+    nv_flip::flip(
+        to_flip(reference),
+        to_flip(test),
+        nv_flip::DEFAULT_PIXELS_PER_DEGREE,
+    )
+    .to_vec()
 }
 
 /// The mean radiance of an image as f32 pixels.
@@ -90,7 +98,14 @@ mod tests {
     use glam::DVec3;
 
     fn flat(v: f64) -> NoisyImage {
-        NoisyImage { width: 8, height: 8, mean: vec![DVec3::splat(v); 64], variance: None, spp: None, nonfinite_samples: 0 }
+        NoisyImage {
+            width: 8,
+            height: 8,
+            mean: vec![DVec3::splat(v); 64],
+            variance: None,
+            spp: None,
+            nonfinite_samples: 0,
+        }
     }
 
     #[test]

@@ -8,6 +8,8 @@ pub fn gpu() -> &'static gpu::GpuContext {
     static CTX: OnceLock<gpu::GpuContext> = OnceLock::new();
     CTX.get_or_init(|| match gpu::GpuContext::new() {
         Ok(ctx) => ctx,
-        Err(e) => panic!("GPU tests need an adapter (run `cargo xtask test`, which installs Mesa lavapipe): {e}"),
+        Err(e) => panic!(
+            "GPU tests need an adapter (run `cargo xtask test`, which installs Mesa lavapipe): {e}"
+        ),
     })
 }

@@ -35,10 +35,24 @@ fn parse(text: &str) -> Result<Vec<(usize, Line)>, String> {
         }
         let f: Vec<&str> = line.split_whitespace().collect();
         if f.len() != 6 {
-            return Err(format!("{MANIFEST}:{}: expected `name scene WIDTHxHEIGHT spp seed max_depth`", i + 1));
+            return Err(format!(
+                "{MANIFEST}:{}: expected `name scene WIDTHxHEIGHT spp seed max_depth`",
+                i + 1
+            ));
         }
-        let [name, scene, size, spp, seed, depth] = [f[0], f[1], f[2], f[3], f[4], f[5]].map(String::from);
-        out.push((i, Line { name, scene, size, spp, seed, depth }));
+        let [name, scene, size, spp, seed, depth] =
+            [f[0], f[1], f[2], f[3], f[4], f[5]].map(String::from);
+        out.push((
+            i,
+            Line {
+                name,
+                scene,
+                size,
+                spp,
+                seed,
+                depth,
+            },
+        ));
     }
     Ok(out)
 }
@@ -49,7 +63,10 @@ fn replace_field(line: &str, index: usize, value: &str) -> String {
     // Byte spans of the fields.
     let mut spans = Vec::new();
     let mut start = None;
-    for (i, c) in line.char_indices().chain(std::iter::once((line.len(), ' '))) {
+    for (i, c) in line
+        .char_indices()
+        .chain(std::iter::once((line.len(), ' ')))
+    {
         match (c.is_whitespace(), start) {
             (false, None) => start = Some(i),
             (true, Some(s)) => {
@@ -59,9 +76,16 @@ fn replace_field(line: &str, index: usize, value: &str) -> String {
             _ => {}
         }
     }
-    let Some(&(s, e)) = spans.get(index) else { return line.to_string() };
+    let Some(&(s, e)) = spans.get(index) else {
+        return line.to_string();
+    };
     match spans.get(index + 1) {
-        Some(&(next, _)) => format!("{}{value:<width$}{}", &line[..s], &line[next..], width = (next - s).max(value.len() + 1)),
+        Some(&(next, _)) => format!(
+            "{}{value:<width$}{}",
+            &line[..s],
+            &line[next..],
+            width = (next - s).max(value.len() + 1)
+        ),
         None => format!("{}{value}{}", &line[..s], &line[e..]),
     }
 }
@@ -75,13 +99,24 @@ fn capture(program: &str, args: &[&str]) -> String {
 }
 
 fn machine() -> String {
-    let host = std::fs::read_to_string("/etc/hostname").map(|s| s.trim().to_string()).unwrap_or_else(|_| capture("hostname", &[]));
+    let host = std::fs::read_to_string("/etc/hostname")
+        .map(|s| s.trim().to_string())
+        .unwrap_or_else(|_| capture("hostname", &[]));
     let cpu = std::fs::read_to_string("/proc/cpuinfo")
         .ok()
-        .and_then(|s| s.lines().find(|l| l.starts_with("model name")).and_then(|l| l.split(':').nth(1)).map(|m| m.trim().to_string()))
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split(':').nth(1))
+                .map(|m| m.trim().to_string())
+        })
         .unwrap_or_else(|| "unknown CPU".into());
     let threads = std::thread::available_parallelism().map_or(0, |n| n.get());
-    format!("{host}: {cpu}, {threads} hardware threads, {}-{}", std::env::consts::OS, std::env::consts::ARCH)
+    format!(
+        "{host}: {cpu}, {threads} hardware threads, {}-{}",
+        std::env::consts::OS,
+        std::env::consts::ARCH
+    )
 }
 
 fn usage() -> String {
@@ -96,16 +131,28 @@ pub fn run(args: &[String]) -> Result<(), String> {
         match a.as_str() {
             "--scene" => scenes.push(it.next().ok_or_else(usage)?.clone()),
             "--spp" => {
-                spp = Some(it.next().and_then(|s| s.parse().ok()).filter(|&n| n > 0).ok_or_else(|| format!("--spp needs a positive number; {}", usage()))?)
+                spp = Some(
+                    it.next()
+                        .and_then(|s| s.parse().ok())
+                        .filter(|&n| n > 0)
+                        .ok_or_else(|| format!("--spp needs a positive number; {}", usage()))?,
+                )
             }
             other => return Err(format!("unknown argument `{other}`; {}", usage())),
         }
     }
-    let text = std::fs::read_to_string(MANIFEST).map_err(|e| format!("cannot read {MANIFEST}: {e}"))?;
+    let text =
+        std::fs::read_to_string(MANIFEST).map_err(|e| format!("cannot read {MANIFEST}: {e}"))?;
     let mut lines = parse(&text)?;
-    if let Some(missing) = scenes.iter().find(|s| !lines.iter().any(|(_, l)| &l.name == *s)) {
+    if let Some(missing) = scenes
+        .iter()
+        .find(|s| !lines.iter().any(|(_, l)| &l.name == *s))
+    {
         let names: Vec<&str> = lines.iter().map(|(_, l)| l.name.as_str()).collect();
-        return Err(format!("no reference `{missing}` in {MANIFEST}; known: {}", names.join(", ")));
+        return Err(format!(
+            "no reference `{missing}` in {MANIFEST}; known: {}",
+            names.join(", ")
+        ));
     }
     lines.retain(|(_, l)| scenes.is_empty() || scenes.contains(&l.name));
     if let Some(n) = spp {
@@ -115,15 +162,38 @@ pub fn run(args: &[String]) -> Result<(), String> {
             l.spp = n.to_string();
             rows[*i] = replace_field(&rows[*i], 3, &l.spp);
         }
-        std::fs::write(MANIFEST, rows.join("\n") + "\n").map_err(|e| format!("cannot write {MANIFEST}: {e}"))?;
+        std::fs::write(MANIFEST, rows.join("\n") + "\n")
+            .map_err(|e| format!("cannot write {MANIFEST}: {e}"))?;
     }
-    sh("cargo", &["build", "--release", "--quiet", "--bin", "twintrace"])?;
+    sh(
+        "cargo",
+        &["build", "--release", "--quiet", "--bin", "twintrace"],
+    )?;
     let revision = capture("git", &["rev-parse", "--short", "HEAD"]);
-    let dirty = if capture("git", &["status", "--porcelain", "--untracked-files=no"]).is_empty() { "" } else { " with uncommitted changes" };
+    let dirty = if capture("git", &["status", "--porcelain", "--untracked-files=no"]).is_empty() {
+        ""
+    } else {
+        " with uncommitted changes"
+    };
     let machine = machine();
     for (_, l) in &lines {
         let out = format!("{REFS}/{}", l.name);
-        let render_args = ["render", &l.scene, "-o", &out, "--backend", "cpu", "--size", &l.size, "--spp", &l.spp, "--seed", &l.seed, "--max-depth", &l.depth];
+        let render_args = [
+            "render",
+            &l.scene,
+            "-o",
+            &out,
+            "--backend",
+            "cpu",
+            "--size",
+            &l.size,
+            "--spp",
+            &l.spp,
+            "--seed",
+            &l.seed,
+            "--max-depth",
+            &l.depth,
+        ];
         let start = Instant::now();
         let mut cargo_args = vec!["run", "--release", "--quiet", "--bin", "twintrace", "--"];
         cargo_args.extend(render_args);
@@ -151,7 +221,10 @@ pub fn run(args: &[String]) -> Result<(), String> {
         std::fs::write(&path, note).map_err(|e| format!("cannot write {path}: {e}"))?;
         eprintln!("xtask: blessed {out}.exr in {seconds:.1} s");
     }
-    eprintln!("xtask: {} reference(s) written; gate them with `cargo test --test reference_images`", lines.len());
+    eprintln!(
+        "xtask: {} reference(s) written; gate them with `cargo test --test reference_images`",
+        lines.len()
+    );
     Ok(())
 }
 
@@ -162,8 +235,17 @@ mod tests {
     #[test]
     fn replacing_a_field_keeps_the_columns() {
         let line = "cornell   scenes/c.json  64x64  16384  1     50";
-        assert_eq!(replace_field(line, 3, "4096"), "cornell   scenes/c.json  64x64  4096   1     50");
-        assert_eq!(replace_field(line, 5, "12"), "cornell   scenes/c.json  64x64  16384  1     12");
-        assert_eq!(replace_field("a b 4x4 8 1 2", 3, "123456"), "a b 4x4 123456 1 2");
+        assert_eq!(
+            replace_field(line, 3, "4096"),
+            "cornell   scenes/c.json  64x64  4096   1     50"
+        );
+        assert_eq!(
+            replace_field(line, 5, "12"),
+            "cornell   scenes/c.json  64x64  16384  1     12"
+        );
+        assert_eq!(
+            replace_field("a b 4x4 8 1 2", 3, "123456"),
+            "a b 4x4 123456 1 2"
+        );
     }
 }

@@ -7,16 +7,31 @@ use crate::util::run;
 use std::path::Path;
 
 /// Folders the Vulkan loader searches for driver manifests (ICDs).
-const ICD_DIRS: &[&str] = &["/usr/share/vulkan/icd.d", "/etc/vulkan/icd.d", "/usr/local/share/vulkan/icd.d"];
+const ICD_DIRS: &[&str] = &[
+    "/usr/share/vulkan/icd.d",
+    "/etc/vulkan/icd.d",
+    "/usr/local/share/vulkan/icd.d",
+];
 
 fn has_loader() -> bool {
-    ["/usr/lib/x86_64-linux-gnu/libvulkan.so.1", "/usr/lib/aarch64-linux-gnu/libvulkan.so.1", "/usr/lib64/libvulkan.so.1", "/usr/lib/libvulkan.so.1"]
-        .iter()
-        .any(|p| Path::new(p).exists())
+    [
+        "/usr/lib/x86_64-linux-gnu/libvulkan.so.1",
+        "/usr/lib/aarch64-linux-gnu/libvulkan.so.1",
+        "/usr/lib64/libvulkan.so.1",
+        "/usr/lib/libvulkan.so.1",
+    ]
+    .iter()
+    .any(|p| Path::new(p).exists())
 }
 
 fn has_driver() -> bool {
-    ICD_DIRS.iter().any(|d| std::fs::read_dir(d).map(|mut it| it.any(|e| e.is_ok_and(|e| e.path().extension().is_some_and(|x| x == "json")))).unwrap_or(false))
+    ICD_DIRS.iter().any(|d| {
+        std::fs::read_dir(d)
+            .map(|mut it| {
+                it.any(|e| e.is_ok_and(|e| e.path().extension().is_some_and(|x| x == "json")))
+            })
+            .unwrap_or(false)
+    })
 }
 
 /// Makes sure a Vulkan loader and at least one driver are installed,
@@ -25,9 +40,21 @@ pub fn ensure_vulkan() -> Result<(), String> {
     if has_loader() && has_driver() {
         return Ok(());
     }
-    eprintln!("xtask: no Vulkan driver found; installing Mesa lavapipe (mesa-vulkan-drivers, libvulkan1)");
-    let root = std::process::Command::new("id").arg("-u").output().map(|o| String::from_utf8_lossy(&o.stdout).trim() == "0").unwrap_or(false);
-    let apt = |args: &[&str]| if root { run("apt-get", args) } else { run("sudo", &[&["apt-get"], args].concat()) };
+    eprintln!(
+        "xtask: no Vulkan driver found; installing Mesa lavapipe (mesa-vulkan-drivers, libvulkan1)"
+    );
+    let root = std::process::Command::new("id")
+        .arg("-u")
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim() == "0")
+        .unwrap_or(false);
+    let apt = |args: &[&str]| {
+        if root {
+            run("apt-get", args)
+        } else {
+            run("sudo", &[&["apt-get"], args].concat())
+        }
+    };
     apt(&["update", "-qq"])?;
     apt(&["install", "-y", "-qq", "mesa-vulkan-drivers", "libvulkan1"])?;
     if has_loader() && has_driver() {

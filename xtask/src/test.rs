@@ -31,7 +31,20 @@ pub fn run(extra: &[String]) -> Result<(), String> {
     ensure_libclang()?;
     sh("cargo", &["fmt", "--all", "--check"])?;
     let env = embree_env(&lib);
-    sh_env("cargo", &["clippy", "--workspace", "--all-targets", "--features", "reference/embree", "--", "-D", "warnings"], &env)?;
+    sh_env(
+        "cargo",
+        &[
+            "clippy",
+            "--workspace",
+            "--all-targets",
+            "--features",
+            "reference/embree",
+            "--",
+            "-D",
+            "warnings",
+        ],
+        &env,
+    )?;
     let mut args = vec!["test", "--workspace", "--features", "reference/embree"];
     args.extend(extra.iter().map(String::as_str));
     sh_env("cargo", &args, &env)
@@ -39,7 +52,9 @@ pub fn run(extra: &[String]) -> Result<(), String> {
 
 /// The cargo target directory (`CARGO_TARGET_DIR` or `./target`).
 fn target_dir() -> PathBuf {
-    std::env::var_os("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|| PathBuf::from("target"))
+    std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from("target"))
 }
 
 /// `LIBRARY_PATH` and `LD_LIBRARY_PATH` with `lib` in front.
@@ -49,7 +64,11 @@ fn embree_env(lib: &Path) -> Vec<(String, String)> {
         .iter()
         .map(|var| {
             let old = std::env::var(var).unwrap_or_default();
-            let new = if old.is_empty() { lib.display().to_string() } else { format!("{}:{old}", lib.display()) };
+            let new = if old.is_empty() {
+                lib.display().to_string()
+            } else {
+                format!("{}:{old}", lib.display())
+            };
             (var.to_string(), new)
         })
         .collect()
@@ -59,7 +78,11 @@ fn embree_env(lib: &Path) -> Vec<(String, String)> {
 fn sh_env(program: &str, args: &[&str], env: &[(String, String)]) -> Result<(), String> {
     let shown: Vec<String> = env.iter().map(|(k, v)| format!("{k}={v}")).collect();
     eprintln!("xtask: {} {program} {}", shown.join(" "), args.join(" "));
-    let status = Command::new(program).args(args).envs(env.iter().map(|(k, v)| (k, v))).status().map_err(|e| format!("cannot run {program}: {e}"))?;
+    let status = Command::new(program)
+        .args(args)
+        .envs(env.iter().map(|(k, v)| (k, v)))
+        .status()
+        .map_err(|e| format!("cannot run {program}: {e}"))?;
     if status.success() {
         Ok(())
     } else {
@@ -76,7 +99,10 @@ fn ensure_embree() -> Result<PathBuf, String> {
     if link.exists() {
         return Ok(lib);
     }
-    eprintln!("xtask: installing Embree 4 from the PyPI wheel {EMBREE_WHEEL} into {}", lib.display());
+    eprintln!(
+        "xtask: installing Embree 4 from the PyPI wheel {EMBREE_WHEEL} into {}",
+        lib.display()
+    );
     let wheel_dir = root.join("wheel");
     std::fs::create_dir_all(&wheel_dir).map_err(|e| format!("{}: {e}", wheel_dir.display()))?;
     let python = find_python()?;
@@ -100,18 +126,37 @@ fn ensure_embree() -> Result<PathBuf, String> {
     let wheel = std::fs::read_dir(&wheel_dir)
         .map_err(|e| format!("{wd}: {e}"))?
         .filter_map(|e| e.ok().map(|e| e.path()))
-        .find(|p| p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with("embreex-") && n.ends_with(".whl")))
+        .find(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with("embreex-") && n.ends_with(".whl"))
+        })
         .ok_or_else(|| format!("pip left no embreex wheel in {wd}"))?;
     // A wheel is a zip file; Python's zipfile unpacks it (no unzip needed).
     let unpacked = root.join("unpacked");
     let _ = std::fs::remove_dir_all(&unpacked);
-    sh(&python, &["-m", "zipfile", "-e", &wheel.display().to_string(), &unpacked.display().to_string()])?;
+    sh(
+        &python,
+        &[
+            "-m",
+            "zipfile",
+            "-e",
+            &wheel.display().to_string(),
+            &unpacked.display().to_string(),
+        ],
+    )?;
     std::fs::create_dir_all(&lib).map_err(|e| format!("{}: {e}", lib.display()))?;
     let libs = unpacked.join("embreex.libs");
     let mut embree_so = None;
-    for entry in std::fs::read_dir(&libs).map_err(|e| format!("{}: {e} (the wheel's layout changed?)", libs.display()))? {
+    for entry in std::fs::read_dir(&libs)
+        .map_err(|e| format!("{}: {e} (the wheel's layout changed?)", libs.display()))?
+    {
         let path = entry.map_err(|e| e.to_string())?.path();
-        let name = path.file_name().and_then(|n| n.to_str()).unwrap_or_default().to_string();
+        let name = path
+            .file_name()
+            .and_then(|n| n.to_str())
+            .unwrap_or_default()
+            .to_string();
         std::fs::copy(&path, lib.join(&name)).map_err(|e| format!("copying {name}: {e}"))?;
         if name.starts_with("libembree4") {
             embree_so = Some(name);
@@ -119,18 +164,27 @@ fn ensure_embree() -> Result<PathBuf, String> {
     }
     let embree_so = embree_so.ok_or_else(|| format!("no libembree4 in {}", libs.display()))?;
     let _ = std::fs::remove_file(&link);
-    std::os::unix::fs::symlink(&embree_so, &link).map_err(|e| format!("{}: {e}", link.display()))?;
+    std::os::unix::fs::symlink(&embree_so, &link)
+        .map_err(|e| format!("{}: {e}", link.display()))?;
     let _ = std::fs::remove_dir_all(&unpacked);
     if link.exists() {
         Ok(lib)
     } else {
-        Err(format!("{} does not resolve after unpacking", link.display()))
+        Err(format!(
+            "{} does not resolve after unpacking",
+            link.display()
+        ))
     }
 }
 
 /// A Python with pip: `python3`, else Debian's python3-pip through apt.
 fn find_python() -> Result<String, String> {
-    let has_pip = |py: &str| Command::new(py).args(["-m", "pip", "--version"]).output().is_ok_and(|o| o.status.success());
+    let has_pip = |py: &str| {
+        Command::new(py)
+            .args(["-m", "pip", "--version"])
+            .output()
+            .is_ok_and(|o| o.status.success())
+    };
     for py in ["python3", "python"] {
         if has_pip(py) {
             return Ok(py.to_string());
@@ -150,7 +204,9 @@ fn ensure_libclang() -> Result<(), String> {
     if has_libclang() {
         return Ok(());
     }
-    eprintln!("xtask: libclang not found (embree4-sys's bindgen needs it); installing libclang-dev");
+    eprintln!(
+        "xtask: libclang not found (embree4-sys's bindgen needs it); installing libclang-dev"
+    );
     apt_install(&["libclang-dev"])?;
     if has_libclang() {
         Ok(())
@@ -166,19 +222,35 @@ fn has_libclang() -> bool {
     if std::env::var_os("LIBCLANG_PATH").is_some() {
         return true;
     }
-    let Ok(entries) = std::fs::read_dir("/usr/lib") else { return false };
-    entries.filter_map(|e| e.ok()).filter(|e| e.file_name().to_string_lossy().starts_with("llvm-")).any(|llvm| {
-        let lib = llvm.path().join("lib");
-        let has_lib = lib.join("libclang.so").exists() || lib.join("libclang.so.1").exists();
-        let has_headers =
-            std::fs::read_dir(lib.join("clang")).is_ok_and(|mut versions| versions.any(|v| v.is_ok_and(|v| v.path().join("include/stddef.h").exists())));
-        has_lib && has_headers
-    })
+    let Ok(entries) = std::fs::read_dir("/usr/lib") else {
+        return false;
+    };
+    entries
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().starts_with("llvm-"))
+        .any(|llvm| {
+            let lib = llvm.path().join("lib");
+            let has_lib = lib.join("libclang.so").exists() || lib.join("libclang.so.1").exists();
+            let has_headers = std::fs::read_dir(lib.join("clang")).is_ok_and(|mut versions| {
+                versions.any(|v| v.is_ok_and(|v| v.path().join("include/stddef.h").exists()))
+            });
+            has_lib && has_headers
+        })
 }
 
 fn apt_install(packages: &[&str]) -> Result<(), String> {
-    let root = Command::new("id").arg("-u").output().map(|o| String::from_utf8_lossy(&o.stdout).trim() == "0").unwrap_or(false);
-    let apt = |args: &[&str]| if root { sh("apt-get", args) } else { sh("sudo", &[&["apt-get"], args].concat()) };
+    let root = Command::new("id")
+        .arg("-u")
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim() == "0")
+        .unwrap_or(false);
+    let apt = |args: &[&str]| {
+        if root {
+            sh("apt-get", args)
+        } else {
+            sh("sudo", &[&["apt-get"], args].concat())
+        }
+    };
     apt(&["update", "-qq"])?;
     apt(&[&["install", "-y", "-qq"], packages].concat())
 }

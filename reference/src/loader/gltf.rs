@@ -91,7 +91,9 @@ pub fn load_gltf_mesh(path: &Path) -> Result<MeshInput, SceneError> {
     for instance in instances(&file.document).map_err(|m| file.error(m))? {
         let Some(mesh) = &instance.mesh else { continue };
         for primitive in mesh.primitives() {
-            let Some(local) = cache.get(&file, mesh.index(), &primitive)? else { continue };
+            let Some(local) = cache.get(&file, mesh.index(), &primitive)? else {
+                continue;
+            };
             parts.push(place(local, &instance.world));
         }
     }
@@ -107,7 +109,12 @@ pub fn load_gltf_mesh(path: &Path) -> Result<MeshInput, SceneError> {
 /// perspective camera sets `builder.camera` (pinhole, looking down the
 /// node's -Z with +Y up) and, when the camera states an aspect ratio,
 /// `builder.render.width` (the height is kept).
-pub fn add_gltf_scene(builder: &mut SceneBuilder, path: &Path, transform: &Transform, take_camera: bool) -> Result<(), SceneError> {
+pub fn add_gltf_scene(
+    builder: &mut SceneBuilder,
+    path: &Path,
+    transform: &Transform,
+    take_camera: bool,
+) -> Result<(), SceneError> {
     import_scene(builder, path, transform, take_camera).map(|_| ())
 }
 
@@ -118,7 +125,10 @@ pub fn add_gltf_scene(builder: &mut SceneBuilder, path: &Path, transform: &Trans
 /// Tracing in One Weekend sky (white horizon, light blue zenith).
 pub fn load_gltf_document(path: &Path) -> Result<Scene, SceneError> {
     let mut builder = SceneBuilder::new();
-    builder.background = Some(Background::Sky { horizon: Vec3::ONE, zenith: Vec3::new(0.5, 0.7, 1.0) });
+    builder.background = Some(Background::Sky {
+        horizon: Vec3::ONE,
+        zenith: Vec3::new(0.5, 0.7, 1.0),
+    });
     let summary = import_scene(&mut builder, path, &Transform::default(), true)?;
     if !summary.camera_taken {
         let aspect = builder.render.width as f32 / builder.render.height as f32;
@@ -157,14 +167,30 @@ struct ImportSummary {
     bounds_max: Vec3,
 }
 
-fn import_scene(builder: &mut SceneBuilder, path: &Path, transform: &Transform, take_camera: bool) -> Result<ImportSummary, SceneError> {
+fn import_scene(
+    builder: &mut SceneBuilder,
+    path: &Path,
+    transform: &Transform,
+    take_camera: bool,
+) -> Result<ImportSummary, SceneError> {
     let file = GltfFile::open(path)?;
-    let mut importer = Importer { file: &file, images: HashMap::new(), textures: HashMap::new(), materials: HashMap::new() };
+    let mut importer = Importer {
+        file: &file,
+        images: HashMap::new(),
+        textures: HashMap::new(),
+        materials: HashMap::new(),
+    };
     let mut cache = MeshCache::default();
-    let mut summary = ImportSummary { camera_taken: false, bounds_min: Vec3::INFINITY, bounds_max: Vec3::NEG_INFINITY };
+    let mut summary = ImportSummary {
+        camera_taken: false,
+        bounds_min: Vec3::INFINITY,
+        bounds_max: Vec3::NEG_INFINITY,
+    };
     let mut triangles = 0usize;
     for instance in instances(&file.document).map_err(|m| file.error(m))? {
-        let world = Transform { matrix: transform.matrix * instance.world };
+        let world = Transform {
+            matrix: transform.matrix * instance.world,
+        };
         if take_camera && !summary.camera_taken {
             if let Some(camera) = instance.camera {
                 summary.camera_taken = apply_camera(builder, &file.document, camera, &world.matrix);
@@ -172,14 +198,18 @@ fn import_scene(builder: &mut SceneBuilder, path: &Path, transform: &Transform, 
         }
         let Some(mesh) = &instance.mesh else { continue };
         for primitive in mesh.primitives() {
-            let Some(local) = cache.get(&file, mesh.index(), &primitive)? else { continue };
+            let Some(local) = cache.get(&file, mesh.index(), &primitive)? else {
+                continue;
+            };
             let material = importer.material(builder, primitive.material())?;
             let mut input = local.clone();
             if Mat3::from(world.matrix.matrix3).determinant() < 0.0 {
                 flip_winding(&mut input.indices);
             }
             let context = format!("meshes[{}].primitives[{}]", mesh.index(), primitive.index());
-            builder.add_mesh(&input, material, &world).map_err(|e| e.within(&context).in_file(path))?;
+            builder
+                .add_mesh(&input, material, &world)
+                .map_err(|e| e.within(&context).in_file(path))?;
             for &p in &input.positions {
                 let q = world.point(p);
                 summary.bounds_min = summary.bounds_min.min(q);
@@ -196,13 +226,24 @@ fn import_scene(builder: &mut SceneBuilder, path: &Path, transform: &Transform, 
 
 /// Sets the builder's camera from glTF camera `index` placed by `world`;
 /// false when it is not a usable perspective camera.
-fn apply_camera(builder: &mut SceneBuilder, document: &Document, index: usize, world: &Affine3A) -> bool {
+fn apply_camera(
+    builder: &mut SceneBuilder,
+    document: &Document,
+    index: usize,
+    world: &Affine3A,
+) -> bool {
     use gltf::json::camera::Type;
     use gltf::json::validation::Checked;
     // Read the JSON directly: `Camera::projection` unwraps the projection
     // object that the `type` names, which validation does not guarantee.
-    let Some(camera) = document.as_json().cameras.get(index) else { return false };
-    let (Checked::Valid(Type::Perspective), Some(perspective)) = (&camera.type_, &camera.perspective) else { return false };
+    let Some(camera) = document.as_json().cameras.get(index) else {
+        return false;
+    };
+    let (Checked::Valid(Type::Perspective), Some(perspective)) =
+        (&camera.type_, &camera.perspective)
+    else {
+        return false;
+    };
     let from = world.transform_point3(Vec3::ZERO);
     let dir = world.transform_vector3(Vec3::NEG_Z).normalize_or_zero();
     let up = world.transform_vector3(Vec3::Y).normalize_or_zero();
@@ -212,9 +253,18 @@ fn apply_camera(builder: &mut SceneBuilder, document: &Document, index: usize, w
     // The look-at point and focus plane sit at a distance that f32 can
     // still resolve next to `from` (aperture 0: the distance changes nothing else).
     let reach = from.abs().max_element().max(1.0);
-    builder.camera =
-        CameraSettings { look_from: from, look_at: from + reach * dir, up, vfov: perspective.yfov.to_degrees(), aperture: 0.0, focus_distance: reach };
-    if let Some(aspect) = perspective.aspect_ratio.filter(|a| a.is_finite() && *a > 0.0) {
+    builder.camera = CameraSettings {
+        look_from: from,
+        look_at: from + reach * dir,
+        up,
+        vfov: perspective.yfov.to_degrees(),
+        aperture: 0.0,
+        focus_distance: reach,
+    };
+    if let Some(aspect) = perspective
+        .aspect_ratio
+        .filter(|a| a.is_finite() && *a > 0.0)
+    {
         let width = (builder.render.height as f32 * aspect).round();
         builder.render.width = width.clamp(1.0, MAX_IMAGE_SIDE as f32) as u32;
     }
@@ -231,12 +281,16 @@ struct GltfFile {
 
 impl GltfFile {
     fn open(path: &Path) -> Result<Self, SceneError> {
-        let fail = |message: String| SceneError::Io { path: path.to_path_buf(), message };
+        let fail = |message: String| SceneError::Io {
+            path: path.to_path_buf(),
+            message,
+        };
         let bytes = std::fs::read(path).map_err(|e| fail(format!("cannot read glTF file: {e}")))?;
         if bytes.starts_with(b"glTF") {
             check_glb_header(&bytes).map_err(|m| fail(format!("not a valid GLB file: {m}")))?;
         }
-        let gltf::Gltf { document, mut blob } = gltf::Gltf::from_slice(&bytes).map_err(|e| fail(format!("cannot read glTF: {e}")))?;
+        let gltf::Gltf { document, mut blob } =
+            gltf::Gltf::from_slice(&bytes).map_err(|e| fail(format!("cannot read glTF: {e}")))?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         check_uris(&document).map_err(&fail)?;
         check_views(&document).map_err(&fail)?;
@@ -244,33 +298,62 @@ impl GltfFile {
         for buffer in document.buffers() {
             let source = match buffer.source() {
                 gltf::buffer::Source::Bin => "the GLB binary chunk".to_string(),
-                gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => "its data: URI".to_string(),
+                gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => {
+                    "its data: URI".to_string()
+                }
                 gltf::buffer::Source::Uri(uri) => format!("`{}`", base.join(uri).display()),
             };
             let data = BufferData::from_source_and_blob(buffer.source(), Some(&base), &mut blob)
-                .map_err(|e| fail(format!("cannot load buffer {} from {source}: {e}", buffer.index())))?;
+                .map_err(|e| {
+                    fail(format!(
+                        "cannot load buffer {} from {source}: {e}",
+                        buffer.index()
+                    ))
+                })?;
             if data.len() < buffer.length() {
-                return Err(fail(format!("buffer {} from {source} holds {} bytes, the document says {}", buffer.index(), data.len(), buffer.length())));
+                return Err(fail(format!(
+                    "buffer {} from {source} holds {} bytes, the document says {}",
+                    buffer.index(),
+                    data.len(),
+                    buffer.length()
+                )));
             }
             buffers.push(data);
         }
-        Ok(Self { path: path.to_path_buf(), base, document, buffers })
+        Ok(Self {
+            path: path.to_path_buf(),
+            base,
+            document,
+            buffers,
+        })
     }
 
     fn error(&self, message: String) -> SceneError {
-        SceneError::Io { path: self.path.clone(), message }
+        SceneError::Io {
+            path: self.path.clone(),
+            message,
+        }
     }
 }
 
 /// Checks what the `gltf` crate's GLB parser takes on trust.
 fn check_glb_header(bytes: &[u8]) -> Result<(), String> {
-    let word = |i: usize| bytes.get(i..i + 4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
-    let (Some(version), Some(length)) = (word(4), word(8)) else { return Err("the 12-byte header is truncated".into()) };
+    let word = |i: usize| {
+        bytes
+            .get(i..i + 4)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+    };
+    let (Some(version), Some(length)) = (word(4), word(8)) else {
+        return Err("the 12-byte header is truncated".into());
+    };
     if version != 2 {
         return Err(format!("container version {version} (only 2 is supported)"));
     }
     if (length as usize) < 20 || length as usize > bytes.len() {
-        return Err(format!("the header states {length} bytes but the file has {} (at least 20 are needed)", bytes.len()));
+        return Err(format!(
+            "the header states {length} bytes but the file has {} (at least 20 are needed)",
+            bytes.len()
+        ));
     }
     Ok(())
 }
@@ -279,11 +362,21 @@ fn check_glb_header(bytes: &[u8]) -> Result<(), String> {
 /// URIs; reject those that would not decode.
 fn check_uris(document: &Document) -> Result<(), String> {
     let json = document.as_json();
-    let buffer_uris = json.buffers.iter().enumerate().filter_map(|(i, b)| b.uri.as_deref().map(|u| (format!("buffer {i}"), u)));
-    let image_uris = json.images.iter().enumerate().filter_map(|(i, im)| im.uri.as_deref().map(|u| (format!("image {i}"), u)));
+    let buffer_uris = json
+        .buffers
+        .iter()
+        .enumerate()
+        .filter_map(|(i, b)| b.uri.as_deref().map(|u| (format!("buffer {i}"), u)));
+    let image_uris = json
+        .images
+        .iter()
+        .enumerate()
+        .filter_map(|(i, im)| im.uri.as_deref().map(|u| (format!("image {i}"), u)));
     for (what, uri) in buffer_uris.chain(image_uris) {
         if !uri.contains(':') && !percent_decodes_to_utf8(uri) {
-            return Err(format!("{what}: URI `{uri}` is not valid UTF-8 once percent-decoded"));
+            return Err(format!(
+                "{what}: URI `{uri}` is not valid UTF-8 once percent-decoded"
+            ));
         }
     }
     Ok(())
@@ -296,7 +389,10 @@ fn percent_decodes_to_utf8(uri: &str) -> bool {
     let mut i = 0;
     while i < bytes.len() {
         if bytes[i] == b'%' {
-            if let (Some(h), Some(l)) = (bytes.get(i + 1).and_then(|&c| hex(c)), bytes.get(i + 2).and_then(|&c| hex(c))) {
+            if let (Some(h), Some(l)) = (
+                bytes.get(i + 1).and_then(|&c| hex(c)),
+                bytes.get(i + 2).and_then(|&c| hex(c)),
+            ) {
                 out.push(h << 4 | l);
                 i += 3;
                 continue;
@@ -336,18 +432,34 @@ struct Instance<'a> {
 
 /// The document's scene flattened, depth first in document order.
 fn instances(document: &Document) -> Result<Vec<Instance<'_>>, String> {
-    let scene = document.default_scene().or_else(|| document.scenes().next());
+    let scene = document
+        .default_scene()
+        .or_else(|| document.scenes().next());
     let Some(scene) = scene else {
-        return Ok(document.meshes().map(|mesh| Instance { mesh: Some(mesh), camera: None, world: Affine3A::IDENTITY }).collect());
+        return Ok(document
+            .meshes()
+            .map(|mesh| Instance {
+                mesh: Some(mesh),
+                camera: None,
+                world: Affine3A::IDENTITY,
+            })
+            .collect());
     };
     let mut visited = vec![false; document.as_json().nodes.len()];
     let mut out = Vec::new();
-    let mut stack: Vec<(gltf::Node, Affine3A)> = scene.nodes().map(|n| (n, Affine3A::IDENTITY)).collect();
+    let mut stack: Vec<(gltf::Node, Affine3A)> =
+        scene.nodes().map(|n| (n, Affine3A::IDENTITY)).collect();
     stack.reverse();
     while let Some((node, parent)) = stack.pop() {
-        let seen = visited.get_mut(node.index()).ok_or_else(|| format!("node {} does not exist", node.index()))?;
+        let seen = visited
+            .get_mut(node.index())
+            .ok_or_else(|| format!("node {} does not exist", node.index()))?;
         if std::mem::replace(seen, true) {
-            return Err(format!("node {} is reached twice from scene {} (the node hierarchy must be a forest)", node.index(), scene.index()));
+            return Err(format!(
+                "node {} is reached twice from scene {} (the node hierarchy must be a forest)",
+                node.index(),
+                scene.index()
+            ));
         }
         let local = Mat4::from_cols_array_2d(&node.transform().matrix());
         if !local.is_finite() {
@@ -355,9 +467,16 @@ fn instances(document: &Document) -> Result<Vec<Instance<'_>>, String> {
         }
         let world = parent * Affine3A::from_mat4(local);
         if !world.is_finite() {
-            return Err(format!("node {}: the composed world transform is not finite", node.index()));
+            return Err(format!(
+                "node {}: the composed world transform is not finite",
+                node.index()
+            ));
         }
-        out.push(Instance { mesh: node.mesh(), camera: node.camera().map(|c| c.index()), world });
+        out.push(Instance {
+            mesh: node.mesh(),
+            camera: node.camera().map(|c| c.index()),
+            world,
+        });
         let children: Vec<_> = node.children().collect();
         stack.extend(children.into_iter().rev().map(|c| (c, world)));
     }
@@ -372,12 +491,19 @@ struct MeshCache {
 
 impl MeshCache {
     /// The primitive's triangles (`None`: not triangles, or no triangles).
-    fn get(&mut self, file: &GltfFile, mesh: usize, primitive: &gltf::Primitive) -> Result<Option<&MeshInput>, SceneError> {
+    fn get(
+        &mut self,
+        file: &GltfFile,
+        mesh: usize,
+        primitive: &gltf::Primitive,
+    ) -> Result<Option<&MeshInput>, SceneError> {
         let key = (mesh, primitive.index());
         let slot = match self.meshes.entry(key) {
             std::collections::hash_map::Entry::Occupied(slot) => slot.into_mut(),
             std::collections::hash_map::Entry::Vacant(slot) => {
-                let read = read_primitive(primitive, &file.buffers).map_err(|m| file.error(format!("mesh {mesh} primitive {}: {m}", primitive.index())))?;
+                let read = read_primitive(primitive, &file.buffers).map_err(|m| {
+                    file.error(format!("mesh {mesh} primitive {}: {m}", primitive.index()))
+                })?;
                 slot.insert(read.filter(|m| !m.indices.is_empty()))
             }
         };
@@ -386,23 +512,48 @@ impl MeshCache {
 }
 
 /// Reads one primitive as indexed triangles in the mesh's own space.
-fn read_primitive(primitive: &gltf::Primitive, buffers: &[BufferData]) -> Result<Option<MeshInput>, String> {
+fn read_primitive(
+    primitive: &gltf::Primitive,
+    buffers: &[BufferData],
+) -> Result<Option<MeshInput>, String> {
     let mode = primitive.mode();
-    if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
+    if !matches!(
+        mode,
+        Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+    ) {
         return Ok(None);
     }
-    let positions_accessor = primitive.get(&Semantic::Positions).ok_or("no POSITION attribute")?;
-    let positions: Vec<Vec3> = read_floats(&positions_accessor, buffers, "POSITION", Dimensions::Vec3)?.chunks_exact(3).map(Vec3::from_slice).collect();
+    let positions_accessor = primitive
+        .get(&Semantic::Positions)
+        .ok_or("no POSITION attribute")?;
+    let positions: Vec<Vec3> =
+        read_floats(&positions_accessor, buffers, "POSITION", Dimensions::Vec3)?
+            .chunks_exact(3)
+            .map(Vec3::from_slice)
+            .collect();
     let n = positions.len();
     let normals = match primitive.get(&Semantic::Normals) {
-        Some(a) => Some(read_floats(&a, buffers, "NORMAL", Dimensions::Vec3)?.chunks_exact(3).map(Vec3::from_slice).collect::<Vec<_>>()),
+        Some(a) => Some(
+            read_floats(&a, buffers, "NORMAL", Dimensions::Vec3)?
+                .chunks_exact(3)
+                .map(Vec3::from_slice)
+                .collect::<Vec<_>>(),
+        ),
         None => None,
     };
     let uvs = match primitive.get(&Semantic::TexCoords(0)) {
-        Some(a) => Some(read_floats(&a, buffers, "TEXCOORD_0", Dimensions::Vec2)?.chunks_exact(2).map(|c| Vec2::new(c[0], 1.0 - c[1])).collect::<Vec<_>>()),
+        Some(a) => Some(
+            read_floats(&a, buffers, "TEXCOORD_0", Dimensions::Vec2)?
+                .chunks_exact(2)
+                .map(|c| Vec2::new(c[0], 1.0 - c[1]))
+                .collect::<Vec<_>>(),
+        ),
         None => None,
     };
-    for (name, len) in [("NORMAL", normals.as_ref().map(Vec::len)), ("TEXCOORD_0", uvs.as_ref().map(Vec::len))] {
+    for (name, len) in [
+        ("NORMAL", normals.as_ref().map(Vec::len)),
+        ("TEXCOORD_0", uvs.as_ref().map(Vec::len)),
+    ] {
         if let Some(len) = len.filter(|&l| l != n) {
             return Err(format!("{name} has {len} elements but POSITION has {n}"));
         }
@@ -420,18 +571,34 @@ fn read_primitive(primitive: &gltf::Primitive, buffers: &[BufferData]) -> Result
     let indices = match mode {
         Mode::Triangles => {
             if !vertices.chunks_exact(3).remainder().is_empty() {
-                return Err(format!("a triangle list with {} indices (not a multiple of 3)", vertices.len()));
+                return Err(format!(
+                    "a triangle list with {} indices (not a multiple of 3)",
+                    vertices.len()
+                ));
             }
             vertices
         }
         // Strip triangle i: (v[i], v[i+1], v[i+2]) for even i, (v[i], v[i+2], v[i+1]) for odd i.
         Mode::TriangleStrip => (0..vertices.len().saturating_sub(2))
-            .flat_map(|i| if i % 2 == 0 { [vertices[i], vertices[i + 1], vertices[i + 2]] } else { [vertices[i], vertices[i + 2], vertices[i + 1]] })
+            .flat_map(|i| {
+                if i % 2 == 0 {
+                    [vertices[i], vertices[i + 1], vertices[i + 2]]
+                } else {
+                    [vertices[i], vertices[i + 2], vertices[i + 1]]
+                }
+            })
             .collect(),
         // Fan triangle i: (v[i+1], v[i+2], v[0]).
-        _ => (0..vertices.len().saturating_sub(2)).flat_map(|i| [vertices[i + 1], vertices[i + 2], vertices[0]]).collect(),
+        _ => (0..vertices.len().saturating_sub(2))
+            .flat_map(|i| [vertices[i + 1], vertices[i + 2], vertices[0]])
+            .collect(),
     };
-    Ok(Some(MeshInput { positions, normals, uvs, indices }))
+    Ok(Some(MeshInput {
+        positions,
+        normals,
+        uvs,
+        indices,
+    }))
 }
 
 /// The accessor's elements, tightly packed, with sparse substitutions applied.
@@ -439,17 +606,24 @@ fn accessor_bytes(accessor: &gltf::Accessor, buffers: &[BufferData]) -> Result<V
     let index = accessor.index();
     let elem = accessor.size();
     let count = accessor.count();
-    let total = count.checked_mul(elem).ok_or_else(|| format!("accessor {index}: {count} elements overflow"))?;
+    let total = count
+        .checked_mul(elem)
+        .ok_or_else(|| format!("accessor {index}: {count} elements overflow"))?;
     let mut out = match accessor.view() {
         Some(view) => {
             let data = view_bytes(&view, buffers)?;
             let stride = view.stride().unwrap_or(elem);
             if stride < elem {
-                return Err(format!("accessor {index}: byteStride {stride} is smaller than its {elem}-byte element"));
+                return Err(format!(
+                    "accessor {index}: byteStride {stride} is smaller than its {elem}-byte element"
+                ));
             }
             let start = accessor.offset();
             if count > 0 {
-                let end = (count - 1).checked_mul(stride).and_then(|s| s.checked_add(start)).and_then(|s| s.checked_add(elem));
+                let end = (count - 1)
+                    .checked_mul(stride)
+                    .and_then(|s| s.checked_add(start))
+                    .and_then(|s| s.checked_add(elem));
                 if end.is_none_or(|e| e > data.len()) {
                     return Err(format!(
                         "accessor {index}: {count} elements of {elem} bytes (stride {stride}, offset {start}) reach past the end of bufferView {} ({} bytes)",
@@ -467,7 +641,9 @@ fn accessor_bytes(accessor: &gltf::Accessor, buffers: &[BufferData]) -> Result<V
         }
         None => {
             if total > MAX_VIEWLESS_ACCESSOR_BYTES {
-                return Err(format!("accessor {index}: {count} elements without a bufferView is implausibly many"));
+                return Err(format!(
+                    "accessor {index}: {count} elements without a bufferView is implausibly many"
+                ));
             }
             vec![0; total]
         }
@@ -477,14 +653,37 @@ fn accessor_bytes(accessor: &gltf::Accessor, buffers: &[BufferData]) -> Result<V
         let indices = sparse.indices();
         let isize = indices.index_type().size();
         let idata = view_bytes(&indices.view(), buffers)?;
-        let ibytes = n.checked_mul(isize).and_then(|len| Some(indices.offset()..indices.offset().checked_add(len)?)).and_then(|r| idata.get(r));
-        let ibytes = ibytes.ok_or_else(|| format!("accessor {index}: {n} sparse indices reach past the end of bufferView {}", indices.view().index()))?;
+        let ibytes = n
+            .checked_mul(isize)
+            .and_then(|len| Some(indices.offset()..indices.offset().checked_add(len)?))
+            .and_then(|r| idata.get(r));
+        let ibytes = ibytes.ok_or_else(|| {
+            format!(
+                "accessor {index}: {n} sparse indices reach past the end of bufferView {}",
+                indices.view().index()
+            )
+        })?;
         let values = sparse.values();
         let vdata = view_bytes(&values.view(), buffers)?;
-        let vbytes = n.checked_mul(elem).and_then(|len| Some(values.offset()..values.offset().checked_add(len)?)).and_then(|r| vdata.get(r));
-        let vbytes = vbytes.ok_or_else(|| format!("accessor {index}: {n} sparse values reach past the end of bufferView {}", values.view().index()))?;
-        for (k, (ib, vb)) in ibytes.chunks_exact(isize).zip(vbytes.chunks_exact(elem)).enumerate() {
-            let target = ib.iter().rev().fold(0usize, |acc, &b| acc << 8 | b as usize);
+        let vbytes = n
+            .checked_mul(elem)
+            .and_then(|len| Some(values.offset()..values.offset().checked_add(len)?))
+            .and_then(|r| vdata.get(r));
+        let vbytes = vbytes.ok_or_else(|| {
+            format!(
+                "accessor {index}: {n} sparse values reach past the end of bufferView {}",
+                values.view().index()
+            )
+        })?;
+        for (k, (ib, vb)) in ibytes
+            .chunks_exact(isize)
+            .zip(vbytes.chunks_exact(elem))
+            .enumerate()
+        {
+            let target = ib
+                .iter()
+                .rev()
+                .fold(0usize, |acc, &b| acc << 8 | b as usize);
             if target >= count {
                 return Err(format!("accessor {index}: sparse index {k} is {target}, out of range for {count} elements"));
             }
@@ -494,19 +693,43 @@ fn accessor_bytes(accessor: &gltf::Accessor, buffers: &[BufferData]) -> Result<V
     Ok(out)
 }
 
-fn view_bytes<'b>(view: &gltf::buffer::View, buffers: &'b [BufferData]) -> Result<&'b [u8], String> {
-    let buffer = buffers.get(view.buffer().index()).ok_or_else(|| format!("bufferView {}: buffer {} is not loaded", view.index(), view.buffer().index()))?;
+fn view_bytes<'b>(
+    view: &gltf::buffer::View,
+    buffers: &'b [BufferData],
+) -> Result<&'b [u8], String> {
+    let buffer = buffers.get(view.buffer().index()).ok_or_else(|| {
+        format!(
+            "bufferView {}: buffer {} is not loaded",
+            view.index(),
+            view.buffer().index()
+        )
+    })?;
     view.offset()
         .checked_add(view.length())
         .and_then(|end| buffer.get(view.offset()..end))
-        .ok_or_else(|| format!("bufferView {} reaches past the end of buffer {}", view.index(), view.buffer().index()))
+        .ok_or_else(|| {
+            format!(
+                "bufferView {} reaches past the end of buffer {}",
+                view.index(),
+                view.buffer().index()
+            )
+        })
 }
 
 /// Reads an accessor of the given shape as floats (normalized integers as
 /// the glTF spec maps them to [0, 1] or [-1, 1]).
-fn read_floats(accessor: &gltf::Accessor, buffers: &[BufferData], what: &str, shape: Dimensions) -> Result<Vec<f32>, String> {
+fn read_floats(
+    accessor: &gltf::Accessor,
+    buffers: &[BufferData],
+    what: &str,
+    shape: Dimensions,
+) -> Result<Vec<f32>, String> {
     if accessor.dimensions() != shape {
-        return Err(format!("{what} accessor {} is {:?}, expected {shape:?}", accessor.index(), accessor.dimensions()));
+        return Err(format!(
+            "{what} accessor {} is {:?}, expected {shape:?}",
+            accessor.index(),
+            accessor.dimensions()
+        ));
     }
     let bytes = accessor_bytes(accessor, buffers).map_err(|m| format!("{what}: {m}"))?;
     let normalized = accessor.normalized();
@@ -520,9 +743,13 @@ fn read_floats(accessor: &gltf::Accessor, buffers: &[BufferData], what: &str, sh
             DataType::I8 => c[0] as i8 as f32,
             DataType::U16 if normalized => u16::from_le_bytes([c[0], c[1]]) as f32 / 65535.0,
             DataType::U16 => u16::from_le_bytes([c[0], c[1]]) as f32,
-            DataType::I16 if normalized => (i16::from_le_bytes([c[0], c[1]]) as f32 / 32767.0).max(-1.0),
+            DataType::I16 if normalized => {
+                (i16::from_le_bytes([c[0], c[1]]) as f32 / 32767.0).max(-1.0)
+            }
             DataType::I16 => i16::from_le_bytes([c[0], c[1]]) as f32,
-            DataType::U32 if normalized => (u32::from_le_bytes([c[0], c[1], c[2], c[3]]) as f64 / u32::MAX as f64) as f32,
+            DataType::U32 if normalized => {
+                (u32::from_le_bytes([c[0], c[1], c[2], c[3]]) as f64 / u32::MAX as f64) as f32
+            }
             DataType::U32 => u32::from_le_bytes([c[0], c[1], c[2], c[3]]) as f32,
         }
     };
@@ -531,14 +758,26 @@ fn read_floats(accessor: &gltf::Accessor, buffers: &[BufferData], what: &str, sh
 
 fn read_indices(accessor: &gltf::Accessor, buffers: &[BufferData]) -> Result<Vec<u32>, String> {
     let data_type = accessor.data_type();
-    if accessor.dimensions() != Dimensions::Scalar || !matches!(data_type, DataType::U8 | DataType::U16 | DataType::U32) {
-        return Err(format!("indices accessor {} is {:?} of {data_type:?}, expected scalar unsigned integers", accessor.index(), accessor.dimensions()));
+    if accessor.dimensions() != Dimensions::Scalar
+        || !matches!(data_type, DataType::U8 | DataType::U16 | DataType::U32)
+    {
+        return Err(format!(
+            "indices accessor {} is {:?} of {data_type:?}, expected scalar unsigned integers",
+            accessor.index(),
+            accessor.dimensions()
+        ));
     }
     let bytes = accessor_bytes(accessor, buffers).map_err(|m| format!("indices: {m}"))?;
     Ok(match data_type {
         DataType::U8 => bytes.iter().map(|&b| b as u32).collect(),
-        DataType::U16 => bytes.chunks_exact(2).map(|c| u16::from_le_bytes([c[0], c[1]]) as u32).collect(),
-        _ => bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect(),
+        DataType::U16 => bytes
+            .chunks_exact(2)
+            .map(|c| u16::from_le_bytes([c[0], c[1]]) as u32)
+            .collect(),
+        _ => bytes
+            .chunks_exact(4)
+            .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect(),
     })
 }
 
@@ -557,13 +796,19 @@ fn place(local: &MeshInput, world: &Affine3A) -> MeshInput {
         flip_winding(&mut indices);
     }
     MeshInput {
-        positions: local.positions.iter().map(|&p| transform.point(p)).collect(),
+        positions: local
+            .positions
+            .iter()
+            .map(|&p| transform.point(p))
+            .collect(),
         // Under a pure translation the normals are kept bit for bit.
         normals: local.normals.as_ref().map(|ns| {
             if world.matrix3 == glam::Mat3A::IDENTITY {
                 ns.clone()
             } else {
-                ns.iter().map(|&n| (normal_matrix * n).normalize_or_zero()).collect()
+                ns.iter()
+                    .map(|&n| (normal_matrix * n).normalize_or_zero())
+                    .collect()
             }
         }),
         uvs: local.uvs.clone(),
@@ -573,7 +818,12 @@ fn place(local: &MeshInput, world: &Affine3A) -> MeshInput {
 
 /// Unwelds a mesh into three vertices per triangle carrying its face normal.
 fn flat_shaded(mesh: MeshInput) -> MeshInput {
-    let mut out = MeshInput { positions: Vec::new(), normals: Some(Vec::new()), uvs: mesh.uvs.as_ref().map(|_| Vec::new()), indices: Vec::new() };
+    let mut out = MeshInput {
+        positions: Vec::new(),
+        normals: Some(Vec::new()),
+        uvs: mesh.uvs.as_ref().map(|_| Vec::new()),
+        indices: Vec::new(),
+    };
     let normals = out.normals.get_or_insert_with(Vec::new);
     for (t, tri) in mesh.indices.chunks_exact(3).enumerate() {
         let [a, b, c] = [tri[0], tri[1], tri[2]].map(|i| mesh.positions[i as usize]);
@@ -595,9 +845,18 @@ fn flat_shaded(mesh: MeshInput) -> MeshInput {
 fn merge(parts: Vec<MeshInput>) -> Result<MeshInput, String> {
     let any_normals = parts.iter().any(|p| p.normals.is_some());
     let any_uvs = parts.iter().any(|p| p.uvs.is_some());
-    let mut out = MeshInput { positions: Vec::new(), normals: any_normals.then(Vec::new), uvs: any_uvs.then(Vec::new), indices: Vec::new() };
+    let mut out = MeshInput {
+        positions: Vec::new(),
+        normals: any_normals.then(Vec::new),
+        uvs: any_uvs.then(Vec::new),
+        indices: Vec::new(),
+    };
     for part in parts {
-        let part = if any_normals && part.normals.is_none() { flat_shaded(part) } else { part };
+        let part = if any_normals && part.normals.is_none() {
+            flat_shaded(part)
+        } else {
+            part
+        };
         if out.positions.len() + part.positions.len() > u32::MAX as usize {
             return Err("the merged mesh has more than 2^32 vertices".into());
         }
@@ -628,7 +887,11 @@ struct Importer<'f> {
 }
 
 impl Importer<'_> {
-    fn material(&mut self, builder: &mut SceneBuilder, material: gltf::Material) -> Result<u32, SceneError> {
+    fn material(
+        &mut self,
+        builder: &mut SceneBuilder,
+        material: gltf::Material,
+    ) -> Result<u32, SceneError> {
         let key = material.index();
         if let Some(&id) = self.materials.get(&key) {
             return Ok(id);
@@ -640,11 +903,14 @@ impl Importer<'_> {
         let file = self.file;
         let in_context = |e: SceneError| e.within(&context).in_file(&file.path);
         let pbr = material.pbr_metallic_roughness();
-        let emission = Vec3::from(material.emissive_factor()) * material.emissive_strength().unwrap_or(1.0);
+        let emission =
+            Vec3::from(material.emissive_factor()) * material.emissive_strength().unwrap_or(1.0);
         let converted = if emission != Vec3::ZERO {
             let texture = match material.emissive_texture() {
                 Some(info) => self.image_texture(builder, &info.texture(), emission)?,
-                None => builder.constant(emission).map_err(|e| in_context(e.within("emissive")))?,
+                None => builder
+                    .constant(emission)
+                    .map_err(|e| in_context(e.within("emissive")))?,
             };
             Material::DiffuseLight { emission: texture }
         } else {
@@ -652,45 +918,79 @@ impl Importer<'_> {
             let factor = Vec3::new(r, g, b);
             let texture = match pbr.base_color_texture() {
                 Some(info) => self.image_texture(builder, &info.texture(), factor)?,
-                None => builder.constant(factor).map_err(|e| in_context(e.within("baseColorFactor")))?,
+                None => builder
+                    .constant(factor)
+                    .map_err(|e| in_context(e.within("baseColorFactor")))?,
             };
-            Material::Ggx { base_color: texture, metallic: pbr.metallic_factor(), roughness: pbr.roughness_factor() }
+            Material::Ggx {
+                base_color: texture,
+                metallic: pbr.metallic_factor(),
+                roughness: pbr.roughness_factor(),
+            }
         };
         let id = builder.add_material(converted).map_err(in_context)?;
         self.materials.insert(key, id);
         Ok(id)
     }
 
-    fn image_texture(&mut self, builder: &mut SceneBuilder, texture: &gltf::Texture, factor: Vec3) -> Result<u32, SceneError> {
+    fn image_texture(
+        &mut self,
+        builder: &mut SceneBuilder,
+        texture: &gltf::Texture,
+        factor: Vec3,
+    ) -> Result<u32, SceneError> {
         let key = (texture.index(), factor.to_array().map(f32::to_bits));
         if let Some(&id) = self.textures.get(&key) {
             return Ok(id);
         }
         let image = self.image(builder, &texture.source())?;
-        let id =
-            builder.add_texture(Texture::Image { image, factor }).map_err(|e| e.within(&format!("textures[{}]", texture.index())).in_file(&self.file.path))?;
+        let id = builder
+            .add_texture(Texture::Image { image, factor })
+            .map_err(|e| {
+                e.within(&format!("textures[{}]", texture.index()))
+                    .in_file(&self.file.path)
+            })?;
         self.textures.insert(key, id);
         Ok(id)
     }
 
-    fn image(&mut self, builder: &mut SceneBuilder, image: &gltf::Image) -> Result<u32, SceneError> {
+    fn image(
+        &mut self,
+        builder: &mut SceneBuilder,
+        image: &gltf::Image,
+    ) -> Result<u32, SceneError> {
         let index = image.index();
         if let Some(&id) = self.images.get(&index) {
             return Ok(id);
         }
         let file = self.file;
         // `Image::source` unwraps fields that validation does not require.
-        let json = file.document.as_json().images.get(index).ok_or_else(|| file.error(format!("image {index} does not exist")))?;
+        let json = file
+            .document
+            .as_json()
+            .images
+            .get(index)
+            .ok_or_else(|| file.error(format!("image {index} does not exist")))?;
         let source = match (&json.buffer_view, &json.mime_type, &json.uri) {
-            (Some(_), None, _) => return Err(file.error(format!("image {index} is stored in a bufferView but has no mimeType"))),
-            (None, _, None) => return Err(file.error(format!("image {index} has neither a uri nor a bufferView"))),
+            (Some(_), None, _) => {
+                return Err(file.error(format!(
+                    "image {index} is stored in a bufferView but has no mimeType"
+                )))
+            }
+            (None, _, None) => {
+                return Err(file.error(format!("image {index} has neither a uri nor a bufferView")))
+            }
             (Some(view), Some(_), _) => format!("bufferView {}", view.value()),
             (None, _, Some(uri)) if uri.starts_with("data:") => "a data: URI".to_string(),
             (None, _, Some(uri)) => format!("`{}`", file.base.join(uri).display()),
         };
-        let decoded = gltf::image::Data::from_source(image.source(), Some(&file.base), &file.buffers)
-            .map_err(|e| file.error(format!("cannot decode image {index} from {source}: {e}")))?;
-        let data = convert_image(&decoded, true).map_err(|m| file.error(format!("image {index} from {source}: {m}")))?;
+        let decoded =
+            gltf::image::Data::from_source(image.source(), Some(&file.base), &file.buffers)
+                .map_err(|e| {
+                    file.error(format!("cannot decode image {index} from {source}: {e}"))
+                })?;
+        let data = convert_image(&decoded, true)
+            .map_err(|m| file.error(format!("image {index} from {source}: {m}")))?;
         let id = builder.add_image(data);
         self.images.insert(index, id);
         Ok(id)
@@ -718,11 +1018,25 @@ fn convert_image(image: &gltf::image::Data, srgb: bool) -> Result<ImageData, Str
         return Err(format!("empty image ({w}x{h})"));
     }
     let texel_bytes = channels * bytes_per_channel;
-    let expected = (w as usize).checked_mul(h as usize).and_then(|n| n.checked_mul(texel_bytes));
+    let expected = (w as usize)
+        .checked_mul(h as usize)
+        .and_then(|n| n.checked_mul(texel_bytes));
     if expected != Some(image.pixels.len()) || (w as u64 * h as u64) > u32::MAX as u64 {
-        return Err(format!("{w}x{h} {:?} image with {} bytes of pixels", image.format, image.pixels.len()));
+        return Err(format!(
+            "{w}x{h} {:?} image with {} bytes of pixels",
+            image.format,
+            image.pixels.len()
+        ));
     }
-    let lut: Vec<f32> = (0..256).map(|i| if srgb { srgb_to_linear(i as f32 / 255.0) } else { i as f32 / 255.0 }).collect();
+    let lut: Vec<f32> = (0..256)
+        .map(|i| {
+            if srgb {
+                srgb_to_linear(i as f32 / 255.0)
+            } else {
+                i as f32 / 255.0
+            }
+        })
+        .collect();
     let channel = |c: &[u8]| -> f32 {
         match bytes_per_channel {
             1 => lut[c[0] as usize],
@@ -750,7 +1064,11 @@ fn convert_image(image: &gltf::image::Data, srgb: bool) -> Result<ImageData, Str
             }
         })
         .collect();
-    Ok(ImageData { width: w, height: h, texels })
+    Ok(ImageData {
+        width: w,
+        height: h,
+        texels,
+    })
 }
 
 #[cfg(test)]
@@ -760,15 +1078,23 @@ mod tests {
 
     fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
         let path = dir.join(name);
-        std::fs::File::create(&path).unwrap().write_all(bytes).unwrap();
+        std::fs::File::create(&path)
+            .unwrap()
+            .write_all(bytes)
+            .unwrap();
         path
     }
 
     fn b64(data: &[u8]) -> String {
-        const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+        const ALPHABET: &[u8; 64] =
+            b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
         let mut s = String::new();
         for chunk in data.chunks(3) {
-            let b = [chunk[0], chunk.get(1).copied().unwrap_or(0), chunk.get(2).copied().unwrap_or(0)];
+            let b = [
+                chunk[0],
+                chunk.get(1).copied().unwrap_or(0),
+                chunk.get(2).copied().unwrap_or(0),
+            ];
             let n = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
             for k in 0..4 {
                 if k <= chunk.len() {
@@ -820,18 +1146,44 @@ mod tests {
     #[test]
     fn node_transforms_apply_and_mirrors_flip_winding() {
         let dir = tempfile::tempdir().unwrap();
-        let plain = write(dir.path(), "plain.gltf", &triangle_doc(serde_json::json!({ "mesh": 0 }), serde_json::Value::Null));
+        let plain = write(
+            dir.path(),
+            "plain.gltf",
+            &triangle_doc(serde_json::json!({ "mesh": 0 }), serde_json::Value::Null),
+        );
         let m = load_gltf_mesh(&plain).unwrap();
         assert_eq!(m.indices, vec![0, 1, 2]);
         assert_eq!(m.normals, None);
-        let moved = write(dir.path(), "moved.gltf", &triangle_doc(serde_json::json!({ "children": [1], "translation": [0, 0, 5] }), serde_json::Value::Null));
+        let moved = write(
+            dir.path(),
+            "moved.gltf",
+            &triangle_doc(
+                serde_json::json!({ "children": [1], "translation": [0, 0, 5] }),
+                serde_json::Value::Null,
+            ),
+        );
         // Add the child node holding the mesh, mirrored in x and scaled by 2.
-        let mut doc: serde_json::Value = serde_json::from_slice(&std::fs::read(&moved).unwrap()).unwrap();
-        doc["nodes"].as_array_mut().unwrap().push(serde_json::json!({ "mesh": 0, "scale": [-2, 2, 2] }));
+        let mut doc: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&moved).unwrap()).unwrap();
+        doc["nodes"]
+            .as_array_mut()
+            .unwrap()
+            .push(serde_json::json!({ "mesh": 0, "scale": [-2, 2, 2] }));
         std::fs::write(&moved, serde_json::to_vec(&doc).unwrap()).unwrap();
         let m = load_gltf_mesh(&moved).unwrap();
-        assert_eq!(m.positions, vec![Vec3::new(0.0, 0.0, 5.0), Vec3::new(-2.0, 0.0, 5.0), Vec3::new(0.0, 2.0, 5.0)]);
-        assert_eq!(m.indices, vec![0, 2, 1], "a mirroring node reverses the winding");
+        assert_eq!(
+            m.positions,
+            vec![
+                Vec3::new(0.0, 0.0, 5.0),
+                Vec3::new(-2.0, 0.0, 5.0),
+                Vec3::new(0.0, 2.0, 5.0)
+            ]
+        );
+        assert_eq!(
+            m.indices,
+            vec![0, 2, 1],
+            "a mirroring node reverses the winding"
+        );
         // The placed triangle still faces +z, like the original.
         let [a, b, c] = [0, 2, 1].map(|i| m.positions[i]);
         assert!((b - a).cross(c - a).z > 0.0);
@@ -841,7 +1193,12 @@ mod tests {
     fn strips_fans_and_non_indexed_primitives() {
         let dir = tempfile::tempdir().unwrap();
         let quad = f32_bytes(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0]);
-        for (mode, expect) in [(5, vec![0, 1, 2, 1, 3, 2]), (6, vec![1, 2, 0, 2, 3, 0]), (0, vec![]), (1, vec![])] {
+        for (mode, expect) in [
+            (5, vec![0, 1, 2, 1, 3, 2]),
+            (6, vec![1, 2, 0, 2, 3, 0]),
+            (0, vec![]),
+            (1, vec![]),
+        ] {
             let doc = gltf_with(
                 &quad,
                 serde_json::json!({
@@ -868,17 +1225,60 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let cases: Vec<(&str, Vec<u8>, &str)> = vec![
             ("empty.glb", Vec::new(), "cannot read glTF"),
-            ("short-header.glb", b"glTF\x02\x00\x00\x00\x04\x00\x00\x00".to_vec(), "not a valid GLB"),
-            ("long-header.glb", b"glTF\x02\x00\x00\x00\xff\xff\xff\xff\x00\x00\x00\x00".to_vec(), "not a valid GLB"),
-            ("version.glb", b"glTF\x01\x00\x00\x00\x14\x00\x00\x00\x00\x00\x00\x00JSON".to_vec(), "version 1"),
+            (
+                "short-header.glb",
+                b"glTF\x02\x00\x00\x00\x04\x00\x00\x00".to_vec(),
+                "not a valid GLB",
+            ),
+            (
+                "long-header.glb",
+                b"glTF\x02\x00\x00\x00\xff\xff\xff\xff\x00\x00\x00\x00".to_vec(),
+                "not a valid GLB",
+            ),
+            (
+                "version.glb",
+                b"glTF\x01\x00\x00\x00\x14\x00\x00\x00\x00\x00\x00\x00JSON".to_vec(),
+                "version 1",
+            ),
             ("garbage.gltf", b"{ not json".to_vec(), "cannot read glTF"),
-            ("zero-count.gltf", triangle_doc(serde_json::json!({ "mesh": 0 }), serde_json::json!({ "count": 0 })), "no triangles"),
-            ("overrun.gltf", triangle_doc(serde_json::json!({ "mesh": 0 }), serde_json::json!({ "count": 4 })), "reach past the end"),
-            ("offset.gltf", triangle_doc(serde_json::json!({ "mesh": 0 }), serde_json::json!({ "byteOffset": 4 })), "reach past the end"),
-            ("shape.gltf", triangle_doc(serde_json::json!({ "mesh": 0 }), serde_json::json!({ "type": "VEC2" })), "expected Vec3"),
+            (
+                "zero-count.gltf",
+                triangle_doc(
+                    serde_json::json!({ "mesh": 0 }),
+                    serde_json::json!({ "count": 0 }),
+                ),
+                "no triangles",
+            ),
+            (
+                "overrun.gltf",
+                triangle_doc(
+                    serde_json::json!({ "mesh": 0 }),
+                    serde_json::json!({ "count": 4 }),
+                ),
+                "reach past the end",
+            ),
+            (
+                "offset.gltf",
+                triangle_doc(
+                    serde_json::json!({ "mesh": 0 }),
+                    serde_json::json!({ "byteOffset": 4 }),
+                ),
+                "reach past the end",
+            ),
+            (
+                "shape.gltf",
+                triangle_doc(
+                    serde_json::json!({ "mesh": 0 }),
+                    serde_json::json!({ "type": "VEC2" }),
+                ),
+                "expected Vec3",
+            ),
             (
                 "nan.gltf",
-                triangle_doc(serde_json::json!({ "mesh": 0, "matrix": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 1e39, 0, 0, 1] }), serde_json::Value::Null),
+                triangle_doc(
+                    serde_json::json!({ "mesh": 0, "matrix": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 1e39, 0, 0, 1] }),
+                    serde_json::Value::Null,
+                ),
                 "non-finite",
             ),
         ];
@@ -888,14 +1288,24 @@ mod tests {
             assert!(err.contains(name) && err.contains(needle), "{name}: {err}");
         }
         // A cycle in the node hierarchy.
-        let mut doc: serde_json::Value =
-            serde_json::from_slice(&triangle_doc(serde_json::json!({ "mesh": 0, "children": [1] }), serde_json::Value::Null)).unwrap();
-        doc["nodes"].as_array_mut().unwrap().push(serde_json::json!({ "children": [0] }));
+        let mut doc: serde_json::Value = serde_json::from_slice(&triangle_doc(
+            serde_json::json!({ "mesh": 0, "children": [1] }),
+            serde_json::Value::Null,
+        ))
+        .unwrap();
+        doc["nodes"]
+            .as_array_mut()
+            .unwrap()
+            .push(serde_json::json!({ "children": [0] }));
         let path = write(dir.path(), "cycle.gltf", &serde_json::to_vec(&doc).unwrap());
         let err = load_gltf_mesh(&path).expect_err("cycle").to_string();
         assert!(err.contains("reached twice"), "{err}");
         // A bad percent escape in a relative URI.
-        let mut doc: serde_json::Value = serde_json::from_slice(&triangle_doc(serde_json::json!({ "mesh": 0 }), serde_json::Value::Null)).unwrap();
+        let mut doc: serde_json::Value = serde_json::from_slice(&triangle_doc(
+            serde_json::json!({ "mesh": 0 }),
+            serde_json::Value::Null,
+        ))
+        .unwrap();
         doc["buffers"][0]["uri"] = serde_json::json!("bad%FF.bin");
         let path = write(dir.path(), "uri.gltf", &serde_json::to_vec(&doc).unwrap());
         let err = load_gltf_mesh(&path).expect_err("uri").to_string();
@@ -928,7 +1338,11 @@ mod tests {
         let mut bytes = unit_triangle(); // 0..36
         bytes.extend([2u32].iter().flat_map(|i| i.to_le_bytes())); // 36..40 sparse index
         bytes.extend(f32_bytes(&[0.0, 3.0, 0.0])); // 40..52 sparse value
-        bytes.extend([0u16, 65535, 65535, 65535, 0, 0].iter().flat_map(|v| v.to_le_bytes())); // 52..64 uvs
+        bytes.extend(
+            [0u16, 65535, 65535, 65535, 0, 0]
+                .iter()
+                .flat_map(|v| v.to_le_bytes()),
+        ); // 52..64 uvs
         let doc = gltf_with(
             &bytes,
             serde_json::json!({
@@ -951,14 +1365,30 @@ mod tests {
         let path = write(dir.path(), "sparse.gltf", &doc);
         let m = load_gltf_mesh(&path).unwrap();
         assert_eq!(m.positions[2], Vec3::new(0.0, 3.0, 0.0));
-        assert_eq!(m.uvs.unwrap(), vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(0.0, 1.0)]);
+        assert_eq!(
+            m.uvs.unwrap(),
+            vec![
+                Vec2::new(0.0, 0.0),
+                Vec2::new(1.0, 0.0),
+                Vec2::new(0.0, 1.0)
+            ]
+        );
     }
 
     #[test]
     fn mixed_normals_are_unwelded_flat() {
-        let a = MeshInput { positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], normals: Some(vec![Vec3::Z; 3]), uvs: None, indices: vec![0, 1, 2] };
-        let b =
-            MeshInput { positions: vec![Vec3::ZERO, Vec3::Y, Vec3::Z, Vec3::X], normals: None, uvs: Some(vec![Vec2::ONE; 4]), indices: vec![0, 2, 1, 3, 1, 2] };
+        let a = MeshInput {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+            normals: Some(vec![Vec3::Z; 3]),
+            uvs: None,
+            indices: vec![0, 1, 2],
+        };
+        let b = MeshInput {
+            positions: vec![Vec3::ZERO, Vec3::Y, Vec3::Z, Vec3::X],
+            normals: None,
+            uvs: Some(vec![Vec2::ONE; 4]),
+            indices: vec![0, 2, 1, 3, 1, 2],
+        };
         let m = merge(vec![a, b]).unwrap();
         assert_eq!(m.positions.len(), 3 + 6);
         let normals = m.normals.unwrap();
@@ -970,16 +1400,50 @@ mod tests {
     #[test]
     fn images_convert_to_linear_rgb() {
         use gltf::image::{Data, Format};
-        let grey = Data { pixels: vec![0, 255], format: Format::R8, width: 1, height: 2 };
+        let grey = Data {
+            pixels: vec![0, 255],
+            format: Format::R8,
+            width: 1,
+            height: 2,
+        };
         let img = convert_image(&grey, true).unwrap();
         assert_eq!(img.texels, vec![Vec3::ZERO, Vec3::ONE]);
-        let rgba = Data { pixels: vec![255, 0, 0, 7, 0, 0, 255, 9], format: Format::R8G8B8A8, width: 2, height: 1 };
-        assert_eq!(convert_image(&rgba, true).unwrap().texels, vec![Vec3::X, Vec3::Z]);
-        let half = Data { pixels: vec![128], format: Format::R8, width: 1, height: 1 };
-        assert!((convert_image(&half, true).unwrap().texels[0].x - srgb_to_linear(128.0 / 255.0)).abs() < 1e-7);
-        let float = Data { pixels: f32_bytes(&[2.0, 0.5, 0.25]), format: Format::R32G32B32FLOAT, width: 1, height: 1 };
-        assert_eq!(convert_image(&float, true).unwrap().texels, vec![Vec3::new(2.0, 0.5, 0.25)]);
-        let short = Data { pixels: vec![0; 5], format: Format::R8G8B8, width: 2, height: 1 };
+        let rgba = Data {
+            pixels: vec![255, 0, 0, 7, 0, 0, 255, 9],
+            format: Format::R8G8B8A8,
+            width: 2,
+            height: 1,
+        };
+        assert_eq!(
+            convert_image(&rgba, true).unwrap().texels,
+            vec![Vec3::X, Vec3::Z]
+        );
+        let half = Data {
+            pixels: vec![128],
+            format: Format::R8,
+            width: 1,
+            height: 1,
+        };
+        assert!(
+            (convert_image(&half, true).unwrap().texels[0].x - srgb_to_linear(128.0 / 255.0)).abs()
+                < 1e-7
+        );
+        let float = Data {
+            pixels: f32_bytes(&[2.0, 0.5, 0.25]),
+            format: Format::R32G32B32FLOAT,
+            width: 1,
+            height: 1,
+        };
+        assert_eq!(
+            convert_image(&float, true).unwrap().texels,
+            vec![Vec3::new(2.0, 0.5, 0.25)]
+        );
+        let short = Data {
+            pixels: vec![0; 5],
+            format: Format::R8G8B8,
+            width: 2,
+            height: 1,
+        };
         assert!(convert_image(&short, true).is_err());
     }
 
@@ -988,7 +1452,8 @@ mod tests {
         // A 1x2 PNG (top red, bottom blue) embedded in a bufferView.
         let mut png = Vec::new();
         let img = image::RgbImage::from_raw(1, 2, vec![255, 0, 0, 0, 0, 255]).unwrap();
-        img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png).unwrap();
+        img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+            .unwrap();
         let mut bytes = unit_triangle();
         bytes.extend(&png);
         bytes.resize(bytes.len().next_multiple_of(4), 0);
@@ -1008,9 +1473,26 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = write(dir.path(), "textured.gltf", &doc);
         let scene = load_gltf_document(&path).unwrap();
-        assert_eq!(scene.materials, vec![Material::Ggx { base_color: 0, metallic: 0.25, roughness: 0.75 }]);
-        assert_eq!(scene.textures, vec![Texture::Image { image: 0, factor: Vec3::splat(0.5) }]);
-        assert_eq!(scene.images[0].texels, vec![Vec3::X, Vec3::Z], "row 0 is the top row");
+        assert_eq!(
+            scene.materials,
+            vec![Material::Ggx {
+                base_color: 0,
+                metallic: 0.25,
+                roughness: 0.75
+            }]
+        );
+        assert_eq!(
+            scene.textures,
+            vec![Texture::Image {
+                image: 0,
+                factor: Vec3::splat(0.5)
+            }]
+        );
+        assert_eq!(
+            scene.images[0].texels,
+            vec![Vec3::X, Vec3::Z],
+            "row 0 is the top row"
+        );
         // The default camera sees the triangle: it looks at its centre from +z.
         let c = scene.camera_settings;
         assert!((c.look_at - Vec3::new(0.5, 0.5, 0.0)).length() < 1e-6 && c.look_from.z > 1.0);

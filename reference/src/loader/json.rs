@@ -39,7 +39,9 @@ impl<'de> Deserialize<'de> for ColorRef {
             fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<ColorRef, A::Error> {
                 let mut c = [0.0f32; 3];
                 for (i, x) in c.iter_mut().enumerate() {
-                    *x = seq.next_element()?.ok_or_else(|| de::Error::invalid_length(i, &self))?;
+                    *x = seq
+                        .next_element()?
+                        .ok_or_else(|| de::Error::invalid_length(i, &self))?;
                 }
                 if seq.next_element::<f32>()?.is_some() {
                     return Err(de::Error::invalid_length(4, &self));
@@ -334,7 +336,11 @@ pub fn parse_scene_json(text: &str, path: &Path) -> Result<SceneJson, SceneError
             path: path.to_path_buf(),
             line: inner.line(),
             column: inner.column(),
-            field: if field == "." { "(document)".into() } else { field },
+            field: if field == "." {
+                "(document)".into()
+            } else {
+                field
+            },
             message,
         }
     })
@@ -342,12 +348,18 @@ pub fn parse_scene_json(text: &str, path: &Path) -> Result<SceneJson, SceneError
 
 /// serde_json appends " at line L column C"; the error prints those first.
 fn strip_location(full: &str) -> String {
-    full.rsplit_once(" at line ").map_or(full, |(m, _)| m).to_string()
+    full.rsplit_once(" at line ")
+        .map_or(full, |(m, _)| m)
+        .to_string()
 }
 
 /// The error of deserializing `value` as `T`, with its inner path.
-fn inner_error<T: serde::de::DeserializeOwned>(value: serde_json::Value) -> Option<(String, String)> {
-    serde_path_to_error::deserialize::<_, T>(value).err().map(|e| (e.path().to_string(), strip_location(&e.inner().to_string())))
+fn inner_error<T: serde::de::DeserializeOwned>(
+    value: serde_json::Value,
+) -> Option<(String, String)> {
+    serde_path_to_error::deserialize::<_, T>(value)
+        .err()
+        .map(|e| (e.path().to_string(), strip_location(&e.inner().to_string())))
 }
 
 /// Re-deserializes the tagged element at `field` (`objects[3]`,
@@ -356,7 +368,11 @@ fn inner_error<T: serde::de::DeserializeOwned>(value: serde_json::Value) -> Opti
 fn refine_tagged_error(text: &str, field: &str) -> Option<(String, String)> {
     let doc: serde_json::Value = serde_json::from_str(text).ok()?;
     let (family, node) = if let Some(rest) = field.strip_prefix("objects[") {
-        ("objects", doc.get("objects")?.get(rest.strip_suffix(']')?.parse::<usize>().ok()?)?)
+        (
+            "objects",
+            doc.get("objects")?
+                .get(rest.strip_suffix(']')?.parse::<usize>().ok()?)?,
+        )
     } else if let Some(name) = field.strip_prefix("materials.") {
         ("materials", doc.get("materials")?.get(name)?)
     } else if let Some(name) = field.strip_prefix("textures.") {
@@ -395,7 +411,10 @@ fn refine_tagged_error(text: &str, field: &str) -> Option<(String, String)> {
 
 /// Reads, parses and builds a scene file.
 pub fn load_json_scene(path: &Path) -> Result<Scene, SceneError> {
-    let text = std::fs::read_to_string(path).map_err(|e| SceneError::Io { path: path.to_path_buf(), message: format!("cannot read scene: {e}") })?;
+    let text = std::fs::read_to_string(path).map_err(|e| SceneError::Io {
+        path: path.to_path_buf(),
+        message: format!("cannot read scene: {e}"),
+    })?;
     let doc = parse_scene_json(&text, path)?;
     let base = path.parent().unwrap_or(Path::new("."));
     build_scene(&doc, base).map_err(|e| e.in_file(path))
@@ -409,25 +428,47 @@ impl TransformJson {
             Some(ScaleJson::PerAxis(s)) => Vec3::from(s),
         };
         if !scale.is_finite() || scale.cmpeq(Vec3::ZERO).any() {
-            return Err(SceneError::invalid("scale", format!("{scale} must be finite and non-zero")));
+            return Err(SceneError::invalid(
+                "scale",
+                format!("{scale} must be finite and non-zero"),
+            ));
         }
         let xyz = self.rotate_x.is_some() || self.rotate_y.is_some() || self.rotate_z.is_some();
         let rotation = match &self.rotate {
-            Some(_) if xyz => return Err(SceneError::invalid("rotate", "give either rotate or rotate_x/rotate_y/rotate_z, not both".into())),
+            Some(_) if xyz => {
+                return Err(SceneError::invalid(
+                    "rotate",
+                    "give either rotate or rotate_x/rotate_y/rotate_z, not both".into(),
+                ))
+            }
             Some(AxisAngleJson { axis, angle }) => {
-                let axis =
-                    Vec3::from(*axis).try_normalize().ok_or_else(|| SceneError::invalid("rotate.axis", "the axis must be a finite non-zero vector".into()))?;
+                let axis = Vec3::from(*axis).try_normalize().ok_or_else(|| {
+                    SceneError::invalid(
+                        "rotate.axis",
+                        "the axis must be a finite non-zero vector".into(),
+                    )
+                })?;
                 if !angle.is_finite() {
-                    return Err(SceneError::invalid("rotate.angle", format!("{angle} is not finite")));
+                    return Err(SceneError::invalid(
+                        "rotate.angle",
+                        format!("{angle} is not finite"),
+                    ));
                 }
                 Quat::from_axis_angle(axis, angle.to_radians())
             }
-            None => Transform::rotation_xyz(self.rotate_x.unwrap_or(0.0), self.rotate_y.unwrap_or(0.0), self.rotate_z.unwrap_or(0.0)),
+            None => Transform::rotation_xyz(
+                self.rotate_x.unwrap_or(0.0),
+                self.rotate_y.unwrap_or(0.0),
+                self.rotate_z.unwrap_or(0.0),
+            ),
         };
         let translate = Vec3::from(self.translate.unwrap_or([0.0; 3]));
         let t = Transform::from_parts(scale, rotation, translate);
         if !t.is_finite() {
-            return Err(SceneError::invalid("", "the transform is not finite".into()));
+            return Err(SceneError::invalid(
+                "",
+                "the transform is not finite".into(),
+            ));
         }
         Ok(t)
     }
@@ -472,23 +513,50 @@ impl Resolver<'_> {
             let known: Vec<&str> = doc.textures.keys().map(String::as_str).collect();
             return Err(SceneError::invalid(
                 "",
-                format!("unknown texture `{name}` (defined: {})", if known.is_empty() { "none".into() } else { known.join(", ") }),
+                format!(
+                    "unknown texture `{name}` (defined: {})",
+                    if known.is_empty() {
+                        "none".into()
+                    } else {
+                        known.join(", ")
+                    }
+                ),
             ));
         };
         if depth > 1 {
-            return Err(SceneError::invalid(&format!("textures.{name}"), "a checker cannot nest another checker".into()));
+            return Err(SceneError::invalid(
+                &format!("textures.{name}"),
+                "a checker cannot nest another checker".into(),
+            ));
         }
         let at = |e: SceneError| e.within(&format!("textures.{name}"));
         let id = match t {
-            TextureJson::Constant(ConstantTextureJson { color }) => self.builder.constant(Vec3::from(*color)).map_err(at)?,
+            TextureJson::Constant(ConstantTextureJson { color }) => {
+                self.builder.constant(Vec3::from(*color)).map_err(at)?
+            }
             TextureJson::Checker(CheckerTextureJson { scale, even, odd }) => {
-                let even = self.colour(even, depth + 1).map_err(|e| e.within(&format!("textures.{name}.even")))?;
-                let odd = self.colour(odd, depth + 1).map_err(|e| e.within(&format!("textures.{name}.odd")))?;
-                self.builder.add_texture(Texture::Checker { scale: *scale, even, odd }).map_err(at)?
+                let even = self
+                    .colour(even, depth + 1)
+                    .map_err(|e| e.within(&format!("textures.{name}.even")))?;
+                let odd = self
+                    .colour(odd, depth + 1)
+                    .map_err(|e| e.within(&format!("textures.{name}.odd")))?;
+                self.builder
+                    .add_texture(Texture::Checker {
+                        scale: *scale,
+                        even,
+                        odd,
+                    })
+                    .map_err(at)?
             }
             TextureJson::Image(ImageTextureJson { path, srgb }) => {
                 let image = self.image(path, *srgb)?;
-                self.builder.add_texture(Texture::Image { image, factor: Vec3::ONE }).map_err(at)?
+                self.builder
+                    .add_texture(Texture::Image {
+                        image,
+                        factor: Vec3::ONE,
+                    })
+                    .map_err(at)?
             }
         };
         self.textures.insert(name.to_string(), id);
@@ -504,24 +572,51 @@ impl Resolver<'_> {
             let known: Vec<&str> = doc.materials.keys().map(String::as_str).collect();
             return Err(SceneError::invalid(
                 "material",
-                format!("unknown material `{name}` (defined: {})", if known.is_empty() { "none".into() } else { known.join(", ") }),
+                format!(
+                    "unknown material `{name}` (defined: {})",
+                    if known.is_empty() {
+                        "none".into()
+                    } else {
+                        known.join(", ")
+                    }
+                ),
             ));
         };
-        let field = |f: &'static str| move |e: SceneError| e.within(&format!("materials.{name}.{f}"));
+        let field =
+            |f: &'static str| move |e: SceneError| e.within(&format!("materials.{name}.{f}"));
         let material = match m {
-            MaterialJson::Lambertian(LambertianMaterialJson { albedo }) => Material::Lambertian { albedo: self.colour(albedo, 0).map_err(field("albedo"))? },
-            MaterialJson::Metal(MetalMaterialJson { albedo, fuzz }) => {
-                Material::Metal { albedo: self.colour(albedo, 0).map_err(field("albedo"))?, fuzz: *fuzz }
+            MaterialJson::Lambertian(LambertianMaterialJson { albedo }) => Material::Lambertian {
+                albedo: self.colour(albedo, 0).map_err(field("albedo"))?,
+            },
+            MaterialJson::Metal(MetalMaterialJson { albedo, fuzz }) => Material::Metal {
+                albedo: self.colour(albedo, 0).map_err(field("albedo"))?,
+                fuzz: *fuzz,
+            },
+            MaterialJson::Dielectric(DielectricMaterialJson { ior, absorption }) => {
+                Material::Dielectric {
+                    ior: *ior,
+                    absorption: Vec3::from(*absorption),
+                }
             }
-            MaterialJson::Dielectric(DielectricMaterialJson { ior, absorption }) => Material::Dielectric { ior: *ior, absorption: Vec3::from(*absorption) },
             MaterialJson::DiffuseLight(DiffuseLightMaterialJson { emission }) => {
-                Material::DiffuseLight { emission: self.colour(emission, 0).map_err(field("emission"))? }
+                Material::DiffuseLight {
+                    emission: self.colour(emission, 0).map_err(field("emission"))?,
+                }
             }
-            MaterialJson::Ggx(GgxMaterialJson { base_color, metallic, roughness }) => {
-                Material::Ggx { base_color: self.colour(base_color, 0).map_err(field("base_color"))?, metallic: *metallic, roughness: *roughness }
-            }
+            MaterialJson::Ggx(GgxMaterialJson {
+                base_color,
+                metallic,
+                roughness,
+            }) => Material::Ggx {
+                base_color: self.colour(base_color, 0).map_err(field("base_color"))?,
+                metallic: *metallic,
+                roughness: *roughness,
+            },
         };
-        let id = self.builder.add_material(material).map_err(|e| e.within(&format!("materials.{name}")))?;
+        let id = self
+            .builder
+            .add_material(material)
+            .map_err(|e| e.within(&format!("materials.{name}")))?;
         self.materials.insert(name.to_string(), id);
         Ok(id)
     }
@@ -529,19 +624,47 @@ impl Resolver<'_> {
     fn object(&mut self, o: &ObjectJson) -> Result<(), SceneError> {
         let transform = |t: &TransformJson| t.to_transform().map_err(|e| e.within("transform"));
         match o {
-            ObjectJson::Sphere(SphereJson { center, radius, material, transform: t }) => {
+            ObjectJson::Sphere(SphereJson {
+                center,
+                radius,
+                material,
+                transform: t,
+            }) => {
                 let m = self.material(material)?;
-                self.builder.add_sphere(Vec3::from(*center), *radius, m, &transform(t)?)
+                self.builder
+                    .add_sphere(Vec3::from(*center), *radius, m, &transform(t)?)
             }
-            ObjectJson::Quad(QuadJson { corner, u, v, material, transform: t }) => {
+            ObjectJson::Quad(QuadJson {
+                corner,
+                u,
+                v,
+                material,
+                transform: t,
+            }) => {
                 let m = self.material(material)?;
-                self.builder.add_quad(Vec3::from(*corner), Vec3::from(*u), Vec3::from(*v), m, &transform(t)?)
+                self.builder.add_quad(
+                    Vec3::from(*corner),
+                    Vec3::from(*u),
+                    Vec3::from(*v),
+                    m,
+                    &transform(t)?,
+                )
             }
-            ObjectJson::Box(BoxJson { min, max, material, transform: t }) => {
+            ObjectJson::Box(BoxJson {
+                min,
+                max,
+                material,
+                transform: t,
+            }) => {
                 let m = self.material(material)?;
-                self.builder.add_box(Vec3::from(*min), Vec3::from(*max), m, &transform(t)?)
+                self.builder
+                    .add_box(Vec3::from(*min), Vec3::from(*max), m, &transform(t)?)
             }
-            ObjectJson::Mesh(MeshJson { path, material, transform: t }) => {
+            ObjectJson::Mesh(MeshJson {
+                path,
+                material,
+                transform: t,
+            }) => {
                 let m = self.material(material)?;
                 let mesh = crate::loader::gltf::load_gltf_mesh(&self.base.join(path))?;
                 self.builder.add_mesh(&mesh, m, &transform(t)?)
@@ -549,7 +672,12 @@ impl Resolver<'_> {
             ObjectJson::Gltf(GltfJson { path, transform: t }) => {
                 let t = transform(t)?;
                 let take_camera = self.doc.camera.is_none();
-                crate::loader::gltf::add_gltf_scene(&mut self.builder, &self.base.join(path), &t, take_camera)
+                crate::loader::gltf::add_gltf_scene(
+                    &mut self.builder,
+                    &self.base.join(path),
+                    &t,
+                    take_camera,
+                )
             }
         }
     }
@@ -557,7 +685,14 @@ impl Resolver<'_> {
 
 /// Builds a parsed document; relative paths resolve against `base`.
 pub fn build_scene(doc: &SceneJson, base: &Path) -> Result<Scene, SceneError> {
-    let mut r = Resolver { doc, base, builder: SceneBuilder::new(), textures: HashMap::new(), materials: HashMap::new(), images: HashMap::new() };
+    let mut r = Resolver {
+        doc,
+        base,
+        builder: SceneBuilder::new(),
+        textures: HashMap::new(),
+        materials: HashMap::new(),
+        images: HashMap::new(),
+    };
     let defaults = RenderSettings::default();
     let rj = &doc.render;
     r.builder.render = RenderSettings {
@@ -581,18 +716,37 @@ pub fn build_scene(doc: &SceneJson, base: &Path) -> Result<Scene, SceneError> {
     }
     r.builder.background = Some(match &doc.background {
         None => Background::Solid(Vec3::ZERO),
-        Some(BackgroundJson::Solid(SolidBackgroundJson { color })) => Background::Solid(Vec3::from(*color)),
-        Some(BackgroundJson::Sky(SkyBackgroundJson { horizon, zenith })) => Background::Sky { horizon: Vec3::from(*horizon), zenith: Vec3::from(*zenith) },
-        Some(BackgroundJson::Envmap(EnvmapBackgroundJson { path, intensity, rotate_y })) => {
-            let image = r.image(path, None).map_err(|e| e.within("background.path"))?;
-            Background::Envmap { image, intensity: *intensity, rotate_y: *rotate_y }
+        Some(BackgroundJson::Solid(SolidBackgroundJson { color })) => {
+            Background::Solid(Vec3::from(*color))
+        }
+        Some(BackgroundJson::Sky(SkyBackgroundJson { horizon, zenith })) => Background::Sky {
+            horizon: Vec3::from(*horizon),
+            zenith: Vec3::from(*zenith),
+        },
+        Some(BackgroundJson::Envmap(EnvmapBackgroundJson {
+            path,
+            intensity,
+            rotate_y,
+        })) => {
+            let image = r
+                .image(path, None)
+                .map_err(|e| e.within("background.path"))?;
+            Background::Envmap {
+                image,
+                intensity: *intensity,
+                rotate_y: *rotate_y,
+            }
         }
     });
     for (i, o) in doc.objects.iter().enumerate() {
-        r.object(o).map_err(|e| e.within(&format!("objects[{i}]")))?;
+        r.object(o)
+            .map_err(|e| e.within(&format!("objects[{i}]")))?;
     }
     if doc.camera.is_none() && !doc.objects.iter().any(|o| matches!(o, ObjectJson::Gltf(_))) {
-        return Err(SceneError::invalid("camera", "the scene has no camera (and no glTF document to take one from)".into()));
+        return Err(SceneError::invalid(
+            "camera",
+            "the scene has no camera (and no glTF document to take one from)".into(),
+        ));
     }
     r.builder.build()
 }

@@ -15,10 +15,15 @@ pub fn load_scene(spec: &str) -> Result<Scene, SceneError> {
     if !path.exists() && crate::builtin::NAMES.contains(&spec) {
         return crate::builtin::load(spec);
     }
-    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
     match ext.as_deref() {
         Some("gltf") | Some("glb") => gltf::load_gltf_document(path),
-        _ if !path.exists() && !spec.contains('/') && !spec.contains('.') => Err(SceneError::UnknownBuiltin(spec.to_string())),
+        _ if !path.exists() && !spec.contains('/') && !spec.contains('.') => {
+            Err(SceneError::UnknownBuiltin(spec.to_string()))
+        }
         _ => json::load_json_scene(path),
     }
 }

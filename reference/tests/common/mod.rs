@@ -11,7 +11,10 @@ use reference::scene::{primitive_tag, MeshInput, Scene, SceneBuilder, Transform}
 
 /// Every scene the repository ships: the built-ins and the JSON fixtures.
 pub fn fixture_names() -> Vec<String> {
-    let mut names: Vec<String> = reference::builtin::NAMES.iter().map(|s| s.to_string()).collect();
+    let mut names: Vec<String> = reference::builtin::NAMES
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/scenes");
     let mut files: Vec<String> = std::fs::read_dir(&dir)
         .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
@@ -20,7 +23,11 @@ pub fn fixture_names() -> Vec<String> {
         .map(|p| p.to_string_lossy().into_owned())
         .collect();
     files.sort();
-    assert!(files.len() >= 8, "expected the fixture scenes under {}", dir.display());
+    assert!(
+        files.len() >= 8,
+        "expected the fixture scenes under {}",
+        dir.display()
+    );
     names.extend(files);
     names
 }
@@ -31,7 +38,10 @@ pub fn load(name: &str) -> Scene {
 
 /// Short display name of a fixture (file stem or built-in name).
 pub fn short(name: &str) -> &str {
-    std::path::Path::new(name).file_stem().and_then(|s| s.to_str()).unwrap_or(name)
+    std::path::Path::new(name)
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or(name)
 }
 
 /// SplitMix64: the rays' randomness (a test-local generator, so ray sets
@@ -71,7 +81,11 @@ impl Rng {
     }
 
     pub fn point_in(&mut self, lo: Vec3, hi: Vec3) -> Vec3 {
-        Vec3::new(self.range(lo.x, hi.x), self.range(lo.y, hi.y), self.range(lo.z, hi.z))
+        Vec3::new(
+            self.range(lo.x, hi.x),
+            self.range(lo.y, hi.y),
+            self.range(lo.z, hi.z),
+        )
     }
 }
 
@@ -126,11 +140,15 @@ pub fn point() -> impl Strategy<Value = Vec3> {
 /// Edge vectors: often axis-parallel (coplanar with lattice planes).
 pub fn edge() -> impl Strategy<Value = Vec3> {
     prop_oneof![
-        (0usize..3, prop_oneof![Just(-2.0f32), Just(-1.0), Just(0.5), Just(1.0), Just(3.0)]).prop_map(|(axis, len)| {
-            let mut v = Vec3::ZERO;
-            v[axis] = len;
-            v
-        }),
+        (
+            0usize..3,
+            prop_oneof![Just(-2.0f32), Just(-1.0), Just(0.5), Just(1.0), Just(3.0)]
+        )
+            .prop_map(|(axis, len)| {
+                let mut v = Vec3::ZERO;
+                v[axis] = len;
+                v
+            }),
         (-4.0f32..4.0, -4.0f32..4.0, -4.0f32..4.0).prop_map(|(x, y, z)| Vec3::new(x, y, z)),
     ]
 }
@@ -157,13 +175,21 @@ fn grid_mesh(corner: Vec3, u: Vec3, v: Vec3, n: u32) -> MeshInput {
     let mut m = MeshInput::default();
     for j in 0..=n {
         for i in 0..=n {
-            m.positions.push(corner + u * (i as f32 / n as f32) + v * (j as f32 / n as f32));
+            m.positions
+                .push(corner + u * (i as f32 / n as f32) + v * (j as f32 / n as f32));
         }
     }
     let id = |i: u32, j: u32| j * (n + 1) + i;
     for j in 0..n {
         for i in 0..n {
-            m.indices.extend([id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+            m.indices.extend([
+                id(i, j),
+                id(i + 1, j),
+                id(i + 1, j + 1),
+                id(i, j),
+                id(i + 1, j + 1),
+                id(i, j + 1),
+            ]);
         }
     }
     m
@@ -179,7 +205,9 @@ pub fn build_scene(spec: &[ShapeSpec]) -> Option<Scene> {
 pub fn build_scene_placed(spec: &[ShapeSpec], placement: &Transform) -> Option<Scene> {
     let mut b = SceneBuilder::new();
     let white = b.constant(Vec3::splat(0.7)).unwrap();
-    let m = b.add_material(Material::Lambertian { albedo: white }).unwrap();
+    let m = b
+        .add_material(Material::Lambertian { albedo: white })
+        .unwrap();
     let mut placed = 0;
     for (k, s) in spec.iter().enumerate() {
         // Resolve duplicates to a concrete earlier shape (the index strictly
@@ -193,17 +221,50 @@ pub fn build_scene_placed(spec: &[ShapeSpec], placement: &Transform) -> Option<S
             s = &spec[j];
         }
         let ok = match *s {
-            ShapeSpec::Sphere { center, radius } => b.add_sphere(center, radius, m, placement).is_ok(),
+            ShapeSpec::Sphere { center, radius } => {
+                b.add_sphere(center, radius, m, placement).is_ok()
+            }
             ShapeSpec::Quad { corner, u, v } => b.add_quad(corner, u, v, m, placement).is_ok(),
-            ShapeSpec::Cuboid { min, size, rotate_y } => {
-                let t = Transform { matrix: placement.matrix * glam::Affine3A::from_quat(Quat::from_rotation_y(rotate_y.to_radians())) };
+            ShapeSpec::Cuboid {
+                min,
+                size,
+                rotate_y,
+            } => {
+                let t = Transform {
+                    matrix: placement.matrix
+                        * glam::Affine3A::from_quat(Quat::from_rotation_y(rotate_y.to_radians())),
+                };
                 b.add_box(min, min + size, m, &t).is_ok()
             }
-            ShapeSpec::Triangle { p } => b.add_mesh(&MeshInput { positions: p.to_vec(), indices: vec![0, 1, 2], ..Default::default() }, m, placement).is_ok(),
-            ShapeSpec::Grid { corner, u, v, n } => b.add_mesh(&grid_mesh(corner, u, v, n), m, placement).is_ok(),
-            ShapeSpec::Icosphere { center, radius, subdivisions } => {
-                let t = Transform { matrix: placement.matrix * glam::Affine3A::from_scale_rotation_translation(Vec3::splat(radius), Quat::IDENTITY, center) };
-                b.add_mesh(&reference::procedural::icosphere(subdivisions), m, &t).is_ok()
+            ShapeSpec::Triangle { p } => b
+                .add_mesh(
+                    &MeshInput {
+                        positions: p.to_vec(),
+                        indices: vec![0, 1, 2],
+                        ..Default::default()
+                    },
+                    m,
+                    placement,
+                )
+                .is_ok(),
+            ShapeSpec::Grid { corner, u, v, n } => b
+                .add_mesh(&grid_mesh(corner, u, v, n), m, placement)
+                .is_ok(),
+            ShapeSpec::Icosphere {
+                center,
+                radius,
+                subdivisions,
+            } => {
+                let t = Transform {
+                    matrix: placement.matrix
+                        * glam::Affine3A::from_scale_rotation_translation(
+                            Vec3::splat(radius),
+                            Quat::IDENTITY,
+                            center,
+                        ),
+                };
+                b.add_mesh(&reference::procedural::icosphere(subdivisions), m, &t)
+                    .is_ok()
             }
             ShapeSpec::Duplicate(_) => false,
         };
@@ -228,7 +289,13 @@ pub fn feature_points(scene: &Scene) -> Vec<Vec3> {
         pts.push(s.center - Vec3::X * s.radius.abs());
     }
     for q in &scene.quads {
-        pts.extend([q.corner, q.corner + q.u, q.corner + q.v, q.corner + q.u + q.v, q.corner + 0.5 * (q.u + q.v)]);
+        pts.extend([
+            q.corner,
+            q.corner + q.u,
+            q.corner + q.v,
+            q.corner + q.u + q.v,
+            q.corner + 0.5 * (q.u + q.v),
+        ]);
     }
     for t in &scene.triangles {
         pts.extend(t.vertices.map(|i| scene.mesh.positions[i as usize]));
@@ -240,7 +307,12 @@ pub fn feature_points(scene: &Scene) -> Vec<Vec3> {
 pub fn feature_edges(scene: &Scene) -> Vec<(Vec3, Vec3)> {
     let mut edges = Vec::new();
     for q in &scene.quads {
-        let c = [q.corner, q.corner + q.u, q.corner + q.u + q.v, q.corner + q.v];
+        let c = [
+            q.corner,
+            q.corner + q.u,
+            q.corner + q.u + q.v,
+            q.corner + q.v,
+        ];
         for i in 0..4 {
             edges.push((c[i], c[(i + 1) % 4]));
         }
@@ -283,11 +355,25 @@ pub enum RayKind {
 }
 
 /// Every kind of query.
-pub const ALL_KINDS: &[RayKind] =
-    &[RayKind::Random, RayKind::AtVertex, RayKind::AtEdge, RayKind::AxisParallel, RayKind::OnSurface, RayKind::Spawned, RayKind::Interval];
+pub const ALL_KINDS: &[RayKind] = &[
+    RayKind::Random,
+    RayKind::AtVertex,
+    RayKind::AtEdge,
+    RayKind::AxisParallel,
+    RayKind::OnSurface,
+    RayKind::Spawned,
+    RayKind::Interval,
+];
 
 /// The hard cases: every kind but the uniformly random one.
-pub const TARGETED_KINDS: &[RayKind] = &[RayKind::AtVertex, RayKind::AtEdge, RayKind::AxisParallel, RayKind::OnSurface, RayKind::Spawned, RayKind::Interval];
+pub const TARGETED_KINDS: &[RayKind] = &[
+    RayKind::AtVertex,
+    RayKind::AtEdge,
+    RayKind::AxisParallel,
+    RayKind::OnSurface,
+    RayKind::Spawned,
+    RayKind::Interval,
+];
 
 /// `n` queries of every kind, deterministic in `seed`.
 pub fn queries(scene: &Scene, seed: u64, n: usize) -> Vec<Query> {
@@ -311,15 +397,30 @@ pub fn queries_of(scene: &Scene, seed: u64, n: usize, kinds: &[RayKind]) -> Vec<
         attempts += 1;
         let o = rng.point_in(lo, hi);
         let q = match kinds[rng.below(kinds.len())] {
-            RayKind::Random => Query { ray: Ray::new(o, rng.unit_vector()), t_min: 0.0, t_max: inf, kind: RayKind::Random },
+            RayKind::Random => Query {
+                ray: Ray::new(o, rng.unit_vector()),
+                t_min: 0.0,
+                t_max: inf,
+                kind: RayKind::Random,
+            },
             RayKind::AtVertex => {
                 let target = pts[rng.below(pts.len())];
-                Query { ray: Ray::new(o, target - o), t_min: 0.0, t_max: inf, kind: RayKind::AtVertex }
+                Query {
+                    ray: Ray::new(o, target - o),
+                    t_min: 0.0,
+                    t_max: inf,
+                    kind: RayKind::AtVertex,
+                }
             }
             RayKind::AtEdge if !edges.is_empty() => {
                 let (a, e) = edges[rng.below(edges.len())];
                 let target = a.lerp(e, rng.f32());
-                Query { ray: Ray::new(o, target - o), t_min: 0.0, t_max: inf, kind: RayKind::AtEdge }
+                Query {
+                    ray: Ray::new(o, target - o),
+                    t_min: 0.0,
+                    t_max: inf,
+                    kind: RayKind::AtEdge,
+                }
             }
             RayKind::AtEdge => continue,
             RayKind::AxisParallel => {
@@ -329,19 +430,36 @@ pub fn queries_of(scene: &Scene, seed: u64, n: usize, kinds: &[RayKind]) -> Vec<
                 // other axes: the ray then runs through shared edges.
                 let snapped = (o * 2.0).round() * 0.5;
                 let o = Vec3::select(d.abs().cmpgt(Vec3::ZERO), o, snapped);
-                Query { ray: Ray::new(o, d), t_min: 0.0, t_max: inf, kind: RayKind::AxisParallel }
+                Query {
+                    ray: Ray::new(o, d),
+                    t_min: 0.0,
+                    t_max: inf,
+                    kind: RayKind::AxisParallel,
+                }
             }
             k @ (RayKind::OnSurface | RayKind::Spawned) => {
                 let first = Ray::new(o, rng.unit_vector());
-                let Some(hit) = scene.intersect(&first, 0.0, inf) else { continue };
+                let Some(hit) = scene.intersect(&first, 0.0, inf) else {
+                    continue;
+                };
                 let dir = rng.unit_vector();
                 if k == RayKind::OnSurface {
-                    Query { ray: Ray::new(first.at(hit.t), dir), t_min: 0.0, t_max: inf, kind: RayKind::OnSurface }
+                    Query {
+                        ray: Ray::new(first.at(hit.t), dir),
+                        t_min: 0.0,
+                        t_max: inf,
+                        kind: RayKind::OnSurface,
+                    }
                 } else {
                     let si = scene.surface_interaction(&first, &hit);
                     let n = si.geometric_normal;
                     let side = if dir.dot(n) >= 0.0 { n } else { -n };
-                    Query { ray: Ray::new(spawn_origin(si.p, side, si.p_error), dir), t_min: 0.0, t_max: inf, kind: RayKind::Spawned }
+                    Query {
+                        ray: Ray::new(spawn_origin(si.p, side, si.p_error), dir),
+                        t_min: 0.0,
+                        t_max: inf,
+                        kind: RayKind::Spawned,
+                    }
                 }
             }
             RayKind::Interval => {
@@ -349,7 +467,12 @@ pub fn queries_of(scene: &Scene, seed: u64, n: usize, kinds: &[RayKind]) -> Vec<
                 let span = (hi - lo).length();
                 let t_min = rng.range(0.0, 0.5) * span;
                 let t_max = t_min + rng.range(0.0, 1.0) * span;
-                Query { ray: Ray::new(o, d), t_min, t_max, kind: RayKind::Interval }
+                Query {
+                    ray: Ray::new(o, d),
+                    t_min,
+                    t_max,
+                    kind: RayKind::Interval,
+                }
             }
         };
         if q.ray.direction.length_squared() > 0.0 && q.ray.direction.is_finite() {
@@ -362,5 +485,10 @@ pub fn queries_of(scene: &Scene, seed: u64, n: usize, kinds: &[RayKind]) -> Vec<
 /// Primitive counts by kind, for messages.
 pub fn describe(scene: &Scene) -> String {
     let count = |tag| scene.primitives.iter().filter(|p| p.tag == tag).count();
-    format!("{} spheres, {} quads, {} triangles", count(primitive_tag::SPHERE), count(primitive_tag::QUAD), count(primitive_tag::TRIANGLE))
+    format!(
+        "{} spheres, {} quads, {} triangles",
+        count(primitive_tag::SPHERE),
+        count(primitive_tag::QUAD),
+        count(primitive_tag::TRIANGLE)
+    )
 }
