@@ -1,143 +1,36 @@
-// The scene's buffers and the BVH traversal: the twin of
-// reference::Scene::intersect / intersect_primitive / surface_interaction.
-// Record structs and constants come from the Rust-generated prelude.
+// The BVH walk over the binary node array and its box test: the twin of
+// reference/src/bvh.rs (the walk the reference runs on the wide collapse
+// of the same nodes) and reference::Scene::intersect.
 
-@group(0) @binding(0) var<uniform> params: GpuParams;
-@group(0) @binding(1) var<storage, read> nodes: array<BvhNode>;
-@group(0) @binding(2) var<storage, read> prim_order: array<u32>;
-@group(0) @binding(3) var<storage, read> primitives: array<GpuPrimitive>;
-@group(0) @binding(4) var<storage, read> spheres: array<GpuSphere>;
-@group(0) @binding(5) var<storage, read> quads: array<GpuQuad>;
-@group(0) @binding(6) var<storage, read> triangles: array<GpuTriangle>;
-@group(0) @binding(7) var<storage, read> vertices: array<GpuVertex>;
-@group(0) @binding(8) var<storage, read> materials: array<GpuMaterial>;
-@group(0) @binding(9) var<storage, read> textures: array<GpuTexture>;
-@group(0) @binding(10) var<storage, read> images: array<GpuImage>;
-@group(0) @binding(11) var<storage, read> texels: array<f32>;
-
-struct Hit {
-    hit: bool,
-    t: f32,
-    prim: u32,
-    uv: vec2<f32>,
+// Slab test; see reference::bvh::intersect_aabb. WGSL leaves min/max of NaN
+// undefined, so zero direction components are replaced (in inv_dir, by the
+// caller) with huge finite reciprocals: 0 · 1e30 stays 0, not NaN.
+// `pad` is reference::bvh::box_pad's absolute slack for this ray.
+fn intersect_aabb(bmin: vec3<f32>, bmax: vec3<f32>, origin: vec3<f32>, inv_dir: vec3<f32>, pad: f32, t_max: f32) -> f32 {
+    let t0 = (bmin - origin) * inv_dir;
+    let t1 = (bmax - origin) * inv_dir;
+    let near = min(t0, t1);
+    let far = max(t0, t1) * SLAB_FAR_SCALE;
+    let t_near = max(max(near.x, near.y), max(near.z, 0.0));
+    let t_far = min(min(far.x, far.y), min(far.z, t_max));
+    if t_near * BOX_NEAR_SLACK - pad <= t_far + pad {
+        return t_near;
+    }
+    return -1.0;
 }
 
-fn vertex_position(i: u32) -> vec3<f32> {
-    let v = vertices[i];
-    return vec3<f32>(v.p_x, v.p_y, v.p_z);
+// reference::bvh::box_pad: the absolute t slack of every box test of a ray.
+fn box_pad(root_min: vec3<f32>, root_max: vec3<f32>, origin: vec3<f32>, d: vec3<f32>) -> f32 {
+    let r = max(root_max - origin, origin - root_min);
+    let ad = abs(d);
+    return BOX_T_PAD * max(max(r.x, r.y), r.z) / max(max(ad.x, ad.y), ad.z);
 }
 
-struct Bounds {
-    lo: vec3<f32>,
-    hi: vec3<f32>,
-}
-
-// reference::geometry::next_up, on the bits (so a GPU that flushes
-// subnormals in arithmetic still steps through them): NaN and +inf stay,
-// both zeros step to the smallest subnormal.
-fn float_up(x: f32) -> f32 {
-    let b = bitcast<u32>(x);
-    let mag = b & 0x7fffffffu;
-    if mag > 0x7f800000u || b == 0x7f800000u {
-        return x;
-    }
-    if mag == 0u {
-        return bitcast<f32>(1u);
-    }
-    if b < 0x80000000u {
-        return bitcast<f32>(b + 1u);
-    }
-    return bitcast<f32>(b - 1u);
-}
-
-// reference::geometry::next_down: NaN and -inf stay, both zeros step to
-// the negative smallest subnormal.
-fn float_down(x: f32) -> f32 {
-    let b = bitcast<u32>(x);
-    let mag = b & 0x7fffffffu;
-    if mag > 0x7f800000u || b == 0xff800000u {
-        return x;
-    }
-    if mag == 0u {
-        return bitcast<f32>(0x80000001u);
-    }
-    if b < 0x80000000u {
-        return bitcast<f32>(b - 1u);
-    }
-    return bitcast<f32>(b + 1u);
-}
-
-// reference::geometry::add_round_down / add_round_up.
-fn add_round_down(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
-    let s = a + b;
-    return vec3<f32>(float_down(s.x), float_down(s.y), float_down(s.z));
-}
-
-fn add_round_up(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
-    let s = a + b;
-    return vec3<f32>(float_up(s.x), float_up(s.y), float_up(s.z));
-}
-
-// The primitive's box exactly as the reference's BVH build computed it.
-fn primitive_bounds(prim: u32) -> Bounds {
-    let p = primitives[prim];
-    switch p.tag {
-        case PRIMITIVE_SPHERE: {
-            let s = spheres[p.index];
-            let c = vec3<f32>(s.center_x, s.center_y, s.center_z);
-            let r = vec3<f32>(abs(s.radius));
-            return Bounds(add_round_down(c, -r), add_round_up(c, r));
-        }
-        case PRIMITIVE_QUAD: {
-            let q = quads[p.index];
-            let c = vec3<f32>(q.corner_x, q.corner_y, q.corner_z);
-            let u = vec3<f32>(q.u_x, q.u_y, q.u_z);
-            let v = vec3<f32>(q.v_x, q.v_y, q.v_z);
-            let cu_lo = add_round_down(c, u);
-            let cu_hi = add_round_up(c, u);
-            let lo = min(min(c, cu_lo), min(add_round_down(c, v), add_round_down(cu_lo, v)));
-            let hi = max(max(c, cu_hi), max(add_round_up(c, v), add_round_up(cu_hi, v)));
-            return Bounds(lo, hi);
-        }
-        default: {
-            let t = triangles[p.index];
-            let a = vertex_position(t.v0);
-            let b = vertex_position(t.v1);
-            let c = vertex_position(t.v2);
-            return Bounds(min(min(a, b), c), max(max(a, b), c));
-        }
-    }
-}
-
-// The shape's routine, then reference::bvh::Bvh::admits: a hit counts only
-// where the primitive's own box passes the padded box test up to it.
-fn intersect_primitive(prim: u32, ray: Ray, inv_dir: vec3<f32>, pad: f32, t_min: f32, t_max: f32) -> ShapeHit {
-    let h = intersect_shape(prim, ray, t_min, t_max);
-    if h.hit {
-        let b = primitive_bounds(prim);
-        if intersect_aabb(b.lo, b.hi, ray.origin, inv_dir, pad, h.t) < 0.0 {
-            return no_hit();
-        }
-    }
-    return h;
-}
-
-fn intersect_shape(prim: u32, ray: Ray, t_min: f32, t_max: f32) -> ShapeHit {
-    let p = primitives[prim];
-    switch p.tag {
-        case PRIMITIVE_SPHERE: {
-            let s = spheres[p.index];
-            return intersect_sphere(vec3<f32>(s.center_x, s.center_y, s.center_z), s.radius, ray, t_min, t_max);
-        }
-        case PRIMITIVE_QUAD: {
-            let q = quads[p.index];
-            return intersect_quad(vec3<f32>(q.corner_x, q.corner_y, q.corner_z), vec3<f32>(q.u_x, q.u_y, q.u_z), vec3<f32>(q.v_x, q.v_y, q.v_z), ray, t_min, t_max);
-        }
-        default: {
-            let tri = triangles[p.index];
-            return intersect_triangle(vertex_position(tri.v0), vertex_position(tri.v1), vertex_position(tri.v2), ray, t_min, t_max);
-        }
-    }
+fn safe_inv_dir(d: vec3<f32>) -> vec3<f32> {
+    let tiny = 1.0e-30;
+    let s = select(vec3<f32>(1.0), vec3<f32>(-1.0), d < vec3<f32>(0.0));
+    let dd = select(d, s * tiny, abs(d) < vec3<f32>(tiny));
+    return 1.0 / dd;
 }
 
 fn next_up(x: f32) -> f32 {
@@ -217,121 +110,4 @@ fn intersect_scene(ray: Ray, t_min: f32, t_max: f32) -> Hit {
         node = stack[sp];
     }
     return best;
-}
-
-struct SurfaceInteraction {
-    p: vec3<f32>,
-    geometric_normal: vec3<f32>,
-    shading_normal: vec3<f32>,
-    uv: vec2<f32>,
-    p_error: f32,
-    front_face: bool,
-    material: u32,
-}
-
-fn gamma(n: f32) -> f32 {
-    let e = n * (1.1920929e-7 * 0.5);
-    return e / (1.0 - e);
-}
-
-fn normalize_or(v: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
-    let l2 = dot(v, v);
-    if l2 > 0.0 && l2 < 3.0e38 {
-        return v * inverseSqrt(l2);
-    }
-    return fallback;
-}
-
-fn max3(v: vec3<f32>) -> f32 {
-    return max(max(v.x, v.y), v.z);
-}
-
-fn surface_interaction(ray: Ray, hit: Hit) -> SurfaceInteraction {
-    let p = primitives[hit.prim];
-    var si: SurfaceInteraction;
-    switch p.tag {
-        case PRIMITIVE_SPHERE: {
-            let s = spheres[p.index];
-            let c = vec3<f32>(s.center_x, s.center_y, s.center_z);
-            let outward = normalize_or(((ray.origin + hit.t * ray.direction) - c) / abs(s.radius), vec3<f32>(0.0, 1.0, 0.0));
-            si.p = c + abs(s.radius) * outward;
-            var n = outward;
-            if s.radius < 0.0 {
-                n = -outward;
-            }
-            si.geometric_normal = n;
-            si.shading_normal = n;
-            si.uv = vec2<f32>((atan2(-outward.z, outward.x) + PI) / (2.0 * PI), acos(clamp(-outward.y, -1.0, 1.0)) / PI);
-            si.p_error = gamma(5.0) * (abs(s.radius) + max3(abs(c)) + max3(abs(si.p)));
-            si.material = s.material;
-        }
-        case PRIMITIVE_QUAD: {
-            let q = quads[p.index];
-            let corner = vec3<f32>(q.corner_x, q.corner_y, q.corner_z);
-            let u = vec3<f32>(q.u_x, q.u_y, q.u_z);
-            let v = vec3<f32>(q.v_x, q.v_y, q.v_z);
-            let n = normalize(cross(u, v));
-            si.p = corner + hit.uv.x * u + hit.uv.y * v;
-            si.geometric_normal = n;
-            si.shading_normal = n;
-            si.uv = hit.uv;
-            si.p_error = gamma(4.0) * max3(abs(corner) + abs(hit.uv.x * u) + abs(hit.uv.y * v) + abs(si.p));
-            si.material = q.material;
-        }
-        default: {
-            let tri = triangles[p.index];
-            let a = vertices[tri.v0];
-            let b = vertices[tri.v1];
-            let c = vertices[tri.v2];
-            let pa = vec3<f32>(a.p_x, a.p_y, a.p_z);
-            let pb = vec3<f32>(b.p_x, b.p_y, b.p_z);
-            let pc = vec3<f32>(c.p_x, c.p_y, c.p_z);
-            let b1 = hit.uv.x;
-            let b2 = hit.uv.y;
-            let b0 = 1.0 - b1 - b2;
-            si.p = b0 * pa + b1 * pb + b2 * pc;
-            si.p_error = gamma(7.0) * max3(abs(b0 * pa) + abs(b1 * pb) + abs(b2 * pc));
-            let ng = normalize_or(cross(pb - pa, pc - pa), vec3<f32>(0.0, 1.0, 0.0));
-            var ns = ng;
-            if (tri.flags & TRIANGLE_HAS_NORMALS) != 0u {
-                let nn = normalize_or(b0 * vec3<f32>(a.n_x, a.n_y, a.n_z) + b1 * vec3<f32>(b.n_x, b.n_y, b.n_z) + b2 * vec3<f32>(c.n_x, c.n_y, c.n_z), ng);
-                ns = select(nn, -nn, dot(nn, ng) < 0.0);
-            }
-            var uv = hit.uv;
-            if (tri.flags & TRIANGLE_HAS_UVS) != 0u {
-                uv = b0 * vec2<f32>(a.u, a.v) + b1 * vec2<f32>(b.u, b.v) + b2 * vec2<f32>(c.u, c.v);
-            }
-            si.geometric_normal = ng;
-            si.shading_normal = ns;
-            si.uv = uv;
-            si.material = tri.material;
-        }
-    }
-    si.front_face = dot(ray.direction, si.geometric_normal) < 0.0;
-    return si;
-}
-
-// Wächter & Binder's integer-ulp nudge (reference::geometry::offset_ray_origin).
-fn offset_ray_origin(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
-    let of_i = vec3<i32>(n * 256.0);
-    var out: vec3<f32>;
-    for (var k = 0u; k < 3u; k++) {
-        let bits = bitcast<i32>(p[k]);
-        var step = of_i[k];
-        if p[k] < 0.0 {
-            step = -step;
-        }
-        let stepped = bitcast<f32>(bits + step);
-        if abs(p[k]) < (1.0 / 32.0) {
-            out[k] = p[k] + (1.0 / 65536.0) * n[k];
-        } else {
-            out[k] = stepped;
-        }
-    }
-    return out;
-}
-
-fn spawn_origin(p: vec3<f32>, n: vec3<f32>, p_error: f32) -> vec3<f32> {
-    let an = abs(n);
-    return offset_ray_origin(p + n * (p_error * (an.x + an.y + an.z)), n);
 }

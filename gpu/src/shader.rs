@@ -1,6 +1,6 @@
 //! Assembles the WGSL program: a prelude of constants and tags generated
 //! from Rust (never copied by hand), the record structs, then the files
-//! under shaders/ in dependency order.
+//! under shaders/ (one per `reference/src` module).
 
 use crate::records;
 use reference::background::background_tag;
@@ -14,12 +14,24 @@ use reference::texture::texture_tag;
 /// NVIDIA, a common default for 2-D image kernels).
 pub const WORKGROUP: (u32, u32) = (8, 8);
 
-pub const RNG_WGSL: &str = include_str!("../../shaders/rng.wgsl");
-pub const SAMPLING_WGSL: &str = include_str!("../../shaders/sampling.wgsl");
-pub const INTERSECT_WGSL: &str = include_str!("../../shaders/intersect.wgsl");
-pub const BVH_WGSL: &str = include_str!("../../shaders/bvh.wgsl");
-pub const MATERIALS_WGSL: &str = include_str!("../../shaders/materials.wgsl");
-pub const KERNEL_WGSL: &str = include_str!("../../shaders/kernel.wgsl");
+/// The WGSL library shared by the render kernel and the test kernels: one
+/// file per `reference/src` module (same file name, same function names),
+/// in the order they are joined.
+pub const LIBRARY_FILES: [(&str, &str); 9] = [
+    ("rng", include_str!("../../shaders/rng.wgsl")),
+    ("sampling", include_str!("../../shaders/sampling.wgsl")),
+    ("geometry", include_str!("../../shaders/geometry.wgsl")),
+    ("shapes", include_str!("../../shaders/shapes.wgsl")),
+    ("bvh", include_str!("../../shaders/bvh.wgsl")),
+    ("scene", include_str!("../../shaders/scene.wgsl")),
+    ("texture", include_str!("../../shaders/texture.wgsl")),
+    ("background", include_str!("../../shaders/background.wgsl")),
+    ("material", include_str!("../../shaders/material.wgsl")),
+];
+
+/// The render kernel (film binding, path loop, entry point): the twin of
+/// `reference/src/integrator.rs`.
+pub const INTEGRATOR_WGSL: &str = include_str!("../../shaders/integrator.wgsl");
 
 fn f32_literal(x: f32) -> String {
     // `{:e}` prints the shortest representation that round-trips.
@@ -78,23 +90,16 @@ pub fn prelude() -> String {
 }
 
 /// The library part shared by the render kernel and the test kernels:
-/// prelude, records, rng, sampling, intersection, scene access, materials.
+/// prelude, records, then [`LIBRARY_FILES`].
 pub fn library_source() -> String {
-    [
-        prelude().as_str(),
-        &records::wgsl_records(),
-        RNG_WGSL,
-        SAMPLING_WGSL,
-        INTERSECT_WGSL,
-        BVH_WGSL,
-        MATERIALS_WGSL,
-    ]
-    .join("\n")
+    let mut parts = vec![prelude(), records::wgsl_records()];
+    parts.extend(LIBRARY_FILES.iter().map(|(_, src)| src.to_string()));
+    parts.join("\n")
 }
 
 /// The render program.
 pub fn render_source() -> String {
-    [library_source().as_str(), KERNEL_WGSL].join("\n")
+    [library_source().as_str(), INTEGRATOR_WGSL].join("\n")
 }
 
 #[cfg(test)]

@@ -1,10 +1,5 @@
 // Ray/shape intersection: the twin of reference/src/shapes.rs. Each
-// returns t in x (or a negative "miss" flag) plus surface parameters.
-
-struct Ray {
-    origin: vec3<f32>,
-    direction: vec3<f32>,
-}
+// returns whether it hit, t and the surface parameters.
 
 struct ShapeHit {
     hit: bool,
@@ -126,35 +121,4 @@ fn intersect_triangle(p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>, ray: Ray, t_m
         return no_hit();
     }
     return ShapeHit(true, t, vec2<f32>(ev * inv_det, ew * inv_det));
-}
-
-// Slab test; see reference::bvh::intersect_aabb. WGSL leaves min/max of NaN
-// undefined, so zero direction components are replaced (in inv_dir, by the
-// caller) with huge finite reciprocals: 0 · 1e30 stays 0, not NaN.
-// `pad` is reference::bvh::box_pad's absolute slack for this ray.
-fn intersect_aabb(bmin: vec3<f32>, bmax: vec3<f32>, origin: vec3<f32>, inv_dir: vec3<f32>, pad: f32, t_max: f32) -> f32 {
-    let t0 = (bmin - origin) * inv_dir;
-    let t1 = (bmax - origin) * inv_dir;
-    let near = min(t0, t1);
-    let far = max(t0, t1) * SLAB_FAR_SCALE;
-    let t_near = max(max(near.x, near.y), max(near.z, 0.0));
-    let t_far = min(min(far.x, far.y), min(far.z, t_max));
-    if t_near * BOX_NEAR_SLACK - pad <= t_far + pad {
-        return t_near;
-    }
-    return -1.0;
-}
-
-// reference::bvh::box_pad: the absolute t slack of every box test of a ray.
-fn box_pad(root_min: vec3<f32>, root_max: vec3<f32>, origin: vec3<f32>, d: vec3<f32>) -> f32 {
-    let r = max(root_max - origin, origin - root_min);
-    let ad = abs(d);
-    return BOX_T_PAD * max(max(r.x, r.y), r.z) / max(max(ad.x, ad.y), ad.z);
-}
-
-fn safe_inv_dir(d: vec3<f32>) -> vec3<f32> {
-    let tiny = 1.0e-30;
-    let s = select(vec3<f32>(1.0), vec3<f32>(-1.0), d < vec3<f32>(0.0));
-    let dd = select(d, s * tiny, abs(d) < vec3<f32>(tiny));
-    return 1.0 / dd;
 }

@@ -1,0 +1,148 @@
+// Rays, float stepping, rounding-safe sums, the surface interaction,
+// spawn offsets and the shading frame: the twin of reference/src/geometry.rs.
+
+struct Ray {
+    origin: vec3<f32>,
+    direction: vec3<f32>,
+}
+
+// reference::geometry::next_up, on the bits (so a GPU that flushes
+// subnormals in arithmetic still steps through them): NaN and +inf stay,
+// both zeros step to the smallest subnormal.
+fn float_up(x: f32) -> f32 {
+    let b = bitcast<u32>(x);
+    let mag = b & 0x7fffffffu;
+    if mag > 0x7f800000u || b == 0x7f800000u {
+        return x;
+    }
+    if mag == 0u {
+        return bitcast<f32>(1u);
+    }
+    if b < 0x80000000u {
+        return bitcast<f32>(b + 1u);
+    }
+    return bitcast<f32>(b - 1u);
+}
+
+// reference::geometry::next_down: NaN and -inf stay, both zeros step to
+// the negative smallest subnormal.
+fn float_down(x: f32) -> f32 {
+    let b = bitcast<u32>(x);
+    let mag = b & 0x7fffffffu;
+    if mag > 0x7f800000u || b == 0xff800000u {
+        return x;
+    }
+    if mag == 0u {
+        return bitcast<f32>(0x80000001u);
+    }
+    if b < 0x80000000u {
+        return bitcast<f32>(b - 1u);
+    }
+    return bitcast<f32>(b + 1u);
+}
+
+// reference::geometry::add_round_down / add_round_up.
+fn add_round_down(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
+    let s = a + b;
+    return vec3<f32>(float_down(s.x), float_down(s.y), float_down(s.z));
+}
+
+fn add_round_up(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
+    let s = a + b;
+    return vec3<f32>(float_up(s.x), float_up(s.y), float_up(s.z));
+}
+
+struct SurfaceInteraction {
+    p: vec3<f32>,
+    geometric_normal: vec3<f32>,
+    shading_normal: vec3<f32>,
+    uv: vec2<f32>,
+    p_error: f32,
+    front_face: bool,
+    material: u32,
+}
+
+fn gamma(n: f32) -> f32 {
+    let e = n * (1.1920929e-7 * 0.5);
+    return e / (1.0 - e);
+}
+
+fn normalize_or(v: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
+    let l2 = dot(v, v);
+    if l2 > 0.0 && l2 < 3.0e38 {
+        return v * inverseSqrt(l2);
+    }
+    return fallback;
+}
+
+fn max3(v: vec3<f32>) -> f32 {
+    return max(max(v.x, v.y), v.z);
+}
+
+// Wächter & Binder's integer-ulp nudge (reference::geometry::offset_ray_origin).
+fn offset_ray_origin(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let of_i = vec3<i32>(n * 256.0);
+    var out: vec3<f32>;
+    for (var k = 0u; k < 3u; k++) {
+        let bits = bitcast<i32>(p[k]);
+        var step = of_i[k];
+        if p[k] < 0.0 {
+            step = -step;
+        }
+        let stepped = bitcast<f32>(bits + step);
+        if abs(p[k]) < (1.0 / 32.0) {
+            out[k] = p[k] + (1.0 / 65536.0) * n[k];
+        } else {
+            out[k] = stepped;
+        }
+    }
+    return out;
+}
+
+fn spawn_origin(p: vec3<f32>, n: vec3<f32>, p_error: f32) -> vec3<f32> {
+    let an = abs(n);
+    return offset_ray_origin(p + n * (p_error * (an.x + an.y + an.z)), n);
+}
+
+struct Onb {
+    s: vec3<f32>,
+    t: vec3<f32>,
+    n: vec3<f32>,
+}
+
+fn onb_from_normal(n: vec3<f32>) -> Onb {
+    var sign = 1.0;
+    if n.z < 0.0 || (n.z == 0.0 && bitcast<u32>(n.z) != 0u) {
+        sign = -1.0;
+    }
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    return Onb(vec3<f32>(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), vec3<f32>(b, sign + n.y * n.y * a, -n.y), n);
+}
+
+fn onb_to_world(f: Onb, v: vec3<f32>) -> vec3<f32> {
+    return v.x * f.s + v.y * f.t + v.z * f.n;
+}
+
+fn onb_to_local(f: Onb, v: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(dot(v, f.s), dot(v, f.t), dot(v, f.n));
+}
+
+fn reflect_about(d: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    return d - 2.0 * dot(d, n) * n;
+}
+
+struct Refraction {
+    ok: bool,
+    direction: vec3<f32>,
+}
+
+fn refract_through(d: vec3<f32>, n: vec3<f32>, eta: f32) -> Refraction {
+    let cos_i = min(dot(-d, n), 1.0);
+    let sin2_t = eta * eta * max(1.0 - cos_i * cos_i, 0.0);
+    if sin2_t >= 1.0 {
+        return Refraction(false, vec3<f32>(0.0));
+    }
+    let cos_t = sqrt(1.0 - sin2_t);
+    return Refraction(true, eta * d + (eta * cos_i - cos_t) * n);
+}
