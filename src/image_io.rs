@@ -508,3 +508,21 @@ pub fn read_exr(path: &Path) -> Result<RenderImage> {
         metadata,
     })
 }
+
+/// Parses `WIDTHxHEIGHT` (`x` or `X`, no spaces inside): `1200x800`.
+/// Zero sizes parse; [`RenderSettings::validate`] rejects them.
+pub fn parse_size(s: &str) -> Result<(u32, u32)> {
+    let bad = || anyhow!("`{s}`: expected WIDTHxHEIGHT, as in 1200x800");
+    let (w, h) = s.trim().split_once(['x', 'X']).ok_or_else(bad)?;
+    let parse = |t: &str| {
+        if t.bytes().all(|b| b.is_ascii_digit()) {
+            t.parse::<u32>().ok()
+        } else {
+            None
+        }
+    };
+    match (parse(w), parse(h)) {
+        (Some(w), Some(h)) => Ok((w, h)),
+        _ => Err(bad()),
+    }
+}

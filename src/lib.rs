@@ -1,22 +1,21 @@
-//! `twintrace`: the command line and the tools around the renderers.
+//! `twintrace`: the differential-testing framework of the two renderers.
 //!
 //! The scene model and the scalar reference renderer live in the
-//! `reference` crate, the wgpu kernels in `gpu`. This crate holds what
-//! users and later tools (`twintrace diff`, `cargo xtask bless`) share:
+//! `reference` crate, the wgpu kernels in `gpu`. This library holds what
+//! the tests, the `twintrace` binary (`twintrace diff`) and later tools
+//! share; it never imports the command line, which is the binary's alone
+//! (`src/main.rs`, `src/cli/`):
 //!
 //! - [`image_io`]: the render EXR (linear mean + variance of the mean, its
 //!   exact layout documented there), the tone-mapped PNG, reading an EXR
 //!   back, and all-or-nothing file writes;
 //! - [`tonemap`]: ACES filmic (Narkowicz's fit) and the sRGB OETF;
-//! - [`cli`]: the `twintrace` commands (`render`, `info`, `diff`);
 //! - [`compare`]: the statistical and exact gates (z/Welch image tests with
 //!   aggregate tests, chi-square for sampling, bitwise comparison, stored
 //!   references), with [`stats`] for the distribution functions;
-//! - [`diff`] and [`report`]: `twintrace diff` and its HTML report.
+//! - [`report`]: the self-contained HTML report of a comparison.
 
-pub mod cli;
 pub mod compare;
-pub mod diff;
 pub mod image_io;
 pub mod report;
 pub mod stats;

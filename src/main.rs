@@ -2,10 +2,12 @@
 //! print as one line `error: <message>` on stderr with exit status 1;
 //! command-line usage errors are clap's (exit status 2).
 
+mod cli;
+
 use clap::Parser;
+use cli::Cli;
 use std::io::Write;
 use std::process::ExitCode;
-use twintrace::cli::{self, Cli};
 
 fn main() -> ExitCode {
     cli::install_panic_hook();

@@ -3,11 +3,12 @@
 //! the metrics, and writes a self-contained HTML report; a failing image
 //! gate leaves the same evidence under `target/diff/<test>/`.
 
+use crate::common::gates::assert_passes;
 use reference::RenderSettings;
 use std::path::Path;
 use std::process::{Command, Stdio};
 use twintrace::compare::gate::{
-    artifact_dir, assert_passes, cpu_reference, load_reference, load_scene, manifest_entry,
+    artifact_dir, cpu_reference, fixture_scene, load_reference, load_scene, manifest_entry,
     run_gate,
 };
 use twintrace::{write_exr, RenderImage, RenderMetadata};
@@ -40,11 +41,7 @@ fn render(dir: &Path, name: &str, seed: u32, albedo: f32) {
 }
 
 fn render_spp(dir: &Path, name: &str, seed: u32, albedo: f32, spp: u32) {
-    let mut scene = reference::load_scene(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/fixtures/scenes/ggx-roughness.json"
-    ))
-    .unwrap();
+    let mut scene = reference::load_scene(&fixture_scene("ggx-roughness.json")).unwrap();
     for t in &mut scene.textures {
         if let reference::texture::Texture::Constant(c) = t {
             if c.max_element() < 1.0 {

@@ -2,10 +2,9 @@
 //! reference at a small size: finite, non-black, no NaN/Inf samples.
 
 use reference::RenderSettings;
-use std::path::Path;
 
 fn fixture_scenes() -> Vec<String> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/scenes");
+    let dir = twintrace::compare::gate::workspace_root().join("fixtures/scenes");
     let mut v: Vec<String> = std::fs::read_dir(&dir)
         .unwrap()
         .map(|e| e.unwrap().path())

@@ -5,7 +5,8 @@
 //! per family). Every check takes the renderer as a function, so the GPU
 //! backend runs the same cases.
 
-use twintrace::compare::furnace::{self, assert_known_answer};
+use crate::common::gates::assert_known_answer;
+use twintrace::compare::furnace;
 use twintrace::compare::gate::cpu_reference;
 
 /// Seeds of the furnace renders (any; fixed so that the tests are deterministic).

@@ -3,8 +3,7 @@
 //! declaration in order and writes its bits out (wgpu's struct_layout test
 //! is the model). A field read from the wrong offset shows as a wrong word.
 
-mod common;
-
+use crate::common;
 use gpu::records::*;
 use gpu::scene_buffers::PackedScene;
 use gpu::testing::{run_test_kernel, TestKernel};

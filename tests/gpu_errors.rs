@@ -1,8 +1,7 @@
 //! GPU failures are errors, never panics: a shader that does not compile,
 //! a film beyond the adapter's buffer limits, a destroyed (lost) device.
 
-mod common;
-
+use crate::common;
 use gpu::GpuError;
 use reference::RenderSettings;
 

@@ -1,11 +1,11 @@
 //! The furnace scenes of tests/furnace.rs on the GPU backend: exact cases
 //! bit for bit, the others within the z-tests against the known value.
 
-mod common;
-
+use crate::common;
+use crate::common::gates::assert_known_answer;
 use anyhow::Result;
 use reference::{Film, RenderSettings, Scene};
-use twintrace::compare::furnace::{self, assert_known_answer};
+use twintrace::compare::furnace;
 
 const SEED: u32 = 13;
 

@@ -4,14 +4,14 @@
 //! sphere's silhouette, or where another surface lies within TIE_REL of
 //! the hit distance; t within MAX_T_ULPS.
 
-mod common;
-
+use crate::common;
 use glam::{Vec2, Vec3};
 use gpu::testing::{run_test_kernel, TestKernel};
 use reference::geometry::Ray;
 use reference::rng::random_f32;
 use reference::scene::primitive_tag;
 use reference::Scene;
+use twintrace::compare::gate::fixture_scene;
 
 /// Vulkan allows 2.5 ulp for a division and for sqrt (lavapipe and NVIDIA
 /// are tighter); a hit distance chains a handful of them (sphere: sqrt and
@@ -186,18 +186,12 @@ fn cornell_boxes() {
 
 #[test]
 fn triangle_mesh() {
-    check(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/fixtures/scenes/gltf-mesh.json"
-    ));
+    check(&fixture_scene("gltf-mesh.json"));
 }
 
 #[test]
 fn textured_quads_and_boxes() {
-    check(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/fixtures/scenes/textures.json"
-    ));
+    check(&fixture_scene("textures.json"));
 }
 
 const BOUNDS_SNIPPET: &str = "

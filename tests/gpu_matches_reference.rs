@@ -7,13 +7,12 @@
 //! - and the gate can fail: a GPU render of a scene with albedo ×1.02 is
 //!   caught. A failure writes its evidence under target/diff/.
 
-mod common;
-
+use crate::common;
+use crate::common::gates::gate_fixture;
 use anyhow::Result;
 use reference::{Film, RenderSettings, Scene};
 use twintrace::compare::gate::{
-    cpu_reference, gate_fixture, load_reference, load_scene, manifest_entry, run_gate,
-    scaled_albedo,
+    cpu_reference, load_reference, load_scene, manifest_entry, run_gate, scaled_albedo,
 };
 use twintrace::compare::image::{compare, Method, NoisyImage, TestSettings};
 

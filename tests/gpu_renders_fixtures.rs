@@ -1,15 +1,13 @@
 //! Every fixture scene and built-in renders on the GPU backend at a small
 //! size: every pixel gets all its samples, none NaN/Inf, not black.
 
-mod common;
-
+use crate::common;
 use reference::RenderSettings;
-use std::path::Path;
 
 #[test]
 fn every_fixture_renders_on_the_gpu() {
     let ctx = common::gpu();
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/scenes");
+    let dir = twintrace::compare::gate::workspace_root().join("fixtures/scenes");
     let mut specs: Vec<String> = std::fs::read_dir(&dir)
         .unwrap()
         .map(|e| e.unwrap().path().to_str().unwrap().to_string())

@@ -1,8 +1,7 @@
 //! The GPU's counter-based RNG is bit-identical to the CPU's over a large
 //! grid of keys: raw pcg4d words and the floats of `vertex_randoms`.
 
-mod common;
-
+use crate::common;
 use gpu::testing::{run_test_kernel, TestKernel};
 
 const SNIPPET: &str = "

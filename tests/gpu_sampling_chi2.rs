@@ -6,8 +6,8 @@
 //! chi-square, independent seeds). A GPU lobe with a 0.7 % change in the
 //! index of refraction must fail that comparison.
 
-mod common;
-
+use crate::common;
+use crate::common::gates::assert_family_passes;
 use glam::{DVec3, Vec3};
 use gpu::scene_buffers::pack_material;
 use gpu::testing::{run_test_kernel, TestKernel};
@@ -15,9 +15,7 @@ use reference::material::{GgxLobes, Material};
 use reference::sampling::{cosine_hemisphere_pdf, ggx, UNIFORM_SPHERE_PDF};
 use reference::scene::Transform;
 use std::f64::consts::PI;
-use twintrace::compare::chi2::{
-    assert_family_passes, test_density, test_same_distribution, Chi2Outcome, Domain,
-};
+use twintrace::compare::chi2::{test_density, test_same_distribution, Chi2Outcome, Domain};
 use twintrace::compare::lobes::{standard_cases, Incidence, LobeCase};
 use twintrace::stats::sidak;
 

@@ -6,7 +6,8 @@
 //! sum and 8x8 tile sums all pass. A failure writes the render, the
 //! reference and an HTML report under `target/diff/reference_images_<scene>/`.
 
-use twintrace::compare::gate::{cpu_reference, gate_fixture, read_manifest};
+use crate::common::gates::gate_fixture;
+use twintrace::compare::gate::{cpu_reference, read_manifest};
 
 /// The seed of every test render; the references use seed 1.
 const TEST_SEED: u32 = 7;
@@ -49,7 +50,7 @@ fn every_fixture_scene_has_a_reference_and_a_gate() {
         listed, tested,
         "every reference in the manifest has exactly one gate above"
     );
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/scenes");
+    let dir = twintrace::compare::gate::workspace_root().join("fixtures/scenes");
     for entry in std::fs::read_dir(&dir).unwrap() {
         let path = entry.unwrap().path();
         if path.extension().is_some_and(|e| e == "json") {

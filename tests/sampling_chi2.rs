@@ -8,6 +8,7 @@
 //! The environment map is not importance-sampled by either renderer (paths
 //! find it by BSDF sampling alone), so it has no sampling routine to test.
 
+use crate::common::gates::assert_family_passes;
 use glam::{DVec3, Vec2, Vec3};
 use reference::geometry::SurfaceInteraction;
 use reference::material::{scatter, GgxLobes, Material, TextureContext};
@@ -18,9 +19,7 @@ use reference::sampling::{
 };
 use reference::texture::Texture;
 use std::f64::consts::PI;
-use twintrace::compare::chi2::{
-    assert_family_passes, test_density, test_same_distribution, Chi2Outcome, Domain,
-};
+use twintrace::compare::chi2::{test_density, test_same_distribution, Chi2Outcome, Domain};
 use twintrace::compare::lobes::standard_cases;
 
 /// Samples per run: pbrt-v4's CHI2_SAMPLECOUNT and Mitsuba's default.

@@ -8,9 +8,10 @@
 //! (a box culled that held the winner). Failing cases are persisted under
 //! proptest-regressions/.
 
-mod common;
-
-use common::{build_scene, fixture_names, load, queries, scene_spec, short, Query, ShapeSpec};
+use crate::common;
+use crate::common::{
+    build_scene, fixture_names, load, queries, scene_spec, short, Query, ShapeSpec,
+};
 use glam::Vec3;
 use proptest::prelude::*;
 use proptest::test_runner::FileFailurePersistence;

@@ -23,9 +23,8 @@
 //! point from the surface, in units of u·L). The run prints them;
 //! `--nocapture` shows them.
 
-mod common;
-
-use common::{
+use crate::common;
+use crate::common::{
     build_scene, fixture_names, load, queries, queries_of, scene_spec, short, Query, RayKind,
     ALL_KINDS, TARGETED_KINDS,
 };

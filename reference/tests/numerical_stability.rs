@@ -14,9 +14,8 @@
 //! - scale invariance: a scene scaled by 1e-3 and by 1e3 renders a
 //!   statistically identical image (per-pixel z-test, Šidák-corrected).
 
-mod common;
-
-use common::{build_scene_placed, Rng, ShapeSpec};
+use crate::common;
+use crate::common::{build_scene_placed, Rng, ShapeSpec};
 use glam::{Affine3A, DVec3, Quat, Vec3};
 use rayon::prelude::*;
 use reference::f64_oracle::{intersect_sphere_f64, Shape64};

@@ -2,7 +2,7 @@
 //!
 //! Reads both EXRs (mean, and the `variance` layer where present; a
 //! separate variance image can be given with `--variance-a/-b`), runs the
-//! statistical tests of [`crate::compare::image`], prints the verdict and
+//! statistical tests of `twintrace::compare::image`, prints the verdict and
 //! the metrics, and writes a self-contained HTML report.
 //!
 //! The test follows from what the files carry (`--method auto`): Welch's
@@ -17,15 +17,15 @@
 //! 1 when the images differ, 2 when they cannot be compared (unreadable
 //! file, size mismatch, no variance on either side).
 
-use crate::cli::one_line;
-use crate::compare::image::{compare, Method, NoisyImage, Side, TestSettings};
-use crate::compare::metrics::metrics;
-use crate::image_io::read_exr;
-use crate::report::{self, Report};
+use super::one_line;
 use anyhow::{anyhow, bail, Result};
 use clap::{Args, ValueEnum};
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
+use twintrace::compare::image::{compare, Method, NoisyImage, Side, TestSettings};
+use twintrace::compare::metrics::metrics;
+use twintrace::image_io::read_exr;
+use twintrace::report::{self, Report};
 
 #[derive(Debug, Args)]
 pub struct DiffArgs {
@@ -72,7 +72,6 @@ pub struct DiffOutcome {
     /// `Some(true)`: no difference detected; `Some(false)`: different;
     /// `None`: no test could run (no variance).
     pub passed: Option<bool>,
-    pub report: PathBuf,
 }
 
 fn load(path: &Path, variance: Option<&Path>, spp: Option<u32>) -> Result<NoisyImage> {
@@ -157,7 +156,6 @@ pub fn execute(args: &DiffArgs) -> Result<DiffOutcome> {
     Ok(DiffOutcome {
         text,
         passed: verdict.map(|v| v.passes()),
-        report: args.report.clone(),
     })
 }
 

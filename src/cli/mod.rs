@@ -1,11 +1,11 @@
 //! The `twintrace` command line: argument definitions and the commands.
 //!
 //! - `twintrace render SCENE -o OUT [options]`: renders with a backend and
-//!   writes `OUT.exr` (linear mean + variance, see [`crate::image_io`]) and
+//!   writes `OUT.exr` (linear mean + variance, see `twintrace::image_io`) and
 //!   `OUT.png` (tone mapped), then prints a one-line summary on stdout.
 //! - `twintrace info SCENE`: what a scene holds, its render defaults and
 //!   its BVH.
-//! - `twintrace diff A.exr B.exr`: statistical comparison, see [`crate::diff`].
+//! - `twintrace diff A.exr B.exr`: statistical comparison, see [`diff`].
 //!
 //! Render settings resolve in three layers: the scene's own defaults
 //! (`scene.render`), then a `--quality` preset (spp and depth together),
@@ -15,8 +15,8 @@
 //! Every failure is an [`anyhow::Error`]; the binary prints it as one line
 //! `error: <message>` and exits with status 1.
 
-use crate::image_io::{self, AtomicFile, RenderImage, RenderMetadata};
-use crate::tonemap::Tonemap;
+pub mod diff;
+
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use reference::{RenderSettings, Scene, SceneError};
@@ -24,6 +24,8 @@ use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
+use twintrace::image_io::{self, parse_size, AtomicFile, RenderImage, RenderMetadata};
+use twintrace::tonemap::Tonemap;
 
 #[derive(Debug, Parser)]
 #[command(
@@ -43,7 +45,7 @@ pub enum Command {
     /// Print what a scene holds: primitives, materials, camera, render defaults, BVH.
     Info(InfoArgs),
     /// Compare two renders statistically and write an HTML report (exit 0: no difference, 1: different, 2: cannot compare).
-    Diff(crate::diff::DiffArgs),
+    Diff(diff::DiffArgs),
 }
 
 /// Which renderer runs the paths.
@@ -124,25 +126,7 @@ pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Render(args) => render(&args),
         Command::Info(args) => info(&args),
-        Command::Diff(args) => crate::diff::run(&args),
-    }
-}
-
-/// Parses `WIDTHxHEIGHT` (`x` or `X`, no spaces inside): `1200x800`.
-/// Zero sizes parse; [`RenderSettings::validate`] rejects them.
-pub fn parse_size(s: &str) -> Result<(u32, u32)> {
-    let bad = || anyhow!("--size `{s}`: expected WIDTHxHEIGHT, as in 1200x800");
-    let (w, h) = s.trim().split_once(['x', 'X']).ok_or_else(bad)?;
-    let parse = |t: &str| {
-        if t.bytes().all(|b| b.is_ascii_digit()) {
-            t.parse::<u32>().ok()
-        } else {
-            None
-        }
-    };
-    match (parse(w), parse(h)) {
-        (Some(w), Some(h)) => Ok((w, h)),
-        _ => Err(bad()),
+        Command::Diff(args) => diff::run(&args),
     }
 }
 
@@ -162,7 +146,7 @@ pub fn resolve_settings(
         s.max_depth = depth;
     }
     if let Some(size) = &args.size {
-        (s.width, s.height) = parse_size(size)?;
+        (s.width, s.height) = size_arg(size)?;
     }
     if let Some(seed) = args.seed {
         s.seed = seed;
@@ -170,6 +154,11 @@ pub fn resolve_settings(
     s.validate()
         .map_err(|e| anyhow!("invalid render settings: {e}"))?;
     Ok(s)
+}
+
+/// `--size WIDTHxHEIGHT`, with the flag named in the error.
+fn size_arg(size: &str) -> Result<(u32, u32)> {
+    parse_size(size).map_err(|e| anyhow!("--size {e}"))
 }
 
 /// Loads a scene; an error without a file name gets the scene's name.
@@ -227,7 +216,7 @@ fn render(args: &RenderArgs) -> Result<()> {
     let paths = image_io::output_paths(&args.output)?;
     drop(AtomicFile::create(&paths.exr)?);
     if let Some(size) = &args.size {
-        parse_size(size)?;
+        size_arg(size)?;
     }
     let scene = load_scene(&args.scene)?;
     let settings = resolve_settings(scene.render, args)?;

@@ -313,24 +313,6 @@ impl Chi2Outcome {
     }
 }
 
-/// Panics unless every run of a family passes at Šidák's level for the
-/// family (α = 0.01 over `runs.len()` tests), after printing each run.
-pub fn assert_family_passes(what: &str, runs: &[(String, Chi2Outcome)]) {
-    let level = stats::sidak(0.01, runs.len());
-    let mut failures = String::new();
-    for (name, o) in runs {
-        println!("{what} / {name}: {}", o.summary());
-        if !o.passes(level) {
-            failures += &format!("\n  {name}: {}", o.summary());
-        }
-    }
-    assert!(
-        failures.is_empty(),
-        "{what}: runs fail at the Šidák level {level:.2e} of {} runs:{failures}",
-        runs.len()
-    );
-}
-
 /// Goodness of fit of observed counts to expected counts (same cells).
 pub fn goodness_of_fit(observed: &[f64], expected: &[f64]) -> Chi2Outcome {
     assert_eq!(

@@ -416,33 +416,6 @@ pub fn check(case: &FurnaceCase, render: RenderFn) -> Result<FurnaceOutcome> {
     })
 }
 
-/// Renders `case` with `render` and panics unless it gives the known
-/// answer: bit for bit for exact cases, else the z-tests of [`check`].
-/// Shared by the CPU and GPU furnace tests.
-pub fn assert_known_answer(case: &FurnaceCase, render: RenderFn) {
-    let out = check(case, render).unwrap_or_else(|e| panic!("{e:#}"));
-    let mean = out.image_mean();
-    println!(
-        "{}: expected {}, image mean {mean:.6}, {}",
-        case.name,
-        case.expected,
-        if case.exact { "exact check" } else { "z-tests" }
-    );
-    if case.exact {
-        if let Some(m) = &out.exact_mismatch {
-            panic!("{}: not exact: {m}", case.name);
-        }
-    } else {
-        assert!(
-            out.verdict.passes(),
-            "{}: expected {} per pixel, image mean {mean}\n{}",
-            case.name,
-            case.expected,
-            out.verdict.summary()
-        );
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -35,9 +35,23 @@ pub fn cpu_reference(scene: &Scene, settings: &RenderSettings) -> Result<Film> {
     Ok(reference::render(scene, settings, &|_| {}))
 }
 
-/// The workspace root (the `twintrace` crate sits there).
+/// The workspace root, where `fixtures/` lives: `$TWINTRACE_ROOT` when set
+/// (a test binary carried to another machine, see `cargo xtask
+/// gpu-suite`), else the source tree this crate was built from.
 pub fn workspace_root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+    match std::env::var_os("TWINTRACE_ROOT") {
+        Some(root) if !root.is_empty() => PathBuf::from(root),
+        _ => PathBuf::from(env!("CARGO_MANIFEST_DIR")),
+    }
+}
+
+/// `fixtures/scenes/<file>` under [`workspace_root`], as a scene spec.
+pub fn fixture_scene(file: &str) -> String {
+    workspace_root()
+        .join("fixtures/scenes")
+        .join(file)
+        .display()
+        .to_string()
 }
 
 /// One line of the manifest: what `cargo xtask bless` renders.
@@ -71,7 +85,7 @@ pub fn parse_manifest(text: &str) -> Result<Vec<RefSpec>> {
                 f.len()
             );
         }
-        let (w, h) = crate::cli::parse_size(f[2]).with_context(at)?;
+        let (w, h) = crate::image_io::parse_size(f[2]).with_context(at)?;
         let num = |s: &str, what: &str| {
             s.parse::<u32>()
                 .map_err(|_| anyhow!("{}: {what} `{s}` is not a number", at()))
@@ -323,60 +337,6 @@ pub fn write_artifacts(
         },
     )?;
     Ok(report_path)
-}
-
-/// Panics with the verdict if `run` failed, after writing the evidence to
-/// `target/diff/<test>/` and naming the report.
-pub fn assert_passes(test: &str, reference: &StoredReference, run: &GateRun) {
-    if run.passes() {
-        return;
-    }
-    let dir = artifact_dir(test);
-    let notes = vec![
-        ("render settings".to_string(), format!("{:?}", run.settings)),
-        (
-            "reference provenance".to_string(),
-            reference.provenance.trim().replace('\n', "; "),
-        ),
-    ];
-    let label = format!("reference {}", reference.spec.name);
-    let written = write_artifacts(
-        &dir,
-        &format!("{test}: render vs reference"),
-        ["render", &label],
-        &run.render,
-        &reference.image,
-        &run.verdict,
-        notes,
-    );
-    let evidence = match written {
-        Ok(path) => format!("report: {}", path.display()),
-        Err(e) => format!("(could not write the report: {e:#})"),
-    };
-    panic!(
-        "{test}: the render differs from reference `{}`\n{}{evidence}",
-        reference.spec.name,
-        run.verdict.summary()
-    );
-}
-
-/// One image gate as a test runs it: the fixture `name` from the
-/// manifest, rendered by `render` at `spp` with `seed`, checked against its
-/// stored reference; panics (after [`assert_passes`]) on any failure. The
-/// evidence of a failure goes to `target/diff/<suite>/<name>/`.
-pub fn gate_fixture(suite: &str, name: &str, spp: u32, seed: u32, render: RenderFn) {
-    let spec = manifest_entry(name).unwrap_or_else(|e| panic!("{e:#}"));
-    let reference = load_reference(&spec).unwrap_or_else(|e| panic!("{e:#}"));
-    let scene = load_scene(&spec).unwrap_or_else(|e| panic!("{e:#}"));
-    let run = run_gate(&reference, &scene, spp, seed, render).unwrap_or_else(|e| panic!("{e:#}"));
-    println!(
-        "{suite} / {name}: {}x{} at {spp} spp in {:.2} s\n{}",
-        spec.width,
-        spec.height,
-        run.seconds,
-        run.verdict.summary()
-    );
-    assert_passes(&format!("{suite}/{name}"), &reference, &run);
 }
 
 /// A mutant scene for gates that must fail: every constant Lambertian

@@ -1,6 +1,8 @@
-//! Shared by the GPU test files: one device per test binary. No adapter is
-//! a failure, never a skip (`cargo xtask test` installs Mesa lavapipe).
-#![allow(dead_code)]
+//! Shared by the test modules: the GPU device (one per test binary; no
+//! adapter is a failure, never a skip: `cargo xtask test` installs Mesa
+//! lavapipe) and the panicking gate helpers ([`gates`]).
+
+pub mod gates;
 
 use std::sync::OnceLock;
 

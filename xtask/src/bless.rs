@@ -222,7 +222,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
         eprintln!("xtask: blessed {out}.exr in {seconds:.1} s");
     }
     eprintln!(
-        "xtask: {} reference(s) written; gate them with `cargo test --test reference_images`",
+        "xtask: {} reference(s) written; gate them with `cargo test --test integration reference_images`",
         lines.len()
     );
     Ok(())

@@ -1,0 +1,32 @@
+//! The integration tests of the workspace: one crate of modules (one test
+//! binary, so wgpu is linked once), each module named for the property it
+//! checks. Modules whose name starts with `gpu_` need an adapter: in CI the
+//! README's test command installs Mesa lavapipe; on real hardware the same
+//! binary runs as `cargo xtask gpu-suite` packs it (fixtures are found
+//! through `TWINTRACE_ROOT` when set, else through the source tree the
+//! binary was built from).
+
+mod common;
+
+mod bvh_matches_brute_force;
+mod cli_errors;
+mod diff_command;
+mod fixtures_render;
+mod furnace;
+mod gates_catch_mutants;
+mod gltf_import;
+mod image_io;
+mod known_answers;
+mod reference_images;
+mod render_determinism;
+mod sampling_chi2;
+mod scene_loading_errors;
+
+mod gpu_buffer_layout;
+mod gpu_errors;
+mod gpu_furnace;
+mod gpu_hits_match_reference;
+mod gpu_matches_reference;
+mod gpu_renders_fixtures;
+mod gpu_rng_matches_cpu;
+mod gpu_sampling_chi2;
