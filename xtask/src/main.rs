@@ -4,6 +4,7 @@
 
 mod bless;
 mod fixtures;
+mod gpu_suite;
 mod install;
 mod test;
 mod util;
@@ -18,6 +19,10 @@ Commands:
              is present), then run the whole suite:
              cargo fmt --check, cargo clippy -D warnings, cargo test --workspace
              (extra arguments go to cargo test)
+  gpu-suite [--out DIR]
+             pack the GPU gates (test binary, fixtures, run.sh) into DIR
+             (default target/gpu-suite) to run on a machine with a real GPU
+             and no Rust toolchain: `sh DIR/run.sh` (docs/gates.md)
   fixtures   regenerate the generated fixture files (mesh, textures)
   bless [--scene NAME]... [--spp N]
              regenerate stored references (fixtures/refs/NAME.exr + provenance
@@ -40,6 +45,7 @@ fn main() -> ExitCode {
     }
     let result = match args.first().map(String::as_str) {
         Some("test") => install::ensure_vulkan().and_then(|()| test::run(&args[1..])),
+        Some("gpu-suite") => gpu_suite::run(&args[1..]),
         Some("fixtures") => fixtures::run(),
         Some("bless") => bless::run(&args[1..]),
         None | Some("help") | Some("--help") | Some("-h") => {

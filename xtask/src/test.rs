@@ -58,7 +58,7 @@ fn target_dir() -> PathBuf {
 }
 
 /// `LIBRARY_PATH` and `LD_LIBRARY_PATH` with `lib` in front.
-fn embree_env(lib: &Path) -> Vec<(String, String)> {
+pub(crate) fn embree_env(lib: &Path) -> Vec<(String, String)> {
     let lib = std::fs::canonicalize(lib).unwrap_or_else(|_| lib.to_path_buf());
     ["LIBRARY_PATH", "LD_LIBRARY_PATH"]
         .iter()
@@ -91,7 +91,7 @@ fn sh_env(program: &str, args: &[&str], env: &[(String, String)]) -> Result<(), 
 }
 
 /// Makes sure `<target>/embree/lib/libembree4.so` exists; returns the folder.
-fn ensure_embree() -> Result<PathBuf, String> {
+pub(crate) fn ensure_embree() -> Result<PathBuf, String> {
     let root = target_dir().join("embree");
     let lib = root.join("lib");
     let link = lib.join("libembree4.so");

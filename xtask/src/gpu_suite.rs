@@ -1,0 +1,178 @@
+//! `cargo xtask gpu-suite [--out DIR]`: packs the GPU gates so that they
+//! run on a machine with a real GPU and no Rust toolchain (CI has only
+//! lavapipe, whose arithmetic is not a hardware driver's).
+//!
+//! Builds the integration test binary with the features `cargo xtask test`
+//! uses (so the build is shared), then writes into DIR (default
+//! `target/gpu-suite`):
+//! - `integration`: the test binary, stripped;
+//! - `fixtures/`: the scenes, meshes, textures and stored references the
+//!   gates read (the binary finds them through `TWINTRACE_ROOT`, which
+//!   `run.sh` sets to DIR, so no path of the build machine is needed);
+//! - `lib/`: shared libraries the binary needs that a bare machine lacks
+//!   (the Embree wheel's, when the linker kept them);
+//! - `run.sh`: runs every GPU test (modules `gpu_*`), prints one line per
+//!   test and the closing count, and keeps the whole log in `gpu-suite.log`.
+//!
+//! docs/gates.md says how to run it on the GPU machine and records results.
+
+use crate::test::{embree_env, ensure_embree};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+const RUNNER: &str = r#"#!/bin/sh
+# Runs twintrace's GPU gates (the integration tests of modules gpu_*) on
+# this machine's GPU adapter. Extra arguments go to the test binary
+# (e.g. a test name filter, --nocapture). Exit status: the test binary's.
+here=$(cd "$(dirname "$0")" && pwd)
+export TWINTRACE_ROOT="$here"
+export LD_LIBRARY_PATH="$here/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
+log="$here/gpu-suite.log"
+"$here/integration" gpu_ --test-threads=1 "$@" >"$log" 2>&1
+status=$?
+grep -E '^test |^test result|panicked|^---- ' "$log"
+echo "gpu-suite: exit status $status; full log: $log"
+exit $status
+"#;
+
+pub fn run(args: &[String]) -> Result<(), String> {
+    let out = match args {
+        [] => PathBuf::from("target/gpu-suite"),
+        [flag, dir] if flag == "--out" => PathBuf::from(dir),
+        _ => return Err("usage: cargo xtask gpu-suite [--out DIR]".into()),
+    };
+    let lib = ensure_embree()?;
+    let env = embree_env(&lib);
+    let cargo_args = [
+        "test",
+        "--no-run",
+        "--package",
+        "twintrace",
+        "--test",
+        "integration",
+        "--features",
+        "reference/embree",
+        "--message-format=json-render-diagnostics",
+    ];
+    eprintln!("xtask: cargo {}", cargo_args.join(" "));
+    let output = Command::new("cargo")
+        .args(cargo_args)
+        .envs(env.iter().map(|(k, v)| (k, v)))
+        .stderr(Stdio::inherit())
+        .output()
+        .map_err(|e| format!("cannot run cargo: {e}"))?;
+    if !output.status.success() {
+        return Err(format!(
+            "building the test binary failed ({})",
+            output.status
+        ));
+    }
+    let binary = test_executable(&String::from_utf8_lossy(&output.stdout), "integration")
+        .ok_or("cargo reported no executable for the test target `integration`")?;
+
+    let _ = std::fs::remove_dir_all(&out);
+    std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let packed = out.join("integration");
+    copy(Path::new(&binary), &packed)?;
+    // Line tables make the binary several times larger; the suite needs
+    // none of them (a panic still names the test and its message).
+    if Command::new("strip")
+        .arg(&packed)
+        .status()
+        .is_ok_and(|s| s.success())
+    {
+        eprintln!("xtask: stripped {}", packed.display());
+    } else {
+        eprintln!("xtask: `strip` did not run; the packed binary keeps its debug info");
+    }
+    copy_tree(Path::new("fixtures"), &out.join("fixtures"))?;
+    if needs_library(&packed, "libembree4") {
+        copy_tree(&lib, &out.join("lib"))?;
+    }
+    let runner = out.join("run.sh");
+    std::fs::write(&runner, RUNNER).map_err(|e| format!("{}: {e}", runner.display()))?;
+    make_executable(&runner)?;
+    eprintln!(
+        "xtask: GPU suite in {} (run it there as `sh {}/run.sh`)",
+        out.display(),
+        out.display()
+    );
+    Ok(())
+}
+
+/// The `executable` of the compiler-artifact message for test target `name`
+/// in cargo's JSON output (one message per line).
+fn test_executable(json_lines: &str, name: &str) -> Option<String> {
+    json_lines
+        .lines()
+        .filter(|l| l.contains("\"reason\":\"compiler-artifact\""))
+        .filter(|l| l.contains(&format!("\"name\":\"{name}\"")))
+        .filter(|l| l.contains("\"test\":true"))
+        .find_map(|l| {
+            let start = l.find("\"executable\":\"")? + "\"executable\":\"".len();
+            let end = start + l[start..].find('"')?;
+            Some(l[start..end].to_string())
+        })
+}
+
+/// Whether the dynamic section of `binary` names a library starting with `prefix`.
+fn needs_library(binary: &Path, prefix: &str) -> bool {
+    Command::new("ldd")
+        .arg(binary)
+        .output()
+        .map(|o| {
+            String::from_utf8_lossy(&o.stdout)
+                .lines()
+                .any(|l| l.trim().starts_with(prefix))
+        })
+        .unwrap_or(true)
+}
+
+fn copy(from: &Path, to: &Path) -> Result<(), String> {
+    std::fs::copy(from, to)
+        .map(|_| ())
+        .map_err(|e| format!("copying {} to {}: {e}", from.display(), to.display()))
+}
+
+/// Copies a folder recursively, following links (the Embree folder holds one).
+fn copy_tree(from: &Path, to: &Path) -> Result<(), String> {
+    std::fs::create_dir_all(to).map_err(|e| format!("{}: {e}", to.display()))?;
+    for entry in std::fs::read_dir(from).map_err(|e| format!("{}: {e}", from.display()))? {
+        let path = entry.map_err(|e| e.to_string())?.path();
+        let target = to.join(path.file_name().unwrap_or_default());
+        if path.is_dir() {
+            copy_tree(&path, &target)?;
+        } else {
+            copy(&path, &target)?;
+        }
+    }
+    Ok(())
+}
+
+fn make_executable(path: &Path) -> Result<(), String> {
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o755))
+        .map_err(|e| format!("{}: {e}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::test_executable;
+
+    #[test]
+    fn finds_the_test_executable_in_cargo_json() {
+        let lines = concat!(
+            r#"{"reason":"compiler-artifact","target":{"kind":["lib"],"name":"integration","test":false},"executable":null}"#,
+            "\n",
+            r#"{"reason":"compiler-artifact","target":{"kind":["test"],"name":"integration","test":true},"profile":{},"executable":"/t/debug/deps/integration-ab12"}"#,
+            "\n",
+            r#"{"reason":"build-finished","success":true}"#,
+        );
+        assert_eq!(
+            test_executable(lines, "integration").as_deref(),
+            Some("/t/debug/deps/integration-ab12")
+        );
+        assert_eq!(test_executable(lines, "properties"), None);
+    }
+}
