@@ -24,32 +24,73 @@ fn float_up(x: f32) -> f32 {
     return bitcast<f32>(b - 1u);
 }
 
-// reference::geometry::next_down: NaN and -inf stay, both zeros step to
-// the negative smallest subnormal.
-fn float_down(x: f32) -> f32 {
+// reference::geometry::flush_subnormal, on the bits.
+fn flush_subnormal(x: f32) -> f32 {
     let b = bitcast<u32>(x);
-    let mag = b & 0x7fffffffu;
-    if mag > 0x7f800000u || b == 0xff800000u {
-        return x;
+    if (b & 0x7f800000u) == 0u {
+        return bitcast<f32>(b & 0x80000000u);
     }
-    if mag == 0u {
-        return bitcast<f32>(0x80000001u);
-    }
-    if b < 0x80000000u {
-        return bitcast<f32>(b - 1u);
-    }
-    return bitcast<f32>(b + 1u);
+    return x;
 }
 
-// reference::geometry::add_round_down / add_round_up.
+// reference::geometry::next_up_normal: a step into the subnormals goes on
+// to the smallest normal (from below zero: to -0).
+fn next_up_normal(x: f32) -> f32 {
+    let b = bitcast<u32>(float_up(x));
+    if (b & 0x7f800000u) == 0u && (b & 0x007fffffu) != 0u {
+        if b < 0x80000000u {
+            return bitcast<f32>(0x00800000u);
+        }
+        return bitcast<f32>(0x80000000u);
+    }
+    return bitcast<f32>(b);
+}
+
+// reference::geometry::next_down_normal (x is normal or zero here, so the
+// negations are exact whether or not the GPU flushes subnormals).
+fn next_down_normal(x: f32) -> f32 {
+    return -next_up_normal(-x);
+}
+
+// reference::geometry's snap_down / snap_up, on the bits: a subnormal
+// operand becomes the nearest normal-or-zero value below / above it.
+fn snap_down(x: f32) -> f32 {
+    let b = bitcast<u32>(x);
+    if (b & 0x7f800000u) == 0u && (b & 0x007fffffu) != 0u {
+        if b < 0x80000000u {
+            return 0.0;
+        }
+        return bitcast<f32>(0x80800000u);
+    }
+    return x;
+}
+
+fn snap_up(x: f32) -> f32 {
+    let b = bitcast<u32>(x);
+    if (b & 0x7f800000u) == 0u && (b & 0x007fffffu) != 0u {
+        if b < 0x80000000u {
+            return bitcast<f32>(0x00800000u);
+        }
+        return bitcast<f32>(0x80000000u);
+    }
+    return x;
+}
+
+// reference::geometry::add_round_down / add_round_up: no subnormal enters
+// or leaves the addition, so the bits do not depend on whether the GPU
+// flushes subnormals.
 fn add_round_down(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
-    let s = a + b;
-    return vec3<f32>(float_down(s.x), float_down(s.y), float_down(s.z));
+    let s = vec3<f32>(snap_down(a.x), snap_down(a.y), snap_down(a.z))
+        + vec3<f32>(snap_down(b.x), snap_down(b.y), snap_down(b.z));
+    let f = vec3<f32>(flush_subnormal(s.x), flush_subnormal(s.y), flush_subnormal(s.z));
+    return vec3<f32>(next_down_normal(f.x), next_down_normal(f.y), next_down_normal(f.z));
 }
 
 fn add_round_up(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
-    let s = a + b;
-    return vec3<f32>(float_up(s.x), float_up(s.y), float_up(s.z));
+    let s = vec3<f32>(snap_up(a.x), snap_up(a.y), snap_up(a.z))
+        + vec3<f32>(snap_up(b.x), snap_up(b.y), snap_up(b.z));
+    let f = vec3<f32>(flush_subnormal(s.x), flush_subnormal(s.y), flush_subnormal(s.z));
+    return vec3<f32>(next_up_normal(f.x), next_up_normal(f.y), next_up_normal(f.z));
 }
 
 struct SurfaceInteraction {

@@ -74,20 +74,75 @@ pub fn next_down(x: f32) -> f32 {
     -next_up(-x)
 }
 
+/// `x` with a subnormal replaced by the zero of its sign, as a GPU that
+/// flushes f32 subnormals (NVIDIA's Vulkan driver does, in compute shaders;
+/// wgpu asks for no denormal-preserving mode) reads or writes it.
+#[inline]
+pub fn flush_subnormal(x: f32) -> f32 {
+    if x.is_subnormal() {
+        f32::from_bits(x.to_bits() & 0x8000_0000)
+    } else {
+        x
+    }
+}
+
+/// A float above `x` that is not subnormal: [`next_up`], except that a
+/// step into the subnormals goes on to `f32::MIN_POSITIVE` (from below
+/// zero: to −0). Never below `next_up(x)`, so still an upper bound.
+#[inline]
+pub fn next_up_normal(x: f32) -> f32 {
+    let up = next_up(x);
+    match up.is_subnormal() {
+        true if up > 0.0 => f32::MIN_POSITIVE,
+        true => -0.0,
+        false => up,
+    }
+}
+
+/// The mirror of [`next_up_normal`]: a float below `x` that is not subnormal.
+#[inline]
+pub fn next_down_normal(x: f32) -> f32 {
+    -next_up_normal(-x)
+}
+
 /// `a + b` rounded to nearest, then one step down: never above the exact
 /// sum (round to nearest errs by at most half the gap to the neighbour on
 /// the exact sum's side), the directed rounding of interval arithmetic.
+///
+/// No subnormal enters or leaves the addition, so the bits are the same on
+/// a GPU that flushes subnormals as on one that keeps them (the WGSL twin
+/// `add_round_down` runs on both): a subnormal operand is first rounded
+/// down to a normal or zero (`snap_down`), a subnormal sum is flushed to
+/// its signed zero (what a flushing adder returns, and still within the
+/// step below), and the step skips the subnormals ([`next_down_normal`]).
 #[inline]
 pub fn add_round_down(a: Vec3, b: Vec3) -> Vec3 {
-    let s = a + b;
-    Vec3::new(next_down(s.x), next_down(s.y), next_down(s.z))
+    let s = (a.map(snap_down) + b.map(snap_down)).map(flush_subnormal);
+    s.map(next_down_normal)
 }
 
-/// `a + b` rounded to nearest, then one step up: never below the exact sum.
+/// `a + b` rounded to nearest, then one step up: never below the exact sum
+/// (subnormals handled as in [`add_round_down`], rounding up).
 #[inline]
 pub fn add_round_up(a: Vec3, b: Vec3) -> Vec3 {
-    let s = a + b;
-    Vec3::new(next_up(s.x), next_up(s.y), next_up(s.z))
+    let s = (a.map(snap_up) + b.map(snap_up)).map(flush_subnormal);
+    s.map(next_up_normal)
+}
+
+/// `x`, or for a subnormal the nearest normal-or-zero value below it.
+#[inline]
+fn snap_down(x: f32) -> f32 {
+    match x.is_subnormal() {
+        true if x > 0.0 => 0.0,
+        true => -f32::MIN_POSITIVE,
+        false => x,
+    }
+}
+
+/// `x`, or for a subnormal the nearest normal-or-zero value above it.
+#[inline]
+fn snap_up(x: f32) -> f32 {
+    -snap_down(-x)
 }
 
 /// An axis-aligned bounding box. The empty box has `min > max`.
@@ -250,6 +305,56 @@ pub fn refract(d: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The box rounding must give the same bits on a GPU that flushes f32
+    /// subnormals (the H100's driver: a bound padded to -1e-45 came back as
+    /// -0) as on one that keeps them (lavapipe, the CPU): no subnormal in,
+    /// none out, and still an outward bound of the exact sum. Fails when
+    /// the skip over the subnormals or the flush of the operands is removed.
+    #[test]
+    fn box_rounding_is_conservative_and_free_of_subnormals() {
+        let tiny = f32::MIN_POSITIVE;
+        let values = [
+            0.0,
+            -0.0,
+            1e-45,
+            -1e-45,
+            1e-40,
+            -3e-39,
+            tiny,
+            -tiny,
+            2.0 * tiny,
+            1.0,
+            -555.0,
+            555.0,
+            f32::MAX,
+        ];
+        for &a in &values {
+            for &b in &values {
+                let (va, vb) = (Vec3::splat(a), Vec3::splat(b));
+                let (lo, hi) = (add_round_down(va, vb).x, add_round_up(va, vb).x);
+                assert!(
+                    !lo.is_subnormal() && !hi.is_subnormal(),
+                    "{a} + {b}: {lo} {hi}"
+                );
+                let exact = a as f64 + b as f64;
+                assert!(
+                    (lo as f64) <= exact && exact <= hi as f64,
+                    "{a} + {b}: [{lo}, {hi}]"
+                );
+                // A flushing adder would read these operands and return
+                // this sum unchanged: the rounding never hands it a subnormal.
+                let (sa, sb) = (snap_down(a), snap_down(b));
+                assert!(!sa.is_subnormal() && !sb.is_subnormal(), "{a} + {b}");
+                assert!(
+                    !snap_up(a).is_subnormal() && !snap_up(b).is_subnormal(),
+                    "{a} + {b}"
+                );
+            }
+        }
+        assert_eq!(add_round_up(Vec3::ZERO, Vec3::ZERO).x, tiny);
+        assert_eq!(add_round_down(Vec3::ZERO, Vec3::ZERO).x, -tiny);
+    }
 
     #[test]
     fn float_steps_match_the_ieee_successor() {
