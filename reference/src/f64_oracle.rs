@@ -302,6 +302,73 @@ pub fn line_segment_distance(o: DVec3, d: DVec3, a: DVec3, b: DVec3) -> f64 {
     (pw + r * pu).length()
 }
 
+// The error model of two f32 intersectors run on the same rays (the
+// reference and Embree, the reference and its WGSL twin): where they may
+// legitimately disagree, and by how much. L is the magnitude the f32
+// arithmetic works on (`reach`), u = F32_UNIT_ROUNDOFF, cos θ between the
+// ray and the surface normal at the hit.
+
+/// How close (in units of u·L) a ray may pass to an edge, vertex or
+/// silhouette for the two intersectors to decide hit-or-miss differently.
+/// Provenance: each routine locates an edge from sheared or translated
+/// coordinates carrying ≤ γ(3)·2L error each, combined in a 2x2 edge
+/// function (γ(2) more), i.e. ≲ 8·u·L in the plane across the ray, ×√3
+/// between that plane and the distance to the ray's line; the two routines'
+/// errors add (~28·u·L). 64 leaves a 2x margin. (A GPU twin may contract
+/// `a·b + c` into one rounding, which only tightens these γ bounds.) The reference's quad test
+/// locates the hit from its t (o + t·d, then planar coordinates), so its
+/// edge is uncertain by the t error below: for quads the distance is
+/// divided by |cos θ|.
+pub const EDGE_ERROR_ULPS: f64 = 64.0;
+/// Bound on one side's t error, in u·L/(|d|·|cos θ|). Provenance: a plane
+/// hit t = n·(p − o)/(n·d) carries ≤ γ(5)·|p − o| in the numerator and γ(4)
+/// in the denominator, ≲ 9·u·L/(|d| cos θ) for the reference's quads,
+/// ≲ 10·u·L/|d| for its watertight triangles (γ(10)·max|z_i|), and the
+/// same order for Embree's; a sphere's root adds |f|·γ(6)/cos θ near
+/// tangency. Both sides: ~20; 64 leaves a 3x margin, which also covers a
+/// Vulkan driver's division and square root (2.5 ulp allowed instead of
+/// 0.5: a few u·L more on the sphere's root).
+pub const T_ERROR_ULPS: f64 = 64.0;
+
+/// L: the magnitudes the f32 arithmetic of a hit on `shape` from `o` works
+/// on (the farthest point of the shape from `o`, plus `|o|_∞`).
+pub fn reach(shape: &Shape64, o: DVec3) -> f64 {
+    shape.reach(o) + o.abs().max_element()
+}
+
+/// The bound on |Δt| between two f32 routines for a crossing of `shape`
+/// at the (f64) distance `t`: `T_ERROR_ULPS · u · L / (|d| · |cos θ|)`.
+pub fn t_error_bound(shape: &Shape64, ray: &Ray, t: f64) -> f64 {
+    let (o, d) = ray_f64(ray);
+    T_ERROR_ULPS * F32_UNIT_ROUNDOFF * reach(shape, o)
+        / (d.length() * shape.cos_incidence(d, o + t * d).max(1e-300))
+}
+
+/// Whether `ray` passes so close to an edge, vertex or silhouette of
+/// `shape` (hit near `t`) that two f32 routines may decide hit-or-miss
+/// differently: within `EDGE_ERROR_ULPS · u · L` (for a quad, whose hit is
+/// located from its t, divided by |cos θ|).
+pub fn near_boundary(shape: &Shape64, ray: &Ray, t: f32) -> bool {
+    let (o, d) = ray_f64(ray);
+    let mut limit = EDGE_ERROR_ULPS * F32_UNIT_ROUNDOFF * reach(shape, o);
+    if matches!(shape, Shape64::Quad { .. }) {
+        let x = o + shape.t_near(ray, t as f64).unwrap_or(t as f64) * d;
+        limit /= shape.cos_incidence(d, x).max(1e-300);
+    }
+    shape.boundary_distance(ray) <= limit
+}
+
+/// Whether two surfaces, hit at about `ta` and `tb`, are crossed within
+/// the sum of their t error bounds (a tie either routine may break).
+pub fn near_tie(a: (&Shape64, f32), b: (&Shape64, f32), ray: &Ray) -> bool {
+    match (a.0.t_near(ray, a.1 as f64), b.0.t_near(ray, b.1 as f64)) {
+        (Some(xa), Some(xb)) => {
+            (xa - xb).abs() <= t_error_bound(a.0, ray, xa) + t_error_bound(b.0, ray, xb)
+        }
+        _ => false,
+    }
+}
+
 /// The spacing of f32 values around `x` (ulp of |x| as an f32; the
 /// smallest subnormal spacing at 0).
 pub fn ulp_f32(x: f64) -> f64 {

@@ -1,15 +1,15 @@
 //! Property: the reference and Intel Embree 4 (an intersector they share no
 //! code with) find the same primitive on the same ray, except where the
 //! answer is legitimately up to f32 rounding:
-//! - the ray passes within `EDGE_ULPS · u · L` of an edge or vertex of an
+//! - the ray passes within `EDGE_ERROR_ULPS · u · L` (see `reference::f64_oracle`) of an edge or vertex of an
 //!   involved primitive (for a sphere: of its silhouette; for a quad the
 //!   distance is divided by |cos θ|, see below), or
 //! - the two surfaces' exact hit distances are within the sum of both
-//!   routines' t error bounds, `T_ULPS · u · L / |cos θ|` each (a tie), or
+//!   routines' t error bounds, `T_ERROR_ULPS · u · L / |cos θ|` each (a tie), or
 //! - the hit lies within that t error of the interval's ends (a ray that
 //!   starts on a surface).
 //!
-//! Where both find the same primitive, `|Δt| · |d| ≤ T_ULPS · u · L / |cos θ|`.
+//! Where both find the same primitive, `|Δt| · |d| ≤ T_ERROR_ULPS · u · L / |cos θ|`.
 //!
 //! u = 2^-24 is f32's unit roundoff; L is the largest distance from the ray
 //! origin to the primitive plus `|origin|_∞` (the magnitudes the f32
@@ -33,27 +33,12 @@ use proptest::prelude::*;
 use proptest::test_runner::FileFailurePersistence;
 use rayon::prelude::*;
 use reference::embree::EmbreeScene;
-use reference::f64_oracle::{ray_f64, ulps_error, Distribution, Shape64, F32_UNIT_ROUNDOFF as U};
-use reference::scene::{primitive_tag, Scene};
+use reference::f64_oracle::{
+    self, ray_f64, ulps_error, Distribution, Shape64, F32_UNIT_ROUNDOFF as U,
+    T_ERROR_ULPS as T_ULPS,
+};
+use reference::scene::Scene;
 
-/// How close (in units of u·L) a ray may pass to an edge, vertex or
-/// silhouette for the two intersectors to decide hit-or-miss differently.
-/// Provenance: each routine locates an edge from sheared or translated
-/// coordinates carrying ≤ γ(3)·2L error each, combined in a 2x2 edge
-/// function (γ(2) more), i.e. ≲ 8·u·L in the plane across the ray, ×√3
-/// between that plane and the distance to the ray's line; the two routines'
-/// errors add (~28·u·L). 64 leaves a 2x margin. The reference's quad test
-/// locates the hit from its t (o + t·d, then planar coordinates), so its
-/// edge is uncertain by the t error below: for quads the distance is
-/// divided by |cos θ|.
-const EDGE_ULPS: f64 = 64.0;
-/// Bound on one side's t error, in u·L/(|d|·|cos θ|). Provenance: a plane
-/// hit t = n·(p − o)/(n·d) carries ≤ γ(5)·|p − o| in the numerator and γ(4)
-/// in the denominator, ≲ 9·u·L/(|d| cos θ) for the reference's quads,
-/// ≲ 10·u·L/|d| for its watertight triangles (γ(10)·max|z_i|), and the
-/// same order for Embree's; a sphere's root adds |f|·γ(6)/cos θ near
-/// tangency. Both sides: ~20; 64 leaves a 3x margin.
-const T_ULPS: f64 = 64.0;
 /// Rays per fixture: the 10^6 for each of the 12 fixture scenes
 /// (split over both cores); TWINTRACE_AGREEMENT_RAYS overrides it.
 const RAYS_PER_FIXTURE: usize = 1_000_000;
@@ -166,26 +151,16 @@ fn sci(d: &mut Distribution) -> String {
     )
 }
 
-/// The magnitudes the f32 arithmetic of a hit on `shape` works on.
 fn reach(shape: &Shape64, o: DVec3) -> f64 {
-    shape.reach(o) + o.abs().max_element()
+    f64_oracle::reach(shape, o)
 }
 
-/// One side's t error bound, in t, for a crossing of `shape` at (f64) `t`.
 fn t_bound(shape: &Shape64, q: &Query, t: f64) -> f64 {
-    let (o, d) = ray_f64(&q.ray);
-    T_ULPS * U * reach(shape, o) / (d.length() * shape.cos_incidence(d, o + t * d).max(1e-300))
+    f64_oracle::t_error_bound(shape, &q.ray, t)
 }
 
 fn near_edge(scene: &Scene, prim: u32, t: f32, q: &Query) -> bool {
-    let shape = Shape64::of(scene, prim);
-    let (o, d) = ray_f64(&q.ray);
-    let mut limit = EDGE_ULPS * U * reach(&shape, o);
-    if scene.primitives[prim as usize].tag == primitive_tag::QUAD {
-        let x = o + shape.t_near(&q.ray, t as f64).unwrap_or(t as f64) * d;
-        limit /= shape.cos_incidence(d, x).max(1e-300);
-    }
-    shape.boundary_distance(&q.ray) <= limit
+    f64_oracle::near_boundary(&Shape64::of(scene, prim), &q.ray, t)
 }
 
 fn at_interval_end(scene: &Scene, prim: u32, t: f32, q: &Query) -> bool {
@@ -195,13 +170,9 @@ fn at_interval_end(scene: &Scene, prim: u32, t: f32, q: &Query) -> bool {
         || (q.t_max.is_finite() && (q.t_max as f64 - t as f64).abs() <= bound)
 }
 
-/// Both surfaces are crossed within the sum of the two t error bounds.
 fn tie(scene: &Scene, (a, ta): (u32, f32), (b, tb): (u32, f32), q: &Query) -> bool {
     let (sa, sb) = (Shape64::of(scene, a), Shape64::of(scene, b));
-    match (sa.t_near(&q.ray, ta as f64), sb.t_near(&q.ray, tb as f64)) {
-        (Some(xa), Some(xb)) => (xa - xb).abs() <= t_bound(&sa, q, xa) + t_bound(&sb, q, xb),
-        _ => false,
-    }
+    f64_oracle::near_tie((&sa, ta), (&sb, tb), &q.ray)
 }
 
 /// One query's outcome, added to `t`.
