@@ -2,6 +2,7 @@
 //! exit status 1, no panic, and no output files; and a small render
 //! succeeds with both files in place.
 
+use crate::common;
 use std::path::Path;
 use std::process::{Command, Stdio};
 
@@ -16,7 +17,7 @@ fn twintrace(dir: &Path, args: &[&str]) -> Outcome {
 }
 
 fn twintrace_env(dir: &Path, args: &[&str], env: &[(&str, &str)]) -> Outcome {
-    let out = Command::new(env!("CARGO_BIN_EXE_twintrace"))
+    let out = Command::new(common::twintrace_bin())
         .args(args)
         .envs(env.iter().copied())
         .current_dir(dir)

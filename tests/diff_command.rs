@@ -3,6 +3,7 @@
 //! the metrics, and writes a self-contained HTML report; a failing image
 //! gate leaves the same evidence under `target/diff/<test>/`.
 
+use crate::common;
 use crate::common::gates::assert_passes;
 use reference::RenderSettings;
 use std::path::Path;
@@ -20,7 +21,7 @@ struct Outcome {
 }
 
 fn diff(dir: &Path, args: &[&str]) -> Outcome {
-    let out = Command::new(env!("CARGO_BIN_EXE_twintrace"))
+    let out = Command::new(common::twintrace_bin())
         .arg("diff")
         .args(args)
         .current_dir(dir)

@@ -15,3 +15,12 @@ pub fn gpu() -> &'static gpu::GpuContext {
         ),
     })
 }
+
+/// The `twintrace` binary under test: `$TWINTRACE_BIN` when set (the GPU
+/// suite carries it beside the test binary), else the one cargo built.
+pub fn twintrace_bin() -> std::path::PathBuf {
+    match std::env::var_os("TWINTRACE_BIN") {
+        Some(bin) if !bin.is_empty() => bin.into(),
+        _ => env!("CARGO_BIN_EXE_twintrace").into(),
+    }
+}

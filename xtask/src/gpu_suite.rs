@@ -5,7 +5,8 @@
 //! Builds the integration test binary with the features `cargo xtask test`
 //! uses (so the build is shared), then writes into DIR (default
 //! `target/gpu-suite`):
-//! - `integration`: the test binary, stripped;
+//! - `integration`: the test binary, stripped, and `twintrace`, the CLI
+//!   it runs (found through `TWINTRACE_BIN`, which `run.sh` sets);
 //! - `fixtures/`: the scenes, meshes, textures and stored references the
 //!   gates read (the binary finds them through `TWINTRACE_ROOT`, which
 //!   `run.sh` sets to DIR, so no path of the build machine is needed);
@@ -26,6 +27,7 @@ const RUNNER: &str = r#"#!/bin/sh
 # (e.g. a test name filter, --nocapture). Exit status: the test binary's.
 here=$(cd "$(dirname "$0")" && pwd)
 export TWINTRACE_ROOT="$here"
+export TWINTRACE_BIN="$here/twintrace"
 export LD_LIBRARY_PATH="$here/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
 log="$here/gpu-suite.log"
@@ -68,23 +70,29 @@ pub fn run(args: &[String]) -> Result<(), String> {
             output.status
         ));
     }
-    let binary = test_executable(&String::from_utf8_lossy(&output.stdout), "integration")
+    let messages = String::from_utf8_lossy(&output.stdout);
+    let binary = artifact_executable(&messages, "integration", true)
         .ok_or("cargo reported no executable for the test target `integration`")?;
+    let cli = artifact_executable(&messages, "twintrace", false)
+        .ok_or("cargo reported no executable for the binary `twintrace`")?;
 
     let _ = std::fs::remove_dir_all(&out);
     std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
     let packed = out.join("integration");
-    copy(Path::new(&binary), &packed)?;
-    // Line tables make the binary several times larger; the suite needs
-    // none of them (a panic still names the test and its message).
-    if Command::new("strip")
-        .arg(&packed)
-        .status()
-        .is_ok_and(|s| s.success())
-    {
-        eprintln!("xtask: stripped {}", packed.display());
-    } else {
-        eprintln!("xtask: `strip` did not run; the packed binary keeps its debug info");
+    for (from, to) in [(&binary, &packed), (&cli, &out.join("twintrace"))] {
+        copy(Path::new(from), to)?;
+        // Debug info makes a binary many times larger; the suite needs none
+        // (a panic still names the test and its message).
+        if !Command::new("strip")
+            .arg(to)
+            .status()
+            .is_ok_and(|s| s.success())
+        {
+            eprintln!(
+                "xtask: `strip` did not run; {} keeps its debug info",
+                to.display()
+            );
+        }
     }
     copy_tree(Path::new("fixtures"), &out.join("fixtures"))?;
     if needs_library(&packed, "libembree4") {
@@ -101,14 +109,16 @@ pub fn run(args: &[String]) -> Result<(), String> {
     Ok(())
 }
 
-/// The `executable` of the compiler-artifact message for test target `name`
-/// in cargo's JSON output (one message per line).
-fn test_executable(json_lines: &str, name: &str) -> Option<String> {
+/// The `executable` of the compiler-artifact message for target `name` in
+/// cargo's JSON output (one message per line): its test build when `test`,
+/// else its plain build (a binary the tests run).
+fn artifact_executable(json_lines: &str, name: &str, test: bool) -> Option<String> {
+    let profile_test = format!("\"test\":{test}}}");
     json_lines
         .lines()
         .filter(|l| l.contains("\"reason\":\"compiler-artifact\""))
         .filter(|l| l.contains(&format!("\"name\":\"{name}\"")))
-        .filter(|l| l.contains("\"test\":true"))
+        .filter(|l| l.contains(&profile_test))
         .find_map(|l| {
             let start = l.find("\"executable\":\"")? + "\"executable\":\"".len();
             let end = start + l[start..].find('"')?;
@@ -158,21 +168,25 @@ fn make_executable(path: &Path) -> Result<(), String> {
 
 #[cfg(test)]
 mod tests {
-    use super::test_executable;
+    use super::artifact_executable;
 
     #[test]
     fn finds_the_test_executable_in_cargo_json() {
         let lines = concat!(
-            r#"{"reason":"compiler-artifact","target":{"kind":["lib"],"name":"integration","test":false},"executable":null}"#,
+            r#"{"reason":"compiler-artifact","target":{"kind":["bin"],"name":"twintrace","test":true},"profile":{"opt_level":"1","test":false},"executable":"/t/debug/twintrace"}"#,
             "\n",
-            r#"{"reason":"compiler-artifact","target":{"kind":["test"],"name":"integration","test":true},"profile":{},"executable":"/t/debug/deps/integration-ab12"}"#,
+            r#"{"reason":"compiler-artifact","target":{"kind":["test"],"name":"integration","test":true},"profile":{"opt_level":"1","test":true},"executable":"/t/debug/deps/integration-ab12"}"#,
             "\n",
             r#"{"reason":"build-finished","success":true}"#,
         );
         assert_eq!(
-            test_executable(lines, "integration").as_deref(),
+            artifact_executable(lines, "integration", true).as_deref(),
             Some("/t/debug/deps/integration-ab12")
         );
-        assert_eq!(test_executable(lines, "properties"), None);
+        assert_eq!(
+            artifact_executable(lines, "twintrace", false).as_deref(),
+            Some("/t/debug/twintrace")
+        );
+        assert_eq!(artifact_executable(lines, "properties", true), None);
     }
 }
