@@ -190,9 +190,14 @@ fn check_scene(spec: &str, scene: &Scene) {
          and |Δuv| {worst_uv:.3} of their bounds",
         rays.len()
     );
-    // Edge cases must stay rare, or the "explained" escape hides a bug.
+    // Each excuse is checked by the f64 oracle, but excused rays must still
+    // stay rare, or a broken routine could hide among them. Measured: 0 on
+    // lavapipe (same bits, same tie breaks); on the H100, 23 of 8192 on the
+    // Cornell box (0.28 %: the boxes' bottoms are coplanar with the floor,
+    // ties either side may win), 1 on textures, 0 elsewhere. 1 % leaves
+    // 3.5x over the worst measured scene.
     assert!(
-        explained * 1000 <= rays.len(),
+        explained * 100 <= rays.len(),
         "{spec}: {explained} disagreements of {}",
         rays.len()
     );
