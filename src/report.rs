@@ -291,12 +291,20 @@ fn table_rows(r: &Report) -> Vec<(String, String)> {
                 ag.tile_alpha
             ),
         ));
+        let floor = format!(
+            "{:e} per sample (Mitsuba 3's clamp)",
+            v.settings.variance_floor
+        );
         rows.push((
             "variance floor".into(),
-            format!(
-                "{:e} per sample (Mitsuba 3's clamp)",
-                v.settings.variance_floor
-            ),
+            if r.a.spp.is_some() && r.b.spp.is_some() {
+                floor
+            } else {
+                format!(
+                    "{floor} where the sample count is known; an image without one: its \
+                     variance of the mean as given, floored only at f32 resolution (8 ulps of the mean)"
+                )
+            },
         ));
     }
     let m = r.metrics;

@@ -8,11 +8,12 @@ use crate::common::gates::assert_passes;
 use reference::RenderSettings;
 use std::path::Path;
 use std::process::{Command, Stdio};
+use twintrace::compare::gate::reference_paths;
 use twintrace::compare::gate::{
     artifact_dir, cpu_reference, fixture_scene, load_reference, load_scene, manifest_entry,
     run_gate,
 };
-use twintrace::{write_exr, RenderImage, RenderMetadata};
+use twintrace::{read_exr, write_exr, RenderImage, RenderMetadata};
 
 struct Outcome {
     code: Option<i32>,
@@ -271,4 +272,120 @@ fn a_failing_image_gate_writes_its_evidence_and_names_it() {
         let img = twintrace::read_exr(&dir.join(f)).unwrap();
         assert!(img.variance.is_some() && img.width == 32, "{f}");
     }
+}
+
+/// Renders the Cornell box fixture as its stored reference was made (64x64,
+/// depth 50) at 1024 spp with `seed`, scaling the darkest `dark_fraction`
+/// of the pixels by `dark_scale`, into `dir/name.exr` (spp recorded).
+fn render_cornell(dir: &Path, name: &str, seed: u32, dark_fraction: f64, dark_scale: f32) {
+    let spec = manifest_entry("cornell-boxes").unwrap();
+    let scene = load_scene(&spec).unwrap();
+    let settings = RenderSettings {
+        width: spec.width,
+        height: spec.height,
+        spp: 1024,
+        max_depth: spec.max_depth,
+        seed,
+        ..scene.render
+    };
+    let film = reference::render(&scene, &settings, &|_| {});
+    let meta = RenderMetadata {
+        spp: Some(settings.spp),
+        seed: Some(seed),
+        ..Default::default()
+    };
+    let mut image = RenderImage::from_film(&film, meta);
+    let mut order: Vec<usize> = (0..image.mean.len()).collect();
+    order.sort_by(|&i, &j| {
+        image.mean[i]
+            .element_sum()
+            .total_cmp(&image.mean[j].element_sum())
+    });
+    let dark = (order.len() as f64 * dark_fraction) as usize;
+    for &i in &order[..dark] {
+        image.mean[i] *= dark_scale;
+    }
+    write_exr(&dir.join(format!("{name}.exr")), &image).unwrap();
+}
+
+/// `twintrace diff` with its defaults, a correct render against the stored
+/// reference: the seeds at which the old default (Welch, both images having
+/// a variance) failed the Cornell box's per-pixel test (99.17 % < 99.75 %).
+/// The default is now the z-test against the side with 16x the samples.
+#[test]
+fn correct_renders_pass_against_the_stored_reference_by_default() {
+    let dir = tempfile::tempdir().unwrap();
+    let stored = reference_paths("cornell-boxes").0.display().to_string();
+    for seed in [2, 5] {
+        render_cornell(dir.path(), "render", seed, 0.0, 1.0);
+        let o = diff(dir.path(), &["render.exr", &stored, "--report", "r.html"]);
+        assert_eq!(o.code, Some(0), "seed {seed}\n{}{}", o.stdout, o.stderr);
+        assert!(
+            o.stdout.contains("z-test against a reference"),
+            "{}",
+            o.stdout
+        );
+    }
+}
+
+/// A reference written by another renderer often has a variance layer but
+/// no sample count. A render whose darkest fifth of the pixels is halved
+/// must still fail against it: the old default floored the reference's
+/// variance of the mean at 1e-4 (a per-sample floor), and that render
+/// passed (per-pixel 100 %, tiles too).
+#[test]
+fn darkened_shadows_fail_against_a_reference_without_spp() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut stored = read_exr(&reference_paths("cornell-boxes").0).unwrap();
+    stored.metadata.spp = None;
+    write_exr(&dir.path().join("foreign.exr"), &stored).unwrap();
+    render_cornell(dir.path(), "dark", 2, 0.2, 0.5);
+    let o = diff(
+        dir.path(),
+        &["dark.exr", "foreign.exr", "--report", "r.html"],
+    );
+    assert_eq!(o.code, Some(1), "{}{}", o.stdout, o.stderr);
+    assert!(
+        o.stdout.contains("assumed: B has no sample count"),
+        "{}",
+        o.stdout
+    );
+    // A correct render against the same reference: the aggregate tests
+    // pass. Its per-pixel Welch test does not (99.16 % at seed 2): with no
+    // sample count for B, the render's own variance must stand in for its
+    // noise, and pixels lit by a few rare light hits under-report it. That
+    // is asserted as known until the per-pixel test handles heavy tails
+    // (docs/gates.md, open item); given the count, `--spp-b`, the z-test
+    // against the reference applies and the render passes.
+    render_cornell(dir.path(), "fine", 2, 0.0, 1.0);
+    let o = diff(
+        dir.path(),
+        &["fine.exr", "foreign.exr", "--report", "r.html"],
+    );
+    let line = |prefix: &str| {
+        o.stdout
+            .lines()
+            .find(|l| l.starts_with(prefix))
+            .unwrap_or("")
+            .to_string()
+    };
+    assert!(line("image sum").ends_with("pass"), "{}", o.stdout);
+    assert!(line("8x8 tile sums").ends_with("pass"), "{}", o.stdout);
+    assert!(
+        line("per-pixel").ends_with("FAIL"),
+        "known heavy-tail false alarm gone? {}",
+        o.stdout
+    );
+    let o = diff(
+        dir.path(),
+        &[
+            "fine.exr",
+            "foreign.exr",
+            "--spp-b",
+            "16384",
+            "--report",
+            "r.html",
+        ],
+    );
+    assert_eq!(o.code, Some(0), "{}{}", o.stdout, o.stderr);
 }

@@ -56,7 +56,8 @@ pub struct DiffArgs {
 /// `--method`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum DiffMethod {
-    /// Welch if both images have a variance, else a z-test with the one there is.
+    /// The z-test against B (or A) when it has at least 4x the other's samples per pixel;
+    /// else Welch if both images have a variance; else a z-test with the one there is.
     Auto,
     /// Welch's t-test on two noisy renders.
     Welch,
@@ -147,6 +148,17 @@ pub fn execute(args: &DiffArgs) -> Result<DiffOutcome> {
         spp(a.spp),
         spp(b.spp)
     );
+    for (name, img) in [("A", &a), ("B", &b)] {
+        if img.spp.is_none() && img.variance.is_some() {
+            text += &format!(
+                "assumed: {name} has no sample count (spp attribute or --spp-{0}), so its variance \
+                 of the mean is used as given (floored only at f32 resolution) with unlimited \
+                 degrees of freedom; if {name} is a high-spp reference, give --spp-{0} N for the \
+                 z-test against it\n",
+                name.to_lowercase()
+            );
+        }
+    }
     match &verdict {
         Some(v) => text += &v.summary(),
         None => text += "no statistical test: neither image has a variance (give --variance-a or --variance-b)\n",
