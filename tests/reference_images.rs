@@ -13,7 +13,7 @@ use twintrace::compare::gate::{cpu_reference, read_manifest};
 const TEST_SEED: u32 = 7;
 
 /// One test per reference, with its budget in samples per pixel: 1024
-/// everywhere (the DESIGN.md measurement: a 64x64 Cornell box at 1024 spp
+/// everywhere (the measurement behind the aggregate tests: a 64x64 Cornell box at 1024 spp
 /// against 16384); about 10 s for all eight on two cores at the test
 /// profile's opt-level 1.
 macro_rules! gates {

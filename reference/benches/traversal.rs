@@ -12,7 +12,7 @@
 //! spheres, 0.05–3 above the ground, in uniform directions), and closed
 //! meshes with rays from random interior points in uniform directions:
 //! tori of exactly 10^4 and 10^6 triangles, and the bumpy spheres that
-//! DESIGN.md's Embree anchors name, at the icosphere levels on either side
+//! docs/benchmarks.md's Embree anchors name, at the icosphere levels on either side
 //! of its 10^4 and 10^6 triangles (`bumpy_sphere` levels 4, 5, 7 and 8:
 //! 5,120, 20,480, 327,680 and 1,310,720 triangles). `TWINTRACE_BENCH_RAYS` sets
 //! the ray count (default 10^6), `TWINTRACE_BENCH_ONLY` a substring of the

@@ -392,7 +392,7 @@ mod tests {
                 .intersect(&ray, 0.0, f32::INFINITY)
                 .unwrap_or_else(|| panic!("x = {x}: no hit"));
             assert_eq!(h.prim, prim, "x = {x}");
-            // Embree's t is within a few ulps of the exact answer (GPU.md: 0.99999994 for 1).
+            // Embree's t is within a few ulps of the exact answer (measured: 0.99999994 for 1).
             assert!(
                 (h.t - t).abs() <= 4.0 * f32::EPSILON * t,
                 "x = {x}: t = {}",

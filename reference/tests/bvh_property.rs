@@ -105,7 +105,7 @@ fn bvh_equals_brute_force_on_every_fixture() {
 }
 
 /// The property must be able to fail: drop one primitive from one BVH leaf
-/// (the mutation DESIGN.md names: "a BVH child dropped") and the same
+/// (the gates' standard mutant: "a BVH child dropped") and the same
 /// queries must find a difference: in a leaf of quads and spheres (tested
 /// entry by entry) and in a leaf of triangles (tested four at a time).
 #[test]

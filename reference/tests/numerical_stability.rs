@@ -761,7 +761,7 @@ fn render_scaled(scale: f32, albedo: f32, seed: u32) -> reference::Film {
 }
 
 /// Tests per image that may fail by chance: the per-pixel gate of
-/// DESIGN.md passes at ≥ 99.75 % passing tests; the image-sum test uses
+/// docs/gates.md passes at ≥ 99.75 % passing tests; the image-sum test uses
 /// Šidák over 3 channels at α = 0.01 (|z| < 2.94).
 const MAX_FAILING_FRACTION: f64 = 0.0025;
 const Z_SUM_CRIT: f64 = 2.94;
@@ -786,7 +786,7 @@ fn a_scene_scaled_by_1e_3_and_1e3_renders_the_same_image() {
 }
 
 /// The gate above can fail: walls 5 % darker (an albedo change of the kind
-/// DESIGN.md's mutation tests use) are caught at the same budget.
+/// tests/gates_catch_mutants.rs uses) are caught at the same budget.
 #[test]
 fn the_scale_invariance_gate_catches_a_changed_scene() {
     let base = render_scaled(1.0, 0.73, 1);

@@ -1,6 +1,6 @@
 //! Are two renders the same? The statistical and exact gates.
 //!
-//! DESIGN.md ("What equivalent means") sets the rules; this module holds
+//! docs/gates.md lists the gates and what each catches; this module holds
 //! one implementation of each, with its formulas in the doc comments:
 //!
 //! - [`image`]: two images with variances — per-pixel z-test against a

@@ -19,7 +19,7 @@ use crate::util::run as sh;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// The wheel that carries Embree 4 (see GPU.md in the project notes).
+/// The wheel that carries Embree 4 (the module comment says why a wheel).
 const EMBREE_WHEEL: &str = "embreex==4.4.0.post1";
 /// The wheel is built per CPython version; any one carries the same
 /// libraries, so pin the one that exists for x86_64 Linux.
