@@ -33,13 +33,6 @@ fn safe_inv_dir(d: vec3<f32>) -> vec3<f32> {
     return 1.0 / dd;
 }
 
-fn next_up(x: f32) -> f32 {
-    if x >= 3.0e38 {
-        return x;
-    }
-    return bitcast<f32>(bitcast<u32>(x) + 1u);
-}
-
 fn node_min(n: BvhNode) -> vec3<f32> {
     return vec3<f32>(n.min_x, n.min_y, n.min_z);
 }

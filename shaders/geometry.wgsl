@@ -9,7 +9,7 @@ struct Ray {
 // reference::geometry::next_up, on the bits (so a GPU that flushes
 // subnormals in arithmetic still steps through them): NaN and +inf stay,
 // both zeros step to the smallest subnormal.
-fn float_up(x: f32) -> f32 {
+fn next_up(x: f32) -> f32 {
     let b = bitcast<u32>(x);
     let mag = b & 0x7fffffffu;
     if mag > 0x7f800000u || b == 0x7f800000u {
@@ -36,7 +36,7 @@ fn flush_subnormal(x: f32) -> f32 {
 // reference::geometry::next_up_normal: a step into the subnormals goes on
 // to the smallest normal (from below zero: to -0).
 fn next_up_normal(x: f32) -> f32 {
-    let b = bitcast<u32>(float_up(x));
+    let b = bitcast<u32>(next_up(x));
     if (b & 0x7f800000u) == 0u && (b & 0x007fffffu) != 0u {
         if b < 0x80000000u {
             return bitcast<f32>(0x00800000u);
@@ -46,10 +46,11 @@ fn next_up_normal(x: f32) -> f32 {
     return bitcast<f32>(b);
 }
 
-// reference::geometry::next_down_normal (x is normal or zero here, so the
-// negations are exact whether or not the GPU flushes subnormals).
+// reference::geometry::next_down_normal; the negations flip the sign bit
+// (an arithmetic negation of a subnormal may be flushed first).
 fn next_down_normal(x: f32) -> f32 {
-    return -next_up_normal(-x);
+    let up = next_up_normal(bitcast<f32>(bitcast<u32>(x) ^ 0x80000000u));
+    return bitcast<f32>(bitcast<u32>(up) ^ 0x80000000u);
 }
 
 // reference::geometry's snap_down / snap_up, on the bits: a subnormal

@@ -27,6 +27,7 @@ mod gpu_errors;
 mod gpu_furnace;
 mod gpu_hits_match_reference;
 mod gpu_matches_reference;
+mod gpu_numerics_match_reference;
 mod gpu_renders_fixtures;
 mod gpu_rng_matches_cpu;
 mod gpu_sampling_chi2;
