@@ -23,6 +23,9 @@ fn numerics_main(@builtin(global_invocation_id) gid: vec3<u32>) {
 }
 ";
 
+/// A float-stepping routine of `reference::geometry`.
+type Step = fn(f32) -> f32;
+
 fn inputs() -> Vec<f32> {
     let tiny = f32::MIN_POSITIVE;
     let mut v = vec![
@@ -72,7 +75,7 @@ fn float_steps_are_bit_identical_on_the_gpu() {
         film: None,
     };
     let out = run_test_kernel(ctx, &renderer, &kernel).unwrap();
-    let routines: [(&str, fn(f32) -> f32); 4] = [
+    let routines: [(&str, Step); 4] = [
         ("next_up", next_up),
         ("next_up_normal", next_up_normal),
         ("next_down_normal", next_down_normal),
