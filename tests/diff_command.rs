@@ -389,3 +389,35 @@ fn darkened_shadows_fail_against_a_reference_without_spp() {
     );
     assert_eq!(o.code, Some(0), "{}{}", o.stdout, o.stderr);
 }
+
+/// Without `--report`, the report goes to the temporary folder (named after
+/// the first image), never into the folder diff runs in.
+#[test]
+fn the_default_report_goes_to_the_temporary_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    render(dir.path(), "a", 1, 1.0);
+    render(dir.path(), "b", 2, 1.0);
+    let out = Command::new(common::twintrace_bin())
+        .args(["diff", "a.exr", "b.exr"])
+        .current_dir(dir.path())
+        .env("TMPDIR", tmp.path())
+        .stdin(Stdio::null())
+        .output()
+        .unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let mut names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["a.exr", "b.exr"]);
+    let report = tmp.path().join("twintrace-diff-a.html");
+    assert!(String::from_utf8_lossy(&out.stdout).contains(&report.display().to_string()));
+    assert_report(&report);
+}

@@ -48,9 +48,10 @@ pub struct DiffArgs {
     /// Which test to run.
     #[arg(long, value_enum, default_value_t = DiffMethod::Auto)]
     pub method: DiffMethod,
-    /// Where to write the HTML report.
-    #[arg(long, value_name = "FILE", default_value = "diff-report.html")]
-    pub report: PathBuf,
+    /// Where to write the HTML report (default: `twintrace-diff-<A's name>.html` in the
+    /// system's temporary folder, so that no stray file lands where diff runs).
+    #[arg(long, value_name = "FILE")]
+    pub report: Option<PathBuf>,
 }
 
 /// `--method`.
@@ -98,6 +99,14 @@ fn load(path: &Path, variance: Option<&Path>, spp: Option<u32>) -> Result<NoisyI
     Ok(image)
 }
 
+/// `twintrace-diff-<stem of a>.html` in the temporary folder.
+fn default_report(a: &Path) -> PathBuf {
+    let stem = a
+        .file_stem()
+        .map_or("render".into(), |s| s.to_string_lossy());
+    std::env::temp_dir().join(format!("twintrace-diff-{stem}.html"))
+}
+
 /// Compares, writes the report and returns what to print.
 pub fn execute(args: &DiffArgs) -> Result<DiffOutcome> {
     let a = load(&args.a, args.variance_a.as_deref(), args.spp_a)?;
@@ -129,8 +138,12 @@ pub fn execute(args: &DiffArgs) -> Result<DiffOutcome> {
         format!("{}, {}", spp(a.spp), spp(b.spp)),
     )];
     let title = format!("twintrace diff: {} vs {}", labels[0], labels[1]);
+    let report_path = args
+        .report
+        .clone()
+        .unwrap_or_else(|| default_report(&args.a));
     report::write_html(
-        &args.report,
+        &report_path,
         &Report {
             title: title.clone(),
             labels: labels.clone(),
@@ -164,7 +177,7 @@ pub fn execute(args: &DiffArgs) -> Result<DiffOutcome> {
         None => text += "no statistical test: neither image has a variance (give --variance-a or --variance-b)\n",
     }
     text += &m.summary();
-    text += &format!("report: {}\n", args.report.display());
+    text += &format!("report: {}\n", report_path.display());
     Ok(DiffOutcome {
         text,
         passed: verdict.map(|v| v.passes()),
