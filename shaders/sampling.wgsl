@@ -39,7 +39,11 @@ fn cbrt_nonnegative(x: f32) -> f32 {
     if x <= 0.0 {
         return 0.0;
     }
-    return pow(x, 1.0 / 3.0);
+    // `pow` is an exp2/log2 pair on most drivers, several ulps from the
+    // reference's `cbrt`; one Newton step on y³ = x brings it within an ulp
+    // (gpu_numerics_match_reference measures it).
+    let y = pow(x, 1.0 / 3.0);
+    return y - (y - x / (y * y)) / 3.0;
 }
 
 fn sample_unit_ball(u: vec3<f32>) -> vec3<f32> {
@@ -58,7 +62,9 @@ fn ggx_d(m: vec3<f32>, alpha: f32) -> f32 {
 fn ggx_lambda(w: vec3<f32>, alpha: f32) -> f32 {
     let cos2 = w.z * w.z;
     if cos2 == 0.0 {
-        return 3.0e38;
+        // +inf, as the reference returns (1 / (1 + inf) is exactly 0 in
+        // G1 and G2; a large finite stand-in left a subnormal there).
+        return bitcast<f32>(0x7f800000u);
     }
     let tan2 = (w.x * w.x + w.y * w.y) / cos2;
     return 0.5 * (-1.0 + sqrt(1.0 + alpha * alpha * tan2));

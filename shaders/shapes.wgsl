@@ -23,8 +23,11 @@ fn intersect_sphere(center: vec3<f32>, radius: f32, ray: Ray, t_min: f32, t_max:
         return no_hit();
     }
     let c = dot(f, f) - r2;
+    // The root's sign follows b_half's sign bit, as the reference's
+    // copysign does: a -0.0 takes the negative root (a `< 0.0` test would
+    // take the positive one there).
     var s = sqrt(disc);
-    if b_half < 0.0 {
+    if (bitcast<u32>(b_half) & 0x80000000u) != 0u {
         s = -s;
     }
     let q = b_half + s;
