@@ -16,11 +16,15 @@ fn evaluate_background(d: vec3<f32>) -> vec3<f32> {
             let b = vec3<f32>(params.bg_b_r, params.bg_b_g, params.bg_b_b);
             return mix(a, b, 0.5 * (d.y + 1.0));
         }
-        default: {
+        case BACKGROUND_ENVMAP: {
             let s = params.bg_rot_sin;
             let c = params.bg_rot_cos;
             let dr = vec3<f32>(c * d.x + s * d.z, d.y, -s * d.x + c * d.z);
             return params.bg_intensity * sample_bilinear(params.bg_image, equirect_uv(dr));
+        }
+        default: {
+            poison();
+            return vec3<f32>(0.0);
         }
     }
 }

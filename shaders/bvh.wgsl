@@ -26,10 +26,16 @@ fn box_pad(root_min: vec3<f32>, root_max: vec3<f32>, origin: vec3<f32>, d: vec3<
     return BOX_T_PAD * max(max(r.x, r.y), r.z) / max(max(ad.x, ad.y), ad.z);
 }
 
+// GPU only: the reference divides by a zero component and gets ±inf, and
+// its slab test's min/max drop the NaN of 0·inf; WGSL's min/max are
+// undefined on NaN, so a zero component is replaced by ±INV_DIR_TINY
+// (1/1e-30 = 1e30 keeps (bound − origin)·inv finite for every scene
+// coordinate under 3e8, and is +-inf-like for the ordering the slab needs).
+const INV_DIR_TINY: f32 = 1.0e-30;
+
 fn safe_inv_dir(d: vec3<f32>) -> vec3<f32> {
-    let tiny = 1.0e-30;
     let s = select(vec3<f32>(1.0), vec3<f32>(-1.0), d < vec3<f32>(0.0));
-    let dd = select(d, s * tiny, abs(d) < vec3<f32>(tiny));
+    let dd = select(d, s * INV_DIR_TINY, abs(d) < vec3<f32>(INV_DIR_TINY));
     return 1.0 / dd;
 }
 
@@ -43,7 +49,7 @@ fn node_max(n: BvhNode) -> vec3<f32> {
 
 // Closest hit: iterative, explicit stack, near child first; ties in t go to
 // the smaller primitive id (as on the CPU).
-fn intersect_scene(ray: Ray, t_min: f32, t_max: f32) -> Hit {
+fn bvh_intersect(ray: Ray, t_min: f32, t_max: f32) -> Hit {
     var best = Hit(false, t_max, 0u, vec2<f32>(0.0));
     let inv_dir = safe_inv_dir(ray.direction);
     let root = nodes[0];

@@ -104,14 +104,31 @@ struct SurfaceInteraction {
     material: u32,
 }
 
+// GPU only: set by the `default` branch of every switch on a tag, which no
+// tag the Rust side packs can reach (tidy checks that each tag has its
+// `case`). The render kernel counts a poisoned sample as non-finite, which
+// the renderer reports and every gate compares, so a tag added in Rust and
+// not here cannot be absorbed silently.
+var<private> poisoned: bool = false;
+
+fn poison() {
+    poisoned = true;
+}
+
+// +inf (a const-expression may not be infinite in WGSL, so it is made at
+// run time from its bits).
+fn f32_infinity() -> f32 {
+    return bitcast<f32>(F32_INFINITY_BITS);
+}
+
 fn gamma(n: f32) -> f32 {
-    let e = n * (1.1920929e-7 * 0.5);
+    let e = n * UNIT_ROUNDOFF;
     return e / (1.0 - e);
 }
 
 fn normalize_or(v: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
     let l2 = dot(v, v);
-    if l2 > 0.0 && l2 < 3.0e38 {
+    if l2 > 0.0 && l2 <= F32_MAX {
         return v * inverseSqrt(l2);
     }
     return fallback;
@@ -123,7 +140,7 @@ fn max3(v: vec3<f32>) -> f32 {
 
 // Wächter & Binder's integer-ulp nudge (reference::geometry::offset_ray_origin).
 fn offset_ray_origin(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
-    let of_i = vec3<i32>(n * 256.0);
+    let of_i = vec3<i32>(n * ORIGIN_INT_SCALE);
     var out: vec3<f32>;
     for (var k = 0u; k < 3u; k++) {
         let bits = bitcast<i32>(p[k]);
@@ -132,8 +149,8 @@ fn offset_ray_origin(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
             step = -step;
         }
         let stepped = bitcast<f32>(bits + step);
-        if abs(p[k]) < (1.0 / 32.0) {
-            out[k] = p[k] + (1.0 / 65536.0) * n[k];
+        if abs(p[k]) < ORIGIN_SWITCH {
+            out[k] = p[k] + ORIGIN_FLOAT_SCALE * n[k];
         } else {
             out[k] = stepped;
         }

@@ -2,8 +2,6 @@
 // paths (samples sample_start ..) and folds them into the pixel's running
 // mean and variance. The twin of reference/src/integrator.rs.
 
-@group(0) @binding(12) var<storage, read_write> film: array<GpuPixel>;
-
 fn v3(x: f32, y: f32, z: f32) -> vec3<f32> {
     return vec3<f32>(x, y, z);
 }
@@ -22,11 +20,12 @@ fn camera_ray(x: u32, y: u32, sample: u32) -> Ray {
 }
 
 fn trace_path(ray_in: Ray, pixel: u32, sample: u32) -> vec3<f32> {
+    poisoned = false;
     var ray = ray_in;
     var radiance = vec3<f32>(0.0);
     var throughput = vec3<f32>(1.0);
     for (var segment = 0u; segment < params.max_depth; segment++) {
-        let hit = intersect_scene(ray, 0.0, 3.4028235e38);
+        let hit = bvh_intersect(ray, 0.0, f32_infinity());
         if !hit.hit {
             radiance += throughput * evaluate_background(ray.direction);
             break;
@@ -65,7 +64,7 @@ fn trace_path(ray_in: Ray, pixel: u32, sample: u32) -> vec3<f32> {
 fn is_finite3(v: vec3<f32>) -> bool {
     // NaN fails every comparison; ±Inf fails the bound.
     let a = abs(v);
-    return a.x <= 3.4028235e38 && a.y <= 3.4028235e38 && a.z <= 3.4028235e38;
+    return a.x <= F32_MAX && a.y <= F32_MAX && a.z <= F32_MAX;
 }
 
 @compute @workgroup_size(WORKGROUP_X, WORKGROUP_Y, 1)
@@ -80,7 +79,7 @@ fn render_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     for (var i = 0u; i < params.sample_count; i++) {
         let sample = params.sample_start + i;
         let l = trace_path(camera_ray(gid.x, gid.y, sample), pixel, sample);
-        if !is_finite3(l) {
+        if poisoned || !is_finite3(l) {
             acc.nonfinite += 1u;
             continue;
         }

@@ -14,7 +14,7 @@ fn fresnel_schlick(f0: vec3<f32>, cos_t: f32) -> vec3<f32> {
 }
 
 fn luminance(c: vec3<f32>) -> f32 {
-    return dot(c, vec3<f32>(0.2126, 0.7152, 0.0722));
+    return dot(c, LUMINANCE_WEIGHTS);
 }
 
 struct GgxLobes {
@@ -25,19 +25,19 @@ struct GgxLobes {
     specular_probability: f32,
 }
 
-fn ggx_lobes(base_color: vec3<f32>, metallic: f32, roughness: f32, wo: vec3<f32>) -> GgxLobes {
+fn ggx_lobes_new(base_color: vec3<f32>, metallic: f32, roughness: f32, wo: vec3<f32>) -> GgxLobes {
     let alpha = max(roughness * roughness, GGX_MIN_ALPHA);
-    let f0 = mix(vec3<f32>(0.04), base_color, metallic);
+    let f0 = mix(vec3<f32>(DIELECTRIC_F0), base_color, metallic);
     let spec = luminance(fresnel_schlick(f0, wo.z));
     let diff = luminance(base_color) * (1.0 - metallic) * (1.0 - spec);
     var p = 1.0;
     if diff > 0.0 {
-        p = clamp(spec / (spec + diff), 0.05, 0.95);
+        p = clamp(spec / (spec + diff), SPECULAR_PROBABILITY_MIN, SPECULAR_PROBABILITY_MAX);
     }
     return GgxLobes(base_color, metallic, alpha, f0, p);
 }
 
-fn ggx_eval(l: GgxLobes, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
+fn ggx_lobes_eval(l: GgxLobes, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
     if wo.z <= 0.0 || wi.z <= 0.0 {
         return vec3<f32>(0.0);
     }
@@ -48,7 +48,7 @@ fn ggx_eval(l: GgxLobes, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
     return spec + diffuse;
 }
 
-fn ggx_pdf(l: GgxLobes, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
+fn ggx_lobes_pdf(l: GgxLobes, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
     if wo.z <= 0.0 || wi.z <= 0.0 {
         return 0.0;
     }
@@ -114,7 +114,7 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, u: Vertex
             if wo.z <= 0.0 {
                 return absorbed();
             }
-            let lobes = ggx_lobes(evaluate_texture(m.texture, si.p, si.uv), m.p0, m.p1, wo);
+            let lobes = ggx_lobes_new(evaluate_texture(m.texture, si.p, si.uv), m.p0, m.p1, wo);
             let dir_u = vec2<f32>(vr_get(u, DIM_DIRECTION_U), vr_get(u, DIM_DIRECTION_V));
             var wi: vec3<f32>;
             if vr_get(u, DIM_LOBE) < lobes.specular_probability {
@@ -126,13 +126,17 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, u: Vertex
             if wi.z <= 0.0 {
                 return absorbed();
             }
-            let pdf = ggx_pdf(lobes, wo, wi);
+            let pdf = ggx_lobes_pdf(lobes, wo, wi);
             if pdf <= 0.0 {
                 return absorbed();
             }
-            return Scatter(true, onb_to_world(frame, wi), ggx_eval(lobes, wo, wi) * wi.z / pdf);
+            return Scatter(true, onb_to_world(frame, wi), ggx_lobes_eval(lobes, wo, wi) * wi.z / pdf);
+        }
+        case MATERIAL_DIFFUSE_LIGHT: {
+            return absorbed();
         }
         default: {
+            poison();
             return absorbed();
         }
     }

@@ -18,7 +18,7 @@ fn pcg4d(v_in: vec4<u32>) -> vec4<u32> {
 }
 
 fn u32_to_unit_f32(x: u32) -> f32 {
-    return f32(x >> 8u) * (1.0 / 16777216.0);
+    return f32(x >> 8u) * UNIT_F32_SCALE;
 }
 
 // Key layout: [pixel, sample, (bounce << 16) | block, seed].

@@ -1,10 +1,5 @@
 // Warps from the unit square: the twin of reference/src/sampling.rs.
 
-const PI: f32 = 3.14159265358979323846;
-const FRAC_1_PI: f32 = 0.318309886183790671538;
-const FRAC_PI_2: f32 = 1.57079632679489661923;
-const FRAC_PI_4: f32 = 0.785398163397448309616;
-
 fn sample_unit_disk(u: vec2<f32>) -> vec2<f32> {
     let o = 2.0 * u - vec2<f32>(1.0);
     if o.x == 0.0 && o.y == 0.0 {
@@ -64,7 +59,7 @@ fn ggx_lambda(w: vec3<f32>, alpha: f32) -> f32 {
     if cos2 == 0.0 {
         // +inf, as the reference returns (1 / (1 + inf) is exactly 0 in
         // G1 and G2; a large finite stand-in left a subnormal there).
-        return bitcast<f32>(0x7f800000u);
+        return f32_infinity();
     }
     let tan2 = (w.x * w.x + w.y * w.y) / cos2;
     return 0.5 * (-1.0 + sqrt(1.0 + alpha * alpha * tan2));

@@ -1,20 +1,7 @@
 // The scene's buffers, per-primitive dispatch (bounds, intersection with
 // the admits rule) and the surface interaction: the twin of
-// reference/src/scene.rs. Record structs and constants come from the
-// Rust-generated prelude.
-
-@group(0) @binding(0) var<uniform> params: GpuParams;
-@group(0) @binding(1) var<storage, read> nodes: array<BvhNode>;
-@group(0) @binding(2) var<storage, read> prim_order: array<u32>;
-@group(0) @binding(3) var<storage, read> primitives: array<GpuPrimitive>;
-@group(0) @binding(4) var<storage, read> spheres: array<GpuSphere>;
-@group(0) @binding(5) var<storage, read> quads: array<GpuQuad>;
-@group(0) @binding(6) var<storage, read> triangles: array<GpuTriangle>;
-@group(0) @binding(7) var<storage, read> vertices: array<GpuVertex>;
-@group(0) @binding(8) var<storage, read> materials: array<GpuMaterial>;
-@group(0) @binding(9) var<storage, read> textures: array<GpuTexture>;
-@group(0) @binding(10) var<storage, read> images: array<GpuImage>;
-@group(0) @binding(11) var<storage, read> texels: array<f32>;
+// reference/src/scene.rs. Record structs, constants and the bindings come
+// from shaders/generated.wgsl.
 
 struct Hit {
     hit: bool,
@@ -54,12 +41,16 @@ fn primitive_bounds(prim: u32) -> Bounds {
             let hi = max(max(c, cu_hi), max(add_round_up(c, v), add_round_up(cu_hi, v)));
             return Bounds(lo, hi);
         }
-        default: {
+        case PRIMITIVE_TRIANGLE: {
             let t = triangles[p.index];
             let a = vertex_position(t.v0);
             let b = vertex_position(t.v1);
             let c = vertex_position(t.v2);
             return Bounds(min(min(a, b), c), max(max(a, b), c));
+        }
+        default: {
+            poison();
+            return Bounds(vec3<f32>(0.0), vec3<f32>(0.0));
         }
     }
 }
@@ -88,9 +79,13 @@ fn intersect_shape(prim: u32, ray: Ray, t_min: f32, t_max: f32) -> ShapeHit {
             let q = quads[p.index];
             return intersect_quad(vec3<f32>(q.corner_x, q.corner_y, q.corner_z), vec3<f32>(q.u_x, q.u_y, q.u_z), vec3<f32>(q.v_x, q.v_y, q.v_z), ray, t_min, t_max);
         }
-        default: {
+        case PRIMITIVE_TRIANGLE: {
             let tri = triangles[p.index];
             return intersect_triangle(vertex_position(tri.v0), vertex_position(tri.v1), vertex_position(tri.v2), ray, t_min, t_max);
+        }
+        default: {
+            poison();
+            return no_hit();
         }
     }
 }
@@ -127,7 +122,7 @@ fn surface_interaction(ray: Ray, hit: Hit) -> SurfaceInteraction {
             si.p_error = gamma(4.0) * max3(abs(corner) + abs(hit.uv.x * u) + abs(hit.uv.y * v) + abs(si.p));
             si.material = q.material;
         }
-        default: {
+        case PRIMITIVE_TRIANGLE: {
             let tri = triangles[p.index];
             let a = vertices[tri.v0];
             let b = vertices[tri.v1];
@@ -154,6 +149,9 @@ fn surface_interaction(ray: Ray, hit: Hit) -> SurfaceInteraction {
             si.shading_normal = ns;
             si.uv = uv;
             si.material = tri.material;
+        }
+        default: {
+            poison();
         }
     }
     si.front_face = dot(ray.direction, si.geometric_normal) < 0.0;

@@ -69,3 +69,84 @@ fn a_lost_device_is_reported() {
         "{err}"
     );
 }
+
+/// A tag the kernels do not know (a Rust tag added without its WGSL
+/// `case`, which tidy also catches) poisons the sample: it is counted as
+/// non-finite, which the renderer reports and every gate compares, instead
+/// of being absorbed or taken for another tag.
+#[test]
+fn an_unknown_tag_poisons_its_samples() {
+    use gpu::scene_buffers::PackedScene;
+    let ctx = common::gpu();
+    let scene = reference::load_scene("cornell").unwrap();
+    let settings = RenderSettings {
+        width: 8,
+        height: 8,
+        spp: 2,
+        ..scene.render
+    };
+    let total = 8 * 8 * 2;
+    let render = |packed: &PackedScene| {
+        let r = gpu::GpuRenderer::from_packed(ctx, packed, &scene).unwrap();
+        r.render(&settings, &|_, _| {}).unwrap().film
+    };
+    let clean = PackedScene::new(&scene);
+    let film = render(&clean);
+    assert_eq!((film.samples(), film.nonfinite_samples()), (total, 0));
+    const UNKNOWN: u32 = 99;
+    type Mutation = fn(&mut PackedScene);
+    let mutants: [(&str, Mutation); 3] = [
+        ("primitive", |p| {
+            p.primitives.iter_mut().for_each(|x| x.tag = UNKNOWN)
+        }),
+        ("material", |p| {
+            p.materials.iter_mut().for_each(|x| x.tag = UNKNOWN)
+        }),
+        ("texture", |p| {
+            p.textures.iter_mut().for_each(|x| x.tag = UNKNOWN)
+        }),
+    ];
+    for (what, mutate) in mutants {
+        let mut packed = PackedScene::new(&scene);
+        mutate(&mut packed);
+        let film = render(&packed);
+        // Every sample that reaches the unknown tag is counted; camera rays
+        // that miss the box's bounds never do (11 of 128 here).
+        let n = film.nonfinite_samples();
+        assert!(
+            n > total / 2,
+            "unknown {what} tag: {n} of {total} samples poisoned"
+        );
+    }
+    // The background is a parameter: checked through a test kernel.
+    let r = gpu::GpuRenderer::new(ctx, &scene).unwrap();
+    let mut params = r.params(&RenderSettings {
+        width: 1,
+        height: 1,
+        ..RenderSettings::default()
+    });
+    let snippet = "
+@compute @workgroup_size(64)
+fn bg_main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if gid.x != 0u {
+        return;
+    }
+    let c = evaluate_background(vec3<f32>(0.0, 1.0, 0.0));
+    output[0] = select(0u, 1u, poisoned);
+}
+";
+    for (tag, want) in [(params.bg_tag, 0), (UNKNOWN, 1)] {
+        params.bg_tag = tag;
+        let kernel = gpu::testing::TestKernel {
+            snippet,
+            entry: "bg_main",
+            input: &[],
+            invocations: 1,
+            output_words: 1,
+            params: Some(params),
+            film: None,
+        };
+        let out = gpu::testing::run_test_kernel(ctx, &r, &kernel).unwrap();
+        assert_eq!(out[0], want, "background tag {tag}");
+    }
+}

@@ -34,7 +34,7 @@ fn hits_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let o = vec3<f32>(bitcast<f32>(input[6u * i]), bitcast<f32>(input[6u * i + 1u]), bitcast<f32>(input[6u * i + 2u]));
     let d = vec3<f32>(bitcast<f32>(input[6u * i + 3u]), bitcast<f32>(input[6u * i + 4u]), bitcast<f32>(input[6u * i + 5u]));
-    let h = intersect_scene(Ray(o, d), 0.0, 3.4028235e38);
+    let h = bvh_intersect(Ray(o, d), 0.0, F32_MAX);
     output[5u * i] = select(0u, 1u, h.hit);
     output[5u * i + 1u] = h.prim;
     output[5u * i + 2u] = bitcast<u32>(h.t);

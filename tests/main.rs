@@ -21,6 +21,7 @@ mod reference_images;
 mod render_determinism;
 mod sampling_chi2;
 mod scene_loading_errors;
+mod tidy;
 
 mod gpu_buffer_layout;
 mod gpu_errors;
@@ -31,3 +32,4 @@ mod gpu_numerics_match_reference;
 mod gpu_renders_fixtures;
 mod gpu_rng_matches_cpu;
 mod gpu_sampling_chi2;
+mod gpu_surface_match_reference;

@@ -8,7 +8,7 @@ pub enum GpuError {
     UnsuitableAdapter { adapter: String, reason: String },
     #[error("cannot open the GPU device on `{adapter}`: {reason}")]
     Device { adapter: String, reason: String },
-    #[error("the scene does not fit the adapter `{adapter}`: {what} needs {needed} bytes, the limit is {limit} bytes")]
+    #[error("the scene does not fit the adapter `{adapter}`: its {what} buffer needs {needed} bytes, the limit is {limit} bytes")]
     TooLarge {
         adapter: String,
         what: &'static str,

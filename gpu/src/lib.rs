@@ -7,6 +7,7 @@
 //! re-defines what a scene means: every tag, constant and the camera come
 //! from `reference`.
 
+pub mod bindings;
 pub mod context;
 pub mod error;
 pub mod records;

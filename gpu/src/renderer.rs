@@ -2,6 +2,7 @@
 //! megakernel in batches of samples (short submits: long dispatches lose
 //! the device on some platforms), then read the film back.
 
+use crate::bindings::{self, Binding};
 use crate::context::GpuContext;
 use crate::error::GpuError;
 use crate::records::{GpuParams, GpuPixel};
@@ -34,34 +35,13 @@ pub struct GpuRenderer<'a> {
     scene: &'a Scene,
 }
 
-fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
-
-/// The bind group layout shared by the render kernel and the test kernels:
-/// 0 params (uniform), 1..=11 scene arrays, 12 film (read-write).
+/// The bind group layout shared by the render kernel and the test kernels
+/// ([`bindings::scene_group`]).
 pub fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
-    let mut entries = vec![wgpu::BindGroupLayoutEntry {
-        binding: 0,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }];
-    entries.extend((1..=11).map(|b| storage_entry(b, true)));
-    entries.push(storage_entry(12, false));
+    let entries: Vec<_> = bindings::scene_group()
+        .iter()
+        .map(Binding::layout_entry)
+        .collect();
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("twintrace scene"),
         entries: &entries,
@@ -117,12 +97,14 @@ impl<'a> GpuRenderer<'a> {
     ) -> Result<Self, GpuError> {
         let limit = ctx.device.limits().max_storage_buffer_binding_size;
         let device = &ctx.device;
-        let mut scene_buffers = Vec::new();
-        let mut upload = |what: &'static str, bytes: &[u8]| -> Result<(), GpuError> {
+        let arrays = packed.arrays();
+        debug_assert!(arrays.iter().map(|a| a.0).eq(bindings::SCENE_ARRAYS));
+        let mut scene_buffers = Vec::with_capacity(arrays.len());
+        for (binding, bytes) in arrays {
             if bytes.len() as u64 > limit {
                 return Err(GpuError::TooLarge {
                     adapter: ctx.adapter.name.clone(),
-                    what,
+                    what: binding.name,
                     needed: bytes.len() as u64,
                     limit,
                 });
@@ -132,24 +114,12 @@ impl<'a> GpuRenderer<'a> {
             let contents = if bytes.is_empty() { &zeros[..] } else { bytes };
             scene_buffers.push(
                 device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some(what),
+                    label: Some(binding.name),
                     contents,
                     usage: wgpu::BufferUsages::STORAGE,
                 }),
             );
-            Ok(())
-        };
-        upload("BVH nodes", bytemuck::cast_slice(&packed.nodes))?;
-        upload("primitive order", bytemuck::cast_slice(&packed.prim_order))?;
-        upload("primitives", bytemuck::cast_slice(&packed.primitives))?;
-        upload("spheres", bytemuck::cast_slice(&packed.spheres))?;
-        upload("quads", bytemuck::cast_slice(&packed.quads))?;
-        upload("triangles", bytemuck::cast_slice(&packed.triangles))?;
-        upload("vertices", bytemuck::cast_slice(&packed.vertices))?;
-        upload("materials", bytemuck::cast_slice(&packed.materials))?;
-        upload("textures", bytemuck::cast_slice(&packed.textures))?;
-        upload("images", bytemuck::cast_slice(&packed.images))?;
-        upload("texels", bytemuck::cast_slice(&packed.texels))?;
+        }
         let layout = bind_group_layout(device);
         let pipeline = compile(ctx, &shader::render_source(), "render_main", &[&layout])?;
         Ok(Self {
@@ -161,7 +131,7 @@ impl<'a> GpuRenderer<'a> {
         })
     }
 
-    /// The scene arrays as bindings 1..=11.
+    /// The scene arrays, one per [`bindings::SCENE_ARRAYS`] entry.
     pub fn scene_buffers(&self) -> &[wgpu::Buffer] {
         &self.scene_buffers
     }
@@ -196,20 +166,20 @@ impl<'a> GpuRenderer<'a> {
     /// A bind group over the scene with the given params and film buffers.
     pub fn bind_group(&self, params: &wgpu::Buffer, film: &wgpu::Buffer) -> wgpu::BindGroup {
         let mut entries = vec![wgpu::BindGroupEntry {
-            binding: 0,
+            binding: bindings::PARAMS.slot,
             resource: params.as_entire_binding(),
         }];
         entries.extend(
-            self.scene_buffers
+            bindings::SCENE_ARRAYS
                 .iter()
-                .enumerate()
-                .map(|(i, b)| wgpu::BindGroupEntry {
-                    binding: i as u32 + 1,
-                    resource: b.as_entire_binding(),
+                .zip(&self.scene_buffers)
+                .map(|(b, buf)| wgpu::BindGroupEntry {
+                    binding: b.slot,
+                    resource: buf.as_entire_binding(),
                 }),
         );
         entries.push(wgpu::BindGroupEntry {
-            binding: 12,
+            binding: bindings::FILM.slot,
             resource: film.as_entire_binding(),
         });
         self.ctx

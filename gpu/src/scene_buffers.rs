@@ -1,6 +1,7 @@
 //! Packs a `reference::Scene` into GPU records. The BVH node array is
 //! uploaded as the reference built it (the one BVH).
 
+use crate::bindings::{self, Binding};
 use crate::records::*;
 use reference::background::Background;
 use reference::material::Material;
@@ -93,6 +94,25 @@ pub fn pack_texture(t: &Texture) -> GpuTexture {
 }
 
 impl PackedScene {
+    /// Each array with the binding it is uploaded to (every one of
+    /// [`bindings::SCENE_ARRAYS`], in slot order).
+    pub fn arrays(&self) -> [(Binding, &[u8]); 11] {
+        use bytemuck::cast_slice as bytes;
+        [
+            (bindings::NODES, bytes(&self.nodes)),
+            (bindings::PRIM_ORDER, bytes(&self.prim_order)),
+            (bindings::PRIMITIVES, bytes(&self.primitives)),
+            (bindings::SPHERES, bytes(&self.spheres)),
+            (bindings::QUADS, bytes(&self.quads)),
+            (bindings::TRIANGLES, bytes(&self.triangles)),
+            (bindings::VERTICES, bytes(&self.vertices)),
+            (bindings::MATERIALS, bytes(&self.materials)),
+            (bindings::TEXTURES, bytes(&self.textures)),
+            (bindings::IMAGES, bytes(&self.images)),
+            (bindings::TEXELS, bytes(&self.texels)),
+        ]
+    }
+
     pub fn new(scene: &Scene) -> Self {
         let mut images = Vec::with_capacity(scene.images.len());
         let mut texels = Vec::new();

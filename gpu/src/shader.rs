@@ -1,10 +1,17 @@
-//! Assembles the WGSL program: a prelude of constants and tags generated
-//! from Rust (never copied by hand), the record structs, then the files
-//! under shaders/ (one per `reference/src` module).
+//! Assembles the WGSL program: shaders/generated.wgsl (constants, tags,
+//! bindings and record structs, generated from Rust by [`generate`] and
+//! checked in so the shaders can be read with their declarations), then
+//! the files under shaders/ (one per `reference/src` module). A test fails
+//! when the checked-in file is stale; `cargo xtask codegen` rewrites it.
 
+use crate::bindings;
 use crate::records;
 use reference::background::background_tag;
-use reference::material::{material_tag, GGX_MIN_ALPHA};
+use reference::geometry::{ORIGIN_FLOAT_SCALE, ORIGIN_INT_SCALE, ORIGIN_SWITCH, UNIT_ROUNDOFF};
+use reference::material::{
+    material_tag, DIELECTRIC_F0, GGX_MIN_ALPHA, LUMINANCE_WEIGHTS, SPECULAR_PROBABILITY_MAX,
+    SPECULAR_PROBABILITY_MIN,
+};
 use reference::rng::dims;
 use reference::scene::primitive_tag;
 use reference::shapes::{TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_UVS};
@@ -38,11 +45,21 @@ fn f32_literal(x: f32) -> String {
     format!("{x:e}")
 }
 
-/// Constants shared with the reference, as WGSL `const` declarations.
-pub fn prelude() -> String {
+/// The checked-in output of [`generate`].
+pub const GENERATED_WGSL: &str = include_str!("../../shaders/generated.wgsl");
+
+/// Where [`GENERATED_WGSL`] lives, relative to the workspace root.
+pub const GENERATED_PATH: &str = "shaders/generated.wgsl";
+
+/// The generated part of the program: constants and tags shared with the
+/// reference, the bindings of group 0 ([`bindings::scene_group`]) and the
+/// record structs ([`records`]).
+pub fn generate() -> String {
     let u = |name: &str, v: u32| format!("const {name}: u32 = {v}u;\n");
     let f = |name: &str, v: f32| format!("const {name}: f32 = {};\n", f32_literal(v));
-    let mut s = String::from("// Generated from Rust (gpu::shader::prelude): do not edit.\n");
+    let mut s = String::from(
+        "// Generated from Rust by gpu::shader::generate (`cargo xtask codegen`): do not edit.\n\n",
+    );
     s += &u("PRIMITIVE_SPHERE", primitive_tag::SPHERE);
     s += &u("PRIMITIVE_QUAD", primitive_tag::QUAD);
     s += &u("PRIMITIVE_TRIANGLE", primitive_tag::TRIANGLE);
@@ -86,14 +103,34 @@ pub fn prelude() -> String {
     }
     s += &u("WORKGROUP_X", WORKGROUP.0);
     s += &u("WORKGROUP_Y", WORKGROUP.1);
+    s += &f("PI", std::f32::consts::PI);
+    s += &f("FRAC_1_PI", std::f32::consts::FRAC_1_PI);
+    s += &f("FRAC_PI_2", std::f32::consts::FRAC_PI_2);
+    s += &f("FRAC_PI_4", std::f32::consts::FRAC_PI_4);
+    s += &f("UNIT_F32_SCALE", reference::rng::UNIT_F32_SCALE);
+    s += &f("F32_MAX", f32::MAX);
+    s += &u("F32_INFINITY_BITS", f32::INFINITY.to_bits());
+    s += &f("UNIT_ROUNDOFF", UNIT_ROUNDOFF);
+    s += &f("ORIGIN_SWITCH", ORIGIN_SWITCH);
+    s += &f("ORIGIN_FLOAT_SCALE", ORIGIN_FLOAT_SCALE);
+    s += &f("ORIGIN_INT_SCALE", ORIGIN_INT_SCALE);
+    s += &f("DIELECTRIC_F0", DIELECTRIC_F0);
+    s += &f("SPECULAR_PROBABILITY_MIN", SPECULAR_PROBABILITY_MIN);
+    s += &f("SPECULAR_PROBABILITY_MAX", SPECULAR_PROBABILITY_MAX);
+    let [r, g, b] = LUMINANCE_WEIGHTS.map(f32_literal);
+    s += &format!("const LUMINANCE_WEIGHTS: vec3<f32> = vec3<f32>({r}, {g}, {b});\n");
+    s += "\n";
+    s += &records::wgsl_records();
+    s += "\n";
+    s += &bindings::wgsl_declarations(&bindings::scene_group());
     s
 }
 
 /// The library part shared by the render kernel and the test kernels:
-/// prelude, records, then [`LIBRARY_FILES`].
+/// [`GENERATED_WGSL`], then [`LIBRARY_FILES`].
 pub fn library_source() -> String {
-    let mut parts = vec![prelude(), records::wgsl_records()];
-    parts.extend(LIBRARY_FILES.iter().map(|(_, src)| src.to_string()));
+    let mut parts = vec![GENERATED_WGSL];
+    parts.extend(LIBRARY_FILES.iter().map(|(_, src)| *src));
     parts.join("\n")
 }
 
@@ -113,9 +150,33 @@ mod tests {
             reference::bvh::BOX_NEAR_SLACK,
             reference::bvh::BOX_T_PAD,
             GGX_MIN_ALPHA,
+            f32::MAX,
+            UNIT_ROUNDOFF,
+            ORIGIN_FLOAT_SCALE,
+            LUMINANCE_WEIGHTS[2],
             0.95f32,
         ] {
             assert_eq!(f32_literal(x).parse::<f32>().unwrap(), x);
+        }
+    }
+
+    /// shaders/generated.wgsl is what [`generate`] makes now. With
+    /// `TWINTRACE_CODEGEN=write` (what `cargo xtask codegen` sets) a stale
+    /// file is rewritten instead of failing.
+    #[test]
+    fn generated_wgsl_is_current() {
+        let fresh = generate();
+        if fresh == GENERATED_WGSL {
+            return;
+        }
+        if std::env::var("TWINTRACE_CODEGEN").as_deref() == Ok("write") {
+            let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("..")
+                .join(GENERATED_PATH);
+            std::fs::write(&path, fresh).unwrap();
+            eprintln!("rewrote {}", path.display());
+        } else {
+            panic!("{GENERATED_PATH} is stale: run `cargo xtask codegen`");
         }
     }
 

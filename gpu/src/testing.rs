@@ -1,26 +1,19 @@
 //! Running WGSL test kernels against the library functions: the layout
 //! test, CPU-vs-GPU RNG streams and hit records use it. A test kernel is
-//! the shader library plus a snippet declaring
-//! `@group(1) @binding(0) var<storage, read> input: array<u32>;` and
-//! `@group(1) @binding(1) var<storage, read_write> output: array<u32>;`
-//! and an entry point; group 0 is the scene, as in the render kernel.
+//! the shader library (group 0 is the scene, as in the render kernel),
+//! group 1 with `input` and `output` words ([`bindings::TEST_IO_GROUP`]),
+//! and a snippet with an entry point.
 
+use crate::bindings::{self, Binding};
 use crate::context::GpuContext;
 use crate::error::GpuError;
 use crate::records::{GpuParams, GpuPixel};
 use crate::renderer::{bind_group_layout, compile, read_buffer, GpuRenderer};
 use wgpu::util::DeviceExt;
 
-/// Declarations every test kernel gets after the library.
-pub const TEST_IO_WGSL: &str = "
-@group(0) @binding(12) var<storage, read_write> film: array<GpuPixel>;
-@group(1) @binding(0) var<storage, read> input: array<u32>;
-@group(1) @binding(1) var<storage, read_write> output: array<u32>;
-";
-
 /// A test kernel run.
 pub struct TestKernel<'a> {
-    /// WGSL appended to the library and [`TEST_IO_WGSL`].
+    /// WGSL appended to the library and the group-1 declarations.
     pub snippet: &'a str,
     pub entry: &'a str,
     /// Words of `input` (group 1, binding 0).
@@ -35,7 +28,7 @@ pub struct TestKernel<'a> {
     pub film: Option<&'a [GpuPixel]>,
 }
 
-/// Runs `entry` of `library + TEST_IO_WGSL + snippet`, returning
+/// Runs `entry` of `library + group 1 + snippet`, returning
 /// `output_words` words. The output buffer is poisoned with 0xDEADBEEF
 /// first, so words a kernel never wrote cannot pass for results.
 pub fn run_test_kernel(
@@ -54,23 +47,13 @@ pub fn run_test_kernel(
     let device = &ctx.device;
     let source = [
         crate::shader::library_source().as_str(),
-        TEST_IO_WGSL,
+        &bindings::wgsl_declarations(&bindings::TEST_IO_GROUP),
         snippet,
     ]
     .join("\n");
-    let io_entry = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    };
     let io_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("test io"),
-        entries: &[io_entry(0, true), io_entry(1, false)],
+        entries: &bindings::TEST_IO_GROUP.map(|b: Binding| b.layout_entry()),
     });
     let scene_layout = bind_group_layout(device);
     let pipeline = compile(ctx, &source, entry, &[&scene_layout, &io_layout])?;
@@ -110,11 +93,11 @@ pub fn run_test_kernel(
         layout: &io_layout,
         entries: &[
             wgpu::BindGroupEntry {
-                binding: 0,
+                binding: bindings::TEST_INPUT.slot,
                 resource: input_buf.as_entire_binding(),
             },
             wgpu::BindGroupEntry {
-                binding: 1,
+                binding: bindings::TEST_OUTPUT.slot,
                 resource: output_buf.as_entire_binding(),
             },
         ],

@@ -231,6 +231,17 @@ impl Onb {
     }
 }
 
+/// Below this magnitude a coordinate is offset by [`ORIGIN_FLOAT_SCALE`]
+/// instead of integer ulps (Wächter & Binder's 1/32; see
+/// [`offset_ray_origin`]).
+pub const ORIGIN_SWITCH: f32 = 1.0 / 32.0;
+/// The absolute step near the origin (Wächter & Binder's 1/65536).
+pub const ORIGIN_FLOAT_SCALE: f32 = 1.0 / 65536.0;
+/// Ulps per unit of normal in the integer step (Wächter & Binder's 256).
+pub const ORIGIN_INT_SCALE: f32 = 256.0;
+/// The unit roundoff of f32, ε = 2^-24 (half of `f32::EPSILON`).
+pub const UNIT_ROUNDOFF: f32 = f32::EPSILON * 0.5;
+
 /// Moves a spawn point off its surface along `n` (the side the new ray
 /// leaves by) by a few float ulps: Wächter & Binder, "A Fast and Robust
 /// Method for Avoiding Self-Intersection", Ray Tracing Gems ch. 6. Integer
@@ -239,12 +250,9 @@ impl Onb {
 /// ulps vanish, a small absolute step takes over.
 #[inline]
 pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
-    // Constants from the chapter: 1/32 as the switch point, 1/65536 absolute
-    // step, 256 ulps (all scaled for f32 hit points computed as o + t*d).
-    const ORIGIN: f32 = 1.0 / 32.0;
-    const FLOAT_SCALE: f32 = 1.0 / 65536.0;
-    const INT_SCALE: f32 = 256.0;
-    let of_i = (n * INT_SCALE).to_array().map(|x| x as i32);
+    // The chapter's constants (scaled for f32 hit points computed as
+    // o + t*d): ORIGIN_SWITCH, ORIGIN_FLOAT_SCALE, ORIGIN_INT_SCALE.
+    let of_i = (n * ORIGIN_INT_SCALE).to_array().map(|x| x as i32);
     let pa = p.to_array();
     let na = n.to_array();
     let mut out = [0.0f32; 3];
@@ -252,8 +260,8 @@ pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
         let bits = pa[k].to_bits() as i32;
         let stepped =
             f32::from_bits(bits.wrapping_add(if pa[k] < 0.0 { -of_i[k] } else { of_i[k] }) as u32);
-        out[k] = if pa[k].abs() < ORIGIN {
-            pa[k] + FLOAT_SCALE * na[k]
+        out[k] = if pa[k].abs() < ORIGIN_SWITCH {
+            pa[k] + ORIGIN_FLOAT_SCALE * na[k]
         } else {
             stepped
         };
@@ -265,7 +273,7 @@ pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
 /// n chained f32 roundings.
 #[inline]
 pub const fn gamma(n: u32) -> f32 {
-    let e = n as f32 * (f32::EPSILON * 0.5);
+    let e = n as f32 * UNIT_ROUNDOFF;
     e / (1.0 - e)
 }
 

@@ -194,21 +194,31 @@ pub struct GgxLobes {
     pub specular_probability: f32,
 }
 
+/// Rec. 709 / sRGB luminance weights of linear R, G, B.
+pub const LUMINANCE_WEIGHTS: [f32; 3] = [0.2126, 0.7152, 0.0722];
+/// Normal-incidence reflectance of the GGX material's dielectric base
+/// (index of refraction 1.5: ((1.5 − 1) / (1.5 + 1))² = 0.04).
+pub const DIELECTRIC_F0: f32 = 0.04;
+/// Bounds on the probability of sampling the specular lobe, so that
+/// neither lobe is starved when the estimate of its share is poor.
+pub const SPECULAR_PROBABILITY_MIN: f32 = 0.05;
+pub const SPECULAR_PROBABILITY_MAX: f32 = 0.95;
+
 fn luminance(c: Vec3) -> f32 {
-    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
+    c.dot(Vec3::from_array(LUMINANCE_WEIGHTS))
 }
 
 impl GgxLobes {
     pub fn new(base_color: Vec3, metallic: f32, roughness: f32, wo: Vec3) -> Self {
         let alpha = (roughness * roughness).max(GGX_MIN_ALPHA);
-        let f0 = Vec3::splat(0.04).lerp(base_color, metallic);
+        let f0 = Vec3::splat(DIELECTRIC_F0).lerp(base_color, metallic);
         let f_wo = fresnel_schlick(f0, wo.z);
         let spec = luminance(f_wo);
         let diff = luminance(base_color) * (1.0 - metallic) * (1.0 - spec);
         let specular_probability = if diff <= 0.0 {
             1.0
         } else {
-            (spec / (spec + diff)).clamp(0.05, 0.95)
+            (spec / (spec + diff)).clamp(SPECULAR_PROBABILITY_MIN, SPECULAR_PROBABILITY_MAX)
         };
         Self {
             base_color,

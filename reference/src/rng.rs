@@ -32,10 +32,13 @@ pub fn pcg4d(v: [u32; 4]) -> [u32; 4] {
     v
 }
 
+/// 2^-24: the step of [`u32_to_unit_f32`]'s floats.
+pub const UNIT_F32_SCALE: f32 = 1.0 / 16_777_216.0;
+
 /// Maps 32 random bits to a float uniform on `[0, 1)` (24-bit resolution).
 #[inline]
 pub fn u32_to_unit_f32(x: u32) -> f32 {
-    (x >> 8) as f32 * (1.0 / 16_777_216.0)
+    (x >> 8) as f32 * UNIT_F32_SCALE
 }
 
 /// The four random words of block `block` of one path vertex.

@@ -371,13 +371,13 @@ mod tests {
 
     #[test]
     fn manifest_lines_parse_and_errors_name_the_line() {
-        let text = "# comment\n\ncornell  fixtures/scenes/c.json  64x32  16384 1 50  # trailing\n";
+        let text = "# comment\n\ncornell  fixtures/scenes/cornell-boxes.json  64x32  16384 1 50  # trailing\n";
         let v = parse_manifest(text).unwrap();
         assert_eq!(
             v,
             vec![RefSpec {
                 name: "cornell".into(),
-                scene: "fixtures/scenes/c.json".into(),
+                scene: "fixtures/scenes/cornell-boxes.json".into(),
                 width: 64,
                 height: 32,
                 spp: 16384,

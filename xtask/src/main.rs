@@ -3,6 +3,7 @@
 //! lives there.
 
 mod bless;
+mod codegen;
 mod fixtures;
 mod gpu_suite;
 mod install;
@@ -23,6 +24,8 @@ Commands:
              pack the GPU gates (test binary, fixtures, run.sh) into DIR
              (default target/gpu-suite) to run on a machine with a real GPU
              and no Rust toolchain: `sh DIR/run.sh` (docs/gates.md)
+  codegen    rewrite the generated sources from their Rust definitions
+             (shaders/generated.wgsl); a test fails while they are stale
   fixtures   regenerate the generated fixture files (mesh, textures)
   bless [--scene NAME]... [--spp N]
              regenerate stored references (fixtures/refs/NAME.exr + provenance
@@ -46,6 +49,7 @@ fn main() -> ExitCode {
     let result = match args.first().map(String::as_str) {
         Some("test") => install::ensure_vulkan().and_then(|()| test::run(&args[1..])),
         Some("gpu-suite") => gpu_suite::run(&args[1..]),
+        Some("codegen") => codegen::run_codegen(),
         Some("fixtures") => fixtures::run(),
         Some("bless") => bless::run(&args[1..]),
         None | Some("help") | Some("--help") | Some("-h") => {

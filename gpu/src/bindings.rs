@@ -1,0 +1,154 @@
+//! Every binding of the kernels, defined once: group, slot, WGSL name and
+//! type, and access. The WGSL declarations (in the generated prelude), the
+//! bind group layouts and the bind groups are all derived from these
+//! tables, so a slot is never typed twice.
+
+/// How a kernel accesses a binding.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Access {
+    Uniform,
+    Read,
+    ReadWrite,
+}
+
+/// One `@group(g) @binding(s) var<…> name: ty;`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Binding {
+    pub group: u32,
+    pub slot: u32,
+    pub name: &'static str,
+    pub wgsl_type: &'static str,
+    pub access: Access,
+}
+
+const fn scene(slot: u32, name: &'static str, wgsl_type: &'static str) -> Binding {
+    Binding {
+        group: 0,
+        slot,
+        name,
+        wgsl_type,
+        access: Access::Read,
+    }
+}
+
+pub const PARAMS: Binding = Binding {
+    group: 0,
+    slot: 0,
+    name: "params",
+    wgsl_type: "GpuParams",
+    access: Access::Uniform,
+};
+pub const NODES: Binding = scene(1, "nodes", "array<BvhNode>");
+pub const PRIM_ORDER: Binding = scene(2, "prim_order", "array<u32>");
+pub const PRIMITIVES: Binding = scene(3, "primitives", "array<GpuPrimitive>");
+pub const SPHERES: Binding = scene(4, "spheres", "array<GpuSphere>");
+pub const QUADS: Binding = scene(5, "quads", "array<GpuQuad>");
+pub const TRIANGLES: Binding = scene(6, "triangles", "array<GpuTriangle>");
+pub const VERTICES: Binding = scene(7, "vertices", "array<GpuVertex>");
+pub const MATERIALS: Binding = scene(8, "materials", "array<GpuMaterial>");
+pub const TEXTURES: Binding = scene(9, "textures", "array<GpuTexture>");
+pub const IMAGES: Binding = scene(10, "images", "array<GpuImage>");
+pub const TEXELS: Binding = scene(11, "texels", "array<f32>");
+pub const FILM: Binding = Binding {
+    group: 0,
+    slot: 12,
+    name: "film",
+    wgsl_type: "array<GpuPixel>",
+    access: Access::ReadWrite,
+};
+
+/// The scene's read-only arrays, in slot order.
+pub const SCENE_ARRAYS: [Binding; 11] = [
+    NODES, PRIM_ORDER, PRIMITIVES, SPHERES, QUADS, TRIANGLES, VERTICES, MATERIALS, TEXTURES,
+    IMAGES, TEXELS,
+];
+
+/// Group 0, shared by the render kernel and the test kernels.
+pub fn scene_group() -> Vec<Binding> {
+    let mut all = vec![PARAMS];
+    all.extend(SCENE_ARRAYS);
+    all.push(FILM);
+    all
+}
+
+/// Group 1 of the test kernels (`gpu::testing`).
+pub const TEST_INPUT: Binding = Binding {
+    group: 1,
+    slot: 0,
+    name: "input",
+    wgsl_type: "array<u32>",
+    access: Access::Read,
+};
+pub const TEST_OUTPUT: Binding = Binding {
+    group: 1,
+    slot: 1,
+    name: "output",
+    wgsl_type: "array<u32>",
+    access: Access::ReadWrite,
+};
+pub const TEST_IO_GROUP: [Binding; 2] = [TEST_INPUT, TEST_OUTPUT];
+
+impl Binding {
+    /// The WGSL declaration.
+    pub fn wgsl(&self) -> String {
+        let space = match self.access {
+            Access::Uniform => "uniform",
+            Access::Read => "storage, read",
+            Access::ReadWrite => "storage, read_write",
+        };
+        format!(
+            "@group({}) @binding({}) var<{space}> {}: {};\n",
+            self.group, self.slot, self.name, self.wgsl_type
+        )
+    }
+
+    /// The bind group layout entry (compute stage).
+    pub fn layout_entry(&self) -> wgpu::BindGroupLayoutEntry {
+        let ty = match self.access {
+            Access::Uniform => wgpu::BufferBindingType::Uniform,
+            Access::Read => wgpu::BufferBindingType::Storage { read_only: true },
+            Access::ReadWrite => wgpu::BufferBindingType::Storage { read_only: false },
+        };
+        wgpu::BindGroupLayoutEntry {
+            binding: self.slot,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        }
+    }
+}
+
+/// The WGSL declarations of a group.
+pub fn wgsl_declarations(group: &[Binding]) -> String {
+    group.iter().map(Binding::wgsl).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Slots within a group are 0, 1, 2, … in table order, and names are
+    /// unique across the groups a test kernel sees together.
+    #[test]
+    fn slots_are_dense_and_names_unique() {
+        for group in [scene_group(), TEST_IO_GROUP.to_vec()] {
+            for (i, b) in group.iter().enumerate() {
+                assert_eq!(b.slot, i as u32, "{}", b.name);
+                assert_eq!(b.group, group[0].group, "{}", b.name);
+            }
+        }
+        let mut names: Vec<_> = scene_group()
+            .iter()
+            .chain(&TEST_IO_GROUP)
+            .map(|b| b.name)
+            .collect();
+        names.sort_unstable();
+        let n = names.len();
+        names.dedup();
+        assert_eq!(names.len(), n);
+    }
+}

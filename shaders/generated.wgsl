@@ -1,0 +1,204 @@
+// Generated from Rust by gpu::shader::generate (`cargo xtask codegen`): do not edit.
+
+const PRIMITIVE_SPHERE: u32 = 0u;
+const PRIMITIVE_QUAD: u32 = 1u;
+const PRIMITIVE_TRIANGLE: u32 = 2u;
+const MATERIAL_LAMBERTIAN: u32 = 0u;
+const MATERIAL_METAL: u32 = 1u;
+const MATERIAL_DIELECTRIC: u32 = 2u;
+const MATERIAL_DIFFUSE_LIGHT: u32 = 3u;
+const MATERIAL_GGX: u32 = 4u;
+const TEXTURE_CONSTANT: u32 = 0u;
+const TEXTURE_CHECKER: u32 = 1u;
+const TEXTURE_IMAGE: u32 = 2u;
+const BACKGROUND_SOLID: u32 = 0u;
+const BACKGROUND_SKY: u32 = 1u;
+const BACKGROUND_ENVMAP: u32 = 2u;
+const TRIANGLE_HAS_NORMALS: u32 = 1u;
+const TRIANGLE_HAS_UVS: u32 = 2u;
+const BVH_LEAF: u32 = 3u;
+const BVH_STACK_SIZE: u32 = 64u;
+const SLAB_FAR_SCALE: f32 = 1.0000004e0;
+const BOX_NEAR_SLACK: f32 = 9.9975586e-1;
+const BOX_T_PAD: f32 = 9.536743e-7;
+const GGX_MIN_ALPHA: f32 = 1e-4;
+const ROULETTE_MAX_SURVIVAL: f32 = 9.5e-1;
+const DIM_PIXEL_X: u32 = 0u;
+const DIM_PIXEL_Y: u32 = 1u;
+const DIM_LENS_U: u32 = 2u;
+const DIM_LENS_V: u32 = 3u;
+const DIM_LOBE: u32 = 0u;
+const DIM_DIRECTION_U: u32 = 1u;
+const DIM_DIRECTION_V: u32 = 2u;
+const DIM_BALL_X: u32 = 3u;
+const DIM_BALL_Y: u32 = 4u;
+const DIM_BALL_Z: u32 = 5u;
+const DIM_ROULETTE: u32 = 6u;
+const WORKGROUP_X: u32 = 8u;
+const WORKGROUP_Y: u32 = 8u;
+const PI: f32 = 3.1415927e0;
+const FRAC_1_PI: f32 = 3.1830987e-1;
+const FRAC_PI_2: f32 = 1.5707964e0;
+const FRAC_PI_4: f32 = 7.853982e-1;
+const UNIT_F32_SCALE: f32 = 5.9604645e-8;
+const F32_MAX: f32 = 3.4028235e38;
+const F32_INFINITY_BITS: u32 = 2139095040u;
+const UNIT_ROUNDOFF: f32 = 5.9604645e-8;
+const ORIGIN_SWITCH: f32 = 3.125e-2;
+const ORIGIN_FLOAT_SCALE: f32 = 1.5258789e-5;
+const ORIGIN_INT_SCALE: f32 = 2.56e2;
+const DIELECTRIC_F0: f32 = 4e-2;
+const SPECULAR_PROBABILITY_MIN: f32 = 5e-2;
+const SPECULAR_PROBABILITY_MAX: f32 = 9.5e-1;
+const LUMINANCE_WEIGHTS: vec3<f32> = vec3<f32>(2.126e-1, 7.152e-1, 7.22e-2);
+
+struct GpuSphere {
+    center_x: f32,
+    center_y: f32,
+    center_z: f32,
+    radius: f32,
+    material: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+struct GpuQuad {
+    corner_x: f32,
+    corner_y: f32,
+    corner_z: f32,
+    material: u32,
+    u_x: f32,
+    u_y: f32,
+    u_z: f32,
+    _pad0: u32,
+    v_x: f32,
+    v_y: f32,
+    v_z: f32,
+    _pad1: u32,
+}
+struct GpuTriangle {
+    v0: u32,
+    v1: u32,
+    v2: u32,
+    material: u32,
+    flags: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+struct GpuVertex {
+    p_x: f32,
+    p_y: f32,
+    p_z: f32,
+    n_x: f32,
+    n_y: f32,
+    n_z: f32,
+    u: f32,
+    v: f32,
+}
+struct GpuPrimitive {
+    tag: u32,
+    index: u32,
+}
+struct GpuMaterial {
+    tag: u32,
+    texture: u32,
+    p0: f32,
+    p1: f32,
+    absorption_r: f32,
+    absorption_g: f32,
+    absorption_b: f32,
+    _pad0: u32,
+}
+struct GpuTexture {
+    tag: u32,
+    even: u32,
+    odd: u32,
+    image: u32,
+    r: f32,
+    g: f32,
+    b: f32,
+    scale: f32,
+}
+struct GpuImage {
+    offset: u32,
+    width: u32,
+    height: u32,
+    _pad0: u32,
+}
+struct GpuPixel {
+    count: u32,
+    nonfinite: u32,
+    mean_r: f32,
+    mean_g: f32,
+    mean_b: f32,
+    m2_r: f32,
+    m2_g: f32,
+    m2_b: f32,
+}
+struct GpuParams {
+    width: u32,
+    height: u32,
+    sample_start: u32,
+    sample_count: u32,
+    seed: u32,
+    max_depth: u32,
+    roulette_depth: u32,
+    bg_tag: u32,
+    bg_a_r: f32,
+    bg_a_g: f32,
+    bg_a_b: f32,
+    bg_image: u32,
+    bg_b_r: f32,
+    bg_b_g: f32,
+    bg_b_b: f32,
+    bg_intensity: f32,
+    bg_rot_sin: f32,
+    bg_rot_cos: f32,
+    lens_radius: f32,
+    primitive_count: u32,
+    cam_origin_x: f32,
+    cam_origin_y: f32,
+    cam_origin_z: f32,
+    cam_upper_left_x: f32,
+    cam_upper_left_y: f32,
+    cam_upper_left_z: f32,
+    cam_horizontal_x: f32,
+    cam_horizontal_y: f32,
+    cam_horizontal_z: f32,
+    cam_vertical_x: f32,
+    cam_vertical_y: f32,
+    cam_vertical_z: f32,
+    cam_u_x: f32,
+    cam_u_y: f32,
+    cam_u_z: f32,
+    cam_v_x: f32,
+    cam_v_y: f32,
+    cam_v_z: f32,
+    _pad0: u32,
+    _pad1: u32,
+}
+struct BvhNode {
+    min_x: f32,
+    min_y: f32,
+    min_z: f32,
+    index: u32,
+    max_x: f32,
+    max_y: f32,
+    max_z: f32,
+    meta_bits: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: GpuParams;
+@group(0) @binding(1) var<storage, read> nodes: array<BvhNode>;
+@group(0) @binding(2) var<storage, read> prim_order: array<u32>;
+@group(0) @binding(3) var<storage, read> primitives: array<GpuPrimitive>;
+@group(0) @binding(4) var<storage, read> spheres: array<GpuSphere>;
+@group(0) @binding(5) var<storage, read> quads: array<GpuQuad>;
+@group(0) @binding(6) var<storage, read> triangles: array<GpuTriangle>;
+@group(0) @binding(7) var<storage, read> vertices: array<GpuVertex>;
+@group(0) @binding(8) var<storage, read> materials: array<GpuMaterial>;
+@group(0) @binding(9) var<storage, read> textures: array<GpuTexture>;
+@group(0) @binding(10) var<storage, read> images: array<GpuImage>;
+@group(0) @binding(11) var<storage, read> texels: array<f32>;
+@group(0) @binding(12) var<storage, read_write> film: array<GpuPixel>;

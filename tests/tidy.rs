@@ -1,0 +1,560 @@
+//! Tidy: rules of the source tree that keep the twins paired, checked on
+//! the files themselves (rust-analyzer's tidy tests are the model). Each
+//! rule says what it protects; each has a mutation test below showing it
+//! fails on the defect it is for.
+//!
+//! - Every WGSL function of `shaders/<m>.wgsl` has its Rust twin in
+//!   `reference/src/<m>.rs` under the same name (a `snake_type_method`
+//!   name twins `impl SnakeType { fn method }` or `mod snake_type { fn
+//!   method }`), or is listed below as GPU-only or renamed, with why.
+//! - Every `switch` on a tag lists every tag of its family as a `case`
+//!   (the families are generated from Rust into shaders/generated.wgsl),
+//!   and its `default` calls `poison()`: a tag added in Rust and not in
+//!   WGSL fails here, and at run time is counted as non-finite, never
+//!   absorbed or taken for another tag.
+//! - WGSL bodies carry no magic numbers: a float literal other than a small
+//!   integer or 0.5 is a named constant, generated from Rust or declared
+//!   GPU-only at module scope.
+//! - shaders/ mirrors reference/src file for file.
+//! - Files the sources and docs name by path exist, and nothing cites a
+//!   file outside the repository.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::fs;
+use std::path::{Path, PathBuf};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn read(rel: &str) -> String {
+    fs::read_to_string(root().join(rel)).unwrap_or_else(|e| panic!("{rel}: {e}"))
+}
+
+/// WGSL functions with no Rust function of the same name, and why.
+const GPU_ONLY: &[(&str, &str)] = &[
+    (
+        "safe_inv_dir",
+        "WGSL min/max are undefined on NaN; the reference divides by zero",
+    ),
+    ("node_min", "reads a packed BvhNode record"),
+    ("node_max", "reads a packed BvhNode record"),
+    ("f32_infinity", "WGSL const-expressions may not be infinite"),
+    (
+        "poison",
+        "the default branch of a tag switch (Rust matches are exhaustive)",
+    ),
+    ("normalize_or", "glam's Vec3::normalize_or"),
+    ("max3", "glam's Vec3::max_element"),
+    ("v3", "glam's Vec3::new"),
+    ("is_finite3", "glam's Vec3::is_finite"),
+    (
+        "render_main",
+        "the kernel entry point: one pixel of integrator::render",
+    ),
+    ("absorbed", "the reference's `None` scatter"),
+    ("to_unit4", "u32_to_unit_f32 on four words"),
+    ("vr_get", "indexes VertexRandoms (a Rust array)"),
+    (
+        "cbrt_nonnegative",
+        "WGSL has no cbrt (f32::cbrt in the reference)",
+    ),
+    ("vertex_position", "reads a packed GpuVertex record"),
+    (
+        "intersect_shape",
+        "the shape match inside the reference's LeafPrim::intersect",
+    ),
+    ("no_hit", "the reference's `None` hit"),
+    ("wrap_index", "i32::rem_euclid in ImageData::texel"),
+    (
+        "fract_euclid",
+        "f32::rem_euclid in ImageData::sample_bilinear",
+    ),
+];
+
+/// WGSL name, Rust name, why they differ.
+const RENAMED: &[(&str, &str, &str)] = &[
+    (
+        "reflect_about",
+        "reflect",
+        "WGSL predeclares a built-in `reflect`",
+    ),
+    (
+        "refract_through",
+        "refract",
+        "WGSL predeclares a built-in `refract`",
+    ),
+];
+
+fn wgsl_functions(src: &str) -> Vec<String> {
+    src.lines()
+        .filter_map(|l| l.strip_prefix("fn "))
+        .map(|l| l.split('(').next().unwrap().trim().to_string())
+        .collect()
+}
+
+fn camel(snake: &str) -> String {
+    snake
+        .split('_')
+        .map(|w| {
+            let mut c = w.chars();
+            c.next()
+                .map(|f| f.to_ascii_uppercase().to_string() + c.as_str())
+                .unwrap_or_default()
+        })
+        .collect()
+}
+
+fn has_fn(rust: &str, name: &str) -> bool {
+    rust.contains(&format!("fn {name}(")) || rust.contains(&format!("fn {name}<"))
+}
+
+/// Whether WGSL function `name` has a twin in the Rust source `rust`.
+fn has_twin(rust: &str, name: &str) -> bool {
+    if has_fn(rust, name) {
+        return true;
+    }
+    name.match_indices('_').any(|(i, _)| {
+        let (owner, method) = (&name[..i], &name[i + 1..]);
+        let ty = camel(owner);
+        has_fn(rust, method)
+            && (rust.contains(&format!("mod {owner} "))
+                || rust.contains(&format!("impl {ty} "))
+                || rust.contains(&format!("struct {ty} ")))
+    })
+}
+
+/// The WGSL functions of `wgsl` without a twin in `rust` nor an entry in
+/// the tables.
+fn unpaired(wgsl: &str, rust: &str) -> Vec<String> {
+    wgsl_functions(wgsl)
+        .into_iter()
+        .filter(|f| !has_twin(rust, f))
+        .filter(|f| !GPU_ONLY.iter().any(|(g, _)| g == f))
+        .filter(|f| !RENAMED.iter().any(|(w, r, _)| w == f && has_fn(rust, r)))
+        .collect()
+}
+
+#[test]
+fn every_wgsl_function_has_a_rust_twin() {
+    let mut missing = Vec::new();
+    for (module, src) in gpu::shader::LIBRARY_FILES
+        .iter()
+        .copied()
+        .chain([("integrator", gpu::shader::INTEGRATOR_WGSL)])
+    {
+        let rust = read(&format!("reference/src/{module}.rs"));
+        missing.extend(
+            unpaired(src, &rust)
+                .into_iter()
+                .map(|f| format!("{module}: {f}")),
+        );
+    }
+    assert!(
+        missing.is_empty(),
+        "WGSL functions without a Rust twin of the same name (rename one side, or \
+         list it in tidy's GPU_ONLY with why): {missing:?}"
+    );
+}
+
+#[test]
+fn the_tables_list_only_functions_that_exist() {
+    let all: BTreeSet<String> = gpu::shader::LIBRARY_FILES
+        .iter()
+        .map(|(_, s)| *s)
+        .chain([gpu::shader::INTEGRATOR_WGSL])
+        .flat_map(wgsl_functions)
+        .collect();
+    for name in GPU_ONLY
+        .iter()
+        .map(|e| e.0)
+        .chain(RENAMED.iter().map(|e| e.0))
+    {
+        assert!(
+            all.contains(name),
+            "tidy lists `{name}`, which no shader defines"
+        );
+    }
+}
+
+/// Tag families: `const FAMILY_NAME: u32` lines of the generated prelude.
+fn tag_families() -> BTreeMap<String, BTreeSet<String>> {
+    let mut families: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for family in ["PRIMITIVE", "MATERIAL", "TEXTURE", "BACKGROUND"] {
+        for line in gpu::shader::GENERATED_WGSL.lines() {
+            if let Some(rest) = line.strip_prefix(&format!("const {family}_")) {
+                let name = rest.split(':').next().unwrap();
+                families
+                    .entry(family.into())
+                    .or_default()
+                    .insert(format!("{family}_{name}"));
+            }
+        }
+    }
+    families
+}
+
+/// A `switch` of a shader: its cases and its default block.
+struct Switch {
+    at: String,
+    cases: BTreeSet<String>,
+    default: Option<String>,
+}
+
+/// The text of the block opening at byte `open` (a `{`), without braces.
+fn block(src: &str, open: usize) -> &str {
+    let mut depth = 0;
+    for (i, c) in src[open..].char_indices() {
+        match c {
+            '{' => depth += 1,
+            '}' => {
+                depth -= 1;
+                if depth == 0 {
+                    return &src[open + 1..open + i];
+                }
+            }
+            _ => {}
+        }
+    }
+    panic!("unbalanced braces after byte {open}")
+}
+
+fn switches(file: &str, src: &str) -> Vec<Switch> {
+    let mut out = Vec::new();
+    for (at, _) in src.match_indices("switch ") {
+        let open = at + src[at..].find('{').unwrap();
+        let body = block(src, open);
+        let line = src[..at].lines().count() + 1;
+        let mut cases = BTreeSet::new();
+        let mut default = None;
+        let mut depth = 0;
+        for (i, c) in body.char_indices() {
+            match c {
+                '{' => depth += 1,
+                '}' => depth -= 1,
+                _ if depth == 0 => {
+                    let rest = &body[i..];
+                    if let Some(r) = rest.strip_prefix("case ") {
+                        let label = r.split([':', '{']).next().unwrap();
+                        cases.extend(label.split(',').map(|s| s.trim().to_string()));
+                    } else if rest.starts_with("default") {
+                        default = Some(block(body, i + rest.find('{').unwrap()).to_string());
+                    }
+                }
+                _ => {}
+            }
+        }
+        out.push(Switch {
+            at: format!("{file}:{line}"),
+            cases,
+            default,
+        });
+    }
+    out
+}
+
+/// Problems with the tag switches of `files`.
+fn switch_problems(files: &[(&str, &str)]) -> Vec<String> {
+    let families = tag_families();
+    let mut problems = Vec::new();
+    for (file, src) in files {
+        for s in switches(file, src) {
+            let Some((family, tags)) = families
+                .iter()
+                .find(|(f, _)| s.cases.iter().any(|c| c.starts_with(&format!("{f}_"))))
+            else {
+                continue;
+            };
+            let missing: Vec<_> = tags.difference(&s.cases).collect();
+            if !missing.is_empty() {
+                problems.push(format!("{}: switch on {family} lacks {missing:?}", s.at));
+            }
+            if !s.default.as_deref().is_some_and(|d| d.contains("poison()")) {
+                problems.push(format!("{}: default branch does not call poison()", s.at));
+            }
+        }
+    }
+    problems
+}
+
+fn shader_files() -> Vec<(&'static str, &'static str)> {
+    gpu::shader::LIBRARY_FILES
+        .iter()
+        .copied()
+        .chain([("integrator", gpu::shader::INTEGRATOR_WGSL)])
+        .collect()
+}
+
+#[test]
+fn every_tag_has_its_case_and_every_default_poisons() {
+    let families = tag_families();
+    assert_eq!(
+        families.len(),
+        4,
+        "tag families in the prelude: {families:?}"
+    );
+    let problems = switch_problems(&shader_files());
+    assert!(problems.is_empty(), "{problems:#?}");
+    // Each family is dispatched somewhere.
+    let all: BTreeSet<String> = shader_files()
+        .iter()
+        .flat_map(|(f, s)| switches(f, s))
+        .flat_map(|s| s.cases)
+        .collect();
+    for (family, tags) in &families {
+        assert!(
+            tags.iter().any(|t| all.contains(t)),
+            "no switch on {family}"
+        );
+    }
+}
+
+/// Float literals outside module-scope `const` declarations and comments
+/// that are not small integers or 0.5.
+fn magic_numbers(file: &str, src: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    for (i, line) in src.lines().enumerate() {
+        let code = line.split("//").next().unwrap();
+        if code.starts_with("const ") {
+            continue;
+        }
+        let bytes = code.as_bytes();
+        let mut k = 0;
+        while k < bytes.len() {
+            let starts = bytes[k].is_ascii_digit()
+                && (k == 0 || !(bytes[k - 1].is_ascii_alphanumeric() || bytes[k - 1] == b'_'));
+            if !starts {
+                k += 1;
+                continue;
+            }
+            let end = code[k..]
+                .find(|c: char| !(c.is_ascii_alphanumeric() || c == '.' || c == '_'))
+                .map_or(code.len(), |e| k + e);
+            let tok = &code[k..end];
+            let is_float = !tok.starts_with("0x")
+                && (tok.contains('.') || tok.contains('e'))
+                && !tok.ends_with('u')
+                && !tok.ends_with('i');
+            if is_float {
+                let v: f64 = tok.trim_end_matches('f').parse().unwrap_or(f64::NAN);
+                let small_integer = v.fract() == 0.0 && v.abs() <= 8.0;
+                if !(small_integer || v == 0.5) {
+                    out.push(format!("{file}:{}: {tok}", i + 1));
+                }
+            }
+            k = end;
+        }
+    }
+    out
+}
+
+#[test]
+fn wgsl_bodies_carry_no_magic_numbers() {
+    let found: Vec<String> = shader_files()
+        .iter()
+        .flat_map(|(f, s)| magic_numbers(f, s))
+        .collect();
+    assert!(
+        found.is_empty(),
+        "name these (generate them from Rust in gpu::shader::generate, or a GPU-only \
+         module-scope const with why): {found:?}"
+    );
+}
+
+#[test]
+fn shaders_mirror_reference_modules() {
+    let listed: BTreeSet<String> = gpu::shader::LIBRARY_FILES
+        .iter()
+        .map(|(m, _)| format!("{m}.wgsl"))
+        .collect();
+    for (module, _) in gpu::shader::LIBRARY_FILES {
+        assert!(
+            root().join(format!("reference/src/{module}.rs")).exists(),
+            "shaders/{module}.wgsl has no reference/src/{module}.rs"
+        );
+    }
+    for entry in fs::read_dir(root().join("shaders")).unwrap() {
+        let name = entry.unwrap().file_name().into_string().unwrap();
+        assert!(
+            listed.contains(&name) || name == "integrator.wgsl" || name == "generated.wgsl",
+            "shaders/{name} is not part of the program (gpu::shader::LIBRARY_FILES)"
+        );
+    }
+}
+
+/// The project's text files: sources, shaders, docs, manifests.
+fn text_files() -> Vec<PathBuf> {
+    fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
+        let Ok(entries) = fs::read_dir(dir) else {
+            return;
+        };
+        for e in entries.flatten() {
+            let p = e.path();
+            let name = e.file_name().to_string_lossy().into_owned();
+            if name.starts_with('.') || name == "target" {
+                continue;
+            }
+            if p.is_dir() {
+                walk(&p, out);
+            } else if ["rs", "wgsl", "md", "toml", "sh", "py"]
+                .iter()
+                .any(|x| name.ends_with(&format!(".{x}")))
+            {
+                out.push(p);
+            }
+        }
+    }
+    let mut out = Vec::new();
+    for dir in [
+        "src",
+        "tests",
+        "reference",
+        "gpu",
+        "shaders",
+        "docs",
+        "xtask",
+        "examples",
+        ".ci",
+    ] {
+        walk(&root().join(dir), &mut out);
+    }
+    for f in ["README.md", "ARCHITECTURE.md", "Cargo.toml"] {
+        out.push(root().join(f));
+    }
+    out
+}
+
+/// Paths like `reference/src/x.rs` or `docs/gates.md` named in `text`
+/// that exist neither under `root` nor under `base` (the crate of the file
+/// that names them; placeholders in capitals or with `<`, `*` or `{` are
+/// skipped).
+fn dangling_paths(text: &str, root: &Path, base: &Path) -> Vec<String> {
+    const TOPS: [&str; 9] = [
+        "reference/",
+        "gpu/",
+        "src/",
+        "tests/",
+        "shaders/",
+        "docs/",
+        "xtask/",
+        "fixtures/",
+        "examples/",
+    ];
+    const EXTS: [&str; 7] = [".rs", ".wgsl", ".md", ".json", ".exr", ".txt", ".toml"];
+    let mut out = Vec::new();
+    for (i, _) in text.char_indices() {
+        let rest = &text[i..];
+        let Some(top) = TOPS.iter().find(|t| rest.starts_with(**t)) else {
+            continue;
+        };
+        let prev = text[..i].chars().next_back();
+        if prev.is_some_and(|c| c.is_alphanumeric() || "_-./".contains(c)) {
+            continue;
+        }
+        let end = rest
+            .find(|c: char| !(c.is_ascii_alphanumeric() || "_-./".contains(c)))
+            .unwrap_or(rest.len());
+        let path = rest[..end].trim_end_matches('.');
+        let _ = top;
+        let placeholder = path.chars().any(|c| c.is_ascii_uppercase())
+            || rest[end..].starts_with(['<', '*', '{']);
+        if placeholder || !EXTS.iter().any(|x| path.ends_with(x)) {
+            continue;
+        }
+        if !root.join(path).exists() && !base.join(path).exists() {
+            out.push(path.to_string());
+        }
+    }
+    out
+}
+
+#[test]
+fn named_paths_exist_and_nothing_cites_outside_the_repository() {
+    let mut problems = Vec::new();
+    for file in text_files() {
+        let Ok(text) = fs::read_to_string(&file) else {
+            continue;
+        };
+        let rel = file.strip_prefix(root()).unwrap().display().to_string();
+        if rel == "tests/tidy.rs" {
+            continue;
+        }
+        // The crate the file belongs to: its nearest folder with a Cargo.toml.
+        let base = file
+            .ancestors()
+            .find(|d| d.join("Cargo.toml").exists())
+            .unwrap_or(&root())
+            .to_path_buf();
+        for p in dangling_paths(&text, &root(), &base) {
+            problems.push(format!("{rel}: names {p}, which does not exist"));
+        }
+        for outside in [
+            "../shared",
+            "DESIGN.md",
+            "GPU.md",
+            "STYLE.md",
+            "SCENE-FORMAT.md",
+        ] {
+            if text.contains(outside) {
+                problems.push(format!("{rel}: cites {outside}, outside the repository"));
+            }
+        }
+    }
+    assert!(problems.is_empty(), "{problems:#?}");
+}
+
+/// Each rule fails on the defect it is for.
+mod mutations {
+    use super::*;
+
+    #[test]
+    fn a_function_renamed_on_one_side_is_unpaired() {
+        let rust = read("reference/src/geometry.rs");
+        let wgsl = gpu::shader::LIBRARY_FILES[2].1;
+        assert_eq!(gpu::shader::LIBRARY_FILES[2].0, "geometry");
+        assert!(unpaired(wgsl, &rust).is_empty());
+        let renamed = wgsl.replace("fn spawn_origin(", "fn spawn_point(");
+        assert_eq!(unpaired(&renamed, &rust), ["spawn_point"]);
+        // A method of a Rust type twins `snake_type_method`.
+        assert!(has_twin(&rust, "onb_from_normal"));
+        assert!(!has_twin(&rust, "onb_from_tangent"));
+    }
+
+    #[test]
+    fn a_missing_case_or_an_unpoisoned_default_is_caught() {
+        let (name, material) = shader_files()
+            .into_iter()
+            .find(|(f, _)| *f == "material")
+            .unwrap();
+        assert!(switch_problems(&[(name, material)]).is_empty());
+        let no_case = material.replace("case MATERIAL_DIFFUSE_LIGHT:", "case 1000u:");
+        let p = switch_problems(&[(name, &no_case)]);
+        assert!(
+            p.len() == 1 && p[0].contains("MATERIAL_DIFFUSE_LIGHT"),
+            "{p:?}"
+        );
+        let absorbing = material.replace("poison();", "");
+        let p = switch_problems(&[(name, &absorbing)]);
+        assert!(p.len() == 1 && p[0].contains("poison"), "{p:?}");
+    }
+
+    #[test]
+    fn a_literal_constant_is_caught() {
+        let src = "fn f(x: f32) -> f32 {\n    return x * 3.4028235e38 + 2.0 * 0.5;\n}\n";
+        assert_eq!(magic_numbers("t", src), ["t:2: 3.4028235e38"]);
+        assert!(magic_numbers("t", "const TINY: f32 = 1.0e-30;\nlet i = 7u; // 0.25\n").is_empty());
+    }
+
+    #[test]
+    fn a_dangling_path_is_caught() {
+        let r = root();
+        assert!(dangling_paths("see docs/gates.md and shaders/bvh.wgsl.", &r, &r).is_empty());
+        let nothing = dangling_paths("(reference/src/nothing.rs)", &r, &r);
+        assert_eq!(nothing, ["reference/src/nothing.rs"]);
+        assert!(dangling_paths("fixtures/refs/NAME.exr, tests/<name>.rs", &r, &r).is_empty());
+        // Relative to the naming file's crate.
+        let in_reference = dangling_paths("tests/embree_agreement.rs", &r, &r.join("reference"));
+        assert!(in_reference.is_empty());
+        assert_eq!(dangling_paths("tests/embree_agreement.rs", &r, &r).len(), 1);
+    }
+}
