@@ -67,3 +67,13 @@ fn ggx_metal_white_furnace_matches_its_albedo_and_conserves_energy() {
         }
     }
 }
+
+/// The film's variance estimate (what the EXR's variance layer and `diff`
+/// rest on) against a known per-sample variance.
+#[test]
+fn the_variance_estimate_matches_its_known_value() {
+    assert_known_answer(
+        &furnace::bernoulli_furnace(0.3, 64, SEED).unwrap(),
+        &cpu_reference,
+    );
+}

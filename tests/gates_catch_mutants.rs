@@ -19,6 +19,11 @@
 //! | two-sample chi-square | tilted mirror normal, inverted Fresnel choice, η not inverted on entry, fuzz on the sphere instead of in the ball |
 //! | furnaces | uncompensated roulette, albedo ×1.02, GGX base colour ×0.98 |
 //! | exact (bitwise) | BVH drops a child |
+//! | exact white furnace | metal weight ×0.95 (production mutation point) |
+//! | sphere normals radial (known_answers) | sphere normal tilted 1.1° (production mutation point) |
+//! | GPU hit records (gpu_hits_match_reference) | b1 and b2 swapped in the production WGSL |
+//! | variance furnace, GPU | the kernel's M2 ×4 in the production WGSL |
+//! | image vs stored reference (four-materials, 1024 spp) | darkest quarter ×0.9; one 8x8 tile ×1.1 or ×0.9 at four positions |
 
 use glam::{DVec3, Vec2, Vec3};
 use reference::bvh::{Bvh, BvhNode};
@@ -293,7 +298,7 @@ fn assert_caught(what: &str, run: &GateRun) {
     );
     assert!(
         !run.passes(),
-        "{what} passed the Cornell-box gate:\n{}",
+        "{what} passed the image gate:\n{}",
         v.summary()
     );
 }
@@ -666,4 +671,159 @@ fn furnaces_reject_mutants() {
         }
     }
     assert_furnace_fails("GGX base colour ×0.98", &dimmer, Mutation::None);
+}
+
+// ------------------------------------------- mutants in the production code
+//
+// Rust mutants switched on at the production code's mutation points
+// (`reference::mutants`, compiled in for these tests only); WGSL mutants
+// compiled from the production program with one line replaced (the line
+// must exist, so a refactor that moves it fails here first).
+
+use reference::mutants::{self, Mutant};
+
+/// Renders with the production reference, `mutant` active on its threads.
+fn render_with(mutant: Mutant) -> impl Fn(&Scene, &RenderSettings) -> anyhow::Result<Film> {
+    move |scene, settings| {
+        Ok(mutants::pool(mutant).install(|| reference::render(scene, settings, &|_| {})))
+    }
+}
+
+/// The production WGSL `source` with `from` replaced by `to` (exactly one
+/// occurrence).
+fn patched(source: &str, from: &str, to: &str) -> String {
+    assert_eq!(
+        source.matches(from).count(),
+        1,
+        "the mutation point `{from}` moved"
+    );
+    source.replacen(from, to, 1)
+}
+
+#[test]
+fn metal_weight_times_0_95_fails_the_exact_furnace() {
+    let white = furnace::white_furnace(false, 64, 11).unwrap();
+    let render = render_with(Mutant::None);
+    assert!(furnace::check(&white, &render).unwrap().passes(&white));
+    let render = render_with(Mutant::MetalWeight);
+    let out = furnace::check(&white, &render).unwrap();
+    println!("metal weight ×0.95: {:?}", out.exact_mismatch);
+    assert!(
+        !out.passes(&white),
+        "metal weight ×0.95 passed the exact white furnace"
+    );
+}
+
+#[test]
+fn sphere_normal_tilted_1_1_degrees_fails_the_radial_normal_check() {
+    let scene = reference::load_scene("rtow-final").unwrap();
+    let worst = mutants::with(Mutant::SphereNormalTilt, || {
+        crate::known_answers::sphere_normal_error(&scene)
+    });
+    println!("sphere normal tilted 1.1°: {worst:.0}x the bound");
+    assert!(worst > 1.0, "a 1.1° tilt passed the radial-normal check");
+    assert!(crate::known_answers::sphere_normal_error(&scene) <= 1.0);
+}
+
+#[test]
+fn swapped_barycentrics_in_the_wgsl_fail_the_hit_record_gate() {
+    let scene = fixture_scene_named("gltf-mesh.json");
+    let library = gpu::shader::library_source();
+    let swapped = patched(
+        &library,
+        "return ShapeHit(true, t, vec2<f32>(ev * inv_det, ew * inv_det));",
+        "return ShapeHit(true, t, vec2<f32>(ew * inv_det, ev * inv_det));",
+    );
+    crate::gpu_hits_match_reference::hit_records_agree("gltf-mesh", &scene, &library).unwrap();
+    let e = crate::gpu_hits_match_reference::hit_records_agree("gltf-mesh", &scene, &swapped)
+        .expect_err("b1 and b2 swapped in the WGSL passed the hit-record gate");
+    println!("barycentrics swapped: {e}");
+}
+
+#[test]
+fn variance_times_4_in_the_wgsl_fails_the_variance_furnace() {
+    let case = furnace::bernoulli_furnace(0.3, 64, 11).unwrap();
+    let program = patched(
+        &gpu::shader::render_source(),
+        "m2 += delta * (l - mean);",
+        "m2 += 4.0 * delta * (l - mean);",
+    );
+    let ctx = crate::common::gpu();
+    let render = |scene: &Scene, settings: &RenderSettings| -> anyhow::Result<Film> {
+        let packed = gpu::scene_buffers::PackedScene::new(scene);
+        let r = gpu::GpuRenderer::with_program(ctx, &packed, scene, &program)?;
+        Ok(r.render(settings, &|_, _| {})?.film)
+    };
+    let out = furnace::check(&case, &render).unwrap();
+    println!("variance ×4: z {:?}", out.variance_z);
+    assert!(
+        !out.passes(&case),
+        "the GPU's variance ×4 passed the variance furnace"
+    );
+}
+
+fn fixture_scene_named(file: &str) -> Scene {
+    reference::load_scene(&twintrace::compare::gate::fixture_scene(file)).unwrap()
+}
+
+/// Local biases (one 8x8 tile ×1.1 or ×0.9; the darkest quarter of the
+/// pixels ×0.9), applied to a correct render's film, against the
+/// four-materials stored reference (the fixture with the most varied
+/// content; the Cornell scenes miss most of these: their flat walls give
+/// each tile a large variance relative to a 10 % shift).
+#[test]
+fn local_biases_fail_the_four_materials_gate() {
+    use std::sync::Mutex;
+    let spec = manifest_entry("four-materials").unwrap();
+    let reference = load_reference(&spec).unwrap_or_else(|e| panic!("{e:#}"));
+    let scene = load_scene(&spec).unwrap();
+    let clean: Mutex<Option<Film>> = Mutex::new(None);
+    let first = run_gate(&reference, &scene, 1024, TEST_SEED, &|s, st| {
+        let film = reference::render(s, st, &|_| {});
+        *clean.lock().unwrap() = Some(film.clone());
+        Ok(film)
+    })
+    .unwrap();
+    assert!(
+        first.passes(),
+        "the clean render failed:\n{}",
+        first.verdict.summary()
+    );
+    let film = clean.into_inner().unwrap().unwrap();
+    let (w, h) = (film.width, film.height);
+    let scale = |film: &Film, pick: &dyn Fn(u32, u32) -> bool, k: f64| {
+        let mut f = film.clone();
+        for y in 0..h {
+            for x in 0..w {
+                if pick(x, y) {
+                    let p = &mut f.pixels[(y * w + x) as usize];
+                    p.mean *= k;
+                    p.m2 *= k * k;
+                }
+            }
+        }
+        f
+    };
+    // The darkest quarter, judged on the reference.
+    let lum = |i: usize| reference.image.mean[i].dot(DVec3::new(0.2126, 0.7152, 0.0722));
+    let mut order: Vec<usize> = (0..(w * h) as usize).collect();
+    order.sort_by(|&a, &b| lum(a).total_cmp(&lum(b)));
+    let dark: std::collections::HashSet<usize> = order[..order.len() / 4].iter().copied().collect();
+    let mut mutants: Vec<(String, Film)> = vec![(
+        "darkest quarter ×0.9".into(),
+        scale(&film, &|x, y| dark.contains(&((y * w + x) as usize)), 0.9),
+    )];
+    for (tx, ty) in [(0, 0), (3, 1), (7, 3), (5, 2)] {
+        for k in [1.1, 0.9] {
+            let pick = move |x: u32, y: u32| x / 8 == tx && y / 8 == ty;
+            mutants.push((format!("tile ({tx}, {ty}) ×{k}"), scale(&film, &pick, k)));
+        }
+    }
+    for (what, mutated) in mutants {
+        let run = run_gate(&reference, &scene, 1024, TEST_SEED, &|_, _| {
+            Ok(mutated.clone())
+        })
+        .unwrap();
+        assert_caught(&what, &run);
+    }
 }

@@ -28,6 +28,16 @@ fn white_furnaces_are_exact_or_unbiased_on_the_gpu() {
     assert_known_answer(&furnace::inside_out_emitter(64, SEED).unwrap(), &gpu_render);
 }
 
+/// The GPU's variance layer (the kernel's Welford M2) against a known
+/// per-sample variance.
+#[test]
+fn the_variance_estimate_matches_its_known_value_on_the_gpu() {
+    assert_known_answer(
+        &furnace::bernoulli_furnace(0.3, 64, SEED).unwrap(),
+        &gpu_render,
+    );
+}
+
 #[test]
 fn concentric_spheres_and_ggx_metal_match_their_answers_on_the_gpu() {
     for roulette in [false, true] {

@@ -118,3 +118,55 @@ fn russian_roulette_keeps_the_expectation() {
     assert!(z.abs() < 4.4, "mean {} vs {expected}: z = {z}", p.mean.x);
     assert!(p.variance_of_mean().x > 0.0, "roulette never fired");
 }
+
+/// The largest angle between a sphere hit's normals (geometric and
+/// shading) and the radial direction of its point, computed in f64, as a
+/// fraction of the bound: the point lies within `p_error` of the surface
+/// in each coordinate, which turns the radial direction by at most
+/// √3·p_error / r, and the f32 normalize adds a few ε (8, as in
+/// tests/gpu_surface_match_reference.rs). Rays: from random points of the
+/// scene's bounds in uniform directions.
+pub(crate) fn sphere_normal_error(scene: &reference::Scene) -> f64 {
+    use reference::rng::random_f32;
+    let b = scene.bounds();
+    let mut worst = 0.0f64;
+    let mut hits = 0;
+    for i in 0..4096u32 {
+        let r = |k| random_f32(17, i, 0, 0, k);
+        let o = b.min + (b.max - b.min) * Vec3::new(r(0), r(1), r(2));
+        let d = reference::sampling::sample_uniform_sphere(glam::Vec2::new(r(3), r(4)));
+        let ray = reference::geometry::Ray::new(o, d);
+        let Some(hit) = scene.intersect(&ray, 0.0, f32::INFINITY) else {
+            continue;
+        };
+        let p = scene.primitives[hit.prim as usize];
+        if p.tag != reference::scene::primitive_tag::SPHERE {
+            continue;
+        }
+        let s = &scene.spheres[p.index as usize];
+        let si = scene.surface_interaction(&ray, &hit);
+        let radial = (si.p.as_dvec3() - s.center.as_dvec3()).normalize() * s.radius.signum() as f64;
+        let bound =
+            3f64.sqrt() * si.p_error as f64 / s.radius.abs() as f64 + 8.0 * f32::EPSILON as f64;
+        for n in [si.geometric_normal, si.shading_normal] {
+            let angle = n.as_dvec3().normalize().cross(radial).length().asin();
+            worst = worst.max(angle / bound);
+        }
+        hits += 1;
+    }
+    assert!(hits > 500, "only {hits} sphere hits");
+    worst
+}
+
+/// Sphere normals are radial (rtow-final: 485 spheres from radius 0.2 to
+/// 1000, the ground among them).
+#[test]
+fn sphere_normals_are_radial() {
+    let scene = reference::load_scene("rtow-final").unwrap();
+    let worst = sphere_normal_error(&scene);
+    println!("sphere normals: largest angle {worst:.3} of the bound");
+    assert!(
+        worst <= 1.0,
+        "a sphere normal is {worst:.2}x its bound off radial"
+    );
+}

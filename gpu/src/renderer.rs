@@ -95,6 +95,18 @@ impl<'a> GpuRenderer<'a> {
         packed: &PackedScene,
         scene: &'a Scene,
     ) -> Result<Self, GpuError> {
+        Self::with_program(ctx, packed, scene, &shader::render_source())
+    }
+
+    /// As [`Self::from_packed`], with the render program's source given
+    /// (the gates' tests compile the production WGSL with one deliberate
+    /// defect).
+    pub fn with_program(
+        ctx: &'a GpuContext,
+        packed: &PackedScene,
+        scene: &'a Scene,
+        program: &str,
+    ) -> Result<Self, GpuError> {
         let limit = ctx.device.limits().max_storage_buffer_binding_size;
         let device = &ctx.device;
         let arrays = packed.arrays();
@@ -121,7 +133,7 @@ impl<'a> GpuRenderer<'a> {
             );
         }
         let layout = bind_group_layout(device);
-        let pipeline = compile(ctx, &shader::render_source(), "render_main", &[&layout])?;
+        let pipeline = compile(ctx, program, "render_main", &[&layout])?;
         Ok(Self {
             ctx,
             pipeline,

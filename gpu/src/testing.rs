@@ -36,6 +36,18 @@ pub fn run_test_kernel(
     renderer: &GpuRenderer,
     k: &TestKernel,
 ) -> Result<Vec<u32>, GpuError> {
+    run_test_kernel_with_library(ctx, renderer, k, &crate::shader::library_source())
+}
+
+/// As [`run_test_kernel`], over the given library source instead of
+/// [`crate::shader::library_source`] (the gates' tests pass the production
+/// WGSL with one deliberate defect).
+pub fn run_test_kernel_with_library(
+    ctx: &GpuContext,
+    renderer: &GpuRenderer,
+    k: &TestKernel,
+    library: &str,
+) -> Result<Vec<u32>, GpuError> {
     let TestKernel {
         snippet,
         entry,
@@ -46,7 +58,7 @@ pub fn run_test_kernel(
     } = *k;
     let device = &ctx.device;
     let source = [
-        crate::shader::library_source().as_str(),
+        library,
         &bindings::wgsl_declarations(&bindings::TEST_IO_GROUP),
         snippet,
     ]

@@ -23,6 +23,7 @@ pub mod geometry;
 pub mod integrator;
 pub mod loader;
 pub mod material;
+pub mod mutants;
 pub mod procedural;
 pub mod rng;
 pub mod sampling;

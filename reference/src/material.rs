@@ -3,6 +3,7 @@
 //! surface toward where the ray came from.
 
 use crate::geometry::{reflect, refract, Onb, SurfaceInteraction};
+use crate::mutants::{self, Mutant};
 use crate::rng::dims;
 use crate::sampling::{ggx, sample_cosine_hemisphere, sample_unit_ball};
 use crate::texture::{evaluate_texture, ImageData, Texture};
@@ -122,9 +123,13 @@ pub fn scatter(
             if direction.dot(ng) <= 0.0 {
                 return None;
             }
+            let mut weight = ctx.eval(albedo, si);
+            if mutants::is(Mutant::MetalWeight) {
+                weight *= 0.95;
+            }
             Some(Scatter {
                 direction: direction.normalize(),
-                weight: ctx.eval(albedo, si),
+                weight,
             })
         }
         Material::Dielectric { ior, .. } => {

@@ -11,6 +11,7 @@ use crate::camera::{Camera, CameraSettings};
 use crate::error::SceneError;
 use crate::geometry::{gamma, Aabb, Hit, Ray, SurfaceInteraction};
 use crate::material::Material;
+use crate::mutants::{self, Mutant};
 use crate::shapes::{
     intersect_triangles4, MeshData, Quad, RayShear, Sphere, Triangle, Triangles4,
     TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_UVS,
@@ -330,7 +331,10 @@ impl Scene {
                 // Re-project onto the surface (pbrt-v4 does the same): the
                 // hit point then carries only a few ulps of error.
                 let pos = s.center + s.radius.abs() * outward;
-                let n = if s.radius < 0.0 { -outward } else { outward };
+                let mut n = if s.radius < 0.0 { -outward } else { outward };
+                if mutants::is(Mutant::SphereNormalTilt) {
+                    n = glam::Quat::from_rotation_x(1.1f32.to_radians()) * n;
+                }
                 let uv = Vec2::new(
                     ((-outward.z).atan2(outward.x) + PI) / (2.0 * PI),
                     (-outward.y).clamp(-1.0, 1.0).acos() / PI,

@@ -62,7 +62,23 @@ pub struct FurnaceCase {
     /// far below 1: a pixel that drew none of those samples has a high
     /// mean AND a small variance) and then overstates |z|.
     pub pooled_variance: bool,
+    /// The per-sample variance and fourth central moment of every pixel,
+    /// where they are known: the film's variance estimate (what the EXR's
+    /// variance layer and `diff` rest on) is then tested too.
+    pub known_moments: Option<KnownMoments>,
 }
+
+/// The second and fourth central moments of one sample, per channel.
+#[derive(Clone, Copy, Debug)]
+pub struct KnownMoments {
+    pub variance: Vec3,
+    pub fourth: Vec3,
+}
+
+/// |z| beyond which the pooled variance estimate fails: two-sided
+/// α = 6.3e-5 per channel, so a correct twin fails a three-channel case
+/// about once in 5,000 runs.
+pub const VARIANCE_Z_MAX: f64 = 4.0;
 
 /// Background radiance of the white furnaces.
 pub const FURNACE_BACKGROUND: f32 = 0.8;
@@ -90,6 +106,55 @@ fn settings(
         seed,
         roulette_depth: if roulette { 3 } else { max_depth + 1 },
     }
+}
+
+/// A furnace whose every path value is 0 or 1: a Lambertian sphere of
+/// albedo `a` (< `ROULETTE_MAX_SURVIVAL`) filling the view under a uniform
+/// background of 1, Russian roulette from the first bounce. The throughput
+/// after the bounce is `a`, so roulette keeps the path with probability `a`
+/// and divides it back to exactly 1; the bounce leaves the convex sphere
+/// and sees the background. Each sample is Bernoulli(a): mean `a`,
+/// variance `a(1 − a)`, fourth central moment `a(1 − a)(1 − 3a(1 − a))`,
+/// so the renderer's variance estimate has a known answer.
+pub fn bernoulli_furnace(albedo: f32, spp: u32, seed: u32) -> Result<FurnaceCase> {
+    anyhow::ensure!(
+        albedo > 0.0 && albedo < reference::integrator::ROULETTE_MAX_SURVIVAL,
+        "albedo {albedo} outside (0, {})",
+        reference::integrator::ROULETTE_MAX_SURVIVAL
+    );
+    let mut b = SceneBuilder::new();
+    let id = Transform::default();
+    let grey = b.constant(Vec3::splat(albedo))?;
+    let diffuse = b.add_material(Material::Lambertian { albedo: grey })?;
+    b.add_sphere(Vec3::ZERO, 1.0, diffuse, &id)?;
+    // The sphere subtends asin(1/3) = 19.5° from the camera; the image's
+    // corner rays are 14.1° off axis (vfov 20°, square).
+    b.camera = CameraSettings {
+        look_from: Vec3::new(0.0, 0.0, -3.0),
+        look_at: Vec3::ZERO,
+        up: Vec3::Y,
+        vfov: 20.0,
+        aperture: 0.0,
+        focus_distance: 3.0,
+    };
+    b.background = Some(Background::Solid(Vec3::ONE));
+    let a = albedo as f64;
+    let var = a * (1.0 - a);
+    Ok(FurnaceCase {
+        name: format!("Bernoulli furnace, albedo {albedo}"),
+        scene: b.build()?,
+        settings: RenderSettings {
+            roulette_depth: 1,
+            ..settings(16, 16, spp, 4, false, seed)
+        },
+        expected: Vec3::splat(albedo),
+        exact: false,
+        pooled_variance: true,
+        known_moments: Some(KnownMoments {
+            variance: Vec3::splat(var as f32),
+            fourth: Vec3::splat((var * (1.0 - 3.0 * var)) as f32),
+        }),
+    })
 }
 
 /// The Cornell room (open at the front, no light) with its short box, a
@@ -145,6 +210,7 @@ pub fn white_furnace(roulette: bool, spp: u32, seed: u32) -> Result<FurnaceCase>
         expected: Vec3::splat(FURNACE_BACKGROUND),
         exact: !roulette,
         pooled_variance: false,
+        known_moments: None,
     })
 }
 
@@ -190,6 +256,7 @@ pub fn inside_out_emitter(spp: u32, seed: u32) -> Result<FurnaceCase> {
         expected: Vec3::splat(le),
         exact: true,
         pooled_variance: false,
+        known_moments: None,
     })
 }
 
@@ -240,6 +307,7 @@ pub fn concentric_spheres(albedo: f32, roulette: bool, spp: u32, seed: u32) -> R
         expected: Vec3::splat(expected),
         exact: false,
         pooled_variance: true,
+        known_moments: None,
     })
 }
 
@@ -325,6 +393,7 @@ pub fn ggx_metal_plane(
         }),
         exact: false,
         pooled_variance: true,
+        known_moments: None,
     })
 }
 
@@ -338,15 +407,22 @@ pub struct FurnaceOutcome {
     /// For exact cases: the first pixel whose samples are not all exactly
     /// the expected value, and why.
     pub exact_mismatch: Option<String>,
+    /// For cases with known moments: the z of the film's variance
+    /// estimate, pooled over pixels, against the known variance.
+    pub variance_z: Option<DVec3>,
 }
 
 impl FurnaceOutcome {
     pub fn passes(&self, case: &FurnaceCase) -> bool {
-        if case.exact {
-            self.exact_mismatch.is_none()
-        } else {
-            self.verdict.passes()
-        }
+        let variance_ok = self
+            .variance_z
+            .is_none_or(|z| z.abs().max_element() <= VARIANCE_Z_MAX);
+        variance_ok
+            && if case.exact {
+                self.exact_mismatch.is_none()
+            } else {
+                self.verdict.passes()
+            }
     }
 
     /// Mean over the image, per channel.
@@ -409,11 +485,35 @@ pub fn check(case: &FurnaceCase, render: RenderFn) -> Result<FurnaceOutcome> {
             )
         })
     });
+    let variance_z = case.known_moments.map(|m| variance_z(&film, m));
     Ok(FurnaceOutcome {
         film,
         verdict,
         exact_mismatch,
+        variance_z,
     })
+}
+
+/// z of the film's per-pixel variance estimates (`M2 / (n − 1)`), averaged
+/// over pixels, against the known per-sample variance σ². One pixel's
+/// estimate from n samples has variance (μ4 − σ⁴(n − 3)/(n − 1)) / n (the
+/// variance of the unbiased sample variance); the average over P pixels,
+/// that over P.
+pub fn variance_z(film: &Film, m: KnownMoments) -> DVec3 {
+    let (sigma2, mu4) = (m.variance.as_dvec3(), m.fourth.as_dvec3());
+    let pixels = film.pixels.len().max(1) as f64;
+    let mean_estimate = film
+        .pixels
+        .iter()
+        .map(|p| p.sample_variance())
+        .sum::<DVec3>()
+        / pixels;
+    let n = film.pixels.iter().map(|p| p.count as f64).sum::<f64>() / pixels;
+    let var_one = (mu4 - sigma2 * sigma2 * ((n - 3.0) / (n - 1.0))) / n;
+    (mean_estimate - sigma2)
+        / (var_one / pixels)
+            .max(DVec3::splat(f64::MIN_POSITIVE))
+            .powf(0.5)
 }
 
 #[cfg(test)]

@@ -1,0 +1,64 @@
+//! Mutation points: deliberate defects in the production code, switched on
+//! only by the gates' own tests (tests/gates_catch_mutants.rs), to prove
+//! that some gate fails on each. Compiled in only with the cargo feature
+//! `mutants`, which the workspace's integration tests enable; without it
+//! [`active`] is the constant [`Mutant::None`] and every point folds away.
+//!
+//! A mutant is active on the threads of a pool made by [`pool`] (the
+//! renderer's rayon tiles run there), so tests running beside it in the
+//! same process see the production code unchanged.
+
+/// One deliberate defect.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Mutant {
+    #[default]
+    None,
+    /// The metal lobe's weight ×0.95 (`material::scatter`).
+    MetalWeight,
+    /// The sphere's normal tilted 1.1° about the x axis
+    /// (`Scene::surface_interaction`).
+    SphereNormalTilt,
+}
+
+#[cfg(feature = "mutants")]
+thread_local! {
+    static ACTIVE: std::cell::Cell<Mutant> = const { std::cell::Cell::new(Mutant::None) };
+}
+
+/// The mutant active on this thread.
+#[inline(always)]
+pub fn active() -> Mutant {
+    #[cfg(feature = "mutants")]
+    {
+        ACTIVE.with(|a| a.get())
+    }
+    #[cfg(not(feature = "mutants"))]
+    {
+        Mutant::None
+    }
+}
+
+/// Whether `m` is active on this thread.
+#[inline(always)]
+pub fn is(m: Mutant) -> bool {
+    active() == m
+}
+
+/// A rayon pool whose threads run with `m` active: `pool(m).install(||
+/// render(...))` renders the mutant with the production renderer.
+#[cfg(feature = "mutants")]
+pub fn pool(m: Mutant) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .start_handler(move |_| ACTIVE.with(|a| a.set(m)))
+        .build()
+        .expect("a rayon pool")
+}
+
+/// Runs `f` on this thread with `m` active (for single-threaded checks).
+#[cfg(feature = "mutants")]
+pub fn with<R>(m: Mutant, f: impl FnOnce() -> R) -> R {
+    let before = ACTIVE.with(|a| a.replace(m));
+    let r = f();
+    ACTIVE.with(|a| a.set(before));
+    r
+}
