@@ -726,7 +726,7 @@ fn sphere_normal_tilted_1_1_degrees_fails_the_radial_normal_check() {
 }
 
 #[test]
-fn swapped_barycentrics_in_the_wgsl_fail_the_hit_record_gate() {
+fn gpu_swapped_barycentrics_in_the_wgsl_fail_the_hit_record_gate() {
     let scene = fixture_scene_named("gltf-mesh.json");
     let library = gpu::shader::library_source();
     let swapped = patched(
@@ -741,7 +741,7 @@ fn swapped_barycentrics_in_the_wgsl_fail_the_hit_record_gate() {
 }
 
 #[test]
-fn variance_times_4_in_the_wgsl_fails_the_variance_furnace() {
+fn gpu_variance_times_4_in_the_wgsl_fails_the_variance_furnace() {
     let case = furnace::bernoulli_furnace(0.3, 64, 11).unwrap();
     let program = patched(
         &gpu::shader::render_source(),

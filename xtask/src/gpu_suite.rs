@@ -12,7 +12,7 @@
 //!   `run.sh` sets to DIR, so no path of the build machine is needed);
 //! - `lib/`: shared libraries the binary needs that a bare machine lacks
 //!   (the Embree wheel's, when the linker kept them);
-//! - `run.sh`: runs every GPU test (modules `gpu_*`), prints one line per
+//! - `run.sh`: runs every GPU test (names containing `gpu_`), prints one line per
 //!   test and the closing count, and keeps the whole log in `gpu-suite.log`.
 //!
 //! docs/gates.md says how to run it on the GPU machine and records results.
@@ -22,8 +22,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
 const RUNNER: &str = r#"#!/bin/sh
-# Runs twintrace's GPU gates (the integration tests of modules gpu_*) on
-# this machine's GPU adapter. Extra arguments go to the test binary
+# Runs twintrace's GPU gates (the integration tests named gpu_*: the gpu_*
+# modules and the GPU mutants of gates_catch_mutants) on this machine's
+# GPU adapter. Extra arguments go to the test binary
 # (e.g. a test name filter, --nocapture). Exit status: the test binary's.
 here=$(cd "$(dirname "$0")" && pwd)
 export TWINTRACE_ROOT="$here"
@@ -33,7 +34,9 @@ export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
 log="$here/gpu-suite.log"
 "$here/integration" gpu_ --test-threads=1 "$@" >"$log" 2>&1
 status=$?
-grep -E '^test |^test result|panicked|^---- ' "$log"
+grep -E '^test |^test result' "$log"
+# Each failure's own output and panic message.
+[ $status -eq 0 ] || sed -n '/^failures:$/,/^test result/p' "$log" | grep -v '^ *[0-9]*: \|^ *at '
 echo "gpu-suite: exit status $status; full log: $log"
 exit $status
 "#;
