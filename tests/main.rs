@@ -20,6 +20,7 @@ mod known_answers;
 mod reference_images;
 mod render_determinism;
 mod sampling_chi2;
+mod scale_invariance;
 mod scene_loading_errors;
 mod tidy;
 

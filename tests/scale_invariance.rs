@@ -1,0 +1,216 @@
+//! Scale invariance: a scene scaled by 1e-3 and by 1e3 renders a
+//! statistically identical image (per-pixel z-test, Šidák-corrected, and
+//! the image-sum z), and the gate catches walls 5 % darker.
+
+use glam::{Affine3A, DVec3, Quat, Vec3};
+use reference::material::Material;
+use reference::scene::{Scene, SceneBuilder, Transform};
+use twintrace::stats::{normal_two_sided_bound, sidak};
+
+/// Per-pixel, per-channel two-sided z-tests of two independent renders,
+/// with Šidák's correction of α = 0.01 over all tests; returns the failing
+/// fraction and the largest |z| of the image-sum test per channel.
+fn compare_films(a: &reference::Film, b: &reference::Film) -> (f64, f64) {
+    let (ma, mb) = (a.mean(), b.mean());
+    let tests = 3 * ma.len();
+    let z_crit = normal_two_sided_bound(sidak(0.01, tests));
+    let mut failed = 0usize;
+    let (mut sum_diff, mut sum_var) = (DVec3::ZERO, DVec3::ZERO);
+    for (i, (pa, pb)) in a.pixels.iter().zip(&b.pixels).enumerate() {
+        let (va, vb) = (pa.variance_of_mean(), pb.variance_of_mean());
+        let diff = ma[i].as_dvec3() - mb[i].as_dvec3();
+        sum_diff += diff;
+        sum_var += va + vb;
+        for c in 0..3 {
+            let var = va[c] + vb[c];
+            let z = if var > 0.0 {
+                diff[c].abs() / var.sqrt()
+            } else if diff[c] == 0.0 {
+                0.0
+            } else {
+                f64::INFINITY
+            };
+            failed += (z > z_crit) as usize;
+        }
+    }
+    let z_sum = (0..3)
+        .map(|c| sum_diff[c].abs() / sum_var[c].sqrt().max(1e-300))
+        .fold(0.0, f64::max);
+    (failed as f64 / tests as f64, z_sum)
+}
+
+/// A lit box with a sphere, a rotated block and an icosphere mesh, every
+/// length (and the camera) multiplied by `scale`; `albedo` tints the walls.
+fn scaled_scene(scale: f32, albedo: f32) -> Scene {
+    let mut b = SceneBuilder::new();
+    let wall = b
+        .constant(Vec3::new(albedo, albedo * 0.9, albedo * 0.8))
+        .unwrap();
+    let wall = b
+        .add_material(Material::Lambertian { albedo: wall })
+        .unwrap();
+    let red = b.constant(Vec3::new(0.7, 0.1, 0.1)).unwrap();
+    let red = b
+        .add_material(Material::Lambertian { albedo: red })
+        .unwrap();
+    let metal = b.constant(Vec3::splat(0.8)).unwrap();
+    let metal = b
+        .add_material(Material::Metal {
+            albedo: metal,
+            fuzz: 0.2,
+        })
+        .unwrap();
+    let glass = b
+        .add_material(Material::Dielectric {
+            ior: 1.5,
+            absorption: Vec3::ZERO,
+        })
+        .unwrap();
+    let light = b.constant(Vec3::splat(8.0)).unwrap();
+    let light = b
+        .add_material(Material::DiffuseLight { emission: light })
+        .unwrap();
+    let s = Transform::from_parts(Vec3::splat(scale), Quat::IDENTITY, Vec3::ZERO);
+    let room = 2.0;
+    b.add_quad(
+        Vec3::new(-room, -room, -room),
+        Vec3::X * 2.0 * room,
+        Vec3::Z * 2.0 * room,
+        wall,
+        &s,
+    )
+    .unwrap();
+    b.add_quad(
+        Vec3::new(-room, room, -room),
+        Vec3::Z * 2.0 * room,
+        Vec3::X * 2.0 * room,
+        wall,
+        &s,
+    )
+    .unwrap();
+    b.add_quad(
+        Vec3::new(-room, -room, -room),
+        Vec3::Y * 2.0 * room,
+        Vec3::X * 2.0 * room,
+        wall,
+        &s,
+    )
+    .unwrap();
+    b.add_quad(
+        Vec3::new(-room, -room, -room),
+        Vec3::Z * 2.0 * room,
+        Vec3::Y * 2.0 * room,
+        red,
+        &s,
+    )
+    .unwrap();
+    b.add_quad(
+        Vec3::new(room, -room, -room),
+        Vec3::Y * 2.0 * room,
+        Vec3::Z * 2.0 * room,
+        wall,
+        &s,
+    )
+    .unwrap();
+    b.add_quad(
+        Vec3::new(-0.6, room - 1e-3, -0.6),
+        Vec3::X * 1.2,
+        Vec3::Z * 1.2,
+        light,
+        &s,
+    )
+    .unwrap();
+    b.add_sphere(Vec3::new(-0.8, -1.3, 0.2), 0.7, glass, &s)
+        .unwrap();
+    let block = Transform {
+        matrix: s.matrix
+            * Affine3A::from_rotation_translation(
+                Quat::from_rotation_y(0.4),
+                Vec3::new(0.7, -room, -0.6),
+            ),
+    };
+    b.add_box(
+        Vec3::new(-0.5, 0.0, -0.5),
+        Vec3::new(0.5, 1.6, 0.5),
+        wall,
+        &block,
+    )
+    .unwrap();
+    let ball = Transform {
+        matrix: s.matrix
+            * Affine3A::from_scale_rotation_translation(
+                Vec3::splat(0.45),
+                Quat::IDENTITY,
+                Vec3::new(0.9, -1.55, 1.0),
+            ),
+    };
+    b.add_mesh(&reference::procedural::icosphere(2), metal, &ball)
+        .unwrap();
+    b.camera.look_from = Vec3::new(0.0, 0.0, 7.5) * scale;
+    b.camera.look_at = Vec3::ZERO;
+    b.camera.vfov = 38.0;
+    b.camera.focus_distance = 7.5 * scale;
+    b.build().unwrap()
+}
+
+fn render_scaled(scale: f32, albedo: f32, seed: u32) -> reference::Film {
+    let scene = scaled_scene(scale, albedo);
+    let settings = reference::RenderSettings {
+        width: 24,
+        height: 24,
+        spp: 256,
+        max_depth: 8,
+        seed,
+        roulette_depth: 3,
+    };
+    let film = reference::render(&scene, &settings, &|_| {});
+    assert_eq!(
+        film.nonfinite_samples(),
+        0,
+        "scale {scale:e}: NaN/Inf samples"
+    );
+    film
+}
+
+/// Tests per image that may fail by chance: the per-pixel gate of
+/// docs/gates.md passes at ≥ 99.75 % passing tests; the image-sum test uses
+/// Šidák over 3 channels at α = 0.01 (|z| < 2.94).
+const MAX_FAILING_FRACTION: f64 = 0.0025;
+const Z_SUM_CRIT: f64 = 2.94;
+
+#[test]
+fn a_scene_scaled_by_1e_3_and_1e3_renders_the_same_image() {
+    // Independent seeds: the z-test assumes independent estimates.
+    let base = render_scaled(1.0, 0.73, 1);
+    for (scale, seed) in [(1e-3f32, 2u32), (1e3, 3)] {
+        let other = render_scaled(scale, 0.73, seed);
+        let (failing, z_sum) = compare_films(&base, &other);
+        println!(
+            "scale {scale:e} vs 1: {:.3} % of per-pixel tests fail, image-sum |z| = {z_sum:.2}",
+            100.0 * failing
+        );
+        assert!(
+            failing <= MAX_FAILING_FRACTION && z_sum < Z_SUM_CRIT,
+            "scale {scale:e}: {:.3} % failing, |z_sum| = {z_sum:.2}",
+            100.0 * failing
+        );
+    }
+}
+
+/// The gate above can fail: walls 5 % darker (an albedo change of the kind
+/// tests/gates_catch_mutants.rs uses) are caught at the same budget.
+#[test]
+fn the_scale_invariance_gate_catches_a_changed_scene() {
+    let base = render_scaled(1.0, 0.73, 1);
+    let darker = render_scaled(1e3, 0.73 * 0.95, 3);
+    let (failing, z_sum) = compare_films(&base, &darker);
+    println!(
+        "walls ×0.95: {:.3} % of per-pixel tests fail, image-sum |z| = {z_sum:.2}",
+        100.0 * failing
+    );
+    assert!(
+        failing > MAX_FAILING_FRACTION || z_sum >= Z_SUM_CRIT,
+        "a 5 % darker scene passed: {:.3} % failing, |z_sum| = {z_sum:.2}",
+        100.0 * failing
+    );
+}
