@@ -727,7 +727,8 @@ fn sphere_normal_tilted_1_1_degrees_fails_the_radial_normal_check() {
 
 #[test]
 fn gpu_swapped_barycentrics_in_the_wgsl_fail_the_hit_record_gate() {
-    let scene = fixture_scene_named("gltf-mesh.json");
+    let scene =
+        reference::load_scene(&twintrace::compare::gate::fixture_scene("gltf-mesh.json")).unwrap();
     let library = gpu::shader::library_source();
     let swapped = patched(
         &library,
@@ -760,10 +761,6 @@ fn gpu_variance_times_4_in_the_wgsl_fails_the_variance_furnace() {
         !out.passes(&case),
         "the GPU's variance ×4 passed the variance furnace"
     );
-}
-
-fn fixture_scene_named(file: &str) -> Scene {
-    reference::load_scene(&twintrace::compare::gate::fixture_scene(file)).unwrap()
 }
 
 /// Local biases (one 8x8 tile ×1.1 or ×0.9; the darkest quarter of the
@@ -805,7 +802,8 @@ fn local_biases_fail_the_four_materials_gate() {
         f
     };
     // The darkest quarter, judged on the reference.
-    let lum = |i: usize| reference.image.mean[i].dot(DVec3::new(0.2126, 0.7152, 0.0722));
+    let weights = DVec3::from_array(reference::material::LUMINANCE_WEIGHTS.map(f64::from));
+    let lum = |i: usize| reference.image.mean[i].dot(weights);
     let mut order: Vec<usize> = (0..(w * h) as usize).collect();
     order.sort_by(|&a, &b| lum(a).total_cmp(&lum(b)));
     let dark: std::collections::HashSet<usize> = order[..order.len() / 4].iter().copied().collect();

@@ -100,7 +100,7 @@ fn v3(w: &[u32]) -> Vec3 {
     )
 }
 
-fn check_surface(name: &str, scene: &Scene) -> usize {
+fn check_surface(name: &str, scene: &Scene) {
     let ctx = common::gpu();
     let renderer = gpu::GpuRenderer::new(ctx, scene).unwrap();
     let cases = hits(scene);
@@ -214,7 +214,6 @@ fn check_surface(name: &str, scene: &Scene) -> usize {
         cases.len(),
         &failures[..failures.len().min(5)]
     );
-    cases.len()
 }
 
 /// Spheres (rtow-final), quads (cornell), triangles with shading normals

@@ -444,9 +444,9 @@ fn dangling_paths(text: &str, root: &Path, base: &Path) -> Vec<String> {
     let mut out = Vec::new();
     for (i, _) in text.char_indices() {
         let rest = &text[i..];
-        let Some(top) = TOPS.iter().find(|t| rest.starts_with(**t)) else {
+        if !TOPS.iter().any(|t| rest.starts_with(t)) {
             continue;
-        };
+        }
         let prev = text[..i].chars().next_back();
         if prev.is_some_and(|c| c.is_alphanumeric() || "_-./".contains(c)) {
             continue;
@@ -455,7 +455,6 @@ fn dangling_paths(text: &str, root: &Path, base: &Path) -> Vec<String> {
             .find(|c: char| !(c.is_ascii_alphanumeric() || "_-./".contains(c)))
             .unwrap_or(rest.len());
         let path = rest[..end].trim_end_matches('.');
-        let _ = top;
         let placeholder = path.chars().any(|c| c.is_ascii_uppercase())
             || rest[end..].starts_with(['<', '*', '{']);
         if placeholder || !EXTS.iter().any(|x| path.ends_with(x)) {

@@ -1,5 +1,5 @@
 //! Every binding of the kernels, defined once: group, slot, WGSL name and
-//! type, and access. The WGSL declarations (in the generated prelude), the
+//! type, and access. The WGSL declarations (in shaders/generated.wgsl), the
 //! bind group layouts and the bind groups are all derived from these
 //! tables, so a slot is never typed twice.
 

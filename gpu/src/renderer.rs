@@ -31,7 +31,8 @@ pub struct GpuRenderer<'a> {
     ctx: &'a GpuContext,
     pipeline: wgpu::ComputePipeline,
     layout: wgpu::BindGroupLayout,
-    scene_buffers: Vec<wgpu::Buffer>,
+    /// Each scene array with the binding it is bound to.
+    scene_buffers: Vec<(Binding, wgpu::Buffer)>,
     scene: &'a Scene,
 }
 
@@ -110,7 +111,6 @@ impl<'a> GpuRenderer<'a> {
         let limit = ctx.device.limits().max_storage_buffer_binding_size;
         let device = &ctx.device;
         let arrays = packed.arrays();
-        debug_assert!(arrays.iter().map(|a| a.0).eq(bindings::SCENE_ARRAYS));
         let mut scene_buffers = Vec::with_capacity(arrays.len());
         for (binding, bytes) in arrays {
             if bytes.len() as u64 > limit {
@@ -124,13 +124,12 @@ impl<'a> GpuRenderer<'a> {
             // Bindings may not be empty: an empty array gets one zero record.
             let zeros = [0u8; 64]; // at least one of the largest record (48 bytes)
             let contents = if bytes.is_empty() { &zeros[..] } else { bytes };
-            scene_buffers.push(
-                device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some(binding.name),
-                    contents,
-                    usage: wgpu::BufferUsages::STORAGE,
-                }),
-            );
+            let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(binding.name),
+                contents,
+                usage: wgpu::BufferUsages::STORAGE,
+            });
+            scene_buffers.push((binding, buffer));
         }
         let layout = bind_group_layout(device);
         let pipeline = compile(ctx, program, "render_main", &[&layout])?;
@@ -141,11 +140,6 @@ impl<'a> GpuRenderer<'a> {
             scene_buffers,
             scene,
         })
-    }
-
-    /// The scene arrays, one per [`bindings::SCENE_ARRAYS`] entry.
-    pub fn scene_buffers(&self) -> &[wgpu::Buffer] {
-        &self.scene_buffers
     }
 
     pub fn layout(&self) -> &wgpu::BindGroupLayout {
@@ -182,9 +176,8 @@ impl<'a> GpuRenderer<'a> {
             resource: params.as_entire_binding(),
         }];
         entries.extend(
-            bindings::SCENE_ARRAYS
+            self.scene_buffers
                 .iter()
-                .zip(&self.scene_buffers)
                 .map(|(b, buf)| wgpu::BindGroupEntry {
                     binding: b.slot,
                     resource: buf.as_entire_binding(),

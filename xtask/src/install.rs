@@ -3,7 +3,7 @@
 //! The GPU tests never skip, so a machine where this cannot be installed
 //! fails here with the reason.
 
-use crate::util::run;
+use crate::util::apt_install;
 use std::path::Path;
 
 /// Folders the Vulkan loader searches for driver manifests (ICDs).
@@ -43,20 +43,7 @@ pub fn ensure_vulkan() -> Result<(), String> {
     eprintln!(
         "xtask: no Vulkan driver found; installing Mesa lavapipe (mesa-vulkan-drivers, libvulkan1)"
     );
-    let root = std::process::Command::new("id")
-        .arg("-u")
-        .output()
-        .map(|o| String::from_utf8_lossy(&o.stdout).trim() == "0")
-        .unwrap_or(false);
-    let apt = |args: &[&str]| {
-        if root {
-            run("apt-get", args)
-        } else {
-            run("sudo", &[&["apt-get"], args].concat())
-        }
-    };
-    apt(&["update", "-qq"])?;
-    apt(&["install", "-y", "-qq", "mesa-vulkan-drivers", "libvulkan1"])?;
+    apt_install(&["mesa-vulkan-drivers", "libvulkan1"])?;
     if has_loader() && has_driver() {
         Ok(())
     } else {

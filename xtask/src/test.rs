@@ -15,7 +15,7 @@
 //!
 //! Nothing is skipped: a piece that cannot be installed is an error.
 
-use crate::util::run as sh;
+use crate::util::{apt_install, run as sh};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -236,21 +236,4 @@ fn has_libclang() -> bool {
             });
             has_lib && has_headers
         })
-}
-
-fn apt_install(packages: &[&str]) -> Result<(), String> {
-    let root = Command::new("id")
-        .arg("-u")
-        .output()
-        .map(|o| String::from_utf8_lossy(&o.stdout).trim() == "0")
-        .unwrap_or(false);
-    let apt = |args: &[&str]| {
-        if root {
-            sh("apt-get", args)
-        } else {
-            sh("sudo", &[&["apt-get"], args].concat())
-        }
-    };
-    apt(&["update", "-qq"])?;
-    apt(&[&["install", "-y", "-qq"], packages].concat())
 }

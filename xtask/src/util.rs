@@ -23,3 +23,22 @@ pub fn run(program: &str, args: &[&str]) -> Result<(), String> {
         Err(format!("`{program} {}` failed ({status})", args.join(" ")))
     }
 }
+
+/// `apt-get update` then `apt-get install -y` of `packages`, through sudo
+/// unless already root.
+pub fn apt_install(packages: &[&str]) -> Result<(), String> {
+    let root = std::process::Command::new("id")
+        .arg("-u")
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim() == "0")
+        .unwrap_or(false);
+    let apt = |args: &[&str]| {
+        if root {
+            run("apt-get", args)
+        } else {
+            run("sudo", &[&["apt-get"], args].concat())
+        }
+    };
+    apt(&["update", "-qq"])?;
+    apt(&[&["install", "-y", "-qq"], packages].concat())
+}
