@@ -135,6 +135,10 @@ struct GpuPixel {
     m2_r: f32,
     m2_g: f32,
     m2_b: f32,
+    m3_r: f32,
+    m3_g: f32,
+    m3_b: f32,
+    _pad0: u32,
 }
 struct GpuParams {
     width: u32,

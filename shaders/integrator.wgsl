@@ -76,6 +76,7 @@ fn render_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var acc = film[pixel];
     var mean = vec3<f32>(acc.mean_r, acc.mean_g, acc.mean_b);
     var m2 = vec3<f32>(acc.m2_r, acc.m2_g, acc.m2_b);
+    var m3 = vec3<f32>(acc.m3_r, acc.m3_g, acc.m3_b);
     for (var i = 0u; i < params.sample_count; i++) {
         let sample = params.sample_start + i;
         let l = trace_path(camera_ray(gid.x, gid.y, sample), pixel, sample);
@@ -84,8 +85,12 @@ fn render_main(@builtin(global_invocation_id) gid: vec3<u32>) {
             continue;
         }
         acc.count += 1u;
+        let n = f32(acc.count);
         let delta = l - mean;
-        mean += delta / f32(acc.count);
+        let delta_n = delta / n;
+        mean += delta_n;
+        // M3 before M2: its update takes the M2 of the first n − 1 samples.
+        m3 += delta * delta_n * delta_n * ((n - 1.0) * (n - 2.0)) - 3.0 * delta_n * m2;
         m2 += delta * (l - mean);
     }
     acc.mean_r = mean.x;
@@ -94,5 +99,8 @@ fn render_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     acc.m2_r = m2.x;
     acc.m2_g = m2.y;
     acc.m2_b = m2.z;
+    acc.m3_r = m3.x;
+    acc.m3_g = m3.y;
+    acc.m3_b = m3.z;
     film[pixel] = acc;
 }

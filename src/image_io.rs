@@ -13,11 +13,13 @@
 //! |---|---|
 //! | `R`, `G`, `B` | per-pixel mean of linear radiance (the estimate) |
 //! | `variance.R`, `variance.G`, `variance.B` | variance of that **mean**, per channel: the unbiased sample variance divided by the sample count (`Film::variance()`); 0 where fewer than 2 samples were accepted |
+//! | `skewness.R`, `skewness.G`, `skewness.B` | skewness of that **mean**, per channel: `M3 / M2^{3/2}` of the accepted samples, which is the samples' skewness over `√n` (`Film::skewness()`); 0 where the samples do not vary. About `1/√k` where the estimate rests on `k` rare samples, so it tells where the mean is still far from normal |
 //!
 //! `variance.*` is the standard OpenEXR layer naming, so viewers (tev,
 //! Nuke, `exrheader`) show a second layer called `variance`. Its square
 //! root is the standard error of each pixel, which is what the z and Welch
-//! tests need. Header attributes (all optional on reading):
+//! tests need; `skewness` says which pixels those normal tests may judge
+//! (see `compare::image`). Header attributes (all optional on reading):
 //!
 //! | attribute | type | meaning |
 //! |---|---|---|
@@ -28,8 +30,8 @@
 //! | `software` | string | `twintrace <version> (<backend>)`, the standard attribute |
 //!
 //! [`read_exr`] reads such a file back bit-exactly; it also accepts a
-//! multi-part file whose second part is named `variance`, and a file with
-//! no variance at all (`variance` is then `None`).
+//! multi-part file whose other parts are named `variance` and `skewness`,
+//! and a file without either layer (the field is then `None`).
 //!
 //! # The PNG
 //!
@@ -58,6 +60,8 @@ use std::path::{Path, PathBuf};
 
 /// Name of the variance layer (channel prefix) in the EXR.
 pub const VARIANCE_LAYER: &str = "variance";
+/// Name of the skewness layer (channel prefix) in the EXR.
+pub const SKEWNESS_LAYER: &str = "skewness";
 
 /// Where a render and its settings came from; stored as EXR attributes.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -77,6 +81,8 @@ pub struct RenderImage {
     pub height: u32,
     pub mean: Vec<Vec3>,
     pub variance: Option<Vec<Vec3>>,
+    /// Skewness of each pixel's mean.
+    pub skewness: Option<Vec<Vec3>>,
     pub metadata: RenderMetadata,
 }
 
@@ -88,6 +94,7 @@ impl RenderImage {
             height: film.height,
             mean: film.mean(),
             variance: Some(film.variance()),
+            skewness: Some(film.skewness()),
             metadata,
         }
     }
@@ -106,14 +113,16 @@ impl RenderImage {
                 self.height
             );
         }
-        if let Some(v) = &self.variance {
-            if v.len() != n {
-                bail!(
-                    "{} variance pixels for a {}x{} image",
-                    v.len(),
-                    self.width,
-                    self.height
-                );
+        for (layer, v) in [("variance", &self.variance), ("skewness", &self.skewness)] {
+            if let Some(v) = v {
+                if v.len() != n {
+                    bail!(
+                        "{} {layer} pixels for a {}x{} image",
+                        v.len(),
+                        self.width,
+                        self.height
+                    );
+                }
             }
         }
         Ok(())
@@ -307,6 +316,9 @@ pub fn write_exr_to(writer: impl Write + Seek, image: &RenderImage) -> Result<()
     if let Some(variance) = &image.variance {
         channels.extend(rgb_channels(&format!("{VARIANCE_LAYER}."), variance));
     }
+    if let Some(skewness) = &image.skewness {
+        channels.extend(rgb_channels(&format!("{SKEWNESS_LAYER}."), skewness));
+    }
     let mut attributes = LayerAttributes::default();
     let m = &image.metadata;
     let int = |v: u32| AttributeValue::I32(i32::try_from(v).unwrap_or(i32::MAX));
@@ -346,7 +358,7 @@ pub fn write_exr_to(writer: impl Write + Seek, image: &RenderImage) -> Result<()
     Ok(())
 }
 
-/// Writes `path` as an EXR (mean and, if present, variance), atomically.
+/// Writes `path` as an EXR (mean and, if present, variance and skewness), atomically.
 pub fn write_exr(path: &Path, image: &RenderImage) -> Result<()> {
     write_atomic(path, |f| write_exr_to(f, image))
 }
@@ -415,8 +427,8 @@ fn attribute_u32(value: &AttributeValue) -> Option<u32> {
 }
 
 /// Reads an EXR written by [`write_exr`] (or any EXR with `R`, `G`, `B`
-/// channels) back: the mean, the variance if the file has one, and the
-/// metadata attributes. 32-bit float channels come back bit-exactly.
+/// channels) back: the mean, the variance and skewness if the file has
+/// them, and the metadata attributes. 32-bit float channels come back bit-exactly.
 pub fn read_exr(path: &Path) -> Result<RenderImage> {
     let what = || format!("cannot read EXR `{}`", path.display());
     let image = exr::prelude::read()
@@ -436,7 +448,8 @@ pub fn read_exr(path: &Path) -> Result<RenderImage> {
         u32::try_from(size.0).with_context(what)?,
         u32::try_from(size.1).with_context(what)?,
     );
-    // Channel full names: a part named `variance` contributes `variance.X`.
+    // Channel full names: a part named `variance` contributes `variance.X`
+    // (likewise `skewness`).
     let mut channels: Vec<(String, &FlatSamples)> = Vec::new();
     for (i, layer) in image.layer_data.iter().enumerate() {
         let prefix = match &layer.attributes.layer_name {
@@ -480,6 +493,7 @@ pub fn read_exr(path: &Path) -> Result<RenderImage> {
         .ok_or_else(|| anyhow!("no `R`, `G`, `B` channels"))
         .with_context(what)?;
     let variance = read_rgb(&format!("{VARIANCE_LAYER}.")).with_context(what)?;
+    let skewness = read_rgb(&format!("{SKEWNESS_LAYER}.")).with_context(what)?;
     let attrs = &first.attributes;
     let get = |name: &str| {
         attrs
@@ -505,6 +519,7 @@ pub fn read_exr(path: &Path) -> Result<RenderImage> {
         height,
         mean,
         variance,
+        skewness,
         metadata,
     })
 }

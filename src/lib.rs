@@ -6,18 +6,21 @@
 //! share; it never imports the command line, which is the binary's alone
 //! (`src/main.rs`, `src/cli/`):
 //!
-//! - [`image_io`]: the render EXR (linear mean + variance of the mean, its
+//! - [`image_io`]: the render EXR (linear mean, variance and skewness of the mean, its
 //!   exact layout documented there), the tone-mapped PNG, reading an EXR
 //!   back, and all-or-nothing file writes;
 //! - [`tonemap`]: ACES filmic (Narkowicz's fit) and the sRGB OETF;
 //! - [`compare`]: the statistical and exact gates (z/Welch image tests with
 //!   aggregate tests, chi-square for sampling, bitwise comparison, stored
 //!   references), with [`stats`] for the distribution functions;
-//! - [`report`]: the self-contained HTML report of a comparison.
+//! - [`report`]: the self-contained HTML report of a comparison;
+//! - [`selftest`]: the gates a user runs on their own GPU (`twintrace
+//!   selftest`) and their calibration (false alarms and power).
 
 pub mod compare;
 pub mod image_io;
 pub mod report;
+pub mod selftest;
 pub mod stats;
 pub mod tonemap;
 

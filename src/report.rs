@@ -240,18 +240,10 @@ fn table_rows(r: &Report) -> Vec<(String, String)> {
         rows.push(("method".into(), v.method.describe().into()));
         rows.push((
             "per-pixel tests".into(),
-            format!(
-                "{} / {} pass ({:.3} %; need {:.2} %) at Šidák level {:.3e} (family α = {}); smallest p {:.3e} at ({}, {}) {}",
-                px.passed,
-                px.tests,
-                100.0 * px.pass_fraction(),
-                100.0 * px.min_pass_fraction,
-                px.alpha_per_test,
-                v.settings.alpha,
-                px.min_p,
-                px.min_p_at.0,
-                px.min_p_at.1,
-                ["R", "G", "B"][px.min_p_at.2]
+            px.describe(
+                v.settings
+                    .family_alpha(crate::compare::image::Family::Pixels),
+                v.settings.max_skewness,
             ),
         ));
         let ag = &v.aggregate;

@@ -170,17 +170,20 @@ fn a_separate_variance_image_is_used_and_no_variance_cannot_be_tested() {
     let b = twintrace::read_exr(&dir.path().join("b.exr")).unwrap();
     let mean_only = RenderImage {
         variance: None,
+        skewness: None,
         ..b.clone()
     };
     write_exr(&dir.path().join("b-mean.exr"), &mean_only).unwrap();
     let var = RenderImage {
         mean: b.variance.clone().unwrap(),
         variance: None,
+        skewness: None,
         ..b
     };
     write_exr(&dir.path().join("b-var.exr"), &var).unwrap();
     let a_mean = RenderImage {
         variance: None,
+        skewness: None,
         ..twintrace::read_exr(&dir.path().join("a.exr")).unwrap()
     };
     write_exr(&dir.path().join("a-mean.exr"), &a_mean).unwrap();

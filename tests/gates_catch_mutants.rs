@@ -763,6 +763,38 @@ fn gpu_variance_times_4_in_the_wgsl_fails_the_variance_furnace() {
     );
 }
 
+/// The skewness layer (and so which pixels the per-pixel tests judge)
+/// rests on the kernel's M3; doubling its update fails the furnace's
+/// known third moment.
+#[test]
+fn gpu_third_moment_times_2_in_the_wgsl_fails_the_variance_furnace() {
+    let case = furnace::bernoulli_furnace(0.3, 64, 11).unwrap();
+    let program = patched(
+        &gpu::shader::render_source(),
+        "m3 += delta * delta_n * delta_n * ((n - 1.0) * (n - 2.0)) - 3.0 * delta_n * m2;",
+        "m3 += 2.0 * (delta * delta_n * delta_n * ((n - 1.0) * (n - 2.0)) - 3.0 * delta_n * m2);",
+    );
+    let ctx = crate::common::gpu();
+    let render = |scene: &Scene, settings: &RenderSettings| -> anyhow::Result<Film> {
+        let packed = gpu::scene_buffers::PackedScene::new(scene);
+        let r = gpu::GpuRenderer::with_program(ctx, &packed, scene, &program)?;
+        Ok(r.render(settings, &|_, _| {})?.film)
+    };
+    let out = furnace::check(&case, &render).unwrap();
+    println!(
+        "M3 ×2: variance z {:?}, third-moment z {:?}",
+        out.variance_z, out.skewness_z
+    );
+    assert!(
+        out.variance_z.unwrap().abs().max_element() <= furnace::VARIANCE_Z_MAX,
+        "the mutant touches only M3"
+    );
+    assert!(
+        !out.passes(&case),
+        "the GPU's third moment ×2 passed the variance furnace"
+    );
+}
+
 /// Local biases (one 8x8 tile ×1.1 or ×0.9; the darkest quarter of the
 /// pixels ×0.9), applied to a correct render's film, against the
 /// four-materials stored reference (the fixture with the most varied

@@ -61,11 +61,17 @@ fn test_image(with_variance: bool) -> RenderImage {
         scene: Some("cornell".into()),
         software: Some("twintrace test".into()),
     };
+    let skewness = with_variance.then(|| {
+        (0..n)
+            .map(|i| Vec3::new(value(i, 6), -value(i, 7), value(i, 8)))
+            .collect()
+    });
     RenderImage {
         width,
         height,
         mean,
         variance,
+        skewness,
         metadata,
     }
 }
@@ -75,7 +81,7 @@ fn bits(v: &[Vec3]) -> Vec<[u32; 3]> {
 }
 
 #[test]
-fn exr_round_trip_is_bit_exact_for_mean_and_variance() {
+fn exr_round_trip_is_bit_exact_for_mean_variance_and_skewness() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("render.exr");
     let image = test_image(true);
@@ -86,6 +92,10 @@ fn exr_round_trip_is_bit_exact_for_mean_and_variance() {
     assert_eq!(
         bits(back.variance.as_ref().unwrap()),
         bits(image.variance.as_ref().unwrap())
+    );
+    assert_eq!(
+        bits(back.skewness.as_ref().unwrap()),
+        bits(image.skewness.as_ref().unwrap())
     );
     assert_eq!(back.metadata, image.metadata);
     assert_eq!(
@@ -104,7 +114,7 @@ fn exr_without_variance_reads_back_none() {
     write_exr(&path, &image).unwrap();
     let back = read_exr(&path).unwrap();
     assert_eq!(bits(&back.mean), bits(&image.mean));
-    assert!(back.variance.is_none());
+    assert!(back.variance.is_none() && back.skewness.is_none());
     assert_eq!(back.metadata, RenderMetadata::default());
 }
 

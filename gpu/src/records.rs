@@ -73,8 +73,12 @@ gpu_record! {
 }
 
 gpu_record! {
-    /// A pixel's running statistics (Welford, f32): the GPU film.
-    GpuPixel { count: u32, nonfinite: u32, mean_r: f32, mean_g: f32, mean_b: f32, m2_r: f32, m2_g: f32, m2_b: f32 }
+    /// A pixel's running statistics (Welford, f32): the GPU film
+    /// (`reference::film::PixelStats`).
+    GpuPixel {
+        count: u32, nonfinite: u32, mean_r: f32, mean_g: f32, mean_b: f32,
+        m2_r: f32, m2_g: f32, m2_b: f32, m3_r: f32, m3_g: f32, m3_b: f32, _pad0: u32,
+    }
 }
 
 gpu_record! {
@@ -132,7 +136,7 @@ mod tests {
         assert_eq!(std::mem::size_of::<GpuPrimitive>(), 8);
         assert_eq!(std::mem::size_of::<GpuMaterial>(), 32);
         assert_eq!(std::mem::size_of::<GpuTexture>(), 32);
-        assert_eq!(std::mem::size_of::<GpuPixel>(), 32);
+        assert_eq!(std::mem::size_of::<GpuPixel>(), 48);
         // Uniform buffers need a size that is a multiple of 16.
         assert_eq!(std::mem::size_of::<GpuParams>() % 16, 0);
         assert_eq!(

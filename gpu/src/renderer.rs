@@ -305,6 +305,7 @@ impl<'a> GpuRenderer<'a> {
                 nonfinite: src.nonfinite,
                 mean: glam::DVec3::new(src.mean_r as f64, src.mean_g as f64, src.mean_b as f64),
                 m2: glam::DVec3::new(src.m2_r as f64, src.m2_g as f64, src.m2_b as f64),
+                m3: glam::DVec3::new(src.m3_r as f64, src.m3_g as f64, src.m3_b as f64),
             };
         }
         Ok(GpuRender {

@@ -1,7 +1,14 @@
-//! The film: per-pixel running mean and variance per channel.
+//! The film: per-pixel running mean, variance and third moment per channel.
 //!
 //! Accumulation is Welford's algorithm in f64, per pixel, in sample order,
-//! so the result is a pure function of the samples. A sample with a NaN or
+//! so the result is a pure function of the samples. The third central
+//! moment follows the same one-pass update (Terriberry's extension of
+//! Welford's, as in Pébay, "Formulas for robust, one-pass parallel
+//! computation of covariances and arbitrary-order statistical moments",
+//! Sandia report SAND2008-6212, eq. 2.3); it measures how far a pixel's
+//! estimate is from normal (a pixel lit by a few rare samples is strongly
+//! skewed), which the image comparison uses to decide where a per-pixel
+//! normal test is valid. A sample with a NaN or
 //! infinite component is counted in `nonfinite` and left out of the
 //! estimate (never silently averaged in).
 
@@ -14,6 +21,8 @@ pub struct PixelStats {
     pub mean: DVec3,
     /// Sum of squared deviations from the mean (Welford's M2).
     pub m2: DVec3,
+    /// Sum of cubed deviations from the mean (M3).
+    pub m3: DVec3,
     /// Samples rejected for a NaN or infinite component.
     pub nonfinite: u32,
 }
@@ -27,8 +36,12 @@ impl PixelStats {
         }
         let x = sample.as_dvec3();
         self.count += 1;
+        let n = self.count as f64;
         let delta = x - self.mean;
-        self.mean += delta / self.count as f64;
+        let delta_n = delta / n;
+        self.mean += delta_n;
+        // M3 before M2: its update takes the M2 of the first n − 1 samples.
+        self.m3 += delta * delta_n * delta_n * ((n - 1.0) * (n - 2.0)) - 3.0 * delta_n * self.m2;
         self.m2 += delta * (x - self.mean);
     }
 
@@ -48,6 +61,25 @@ impl PixelStats {
         } else {
             self.sample_variance() / self.count as f64
         }
+    }
+
+    /// Skewness of the pixel estimate (the mean): the samples' skewness
+    /// `g₁ = (M3/n) / (M2/n)^{3/2}` over `√n`, which is `M3 / M2^{3/2}`.
+    /// 0 where the samples do not vary. About `1/√k` for a pixel whose
+    /// estimate rests on `k` rare samples, so it says how far the mean is
+    /// from normal at this sample count.
+    pub fn skewness_of_mean(&self) -> DVec3 {
+        DVec3::from_array([0, 1, 2].map(|c| skewness(self.m2[c], self.m3[c])))
+    }
+}
+
+/// `m3 / m2^{3/2}`, 0 where `m2` is 0 (or too small to divide by).
+fn skewness(m2: f64, m3: f64) -> f64 {
+    let d = m2 * m2.sqrt();
+    if d > 0.0 && d.is_finite() {
+        m3 / d
+    } else {
+        0.0
     }
 }
 
@@ -85,6 +117,14 @@ impl Film {
             .collect()
     }
 
+    /// Skewness of each pixel's mean (f32), see [`PixelStats::skewness_of_mean`].
+    pub fn skewness(&self) -> Vec<Vec3> {
+        self.pixels
+            .iter()
+            .map(|p| p.skewness_of_mean().as_vec3())
+            .collect()
+    }
+
     /// Total rejected (NaN/Inf) samples.
     pub fn nonfinite_samples(&self) -> u64 {
         self.pixels.iter().map(|p| p.nonfinite as u64).sum()
@@ -119,5 +159,24 @@ mod tests {
         assert_relative_eq!(p.sample_variance().x, var, epsilon = 1e-9);
         assert_relative_eq!(p.variance_of_mean().x, var / 5.0, epsilon = 1e-9);
         assert_eq!(p.sample_variance().z, 0.0);
+        // Third moment: two-pass Σ(x − mean)³ over sqrt(Σ(x − mean)²)³.
+        let m2: f64 = xs.iter().map(|&x| (x as f64 - mean).powi(2)).sum();
+        let m3: f64 = xs.iter().map(|&x| (x as f64 - mean).powi(3)).sum();
+        assert_relative_eq!(p.m3.x, m3, epsilon = 1e-9);
+        assert_relative_eq!(p.m3.y, -m3, epsilon = 1e-9);
+        assert_relative_eq!(p.skewness_of_mean().x, m3 / m2.powf(1.5), epsilon = 1e-12);
+        assert_eq!(p.skewness_of_mean().z, 0.0);
+    }
+
+    /// One rare large sample among `n`: the mean's skewness is about
+    /// `1/√k` with `k` the expected count of such samples (here 1).
+    #[test]
+    fn a_mean_resting_on_one_sample_is_skewed_by_about_one() {
+        let mut p = PixelStats::default();
+        for i in 0..1000 {
+            p.add(Vec3::splat(if i == 500 { 100.0 } else { 0.0 }));
+        }
+        let s = p.skewness_of_mean().x;
+        assert!((0.95..1.0).contains(&s), "{s}");
     }
 }

@@ -6,6 +6,7 @@
 //! - `twintrace info SCENE`: what a scene holds, its render defaults and
 //!   its BVH.
 //! - `twintrace diff A.exr B.exr`: statistical comparison, see [`diff`].
+//! - `twintrace selftest`: the gates on this machine's GPU, see [`selftest`].
 //!
 //! Render settings resolve in three layers: the scene's own defaults
 //! (`scene.render`), then a `--quality` preset (spp and depth together),
@@ -16,6 +17,7 @@
 //! `error: <message>` and exits with status 1.
 
 pub mod diff;
+pub mod selftest;
 
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Parser, Subcommand, ValueEnum};
@@ -46,6 +48,8 @@ pub enum Command {
     Info(InfoArgs),
     /// Compare two renders statistically and write an HTML report (exit 0: no difference, 1: different, 2: cannot compare).
     Diff(diff::DiffArgs),
+    /// Run the gates on this machine's GPU against the stored references and known answers, one verdict per gate (exit 0: all pass, 1: a gate failed or an error).
+    Selftest(selftest::SelftestArgs),
 }
 
 /// Which renderer runs the paths.
@@ -127,6 +131,10 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Render(args) => render(&args),
         Command::Info(args) => info(&args),
         Command::Diff(args) => diff::run(&args),
+        Command::Selftest(args) => match selftest::execute(&args)? {
+            true => Ok(()),
+            false => bail!("selftest: a gate failed (see its FAIL line)"),
+        },
     }
 }
 
@@ -170,7 +178,7 @@ pub fn load_scene(spec: &str) -> Result<Scene> {
 }
 
 /// The device a render runs on, once chosen.
-enum Device {
+pub(crate) enum Device {
     Cpu,
     Gpu(gpu::GpuContext),
 }
@@ -180,7 +188,7 @@ enum Device {
 /// software Vulkan is 12x slower than the reference there: docs/benchmarks.md).
 /// Returns the device, its name for the summary line, and why it was
 /// chosen (for `auto`'s note).
-fn choose_device(backend: Backend) -> Result<(Device, String, String)> {
+pub(crate) fn choose_device(backend: Backend) -> Result<(Device, String, String)> {
     let gpu_name =
         |ctx: &gpu::GpuContext| format!("gpu `{}` ({})", ctx.adapter.name, ctx.adapter.backend);
     match backend {

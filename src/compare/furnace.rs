@@ -69,10 +69,11 @@ pub struct FurnaceCase {
     pub known_moments: Option<KnownMoments>,
 }
 
-/// The second and fourth central moments of one sample, per channel.
+/// The second, third and fourth central moments of one sample, per channel.
 #[derive(Clone, Copy, Debug)]
 pub struct KnownMoments {
     pub variance: Vec3,
+    pub third: Vec3,
     pub fourth: Vec3,
 }
 
@@ -115,8 +116,9 @@ fn settings(
 /// after the bounce is `a`, so roulette keeps the path with probability `a`
 /// and divides it back to exactly 1; the bounce leaves the convex sphere
 /// and sees the background. Each sample is Bernoulli(a): mean `a`,
-/// variance `a(1 − a)`, fourth central moment `a(1 − a)(1 − 3a(1 − a))`,
-/// so the renderer's variance estimate has a known answer.
+/// variance `a(1 − a)`, third central moment `a(1 − a)(1 − 2a)`, fourth
+/// `a(1 − a)(1 − 3a(1 − a))`, so the renderer's variance and third-moment
+/// estimates have known answers.
 pub fn bernoulli_furnace(albedo: f32, spp: u32, seed: u32) -> Result<FurnaceCase> {
     anyhow::ensure!(
         albedo > 0.0 && albedo < reference::integrator::ROULETTE_MAX_SURVIVAL,
@@ -153,6 +155,7 @@ pub fn bernoulli_furnace(albedo: f32, spp: u32, seed: u32) -> Result<FurnaceCase
         pooled_variance: true,
         known_moments: Some(KnownMoments {
             variance: Vec3::splat(var as f32),
+            third: Vec3::splat((var * (1.0 - 2.0 * a)) as f32),
             fourth: Vec3::splat((var * (1.0 - 3.0 * var)) as f32),
         }),
     })
@@ -437,13 +440,15 @@ pub struct FurnaceOutcome {
     /// For cases with known moments: the z of the film's variance
     /// estimate, pooled over pixels, against the known variance.
     pub variance_z: Option<DVec3>,
+    /// For cases with known moments: the z of the film's third-moment
+    /// estimate, pooled over pixels, against the known one.
+    pub skewness_z: Option<DVec3>,
 }
 
 impl FurnaceOutcome {
     pub fn passes(&self, case: &FurnaceCase) -> bool {
-        let variance_ok = self
-            .variance_z
-            .is_none_or(|z| z.abs().max_element() <= VARIANCE_Z_MAX);
+        let within = |z: Option<DVec3>| z.is_none_or(|z| z.abs().max_element() <= VARIANCE_Z_MAX);
+        let variance_ok = within(self.variance_z) && within(self.skewness_z);
         variance_ok
             && if case.exact {
                 self.exact_mismatch.is_none()
@@ -486,6 +491,7 @@ pub fn check(case: &FurnaceCase, render: RenderFn) -> Result<FurnaceOutcome> {
         height: image.height,
         mean: vec![case.expected.as_dvec3(); n],
         variance: None,
+        skewness: None,
         spp: None,
         nonfinite_samples: 0,
     };
@@ -513,11 +519,13 @@ pub fn check(case: &FurnaceCase, render: RenderFn) -> Result<FurnaceOutcome> {
         })
     });
     let variance_z = case.known_moments.map(|m| variance_z(&film, m));
+    let skewness_z = case.known_moments.map(|m| third_moment_z(&film, m));
     Ok(FurnaceOutcome {
         film,
         verdict,
         exact_mismatch,
         variance_z,
+        skewness_z,
     })
 }
 
@@ -539,6 +547,33 @@ pub fn variance_z(film: &Film, m: KnownMoments) -> DVec3 {
     let var_one = (mu4 - sigma2 * sigma2 * ((n - 3.0) / (n - 1.0))) / n;
     (mean_estimate - sigma2)
         / (var_one / pixels)
+            .max(DVec3::splat(f64::MIN_POSITIVE))
+            .powf(0.5)
+}
+
+/// z of the film's per-pixel third-moment estimates (`M3 / n`), averaged
+/// over pixels, against their expectation `μ3 (n − 1)(n − 2) / n²` (the
+/// bias of the one-pass estimator). The standard error is the spread of
+/// the pixels' estimates over √pixels (pixels are independent and alike),
+/// so no sixth moment is needed. This checks the M3 accumulator that the
+/// skewness layer (and so the heavy-tail rule of the image tests) rests on.
+pub fn third_moment_z(film: &Film, m: KnownMoments) -> DVec3 {
+    let estimates: Vec<DVec3> = film
+        .pixels
+        .iter()
+        .map(|p| p.m3 / p.count.max(1) as f64)
+        .collect();
+    let pixels = estimates.len().max(2) as f64;
+    let mean = estimates.iter().sum::<DVec3>() / pixels;
+    let spread = estimates
+        .iter()
+        .map(|e| (*e - mean) * (*e - mean))
+        .sum::<DVec3>()
+        / (pixels - 1.0);
+    let n = film.pixels.iter().map(|p| p.count as f64).sum::<f64>() / pixels;
+    let expected = m.third.as_dvec3() * ((n - 1.0) * (n - 2.0) / (n * n));
+    (mean - expected)
+        / (spread / pixels)
             .max(DVec3::splat(f64::MIN_POSITIVE))
             .powf(0.5)
 }

@@ -314,6 +314,10 @@ pub fn write_artifacts(
             .variance
             .as_ref()
             .map(|v| v.iter().map(|p| p.as_vec3()).collect()),
+        skewness: img
+            .skewness
+            .as_ref()
+            .map(|v| v.iter().map(|p| p.as_vec3()).collect()),
         metadata: RenderMetadata {
             spp: img.spp,
             scene: Some(scene.into()),

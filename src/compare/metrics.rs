@@ -103,6 +103,7 @@ mod tests {
             height: 8,
             mean: vec![DVec3::splat(v); 64],
             variance: None,
+            skewness: None,
             spp: None,
             nonfinite_samples: 0,
         }

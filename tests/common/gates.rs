@@ -89,11 +89,15 @@ pub fn assert_known_answer(case: &FurnaceCase, render: RenderFn) {
             out.verdict.summary()
         );
     }
-    if let Some(z) = out.variance_z {
-        println!("{}: variance estimate z {z:.2}", case.name);
+    for (what, z) in [
+        ("variance", out.variance_z),
+        ("third-moment", out.skewness_z),
+    ] {
+        let Some(z) = z else { continue };
+        println!("{}: {what} estimate z {z:.2}", case.name);
         assert!(
             z.abs().max_element() <= furnace::VARIANCE_Z_MAX,
-            "{}: the variance estimate is off its known value: z {z:.2} (bound {})",
+            "{}: the {what} estimate is off its known value: z {z:.2} (bound {})",
             case.name,
             furnace::VARIANCE_Z_MAX
         );
