@@ -359,7 +359,10 @@ pub fn calibrate(
 pub fn calibration_table(rows: &[Calibration]) -> String {
     let mut o = String::new();
     let pct = |k: u32, n: u32| 100.0 * k as f64 / n.max(1) as f64;
+    // The smallest size tried, caught, is only an upper bound on the
+    // smallest caught; none caught, a lower one.
     let smallest = |c: &Calibration, k: BiasKind| match c.smallest_caught(k, 0.95) {
+        Some(d) if Some(&d) == k.sizes().first() => format!("≤ {:.2} %", 100.0 * d),
         Some(d) => format!("{:.2} %", 100.0 * d),
         None => format!(
             "> {:.0} %",

@@ -1,8 +1,8 @@
 //! Furnace scenes render their known answers (the cases and their
 //! derivations are in `twintrace::compare::furnace`). Exact cases must
 //! match bit for bit; the others pass the z-tests against the known value
-//! with the render's own variance (per pixel, image sum, tile sums; α = 0.01
-//! per family). Every check takes the renderer as a function, so the GPU
+//! with the render's own variance (per pixel, image sum, tile sums; the
+//! families share α = 0.01). Every check takes the renderer as a function, so the GPU
 //! backend runs the same cases.
 
 use crate::common::gates::assert_known_answer;

@@ -288,8 +288,9 @@ impl TestSettings {
 /// (a mean built on `k` rare samples has skewness about `1/√k`). Beyond
 /// it the normal p-value is wrong by orders of magnitude in the tail the
 /// test looks at: a pixel lit through a glass sphere by one light hit in
-/// 5,000 samples is, at 1,024 spp, 4.4 σ above its mean 1.6 % of the
-/// time, where the normal law says 1e-5. Such pixels made the
+/// 5,000 samples is, at 1,024 spp, 4 σ or more above its mean whenever
+/// it draws two hits: 1.8 % of the time (Poisson, λ = 0.2), where the
+/// normal law says 4e-5; its mean's skewness is 2.2. Such pixels made the
 /// cornell-spheres gate fail 11 of 300 correct renders in the per-pixel
 /// test; their sums over tiles and the image are near normal and still
 /// tested. Provenance of 0.5: the calibration in docs/gates.md.

@@ -5,9 +5,10 @@
 //!
 //! - [`image`]: two images with variances — per-pixel z-test against a
 //!   reference (Mitsuba 3's scheme) or Welch's t-test between two noisy
-//!   renders (Jung et al. 2020), Šidák-corrected at α = 0.01 with 99.75 %
-//!   of tests required to pass, plus z-tests on the image sum and on tile
-//!   sums, which catch small global biases and correlated pixels;
+//!   renders (Jung et al. 2020), Šidák-corrected with 99.75 % of tests
+//!   required to pass (heavy-tailed pixels left to the sums), plus z-tests
+//!   on the image sum and on tile sums, which catch small global biases and
+//!   correlated pixels; the three families share α = 0.01;
 //! - [`metrics`]: RMSE, relMSE, FLIP and NaN/Inf counts (reported, not gated);
 //! - [`chi2`]: chi-square goodness of fit of sampling routines to their
 //!   densities, and the two-sample test for lobes without a density;
