@@ -6,7 +6,7 @@
 use crate::common;
 use gpu::records::*;
 use gpu::scene_buffers::PackedScene;
-use gpu::testing::{run_test_kernel, TestKernel};
+use gpu::testing::{run_test_kernel_with_library, TestKernel};
 
 /// `reference::bvh::BvhNode`'s words in Rust memory order, by their WGSL names.
 const BVH_NODE_FIELDS: &[&str] = &[
@@ -35,6 +35,25 @@ fn read_back(
     params: Option<GpuParams>,
     film: Option<&[GpuPixel]>,
 ) -> Vec<u32> {
+    read_back_with(
+        &gpu::shader::library_source(),
+        packed,
+        fields,
+        access,
+        params,
+        film,
+    )
+}
+
+/// [`read_back`] over the given WGSL library.
+fn read_back_with(
+    library: &str,
+    packed: &PackedScene,
+    fields: &[&str],
+    access: &str,
+    params: Option<GpuParams>,
+    film: Option<&[GpuPixel]>,
+) -> Vec<u32> {
     let ctx = common::gpu();
     let scene = reference::load_scene("cornell").unwrap();
     let renderer = gpu::GpuRenderer::from_packed(ctx, packed, &scene).unwrap();
@@ -45,7 +64,7 @@ fn read_back(
         .collect();
     let snippet =
         format!("@compute @workgroup_size(64)\nfn layout_main(@builtin(global_invocation_id) gid: vec3<u32>) {{\n    if gid.x != 0u {{ return; }}\n{body}}}\n");
-    run_test_kernel(
+    run_test_kernel_with_library(
         ctx,
         &renderer,
         &TestKernel {
@@ -57,6 +76,7 @@ fn read_back(
             params,
             film,
         },
+        library,
     )
     .unwrap()
 }
@@ -145,17 +165,26 @@ fn params_and_film_records() {
 }
 
 #[test]
-fn the_layout_check_catches_a_swapped_field() {
-    // Mutation: Rust and WGSL disagreeing on the order of two fields (here:
-    // reading them as if Rust had them swapped) must fail the check.
-    let mut swapped = GpuSphere::FIELDS.to_vec();
-    swapped.swap(0, 1);
+fn the_layout_check_catches_a_wgsl_declaration_that_disagrees_with_rust() {
+    // Mutation: the production library with the WGSL declaration of
+    // GpuSphere listing two fields in the other order (as a hand-written or
+    // stale declaration would) while Rust writes them in its own order.
+    let library = gpu::shader::library_source();
+    let declared = "struct GpuSphere {\n    center_x: f32,\n    center_y: f32,";
+    assert!(
+        library.contains(declared),
+        "the GpuSphere declaration moved"
+    );
+    let mutant = library.replace(
+        declared,
+        "struct GpuSphere {\n    center_y: f32,\n    center_x: f32,",
+    );
     let mut p = base();
     p.spheres = vec![counting()];
-    let words = read_back(&p, &swapped, "spheres[0]", None, None);
+    let words = read_back_with(&mutant, &p, GpuSphere::FIELDS, "spheres[0]", None, None);
     let expected: Vec<u32> = (1..=words.len() as u32).collect();
     assert_ne!(
         words, expected,
-        "reading fields in a swapped order went unnoticed"
+        "a WGSL declaration out of Rust's order went unnoticed"
     );
 }
