@@ -49,6 +49,17 @@ pub trait Renderer {
 /// What [`Renderer::prepare`] returns.
 pub type PreparedRender<'s> = Box<dyn Fn(&RenderSettings) -> Result<Film> + 's>;
 
+/// The scalar CPU reference as a [`Renderer`].
+pub struct CpuReference;
+
+impl Renderer for CpuReference {
+    fn prepare<'s>(&'s self, scene: &'s Scene) -> Result<PreparedRender<'s>> {
+        Ok(Box::new(move |settings: &RenderSettings| -> Result<Film> {
+            Ok(reference::render(scene, settings, &|_| {}))
+        }))
+    }
+}
+
 /// The verdict of one gate.
 #[derive(Clone, Debug)]
 pub struct GateOutcome {
@@ -114,7 +125,7 @@ fn furnace_gate(case: Result<FurnaceCase>, render: RenderFn) -> Result<GateOutco
             furnace::VARIANCE_Z_MAX
         );
     }
-    if let Some(z) = out.skewness_z {
+    if let Some(z) = out.third_moment_z {
         let _ = write!(
             detail,
             "\nthird-moment estimate z {z:.2} (bound {})",

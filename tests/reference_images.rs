@@ -8,10 +8,9 @@
 //! reference and an HTML report under `target/diff/reference_images_<scene>/`.
 
 use crate::common::gates::gate_fixture;
-use reference::{Film, RenderSettings, Scene};
 use twintrace::compare::gate::{cpu_reference, manifest_entry, read_manifest};
 use twintrace::compare::image::TestSettings;
-use twintrace::selftest::{self, PreparedRender, Renderer};
+use twintrace::selftest::{self, CpuReference};
 
 /// The seed of every test render; the references use seed 1.
 const TEST_SEED: u32 = 7;
@@ -77,18 +76,6 @@ fn every_fixture_scene_has_a_reference_and_a_gate() {
     }
 }
 
-struct Cpu;
-
-impl Renderer for Cpu {
-    fn prepare<'s>(&'s self, scene: &'s Scene) -> anyhow::Result<PreparedRender<'s>> {
-        Ok(Box::new(
-            move |settings: &RenderSettings| -> anyhow::Result<Film> {
-                Ok(reference::render(scene, settings, &|_| {}))
-            },
-        ))
-    }
-}
-
 /// CI's sample of the calibration (docs/gates.md, "Calibration"): 20
 /// correct renders of cornell-spheres, the fixture with the heaviest tails
 /// (about a third of its pixel tests are left to the sums at 1024 spp),
@@ -104,8 +91,15 @@ fn a_sample_of_the_calibration_stays_within_its_false_alarm_rate() {
         alpha: 1.0,
         ..TestSettings::default()
     };
-    let cal = selftest::calibrate(&spec, &Cpu, 1024, (2000, 20), &[loose], &mut |_| {})
-        .unwrap_or_else(|e| panic!("{e:#}"));
+    let cal = selftest::calibrate(
+        &spec,
+        &CpuReference,
+        1024,
+        (2000, 20),
+        &[loose],
+        &mut |_| {},
+    )
+    .unwrap_or_else(|e| panic!("{e:#}"));
     print!(
         "{}",
         selftest::calibration_table(std::slice::from_ref(&cal))

@@ -23,9 +23,7 @@ impl Renderer for On<'_> {
                     Ok(gpu.render(settings, &|_, _| {})?.film)
                 })
             }
-            None => Box::new(move |settings: &RenderSettings| -> Result<Film> {
-                Ok(reference::render(scene, settings, &|_| {}))
-            }),
+            None => selftest::CpuReference.prepare(scene)?,
         })
     }
 }

@@ -442,13 +442,13 @@ pub struct FurnaceOutcome {
     pub variance_z: Option<DVec3>,
     /// For cases with known moments: the z of the film's third-moment
     /// estimate, pooled over pixels, against the known one.
-    pub skewness_z: Option<DVec3>,
+    pub third_moment_z: Option<DVec3>,
 }
 
 impl FurnaceOutcome {
     pub fn passes(&self, case: &FurnaceCase) -> bool {
         let within = |z: Option<DVec3>| z.is_none_or(|z| z.abs().max_element() <= VARIANCE_Z_MAX);
-        let variance_ok = within(self.variance_z) && within(self.skewness_z);
+        let variance_ok = within(self.variance_z) && within(self.third_moment_z);
         variance_ok
             && if case.exact {
                 self.exact_mismatch.is_none()
@@ -519,13 +519,13 @@ pub fn check(case: &FurnaceCase, render: RenderFn) -> Result<FurnaceOutcome> {
         })
     });
     let variance_z = case.known_moments.map(|m| variance_z(&film, m));
-    let skewness_z = case.known_moments.map(|m| third_moment_z(&film, m));
+    let third_moment_z = case.known_moments.map(|m| third_moment_z(&film, m));
     Ok(FurnaceOutcome {
         film,
         verdict,
         exact_mismatch,
         variance_z,
-        skewness_z,
+        third_moment_z,
     })
 }
 

@@ -91,7 +91,7 @@ pub fn assert_known_answer(case: &FurnaceCase, render: RenderFn) {
     }
     for (what, z) in [
         ("variance", out.variance_z),
-        ("third-moment", out.skewness_z),
+        ("third-moment", out.third_moment_z),
     ] {
         let Some(z) = z else { continue };
         println!("{}: {what} estimate z {z:.2}", case.name);
