@@ -138,21 +138,19 @@ fn max3(v: vec3<f32>) -> f32 {
     return max(max(v.x, v.y), v.z);
 }
 
-// Wächter & Binder's integer-ulp nudge (reference::geometry::offset_ray_origin).
+// One float step towards n's side, subnormals skipped
+// (reference::geometry::offset_ray_origin).
 fn offset_ray_origin(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
-    let of_i = vec3<i32>(n * ORIGIN_INT_SCALE);
     var out: vec3<f32>;
     for (var k = 0u; k < 3u; k++) {
-        let bits = bitcast<i32>(p[k]);
-        var step = of_i[k];
-        if p[k] < 0.0 {
-            step = -step;
-        }
-        let stepped = bitcast<f32>(bits + step);
-        if abs(p[k]) < ORIGIN_SWITCH {
-            out[k] = p[k] + ORIGIN_FLOAT_SCALE * n[k];
+        let x = flush_subnormal(p[k]);
+        let nk = flush_subnormal(n[k]);
+        if nk > 0.0 {
+            out[k] = next_up_normal(x);
+        } else if nk < 0.0 {
+            out[k] = next_down_normal(x);
         } else {
-            out[k] = stepped;
+            out[k] = x;
         }
     }
     return out;

@@ -8,6 +8,7 @@
 //!   caught. A failure writes its evidence under target/diff/.
 
 use crate::common;
+use crate::common::for_each_reference;
 use crate::common::gates::gate_fixture;
 use anyhow::Result;
 use reference::{Film, RenderSettings, Scene};
@@ -25,32 +26,21 @@ fn gpu_render(scene: &Scene, settings: &RenderSettings) -> Result<Film> {
         .film)
 }
 
-/// 1024 spp, the CPU gates' budget (at 256 spp the Cornell box's rare
-/// light hits fail 0.35–0.5 % of per-pixel tests, measured for the CPU
-/// gates), except the 64x64 Cornell box at 512 spp: lavapipe runs ~1.7·10^5
-/// paths/s there (docs/benchmarks.md), and 4 M paths would cost 25 s; its
-/// 512-spp run passes with margin (printed).
+/// One GPU gate per reference (the list and its budgets:
+/// `common::for_each_reference`, which tests/reference_images.rs checks
+/// against the manifest).
 macro_rules! gpu_gates {
-    ($($test:ident: $name:literal, $spp:expr;)*) => {
+    ($($test:ident: $name:literal, $cpu_spp:expr, $gpu_spp:expr;)*) => {
         $(
             #[test]
             fn $test() {
-                gate_fixture("gpu_matches_reference", $name, $spp, GPU_SEED, &gpu_render);
+                gate_fixture("gpu_matches_reference", $name, $gpu_spp, GPU_SEED, &gpu_render);
             }
         )*
     };
 }
 
-gpu_gates! {
-    cornell_boxes: "cornell-boxes", 512;
-    cornell_spheres: "cornell-spheres", 1024;
-    depth_of_field: "depth-of-field", 1024;
-    four_materials: "four-materials", 1024;
-    ggx_roughness: "ggx-roughness", 1024;
-    gltf_mesh: "gltf-mesh", 1024;
-    skybox: "skybox", 1024;
-    textures: "textures", 1024;
-}
+for_each_reference!(gpu_gates);
 
 #[test]
 fn gpu_and_cpu_agree_by_welch_at_equal_budgets_and_a_biased_gpu_does_not() {

@@ -7,6 +7,7 @@
 //! three families sharing α = 0.01. A failure writes the render, the
 //! reference and an HTML report under `target/diff/reference_images_<scene>/`.
 
+use crate::common::for_each_reference;
 use crate::common::gates::gate_fixture;
 use twintrace::compare::gate::{cpu_reference, manifest_entry, read_manifest};
 use twintrace::compare::image::TestSettings;
@@ -15,32 +16,22 @@ use twintrace::selftest::{self, CpuReference};
 /// The seed of every test render; the references use seed 1.
 const TEST_SEED: u32 = 7;
 
-/// One test per reference, with its budget in samples per pixel: 1024
-/// everywhere (the measurement behind the aggregate tests: a 64x64 Cornell box at 1024 spp
-/// against 16384); about 10 s for all eight on two cores at the test
-/// profile's opt-level 1.
+/// One test per reference (the list and its budgets:
+/// `common::for_each_reference`); about 10 s for the first eight on two
+/// cores at the test profile's opt-level 1.
 macro_rules! gates {
-    ($($test:ident: $name:literal, $spp:expr;)*) => {
+    ($($test:ident: $name:literal, $cpu_spp:expr, $gpu_spp:expr;)*) => {
         $(
             #[test]
             fn $test() {
-                gate_fixture("reference_images", $name, $spp, TEST_SEED, &cpu_reference);
+                gate_fixture("reference_images", $name, $cpu_spp, TEST_SEED, &cpu_reference);
             }
         )*
         const CASES: &[&str] = &[$($name),*];
     };
 }
 
-gates! {
-    cornell_boxes: "cornell-boxes", 1024;
-    cornell_spheres: "cornell-spheres", 1024;
-    depth_of_field: "depth-of-field", 1024;
-    four_materials: "four-materials", 1024;
-    ggx_roughness: "ggx-roughness", 1024;
-    gltf_mesh: "gltf-mesh", 1024;
-    skybox: "skybox", 1024;
-    textures: "textures", 1024;
-}
+for_each_reference!(gates);
 
 #[test]
 fn every_fixture_scene_has_a_reference_and_a_gate() {
@@ -51,7 +42,7 @@ fn every_fixture_scene_has_a_reference_and_a_gate() {
     tested.sort();
     assert_eq!(
         listed, tested,
-        "every reference in the manifest has exactly one gate above"
+        "every reference in the manifest has exactly one entry in common::for_each_reference"
     );
     let dir = twintrace::compare::gate::workspace_root().join("fixtures/scenes");
     for entry in std::fs::read_dir(&dir).unwrap() {

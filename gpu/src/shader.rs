@@ -7,7 +7,7 @@
 use crate::bindings;
 use crate::records;
 use reference::background::background_tag;
-use reference::geometry::{ORIGIN_FLOAT_SCALE, ORIGIN_INT_SCALE, ORIGIN_SWITCH, UNIT_ROUNDOFF};
+use reference::geometry::UNIT_ROUNDOFF;
 use reference::material::{
     material_tag, DIELECTRIC_F0, GGX_MIN_ALPHA, LUMINANCE_WEIGHTS, SPECULAR_PROBABILITY_MAX,
     SPECULAR_PROBABILITY_MIN,
@@ -111,9 +111,6 @@ pub fn generate() -> String {
     s += &f("F32_MAX", f32::MAX);
     s += &u("F32_INFINITY_BITS", f32::INFINITY.to_bits());
     s += &f("UNIT_ROUNDOFF", UNIT_ROUNDOFF);
-    s += &f("ORIGIN_SWITCH", ORIGIN_SWITCH);
-    s += &f("ORIGIN_FLOAT_SCALE", ORIGIN_FLOAT_SCALE);
-    s += &f("ORIGIN_INT_SCALE", ORIGIN_INT_SCALE);
     s += &f("DIELECTRIC_F0", DIELECTRIC_F0);
     s += &f("SPECULAR_PROBABILITY_MIN", SPECULAR_PROBABILITY_MIN);
     s += &f("SPECULAR_PROBABILITY_MAX", SPECULAR_PROBABILITY_MAX);
@@ -152,7 +149,6 @@ mod tests {
             GGX_MIN_ALPHA,
             f32::MAX,
             UNIT_ROUNDOFF,
-            ORIGIN_FLOAT_SCALE,
             LUMINANCE_WEIGHTS[2],
             0.95f32,
         ] {

@@ -231,42 +231,42 @@ impl Onb {
     }
 }
 
-/// Below this magnitude a coordinate is offset by [`ORIGIN_FLOAT_SCALE`]
-/// instead of integer ulps (Wächter & Binder's 1/32; see
-/// [`offset_ray_origin`]).
-pub const ORIGIN_SWITCH: f32 = 1.0 / 32.0;
-/// The absolute step near the origin (Wächter & Binder's 1/65536).
-pub const ORIGIN_FLOAT_SCALE: f32 = 1.0 / 65536.0;
-/// Ulps per unit of normal in the integer step (Wächter & Binder's 256).
-pub const ORIGIN_INT_SCALE: f32 = 256.0;
 /// The unit roundoff of f32, ε = 2^-24 (half of `f32::EPSILON`).
 pub const UNIT_ROUNDOFF: f32 = f32::EPSILON * 0.5;
 
-/// Moves a spawn point off its surface along `n` (the side the new ray
-/// leaves by) by a few float ulps: Wächter & Binder, "A Fast and Robust
-/// Method for Avoiding Self-Intersection", Ray Tracing Gems ch. 6. Integer
-/// ulp steps scale with the magnitude of each coordinate, so the offset
-/// holds from 1e-4 to 1e6 and far from the origin; near the origin, where
-/// ulps vanish, a small absolute step takes over.
+/// Moves each coordinate of `p` one float step towards the side `n`
+/// points to (pbrt-v4's `OffsetRayOrigin` ends the same way), so that the
+/// rounding of the sum that [`spawn_origin`] computes cannot put the point
+/// back on the surface's side. A subnormal coordinate is first flushed and
+/// the step skips the subnormals ([`next_up_normal`]), so a GPU that
+/// flushes them returns the same bits.
+///
+/// One step, not Wächter & Binder's 256 ulps per unit of normal: with the
+/// error bound already pushed past, the nudge only has to cover one
+/// rounding, and 256 ulps of a coordinate near 9000 is a quarter of a unit,
+/// which lifted spawn points out of the contact shadows of
+/// fixtures/scenes/precision-far.json (the same scene at the origin was
+/// right).
 #[inline]
 pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
-    // The chapter's constants (scaled for f32 hit points computed as
-    // o + t*d): ORIGIN_SWITCH, ORIGIN_FLOAT_SCALE, ORIGIN_INT_SCALE.
-    let of_i = (n * ORIGIN_INT_SCALE).to_array().map(|x| x as i32);
-    let pa = p.to_array();
-    let na = n.to_array();
-    let mut out = [0.0f32; 3];
-    for k in 0..3 {
-        let bits = pa[k].to_bits() as i32;
-        let stepped =
-            f32::from_bits(bits.wrapping_add(if pa[k] < 0.0 { -of_i[k] } else { of_i[k] }) as u32);
-        out[k] = if pa[k].abs() < ORIGIN_SWITCH {
-            pa[k] + ORIGIN_FLOAT_SCALE * na[k]
-        } else {
-            stepped
+    if crate::mutants::is(crate::mutants::Mutant::WideSpawnNudge) {
+        let step = |x: f32, n: f32| {
+            let ulps = (256.0 * n) as i32 * if x < 0.0 { -1 } else { 1 };
+            f32::from_bits((x.to_bits() as i32).wrapping_add(ulps) as u32)
         };
+        return Vec3::new(step(p.x, n.x), step(p.y, n.y), step(p.z, n.z));
     }
-    Vec3::from_array(out)
+    let step = |x: f32, n: f32| {
+        let (x, n) = (flush_subnormal(x), flush_subnormal(n));
+        if n > 0.0 {
+            next_up_normal(x)
+        } else if n < 0.0 {
+            next_down_normal(x)
+        } else {
+            x
+        }
+    };
+    Vec3::new(step(p.x, n.x), step(p.y, n.y), step(p.z, n.z))
 }
 
 /// pbrt's γ(n) = nε / (1 − nε) with ε = 2^-24: the relative error bound of
@@ -281,7 +281,9 @@ pub const fn gamma(n: u32) -> f32 {
 /// `p_error` of the true surface) on the side of unit normal `n` starts:
 /// first pushed along `n` past the error box (pbrt-v4's `OffsetRayOrigin`:
 /// the distance is `p_error · |n|₁`, the box's extent along n), then nudged
-/// by [`offset_ray_origin`] so rounding of the sum cannot fall back.
+/// one float step by [`offset_ray_origin`] so rounding of the sum cannot
+/// fall back. The offset is thus relative to the point's own error, not to
+/// its distance from the origin, and stays small far from it.
 /// Spheres need the first step: their hit points carry an error
 /// proportional to the radius (a ground sphere of radius 1000 showed
 /// self-intersection rings with the ulp nudge alone).
@@ -419,19 +421,46 @@ mod tests {
     }
 
     #[test]
-    fn offset_moves_to_the_normal_side_at_all_scales() {
+    fn offset_moves_one_step_to_the_normal_side_at_all_scales() {
         let n = Vec3::new(0.3, -0.5, 0.8).normalize();
-        for scale in [1e-4f32, 1e-2, 1.0, 1e2, 1e4, 1e6] {
+        for scale in [1e-30f32, 1e-4, 1e-2, 1.0, 1e2, 1e4, 1e6] {
             let p = Vec3::new(1.0, -2.0, 3.0) * scale;
             let q = offset_ray_origin(p, n);
             assert!((q - p).dot(n) > 0.0, "scale {scale}");
-            assert!(
-                (q - p).length() < 1e-3 * scale.max(1.0),
-                "offset too big at scale {scale}"
-            );
+            // One ulp per coordinate, whatever the distance from the origin
+            // (256 ulps per unit of normal lifted points a quarter unit at
+            // 9000).
+            for k in 0..3 {
+                let ulp = next_up(p[k].abs()) - p[k].abs();
+                assert!((q[k] - p[k]).abs() <= ulp, "scale {scale}, axis {k}");
+            }
         }
         let q = offset_ray_origin(Vec3::ZERO, n);
         assert!(q.dot(n) > 0.0);
+        assert!(!q.to_array().iter().any(|x| x.is_subnormal()));
+        let flat = offset_ray_origin(Vec3::new(5.0, 7.0, -9.0), Vec3::Y);
+        assert_eq!(flat, Vec3::new(5.0, next_up(7.0), -9.0));
+    }
+
+    /// The error push dominates and the whole offset stays within a few
+    /// times the point's error, also 10^4 from the origin.
+    #[test]
+    fn spawn_offset_is_bounded_by_the_error_far_from_the_origin() {
+        for p in [
+            Vec3::new(12000.65, 9000.0, -16000.0),
+            Vec3::new(0.5, 0.25, -0.75),
+        ] {
+            let n = Vec3::new(0.01, 1.0, -0.02).normalize();
+            let err = gamma(5) * 3.0 * p.abs().max_element();
+            let o = spawn_origin(p, n, err);
+            let lift = (o - p).dot(n);
+            assert!(lift > 0.0);
+            let ulp = next_up(p.abs().max_element()) - p.abs().max_element();
+            assert!(
+                lift <= 1.1 * err * n.abs().element_sum() + 2.0 * ulp,
+                "{p}: lift {lift}"
+            );
+        }
     }
 
     #[test]

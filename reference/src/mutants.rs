@@ -18,6 +18,10 @@ pub enum Mutant {
     /// The sphere's normal tilted 1.1° about the x axis
     /// (`Scene::surface_interaction`).
     SphereNormalTilt,
+    /// The spawn nudge of Wächter & Binder, 256 ulps per unit of normal,
+    /// in place of one float step (`geometry::offset_ray_origin`): a
+    /// quarter unit at 9000, the far-from-origin defect it had.
+    WideSpawnNudge,
 }
 
 #[cfg(feature = "mutants")]

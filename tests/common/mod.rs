@@ -4,6 +4,35 @@
 
 pub mod gates;
 
+/// Every stored reference of fixtures/refs/manifest.txt, once, with the
+/// budgets of its two image gates: `test_name: "manifest-name", cpu_spp,
+/// gpu_spp;`. tests/reference_images.rs (the CPU gates) and
+/// tests/gpu_matches_reference.rs (the GPU gates) expand `$gates!` over
+/// it, one `#[test]` per reference each, and the first checks the list
+/// against the manifest. Budgets: 1024 spp (a 64x64 Cornell box at 1024
+/// against 16384 is the measurement behind the aggregate tests), except
+/// the GPU's 64x64 Cornell box at 512 (lavapipe's ~1.7·10^5 paths/s would
+/// make 4 M paths cost 25 s; its 512-spp run passes with margin).
+macro_rules! for_each_reference {
+    ($gates:ident) => {
+        $gates! {
+            cornell_boxes: "cornell-boxes", 1024, 512;
+            cornell_spheres: "cornell-spheres", 1024, 1024;
+            depth_of_field: "depth-of-field", 1024, 1024;
+            four_materials: "four-materials", 1024, 1024;
+            ggx_roughness: "ggx-roughness", 1024, 1024;
+            gltf_mesh: "gltf-mesh", 1024, 1024;
+            skybox: "skybox", 1024, 1024;
+            textures: "textures", 1024, 1024;
+            precision_aperture: "precision-aperture", 1024, 1024;
+            precision_contact: "precision-contact", 1024, 1024;
+            precision_far: "precision-far", 1024, 1024;
+            precision_grazing: "precision-grazing", 1024, 1024;
+        }
+    };
+}
+pub(crate) use for_each_reference;
+
 use std::sync::OnceLock;
 
 pub fn gpu() -> &'static gpu::GpuContext {
