@@ -440,6 +440,7 @@ mod tests {
             skewness: None,
             spp: Some(4),
             nonfinite_samples: 0,
+            renderer: None,
         };
         let g = BiasKind::Global.apply(&img, 0.1, &[], (0, 0), 8);
         assert!(g.mean.iter().all(|m| (m.x - 1.1).abs() < 1e-12));

@@ -272,3 +272,48 @@ fn small_cornell_render_writes_both_files() {
         o.stdout
     );
 }
+
+/// `export-mitsuba` refuses, in one line naming the feature, what Mitsuba
+/// would render differently, and writes nothing.
+#[test]
+fn export_mitsuba_refuses_what_mitsuba_renders_differently() {
+    let scene = twintrace::compare::gate::fixture_scene("cornell-spheres.json");
+    let line = fails(&[], &["export-mitsuba", &scene, "-o", "out"]);
+    assert!(line.contains("dielectric"), "{line}");
+}
+
+/// A Cornell box exports as one PLY per material (its 18 quads as 36
+/// triangles, winding kept) plus the XML that names them.
+#[test]
+fn export_mitsuba_writes_the_scene_and_its_meshes() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = twintrace::compare::gate::fixture_scene("cornell-boxes.json");
+    let o = twintrace(
+        dir.path(),
+        &["export-mitsuba", &scene, "-o", "out", "--size", "32x32"],
+    );
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    let xml = std::fs::read_to_string(dir.path().join("out/scene.xml")).unwrap();
+    assert!(
+        xml.contains(r#"<integer name="width" value="32"/>"#),
+        "{xml}"
+    );
+    assert!(xml.contains(r#"<emitter type="area">"#), "{xml}");
+    let mut faces = 0;
+    for entry in std::fs::read_dir(dir.path().join("out")).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "ply") {
+            let bytes = std::fs::read(&path).unwrap();
+            let header = String::from_utf8_lossy(&bytes[..200.min(bytes.len())]).into_owned();
+            let n: usize = header
+                .lines()
+                .find_map(|l| l.strip_prefix("element face "))
+                .unwrap()
+                .parse()
+                .unwrap();
+            faces += n;
+            assert!(xml.contains(&*path.file_name().unwrap().to_string_lossy()));
+        }
+    }
+    assert_eq!(faces, 36);
+}

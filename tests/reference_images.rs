@@ -108,3 +108,92 @@ fn a_sample_of_the_calibration_stays_within_its_false_alarm_rate() {
         cal.other_false_alarms[0]
     );
 }
+
+/// The stored references checked by an independent renderer: every
+/// `fixtures/refs/mitsuba/NAME.exr` (Mitsuba 3.9.1's path tracer on the
+/// scene `twintrace export-mitsuba` wrote, see its provenance note) agrees
+/// with `fixtures/refs/NAME.exr` under `twintrace diff`'s defaults, which
+/// take Welch's test because the renderers differ. The check can fail:
+/// the reference ×0.98, or with its darkest quarter of pixels ×0.9, fails
+/// against Mitsuba; and the z-test against the richer side, the default
+/// between two twintrace renders, fails on the Cornell box (Mitsuba's
+/// per-sample variance, from light sampling with MIS, is far below the
+/// reference's and cannot predict its noise).
+#[test]
+fn the_references_agree_with_mitsuba_3() {
+    use twintrace::compare::image::{compare, Method, NoisyImage};
+    let root = twintrace::compare::gate::workspace_root();
+    let dir = root.join("fixtures/refs/mitsuba");
+    let mut checked = Vec::new();
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_none_or(|e| e != "exr") {
+            continue;
+        }
+        let name = path.file_stem().unwrap().to_string_lossy().to_string();
+        let read = |p: &std::path::Path| {
+            NoisyImage::from_render_image(&twintrace::image_io::read_exr(p).unwrap())
+        };
+        let mitsuba = read(&path);
+        let reference = read(&root.join(format!("fixtures/refs/{name}.exr")));
+        assert_eq!(mitsuba.renderer.as_deref(), Some("Mitsuba"), "{name}");
+        let method = Method::for_images(&mitsuba, &reference).unwrap();
+        assert_eq!(method, Method::Welch, "{name}: renderers differ");
+        let judge =
+            |r: &NoisyImage| compare(&mitsuba, r, method, &TestSettings::default()).unwrap();
+        let verdict = judge(&reference);
+        println!("{name} vs Mitsuba 3: {}", verdict.summary());
+        assert!(
+            verdict.passes(),
+            "{name} vs Mitsuba 3: {}",
+            verdict.summary()
+        );
+
+        let mut darker = reference.clone();
+        darker.mean.iter_mut().for_each(|m| *m *= 0.98);
+        assert!(
+            !judge(&darker).passes(),
+            "{name}: the reference ×0.98 passed"
+        );
+        let mut shadows = reference.clone();
+        let mut order: Vec<usize> = (0..shadows.mean.len()).collect();
+        order.sort_by(|&i, &j| {
+            shadows.mean[i]
+                .element_sum()
+                .total_cmp(&shadows.mean[j].element_sum())
+        });
+        for &i in &order[..order.len() / 4] {
+            shadows.mean[i] *= 0.9;
+        }
+        assert!(
+            !judge(&shadows).passes(),
+            "{name}: the darkest quarter ×0.9 passed"
+        );
+        if name == "cornell-boxes" {
+            let as_reference = compare(
+                &mitsuba,
+                &reference,
+                Method::Reference(twintrace::compare::image::Side::A),
+                &TestSettings::default(),
+            )
+            .unwrap();
+            assert!(
+                !as_reference.passes(),
+                "Mitsuba's variance predicted the reference's noise: {}",
+                as_reference.summary()
+            );
+        }
+        checked.push(name);
+    }
+    checked.sort();
+    assert_eq!(
+        checked,
+        [
+            "cornell-boxes",
+            "precision-aperture",
+            "precision-contact",
+            "precision-grazing"
+        ],
+        "the references with a Mitsuba render (docs/gates.md says why the others have none)"
+    );
+}

@@ -172,6 +172,14 @@ pub fn execute(args: &DiffArgs) -> Result<DiffOutcome> {
             );
         }
     }
+    if args.method == DiffMethod::Auto && Method::same_estimator(&a, &b) == Some(false) {
+        text += &format!(
+            "renderers differ ({} and {}): different estimators, so each side's own variance is \
+             used (Welch), not one side's as a prediction of the other's noise\n",
+            a.renderer.as_deref().unwrap_or("?"),
+            b.renderer.as_deref().unwrap_or("?")
+        );
+    }
     match &verdict {
         Some(v) => text += &v.summary(),
         None => text += "no statistical test: neither image has a variance (give --variance-a or --variance-b)\n",

@@ -7,6 +7,8 @@
 //!   its BVH.
 //! - `twintrace diff A.exr B.exr`: statistical comparison, see [`diff`].
 //! - `twintrace selftest`: the gates on this machine's GPU, see [`selftest`].
+//! - `twintrace export-mitsuba SCENE -o DIR`: the scene for Mitsuba 3, see
+//!   [`export`].
 //!
 //! Render settings resolve in three layers: the scene's own defaults
 //! (`scene.render`), then a `--quality` preset (spp and depth together),
@@ -17,6 +19,7 @@
 //! `error: <message>` and exits with status 1.
 
 pub mod diff;
+pub mod export;
 pub mod selftest;
 
 use anyhow::{anyhow, bail, Context, Result};
@@ -50,6 +53,8 @@ pub enum Command {
     Diff(diff::DiffArgs),
     /// Run the gates on this machine's GPU against the stored references and known answers, one verdict per gate (exit 0: all pass, 1: a gate failed or an error).
     Selftest(selftest::SelftestArgs),
+    /// Write the scene as a Mitsuba 3 scene (DIR/scene.xml and its meshes) for an independent render; refuses features Mitsuba would render differently.
+    ExportMitsuba(export::ExportArgs),
 }
 
 /// Which renderer runs the paths.
@@ -135,6 +140,7 @@ pub fn run(cli: Cli) -> Result<()> {
             true => Ok(()),
             false => bail!("selftest: a gate failed (see its FAIL line)"),
         },
+        Command::ExportMitsuba(args) => export::run(&args),
     }
 }
 

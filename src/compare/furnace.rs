@@ -494,6 +494,7 @@ pub fn check(case: &FurnaceCase, render: RenderFn) -> Result<FurnaceOutcome> {
         skewness: None,
         spp: None,
         nonfinite_samples: 0,
+        renderer: None,
     };
     let verdict = compare(
         &image,

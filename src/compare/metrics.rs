@@ -106,6 +106,7 @@ mod tests {
             skewness: None,
             spp: None,
             nonfinite_samples: 0,
+            renderer: None,
         }
     }
 

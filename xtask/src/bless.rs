@@ -14,19 +14,19 @@ use std::path::Path;
 use std::process::Command;
 use std::time::Instant;
 
-const MANIFEST: &str = "fixtures/refs/manifest.txt";
-const REFS: &str = "fixtures/refs";
+pub(crate) const MANIFEST: &str = "fixtures/refs/manifest.txt";
+pub(crate) const REFS: &str = "fixtures/refs";
 
-struct Line {
-    name: String,
-    scene: String,
-    size: String,
+pub(crate) struct Line {
+    pub name: String,
+    pub scene: String,
+    pub size: String,
     spp: String,
     seed: String,
-    depth: String,
+    pub depth: String,
 }
 
-fn parse(text: &str) -> Result<Vec<(usize, Line)>, String> {
+pub(crate) fn parse(text: &str) -> Result<Vec<(usize, Line)>, String> {
     let mut out = Vec::new();
     for (i, raw) in text.lines().enumerate() {
         let line = raw.split('#').next().unwrap_or("").trim();
@@ -91,14 +91,14 @@ fn replace_field(line: &str, index: usize, value: &str) -> String {
 }
 
 /// Output of a command, or a note that it could not run.
-fn capture(program: &str, args: &[&str]) -> String {
+pub(crate) fn capture(program: &str, args: &[&str]) -> String {
     match Command::new(program).args(args).output() {
         Ok(o) if o.status.success() => String::from_utf8_lossy(&o.stdout).trim().to_string(),
         _ => format!("unknown ({program} failed)"),
     }
 }
 
-fn machine() -> String {
+pub(crate) fn machine() -> String {
     let host = std::fs::read_to_string("/etc/hostname")
         .map(|s| s.trim().to_string())
         .unwrap_or_else(|_| capture("hostname", &[]));

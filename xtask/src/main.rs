@@ -7,6 +7,7 @@ mod codegen;
 mod fixtures;
 mod gpu_suite;
 mod install;
+mod mitsuba;
 mod test;
 mod util;
 
@@ -31,6 +32,11 @@ Commands:
              regenerate stored references (fixtures/refs/NAME.exr + provenance
              note) listed in fixtures/refs/manifest.txt with the CPU reference;
              --spp also updates the manifest
+  mitsuba [--out DIR] | mitsuba --import DIR
+             pack the references Mitsuba 3 can render identically (scenes
+             from `twintrace export-mitsuba`, trimmed wheels, run.sh) into DIR
+             (default target/mitsuba-check) for the GPU machine; --import
+             stores its renders in fixtures/refs/mitsuba/ (docs/gates.md)
   help       this text
 ";
 
@@ -52,6 +58,7 @@ fn main() -> ExitCode {
         Some("codegen") => codegen::run_codegen(),
         Some("fixtures") => fixtures::run(),
         Some("bless") => bless::run(&args[1..]),
+        Some("mitsuba") => mitsuba::run(&args[1..]),
         None | Some("help") | Some("--help") | Some("-h") => {
             print!("{HELP}");
             Ok(())

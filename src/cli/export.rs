@@ -1,0 +1,357 @@
+//! `twintrace export-mitsuba SCENE -o DIR`: the scene as a Mitsuba 3 scene
+//! (`DIR/scene.xml`, with its meshes as binary PLY files and the sky as a
+//! latitude-longitude EXR), for rendering the same image with an
+//! independent renderer and judging the two with `twintrace diff`.
+//!
+//! Only what Mitsuba 3 renders *identically* in expectation is exported;
+//! anything else is an error naming the feature, never an approximation:
+//!
+//! | twintrace | Mitsuba 3 |
+//! |---|---|
+//! | `lambertian`, constant albedo | `twosided` `diffuse` |
+//! | `metal`, `fuzz` 0, constant albedo | `twosided` `conductor`, `material="none"` (a perfect mirror) × albedo |
+//! | `diffuse_light` | `area` emitter (one-sided, along the geometric normal) on a black `diffuse` |
+//! | `sphere` (negative radius: inward normal) | `sphere` (`flip_normals`) |
+//! | `quad`, `box`, mesh triangles without normals | `ply` with face normals, vertex order kept (so the geometric normal is the same) |
+//! | `solid` background | `constant` emitter (nothing when black) |
+//! | `sky` background | `envmap` of a 4096-row lat-long map; the gradient is linear in `cos θ`, so bilinear lookup errs by about 10^-7 |
+//! | thin-lens camera | `perspective` (`aperture` 0) or `thinlens` (radius = aperture / 2), `fov_axis="y"` |
+//! | box pixel filter, `max_depth` ray segments | `box` rfilter, `path` integrator's `max_depth` (1 = emitters seen directly in both) |
+//!
+//! Not exported: fuzzy metal (Ray Tracing in One Weekend's ball
+//! perturbation has no Mitsuba counterpart), dielectrics (Schlick's
+//! Fresnel, where Mitsuba uses the exact one), the `ggx` material (its
+//! Schlick-weighted Lambertian base), textures, environment maps (their
+//! orientation and filtering conventions differ) and shading normals.
+//!
+//! Mitsuba's `path` integrator samples emitters with MIS, where twintrace
+//! samples the BSDF only: a different estimator of the same integral, so
+//! the two images agree in expectation and differ in noise.
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use glam::Vec3;
+use reference::background::Background;
+use reference::material::Material;
+use reference::texture::Texture;
+use reference::Scene;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use twintrace::image_io::{self, RenderImage, RenderMetadata};
+
+#[derive(Debug, Args)]
+pub struct ExportArgs {
+    /// A scene file (.json, .gltf, .glb) or a built-in scene name.
+    pub scene: String,
+    /// The folder to write `scene.xml` and its files into (created if missing; its parent must exist).
+    #[arg(short = 'o', long = "output", value_name = "DIR")]
+    pub output: PathBuf,
+    /// Image size as WIDTHxHEIGHT (default: the scene's).
+    #[arg(long, value_name = "WxH")]
+    pub size: Option<String>,
+    /// Path depth in ray segments (default: the scene's).
+    #[arg(long)]
+    pub max_depth: Option<u32>,
+    /// Samples per pixel written into the sampler (default: the scene's).
+    #[arg(long)]
+    pub spp: Option<u32>,
+}
+
+/// Rows of the sky's lat-long map (columns: 8; the sky does not vary
+/// with azimuth).
+const SKY_ROWS: usize = 4096;
+
+pub fn run(args: &ExportArgs) -> Result<()> {
+    let scene = super::load_scene(&args.scene)?;
+    let (mut width, mut height) = (scene.render.width, scene.render.height);
+    if let Some(size) = &args.size {
+        (width, height) = image_io::parse_size(size)?;
+    }
+    let max_depth = args.max_depth.unwrap_or(scene.render.max_depth);
+    let spp = args.spp.unwrap_or(scene.render.spp);
+    let export = MitsubaScene::new(&scene).with_context(|| {
+        format!(
+            "`{}` cannot be exported to Mitsuba 3 without changing the image",
+            args.scene
+        )
+    })?;
+    image_io::existing_parent_dir(&args.output)?;
+    let dir = args.output.clone();
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create `{}`", dir.display()))?;
+    let xml = export.write(&dir, width, height, max_depth, spp)?;
+    image_io::write_atomic(&dir.join("scene.xml"), |f| {
+        use std::io::Write as _;
+        f.write_all(xml.as_bytes())?;
+        Ok(())
+    })?;
+    println!(
+        "exported {} to {} ({width}x{height}, {spp} spp, depth {max_depth}): {} shapes, {} spheres",
+        args.scene,
+        dir.join("scene.xml").display(),
+        export.meshes.len(),
+        export.spheres.len()
+    );
+    Ok(())
+}
+
+/// A BSDF (and emitter) Mitsuba renders as twintrace does.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Surface {
+    Diffuse(Vec3),
+    Mirror(Vec3),
+    Light(Vec3),
+}
+
+impl Surface {
+    fn xml(self) -> String {
+        let rgb = |name: &str, c: Vec3| format!(r#"<rgb name="{name}" value="{}"/>"#, triple(c));
+        match self {
+            Surface::Diffuse(c) => format!(
+                r#"<bsdf type="twosided"><bsdf type="diffuse">{}</bsdf></bsdf>"#,
+                rgb("reflectance", c)
+            ),
+            Surface::Mirror(c) => format!(
+                r#"<bsdf type="twosided"><bsdf type="conductor"><string name="material" value="none"/>{}</bsdf></bsdf>"#,
+                rgb("specular_reflectance", c)
+            ),
+            Surface::Light(e) => format!(
+                r#"<bsdf type="diffuse">{}</bsdf><emitter type="area">{}</emitter>"#,
+                rgb("reflectance", Vec3::ZERO),
+                rgb("radiance", e)
+            ),
+        }
+    }
+}
+
+struct MitsubaScene<'s> {
+    scene: &'s Scene,
+    surfaces: Vec<Surface>,
+    /// Triangles per material: positions, three per triangle.
+    meshes: Vec<(u32, Vec<Vec3>)>,
+    spheres: Vec<(Vec3, f32, u32)>,
+}
+
+fn triple(v: Vec3) -> String {
+    format!("{:?}, {:?}, {:?}", v.x, v.y, v.z)
+}
+
+fn constant(scene: &Scene, texture: u32, what: &str) -> Result<Vec3> {
+    match scene.textures.get(texture as usize) {
+        Some(Texture::Constant(c)) => Ok(*c),
+        _ => bail!("{what} is textured (textures are not exported)"),
+    }
+}
+
+impl<'s> MitsubaScene<'s> {
+    fn new(scene: &'s Scene) -> Result<Self> {
+        let surfaces = scene
+            .materials
+            .iter()
+            .enumerate()
+            .map(|(i, m)| {
+                let what = format!("material {i}");
+                Ok(match *m {
+                    Material::Lambertian { albedo } => {
+                        Surface::Diffuse(constant(scene, albedo, &what)?)
+                    }
+                    Material::Metal { albedo, fuzz: 0.0 } => {
+                        Surface::Mirror(constant(scene, albedo, &what)?)
+                    }
+                    Material::Metal { .. } => {
+                        bail!("{what} is a fuzzy metal (no Mitsuba counterpart)")
+                    }
+                    Material::DiffuseLight { emission } => {
+                        Surface::Light(constant(scene, emission, &what)?)
+                    }
+                    Material::Dielectric { .. } => bail!(
+                        "{what} is a dielectric (Schlick's Fresnel; Mitsuba's is exact)"
+                    ),
+                    Material::Ggx { .. } => {
+                        bail!("{what} is `ggx` (its Schlick-weighted base has no Mitsuba counterpart)")
+                    }
+                })
+            })
+            .collect::<Result<Vec<_>>>()?;
+        if let Background::Envmap { .. } = scene.background {
+            bail!("the background is an environment map (not exported)");
+        }
+        let mut meshes: Vec<(u32, Vec<Vec3>)> = Vec::new();
+        let mut add =
+            |material: u32, tri: [Vec3; 3]| match meshes.iter_mut().find(|(m, _)| *m == material) {
+                Some((_, p)) => p.extend(tri),
+                None => meshes.push((material, tri.to_vec())),
+            };
+        for q in &scene.quads {
+            let (c, u, v) = (q.corner, q.u, q.v);
+            // Both triangles wind as (u, v), so their normal is u × v.
+            add(q.material, [c, c + u, c + u + v]);
+            add(q.material, [c, c + u + v, c + v]);
+        }
+        for (i, t) in scene.triangles.iter().enumerate() {
+            if t.flags & reference::shapes::TRIANGLE_HAS_NORMALS != 0 {
+                bail!("triangle {i} has shading normals (not exported)");
+            }
+            add(
+                t.material,
+                t.vertices.map(|v| scene.mesh.positions[v as usize]),
+            );
+        }
+        let spheres = scene
+            .spheres
+            .iter()
+            .map(|s| (s.center, s.radius, s.material))
+            .collect();
+        Ok(Self {
+            scene,
+            surfaces,
+            meshes,
+            spheres,
+        })
+    }
+
+    /// Writes the PLY files and the sky map into `dir`; returns the XML.
+    fn write(
+        &self,
+        dir: &Path,
+        width: u32,
+        height: u32,
+        max_depth: u32,
+        spp: u32,
+    ) -> Result<String> {
+        let cam = &self.scene.camera_settings;
+        let mut x = String::from("<?xml version=\"1.0\" encoding=\"utf-8\"?>\n");
+        writeln!(
+            x,
+            "<!-- Exported by twintrace {} (export-mitsuba). -->",
+            env!("CARGO_PKG_VERSION")
+        )?;
+        x += "<scene version=\"3.0.0\">\n";
+        writeln!(
+            x,
+            r#"  <integrator type="path"><integer name="max_depth" value="{max_depth}"/></integrator>"#
+        )?;
+        let lens = if cam.aperture > 0.0 {
+            format!(
+                r#"<float name="aperture_radius" value="{:?}"/><float name="focus_distance" value="{:?}"/>"#,
+                0.5 * cam.aperture,
+                cam.focus_distance
+            )
+        } else {
+            String::new()
+        };
+        writeln!(
+            x,
+            r#"  <sensor type="{}">{lens}<float name="fov" value="{:?}"/><string name="fov_axis" value="y"/><float name="near_clip" value="1e-4"/>"#,
+            if cam.aperture > 0.0 {
+                "thinlens"
+            } else {
+                "perspective"
+            },
+            cam.vfov
+        )?;
+        writeln!(
+            x,
+            r#"    <transform name="to_world"><lookat origin="{}" target="{}" up="{}"/></transform>"#,
+            triple(cam.look_from),
+            triple(cam.look_at),
+            triple(cam.up)
+        )?;
+        writeln!(
+            x,
+            r#"    <sampler type="independent"><integer name="sample_count" value="{spp}"/></sampler>"#
+        )?;
+        writeln!(
+            x,
+            r#"    <film type="hdrfilm"><integer name="width" value="{width}"/><integer name="height" value="{height}"/><string name="pixel_format" value="rgb"/><rfilter type="box"/></film>"#
+        )?;
+        x += "  </sensor>\n";
+        for (i, (material, positions)) in self.meshes.iter().enumerate() {
+            let file = format!("mesh_{i}.ply");
+            write_ply(&dir.join(&file), positions)?;
+            writeln!(
+                x,
+                r#"  <shape type="ply"><string name="filename" value="{file}"/><boolean name="face_normals" value="true"/>{}</shape>"#,
+                self.surfaces[*material as usize].xml()
+            )?;
+        }
+        for (center, radius, material) in &self.spheres {
+            writeln!(
+                x,
+                r#"  <shape type="sphere"><point name="center" value="{}"/><float name="radius" value="{:?}"/><boolean name="flip_normals" value="{}"/>{}</shape>"#,
+                triple(*center),
+                radius.abs(),
+                *radius < 0.0,
+                self.surfaces[*material as usize].xml()
+            )?;
+        }
+        match self.scene.background {
+            Background::Solid(c) if c == Vec3::ZERO => {}
+            Background::Solid(c) => writeln!(
+                x,
+                r#"  <emitter type="constant"><rgb name="radiance" value="{}"/></emitter>"#,
+                triple(c)
+            )?,
+            Background::Sky { horizon, zenith } => {
+                write_sky(&dir.join("sky.exr"), horizon, zenith)?;
+                x += "  <emitter type=\"envmap\"><string name=\"filename\" value=\"sky.exr\"/></emitter>\n";
+            }
+            Background::Envmap { .. } => unreachable!("refused in MitsubaScene::new"),
+        }
+        x += "</scene>\n";
+        Ok(x)
+    }
+}
+
+/// Binary little-endian PLY: float vertices, three per face, in order.
+fn write_ply(path: &Path, positions: &[Vec3]) -> Result<()> {
+    let faces = positions.len() / 3;
+    image_io::write_atomic(path, |f| {
+        use std::io::Write as _;
+        let mut w = std::io::BufWriter::new(f);
+        write!(
+            w,
+            "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nelement face {faces}\nproperty list uchar int vertex_indices\nend_header\n",
+            positions.len()
+        )?;
+        for p in positions {
+            for c in p.to_array() {
+                w.write_all(&c.to_le_bytes())?;
+            }
+        }
+        for i in 0..faces as i32 {
+            w.write_all(&[3u8])?;
+            for k in 0..3 {
+                w.write_all(&(3 * i + k).to_le_bytes())?;
+            }
+        }
+        w.flush()?;
+        Ok(())
+    })
+}
+
+/// The sky as a lat-long map in Mitsuba's convention: row `j` holds the
+/// direction at polar angle `θ = π (j + ½) / rows` from +y.
+fn write_sky(path: &Path, horizon: Vec3, zenith: Vec3) -> Result<()> {
+    const COLUMNS: usize = 8;
+    let mut mean = Vec::with_capacity(SKY_ROWS * COLUMNS);
+    for j in 0..SKY_ROWS {
+        let theta = std::f64::consts::PI * (j as f64 + 0.5) / SKY_ROWS as f64;
+        let t = (0.5 * (theta.cos() + 1.0)) as f32;
+        mean.extend(std::iter::repeat_n(horizon.lerp(zenith, t), COLUMNS));
+    }
+    let image = RenderImage {
+        width: COLUMNS as u32,
+        height: SKY_ROWS as u32,
+        mean,
+        variance: None,
+        skewness: None,
+        metadata: RenderMetadata {
+            software: Some(format!(
+                "twintrace {} export-mitsuba",
+                env!("CARGO_PKG_VERSION")
+            )),
+            ..RenderMetadata::default()
+        },
+    };
+    image_io::write_exr(path, &image)
+}

@@ -1,0 +1,212 @@
+//! `cargo xtask mitsuba [--out DIR]` and `cargo xtask mitsuba --import DIR`:
+//! the stored references checked by an independent renderer, Mitsuba 3.
+//!
+//! The first packs, into DIR (default `target/mitsuba-check`), every
+//! reference of `fixtures/refs/manifest.txt` that `twintrace
+//! export-mitsuba` can express (the others are listed with the feature
+//! that stops them), at the reference's size and depth; the Mitsuba 3.9.1
+//! and Dr.Jit 1.5.0 wheels for CPython 3.12 (downloaded once into
+//! `target/mitsuba-wheels`, the Mitsuba one trimmed to the `cuda_ad_rgb`
+//! variant by `xtask/mitsuba/trim_wheel.py`); `xtask/mitsuba/render.py`;
+//! and `run.sh`, which unpacks the wheels and renders every scene into
+//! `$OUT` (default `DIR/out`) on an NVIDIA GPU: 64 passes of 4096 spp,
+//! 262,144 spp per pixel, 16 times the references' budget.
+//!
+//! The second copies each `NAME.exr` that `run.sh` wrote into
+//! `fixtures/refs/mitsuba/` with a provenance note (renderer, versions,
+//! passes, timings, the GPU). tests/reference_images.rs then requires
+//! every stored reference to agree with its Mitsuba render under
+//! `twintrace diff`'s defaults.
+
+use crate::bless::{capture, parse, MANIFEST, REFS};
+use crate::util::run as sh;
+use std::path::{Path, PathBuf};
+
+const WHEELS: &str = "target/mitsuba-wheels";
+const MITSUBA_WHEEL: &str = "mitsuba-3.9.1-cp312-cp312-manylinux_2_28_x86_64.whl";
+/// Samples per pixel per pass, the sampler count written into each scene.
+const PASS_SPP: &str = "4096";
+
+fn usage() -> String {
+    "usage: cargo xtask mitsuba [--out DIR] | cargo xtask mitsuba --import DIR".into()
+}
+
+pub fn run(args: &[String]) -> Result<(), String> {
+    match args {
+        [] => pack(Path::new("target/mitsuba-check")),
+        [flag, dir] if flag == "--out" => pack(Path::new(dir)),
+        [flag, dir] if flag == "--import" => import(Path::new(dir)),
+        _ => Err(usage()),
+    }
+}
+
+fn pack(out: &Path) -> Result<(), String> {
+    let root = crate::util::workspace_root();
+    std::env::set_current_dir(&root)
+        .map_err(|e| format!("cannot enter {}: {e}", root.display()))?;
+    sh(
+        "cargo",
+        &["build", "--release", "--quiet", "--bin", "twintrace"],
+    )?;
+    if out.exists() {
+        std::fs::remove_dir_all(out).map_err(|e| format!("cannot clear {}: {e}", out.display()))?;
+    }
+    let scenes = out.join("scenes");
+    std::fs::create_dir_all(&scenes)
+        .map_err(|e| format!("cannot create {}: {e}", scenes.display()))?;
+    let text =
+        std::fs::read_to_string(MANIFEST).map_err(|e| format!("cannot read {MANIFEST}: {e}"))?;
+    let mut exported = 0;
+    for (_, line) in parse(&text)? {
+        let dir = scenes.join(&line.name);
+        let dir_s = dir.display().to_string();
+        let output = std::process::Command::new("target/release/twintrace")
+            .args([
+                "export-mitsuba",
+                &line.scene,
+                "-o",
+                &dir_s,
+                "--size",
+                &line.size,
+            ])
+            .args(["--max-depth", &line.depth, "--spp", PASS_SPP])
+            .output()
+            .map_err(|e| format!("cannot run twintrace: {e}"))?;
+        if output.status.success() {
+            exported += 1;
+            eprintln!("xtask: exported {}", line.name);
+        } else {
+            let why = String::from_utf8_lossy(&output.stderr);
+            eprintln!("xtask: not exported {}: {}", line.name, why.trim());
+        }
+    }
+    if exported == 0 {
+        return Err("no reference can be exported to Mitsuba".into());
+    }
+    let wheels = PathBuf::from(WHEELS);
+    if !wheels.join(MITSUBA_WHEEL).exists() {
+        sh(
+            "python3",
+            &[
+                "-m",
+                "pip",
+                "download",
+                "mitsuba==3.9.1",
+                "drjit==1.5.0",
+                "--no-deps",
+                "--python-version",
+                "3.12",
+                "--platform",
+                "manylinux_2_28_x86_64",
+                "--only-binary=:all:",
+                "-d",
+                WHEELS,
+            ],
+        )?;
+    }
+    let packed = out.join("wheels");
+    std::fs::create_dir_all(&packed)
+        .map_err(|e| format!("cannot create {}: {e}", packed.display()))?;
+    sh(
+        "python3",
+        &[
+            "xtask/mitsuba/trim_wheel.py",
+            &wheels.join(MITSUBA_WHEEL).display().to_string(),
+            &packed.join(MITSUBA_WHEEL).display().to_string(),
+        ],
+    )?;
+    let drjit = std::fs::read_dir(&wheels)
+        .map_err(|e| format!("cannot list {WHEELS}: {e}"))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .find(|p| {
+            p.file_name()
+                .is_some_and(|n| n.to_string_lossy().starts_with("drjit-1.5.0"))
+        })
+        .ok_or("no drjit 1.5.0 wheel was downloaded")?;
+    copy(&drjit, &packed.join(drjit.file_name().unwrap()))?;
+    copy(Path::new("xtask/mitsuba/render.py"), &out.join("render.py"))?;
+    let run_sh = "#!/bin/sh\n\
+        # Renders every exported scene with Mitsuba 3 (cuda_ad_rgb) into $OUT.\n\
+        set -eu\n\
+        here=$(cd \"$(dirname \"$0\")\" && pwd)\n\
+        out=${OUT:-$here/out}\n\
+        py=$(mktemp -d)\n\
+        for w in \"$here\"/wheels/*.whl; do python3 -m zipfile -e \"$w\" \"$py\"; done\n\
+        nvidia-smi --query-gpu=name,driver_version --format=csv,noheader > \"$here/gpu.txt\" 2>/dev/null || echo unknown > \"$here/gpu.txt\"\n\
+        mkdir -p \"$out\"\n\
+        cp \"$here/gpu.txt\" \"$out/gpu.txt\"\n\
+        PYTHONPATH=\"$py\" python3 \"$here/render.py\" \"$out\" \"$here\"/scenes/*\n";
+    std::fs::write(out.join("run.sh"), run_sh).map_err(|e| format!("cannot write run.sh: {e}"))?;
+    eprintln!(
+        "xtask: {exported} scene(s) packed into {}; on the GPU machine run `sh {}/run.sh`, then `cargo xtask mitsuba --import <its $OUT>`",
+        out.display(),
+        out.display()
+    );
+    Ok(())
+}
+
+fn copy(from: &Path, to: &Path) -> Result<(), String> {
+    std::fs::copy(from, to)
+        .map(|_| ())
+        .map_err(|e| format!("cannot copy {} to {}: {e}", from.display(), to.display()))
+}
+
+/// The value of `"key": value` in render.py's report (one key per line;
+/// xtask has no JSON parser, having no dependencies).
+fn json_field(text: &str, key: &str) -> String {
+    let pattern = format!("\"{key}\":");
+    text.lines()
+        .find_map(|l| l.trim().strip_prefix(&pattern))
+        .map(|v| v.trim().trim_end_matches(',').trim_matches('"').to_string())
+        .unwrap_or_else(|| "unknown".into())
+}
+
+fn import(dir: &Path) -> Result<(), String> {
+    let root = crate::util::workspace_root();
+    std::env::set_current_dir(&root)
+        .map_err(|e| format!("cannot enter {}: {e}", root.display()))?;
+    let dest = Path::new(REFS).join("mitsuba");
+    std::fs::create_dir_all(&dest).map_err(|e| format!("cannot create {}: {e}", dest.display()))?;
+    let gpu = std::fs::read_to_string(dir.join("gpu.txt")).unwrap_or_else(|_| "unknown".into());
+    let revision = capture("git", &["rev-parse", "--short", "HEAD"]);
+    let mut imported = 0;
+    let entries =
+        std::fs::read_dir(dir).map_err(|e| format!("cannot list {}: {e}", dir.display()))?;
+    for path in entries.filter_map(|e| e.ok().map(|e| e.path())) {
+        if path.extension().is_none_or(|e| e != "exr") {
+            continue;
+        }
+        let name = path.file_stem().unwrap().to_string_lossy().to_string();
+        let info = std::fs::read_to_string(path.with_extension("json"))
+            .map_err(|e| format!("{name}: no render.py report beside the EXR: {e}"))?;
+        copy(&path, &dest.join(format!("{name}.exr")))?;
+        let note = format!(
+            "reference: {name} (independent check of fixtures/refs/{name}.exr)\n\
+             renderer: {} (Dr.Jit {}), path integrator (emitter sampling with MIS)\n\
+             scene: `twintrace export-mitsuba` of the manifest's scene at git {revision}, size {}, the manifest's depth\n\
+             samples: {} passes of {} spp = {} spp; variance and skewness of the mean from the spread of the pass means\n\
+             non-finite samples: {}\n\
+             time: load and warm-up {} s, render {} s\n\
+             device: {}\n\
+             commands: cargo xtask mitsuba; sh target/mitsuba-check/run.sh (on the GPU machine); cargo xtask mitsuba --import DIR\n",
+            json_field(&info, "software"),
+            json_field(&info, "drjit"),
+            json_field(&info, "size"),
+            json_field(&info, "passes"),
+            json_field(&info, "pass_spp"),
+            json_field(&info, "spp"),
+            json_field(&info, "nonfinite"),
+            json_field(&info, "load_and_warm_up_s"),
+            json_field(&info, "render_s"),
+            gpu.trim(),
+        );
+        std::fs::write(dest.join(format!("{name}.provenance.txt")), note)
+            .map_err(|e| format!("cannot write provenance of {name}: {e}"))?;
+        eprintln!("xtask: imported {name}");
+        imported += 1;
+    }
+    if imported == 0 {
+        return Err(format!("no NAME.exr in {}", dir.display()));
+    }
+    Ok(())
+}
