@@ -72,54 +72,36 @@ fn scaled_scene(scale: f32, albedo: f32) -> Scene {
         .unwrap();
     let s = Transform::from_parts(Vec3::splat(scale), Quat::IDENTITY, Vec3::ZERO);
     let room = 2.0;
-    b.add_quad(
-        Vec3::new(-room, -room, -room),
-        Vec3::X * 2.0 * room,
-        Vec3::Z * 2.0 * room,
-        wall,
-        &s,
-    )
-    .unwrap();
-    b.add_quad(
-        Vec3::new(-room, room, -room),
-        Vec3::Z * 2.0 * room,
-        Vec3::X * 2.0 * room,
-        wall,
-        &s,
-    )
-    .unwrap();
-    b.add_quad(
-        Vec3::new(-room, -room, -room),
-        Vec3::Y * 2.0 * room,
-        Vec3::X * 2.0 * room,
-        wall,
-        &s,
-    )
-    .unwrap();
-    b.add_quad(
-        Vec3::new(-room, -room, -room),
-        Vec3::Z * 2.0 * room,
-        Vec3::Y * 2.0 * room,
-        red,
-        &s,
-    )
-    .unwrap();
-    b.add_quad(
-        Vec3::new(room, -room, -room),
-        Vec3::Y * 2.0 * room,
-        Vec3::Z * 2.0 * room,
-        wall,
-        &s,
-    )
-    .unwrap();
-    b.add_quad(
-        Vec3::new(-0.6, room - 1e-3, -0.6),
-        Vec3::X * 1.2,
-        Vec3::Z * 1.2,
-        light,
-        &s,
-    )
-    .unwrap();
+    let side = 2.0 * room;
+    let low = Vec3::splat(-room);
+    // (corner, u, v, material): floor, ceiling, back, left (red), right,
+    // then the lamp just under the ceiling.
+    let quads = [
+        (low, Vec3::X * side, Vec3::Z * side, wall),
+        (
+            Vec3::new(-room, room, -room),
+            Vec3::Z * side,
+            Vec3::X * side,
+            wall,
+        ),
+        (low, Vec3::Y * side, Vec3::X * side, wall),
+        (low, Vec3::Z * side, Vec3::Y * side, red),
+        (
+            Vec3::new(room, -room, -room),
+            Vec3::Y * side,
+            Vec3::Z * side,
+            wall,
+        ),
+        (
+            Vec3::new(-0.6, room - 1e-3, -0.6),
+            Vec3::X * 1.2,
+            Vec3::Z * 1.2,
+            light,
+        ),
+    ];
+    for (corner, u, v, material) in quads {
+        b.add_quad(corner, u, v, material, &s).unwrap();
+    }
     b.add_sphere(Vec3::new(-0.8, -1.3, 0.2), 0.7, glass, &s)
         .unwrap();
     let block = Transform {

@@ -172,6 +172,7 @@ impl<'s> MitsubaScene<'s> {
                 })
             })
             .collect::<Result<Vec<_>>>()?;
+        // Refused here, before `write` creates any file.
         if let Background::Envmap { .. } = scene.background {
             bail!("the background is an environment map (not exported)");
         }
@@ -295,7 +296,9 @@ impl<'s> MitsubaScene<'s> {
                 write_sky(&dir.join("sky.exr"), horizon, zenith)?;
                 x += "  <emitter type=\"envmap\"><string name=\"filename\" value=\"sky.exr\"/></emitter>\n";
             }
-            Background::Envmap { .. } => unreachable!("refused in MitsubaScene::new"),
+            Background::Envmap { .. } => {
+                bail!("the background is an environment map (not exported)")
+            }
         }
         x += "</scene>\n";
         Ok(x)
