@@ -41,7 +41,7 @@ fn main() -> Result<()> {
     println!("| albedo factor | caught | per-pixel pass % | image-sum z (R, G, B), one seed per row entry |");
     println!("|---|---|---|---|");
     for factor in [1.0f32, 1.005, 1.0075, 1.01, 1.0125, 1.015, 1.02] {
-        let biased = scaled_albedo(&scene, factor);
+        let biased = scaled_albedo(&scene, factor)?;
         let mut caught = 0;
         let mut pass_pct = Vec::new();
         let mut zs = Vec::new();

@@ -1,5 +1,5 @@
 // The BVH walk over the binary node array and its box test: the twin of
-// reference/src/bvh.rs (the walk the reference runs on the wide collapse
+// reference/src/bvh/ (the walk the reference runs on the wide collapse
 // of the same nodes) and reference::Scene::intersect.
 
 // Slab test; see reference::bvh::intersect_aabb. WGSL leaves min/max of NaN

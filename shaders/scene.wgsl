@@ -1,6 +1,6 @@
 // The scene's buffers, per-primitive dispatch (bounds, intersection with
 // the admits rule) and the surface interaction: the twin of
-// reference/src/scene.rs. Record structs, constants and the bindings come
+// reference/src/scene/. Record structs, constants and the bindings come
 // from shaders/generated.wgsl.
 
 struct Hit {

@@ -42,22 +42,29 @@ fn render(dir: &Path, name: &str, seed: u32, albedo: f32) {
     render_spp(dir, name, seed, albedo, 256);
 }
 
-fn render_spp(dir: &Path, name: &str, seed: u32, albedo: f32, spp: u32) {
-    let mut scene = reference::load_scene(&fixture_scene("ggx-roughness.json")).unwrap();
-    for t in &mut scene.textures {
+/// Scales every constant colour below one (the albedos, not the lights).
+fn scale_colours_below_one(textures: &mut [reference::texture::Texture], factor: f32) {
+    for t in textures {
         if let reference::texture::Texture::Constant(c) = t {
             if c.max_element() < 1.0 {
-                *c *= albedo;
+                *c *= factor;
             }
         }
     }
+}
+
+fn render_spp(dir: &Path, name: &str, seed: u32, albedo: f32, spp: u32) {
+    let scene = reference::load_scene(&fixture_scene("ggx-roughness.json"))
+        .unwrap()
+        .edited(|look| scale_colours_below_one(&mut look.textures, albedo))
+        .unwrap();
     let settings = RenderSettings {
         width: 32,
         height: 12,
         spp,
         max_depth: 12,
         seed,
-        ..scene.render
+        ..scene.render_settings()
     };
     let film = reference::render(&scene, &settings, &|_| {});
     let meta = RenderMetadata {
@@ -250,14 +257,10 @@ fn a_separate_variance_image_is_used_and_no_variance_cannot_be_tested() {
 fn a_failing_image_gate_writes_its_evidence_and_names_it() {
     let spec = manifest_entry("cornell-spheres").unwrap();
     let reference = load_reference(&spec).unwrap();
-    let mut scene = load_scene(&spec).unwrap();
-    for t in &mut scene.textures {
-        if let reference::texture::Texture::Constant(c) = t {
-            if c.max_element() < 1.0 {
-                *c *= 1.2;
-            }
-        }
-    }
+    let scene = load_scene(&spec)
+        .unwrap()
+        .edited(|look| scale_colours_below_one(&mut look.textures, 1.2))
+        .unwrap();
     let run = run_gate(&reference, &scene, 64, 9, &cpu_reference).unwrap();
     let test = "diff_command/evidence";
     let dir = artifact_dir(test);
@@ -289,7 +292,7 @@ fn render_cornell(dir: &Path, name: &str, seed: u32, dark_fraction: f64, dark_sc
         spp: 1024,
         max_depth: spec.max_depth,
         seed,
-        ..scene.render
+        ..scene.render_settings()
     };
     let film = reference::render(&scene, &settings, &|_| {});
     let meta = RenderMetadata {

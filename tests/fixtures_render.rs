@@ -30,7 +30,7 @@ fn every_fixture_renders_small_without_nonfinite_samples() {
             height: 16,
             spp: 4,
             max_depth: 8,
-            ..scene.render
+            ..scene.render_settings()
         };
         let film = reference::render(&scene, &settings, &|_| {});
         assert_eq!(film.nonfinite_samples(), 0, "{spec}: NaN/Inf samples");
@@ -69,14 +69,14 @@ fn no_checker_boundary_plane_is_tangent_to_a_sphere() {
     let mut checked = 0;
     for spec in fixture_scenes() {
         let scene = reference::load_scene(&spec).unwrap_or_else(|e| panic!("{spec}: {e}"));
-        for (i, s) in scene.spheres.iter().enumerate() {
-            let texture = match scene.materials[s.material as usize] {
+        for (i, s) in scene.spheres().iter().enumerate() {
+            let texture = match scene.materials()[s.material as usize] {
                 Material::Lambertian { albedo } | Material::Metal { albedo, .. } => albedo,
                 Material::DiffuseLight { emission } => emission,
                 Material::Ggx { base_color, .. } => base_color,
                 Material::Dielectric { .. } => continue,
             };
-            let Texture::Checker { scale, .. } = scene.textures[texture as usize] else {
+            let Texture::Checker { scale, .. } = scene.textures()[texture as usize] else {
                 continue;
             };
             for axis in 0..3 {

@@ -72,8 +72,7 @@ enum Mutation {
 /// array, so the production traversal never reaches that subtree (what a
 /// traversal that forgets to push a child does to the rays through it).
 fn drop_bvh_child(scene: &Scene) -> Scene {
-    let mut s = scene.clone();
-    let mut nodes = s.bvh().nodes().to_vec();
+    let mut nodes = scene.bvh().nodes().to_vec();
     let node = nodes
         .iter()
         .rposition(|n| !n.is_leaf())
@@ -85,8 +84,8 @@ fn drop_bvh_child(scene: &Scene) -> Scene {
         ..right
     });
     nodes[node].index = nodes.len() as u32 - 1;
-    s.set_bvh(Bvh::from_parts(nodes, s.bvh().prim_order().to_vec()));
-    s
+    let bvh = Bvh::from_parts(nodes, scene.bvh().prim_order().to_vec()).unwrap();
+    scene.clone().with_bvh(bvh).unwrap()
 }
 
 /// The polar map with a uniform radius: `r = u.x` where `√u.x` is needed.
@@ -136,8 +135,8 @@ fn trace_path(
     mutation: Mutation,
 ) -> Vec3 {
     let ctx = TextureContext {
-        textures: &scene.textures,
-        images: &scene.images,
+        textures: scene.textures(),
+        images: scene.images(),
     };
     let mut radiance = Vec3::ZERO;
     let mut throughput = Vec3::ONE;
@@ -145,14 +144,14 @@ fn trace_path(
         let Some(hit) = scene.intersect(&ray, 0.0, f32::INFINITY) else {
             radiance += throughput
                 * reference::background::evaluate_background(
-                    &scene.background,
-                    &scene.images,
+                    &scene.background(),
+                    scene.images(),
                     ray.direction,
                 );
             break;
         };
         let si = scene.surface_interaction(&ray, &hit);
-        let material = &scene.materials[si.material as usize];
+        let material = &scene.materials()[si.material as usize];
         if let Material::Dielectric { absorption, .. } = material {
             if !si.front_face && absorption.max_element() > 0.0 {
                 throughput *= (-*absorption * hit.t).exp();
@@ -242,7 +241,7 @@ fn the_copied_tracer_is_the_reference_bit_for_bit_and_the_exact_gate_sees_a_drop
             spp: 8,
             max_depth: 12,
             seed: 5,
-            roulette_depth: scene.render.roulette_depth,
+            roulette_depth: scene.render_settings().roulette_depth,
         };
         let reference = reference::render(&scene, &settings, &|_| {});
         let copy = compare_films(
@@ -316,7 +315,7 @@ fn albedo_times_1_02_fails_the_image_gate() {
     let (reference, scene) = cornell_reference();
     let run = run_gate(
         &reference,
-        &scaled_albedo(&scene, 1.02),
+        &scaled_albedo(&scene, 1.02).unwrap(),
         CORNELL_SPP,
         TEST_SEED,
         &cpu_reference,
@@ -373,7 +372,7 @@ fn welch_passes_two_seeds_and_fails_albedo_times_1_02() {
         spp: CORNELL_SPP,
         max_depth: reference.spec.max_depth,
         seed: 21,
-        roulette_depth: scene.render.roulette_depth,
+        roulette_depth: scene.render_settings().roulette_depth,
     };
     let a = NoisyImage::from_film(&reference::render(&scene, &settings, &|_| {}));
     let b = NoisyImage::from_film(&reference::render(
@@ -392,7 +391,7 @@ fn welch_passes_two_seeds_and_fails_albedo_times_1_02() {
         same.summary()
     );
     let biased = NoisyImage::from_film(&reference::render(
-        &scaled_albedo(&scene, 1.02),
+        &scaled_albedo(&scene, 1.02).unwrap(),
         &RenderSettings {
             seed: 22,
             ..settings
@@ -649,14 +648,14 @@ fn furnaces_reject_mutants() {
         Mutation::UncompensatedRoulette,
     );
     let mut brighter = furnace::concentric_spheres(0.5, false, 256, 11).unwrap();
-    brighter.scene = scaled_albedo(&brighter.scene, 1.02);
+    brighter.scene = scaled_albedo(&brighter.scene, 1.02).unwrap();
     assert_furnace_fails(
         "albedo ×1.02 (concentric spheres)",
         &brighter,
         Mutation::None,
     );
     let mut white = furnace::white_furnace(false, 64, 11).unwrap();
-    white.scene = scaled_albedo(&white.scene, 1.02);
+    white.scene = scaled_albedo(&white.scene, 1.02).unwrap();
     assert_furnace_fails("albedo ×1.02 (exact white furnace)", &white, Mutation::None);
     let roulette_white = furnace::white_furnace(true, 256, 11).unwrap();
     assert_furnace_fails(
@@ -665,11 +664,15 @@ fn furnaces_reject_mutants() {
         Mutation::UncompensatedRoulette,
     );
     let mut dimmer = furnace::ggx_metal_plane(0.6, 45.0, 1024, 11).unwrap();
-    for t in &mut dimmer.scene.textures {
-        if let Texture::Constant(c) = t {
-            *c *= 0.98;
-        }
-    }
+    dimmer.scene = (dimmer.scene.clone())
+        .edited(|look| {
+            for t in &mut look.textures {
+                if let Texture::Constant(c) = t {
+                    *c *= 0.98;
+                }
+            }
+        })
+        .unwrap();
     assert_furnace_fails("GGX base colour ×0.98", &dimmer, Mutation::None);
 }
 

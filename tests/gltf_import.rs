@@ -77,19 +77,19 @@ fn procedural_glb_loads_frames_and_renders() {
     let mesh = icosphere(2);
     write_glb(&path, &mesh).unwrap();
     let scene = reference::load_scene(path.to_str().unwrap()).unwrap();
-    assert_eq!(scene.triangles.len(), 320);
+    assert_eq!(scene.triangles().len(), 320);
     // No material in the file: the glTF default (white, metallic 1, roughness 1).
     assert_eq!(
-        scene.materials,
+        scene.materials(),
         vec![Material::Ggx {
             base_color: 0,
             metallic: 1.0,
             roughness: 1.0
         }]
     );
-    assert_eq!(scene.textures, vec![Texture::Constant(Vec3::ONE)]);
+    assert_eq!(scene.textures(), vec![Texture::Constant(Vec3::ONE)]);
     // No camera in the file: one on +z frames the unit sphere.
-    let c = scene.camera_settings;
+    let c = scene.camera_settings();
     assert_eq!(c.vfov, DEFAULT_VFOV);
     assert!(
         c.look_at.length() < 1e-5 && c.look_from.x.abs() < 1e-5 && c.look_from.z > 2.0,
@@ -111,7 +111,7 @@ fn procedural_glb_loads_frames_and_renders() {
         width: 16,
         height: 16,
         spp: 4,
-        ..scene.render
+        ..scene.render_settings()
     };
     let film = reference::render(&scene, &settings, &|_| {});
     let mean = film.mean();
@@ -130,11 +130,11 @@ fn gltf_materials_emission_and_camera_come_through() {
     let dir = tempfile::tempdir().unwrap();
     let path = write(dir.path(), "two.gltf", two_material_gltf());
     let scene = reference::load_scene(path.to_str().unwrap()).unwrap();
-    assert_eq!(scene.triangles.len(), 2);
-    let texture = |id: u32| scene.textures[id as usize];
+    assert_eq!(scene.triangles().len(), 2);
+    let texture = |id: u32| scene.textures()[id as usize];
     let (ggx, light) = (
-        scene.materials[scene.triangles[0].material as usize],
-        scene.materials[scene.triangles[1].material as usize],
+        scene.materials()[scene.triangles()[0].material as usize],
+        scene.materials()[scene.triangles()[1].material as usize],
     );
     match ggx {
         Material::Ggx {
@@ -159,7 +159,7 @@ fn gltf_materials_emission_and_camera_come_through() {
         other => panic!("expected a light, got {other:?}"),
     }
     // The camera node sits under a translated parent and looks down -z.
-    let c = scene.camera_settings;
+    let c = scene.camera_settings();
     assert!(
         (c.look_from - Vec3::new(1.0, 0.0, 3.0)).length() < 1e-6,
         "{c:?}"
@@ -169,8 +169,14 @@ fn gltf_materials_emission_and_camera_come_through() {
     assert!((c.vfov - 0.6f32.to_degrees()).abs() < 1e-4);
     assert_eq!(c.aperture, 0.0);
     assert_eq!(
-        (scene.render.width, scene.render.height),
-        (2 * scene.render.height, RenderSettings::default().height)
+        (
+            scene.render_settings().width,
+            scene.render_settings().height
+        ),
+        (
+            2 * scene.render_settings().height,
+            RenderSettings::default().height
+        )
     );
 
     // The merged mesh has both primitives' triangles.
@@ -185,7 +191,7 @@ fn gltf_materials_emission_and_camera_come_through() {
     assert_eq!(builder.material_count(), 2);
     let placed = builder.build().unwrap();
     assert_eq!(
-        placed.mesh.positions[..3],
+        placed.mesh().positions[..3],
         [
             Vec3::new(0.0, 5.0, 0.0),
             Vec3::new(2.0, 5.0, 0.0),

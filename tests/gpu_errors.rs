@@ -56,7 +56,7 @@ fn a_lost_device_is_reported() {
         width: 8,
         height: 8,
         spp: 1,
-        ..scene.render
+        ..scene.render_settings()
     };
     let Err(err) = r.render(&settings, &|_, _| {}) else {
         panic!("rendering on a destroyed device succeeded")
@@ -83,7 +83,7 @@ fn an_unknown_tag_poisons_its_samples() {
         width: 8,
         height: 8,
         spp: 2,
-        ..scene.render
+        ..scene.render_settings()
     };
     let total = 8 * 8 * 2;
     let render = |packed: &PackedScene| {

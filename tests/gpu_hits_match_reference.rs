@@ -289,7 +289,7 @@ fn primitive_bounds_match_reference_bit_for_bit() {
         ("cornell", reference::load_scene("cornell").unwrap()),
     ] {
         let renderer = gpu::GpuRenderer::new(ctx, &scene).unwrap();
-        let n = scene.primitives.len() as u32;
+        let n = scene.primitives().len() as u32;
         let input: Vec<u32> = (0..n).collect();
         let kernel = TestKernel {
             snippet: BOUNDS_SNIPPET,

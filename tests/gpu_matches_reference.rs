@@ -52,7 +52,7 @@ fn gpu_and_cpu_agree_by_welch_at_equal_budgets_and_a_biased_gpu_does_not() {
         spp: 1024,
         max_depth: spec.max_depth,
         seed: 21,
-        roulette_depth: scene.render.roulette_depth,
+        roulette_depth: scene.render_settings().roulette_depth,
     };
     let cpu = NoisyImage::from_film(&cpu_reference(&scene, &settings).unwrap());
     let gpu = NoisyImage::from_film(
@@ -72,7 +72,7 @@ fn gpu_and_cpu_agree_by_welch_at_equal_budgets_and_a_biased_gpu_does_not() {
     // Mutation: albedo ×1.02 on the GPU side must fail the stored-reference gate.
     let spec = manifest_entry("cornell-boxes").unwrap();
     let reference = load_reference(&spec).unwrap();
-    let biased = scaled_albedo(&load_scene(&spec).unwrap(), 1.02);
+    let biased = scaled_albedo(&load_scene(&spec).unwrap(), 1.02).unwrap();
     let run = run_gate(&reference, &biased, 512, GPU_SEED, &gpu_render).unwrap();
     println!("GPU with albedo x1.02:\n{}", run.verdict.summary());
     assert!(!run.passes(), "a 2% albedo bias on the GPU went undetected");

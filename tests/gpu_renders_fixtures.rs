@@ -24,7 +24,7 @@ fn every_fixture_renders_on_the_gpu() {
             height: 16,
             spp: 4,
             max_depth: 8,
-            ..scene.render
+            ..scene.render_settings()
         };
         let renderer = gpu::GpuRenderer::new(ctx, &scene).unwrap_or_else(|e| panic!("{spec}: {e}"));
         let out = renderer

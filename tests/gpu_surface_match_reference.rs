@@ -136,13 +136,13 @@ fn check_surface(name: &str, scene: &Scene) {
         let uv = Vec2::new(f32::from_bits(w[9]), f32::from_bits(w[10]));
         let p_error = f32::from_bits(w[11]);
         let at = format!("{name} case {i} (prim {}, t {})", hit.prim, hit.t);
-        let prim = scene.primitives[hit.prim as usize];
+        let prim = scene.primitives()[hit.prim as usize];
         // A sphere's normal is its hit point's offset from the centre over
         // r: the twins' o + t·d may round differently (a contracted fma on
         // hardware), by at most 2γ(2) of its magnitude per coordinate,
         // which turns the normal by √3 times that over r.
         let (normal_tol, uv_tol, p_tol) = if prim.tag == primitive_tag::SPHERE {
-            let r = scene.spheres[prim.index as usize].radius.abs();
+            let r = scene.spheres()[prim.index as usize].radius.abs();
             let at_t = (ray.origin.abs() + (hit.t * ray.direction).abs()).max_element();
             let tol = NORMAL_TOL + 3f32.sqrt() * 2.0 * gamma(2) * at_t / r;
             // u and v turn by the normal's change over π·sin θ.

@@ -139,11 +139,11 @@ pub(crate) fn sphere_normal_error(scene: &reference::Scene) -> f64 {
         let Some(hit) = scene.intersect(&ray, 0.0, f32::INFINITY) else {
             continue;
         };
-        let p = scene.primitives[hit.prim as usize];
+        let p = scene.primitives()[hit.prim as usize];
         if p.tag != reference::scene::primitive_tag::SPHERE {
             continue;
         }
-        let s = &scene.spheres[p.index as usize];
+        let s = &scene.spheres()[p.index as usize];
         let si = scene.surface_interaction(&ray, &hit);
         let radial = (si.p.as_dvec3() - s.center.as_dvec3()).normalize() * s.radius.signum() as f64;
         let bound =

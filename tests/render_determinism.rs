@@ -25,7 +25,7 @@ fn one_thread_and_many_give_identical_images() {
         height: 27,
         spp: 3,
         max_depth: 12,
-        ..scene.render
+        ..scene.render_settings()
     };
     let one = render_with_threads(&scene, &settings, 1);
     let many = render_with_threads(&scene, &settings, 5);
@@ -41,7 +41,7 @@ fn the_seed_changes_the_image_and_only_the_seed() {
         height: 16,
         spp: 2,
         max_depth: 6,
-        ..scene.render
+        ..scene.render_settings()
     };
     let a = reference::render(&scene, &settings, &|_| {});
     let b = reference::render(&scene, &settings, &|_| {});

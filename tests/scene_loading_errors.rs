@@ -50,7 +50,7 @@ fn valid_minimal_scene_loads() {
         &scene_with(r#"{ "type": "sphere", "center": [0,0,0], "radius": 1, "material": "m" }"#),
     );
     let scene = reference::load_scene(p.to_str().unwrap()).unwrap();
-    assert_eq!(scene.spheres.len(), 1);
+    assert_eq!(scene.spheres().len(), 1);
 }
 
 #[test]

@@ -4,7 +4,8 @@
 //! fails on the defect it is for.
 //!
 //! - Every WGSL function of `shaders/<m>.wgsl` has its Rust twin in
-//!   `reference/src/<m>.rs` under the same name (a `snake_type_method`
+//!   `reference/src/<m>.rs` (or `reference/src/<m>/`, a module split by
+//!   concern) under the same name (a `snake_type_method`
 //!   name twins `impl SnakeType { fn method }` or `mod snake_type { fn
 //!   method }`), or is listed below as GPU-only or renamed, with why.
 //! - Every `switch` on a tag lists every tag of its family as a `case`
@@ -29,6 +30,28 @@ fn root() -> PathBuf {
 
 fn read(rel: &str) -> String {
     fs::read_to_string(root().join(rel)).unwrap_or_else(|e| panic!("{rel}: {e}"))
+}
+
+/// The source of reference module `module`: `reference/src/<module>.rs`,
+/// or, for a module split by concern, every file of `reference/src/<module>/`
+/// (in name order). `None` if there is neither.
+fn reference_module(module: &str) -> Option<String> {
+    let file = root().join(format!("reference/src/{module}.rs"));
+    if file.exists() {
+        return Some(read(&format!("reference/src/{module}.rs")));
+    }
+    let mut files: Vec<PathBuf> = fs::read_dir(root().join(format!("reference/src/{module}")))
+        .ok()?
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "rs"))
+        .collect();
+    files.sort();
+    Some(
+        files
+            .iter()
+            .map(|p| fs::read_to_string(p).unwrap_or_else(|e| panic!("{}: {e}", p.display())))
+            .collect(),
+    )
 }
 
 /// WGSL functions with no Rust function of the same name, and why.
@@ -143,7 +166,8 @@ fn every_wgsl_function_has_a_rust_twin() {
         .copied()
         .chain([("integrator", gpu::shader::INTEGRATOR_WGSL)])
     {
-        let rust = read(&format!("reference/src/{module}.rs"));
+        let rust = reference_module(module)
+            .unwrap_or_else(|| panic!("no reference/src/{module}.rs nor reference/src/{module}/"));
         missing.extend(
             unpaired(src, &rust)
                 .into_iter()
@@ -369,8 +393,8 @@ fn shaders_mirror_reference_modules() {
         .collect();
     for (module, _) in gpu::shader::LIBRARY_FILES {
         assert!(
-            root().join(format!("reference/src/{module}.rs")).exists(),
-            "shaders/{module}.wgsl has no reference/src/{module}.rs"
+            reference_module(module).is_some(),
+            "shaders/{module}.wgsl has no reference/src/{module}.rs nor reference/src/{module}/"
         );
     }
     for entry in fs::read_dir(root().join("shaders")).unwrap() {

@@ -156,7 +156,7 @@ impl<'a> GpuRenderer<'a> {
             max_depth: settings.max_depth,
             roulette_depth: settings.roulette_depth,
             lens_radius: cam.lens_radius,
-            primitive_count: self.scene.primitives.len() as u32,
+            primitive_count: self.scene.primitives().len() as u32,
             ..Default::default()
         };
         [p.cam_origin_x, p.cam_origin_y, p.cam_origin_z] = cam.origin.to_array();
@@ -165,7 +165,7 @@ impl<'a> GpuRenderer<'a> {
         [p.cam_vertical_x, p.cam_vertical_y, p.cam_vertical_z] = cam.vertical.to_array();
         [p.cam_u_x, p.cam_u_y, p.cam_u_z] = cam.u.to_array();
         [p.cam_v_x, p.cam_v_y, p.cam_v_z] = cam.v.to_array();
-        pack_background(&self.scene.background, &mut p);
+        pack_background(&self.scene.background(), &mut p);
         p
     }
 

@@ -114,9 +114,9 @@ impl PackedScene {
     }
 
     pub fn new(scene: &Scene) -> Self {
-        let mut images = Vec::with_capacity(scene.images.len());
+        let mut images = Vec::with_capacity(scene.images().len());
         let mut texels = Vec::new();
-        for img in &scene.images {
+        for img in scene.images() {
             images.push(GpuImage {
                 offset: texels.len() as u32,
                 width: img.width,
@@ -125,12 +125,12 @@ impl PackedScene {
             });
             texels.extend(img.texels.iter().flat_map(|t| t.to_array()));
         }
-        let m = &scene.mesh;
+        let m = &scene.mesh();
         PackedScene {
             nodes: scene.bvh().nodes().to_vec(),
             prim_order: scene.bvh().prim_order().to_vec(),
             primitives: scene
-                .primitives
+                .primitives()
                 .iter()
                 .map(|p| GpuPrimitive {
                     tag: p.tag,
@@ -138,7 +138,7 @@ impl PackedScene {
                 })
                 .collect(),
             spheres: scene
-                .spheres
+                .spheres()
                 .iter()
                 .map(|s| GpuSphere {
                     center_x: s.center.x,
@@ -150,7 +150,7 @@ impl PackedScene {
                 })
                 .collect(),
             quads: scene
-                .quads
+                .quads()
                 .iter()
                 .map(|q| GpuQuad {
                     corner_x: q.corner.x,
@@ -167,7 +167,7 @@ impl PackedScene {
                 })
                 .collect(),
             triangles: scene
-                .triangles
+                .triangles()
                 .iter()
                 .map(|t| GpuTriangle {
                     v0: t.vertices[0],
@@ -193,8 +193,8 @@ impl PackedScene {
                     }
                 })
                 .collect(),
-            materials: scene.materials.iter().map(pack_material).collect(),
-            textures: scene.textures.iter().map(pack_texture).collect(),
+            materials: scene.materials().iter().map(pack_material).collect(),
+            textures: scene.textures().iter().map(pack_texture).collect(),
             images,
             texels,
         }

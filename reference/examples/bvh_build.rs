@@ -36,7 +36,7 @@ fn main() {
             .add_material(Material::Lambertian { albedo: white })
             .unwrap();
         b.add_mesh(&mesh(), m, &Transform::default()).unwrap();
-        let s = b.build().unwrap().bvh_stats;
+        let s = b.build().unwrap().bvh_stats();
         println!(
             "| {name} | {:.1} | {} | {} | {} | {:.2} |",
             s.build_time.as_secs_f64() * 1e3,

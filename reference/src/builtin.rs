@@ -288,16 +288,16 @@ mod tests {
     #[test]
     fn rtow_final_has_488_spheres_and_is_deterministic() {
         let a = rtow_final(0).unwrap();
-        assert_eq!(a.spheres.len(), 488);
+        assert_eq!(a.spheres().len(), 488);
         let b = rtow_final(0).unwrap();
-        assert_eq!(a.spheres, b.spheres);
-        assert_ne!(rtow_final(1).unwrap().spheres, a.spheres);
+        assert_eq!(a.spheres(), b.spheres());
+        assert_ne!(rtow_final(1).unwrap().spheres(), a.spheres());
         // Roughly 80 / 15 / 5 % of the 484 small spheres.
-        let glass = a.spheres[1..485]
+        let glass = a.spheres()[1..485]
             .iter()
             .filter(|s| {
                 matches!(
-                    a.materials[s.material as usize],
+                    a.materials()[s.material as usize],
                     Material::Dielectric { .. }
                 )
             })
@@ -308,10 +308,10 @@ mod tests {
     #[test]
     fn cornell_variants_build() {
         let c = cornell(false).unwrap();
-        assert_eq!(c.quads.len(), 6 + 12);
+        assert_eq!(c.quads().len(), 6 + 12);
         let s = cornell(true).unwrap();
-        assert_eq!(s.spheres.len(), 2);
+        assert_eq!(s.spheres().len(), 2);
         assert!(load("nope").is_err());
-        assert_eq!(spheres_10k(0).unwrap().spheres.len(), 10_001);
+        assert_eq!(spheres_10k(0).unwrap().spheres().len(), 10_001);
     }
 }

@@ -133,7 +133,7 @@ impl EmbreeScene {
         check(device, "scene flags")?;
 
         let (mut tris, mut quads, mut spheres) = (Vec::new(), Vec::new(), Vec::new());
-        for (id, p) in scene.primitives.iter().enumerate() {
+        for (id, p) in scene.primitives().iter().enumerate() {
             match p.tag {
                 primitive_tag::SPHERE => spheres.push((id as u32, p.index)),
                 primitive_tag::QUAD => quads.push((id as u32, p.index)),
@@ -141,11 +141,15 @@ impl EmbreeScene {
             }
         }
         if !tris.is_empty() {
-            let vertices: Vec<[f32; 3]> =
-                scene.mesh.positions.iter().map(|p| p.to_array()).collect();
+            let vertices: Vec<[f32; 3]> = scene
+                .mesh()
+                .positions
+                .iter()
+                .map(|p| p.to_array())
+                .collect();
             let indices: Vec<[u32; 3]> = tris
                 .iter()
-                .map(|&(_, i)| scene.triangles[i as usize].vertices)
+                .map(|&(_, i)| scene.triangles()[i as usize].vertices)
                 .collect();
             me.attach(
                 sys::RTCGeometryType::TRIANGLE,
@@ -159,7 +163,7 @@ impl EmbreeScene {
         if !quads.is_empty() {
             let mut vertices: Vec<[f32; 3]> = Vec::with_capacity(4 * quads.len());
             for &(_, i) in &quads {
-                let q = &scene.quads[i as usize];
+                let q = &scene.quads()[i as usize];
                 for v in [
                     q.corner,
                     q.corner + q.u,
@@ -185,7 +189,7 @@ impl EmbreeScene {
             let points: Vec<[f32; 4]> = spheres
                 .iter()
                 .map(|&(_, i)| {
-                    let s = &scene.spheres[i as usize];
+                    let s = &scene.spheres()[i as usize];
                     [s.center.x, s.center.y, s.center.z, s.radius.abs()]
                 })
                 .collect();

@@ -132,17 +132,17 @@ pub enum Shape64 {
 impl Shape64 {
     /// Primitive `prim` of `scene`, exactly.
     pub fn of(scene: &Scene, prim: u32) -> Self {
-        let p = scene.primitives[prim as usize];
+        let p = scene.primitives()[prim as usize];
         match p.tag {
             primitive_tag::SPHERE => {
-                let s = &scene.spheres[p.index as usize];
+                let s = &scene.spheres()[p.index as usize];
                 Shape64::Sphere {
                     center: s.center.as_dvec3(),
                     radius: s.radius.abs() as f64,
                 }
             }
             primitive_tag::QUAD => {
-                let q = &scene.quads[p.index as usize];
+                let q = &scene.quads()[p.index as usize];
                 Shape64::Quad {
                     corner: q.corner.as_dvec3(),
                     u: q.u.as_dvec3(),
@@ -150,10 +150,10 @@ impl Shape64 {
                 }
             }
             _ => {
-                let t = &scene.triangles[p.index as usize];
+                let t = &scene.triangles()[p.index as usize];
                 Shape64::Triangle {
                     p: t.vertices
-                        .map(|i| scene.mesh.positions[i as usize].as_dvec3()),
+                        .map(|i| scene.mesh().positions[i as usize].as_dvec3()),
                 }
             }
         }

@@ -31,19 +31,19 @@ pub fn trace_path(
     sample: u32,
 ) -> Vec3 {
     let ctx = TextureContext {
-        textures: &scene.textures,
-        images: &scene.images,
+        textures: scene.textures(),
+        images: scene.images(),
     };
     let mut radiance = Vec3::ZERO;
     let mut throughput = Vec3::ONE;
     for segment in 0..settings.max_depth {
         let Some(hit) = scene.intersect(&ray, 0.0, f32::INFINITY) else {
-            radiance +=
-                throughput * evaluate_background(&scene.background, &scene.images, ray.direction);
+            radiance += throughput
+                * evaluate_background(&scene.background(), scene.images(), ray.direction);
             break;
         };
         let si = scene.surface_interaction(&ray, &hit);
-        let material = &scene.materials[si.material as usize];
+        let material = &scene.materials()[si.material as usize];
         if let Material::Dielectric { absorption, .. } = material {
             // Beer-Lambert over the segment just travelled inside.
             if !si.front_face && absorption.max_element() > 0.0 {

@@ -65,7 +65,7 @@ proptest! {
         let Some(scene) = build_scene(&spec) else { return Ok(()) };
         let qs = queries(&scene, seed, 512);
         if let Some(m) = first_mismatch(&scene, &qs) {
-            prop_assert!(false, "{} ({}): {m}", scene.primitives.len(), common::describe(&scene));
+            prop_assert!(false, "{} ({}): {m}", scene.primitives().len(), common::describe(&scene));
         }
     }
 
@@ -87,8 +87,8 @@ fn bvh_equals_brute_force_on_every_fixture() {
     for name in fixture_names() {
         let scene = load(&name);
         // The scan costs one test per primitive: fewer rays where there are many.
-        let n = (4_000_000 / scene.primitives.len()).clamp(500, 20_000);
-        let qs = queries(&scene, 0x5eed ^ scene.primitives.len() as u64, n);
+        let n = (4_000_000 / scene.primitives().len()).clamp(500, 20_000);
+        let qs = queries(&scene, 0x5eed ^ scene.primitives().len() as u64, n);
         let hits = qs
             .iter()
             .filter(|q| scene.intersect(&q.ray, q.t_min, q.t_max).is_some())
@@ -118,7 +118,7 @@ fn a_dropped_bvh_leaf_entry_is_caught() {
         n: 6,
     };
     for (name, triangles) in [("cornell", false), ("a grid of triangles", true)] {
-        let mut scene = if triangles {
+        let scene = if triangles {
             build_scene(std::slice::from_ref(&grid)).expect("the grid")
         } else {
             load(name)
@@ -128,14 +128,16 @@ fn a_dropped_bvh_leaf_entry_is_caught() {
         let all_triangles = |n: &BvhNode| {
             order[n.index as usize..(n.index + n.count()) as usize]
                 .iter()
-                .all(|&p| scene.primitives[p as usize].tag == primitive_tag::TRIANGLE)
+                .all(|&p| scene.primitives()[p as usize].tag == primitive_tag::TRIANGLE)
         };
         let leaf = nodes
             .iter()
             .position(|n| n.is_leaf() && n.count() > 1 && all_triangles(n) == triangles)
             .expect("a leaf with two primitives");
         nodes[leaf].meta -= 1 << 2; // count - 1: the last primitive of the leaf is never tested
-        scene.set_bvh(Bvh::from_parts(nodes, order));
+        let scene = scene
+            .with_bvh(Bvh::from_parts(nodes, order).unwrap())
+            .unwrap();
         let qs = queries(&scene, 7, 20_000);
         assert!(
             first_mismatch(&scene, &qs).is_some(),

@@ -274,7 +274,7 @@ fn reference_agrees_with_embree_on_every_fixture() {
     for name in fixture_names() {
         let scene = load(&name);
         let embree = EmbreeScene::new(&scene).unwrap_or_else(|e| panic!("{}: {e}", short(&name)));
-        let seed = 0xe3b0 + scene.primitives.len() as u64;
+        let seed = 0xe3b0 + scene.primitives().len() as u64;
         let mut qs = queries_of(&scene, seed, n, &[RayKind::Random]);
         qs.extend(queries_of(
             &scene,
@@ -344,6 +344,6 @@ proptest! {
         let embree = EmbreeScene::new(&scene).unwrap();
         let qs = queries(&scene, seed, 2_000);
         let t = compare(&scene, &embree, &qs).into_iter().fold(Tally::default(), Tally::merge);
-        prop_assert!(!t.failed(), "{} ({}): {}\n  {}", scene.primitives.len(), common::describe(&scene), t.counts(), t.examples.join("\n  "));
+        prop_assert!(!t.failed(), "{} ({}): {}\n  {}", scene.primitives().len(), common::describe(&scene), t.counts(), t.examples.join("\n  "));
     }
 }

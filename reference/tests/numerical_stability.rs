@@ -54,7 +54,7 @@ fn interior_rays(
         let o = inside(&mut rng);
         let d = match rays.len() % 3 {
             0 => rng.unit_vector(),
-            1 => scene.mesh.positions[rng.below(scene.mesh.positions.len())] - o,
+            1 => scene.mesh().positions[rng.below(scene.mesh().positions.len())] - o,
             _ => {
                 let (a, b) = edges[rng.below(edges.len())];
                 let s = if rng.below(4) == 0 { 0.5 } else { rng.f32() };
@@ -121,7 +121,7 @@ fn rays_from_inside_closed_meshes_never_leak() {
     );
     // From the exact centre, straight at the vertices.
     let centre_rays: Vec<Ray> = ico
-        .mesh
+        .mesh()
         .positions
         .iter()
         .map(|&v| Ray::new(Vec3::ZERO, v))
@@ -254,7 +254,7 @@ fn spawn_check(scene: &Scene, centre: Vec3, scale: f32, seed: u64, n: usize) -> 
                 hit.prim, si.p
             ));
         }
-        let tag = scene.primitives[hit.prim as usize].tag;
+        let tag = scene.primitives()[hit.prim as usize].tag;
         for outward in [true, false] {
             // A random direction on the chosen side of the geometric normal.
             let side = if outward == (ray.direction.dot(ng) < 0.0) {

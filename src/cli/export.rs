@@ -63,12 +63,15 @@ const SKY_ROWS: usize = 4096;
 
 pub fn run(args: &ExportArgs) -> Result<()> {
     let scene = super::load_scene(&args.scene)?;
-    let (mut width, mut height) = (scene.render.width, scene.render.height);
+    let (mut width, mut height) = (
+        scene.render_settings().width,
+        scene.render_settings().height,
+    );
     if let Some(size) = &args.size {
         (width, height) = image_io::parse_size(size)?;
     }
-    let max_depth = args.max_depth.unwrap_or(scene.render.max_depth);
-    let spp = args.spp.unwrap_or(scene.render.spp);
+    let max_depth = args.max_depth.unwrap_or(scene.render_settings().max_depth);
+    let spp = args.spp.unwrap_or(scene.render_settings().spp);
     let export = MitsubaScene::new(&scene).with_context(|| {
         format!(
             "`{}` cannot be exported to Mitsuba 3 without changing the image",
@@ -136,7 +139,7 @@ fn triple(v: Vec3) -> String {
 }
 
 fn constant(scene: &Scene, texture: u32, what: &str) -> Result<Vec3> {
-    match scene.textures.get(texture as usize) {
+    match scene.textures().get(texture as usize) {
         Some(Texture::Constant(c)) => Ok(*c),
         _ => bail!("{what} is textured (textures are not exported)"),
     }
@@ -145,7 +148,7 @@ fn constant(scene: &Scene, texture: u32, what: &str) -> Result<Vec3> {
 impl<'s> MitsubaScene<'s> {
     fn new(scene: &'s Scene) -> Result<Self> {
         let surfaces = scene
-            .materials
+            .materials()
             .iter()
             .enumerate()
             .map(|(i, m)| {
@@ -173,7 +176,7 @@ impl<'s> MitsubaScene<'s> {
             })
             .collect::<Result<Vec<_>>>()?;
         // Refused here, before `write` creates any file.
-        if let Background::Envmap { .. } = scene.background {
+        if let Background::Envmap { .. } = scene.background() {
             bail!("the background is an environment map (not exported)");
         }
         let mut meshes: Vec<(u32, Vec<Vec3>)> = Vec::new();
@@ -182,23 +185,23 @@ impl<'s> MitsubaScene<'s> {
                 Some((_, p)) => p.extend(tri),
                 None => meshes.push((material, tri.to_vec())),
             };
-        for q in &scene.quads {
+        for q in scene.quads() {
             let (c, u, v) = (q.corner, q.u, q.v);
             // Both triangles wind as (u, v), so their normal is u × v.
             add(q.material, [c, c + u, c + u + v]);
             add(q.material, [c, c + u + v, c + v]);
         }
-        for (i, t) in scene.triangles.iter().enumerate() {
+        for (i, t) in scene.triangles().iter().enumerate() {
             if t.flags & reference::shapes::TRIANGLE_HAS_NORMALS != 0 {
                 bail!("triangle {i} has shading normals (not exported)");
             }
             add(
                 t.material,
-                t.vertices.map(|v| scene.mesh.positions[v as usize]),
+                t.vertices.map(|v| scene.mesh().positions[v as usize]),
             );
         }
         let spheres = scene
-            .spheres
+            .spheres()
             .iter()
             .map(|s| (s.center, s.radius, s.material))
             .collect();
@@ -219,7 +222,7 @@ impl<'s> MitsubaScene<'s> {
         max_depth: u32,
         spp: u32,
     ) -> Result<String> {
-        let cam = &self.scene.camera_settings;
+        let cam = &self.scene.camera_settings();
         let mut x = String::from("<?xml version=\"1.0\" encoding=\"utf-8\"?>\n");
         writeln!(
             x,
@@ -285,7 +288,7 @@ impl<'s> MitsubaScene<'s> {
                 self.surfaces[*material as usize].xml()
             )?;
         }
-        match self.scene.background {
+        match self.scene.background() {
             Background::Solid(c) if c == Vec3::ZERO => {}
             Background::Solid(c) => writeln!(
                 x,

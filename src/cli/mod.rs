@@ -233,7 +233,7 @@ fn render(args: &RenderArgs) -> Result<()> {
         size_arg(size)?;
     }
     let scene = load_scene(&args.scene)?;
-    let settings = resolve_settings(scene.render, args)?;
+    let settings = resolve_settings(scene.render_settings(), args)?;
     let pool = match args.threads {
         Some(n) => Some(
             rayon::ThreadPoolBuilder::new()
@@ -376,11 +376,11 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
     say!("scene: {name}");
     say!(
         "primitives: {} ({} spheres, {} quads, {} triangles; {} mesh vertices)",
-        scene.primitives.len(),
-        scene.spheres.len(),
-        scene.quads.len(),
-        scene.triangles.len(),
-        scene.mesh.positions.len()
+        scene.primitives().len(),
+        scene.spheres().len(),
+        scene.quads().len(),
+        scene.triangles().len(),
+        scene.mesh().positions.len()
     );
     let b = scene.bounds();
     say!("bounds: {} .. {}", b.min, b.max);
@@ -398,7 +398,7 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
             format!("{n} ({})", kinds.join(", "))
         }
     };
-    let material_kind = |i: usize| match scene.materials[i] {
+    let material_kind = |i: usize| match scene.materials()[i] {
         Material::Lambertian { .. } => "lambertian",
         Material::Metal { .. } => "metal",
         Material::Dielectric { .. } => "dielectric",
@@ -410,10 +410,10 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
         count(
             &["lambertian", "metal", "dielectric", "diffuse light", "ggx"],
             &material_kind,
-            scene.materials.len()
+            scene.materials().len()
         )
     );
-    let texture_kind = |i: usize| match scene.textures[i] {
+    let texture_kind = |i: usize| match scene.textures()[i] {
         Texture::Constant(_) => "constant",
         Texture::Checker { .. } => "checker",
         Texture::Image { .. } => "image",
@@ -423,11 +423,11 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
         count(
             &["constant", "checker", "image"],
             &texture_kind,
-            scene.textures.len()
+            scene.textures().len()
         )
     );
     let sizes: Vec<String> = scene
-        .images
+        .images()
         .iter()
         .map(|im| format!("{}x{}", im.width, im.height))
         .collect();
@@ -436,7 +436,7 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
     } else {
         say!("images: {} ({})", sizes.len(), sizes.join(", "));
     }
-    match scene.background {
+    match scene.background() {
         Background::Solid(c) => say!("background: solid {c}"),
         Background::Sky { horizon, zenith } => {
             say!("background: sky gradient, horizon {horizon}, zenith {zenith}")
@@ -447,14 +447,14 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
             rotate_y,
         } => {
             let size = scene
-                .images
+                .images()
                 .get(image as usize)
                 .map(|im| format!("{}x{}", im.width, im.height))
                 .unwrap_or_default();
             say!("background: environment map, image {image} ({size}), intensity {intensity}, rotated {rotate_y}° about +y");
         }
     }
-    let c = &scene.camera_settings;
+    let c = &scene.camera_settings();
     say!(
         "camera: from {} looking at {}, up {}, vfov {}°, aperture {}, focus distance {}",
         c.look_from,
@@ -464,7 +464,7 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
         c.aperture,
         c.focus_distance
     );
-    let r = &scene.render;
+    let r = &scene.render_settings();
     say!(
         "render defaults: {}x{}, {} spp, max depth {}, seed {}, Russian roulette from depth {}",
         r.width,
@@ -474,7 +474,7 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
         r.seed,
         r.roulette_depth
     );
-    let s = &scene.bvh_stats;
+    let s = &scene.bvh_stats();
     say!(
         "bvh: built in {:.3} ms, {} primitives, {} nodes, {} leaves, max depth {}, max leaf size {}, SAH cost {:.3}",
         s.build_time.as_secs_f64() * 1e3,

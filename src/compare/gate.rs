@@ -18,7 +18,7 @@ use crate::report::{self, Report};
 use anyhow::{anyhow, bail, Context, Result};
 use reference::material::Material;
 use reference::texture::Texture;
-use reference::{Film, RenderSettings, Scene};
+use reference::{Film, RenderSettings, Scene, SceneError};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -244,7 +244,7 @@ pub fn gate_settings(
         spp,
         seed,
         max_depth: s.max_depth,
-        roulette_depth: scene.render.roulette_depth,
+        roulette_depth: scene.render_settings().roulette_depth,
     }
 }
 
@@ -345,28 +345,26 @@ pub fn write_artifacts(
 
 /// A mutant scene for gates that must fail: every constant Lambertian
 /// albedo scaled by `factor` (each texture once, however many materials
-/// share it).
-pub fn scaled_albedo(scene: &Scene, factor: f32) -> Scene {
-    let mut s = scene.clone();
-    let mut ids: Vec<u32> = s
-        .materials
-        .iter()
-        .filter_map(|m| {
-            if let Material::Lambertian { albedo } = m {
-                Some(*albedo)
-            } else {
-                None
+/// share it). Refused, as any edit of a scene, if the scaled colours are
+/// not finite and non-negative.
+pub fn scaled_albedo(scene: &Scene, factor: f32) -> Result<Scene, SceneError> {
+    scene.clone().edited(|look| {
+        let mut ids: Vec<u32> = look
+            .materials
+            .iter()
+            .filter_map(|m| match m {
+                Material::Lambertian { albedo } => Some(*albedo),
+                _ => None,
+            })
+            .collect();
+        ids.sort_unstable();
+        ids.dedup();
+        for id in ids {
+            if let Texture::Constant(c) = &mut look.textures[id as usize] {
+                *c *= factor;
             }
-        })
-        .collect();
-    ids.sort_unstable();
-    ids.dedup();
-    for id in ids {
-        if let Texture::Constant(c) = &mut s.textures[id as usize] {
-            *c *= factor;
         }
-    }
-    s
+    })
 }
 
 #[cfg(test)]

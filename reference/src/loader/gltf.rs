@@ -1474,7 +1474,7 @@ mod tests {
         let path = write(dir.path(), "textured.gltf", &doc);
         let scene = load_gltf_document(&path).unwrap();
         assert_eq!(
-            scene.materials,
+            scene.materials(),
             vec![Material::Ggx {
                 base_color: 0,
                 metallic: 0.25,
@@ -1482,19 +1482,19 @@ mod tests {
             }]
         );
         assert_eq!(
-            scene.textures,
+            scene.textures(),
             vec![Texture::Image {
                 image: 0,
                 factor: Vec3::splat(0.5)
             }]
         );
         assert_eq!(
-            scene.images[0].texels,
+            scene.images()[0].texels,
             vec![Vec3::X, Vec3::Z],
             "row 0 is the top row"
         );
         // The default camera sees the triangle: it looks at its centre from +z.
-        let c = scene.camera_settings;
+        let c = scene.camera_settings();
         assert!((c.look_at - Vec3::new(0.5, 0.5, 0.0)).length() < 1e-6 && c.look_from.z > 1.0);
     }
 }

@@ -283,12 +283,12 @@ pub fn build_scene_placed(spec: &[ShapeSpec], placement: &Transform) -> Option<S
 /// sphere poles and centres.
 pub fn feature_points(scene: &Scene) -> Vec<Vec3> {
     let mut pts = Vec::new();
-    for s in &scene.spheres {
+    for s in scene.spheres() {
         pts.push(s.center);
         pts.push(s.center + Vec3::Y * s.radius.abs());
         pts.push(s.center - Vec3::X * s.radius.abs());
     }
-    for q in &scene.quads {
+    for q in scene.quads() {
         pts.extend([
             q.corner,
             q.corner + q.u,
@@ -297,8 +297,8 @@ pub fn feature_points(scene: &Scene) -> Vec<Vec3> {
             q.corner + 0.5 * (q.u + q.v),
         ]);
     }
-    for t in &scene.triangles {
-        pts.extend(t.vertices.map(|i| scene.mesh.positions[i as usize]));
+    for t in scene.triangles() {
+        pts.extend(t.vertices.map(|i| scene.mesh().positions[i as usize]));
     }
     pts
 }
@@ -306,7 +306,7 @@ pub fn feature_points(scene: &Scene) -> Vec<Vec3> {
 /// Edges worth aiming along and at: triangle edges and quad edges.
 pub fn feature_edges(scene: &Scene) -> Vec<(Vec3, Vec3)> {
     let mut edges = Vec::new();
-    for q in &scene.quads {
+    for q in scene.quads() {
         let c = [
             q.corner,
             q.corner + q.u,
@@ -317,8 +317,8 @@ pub fn feature_edges(scene: &Scene) -> Vec<(Vec3, Vec3)> {
             edges.push((c[i], c[(i + 1) % 4]));
         }
     }
-    for t in &scene.triangles {
-        let p = t.vertices.map(|i| scene.mesh.positions[i as usize]);
+    for t in scene.triangles() {
+        let p = t.vertices.map(|i| scene.mesh().positions[i as usize]);
         for i in 0..3 {
             edges.push((p[i], p[(i + 1) % 3]));
         }
@@ -484,7 +484,7 @@ pub fn queries_of(scene: &Scene, seed: u64, n: usize, kinds: &[RayKind]) -> Vec<
 
 /// Primitive counts by kind, for messages.
 pub fn describe(scene: &Scene) -> String {
-    let count = |tag| scene.primitives.iter().filter(|p| p.tag == tag).count();
+    let count = |tag| scene.primitives().iter().filter(|p| p.tag == tag).count();
     format!(
         "{} spheres, {} quads, {} triangles",
         count(primitive_tag::SPHERE),

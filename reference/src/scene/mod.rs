@@ -1,0 +1,314 @@
+//! The scene: what an image means. Built through [`SceneBuilder`], which
+//! validates every parameter and builds the BVH; a `Scene` is immutable
+//! and always valid.
+//!
+//! - `settings`: [`RenderSettings`] and the size limits.
+//! - `transform`: [`Transform`], how objects are placed.
+//! - `builder`: [`SceneBuilder`], which checks every parameter and builds
+//!   the BVH, and the checked ways to derive a scene from another.
+//! - `leaf`: the traversal's copies of the geometry in BVH leaf order and
+//!   its leaf tests.
+
+mod builder;
+mod leaf;
+mod settings;
+#[cfg(test)]
+mod tests;
+mod transform;
+
+pub use builder::{Appearance, MeshInput, SceneBuilder};
+pub use settings::{RenderSettings, MAX_DEPTH, MAX_IMAGE_SIDE, MAX_PIXELS, MAX_SPP};
+pub use transform::Transform;
+
+use crate::background::Background;
+use crate::bvh::{box_pad, Bvh, BvhBuildStats};
+use crate::camera::{Camera, CameraSettings};
+use crate::geometry::{gamma, Aabb, Hit, Ray, SurfaceInteraction};
+use crate::material::Material;
+use crate::mutants::{self, Mutant};
+use crate::shapes::{
+    MeshData, Quad, RayShear, Sphere, Triangle, TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_UVS,
+};
+use crate::texture::{ImageData, Texture};
+use glam::{Vec2, Vec3};
+use leaf::{primitive_bounds, LeafBlock, LeafPrim, LeafTests, RayConstants};
+use std::f32::consts::PI;
+
+/// Numeric tags of primitive kinds, shared with the GPU.
+pub mod primitive_tag {
+    pub const SPHERE: u32 = 0;
+    pub const QUAD: u32 = 1;
+    pub const TRIANGLE: u32 = 2;
+}
+
+/// One entry of the scene's primitive list: a kind and an index into that
+/// kind's array. The position in `Scene::primitives` is the primitive id.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Primitive {
+    pub tag: u32,
+    pub index: u32,
+}
+
+/// A validated scene with its BVH. Made only by [`SceneBuilder::build`],
+/// or from another scene by [`Scene::edited`] and [`Scene::with_bvh`],
+/// which check what they change as the builder does: the fields are
+/// private, so a `Scene` is always valid and its traversal's copies of the
+/// geometry always match it. Read through the accessors.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    camera_settings: CameraSettings,
+    render: RenderSettings,
+    background: Background,
+    spheres: Vec<Sphere>,
+    quads: Vec<Quad>,
+    triangles: Vec<Triangle>,
+    mesh: MeshData,
+    materials: Vec<Material>,
+    textures: Vec<Texture>,
+    images: Vec<ImageData>,
+    /// All primitives in scene order; the index is the primitive id.
+    primitives: Vec<Primitive>,
+    /// `leaf_prims` and `leaf_blocks` are derived from it
+    /// ([`Scene::put_bvh`]).
+    bvh: Bvh,
+    /// What [`SceneBuilder::build`]'s BVH build reported.
+    bvh_stats: BvhBuildStats,
+    /// The traversal's copy of every primitive's geometry in BVH leaf
+    /// order (`bvh.prim_order()`), made by [`Scene::put_bvh`].
+    leaf_prims: Vec<LeafPrim>,
+    /// By BVH leaf ([`Bvh::leaves`]): one to four triangles by lane for
+    /// the four-wide triangle test, or a mark that the leaf is tested
+    /// entry by entry from `leaf_prims`. Made by [`Scene::put_bvh`].
+    leaf_blocks: Vec<LeafBlock>,
+}
+
+impl Scene {
+    /// The camera for an image of `width x height`.
+    pub fn camera(&self, width: u32, height: u32) -> Camera {
+        Camera::new(&self.camera_settings, width as f32 / height as f32)
+    }
+
+    /// The camera as the scene describes it.
+    pub fn camera_settings(&self) -> CameraSettings {
+        self.camera_settings
+    }
+
+    /// The scene's render defaults (size, spp, depth, seed, roulette), which
+    /// a render's own settings may override.
+    pub fn render_settings(&self) -> RenderSettings {
+        self.render
+    }
+
+    pub fn background(&self) -> Background {
+        self.background
+    }
+
+    pub fn spheres(&self) -> &[Sphere] {
+        &self.spheres
+    }
+
+    pub fn quads(&self) -> &[Quad] {
+        &self.quads
+    }
+
+    pub fn triangles(&self) -> &[Triangle] {
+        &self.triangles
+    }
+
+    /// The vertices the triangles index.
+    pub fn mesh(&self) -> &MeshData {
+        &self.mesh
+    }
+
+    pub fn materials(&self) -> &[Material] {
+        &self.materials
+    }
+
+    pub fn textures(&self) -> &[Texture] {
+        &self.textures
+    }
+
+    pub fn images(&self) -> &[ImageData] {
+        &self.images
+    }
+
+    /// All primitives in scene order; the index is the primitive id.
+    pub fn primitives(&self) -> &[Primitive] {
+        &self.primitives
+    }
+
+    /// The BVH over `primitives` (what the GPU uploads).
+    pub fn bvh(&self) -> &Bvh {
+        &self.bvh
+    }
+
+    /// What [`SceneBuilder::build`]'s BVH build reported.
+    pub fn bvh_stats(&self) -> BvhBuildStats {
+        self.bvh_stats
+    }
+
+    /// Installs `bvh` and copies the geometry into its leaf order. The
+    /// caller has checked that `bvh` indexes only primitives of this scene.
+    fn put_bvh(&mut self, bvh: Bvh) {
+        self.leaf_prims = bvh
+            .prim_order()
+            .iter()
+            .map(|&prim| LeafPrim::of(self, prim))
+            .collect();
+        self.leaf_blocks = bvh
+            .leaves()
+            .map(|entries| LeafBlock::of(&self.leaf_prims, entries))
+            .collect();
+        self.bvh = bvh;
+    }
+
+    pub fn bounds(&self) -> Aabb {
+        self.bvh
+            .nodes()
+            .first()
+            .map(|n| n.bounds())
+            .unwrap_or(Aabb::EMPTY)
+    }
+
+    /// The bounding box of one primitive (by id), as the BVH build saw it.
+    #[inline]
+    pub fn primitive_bounds(&self, prim: u32) -> Aabb {
+        primitive_bounds(
+            self.primitives[prim as usize],
+            &self.spheres,
+            &self.quads,
+            &self.triangles,
+            &self.mesh,
+        )
+    }
+
+    /// Intersects one primitive (by id). A hit counts only where the
+    /// primitive's own box passes the traversal's box test up to the hit
+    /// ([`Bvh::admits`]): that is what makes the BVH and the brute-force
+    /// scan agree bit for bit.
+    #[inline]
+    pub fn intersect_primitive(&self, prim: u32, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        LeafPrim::of(self, prim).intersect(ray, &self.ray_constants(ray)?, t_min, t_max)
+    }
+
+    /// The per-ray constants of the primitive tests; `None` for an empty
+    /// scene.
+    #[inline]
+    fn ray_constants(&self, ray: &Ray) -> Option<RayConstants> {
+        let root = self.bvh.nodes().first()?;
+        Some(RayConstants {
+            shear: RayShear::new(ray.direction),
+            inv_dir: ray.direction.recip(),
+            pad: box_pad(Vec3::from(root.min), Vec3::from(root.max), ray),
+        })
+    }
+
+    /// Closest hit in `(t_min, t_max)`, through the BVH. Leaves read the
+    /// leaf-ordered copies in `leaf_prims`.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        let c = self.ray_constants(ray)?;
+        let leaves = LeafTests {
+            prims: &self.leaf_prims,
+            blocks: &self.leaf_blocks,
+            ray,
+            constants: c,
+            t_min,
+        };
+        self.bvh.intersect(ray, t_max, leaves)
+    }
+
+    /// Closest hit by testing every primitive: the oracle for the BVH.
+    /// Ties in t go to the smaller primitive id, as in the BVH traversal.
+    /// Reads the scene's own arrays, not the traversal's copies.
+    pub fn intersect_brute_force(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        let c = self.ray_constants(ray)?;
+        let mut best: Option<Hit> = None;
+        for prim in 0..self.primitives.len() as u32 {
+            if let Some(h) = LeafPrim::of(self, prim).intersect(ray, &c, t_min, t_max) {
+                if best.is_none_or(|b| h.t < b.t) {
+                    best = Some(h);
+                }
+            }
+        }
+        best
+    }
+
+    /// Everything shading needs about a hit.
+    pub fn surface_interaction(&self, ray: &Ray, hit: &Hit) -> SurfaceInteraction {
+        let p = self.primitives[hit.prim as usize];
+        let (pos, ng, ns, uv, material, p_error) = match p.tag {
+            primitive_tag::SPHERE => {
+                let s = &self.spheres[p.index as usize];
+                let outward = (ray.at(hit.t) - s.center) / s.radius.abs();
+                let outward = outward.normalize_or(Vec3::Y);
+                // Re-project onto the surface (pbrt-v4 does the same): the
+                // hit point then carries only a few ulps of error.
+                let pos = s.center + s.radius.abs() * outward;
+                let mut n = if s.radius < 0.0 { -outward } else { outward };
+                if mutants::is(Mutant::SphereNormalTilt) {
+                    n = glam::Quat::from_rotation_x(1.1f32.to_radians()) * n;
+                }
+                let uv = Vec2::new(
+                    ((-outward.z).atan2(outward.x) + PI) / (2.0 * PI),
+                    (-outward.y).clamp(-1.0, 1.0).acos() / PI,
+                );
+                // r·n̂ carries a few ulps of r (normalize, scale), the sum
+                // with the centre a few ulps of the result.
+                let err = gamma(5)
+                    * (s.radius.abs() + s.center.abs().max_element() + pos.abs().max_element());
+                (pos, n, n, uv, s.material, err)
+            }
+            primitive_tag::QUAD => {
+                let q = &self.quads[p.index as usize];
+                let n = q.normal();
+                let pos = q.corner + hit.uv.x * q.u + hit.uv.y * q.v;
+                let err = gamma(4)
+                    * (q.corner.abs()
+                        + (hit.uv.x * q.u).abs()
+                        + (hit.uv.y * q.v).abs()
+                        + pos.abs())
+                    .max_element();
+                (pos, n, n, hit.uv, q.material, err)
+            }
+            _ => {
+                let tri = &self.triangles[p.index as usize];
+                let [i0, i1, i2] = tri.vertices.map(|i| i as usize);
+                let m = &self.mesh;
+                let (b1, b2) = (hit.uv.x, hit.uv.y);
+                let b0 = 1.0 - b1 - b2;
+                let pos = b0 * m.positions[i0] + b1 * m.positions[i1] + b2 * m.positions[i2];
+                // pbrt-v4's bound for barycentric interpolation.
+                let err = gamma(7)
+                    * ((b0 * m.positions[i0]).abs()
+                        + (b1 * m.positions[i1]).abs()
+                        + (b2 * m.positions[i2]).abs())
+                    .max_element();
+                let ng = (m.positions[i1] - m.positions[i0])
+                    .cross(m.positions[i2] - m.positions[i0])
+                    .normalize_or(Vec3::Y);
+                let mut ns = ng;
+                if tri.flags & TRIANGLE_HAS_NORMALS != 0 {
+                    let n = (b0 * m.normals[i0] + b1 * m.normals[i1] + b2 * m.normals[i2])
+                        .normalize_or(ng);
+                    ns = if n.dot(ng) < 0.0 { -n } else { n };
+                }
+                let uv = if tri.flags & TRIANGLE_HAS_UVS != 0 {
+                    b0 * m.uvs[i0] + b1 * m.uvs[i1] + b2 * m.uvs[i2]
+                } else {
+                    hit.uv
+                };
+                (pos, ng, ns, uv, tri.material, err)
+            }
+        };
+        SurfaceInteraction {
+            p: pos,
+            geometric_normal: ng,
+            shading_normal: ns,
+            uv,
+            p_error,
+            front_face: ray.direction.dot(ng) < 0.0,
+            material,
+        }
+    }
+}

@@ -1,0 +1,88 @@
+//! Render settings and the limits that keep a render's size sane.
+
+use crate::error::SceneError;
+
+/// Render parameters a scene proposes; the command line overrides them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub max_depth: u32,
+    pub seed: u32,
+    /// Path vertex index from which Russian roulette may end paths.
+    pub roulette_depth: u32,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        Self {
+            width: 400,
+            height: 300,
+            spp: 64,
+            max_depth: 16,
+            seed: 0,
+            roulette_depth: 3,
+        }
+    }
+}
+
+/// Limits on render parameters: beyond them an image is a mistake, not a
+/// request (16384² RGB f64 mean+variance accumulators are ~12 GiB).
+pub const MAX_IMAGE_SIDE: u32 = 16_384;
+
+/// At most 2^26 pixels (8192²): the film alone is 64 bytes a pixel on the
+/// CPU (4 GiB here), so larger images fail up front instead of in the allocator.
+pub const MAX_PIXELS: u64 = 1 << 26;
+
+pub const MAX_SPP: u32 = 1 << 24;
+
+pub const MAX_DEPTH: u32 = 1024;
+
+impl RenderSettings {
+    /// Checks the parameters; the error names the offending field.
+    pub fn validate(&self) -> Result<(), SceneError> {
+        let bad = |field: &str, msg: String| Err(SceneError::invalid(field, msg));
+        if self.width == 0
+            || self.height == 0
+            || self.width > MAX_IMAGE_SIDE
+            || self.height > MAX_IMAGE_SIDE
+        {
+            return bad(
+                "render.width/height",
+                format!(
+                    "image size {}x{} must be between 1x1 and {MAX_IMAGE_SIDE}x{MAX_IMAGE_SIDE}",
+                    self.width, self.height
+                ),
+            );
+        }
+        if self.width as u64 * self.height as u64 > MAX_PIXELS {
+            return bad(
+                "render.width/height",
+                format!(
+                    "image size {}x{} has more than {MAX_PIXELS} pixels",
+                    self.width, self.height
+                ),
+            );
+        }
+        if self.spp == 0 || self.spp > MAX_SPP {
+            return bad(
+                "render.spp",
+                format!(
+                    "{} samples per pixel must be between 1 and {MAX_SPP}",
+                    self.spp
+                ),
+            );
+        }
+        if self.max_depth == 0 || self.max_depth > MAX_DEPTH {
+            return bad(
+                "render.max_depth",
+                format!(
+                    "max depth {} must be between 1 and {MAX_DEPTH}",
+                    self.max_depth
+                ),
+            );
+        }
+        Ok(())
+    }
+}
