@@ -1,12 +1,13 @@
-//! Every fixture scene and built-in renders on the GPU backend at a small
-//! size: every pixel gets all its samples, none NaN/Inf, and the image
-//! mean agrees with the CPU twin's at the same seed.
+//! Every fixture scene and built-in renders on both twins at a small size:
+//! every pixel gets all its samples, none NaN/Inf, on either twin, and the
+//! two image means agree at the same seed (each twin is the other's
+//! independent check here; the image gates judge the values closely).
 
 use crate::common;
 use reference::RenderSettings;
 
 #[test]
-fn every_fixture_renders_on_the_gpu() {
+fn every_scene_renders_on_both_twins_alike() {
     let ctx = common::gpu();
     let dir = twintrace::compare::gate::workspace_root().join("fixtures/scenes");
     let mut specs: Vec<String> = std::fs::read_dir(&dir)
@@ -42,6 +43,16 @@ fn every_fixture_renders_on_the_gpu() {
         // make the true difference far smaller). A black, NaN-free or
         // wrongly scaled GPU image fails; the image gates judge the rest.
         let cpu = reference::render(&scene, &settings, &|_| {});
+        assert_eq!(
+            cpu.nonfinite_samples(),
+            0,
+            "{spec}: NaN/Inf samples on the CPU"
+        );
+        assert_eq!(
+            cpu.samples(),
+            24 * 16 * 4,
+            "{spec}: CPU samples went missing"
+        );
         let pixels = out.film.pixels.len() as f64;
         let image_mean =
             |f: &reference::Film| f.pixels.iter().map(|p| p.mean).sum::<glam::DVec3>() / pixels;
