@@ -15,7 +15,10 @@
 //!   references), with [`stats`] for the distribution functions;
 //! - [`report`]: the self-contained HTML report of a comparison;
 //! - [`selftest`]: the gates a user runs on their own GPU (`twintrace
-//!   selftest`) and their calibration (false alarms and power).
+//!   selftest`) and their calibration (false alarms and power);
+//! - [`twins`]: the kernel-level twin checks (random numbers, float steps,
+//!   hit records, surface interactions), run by the GPU tests and by
+//!   `twintrace selftest`.
 
 pub mod compare;
 pub mod image_io;
@@ -23,6 +26,7 @@ pub mod report;
 pub mod selftest;
 pub mod stats;
 pub mod tonemap;
+pub mod twins;
 
 pub use image_io::{read_exr, write_exr, write_png, OutputPaths, RenderImage, RenderMetadata};
 pub use tonemap::Tonemap;

@@ -16,9 +16,12 @@
 //!   darkest quarter of the pixels, one tile) to find the smallest of each
 //!   that the gate catches in at least 95 % of the renders (the power).
 //!
-//! The bit-level twin checks (random numbers, float steps, hit records,
-//! surface interactions, buffer layouts) need test kernels and stay in the
-//! test suite, which `cargo xtask gpu-suite` carries to a GPU machine.
+//! - [`run_twin_checks`]: on a GPU, the kernel-level twin checks of
+//!   [`crate::twins`] (random numbers, float steps, limits, cube root,
+//!   primitive boxes, hit records, surface interactions, spawn points),
+//!   the same functions the GPU tests call. The buffer-layout and
+//!   error-path tests, and the mutation tests, stay in the test suite,
+//!   which `cargo xtask gpu-suite` carries to a GPU machine.
 
 use crate::compare::furnace::{self, FurnaceCase};
 use crate::compare::gate::{
@@ -178,6 +181,28 @@ pub fn run_gates(
         anyhow::bail!("no gate is called `{}`", only.unwrap_or(""));
     }
     Ok(out)
+}
+
+/// Runs every check of [`crate::twins::CHECKS`] on `ctx`, one verdict
+/// each, reported as it comes.
+pub fn run_twin_checks(
+    ctx: &gpu::GpuContext,
+    report: &mut dyn FnMut(&GateOutcome),
+) -> Vec<GateOutcome> {
+    let mut out = Vec::new();
+    for check in crate::twins::CHECKS {
+        let start = Instant::now();
+        let outcome = (check.run)(ctx);
+        let g = GateOutcome {
+            name: check.name.to_string(),
+            passed: outcome.is_ok(),
+            detail: outcome.unwrap_or_else(|e| e),
+            seconds: start.elapsed().as_secs_f64(),
+        };
+        report(&g);
+        out.push(g);
+    }
+    out
 }
 
 /// A known bias applied to a correct render, to measure a gate's power.

@@ -730,6 +730,7 @@ fn sphere_normal_tilted_1_1_degrees_fails_the_radial_normal_check() {
 
 #[test]
 fn gpu_swapped_barycentrics_in_the_wgsl_fail_the_hit_record_gate() {
+    use twintrace::twins::hits::hit_records;
     let scene =
         reference::load_scene(&twintrace::compare::gate::fixture_scene("gltf-mesh.json")).unwrap();
     let library = gpu::shader::library_source();
@@ -738,8 +739,9 @@ fn gpu_swapped_barycentrics_in_the_wgsl_fail_the_hit_record_gate() {
         "return ShapeHit(true, t, vec2<f32>(ev * inv_det, ew * inv_det));",
         "return ShapeHit(true, t, vec2<f32>(ew * inv_det, ev * inv_det));",
     );
-    crate::gpu_hits_match_reference::hit_records_agree("gltf-mesh", &scene, &library).unwrap();
-    let e = crate::gpu_hits_match_reference::hit_records_agree("gltf-mesh", &scene, &swapped)
+    let ctx = crate::common::gpu();
+    hit_records(ctx, "gltf-mesh", &scene, &library).unwrap();
+    let e = hit_records(ctx, "gltf-mesh", &scene, &swapped)
         .expect_err("b1 and b2 swapped in the WGSL passed the hit-record gate");
     println!("barycentrics swapped: {e}");
 }

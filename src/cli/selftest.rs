@@ -1,5 +1,6 @@
 //! `twintrace selftest`: runs the gates of [`twintrace::selftest`] on this
-//! machine's GPU (or the CPU reference) and prints one verdict per gate;
+//! machine's GPU (or the CPU reference), the GPU's kernel-level twin
+//! checks ([`twintrace::twins`]) first, and prints one verdict per gate;
 //! `--calibrate N` measures the stored-reference gate's false alarms and
 //! power over N seeds per fixture instead.
 
@@ -127,13 +128,19 @@ pub fn execute(args: &SelftestArgs) -> Result<bool> {
             g.detail.replace('\n', "\n    ")
         );
     };
-    let gates = selftest::run_gates(
+    // The kernel-level twin checks first: they take seconds, and a GPU that
+    // fails them will not pass the image gates for the right reasons.
+    let mut gates = match gpu_ctx {
+        Some(ctx) if args.only.is_none() => selftest::run_twin_checks(ctx, &mut |g| print(g)),
+        _ => Vec::new(),
+    };
+    gates.extend(selftest::run_gates(
         &renderer,
         args.spp,
         args.seed,
         args.only.as_deref(),
         &mut |g| print(g),
-    )?;
+    )?);
     let failed = gates.iter().filter(|g| !g.passed).count();
     println!(
         "selftest on {name}: {} of {} gates pass{}",

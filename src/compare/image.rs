@@ -233,8 +233,8 @@ impl Method {
 
     pub fn describe(&self) -> &'static str {
         match self {
-            Method::Reference(Side::B) => "z-test against a reference (Mitsuba 3: the second image's per-sample variance predicts both images' noise)",
-            Method::Reference(Side::A) => "z-test against a reference (Mitsuba 3: the first image's per-sample variance predicts both images' noise)",
+            Method::Reference(Side::B) => "z-test against a reference (as in Mitsuba 3's test suite: the second image's per-sample variance predicts both images' noise)",
+            Method::Reference(Side::A) => "z-test against a reference (as in Mitsuba 3's test suite: the first image's per-sample variance predicts both images' noise)",
             Method::Welch => "Welch's t-test on two noisy renders (Jung et al. 2020)",
             Method::KnownVariance(Side::A) => "z-test with the first image's variance (the second taken as exact)",
             Method::KnownVariance(Side::B) => "z-test with the second image's variance (the first taken as exact)",

@@ -1,0 +1,129 @@
+//! The kernel-level twin checks: a test kernel runs WGSL library functions
+//! on the GPU over fixed inputs, and the results are compared with their
+//! Rust twins, exactly where the arithmetic is exact and within a derived
+//! error bound where a driver may round differently (each module says
+//! which). The test suite (tests/gpu_*.rs) and `twintrace selftest` run the
+//! same checks, so a user's GPU (another compiler, other fast-math rules)
+//! is held to what the H100 and lavapipe are.
+//!
+//! - [`rng`]: the counter-based generator, bit for bit.
+//! - [`numerics`]: the float steps (bit for bit), GGX Λ and the sphere's
+//!   root choice at their limits, the cube root (1 ulp).
+//! - [`hits`]: hit records of the BVH walk (flag, primitive, t, uv) and
+//!   primitive boxes.
+//! - [`surface`]: surface interactions and spawn points.
+//!
+//! Each check returns an [`Outcome`]: a one-line summary of what agreed,
+//! or the first disagreement (or the GPU error that stopped it).
+
+pub mod hits;
+pub mod numerics;
+pub mod rng;
+pub mod surface;
+
+use gpu::testing::{run_test_kernel_with_library, TestKernel};
+use gpu::{GpuContext, GpuRenderer};
+use reference::Scene;
+
+/// What agreed (`Ok`), or the first disagreement (`Err`).
+pub type Outcome = Result<String, String>;
+
+/// Returns `Err(message)` from the enclosing check unless `cond` holds
+/// (so a comparison with a NaN fails).
+macro_rules! ensure {
+    ($cond:expr, $($msg:tt)+) => {{
+        let holds: bool = $cond;
+        if !holds {
+            return Err(format!($($msg)+));
+        }
+    }};
+}
+pub(crate) use ensure;
+
+/// Runs `entry` of `snippet` over the production WGSL library with
+/// `scene` bound, `invocations` threads, reading back `output_words`.
+pub(crate) fn run_kernel(
+    ctx: &GpuContext,
+    scene: &Scene,
+    snippet: &str,
+    entry: &str,
+    input: &[u32],
+    invocations: usize,
+    output_words: usize,
+) -> Result<Vec<u32>, String> {
+    run_kernel_with_library(
+        ctx,
+        scene,
+        (snippet, entry),
+        input,
+        (invocations, output_words),
+        &gpu::shader::library_source(),
+    )
+}
+
+/// [`run_kernel`] over the given library source (the production one, or
+/// one with a deliberate defect for a mutation test).
+pub(crate) fn run_kernel_with_library(
+    ctx: &GpuContext,
+    scene: &Scene,
+    (snippet, entry): (&str, &str),
+    input: &[u32],
+    (invocations, output_words): (usize, usize),
+    library: &str,
+) -> Result<Vec<u32>, String> {
+    let renderer = GpuRenderer::new(ctx, scene).map_err(|e| e.to_string())?;
+    let invocations = u32::try_from(invocations).map_err(|_| "too many invocations".to_string())?;
+    let kernel = TestKernel {
+        snippet,
+        entry,
+        input,
+        invocations,
+        output_words,
+        params: None,
+        film: None,
+    };
+    run_test_kernel_with_library(ctx, &renderer, &kernel, library).map_err(|e| e.to_string())
+}
+
+/// One twin check as `twintrace selftest` lists it.
+pub struct Check {
+    pub name: &'static str,
+    pub run: fn(&GpuContext) -> Outcome,
+}
+
+/// Every check, in the order `twintrace selftest` runs them. Scenes: the
+/// built-ins, and the fixtures under `workspace_root()/fixtures/scenes`.
+pub const CHECKS: &[Check] = &[
+    Check {
+        name: "twin: random numbers (pcg4d, vertex_randoms)",
+        run: rng::streams,
+    },
+    Check {
+        name: "twin: float steps (next_up, next_up_normal, next_down_normal, flush_subnormal)",
+        run: numerics::float_steps,
+    },
+    Check {
+        name: "twin: GGX Λ, G1 and sphere roots at their limits",
+        run: numerics::limits,
+    },
+    Check {
+        name: "twin: cube root",
+        run: numerics::cube_root,
+    },
+    Check {
+        name: "twin: primitive boxes (the admits rule's)",
+        run: hits::primitive_boxes,
+    },
+    Check {
+        name: "twin: hit records (rtow-final, cornell, gltf-mesh, textures, far small shapes)",
+        run: hits::all_scenes,
+    },
+    Check {
+        name: "twin: surface interactions (rtow-final, cornell, gltf-mesh)",
+        run: surface::all_scenes,
+    },
+    Check {
+        name: "twin: spawn points",
+        run: surface::spawn_points,
+    },
+];

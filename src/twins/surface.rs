@@ -1,0 +1,309 @@
+//! The surface interaction and the spawn point, GPU vs reference: what the
+//! shading and the next ray start from.
+//!
+//! - `surface_interaction` is given the reference's own hit (t, primitive,
+//!   uv) on the GPU, so only the interaction's arithmetic is compared:
+//!   the material and, away from grazing, the side (`front_face`) are
+//!   exact; the point is within the two twins' `p_error` of each other;
+//!   normals, uv and `p_error` within the tolerances below, which allow a
+//!   driver's contracted `a·b + c` and approximate built-ins.
+//! - `spawn_origin` is given the reference's point, normal and error: bit
+//!   for bit on a software adapter (lavapipe rounds as the CPU does); on
+//!   hardware within one ulp per coordinate (a contracted `p + n·s` rounds
+//!   once where the CPU rounds twice), and always strictly on the normal's
+//!   side of the point.
+
+use super::{ensure, run_kernel, Outcome};
+use crate::compare::gate::fixture_scene;
+use glam::{Vec2, Vec3};
+use gpu::GpuContext;
+use reference::geometry::{gamma, spawn_origin, Ray};
+use reference::rng::random_f32;
+use reference::scene::primitive_tag;
+use reference::Scene;
+
+/// f32's machine epsilon (2^-23), the unit of the tolerances below.
+const EPS: f32 = f32::EPSILON;
+
+/// Normals: a dot of three products (3 roundings), a reciprocal square
+/// root (2 ulp, Vulkan's precision for `inverseSqrt`) and a product: 6
+/// ulps; 8 leaves room for the interpolated shading normal's sum.
+const NORMAL_TOL: f32 = 8.0 * EPS;
+
+/// uv of a sphere comes from `atan2` and `acos`, which Vulkan allows 4096
+/// ulps; on [0, 1] that is at most 4096 ε absolute. Triangle uv is a
+/// three-term sum (within NORMAL_TOL of its magnitude), quad uv is the
+/// hit's (exact).
+const SPHERE_UV_TOL: f32 = 4096.0 * EPS;
+
+/// `p_error` is γ(n) times a sum of magnitudes of the point: relative
+/// error of a few roundings plus the point's own difference, 16 ε.
+const P_ERROR_REL_TOL: f32 = 16.0 * EPS;
+
+const SI_SNIPPET: &str = "
+@compute @workgroup_size(64)
+fn si_main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if i >= arrayLength(&input) / 10u {
+        return;
+    }
+    let w = 10u * i;
+    let o = vec3<f32>(bitcast<f32>(input[w]), bitcast<f32>(input[w + 1u]), bitcast<f32>(input[w + 2u]));
+    let d = vec3<f32>(bitcast<f32>(input[w + 3u]), bitcast<f32>(input[w + 4u]), bitcast<f32>(input[w + 5u]));
+    let uv = vec2<f32>(bitcast<f32>(input[w + 8u]), bitcast<f32>(input[w + 9u]));
+    let si = surface_interaction(Ray(o, d), Hit(true, bitcast<f32>(input[w + 6u]), input[w + 7u], uv));
+    let r = 14u * i;
+    output[r] = bitcast<u32>(si.p.x);
+    output[r + 1u] = bitcast<u32>(si.p.y);
+    output[r + 2u] = bitcast<u32>(si.p.z);
+    output[r + 3u] = bitcast<u32>(si.geometric_normal.x);
+    output[r + 4u] = bitcast<u32>(si.geometric_normal.y);
+    output[r + 5u] = bitcast<u32>(si.geometric_normal.z);
+    output[r + 6u] = bitcast<u32>(si.shading_normal.x);
+    output[r + 7u] = bitcast<u32>(si.shading_normal.y);
+    output[r + 8u] = bitcast<u32>(si.shading_normal.z);
+    output[r + 9u] = bitcast<u32>(si.uv.x);
+    output[r + 10u] = bitcast<u32>(si.uv.y);
+    output[r + 11u] = bitcast<u32>(si.p_error);
+    output[r + 12u] = select(0u, 1u, si.front_face);
+    output[r + 13u] = si.material;
+}
+";
+
+/// Camera rays and random rays through the scene's bounds that hit.
+fn hits(scene: &Scene) -> Vec<(Ray, reference::geometry::Hit)> {
+    let mut rays = Vec::new();
+    let cam = scene.camera(32, 32);
+    for y in 0..32 {
+        for x in 0..32 {
+            let u = Vec2::new((x as f32 + 0.5) / 32.0, (y as f32 + 0.5) / 32.0);
+            rays.push(cam.generate_ray(u, Vec2::splat(0.5)));
+        }
+    }
+    let b = scene.bounds();
+    for i in 0..2048u32 {
+        let r = |k| random_f32(9, i, 0, 0, k);
+        let o = b.min + (b.max - b.min) * Vec3::new(r(0), r(1), r(2));
+        let d = reference::sampling::sample_uniform_sphere(Vec2::new(r(3), r(4)));
+        rays.push(Ray::new(o, d));
+    }
+    rays.into_iter()
+        .filter_map(|ray| scene.intersect(&ray, 0.0, f32::INFINITY).map(|h| (ray, h)))
+        .collect()
+}
+
+fn v3(w: &[u32]) -> Vec3 {
+    Vec3::new(
+        f32::from_bits(w[0]),
+        f32::from_bits(w[1]),
+        f32::from_bits(w[2]),
+    )
+}
+
+/// The surface interactions of `scene` at the reference's own hits, GPU vs
+/// reference, within the tolerances above.
+pub fn surface_interactions(ctx: &GpuContext, name: &str, scene: &Scene) -> Outcome {
+    let cases = hits(scene);
+    ensure!(cases.len() > 500, "{name}: only {} hits", cases.len());
+    let input: Vec<u32> = cases
+        .iter()
+        .flat_map(|(ray, h)| {
+            let f = [ray.origin.to_array(), ray.direction.to_array()].concat();
+            f.into_iter()
+                .chain([h.t])
+                .map(f32::to_bits)
+                .chain([h.prim])
+                .chain([h.uv.x.to_bits(), h.uv.y.to_bits()])
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    let out = run_kernel(
+        ctx,
+        scene,
+        SI_SNIPPET,
+        "si_main",
+        &input,
+        cases.len(),
+        14 * cases.len(),
+    )?;
+    let mut worst = [0.0f32; 4];
+    let mut failures = Vec::new();
+    for (i, (ray, hit)) in cases.iter().enumerate() {
+        let cpu = scene.surface_interaction(ray, hit);
+        let w = &out[14 * i..14 * (i + 1)];
+        let (p, ng, ns) = (v3(&w[0..3]), v3(&w[3..6]), v3(&w[6..9]));
+        let uv = Vec2::new(f32::from_bits(w[9]), f32::from_bits(w[10]));
+        let p_error = f32::from_bits(w[11]);
+        let at = format!("{name} case {i} (prim {}, t {})", hit.prim, hit.t);
+        let prim = scene.primitives()[hit.prim as usize];
+        // A sphere's normal is its hit point's offset from the centre over
+        // r: the twins' o + t·d may round differently (a contracted fma on
+        // hardware), by at most 2γ(2) of its magnitude per coordinate,
+        // which turns the normal by √3 times that over r.
+        let (normal_tol, uv_tol, p_tol) = if prim.tag == primitive_tag::SPHERE {
+            let r = scene.spheres()[prim.index as usize].radius.abs();
+            let at_t = (ray.origin.abs() + (hit.t * ray.direction).abs()).max_element();
+            let tol = NORMAL_TOL + 3f32.sqrt() * 2.0 * gamma(2) * at_t / r;
+            // u and v turn by the normal's change over π·sin θ.
+            let sin_theta = (1.0 - cpu.geometric_normal.y.powi(2)).max(0.0).sqrt();
+            let uv = SPHERE_UV_TOL + tol / (std::f32::consts::PI * sin_theta.max(1e-6));
+            (tol, uv, cpu.p_error + p_error + r * tol)
+        } else {
+            let uv = NORMAL_TOL * cpu.uv.abs().max_element().max(1.0);
+            (NORMAL_TOL, uv, cpu.p_error + p_error)
+        };
+        let mut fail = |what: String| failures.push(format!("{at}: {what}"));
+        if w[13] != cpu.material {
+            fail(format!("material {} vs {}", w[13], cpu.material));
+        }
+        let dp = (p - cpu.p).abs().max_element();
+        if dp > p_tol {
+            fail(format!("p {p} vs {} (bound {p_tol})", cpu.p));
+        }
+        let dn = (ng - cpu.geometric_normal).abs().max_element();
+        if dn > normal_tol {
+            fail(format!(
+                "normal {ng} vs {} (bound {normal_tol})",
+                cpu.geometric_normal
+            ));
+        }
+        let ds = (ns - cpu.shading_normal).abs().max_element();
+        if ds > normal_tol {
+            fail(format!(
+                "shading normal {ns} vs {} (bound {normal_tol})",
+                cpu.shading_normal
+            ));
+        }
+        let duv = (uv - cpu.uv).abs().max_element();
+        if duv > uv_tol {
+            fail(format!("uv {uv} vs {} (bound {uv_tol})", cpu.uv));
+        }
+        let de = (p_error - cpu.p_error).abs() / cpu.p_error;
+        if de > P_ERROR_REL_TOL {
+            fail(format!("p_error {p_error} vs {}", cpu.p_error));
+        }
+        let cos = ray.direction.dot(cpu.geometric_normal) / ray.direction.length();
+        if cos.abs() > normal_tol && (w[12] == 1) != cpu.front_face {
+            fail(format!("front_face (cos {cos})"));
+        }
+        for (k, x) in [
+            dp / p_tol,
+            dn.max(ds) / normal_tol,
+            duv / uv_tol,
+            de / P_ERROR_REL_TOL,
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            worst[k] = worst[k].max(x);
+        }
+    }
+    ensure!(
+        failures.is_empty(),
+        "{} of {} hits outside the bounds; the first: {:#?}",
+        failures.len(),
+        cases.len(),
+        &failures[..failures.len().min(5)]
+    );
+    Ok(format!(
+        "{name}: {} hits; largest |Δp| {:.3}, |Δn| {:.3}, |Δuv| {:.3}, |Δp_error| {:.3} of their bounds",
+        cases.len(),
+        worst[0],
+        worst[1],
+        worst[2],
+        worst[3]
+    ))
+}
+
+/// [`surface_interactions`] on spheres (rtow-final), quads (cornell), and
+/// triangles with shading normals and uv (the glTF fixture).
+pub fn all_scenes(ctx: &GpuContext) -> Outcome {
+    let load = |spec: &str| reference::load_scene(spec).map_err(|e| e.to_string());
+    let mut lines = Vec::new();
+    for (name, scene) in [
+        ("rtow-final", load("rtow-final")?),
+        ("cornell", load("cornell")?),
+        ("gltf-mesh", load(&fixture_scene("gltf-mesh.json"))?),
+    ] {
+        lines.push(surface_interactions(ctx, name, &scene)?);
+    }
+    Ok(lines.join("\n"))
+}
+
+const SPAWN_SNIPPET: &str = "
+@compute @workgroup_size(64)
+fn spawn_main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if i >= arrayLength(&input) / 7u {
+        return;
+    }
+    let w = 7u * i;
+    let p = vec3<f32>(bitcast<f32>(input[w]), bitcast<f32>(input[w + 1u]), bitcast<f32>(input[w + 2u]));
+    let n = vec3<f32>(bitcast<f32>(input[w + 3u]), bitcast<f32>(input[w + 4u]), bitcast<f32>(input[w + 5u]));
+    let o = spawn_origin(p, n, bitcast<f32>(input[w + 6u]));
+    output[3u * i] = bitcast<u32>(o.x);
+    output[3u * i + 1u] = bitcast<u32>(o.y);
+    output[3u * i + 2u] = bitcast<u32>(o.z);
+}
+";
+
+/// `spawn_origin` given the reference's point, normal and error: bit for
+/// bit on a software adapter, within one ulp per coordinate on hardware,
+/// and always strictly on the normal's side of the point.
+pub fn spawn_points(ctx: &GpuContext) -> Outcome {
+    let scene = reference::load_scene("cornell").map_err(|e| e.to_string())?;
+    // Points from 1e-6 to 1e6 in magnitude, both signs, with the near-origin
+    // branch (|p| < 1/32) and normals in every octant; p_error as a sphere
+    // hit of that magnitude would carry it (γ(5)·|p|), and zero.
+    let mut cases = Vec::new();
+    for i in 0..4096u32 {
+        let r = |k| random_f32(13, i, 0, 0, k);
+        let scale = 10f32.powf(r(0) * 12.0 - 6.0);
+        let p = (Vec3::new(r(1), r(2), r(3)) * 2.0 - 1.0) * scale;
+        let n = reference::sampling::sample_uniform_sphere(Vec2::new(r(4), r(5)));
+        let p_error = if i % 4 == 0 {
+            0.0
+        } else {
+            reference::geometry::gamma(5) * p.abs().max_element()
+        };
+        cases.push((p, n, p_error));
+    }
+    let input: Vec<u32> = cases
+        .iter()
+        .flat_map(|(p, n, e)| [p.x, p.y, p.z, n.x, n.y, n.z, *e])
+        .map(f32::to_bits)
+        .collect();
+    let out = run_kernel(
+        ctx,
+        &scene,
+        SPAWN_SNIPPET,
+        "spawn_main",
+        &input,
+        cases.len(),
+        3 * cases.len(),
+    )?;
+    let exact = ctx.is_software;
+    let mut differ = 0;
+    for (i, &(p, n, e)) in cases.iter().enumerate() {
+        let cpu = spawn_origin(p, n, e);
+        let gpu = v3(&out[3 * i..3 * i + 3]);
+        let ulps = (0..3)
+            .map(|k| cpu[k].to_bits().abs_diff(gpu[k].to_bits()))
+            .max()
+            .unwrap();
+        differ += (ulps > 0) as usize;
+        let allowed = if exact { 0 } else { 1 };
+        ensure!(
+            ulps <= allowed,
+            "spawn_origin({p}, {n}, {e}): GPU {gpu}, reference {cpu}"
+        );
+        ensure!(
+            (gpu - p).dot(n) > 0.0,
+            "spawn_origin({p}, {n}, {e}) = {gpu} is not on n's side"
+        );
+    }
+    Ok(format!(
+        "{differ} of {} spawn points differ from the reference (by ≤ 1 ulp)",
+        cases.len()
+    ))
+}
