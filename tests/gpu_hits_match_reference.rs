@@ -8,44 +8,16 @@ use glam::Vec3;
 use gpu::testing::{run_test_kernel, TestKernel};
 use reference::f64_oracle::{self, Shape64};
 use reference::geometry::Ray;
-use twintrace::compare::gate::fixture_scene;
 use twintrace::twins::hits::{self, far_small_shapes};
 
-fn check(name: &str, scene: &reference::Scene) {
-    let library = gpu::shader::library_source();
-    match hits::hit_records(common::gpu(), name, scene, &library) {
+/// Every scene of `twins::hits::scenes` (spheres, quads and boxes, a
+/// triangle mesh, textured quads, small shapes far from the origin).
+#[test]
+fn hit_records_match_on_every_scene() {
+    match hits::all_scenes(common::gpu()) {
         Ok(summary) => println!("{summary}"),
         Err(e) => panic!("{e}"),
     }
-}
-
-fn load(spec: &str) -> reference::Scene {
-    reference::load_scene(spec).unwrap_or_else(|e| panic!("{spec}: {e}"))
-}
-
-#[test]
-fn rtow_final() {
-    check("rtow-final", &load("rtow-final"));
-}
-
-#[test]
-fn cornell_boxes() {
-    check("cornell", &load("cornell"));
-}
-
-#[test]
-fn triangle_mesh() {
-    check("gltf-mesh", &load(&fixture_scene("gltf-mesh.json")));
-}
-
-#[test]
-fn textured_quads_and_boxes() {
-    check("textures", &load(&fixture_scene("textures.json")));
-}
-
-#[test]
-fn far_small_shapes_match() {
-    check("far small shapes", &far_small_shapes(200));
 }
 
 /// The WGSL `primitive_bounds` (the box of the admits rule on the GPU)

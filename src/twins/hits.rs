@@ -18,7 +18,7 @@
 //! bit: the GPU walks the reference's tree, so a box computed differently
 //! would refuse or admit other hits than the reference does.
 
-use super::{ensure, run_kernel, run_kernel_with_library, Outcome};
+use super::{camera_and_random_rays, ensure, run_kernel, run_kernel_with_library, Outcome};
 use crate::compare::gate::fixture_scene;
 use glam::{Vec2, Vec3};
 use gpu::GpuContext;
@@ -55,36 +55,6 @@ pub fn ray_words(rays: &[Ray]) -> Vec<u32> {
         .flat_map(|r| [r.origin.to_array(), r.direction.to_array()].concat())
         .map(f32::to_bits)
         .collect()
-}
-
-/// 64x64 camera rays and 4,096 random rays through the scene's bounds.
-fn rays_for(scene: &Scene) -> Vec<Ray> {
-    let mut rays = Vec::new();
-    let cam = scene.camera(64, 64);
-    for y in 0..64 {
-        for x in 0..64 {
-            rays.push(cam.generate_ray(
-                Vec2::new((x as f32 + 0.5) / 64.0, (y as f32 + 0.5) / 64.0),
-                Vec2::splat(0.5),
-            ));
-        }
-    }
-    let b = scene.bounds();
-    for i in 0..4096u32 {
-        let o = b.min
-            + (b.max - b.min)
-                * Vec3::new(
-                    random_f32(5, i, 0, 0, 0),
-                    random_f32(5, i, 0, 0, 1),
-                    random_f32(5, i, 0, 0, 2),
-                );
-        let d = reference::sampling::sample_uniform_sphere(Vec2::new(
-            random_f32(5, i, 0, 0, 3),
-            random_f32(5, i, 0, 0, 4),
-        ));
-        rays.push(Ray::new(o, d));
-    }
-    rays
 }
 
 /// The smallest altitude of a triangle or parallelogram: how far the
@@ -127,7 +97,7 @@ fn excused(scene: &Scene, ray: &Ray, (prim, t): (u32, f32), other: Option<(u32, 
 /// reference's: `Err` names the first ray outside the error model, or too
 /// many excused rays.
 pub fn hit_records(ctx: &GpuContext, name: &str, scene: &Scene, library: &str) -> Outcome {
-    let rays = rays_for(scene);
+    let rays = camera_and_random_rays(scene, 64, 4096, 5);
     let out = run_kernel_with_library(
         ctx,
         scene,

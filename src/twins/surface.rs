@@ -13,7 +13,7 @@
 //!   once where the CPU rounds twice), and always strictly on the normal's
 //!   side of the point.
 
-use super::{ensure, run_kernel, Outcome};
+use super::{camera_and_random_rays, ensure, run_kernel, Outcome};
 use crate::compare::gate::fixture_scene;
 use glam::{Vec2, Vec3};
 use gpu::GpuContext;
@@ -72,22 +72,8 @@ fn si_main(@builtin(global_invocation_id) gid: vec3<u32>) {
 
 /// Camera rays and random rays through the scene's bounds that hit.
 fn hits(scene: &Scene) -> Vec<(Ray, reference::geometry::Hit)> {
-    let mut rays = Vec::new();
-    let cam = scene.camera(32, 32);
-    for y in 0..32 {
-        for x in 0..32 {
-            let u = Vec2::new((x as f32 + 0.5) / 32.0, (y as f32 + 0.5) / 32.0);
-            rays.push(cam.generate_ray(u, Vec2::splat(0.5)));
-        }
-    }
-    let b = scene.bounds();
-    for i in 0..2048u32 {
-        let r = |k| random_f32(9, i, 0, 0, k);
-        let o = b.min + (b.max - b.min) * Vec3::new(r(0), r(1), r(2));
-        let d = reference::sampling::sample_uniform_sphere(Vec2::new(r(3), r(4)));
-        rays.push(Ray::new(o, d));
-    }
-    rays.into_iter()
+    camera_and_random_rays(scene, 32, 2048, 9)
+        .into_iter()
         .filter_map(|ray| scene.intersect(&ray, 0.0, f32::INFINITY).map(|h| (ray, h)))
         .collect()
 }
