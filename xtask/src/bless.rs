@@ -1,5 +1,8 @@
-//! `cargo xtask bless [--scene NAME]... [--spp N]`: regenerates stored
-//! references. Tests never write them; this command does, explicitly.
+//! `cargo xtask bless [--perf] [--scene NAME]... [--spp N]`: regenerates
+//! stored references. Tests never write them; this command does, explicitly.
+//! `--perf` works on the performance suite's error references
+//! (`fixtures/refs/perf/`, larger images that `twintrace perf` measures
+//! relMSE against) instead of the gates' (`fixtures/refs/`).
 //!
 //! For each line of `fixtures/refs/manifest.txt` (`name scene WIDTHxHEIGHT
 //! spp seed max_depth`; all lines, or those named by `--scene`) it runs
@@ -16,6 +19,9 @@ use std::time::Instant;
 
 pub(crate) const MANIFEST: &str = "fixtures/refs/manifest.txt";
 pub(crate) const REFS: &str = "fixtures/refs";
+/// The performance suite's references (same manifest format).
+const PERF_MANIFEST: &str = "fixtures/refs/perf/manifest.txt";
+const PERF_REFS: &str = "fixtures/refs/perf";
 
 pub(crate) struct Line {
     pub name: String,
@@ -26,7 +32,7 @@ pub(crate) struct Line {
     pub depth: String,
 }
 
-pub(crate) fn parse(text: &str) -> Result<Vec<(usize, Line)>, String> {
+pub(crate) fn parse(text: &str, file: &str) -> Result<Vec<(usize, Line)>, String> {
     let mut out = Vec::new();
     for (i, raw) in text.lines().enumerate() {
         let line = raw.split('#').next().unwrap_or("").trim();
@@ -36,7 +42,7 @@ pub(crate) fn parse(text: &str) -> Result<Vec<(usize, Line)>, String> {
         let f: Vec<&str> = line.split_whitespace().collect();
         if f.len() != 6 {
             return Err(format!(
-                "{MANIFEST}:{}: expected `name scene WIDTHxHEIGHT spp seed max_depth`",
+                "{file}:{}: expected `name scene WIDTHxHEIGHT spp seed max_depth`",
                 i + 1
             ));
         }
@@ -120,15 +126,17 @@ pub(crate) fn machine() -> String {
 }
 
 fn usage() -> String {
-    "usage: cargo xtask bless [--scene NAME]... [--spp N]".into()
+    "usage: cargo xtask bless [--perf] [--scene NAME]... [--spp N]".into()
 }
 
 pub fn run(args: &[String]) -> Result<(), String> {
     let mut scenes: Vec<String> = Vec::new();
     let mut spp: Option<u32> = None;
+    let (mut manifest, mut refs) = (MANIFEST, REFS);
     let mut it = args.iter();
     while let Some(a) = it.next() {
         match a.as_str() {
+            "--perf" => (manifest, refs) = (PERF_MANIFEST, PERF_REFS),
             "--scene" => scenes.push(it.next().ok_or_else(usage)?.clone()),
             "--spp" => {
                 spp = Some(
@@ -142,15 +150,15 @@ pub fn run(args: &[String]) -> Result<(), String> {
         }
     }
     let text =
-        std::fs::read_to_string(MANIFEST).map_err(|e| format!("cannot read {MANIFEST}: {e}"))?;
-    let mut lines = parse(&text)?;
+        std::fs::read_to_string(manifest).map_err(|e| format!("cannot read {manifest}: {e}"))?;
+    let mut lines = parse(&text, manifest)?;
     if let Some(missing) = scenes
         .iter()
         .find(|s| !lines.iter().any(|(_, l)| &l.name == *s))
     {
         let names: Vec<&str> = lines.iter().map(|(_, l)| l.name.as_str()).collect();
         return Err(format!(
-            "no reference `{missing}` in {MANIFEST}; known: {}",
+            "no reference `{missing}` in {manifest}; known: {}",
             names.join(", ")
         ));
     }
@@ -162,8 +170,8 @@ pub fn run(args: &[String]) -> Result<(), String> {
             l.spp = n.to_string();
             rows[*i] = replace_field(&rows[*i], 3, &l.spp);
         }
-        std::fs::write(MANIFEST, rows.join("\n") + "\n")
-            .map_err(|e| format!("cannot write {MANIFEST}: {e}"))?;
+        std::fs::write(manifest, rows.join("\n") + "\n")
+            .map_err(|e| format!("cannot write {manifest}: {e}"))?;
     }
     sh(
         "cargo",
@@ -177,7 +185,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
     };
     let machine = machine();
     for (_, l) in &lines {
-        let out = format!("{REFS}/{}", l.name);
+        let out = format!("{refs}/{}", l.name);
         let render_args = [
             "render",
             &l.scene,
@@ -217,7 +225,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
             depth = l.depth,
             date = capture("date", &["-u", "+%Y-%m-%dT%H:%M:%SZ"]),
         );
-        let path = format!("{REFS}/{}.provenance.txt", l.name);
+        let path = format!("{refs}/{}.provenance.txt", l.name);
         std::fs::write(&path, note).map_err(|e| format!("cannot write {path}: {e}"))?;
         eprintln!("xtask: blessed {out}.exr in {seconds:.1} s");
     }

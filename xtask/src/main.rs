@@ -28,10 +28,11 @@ Commands:
   codegen    rewrite the generated sources from their Rust definitions
              (shaders/generated.wgsl); a test fails while they are stale
   fixtures   regenerate the generated fixture files (mesh, textures)
-  bless [--scene NAME]... [--spp N]
+  bless [--perf] [--scene NAME]... [--spp N]
              regenerate stored references (fixtures/refs/NAME.exr + provenance
              note) listed in fixtures/refs/manifest.txt with the CPU reference;
-             --spp also updates the manifest
+             --spp also updates the manifest; --perf: the performance suite's
+             error references (fixtures/refs/perf/manifest.txt)
   mitsuba [--out DIR] | mitsuba --import DIR
              pack the references Mitsuba 3 can render identically (scenes
              from `twintrace export-mitsuba`, trimmed wheels, run.sh) into DIR

@@ -57,7 +57,7 @@ fn pack(out: &Path) -> Result<(), String> {
     let text =
         std::fs::read_to_string(MANIFEST).map_err(|e| format!("cannot read {MANIFEST}: {e}"))?;
     let mut exported = 0;
-    for (_, line) in parse(&text)? {
+    for (_, line) in parse(&text, MANIFEST)? {
         let dir = scenes.join(&line.name);
         let dir_s = dir.display().to_string();
         let output = std::process::Command::new("target/release/twintrace")
