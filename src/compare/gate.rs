@@ -27,6 +27,30 @@ pub const REFS_DIR: &str = "fixtures/refs";
 /// The list of references, relative to the workspace root.
 pub const MANIFEST: &str = "fixtures/refs/manifest.txt";
 
+/// A set of stored references: its manifest, its folder and the command
+/// that regenerates one of them.
+#[derive(Clone, Copy, Debug)]
+pub struct RefSet {
+    pub manifest: &'static str,
+    pub dir: &'static str,
+    pub bless: &'static str,
+}
+
+/// The image gates' references.
+pub const GATE_REFS: RefSet = RefSet {
+    manifest: MANIFEST,
+    dir: REFS_DIR,
+    bless: "cargo xtask bless",
+};
+
+/// The performance suite's error references (larger images; see
+/// [`crate::perf`]).
+pub const PERF_REFS: RefSet = RefSet {
+    manifest: "fixtures/refs/perf/manifest.txt",
+    dir: "fixtures/refs/perf",
+    bless: "cargo xtask bless --perf",
+};
+
 /// A renderer under test: renders `settings.spp` samples per pixel of `scene`.
 pub type RenderFn<'a> = &'a dyn Fn(&Scene, &RenderSettings) -> Result<Film>;
 
@@ -70,13 +94,18 @@ pub struct RefSpec {
 /// Parses the manifest: `#` comments, blank lines, and lines of
 /// `name scene WIDTHxHEIGHT spp seed max_depth`.
 pub fn parse_manifest(text: &str) -> Result<Vec<RefSpec>> {
+    parse_manifest_named(text, MANIFEST)
+}
+
+/// As [`parse_manifest`], with `file` naming the manifest in errors.
+pub fn parse_manifest_named(text: &str, file: &str) -> Result<Vec<RefSpec>> {
     let mut out: Vec<RefSpec> = Vec::new();
     for (i, line) in text.lines().enumerate() {
         let line = line.split('#').next().unwrap_or("").trim();
         if line.is_empty() {
             continue;
         }
-        let at = || format!("{MANIFEST}:{}", i + 1);
+        let at = || format!("{file}:{}", i + 1);
         let f: Vec<&str> = line.split_whitespace().collect();
         if f.len() != 6 {
             bail!(
@@ -109,11 +138,33 @@ pub fn parse_manifest(text: &str) -> Result<Vec<RefSpec>> {
 
 /// Reads `fixtures/refs/manifest.txt`.
 pub fn read_manifest() -> Result<Vec<RefSpec>> {
-    let path = workspace_root().join(MANIFEST);
-    parse_manifest(
-        &std::fs::read_to_string(&path)
-            .with_context(|| format!("cannot read {}", path.display()))?,
-    )
+    GATE_REFS.read_manifest()
+}
+
+impl RefSet {
+    /// Reads this set's manifest.
+    pub fn read_manifest(&self) -> Result<Vec<RefSpec>> {
+        let path = workspace_root().join(self.manifest);
+        parse_manifest_named(
+            &std::fs::read_to_string(&path)
+                .with_context(|| format!("cannot read {}", path.display()))?,
+            self.manifest,
+        )
+    }
+
+    /// The EXR and provenance paths of a reference of this set.
+    pub fn paths(&self, name: &str) -> (PathBuf, PathBuf) {
+        let dir = workspace_root().join(self.dir);
+        (
+            dir.join(format!("{name}.exr")),
+            dir.join(format!("{name}.provenance.txt")),
+        )
+    }
+
+    /// The command that regenerates one reference of this set.
+    pub fn bless_command(&self, name: &str) -> String {
+        format!("{} --scene {name}", self.bless)
+    }
 }
 
 /// The manifest entry called `name`.
@@ -126,16 +177,12 @@ pub fn manifest_entry(name: &str) -> Result<RefSpec> {
 
 /// The command that regenerates one reference.
 pub fn bless_command(name: &str) -> String {
-    format!("cargo xtask bless --scene {name}")
+    GATE_REFS.bless_command(name)
 }
 
 /// The EXR and provenance paths of a reference.
 pub fn reference_paths(name: &str) -> (PathBuf, PathBuf) {
-    let dir = workspace_root().join(REFS_DIR);
-    (
-        dir.join(format!("{name}.exr")),
-        dir.join(format!("{name}.provenance.txt")),
-    )
+    GATE_REFS.paths(name)
 }
 
 /// A reference as loaded.
@@ -150,8 +197,13 @@ pub struct StoredReference {
 /// Loads and checks a reference: it must exist (else the error names the
 /// bless command), carry a variance, and match its manifest line.
 pub fn load_reference(spec: &RefSpec) -> Result<StoredReference> {
-    let (exr, prov) = reference_paths(&spec.name);
-    let bless = bless_command(&spec.name);
+    load_reference_in(&GATE_REFS, spec)
+}
+
+/// As [`load_reference`], for a reference of `set`.
+pub fn load_reference_in(set: &RefSet, spec: &RefSpec) -> Result<StoredReference> {
+    let (exr, prov) = set.paths(&spec.name);
+    let bless = set.bless_command(&spec.name);
     if !exr.exists() {
         bail!(
             "reference `{}` is missing: run `{bless}` (tests never write references)",
@@ -179,13 +231,14 @@ pub fn load_reference(spec: &RefSpec) -> Result<StoredReference> {
         || m.max_depth != Some(spec.max_depth);
     if stale {
         bail!(
-            "reference `{}` ({}x{}, spp {:?}, seed {:?}, depth {:?}) does not match its line in {MANIFEST} ({}x{}, spp {}, seed {}, depth {}): run `{bless}`",
+            "reference `{}` ({}x{}, spp {:?}, seed {:?}, depth {:?}) does not match its line in {} ({}x{}, spp {}, seed {}, depth {}): run `{bless}`",
             exr.display(),
             image.width,
             image.height,
             m.spp,
             m.seed,
             m.max_depth,
+            set.manifest,
             spec.width,
             spec.height,
             spec.spp,
