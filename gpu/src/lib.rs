@@ -10,6 +10,7 @@
 pub mod bindings;
 pub mod context;
 pub mod error;
+pub mod rays;
 pub mod records;
 pub mod renderer;
 pub mod scene_buffers;

@@ -352,7 +352,7 @@ pub fn read_buffer<T: bytemuck::Pod>(
     Ok(out)
 }
 
-fn read_timestamps(
+pub(crate) fn read_timestamps(
     ctx: &GpuContext,
     qs: &wgpu::QuerySet,
     dispatches: u32,
