@@ -16,12 +16,15 @@
 //! - [`report`]: the self-contained HTML report of a comparison;
 //! - [`selftest`]: the gates a user runs on their own GPU (`twintrace
 //!   selftest`) and their calibration (false alarms and power);
+//! - [`perf`]: the performance instrument (`twintrace perf`, `cargo xtask
+//!   perf`): error against time, throughput, baselines and plots;
 //! - [`twins`]: the kernel-level twin checks (random numbers, float steps,
 //!   hit records, surface interactions), run by the GPU tests and by
 //!   `twintrace selftest`.
 
 pub mod compare;
 pub mod image_io;
+pub mod perf;
 pub mod report;
 pub mod selftest;
 pub mod stats;

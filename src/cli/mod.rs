@@ -9,6 +9,7 @@
 //! - `twintrace selftest`: the gates on this machine's GPU, see [`selftest`].
 //! - `twintrace export-mitsuba SCENE -o DIR`: the scene for Mitsuba 3, see
 //!   [`export`].
+//! - `twintrace perf run|compare`: run time against error, see [`perf`].
 //!
 //! Render settings resolve in three layers: the scene's own defaults
 //! (`scene.render`), then a `--quality` preset (spp and depth together),
@@ -20,6 +21,7 @@
 
 pub mod diff;
 pub mod export;
+pub mod perf;
 pub mod selftest;
 
 use anyhow::{anyhow, bail, Context, Result};
@@ -55,6 +57,8 @@ pub enum Command {
     Selftest(selftest::SelftestArgs),
     /// Write the scene as a Mitsuba 3 scene (DIR/scene.xml and its meshes) for an independent render; refuses features Mitsuba would render differently.
     ExportMitsuba(export::ExportArgs),
+    /// Measure run time against error (relMSE against stored references), paths/s and rays/s; compare with a baseline.
+    Perf(perf::PerfArgs),
 }
 
 /// Which renderer runs the paths.
@@ -141,6 +145,7 @@ pub fn run(cli: Cli) -> Result<()> {
             false => bail!("selftest: a gate failed (see its FAIL line)"),
         },
         Command::ExportMitsuba(args) => export::run(&args),
+        Command::Perf(args) => perf::run(&args),
     }
 }
 
@@ -316,7 +321,7 @@ fn render(args: &RenderArgs) -> Result<()> {
 }
 
 /// Writes to stdout; a closed pipe (`twintrace info x | head -1`) is not an error.
-fn print_stdout(text: &str) -> Result<()> {
+pub(crate) fn print_stdout(text: &str) -> Result<()> {
     let mut out = std::io::stdout().lock();
     match out.write_all(text.as_bytes()).and_then(|_| out.flush()) {
         Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {

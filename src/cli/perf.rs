@@ -1,0 +1,374 @@
+//! `twintrace perf`: run time against error (see `twintrace::perf`).
+//!
+//! - `twintrace perf run [--suite quick|full] [--backend cpu|gpu|all]
+//!   [--variant V]... [--only NAME]... [--repeats N] [--threads N]
+//!   [--out DIR] [--save FILE] [--baseline FILE] [--revision REV]`:
+//!   measures, prints one `METRIC` line per measurement, writes
+//!   `DIR/<time>.json`, `DIR/<time>.md` and `DIR/<time>-<case>.svg`; with
+//!   `--baseline`, compares and exits 1 when a row regressed;
+//! - `twintrace perf compare RUN.json BASELINE.json`: the comparison alone;
+//! - `twintrace perf baseline RUN.json... -o FILE`: runs of one build
+//!   merged into a baseline (the rule needs the spread between runs);
+//! - `twintrace perf noise RUN.json... [--injected RUN.json...]`: the
+//!   rule's false alarms on runs of one build and its detections of the
+//!   injected slowdown (how its K was chosen).
+
+use super::print_stdout;
+use anyhow::{anyhow, bail, Context, Result};
+use clap::{Args, Subcommand, ValueEnum};
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+use twintrace::image_io::AtomicFile;
+use twintrace::perf::{measure, plot, regress, suite::Suite, PerfRun};
+
+#[derive(Debug, Args)]
+pub struct PerfArgs {
+    #[command(subcommand)]
+    pub command: PerfCommand,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum PerfCommand {
+    /// Measure a suite: error against time per case and renderer, paths/s and rays/s.
+    Run(RunArgs),
+    /// Compare a saved run with a baseline (exit 0: no regression, 1: a row regressed or an error).
+    Compare(CompareArgs),
+    /// Merge saved runs of one build into a baseline (several runs: the rule needs their spread).
+    Baseline(BaselineArgs),
+    /// The regression rule on runs of one build (false alarms) and on injected-slowdown runs (detections).
+    Noise(NoiseArgs),
+}
+
+/// Which backends a run measures.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PerfBackend {
+    Cpu,
+    Gpu,
+    /// The CPU reference, and the GPU when an adapter opens.
+    All,
+}
+
+/// The renderer variants there are (one per backend today).
+const VARIANTS: [(&str, &str); 2] = [("reference", "cpu"), ("megakernel", "gpu")];
+
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    #[arg(long, default_value = "quick", value_parser = ["quick", "full"])]
+    pub suite: String,
+    #[arg(long, value_enum, default_value_t = PerfBackend::All)]
+    pub backend: PerfBackend,
+    /// Only these renderer variants (reference: the CPU's; megakernel: the GPU's).
+    #[arg(long)]
+    pub variant: Vec<String>,
+    /// Only the cases and workloads whose name contains this.
+    #[arg(long)]
+    pub only: Vec<String>,
+    /// Timed repetitions of every measurement (medians and spreads come from them).
+    #[arg(long, default_value_t = 5)]
+    pub repeats: u32,
+    /// CPU worker threads (default: one per core).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Folder of the JSON, markdown and SVG outputs.
+    #[arg(long, default_value = "target/perf")]
+    pub out: PathBuf,
+    /// Also write the run's JSON here (a baseline, e.g. fixtures/perf/<machine>.json).
+    #[arg(long)]
+    pub save: Option<PathBuf>,
+    /// Compare with this saved run; exit 1 when a row regressed.
+    #[arg(long)]
+    pub baseline: Option<PathBuf>,
+    /// The source revision recorded in the JSON (cargo xtask perf passes git's).
+    #[arg(long, default_value = "unknown")]
+    pub revision: String,
+    /// Test only: every render re-traces a tenth of its paths, to show
+    /// that the regression rule catches a 10 % slowdown.
+    #[arg(long, hide = true)]
+    pub inject_slowdown: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct CompareArgs {
+    /// The run to judge.
+    pub run: PathBuf,
+    /// The baseline it is judged against.
+    pub baseline: PathBuf,
+}
+
+#[derive(Debug, Args)]
+pub struct BaselineArgs {
+    /// Saved runs of one build, on one machine.
+    #[arg(required = true)]
+    pub runs: Vec<PathBuf>,
+    /// The baseline file to write (e.g. fixtures/perf/<machine>.json).
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+#[derive(Debug, Args)]
+pub struct NoiseArgs {
+    /// Saved runs of one build (at least WINDOW + 1).
+    #[arg(required = true)]
+    pub runs: Vec<PathBuf>,
+    /// Runs of the same build with the injected slowdown.
+    #[arg(long, num_args = 1..)]
+    pub injected: Vec<PathBuf>,
+    /// Runs per baseline.
+    #[arg(long, default_value_t = 5)]
+    pub window: usize,
+}
+
+pub fn run(args: &PerfArgs) -> Result<()> {
+    match &args.command {
+        PerfCommand::Run(a) => run_suite(a),
+        PerfCommand::Compare(a) => {
+            let new = read_run(&a.run)?;
+            let base = read_runs(&a.baseline)?;
+            judge(&new, &base, &a.baseline)
+        }
+        PerfCommand::Baseline(a) => {
+            let mut runs = Vec::new();
+            for p in &a.runs {
+                runs.extend(read_runs(p)?);
+            }
+            check_one_build(&runs)?;
+            if runs.iter().any(|r| r.settings.injected_slowdown) {
+                bail!("a run with the injected slowdown (a self-test run) is never a baseline");
+            }
+            let json = serde_json::to_string_pretty(&runs).context("cannot encode the baseline")?;
+            write_file(&a.output, json.as_bytes())?;
+            eprintln!(
+                "perf: baseline of {} runs written to {}",
+                runs.len(),
+                a.output.display()
+            );
+            Ok(())
+        }
+        PerfCommand::Noise(a) => {
+            let mut plain = Vec::new();
+            for p in &a.runs {
+                plain.extend(read_runs(p)?);
+            }
+            let mut injected = Vec::new();
+            for p in &a.injected {
+                injected.extend(read_runs(p)?);
+            }
+            if plain.iter().any(|r| r.settings.injected_slowdown)
+                || injected.iter().any(|r| !r.settings.injected_slowdown)
+            {
+                bail!("plain runs go before --injected, runs with the injected slowdown after it");
+            }
+            let mut all = plain.clone();
+            all.extend(injected.iter().cloned());
+            check_one_build(&all)?;
+            print_stdout(&regress::noise(&plain, &injected, a.window)?.to_markdown())
+        }
+    }
+}
+
+/// Runs of a baseline or a noise measurement must come from one build on
+/// one machine.
+fn check_one_build(runs: &[PerfRun]) -> Result<()> {
+    let Some(first) = runs.first() else {
+        bail!("no runs given");
+    };
+    for r in runs {
+        if r.revision != first.revision
+            || r.host.cpu != first.host.cpu
+            || r.settings.suite != first.settings.suite
+        {
+            bail!(
+                "runs of different builds, machines or suites ({} on `{}`, {} suite; {} on `{}`, {} suite)",
+                first.revision,
+                first.host.cpu,
+                first.settings.suite,
+                r.revision,
+                r.host.cpu,
+                r.settings.suite
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Reads a saved run, or a baseline (a JSON array of runs).
+pub fn read_runs(path: &Path) -> Result<Vec<PerfRun>> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read `{}`", path.display()))?;
+    let runs = if text.trim_start().starts_with('[') {
+        serde_json::from_str::<Vec<PerfRun>>(&text)
+    } else {
+        serde_json::from_str::<PerfRun>(&text).map(|r| vec![r])
+    }
+    .map_err(|e| {
+        anyhow!(
+            "`{}` is not a twintrace perf run or baseline: {e}",
+            path.display()
+        )
+    })?;
+    if runs.is_empty() {
+        bail!("`{}` holds no run", path.display());
+    }
+    Ok(runs)
+}
+
+/// Reads a saved run.
+pub fn read_run(path: &Path) -> Result<PerfRun> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read `{}`", path.display()))?;
+    serde_json::from_str(&text)
+        .map_err(|e| anyhow!("`{}` is not a twintrace perf run: {e}", path.display()))
+}
+
+fn judge(new: &PerfRun, base: &[PerfRun], base_path: &Path) -> Result<()> {
+    let cmp = regress::compare(new, base)?;
+    print_stdout(&format!(
+        "\n## Against {} ({} run(s) of revision {}, {})\n\n{}",
+        base_path.display(),
+        base.len(),
+        base[0].revision,
+        base[0].date,
+        cmp.to_markdown()
+    ))?;
+    let bad: Vec<String> = cmp
+        .regressions()
+        .map(|r| {
+            format!(
+                "{} {}: {:+.1} % (threshold −{:.1} %)",
+                r.key,
+                r.measure,
+                100.0 * r.change,
+                100.0 * r.threshold
+            )
+        })
+        .collect();
+    if bad.is_empty() {
+        eprintln!(
+            "perf: no regression in {} compared rows against {}",
+            cmp.rows.len(),
+            base_path.display()
+        );
+        Ok(())
+    } else {
+        for b in &bad {
+            eprintln!("perf: REGRESSION {b}");
+        }
+        bail!(
+            "{} of {} rows regressed against {}",
+            bad.len(),
+            cmp.rows.len(),
+            base_path.display()
+        )
+    }
+}
+
+fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
+    let mut f = AtomicFile::create(path)?;
+    f.file()
+        .write_all(bytes)
+        .with_context(|| format!("cannot write `{}`", path.display()))?;
+    f.commit()?;
+    Ok(())
+}
+
+fn run_suite(a: &RunArgs) -> Result<()> {
+    let suite = Suite::parse(&a.suite)?;
+    if a.threads == Some(0) {
+        bail!("--threads 0: at least one thread is needed");
+    }
+    if a.repeats == 0 || a.repeats > 1000 {
+        bail!("--repeats {}: must be between 1 and 1000", a.repeats);
+    }
+    for v in &a.variant {
+        if !VARIANTS.iter().any(|(name, _)| name == v) {
+            bail!(
+                "--variant {v}: unknown; the variants are {}",
+                VARIANTS
+                    .iter()
+                    .map(|(n, b)| format!("{n} ({b})"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        }
+    }
+    let variant_wanted = |backend: &str| {
+        a.variant.is_empty()
+            || VARIANTS
+                .iter()
+                .any(|(n, b)| *b == backend && a.variant.iter().any(|v| v == n))
+    };
+    // The baseline is read first: a bad path fails before a long run.
+    let baseline = a.baseline.as_deref().map(read_runs).transpose()?;
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("cannot create `{}`", a.out.display()))?;
+    let want_cpu = a.backend != PerfBackend::Gpu && variant_wanted("cpu");
+    let want_gpu = a.backend != PerfBackend::Cpu && variant_wanted("gpu");
+    let pool = if want_cpu {
+        let mut b = rayon::ThreadPoolBuilder::new();
+        if let Some(n) = a.threads {
+            b = b.num_threads(n);
+        }
+        Some(b.build().context("cannot start the worker threads")?)
+    } else {
+        None
+    };
+    let ctx = if want_gpu {
+        match gpu::GpuContext::new() {
+            Ok(ctx) => Some(ctx),
+            Err(e) if a.backend == PerfBackend::All => {
+                eprintln!("perf: no GPU backend ({e}); measuring the CPU reference only");
+                None
+            }
+            Err(e) => return Err(anyhow!("--backend gpu: {e}")),
+        }
+    } else {
+        None
+    };
+    let options = measure::Options {
+        suite,
+        cpu: pool.as_ref(),
+        gpu: ctx.as_ref(),
+        repeats: a.repeats,
+        inject_slowdown: a.inject_slowdown,
+        revision: a.revision.clone(),
+        only: a.only.clone(),
+    };
+    let mut metric = |line: &str| {
+        let _ = print_stdout(&format!("{line}\n"));
+    };
+    let result = measure::run(&options, &mut metric)?;
+    let stamp = result.date.replace(':', "-");
+    let json = serde_json::to_string_pretty(&result).context("cannot encode the run")?;
+    let json_path = a.out.join(format!("{stamp}.json"));
+    write_file(&json_path, json.as_bytes())?;
+    let md = plot::markdown(&result);
+    let md_path = a.out.join(format!("{stamp}.md"));
+    write_file(&md_path, md.as_bytes())?;
+    let mut plots = 0;
+    for case in plot::cases(&result) {
+        match plot::plot_case(&result, &case) {
+            Ok(svg) => {
+                write_file(&a.out.join(format!("{stamp}-{case}.svg")), svg.as_bytes())?;
+                plots += 1;
+            }
+            Err(e) => eprintln!("perf: no plot: {e:#}"),
+        }
+    }
+    if let Some(save) = &a.save {
+        if result.settings.injected_slowdown {
+            bail!("--save with --inject-slowdown: a self-test run is never a baseline");
+        }
+        write_file(save, json.as_bytes())?;
+    }
+    print_stdout(&format!("\n{md}"))?;
+    eprintln!(
+        "perf: wrote {}, {} and {plots} plot(s) in {}",
+        json_path.display(),
+        md_path.display(),
+        a.out.display()
+    );
+    if let (Some(base), Some(path)) = (&baseline, &a.baseline) {
+        judge(&result, base, path)?;
+    }
+    Ok(())
+}

@@ -1,0 +1,499 @@
+//! The measurements of a suite run.
+//!
+//! Timing rules (docs/benchmarks.md repeats them):
+//! - every timed render or ray batch is preceded by an untimed warm-up of
+//!   the same kind, so that the GPU pipeline is compiled, the driver's
+//!   shader cache is warm and the CPU's pages are touched before the
+//!   clock starts; scene loading and BVH building are never timed;
+//! - wall time of a CPU render is `reference::render` on the run's thread
+//!   pool; of a GPU render, `GpuRenderer::render` (parameter upload, the
+//!   dispatches, waiting, the film's readback and conversion), with the
+//!   pipeline already built; GPU time is the sum of the dispatches'
+//!   timestamp-query intervals;
+//! - each measurement is repeated `repeats` times; the JSON keeps every
+//!   repetition, tables and comparisons use medians;
+//! - the measured renders use [`PERF_SEED`], so their error is the same on
+//!   every run of the same build: only time varies between repetitions.
+//!
+//! Every finished measurement prints one `METRIC` line (`METRIC <kind>
+//! <row> key=value …`), which `cargo xtask perf` collects.
+
+use super::error::{predicted_relmse, relmse};
+use super::suite::{curves, workloads, CurveCase, Suite, Workload, PERF_SEED};
+use super::{median, Adapter, Curve, Host, PerfRun, Point, RunSettings, Throughput, SCHEMA};
+use crate::compare::gate::{load_reference_in, load_scene, workspace_root};
+use crate::compare::image::NoisyImage;
+use anyhow::{anyhow, bail, Context, Result};
+use gpu::GpuContext;
+use rayon::prelude::*;
+use reference::geometry::Ray;
+use reference::integrator::{camera_ray, trace_path};
+use reference::{Film, RenderSettings, Scene};
+use std::hint::black_box;
+use std::time::Instant;
+
+/// The test-only injected slowdown: each render also re-traces this share
+/// of its paths (CPU: every tenth path of the image, the same paths again;
+/// GPU: an extra render of `max(1, spp / 10)` samples per pixel), each ray
+/// batch re-traces a tenth of its rays. Real work, not a sleep, so that
+/// instruction counts see it as wall time does. The regression rule must
+/// flag it and must not flag a plain repeat (the self-test,
+/// tests/perf_regression.rs).
+pub const INJECTED_SLOWDOWN: f64 = 0.10;
+
+/// The every-`n`th path the injected slowdown re-traces.
+const INJECTED_STRIDE: u64 = 10;
+
+/// What to measure and how.
+pub struct Options<'a> {
+    pub suite: Suite,
+    /// The CPU reference's thread pool, when the CPU backend runs.
+    pub cpu: Option<&'a rayon::ThreadPool>,
+    /// The GPU, when the GPU backend runs.
+    pub gpu: Option<&'a GpuContext>,
+    pub repeats: u32,
+    pub inject_slowdown: bool,
+    pub revision: String,
+    /// Only cases and workloads whose name contains one of these (all when
+    /// empty).
+    pub only: Vec<String>,
+}
+
+/// A renderer of the run.
+#[derive(Clone, Copy)]
+enum Backend<'a> {
+    Cpu(&'a rayon::ThreadPool),
+    Gpu(&'a GpuContext),
+}
+
+impl Backend<'_> {
+    fn name(self) -> &'static str {
+        match self {
+            Backend::Cpu(_) => "cpu",
+            Backend::Gpu(_) => "gpu",
+        }
+    }
+
+    /// The variant each backend has today.
+    fn variant(self) -> &'static str {
+        match self {
+            Backend::Cpu(_) => "reference",
+            Backend::Gpu(_) => "megakernel",
+        }
+    }
+}
+
+/// One timed render: its film, wall seconds and GPU seconds.
+struct Timed {
+    film: Film,
+    wall: f64,
+    gpu: Option<f64>,
+}
+
+/// Renders with a backend, the GPU pipeline built once per scene.
+enum Prepared<'a> {
+    Cpu(&'a rayon::ThreadPool, &'a Scene),
+    Gpu(gpu::GpuRenderer<'a>),
+}
+
+impl<'a> Prepared<'a> {
+    fn new(backend: Backend<'a>, scene: &'a Scene) -> Result<Self> {
+        Ok(match backend {
+            Backend::Cpu(pool) => Prepared::Cpu(pool, scene),
+            Backend::Gpu(ctx) => Prepared::Gpu(gpu::GpuRenderer::new(ctx, scene)?),
+        })
+    }
+
+    fn render(&self, settings: &RenderSettings, inject: bool) -> Result<Timed> {
+        match self {
+            Prepared::Cpu(pool, scene) => {
+                let start = Instant::now();
+                let film = pool.install(|| reference::render(scene, settings, &|_| {}));
+                if inject {
+                    pool.install(|| retrace_share(scene, settings));
+                }
+                Ok(Timed {
+                    film,
+                    wall: start.elapsed().as_secs_f64(),
+                    gpu: None,
+                })
+            }
+            Prepared::Gpu(renderer) => {
+                let start = Instant::now();
+                let out = renderer.render(settings, &|_, _| {})?;
+                let mut gpu = out.gpu_time.map(|t| t.as_secs_f64());
+                if inject {
+                    let extra = RenderSettings {
+                        spp: (settings.spp / INJECTED_STRIDE as u32).max(1),
+                        ..*settings
+                    };
+                    let more = renderer.render(&extra, &|_, _| {})?;
+                    gpu = gpu.zip(more.gpu_time).map(|(a, b)| a + b.as_secs_f64());
+                }
+                Ok(Timed {
+                    film: out.film,
+                    wall: start.elapsed().as_secs_f64(),
+                    gpu,
+                })
+            }
+        }
+    }
+}
+
+/// Re-traces every [`INJECTED_STRIDE`]th path of a render (the injected
+/// slowdown), discarding the radiance.
+fn retrace_share(scene: &Scene, settings: &RenderSettings) {
+    let camera = scene.camera(settings.width, settings.height);
+    let spp = settings.spp as u64;
+    (0..settings.width * settings.height)
+        .into_par_iter()
+        .for_each(|pixel| {
+            for sample in 0..settings.spp {
+                if (pixel as u64 * spp + sample as u64) % INJECTED_STRIDE == 0 {
+                    let (x, y) = (pixel % settings.width, pixel / settings.width);
+                    let ray = camera_ray(&camera, settings, x, y, sample);
+                    black_box(trace_path(scene, ray, settings, pixel, sample));
+                }
+            }
+        });
+}
+
+/// Runs the suite.
+pub fn run(options: &Options, metric: &mut dyn FnMut(&str)) -> Result<PerfRun> {
+    if options.repeats == 0 {
+        bail!("--repeats must be at least 1");
+    }
+    let mut backends = Vec::new();
+    if let Some(pool) = options.cpu {
+        backends.push(Backend::Cpu(pool));
+    }
+    if let Some(ctx) = options.gpu {
+        backends.push(Backend::Gpu(ctx));
+    }
+    if backends.is_empty() {
+        bail!("no backend to measure");
+    }
+    let wanted = |name: &str| {
+        options.only.is_empty() || options.only.iter().any(|o| name.contains(o.as_str()))
+    };
+    let cases: Vec<CurveCase> = curves(options.suite)?
+        .into_iter()
+        .filter(|c| wanted(&c.spec.name))
+        .collect();
+    let loads: Vec<Workload> = workloads(options.suite)
+        .into_iter()
+        .filter(|w| wanted(w.name()))
+        .collect();
+    if cases.is_empty() && loads.is_empty() {
+        bail!(
+            "no case or workload of the {} suite matches {:?}",
+            options.suite.name(),
+            options.only
+        );
+    }
+    let mut curves_out = Vec::new();
+    for case in &cases {
+        let stored = load_reference_in(&case.set, &case.spec)?;
+        let scene = load_scene(&case.spec)?;
+        for &backend in &backends {
+            let curve = measure_curve(case, &stored.image, &scene, backend, options, metric)
+                .with_context(|| format!("{} on {}", case.spec.name, backend.name()))?;
+            curves_out.push(curve);
+        }
+    }
+    let mut throughput = Vec::new();
+    for load in &loads {
+        for &backend in &backends {
+            let row = measure_workload(load, backend, options, metric)
+                .with_context(|| format!("{} on {}", load.name(), backend.name()))?;
+            throughput.push(row);
+        }
+    }
+    Ok(PerfRun {
+        schema: SCHEMA,
+        revision: options.revision.clone(),
+        date: super::utc_now(),
+        host: Host::detect(),
+        adapter: options.gpu.map(|ctx| Adapter {
+            name: ctx.adapter.name.clone(),
+            backend: ctx.adapter.backend.clone(),
+            device_type: ctx.adapter.device_type.clone(),
+            driver: ctx.adapter.driver.clone(),
+        }),
+        settings: RunSettings {
+            suite: options.suite.name().into(),
+            backends: backends.iter().map(|b| b.name().to_string()).collect(),
+            repeats: options.repeats,
+            threads: options.cpu.map_or(0, |p| p.current_num_threads()),
+            injected_slowdown: options.inject_slowdown,
+        },
+        curves: curves_out,
+        throughput,
+    })
+}
+
+fn seconds_field(v: Option<f64>) -> String {
+    v.map_or_else(|| "-".into(), |s| format!("{s:.6e}"))
+}
+
+fn measure_curve(
+    case: &CurveCase,
+    reference: &NoisyImage,
+    scene: &Scene,
+    backend: Backend,
+    options: &Options,
+    metric: &mut dyn FnMut(&str),
+) -> Result<Curve> {
+    let spec = &case.spec;
+    let base = RenderSettings {
+        width: spec.width,
+        height: spec.height,
+        spp: 1,
+        max_depth: spec.max_depth,
+        seed: PERF_SEED,
+        ..scene.render_settings()
+    };
+    let prepared = Prepared::new(backend, scene)?;
+    // Warm-up, injected too, so that a self-test counting the whole
+    // measured region (instructions) sees the injected share.
+    prepared.render(&base, options.inject_slowdown)?;
+    let mut points = Vec::new();
+    for spp in case.ladder(matches!(backend, Backend::Gpu(_))) {
+        let settings = RenderSettings { spp, ..base };
+        let mut walls = Vec::new();
+        let mut gpus = Some(Vec::new());
+        let mut film = None;
+        for _ in 0..options.repeats {
+            let t = prepared.render(&settings, options.inject_slowdown)?;
+            walls.push(t.wall);
+            match (gpus.as_mut(), t.gpu) {
+                (Some(g), Some(s)) => g.push(s),
+                _ => gpus = None,
+            }
+            film.get_or_insert(t.film);
+        }
+        let film = film.ok_or_else(|| anyhow!("no repetition ran"))?;
+        if film.nonfinite_samples() > 0 {
+            bail!(
+                "{} NaN/Inf samples at {spp} spp: a renderer that produces them is not timed",
+                film.nonfinite_samples()
+            );
+        }
+        let e = relmse(&NoisyImage::from_film(&film), reference)?;
+        let point = Point {
+            spp,
+            wall_s: walls,
+            gpu_s: gpus.filter(|g| !g.is_empty()),
+            relmse: e.relmse,
+            relmse_raw: e.relmse_raw,
+            rmse: e.rmse,
+            flip: e.flip,
+        };
+        metric(&format!(
+            "METRIC curve {} {}/{} spp={spp} wall_s={} gpu_s={} relmse={:.6e} relmse_raw={:.6e} rmse={:.6e} flip={:.6e}",
+            spec.name,
+            backend.name(),
+            backend.variant(),
+            seconds_field(Some(point.wall())),
+            seconds_field(point.gpu()),
+            point.relmse,
+            point.relmse_raw,
+            point.rmse,
+            point.flip
+        ));
+        points.push(point);
+    }
+    Ok(Curve {
+        case: spec.name.clone(),
+        backend: backend.name().into(),
+        variant: backend.variant().into(),
+        scene: spec.scene.clone(),
+        width: spec.width,
+        height: spec.height,
+        max_depth: spec.max_depth,
+        seed: PERF_SEED,
+        reference_spp: spec.spp,
+        points,
+    })
+}
+
+/// Loads a workload's scene: a fixture path relative to the root, or a
+/// built-in name.
+fn workload_scene(scene: &str) -> Result<Scene> {
+    let path = workspace_root().join(scene);
+    let spec = if path.exists() {
+        path.to_string_lossy().into_owned()
+    } else {
+        scene.to_string()
+    };
+    reference::load_scene(&spec).map_err(|e| anyhow!("scene `{scene}`: {e}"))
+}
+
+/// The torus of a ray workload, grey Lambertian, and its ray batch:
+/// origins uniform in the mesh's bounds grown by a tenth on every side,
+/// directions uniform on the sphere (counter-based random numbers, so the
+/// batch is the same on every run and machine).
+pub fn ray_workload(segments: (u32, u32), rays: u32) -> Result<(Scene, Vec<Ray>)> {
+    use reference::material::Material;
+    use reference::scene::{SceneBuilder, Transform};
+    let mesh = reference::procedural::torus(1.0, 0.4, segments.0, segments.1);
+    let mut b = SceneBuilder::new();
+    let grey = b.constant(glam::Vec3::splat(0.5))?;
+    let m = b.add_material(Material::Lambertian { albedo: grey })?;
+    b.add_mesh(&mesh, m, &Transform::default())?;
+    let scene = b.build()?;
+    let bounds = scene.bounds();
+    let grow = (bounds.max - bounds.min) * 0.1;
+    let (lo, hi) = (bounds.min - grow, bounds.max + grow);
+    let rays = (0..rays)
+        .map(|i| {
+            let u = |d: u32| reference::rng::random_f32(PERF_SEED, i, 0, 0, d);
+            let o = lo + (hi - lo) * glam::Vec3::new(u(0), u(1), u(2));
+            let d = reference::sampling::sample_uniform_sphere(glam::Vec2::new(u(3), u(4)));
+            Ray::new(o, d)
+        })
+        .collect();
+    Ok((scene, rays))
+}
+
+fn measure_workload(
+    load: &Workload,
+    backend: Backend,
+    options: &Options,
+    metric: &mut dyn FnMut(&str),
+) -> Result<Throughput> {
+    let reps = options.repeats;
+    let (unit, count, walls, gpus, note) = match *load {
+        Workload::Render {
+            scene,
+            width,
+            height,
+            max_depth,
+            spp_cpu,
+            spp_gpu,
+            ..
+        } => {
+            let scene_data = workload_scene(scene)?;
+            let spp = match backend {
+                Backend::Cpu(_) => spp_cpu,
+                Backend::Gpu(_) => spp_gpu,
+            };
+            let settings = RenderSettings {
+                width,
+                height,
+                spp,
+                max_depth,
+                seed: PERF_SEED,
+                ..scene_data.render_settings()
+            };
+            let prepared = Prepared::new(backend, &scene_data)?;
+            prepared.render(
+                &RenderSettings { spp: 1, ..settings },
+                options.inject_slowdown,
+            )?;
+            let (mut walls, mut gpus) = (Vec::new(), Some(Vec::new()));
+            let mut predicted = None;
+            for _ in 0..reps {
+                let t = prepared.render(&settings, options.inject_slowdown)?;
+                walls.push(t.wall);
+                match (gpus.as_mut(), t.gpu) {
+                    (Some(g), Some(s)) => g.push(s),
+                    _ => gpus = None,
+                }
+                if predicted.is_none() {
+                    predicted = predicted_relmse(&NoisyImage::from_film(&t.film));
+                }
+            }
+            let paths = width as u64 * height as u64 * spp as u64;
+            let note = format!(
+                "{width}x{height}, {spp} spp, depth {max_depth}; relMSE its own variance predicts: {}",
+                predicted.map_or("n/a".into(), |p| format!("{p:.3e}"))
+            );
+            ("paths", paths, walls, gpus, note)
+        }
+        Workload::Rays { segments, rays, .. } => {
+            let (scene, batch) = ray_workload(segments, rays)?;
+            let triangles = scene.triangles().len();
+            match backend {
+                Backend::Cpu(pool) => {
+                    let trace = |rays: &[Ray]| {
+                        pool.install(|| {
+                            rays.par_iter()
+                                .map(|r| scene.intersect(r, 0.0, f32::INFINITY).map(|h| h.prim))
+                                .collect::<Vec<_>>()
+                        })
+                    };
+                    black_box(trace(&batch));
+                    let tenth = &batch[..batch.len() / INJECTED_STRIDE as usize];
+                    let mut walls = Vec::new();
+                    for _ in 0..reps {
+                        let start = Instant::now();
+                        black_box(trace(&batch));
+                        if options.inject_slowdown {
+                            black_box(trace(tenth));
+                        }
+                        walls.push(start.elapsed().as_secs_f64());
+                    }
+                    let note = format!(
+                        "{triangles} triangles, {} incoherent rays, closest hit, {} threads",
+                        batch.len(),
+                        pool.current_num_threads()
+                    );
+                    ("rays", batch.len() as u64, walls, None, note)
+                }
+                Backend::Gpu(ctx) => {
+                    let t = gpu::rays::trace_closest(ctx, &scene, &batch, reps)?;
+                    let mut walls: Vec<f64> = t.wall.iter().map(|d| d.as_secs_f64()).collect();
+                    let mut gpus: Option<Vec<f64>> =
+                        t.gpu.map(|g| g.iter().map(|d| d.as_secs_f64()).collect());
+                    if options.inject_slowdown {
+                        let tenth = &batch[..batch.len() / INJECTED_STRIDE as usize];
+                        let extra = gpu::rays::trace_closest(ctx, &scene, tenth, reps)?;
+                        for (w, e) in walls.iter_mut().zip(&extra.wall) {
+                            *w += e.as_secs_f64();
+                        }
+                        gpus = gpus.zip(extra.gpu).map(|(g, e)| {
+                            g.iter().zip(&e).map(|(a, b)| a + b.as_secs_f64()).collect()
+                        });
+                    }
+                    // The hit records against the reference's: a sanity
+                    // figure (the exact gate is tests/gpu_hits_match_reference.rs).
+                    let same = batch
+                        .par_iter()
+                        .zip(&t.hits)
+                        .filter(|(r, g)| {
+                            scene.intersect(r, 0.0, f32::INFINITY).map(|h| h.prim)
+                                == g.map(|(p, _)| p)
+                        })
+                        .count();
+                    let note = format!(
+                        "{triangles} triangles, {} incoherent rays, closest hit; {:.4} % of the hit primitives equal the reference's",
+                        batch.len(),
+                        100.0 * same as f64 / batch.len() as f64
+                    );
+                    ("rays", batch.len() as u64, walls, gpus, note)
+                }
+            }
+        }
+    };
+    let row = Throughput {
+        workload: load.name().into(),
+        backend: backend.name().into(),
+        variant: backend.variant().into(),
+        unit: unit.into(),
+        count,
+        wall_s: walls,
+        gpu_s: gpus.filter(|g| !g.is_empty()),
+        note,
+    };
+    metric(&format!(
+        "METRIC throughput {} {}/{} {unit}_per_s={:.6e} gpu_{unit}_per_s={} count={count} wall_s={}",
+        row.workload,
+        row.backend,
+        row.variant,
+        row.rate(),
+        row.gpu_rate().map_or("-".into(), |r| format!("{r:.6e}")),
+        seconds_field(Some(median(&row.wall_s)))
+    ));
+    Ok(row)
+}
