@@ -50,3 +50,25 @@ pub fn ensure_vulkan() -> Result<(), String> {
         Err("installed mesa-vulkan-drivers and libvulkan1 but still found no Vulkan loader or driver manifest".into())
     }
 }
+
+/// Makes sure Valgrind is installed: the regression rule's self-test
+/// (tests/perf_regression.rs) counts instructions with its callgrind tool,
+/// where wall time on a shared CI machine is too noisy to show 10 %.
+pub fn ensure_valgrind() -> Result<(), String> {
+    let works = || {
+        std::process::Command::new("valgrind")
+            .arg("--version")
+            .output()
+            .is_ok_and(|o| o.status.success())
+    };
+    if works() {
+        return Ok(());
+    }
+    eprintln!("xtask: valgrind not found; installing it (the perf self-test counts instructions with callgrind)");
+    apt_install(&["valgrind"])?;
+    if works() {
+        Ok(())
+    } else {
+        Err("installed valgrind but `valgrind --version` still fails".into())
+    }
+}

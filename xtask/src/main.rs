@@ -8,6 +8,7 @@ mod fixtures;
 mod gpu_suite;
 mod install;
 mod mitsuba;
+mod perf;
 mod test;
 mod util;
 
@@ -18,7 +19,7 @@ cargo xtask <command>
 
 Commands:
   test       install what the tests need (Mesa lavapipe when no Vulkan driver
-             is present), then run the whole suite:
+             is present, Valgrind for the perf self-test), then run the whole suite:
              cargo fmt --check, cargo clippy -D warnings, cargo test --workspace
              (extra arguments go to cargo test)
   gpu-suite [--out DIR]
@@ -38,6 +39,15 @@ Commands:
              from `twintrace export-mitsuba`, trimmed wheels, run.sh) into DIR
              (default target/mitsuba-check) for the GPU machine; --import
              stores its renders in fixtures/refs/mitsuba/ (docs/gates.md)
+  perf [ARGS] | perf compare RUN BASELINE | perf baseline N FILE [ARGS]
+  | perf --pack [DIR]
+             run time against error: builds the release CLI and runs
+             `twintrace perf run ARGS` (--suite quick|full, --backend
+             cpu|gpu|all, --baseline FILE, --save FILE, ...; see
+             `twintrace perf run --help`), collecting its METRIC lines in
+             target/perf/metrics.log; baseline: N runs merged into the
+             baseline FILE; --pack: the full suite for the GPU machine in
+             DIR (default target/perf-suite; docs/benchmarks.md)
   help       this text
 ";
 
@@ -54,12 +64,15 @@ fn main() -> ExitCode {
         std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir());
     }
     let result = match args.first().map(String::as_str) {
-        Some("test") => install::ensure_vulkan().and_then(|()| test::run(&args[1..])),
+        Some("test") => install::ensure_vulkan()
+            .and_then(|()| install::ensure_valgrind())
+            .and_then(|()| test::run(&args[1..])),
         Some("gpu-suite") => gpu_suite::run(&args[1..]),
         Some("codegen") => codegen::run_codegen(),
         Some("fixtures") => fixtures::run(),
         Some("bless") => bless::run(&args[1..]),
         Some("mitsuba") => mitsuba::run(&args[1..]),
+        Some("perf") => perf::run(&args[1..]),
         None | Some("help") | Some("--help") | Some("-h") => {
             print!("{HELP}");
             Ok(())
