@@ -157,33 +157,47 @@ fn the_json(dir: &Path) -> PathBuf {
         .expect("a JSON in the output folder")
 }
 
-#[test]
-fn a_run_writes_its_reports_and_a_comparison_flags_a_faster_baseline() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("perf");
-    let saved = dir.path().join("base.json");
-    let run = twintrace(&[
+/// `twintrace perf run --backend cpu --repeats 3 --out OUT EXTRA`, which
+/// must succeed.
+fn cpu_run(out: &Path, extra: &[&str]) -> Output {
+    let out = out.to_string_lossy();
+    let mut args = vec![
         "perf",
         "run",
         "--backend",
         "cpu",
-        "--only",
-        "gltf-mesh",
-        "--only",
-        "rays",
         "--repeats",
         "3",
         "--out",
-        &out.to_string_lossy(),
-        "--save",
-        &saved.to_string_lossy(),
-    ]);
-    let stdout = String::from_utf8_lossy(&run.stdout);
+        &out,
+    ];
+    args.extend_from_slice(extra);
+    let run = twintrace(&args);
     assert!(
         run.status.success(),
         "{}",
         String::from_utf8_lossy(&run.stderr)
     );
+    run
+}
+
+#[test]
+fn a_run_writes_its_reports_and_a_comparison_flags_a_faster_baseline() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("perf");
+    let saved = dir.path().join("base.json");
+    let run = cpu_run(
+        &out,
+        &[
+            "--only",
+            "gltf-mesh",
+            "--only",
+            "rays",
+            "--save",
+            &saved.to_string_lossy(),
+        ],
+    );
+    let stdout = String::from_utf8_lossy(&run.stdout);
     // One METRIC line per ladder point and per throughput row.
     let metrics = stdout.lines().filter(|l| l.starts_with("METRIC ")).count();
     assert_eq!(metrics, 7 + 1, "{stdout}");
@@ -266,6 +280,73 @@ fn a_run_writes_its_reports_and_a_comparison_flags_a_faster_baseline() {
             .starts_with("error: 2 of 2 rows regressed"),
         "{stderr}"
     );
+}
+
+#[test]
+fn a_baseline_of_several_runs_judges_by_the_spread_between_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("perf");
+    cpu_run(&out, &["--only", "rays"]);
+    let result: PerfRun =
+        serde_json::from_str(&std::fs::read_to_string(the_json(&out)).unwrap()).unwrap();
+    // Runs of one build whose times differ by ±2 % between runs, and one
+    // 25 % slower: the rule's bound from four runs ±2 % is about 10 %.
+    let scaled = |factor: f64, injected: bool| {
+        let mut r = result.clone();
+        let m = twintrace::perf::median(&r.throughput[0].wall_s) * factor;
+        r.throughput[0].wall_s = vec![m, m * 1.01, m * 1.02];
+        r.settings.injected_slowdown = injected;
+        r
+    };
+    let write = |name: &str, r: &PerfRun| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, serde_json::to_string(r).unwrap()).unwrap();
+        p.to_string_lossy().into_owned()
+    };
+    let runs: Vec<String> = [1.0, 1.02, 0.98, 1.01]
+        .iter()
+        .enumerate()
+        .map(|(i, &f)| write(&format!("run{i}.json"), &scaled(f, false)))
+        .collect();
+    let base = dir.path().join("base.json").to_string_lossy().into_owned();
+    let mut args = vec!["perf", "baseline", "-o", base.as_str()];
+    args.extend(runs.iter().map(String::as_str));
+    let merged = twintrace(&args);
+    assert!(
+        merged.status.success(),
+        "{}",
+        String::from_utf8_lossy(&merged.stderr)
+    );
+    let same = write("same.json", &scaled(0.99, false));
+    let ok = twintrace(&["perf", "compare", &same, &base]);
+    let stdout = String::from_utf8_lossy(&ok.stdout);
+    assert!(ok.status.success(), "{stdout}");
+    assert!(stdout.contains("4 baseline runs"), "{stdout}");
+    let slow = write("slow.json", &scaled(1.25, false));
+    let bad = twintrace(&["perf", "compare", &slow, &base]);
+    let stderr = String::from_utf8_lossy(&bad.stderr);
+    assert_eq!(bad.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("perf: REGRESSION rays-torus-1e4 cpu/reference rays/s (wall)"),
+        "{stderr}"
+    );
+    // The noise report: 4 plain runs against windows of 3, one injected.
+    let inj = write("inj.json", &scaled(1.25, true));
+    let mut args = vec!["perf", "noise", "--window", "3"];
+    args.extend(runs.iter().map(String::as_str));
+    args.extend(["--injected", inj.as_str()]);
+    let noise = twintrace(&args);
+    let stdout = String::from_utf8_lossy(&noise.stdout);
+    assert!(noise.status.success(), "{stdout}");
+    assert!(
+        stdout.contains("4 row comparisons of the same build, 0 false alarms")
+            && stdout.contains("1 of 1 rows of injected runs flagged"),
+        "{stdout}"
+    );
+    // A self-test run is never part of a baseline.
+    let refused = twintrace(&["perf", "baseline", "-o", &base, &runs[0], &inj]);
+    assert_eq!(refused.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("injected slowdown"));
 }
 
 #[test]

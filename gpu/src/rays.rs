@@ -17,7 +17,11 @@ use wgpu::util::DeviceExt;
 const WORKGROUP: u32 = 64;
 
 /// The kernel: six words per ray in (origin, direction), two out (the
-/// primitive or `u32::MAX` on a miss, and t).
+/// primitive or `u32::MAX` on a miss, and t). The hit-record twin check
+/// (`twintrace::twins::hits`) has a kernel of the same shape writing five
+/// words (hit, primitive, t, u, v); this one writes only what the
+/// throughput check needs, so that stores weigh as little as possible on
+/// rays/s.
 const SNIPPET: &str = "
 @compute @workgroup_size(64)
 fn closest_hit_main(@builtin(global_invocation_id) gid: vec3<u32>) {

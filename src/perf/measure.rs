@@ -11,7 +11,8 @@
 //!   pipeline already built; GPU time is the sum of the dispatches'
 //!   timestamp-query intervals;
 //! - each measurement is repeated `repeats` times; the JSON keeps every
-//!   repetition, tables and comparisons use medians;
+//!   repetition, tables use medians, comparisons each run's best
+//!   repetition ([`super::regress`]);
 //! - the measured renders use [`PERF_SEED`], so their error is the same on
 //!   every run of the same build: only time varies between repetitions.
 //!
