@@ -27,7 +27,7 @@
 //! | `maxDepth` | int | the path depth limit |
 //! | `seed` | string | the RNG seed, decimal (a `u32`, beyond `int`'s range) |
 //! | `scene` | string | the scene as named on the command line |
-//! | `software` | string | `twintrace <version> (<backend>)`, the standard attribute |
+//! | `software` | string | `twintrace <version> (<backend>, <integrator> integrator)`, the standard attribute |
 //!
 //! [`read_exr`] reads such a file back bit-exactly; it also accepts a
 //! multi-part file whose other parts are named `variance` and `skewness`,

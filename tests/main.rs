@@ -17,6 +17,7 @@ mod gates_catch_mutants;
 mod gltf_import;
 mod image_io;
 mod known_answers;
+mod light_sampling;
 mod perf_regression;
 mod reference_images;
 mod render_determinism;

@@ -21,6 +21,7 @@ pub mod f64_oracle;
 pub mod film;
 pub mod geometry;
 pub mod integrator;
+pub mod light;
 pub mod loader;
 pub mod material;
 pub mod mutants;

@@ -178,6 +178,57 @@ pub fn scatter(
     }
 }
 
+/// Whether [`bsdf_eval`] has a value for `material` (its scatter has a
+/// density): Lambertian and GGX.
+pub fn has_density(material: &Material) -> bool {
+    matches!(material, Material::Lambertian { .. } | Material::Ggx { .. })
+}
+
+/// `f(wo, wi) · |cos θ_i|` and the density with which [`scatter`] samples
+/// `wi` (unit, world space, leaving the surface), for a path arriving along
+/// `ray_dir`. `None` for materials whose scatter has no density to match:
+/// delta lobes (dielectric, metal) and Ray Tracing in One Weekend's fuzzy
+/// metal (a mirror direction plus a point in a ball, whose density has no
+/// closed form), and lights. Next-event estimation skips those vertices.
+pub fn bsdf_eval(
+    material: &Material,
+    ctx: TextureContext,
+    ray_dir: Vec3,
+    si: &SurfaceInteraction,
+    wi: Vec3,
+) -> Option<(Vec3, f32)> {
+    let n = if si.front_face {
+        si.shading_normal
+    } else {
+        -si.shading_normal
+    };
+    match *material {
+        Material::Lambertian { albedo } => {
+            let cos = wi.dot(n);
+            if cos <= 0.0 {
+                return Some((Vec3::ZERO, 0.0));
+            }
+            Some((ctx.eval(albedo, si) * (FRAC_1_PI * cos), cos * FRAC_1_PI))
+        }
+        Material::Ggx {
+            base_color,
+            metallic,
+            roughness,
+        } => {
+            let frame = Onb::from_normal(n);
+            let (wo, wi) = (frame.to_local(-ray_dir), frame.to_local(wi));
+            if wo.z <= 0.0 || wi.z <= 0.0 {
+                return Some((Vec3::ZERO, 0.0));
+            }
+            let lobes = GgxLobes::new(ctx.eval(base_color, si), metallic, roughness, wo);
+            Some((lobes.eval(wo, wi) * wi.z, lobes.pdf(wo, wi)))
+        }
+        Material::Metal { .. } | Material::Dielectric { .. } | Material::DiffuseLight { .. } => {
+            None
+        }
+    }
+}
+
 /// Schlick's approximation of the Fresnel reflectance at incidence cosine
 /// `cos_i` for relative index `eta` (as Ray Tracing in One Weekend uses it).
 #[inline]

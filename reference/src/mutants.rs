@@ -22,6 +22,15 @@ pub enum Mutant {
     /// in place of one float step (`geometry::offset_ray_origin`): a
     /// quarter unit at 9000, the far-from-origin defect it had.
     WideSpawnNudge,
+    /// MIS: emission found by a BSDF sample counted in full although light
+    /// sampling also counts it (the weights sum to 2; `integrator`).
+    MisDoubleCount,
+    /// The light's density in solid angle without `|cos θ_light|`
+    /// (`light::LightSet::pdf`).
+    LightPdfNoCosine,
+    /// The light's area density used as if it were per solid angle
+    /// (`light::LightSet::pdf`).
+    LightPdfPerArea,
 }
 
 #[cfg(feature = "mutants")]

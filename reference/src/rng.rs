@@ -82,6 +82,23 @@ pub fn vertex_randoms(
     [a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]].map(u32_to_unit_f32)
 }
 
+/// The four uniform floats of the light sample at vertex `bounce` (block 2
+/// of the vertex's stream, so that next-event estimation leaves the eight
+/// slots of [`vertex_randoms`] as they were): slots in [`light_dims`].
+#[inline]
+pub fn light_randoms(seed: u32, pixel: u32, sample: u32, bounce: u32) -> [f32; 4] {
+    random_block(seed, pixel, sample, bounce, 2).map(u32_to_unit_f32)
+}
+
+/// Slots of [`light_randoms`].
+pub mod light_dims {
+    /// Which emitter.
+    pub const SELECT: usize = 0;
+    /// The 2-D point on it.
+    pub const POINT_U: usize = 1;
+    pub const POINT_V: usize = 2;
+}
+
 /// Dimension slots within a vertex (shared with the GPU kernels).
 pub mod dims {
     /// Camera vertex: sub-pixel jitter x, y.

@@ -125,6 +125,27 @@ pub struct RenderArgs {
     /// Worker threads for the CPU backend (default: one per core).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// The estimator: bsdf (BSDF sampling only) or mis (light sampling and
+    /// BSDF sampling combined by MIS; experimental: CPU reference only, not
+    /// yet gated against bsdf on every fixture).
+    #[arg(long, value_enum, default_value_t = IntegratorArg::Bsdf)]
+    pub integrator: IntegratorArg,
+}
+
+/// `--integrator`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum IntegratorArg {
+    Bsdf,
+    Mis,
+}
+
+impl IntegratorArg {
+    pub fn integrator(self) -> reference::integrator::Integrator {
+        match self {
+            IntegratorArg::Bsdf => reference::integrator::Integrator::Bsdf,
+            IntegratorArg::Mis => reference::integrator::Integrator::Mis,
+        }
+    }
 }
 
 #[derive(Debug, Args)]
@@ -249,7 +270,20 @@ fn render(args: &RenderArgs) -> Result<()> {
         None => None,
     };
 
-    let (device, device_name, why) = choose_device(args.backend)?;
+    let integrator = args.integrator.integrator();
+    // Light sampling exists in the CPU reference only so far: `gpu` refuses
+    // it, `auto` takes the CPU for it.
+    let backend = match (args.integrator, args.backend) {
+        (IntegratorArg::Mis, Backend::Gpu) => {
+            bail!("--integrator mis: the GPU backend has no light sampling yet; use --backend cpu")
+        }
+        (IntegratorArg::Mis, Backend::Auto) => Backend::Cpu,
+        (_, b) => b,
+    };
+    let (device, device_name, mut why) = choose_device(backend)?;
+    if backend != args.backend {
+        why = " (--integrator mis runs on the CPU reference only)".into();
+    }
     if args.backend == Backend::Auto {
         // Printed only once everything is checked, so that a failing run
         // prints nothing but its error line.
@@ -268,9 +302,11 @@ fn render(args: &RenderArgs) -> Result<()> {
     let film = match &device {
         Device::Cpu => {
             let progress = |n: u64| bar.inc(n * settings.spp as u64);
+            let render =
+                || reference::integrator::render_with(&scene, &settings, integrator, &progress);
             match &pool {
-                Some(pool) => pool.install(|| reference::render(&scene, &settings, &progress)),
-                None => reference::render(&scene, &settings, &progress),
+                Some(pool) => pool.install(render),
+                None => render(),
             }
         }
         Device::Gpu(ctx) => {
@@ -289,8 +325,9 @@ fn render(args: &RenderArgs) -> Result<()> {
         seed: Some(settings.seed),
         scene: Some(args.scene.clone()),
         software: Some(format!(
-            "twintrace {} ({device_name})",
-            env!("CARGO_PKG_VERSION")
+            "twintrace {} ({device_name}, {} integrator)",
+            env!("CARGO_PKG_VERSION"),
+            integrator.name()
         )),
     };
     let image = RenderImage::from_film(&film, metadata);

@@ -63,8 +63,23 @@ pub struct NoisyImage {
     /// Samples the renderer rejected as NaN/Inf (where known).
     pub nonfinite_samples: u64,
     /// The renderer's name, where known: the first word of the EXR's
-    /// `software` attribute (`twintrace` for either backend, `Mitsuba`).
+    /// `software` attribute (`twintrace` for either backend, `Mitsuba`),
+    /// with `/mis` appended for twintrace's MIS estimator (a different
+    /// estimator of the same image, whose variance says nothing about the
+    /// BSDF-only one's: see [`renderer_of`]).
     pub renderer: Option<String>,
+}
+
+/// The renderer identity of an EXR's `software` attribute: its first
+/// word, and `/mis` when twintrace wrote it with `--integrator mis`
+/// (`twintrace <version> (<backend>, mis integrator)`).
+pub fn renderer_of(software: &str) -> Option<String> {
+    let first = software.split_whitespace().next()?;
+    if first == "twintrace" && software.contains(", mis integrator)") {
+        Some("twintrace/mis".into())
+    } else {
+        Some(first.to_string())
+    }
 }
 
 impl NoisyImage {
@@ -101,12 +116,7 @@ impl NoisyImage {
                 .map(|v| v.iter().map(|x| x.as_dvec3()).collect()),
             spp: image.metadata.spp,
             nonfinite_samples: 0,
-            renderer: image
-                .metadata
-                .software
-                .as_deref()
-                .and_then(|s| s.split_whitespace().next())
-                .map(str::to_string),
+            renderer: image.metadata.software.as_deref().and_then(renderer_of),
         }
     }
 
