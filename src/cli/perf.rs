@@ -16,6 +16,7 @@
 use super::print_stdout;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
+use reference::integrator::Integrator;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use twintrace::image_io::AtomicFile;
@@ -48,8 +49,14 @@ pub enum PerfBackend {
     All,
 }
 
-/// The renderer variants there are (one per backend today).
-const VARIANTS: [(&str, &str); 2] = [("reference", "cpu"), ("megakernel", "gpu")];
+/// The renderer variants there are, with their backends. Without
+/// `--variant`, the defaults run (`reference-mis`, experimental, only when
+/// asked for, so that runs stay comparable with the stored baselines).
+const VARIANTS: [(&str, &str); 3] = [
+    ("reference", "cpu"),
+    ("reference-mis", "cpu"),
+    ("megakernel", "gpu"),
+];
 
 #[derive(Debug, Args)]
 pub struct RunArgs {
@@ -57,7 +64,8 @@ pub struct RunArgs {
     pub suite: String,
     #[arg(long, value_enum, default_value_t = PerfBackend::All)]
     pub backend: PerfBackend,
-    /// Only these renderer variants (reference: the CPU's; megakernel: the GPU's).
+    /// Only these renderer variants (reference: the CPU's BSDF sampling;
+    /// reference-mis: the CPU's light sampling with MIS; megakernel: the GPU's).
     #[arg(long)]
     pub variant: Vec<String>,
     /// Only the cases and workloads whose name contains this.
@@ -324,9 +332,22 @@ fn run_suite(a: &RunArgs) -> Result<()> {
     } else {
         None
     };
+    let cpu_integrators = if a.variant.is_empty() {
+        vec![Integrator::Bsdf]
+    } else {
+        [
+            ("reference", Integrator::Bsdf),
+            ("reference-mis", Integrator::Mis),
+        ]
+        .into_iter()
+        .filter(|(n, _)| a.variant.iter().any(|v| v == n))
+        .map(|(_, i)| i)
+        .collect()
+    };
     let options = measure::Options {
         suite,
         cpu: pool.as_ref(),
+        cpu_integrators,
         gpu: ctx.as_ref(),
         repeats: a.repeats,
         inject_slowdown: a.inject_slowdown,

@@ -5,7 +5,8 @@
 //!   the same kind, so that the GPU pipeline is compiled, the driver's
 //!   shader cache is warm and the CPU's pages are touched before the
 //!   clock starts; scene loading and BVH building are never timed;
-//! - wall time of a CPU render is `reference::render` on the run's thread
+//! - wall time of a CPU render is `reference::integrator::render_with` (the
+//!   variant's estimator) on the run's thread
 //!   pool; of a GPU render, `GpuRenderer::render` (parameter upload, the
 //!   dispatches, waiting, the film's readback and conversion), with the
 //!   pipeline already built; GPU time is the sum of the dispatches'
@@ -28,7 +29,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use gpu::GpuContext;
 use rayon::prelude::*;
 use reference::geometry::Ray;
-use reference::integrator::{camera_ray, trace_path};
+use reference::integrator::{camera_ray, render_with, trace_path, Integrator};
 use reference::{Film, RenderSettings, Scene};
 use std::hint::black_box;
 use std::time::Instant;
@@ -50,6 +51,8 @@ pub struct Options<'a> {
     pub suite: Suite,
     /// The CPU reference's thread pool, when the CPU backend runs.
     pub cpu: Option<&'a rayon::ThreadPool>,
+    /// The CPU reference's estimators to measure (each a variant).
+    pub cpu_integrators: Vec<Integrator>,
     /// The GPU, when the GPU backend runs.
     pub gpu: Option<&'a GpuContext>,
     pub repeats: u32,
@@ -60,25 +63,28 @@ pub struct Options<'a> {
     pub only: Vec<String>,
 }
 
-/// A renderer of the run.
+/// A renderer of the run: the CPU reference with one of its estimators,
+/// or the GPU.
 #[derive(Clone, Copy)]
 enum Backend<'a> {
-    Cpu(&'a rayon::ThreadPool),
+    Cpu(&'a rayon::ThreadPool, Integrator),
     Gpu(&'a GpuContext),
 }
 
 impl Backend<'_> {
     fn name(self) -> &'static str {
         match self {
-            Backend::Cpu(_) => "cpu",
+            Backend::Cpu(..) => "cpu",
             Backend::Gpu(_) => "gpu",
         }
     }
 
-    /// The variant each backend has today.
+    /// The renderer variant: `reference` (BSDF sampling), `reference-mis`
+    /// (light sampling with MIS), `megakernel` (the GPU's).
     fn variant(self) -> &'static str {
         match self {
-            Backend::Cpu(_) => "reference",
+            Backend::Cpu(_, Integrator::Bsdf) => "reference",
+            Backend::Cpu(_, Integrator::Mis) => "reference-mis",
             Backend::Gpu(_) => "megakernel",
         }
     }
@@ -93,23 +99,23 @@ struct Timed {
 
 /// Renders with a backend, the GPU pipeline built once per scene.
 enum Prepared<'a> {
-    Cpu(&'a rayon::ThreadPool, &'a Scene),
+    Cpu(&'a rayon::ThreadPool, &'a Scene, Integrator),
     Gpu(gpu::GpuRenderer<'a>),
 }
 
 impl<'a> Prepared<'a> {
     fn new(backend: Backend<'a>, scene: &'a Scene) -> Result<Self> {
         Ok(match backend {
-            Backend::Cpu(pool) => Prepared::Cpu(pool, scene),
+            Backend::Cpu(pool, integrator) => Prepared::Cpu(pool, scene, integrator),
             Backend::Gpu(ctx) => Prepared::Gpu(gpu::GpuRenderer::new(ctx, scene)?),
         })
     }
 
     fn render(&self, settings: &RenderSettings, inject: bool) -> Result<Timed> {
         match self {
-            Prepared::Cpu(pool, scene) => {
+            Prepared::Cpu(pool, scene, integrator) => {
                 let start = Instant::now();
-                let film = pool.install(|| reference::render(scene, settings, &|_| {}));
+                let film = pool.install(|| render_with(scene, settings, *integrator, &|_| {}));
                 if inject {
                     pool.install(|| retrace_share(scene, settings));
                 }
@@ -166,7 +172,9 @@ pub fn run(options: &Options, metric: &mut dyn FnMut(&str)) -> Result<PerfRun> {
     }
     let mut backends = Vec::new();
     if let Some(pool) = options.cpu {
-        backends.push(Backend::Cpu(pool));
+        for &integrator in &options.cpu_integrators {
+            backends.push(Backend::Cpu(pool, integrator));
+        }
     }
     if let Some(ctx) = options.gpu {
         backends.push(Backend::Gpu(ctx));
@@ -205,6 +213,13 @@ pub fn run(options: &Options, metric: &mut dyn FnMut(&str)) -> Result<PerfRun> {
     let mut throughput = Vec::new();
     for load in &loads {
         for &backend in &backends {
+            // Ray queries do not depend on the estimator: one CPU row.
+            if matches!(
+                (load, backend),
+                (Workload::Rays { .. }, Backend::Cpu(_, Integrator::Mis))
+            ) {
+                continue;
+            }
             let row = measure_workload(load, backend, options, metric)
                 .with_context(|| format!("{} on {}", load.name(), backend.name()))?;
             throughput.push(row);
@@ -223,7 +238,12 @@ pub fn run(options: &Options, metric: &mut dyn FnMut(&str)) -> Result<PerfRun> {
         }),
         settings: RunSettings {
             suite: options.suite.name().into(),
-            backends: backends.iter().map(|b| b.name().to_string()).collect(),
+            backends: {
+                let mut names: Vec<String> =
+                    backends.iter().map(|b| b.name().to_string()).collect();
+                names.dedup();
+                names
+            },
             repeats: options.repeats,
             threads: options.cpu.map_or(0, |p| p.current_num_threads()),
             injected_slowdown: options.inject_slowdown,
@@ -376,7 +396,7 @@ fn measure_workload(
         } => {
             let scene_data = workload_scene(scene)?;
             let spp = match backend {
-                Backend::Cpu(_) => spp_cpu,
+                Backend::Cpu(..) => spp_cpu,
                 Backend::Gpu(_) => spp_gpu,
             };
             let settings = RenderSettings {
@@ -416,7 +436,7 @@ fn measure_workload(
             let (scene, batch) = ray_workload(segments, rays)?;
             let triangles = scene.triangles().len();
             match backend {
-                Backend::Cpu(pool) => {
+                Backend::Cpu(pool, _) => {
                     let trace = |rays: &[Ray]| {
                         pool.install(|| {
                             rays.par_iter()
