@@ -28,8 +28,8 @@
 use glam::{DVec3, Vec2, Vec3};
 use reference::bvh::{Bvh, BvhNode};
 use reference::film::{Film, PixelStats};
-use reference::geometry::{reflect, refract, spawn_origin, Onb, Ray, SurfaceInteraction};
-use reference::integrator::{ROULETTE_MAX_SURVIVAL, TILE_SIZE};
+use reference::geometry::{reflect, refract, Onb, Ray, SurfaceInteraction};
+use reference::integrator::{spawn_toward, ROULETTE_MAX_SURVIVAL, TILE_SIZE};
 use reference::material::{
     emitted, scatter, schlick_reflectance, Material, Scatter, TextureContext,
 };
@@ -172,12 +172,7 @@ fn trace_path(
                 throughput /= q;
             }
         }
-        let side = if s.direction.dot(si.geometric_normal) >= 0.0 {
-            si.geometric_normal
-        } else {
-            -si.geometric_normal
-        };
-        ray = Ray::new(spawn_origin(si.p, side, si.p_error), s.direction);
+        ray = Ray::new(spawn_toward(&si, s.direction), s.direction);
     }
     radiance
 }

@@ -19,7 +19,7 @@
 
 use crate::background::evaluate_background;
 use crate::film::{Film, PixelStats};
-use crate::geometry::{spawn_origin, Ray};
+use crate::geometry::{spawn_origin, Ray, SurfaceInteraction};
 use crate::light::LightSet;
 use crate::material::{bsdf_eval, emitted, has_density, scatter, Material, TextureContext};
 use crate::mutants::{self, Mutant};
@@ -58,33 +58,66 @@ pub fn trace_path(
         };
         let si = scene.surface_interaction(&ray, &hit);
         let material = &scene.materials()[si.material as usize];
-        if let Material::Dielectric { absorption, .. } = material {
-            // Beer-Lambert over the segment just travelled inside.
-            if !si.front_face && absorption.max_element() > 0.0 {
-                throughput *= (-*absorption * hit.t).exp();
-            }
-        }
+        throughput *= transmittance(material, &si, hit.t);
         radiance += throughput * emitted(material, ctx, &si);
         let u = vertex_randoms(settings.seed, pixel, sample, segment + 1);
         let Some(s) = scatter(material, ctx, ray.direction, &si, &u) else {
             break;
         };
         throughput *= s.weight;
-        if segment + 1 >= settings.roulette_depth {
-            let q = throughput.max_element().min(ROULETTE_MAX_SURVIVAL);
-            if u[dims::ROULETTE] >= q {
-                break;
-            }
-            throughput /= q;
+        if !survives_roulette(&mut throughput, u[dims::ROULETTE], segment, settings) {
+            break;
         }
-        let side = if s.direction.dot(si.geometric_normal) >= 0.0 {
-            si.geometric_normal
-        } else {
-            -si.geometric_normal
-        };
-        ray = Ray::new(spawn_origin(si.p, side, si.p_error), s.direction);
+        ray = Ray::new(spawn_toward(&si, s.direction), s.direction);
     }
     radiance
+}
+
+/// Beer-Lambert transmittance over a segment of length `t` that ended on
+/// the inside of an absorbing dielectric (1 elsewhere).
+#[inline]
+fn transmittance(material: &Material, si: &SurfaceInteraction, t: f32) -> Vec3 {
+    match material {
+        Material::Dielectric { absorption, .. }
+            if !si.front_face && absorption.max_element() > 0.0 =>
+        {
+            (-*absorption * t).exp()
+        }
+        _ => Vec3::ONE,
+    }
+}
+
+/// The origin of a ray leaving `si` toward `direction`: offset to the side
+/// of the geometric normal the direction points to.
+#[inline]
+pub fn spawn_toward(si: &SurfaceInteraction, direction: Vec3) -> Vec3 {
+    let side = if direction.dot(si.geometric_normal) >= 0.0 {
+        si.geometric_normal
+    } else {
+        -si.geometric_normal
+    };
+    spawn_origin(si.p, side, si.p_error)
+}
+
+/// Russian roulette after vertex `segment`: from `roulette_depth` on, the
+/// path survives with probability `q` (the throughput's largest component,
+/// capped) and its throughput is divided by `q`. Returns whether it does.
+#[inline]
+fn survives_roulette(
+    throughput: &mut Vec3,
+    u: f32,
+    segment: u32,
+    settings: &RenderSettings,
+) -> bool {
+    if segment + 1 < settings.roulette_depth {
+        return true;
+    }
+    let q = throughput.max_element().min(ROULETTE_MAX_SURVIVAL);
+    if u >= q {
+        return false;
+    }
+    *throughput /= q;
+    true
 }
 
 /// Which estimator a render uses.
@@ -154,11 +187,7 @@ pub fn trace_path_mis(
         };
         let si = scene.surface_interaction(&ray, &hit);
         let material = &scene.materials()[si.material as usize];
-        if let Material::Dielectric { absorption, .. } = material {
-            if !si.front_face && absorption.max_element() > 0.0 {
-                throughput *= (-*absorption * hit.t).exp();
-            }
-        }
+        throughput *= transmittance(material, &si, hit.t);
         let le = emitted(material, ctx, &si);
         if le != Vec3::ZERO {
             let weight = match came_from {
@@ -188,19 +217,10 @@ pub fn trace_path_mis(
             None
         };
         throughput *= s.weight;
-        if segment + 1 >= settings.roulette_depth {
-            let q = throughput.max_element().min(ROULETTE_MAX_SURVIVAL);
-            if u[dims::ROULETTE] >= q {
-                break;
-            }
-            throughput /= q;
+        if !survives_roulette(&mut throughput, u[dims::ROULETTE], segment, settings) {
+            break;
         }
-        let side = if s.direction.dot(si.geometric_normal) >= 0.0 {
-            si.geometric_normal
-        } else {
-            -si.geometric_normal
-        };
-        ray = Ray::new(spawn_origin(si.p, side, si.p_error), s.direction);
+        ray = Ray::new(spawn_toward(&si, s.direction), s.direction);
     }
     radiance
 }
@@ -216,7 +236,7 @@ fn next_event(
     ctx: TextureContext,
     material: &Material,
     ray: &Ray,
-    si: &crate::geometry::SurfaceInteraction,
+    si: &SurfaceInteraction,
     ul: &[f32; 4],
 ) -> Vec3 {
     let Some(ls) = lights.sample(
@@ -234,15 +254,10 @@ fn next_event(
     if f_cos == Vec3::ZERO {
         return Vec3::ZERO;
     }
-    let side = if wi.dot(si.geometric_normal) >= 0.0 {
-        si.geometric_normal
-    } else {
-        -si.geometric_normal
-    };
     // Aimed from the spawn point at the sampled point itself: along `wi`
     // the origin's offset (10^-2 on the far-from-origin fixture's ground)
     // would carry rays near an emitter's edge past it, losing light.
-    let origin = spawn_origin(si.p, side, si.p_error);
+    let origin = spawn_toward(si, wi);
     let aim = ls.offset - (origin.as_dvec3() - si.p.as_dvec3());
     let Some(dir) = aim.try_normalize().map(|d| d.as_vec3()) else {
         return Vec3::ZERO;

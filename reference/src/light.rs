@@ -18,11 +18,10 @@
 //!   sample and for a BSDF sample that hits an emitter, so the two MIS
 //!   weights of one path sum to one.
 
-use crate::geometry::Onb;
-use crate::material::{Material, LUMINANCE_WEIGHTS};
+use crate::geometry::{Hit, Onb, Ray};
+use crate::material::{Material, TextureContext, LUMINANCE_WEIGHTS};
 use crate::mutants::{self, Mutant};
 use crate::scene::{primitive_tag, Scene};
-use crate::texture::evaluate_texture;
 use glam::{DVec3, Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -90,14 +89,25 @@ impl LightSet {
             if !(area > 0.0 && area.is_finite()) {
                 continue;
             }
-            // Mean luminance over a 4x4 grid of surface parameters.
+            // Mean luminance over a 4x4 grid of surface parameters, each
+            // point shaded by the scene's own surface interaction (a hit at
+            // t = 0 of a ray starting on it: the same texture coordinates
+            // a ray reaching it gets).
+            let ctx = TextureContext {
+                textures: scene.textures(),
+                images: scene.images(),
+            };
             let mut sum = 0.0;
             for i in 0..16 {
                 let uv = Vec2::new((i % 4) as f32 + 0.5, (i / 4) as f32 + 0.5) / 4.0;
-                let (point, _) = point_on(scene, id as u32, uv);
-                let tex_uv = texture_uv(scene, id as u32, point, uv);
-                let e = evaluate_texture(scene.textures(), scene.images(), emission, point, tex_uv);
-                sum += luminance(e).max(0.0);
+                let point = offset_on(scene, id as u32, uv, Vec3::ZERO).as_vec3();
+                let hit = Hit {
+                    t: 0.0,
+                    prim: id as u32,
+                    uv,
+                };
+                let si = scene.surface_interaction(&Ray::new(point, Vec3::Y), &hit);
+                sum += luminance(ctx.eval(emission, &si)).max(0.0);
             }
             raw.push((id as u32, area, area * sum / 16.0));
         }
@@ -245,34 +255,9 @@ fn uniform_area_parameters(scene: &Scene, prim: u32, u: Vec2) -> Vec2 {
     }
 }
 
-/// The point of `prim` at surface parameters `uv` (as
-/// [`uniform_area_parameters`] defines them) and its geometric normal.
-fn point_on(scene: &Scene, prim: u32, uv: Vec2) -> (Vec3, Vec3) {
-    let p = scene.primitives()[prim as usize];
-    match p.tag {
-        primitive_tag::SPHERE => {
-            let s = &scene.spheres()[p.index as usize];
-            let z = 1.0 - 2.0 * uv.x;
-            let r = (1.0 - z * z).max(0.0).sqrt();
-            let phi = 2.0 * PI * uv.y;
-            let dir = Vec3::new(r * phi.cos(), r * phi.sin(), z);
-            let n = if s.radius < 0.0 { -dir } else { dir };
-            (s.center + s.radius.abs() * dir, n)
-        }
-        primitive_tag::QUAD => {
-            let q = &scene.quads()[p.index as usize];
-            (q.corner + uv.x * q.u + uv.y * q.v, q.normal())
-        }
-        _ => {
-            let [a, b, c] = triangle_vertices(scene, p.index);
-            let point = (1.0 - uv.x - uv.y) * a + uv.x * b + uv.y * c;
-            (point, (b - a).cross(c - a).normalize_or(Vec3::Y))
-        }
-    }
-}
-
-/// `x − p` in f64 for the point `x` of `prim` at surface parameters `uv`
-/// (as [`point_on`]), from the shape's own parameters.
+/// `x − p` in f64 for the point `x` of `prim` at surface parameters `uv`:
+/// a quad's `(s, t)`, a triangle's barycentrics `(b1, b2)` (the hit
+/// record's `uv` of both), a sphere's `(cos θ, φ)` folded into `[0, 1]²`.
 fn offset_on(scene: &Scene, prim: u32, uv: Vec2, p: Vec3) -> DVec3 {
     let pr = scene.primitives()[prim as usize];
     let p = p.as_dvec3();
@@ -293,35 +278,6 @@ fn offset_on(scene: &Scene, prim: u32, uv: Vec2, p: Vec3) -> DVec3 {
         _ => {
             let [a, b, c] = triangle_vertices(scene, pr.index).map(|v| v.as_dvec3());
             (a - p) + s * (b - a) + t * (c - a)
-        }
-    }
-}
-
-/// Texture coordinates at a point made by [`point_on`], as the hit
-/// record's surface interaction would give them (for the power estimate).
-fn texture_uv(scene: &Scene, prim: u32, point: Vec3, params: Vec2) -> Vec2 {
-    let p = scene.primitives()[prim as usize];
-    match p.tag {
-        primitive_tag::SPHERE => {
-            let s = &scene.spheres()[p.index as usize];
-            let o = ((point - s.center) / s.radius.abs()).normalize_or(Vec3::Y);
-            Vec2::new(
-                ((-o.z).atan2(o.x) + PI) / (2.0 * PI),
-                (-o.y).clamp(-1.0, 1.0).acos() / PI,
-            )
-        }
-        primitive_tag::QUAD => params,
-        _ => {
-            let t = &scene.triangles()[p.index as usize];
-            if t.flags & crate::shapes::TRIANGLE_HAS_UVS != 0 {
-                let m = scene.mesh();
-                let [i0, i1, i2] = t.vertices.map(|i| i as usize);
-                (1.0 - params.x - params.y) * m.uvs[i0]
-                    + params.x * m.uvs[i1]
-                    + params.y * m.uvs[i2]
-            } else {
-                params
-            }
         }
     }
 }

@@ -92,6 +92,17 @@ pub fn emitted(material: &Material, ctx: TextureContext, si: &SurfaceInteraction
     }
 }
 
+/// The shading and geometric normals flipped to the side the ray arrived
+/// on: materials shade both sides.
+#[inline]
+fn facing_normals(si: &SurfaceInteraction) -> (Vec3, Vec3) {
+    if si.front_face {
+        (si.shading_normal, si.geometric_normal)
+    } else {
+        (-si.shading_normal, -si.geometric_normal)
+    }
+}
+
 /// Samples the continuation of a path arriving along `ray_dir` (unit) at
 /// `si`, reading the vertex's random slots `u`. `None`: absorbed.
 pub fn scatter(
@@ -101,12 +112,7 @@ pub fn scatter(
     si: &SurfaceInteraction,
     u: &[f32; 8],
 ) -> Option<Scatter> {
-    // Shade both sides: work with the normals flipped to face the viewer.
-    let (n, ng) = if si.front_face {
-        (si.shading_normal, si.geometric_normal)
-    } else {
-        (-si.shading_normal, -si.geometric_normal)
-    };
+    let (n, ng) = facing_normals(si);
     match *material {
         Material::Lambertian { albedo } => {
             let local =
@@ -197,11 +203,7 @@ pub fn bsdf_eval(
     si: &SurfaceInteraction,
     wi: Vec3,
 ) -> Option<(Vec3, f32)> {
-    let n = if si.front_face {
-        si.shading_normal
-    } else {
-        -si.shading_normal
-    };
+    let (n, _) = facing_normals(si);
     match *material {
         Material::Lambertian { albedo } => {
             let cos = wi.dot(n);
