@@ -139,10 +139,6 @@ impl Integrator {
             Integrator::Mis => "mis",
         }
     }
-
-    pub fn parse(s: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|i| i.name() == s)
-    }
 }
 
 /// The power heuristic with exponent 2: the weight of a sample drawn with
