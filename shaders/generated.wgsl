@@ -34,6 +34,14 @@ const DIM_BALL_X: u32 = 3u;
 const DIM_BALL_Y: u32 = 4u;
 const DIM_BALL_Z: u32 = 5u;
 const DIM_ROULETTE: u32 = 6u;
+const LIGHT_DIM_SELECT: u32 = 0u;
+const LIGHT_DIM_POINT_U: u32 = 1u;
+const LIGHT_DIM_POINT_V: u32 = 2u;
+const INTEGRATOR_BSDF: u32 = 0u;
+const INTEGRATOR_MIS: u32 = 1u;
+const SMALL_CONE_SIN2: f32 = 6.8523e-4;
+const ONE_MINUS_EPSILON: f32 = 9.9999994e-1;
+const ENV_PRIM: u32 = 4294967295u;
 const WORKGROUP_X: u32 = 8u;
 const WORKGROUP_Y: u32 = 8u;
 const PI: f32 = 3.1415927e0;
@@ -123,6 +131,14 @@ struct GpuImage {
     height: u32,
     _pad0: u32,
 }
+struct GpuEmitter {
+    prim: u32,
+    cdf: f32,
+}
+struct GpuLightDensity {
+    pmf: f32,
+    area: f32,
+}
 struct GpuPixel {
     count: u32,
     nonfinite: u32,
@@ -176,8 +192,12 @@ struct GpuParams {
     cam_v_x: f32,
     cam_v_y: f32,
     cam_v_z: f32,
+    emitter_count: u32,
+    env_pmf: f32,
+    env_table: u32,
     _pad0: u32,
     _pad1: u32,
+    _pad2: u32,
 }
 struct BvhNode {
     min_x: f32,
@@ -202,4 +222,6 @@ struct BvhNode {
 @group(0) @binding(9) var<storage, read> textures: array<GpuTexture>;
 @group(0) @binding(10) var<storage, read> images: array<GpuImage>;
 @group(0) @binding(11) var<storage, read> texels: array<f32>;
-@group(0) @binding(12) var<storage, read_write> film: array<GpuPixel>;
+@group(0) @binding(12) var<storage, read> emitters: array<GpuEmitter>;
+@group(0) @binding(13) var<storage, read> light_densities: array<GpuLightDensity>;
+@group(0) @binding(14) var<storage, read_write> film: array<GpuPixel>;

@@ -134,6 +134,12 @@ fn normalize_or(v: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
     return fallback;
 }
 
+fn is_finite3(v: vec3<f32>) -> bool {
+    // NaN fails every comparison; ±Inf fails the bound.
+    let a = abs(v);
+    return a.x <= F32_MAX && a.y <= F32_MAX && a.z <= F32_MAX;
+}
+
 fn max3(v: vec3<f32>) -> f32 {
     return max(max(v.x, v.y), v.z);
 }

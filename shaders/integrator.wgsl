@@ -19,6 +19,40 @@ fn camera_ray(x: u32, y: u32, sample: u32) -> Ray {
     return Ray(origin, normalize(target_point - origin));
 }
 
+// Beer-Lambert transmittance over a segment of length t that ended on the
+// inside of an absorbing dielectric (1 elsewhere).
+fn transmittance(m: GpuMaterial, si: SurfaceInteraction, t: f32) -> vec3<f32> {
+    if m.tag == MATERIAL_DIELECTRIC && !si.front_face {
+        let absorption = vec3<f32>(m.absorption_r, m.absorption_g, m.absorption_b);
+        if max3(absorption) > 0.0 {
+            return exp(-absorption * t);
+        }
+    }
+    return vec3<f32>(1.0);
+}
+
+// The origin of a ray leaving si toward direction.
+fn spawn_toward(si: SurfaceInteraction, direction: vec3<f32>) -> vec3<f32> {
+    var side = si.geometric_normal;
+    if dot(direction, si.geometric_normal) < 0.0 {
+        side = -side;
+    }
+    return spawn_origin(si.p, side, si.p_error);
+}
+
+// Russian roulette after vertex `segment` (see the reference).
+fn survives_roulette(throughput: ptr<function, vec3<f32>>, u: f32, segment: u32) -> bool {
+    if segment + 1u < params.roulette_depth {
+        return true;
+    }
+    let q = min(max3(*throughput), ROULETTE_MAX_SURVIVAL);
+    if u >= q {
+        return false;
+    }
+    *throughput /= q;
+    return true;
+}
+
 fn trace_path(ray_in: Ray, pixel: u32, sample: u32) -> vec3<f32> {
     poisoned = false;
     var ray = ray_in;
@@ -32,12 +66,7 @@ fn trace_path(ray_in: Ray, pixel: u32, sample: u32) -> vec3<f32> {
         }
         let si = surface_interaction(ray, hit);
         let m = materials[si.material];
-        if m.tag == MATERIAL_DIELECTRIC && !si.front_face {
-            let absorption = vec3<f32>(m.absorption_r, m.absorption_g, m.absorption_b);
-            if max3(absorption) > 0.0 {
-                throughput *= exp(-absorption * hit.t);
-            }
-        }
+        throughput *= transmittance(m, si, hit.t);
         radiance += throughput * emitted(m, si);
         let u = vertex_randoms(params.seed, pixel, sample, segment + 1u);
         let s = scatter(m, ray.direction, si, u);
@@ -45,26 +74,143 @@ fn trace_path(ray_in: Ray, pixel: u32, sample: u32) -> vec3<f32> {
             break;
         }
         throughput *= s.weight;
-        if segment + 1u >= params.roulette_depth {
-            let q = min(max3(throughput), ROULETTE_MAX_SURVIVAL);
-            if vr_get(u, DIM_ROULETTE) >= q {
-                break;
-            }
-            throughput /= q;
+        if !survives_roulette(&throughput, vr_get(u, DIM_ROULETTE), segment) {
+            break;
         }
-        var side = si.geometric_normal;
-        if dot(s.direction, si.geometric_normal) < 0.0 {
-            side = -side;
-        }
-        ray = Ray(spawn_origin(si.p, side, si.p_error), s.direction);
+        ray = Ray(spawn_toward(si, s.direction), s.direction);
     }
     return radiance;
 }
 
-fn is_finite3(v: vec3<f32>) -> bool {
-    // NaN fails every comparison; ±Inf fails the bound.
-    let a = abs(v);
-    return a.x <= F32_MAX && a.y <= F32_MAX && a.z <= F32_MAX;
+// The power heuristic with exponent 2: the weight of a sample drawn with
+// density a when the other strategy would have drawn it with b.
+fn power_heuristic(a: f32, b: f32) -> f32 {
+    let a2 = a * a;
+    let b2 = b * b;
+    let sum = a2 + b2;
+    if sum > 0.0 && sum <= F32_MAX {
+        return a2 / sum;
+    }
+    if abs(a) > F32_MAX {
+        return 1.0;
+    }
+    return 0.0;
+}
+
+// One light sample at si: f·|cos|·Le·w / p_light, zero when the sample is
+// blocked, faces away or has no density (see the reference's next_event).
+fn next_event(m: GpuMaterial, ray: Ray, si: SurfaceInteraction, ul: vec4<f32>) -> vec3<f32> {
+    let none = vec3<f32>(0.0);
+    let ls = light_set_sample(si.p, ul[LIGHT_DIM_SELECT], vec2<f32>(ul[LIGHT_DIM_POINT_U], ul[LIGHT_DIM_POINT_V]));
+    if !ls.ok {
+        return none;
+    }
+    let b = bsdf_eval(m, ray.direction, si, ls.direction);
+    if !b.ok || all(b.f_cos == none) {
+        return none;
+    }
+    // Aimed from the spawn point at the sampled point itself.
+    let origin = spawn_toward(si, ls.direction);
+    if ls.prim == ENV_PRIM {
+        // The environment: lit if the ray leaves the scene.
+        if bvh_intersect(Ray(origin, ls.direction), 0.0, f32_infinity()).hit {
+            return none;
+        }
+        let pdf_env = light_set_env_pdf(ls.direction);
+        if !(pdf_env > 0.0 && pdf_env <= F32_MAX) {
+            return none;
+        }
+        return b.f_cos * evaluate_background(ls.direction) * (power_heuristic(pdf_env, b.pdf) / pdf_env);
+    }
+    let aim = ls.offset - (origin - si.p);
+    let dir = aim / length(aim);
+    if !is_finite3(dir) {
+        return none;
+    }
+    let shadow = Ray(origin, dir);
+    let hit = bvh_intersect(shadow, 0.0, f32_infinity());
+    if !hit.hit || hit.prim != ls.prim {
+        return none;
+    }
+    let sl = surface_interaction(shadow, hit);
+    let le = emitted(materials[sl.material], sl);
+    let pdf_light = light_set_pdf(ls.prim, si.p, sl.p, sl.geometric_normal);
+    if all(le == none) || !(pdf_light > 0.0 && pdf_light <= F32_MAX) {
+        return none;
+    }
+    return b.f_cos * le * (power_heuristic(pdf_light, b.pdf) / pdf_light);
+}
+
+// Traces one path with next-event estimation and MIS: the twin of the
+// reference's trace_path_mis.
+fn trace_path_mis(ray_in: Ray, pixel: u32, sample: u32) -> vec3<f32> {
+    poisoned = false;
+    var ray = ray_in;
+    var radiance = vec3<f32>(0.0);
+    var throughput = vec3<f32>(1.0);
+    // Where the ray left and the BSDF density that chose it; 0: the ray's
+    // emission counts in full (camera ray, delta or density-less vertex).
+    var from_p = vec3<f32>(0.0);
+    var from_pdf = 0.0;
+    for (var segment = 0u; segment < params.max_depth; segment++) {
+        let hit = bvh_intersect(ray, 0.0, f32_infinity());
+        if !hit.hit {
+            // An environment map is a light too.
+            var weight = 1.0;
+            if from_pdf > 0.0 {
+                weight = power_heuristic(from_pdf, light_set_env_pdf(ray.direction));
+            }
+            radiance += throughput * weight * evaluate_background(ray.direction);
+            break;
+        }
+        let si = surface_interaction(ray, hit);
+        let m = materials[si.material];
+        throughput *= transmittance(m, si, hit.t);
+        let le = emitted(m, si);
+        if any(le != vec3<f32>(0.0)) {
+            var weight = 1.0;
+            if from_pdf > 0.0 {
+                weight = power_heuristic(from_pdf, light_set_pdf(hit.prim, from_p, si.p, si.geometric_normal));
+            }
+            radiance += throughput * le * weight;
+        }
+        let u = vertex_randoms(params.seed, pixel, sample, segment + 1u);
+        let density = has_density(m);
+        // The shadow ray is the path's next segment: none after the last.
+        if density && params.emitter_count > 0u && segment + 1u < params.max_depth {
+            let ul = light_randoms(params.seed, pixel, sample, segment + 1u);
+            radiance += throughput * next_event(m, ray, si, ul);
+        }
+        let s = scatter(m, ray.direction, si, u);
+        if !s.ok {
+            break;
+        }
+        from_pdf = 0.0;
+        if density {
+            let b = bsdf_eval(m, ray.direction, si, s.direction);
+            if b.ok && b.pdf > 0.0 {
+                from_p = si.p;
+                from_pdf = b.pdf;
+            }
+        }
+        throughput *= s.weight;
+        if !survives_roulette(&throughput, vr_get(u, DIM_ROULETTE), segment) {
+            break;
+        }
+        ray = Ray(spawn_toward(si, s.direction), s.direction);
+    }
+    return radiance;
+}
+
+// Which estimator the kernel runs (gpu::shader::INTEGRATOR_CONSTANT, set
+// when the pipeline is made, so the kernel holds one estimator's code).
+override INTEGRATOR: u32 = INTEGRATOR_BSDF;
+
+fn trace(ray: Ray, pixel: u32, sample: u32) -> vec3<f32> {
+    if INTEGRATOR == INTEGRATOR_MIS {
+        return trace_path_mis(ray, pixel, sample);
+    }
+    return trace_path(ray, pixel, sample);
 }
 
 @compute @workgroup_size(WORKGROUP_X, WORKGROUP_Y, 1)
@@ -79,7 +225,7 @@ fn render_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var m3 = vec3<f32>(acc.m3_r, acc.m3_g, acc.m3_b);
     for (var i = 0u; i < params.sample_count; i++) {
         let sample = params.sample_start + i;
-        let l = trace_path(camera_ray(gid.x, gid.y, sample), pixel, sample);
+        let l = trace(camera_ray(gid.x, gid.y, sample), pixel, sample);
         if poisoned || !is_finite3(l) {
             acc.nonfinite += 1u;
             continue;

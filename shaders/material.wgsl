@@ -65,6 +65,54 @@ fn emitted(m: GpuMaterial, si: SurfaceInteraction) -> vec3<f32> {
     return vec3<f32>(0.0);
 }
 
+// Whether the material's scatter has a density that bsdf_eval gives.
+fn has_density(m: GpuMaterial) -> bool {
+    return m.tag == MATERIAL_LAMBERTIAN || m.tag == MATERIAL_GGX;
+}
+
+// f(wo, wi)·|cos θ_i| and the density with which scatter samples wi, for a
+// path arriving along ray_dir; ok is false for materials without a
+// density (delta lobes, fuzzy metal, lights).
+struct BsdfEval {
+    ok: bool,
+    f_cos: vec3<f32>,
+    pdf: f32,
+}
+
+fn bsdf_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, wi: vec3<f32>) -> BsdfEval {
+    var n = si.shading_normal;
+    if !si.front_face {
+        n = -n;
+    }
+    let zero = BsdfEval(true, vec3<f32>(0.0), 0.0);
+    switch m.tag {
+        case MATERIAL_LAMBERTIAN: {
+            let cos_i = dot(wi, n);
+            if cos_i <= 0.0 {
+                return zero;
+            }
+            return BsdfEval(true, evaluate_texture(m.texture, si.p, si.uv) * (FRAC_1_PI * cos_i), cos_i * FRAC_1_PI);
+        }
+        case MATERIAL_GGX: {
+            let frame = onb_from_normal(n);
+            let wo = onb_to_local(frame, -ray_dir);
+            let wl = onb_to_local(frame, wi);
+            if wo.z <= 0.0 || wl.z <= 0.0 {
+                return zero;
+            }
+            let lobes = ggx_lobes_new(evaluate_texture(m.texture, si.p, si.uv), m.p0, m.p1, wo);
+            return BsdfEval(true, ggx_lobes_eval(lobes, wo, wl) * wl.z, ggx_lobes_pdf(lobes, wo, wl));
+        }
+        case MATERIAL_METAL, MATERIAL_DIELECTRIC, MATERIAL_DIFFUSE_LIGHT: {
+            return BsdfEval(false, vec3<f32>(0.0), 0.0);
+        }
+        default: {
+            poison();
+            return BsdfEval(false, vec3<f32>(0.0), 0.0);
+        }
+    }
+}
+
 struct Scatter {
     ok: bool,
     direction: vec3<f32>,

@@ -46,3 +46,9 @@ fn vr_get(r: VertexRandoms, i: u32) -> f32 {
     }
     return r.b[i - 4u];
 }
+
+// The four uniform floats of the light sample at vertex `bounce` (block 2
+// of the vertex's stream; slots in LIGHT_DIM_*).
+fn light_randoms(seed: u32, pixel: u32, sample: u32, bounce: u32) -> vec4<f32> {
+    return to_unit4(random_block(seed, pixel, sample, bounce, 2u));
+}

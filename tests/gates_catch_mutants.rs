@@ -29,7 +29,7 @@ use glam::{DVec3, Vec2, Vec3};
 use reference::bvh::{Bvh, BvhNode};
 use reference::film::{Film, PixelStats};
 use reference::geometry::{reflect, refract, Onb, Ray, SurfaceInteraction};
-use reference::integrator::{spawn_toward, ROULETTE_MAX_SURVIVAL, TILE_SIZE};
+use reference::integrator::{spawn_toward, Integrator, ROULETTE_MAX_SURVIVAL, TILE_SIZE};
 use reference::material::{
     emitted, scatter, schlick_reflectance, Material, Scatter, TextureContext,
 };
@@ -749,7 +749,7 @@ fn bernoulli_furnace_with_film_line(line: &str, mutant: &str) -> furnace::Furnac
     let ctx = crate::common::gpu();
     let render = |scene: &Scene, settings: &RenderSettings| -> anyhow::Result<Film> {
         let packed = gpu::scene_buffers::PackedScene::new(scene);
-        let r = gpu::GpuRenderer::with_program(ctx, &packed, scene, &program)?;
+        let r = gpu::GpuRenderer::with_program(ctx, &packed, scene, &program, Integrator::Bsdf)?;
         Ok(r.render(settings, &|_, _| {})?.film)
     };
     let out = furnace::check(&case, &render).unwrap();

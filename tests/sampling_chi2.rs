@@ -5,8 +5,8 @@
 //! no density (mirror, dielectric, fuzzy metal), here CPU against CPU with
 //! another seed; the GPU gets the same cases later.
 //!
-//! The environment map is not importance-sampled by either renderer (paths
-//! find it by BSDF sampling alone), so it has no sampling routine to test.
+//! The light samplers (area lights, spheres' cones, the environment map)
+//! are tested in tests/light_sampling.rs.
 
 use crate::common::gates::assert_family_passes;
 use glam::{DVec3, Vec2, Vec3};

@@ -76,6 +76,10 @@ const GPU_ONLY: &[(&str, &str)] = &[
         "the kernel entry point: one pixel of integrator::render",
     ),
     ("absorbed", "the reference's `None` scatter"),
+    (
+        "trace",
+        "the match on `Integrator` in integrator::render_with",
+    ),
     ("to_unit4", "u32_to_unit_f32 on four words"),
     ("vr_get", "indexes VertexRandoms (a Rust array)"),
     (
@@ -556,7 +560,7 @@ mod mutations {
             p.len() == 1 && p[0].contains("MATERIAL_DIFFUSE_LIGHT"),
             "{p:?}"
         );
-        let absorbing = material.replace("poison();", "");
+        let absorbing = material.replacen("poison();", "", 1);
         let p = switch_problems(&[(name, &absorbing)]);
         assert!(p.len() == 1 && p[0].contains("poison"), "{p:?}");
     }

@@ -49,18 +49,31 @@ pub const MATERIALS: Binding = scene(8, "materials", "array<GpuMaterial>");
 pub const TEXTURES: Binding = scene(9, "textures", "array<GpuTexture>");
 pub const IMAGES: Binding = scene(10, "images", "array<GpuImage>");
 pub const TEXELS: Binding = scene(11, "texels", "array<f32>");
+pub const EMITTERS: Binding = scene(12, "emitters", "array<GpuEmitter>");
+pub const LIGHT_DENSITIES: Binding = scene(13, "light_densities", "array<GpuLightDensity>");
 pub const FILM: Binding = Binding {
     group: 0,
-    slot: 12,
+    slot: 14,
     name: "film",
     wgsl_type: "array<GpuPixel>",
     access: Access::ReadWrite,
 };
 
 /// The scene's read-only arrays, in slot order.
-pub const SCENE_ARRAYS: [Binding; 11] = [
-    NODES, PRIM_ORDER, PRIMITIVES, SPHERES, QUADS, TRIANGLES, VERTICES, MATERIALS, TEXTURES,
-    IMAGES, TEXELS,
+pub const SCENE_ARRAYS: [Binding; 13] = [
+    NODES,
+    PRIM_ORDER,
+    PRIMITIVES,
+    SPHERES,
+    QUADS,
+    TRIANGLES,
+    VERTICES,
+    MATERIALS,
+    TEXTURES,
+    IMAGES,
+    TEXELS,
+    EMITTERS,
+    LIGHT_DENSITIES,
 ];
 
 /// Group 0, shared by the render kernel and the test kernels.

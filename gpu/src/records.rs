@@ -73,6 +73,19 @@ gpu_record! {
 }
 
 gpu_record! {
+    /// An emitter of the light set (`reference::light::LightSet::emitters`):
+    /// its primitive id and the cumulative selection probability up to and
+    /// including it, searched by `light_set_sample`.
+    GpuEmitter { prim: u32, cdf: f32 }
+}
+
+gpu_record! {
+    /// A primitive's light-sampling density terms, by primitive id
+    /// (`LightSet::pmf` and `LightSet::area`; both 0 for non-emitters).
+    GpuLightDensity { pmf: f32, area: f32 }
+}
+
+gpu_record! {
     /// A pixel's running statistics (Welford, f32): the GPU film
     /// (`reference::film::PixelStats`).
     GpuPixel {
@@ -97,7 +110,8 @@ gpu_record! {
         cam_vertical_x: f32, cam_vertical_y: f32, cam_vertical_z: f32,
         cam_u_x: f32, cam_u_y: f32, cam_u_z: f32,
         cam_v_x: f32, cam_v_y: f32, cam_v_z: f32,
-        _pad0: u32, _pad1: u32,
+        emitter_count: u32, env_pmf: f32, env_table: u32, _pad0: u32,
+        _pad1: u32, _pad2: u32,
     }
 }
 
@@ -116,6 +130,8 @@ pub fn wgsl_records() -> String {
         GpuMaterial::WGSL,
         GpuTexture::WGSL,
         GpuImage::WGSL,
+        GpuEmitter::WGSL,
+        GpuLightDensity::WGSL,
         GpuPixel::WGSL,
         GpuParams::WGSL,
         BVH_NODE_WGSL,
@@ -136,6 +152,8 @@ mod tests {
         assert_eq!(std::mem::size_of::<GpuPrimitive>(), 8);
         assert_eq!(std::mem::size_of::<GpuMaterial>(), 32);
         assert_eq!(std::mem::size_of::<GpuTexture>(), 32);
+        assert_eq!(std::mem::size_of::<GpuEmitter>(), 8);
+        assert_eq!(std::mem::size_of::<GpuLightDensity>(), 8);
         assert_eq!(std::mem::size_of::<GpuPixel>(), 48);
         // Uniform buffers need a size that is a multiple of 16.
         assert_eq!(std::mem::size_of::<GpuParams>() % 16, 0);

@@ -9,6 +9,7 @@ use crate::records::{GpuParams, GpuPixel};
 use crate::scene_buffers::{pack_background, PackedScene};
 use crate::shader;
 use reference::film::{Film, PixelStats};
+use reference::integrator::Integrator;
 use reference::{RenderSettings, Scene};
 use std::time::Duration;
 use wgpu::util::DeviceExt;
@@ -26,10 +27,14 @@ pub struct GpuRender {
     pub dispatches: u32,
 }
 
-/// A scene uploaded to one device, with its compiled pipeline.
+/// A scene uploaded to one device, with its render kernel compiled for
+/// one estimator.
 pub struct GpuRenderer<'a> {
     ctx: &'a GpuContext,
     pipeline: wgpu::ComputePipeline,
+    /// The light set's parameters (`GpuParams::emitter_count`, `env_pmf`,
+    /// `env_table`).
+    lights: (u32, f32, u32),
     layout: wgpu::BindGroupLayout,
     /// Each scene array with the binding it is bound to.
     scene_buffers: Vec<(Binding, wgpu::Buffer)>,
@@ -57,6 +62,18 @@ pub fn compile(
     entry: &str,
     layouts: &[&wgpu::BindGroupLayout],
 ) -> Result<wgpu::ComputePipeline, GpuError> {
+    compile_with(ctx, source, entry, layouts, &[])
+}
+
+/// [`compile`] with values for the program's pipeline-overridable
+/// constants (`override NAME` in WGSL).
+pub fn compile_with(
+    ctx: &GpuContext,
+    source: &str,
+    entry: &str,
+    layouts: &[&wgpu::BindGroupLayout],
+    constants: &[(&str, f64)],
+) -> Result<wgpu::ComputePipeline, GpuError> {
     let device = &ctx.device;
     let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -73,7 +90,10 @@ pub fn compile(
         layout: Some(&pl),
         module: &module,
         entry_point: Some(entry),
-        compilation_options: Default::default(),
+        compilation_options: wgpu::PipelineCompilationOptions {
+            constants,
+            ..Default::default()
+        },
         cache: None,
     });
     if let Some(e) = pollster::block_on(scope.pop()) {
@@ -84,9 +104,22 @@ pub fn compile(
 }
 
 impl<'a> GpuRenderer<'a> {
-    /// Packs and uploads `scene`, compiles the render kernel.
+    /// Packs and uploads `scene`, compiles the render kernel with BSDF
+    /// sampling only.
     pub fn new(ctx: &'a GpuContext, scene: &'a Scene) -> Result<Self, GpuError> {
-        Self::from_packed(ctx, &PackedScene::new(scene), scene)
+        Self::with_integrator(ctx, scene, Integrator::Bsdf)
+    }
+
+    /// Packs and uploads `scene`, compiles the render kernel for
+    /// `integrator` (the WGSL constant `INTEGRATOR`, so the kernel holds
+    /// one estimator's code).
+    pub fn with_integrator(
+        ctx: &'a GpuContext,
+        scene: &'a Scene,
+        integrator: Integrator,
+    ) -> Result<Self, GpuError> {
+        let packed = PackedScene::new(scene);
+        Self::with_program(ctx, &packed, scene, &shader::render_source(), integrator)
     }
 
     /// Uploads already packed records (tests overwrite some first); `scene`
@@ -96,17 +129,24 @@ impl<'a> GpuRenderer<'a> {
         packed: &PackedScene,
         scene: &'a Scene,
     ) -> Result<Self, GpuError> {
-        Self::with_program(ctx, packed, scene, &shader::render_source())
+        Self::with_program(
+            ctx,
+            packed,
+            scene,
+            &shader::render_source(),
+            Integrator::Bsdf,
+        )
     }
 
-    /// As [`Self::from_packed`], with the render program's source given
-    /// (the gates' tests compile the production WGSL with one deliberate
-    /// defect).
+    /// As [`Self::from_packed`], with the render program's source and the
+    /// estimator given (the gates' tests compile the production WGSL with
+    /// one deliberate defect).
     pub fn with_program(
         ctx: &'a GpuContext,
         packed: &PackedScene,
         scene: &'a Scene,
         program: &str,
+        integrator: Integrator,
     ) -> Result<Self, GpuError> {
         let limit = ctx.device.limits().max_storage_buffer_binding_size;
         let device = &ctx.device;
@@ -132,10 +172,19 @@ impl<'a> GpuRenderer<'a> {
             scene_buffers.push((binding, buffer));
         }
         let layout = bind_group_layout(device);
-        let pipeline = compile(ctx, program, "render_main", &[&layout])?;
+        let constants = [(
+            shader::INTEGRATOR_CONSTANT,
+            shader::integrator_tag(integrator) as f64,
+        )];
+        let pipeline = compile_with(ctx, program, "render_main", &[&layout], &constants)?;
         Ok(Self {
             ctx,
             pipeline,
+            lights: (
+                packed.emitters.len() as u32,
+                packed.env_pmf,
+                packed.env_table,
+            ),
             layout,
             scene_buffers,
             scene,
@@ -157,6 +206,9 @@ impl<'a> GpuRenderer<'a> {
             roulette_depth: settings.roulette_depth,
             lens_radius: cam.lens_radius,
             primitive_count: self.scene.primitives().len() as u32,
+            emitter_count: self.lights.0,
+            env_pmf: self.lights.1,
+            env_table: self.lights.2,
             ..Default::default()
         };
         [p.cam_origin_x, p.cam_origin_y, p.cam_origin_z] = cam.origin.to_array();

@@ -4,6 +4,7 @@
 use crate::bindings::{self, Binding};
 use crate::records::*;
 use reference::background::Background;
+use reference::light::LightSet;
 use reference::material::Material;
 use reference::texture::Texture;
 use reference::Scene;
@@ -22,6 +23,14 @@ pub struct PackedScene {
     pub textures: Vec<GpuTexture>,
     pub images: Vec<GpuImage>,
     pub texels: Vec<f32>,
+    /// The light set (`reference::light::LightSet`), built on the host.
+    pub emitters: Vec<GpuEmitter>,
+    pub light_densities: Vec<GpuLightDensity>,
+    /// The environment light's selection probability (0: none) and where
+    /// its tables start in `texels` (after the images': row CDF, column
+    /// CDFs, cell densities, as `reference::light::EnvLight` holds them).
+    pub env_pmf: f32,
+    pub env_table: u32,
 }
 
 pub fn pack_material(m: &Material) -> GpuMaterial {
@@ -96,7 +105,7 @@ pub fn pack_texture(t: &Texture) -> GpuTexture {
 impl PackedScene {
     /// Each array with the binding it is uploaded to (every one of
     /// [`bindings::SCENE_ARRAYS`], in slot order).
-    pub fn arrays(&self) -> [(Binding, &[u8]); 11] {
+    pub fn arrays(&self) -> [(Binding, &[u8]); 13] {
         use bytemuck::cast_slice as bytes;
         [
             (bindings::NODES, bytes(&self.nodes)),
@@ -110,6 +119,8 @@ impl PackedScene {
             (bindings::TEXTURES, bytes(&self.textures)),
             (bindings::IMAGES, bytes(&self.images)),
             (bindings::TEXELS, bytes(&self.texels)),
+            (bindings::EMITTERS, bytes(&self.emitters)),
+            (bindings::LIGHT_DENSITIES, bytes(&self.light_densities)),
         ]
     }
 
@@ -126,6 +137,15 @@ impl PackedScene {
             texels.extend(img.texels.iter().flat_map(|t| t.to_array()));
         }
         let m = &scene.mesh();
+        let lights = LightSet::new(scene);
+        let (mut env_pmf, mut env_table) = (0.0, 0);
+        if let Some((env, pmf)) = lights.env() {
+            env_pmf = pmf;
+            env_table = texels.len() as u32;
+            texels.extend_from_slice(&env.row_cdf);
+            texels.extend_from_slice(&env.col_cdf);
+            texels.extend_from_slice(&env.cell_pdf);
+        }
         PackedScene {
             nodes: scene.bvh().nodes().to_vec(),
             prim_order: scene.bvh().prim_order().to_vec(),
@@ -197,6 +217,18 @@ impl PackedScene {
             textures: scene.textures().iter().map(pack_texture).collect(),
             images,
             texels,
+            emitters: lights
+                .emitters()
+                .map(|(prim, cdf)| GpuEmitter { prim, cdf })
+                .collect(),
+            light_densities: (0..scene.primitives().len() as u32)
+                .map(|prim| GpuLightDensity {
+                    pmf: lights.pmf(prim),
+                    area: lights.area(prim),
+                })
+                .collect(),
+            env_pmf,
+            env_table,
         }
     }
 }

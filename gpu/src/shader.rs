@@ -8,14 +8,29 @@ use crate::bindings;
 use crate::records;
 use reference::background::background_tag;
 use reference::geometry::UNIT_ROUNDOFF;
+use reference::integrator::Integrator;
+use reference::light::{ENV_PRIM, ONE_MINUS_EPSILON, SMALL_CONE_SIN2};
 use reference::material::{
     material_tag, DIELECTRIC_F0, GGX_MIN_ALPHA, LUMINANCE_WEIGHTS, SPECULAR_PROBABILITY_MAX,
     SPECULAR_PROBABILITY_MIN,
 };
-use reference::rng::dims;
+use reference::rng::{dims, light_dims};
 use reference::scene::primitive_tag;
 use reference::shapes::{TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_UVS};
 use reference::texture::texture_tag;
+
+/// The render program's pipeline-overridable constant that picks the
+/// estimator ([`integrator_tag`]).
+pub const INTEGRATOR_CONSTANT: &str = "INTEGRATOR";
+
+/// The value of [`INTEGRATOR_CONSTANT`] for an estimator (the WGSL
+/// constants `INTEGRATOR_BSDF`, `INTEGRATOR_MIS`).
+pub fn integrator_tag(integrator: Integrator) -> u32 {
+    match integrator {
+        Integrator::Bsdf => 0,
+        Integrator::Mis => 1,
+    }
+}
 
 /// Workgroup shape of the render kernel (8x8: 64 invocations, two warps on
 /// NVIDIA, a common default for 2-D image kernels).
@@ -24,7 +39,7 @@ pub const WORKGROUP: (u32, u32) = (8, 8);
 /// The WGSL library shared by the render kernel and the test kernels: one
 /// file per `reference/src` module (same file name, same function names),
 /// in the order they are joined.
-pub const LIBRARY_FILES: [(&str, &str); 9] = [
+pub const LIBRARY_FILES: [(&str, &str); 10] = [
     ("rng", include_str!("../../shaders/rng.wgsl")),
     ("sampling", include_str!("../../shaders/sampling.wgsl")),
     ("geometry", include_str!("../../shaders/geometry.wgsl")),
@@ -34,6 +49,7 @@ pub const LIBRARY_FILES: [(&str, &str); 9] = [
     ("texture", include_str!("../../shaders/texture.wgsl")),
     ("background", include_str!("../../shaders/background.wgsl")),
     ("material", include_str!("../../shaders/material.wgsl")),
+    ("light", include_str!("../../shaders/light.wgsl")),
 ];
 
 /// The render kernel (film binding, path loop, entry point): the twin of
@@ -101,6 +117,18 @@ pub fn generate() -> String {
     ] {
         s += &u(name, v as u32);
     }
+    for (name, v) in [
+        ("LIGHT_DIM_SELECT", light_dims::SELECT),
+        ("LIGHT_DIM_POINT_U", light_dims::POINT_U),
+        ("LIGHT_DIM_POINT_V", light_dims::POINT_V),
+    ] {
+        s += &u(name, v as u32);
+    }
+    s += &u("INTEGRATOR_BSDF", integrator_tag(Integrator::Bsdf));
+    s += &u("INTEGRATOR_MIS", integrator_tag(Integrator::Mis));
+    s += &f("SMALL_CONE_SIN2", SMALL_CONE_SIN2);
+    s += &f("ONE_MINUS_EPSILON", ONE_MINUS_EPSILON);
+    s += &u("ENV_PRIM", ENV_PRIM);
     s += &u("WORKGROUP_X", WORKGROUP.0);
     s += &u("WORKGROUP_Y", WORKGROUP.1);
     s += &f("PI", std::f32::consts::PI);

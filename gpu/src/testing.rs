@@ -24,7 +24,7 @@ pub struct TestKernel<'a> {
     pub output_words: usize,
     /// Parameters (binding 0); default: the renderer's for a 1x1 image.
     pub params: Option<GpuParams>,
-    /// Film contents (binding 12); default: one zero pixel.
+    /// Film contents (the film binding); default: one zero pixel.
     pub film: Option<&'a [GpuPixel]>,
 }
 

@@ -20,7 +20,7 @@
 use crate::background::evaluate_background;
 use crate::film::{Film, PixelStats};
 use crate::geometry::{spawn_origin, Ray, SurfaceInteraction};
-use crate::light::LightSet;
+use crate::light::{LightSet, ENV_PRIM};
 use crate::material::{bsdf_eval, emitted, has_density, scatter, Material, TextureContext};
 use crate::mutants::{self, Mutant};
 use crate::rng::{dims, light_dims, light_randoms, vertex_randoms};
@@ -177,7 +177,16 @@ pub fn trace_path_mis(
     let mut came_from: Option<(Vec3, f32)> = None;
     for segment in 0..settings.max_depth {
         let Some(hit) = scene.intersect(&ray, 0.0, f32::INFINITY) else {
+            // An environment map is a light too: weighed against its
+            // light samples like an emitter's hit.
+            let weight = match came_from {
+                Some((_, pdf_bsdf)) if !mutants::is(Mutant::MisDoubleCount) => {
+                    power_heuristic(pdf_bsdf, lights.env_pdf(ray.direction))
+                }
+                _ => 1.0,
+            };
             radiance += throughput
+                * weight
                 * evaluate_background(&scene.background(), scene.images(), ray.direction);
             break;
         };
@@ -254,6 +263,19 @@ fn next_event(
     // the origin's offset (10^-2 on the far-from-origin fixture's ground)
     // would carry rays near an emitter's edge past it, losing light.
     let origin = spawn_toward(si, wi);
+    if ls.prim == ENV_PRIM {
+        // The environment: lit if the ray leaves the scene.
+        let shadow = Ray::new(origin, wi);
+        if scene.intersect(&shadow, 0.0, f32::INFINITY).is_some() {
+            return Vec3::ZERO;
+        }
+        let le = evaluate_background(&scene.background(), scene.images(), wi);
+        let pdf_light = lights.env_pdf(wi);
+        if !(pdf_light > 0.0 && pdf_light.is_finite()) {
+            return Vec3::ZERO;
+        }
+        return f_cos * le * (power_heuristic(pdf_light, pdf_bsdf) / pdf_light);
+    }
     let aim = ls.offset - (origin.as_dvec3() - si.p.as_dvec3());
     let Some(dir) = aim.try_normalize().map(|d| d.as_vec3()) else {
         return Vec3::ZERO;

@@ -17,7 +17,17 @@
 //!   actually hits ([`LightSet::pdf`]), the same function for a light
 //!   sample and for a BSDF sample that hits an emitter, so the two MIS
 //!   weights of one path sum to one.
+//! - An environment map is one more light ([`EnvLight`]): its texel cells
+//!   are sampled by a piecewise-constant 2-D distribution (rows by their
+//!   marginal, then a column within the row) proportional to luminance
+//!   times `sin θ`, and the density converted to solid angle by the
+//!   equirectangular map's Jacobian, `p_ω = p_uv / (2π² sin θ)`. Its
+//!   selection weight is its power on the scene's bounding sphere in the
+//!   same units as an area light's (`area × luminance`): `4π R² L̄`, with
+//!   `L̄` the solid-angle mean of its luminance. Solid and gradient
+//!   backgrounds are not sampled (BSDF samples find them).
 
+use crate::background::{equirect_uv, Background};
 use crate::geometry::{Hit, Onb, Ray};
 use crate::material::{Material, TextureContext, LUMINANCE_WEIGHTS};
 use crate::mutants::{self, Mutant};
@@ -32,6 +42,10 @@ pub const SMALL_CONE_SIN2: f32 = 0.000_685_23;
 
 /// Share of the mean power weight below which no emitter's weight falls.
 pub const MIN_WEIGHT_SHARE: f32 = 0.01;
+
+/// The "primitive id" of the environment light in the emitter list and in
+/// [`LightSample::prim`].
+pub const ENV_PRIM: u32 = u32::MAX;
 
 /// One emitter: a primitive id and the cumulative selection weight up to
 /// and including it.
@@ -50,6 +64,33 @@ pub struct LightSet {
     pmf_by_prim: Vec<f32>,
     /// Surface area by primitive id (emitters only; 0 elsewhere).
     area_by_prim: Vec<f32>,
+    /// The environment map as a light, with its selection probability.
+    env: Option<(EnvLight, f32)>,
+}
+
+/// An environment map's sampling distribution: piecewise constant over
+/// its texel cells (cell `(col, row)` covers `x ∈ [col, col+1)`,
+/// `y ∈ [row, row+1)` of the image, `x = u·width`, `y = (1 − v)·height`).
+/// A cell's weight is the largest luminance among the texels a bilinear
+/// lookup in it reads (its 3x3 neighbourhood, wrapped as the lookup
+/// wraps), so that no direction with radiance has density 0, times
+/// `sin θ` at the cell's centre row.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EnvLight {
+    pub width: u32,
+    pub height: u32,
+    /// Marginal CDF over rows: `height + 1` values from 0 to 1.
+    pub row_cdf: Vec<f32>,
+    /// Per row, the conditional CDF over its columns: `width + 1` values
+    /// each, row-major.
+    pub col_cdf: Vec<f32>,
+    /// Each cell's density over `(u, v) ∈ [0, 1]²`, row-major.
+    pub cell_pdf: Vec<f32>,
+    /// The background's rotation, as `evaluate_background` applies it.
+    pub rot_sin: f32,
+    pub rot_cos: f32,
+    /// Selection weight before normalizing (`4π R² L̄`).
+    weight: f32,
 }
 
 /// A sampled point on an emitter, seen from a reference point `p`.
@@ -63,7 +104,9 @@ pub struct LightSample {
     pub direction: Vec3,
     /// `x − p` in f64: a shadow ray from a spawn point `o` near `p` aims at
     /// `x` itself along `offset − (o − p)`, so that the origin's offset
-    /// does not move it off a small or distant emitter's edge.
+    /// does not move it off a small or distant emitter's edge. For the
+    /// environment ([`ENV_PRIM`]): the direction itself (a point at
+    /// infinity; the shadow ray leaves along it).
     pub offset: DVec3,
 }
 
@@ -111,6 +154,10 @@ impl LightSet {
             }
             raw.push((id as u32, area, area * sum / 16.0));
         }
+        let env = EnvLight::new(scene);
+        if let Some(e) = &env {
+            raw.push((ENV_PRIM, 0.0, e.weight));
+        }
         let n = raw.len().max(1) as f32;
         let mean = raw.iter().map(|r| r.2).sum::<f32>() / n;
         let floor = if mean > 0.0 {
@@ -131,9 +178,15 @@ impl LightSet {
         let mut pmf_by_prim = vec![0.0; scene.primitives().len()];
         let mut area_by_prim = vec![0.0; scene.primitives().len()];
         let mut previous = 0.0;
+        let mut env_pmf = 0.0;
         for e in &mut emitters {
-            pmf_by_prim[e.prim as usize] = (e.cdf - previous) / total;
-            area_by_prim[e.prim as usize] = e.area;
+            let pmf = (e.cdf - previous) / total;
+            if e.prim == ENV_PRIM {
+                env_pmf = pmf;
+            } else {
+                pmf_by_prim[e.prim as usize] = pmf;
+                area_by_prim[e.prim as usize] = e.area;
+            }
             previous = e.cdf;
             e.cdf /= total;
         }
@@ -141,6 +194,22 @@ impl LightSet {
             emitters,
             pmf_by_prim,
             area_by_prim,
+            env: env.map(|e| (e, env_pmf)),
+        }
+    }
+
+    /// The environment light and its selection probability, if the
+    /// background is an environment map with any radiance.
+    pub fn env(&self) -> Option<(&EnvLight, f32)> {
+        self.env.as_ref().map(|(e, p)| (e, *p))
+    }
+
+    /// The density, in solid angle, with which [`LightSet::sample`] picks
+    /// direction `d` (unit) toward the environment (0 without one).
+    pub fn env_pdf(&self, d: Vec3) -> f32 {
+        match &self.env {
+            Some((env, pmf)) => pmf * env.pdf(d),
+            None => 0.0,
         }
     }
 
@@ -157,6 +226,18 @@ impl LightSet {
         self.pmf_by_prim.get(prim as usize).copied().unwrap_or(0.0)
     }
 
+    /// The surface area of emitter `prim` (0 if it emits nothing).
+    pub fn area(&self, prim: u32) -> f32 {
+        self.area_by_prim.get(prim as usize).copied().unwrap_or(0.0)
+    }
+
+    /// The emitters in selection order: primitive id and the cumulative
+    /// selection probability up to and including it (the last is 1). What
+    /// the GPU uploads; [`LightSet::sample`] searches the same values.
+    pub fn emitters(&self) -> impl ExactSizeIterator<Item = (u32, f32)> + '_ {
+        self.emitters.iter().map(|e| (e.prim, e.cdf))
+    }
+
     /// Picks an emitter with `u_select` and a point on it with `u`, for the
     /// reference point `p`. `None` for an empty set.
     pub fn sample(&self, scene: &Scene, p: Vec3, u_select: f32, u: Vec2) -> Option<LightSample> {
@@ -166,6 +247,15 @@ impl LightSet {
             .partition_point(|e| e.cdf <= u_select)
             .min(last);
         let prim = self.emitters[k].prim;
+        if prim == ENV_PRIM {
+            let (env, _) = self.env.as_ref()?;
+            let direction = env.sample(u);
+            return direction.is_finite().then_some(LightSample {
+                prim,
+                direction,
+                offset: direction.as_dvec3(),
+            });
+        }
         let offset = match sphere_of(scene, prim) {
             Some((center, radius)) if (p - center).length_squared() > radius * radius => {
                 sphere_cone_offset(center, radius, p, u)
@@ -208,6 +298,152 @@ impl LightSet {
         }
     }
 }
+
+impl EnvLight {
+    /// The sampling distribution of the scene's environment map; `None`
+    /// for other backgrounds and for a map without radiance.
+    pub fn new(scene: &Scene) -> Option<Self> {
+        let Background::Envmap {
+            image,
+            intensity,
+            rotate_y,
+        } = scene.background()
+        else {
+            return None;
+        };
+        let img = &scene.images()[image as usize];
+        let (w, h) = (img.width, img.height);
+        let lum: Vec<f32> = img
+            .texels
+            .iter()
+            .map(|&t| (intensity * luminance(t)).max(0.0))
+            .collect();
+        let at = |x: i64, y: i64| {
+            let (x, y) = (x.rem_euclid(w as i64), y.rem_euclid(h as i64));
+            lum[(y * w as i64 + x) as usize]
+        };
+        let mut weights = Vec::with_capacity((w * h) as usize);
+        let mut solid_angle_mean = 0.0f64;
+        let mut sin_sum = 0.0f64;
+        for row in 0..h as i64 {
+            let sin_theta = (PI * (row as f32 + 0.5) / h as f32).sin();
+            for col in 0..w as i64 {
+                let mut m = 0.0f32;
+                for dy in -1..=1 {
+                    for dx in -1..=1 {
+                        m = m.max(at(col + dx, row + dy));
+                    }
+                }
+                weights.push(m * sin_theta);
+                solid_angle_mean += (at(col, row) * sin_theta) as f64;
+                sin_sum += sin_theta as f64;
+            }
+        }
+        let mut row_sums: Vec<f64> = weights
+            .chunks(w as usize)
+            .map(|r| r.iter().map(|&x| x as f64).sum())
+            .collect();
+        let total: f64 = row_sums.iter().sum();
+        if !(total > 0.0 && total.is_finite()) {
+            return None;
+        }
+        let mut row_cdf = Vec::with_capacity(h as usize + 1);
+        let mut acc = 0.0f64;
+        row_cdf.push(0.0);
+        for r in &row_sums {
+            acc += r;
+            row_cdf.push((acc / total) as f32);
+        }
+        *row_cdf.last_mut().unwrap() = 1.0;
+        let mut col_cdf = Vec::with_capacity((h * (w + 1)) as usize);
+        for (row, sum) in weights.chunks(w as usize).zip(&mut row_sums) {
+            let mut acc = 0.0f64;
+            col_cdf.push(0.0);
+            for &x in row {
+                acc += x as f64;
+                // A black row is never picked; its columns stay uniform.
+                col_cdf.push(if *sum > 0.0 { (acc / *sum) as f32 } else { 0.0 });
+            }
+            *col_cdf.last_mut().unwrap() = 1.0;
+            if *sum <= 0.0 {
+                let n = col_cdf.len();
+                for (i, c) in col_cdf[n - w as usize - 1..].iter_mut().enumerate() {
+                    *c = i as f32 / w as f32;
+                }
+                *sum = 1.0;
+            }
+        }
+        let cells = (w as f64) * (h as f64);
+        let cell_pdf = weights
+            .iter()
+            .map(|&x| (x as f64 * cells / total) as f32)
+            .collect();
+        let b = scene.bounds();
+        let radius: f32 = 0.5 * (b.max - b.min).length();
+        let mean = (solid_angle_mean / sin_sum) as f32;
+        let (rot_sin, rot_cos) = (-rotate_y.to_radians()).sin_cos();
+        Some(Self {
+            width: w,
+            height: h,
+            row_cdf,
+            col_cdf,
+            cell_pdf,
+            rot_sin,
+            rot_cos,
+            weight: 4.0 * PI * radius.max(1e-3).powi(2) * mean,
+        })
+    }
+
+    /// A direction (unit, world space) drawn from the distribution with `u`.
+    pub fn sample(&self, u: Vec2) -> Vec3 {
+        let (w, h) = (self.width as usize, self.height as usize);
+        let (row, dv) = sample_cdf(&self.row_cdf, u.y);
+        let (col, du) = sample_cdf(&self.col_cdf[row * (w + 1)..(row + 1) * (w + 1)], u.x);
+        let x = (col as f32 + du) / w as f32;
+        let y = (row as f32 + dv) / h as f32;
+        let (theta, phi) = (PI * y, 2.0 * PI * (x - 0.5));
+        let (st, ct) = theta.sin_cos();
+        let (sp, cp) = phi.sin_cos();
+        // The map's direction (equirect_uv's inverse), turned back by the
+        // background's rotation.
+        let dr = Vec3::new(st * sp, ct, -st * cp);
+        let (s, c) = (self.rot_sin, self.rot_cos);
+        Vec3::new(c * dr.x - s * dr.z, dr.y, s * dr.x + c * dr.z)
+    }
+
+    /// The density, in solid angle, of direction `d` (unit).
+    pub fn pdf(&self, d: Vec3) -> f32 {
+        let (s, c) = (self.rot_sin, self.rot_cos);
+        let dr = Vec3::new(c * d.x + s * d.z, d.y, -s * d.x + c * d.z);
+        let uv = equirect_uv(dr);
+        let sin_theta = (1.0 - dr.y * dr.y).max(0.0).sqrt();
+        if sin_theta <= 0.0 {
+            return 0.0;
+        }
+        let (w, h) = (self.width, self.height);
+        let col = ((uv.x * w as f32) as u32).min(w - 1);
+        let row = (((1.0 - uv.y) * h as f32) as u32).min(h - 1);
+        let p_uv = self.cell_pdf[(row * w + col) as usize];
+        match mutants::active() {
+            Mutant::EnvPdfNoSinTheta => p_uv / (2.0 * PI * PI),
+            _ => p_uv / (2.0 * PI * PI * sin_theta),
+        }
+    }
+}
+
+/// Inverts a CDF (`n + 1` values from 0 to 1) at `u`: the bin whose range
+/// holds `u` (the first whose upper end exceeds it) and `u`'s place
+/// within it, in [0, 1).
+fn sample_cdf(cdf: &[f32], u: f32) -> (usize, f32) {
+    let n = cdf.len() - 1;
+    let i = cdf[1..].partition_point(|&c| c <= u).min(n - 1);
+    let (lo, hi) = (cdf[i], cdf[i + 1]);
+    let t = if hi > lo { (u - lo) / (hi - lo) } else { 0.5 };
+    (i, t.clamp(0.0, ONE_MINUS_EPSILON))
+}
+
+/// The largest f32 below 1.
+pub const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
 
 /// Centre and (absolute) radius when `prim` is a sphere.
 fn sphere_of(scene: &Scene, prim: u32) -> Option<(Vec3, f32)> {

@@ -31,6 +31,9 @@ pub enum Mutant {
     /// The light's area density used as if it were per solid angle
     /// (`light::LightSet::pdf`).
     LightPdfPerArea,
+    /// The environment map's density in solid angle without the
+    /// equirectangular Jacobian's `sin θ` (`light::EnvLight::pdf`).
+    EnvPdfNoSinTheta,
 }
 
 #[cfg(feature = "mutants")]

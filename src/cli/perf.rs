@@ -50,12 +50,13 @@ pub enum PerfBackend {
 }
 
 /// The renderer variants there are, with their backends. Without
-/// `--variant`, the defaults run (`reference-mis`, experimental, only when
+/// `--variant`, the BSDF-sampling ones run (the MIS variants only when
 /// asked for, so that runs stay comparable with the stored baselines).
-const VARIANTS: [(&str, &str); 3] = [
+const VARIANTS: [(&str, &str); 4] = [
     ("reference", "cpu"),
     ("reference-mis", "cpu"),
     ("megakernel", "gpu"),
+    ("megakernel-mis", "gpu"),
 ];
 
 #[derive(Debug, Args)]
@@ -65,7 +66,8 @@ pub struct RunArgs {
     #[arg(long, value_enum, default_value_t = PerfBackend::All)]
     pub backend: PerfBackend,
     /// Only these renderer variants (reference: the CPU's BSDF sampling;
-    /// reference-mis: the CPU's light sampling with MIS; megakernel: the GPU's).
+    /// reference-mis: the CPU's light sampling with MIS; megakernel and
+    /// megakernel-mis: the GPU's, likewise).
     #[arg(long)]
     pub variant: Vec<String>,
     /// Only the cases and workloads whose name contains this.
@@ -332,23 +334,24 @@ fn run_suite(a: &RunArgs) -> Result<()> {
     } else {
         None
     };
-    let cpu_integrators = if a.variant.is_empty() {
-        vec![Integrator::Bsdf]
-    } else {
-        [
-            ("reference", Integrator::Bsdf),
-            ("reference-mis", Integrator::Mis),
-        ]
-        .into_iter()
-        .filter(|(n, _)| a.variant.iter().any(|v| v == n))
-        .map(|(_, i)| i)
-        .collect()
+    let integrators = |bsdf: &str, mis: &str| -> Vec<Integrator> {
+        if a.variant.is_empty() {
+            return vec![Integrator::Bsdf];
+        }
+        [(bsdf, Integrator::Bsdf), (mis, Integrator::Mis)]
+            .into_iter()
+            .filter(|(n, _)| a.variant.iter().any(|v| v == n))
+            .map(|(_, i)| i)
+            .collect()
     };
+    let cpu_integrators = integrators("reference", "reference-mis");
+    let gpu_integrators = integrators("megakernel", "megakernel-mis");
     let options = measure::Options {
         suite,
         cpu: pool.as_ref(),
         cpu_integrators,
         gpu: ctx.as_ref(),
+        gpu_integrators,
         repeats: a.repeats,
         inject_slowdown: a.inject_slowdown,
         revision: a.revision.clone(),

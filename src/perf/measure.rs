@@ -55,6 +55,8 @@ pub struct Options<'a> {
     pub cpu_integrators: Vec<Integrator>,
     /// The GPU, when the GPU backend runs.
     pub gpu: Option<&'a GpuContext>,
+    /// The GPU's estimators to measure (each a variant).
+    pub gpu_integrators: Vec<Integrator>,
     pub repeats: u32,
     pub inject_slowdown: bool,
     pub revision: String,
@@ -68,24 +70,26 @@ pub struct Options<'a> {
 #[derive(Clone, Copy)]
 enum Backend<'a> {
     Cpu(&'a rayon::ThreadPool, Integrator),
-    Gpu(&'a GpuContext),
+    Gpu(&'a GpuContext, Integrator),
 }
 
 impl Backend<'_> {
     fn name(self) -> &'static str {
         match self {
             Backend::Cpu(..) => "cpu",
-            Backend::Gpu(_) => "gpu",
+            Backend::Gpu(..) => "gpu",
         }
     }
 
     /// The renderer variant: `reference` (BSDF sampling), `reference-mis`
-    /// (light sampling with MIS), `megakernel` (the GPU's).
+    /// (light sampling with MIS), `megakernel` and `megakernel-mis` (the
+    /// GPU's, likewise).
     fn variant(self) -> &'static str {
         match self {
             Backend::Cpu(_, Integrator::Bsdf) => "reference",
             Backend::Cpu(_, Integrator::Mis) => "reference-mis",
-            Backend::Gpu(_) => "megakernel",
+            Backend::Gpu(_, Integrator::Bsdf) => "megakernel",
+            Backend::Gpu(_, Integrator::Mis) => "megakernel-mis",
         }
     }
 }
@@ -107,7 +111,9 @@ impl<'a> Prepared<'a> {
     fn new(backend: Backend<'a>, scene: &'a Scene) -> Result<Self> {
         Ok(match backend {
             Backend::Cpu(pool, integrator) => Prepared::Cpu(pool, scene, integrator),
-            Backend::Gpu(ctx) => Prepared::Gpu(gpu::GpuRenderer::new(ctx, scene)?),
+            Backend::Gpu(ctx, integrator) => {
+                Prepared::Gpu(gpu::GpuRenderer::with_integrator(ctx, scene, integrator)?)
+            }
         })
     }
 
@@ -177,7 +183,9 @@ pub fn run(options: &Options, metric: &mut dyn FnMut(&str)) -> Result<PerfRun> {
         }
     }
     if let Some(ctx) = options.gpu {
-        backends.push(Backend::Gpu(ctx));
+        for &integrator in &options.gpu_integrators {
+            backends.push(Backend::Gpu(ctx, integrator));
+        }
     }
     if backends.is_empty() {
         bail!("no backend to measure");
@@ -279,7 +287,7 @@ fn measure_curve(
     // measured region (instructions) sees the injected share.
     prepared.render(&base, options.inject_slowdown)?;
     let mut points = Vec::new();
-    for spp in case.ladder(matches!(backend, Backend::Gpu(_))) {
+    for spp in case.ladder(matches!(backend, Backend::Gpu(..))) {
         let settings = RenderSettings { spp, ..base };
         let mut walls = Vec::new();
         let mut gpus = Some(Vec::new());
@@ -397,7 +405,7 @@ fn measure_workload(
             let scene_data = workload_scene(scene)?;
             let spp = match backend {
                 Backend::Cpu(..) => spp_cpu,
-                Backend::Gpu(_) => spp_gpu,
+                Backend::Gpu(..) => spp_gpu,
             };
             let settings = RenderSettings {
                 width,
@@ -462,7 +470,7 @@ fn measure_workload(
                     );
                     ("rays", batch.len() as u64, walls, None, note)
                 }
-                Backend::Gpu(ctx) => {
+                Backend::Gpu(ctx, _) => {
                     let t = gpu::rays::trace_closest(ctx, &scene, &batch, reps)?;
                     let mut walls: Vec<f64> = t.wall.iter().map(|d| d.as_secs_f64()).collect();
                     let mut gpus: Option<Vec<f64>> =

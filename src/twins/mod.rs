@@ -12,11 +12,13 @@
 //! - [`hits`]: hit records of the BVH walk (flag, primitive, t, uv) and
 //!   primitive boxes.
 //! - [`surface`]: surface interactions and spawn points.
+//! - [`light`]: light samples (emitter, direction) and their densities.
 //!
 //! Each check returns an [`Outcome`]: a one-line summary of what agreed,
 //! or the first disagreement (or the GPU error that stopped it).
 
 pub mod hits;
+pub mod light;
 pub mod numerics;
 pub mod rng;
 pub mod surface;
@@ -150,5 +152,9 @@ pub const CHECKS: &[Check] = &[
     Check {
         name: "twin: spawn points",
         run: surface::spawn_points,
+    },
+    Check {
+        name: "twin: light samples and densities",
+        run: light::all_scenes,
     },
 ];

@@ -20,7 +20,7 @@ use std::time::Instant;
 pub(crate) const MANIFEST: &str = "fixtures/refs/manifest.txt";
 pub(crate) const REFS: &str = "fixtures/refs";
 /// The performance suite's references (same manifest format).
-const PERF_MANIFEST: &str = "fixtures/refs/perf/manifest.txt";
+pub(crate) const PERF_MANIFEST: &str = "fixtures/refs/perf/manifest.txt";
 const PERF_REFS: &str = "fixtures/refs/perf";
 
 pub(crate) struct Line {

@@ -18,7 +18,7 @@
 //! every stored reference to agree with its Mitsuba render under
 //! `twintrace diff`'s defaults.
 
-use crate::bless::{capture, parse, MANIFEST, REFS};
+use crate::bless::{capture, parse, MANIFEST, PERF_MANIFEST, REFS};
 use crate::util::run as sh;
 use std::path::{Path, PathBuf};
 
@@ -26,21 +26,77 @@ const WHEELS: &str = "target/mitsuba-wheels";
 const MITSUBA_WHEEL: &str = "mitsuba-3.9.1-cp312-cp312-manylinux_2_28_x86_64.whl";
 /// Samples per pixel per pass, the sampler count written into each scene.
 const PASS_SPP: &str = "4096";
+/// twintrace's converged image in the race: GPU, MIS, 65536 spp (at 256x256
+/// about 4·10^9 paths; its relMSE is then ~10^-6 by the MIS efficiency
+/// measured on the CPU, three decades under the 10^-3 the race is run to).
+const RACE_REF_SPP: u32 = 65536;
 
 fn usage() -> String {
-    "usage: cargo xtask mitsuba [--out DIR] | cargo xtask mitsuba --import DIR".into()
+    "usage: cargo xtask mitsuba [--out DIR] | cargo xtask mitsuba --race [--out DIR] | cargo xtask mitsuba --import DIR".into()
+}
+
+/// What a pack is for.
+#[derive(Clone, Copy, PartialEq)]
+enum Pack {
+    /// Mitsuba renders of the stored references (`fixtures/refs/mitsuba/`).
+    References,
+    /// The equal-error race on the performance suite's Cornell box:
+    /// Mitsuba's time against error beside twintrace's (`twintrace perf`
+    /// from the perf suite, carried beside it), on the same GPU.
+    Race,
 }
 
 pub fn run(args: &[String]) -> Result<(), String> {
     match args {
-        [] => pack(Path::new("target/mitsuba-check")),
-        [flag, dir] if flag == "--out" => pack(Path::new(dir)),
+        [] => pack(Path::new("target/mitsuba-check"), Pack::References),
+        [flag, dir] if flag == "--out" => pack(Path::new(dir), Pack::References),
+        [flag] if flag == "--race" => pack(Path::new("target/mitsuba-race"), Pack::Race),
+        [flag, o, dir] if flag == "--race" && o == "--out" => pack(Path::new(dir), Pack::Race),
         [flag, dir] if flag == "--import" => import(Path::new(dir)),
         _ => Err(usage()),
     }
 }
 
-fn pack(out: &Path) -> Result<(), String> {
+/// The race's run.sh: Mitsuba's ladder (`time_to_error.py`) and its
+/// converged image; twintrace's converged image (GPU, MIS) and its ladders
+/// (`twintrace perf`, BSDF and MIS megakernels); the relMSE of every
+/// Mitsuba render against twintrace's converged image; and `diff` of the
+/// two converged images (which must agree before times are compared).
+const RACE_SH: &str = r#"#!/bin/sh
+# Equal-error race on one GPU: Mitsuba 3 (cuda_ad_rgb) and twintrace on the
+# same Cornell box. Needs the perf suite (`cargo xtask perf --pack`) at
+# $PERF (default: ../perf-suite beside this folder). Writes into $OUT.
+set -eu
+here=$(cd "$(dirname "$0")" && pwd)
+out=${OUT:-$here/out}
+perf=${PERF:-$here/../perf-suite}
+tt="$perf/twintrace"
+export TWINTRACE_ROOT="$perf" XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
+py=$(mktemp -d)
+for w in "$here"/wheels/*.whl; do python3 -m zipfile -e "$w" "$py"; done
+mkdir -p "$out"
+nvidia-smi --query-gpu=name,driver_version --format=csv,noheader > "$out/gpu.txt" 2>/dev/null || echo unknown > "$out/gpu.txt"
+scene=$(ls -d "$here"/scenes/* | head -n 1)
+name=$(basename "$scene")
+. "$here/settings.sh"
+echo "== twintrace converged image (GPU, MIS, $REF_SPP spp)"
+"$tt" render "$perf/$SCENE" --backend gpu --integrator mis --size "$SIZE" --max-depth "$DEPTH" --spp "$REF_SPP" --seed 1 -o "$out/twintrace-converged" 2>&1 | tail -n 1
+echo "== Mitsuba ladder"
+PYTHONPATH="$py:$here" python3 "$here/time_to_error.py" "$scene" "$out"
+echo "== Mitsuba converged image"
+PASSES=16 PASS_SPP=4096 PYTHONPATH="$py:$here" python3 "$here/render.py" "$out/mitsuba-converged" "$scene"
+echo "== the converged images agree"
+"$tt" diff "$out/mitsuba-converged/$name.exr" "$out/twintrace-converged.exr" --report "$out/converged.html" || true
+echo "== Mitsuba relMSE against twintrace's converged image"
+for f in $(ls "$out" | grep '^mitsuba-[0-9]*\.exr$' | sort -t- -k2 -n); do
+  printf '%s ' "$f"
+  "$tt" diff "$out/$f" "$out/twintrace-converged.exr" --method reference --report "$out/d.html" | grep relMSE || true
+done
+echo "== twintrace ladders"
+"$tt" perf run --suite full --backend gpu --variant megakernel --variant megakernel-mis --only "$name" --revision "$(cat "$perf/REVISION")" --out "$out/perf" | grep -v '^METRIC' || true
+"#;
+
+fn pack(out: &Path, what: Pack) -> Result<(), String> {
     let root = crate::util::workspace_root();
     std::env::set_current_dir(&root)
         .map_err(|e| format!("cannot enter {}: {e}", root.display()))?;
@@ -54,10 +110,24 @@ fn pack(out: &Path) -> Result<(), String> {
     let scenes = out.join("scenes");
     std::fs::create_dir_all(&scenes)
         .map_err(|e| format!("cannot create {}: {e}", scenes.display()))?;
+    let manifest = match what {
+        Pack::References => MANIFEST,
+        Pack::Race => PERF_MANIFEST,
+    };
     let text =
-        std::fs::read_to_string(MANIFEST).map_err(|e| format!("cannot read {MANIFEST}: {e}"))?;
+        std::fs::read_to_string(manifest).map_err(|e| format!("cannot read {manifest}: {e}"))?;
     let mut exported = 0;
-    for (_, line) in parse(&text, MANIFEST)? {
+    for (_, line) in parse(&text, manifest)? {
+        if what == Pack::Race {
+            // The race's scene: the perf suite's reference of the same name
+            // (twintrace renders the same file at the same size and depth).
+            let settings = format!(
+                "SCENE={}\nSIZE={}\nDEPTH={}\nREF_SPP={RACE_REF_SPP}\n",
+                line.scene, line.size, line.depth
+            );
+            std::fs::write(out.join("settings.sh"), settings)
+                .map_err(|e| format!("cannot write settings.sh: {e}"))?;
+        }
         let dir = scenes.join(&line.name);
         let dir_s = dir.display().to_string();
         let output = std::process::Command::new("target/release/twintrace")
@@ -125,6 +195,20 @@ fn pack(out: &Path) -> Result<(), String> {
         .ok_or("no drjit 1.5.0 wheel was downloaded")?;
     copy(&drjit, &packed.join(drjit.file_name().unwrap()))?;
     copy(Path::new("xtask/mitsuba/render.py"), &out.join("render.py"))?;
+    if what == Pack::Race {
+        copy(
+            Path::new("xtask/mitsuba/time_to_error.py"),
+            &out.join("time_to_error.py"),
+        )?;
+        std::fs::write(out.join("run.sh"), RACE_SH)
+            .map_err(|e| format!("cannot write run.sh: {e}"))?;
+        eprintln!(
+            "xtask: the race packed into {}; on the GPU machine, with the perf suite beside it, run `sh {}/run.sh`",
+            out.display(),
+            out.display()
+        );
+        return Ok(());
+    }
     let run_sh = "#!/bin/sh\n\
         # Renders every exported scene with Mitsuba 3 (cuda_ad_rgb) into $OUT.\n\
         set -eu\n\

@@ -1,0 +1,233 @@
+// Light sampling: the twin of reference/src/light.rs. The light set is
+// built on the host (LightSet::new) and uploaded: `emitters` (primitive id
+// and cumulative selection probability, `params.emitter_count` of them)
+// and `light_densities` (selection probability and area by primitive id).
+// The reference takes the offset x − p in f64; here it is f32, formed the
+// same way (differences first), so the two agree to rounding. The
+// environment light's tables (EnvLight: row CDF, column CDFs, cell
+// densities) follow the images in `texels`, from `params.env_table`; its
+// selection probability is `params.env_pmf` (0: no environment light).
+
+struct LightSample {
+    ok: bool,
+    prim: u32,
+    direction: vec3<f32>,
+    offset: vec3<f32>,
+}
+
+struct SphereOf {
+    ok: bool,
+    center: vec3<f32>,
+    radius: f32,
+}
+
+fn sphere_of(prim: u32) -> SphereOf {
+    let p = primitives[prim];
+    if p.tag == PRIMITIVE_SPHERE {
+        let s = spheres[p.index];
+        return SphereOf(true, vec3<f32>(s.center_x, s.center_y, s.center_z), abs(s.radius));
+    }
+    return SphereOf(false, vec3<f32>(0.0), 0.0);
+}
+
+fn uniform_area_parameters(prim: u32, u: vec2<f32>) -> vec2<f32> {
+    if primitives[prim].tag == PRIMITIVE_TRIANGLE {
+        let r = sqrt(u.x);
+        return vec2<f32>(u.y * r, 1.0 - r);
+    }
+    return u;
+}
+
+fn offset_on(prim: u32, uv: vec2<f32>, p: vec3<f32>) -> vec3<f32> {
+    let pr = primitives[prim];
+    switch pr.tag {
+        case PRIMITIVE_SPHERE: {
+            let sp = spheres[pr.index];
+            let z = 1.0 - 2.0 * uv.x;
+            let r = sqrt(max(1.0 - z * z, 0.0));
+            let phi = 2.0 * PI * uv.y;
+            let dir = vec3<f32>(r * cos(phi), r * sin(phi), z);
+            return (vec3<f32>(sp.center_x, sp.center_y, sp.center_z) - p) + abs(sp.radius) * dir;
+        }
+        case PRIMITIVE_QUAD: {
+            let q = quads[pr.index];
+            let corner = vec3<f32>(q.corner_x, q.corner_y, q.corner_z);
+            return (corner - p) + uv.x * vec3<f32>(q.u_x, q.u_y, q.u_z) + uv.y * vec3<f32>(q.v_x, q.v_y, q.v_z);
+        }
+        case PRIMITIVE_TRIANGLE: {
+            let t = triangles[pr.index];
+            let a = vertex_position(t.v0);
+            let b = vertex_position(t.v1);
+            let c = vertex_position(t.v2);
+            return (a - p) + uv.x * (b - a) + uv.y * (c - a);
+        }
+        default: {
+            poison();
+            return vec3<f32>(0.0);
+        }
+    }
+}
+
+fn sphere_cone_pdf(sin2_max: f32) -> f32 {
+    var one_minus_cos = 1.0 - sqrt(max(1.0 - sin2_max, 0.0));
+    if sin2_max < SMALL_CONE_SIN2 {
+        one_minus_cos = 0.5 * sin2_max;
+    }
+    return 1.0 / (2.0 * PI * one_minus_cos);
+}
+
+fn sphere_cone_offset(center: vec3<f32>, radius: f32, p: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
+    let to_center = center - p;
+    let dc = length(to_center);
+    let sin_max = radius / dc;
+    let sin2_max = sin_max * sin_max;
+    let cos_max = sqrt(max(1.0 - sin2_max, 0.0));
+    var cos_t: f32;
+    var sin2_t: f32;
+    if sin2_max < SMALL_CONE_SIN2 {
+        sin2_t = sin2_max * u.x;
+        cos_t = sqrt(1.0 - sin2_t);
+    } else {
+        cos_t = 1.0 + (cos_max - 1.0) * u.x;
+        sin2_t = max(1.0 - cos_t * cos_t, 0.0);
+    }
+    let cos_alpha = sin2_t / sin_max + cos_t * sqrt(max(1.0 - sin2_t / sin2_max, 0.0));
+    let sin_alpha = sqrt(max(1.0 - cos_alpha * cos_alpha, 0.0));
+    let phi = 2.0 * PI * u.y;
+    let frame = onb_from_normal(-to_center / dc);
+    let local = vec3<f32>(sin_alpha * cos(phi), sin_alpha * sin(phi), cos_alpha);
+    return to_center + radius * onb_to_world(frame, local);
+}
+
+struct CdfSample {
+    index: u32,
+    t: f32,
+}
+
+// Inverts the CDF of n bins, n + 1 values at texels[offset..]: the bin
+// holding u (the first whose upper end exceeds it) and u's place in it.
+fn sample_cdf(offset: u32, n: u32, u: f32) -> CdfSample {
+    var lo = 0u;
+    var hi = n;
+    while lo < hi {
+        let mid = (lo + hi) / 2u;
+        if texels[offset + 1u + mid] <= u {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    let i = min(lo, n - 1u);
+    let c0 = texels[offset + i];
+    let c1 = texels[offset + i + 1u];
+    var t = 0.5;
+    if c1 > c0 {
+        t = (u - c0) / (c1 - c0);
+    }
+    return CdfSample(i, clamp(t, 0.0, ONE_MINUS_EPSILON));
+}
+
+fn env_light_sample(u: vec2<f32>) -> vec3<f32> {
+    let img = images[params.bg_image];
+    let w = img.width;
+    let h = img.height;
+    let rows = sample_cdf(params.env_table, h, u.y);
+    let cols = sample_cdf(params.env_table + h + 1u + rows.index * (w + 1u), w, u.x);
+    let x = (f32(cols.index) + cols.t) / f32(w);
+    let y = (f32(rows.index) + rows.t) / f32(h);
+    let theta = PI * y;
+    let phi = 2.0 * PI * (x - 0.5);
+    let st = sin(theta);
+    let dr = vec3<f32>(st * sin(phi), cos(theta), -st * cos(phi));
+    let s = params.bg_rot_sin;
+    let c = params.bg_rot_cos;
+    return vec3<f32>(c * dr.x - s * dr.z, dr.y, s * dr.x + c * dr.z);
+}
+
+fn env_light_pdf(d: vec3<f32>) -> f32 {
+    let s = params.bg_rot_sin;
+    let c = params.bg_rot_cos;
+    let dr = vec3<f32>(c * d.x + s * d.z, d.y, -s * d.x + c * d.z);
+    let uv = equirect_uv(dr);
+    let sin_theta = sqrt(max(1.0 - dr.y * dr.y, 0.0));
+    if sin_theta <= 0.0 {
+        return 0.0;
+    }
+    let img = images[params.bg_image];
+    let w = img.width;
+    let h = img.height;
+    let col = min(u32(uv.x * f32(w)), w - 1u);
+    let row = min(u32((1.0 - uv.y) * f32(h)), h - 1u);
+    let p_uv = texels[params.env_table + h + 1u + h * (w + 1u) + row * w + col];
+    return p_uv / (2.0 * PI * PI * sin_theta);
+}
+
+fn light_set_env_pdf(d: vec3<f32>) -> f32 {
+    if params.env_pmf > 0.0 {
+        return params.env_pmf * env_light_pdf(d);
+    }
+    return 0.0;
+}
+
+fn light_set_sample(p: vec3<f32>, u_select: f32, u: vec2<f32>) -> LightSample {
+    let none = LightSample(false, 0u, vec3<f32>(0.0), vec3<f32>(0.0));
+    let n = params.emitter_count;
+    if n == 0u {
+        return none;
+    }
+    // The first emitter whose cumulative probability exceeds u_select
+    // (Rust's partition_point), the last if rounding leaves none.
+    var lo = 0u;
+    var hi = n;
+    while lo < hi {
+        let mid = (lo + hi) / 2u;
+        if emitters[mid].cdf <= u_select {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    let prim = emitters[min(lo, n - 1u)].prim;
+    if prim == ENV_PRIM {
+        let d = env_light_sample(u);
+        if !is_finite3(d) {
+            return none;
+        }
+        return LightSample(true, prim, d, d);
+    }
+    let sp = sphere_of(prim);
+    var offset: vec3<f32>;
+    let from_center = p - sp.center;
+    if sp.ok && dot(from_center, from_center) > sp.radius * sp.radius {
+        offset = sphere_cone_offset(sp.center, sp.radius, p, u);
+    } else {
+        offset = offset_on(prim, uniform_area_parameters(prim, u), p);
+    }
+    let direction = normalize(offset);
+    if !is_finite3(direction) {
+        return none;
+    }
+    return LightSample(true, prim, direction, offset);
+}
+
+fn light_set_pdf(prim: u32, p: vec3<f32>, x: vec3<f32>, n: vec3<f32>) -> f32 {
+    let d = light_densities[prim];
+    if d.pmf == 0.0 {
+        return 0.0;
+    }
+    let sp = sphere_of(prim);
+    if sp.ok {
+        let from_center = p - sp.center;
+        let dc2 = dot(from_center, from_center);
+        if dc2 > sp.radius * sp.radius {
+            return d.pmf * sphere_cone_pdf(sp.radius * sp.radius / dc2);
+        }
+    }
+    let to = x - p;
+    let d2 = dot(to, to);
+    let cos_light = abs(dot(to, n) / sqrt(d2));
+    if cos_light <= 0.0 || d2 <= 0.0 {
+        return 0.0;
+    }
+    return d.pmf * d2 / (d.area * cos_light);
+}
