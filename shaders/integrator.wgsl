@@ -97,52 +97,77 @@ fn power_heuristic(a: f32, b: f32) -> f32 {
     return 0.0;
 }
 
-// One light sample at si: f·|cos|·Le·w / p_light, zero when the sample is
-// blocked, faces away or has no density (see the reference's next_event).
-fn next_event(m: GpuMaterial, ray: Ray, si: SurfaceInteraction, ul: vec4<f32>) -> vec3<f32> {
-    let none = vec3<f32>(0.0);
+// A light sample's shadow ray and what its contribution needs once the
+// ray is traced: the reference's next_event, split in two around the
+// traversal so that trace_path_mis traces every ray, extension or shadow,
+// through one bvh_intersect call (one inlined traversal in the kernel).
+struct ShadowQuery {
+    ok: bool,
+    ray: Ray,
+    prim: u32,
+    // Path throughput at the vertex times f·|cos θ|.
+    weight: vec3<f32>,
+    bsdf_pdf: f32,
+    p: vec3<f32>,
+}
+
+fn no_shadow_query() -> ShadowQuery {
+    return ShadowQuery(false, Ray(vec3<f32>(0.0), vec3<f32>(0.0)), 0u, vec3<f32>(0.0), 0.0, vec3<f32>(0.0));
+}
+
+// The first half of next_event: the light sample, the BSDF's value and
+// density toward it, and the shadow ray (aimed from the spawn point at
+// the sampled point itself; along the direction for the environment).
+fn next_event_ray(m: GpuMaterial, ray: Ray, si: SurfaceInteraction, ul: vec4<f32>, throughput: vec3<f32>) -> ShadowQuery {
     let ls = light_set_sample(si.p, ul[LIGHT_DIM_SELECT], vec2<f32>(ul[LIGHT_DIM_POINT_U], ul[LIGHT_DIM_POINT_V]));
     if !ls.ok {
-        return none;
+        return no_shadow_query();
     }
     let b = bsdf_eval(m, ray.direction, si, ls.direction);
-    if !b.ok || all(b.f_cos == none) {
-        return none;
+    if !b.ok || all(b.f_cos == vec3<f32>(0.0)) {
+        return no_shadow_query();
     }
-    // Aimed from the spawn point at the sampled point itself.
     let origin = spawn_toward(si, ls.direction);
-    if ls.prim == ENV_PRIM {
-        // The environment: lit if the ray leaves the scene.
-        if bvh_intersect(Ray(origin, ls.direction), 0.0, f32_infinity()).hit {
+    var dir = ls.direction;
+    if ls.prim != ENV_PRIM {
+        let aim = ls.offset - (origin - si.p);
+        dir = aim / length(aim);
+        if !is_finite3(dir) {
+            return no_shadow_query();
+        }
+    }
+    return ShadowQuery(true, Ray(origin, dir), ls.prim, throughput * b.f_cos, b.pdf, si.p);
+}
+
+// The second half of next_event: Le·w / p_light for the traced shadow ray
+// (times the query's weight), zero when it is blocked.
+fn next_event_finish(q: ShadowQuery, hit: Hit) -> vec3<f32> {
+    let none = vec3<f32>(0.0);
+    if q.prim == ENV_PRIM {
+        if hit.hit {
             return none;
         }
-        let pdf_env = light_set_env_pdf(ls.direction);
+        let pdf_env = light_set_env_pdf(q.ray.direction);
         if !(pdf_env > 0.0 && pdf_env <= F32_MAX) {
             return none;
         }
-        return b.f_cos * evaluate_background(ls.direction) * (power_heuristic(pdf_env, b.pdf) / pdf_env);
+        return q.weight * evaluate_background(q.ray.direction) * (power_heuristic(pdf_env, q.bsdf_pdf) / pdf_env);
     }
-    let aim = ls.offset - (origin - si.p);
-    let dir = aim / length(aim);
-    if !is_finite3(dir) {
+    if !hit.hit || hit.prim != q.prim {
         return none;
     }
-    let shadow = Ray(origin, dir);
-    let hit = bvh_intersect(shadow, 0.0, f32_infinity());
-    if !hit.hit || hit.prim != ls.prim {
-        return none;
-    }
-    let sl = surface_interaction(shadow, hit);
+    let sl = surface_interaction(q.ray, hit);
     let le = emitted(materials[sl.material], sl);
-    let pdf_light = light_set_pdf(ls.prim, si.p, sl.p, sl.geometric_normal);
+    let pdf_light = light_set_pdf(q.prim, q.p, sl.p, sl.geometric_normal);
     if all(le == none) || !(pdf_light > 0.0 && pdf_light <= F32_MAX) {
         return none;
     }
-    return b.f_cos * le * (power_heuristic(pdf_light, b.pdf) / pdf_light);
+    return q.weight * le * (power_heuristic(pdf_light, q.bsdf_pdf) / pdf_light);
 }
 
 // Traces one path with next-event estimation and MIS: the twin of the
-// reference's trace_path_mis.
+// reference's trace_path_mis. A vertex's shadow ray is traced by the next
+// pass of the loop, before the extension ray it has already made.
 fn trace_path_mis(ray_in: Ray, pixel: u32, sample: u32) -> vec3<f32> {
     poisoned = false;
     var ray = ray_in;
@@ -152,8 +177,21 @@ fn trace_path_mis(ray_in: Ray, pixel: u32, sample: u32) -> vec3<f32> {
     // emission counts in full (camera ray, delta or density-less vertex).
     var from_p = vec3<f32>(0.0);
     var from_pdf = 0.0;
-    for (var segment = 0u; segment < params.max_depth; segment++) {
+    var shadow = no_shadow_query();
+    var next = ray_in;
+    var alive = true;
+    var segment = 0u;
+    loop {
         let hit = bvh_intersect(ray, 0.0, f32_infinity());
+        if shadow.ok {
+            radiance += next_event_finish(shadow, hit);
+            shadow.ok = false;
+            if !alive {
+                break;
+            }
+            ray = next;
+            continue;
+        }
         if !hit.hit {
             // An environment map is a light too.
             var weight = 1.0;
@@ -179,25 +217,33 @@ fn trace_path_mis(ray_in: Ray, pixel: u32, sample: u32) -> vec3<f32> {
         // The shadow ray is the path's next segment: none after the last.
         if density && params.emitter_count > 0u && segment + 1u < params.max_depth {
             let ul = light_randoms(params.seed, pixel, sample, segment + 1u);
-            radiance += throughput * next_event(m, ray, si, ul);
+            shadow = next_event_ray(m, ray, si, ul, throughput);
         }
         let s = scatter(m, ray.direction, si, u);
-        if !s.ok {
-            break;
-        }
-        from_pdf = 0.0;
-        if density {
-            let b = bsdf_eval(m, ray.direction, si, s.direction);
-            if b.ok && b.pdf > 0.0 {
-                from_p = si.p;
-                from_pdf = b.pdf;
+        alive = s.ok;
+        if alive {
+            from_pdf = 0.0;
+            if density {
+                let b = bsdf_eval(m, ray.direction, si, s.direction);
+                if b.ok && b.pdf > 0.0 {
+                    from_p = si.p;
+                    from_pdf = b.pdf;
+                }
             }
+            throughput *= s.weight;
+            alive = survives_roulette(&throughput, vr_get(u, DIM_ROULETTE), segment);
+            next = Ray(spawn_toward(si, s.direction), s.direction);
         }
-        throughput *= s.weight;
-        if !survives_roulette(&throughput, vr_get(u, DIM_ROULETTE), segment) {
+        segment += 1u;
+        alive = alive && segment < params.max_depth;
+        if shadow.ok {
+            ray = shadow.ray;
+            continue;
+        }
+        if !alive {
             break;
         }
-        ray = Ray(spawn_toward(si, s.direction), s.direction);
+        ray = next;
     }
     return radiance;
 }

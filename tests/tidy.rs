@@ -80,6 +80,15 @@ const GPU_ONLY: &[(&str, &str)] = &[
         "trace",
         "the match on `Integrator` in integrator::render_with",
     ),
+    (
+        "next_event_ray",
+        "integrator::next_event up to its shadow ray (trace_path_mis traces every ray through one call)",
+    ),
+    (
+        "next_event_finish",
+        "integrator::next_event after its shadow ray",
+    ),
+    ("no_shadow_query", "the reference's early returns from next_event"),
     ("to_unit4", "u32_to_unit_f32 on four words"),
     ("vr_get", "indexes VertexRandoms (a Rust array)"),
     (

@@ -17,6 +17,7 @@
 //! | `sky` background | `envmap` of a 4096-row lat-long map; the gradient is linear in `cos θ`, so bilinear lookup errs by about 10^-7 |
 //! | thin-lens camera | `perspective` (`aperture` 0) or `thinlens` (radius = aperture / 2), `fov_axis="y"` |
 //! | box pixel filter, `max_depth` ray segments | `box` rfilter, `path` integrator's `max_depth` (1 = emitters seen directly in both) |
+//! | Russian roulette from hit `roulette_depth` on | `rr_depth` = `roulette_depth − 1` (Mitsuba rolls after hit `rr_depth`) |
 //!
 //! Not exported: fuzzy metal (Ray Tracing in One Weekend's ball
 //! perturbation has no Mitsuba counterpart), dielectrics (Schlick's
@@ -230,9 +231,14 @@ impl<'s> MitsubaScene<'s> {
             env!("CARGO_PKG_VERSION")
         )?;
         x += "<scene version=\"3.0.0\">\n";
+        // Russian roulette from the same vertex: twintrace rolls at the
+        // k-th surface hit when k ≥ roulette_depth, Mitsuba's `path` when
+        // k > rr_depth (its depth counts hits); both survive with the
+        // throughput's largest component capped at 0.95.
+        let rr_depth = self.scene.render_settings().roulette_depth.max(1) - 1;
         writeln!(
             x,
-            r#"  <integrator type="path"><integer name="max_depth" value="{max_depth}"/></integrator>"#
+            r#"  <integrator type="path"><integer name="max_depth" value="{max_depth}"/><integer name="rr_depth" value="{rr_depth}"/></integrator>"#
         )?;
         let lens = if cam.aperture > 0.0 {
             format!(
