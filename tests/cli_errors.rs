@@ -122,7 +122,7 @@ fn zero_spp() {
 /// `--integrator mis` renders on either backend and says so in the EXR's
 /// `software` attribute, which `diff` reads to pick its test.
 #[test]
-fn mis_renders_on_both_backends_and_is_recorded() {
+fn mis_renders_on_cpu_and_gpu_and_is_recorded() {
     for backend in ["cpu", "gpu"] {
         let dir = tempfile::tempdir().unwrap();
         let o = twintrace(
