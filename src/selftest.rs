@@ -25,12 +25,14 @@
 
 use crate::compare::furnace::{self, FurnaceCase};
 use crate::compare::gate::{
-    gate_settings, load_reference, load_scene, read_manifest, RefSpec, RenderFn, StoredReference,
+    gate_settings, load_reference_in, load_scene, read_manifest, refs_for, RefSet, RefSpec,
+    RenderFn, StoredReference, GATE_REFS,
 };
 use crate::compare::image::{compare, Method, NoisyImage, Side, TestSettings, Verdict};
 use crate::stats;
 use anyhow::Result;
 use glam::DVec3;
+use reference::integrator::Integrator;
 use reference::material::LUMINANCE_WEIGHTS;
 use reference::{Film, RenderSettings, Scene};
 use std::fmt::Write as _;
@@ -47,18 +49,33 @@ pub const GATE_SEED: u32 = 11;
 pub trait Renderer {
     /// A function rendering `scene` with any settings.
     fn prepare<'s>(&'s self, scene: &'s Scene) -> Result<PreparedRender<'s>>;
+
+    /// The stored references of this renderer's estimator.
+    fn refs(&self) -> &'static RefSet {
+        &GATE_REFS
+    }
 }
 
 /// What [`Renderer::prepare`] returns.
 pub type PreparedRender<'s> = Box<dyn Fn(&RenderSettings) -> Result<Film> + 's>;
 
-/// The scalar CPU reference as a [`Renderer`].
-pub struct CpuReference;
+/// The scalar CPU reference, with one estimator, as a [`Renderer`].
+pub struct CpuReference(pub Integrator);
 
 impl Renderer for CpuReference {
+    fn refs(&self) -> &'static RefSet {
+        refs_for(self.0)
+    }
+
     fn prepare<'s>(&'s self, scene: &'s Scene) -> Result<PreparedRender<'s>> {
+        let integrator = self.0;
         Ok(Box::new(move |settings: &RenderSettings| -> Result<Film> {
-            Ok(reference::render(scene, settings, &|_| {}))
+            Ok(reference::integrator::render_with(
+                scene,
+                settings,
+                integrator,
+                &|_| {},
+            ))
         }))
     }
 }
@@ -73,9 +90,15 @@ pub struct GateOutcome {
     pub seconds: f64,
 }
 
-fn stored_gate(spec: &RefSpec, render: RenderFn, spp: u32, seed: u32) -> Result<GateOutcome> {
+fn stored_gate(
+    refs: &RefSet,
+    spec: &RefSpec,
+    render: RenderFn,
+    spp: u32,
+    seed: u32,
+) -> Result<GateOutcome> {
     let start = Instant::now();
-    let reference = load_reference(spec)?;
+    let reference = load_reference_in(refs, spec)?;
     let scene = load_scene(spec)?;
     let film = render(&scene, &gate_settings(&reference, &scene, spp, seed))?;
     let verdict = verdict_of(&as_stored(NoisyImage::from_film(&film)), &reference)?;
@@ -163,7 +186,7 @@ pub fn run_gates(
         if only.is_some_and(|o| o != spec.name) {
             continue;
         }
-        let g = stored_gate(&spec, render, spp, seed)?;
+        let g = stored_gate(renderer.refs(), &spec, render, spp, seed)?;
         keep(g, &mut out);
     }
     if only.is_none() {
@@ -333,7 +356,7 @@ pub fn calibrate(
     others: &[TestSettings],
     progress: &mut dyn FnMut(u32),
 ) -> Result<Calibration> {
-    let reference = load_reference(fixture)?;
+    let reference = load_reference_in(renderer.refs(), fixture)?;
     let scene = load_scene(fixture)?;
     let render = renderer.prepare(&scene)?;
     let settings = TestSettings::default();

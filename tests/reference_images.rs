@@ -9,6 +9,7 @@
 
 use crate::common::for_each_reference;
 use crate::common::gates::gate_fixture;
+use reference::integrator::Integrator;
 use twintrace::compare::gate::{cpu_reference, manifest_entry, read_manifest};
 use twintrace::compare::image::TestSettings;
 use twintrace::selftest::{self, CpuReference};
@@ -84,7 +85,7 @@ fn a_sample_of_the_calibration_stays_within_its_false_alarm_rate() {
     };
     let cal = selftest::calibrate(
         &spec,
-        &CpuReference,
+        &CpuReference(Integrator::Bsdf),
         1024,
         (2000, 20),
         &[loose],

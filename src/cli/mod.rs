@@ -125,9 +125,10 @@ pub struct RenderArgs {
     /// Worker threads for the CPU backend (default: one per core).
     #[arg(long)]
     pub threads: Option<usize>,
-    /// The estimator: bsdf (BSDF sampling only) or mis (light sampling and
-    /// BSDF sampling combined by MIS), on either backend.
-    #[arg(long, value_enum, default_value_t = IntegratorArg::Bsdf)]
+    /// The estimator: mis (light sampling and BSDF sampling combined by
+    /// multiple importance sampling) or bsdf (BSDF sampling only), on
+    /// either backend.
+    #[arg(long, value_enum, default_value_t = IntegratorArg::Mis)]
     pub integrator: IntegratorArg,
 }
 

@@ -4,27 +4,42 @@
 //! `--calibrate N` measures the stored-reference gate's false alarms and
 //! power over N seeds per fixture instead.
 
-use super::{choose_device, Backend, Device};
+use super::{choose_device, Backend, Device, IntegratorArg};
 use anyhow::{bail, Result};
 use clap::Args;
+use reference::integrator::Integrator;
 use reference::{Film, RenderSettings, Scene};
 use std::path::PathBuf;
-use twintrace::compare::gate::{read_manifest, workspace_root, MANIFEST};
+use twintrace::compare::gate::{read_manifest, refs_for, workspace_root, RefSet, MANIFEST};
 use twintrace::selftest::{self, GateOutcome, PreparedRender, Renderer};
 
-/// The chosen device as a [`Renderer`].
-struct On<'a>(Option<&'a gpu::GpuContext>);
+/// The chosen device and estimator as a [`Renderer`].
+struct On<'a>(Option<&'a gpu::GpuContext>, Integrator);
 
 impl Renderer for On<'_> {
+    fn refs(&self) -> &'static RefSet {
+        refs_for(self.1)
+    }
+
     fn prepare<'s>(&'s self, scene: &'s Scene) -> Result<PreparedRender<'s>> {
         Ok(match self.0 {
             Some(ctx) => {
-                let gpu = gpu::GpuRenderer::new(ctx, scene)?;
+                let gpu = gpu::GpuRenderer::with_integrator(ctx, scene, self.1)?;
                 Box::new(move |settings: &RenderSettings| -> Result<Film> {
                     Ok(gpu.render(settings, &|_, _| {})?.film)
                 })
             }
-            None => selftest::CpuReference.prepare(scene)?,
+            None => {
+                let integrator = self.1;
+                Box::new(move |settings: &RenderSettings| -> Result<Film> {
+                    Ok(reference::integrator::render_with(
+                        scene,
+                        settings,
+                        integrator,
+                        &|_| {},
+                    ))
+                })
+            }
         })
     }
 }
@@ -39,6 +54,9 @@ pub struct SelftestArgs {
     /// default: $TWINTRACE_ROOT, else the source tree this binary was built from.
     #[arg(long, value_name = "DIR")]
     pub root: Option<PathBuf>,
+    /// The estimator the gates render with (default: the render command's).
+    #[arg(long, value_enum, default_value_t = IntegratorArg::Mis)]
+    pub integrator: IntegratorArg,
     /// Run only the image gate of this fixture (a manifest name).
     #[arg(long, value_name = "NAME")]
     pub only: Option<String>,
@@ -85,7 +103,7 @@ pub fn execute(args: &SelftestArgs) -> Result<bool> {
         Device::Gpu(ctx) => Some(ctx),
         Device::Cpu => None,
     };
-    let renderer = On(gpu_ctx);
+    let renderer = On(gpu_ctx, args.integrator.integrator());
     if let Some(count) = args.calibrate {
         let mut rows = Vec::new();
         for spec in read_manifest()? {

@@ -16,6 +16,7 @@ use super::metrics::metrics;
 use crate::image_io::{self, RenderImage, RenderMetadata};
 use crate::report::{self, Report};
 use anyhow::{anyhow, bail, Context, Result};
+use reference::integrator::Integrator;
 use reference::material::Material;
 use reference::texture::Texture;
 use reference::{Film, RenderSettings, Scene, SceneError};
@@ -42,6 +43,25 @@ pub const GATE_REFS: RefSet = RefSet {
     dir: REFS_DIR,
     bless: "cargo xtask bless",
 };
+
+/// The gates' references rendered with MIS (the same manifest as
+/// [`GATE_REFS`], which are BSDF-sampled): a render is gated against the
+/// set of its own estimator ([`refs_for`]), whose per-sample variance
+/// then predicts its noise; the two sets are held to each other by
+/// Welch's test (tests/mis_matches_bsdf.rs).
+pub const MIS_REFS: RefSet = RefSet {
+    manifest: MANIFEST,
+    dir: "fixtures/refs/mis",
+    bless: "cargo xtask bless --integrator mis",
+};
+
+/// The reference set rendered with `integrator`.
+pub fn refs_for(integrator: Integrator) -> &'static RefSet {
+    match integrator {
+        Integrator::Bsdf => &GATE_REFS,
+        Integrator::Mis => &MIS_REFS,
+    }
+}
 
 /// The performance suite's error references (larger images; see
 /// [`crate::perf`]).

@@ -6,8 +6,8 @@
 use twintrace::compare::chi2::Chi2Outcome;
 use twintrace::compare::furnace::{self, FurnaceCase};
 use twintrace::compare::gate::{
-    artifact_dir, load_reference, load_scene, manifest_entry, run_gate, write_artifacts, GateRun,
-    RenderFn, StoredReference,
+    artifact_dir, load_reference_in, load_scene, manifest_entry, run_gate, write_artifacts,
+    GateRun, RefSet, RenderFn, StoredReference, GATE_REFS,
 };
 
 /// Panics with the verdict if `run` failed, after writing the evidence to
@@ -50,8 +50,21 @@ pub fn assert_passes(test: &str, reference: &StoredReference, run: &GateRun) {
 /// stored reference; panics (after [`assert_passes`]) on any failure. The
 /// evidence of a failure goes to `target/diff/<suite>/<name>/`.
 pub fn gate_fixture(suite: &str, name: &str, spp: u32, seed: u32, render: RenderFn) {
+    gate_fixture_in(&GATE_REFS, suite, name, spp, seed, render)
+}
+
+/// [`gate_fixture`] against the reference of `set` (the BSDF-sampled set
+/// for the MIS renders).
+pub fn gate_fixture_in(
+    set: &RefSet,
+    suite: &str,
+    name: &str,
+    spp: u32,
+    seed: u32,
+    render: RenderFn,
+) {
     let spec = manifest_entry(name).unwrap_or_else(|e| panic!("{e:#}"));
-    let reference = load_reference(&spec).unwrap_or_else(|e| panic!("{e:#}"));
+    let reference = load_reference_in(set, &spec).unwrap_or_else(|e| panic!("{e:#}"));
     let scene = load_scene(&spec).unwrap_or_else(|e| panic!("{e:#}"));
     let run = run_gate(&reference, &scene, spp, seed, render).unwrap_or_else(|e| panic!("{e:#}"));
     println!(

@@ -1,8 +1,13 @@
-//! `cargo xtask bless [--perf] [--scene NAME]... [--spp N]`: regenerates
-//! stored references. Tests never write them; this command does, explicitly.
-//! `--perf` works on the performance suite's error references
-//! (`fixtures/refs/perf/`, larger images that `twintrace perf` measures
-//! relMSE against) instead of the gates' (`fixtures/refs/`).
+//! `cargo xtask bless [--perf] [--integrator mis|bsdf] [--scene NAME]...
+//! [--spp N]`: regenerates stored references. Tests never write them; this
+//! command does, explicitly. `--perf` works on the performance suite's
+//! error references (`fixtures/refs/perf/`, larger images that `twintrace
+//! perf` measures relMSE against) instead of the gates' (`fixtures/refs/`).
+//! `--integrator` picks the estimator: `bsdf` (default) writes the
+//! BSDF-sampled set, `fixtures/refs/`, that BSDF renders are gated
+//! against; `mis` the set of the default estimator, `fixtures/refs/mis/`,
+//! for MIS renders (both sets from the same manifest); the perf references
+//! are BSDF-sampled.
 //!
 //! For each line of `fixtures/refs/manifest.txt` (`name scene WIDTHxHEIGHT
 //! spp seed max_depth`; all lines, or those named by `--scene`) it runs
@@ -22,6 +27,8 @@ pub(crate) const REFS: &str = "fixtures/refs";
 /// The performance suite's references (same manifest format).
 pub(crate) const PERF_MANIFEST: &str = "fixtures/refs/perf/manifest.txt";
 const PERF_REFS: &str = "fixtures/refs/perf";
+/// The gates' MIS-rendered references (same manifest as [`REFS`]).
+pub(crate) const MIS_REFS: &str = "fixtures/refs/mis";
 
 pub(crate) struct Line {
     pub name: String,
@@ -126,17 +133,26 @@ pub(crate) fn machine() -> String {
 }
 
 fn usage() -> String {
-    "usage: cargo xtask bless [--perf] [--scene NAME]... [--spp N]".into()
+    "usage: cargo xtask bless [--perf] [--integrator mis|bsdf] [--scene NAME]... [--spp N]".into()
 }
 
 pub fn run(args: &[String]) -> Result<(), String> {
     let mut scenes: Vec<String> = Vec::new();
     let mut spp: Option<u32> = None;
-    let (mut manifest, mut refs) = (MANIFEST, REFS);
+    let mut perf = false;
+    let mut integrator: Option<String> = None;
     let mut it = args.iter();
     while let Some(a) = it.next() {
         match a.as_str() {
-            "--perf" => (manifest, refs) = (PERF_MANIFEST, PERF_REFS),
+            "--perf" => perf = true,
+            "--integrator" => {
+                integrator = Some(
+                    it.next()
+                        .filter(|s| *s == "mis" || *s == "bsdf")
+                        .ok_or_else(|| format!("--integrator needs mis or bsdf; {}", usage()))?
+                        .clone(),
+                )
+            }
             "--scene" => scenes.push(it.next().ok_or_else(usage)?.clone()),
             "--spp" => {
                 spp = Some(
@@ -149,6 +165,18 @@ pub fn run(args: &[String]) -> Result<(), String> {
             other => return Err(format!("unknown argument `{other}`; {}", usage())),
         }
     }
+    let integrator = integrator.unwrap_or_else(|| "bsdf".into());
+    let (manifest, refs) = match (perf, integrator.as_str()) {
+        (true, "bsdf") => (PERF_MANIFEST, PERF_REFS),
+        (true, _) => {
+            return Err(
+                "the perf references are BSDF-sampled: --perf takes no --integrator mis".into(),
+            )
+        }
+        (false, "bsdf") => (MANIFEST, REFS),
+        (false, _) => (MANIFEST, MIS_REFS),
+    };
+    std::fs::create_dir_all(refs).map_err(|e| format!("cannot create {refs}: {e}"))?;
     let text =
         std::fs::read_to_string(manifest).map_err(|e| format!("cannot read {manifest}: {e}"))?;
     let mut lines = parse(&text, manifest)?;
@@ -201,6 +229,8 @@ pub fn run(args: &[String]) -> Result<(), String> {
             &l.seed,
             "--max-depth",
             &l.depth,
+            "--integrator",
+            &integrator,
         ];
         let start = Instant::now();
         let mut cargo_args = vec!["run", "--release", "--quiet", "--bin", "twintrace", "--"];
@@ -213,7 +243,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
             std::fs::remove_file(&png).map_err(|e| format!("cannot remove {png}: {e}"))?;
         }
         let note = format!(
-            "reference: {name}\nscene: {scene}\nrenderer: twintrace {version} scalar CPU reference (--backend cpu), release build\nsource: git {revision}{dirty}\n\
+            "reference: {name}\nscene: {scene}\nrenderer: twintrace {version} scalar CPU reference (--backend cpu, --integrator {integrator}), release build\nsource: git {revision}{dirty}\n\
              command: twintrace {command}\nsize: {size}, spp {spp}, seed {seed}, max depth {depth}\ndate: {date}\nmachine: {machine}\nrender time: {seconds:.1} s\n",
             name = l.name,
             scene = l.scene,
