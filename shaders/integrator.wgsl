@@ -83,18 +83,21 @@ fn trace_path(ray_in: Ray, pixel: u32, sample: u32) -> vec3<f32> {
 }
 
 // The power heuristic with exponent 2: the weight of a sample drawn with
-// density a when the other strategy would have drawn it with b.
+// density a when the other strategy would have drawn it with b, as
+// 1 / (1 + (b/a)²), exactly 1 where b = 0 (see the reference).
 fn power_heuristic(a: f32, b: f32) -> f32 {
-    let a2 = a * a;
-    let b2 = b * b;
-    let sum = a2 + b2;
-    if sum > 0.0 && sum <= F32_MAX {
-        return a2 / sum;
-    }
-    if abs(a) > F32_MAX {
+    if (b == 0.0 && a > 0.0) || abs(a) > F32_MAX {
         return 1.0;
     }
-    return 0.0;
+    if !(a > 0.0) {
+        return 0.0;
+    }
+    let r = b / a;
+    let r2 = r * r;
+    if !(r2 <= F32_MAX) {
+        return 0.0;
+    }
+    return 1.0 / (1.0 + r2);
 }
 
 // A light sample's shadow ray and what its contribution needs once the

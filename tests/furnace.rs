@@ -21,6 +21,17 @@ fn white_furnace_cornell_box_is_exact_without_roulette() {
     );
 }
 
+/// With MIS too: the scene has no light to sample (a solid background), so
+/// every MIS weight is exactly 1 and the estimator is BSDF sampling's.
+#[test]
+fn white_furnace_cornell_box_is_exact_with_mis() {
+    use reference::integrator::{render_with, Integrator};
+    assert_known_answer(
+        &furnace::white_furnace(false, 64, SEED).unwrap(),
+        &|scene, settings| Ok(render_with(scene, settings, Integrator::Mis, &|_| {})),
+    );
+}
+
 #[test]
 fn white_furnace_cornell_box_keeps_its_mean_under_roulette() {
     // 256 spp: roulette from depth 3 survives with 0.95 and divides by it,

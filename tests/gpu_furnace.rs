@@ -26,6 +26,20 @@ fn white_furnaces_are_exact_or_unbiased_on_the_gpu() {
         &gpu_render,
     );
     assert_known_answer(&furnace::inside_out_emitter(64, SEED).unwrap(), &gpu_render);
+    // The MIS kernel, where nothing is light-sampled, is exact too (its
+    // weights are exactly 1: a GPU's a²/a² need not be).
+    assert_known_answer(
+        &furnace::white_furnace(false, 64, SEED).unwrap(),
+        &|scene: &Scene, settings: &RenderSettings| -> Result<Film> {
+            Ok(gpu::GpuRenderer::with_integrator(
+                common::gpu(),
+                scene,
+                reference::integrator::Integrator::Mis,
+            )?
+            .render(settings, &|_, _| {})?
+            .film)
+        },
+    );
 }
 
 /// The GPU's variance layer (the kernel's Welford M2) against a known

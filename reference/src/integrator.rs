@@ -142,17 +142,26 @@ impl Integrator {
 }
 
 /// The power heuristic with exponent 2: the weight of a sample drawn with
-/// density `a` when the other strategy would have drawn it with `b`.
+/// density `a` when the other strategy would have drawn it with `b`,
+/// `a² / (a² + b²)`, computed as `1 / (1 + (b/a)²)` so that it neither
+/// underflows nor overflows, and exactly 1 where the other strategy cannot
+/// make the sample (`b = 0`; a division `a²/a²` is not exact on every GPU,
+/// and the white furnace must stay exact under MIS).
 #[inline]
 pub fn power_heuristic(a: f32, b: f32) -> f32 {
-    let (a2, b2) = (a * a, b * b);
-    if a2 + b2 > 0.0 && (a2 + b2).is_finite() {
-        a2 / (a2 + b2)
-    } else if a.is_infinite() {
-        1.0
-    } else {
-        0.0
+    if (b == 0.0 && a > 0.0) || a.is_infinite() {
+        return 1.0;
     }
+    if a.is_nan() || a <= 0.0 {
+        return 0.0;
+    }
+    let r = b / a;
+    let r2 = r * r;
+    // `b` far larger than `a`, or undefined: the other strategy's sample.
+    if !r2.is_finite() {
+        return 0.0;
+    }
+    1.0 / (1.0 + r2)
 }
 
 /// Traces one path with next-event estimation and MIS (see the module
@@ -374,4 +383,28 @@ pub fn render_with(
         }
     }
     film
+}
+
+#[cfg(test)]
+mod tests {
+    use super::power_heuristic;
+
+    #[test]
+    fn power_heuristic_weights_sum_to_one_and_hold_at_the_limits() {
+        for (a, b) in [
+            (1.0, 1.0),
+            (0.3, 2.0),
+            (1e-30, 1e-30),
+            (1e30, 3e29),
+            (5.0, 1e-25),
+        ] {
+            let sum = power_heuristic(a, b) + power_heuristic(b, a);
+            assert!((sum - 1.0).abs() < 1e-6, "{a} {b}: {sum}");
+        }
+        assert_eq!(power_heuristic(1e-25, 0.0), 1.0);
+        assert_eq!(power_heuristic(0.0, 1.0), 0.0);
+        assert_eq!(power_heuristic(f32::INFINITY, 1.0), 1.0);
+        assert_eq!(power_heuristic(1.0, f32::INFINITY), 0.0);
+        assert_eq!(power_heuristic(1.0, f32::NAN), 0.0);
+    }
 }
