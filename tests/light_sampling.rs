@@ -11,7 +11,7 @@ use reference::integrator::{render_with, Integrator};
 use reference::light::LightSet;
 use reference::material::Material;
 use reference::mutants::{self, Mutant};
-use reference::scene::{MeshInput, Transform};
+use reference::scene::Transform;
 use reference::{RenderSettings, Scene, SceneBuilder};
 
 /// Three emitters of every kind around the origin: a quad overhead, a
@@ -19,52 +19,7 @@ use reference::{RenderSettings, Scene, SceneBuilder};
 /// nothing (never picked).
 fn three_lights() -> Scene {
     let mut b = SceneBuilder::new();
-    let white = b.constant(Vec3::splat(2.0)).unwrap();
-    let warm = b.constant(Vec3::new(4.0, 2.0, 1.0)).unwrap();
-    let grey = b.constant(Vec3::splat(0.5)).unwrap();
-    let quad = b
-        .add_material(Material::DiffuseLight { emission: white })
-        .unwrap();
-    let tri = b
-        .add_material(Material::DiffuseLight { emission: warm })
-        .unwrap();
-    let floor = b
-        .add_material(Material::Lambertian { albedo: grey })
-        .unwrap();
-    let id = Transform::default();
-    b.add_quad(
-        Vec3::new(-1.0, 1.5, -1.0),
-        Vec3::new(2.0, 0.0, 0.0),
-        Vec3::new(0.0, 0.0, 2.0),
-        quad,
-        &id,
-    )
-    .unwrap();
-    b.add_mesh(
-        &MeshInput {
-            positions: vec![
-                Vec3::new(2.0, -1.0, -1.0),
-                Vec3::new(2.0, 1.0, -0.5),
-                Vec3::new(2.0, 0.0, 1.5),
-            ],
-            normals: None,
-            uvs: None,
-            indices: vec![0, 1, 2],
-        },
-        tri,
-        &id,
-    )
-    .unwrap();
-    b.add_sphere(Vec3::new(-0.5, -2.0, 0.5), 0.8, quad, &id)
-        .unwrap();
-    b.add_quad(
-        Vec3::new(-5.0, -4.0, -5.0),
-        Vec3::new(10.0, 0.0, 0.0),
-        Vec3::new(0.0, 0.0, 10.0),
-        floor,
-        &id,
-    )
-    .unwrap();
+    twintrace::twins::light::add_three_lights(&mut b, (Vec3::new(-0.5, -2.0, 0.5), 0.8));
     b.build().unwrap()
 }
 
@@ -367,25 +322,40 @@ pub(crate) fn plane_under_lamp_answer(x: Vec3) -> f64 {
     0.5 / std::f64::consts::PI * 3.0 * e / (n * n) as f64
 }
 
-/// The pixel's estimate and its standard error with `integrator`.
-fn plane_under_lamp_estimate(integrator: Integrator, mutant: Mutant, spp: u32) -> (f64, f64) {
-    let (scene, _) = plane_under_lamp();
+/// A one-pixel known-answer scene's estimate (channel `channel`) and its
+/// standard error with `integrator`, under `mutant`, direct light only.
+fn one_pixel_estimate(
+    scene: &Scene,
+    channel: usize,
+    seed: u32,
+    integrator: Integrator,
+    mutant: Mutant,
+    spp: u32,
+) -> (f64, f64) {
     let st = RenderSettings {
         width: 1,
         height: 1,
         spp,
-        seed: 41,
+        seed,
         max_depth: 2,
         roulette_depth: 100,
     };
-    let go = || render_with(&scene, &st, integrator, &|_| {});
+    let go = || render_with(scene, &st, integrator, &|_| {});
     let film = if mutant == Mutant::None {
         go()
     } else {
         mutants::pool(mutant).install(go)
     };
     let img = twintrace::compare::image::NoisyImage::from_film(&film);
-    (img.mean[0].x, img.variance.as_ref().unwrap()[0].x.sqrt())
+    (
+        img.mean[0][channel],
+        img.variance.as_ref().unwrap()[0][channel].sqrt(),
+    )
+}
+
+/// The plane-under-lamp pixel's estimate (red) and its standard error.
+fn plane_under_lamp_estimate(integrator: Integrator, mutant: Mutant, spp: u32) -> (f64, f64) {
+    one_pixel_estimate(&plane_under_lamp().0, 0, 41, integrator, mutant, spp)
 }
 
 /// |z| bound of the known-answer and moments tests: 4 standard errors, a
@@ -516,23 +486,7 @@ pub(crate) fn plane_under_env_answer() -> f64 {
 
 /// The plane-under-env pixel's estimate (green) and its standard error.
 fn plane_under_env_estimate(integrator: Integrator, mutant: Mutant, spp: u32) -> (f64, f64) {
-    let (scene, _) = plane_under_env();
-    let st = RenderSettings {
-        width: 1,
-        height: 1,
-        spp,
-        seed: 47,
-        max_depth: 2,
-        roulette_depth: 100,
-    };
-    let go = || render_with(&scene, &st, integrator, &|_| {});
-    let film = if mutant == Mutant::None {
-        go()
-    } else {
-        mutants::pool(mutant).install(go)
-    };
-    let img = twintrace::compare::image::NoisyImage::from_film(&film);
-    (img.mean[0].y, img.variance.as_ref().unwrap()[0].y.sqrt())
+    one_pixel_estimate(&plane_under_env().0, 1, 47, integrator, mutant, spp)
 }
 
 #[test]

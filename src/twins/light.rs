@@ -69,35 +69,18 @@ fn light_main(@builtin(global_invocation_id) gid: vec3<u32>) {
 }
 ";
 
-/// Emitters of every shape and both sphere cases: a quad overhead, a
-/// triangle to the side, a small sphere below (some points lie inside it)
-/// and an inward-facing sphere around everything (every point inside), of
-/// different powers; a grey floor that never emits; and an 8x4
-/// environment map turned 40° (its light is sampled even though the dome
-/// hides it from every point: the twins are compared sample by sample).
-pub fn light_test_scene() -> Scene {
-    let mut b = SceneBuilder::new();
-    let env = b.add_image(ImageData {
-        width: 8,
-        height: 4,
-        texels: (0..32)
-            .map(|i| Vec3::new(0.5, 1.0, 2.0) * (1 + i % 5) as f32)
-            .collect(),
-    });
-    b.background = Some(Background::Envmap {
-        image: env,
-        intensity: 0.0002,
-        rotate_y: 40.0,
-    });
+/// Adds the light tests' emitters to `b`: a quad overhead (white), a
+/// triangle to the side (warm, brighter), a white sphere at `sphere`
+/// (centre, radius), and a grey floor below that emits nothing.
+pub fn add_three_lights(b: &mut SceneBuilder, sphere: (Vec3, f32)) {
     let id = Transform::default();
     let light = |b: &mut SceneBuilder, c: Vec3| {
         let t = b.constant(c).unwrap();
         b.add_material(Material::DiffuseLight { emission: t })
             .unwrap()
     };
-    let white = light(&mut b, Vec3::splat(2.0));
-    let warm = light(&mut b, Vec3::new(4.0, 2.0, 1.0));
-    let dim = light(&mut b, Vec3::splat(0.002));
+    let white = light(b, Vec3::splat(2.0));
+    let warm = light(b, Vec3::new(4.0, 2.0, 1.0));
     let grey = b.constant(Vec3::splat(0.5)).unwrap();
     let floor = b
         .add_material(Material::Lambertian { albedo: grey })
@@ -125,9 +108,7 @@ pub fn light_test_scene() -> Scene {
         &id,
     )
     .unwrap();
-    b.add_sphere(Vec3::new(-0.5, -1.2, 0.5), 0.5, white, &id)
-        .unwrap();
-    b.add_sphere(Vec3::ZERO, -20.0, dim, &id).unwrap();
+    b.add_sphere(sphere.0, sphere.1, white, &id).unwrap();
     b.add_quad(
         Vec3::new(-5.0, -4.0, -5.0),
         Vec3::new(10.0, 0.0, 0.0),
@@ -136,6 +117,35 @@ pub fn light_test_scene() -> Scene {
         &id,
     )
     .unwrap();
+}
+
+/// Emitters of every shape and both sphere cases: a quad overhead, a
+/// triangle to the side, a small sphere below (some points lie inside it)
+/// and an inward-facing sphere around everything (every point inside), of
+/// different powers; a grey floor that never emits; and an 8x4
+/// environment map turned 40° (its light is sampled even though the dome
+/// hides it from every point: the twins are compared sample by sample).
+pub fn light_test_scene() -> Scene {
+    let mut b = SceneBuilder::new();
+    let env = b.add_image(ImageData {
+        width: 8,
+        height: 4,
+        texels: (0..32)
+            .map(|i| Vec3::new(0.5, 1.0, 2.0) * (1 + i % 5) as f32)
+            .collect(),
+    });
+    b.background = Some(Background::Envmap {
+        image: env,
+        intensity: 0.0002,
+        rotate_y: 40.0,
+    });
+    add_three_lights(&mut b, (Vec3::new(-0.5, -1.2, 0.5), 0.5));
+    let dim = b.constant(Vec3::splat(0.002)).unwrap();
+    let dome = b
+        .add_material(Material::DiffuseLight { emission: dim })
+        .unwrap();
+    b.add_sphere(Vec3::ZERO, -20.0, dome, &Transform::default())
+        .unwrap();
     b.build().unwrap()
 }
 
