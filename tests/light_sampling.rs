@@ -254,29 +254,44 @@ fn selection_follows_power() {
     }
 }
 
-/// A grey plane under a square lamp, seen through a pinhole with a tiny
-/// field of view (one point): direct light only.
-pub(crate) fn plane_under_lamp() -> (Scene, Vec3) {
-    use reference::background::Background;
-    use reference::camera::CameraSettings;
-    let mut b = SceneBuilder::new();
+/// Adds a large grey Lambertian plane at y = 0 and a pinhole camera with a
+/// tiny field of view looking at one point of it, which it returns.
+fn add_grey_plane_and_camera(b: &mut SceneBuilder) -> Vec3 {
     let grey = b.constant(Vec3::splat(0.5)).unwrap();
-    let le = b.constant(Vec3::splat(3.0)).unwrap();
     let plane = b
         .add_material(Material::Lambertian { albedo: grey })
         .unwrap();
-    let lamp = b
-        .add_material(Material::DiffuseLight { emission: le })
-        .unwrap();
-    let id = Transform::default();
     b.add_quad(
         Vec3::new(-10.0, 0.0, 10.0),
         Vec3::new(20.0, 0.0, 0.0),
         Vec3::new(0.0, 0.0, -20.0),
         plane,
-        &id,
+        &Transform::default(),
     )
     .unwrap();
+    let target = Vec3::new(0.4, 0.0, 0.3);
+    b.camera = reference::camera::CameraSettings {
+        look_from: Vec3::new(0.6, 0.7, 2.0),
+        look_at: target,
+        up: Vec3::Y,
+        vfov: 0.001,
+        aperture: 0.0,
+        focus_distance: 1.0,
+    };
+    target
+}
+
+/// A grey plane under a square lamp, seen through a pinhole with a tiny
+/// field of view (one point): direct light only.
+pub(crate) fn plane_under_lamp() -> (Scene, Vec3) {
+    use reference::background::Background;
+    let mut b = SceneBuilder::new();
+    let target = add_grey_plane_and_camera(&mut b);
+    let le = b.constant(Vec3::splat(3.0)).unwrap();
+    let lamp = b
+        .add_material(Material::DiffuseLight { emission: le })
+        .unwrap();
+    let id = Transform::default();
     // Facing down: u × v = (1,0,0) × (0,0,1) = (0,-1,0).
     b.add_quad(
         Vec3::new(-0.3, 1.0, -0.6),
@@ -286,15 +301,6 @@ pub(crate) fn plane_under_lamp() -> (Scene, Vec3) {
         &id,
     )
     .unwrap();
-    let target = Vec3::new(0.4, 0.0, 0.3);
-    b.camera = CameraSettings {
-        look_from: Vec3::new(0.6, 0.7, 2.0),
-        look_at: target,
-        up: Vec3::Y,
-        vfov: 0.001,
-        aperture: 0.0,
-        focus_distance: 1.0,
-    };
     b.background = Some(Background::Solid(Vec3::ZERO));
     (b.build().unwrap(), target)
 }
@@ -408,7 +414,6 @@ fn mis_defects_fail_the_known_answer() {
 /// plane seen from above through a pinhole with a tiny field of view.
 pub(crate) fn plane_under_env() -> (Scene, Vec3) {
     use reference::background::Background;
-    use reference::camera::CameraSettings;
     use reference::texture::ImageData;
     let (w, h) = (16u32, 8u32);
     let texels = (0..w * h)
@@ -427,27 +432,7 @@ pub(crate) fn plane_under_env() -> (Scene, Vec3) {
         height: h,
         texels,
     });
-    let grey = b.constant(Vec3::splat(0.5)).unwrap();
-    let plane = b
-        .add_material(Material::Lambertian { albedo: grey })
-        .unwrap();
-    b.add_quad(
-        Vec3::new(-10.0, 0.0, 10.0),
-        Vec3::new(20.0, 0.0, 0.0),
-        Vec3::new(0.0, 0.0, -20.0),
-        plane,
-        &Transform::default(),
-    )
-    .unwrap();
-    let target = Vec3::new(0.4, 0.0, 0.3);
-    b.camera = CameraSettings {
-        look_from: Vec3::new(0.6, 0.7, 2.0),
-        look_at: target,
-        up: Vec3::Y,
-        vfov: 0.001,
-        aperture: 0.0,
-        focus_distance: 1.0,
-    };
+    let target = add_grey_plane_and_camera(&mut b);
     b.background = Some(Background::Envmap {
         image,
         intensity: 1.5,

@@ -188,12 +188,7 @@ pub fn trace_path_mis(
         let Some(hit) = scene.intersect(&ray, 0.0, f32::INFINITY) else {
             // An environment map is a light too: weighed against its
             // light samples like an emitter's hit.
-            let weight = match came_from {
-                Some((_, pdf_bsdf)) if !mutants::is(Mutant::MisDoubleCount) => {
-                    power_heuristic(pdf_bsdf, lights.env_pdf(ray.direction))
-                }
-                _ => 1.0,
-            };
+            let weight = bsdf_sample_weight(came_from, |_| lights.env_pdf(ray.direction));
             radiance += throughput
                 * weight
                 * evaluate_background(&scene.background(), scene.images(), ray.direction);
@@ -204,13 +199,9 @@ pub fn trace_path_mis(
         throughput *= transmittance(material, &si, hit.t);
         let le = emitted(material, ctx, &si);
         if le != Vec3::ZERO {
-            let weight = match came_from {
-                Some((from, pdf_bsdf)) if !mutants::is(Mutant::MisDoubleCount) => {
-                    let pdf_light = lights.pdf(scene, hit.prim, from, si.p, si.geometric_normal);
-                    power_heuristic(pdf_bsdf, pdf_light)
-                }
-                _ => 1.0,
-            };
+            let weight = bsdf_sample_weight(came_from, |from| {
+                lights.pdf(scene, hit.prim, from, si.p, si.geometric_normal)
+            });
             radiance += throughput * le * weight;
         }
         let u = vertex_randoms(settings.seed, pixel, sample, segment + 1);
@@ -237,6 +228,20 @@ pub fn trace_path_mis(
         ray = Ray::new(spawn_toward(&si, s.direction), s.direction);
     }
     radiance
+}
+
+/// The MIS weight of emission found by a BSDF sample: `came_from` is where
+/// the sample left and its density (`None`: it counts in full), and
+/// `pdf_light(from)` the density with which light sampling from there
+/// would have picked the same direction.
+#[inline]
+fn bsdf_sample_weight(came_from: Option<(Vec3, f32)>, pdf_light: impl FnOnce(Vec3) -> f32) -> f32 {
+    match came_from {
+        Some((from, pdf_bsdf)) if !mutants::is(Mutant::MisDoubleCount) => {
+            power_heuristic(pdf_bsdf, pdf_light(from))
+        }
+        _ => 1.0,
+    }
 }
 
 /// One light sample at `si`: `f · |cos| · Le · w / p_light`, zero when the

@@ -52,7 +52,6 @@ pub const ENV_PRIM: u32 = u32::MAX;
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Emitter {
     prim: u32,
-    area: f32,
     cdf: f32,
 }
 
@@ -165,18 +164,17 @@ impl LightSet {
         } else {
             1.0
         };
+        let mut area_by_prim = vec![0.0; scene.primitives().len()];
         let mut total = 0.0;
         let mut emitters = Vec::with_capacity(raw.len());
         for (prim, area, w) in raw {
             total += w.max(floor);
-            emitters.push(Emitter {
-                prim,
-                area,
-                cdf: total,
-            });
+            emitters.push(Emitter { prim, cdf: total });
+            if prim != ENV_PRIM {
+                area_by_prim[prim as usize] = area;
+            }
         }
         let mut pmf_by_prim = vec![0.0; scene.primitives().len()];
-        let mut area_by_prim = vec![0.0; scene.primitives().len()];
         let mut previous = 0.0;
         let mut env_pmf = 0.0;
         for e in &mut emitters {
@@ -185,7 +183,6 @@ impl LightSet {
                 env_pmf = pmf;
             } else {
                 pmf_by_prim[e.prim as usize] = pmf;
-                area_by_prim[e.prim as usize] = e.area;
             }
             previous = e.cdf;
             e.cdf /= total;
@@ -339,39 +336,16 @@ impl EnvLight {
                 sin_sum += sin_theta as f64;
             }
         }
-        let mut row_sums: Vec<f64> = weights
-            .chunks(w as usize)
-            .map(|r| r.iter().map(|&x| x as f64).sum())
-            .collect();
-        let total: f64 = row_sums.iter().sum();
+        let row_sum = |r: &[f32]| -> f64 { r.iter().map(|&x| x as f64).sum() };
+        let total: f64 = weights.chunks(w as usize).map(row_sum).sum();
         if !(total > 0.0 && total.is_finite()) {
             return None;
         }
         let mut row_cdf = Vec::with_capacity(h as usize + 1);
-        let mut acc = 0.0f64;
-        row_cdf.push(0.0);
-        for r in &row_sums {
-            acc += r;
-            row_cdf.push((acc / total) as f32);
-        }
-        *row_cdf.last_mut().unwrap() = 1.0;
+        push_cdf(&mut row_cdf, weights.chunks(w as usize).map(row_sum));
         let mut col_cdf = Vec::with_capacity((h * (w + 1)) as usize);
-        for (row, sum) in weights.chunks(w as usize).zip(&mut row_sums) {
-            let mut acc = 0.0f64;
-            col_cdf.push(0.0);
-            for &x in row {
-                acc += x as f64;
-                // A black row is never picked; its columns stay uniform.
-                col_cdf.push(if *sum > 0.0 { (acc / *sum) as f32 } else { 0.0 });
-            }
-            *col_cdf.last_mut().unwrap() = 1.0;
-            if *sum <= 0.0 {
-                let n = col_cdf.len();
-                for (i, c) in col_cdf[n - w as usize - 1..].iter_mut().enumerate() {
-                    *c = i as f32 / w as f32;
-                }
-                *sum = 1.0;
-            }
+        for row in weights.chunks(w as usize) {
+            push_cdf(&mut col_cdf, row.iter().map(|&x| x as f64));
         }
         let cells = (w as f64) * (h as f64);
         let cell_pdf = weights
@@ -429,6 +403,25 @@ impl EnvLight {
             _ => p_uv / (2.0 * PI * PI * sin_theta),
         }
     }
+}
+
+/// Appends the CDF of `weights` (`n + 1` values from 0 to exactly 1,
+/// summed in f64); all-zero weights (a black row, never picked) get the
+/// uniform CDF.
+fn push_cdf(out: &mut Vec<f32>, weights: impl Iterator<Item = f64> + Clone) {
+    let sum: f64 = weights.clone().sum();
+    let n = weights.clone().count();
+    out.push(0.0);
+    let mut acc = 0.0f64;
+    for (i, x) in weights.enumerate() {
+        acc += x;
+        out.push(if sum > 0.0 {
+            (acc / sum) as f32
+        } else {
+            (i + 1) as f32 / n as f32
+        });
+    }
+    *out.last_mut().unwrap() = 1.0;
 }
 
 /// Inverts a CDF (`n + 1` values from 0 to 1) at `u`: the bin whose range
