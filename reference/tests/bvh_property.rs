@@ -106,8 +106,9 @@ fn bvh_equals_brute_force_on_every_fixture() {
 
 /// The property must be able to fail: drop one primitive from one BVH leaf
 /// (the gates' standard mutant: "a BVH child dropped") and the same
-/// queries must find a difference: in a leaf of quads and spheres (tested
-/// entry by entry) and in a leaf of triangles (tested four at a time).
+/// queries must find a difference, for each way a leaf is tested: a leaf
+/// of quads and one of triangles (four at a time) and a leaf of quads and
+/// spheres (entry by entry).
 #[test]
 fn a_dropped_bvh_leaf_entry_is_caught() {
     // 72 triangles, so that the queries hit each of them.
@@ -117,23 +118,56 @@ fn a_dropped_bvh_leaf_entry_is_caught() {
         v: Vec3::new(0.0, 2.0, 0.0),
         n: 6,
     };
-    for (name, triangles) in [("cornell", false), ("a grid of triangles", true)] {
-        let scene = if triangles {
-            build_scene(std::slice::from_ref(&grid)).expect("the grid")
-        } else {
-            load(name)
+    // Pairs of a quad and a sphere with the same centroid (no split can
+    // part them), the pairs far apart: leaves of both kinds.
+    let mixed: Vec<ShapeSpec> = (0..8)
+        .flat_map(|i| {
+            let x = i as f32 * 10.0;
+            [
+                ShapeSpec::Quad {
+                    corner: Vec3::new(x, 0.0, 0.0),
+                    u: Vec3::X,
+                    v: Vec3::Y,
+                },
+                ShapeSpec::Sphere {
+                    center: Vec3::new(x + 0.5, 0.5, 0.0),
+                    radius: 0.5,
+                },
+            ]
+        })
+        .collect();
+    let tags = [
+        ("cornell", vec![primitive_tag::QUAD]),
+        ("a grid of triangles", vec![primitive_tag::TRIANGLE]),
+        (
+            "quads and spheres",
+            vec![primitive_tag::QUAD, primitive_tag::SPHERE],
+        ),
+    ];
+    for (name, want) in tags {
+        let scene = match name {
+            "cornell" => load(name),
+            "a grid of triangles" => build_scene(std::slice::from_ref(&grid)).expect("the grid"),
+            _ => build_scene(&mixed).expect("the quads and spheres"),
         };
         let order = scene.bvh().prim_order().to_vec();
         let mut nodes = scene.bvh().nodes().to_vec();
-        let all_triangles = |n: &BvhNode| {
-            order[n.index as usize..(n.index + n.count()) as usize]
+        // The leaf's set of primitive kinds is exactly `want`.
+        let kinds_are = |n: &BvhNode| {
+            let mut tags: Vec<u32> = order[n.index as usize..(n.index + n.count()) as usize]
                 .iter()
-                .all(|&p| scene.primitives()[p as usize].tag == primitive_tag::TRIANGLE)
+                .map(|&p| scene.primitives()[p as usize].tag)
+                .collect();
+            tags.sort_unstable();
+            tags.dedup();
+            let mut want = want.clone();
+            want.sort_unstable();
+            tags == want
         };
         let leaf = nodes
             .iter()
-            .position(|n| n.is_leaf() && n.count() > 1 && all_triangles(n) == triangles)
-            .expect("a leaf with two primitives");
+            .position(|n| n.is_leaf() && (2..=4).contains(&n.count()) && kinds_are(n))
+            .unwrap_or_else(|| panic!("{name}: no leaf of two to four of those kinds"));
         nodes[leaf].meta -= 1 << 2; // count - 1: the last primitive of the leaf is never tested
         let scene = scene
             .with_bvh(Bvh::from_parts(nodes, order).unwrap())

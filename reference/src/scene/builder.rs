@@ -526,7 +526,9 @@ impl SceneBuilder {
             bvh: Bvh::default(),
             bvh_stats,
             leaf_prims: Vec::new(),
+            leaf_bounds: Vec::new(),
             leaf_blocks: Vec::new(),
+            quad_blocks: Vec::new(),
         };
         scene.put_bvh(bvh);
         Ok(scene)

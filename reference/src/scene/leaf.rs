@@ -7,7 +7,10 @@ use super::{primitive_tag, Primitive, Scene};
 use crate::bvh::Bvh;
 use crate::bvh::{intersect_aabb_padded, intersect_entries, Closest, LeafRef, Leaves, LEAF_BATCH};
 use crate::geometry::{Aabb, Hit, Ray};
-use crate::shapes::{intersect_triangles4, MeshData, Quad, RayShear, Sphere, Triangle, Triangles4};
+use crate::shapes::{
+    intersect_quads4, intersect_triangles4, MeshData, Quad, Quads4, RayShear, Sphere, Triangle,
+    Triangles4,
+};
 use glam::{Vec2, Vec3};
 
 /// A primitive's bounding box: the BVH build and [`Bvh::admits`] must see
@@ -67,7 +70,7 @@ impl LeafPrim {
 
     /// [`primitive_bounds`], from the copied floats (the same operations).
     #[inline]
-    fn bounds(&self) -> Aabb {
+    pub(super) fn bounds(&self) -> Aabb {
         let [a, b, c] = self.p;
         match self.tag {
             primitive_tag::SPHERE => Sphere {
@@ -88,7 +91,8 @@ impl LeafPrim {
     }
 
     /// The shape's test, then [`Bvh::admits`] with the ray's inverse
-    /// direction and pad from `k`.
+    /// direction and pad from `k`, against the box [`LeafPrim::bounds`]
+    /// computes.
     #[inline]
     pub(super) fn intersect(
         &self,
@@ -97,10 +101,17 @@ impl LeafPrim {
         t_min: f32,
         t_max: f32,
     ) -> Option<Hit> {
+        let hit = self.intersect_shape(ray, k, t_min, t_max)?;
+        k.admits(self.bounds(), ray, hit.t).then_some(hit)
+    }
+
+    /// The shape's test alone (no [`Bvh::admits`]).
+    #[inline]
+    fn intersect_shape(&self, ray: &Ray, k: &RayConstants, t_min: f32, t_max: f32) -> Option<Hit> {
         use crate::shapes::{intersect_quad, intersect_sphere, intersect_triangle_sheared};
         let [a, b, c] = self.p;
         let prim = self.prim;
-        let hit = match self.tag {
+        match self.tag {
             primitive_tag::SPHERE => intersect_sphere(a, b.x, ray, t_min, t_max).map(|t| Hit {
                 t,
                 prim,
@@ -111,37 +122,53 @@ impl LeafPrim {
             }
             _ => intersect_triangle_sheared(a, b, c, ray, k.shear.as_ref()?, t_min, t_max)
                 .map(|(t, uv)| Hit { t, prim, uv }),
-        }?;
-        k.admits(self.bounds(), ray, hit.t).then_some(hit)
+        }
     }
 }
 
-/// One BVH leaf as the four-wide triangle test reads it: a leaf of one to
-/// four triangles holds their vertices by lane in entry order and their
-/// primitive ids (`u32::MAX` in an empty lane); any other leaf is marked
-/// `by_entry` and tested entry by entry, `entries` of `leaf_prims` (kept
-/// here so that the leaf needs no other load).
+/// One BVH leaf as the four-wide tests read it: a leaf of one to four
+/// triangles holds their vertices by lane in entry order, a leaf of one
+/// to four quads the index of its [`Quads4`] in the scene's quad blocks,
+/// and either its primitive ids (`u32::MAX` in an empty lane); any other
+/// leaf is tested entry by entry, `entries` of `leaf_prims` (kept here so
+/// that the leaf needs no other load).
 #[repr(C, align(16))]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct LeafBlock {
     tris: Triangles4,
     prim: [u32; 4],
     entries: [u32; 2],
-    by_entry: bool,
+    quads: u32,
+    kind: LeafKind,
 }
 
-// A batched leaf fills the four lanes of `Triangles4`.
+/// How a leaf is tested.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum LeafKind {
+    ByEntry,
+    Triangles,
+    Quads,
+}
+
+// A batched leaf fills the four lanes of `Triangles4` or `Quads4`.
 const _: () = assert!(LEAF_BATCH == 4);
 
 /// Whether the leaf tests take primitives of this tag four at a time
-/// ([`LeafBlock`]; what [`Bvh::build_batched`] is told): triangles.
+/// ([`LeafBlock`]; what [`Bvh::build_batched`] is told): triangles. (A
+/// leaf of quads is tested four-wide too, but quads are few: the build is
+/// not asked to gather them.)
 pub(super) fn batched(tag: u32) -> bool {
     tag == primitive_tag::TRIANGLE
 }
 
 impl LeafBlock {
-    /// The block of the leaf of `entries` in `prims`.
-    pub(super) fn of(prims: &[LeafPrim], entries: std::ops::Range<usize>) -> Self {
+    /// The block of the leaf of `entries` in `prims`; a leaf of quads
+    /// appends its lanes to `quad_blocks`.
+    pub(super) fn of(
+        prims: &[LeafPrim],
+        entries: std::ops::Range<usize>,
+        quad_blocks: &mut Vec<Quads4>,
+    ) -> Self {
         // The Bvh keeps its leaves' entries as u32: they fit.
         let [first, end] = [entries.start as u32, entries.end as u32];
         let prims = &prims[entries];
@@ -149,14 +176,29 @@ impl LeafBlock {
             tris: Triangles4::EMPTY,
             prim: [u32::MAX; 4],
             entries: [first, end],
-            by_entry: true,
+            quads: 0,
+            kind: LeafKind::ByEntry,
         };
-        if (1..=LEAF_BATCH).contains(&prims.len()) && prims.iter().all(|p| batched(p.tag)) {
-            block.by_entry = false;
+        if !(1..=LEAF_BATCH).contains(&prims.len()) {
+            return block;
+        }
+        if prims.iter().all(|p| batched(p.tag)) {
+            block.kind = LeafKind::Triangles;
             for (lane, p) in prims.iter().enumerate() {
                 block.tris.set(lane, p.p);
                 block.prim[lane] = p.prim;
             }
+        } else if prims.iter().all(|p| p.tag == primitive_tag::QUAD) {
+            block.kind = LeafKind::Quads;
+            // Fewer leaves than primitives: the index fits.
+            block.quads = quad_blocks.len() as u32;
+            let mut quads = Quads4::EMPTY;
+            for (lane, p) in prims.iter().enumerate() {
+                let [corner, u, v] = p.p;
+                quads.set(lane, corner, u, v);
+                block.prim[lane] = p.prim;
+            }
+            quad_blocks.push(quads);
         }
         block
     }
@@ -165,7 +207,11 @@ impl LeafBlock {
 /// One ray's tests of the leaf-ordered primitives, for [`Bvh::intersect`].
 pub(super) struct LeafTests<'a> {
     pub(super) prims: &'a [LeafPrim],
+    /// `prims`' boxes ([`LeafPrim::bounds`], computed once: a quad's
+    /// directed roundings cost more than its hit test).
+    pub(super) bounds: &'a [Aabb],
     pub(super) blocks: &'a [LeafBlock],
+    pub(super) quad_blocks: &'a [Quads4],
     pub(super) ray: &'a Ray,
     pub(super) constants: RayConstants,
     pub(super) t_min: f32,
@@ -174,39 +220,52 @@ pub(super) struct LeafTests<'a> {
 impl Leaves for LeafTests<'_> {
     #[inline]
     fn intersect(&mut self, entry: usize, t_max: f32) -> Option<Hit> {
-        self.prims[entry].intersect(self.ray, &self.constants, self.t_min, t_max)
+        let hit =
+            self.prims[entry].intersect_shape(self.ray, &self.constants, self.t_min, t_max)?;
+        self.constants
+            .admits(self.bounds[entry], self.ray, hit.t)
+            .then_some(hit)
     }
 
-    /// A leaf of triangles in one four-wide test, at the limit the first
-    /// entry would be tested with; then, in entry order, each lane's hit
-    /// is taken only if it lies below the limit as it stands by then
-    /// (which only shrinks) and passes [`Bvh::admits`]: what testing the
-    /// entries one by one gives, bit for bit.
+    /// A leaf of triangles or of quads in one four-wide test, at the
+    /// limit the first entry would be tested with; then, in entry order,
+    /// each lane's hit is taken only if it lies below the limit as it
+    /// stands by then (which only shrinks) and passes [`Bvh::admits`]:
+    /// what testing the entries one by one gives, bit for bit.
     #[inline]
     fn intersect_leaf(&mut self, leaf: LeafRef, closest: &mut Closest) {
         let block = &self.blocks[leaf.index()];
-        if block.by_entry {
-            return intersect_entries(
-                self,
-                block.entries[0] as usize..block.entries[1] as usize,
-                closest,
-            );
-        }
-        // No shear: a zero direction, which hits no triangle.
-        let Some(shear) = self.constants.shear.as_ref() else {
-            return;
+        let first = block.entries[0] as usize;
+        // A triangle's box from its lanes (in cache already; a mesh's
+        // `bounds` entry may not be), a quad's from `bounds`.
+        let hits = match block.kind {
+            LeafKind::ByEntry => {
+                return intersect_entries(self, first..block.entries[1] as usize, closest);
+            }
+            LeafKind::Triangles => {
+                // No shear: a zero direction, which hits no triangle.
+                let Some(shear) = self.constants.shear.as_ref() else {
+                    return;
+                };
+                intersect_triangles4(&block.tris, self.ray, shear, self.t_min, closest.limit())
+            }
+            LeafKind::Quads => intersect_quads4(
+                &self.quad_blocks[block.quads as usize],
+                self.ray,
+                self.t_min,
+                closest.limit(),
+            ),
         };
-        let hits = intersect_triangles4(&block.tris, self.ray, shear, self.t_min, closest.limit());
         let mut bits = hits.mask;
         while bits != 0 {
             let lane = bits.trailing_zeros() as usize & 3;
             bits &= bits - 1;
             let t = hits.t[lane];
-            if t < closest.limit()
-                && self
-                    .constants
-                    .admits(Aabb::from_points(&block.tris.get(lane)), self.ray, t)
-            {
+            let bounds = match block.kind {
+                LeafKind::Triangles => Aabb::from_points(&block.tris.get(lane)),
+                _ => self.bounds[first + lane],
+            };
+            if t < closest.limit() && self.constants.admits(bounds, self.ray, t) {
                 closest.offer(Hit {
                     t,
                     prim: block.prim[lane],
@@ -216,13 +275,18 @@ impl Leaves for LeafTests<'_> {
         }
     }
 
-    #[inline]
+    #[inline(always)]
     fn prefetch(&self, leaf: LeafRef) {
         let block = &self.blocks[leaf.index()];
-        if block.by_entry {
-            crate::bvh::prefetch(&self.prims[block.entries[0] as usize..block.entries[1] as usize]);
-        } else {
-            crate::bvh::prefetch(block);
+        match block.kind {
+            LeafKind::ByEntry => crate::bvh::prefetch(
+                &self.prims[block.entries[0] as usize..block.entries[1] as usize],
+            ),
+            LeafKind::Triangles => crate::bvh::prefetch(block),
+            LeafKind::Quads => {
+                crate::bvh::prefetch(block);
+                crate::bvh::prefetch(&self.quad_blocks[block.quads as usize]);
+            }
         }
     }
 }

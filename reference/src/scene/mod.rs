@@ -27,7 +27,7 @@ use crate::geometry::{gamma, Aabb, Hit, Ray, SurfaceInteraction};
 use crate::material::Material;
 use crate::mutants::{self, Mutant};
 use crate::shapes::{
-    MeshData, Quad, RayShear, Sphere, Triangle, TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_UVS,
+    MeshData, Quad, Quads4, RayShear, Sphere, Triangle, TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_UVS,
 };
 use crate::texture::{ImageData, Texture};
 use glam::{Vec2, Vec3};
@@ -76,10 +76,15 @@ pub struct Scene {
     /// The traversal's copy of every primitive's geometry in BVH leaf
     /// order (`bvh.prim_order()`), made by [`Scene::put_bvh`].
     leaf_prims: Vec<LeafPrim>,
+    /// The box of each of `leaf_prims` ([`LeafPrim::bounds`], the bits the
+    /// BVH build saw), for [`Bvh::admits`].
+    leaf_bounds: Vec<Aabb>,
     /// By BVH leaf ([`Bvh::leaves`]): one to four triangles by lane for
     /// the four-wide triangle test, or a mark that the leaf is tested
     /// entry by entry from `leaf_prims`. Made by [`Scene::put_bvh`].
     leaf_blocks: Vec<LeafBlock>,
+    /// The lanes of the leaves of quads, by [`LeafBlock`]'s index.
+    quad_blocks: Vec<Quads4>,
 }
 
 impl Scene {
@@ -155,10 +160,13 @@ impl Scene {
             .iter()
             .map(|&prim| LeafPrim::of(self, prim))
             .collect();
+        self.leaf_bounds = self.leaf_prims.iter().map(LeafPrim::bounds).collect();
+        let mut quad_blocks = Vec::new();
         self.leaf_blocks = bvh
             .leaves()
-            .map(|entries| LeafBlock::of(&self.leaf_prims, entries))
+            .map(|entries| LeafBlock::of(&self.leaf_prims, entries, &mut quad_blocks))
             .collect();
+        self.quad_blocks = quad_blocks;
         self.bvh = bvh;
     }
 
@@ -210,7 +218,9 @@ impl Scene {
         let c = self.ray_constants(ray)?;
         let leaves = LeafTests {
             prims: &self.leaf_prims,
+            bounds: &self.leaf_bounds,
             blocks: &self.leaf_blocks,
+            quad_blocks: &self.quad_blocks,
             ray,
             constants: c,
             t_min,
