@@ -22,7 +22,7 @@ fn camera_ray(x: u32, y: u32, sample: u32) -> Ray {
 // Beer-Lambert transmittance over a segment of length t that ended on the
 // inside of an absorbing dielectric (1 elsewhere).
 fn transmittance(m: GpuMaterial, si: SurfaceInteraction, t: f32) -> vec3<f32> {
-    if m.tag == MATERIAL_DIELECTRIC && !si.front_face {
+    if uses(FEATURE_DIELECTRIC) && m.tag == MATERIAL_DIELECTRIC && !si.front_face {
         let absorption = vec3<f32>(m.absorption_r, m.absorption_g, m.absorption_b);
         if max3(absorption) > 0.0 {
             return exp(-absorption * t);

@@ -23,7 +23,7 @@ struct SphereOf {
 
 fn sphere_of(prim: u32) -> SphereOf {
     let p = primitives[prim];
-    if p.tag == PRIMITIVE_SPHERE {
+    if uses(FEATURE_SPHERES) && p.tag == PRIMITIVE_SPHERE {
         let s = spheres[p.index];
         return SphereOf(true, vec3<f32>(s.center_x, s.center_y, s.center_z), abs(s.radius));
     }
@@ -31,7 +31,7 @@ fn sphere_of(prim: u32) -> SphereOf {
 }
 
 fn uniform_area_parameters(prim: u32, u: vec2<f32>) -> vec2<f32> {
-    if primitives[prim].tag == PRIMITIVE_TRIANGLE {
+    if uses(FEATURE_TRIANGLES) && primitives[prim].tag == PRIMITIVE_TRIANGLE {
         let r = sqrt(u.x);
         return vec2<f32>(u.y * r, 1.0 - r);
     }
@@ -42,6 +42,7 @@ fn offset_on(prim: u32, uv: vec2<f32>, p: vec3<f32>) -> vec3<f32> {
     let pr = primitives[prim];
     switch pr.tag {
         case PRIMITIVE_SPHERE: {
+            if !uses(FEATURE_SPHERES) { poison(); break; }
             let sp = spheres[pr.index];
             let z = 1.0 - 2.0 * uv.x;
             let r = sqrt(max(1.0 - z * z, 0.0));
@@ -50,11 +51,13 @@ fn offset_on(prim: u32, uv: vec2<f32>, p: vec3<f32>) -> vec3<f32> {
             return (vec3<f32>(sp.center_x, sp.center_y, sp.center_z) - p) + abs(sp.radius) * dir;
         }
         case PRIMITIVE_QUAD: {
+            if !uses(FEATURE_QUADS) { poison(); break; }
             let q = quads[pr.index];
             let corner = vec3<f32>(q.corner_x, q.corner_y, q.corner_z);
             return (corner - p) + uv.x * vec3<f32>(q.u_x, q.u_y, q.u_z) + uv.y * vec3<f32>(q.v_x, q.v_y, q.v_z);
         }
         case PRIMITIVE_TRIANGLE: {
+            if !uses(FEATURE_TRIANGLES) { poison(); break; }
             let t = triangles[pr.index];
             let a = vertex_position(t.v0);
             let b = vertex_position(t.v1);
@@ -66,6 +69,7 @@ fn offset_on(prim: u32, uv: vec2<f32>, p: vec3<f32>) -> vec3<f32> {
             return vec3<f32>(0.0);
         }
     }
+    return vec3<f32>(0.0);
 }
 
 fn sphere_cone_pdf(sin2_max: f32) -> f32 {
@@ -163,7 +167,7 @@ fn env_light_pdf(d: vec3<f32>) -> f32 {
 }
 
 fn light_set_env_pdf(d: vec3<f32>) -> f32 {
-    if params.env_pmf > 0.0 {
+    if uses(FEATURE_ENVMAP_BACKGROUND) && params.env_pmf > 0.0 {
         return params.env_pmf * env_light_pdf(d);
     }
     return 0.0;
@@ -189,6 +193,10 @@ fn light_set_sample(p: vec3<f32>, u_select: f32, u: vec2<f32>) -> LightSample {
     }
     let prim = emitters[min(lo, n - 1u)].prim;
     if prim == ENV_PRIM {
+        if !uses(FEATURE_ENVMAP_BACKGROUND) {
+            poison();
+            return none;
+        }
         let d = env_light_sample(u);
         if !is_finite3(d) {
             return none;

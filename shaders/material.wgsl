@@ -87,6 +87,7 @@ fn bsdf_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, wi: vec
     let zero = BsdfEval(true, vec3<f32>(0.0), 0.0);
     switch m.tag {
         case MATERIAL_LAMBERTIAN: {
+            if !uses(FEATURE_LAMBERTIAN) { poison(); break; }
             let cos_i = dot(wi, n);
             if cos_i <= 0.0 {
                 return zero;
@@ -94,6 +95,7 @@ fn bsdf_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, wi: vec
             return BsdfEval(true, evaluate_texture(m.texture, si.p, si.uv) * (FRAC_1_PI * cos_i), cos_i * FRAC_1_PI);
         }
         case MATERIAL_GGX: {
+            if !uses(FEATURE_GGX) { poison(); break; }
             let frame = onb_from_normal(n);
             let wo = onb_to_local(frame, -ray_dir);
             let wl = onb_to_local(frame, wi);
@@ -111,6 +113,7 @@ fn bsdf_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, wi: vec
             return BsdfEval(false, vec3<f32>(0.0), 0.0);
         }
     }
+    return BsdfEval(false, vec3<f32>(0.0), 0.0);
 }
 
 struct Scatter {
@@ -132,10 +135,12 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, u: Vertex
     }
     switch m.tag {
         case MATERIAL_LAMBERTIAN: {
+            if !uses(FEATURE_LAMBERTIAN) { poison(); break; }
             let local = sample_cosine_hemisphere(vec2<f32>(vr_get(u, DIM_DIRECTION_U), vr_get(u, DIM_DIRECTION_V)));
             return Scatter(true, onb_to_world(onb_from_normal(n), local), evaluate_texture(m.texture, si.p, si.uv));
         }
         case MATERIAL_METAL: {
+            if !uses(FEATURE_METAL) { poison(); break; }
             let ball = sample_unit_ball(vec3<f32>(vr_get(u, DIM_BALL_X), vr_get(u, DIM_BALL_Y), vr_get(u, DIM_BALL_Z)));
             let direction = reflect_about(ray_dir, n) + m.p0 * ball;
             if dot(direction, ng) <= 0.0 {
@@ -144,6 +149,7 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, u: Vertex
             return Scatter(true, normalize(direction), evaluate_texture(m.texture, si.p, si.uv));
         }
         case MATERIAL_DIELECTRIC: {
+            if !uses(FEATURE_DIELECTRIC) { poison(); break; }
             var eta = m.p0;
             if si.front_face {
                 eta = 1.0 / m.p0;
@@ -157,6 +163,7 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, u: Vertex
             return Scatter(true, direction, vec3<f32>(1.0));
         }
         case MATERIAL_GGX: {
+            if !uses(FEATURE_GGX) { poison(); break; }
             let frame = onb_from_normal(n);
             let wo = onb_to_local(frame, -ray_dir);
             if wo.z <= 0.0 {
@@ -188,4 +195,5 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, u: Vertex
             return absorbed();
         }
     }
+    return absorbed();
 }

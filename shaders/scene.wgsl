@@ -3,6 +3,17 @@
 // reference/src/scene/. Record structs, constants and the bindings come
 // from shaders/generated.wgsl.
 
+// The scene's features (gpu::features): set when the render pipeline is
+// made, so that the compiler drops the code of every feature the scene does
+// not use. Each case of a feature starts with `if !uses(FEATURE_…)`, which
+// poisons the sample (a kernel built for the wrong scene is an error, not
+// a wrong image). The default, every bit, is the general kernel.
+override FEATURES: u32 = 0xffffffffu;
+
+fn uses(feature: u32) -> bool {
+    return (FEATURES & feature) != 0u;
+}
+
 struct Hit {
     hit: bool,
     t: f32,
@@ -25,12 +36,14 @@ fn primitive_bounds(prim: u32) -> Bounds {
     let p = primitives[prim];
     switch p.tag {
         case PRIMITIVE_SPHERE: {
+            if !uses(FEATURE_SPHERES) { poison(); break; }
             let s = spheres[p.index];
             let c = vec3<f32>(s.center_x, s.center_y, s.center_z);
             let r = vec3<f32>(abs(s.radius));
             return Bounds(add_round_down(c, -r), add_round_up(c, r));
         }
         case PRIMITIVE_QUAD: {
+            if !uses(FEATURE_QUADS) { poison(); break; }
             let q = quads[p.index];
             let c = vec3<f32>(q.corner_x, q.corner_y, q.corner_z);
             let u = vec3<f32>(q.u_x, q.u_y, q.u_z);
@@ -42,6 +55,7 @@ fn primitive_bounds(prim: u32) -> Bounds {
             return Bounds(lo, hi);
         }
         case PRIMITIVE_TRIANGLE: {
+            if !uses(FEATURE_TRIANGLES) { poison(); break; }
             let t = triangles[p.index];
             let a = vertex_position(t.v0);
             let b = vertex_position(t.v1);
@@ -53,6 +67,7 @@ fn primitive_bounds(prim: u32) -> Bounds {
             return Bounds(vec3<f32>(0.0), vec3<f32>(0.0));
         }
     }
+    return Bounds(vec3<f32>(0.0), vec3<f32>(0.0));
 }
 
 // The shape's routine, then reference::bvh::Bvh::admits: a hit counts only
@@ -72,14 +87,17 @@ fn intersect_shape(prim: u32, ray: Ray, t_min: f32, t_max: f32) -> ShapeHit {
     let p = primitives[prim];
     switch p.tag {
         case PRIMITIVE_SPHERE: {
+            if !uses(FEATURE_SPHERES) { poison(); break; }
             let s = spheres[p.index];
             return intersect_sphere(vec3<f32>(s.center_x, s.center_y, s.center_z), s.radius, ray, t_min, t_max);
         }
         case PRIMITIVE_QUAD: {
+            if !uses(FEATURE_QUADS) { poison(); break; }
             let q = quads[p.index];
             return intersect_quad(vec3<f32>(q.corner_x, q.corner_y, q.corner_z), vec3<f32>(q.u_x, q.u_y, q.u_z), vec3<f32>(q.v_x, q.v_y, q.v_z), ray, t_min, t_max);
         }
         case PRIMITIVE_TRIANGLE: {
+            if !uses(FEATURE_TRIANGLES) { poison(); break; }
             let tri = triangles[p.index];
             return intersect_triangle(vertex_position(tri.v0), vertex_position(tri.v1), vertex_position(tri.v2), ray, t_min, t_max);
         }
@@ -88,6 +106,7 @@ fn intersect_shape(prim: u32, ray: Ray, t_min: f32, t_max: f32) -> ShapeHit {
             return no_hit();
         }
     }
+    return no_hit();
 }
 
 fn surface_interaction(ray: Ray, hit: Hit) -> SurfaceInteraction {
@@ -95,6 +114,7 @@ fn surface_interaction(ray: Ray, hit: Hit) -> SurfaceInteraction {
     var si: SurfaceInteraction;
     switch p.tag {
         case PRIMITIVE_SPHERE: {
+            if !uses(FEATURE_SPHERES) { poison(); break; }
             let s = spheres[p.index];
             let c = vec3<f32>(s.center_x, s.center_y, s.center_z);
             let outward = normalize_or(((ray.origin + hit.t * ray.direction) - c) / abs(s.radius), vec3<f32>(0.0, 1.0, 0.0));
@@ -110,6 +130,7 @@ fn surface_interaction(ray: Ray, hit: Hit) -> SurfaceInteraction {
             si.material = s.material;
         }
         case PRIMITIVE_QUAD: {
+            if !uses(FEATURE_QUADS) { poison(); break; }
             let q = quads[p.index];
             let corner = vec3<f32>(q.corner_x, q.corner_y, q.corner_z);
             let u = vec3<f32>(q.u_x, q.u_y, q.u_z);
@@ -123,6 +144,7 @@ fn surface_interaction(ray: Ray, hit: Hit) -> SurfaceInteraction {
             si.material = q.material;
         }
         case PRIMITIVE_TRIANGLE: {
+            if !uses(FEATURE_TRIANGLES) { poison(); break; }
             let tri = triangles[p.index];
             let a = vertices[tri.v0];
             let b = vertices[tri.v1];

@@ -42,6 +42,7 @@ fn evaluate_leaf(id: u32, uv: vec2<f32>) -> vec3<f32> {
             return vec3<f32>(t.r, t.g, t.b);
         }
         case TEXTURE_IMAGE: {
+            if !uses(FEATURE_IMAGE_TEXTURES) { poison(); break; }
             return vec3<f32>(t.r, t.g, t.b) * sample_bilinear(t.image, uv);
         }
         case TEXTURE_CHECKER: {
@@ -53,11 +54,16 @@ fn evaluate_leaf(id: u32, uv: vec2<f32>) -> vec3<f32> {
             return vec3<f32>(0.0);
         }
     }
+    return vec3<f32>(0.0);
 }
 
 fn evaluate_texture(id: u32, p: vec3<f32>, uv: vec2<f32>) -> vec3<f32> {
     let t = textures[id];
     if t.tag == TEXTURE_CHECKER {
+        if !uses(FEATURE_CHECKER_TEXTURES) {
+            poison();
+            return vec3<f32>(0.0);
+        }
         let sines = sin(t.scale * p.x) * sin(t.scale * p.y) * sin(t.scale * p.z);
         if sines < 0.0 {
             return evaluate_leaf(t.odd, uv);

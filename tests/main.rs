@@ -37,4 +37,5 @@ mod gpu_numerics_match_reference;
 mod gpu_renders_fixtures;
 mod gpu_rng_matches_cpu;
 mod gpu_sampling_chi2;
+mod gpu_specialization;
 mod gpu_surface_match_reference;

@@ -3,13 +3,15 @@
 //! Packs a `reference::Scene` (and its one BVH node array) into GPU records
 //! (`records`), assembles the WGSL program from shaders/ with constants
 //! generated from `reference` (`shader`), opens an adapter (`context`) and
-//! runs the megakernel in short batches of samples (`renderer`). It never
+//! runs the megakernel in short batches of samples (`renderer`), built for
+//! the scene's features (`features`). It never
 //! re-defines what a scene means: every tag, constant and the camera come
 //! from `reference`.
 
 pub mod bindings;
 pub mod context;
 pub mod error;
+pub mod features;
 pub mod rays;
 pub mod records;
 pub mod renderer;
@@ -19,4 +21,5 @@ pub mod testing;
 
 pub use context::{list_adapters, AdapterSummary, GpuContext};
 pub use error::GpuError;
+pub use features::{Features, Kernel};
 pub use renderer::{GpuRender, GpuRenderer};

@@ -5,6 +5,7 @@
 use crate::bindings::{self, Binding};
 use crate::context::GpuContext;
 use crate::error::GpuError;
+use crate::features::{Features, Kernel, FEATURES_CONSTANT};
 use crate::records::{GpuParams, GpuPixel};
 use crate::scene_buffers::{pack_background, PackedScene};
 use crate::shader;
@@ -112,41 +113,74 @@ impl<'a> GpuRenderer<'a> {
 
     /// Packs and uploads `scene`, compiles the render kernel for
     /// `integrator` (the WGSL constant `INTEGRATOR`, so the kernel holds
-    /// one estimator's code).
+    /// one estimator's code), specialized to the scene's features.
     pub fn with_integrator(
         ctx: &'a GpuContext,
         scene: &'a Scene,
         integrator: Integrator,
     ) -> Result<Self, GpuError> {
+        Self::with_kernel(ctx, scene, integrator, Kernel::Specialized)
+    }
+
+    /// [`Self::with_integrator`], with the kernel's specialization given
+    /// ([`Kernel::General`]: every feature's code, the oracle).
+    pub fn with_kernel(
+        ctx: &'a GpuContext,
+        scene: &'a Scene,
+        integrator: Integrator,
+        kernel: Kernel,
+    ) -> Result<Self, GpuError> {
         let packed = PackedScene::new(scene);
-        Self::with_program(ctx, &packed, scene, &shader::render_source(), integrator)
+        Self::build(
+            ctx,
+            &packed,
+            scene,
+            &shader::render_source(),
+            integrator,
+            kernel.features(scene),
+        )
     }
 
     /// Uploads already packed records (tests overwrite some first); `scene`
-    /// supplies the camera and background.
+    /// supplies the camera and background. The general kernel: the
+    /// records may no longer be what the scene's features say.
     pub fn from_packed(
         ctx: &'a GpuContext,
         packed: &PackedScene,
         scene: &'a Scene,
     ) -> Result<Self, GpuError> {
-        Self::with_program(
+        Self::build(
             ctx,
             packed,
             scene,
             &shader::render_source(),
             Integrator::Bsdf,
+            Features::ALL,
         )
     }
 
     /// As [`Self::from_packed`], with the render program's source and the
     /// estimator given (the gates' tests compile the production WGSL with
-    /// one deliberate defect).
+    /// one deliberate defect); specialized to the scene's features.
     pub fn with_program(
         ctx: &'a GpuContext,
         packed: &PackedScene,
         scene: &'a Scene,
         program: &str,
         integrator: Integrator,
+    ) -> Result<Self, GpuError> {
+        Self::build(ctx, packed, scene, program, integrator, Features::of(scene))
+    }
+
+    /// Uploads `packed` and compiles `program` with the constants
+    /// `INTEGRATOR` and `FEATURES`.
+    pub fn build(
+        ctx: &'a GpuContext,
+        packed: &PackedScene,
+        scene: &'a Scene,
+        program: &str,
+        integrator: Integrator,
+        features: Features,
     ) -> Result<Self, GpuError> {
         let limit = ctx.device.limits().max_storage_buffer_binding_size;
         let device = &ctx.device;
@@ -172,10 +206,13 @@ impl<'a> GpuRenderer<'a> {
             scene_buffers.push((binding, buffer));
         }
         let layout = bind_group_layout(device);
-        let constants = [(
-            shader::INTEGRATOR_CONSTANT,
-            shader::integrator_tag(integrator) as f64,
-        )];
+        let constants = [
+            (
+                shader::INTEGRATOR_CONSTANT,
+                shader::integrator_tag(integrator) as f64,
+            ),
+            (FEATURES_CONSTANT, features.0 as f64),
+        ];
         let pipeline = compile_with(ctx, program, "render_main", &[&layout], &constants)?;
         Ok(Self {
             ctx,

@@ -124,6 +124,9 @@ pub fn generate() -> String {
     ] {
         s += &u(name, v as u32);
     }
+    for (name, bit) in crate::features::feature::NAMED {
+        s += &u(name, bit);
+    }
     s += &u("INTEGRATOR_BSDF", integrator_tag(Integrator::Bsdf));
     s += &u("INTEGRATOR_MIS", integrator_tag(Integrator::Mis));
     s += &f("SMALL_CONE_SIN2", SMALL_CONE_SIN2);

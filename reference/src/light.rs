@@ -10,7 +10,10 @@
 //!   emitter whose estimate misses its texture is never picked (the
 //!   estimator stays unbiased whatever the weights; they only move noise).
 //! - Quads and triangles are sampled uniformly by area and the density
-//!   converted to solid angle, `p_ω = p_A · d² / |cos θ_light|`. Spheres
+//!   converted to solid angle, `p_ω = p_A · d² / |cos θ_light|`
+//!   (spherical-rectangle sampling was measured and did not pay: at most
+//!   5 % less error at equal samples for 1.3–1.5x the time on the lamp-lit
+//!   fixtures, docs/benchmarks.md). Spheres
 //!   seen from outside are sampled uniformly within the cone they subtend
 //!   (`p_ω = 1 / (2π (1 − cos θ_max))`); from inside, uniformly by area.
 //! - The density of a direction is evaluated from the point the ray
@@ -25,7 +28,10 @@
 //!   selection weight is its power on the scene's bounding sphere in the
 //!   same units as an area light's (`area × luminance`): `4π R² L̄`, with
 //!   `L̄` the solid-angle mean of its luminance. Solid and gradient
-//!   backgrounds are not sampled (BSDF samples find them).
+//!   backgrounds are not sampled, as pbrt-v4 leaves its uniform infinite
+//!   light to BSDF sampling under MIS: a cosine-sampled Lambertian already
+//!   estimates a constant sky's unoccluded light exactly, so light samples
+//!   would only add shadow rays.
 
 use crate::background::{equirect_uv, Background};
 use crate::geometry::{Hit, Onb, Ray};

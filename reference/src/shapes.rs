@@ -370,11 +370,7 @@ impl Triangles4 {
 
     /// Puts triangle `vertices` in lane `lane`.
     pub fn set(&mut self, lane: usize, vertices: [Vec3; 3]) {
-        for (row, v) in self.p.iter_mut().zip(vertices) {
-            for (axis, x) in row.iter_mut().zip(v.to_array()) {
-                axis[lane] = x;
-            }
-        }
+        put_lane(&mut self.p, lane, &vertices);
     }
 
     /// Lane `lane`'s vertices.
@@ -405,10 +401,16 @@ impl Quads4 {
     /// Puts the quad `corner`, `u`, `v` in lane `lane`.
     pub fn set(&mut self, lane: usize, corner: Vec3, u: Vec3, v: Vec3) {
         let QuadFrame { n, w } = QuadFrame::new(u, v);
-        for (row, x) in self.p.iter_mut().zip([corner, u, v, n, w]) {
-            for (axis, x) in row.iter_mut().zip(x.to_array()) {
-                axis[lane] = x;
-            }
+        put_lane(&mut self.p, lane, &[corner, u, v, n, w]);
+    }
+}
+
+/// Writes `values[i]` into lane `lane` of the rows `rows[i]` (one `Vec4`
+/// of four lanes per axis).
+fn put_lane(rows: &mut [[Vec4; 3]], lane: usize, values: &[Vec3]) {
+    for (row, v) in rows.iter_mut().zip(values) {
+        for (axis, x) in row.iter_mut().zip(v.to_array()) {
+            axis[lane] = x;
         }
     }
 }

@@ -130,6 +130,27 @@ pub struct RenderArgs {
     /// either backend.
     #[arg(long, value_enum, default_value_t = IntegratorArg::Mis)]
     pub integrator: IntegratorArg,
+    /// The GPU's render kernel: specialized (built without the code of
+    /// the features the scene does not use) or general (every feature's
+    /// code; it renders the same image bit for bit).
+    #[arg(long, value_enum, default_value_t = KernelArg::Specialized)]
+    pub kernel: KernelArg,
+}
+
+/// `--kernel`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum KernelArg {
+    Specialized,
+    General,
+}
+
+impl KernelArg {
+    pub fn kernel(self) -> gpu::Kernel {
+        match self {
+            KernelArg::Specialized => gpu::Kernel::Specialized,
+            KernelArg::General => gpu::Kernel::General,
+        }
+    }
 }
 
 /// `--integrator`.
@@ -298,7 +319,8 @@ fn render(args: &RenderArgs) -> Result<()> {
             }
         }
         Device::Gpu(ctx) => {
-            let renderer = gpu::GpuRenderer::with_integrator(ctx, &scene, integrator)?;
+            let renderer =
+                gpu::GpuRenderer::with_kernel(ctx, &scene, integrator, args.kernel.kernel())?;
             let out = renderer.render(&settings, &|done, _| bar.set_position(done))?;
             gpu_time = out.gpu_time;
             out.film

@@ -16,6 +16,7 @@
 use super::print_stdout;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
+use gpu::Kernel;
 use reference::integrator::Integrator;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
@@ -52,11 +53,13 @@ pub enum PerfBackend {
 /// The renderer variants there are, with their backends. Without
 /// `--variant`, the BSDF-sampling ones run (the MIS variants only when
 /// asked for, so that runs stay comparable with the stored baselines).
-const VARIANTS: [(&str, &str); 4] = [
+const VARIANTS: [(&str, &str); 6] = [
     ("reference", "cpu"),
     ("reference-mis", "cpu"),
     ("megakernel", "gpu"),
     ("megakernel-mis", "gpu"),
+    ("megakernel-general", "gpu"),
+    ("megakernel-mis-general", "gpu"),
 ];
 
 #[derive(Debug, Args)]
@@ -67,7 +70,9 @@ pub struct RunArgs {
     pub backend: PerfBackend,
     /// Only these renderer variants (reference: the CPU's BSDF sampling;
     /// reference-mis: the CPU's light sampling with MIS; megakernel and
-    /// megakernel-mis: the GPU's, likewise).
+    /// megakernel-mis: the GPU's, likewise, the kernel specialized to the
+    /// scene; megakernel-general and megakernel-mis-general: the general
+    /// kernel, every feature's code).
     #[arg(long)]
     pub variant: Vec<String>,
     /// Only the cases and workloads whose name contains this.
@@ -345,7 +350,18 @@ fn run_suite(a: &RunArgs) -> Result<()> {
             .collect()
     };
     let cpu_integrators = integrators("reference", "reference-mis");
-    let gpu_integrators = integrators("megakernel", "megakernel-mis");
+    let mut gpu_integrators: Vec<(Integrator, Kernel)> =
+        integrators("megakernel", "megakernel-mis")
+            .into_iter()
+            .map(|i| (i, Kernel::Specialized))
+            .collect();
+    if !a.variant.is_empty() {
+        gpu_integrators.extend(
+            integrators("megakernel-general", "megakernel-mis-general")
+                .into_iter()
+                .map(|i| (i, Kernel::General)),
+        );
+    }
     let options = measure::Options {
         suite,
         cpu: pool.as_ref(),

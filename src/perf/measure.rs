@@ -26,7 +26,7 @@ use super::{median, Adapter, Curve, Host, PerfRun, Point, RunSettings, Throughpu
 use crate::compare::gate::{load_reference_in, load_scene, workspace_root};
 use crate::compare::image::NoisyImage;
 use anyhow::{anyhow, bail, Context, Result};
-use gpu::GpuContext;
+use gpu::{GpuContext, Kernel};
 use rayon::prelude::*;
 use reference::geometry::Ray;
 use reference::integrator::{camera_ray, render_with, trace_path, Integrator};
@@ -56,7 +56,7 @@ pub struct Options<'a> {
     /// The GPU, when the GPU backend runs.
     pub gpu: Option<&'a GpuContext>,
     /// The GPU's estimators to measure (each a variant).
-    pub gpu_integrators: Vec<Integrator>,
+    pub gpu_integrators: Vec<(Integrator, Kernel)>,
     pub repeats: u32,
     pub inject_slowdown: bool,
     pub revision: String,
@@ -70,7 +70,7 @@ pub struct Options<'a> {
 #[derive(Clone, Copy)]
 enum Backend<'a> {
     Cpu(&'a rayon::ThreadPool, Integrator),
-    Gpu(&'a GpuContext, Integrator),
+    Gpu(&'a GpuContext, Integrator, Kernel),
 }
 
 impl Backend<'_> {
@@ -83,13 +83,16 @@ impl Backend<'_> {
 
     /// The renderer variant: `reference` (BSDF sampling), `reference-mis`
     /// (light sampling with MIS), `megakernel` and `megakernel-mis` (the
-    /// GPU's, likewise).
+    /// GPU's, likewise, specialized to the scene), `megakernel-general`
+    /// and `megakernel-mis-general` (the general kernel, their oracle).
     fn variant(self) -> &'static str {
         match self {
             Backend::Cpu(_, Integrator::Bsdf) => "reference",
             Backend::Cpu(_, Integrator::Mis) => "reference-mis",
-            Backend::Gpu(_, Integrator::Bsdf) => "megakernel",
-            Backend::Gpu(_, Integrator::Mis) => "megakernel-mis",
+            Backend::Gpu(_, Integrator::Bsdf, Kernel::Specialized) => "megakernel",
+            Backend::Gpu(_, Integrator::Mis, Kernel::Specialized) => "megakernel-mis",
+            Backend::Gpu(_, Integrator::Bsdf, Kernel::General) => "megakernel-general",
+            Backend::Gpu(_, Integrator::Mis, Kernel::General) => "megakernel-mis-general",
         }
     }
 }
@@ -111,9 +114,9 @@ impl<'a> Prepared<'a> {
     fn new(backend: Backend<'a>, scene: &'a Scene) -> Result<Self> {
         Ok(match backend {
             Backend::Cpu(pool, integrator) => Prepared::Cpu(pool, scene, integrator),
-            Backend::Gpu(ctx, integrator) => {
-                Prepared::Gpu(gpu::GpuRenderer::with_integrator(ctx, scene, integrator)?)
-            }
+            Backend::Gpu(ctx, integrator, kernel) => Prepared::Gpu(gpu::GpuRenderer::with_kernel(
+                ctx, scene, integrator, kernel,
+            )?),
         })
     }
 
@@ -183,8 +186,8 @@ pub fn run(options: &Options, metric: &mut dyn FnMut(&str)) -> Result<PerfRun> {
         }
     }
     if let Some(ctx) = options.gpu {
-        for &integrator in &options.gpu_integrators {
-            backends.push(Backend::Gpu(ctx, integrator));
+        for &(integrator, kernel) in &options.gpu_integrators {
+            backends.push(Backend::Gpu(ctx, integrator, kernel));
         }
     }
     if backends.is_empty() {
@@ -221,10 +224,12 @@ pub fn run(options: &Options, metric: &mut dyn FnMut(&str)) -> Result<PerfRun> {
     let mut throughput = Vec::new();
     for load in &loads {
         for &backend in &backends {
-            // Ray queries do not depend on the estimator: one CPU row.
+            // Ray queries do not depend on the estimator (one CPU row) or
+            // the render kernel's specialization (no general-kernel row).
             if matches!(
                 (load, backend),
                 (Workload::Rays { .. }, Backend::Cpu(_, Integrator::Mis))
+                    | (Workload::Rays { .. }, Backend::Gpu(_, _, Kernel::General))
             ) {
                 continue;
             }
@@ -470,7 +475,7 @@ fn measure_workload(
                     );
                     ("rays", batch.len() as u64, walls, None, note)
                 }
-                Backend::Gpu(ctx, _) => {
+                Backend::Gpu(ctx, ..) => {
                     let t = gpu::rays::trace_closest(ctx, &scene, &batch, reps)?;
                     let mut walls: Vec<f64> = t.wall.iter().map(|d| d.as_secs_f64()).collect();
                     let mut gpus: Option<Vec<f64>> =

@@ -1,0 +1,171 @@
+//! Specialization: the render kernel built without the code a scene does
+//! not use ("skip what a scene doesn't need").
+//!
+//! [`Features::of`] inspects a scene (its primitive kinds, materials,
+//! textures and background) and the WGSL pipeline-overridable constant
+//! `FEATURES` (a bit per feature, [`FEATURES_CONSTANT`]) is set to it when
+//! the pipeline is made. Every `switch` case and branch of a feature starts
+//! with `if !uses(FEATURE_…) { poison(); … }`: with the constant known,
+//! the compiler drops the rest of the case, so the kernel holds only the
+//! scene's code (fewer instructions and registers), and a kernel that met
+//! a feature its specialization left out reports a poisoned sample rather
+//! than a wrong one. The default, [`Features::ALL`], is the general kernel:
+//! the oracle the specialized one is gated against (bit for bit, every
+//! fixture: tests/gpu_specialization.rs).
+
+use reference::background::Background;
+use reference::material::Material;
+use reference::scene::{primitive_tag, Scene};
+use reference::texture::Texture;
+
+/// The render program's pipeline-overridable constant that holds the
+/// scene's [`Features`].
+pub const FEATURES_CONSTANT: &str = "FEATURES";
+
+/// The feature bits (the WGSL constants `FEATURE_…`).
+pub mod feature {
+    pub const SPHERES: u32 = 1 << 0;
+    pub const QUADS: u32 = 1 << 1;
+    pub const TRIANGLES: u32 = 1 << 2;
+    pub const LAMBERTIAN: u32 = 1 << 3;
+    pub const METAL: u32 = 1 << 4;
+    pub const DIELECTRIC: u32 = 1 << 5;
+    pub const GGX: u32 = 1 << 6;
+    pub const IMAGE_TEXTURES: u32 = 1 << 7;
+    pub const CHECKER_TEXTURES: u32 = 1 << 8;
+    pub const SOLID_BACKGROUND: u32 = 1 << 9;
+    pub const SKY_BACKGROUND: u32 = 1 << 10;
+    pub const ENVMAP_BACKGROUND: u32 = 1 << 11;
+
+    /// Every bit, with its WGSL name (for the generated constants).
+    pub const NAMED: [(&str, u32); 12] = [
+        ("FEATURE_SPHERES", SPHERES),
+        ("FEATURE_QUADS", QUADS),
+        ("FEATURE_TRIANGLES", TRIANGLES),
+        ("FEATURE_LAMBERTIAN", LAMBERTIAN),
+        ("FEATURE_METAL", METAL),
+        ("FEATURE_DIELECTRIC", DIELECTRIC),
+        ("FEATURE_GGX", GGX),
+        ("FEATURE_IMAGE_TEXTURES", IMAGE_TEXTURES),
+        ("FEATURE_CHECKER_TEXTURES", CHECKER_TEXTURES),
+        ("FEATURE_SOLID_BACKGROUND", SOLID_BACKGROUND),
+        ("FEATURE_SKY_BACKGROUND", SKY_BACKGROUND),
+        ("FEATURE_ENVMAP_BACKGROUND", ENVMAP_BACKGROUND),
+    ];
+}
+
+/// Which kernel a render compiles.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Kernel {
+    /// Specialized to the scene's [`Features`] (the default).
+    #[default]
+    Specialized,
+    /// Every feature's code (the oracle of the specialized kernel).
+    General,
+}
+
+impl Kernel {
+    pub const ALL: [Kernel; 2] = [Kernel::Specialized, Kernel::General];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Kernel::Specialized => "specialized",
+            Kernel::General => "general",
+        }
+    }
+
+    /// The feature set the kernel is built for.
+    pub fn features(self, scene: &Scene) -> Features {
+        match self {
+            Kernel::Specialized => Features::of(scene),
+            Kernel::General => Features::ALL,
+        }
+    }
+}
+
+/// A set of feature bits ([`feature`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Features(pub u32);
+
+impl Features {
+    /// Every feature: the general kernel (the WGSL default of `FEATURES`).
+    pub const ALL: Features = Features(u32::MAX);
+
+    /// What `scene` uses: its primitive kinds, the kinds of its materials
+    /// and textures (every one it lists), and its background's kind.
+    pub fn of(scene: &Scene) -> Features {
+        let mut bits = 0;
+        for p in scene.primitives() {
+            bits |= match p.tag {
+                primitive_tag::SPHERE => feature::SPHERES,
+                primitive_tag::QUAD => feature::QUADS,
+                _ => feature::TRIANGLES,
+            };
+        }
+        for m in scene.materials() {
+            bits |= match m {
+                Material::Lambertian { .. } => feature::LAMBERTIAN,
+                Material::Metal { .. } => feature::METAL,
+                Material::Dielectric { .. } => feature::DIELECTRIC,
+                Material::Ggx { .. } => feature::GGX,
+                // Emission is read by tag, with no code of its own to drop.
+                Material::DiffuseLight { .. } => 0,
+            };
+        }
+        for t in scene.textures() {
+            bits |= match t {
+                Texture::Constant(_) => 0,
+                Texture::Image { .. } => feature::IMAGE_TEXTURES,
+                Texture::Checker { .. } => feature::CHECKER_TEXTURES,
+            };
+        }
+        bits |= match scene.background() {
+            Background::Solid(_) => feature::SOLID_BACKGROUND,
+            Background::Sky { .. } => feature::SKY_BACKGROUND,
+            Background::Envmap { .. } => feature::ENVMAP_BACKGROUND,
+        };
+        Features(bits)
+    }
+
+    pub fn contains(self, bits: u32) -> bool {
+        self.0 & bits == bits
+    }
+
+    /// The names of the features set, for messages and the perf table.
+    pub fn names(self) -> Vec<&'static str> {
+        feature::NAMED
+            .iter()
+            .filter(|(_, bit)| self.contains(*bit))
+            .map(|(name, _)| name.trim_start_matches("FEATURE_"))
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_bits_are_distinct_and_fit_the_constant() {
+        let mut all = 0u32;
+        for (_, bit) in feature::NAMED {
+            assert_eq!(bit.count_ones(), 1);
+            assert_eq!(all & bit, 0, "bit {bit:#x} used twice");
+            all |= bit;
+        }
+        // The WGSL constant is a u32 passed as f64: exact.
+        assert_eq!(Features::ALL.0 as f64 as u32, u32::MAX);
+    }
+
+    #[test]
+    fn the_cornell_box_uses_quads_lambertian_and_a_solid_background() {
+        let scene = reference::load_scene("cornell").unwrap();
+        let f = Features::of(&scene);
+        assert_eq!(
+            f.0,
+            feature::QUADS | feature::LAMBERTIAN | feature::SOLID_BACKGROUND,
+            "{:?}",
+            f.names()
+        );
+    }
+}
