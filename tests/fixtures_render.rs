@@ -3,20 +3,8 @@
 //! NaN-free on the CPU, with an image mean its GPU twin agrees with, is
 //! tests/gpu_renders_fixtures.rs.)
 
+use crate::common;
 use reference::f64_oracle;
-
-fn fixture_scenes() -> Vec<String> {
-    let dir = twintrace::compare::gate::workspace_root().join("fixtures/scenes");
-    let mut v: Vec<String> = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "json"))
-        .map(|p| p.to_str().unwrap().to_string())
-        .collect();
-    v.sort();
-    v.extend(reference::builtin::NAMES.iter().map(|s| s.to_string()));
-    v
-}
 
 /// A 3-D checker's colour is the sign of sin(s·x)·sin(s·y)·sin(s·z): its
 /// boundaries are the planes x, y or z = kπ/s. Where such a plane touches a
@@ -37,7 +25,7 @@ fn no_checker_boundary_plane_is_tangent_to_a_sphere() {
     use reference::material::Material;
     use reference::texture::Texture;
     let mut checked = 0;
-    for spec in fixture_scenes() {
+    for spec in common::every_scene() {
         let scene = reference::load_scene(&spec).unwrap_or_else(|e| panic!("{spec}: {e}"));
         for (i, s) in scene.spheres().iter().enumerate() {
             let texture = match scene.materials()[s.material as usize] {

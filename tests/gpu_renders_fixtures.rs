@@ -9,14 +9,7 @@ use reference::RenderSettings;
 #[test]
 fn every_scene_renders_on_both_twins_alike() {
     let ctx = common::gpu();
-    let dir = twintrace::compare::gate::workspace_root().join("fixtures/scenes");
-    let mut specs: Vec<String> = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().path().to_str().unwrap().to_string())
-        .filter(|p| p.ends_with(".json"))
-        .collect();
-    specs.sort();
-    specs.extend(reference::builtin::NAMES.iter().map(|s| s.to_string()));
+    let specs = common::every_scene();
     assert!(specs.len() >= 12, "found only {} scenes", specs.len());
     for spec in specs {
         let scene = reference::load_scene(&spec).unwrap();

@@ -10,19 +10,6 @@ use gpu::features::{feature, Features, Kernel};
 use reference::integrator::Integrator;
 use reference::{RenderSettings, Scene};
 
-/// Every fixture scene and built-in, by the name `load_scene` takes.
-fn scenes() -> Vec<String> {
-    let dir = twintrace::compare::gate::workspace_root().join("fixtures/scenes");
-    let mut specs: Vec<String> = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().path().to_str().unwrap().to_string())
-        .filter(|p| p.ends_with(".json"))
-        .collect();
-    specs.sort();
-    specs.extend(reference::builtin::NAMES.iter().map(|s| s.to_string()));
-    specs
-}
-
 /// A small render: 16x12, 2 spp, depth 8 (every feature's code runs; the
 /// comparison is exact, so no more samples are needed).
 fn settings(scene: &Scene) -> RenderSettings {
@@ -62,7 +49,7 @@ fn film_bits(scene: &Scene, integrator: Integrator, features: Features) -> Vec<u
 
 #[test]
 fn specialized_kernels_render_every_scene_as_the_general_kernel_bit_for_bit() {
-    let specs = scenes();
+    let specs = common::every_scene();
     assert!(specs.len() >= 15, "found only {} scenes", specs.len());
     for spec in &specs {
         let scene = reference::load_scene(spec).unwrap();

@@ -7,7 +7,8 @@
 use crate::bindings::{self, Binding};
 use crate::context::GpuContext;
 use crate::error::GpuError;
-use crate::renderer::{bind_group_layout, compile, read_buffer, read_timestamps, GpuRenderer};
+use crate::features::{Kernel, FEATURES_CONSTANT};
+use crate::renderer::{bind_group_layout, compile_with, read_buffer, read_timestamps, GpuRenderer};
 use reference::geometry::Ray;
 use reference::Scene;
 use std::time::{Duration, Instant};
@@ -49,12 +50,15 @@ pub struct RayTimings {
 }
 
 /// Traces `rays` through `scene` on the GPU `repeats` times (after one
-/// untimed warm-up dispatch).
+/// untimed warm-up dispatch), with the kernel built for `kernel`'s
+/// features of the scene ([`Kernel::Specialized`]: only the scene's
+/// primitive tests in the walk).
 pub fn trace_closest(
     ctx: &GpuContext,
     scene: &Scene,
     rays: &[Ray],
     repeats: u32,
+    kernel: Kernel,
 ) -> Result<RayTimings, GpuError> {
     let device = &ctx.device;
     let groups = (rays.len() as u32).div_ceil(WORKGROUP);
@@ -78,11 +82,12 @@ pub fn trace_closest(
         entries: &bindings::TEST_IO_GROUP.map(|b: Binding| b.layout_entry()),
     });
     let scene_layout = bind_group_layout(device);
-    let pipeline = compile(
+    let pipeline = compile_with(
         ctx,
         &source,
         "closest_hit_main",
         &[&scene_layout, &io_layout],
+        &[(FEATURES_CONSTANT, kernel.features(scene).0 as f64)],
     )?;
     let words: Vec<u32> = rays
         .iter()

@@ -224,12 +224,12 @@ pub fn run(options: &Options, metric: &mut dyn FnMut(&str)) -> Result<PerfRun> {
     let mut throughput = Vec::new();
     for load in &loads {
         for &backend in &backends {
-            // Ray queries do not depend on the estimator (one CPU row) or
-            // the render kernel's specialization (no general-kernel row).
+            // Ray queries do not depend on the estimator: one row per
+            // backend and kernel.
             if matches!(
                 (load, backend),
                 (Workload::Rays { .. }, Backend::Cpu(_, Integrator::Mis))
-                    | (Workload::Rays { .. }, Backend::Gpu(_, _, Kernel::General))
+                    | (Workload::Rays { .. }, Backend::Gpu(_, Integrator::Mis, _))
             ) {
                 continue;
             }
@@ -475,14 +475,14 @@ fn measure_workload(
                     );
                     ("rays", batch.len() as u64, walls, None, note)
                 }
-                Backend::Gpu(ctx, ..) => {
-                    let t = gpu::rays::trace_closest(ctx, &scene, &batch, reps)?;
+                Backend::Gpu(ctx, _, kernel) => {
+                    let t = gpu::rays::trace_closest(ctx, &scene, &batch, reps, kernel)?;
                     let mut walls: Vec<f64> = t.wall.iter().map(|d| d.as_secs_f64()).collect();
                     let mut gpus: Option<Vec<f64>> =
                         t.gpu.map(|g| g.iter().map(|d| d.as_secs_f64()).collect());
                     if options.inject_slowdown {
                         let tenth = &batch[..batch.len() / INJECTED_STRIDE as usize];
-                        let extra = gpu::rays::trace_closest(ctx, &scene, tenth, reps)?;
+                        let extra = gpu::rays::trace_closest(ctx, &scene, tenth, reps, kernel)?;
                         for (w, e) in walls.iter_mut().zip(&extra.wall) {
                             *w += e.as_secs_f64();
                         }
