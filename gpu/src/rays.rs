@@ -49,8 +49,17 @@ pub struct RayTimings {
     pub gpu: Option<Vec<Duration>>,
 }
 
-/// Traces `rays` through `scene` on the GPU `repeats` times (after one
-/// untimed warm-up dispatch), with the kernel built for `kernel`'s
+/// The least time a timed GPU measurement is preceded by untimed work of
+/// the same kind. One warm-up dispatch was not enough on the H100: a
+/// workload measured after a pause (the host building a 10^6-triangle
+/// BVH) timed 1.87·10^8 rays/s where the same kernel on a busy GPU does
+/// 8.1·10^8; medians of 5 runs of a few ms each fell within the clocks'
+/// ramp (docs/benchmarks.md). Half a second of work brings it to its
+/// steady clock.
+pub const WARM_UP: Duration = Duration::from_millis(500);
+
+/// Traces `rays` through `scene` on the GPU `repeats` times (after
+/// untimed warm-up dispatches for at least [`WARM_UP`]), with the kernel built for `kernel`'s
 /// features of the scene ([`Kernel::Specialized`]: only the scene's
 /// primitive tests in the walk).
 pub fn trace_closest(
@@ -174,7 +183,11 @@ pub fn trace_closest(
             };
             Ok((wall, gpu))
         };
+    let warm = Instant::now();
     dispatch(false)?;
+    while warm.elapsed() < WARM_UP {
+        dispatch(false)?;
+    }
     let mut wall = Vec::new();
     let mut gpu = query_set.is_some().then(Vec::new);
     for _ in 0..repeats {

@@ -4,7 +4,9 @@
 //! - every timed render or ray batch is preceded by an untimed warm-up of
 //!   the same kind, so that the GPU pipeline is compiled, the driver's
 //!   shader cache is warm and the CPU's pages are touched before the
-//!   clock starts; scene loading and BVH building are never timed;
+//!   clock starts (on the GPU, at least `gpu::rays::WARM_UP` of it, so
+//!   that the clocks have ramped up); scene loading and BVH building are
+//!   never timed;
 //! - wall time of a CPU render is `reference::integrator::render_with` (the
 //!   variant's estimator) on the run's thread
 //!   pool; of a GPU render, `GpuRenderer::render` (parameter upload, the
@@ -118,6 +120,20 @@ impl<'a> Prepared<'a> {
                 ctx, scene, integrator, kernel,
             )?),
         })
+    }
+
+    /// Untimed renders before the timed ones: one on the CPU (the pages
+    /// touched); on the GPU, renders for at least `gpu::rays::WARM_UP`, so
+    /// that the timed ones run at the GPU's steady clock.
+    fn warm_up(&self, settings: &RenderSettings, inject: bool) -> Result<()> {
+        let start = Instant::now();
+        self.render(settings, inject)?;
+        if let Prepared::Gpu(_) = self {
+            while start.elapsed() < gpu::rays::WARM_UP {
+                self.render(settings, inject)?;
+            }
+        }
+        Ok(())
     }
 
     fn render(&self, settings: &RenderSettings, inject: bool) -> Result<Timed> {
@@ -290,7 +306,7 @@ fn measure_curve(
     let prepared = Prepared::new(backend, scene)?;
     // Warm-up, injected too, so that a self-test counting the whole
     // measured region (instructions) sees the injected share.
-    prepared.render(&base, options.inject_slowdown)?;
+    prepared.warm_up(&base, options.inject_slowdown)?;
     let mut points = Vec::new();
     for spp in case.ladder(matches!(backend, Backend::Gpu(..))) {
         let settings = RenderSettings { spp, ..base };
@@ -421,7 +437,7 @@ fn measure_workload(
                 ..scene_data.render_settings()
             };
             let prepared = Prepared::new(backend, &scene_data)?;
-            prepared.render(
+            prepared.warm_up(
                 &RenderSettings { spp: 1, ..settings },
                 options.inject_slowdown,
             )?;
