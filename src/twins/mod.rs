@@ -13,6 +13,8 @@
 //!   primitive boxes.
 //! - [`surface`]: surface interactions and spawn points.
 //! - [`light`]: light samples (emitter, direction) and their densities.
+//! - [`specialization`]: the render kernel built for each scene's features
+//!   against the general kernel, bit for bit (GPU against GPU).
 //!
 //! Each check returns an [`Outcome`]: a one-line summary of what agreed,
 //! or the first disagreement (or the GPU error that stopped it).
@@ -21,6 +23,7 @@ pub mod hits;
 pub mod light;
 pub mod numerics;
 pub mod rng;
+pub mod specialization;
 pub mod surface;
 
 use glam::{Vec2, Vec3};
@@ -156,5 +159,9 @@ pub const CHECKS: &[Check] = &[
     Check {
         name: "twin: light samples and densities",
         run: light::all_scenes,
+    },
+    Check {
+        name: "specialized kernel == general kernel (every scene, both estimators)",
+        run: specialization::all_scenes,
     },
 ];

@@ -48,15 +48,7 @@ pub fn gpu() -> &'static gpu::GpuContext {
 /// Every fixture scene (its path) and built-in (its name), as
 /// `reference::load_scene` takes them: fixtures sorted, then built-ins.
 pub fn every_scene() -> Vec<String> {
-    let dir = twintrace::compare::gate::workspace_root().join("fixtures/scenes");
-    let mut specs: Vec<String> = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().path().to_str().unwrap().to_string())
-        .filter(|p| p.ends_with(".json"))
-        .collect();
-    specs.sort();
-    specs.extend(reference::builtin::NAMES.iter().map(|s| s.to_string()));
-    specs
+    twintrace::twins::specialization::scene_specs().unwrap()
 }
 
 /// The `twintrace` binary under test: `$TWINTRACE_BIN` when set (the GPU

@@ -1,0 +1,120 @@
+//! The specialized render kernel against the general one: the kernel
+//! built without the code of the features a scene does not use
+//! (`gpu::features`) must render every fixture and built-in scene bit for
+//! bit as the kernel with every feature's code does, with either
+//! estimator (the same film: every pixel's count, rejected samples, mean
+//! and moments). Not a CPU twin: the general kernel is the oracle, and
+//! this holds a user's driver to what lavapipe and the H100 do (its
+//! compiler could fuse or order the two kernels' shared code differently).
+
+use super::Outcome;
+use crate::compare::gate::workspace_root;
+use gpu::features::{Features, Kernel};
+use gpu::GpuContext;
+use reference::integrator::Integrator;
+use reference::{RenderSettings, Scene};
+
+/// Every fixture scene (its path) and built-in (its name), as
+/// `reference::load_scene` takes them: fixtures sorted, then built-ins.
+pub fn scene_specs() -> Result<Vec<String>, String> {
+    let dir = workspace_root().join("fixtures/scenes");
+    let entries = std::fs::read_dir(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let mut specs = Vec::new();
+    for e in entries {
+        let path = e.map_err(|e| e.to_string())?.path();
+        if path.extension().is_some_and(|x| x == "json") {
+            specs.push(path.to_string_lossy().into_owned());
+        }
+    }
+    specs.sort();
+    specs.extend(reference::builtin::NAMES.iter().map(|s| s.to_string()));
+    Ok(specs)
+}
+
+/// Width, height and samples per pixel of the compared renders (depth 8):
+/// every feature's code runs, and the comparison is exact, so more
+/// samples would add nothing.
+pub const SIZE: (u32, u32, u32) = (16, 12, 2);
+
+/// The film of `scene` rendered by the kernel built for `features`, as
+/// words: per pixel the count, the rejected samples, then the mean, M2
+/// and M3 as f64 bits ([`WORDS_PER_PIXEL`]).
+pub fn film_bits(
+    ctx: &GpuContext,
+    scene: &Scene,
+    integrator: Integrator,
+    features: Features,
+) -> Result<Vec<u64>, String> {
+    let packed = gpu::scene_buffers::PackedScene::new(scene);
+    let program = gpu::shader::render_source();
+    let renderer = gpu::GpuRenderer::build(ctx, &packed, scene, &program, integrator, features)
+        .map_err(|e| e.to_string())?;
+    let (width, height, spp) = SIZE;
+    let settings = RenderSettings {
+        width,
+        height,
+        spp,
+        max_depth: 8,
+        ..scene.render_settings()
+    };
+    let film = renderer
+        .render(&settings, &|_, _| {})
+        .map_err(|e| e.to_string())?
+        .film;
+    Ok(film
+        .pixels
+        .iter()
+        .flat_map(|p| {
+            let moments = [p.mean, p.m2, p.m3].map(|v| v.to_array().map(f64::to_bits));
+            [p.count as u64, p.nonfinite as u64]
+                .into_iter()
+                .chain(moments.into_iter().flatten())
+        })
+        .collect())
+}
+
+/// Words per pixel of [`film_bits`].
+pub const WORDS_PER_PIXEL: usize = 11;
+
+/// The samples counted and rejected in a [`film_bits`] film.
+pub fn counts(bits: &[u64]) -> (u64, u64) {
+    bits.chunks(WORDS_PER_PIXEL)
+        .fold((0, 0), |(n, r), p| (n + p[0], r + p[1]))
+}
+
+/// Every scene of [`scene_specs`], both estimators: specialized == general.
+pub fn all_scenes(ctx: &GpuContext) -> Outcome {
+    let specs = scene_specs()?;
+    let (width, height, spp) = SIZE;
+    for spec in &specs {
+        let scene = reference::load_scene(spec).map_err(|e| format!("{spec}: {e}"))?;
+        let features = Kernel::Specialized.features(&scene);
+        for integrator in Integrator::ALL {
+            let general = film_bits(ctx, &scene, integrator, Features::ALL)?;
+            let special = film_bits(ctx, &scene, integrator, features)?;
+            let (counted, rejected) = counts(&general);
+            if counted + rejected != (width * height * spp) as u64 {
+                return Err(format!(
+                    "{spec} ({}): the general kernel's film holds {counted} + {rejected} samples",
+                    integrator.name()
+                ));
+            }
+            if general != special {
+                let pixel = general
+                    .chunks(WORDS_PER_PIXEL)
+                    .zip(special.chunks(WORDS_PER_PIXEL))
+                    .position(|(g, s)| g != s)
+                    .unwrap_or(0);
+                return Err(format!(
+                    "{spec} ({}, features {:?}): the specialized kernel's film differs from the general kernel's, first at pixel {pixel}",
+                    integrator.name(),
+                    features.names()
+                ));
+            }
+        }
+    }
+    Ok(format!(
+        "{} scenes × 2 estimators: the specialized kernel's films equal the general kernel's bit for bit",
+        specs.len()
+    ))
+}
