@@ -4,12 +4,15 @@
 //! [`Features::of`] inspects a scene (its primitive kinds, materials,
 //! textures and background) and the WGSL pipeline-overridable constant
 //! `FEATURES` (a bit per feature, [`FEATURES_CONSTANT`]) is set to it when
-//! the pipeline is made. Every `switch` case and branch of a feature starts
-//! with `if !uses(FEATURE_…) { poison(); … }`: with the constant known,
-//! the compiler drops the rest of the case, so the kernel holds only the
-//! scene's code (fewer instructions and registers), and a kernel that met
-//! a feature its specialization left out reports a poisoned sample rather
-//! than a wrong one. The default, [`Features::ALL`], is the general kernel:
+//! the pipeline is made. Every `switch` case of a feature starts with
+//! `if !uses(FEATURE_…) { poison(); … }`, and the few branches outside a
+//! switch test `uses(FEATURE_…) && …` (the light sampler's sphere and
+//! triangle paths, the dielectric's absorption, the environment's density;
+//! each lies on a path that also passes a poisoning case): with the
+//! constant known, the compiler drops that code, so the kernel holds only
+//! the scene's code (fewer instructions and registers), and a kernel that
+//! met a feature its specialization left out reports poisoned samples
+//! rather than a wrong image. The default, [`Features::ALL`], is the general kernel:
 //! the oracle the specialized one is gated against (bit for bit, every
 //! fixture: tests/gpu_specialization.rs).
 
@@ -99,7 +102,9 @@ impl Features {
             bits |= match p.tag {
                 primitive_tag::SPHERE => feature::SPHERES,
                 primitive_tag::QUAD => feature::QUADS,
-                _ => feature::TRIANGLES,
+                primitive_tag::TRIANGLE => feature::TRIANGLES,
+                // A kind this list does not know: the general kernel.
+                _ => u32::MAX,
             };
         }
         for m in scene.materials() {

@@ -159,9 +159,11 @@ impl<'a> GpuRenderer<'a> {
         )
     }
 
-    /// As [`Self::from_packed`], with the render program's source and the
-    /// estimator given (the gates' tests compile the production WGSL with
-    /// one deliberate defect); specialized to the scene's features.
+    /// Uploads `packed` (records of `scene` itself: the kernel is
+    /// specialized to the scene's features, so edited records belong with
+    /// [`Self::from_packed`] or [`Self::build`]) and compiles `program`
+    /// for `integrator` (the gates' tests compile the production WGSL with
+    /// one deliberate defect).
     pub fn with_program(
         ctx: &'a GpuContext,
         packed: &PackedScene,

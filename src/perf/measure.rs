@@ -123,8 +123,10 @@ impl<'a> Prepared<'a> {
     }
 
     /// Untimed renders before the timed ones: one on the CPU (the pages
-    /// touched); on the GPU, renders for at least `gpu::rays::WARM_UP`, so
-    /// that the timed ones run at the GPU's steady clock.
+    /// touched); on the GPU, renders for at least `gpu::rays::WARM_UP`,
+    /// as the ray batches warm up (where it made the timings agree run to
+    /// run; for renders of a few ms it has not been shown to suffice:
+    /// docs/benchmarks.md, "Timing: what the warm-up must cover").
     fn warm_up(&self, settings: &RenderSettings, inject: bool) -> Result<()> {
         let start = Instant::now();
         self.render(settings, inject)?;
@@ -240,14 +242,16 @@ pub fn run(options: &Options, metric: &mut dyn FnMut(&str)) -> Result<PerfRun> {
     let mut throughput = Vec::new();
     for load in &loads {
         for &backend in &backends {
-            // Ray queries do not depend on the estimator: one row per
-            // backend and kernel.
-            if matches!(
-                (load, backend),
-                (Workload::Rays { .. }, Backend::Cpu(_, Integrator::Mis))
-                    | (Workload::Rays { .. }, Backend::Gpu(_, Integrator::Mis, _))
-            ) {
-                continue;
+            // Ray queries do not depend on the estimator: one CPU row, one
+            // GPU row per kernel (the MIS variant's only when its BSDF
+            // twin is not measured).
+            let gpu_bsdf_too = |k: Kernel| options.gpu_integrators.contains(&(Integrator::Bsdf, k));
+            if let Workload::Rays { .. } = load {
+                match backend {
+                    Backend::Cpu(_, Integrator::Mis) => continue,
+                    Backend::Gpu(_, Integrator::Mis, k) if gpu_bsdf_too(k) => continue,
+                    _ => {}
+                }
             }
             let row = measure_workload(load, backend, options, metric)
                 .with_context(|| format!("{} on {}", load.name(), backend.name()))?;

@@ -1,5 +1,6 @@
 //! The traversal's glue: every primitive's geometry copied into BVH leaf
-//! order, the four-wide triangle blocks, and the leaf tests
+//! order with their boxes, the four-wide triangle and quad blocks, and the
+//! leaf tests
 //! [`Bvh::intersect`] calls.
 
 use super::{primitive_tag, Primitive, Scene};

@@ -80,8 +80,9 @@ pub struct Scene {
     /// BVH build saw), for [`Bvh::admits`].
     leaf_bounds: Vec<Aabb>,
     /// By BVH leaf ([`Bvh::leaves`]): one to four triangles by lane for
-    /// the four-wide triangle test, or a mark that the leaf is tested
-    /// entry by entry from `leaf_prims`. Made by [`Scene::put_bvh`].
+    /// the four-wide triangle test, the index of one to four quads' lanes
+    /// in `quad_blocks`, or a mark that the leaf is tested entry by entry
+    /// from `leaf_prims`. Made by [`Scene::put_bvh`].
     leaf_blocks: Vec<LeafBlock>,
     /// The lanes of the leaves of quads, by [`LeafBlock`]'s index.
     quad_blocks: Vec<Quads4>,
