@@ -32,7 +32,7 @@ fn a_kernel_without_a_feature_its_scene_uses_is_caught() {
         let scene = reference::load_scene(&spec).unwrap();
         let features = Features::of(&scene);
         let general = film_bits(ctx, &scene, Integrator::Mis, Features::ALL).unwrap();
-        for (name, bit) in feature::NAMED {
+        for &(name, bit) in feature::NAMED {
             if !features.contains(bit) {
                 continue;
             }

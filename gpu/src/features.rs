@@ -25,36 +25,33 @@ use reference::texture::Texture;
 /// scene's [`Features`].
 pub const FEATURES_CONSTANT: &str = "FEATURES";
 
-/// The feature bits (the WGSL constants `FEATURE_…`).
-pub mod feature {
-    pub const SPHERES: u32 = 1 << 0;
-    pub const QUADS: u32 = 1 << 1;
-    pub const TRIANGLES: u32 = 1 << 2;
-    pub const LAMBERTIAN: u32 = 1 << 3;
-    pub const METAL: u32 = 1 << 4;
-    pub const DIELECTRIC: u32 = 1 << 5;
-    pub const GGX: u32 = 1 << 6;
-    pub const IMAGE_TEXTURES: u32 = 1 << 7;
-    pub const CHECKER_TEXTURES: u32 = 1 << 8;
-    pub const SOLID_BACKGROUND: u32 = 1 << 9;
-    pub const SKY_BACKGROUND: u32 = 1 << 10;
-    pub const ENVMAP_BACKGROUND: u32 = 1 << 11;
+/// Declares each feature bit once: its Rust constant and, in [`NAMED`],
+/// the WGSL constant `FEATURE_<NAME>` generated from it.
+macro_rules! feature_bits {
+    ($($name:ident = $bit:literal,)*) => {
+        /// The feature bits (the WGSL constants `FEATURE_…`).
+        pub mod feature {
+            $(pub const $name: u32 = 1 << $bit;)*
 
-    /// Every bit, with its WGSL name (for the generated constants).
-    pub const NAMED: [(&str, u32); 12] = [
-        ("FEATURE_SPHERES", SPHERES),
-        ("FEATURE_QUADS", QUADS),
-        ("FEATURE_TRIANGLES", TRIANGLES),
-        ("FEATURE_LAMBERTIAN", LAMBERTIAN),
-        ("FEATURE_METAL", METAL),
-        ("FEATURE_DIELECTRIC", DIELECTRIC),
-        ("FEATURE_GGX", GGX),
-        ("FEATURE_IMAGE_TEXTURES", IMAGE_TEXTURES),
-        ("FEATURE_CHECKER_TEXTURES", CHECKER_TEXTURES),
-        ("FEATURE_SOLID_BACKGROUND", SOLID_BACKGROUND),
-        ("FEATURE_SKY_BACKGROUND", SKY_BACKGROUND),
-        ("FEATURE_ENVMAP_BACKGROUND", ENVMAP_BACKGROUND),
-    ];
+            /// Every bit, with its WGSL name (for the generated constants).
+            pub const NAMED: &[(&str, u32)] = &[$((concat!("FEATURE_", stringify!($name)), $name),)*];
+        }
+    };
+}
+
+feature_bits! {
+    SPHERES = 0,
+    QUADS = 1,
+    TRIANGLES = 2,
+    LAMBERTIAN = 3,
+    METAL = 4,
+    DIELECTRIC = 5,
+    GGX = 6,
+    IMAGE_TEXTURES = 7,
+    CHECKER_TEXTURES = 8,
+    SOLID_BACKGROUND = 9,
+    SKY_BACKGROUND = 10,
+    ENVMAP_BACKGROUND = 11,
 }
 
 /// Which kernel a render compiles.
@@ -68,15 +65,6 @@ pub enum Kernel {
 }
 
 impl Kernel {
-    pub const ALL: [Kernel; 2] = [Kernel::Specialized, Kernel::General];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Kernel::Specialized => "specialized",
-            Kernel::General => "general",
-        }
-    }
-
     /// The feature set the kernel is built for.
     pub fn features(self, scene: &Scene) -> Features {
         match self {
@@ -153,7 +141,7 @@ mod tests {
     #[test]
     fn the_bits_are_distinct_and_fit_the_constant() {
         let mut all = 0u32;
-        for (_, bit) in feature::NAMED {
+        for &(_, bit) in feature::NAMED {
             assert_eq!(bit.count_ones(), 1);
             assert_eq!(all & bit, 0, "bit {bit:#x} used twice");
             all |= bit;

@@ -124,7 +124,7 @@ pub fn generate() -> String {
     ] {
         s += &u(name, v as u32);
     }
-    for (name, bit) in crate::features::feature::NAMED {
+    for &(name, bit) in crate::features::feature::NAMED {
         s += &u(name, bit);
     }
     s += &u("INTEGRATOR_BSDF", integrator_tag(Integrator::Bsdf));

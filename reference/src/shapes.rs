@@ -145,7 +145,7 @@ pub fn intersect_sphere(
 /// What [`intersect_quad`] derives from a quad's edges alone: the normal
 /// `n = u × v` and `w = n / |n|²`. [`Quads4`] holds them computed once
 /// (the same bits).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct QuadFrame {
     pub n: Vec3,
     pub w: Vec3,
