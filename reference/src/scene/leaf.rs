@@ -102,8 +102,22 @@ impl LeafPrim {
         t_min: f32,
         t_max: f32,
     ) -> Option<Hit> {
+        self.intersect_in(self.bounds(), ray, k, t_min, t_max)
+    }
+
+    /// [`LeafPrim::intersect`] with the box given (`bounds`: what
+    /// [`LeafPrim::bounds`] computes, kept by the caller).
+    #[inline]
+    fn intersect_in(
+        &self,
+        bounds: Aabb,
+        ray: &Ray,
+        k: &RayConstants,
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<Hit> {
         let hit = self.intersect_shape(ray, k, t_min, t_max)?;
-        k.admits(self.bounds(), ray, hit.t).then_some(hit)
+        k.admits(bounds, ray, hit.t).then_some(hit)
     }
 
     /// The shape's test alone (no [`Bvh::admits`]).
@@ -221,11 +235,13 @@ pub(super) struct LeafTests<'a> {
 impl Leaves for LeafTests<'_> {
     #[inline]
     fn intersect(&mut self, entry: usize, t_max: f32) -> Option<Hit> {
-        let hit =
-            self.prims[entry].intersect_shape(self.ray, &self.constants, self.t_min, t_max)?;
-        self.constants
-            .admits(self.bounds[entry], self.ray, hit.t)
-            .then_some(hit)
+        self.prims[entry].intersect_in(
+            self.bounds[entry],
+            self.ray,
+            &self.constants,
+            self.t_min,
+            t_max,
+        )
     }
 
     /// A leaf of triangles or of quads in one four-wide test, at the
@@ -237,8 +253,6 @@ impl Leaves for LeafTests<'_> {
     fn intersect_leaf(&mut self, leaf: LeafRef, closest: &mut Closest) {
         let block = &self.blocks[leaf.index()];
         let first = block.entries[0] as usize;
-        // A triangle's box from its lanes (in cache already; a mesh's
-        // `bounds` entry may not be), a quad's from `bounds`.
         let hits = match block.kind {
             LeafKind::ByEntry => {
                 return intersect_entries(self, first..block.entries[1] as usize, closest);
@@ -262,6 +276,8 @@ impl Leaves for LeafTests<'_> {
             let lane = bits.trailing_zeros() as usize & 3;
             bits &= bits - 1;
             let t = hits.t[lane];
+            // A triangle's box from its lanes (in cache already; a mesh's
+            // `bounds` entry may not be), a quad's from `bounds`.
             let bounds = match block.kind {
                 LeafKind::Triangles => Aabb::from_points(&block.tris.get(lane)),
                 _ => self.bounds[first + lane],
