@@ -207,9 +207,9 @@ struct GpuParams {
     emitter_count: u32,
     env_pmf: f32,
     env_table: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
+    wave_pixel_start: u32,
+    wave_pixel_count: u32,
+    wave_capacity: u32,
 }
 struct BvhNode {
     min_x: f32,

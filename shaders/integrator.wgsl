@@ -262,40 +262,53 @@ fn trace(ray: Ray, pixel: u32, sample: u32) -> vec3<f32> {
     return trace_path(ray, pixel, sample);
 }
 
+// A pixel's running statistics while a kernel folds samples into it
+// (GpuPixel's fields as vectors).
+struct Moments {
+    count: u32,
+    nonfinite: u32,
+    mean: vec3<f32>,
+    m2: vec3<f32>,
+    m3: vec3<f32>,
+}
+
+fn moments_load(acc: GpuPixel) -> Moments {
+    return Moments(acc.count, acc.nonfinite, vec3<f32>(acc.mean_r, acc.mean_g, acc.mean_b), vec3<f32>(acc.m2_r, acc.m2_g, acc.m2_b), vec3<f32>(acc.m3_r, acc.m3_g, acc.m3_b));
+}
+
+// Folds one path's radiance into the statistics, in sample order (the
+// megakernel and the wavefront's accumulate kernel both call this, so
+// their films agree bit for bit when their paths do).
+fn moments_add(s: ptr<function, Moments>, l: vec3<f32>, path_poisoned: bool) {
+    if path_poisoned || !is_finite3(l) {
+        (*s).nonfinite += 1u;
+        return;
+    }
+    (*s).count += 1u;
+    let n = f32((*s).count);
+    let delta = l - (*s).mean;
+    let delta_n = delta / n;
+    (*s).mean += delta_n;
+    // M3 before M2: its update takes the M2 of the first n − 1 samples.
+    (*s).m3 += delta * delta_n * delta_n * ((n - 1.0) * (n - 2.0)) - 3.0 * delta_n * (*s).m2;
+    (*s).m2 += delta * (l - (*s).mean);
+}
+
+fn moments_store(pixel: u32, s: Moments) {
+    film[pixel] = GpuPixel(s.count, s.nonfinite, s.mean.x, s.mean.y, s.mean.z, s.m2.x, s.m2.y, s.m2.z, s.m3.x, s.m3.y, s.m3.z, 0u);
+}
+
 @compute @workgroup_size(WORKGROUP_X, WORKGROUP_Y, 1)
 fn render_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if gid.x >= params.width || gid.y >= params.height {
         return;
     }
     let pixel = gid.y * params.width + gid.x;
-    var acc = film[pixel];
-    var mean = vec3<f32>(acc.mean_r, acc.mean_g, acc.mean_b);
-    var m2 = vec3<f32>(acc.m2_r, acc.m2_g, acc.m2_b);
-    var m3 = vec3<f32>(acc.m3_r, acc.m3_g, acc.m3_b);
+    var acc = moments_load(film[pixel]);
     for (var i = 0u; i < params.sample_count; i++) {
         let sample = params.sample_start + i;
         let l = trace(camera_ray(gid.x, gid.y, sample), pixel, sample);
-        if poisoned || !is_finite3(l) {
-            acc.nonfinite += 1u;
-            continue;
-        }
-        acc.count += 1u;
-        let n = f32(acc.count);
-        let delta = l - mean;
-        let delta_n = delta / n;
-        mean += delta_n;
-        // M3 before M2: its update takes the M2 of the first n − 1 samples.
-        m3 += delta * delta_n * delta_n * ((n - 1.0) * (n - 2.0)) - 3.0 * delta_n * m2;
-        m2 += delta * (l - mean);
+        moments_add(&acc, l, poisoned);
     }
-    acc.mean_r = mean.x;
-    acc.mean_g = mean.y;
-    acc.mean_b = mean.z;
-    acc.m2_r = m2.x;
-    acc.m2_g = m2.y;
-    acc.m2_b = m2.z;
-    acc.m3_r = m3.x;
-    acc.m3_g = m3.y;
-    acc.m3_b = m3.z;
-    film[pixel] = acc;
+    moments_store(pixel, acc);
 }

@@ -760,8 +760,8 @@ fn bernoulli_furnace_with_film_line(line: &str, mutant: &str) -> furnace::Furnac
 #[test]
 fn gpu_variance_times_4_in_the_wgsl_fails_the_variance_furnace() {
     let out = bernoulli_furnace_with_film_line(
-        "m2 += delta * (l - mean);",
-        "m2 += 4.0 * delta * (l - mean);",
+        "(*s).m2 += delta * (l - (*s).mean);",
+        "(*s).m2 += 4.0 * delta * (l - (*s).mean);",
     );
     println!("variance ×4: z {:?}", out.variance_z);
 }
@@ -772,8 +772,8 @@ fn gpu_variance_times_4_in_the_wgsl_fails_the_variance_furnace() {
 #[test]
 fn gpu_third_moment_times_2_in_the_wgsl_fails_the_variance_furnace() {
     let out = bernoulli_furnace_with_film_line(
-        "m3 += delta * delta_n * delta_n * ((n - 1.0) * (n - 2.0)) - 3.0 * delta_n * m2;",
-        "m3 += 2.0 * (delta * delta_n * delta_n * ((n - 1.0) * (n - 2.0)) - 3.0 * delta_n * m2);",
+        "(*s).m3 += delta * delta_n * delta_n * ((n - 1.0) * (n - 2.0)) - 3.0 * delta_n * (*s).m2;",
+        "(*s).m3 += 2.0 * (delta * delta_n * delta_n * ((n - 1.0) * (n - 2.0)) - 3.0 * delta_n * (*s).m2);",
     );
     println!(
         "M3 ×2: variance z {:?}, third-moment z {:?}",

@@ -370,7 +370,7 @@ fn bad_baselines_are_one_error_line() {
             "no case or workload",
         ),
         (
-            &["perf", "run", "--variant", "wavefront"],
+            &["perf", "run", "--variant", "wavefront-aos"],
             "unknown; the variants are",
         ),
     ];

@@ -107,6 +107,15 @@ const GPU_ONLY: &[(&str, &str)] = &[
     ),
     ("wrap_index", "i32::rem_euclid in ImageData::texel"),
     (
+        "moments_load",
+        "reads a GpuPixel record into film::PixelStats's fields",
+    ),
+    (
+        "moments_add",
+        "film::PixelStats::add in f32 (the film has no WGSL file of its own)",
+    ),
+    ("moments_store", "writes a GpuPixel record"),
+    (
         "fract_euclid",
         "f32::rem_euclid in ImageData::sample_bilinear",
     ),
@@ -416,8 +425,12 @@ fn shaders_mirror_reference_modules() {
     }
     for entry in fs::read_dir(root().join("shaders")).unwrap() {
         let name = entry.unwrap().file_name().into_string().unwrap();
+        // wavefront.wgsl: GPU only, the wavefront schedule of
+        // integrator.wgsl's path loop (gpu::wavefront), gated bit for bit
+        // against the megakernel rather than twinned.
         assert!(
-            listed.contains(&name) || name == "integrator.wgsl" || name == "generated.wgsl",
+            listed.contains(&name)
+                || ["integrator.wgsl", "generated.wgsl", "wavefront.wgsl"].contains(&name.as_str()),
             "shaders/{name} is not part of the program (gpu::shader::LIBRARY_FILES)"
         );
     }

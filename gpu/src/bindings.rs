@@ -101,6 +101,34 @@ pub const TEST_OUTPUT: Binding = Binding {
 };
 pub const TEST_IO_GROUP: [Binding; 2] = [TEST_INPUT, TEST_OUTPUT];
 
+/// Group 1 of the wavefront kernels (`gpu::wavefront`): every path slot's
+/// state, and the queues of live paths and of rays to trace.
+pub const PATHS: Binding = Binding {
+    group: 1,
+    slot: 0,
+    name: "paths",
+    wgsl_type: "array<u32>",
+    access: Access::ReadWrite,
+};
+pub const WAVE_QUEUES: Binding = Binding {
+    group: 1,
+    slot: 1,
+    name: "wave_queues",
+    wgsl_type: "WaveQueues",
+    access: Access::ReadWrite,
+};
+pub const WAVE_GROUP: [Binding; 2] = [PATHS, WAVE_QUEUES];
+
+/// Group 2, bound for wf_prepare alone: the indirect dispatch arguments
+/// it writes for the next wf_extend and wf_shade.
+pub const WAVE_ARGS: Binding = Binding {
+    group: 2,
+    slot: 0,
+    name: "wave_args",
+    wgsl_type: "WaveArgs",
+    access: Access::ReadWrite,
+};
+
 impl Binding {
     /// The WGSL declaration.
     pub fn wgsl(&self) -> String {
@@ -148,7 +176,12 @@ mod tests {
     /// unique across the groups a test kernel sees together.
     #[test]
     fn slots_are_dense_and_names_unique() {
-        for group in [scene_group(), TEST_IO_GROUP.to_vec()] {
+        for group in [
+            scene_group(),
+            TEST_IO_GROUP.to_vec(),
+            WAVE_GROUP.to_vec(),
+            vec![WAVE_ARGS],
+        ] {
             for (i, b) in group.iter().enumerate() {
                 assert_eq!(b.slot, i as u32, "{}", b.name);
                 assert_eq!(b.group, group[0].group, "{}", b.name);
@@ -157,6 +190,8 @@ mod tests {
         let mut names: Vec<_> = scene_group()
             .iter()
             .chain(&TEST_IO_GROUP)
+            .chain(&WAVE_GROUP)
+            .chain([&WAVE_ARGS])
             .map(|b| b.name)
             .collect();
         names.sort_unstable();

@@ -8,8 +8,9 @@ use std::sync::{Arc, Mutex};
 /// Storage buffers the render kernel binds (scene arrays + film).
 pub const STORAGE_BUFFERS_NEEDED: u32 = 14;
 /// Storage buffers requested when the adapter has them: the test kernels
-/// bind two more (input, output) beside the scene.
-pub const STORAGE_BUFFERS_WANTED: u32 = 16;
+/// bind two more (input, output) beside the scene, the wavefront's
+/// wf_prepare three (paths, queues, dispatch arguments).
+pub const STORAGE_BUFFERS_WANTED: u32 = crate::wavefront::STORAGE_BUFFERS_NEEDED;
 
 /// A summary of one adapter for `twintrace info`.
 #[derive(Clone, Debug)]

@@ -3,8 +3,9 @@
 //! Packs a `reference::Scene` (and its one BVH node array) into GPU records
 //! (`records`), assembles the WGSL program from shaders/ with constants
 //! generated from `reference` (`shader`), opens an adapter (`context`) and
-//! runs the megakernel in short batches of samples (`renderer`), built for
-//! the scene's features (`features`). It never
+//! runs the megakernel in short batches of samples (`renderer`) or the
+//! wavefront's kernels in waves of paths (`wavefront`), built for the
+//! scene's features (`features`). It never
 //! re-defines what a scene means: every tag, constant and the camera come
 //! from `reference`.
 
@@ -18,8 +19,10 @@ pub mod renderer;
 pub mod scene_buffers;
 pub mod shader;
 pub mod testing;
+pub mod wavefront;
 
 pub use context::{list_adapters, AdapterSummary, GpuContext};
 pub use error::GpuError;
 pub use features::{Features, Kernel};
 pub use renderer::{GpuRender, GpuRenderer};
+pub use wavefront::{PathLayout, Schedule, Variant};

@@ -110,8 +110,10 @@ gpu_record! {
         cam_vertical_x: f32, cam_vertical_y: f32, cam_vertical_z: f32,
         cam_u_x: f32, cam_u_y: f32, cam_u_z: f32,
         cam_v_x: f32, cam_v_y: f32, cam_v_z: f32,
-        emitter_count: u32, env_pmf: f32, env_table: u32, _pad0: u32,
-        _pad1: u32, _pad2: u32,
+        emitter_count: u32, env_pmf: f32, env_table: u32,
+        // The wavefront's wave (gpu::wavefront): its first pixel, its
+        // pixel count, and the path slots its buffers hold.
+        wave_pixel_start: u32, wave_pixel_count: u32, wave_capacity: u32,
     }
 }
 

@@ -9,6 +9,7 @@ use crate::features::{Features, Kernel, FEATURES_CONSTANT};
 use crate::records::{GpuParams, GpuPixel};
 use crate::scene_buffers::{pack_background, PackedScene};
 use crate::shader;
+use crate::wavefront::{self, Schedule};
 use reference::film::{Film, PixelStats};
 use reference::integrator::Integrator;
 use reference::{RenderSettings, Scene};
@@ -20,6 +21,18 @@ use wgpu::util::DeviceExt;
 pub const PATHS_PER_DISPATCH_GPU: u64 = 1 << 23;
 pub const PATHS_PER_DISPATCH_SOFTWARE: u64 = 1 << 17;
 
+/// One submit of a render.
+enum Batch<'b> {
+    /// A dispatch of the megakernel over every pixel.
+    Dispatch(&'b wgpu::ComputePipeline),
+    /// A wave of the wavefront's kernels, in its buffers.
+    Wave(
+        &'b wavefront::Pipelines,
+        wavefront::Wave,
+        &'b wavefront::WaveBuffers,
+    ),
+}
+
 /// A render's film and, where the adapter has timestamp queries, the GPU
 /// time of the kernel dispatches.
 pub struct GpuRender {
@@ -28,11 +41,17 @@ pub struct GpuRender {
     pub dispatches: u32,
 }
 
+/// The compiled kernels of a schedule.
+enum Kernels {
+    Megakernel(wgpu::ComputePipeline),
+    Wavefront(Box<wavefront::Pipelines>),
+}
+
 /// A scene uploaded to one device, with its render kernel compiled for
 /// one estimator.
 pub struct GpuRenderer<'a> {
     ctx: &'a GpuContext,
-    pipeline: wgpu::ComputePipeline,
+    kernels: Kernels,
     /// The light set's parameters (`GpuParams::emitter_count`, `env_pmf`,
     /// `env_table`).
     lights: (u32, f32, u32),
@@ -40,6 +59,8 @@ pub struct GpuRenderer<'a> {
     /// Each scene array with the binding it is bound to.
     scene_buffers: Vec<(Binding, wgpu::Buffer)>,
     scene: &'a Scene,
+    /// The wavefront's path slots per wave, where a test sets them.
+    wave_slots: Option<u32>,
 }
 
 /// The bind group layout shared by the render kernel and the test kernels
@@ -75,33 +96,50 @@ pub fn compile_with(
     layouts: &[&wgpu::BindGroupLayout],
     constants: &[(&str, f64)],
 ) -> Result<wgpu::ComputePipeline, GpuError> {
+    let mut p = compile_entries(ctx, source, &[(entry, layouts)], constants)?;
+    Ok(p.remove(0))
+}
+
+/// One shader module, a pipeline for each entry point with its bind group
+/// layouts.
+pub fn compile_entries(
+    ctx: &GpuContext,
+    source: &str,
+    entries: &[(&str, &[&wgpu::BindGroupLayout])],
+    constants: &[(&str, f64)],
+) -> Result<Vec<wgpu::ComputePipeline>, GpuError> {
     let device = &ctx.device;
     let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some(entry),
+        label: entries.first().map(|e| e.0),
         source: wgpu::ShaderSource::Wgsl(source.into()),
     });
-    let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some(entry),
-        bind_group_layouts: &layouts.iter().map(|l| Some(*l)).collect::<Vec<_>>(),
-        immediate_size: 0,
-    });
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(entry),
-        layout: Some(&pl),
-        module: &module,
-        entry_point: Some(entry),
-        compilation_options: wgpu::PipelineCompilationOptions {
-            constants,
-            ..Default::default()
-        },
-        cache: None,
-    });
+    let pipelines = entries
+        .iter()
+        .map(|(entry, layouts)| {
+            let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(entry),
+                bind_group_layouts: &layouts.iter().map(|l| Some(*l)).collect::<Vec<_>>(),
+                immediate_size: 0,
+            });
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(&pl),
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants,
+                    ..Default::default()
+                },
+                cache: None,
+            })
+        })
+        .collect();
     if let Some(e) = pollster::block_on(scope.pop()) {
         return Err(GpuError::Shader(e.to_string()));
     }
     ctx.check()?;
-    Ok(pipeline)
+    Ok(pipelines)
 }
 
 impl<'a> GpuRenderer<'a> {
@@ -130,14 +168,31 @@ impl<'a> GpuRenderer<'a> {
         integrator: Integrator,
         kernel: Kernel,
     ) -> Result<Self, GpuError> {
+        Self::with_variant(ctx, scene, integrator, kernel, Schedule::Megakernel)
+    }
+
+    /// [`Self::with_kernel`] with the paths' schedule given (the
+    /// megakernel, or the wavefront with a path layout).
+    pub fn with_variant(
+        ctx: &'a GpuContext,
+        scene: &'a Scene,
+        integrator: Integrator,
+        kernel: Kernel,
+        schedule: Schedule,
+    ) -> Result<Self, GpuError> {
         let packed = PackedScene::new(scene);
-        Self::build(
+        let program = match schedule {
+            Schedule::Megakernel => shader::render_source(),
+            Schedule::Wavefront(_) => shader::wavefront_source(),
+        };
+        Self::build_scheduled(
             ctx,
             &packed,
             scene,
-            &shader::render_source(),
+            &program,
             integrator,
             kernel.features(scene),
+            schedule,
         )
     }
 
@@ -174,8 +229,8 @@ impl<'a> GpuRenderer<'a> {
         Self::build(ctx, packed, scene, program, integrator, Features::of(scene))
     }
 
-    /// Uploads `packed` and compiles `program` with the constants
-    /// `INTEGRATOR` and `FEATURES`.
+    /// Uploads `packed` and compiles `program` (the megakernel's) with the
+    /// constants `INTEGRATOR` and `FEATURES`.
     pub fn build(
         ctx: &'a GpuContext,
         packed: &PackedScene,
@@ -183,6 +238,29 @@ impl<'a> GpuRenderer<'a> {
         program: &str,
         integrator: Integrator,
         features: Features,
+    ) -> Result<Self, GpuError> {
+        Self::build_scheduled(
+            ctx,
+            packed,
+            scene,
+            program,
+            integrator,
+            features,
+            Schedule::Megakernel,
+        )
+    }
+
+    /// [`Self::build`] for a schedule: `program` is the megakernel's
+    /// (`shader::render_source`) or the wavefront's
+    /// (`shader::wavefront_source`), or a test's edit of one.
+    pub fn build_scheduled(
+        ctx: &'a GpuContext,
+        packed: &PackedScene,
+        scene: &'a Scene,
+        program: &str,
+        integrator: Integrator,
+        features: Features,
+        schedule: Schedule,
     ) -> Result<Self, GpuError> {
         let limit = ctx.device.limits().max_storage_buffer_binding_size;
         let device = &ctx.device;
@@ -215,10 +293,21 @@ impl<'a> GpuRenderer<'a> {
             ),
             (FEATURES_CONSTANT, features.0 as f64),
         ];
-        let pipeline = compile_with(ctx, program, "render_main", &[&layout], &constants)?;
+        let kernels = match schedule {
+            Schedule::Megakernel => Kernels::Megakernel(compile_with(
+                ctx,
+                program,
+                "render_main",
+                &[&layout],
+                &constants,
+            )?),
+            Schedule::Wavefront(path_layout) => Kernels::Wavefront(Box::new(
+                wavefront::Pipelines::new(ctx, &layout, program, &constants, path_layout)?,
+            )),
+        };
         Ok(Self {
             ctx,
-            pipeline,
+            kernels,
             lights: (
                 packed.emitters.len() as u32,
                 packed.env_pmf,
@@ -227,7 +316,15 @@ impl<'a> GpuRenderer<'a> {
             layout,
             scene_buffers,
             scene,
+            wave_slots: None,
         })
+    }
+
+    /// Sets the wavefront's path slots per wave (`None`: fill the
+    /// adapter, `wavefront::slots`): the tests split a small render into
+    /// many waves with it. No effect on the megakernel.
+    pub fn set_wave_slots(&mut self, slots: Option<u32>) {
+        self.wave_slots = slots.map(|s| s.max(1));
     }
 
     pub fn layout(&self) -> &wgpu::BindGroupLayout {
@@ -323,14 +420,50 @@ impl<'a> GpuRenderer<'a> {
             mapped_at_creation: false,
         });
         let bind_group = self.bind_group(&params_buf, &film);
-        let target = if ctx.is_software {
-            PATHS_PER_DISPATCH_SOFTWARE
-        } else {
-            PATHS_PER_DISPATCH_GPU
+        let base = self.params(settings);
+        // One submit per batch (a dispatch of the megakernel, a wave of the
+        // wavefront), each with its own params.
+        let wave_buffers;
+        let batches: Vec<(GpuParams, Batch)> = match &self.kernels {
+            Kernels::Megakernel(pipeline) => {
+                let target = if ctx.is_software {
+                    PATHS_PER_DISPATCH_SOFTWARE
+                } else {
+                    PATHS_PER_DISPATCH_GPU
+                };
+                let per_dispatch = (target / pixels.max(1)).clamp(1, settings.spp as u64) as u32;
+                let mut out = Vec::new();
+                let mut done = 0u32;
+                while done < settings.spp {
+                    let n = per_dispatch.min(settings.spp - done);
+                    let p = GpuParams {
+                        sample_start: done,
+                        sample_count: n,
+                        ..base
+                    };
+                    out.push((p, Batch::Dispatch(pipeline)));
+                    done += n;
+                }
+                out
+            }
+            Kernels::Wavefront(w) => {
+                let slots = self
+                    .wave_slots
+                    .unwrap_or_else(|| wavefront::slots(ctx, pixels, settings.spp));
+                wave_buffers = w.buffers(ctx, slots)?;
+                wavefront::waves(pixels as u32, settings.spp, slots)
+                    .into_iter()
+                    .map(|wave| {
+                        (
+                            wavefront::wave_params(&base, wave, slots),
+                            Batch::Wave(w, wave, &wave_buffers),
+                        )
+                    })
+                    .collect()
+            }
         };
-        let per_dispatch = (target / pixels.max(1)).clamp(1, settings.spp as u64) as u32;
-        let dispatches = settings.spp.div_ceil(per_dispatch);
-        // Two timestamps per dispatch; wgpu caps a query set at 4096 queries.
+        let dispatches = batches.len() as u32;
+        // Two timestamps per batch; wgpu caps a query set at 4096 queries.
         let timestamps = ctx.timestamps && dispatches * 2 <= 4096;
         let query_set = timestamps.then(|| {
             device.create_query_set(&wgpu::QuerySetDescriptor {
@@ -339,18 +472,16 @@ impl<'a> GpuRenderer<'a> {
                 count: dispatches * 2,
             })
         });
-        let mut params = self.params(settings);
         let groups = (
             settings.width.div_ceil(shader::WORKGROUP.0),
             settings.height.div_ceil(shader::WORKGROUP.1),
         );
-        let mut done = 0u32;
-        let mut index = 0u32;
-        while done < settings.spp {
-            params.sample_start = done;
-            params.sample_count = per_dispatch.min(settings.spp - done);
+        let total = settings.spp as u64 * pixels;
+        let mut done = 0u64;
+        for (index, (params, batch)) in batches.iter().enumerate() {
+            let index = index as u32;
             ctx.queue
-                .write_buffer(&params_buf, 0, bytemuck::bytes_of(&params));
+                .write_buffer(&params_buf, 0, bytemuck::bytes_of(params));
             let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("render"),
             });
@@ -367,15 +498,25 @@ impl<'a> GpuRenderer<'a> {
                     label: Some("render"),
                     timestamp_writes,
                 });
-                pass.set_pipeline(&self.pipeline);
-                pass.set_bind_group(0, &bind_group, &[]);
-                pass.dispatch_workgroups(groups.0, groups.1, 1);
+                match batch {
+                    Batch::Wave(w, wave, buffers) => {
+                        w.record(&mut pass, &bind_group, buffers, *wave, settings.max_depth);
+                    }
+                    Batch::Dispatch(pipeline) => {
+                        pass.set_pipeline(pipeline);
+                        pass.set_bind_group(0, &bind_group, &[]);
+                        pass.dispatch_workgroups(groups.0, groups.1, 1);
+                    }
+                }
             }
             ctx.queue.submit([encoder.finish()]);
             ctx.wait()?;
-            done += params.sample_count;
-            index += 1;
-            progress(done as u64 * pixels, settings.spp as u64 * pixels);
+            done += params.sample_count as u64
+                * match batch {
+                    Batch::Dispatch(_) => pixels,
+                    Batch::Wave(_, w, _) => w.pixel_count as u64,
+                };
+            progress(done, total);
         }
         let gpu_pixels: Vec<GpuPixel> = read_buffer(ctx, &film, film_bytes)?;
         let gpu_time = match &query_set {

@@ -56,6 +56,10 @@ pub const LIBRARY_FILES: [(&str, &str); 10] = [
 /// `reference/src/integrator.rs`.
 pub const INTEGRATOR_WGSL: &str = include_str!("../../shaders/integrator.wgsl");
 
+/// The wavefront variant's kernels (`gpu::wavefront`), compiled after the
+/// render program (they call its path functions).
+pub const WAVEFRONT_WGSL: &str = include_str!("../../shaders/wavefront.wgsl");
+
 fn f32_literal(x: f32) -> String {
     // `{:e}` prints the shortest representation that round-trips.
     format!("{x:e}")
@@ -167,6 +171,24 @@ pub fn render_source() -> String {
     [library_source().as_str(), INTEGRATOR_WGSL].join("\n")
 }
 
+/// The wavefront program: the render program, the wavefront's bindings
+/// ([`bindings::WAVE_GROUP`], [`bindings::WAVE_ARGS`]) and path size, and
+/// its kernels.
+pub fn wavefront_source() -> String {
+    let mut declarations = bindings::wgsl_declarations(&bindings::WAVE_GROUP);
+    declarations += &bindings::WAVE_ARGS.wgsl();
+    declarations += &format!(
+        "const PATH_WORDS: u32 = {}u;\n",
+        crate::wavefront::PATH_WORDS
+    );
+    [
+        render_source().as_str(),
+        declarations.as_str(),
+        WAVEFRONT_WGSL,
+    ]
+    .join("\n")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -211,14 +233,23 @@ mod tests {
     /// wgpu uses), without needing an adapter.
     #[test]
     fn render_program_validates() {
-        let src = render_source();
-        let module = naga::front::wgsl::parse_str(&src)
-            .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&src)));
+        validates(&render_source());
+    }
+
+    /// Likewise the wavefront program.
+    #[test]
+    fn wavefront_program_validates() {
+        validates(&wavefront_source());
+    }
+
+    fn validates(src: &str) {
+        let module = naga::front::wgsl::parse_str(src)
+            .unwrap_or_else(|e| panic!("{}", e.emit_to_string(src)));
         naga::valid::Validator::new(
             naga::valid::ValidationFlags::all(),
             naga::valid::Capabilities::empty(),
         )
         .validate(&module)
-        .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&src)));
+        .unwrap_or_else(|e| panic!("{}", e.emit_to_string(src)));
     }
 }

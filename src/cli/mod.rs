@@ -135,6 +135,31 @@ pub struct RenderArgs {
     /// code; it renders the same image bit for bit).
     #[arg(long, value_enum, default_value_t = KernelArg::Specialized)]
     pub kernel: KernelArg,
+    /// How the GPU schedules the paths: megakernel (one invocation traces
+    /// a pixel's paths to the end), wavefront (kernels per stage over
+    /// queues of live paths, path state as an array of structs) or
+    /// wavefront-soa (the same, structure of arrays). All three render the
+    /// same image bit for bit.
+    #[arg(long, value_enum, default_value_t = ScheduleArg::Megakernel)]
+    pub schedule: ScheduleArg,
+}
+
+/// `--schedule`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ScheduleArg {
+    Megakernel,
+    Wavefront,
+    WavefrontSoa,
+}
+
+impl ScheduleArg {
+    pub fn schedule(self) -> gpu::Schedule {
+        match self {
+            ScheduleArg::Megakernel => gpu::Schedule::Megakernel,
+            ScheduleArg::Wavefront => gpu::Schedule::Wavefront(gpu::PathLayout::Aos),
+            ScheduleArg::WavefrontSoa => gpu::Schedule::Wavefront(gpu::PathLayout::Soa),
+        }
+    }
 }
 
 /// `--kernel`.
@@ -319,8 +344,13 @@ fn render(args: &RenderArgs) -> Result<()> {
             }
         }
         Device::Gpu(ctx) => {
-            let renderer =
-                gpu::GpuRenderer::with_kernel(ctx, &scene, integrator, args.kernel.kernel())?;
+            let renderer = gpu::GpuRenderer::with_variant(
+                ctx,
+                &scene,
+                integrator,
+                args.kernel.kernel(),
+                args.schedule.schedule(),
+            )?;
             let out = renderer.render(&settings, &|done, _| bar.set_position(done))?;
             gpu_time = out.gpu_time;
             out.film

@@ -16,7 +16,7 @@
 use super::print_stdout;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
-use gpu::Kernel;
+use gpu::{Kernel, Schedule, Variant};
 use reference::integrator::Integrator;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
@@ -50,17 +50,18 @@ pub enum PerfBackend {
     All,
 }
 
-/// The renderer variants there are, with their backends. Without
-/// `--variant`, the BSDF-sampling ones run (the MIS variants only when
-/// asked for, so that runs stay comparable with the stored baselines).
-const VARIANTS: [(&str, &str); 6] = [
-    ("reference", "cpu"),
-    ("reference-mis", "cpu"),
-    ("megakernel", "gpu"),
-    ("megakernel-mis", "gpu"),
-    ("megakernel-general", "gpu"),
-    ("megakernel-mis-general", "gpu"),
-];
+/// The renderer variants there are, with their backends: the CPU's two,
+/// then every `gpu::Variant`. Without `--variant`, `reference` and
+/// `megakernel` run (the others only when asked for, so that runs stay
+/// comparable with the stored baselines).
+fn variants() -> Vec<(String, &'static str)> {
+    let mut v = vec![
+        ("reference".to_string(), "cpu"),
+        ("reference-mis".to_string(), "cpu"),
+    ];
+    v.extend(Variant::all().into_iter().map(|g| (g.name(), "gpu")));
+    v
+}
 
 #[derive(Debug, Args)]
 pub struct RunArgs {
@@ -69,10 +70,11 @@ pub struct RunArgs {
     #[arg(long, value_enum, default_value_t = PerfBackend::All)]
     pub backend: PerfBackend,
     /// Only these renderer variants (reference: the CPU's BSDF sampling;
-    /// reference-mis: the CPU's light sampling with MIS; megakernel and
-    /// megakernel-mis: the GPU's, likewise, the kernel specialized to the
-    /// scene; megakernel-general and megakernel-mis-general: the general
-    /// kernel, every feature's code).
+    /// reference-mis: the CPU's light sampling with MIS; the GPU's are
+    /// SCHEDULE[-mis][-general]: SCHEDULE megakernel, wavefront (path
+    /// state as an array of structs) or wavefront-soa (structure of
+    /// arrays), -mis light sampling with MIS, -general the general kernel
+    /// (every feature's code) instead of the one specialized to the scene).
     #[arg(long)]
     pub variant: Vec<String>,
     /// Only the cases and workloads whose name contains this.
@@ -294,11 +296,12 @@ fn run_suite(a: &RunArgs) -> Result<()> {
     if a.repeats == 0 || a.repeats > 1000 {
         bail!("--repeats {}: must be between 1 and 1000", a.repeats);
     }
+    let all_variants = variants();
     for v in &a.variant {
-        if !VARIANTS.iter().any(|(name, _)| name == v) {
+        if !all_variants.iter().any(|(name, _)| name == v) {
             bail!(
                 "--variant {v}: unknown; the variants are {}",
-                VARIANTS
+                all_variants
                     .iter()
                     .map(|(n, b)| format!("{n} ({b})"))
                     .collect::<Vec<_>>()
@@ -308,7 +311,7 @@ fn run_suite(a: &RunArgs) -> Result<()> {
     }
     let variant_wanted = |backend: &str| {
         a.variant.is_empty()
-            || VARIANTS
+            || all_variants
                 .iter()
                 .any(|(n, b)| *b == backend && a.variant.iter().any(|v| v == n))
     };
@@ -350,24 +353,24 @@ fn run_suite(a: &RunArgs) -> Result<()> {
             .collect()
     };
     let cpu_integrators = integrators("reference", "reference-mis");
-    let mut gpu_integrators: Vec<(Integrator, Kernel)> =
-        integrators("megakernel", "megakernel-mis")
+    let gpu_variants: Vec<Variant> = if a.variant.is_empty() {
+        vec![Variant {
+            integrator: Integrator::Bsdf,
+            kernel: Kernel::Specialized,
+            schedule: Schedule::Megakernel,
+        }]
+    } else {
+        Variant::all()
             .into_iter()
-            .map(|i| (i, Kernel::Specialized))
-            .collect();
-    if !a.variant.is_empty() {
-        gpu_integrators.extend(
-            integrators("megakernel-general", "megakernel-mis-general")
-                .into_iter()
-                .map(|i| (i, Kernel::General)),
-        );
-    }
+            .filter(|v| a.variant.contains(&v.name()))
+            .collect()
+    };
     let options = measure::Options {
         suite,
         cpu: pool.as_ref(),
         cpu_integrators,
         gpu: ctx.as_ref(),
-        gpu_integrators,
+        gpu_variants,
         repeats: a.repeats,
         inject_slowdown: a.inject_slowdown,
         revision: a.revision.clone(),

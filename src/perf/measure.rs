@@ -28,7 +28,7 @@ use super::{median, Adapter, Curve, Host, PerfRun, Point, RunSettings, Throughpu
 use crate::compare::gate::{load_reference_in, load_scene, workspace_root};
 use crate::compare::image::NoisyImage;
 use anyhow::{anyhow, bail, Context, Result};
-use gpu::{GpuContext, Kernel};
+use gpu::{GpuContext, Variant};
 use rayon::prelude::*;
 use reference::geometry::Ray;
 use reference::integrator::{camera_ray, render_with, trace_path, Integrator};
@@ -58,7 +58,7 @@ pub struct Options<'a> {
     /// The GPU, when the GPU backend runs.
     pub gpu: Option<&'a GpuContext>,
     /// The GPU's estimators to measure (each a variant).
-    pub gpu_integrators: Vec<(Integrator, Kernel)>,
+    pub gpu_variants: Vec<Variant>,
     pub repeats: u32,
     pub inject_slowdown: bool,
     pub revision: String,
@@ -72,7 +72,7 @@ pub struct Options<'a> {
 #[derive(Clone, Copy)]
 enum Backend<'a> {
     Cpu(&'a rayon::ThreadPool, Integrator),
-    Gpu(&'a GpuContext, Integrator, Kernel),
+    Gpu(&'a GpuContext, Variant),
 }
 
 impl Backend<'_> {
@@ -84,17 +84,13 @@ impl Backend<'_> {
     }
 
     /// The renderer variant: `reference` (BSDF sampling), `reference-mis`
-    /// (light sampling with MIS), `megakernel` and `megakernel-mis` (the
-    /// GPU's, likewise, specialized to the scene), `megakernel-general`
-    /// and `megakernel-mis-general` (the general kernel, their oracle).
-    fn variant(self) -> &'static str {
+    /// (light sampling with MIS), and the GPU's by `gpu::Variant::name`
+    /// (`megakernel`, `megakernel-mis`, `wavefront-soa-mis-general`, ...).
+    fn variant(self) -> String {
         match self {
-            Backend::Cpu(_, Integrator::Bsdf) => "reference",
-            Backend::Cpu(_, Integrator::Mis) => "reference-mis",
-            Backend::Gpu(_, Integrator::Bsdf, Kernel::Specialized) => "megakernel",
-            Backend::Gpu(_, Integrator::Mis, Kernel::Specialized) => "megakernel-mis",
-            Backend::Gpu(_, Integrator::Bsdf, Kernel::General) => "megakernel-general",
-            Backend::Gpu(_, Integrator::Mis, Kernel::General) => "megakernel-mis-general",
+            Backend::Cpu(_, Integrator::Bsdf) => "reference".into(),
+            Backend::Cpu(_, Integrator::Mis) => "reference-mis".into(),
+            Backend::Gpu(_, v) => v.name(),
         }
     }
 }
@@ -116,8 +112,12 @@ impl<'a> Prepared<'a> {
     fn new(backend: Backend<'a>, scene: &'a Scene) -> Result<Self> {
         Ok(match backend {
             Backend::Cpu(pool, integrator) => Prepared::Cpu(pool, scene, integrator),
-            Backend::Gpu(ctx, integrator, kernel) => Prepared::Gpu(gpu::GpuRenderer::with_kernel(
-                ctx, scene, integrator, kernel,
+            Backend::Gpu(ctx, v) => Prepared::Gpu(gpu::GpuRenderer::with_variant(
+                ctx,
+                scene,
+                v.integrator,
+                v.kernel,
+                v.schedule,
             )?),
         })
     }
@@ -204,8 +204,8 @@ pub fn run(options: &Options, metric: &mut dyn FnMut(&str)) -> Result<PerfRun> {
         }
     }
     if let Some(ctx) = options.gpu {
-        for &(integrator, kernel) in &options.gpu_integrators {
-            backends.push(Backend::Gpu(ctx, integrator, kernel));
+        for &v in &options.gpu_variants {
+            backends.push(Backend::Gpu(ctx, v));
         }
     }
     if backends.is_empty() {
@@ -242,14 +242,18 @@ pub fn run(options: &Options, metric: &mut dyn FnMut(&str)) -> Result<PerfRun> {
     let mut throughput = Vec::new();
     for load in &loads {
         for &backend in &backends {
-            // Ray queries do not depend on the estimator: one CPU row, one
-            // GPU row per kernel (the MIS variant's only when its BSDF
-            // twin is not measured).
-            let gpu_bsdf_too = |k: Kernel| options.gpu_integrators.contains(&(Integrator::Bsdf, k));
+            // Ray queries depend on neither the estimator nor the
+            // schedule: one CPU row, one GPU row per kernel (from the
+            // first variant measured with that kernel).
             if let Workload::Rays { .. } = load {
                 match backend {
                     Backend::Cpu(_, Integrator::Mis) => continue,
-                    Backend::Gpu(_, Integrator::Mis, k) if gpu_bsdf_too(k) => continue,
+                    Backend::Gpu(_, v)
+                        if options.gpu_variants.iter().find(|w| w.kernel == v.kernel)
+                            != Some(&v) =>
+                    {
+                        continue
+                    }
                     _ => {}
                 }
             }
@@ -360,7 +364,7 @@ fn measure_curve(
     Ok(Curve {
         case: spec.name.clone(),
         backend: backend.name().into(),
-        variant: backend.variant().into(),
+        variant: backend.variant(),
         scene: spec.scene.clone(),
         width: spec.width,
         height: spec.height,
@@ -495,7 +499,8 @@ fn measure_workload(
                     );
                     ("rays", batch.len() as u64, walls, None, note)
                 }
-                Backend::Gpu(ctx, _, kernel) => {
+                Backend::Gpu(ctx, v) => {
+                    let kernel = v.kernel;
                     let t = gpu::rays::trace_closest(ctx, &scene, &batch, reps, kernel)?;
                     let mut walls: Vec<f64> = t.wall.iter().map(|d| d.as_secs_f64()).collect();
                     let mut gpus: Option<Vec<f64>> =
@@ -533,7 +538,7 @@ fn measure_workload(
     let row = Throughput {
         workload: load.name().into(),
         backend: backend.name().into(),
-        variant: backend.variant().into(),
+        variant: backend.variant(),
         unit: unit.into(),
         count,
         wall_s: walls,

@@ -15,6 +15,8 @@
 //! - [`light`]: light samples (emitter, direction) and their densities.
 //! - [`specialization`]: the render kernel built for each scene's features
 //!   against the general kernel, bit for bit (GPU against GPU).
+//! - [`wavefront`]: the wavefront variant's kernels against the megakernel,
+//!   bit for bit (GPU against GPU).
 //!
 //! Each check returns an [`Outcome`]: a one-line summary of what agreed,
 //! or the first disagreement (or the GPU error that stopped it).
@@ -25,6 +27,7 @@ pub mod numerics;
 pub mod rng;
 pub mod specialization;
 pub mod surface;
+pub mod wavefront;
 
 use glam::{Vec2, Vec3};
 use gpu::testing::{run_test_kernel_with_library, TestKernel};
@@ -163,5 +166,9 @@ pub const CHECKS: &[Check] = &[
     Check {
         name: "specialized kernel == general kernel (every scene, both estimators)",
         run: specialization::all_scenes,
+    },
+    Check {
+        name: "wavefront == megakernel (every scene, both estimators, both path layouts)",
+        run: wavefront::all_scenes,
     },
 ];

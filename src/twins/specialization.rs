@@ -10,7 +10,7 @@
 use super::Outcome;
 use crate::compare::gate::workspace_root;
 use gpu::features::{Features, Kernel};
-use gpu::GpuContext;
+use gpu::{GpuContext, Schedule};
 use reference::integrator::Integrator;
 use reference::{RenderSettings, Scene};
 
@@ -47,10 +47,37 @@ pub fn film_bits(
     integrator: Integrator,
     features: Features,
 ) -> Result<Vec<u64>, String> {
-    let packed = gpu::scene_buffers::PackedScene::new(scene);
     let program = gpu::shader::render_source();
-    let renderer = gpu::GpuRenderer::build(ctx, &packed, scene, &program, integrator, features)
-        .map_err(|e| e.to_string())?;
+    let mut films = variant_film_bits(
+        ctx,
+        scene,
+        &program,
+        integrator,
+        features,
+        Schedule::Megakernel,
+        &[None],
+    )?;
+    Ok(films.remove(0))
+}
+
+/// [`film_bits`] for any variant: `program` compiled for `schedule` (its
+/// WGSL: `gpu::shader::render_source` or `wavefront_source`, or a test's
+/// edit), rendered once for each of `wave_slots` (the wavefront's slots
+/// per wave; `None`, the adapter's default), with one compiled kernel.
+pub fn variant_film_bits(
+    ctx: &GpuContext,
+    scene: &Scene,
+    program: &str,
+    integrator: Integrator,
+    features: Features,
+    schedule: Schedule,
+    wave_slots: &[Option<u32>],
+) -> Result<Vec<Vec<u64>>, String> {
+    let packed = gpu::scene_buffers::PackedScene::new(scene);
+    let mut renderer = gpu::GpuRenderer::build_scheduled(
+        ctx, &packed, scene, program, integrator, features, schedule,
+    )
+    .map_err(|e| e.to_string())?;
     let (width, height, spp) = SIZE;
     let settings = RenderSettings {
         width,
@@ -59,20 +86,34 @@ pub fn film_bits(
         max_depth: 8,
         ..scene.render_settings()
     };
-    let film = renderer
-        .render(&settings, &|_, _| {})
-        .map_err(|e| e.to_string())?
-        .film;
-    Ok(film
-        .pixels
-        .iter()
-        .flat_map(|p| {
-            let moments = [p.mean, p.m2, p.m3].map(|v| v.to_array().map(f64::to_bits));
-            [p.count as u64, p.nonfinite as u64]
-                .into_iter()
-                .chain(moments.into_iter().flatten())
-        })
-        .collect())
+    let mut films = Vec::new();
+    for &slots in wave_slots {
+        renderer.set_wave_slots(slots);
+        let film = renderer
+            .render(&settings, &|_, _| {})
+            .map_err(|e| e.to_string())?
+            .film;
+        films.push(
+            film.pixels
+                .iter()
+                .flat_map(|p| {
+                    let moments = [p.mean, p.m2, p.m3].map(|v| v.to_array().map(f64::to_bits));
+                    [p.count as u64, p.nonfinite as u64]
+                        .into_iter()
+                        .chain(moments.into_iter().flatten())
+                })
+                .collect(),
+        );
+    }
+    Ok(films)
+}
+
+/// The first pixel where two [`film_bits`] films differ.
+pub fn first_difference(a: &[u64], b: &[u64]) -> usize {
+    a.chunks(WORDS_PER_PIXEL)
+        .zip(b.chunks(WORDS_PER_PIXEL))
+        .position(|(x, y)| x != y)
+        .unwrap_or(0)
 }
 
 /// Words per pixel of [`film_bits`].
@@ -105,11 +146,7 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
                 ));
             }
             if general != special {
-                let pixel = general
-                    .chunks(WORDS_PER_PIXEL)
-                    .zip(special.chunks(WORDS_PER_PIXEL))
-                    .position(|(g, s)| g != s)
-                    .unwrap_or(0);
+                let pixel = first_difference(&general, &special);
                 return Err(format!(
                     "{spec} ({}, features {:?}): the specialized kernel's film differs from the general kernel's, first at pixel {pixel}",
                     integrator.name(),

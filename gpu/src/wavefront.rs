@@ -1,0 +1,457 @@
+//! The wavefront variant (issue: GPU variants): the megakernel's path loop
+//! split into kernels (generate, per bounce prepare / extend / shade, then
+//! accumulate; shaders/wavefront.wgsl), with every path's state in a
+//! buffer between them and the terminated paths compacted out of the
+//! queues after each bounce.
+//!
+//! A render runs in waves: a wave is `sample_count` consecutive samples of
+//! `pixel_count` consecutive pixels (every pixel, several samples, when
+//! the image fits the wave's slots; otherwise a run of pixels, one sample),
+//! taken in an order that keeps each pixel's samples in sample order, so
+//! the film folds them exactly as the megakernel does. Each path computes
+//! what the megakernel's computes from the same keyed randoms: the films
+//! are equal bit for bit (tests/gpu_wavefront.rs).
+
+use crate::bindings::{self, Binding};
+use crate::context::GpuContext;
+use crate::error::GpuError;
+use crate::records::GpuParams;
+use crate::renderer::compile_entries;
+
+/// Words of one path's state (the `PF_…` fields of shaders/wavefront.wgsl,
+/// which asserts the sum).
+pub const PATH_WORDS: u32 = 42;
+
+/// Invocations per workgroup of the wavefront kernels (`WAVE_GROUP`).
+pub const WAVE_GROUP: u32 = 64;
+
+/// Bytes of `WaveQueues` before its entries.
+const QUEUE_HEADER_BYTES: u64 = 24;
+
+/// Path slots of a wave on a discrete GPU: 2^23 (1.4 GB of path state at
+/// 168 bytes a path). Every bounce of a wave costs a few dispatches
+/// whether or not paths are left (the longest path of a wave sets its
+/// bounces), so fewer, larger waves pay: on the H100 an empty bounce
+/// measured ~25 µs, and 2^21-slot waves spent an eighth of a Cornell MIS
+/// render in them.
+pub const WAVE_SLOTS_GPU: u32 = 1 << 23;
+/// On a software adapter (lavapipe), 2^15 slots.
+pub const WAVE_SLOTS_SOFTWARE: u32 = 1 << 15;
+
+/// Storage buffers wf_prepare's pipeline layout holds (scene group, wave
+/// group, arguments): the wavefront needs an adapter with this many.
+pub const STORAGE_BUFFERS_NEEDED: u32 = 17;
+
+/// How the wavefront stores a path's state.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum PathLayout {
+    /// Array of structs: a path's words together (the baseline).
+    #[default]
+    Aos,
+    /// Structure of arrays: each field's words of every path together.
+    Soa,
+}
+
+/// How a render's paths are scheduled on the GPU.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Schedule {
+    /// One invocation traces a pixel's paths to the end (the baseline, the
+    /// oracle of the wavefront).
+    #[default]
+    Megakernel,
+    /// Kernels per stage over queues of live paths.
+    Wavefront(PathLayout),
+}
+
+impl Schedule {
+    /// Every schedule, for the tests and the CLI.
+    pub const ALL: [Schedule; 3] = [
+        Schedule::Megakernel,
+        Schedule::Wavefront(PathLayout::Aos),
+        Schedule::Wavefront(PathLayout::Soa),
+    ];
+
+    /// The CLI's and perf's name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Schedule::Megakernel => "megakernel",
+            Schedule::Wavefront(PathLayout::Aos) => "wavefront",
+            Schedule::Wavefront(PathLayout::Soa) => "wavefront-soa",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|s| s.name() == name)
+    }
+}
+
+/// A GPU renderer variant: estimator, kernel specialization and schedule,
+/// named for the perf tables (`megakernel`, `wavefront-soa-mis-general`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Variant {
+    pub integrator: reference::integrator::Integrator,
+    pub kernel: crate::Kernel,
+    pub schedule: Schedule,
+}
+
+impl Variant {
+    /// `<schedule>[-mis][-general]`.
+    pub fn name(self) -> String {
+        let mut s = self.schedule.name().to_string();
+        if self.integrator == reference::integrator::Integrator::Mis {
+            s += "-mis";
+        }
+        if self.kernel == crate::Kernel::General {
+            s += "-general";
+        }
+        s
+    }
+
+    /// Every variant, the megakernel's first.
+    pub fn all() -> Vec<Variant> {
+        let mut out = Vec::new();
+        for schedule in Schedule::ALL {
+            for kernel in [crate::Kernel::Specialized, crate::Kernel::General] {
+                for integrator in reference::integrator::Integrator::ALL {
+                    out.push(Variant {
+                        integrator,
+                        kernel,
+                        schedule,
+                    });
+                }
+            }
+        }
+        out
+    }
+
+    pub fn from_name(name: &str) -> Option<Variant> {
+        Self::all().into_iter().find(|v| v.name() == name)
+    }
+}
+
+/// The wavefront's compiled kernels and bind group layouts.
+pub struct Pipelines {
+    wave_layout: wgpu::BindGroupLayout,
+    args_layout: wgpu::BindGroupLayout,
+    generate: wgpu::ComputePipeline,
+    prepare: wgpu::ComputePipeline,
+    extend: wgpu::ComputePipeline,
+    shade: wgpu::ComputePipeline,
+    accumulate: wgpu::ComputePipeline,
+}
+
+fn layout(device: &wgpu::Device, label: &str, group: &[Binding]) -> wgpu::BindGroupLayout {
+    let entries: Vec<_> = group.iter().map(Binding::layout_entry).collect();
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some(label),
+        entries: &entries,
+    })
+}
+
+impl Pipelines {
+    /// Compiles the wavefront `program` (`shader::wavefront_source`, or a
+    /// test's edit of it) with the given override constants and
+    /// `PATH_SOA` from `path_layout`.
+    pub fn new(
+        ctx: &GpuContext,
+        scene_layout: &wgpu::BindGroupLayout,
+        program: &str,
+        constants: &[(&str, f64)],
+        path_layout: PathLayout,
+    ) -> Result<Self, GpuError> {
+        let have = ctx.device.limits().max_storage_buffers_per_shader_stage;
+        if have < STORAGE_BUFFERS_NEEDED {
+            return Err(GpuError::UnsuitableAdapter {
+                adapter: ctx.adapter.name.clone(),
+                reason: format!(
+                    "it allows {have} storage buffers per shader stage, the wavefront kernels need {STORAGE_BUFFERS_NEEDED}"
+                ),
+            });
+        }
+        let device = &ctx.device;
+        let wave_layout = layout(device, "wavefront paths", &bindings::WAVE_GROUP);
+        let args_layout = layout(device, "wavefront arguments", &[bindings::WAVE_ARGS]);
+        let mut constants = constants.to_vec();
+        constants.push(("PATH_SOA", (path_layout == PathLayout::Soa) as u32 as f64));
+        let main = [scene_layout, &wave_layout];
+        let with_args = [scene_layout, &wave_layout, &args_layout];
+        let mut p = compile_entries(
+            ctx,
+            program,
+            &[
+                ("wf_generate", &main),
+                ("wf_prepare", &with_args),
+                ("wf_extend", &main),
+                ("wf_shade", &main),
+                ("wf_accumulate", &main),
+            ],
+            &constants,
+        )?
+        .into_iter();
+        let mut next = || p.next().expect("one pipeline per entry");
+        Ok(Self {
+            generate: next(),
+            prepare: next(),
+            extend: next(),
+            shade: next(),
+            accumulate: next(),
+            wave_layout,
+            args_layout,
+        })
+    }
+}
+
+/// One wave: `sample_count` samples from `sample_start` of the pixels
+/// `pixel_start ..+ pixel_count`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Wave {
+    pub pixel_start: u32,
+    pub pixel_count: u32,
+    pub sample_start: u32,
+    pub sample_count: u32,
+}
+
+/// The waves of a render of `pixels` pixels and `spp` samples with `slots`
+/// path slots, in an order that gives every pixel its samples in sample
+/// order: when the image fits, every pixel and as many samples as fit;
+/// otherwise runs of pixels, one sample at a time.
+pub fn waves(pixels: u32, spp: u32, slots: u32) -> Vec<Wave> {
+    let mut out = Vec::new();
+    if pixels <= slots {
+        let per = (slots / pixels).clamp(1, spp.max(1));
+        let mut s = 0;
+        while s < spp {
+            let n = per.min(spp - s);
+            out.push(Wave {
+                pixel_start: 0,
+                pixel_count: pixels,
+                sample_start: s,
+                sample_count: n,
+            });
+            s += n;
+        }
+    } else {
+        for s in 0..spp {
+            let mut p = 0;
+            while p < pixels {
+                let n = slots.min(pixels - p);
+                out.push(Wave {
+                    pixel_start: p,
+                    pixel_count: n,
+                    sample_start: s,
+                    sample_count: 1,
+                });
+                p += n;
+            }
+        }
+    }
+    out
+}
+
+/// The path slots a wave gets on this adapter for an image of `pixels`
+/// (never more than the image's paths need, nor than the adapter's
+/// largest storage binding holds).
+pub fn slots(ctx: &GpuContext, pixels: u64, spp: u32) -> u32 {
+    let target = if ctx.is_software {
+        WAVE_SLOTS_SOFTWARE
+    } else {
+        WAVE_SLOTS_GPU
+    };
+    let limit = ctx.device.limits().max_storage_buffer_binding_size;
+    let by_limit =
+        (limit / (PATH_WORDS as u64 * 4)).min(limit.saturating_sub(QUEUE_HEADER_BYTES) / 16);
+    let need = pixels.saturating_mul(spp as u64).max(1);
+    target
+        .min(by_limit.min(u32::MAX as u64) as u32)
+        .min(need.min(u32::MAX as u64) as u32)
+        .max(1)
+}
+
+/// The buffers of a render's waves.
+pub struct WaveBuffers {
+    wave_group: wgpu::BindGroup,
+    args_group: wgpu::BindGroup,
+    args: wgpu::Buffer,
+    pub slots: u32,
+}
+
+impl Pipelines {
+    pub fn buffers(&self, ctx: &GpuContext, slots: u32) -> Result<WaveBuffers, GpuError> {
+        let device = &ctx.device;
+        let limit = device.limits().max_storage_buffer_binding_size;
+        let path_bytes = slots as u64 * PATH_WORDS as u64 * 4;
+        let queue_bytes = QUEUE_HEADER_BYTES + slots as u64 * 16;
+        for (what, needed) in [
+            ("the wavefront's paths", path_bytes),
+            ("the wavefront's queues", queue_bytes),
+        ] {
+            if needed > limit {
+                return Err(GpuError::TooLarge {
+                    adapter: ctx.adapter.name.clone(),
+                    what,
+                    needed,
+                    limit,
+                });
+            }
+        }
+        let buffer = |label, size, usage| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        let paths = buffer("wavefront paths", path_bytes, wgpu::BufferUsages::STORAGE);
+        let queues = buffer("wavefront queues", queue_bytes, wgpu::BufferUsages::STORAGE);
+        let args = buffer(
+            "wavefront arguments",
+            24,
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT,
+        );
+        let group = |layout, entries: &[(u32, &wgpu::Buffer)]| {
+            let entries: Vec<_> = entries
+                .iter()
+                .map(|(slot, b)| wgpu::BindGroupEntry {
+                    binding: *slot,
+                    resource: b.as_entire_binding(),
+                })
+                .collect();
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("wavefront"),
+                layout,
+                entries: &entries,
+            })
+        };
+        let wave_group = group(
+            &self.wave_layout,
+            &[
+                (bindings::PATHS.slot, &paths),
+                (bindings::WAVE_QUEUES.slot, &queues),
+            ],
+        );
+        let args_group = group(&self.args_layout, &[(bindings::WAVE_ARGS.slot, &args)]);
+        Ok(WaveBuffers {
+            wave_group,
+            args_group,
+            args,
+            slots,
+        })
+    }
+
+    /// Records one wave into `pass` (the params buffer already holds the
+    /// wave's `GpuParams`, from [`wave_params`]): generate, `max_depth`
+    /// bounces, accumulate.
+    pub fn record(
+        &self,
+        pass: &mut wgpu::ComputePass<'_>,
+        scene_group: &wgpu::BindGroup,
+        buffers: &WaveBuffers,
+        wave: Wave,
+        max_depth: u32,
+    ) {
+        pass.set_bind_group(0, scene_group, &[]);
+        pass.set_bind_group(1, &buffers.wave_group, &[]);
+        pass.set_bind_group(2, &buffers.args_group, &[]);
+        pass.set_pipeline(&self.generate);
+        let (x, y) = grid(wave.pixel_count as u64 * wave.sample_count as u64);
+        pass.dispatch_workgroups(x, y, 1);
+        for _ in 0..max_depth {
+            pass.set_pipeline(&self.prepare);
+            pass.dispatch_workgroups(1, 1, 1);
+            pass.set_pipeline(&self.extend);
+            pass.dispatch_workgroups_indirect(&buffers.args, 0);
+            pass.set_pipeline(&self.shade);
+            pass.dispatch_workgroups_indirect(&buffers.args, 12);
+        }
+        pass.set_pipeline(&self.accumulate);
+        let (x, y) = grid(wave.pixel_count as u64);
+        pass.dispatch_workgroups(x, y, 1);
+    }
+}
+
+/// Workgroups for `n` invocations of [`WAVE_GROUP`]: at most 65,535 a
+/// dimension (the kernels' flat index skips the surplus); wf_prepare
+/// computes the same for its indirect dispatches.
+pub fn grid(n: u64) -> (u32, u32) {
+    let groups = n.div_ceil(WAVE_GROUP as u64).max(1);
+    let x = groups.min(65_535);
+    (x as u32, groups.div_ceil(x) as u32)
+}
+
+/// `base` with the wave's sample range and pixels.
+pub fn wave_params(base: &GpuParams, wave: Wave, slots: u32) -> GpuParams {
+    GpuParams {
+        sample_start: wave.sample_start,
+        sample_count: wave.sample_count,
+        wave_pixel_start: wave.pixel_start,
+        wave_pixel_count: wave.pixel_count,
+        wave_capacity: slots,
+        ..*base
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every (pixel, sample) is in exactly one wave, a wave never holds
+    /// more paths than slots, and each pixel meets its samples in order.
+    #[test]
+    fn waves_cover_every_sample_once_in_sample_order() {
+        for (pixels, spp, slots) in [
+            (1, 1, 1),
+            (7, 5, 3),
+            (7, 5, 7),
+            (7, 5, 8),
+            (7, 5, 100),
+            (100, 3, 64),
+            (64, 9, 200),
+            (1000, 1, 1 << 15),
+        ] {
+            let mut next = vec![0u32; pixels as usize];
+            for w in waves(pixels, spp, slots) {
+                assert!(w.pixel_count as u64 * w.sample_count as u64 <= slots as u64);
+                assert!(w.pixel_count >= 1 && w.sample_count >= 1);
+                for s in w.sample_start..w.sample_start + w.sample_count {
+                    for p in w.pixel_start..w.pixel_start + w.pixel_count {
+                        assert_eq!(next[p as usize], s, "{pixels} {spp} {slots}");
+                        next[p as usize] += 1;
+                    }
+                }
+            }
+            assert!(next.iter().all(|&n| n == spp), "{pixels} {spp} {slots}");
+        }
+    }
+
+    #[test]
+    fn variant_names_are_unique() {
+        let mut names: Vec<String> = Variant::all().iter().map(|v| v.name()).collect();
+        assert!(names.contains(&"megakernel-mis-general".to_string()));
+        assert!(names.contains(&"wavefront-soa-mis".to_string()));
+        let n = names.len();
+        names.sort();
+        names.dedup();
+        assert_eq!(names.len(), n);
+        assert_eq!(n, 12);
+    }
+
+    /// The grid covers n invocations, within 65,535 workgroups a side.
+    #[test]
+    fn grids_cover_their_invocations() {
+        for n in [1u64, 64, 65, 65_535 * 64, 65_535 * 64 + 1, 1 << 23, 1 << 24] {
+            let (x, y) = grid(n);
+            assert!(x <= 65_535 && y <= 65_535);
+            assert!(x as u64 * y as u64 * WAVE_GROUP as u64 >= n);
+            assert!((x as u64 * (y as u64 - 1)) * (WAVE_GROUP as u64) < n);
+        }
+    }
+
+    #[test]
+    fn schedule_names_round_trip() {
+        for s in Schedule::ALL {
+            assert_eq!(Schedule::from_name(s.name()), Some(s));
+        }
+        assert_eq!(Schedule::from_name("wavefront-aos"), None);
+    }
+}

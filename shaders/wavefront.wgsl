@@ -1,0 +1,441 @@
+// The wavefront variant of the render kernel (gpu::wavefront): the
+// megakernel's path loop cut into kernels that each do one thing for
+// every live path of a wave, with the path's state in memory between them.
+//
+//   wf_generate   camera rays for the wave's (pixel, sample) slots
+//   per bounce:
+//     wf_prepare  one invocation: the queues' counts into the next two
+//                 dispatches' indirect arguments
+//     wf_extend   one closest-hit query per queued ray (extension or shadow)
+//     wf_shade    one path vertex per queued path: the shadow ray's light,
+//                 then the hit's emission, light sample, BSDF sample and
+//                 roulette; the path re-enters the queue only if it lives
+//   wf_accumulate each pixel's samples folded into the film, in sample order
+//
+// Terminated paths leave the queues (stream compaction: the queues hold
+// only live paths, appended through one atomic per workgroup), so later
+// bounces dispatch only what is left. Every path computes exactly what
+// trace_path / trace_path_mis compute, in the same order, from the same
+// counter-based randoms (keyed by pixel, sample and vertex), and the film
+// folds samples in the same order: the films equal the megakernel's bit
+// for bit (tests/gpu_wavefront.rs), whatever order the queues take.
+
+// The path state's layout (gpu::wavefront::PathLayout): false, array of
+// structs (PATH_WORDS consecutive words per path); true, structure of
+// arrays (field f of every slot in one run of wave_capacity words).
+override PATH_SOA: bool = false;
+
+// A path's state: word offsets of its fields.
+const PF_ORIGIN: u32 = 0u;          // vec3: the extension ray
+const PF_DIRECTION: u32 = 3u;       // vec3
+const PF_THROUGHPUT: u32 = 6u;      // vec3
+const PF_RADIANCE: u32 = 9u;        // vec3
+const PF_FROM_P: u32 = 12u;         // vec3: MIS, where the ray left
+const PF_FROM_PDF: u32 = 15u;       // MIS, the BSDF density that chose it
+const PF_SEGMENT: u32 = 16u;        // the vertex the next hit makes
+const PF_FLAGS: u32 = 17u;          // PATH_*
+const PF_HIT: u32 = 18u;            // hit record (5 words): extension ray
+const PF_SHADOW_HIT: u32 = 23u;     // hit record: shadow ray
+const PF_SHADOW_ORIGIN: u32 = 28u;  // vec3: the ShadowQuery
+const PF_SHADOW_DIRECTION: u32 = 31u;
+const PF_SHADOW_PRIM: u32 = 34u;
+const PF_SHADOW_WEIGHT: u32 = 35u;  // vec3
+const PF_SHADOW_BSDF_PDF: u32 = 38u;
+const PF_SHADOW_P: u32 = 39u;       // vec3
+const_assert PF_SHADOW_P + 3u == PATH_WORDS;
+
+// PF_FLAGS bits.
+const PATH_EXTEND: u32 = 1u;    // an extension ray is queued
+const PATH_SHADOW: u32 = 2u;    // a shadow ray is queued
+const PATH_POISONED: u32 = 4u;  // the path met code its kernel left out
+
+// A hit record's first word.
+const HIT_FOUND: u32 = 1u;
+const HIT_POISONED: u32 = 2u;
+
+// wave_queues.entries: the two queues of live paths (the one the next
+// wf_shade reads, the one it appends to), then the rays to trace (at most
+// two per path: slot << 1, | 1 for a shadow ray).
+struct WaveQueues {
+    // The live-path queue wf_shade reads (0 or 1).
+    cur: u32,
+    // wf_prepare's copies of the counts, for the bounds checks.
+    active_total: u32,
+    ray_total: u32,
+    ray_count: atomic<u32>,
+    active_count: array<atomic<u32>, 2>,
+    entries: array<u32>,
+}
+
+// wf_extend's and wf_shade's indirect dispatch arguments, written by
+// wf_prepare (a buffer of its own: a buffer read as indirect arguments
+// may not be bound for writing in the same dispatch).
+struct WaveArgs {
+    extend_x: u32,
+    extend_y: u32,
+    extend_z: u32,
+    shade_x: u32,
+    shade_y: u32,
+    shade_z: u32,
+}
+
+const WAVE_GROUP: u32 = 64u;
+
+fn path_index(slot: u32, field: u32) -> u32 {
+    if PATH_SOA {
+        return field * params.wave_capacity + slot;
+    }
+    return slot * PATH_WORDS + field;
+}
+
+fn path_u(slot: u32, field: u32) -> u32 {
+    return paths[path_index(slot, field)];
+}
+
+fn path_f(slot: u32, field: u32) -> f32 {
+    return bitcast<f32>(paths[path_index(slot, field)]);
+}
+
+fn path_v(slot: u32, field: u32) -> vec3<f32> {
+    return vec3<f32>(path_f(slot, field), path_f(slot, field + 1u), path_f(slot, field + 2u));
+}
+
+fn set_path_u(slot: u32, field: u32, x: u32) {
+    paths[path_index(slot, field)] = x;
+}
+
+fn set_path_f(slot: u32, field: u32, x: f32) {
+    paths[path_index(slot, field)] = bitcast<u32>(x);
+}
+
+fn set_path_v(slot: u32, field: u32, v: vec3<f32>) {
+    set_path_f(slot, field, v.x);
+    set_path_f(slot, field + 1u, v.y);
+    set_path_f(slot, field + 2u, v.z);
+}
+
+fn store_hit(slot: u32, field: u32, h: Hit) {
+    set_path_u(slot, field, select(0u, HIT_FOUND, h.hit) | select(0u, HIT_POISONED, poisoned));
+    set_path_f(slot, field + 1u, h.t);
+    set_path_u(slot, field + 2u, h.prim);
+    set_path_f(slot, field + 3u, h.uv.x);
+    set_path_f(slot, field + 4u, h.uv.y);
+}
+
+// The hit record; a traversal that poisoned its query poisons the path.
+fn load_hit(slot: u32, field: u32) -> Hit {
+    let bits = path_u(slot, field);
+    if (bits & HIT_POISONED) != 0u {
+        poisoned = true;
+    }
+    return Hit((bits & HIT_FOUND) != 0u, path_f(slot, field + 1u), path_u(slot, field + 2u), vec2<f32>(path_f(slot, field + 3u), path_f(slot, field + 4u)));
+}
+
+fn store_shadow(slot: u32, q: ShadowQuery) {
+    set_path_v(slot, PF_SHADOW_ORIGIN, q.ray.origin);
+    set_path_v(slot, PF_SHADOW_DIRECTION, q.ray.direction);
+    set_path_u(slot, PF_SHADOW_PRIM, q.prim);
+    set_path_v(slot, PF_SHADOW_WEIGHT, q.weight);
+    set_path_f(slot, PF_SHADOW_BSDF_PDF, q.bsdf_pdf);
+    set_path_v(slot, PF_SHADOW_P, q.p);
+}
+
+fn load_shadow(slot: u32) -> ShadowQuery {
+    let ray = Ray(path_v(slot, PF_SHADOW_ORIGIN), path_v(slot, PF_SHADOW_DIRECTION));
+    return ShadowQuery(true, ray, path_u(slot, PF_SHADOW_PRIM), path_v(slot, PF_SHADOW_WEIGHT), path_f(slot, PF_SHADOW_BSDF_PDF), path_v(slot, PF_SHADOW_P));
+}
+
+// The pixel and sample of a slot: slots run over the wave's pixels, one
+// sample after another.
+fn slot_pixel(slot: u32) -> u32 {
+    return params.wave_pixel_start + slot % params.wave_pixel_count;
+}
+
+fn slot_sample(slot: u32) -> u32 {
+    return params.sample_start + slot / params.wave_pixel_count;
+}
+
+fn wave_paths() -> u32 {
+    return params.wave_pixel_count * params.sample_count;
+}
+
+// A flat invocation index (dispatches may be two-dimensional).
+fn flat_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
+    return gid.x + gid.y * groups.x * WAVE_GROUP;
+}
+
+@compute @workgroup_size(WAVE_GROUP, 1, 1)
+fn wf_generate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = flat_index(gid, groups);
+    let n = wave_paths();
+    if i == 0u {
+        // wf_prepare flips `cur` before the first shade: queue 0 first.
+        wave_queues.cur = 1u;
+        atomicStore(&wave_queues.active_count[0], n);
+        atomicStore(&wave_queues.active_count[1], 0u);
+        atomicStore(&wave_queues.ray_count, n);
+    }
+    if i >= n {
+        return;
+    }
+    let pixel = slot_pixel(i);
+    let ray = camera_ray(pixel % params.width, pixel / params.width, slot_sample(i));
+    set_path_v(i, PF_ORIGIN, ray.origin);
+    set_path_v(i, PF_DIRECTION, ray.direction);
+    set_path_v(i, PF_THROUGHPUT, vec3<f32>(1.0));
+    set_path_v(i, PF_RADIANCE, vec3<f32>(0.0));
+    set_path_v(i, PF_FROM_P, vec3<f32>(0.0));
+    set_path_f(i, PF_FROM_PDF, 0.0);
+    set_path_u(i, PF_SEGMENT, 0u);
+    set_path_u(i, PF_FLAGS, PATH_EXTEND);
+    wave_queues.entries[i] = i;
+    wave_queues.entries[2u * params.wave_capacity + i] = i << 1u;
+}
+
+// Indirect dispatch arguments for n invocations: at most 65,535
+// workgroups a dimension (the flat index skips the surplus).
+fn grid_x(n: u32) -> u32 {
+    return min((n + WAVE_GROUP - 1u) / WAVE_GROUP, 65535u);
+}
+
+fn grid_y(n: u32) -> u32 {
+    let groups = (n + WAVE_GROUP - 1u) / WAVE_GROUP;
+    return max((groups + 65534u) / 65535u, 1u);
+}
+
+@compute @workgroup_size(1, 1, 1)
+fn wf_prepare() {
+    let c = 1u - wave_queues.cur;
+    wave_queues.cur = c;
+    let rays = atomicLoad(&wave_queues.ray_count);
+    atomicStore(&wave_queues.ray_count, 0u);
+    wave_queues.ray_total = rays;
+    wave_args.extend_x = grid_x(rays);
+    wave_args.extend_y = grid_y(rays);
+    wave_args.extend_z = 1u;
+    let live = atomicLoad(&wave_queues.active_count[c]);
+    atomicStore(&wave_queues.active_count[1u - c], 0u);
+    wave_queues.active_total = live;
+    wave_args.shade_x = grid_x(live);
+    wave_args.shade_y = grid_y(live);
+    wave_args.shade_z = 1u;
+}
+
+@compute @workgroup_size(WAVE_GROUP, 1, 1)
+fn wf_extend(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = flat_index(gid, groups);
+    if i >= wave_queues.ray_total {
+        return;
+    }
+    let item = wave_queues.entries[2u * params.wave_capacity + i];
+    let slot = item >> 1u;
+    poisoned = false;
+    if (item & 1u) == 0u {
+        let ray = Ray(path_v(slot, PF_ORIGIN), path_v(slot, PF_DIRECTION));
+        store_hit(slot, PF_HIT, bvh_intersect(ray, 0.0, f32_infinity()));
+    } else {
+        let ray = Ray(path_v(slot, PF_SHADOW_ORIGIN), path_v(slot, PF_SHADOW_DIRECTION));
+        store_hit(slot, PF_SHADOW_HIT, bvh_intersect(ray, 0.0, f32_infinity()));
+    }
+}
+
+// What one wf_shade step leaves of a path.
+struct Vertex {
+    ray: Ray,
+    throughput: vec3<f32>,
+    radiance: vec3<f32>,
+    from_p: vec3<f32>,
+    from_pdf: f32,
+    segment: u32,
+    // PATH_EXTEND and PATH_SHADOW for the next bounce.
+    next: u32,
+    shadow: ShadowQuery,
+}
+
+// One pass of trace_path's loop body, from the traced hit.
+fn shade_bsdf(v: ptr<function, Vertex>, hit: Hit, pixel: u32, sample: u32) {
+    let ray = (*v).ray;
+    if !hit.hit {
+        (*v).radiance += (*v).throughput * evaluate_background(ray.direction);
+        return;
+    }
+    let si = surface_interaction(ray, hit);
+    let m = materials[si.material];
+    (*v).throughput *= transmittance(m, si, hit.t);
+    (*v).radiance += (*v).throughput * emitted(m, si);
+    let segment = (*v).segment;
+    let u = vertex_randoms(params.seed, pixel, sample, segment + 1u);
+    let s = scatter(m, ray.direction, si, u);
+    if !s.ok {
+        return;
+    }
+    var throughput = (*v).throughput * s.weight;
+    let survives = survives_roulette(&throughput, vr_get(u, DIM_ROULETTE), segment);
+    (*v).throughput = throughput;
+    if !survives {
+        return;
+    }
+    (*v).ray = Ray(spawn_toward(si, s.direction), s.direction);
+    (*v).segment = segment + 1u;
+    if (*v).segment < params.max_depth {
+        (*v).next = PATH_EXTEND;
+    }
+}
+
+// One pass of trace_path_mis's loop body for an extension hit (its shadow
+// ray's light was added before).
+fn shade_mis(v: ptr<function, Vertex>, hit: Hit, pixel: u32, sample: u32) {
+    let ray = (*v).ray;
+    if !hit.hit {
+        var weight = 1.0;
+        if (*v).from_pdf > 0.0 {
+            weight = power_heuristic((*v).from_pdf, light_set_env_pdf(ray.direction));
+        }
+        (*v).radiance += (*v).throughput * weight * evaluate_background(ray.direction);
+        return;
+    }
+    let si = surface_interaction(ray, hit);
+    let m = materials[si.material];
+    (*v).throughput *= transmittance(m, si, hit.t);
+    let le = emitted(m, si);
+    if any(le != vec3<f32>(0.0)) {
+        var weight = 1.0;
+        if (*v).from_pdf > 0.0 {
+            weight = power_heuristic((*v).from_pdf, light_set_pdf(hit.prim, (*v).from_p, si.p, si.geometric_normal));
+        }
+        (*v).radiance += (*v).throughput * le * weight;
+    }
+    let segment = (*v).segment;
+    let u = vertex_randoms(params.seed, pixel, sample, segment + 1u);
+    let density = has_density(m);
+    if density && params.emitter_count > 0u && segment + 1u < params.max_depth {
+        let ul = light_randoms(params.seed, pixel, sample, segment + 1u);
+        (*v).shadow = next_event_ray(m, ray, si, ul, (*v).throughput);
+        if (*v).shadow.ok {
+            (*v).next |= PATH_SHADOW;
+        }
+    }
+    let s = scatter(m, ray.direction, si, u);
+    var alive = s.ok;
+    if alive {
+        (*v).from_pdf = 0.0;
+        if density {
+            let b = bsdf_eval(m, ray.direction, si, s.direction);
+            if b.ok && b.pdf > 0.0 {
+                (*v).from_p = si.p;
+                (*v).from_pdf = b.pdf;
+            }
+        }
+        var throughput = (*v).throughput * s.weight;
+        alive = survives_roulette(&throughput, vr_get(u, DIM_ROULETTE), segment);
+        (*v).throughput = throughput;
+        (*v).ray = Ray(spawn_toward(si, s.direction), s.direction);
+    }
+    (*v).segment = segment + 1u;
+    if alive && (*v).segment < params.max_depth {
+        (*v).next |= PATH_EXTEND;
+    }
+}
+
+var<workgroup> wg_paths: atomic<u32>;
+var<workgroup> wg_rays: atomic<u32>;
+var<workgroup> wg_paths_base: u32;
+var<workgroup> wg_rays_base: u32;
+
+@compute @workgroup_size(WAVE_GROUP, 1, 1)
+fn wf_shade(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    if lid == 0u {
+        atomicStore(&wg_paths, 0u);
+        atomicStore(&wg_rays, 0u);
+    }
+    workgroupBarrier();
+    let i = flat_index(gid, groups);
+    let cur = wave_queues.cur;
+    let cap = params.wave_capacity;
+    var slot = 0u;
+    var next = 0u;
+    if i < wave_queues.active_total {
+        slot = wave_queues.entries[cur * cap + i];
+        let flags = path_u(slot, PF_FLAGS);
+        poisoned = (flags & PATH_POISONED) != 0u;
+        var v: Vertex;
+        v.radiance = path_v(slot, PF_RADIANCE);
+        v.next = 0u;
+        if INTEGRATOR == INTEGRATOR_MIS && (flags & PATH_SHADOW) != 0u {
+            let shadow_hit = load_hit(slot, PF_SHADOW_HIT);
+            v.radiance += next_event_finish(load_shadow(slot), shadow_hit);
+        }
+        if (flags & PATH_EXTEND) != 0u {
+            v.ray = Ray(path_v(slot, PF_ORIGIN), path_v(slot, PF_DIRECTION));
+            v.throughput = path_v(slot, PF_THROUGHPUT);
+            v.segment = path_u(slot, PF_SEGMENT);
+            let hit = load_hit(slot, PF_HIT);
+            let pixel = slot_pixel(slot);
+            let sample = slot_sample(slot);
+            if INTEGRATOR == INTEGRATOR_MIS {
+                v.from_p = path_v(slot, PF_FROM_P);
+                v.from_pdf = path_f(slot, PF_FROM_PDF);
+                shade_mis(&v, hit, pixel, sample);
+            } else {
+                shade_bsdf(&v, hit, pixel, sample);
+            }
+        }
+        next = v.next;
+        set_path_v(slot, PF_RADIANCE, v.radiance);
+        set_path_u(slot, PF_FLAGS, next | select(0u, PATH_POISONED, poisoned));
+        if (next & PATH_EXTEND) != 0u {
+            set_path_v(slot, PF_ORIGIN, v.ray.origin);
+            set_path_v(slot, PF_DIRECTION, v.ray.direction);
+            set_path_v(slot, PF_THROUGHPUT, v.throughput);
+            set_path_u(slot, PF_SEGMENT, v.segment);
+            if INTEGRATOR == INTEGRATOR_MIS {
+                set_path_v(slot, PF_FROM_P, v.from_p);
+                set_path_f(slot, PF_FROM_PDF, v.from_pdf);
+            }
+        }
+        if (next & PATH_SHADOW) != 0u {
+            store_shadow(slot, v.shadow);
+        }
+    }
+    // Compaction: each live path takes a place in the next queue, each
+    // queued ray a place in the ray list, one global atomic per workgroup.
+    var path_at = 0u;
+    var rays_at = 0u;
+    let ray_n = select(0u, 1u, (next & PATH_EXTEND) != 0u) + select(0u, 1u, (next & PATH_SHADOW) != 0u);
+    if next != 0u {
+        path_at = atomicAdd(&wg_paths, 1u);
+        rays_at = atomicAdd(&wg_rays, ray_n);
+    }
+    workgroupBarrier();
+    if lid == 0u {
+        wg_paths_base = atomicAdd(&wave_queues.active_count[1u - cur], atomicLoad(&wg_paths));
+        wg_rays_base = atomicAdd(&wave_queues.ray_count, atomicLoad(&wg_rays));
+    }
+    workgroupBarrier();
+    if next != 0u {
+        wave_queues.entries[(1u - cur) * cap + wg_paths_base + path_at] = slot;
+        var r = 2u * cap + wg_rays_base + rays_at;
+        if (next & PATH_EXTEND) != 0u {
+            wave_queues.entries[r] = slot << 1u;
+            r += 1u;
+        }
+        if (next & PATH_SHADOW) != 0u {
+            wave_queues.entries[r] = (slot << 1u) | 1u;
+        }
+    }
+}
+
+@compute @workgroup_size(WAVE_GROUP, 1, 1)
+fn wf_accumulate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let t = flat_index(gid, groups);
+    if t >= params.wave_pixel_count {
+        return;
+    }
+    let pixel = params.wave_pixel_start + t;
+    var acc = moments_load(film[pixel]);
+    for (var j = 0u; j < params.sample_count; j++) {
+        let slot = j * params.wave_pixel_count + t;
+        moments_add(&acc, path_v(slot, PF_RADIANCE), (path_u(slot, PF_FLAGS) & PATH_POISONED) != 0u);
+    }
+    moments_store(pixel, acc);
+}

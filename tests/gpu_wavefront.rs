@@ -1,0 +1,76 @@
+//! The wavefront variant (`gpu::wavefront`: generate / extend / shade /
+//! accumulate kernels over compacted queues of live paths) renders every
+//! fixture and built-in scene bit for bit as the megakernel does, with
+//! either estimator and either path layout, its renders split into waves
+//! three ways (`twintrace::twins::wavefront`, also run by `twintrace
+//! selftest`). Mutants of the wavefront's WGSL prove the comparison can
+//! fail: each is a plausible bookkeeping slip of a wavefront renderer.
+
+use crate::common;
+use reference::integrator::Integrator;
+use twintrace::twins::wavefront::{all_scenes, compare_scene};
+
+#[test]
+fn wavefront_renders_every_scene_as_the_megakernel_bit_for_bit() {
+    if let Err(e) = all_scenes(common::gpu()) {
+        panic!("{e}");
+    }
+}
+
+/// (what the slip is, WGSL replaced, its replacement, scene, estimator).
+const MUTANTS: &[(&str, &str, &str, &str, Integrator)] = &[
+    (
+        "the accumulate kernel reads the slots pixel-major (they are sample-major)",
+        "let slot = j * params.wave_pixel_count + t;",
+        "let slot = t * params.sample_count + j;",
+        "cornell",
+        Integrator::Bsdf,
+    ),
+    (
+        "a shadow ray is queued as its path's extension ray",
+        "wave_queues.entries[r] = (slot << 1u) | 1u;",
+        "wave_queues.entries[r] = slot << 1u;",
+        "cornell",
+        Integrator::Mis,
+    ),
+    (
+        "a run of pixels forgets where it starts (only a split render shows it)",
+        "return params.wave_pixel_start + slot % params.wave_pixel_count;",
+        "return slot % params.wave_pixel_count;",
+        "cornell",
+        Integrator::Bsdf,
+    ),
+    (
+        "a shaded vertex draws the randoms of the vertex before it",
+        "let u = vertex_randoms(params.seed, pixel, sample, segment + 1u);\n    let s = scatter",
+        "let u = vertex_randoms(params.seed, pixel, sample, segment);\n    let s = scatter",
+        "rtow-final",
+        Integrator::Bsdf,
+    ),
+    (
+        "the MIS weight of emission forgets the BSDF density of the ray that found it",
+        "v.from_pdf = path_f(slot, PF_FROM_PDF);",
+        "v.from_pdf = 0.0;",
+        "cornell",
+        Integrator::Mis,
+    ),
+];
+
+#[test]
+fn wavefront_mutants_are_caught() {
+    let ctx = common::gpu();
+    let program = gpu::shader::wavefront_source();
+    for &(slip, from, to, spec, integrator) in MUTANTS {
+        assert_eq!(
+            program.matches(from).count(),
+            1,
+            "{slip}: `{from}` not found once"
+        );
+        let mutant = program.replace(from, to);
+        let scene = reference::load_scene(spec).unwrap();
+        assert!(
+            compare_scene(ctx, spec, &scene, integrator, &mutant).is_err(),
+            "{slip}: the wavefront gate passed it"
+        );
+    }
+}
