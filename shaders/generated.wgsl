@@ -116,6 +116,12 @@ struct GpuVertex {
 struct GpuPrimitive {
     tag: u32,
     index: u32,
+    lo_x: f32,
+    lo_y: f32,
+    lo_z: f32,
+    hi_x: f32,
+    hi_y: f32,
+    hi_z: f32,
 }
 struct GpuMaterial {
     tag: u32,

@@ -53,47 +53,6 @@ fn next_down_normal(x: f32) -> f32 {
     return bitcast<f32>(bitcast<u32>(up) ^ 0x80000000u);
 }
 
-// reference::geometry's snap_down / snap_up, on the bits: a subnormal
-// operand becomes the nearest normal-or-zero value below / above it.
-fn snap_down(x: f32) -> f32 {
-    let b = bitcast<u32>(x);
-    if (b & 0x7f800000u) == 0u && (b & 0x007fffffu) != 0u {
-        if b < 0x80000000u {
-            return 0.0;
-        }
-        return bitcast<f32>(0x80800000u);
-    }
-    return x;
-}
-
-fn snap_up(x: f32) -> f32 {
-    let b = bitcast<u32>(x);
-    if (b & 0x7f800000u) == 0u && (b & 0x007fffffu) != 0u {
-        if b < 0x80000000u {
-            return bitcast<f32>(0x00800000u);
-        }
-        return bitcast<f32>(0x80000000u);
-    }
-    return x;
-}
-
-// reference::geometry::add_round_down / add_round_up: no subnormal enters
-// or leaves the addition, so the bits do not depend on whether the GPU
-// flushes subnormals.
-fn add_round_down(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
-    let s = vec3<f32>(snap_down(a.x), snap_down(a.y), snap_down(a.z))
-        + vec3<f32>(snap_down(b.x), snap_down(b.y), snap_down(b.z));
-    let f = vec3<f32>(flush_subnormal(s.x), flush_subnormal(s.y), flush_subnormal(s.z));
-    return vec3<f32>(next_down_normal(f.x), next_down_normal(f.y), next_down_normal(f.z));
-}
-
-fn add_round_up(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
-    let s = vec3<f32>(snap_up(a.x), snap_up(a.y), snap_up(a.z))
-        + vec3<f32>(snap_up(b.x), snap_up(b.y), snap_up(b.z));
-    let f = vec3<f32>(flush_subnormal(s.x), flush_subnormal(s.y), flush_subnormal(s.z));
-    return vec3<f32>(next_up_normal(f.x), next_up_normal(f.y), next_up_normal(f.z));
-}
-
 struct SurfaceInteraction {
     p: vec3<f32>,
     geometric_normal: vec3<f32>,

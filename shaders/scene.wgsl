@@ -26,65 +26,26 @@ fn vertex_position(i: u32) -> vec3<f32> {
     return vec3<f32>(v.p_x, v.p_y, v.p_z);
 }
 
-struct Bounds {
-    lo: vec3<f32>,
-    hi: vec3<f32>,
-}
-
-// The primitive's box exactly as the reference's BVH build computed it.
-fn primitive_bounds(prim: u32) -> Bounds {
-    let p = primitives[prim];
-    switch p.tag {
-        case PRIMITIVE_SPHERE: {
-            if !uses(FEATURE_SPHERES) { poison(); break; }
-            let s = spheres[p.index];
-            let c = vec3<f32>(s.center_x, s.center_y, s.center_z);
-            let r = vec3<f32>(abs(s.radius));
-            return Bounds(add_round_down(c, -r), add_round_up(c, r));
-        }
-        case PRIMITIVE_QUAD: {
-            if !uses(FEATURE_QUADS) { poison(); break; }
-            let q = quads[p.index];
-            let c = vec3<f32>(q.corner_x, q.corner_y, q.corner_z);
-            let u = vec3<f32>(q.u_x, q.u_y, q.u_z);
-            let v = vec3<f32>(q.v_x, q.v_y, q.v_z);
-            let cu_lo = add_round_down(c, u);
-            let cu_hi = add_round_up(c, u);
-            let lo = min(min(c, cu_lo), min(add_round_down(c, v), add_round_down(cu_lo, v)));
-            let hi = max(max(c, cu_hi), max(add_round_up(c, v), add_round_up(cu_hi, v)));
-            return Bounds(lo, hi);
-        }
-        case PRIMITIVE_TRIANGLE: {
-            if !uses(FEATURE_TRIANGLES) { poison(); break; }
-            let t = triangles[p.index];
-            let a = vertex_position(t.v0);
-            let b = vertex_position(t.v1);
-            let c = vertex_position(t.v2);
-            return Bounds(min(min(a, b), c), max(max(a, b), c));
-        }
-        default: {
-            poison();
-            return Bounds(vec3<f32>(0.0), vec3<f32>(0.0));
-        }
-    }
-    return Bounds(vec3<f32>(0.0), vec3<f32>(0.0));
-}
-
 // The shape's routine, then reference::bvh::Bvh::admits: a hit counts only
-// where the primitive's own box passes the padded box test up to it.
+// where the primitive's own box passes the padded box test up to it. The
+// box is the one the reference's BVH build computed
+// (reference::Scene::primitive_bounds), packed with the primitive
+// (GpuPrimitive's lo/hi): the GPU reads those bits instead of rounding
+// them again per hit, which had cost nearly half of a Cornell-box render.
 fn intersect_primitive(prim: u32, ray: Ray, inv_dir: vec3<f32>, pad: f32, t_min: f32, t_max: f32) -> ShapeHit {
-    let h = intersect_shape(prim, ray, t_min, t_max);
+    let p = primitives[prim];
+    let h = intersect_shape(p, ray, t_min, t_max);
     if h.hit {
-        let b = primitive_bounds(prim);
-        if intersect_aabb(b.lo, b.hi, ray.origin, inv_dir, pad, h.t) < 0.0 {
+        let lo = vec3<f32>(p.lo_x, p.lo_y, p.lo_z);
+        let hi = vec3<f32>(p.hi_x, p.hi_y, p.hi_z);
+        if intersect_aabb(lo, hi, ray.origin, inv_dir, pad, h.t) < 0.0 {
             return no_hit();
         }
     }
     return h;
 }
 
-fn intersect_shape(prim: u32, ray: Ray, t_min: f32, t_max: f32) -> ShapeHit {
-    let p = primitives[prim];
+fn intersect_shape(p: GpuPrimitive, ray: Ray, t_min: f32, t_max: f32) -> ShapeHit {
     switch p.tag {
         case PRIMITIVE_SPHERE: {
             if !uses(FEATURE_SPHERES) { poison(); break; }

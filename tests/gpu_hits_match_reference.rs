@@ -20,16 +20,6 @@ fn hit_records_match_on_every_scene() {
     }
 }
 
-/// The WGSL `primitive_bounds` (the box of the admits rule on the GPU)
-/// equals `Scene::primitive_bounds` bit for bit.
-#[test]
-fn primitive_bounds_match_reference_bit_for_bit() {
-    match hits::primitive_boxes(common::gpu()) {
-        Ok(summary) => println!("{summary}"),
-        Err(e) => panic!("{e}"),
-    }
-}
-
 /// The head-on ray of the saved embree_agreement case, on the GPU: the
 /// pole of a small sphere far from the origin was refused by a box rounded
 /// inside the surface. The sphere alone: the box test's absolute slack

@@ -49,7 +49,12 @@ gpu_record! {
 
 gpu_record! {
     /// An entry of the primitive list (`reference::scene::Primitive`).
-    GpuPrimitive { tag: u32, index: u32 }
+    GpuPrimitive {
+        tag: u32, index: u32,
+        // The box the BVH build computed (reference::Scene::primitive_bounds),
+        // for the admits rule.
+        lo_x: f32, lo_y: f32, lo_z: f32, hi_x: f32, hi_y: f32, hi_z: f32,
+    }
 }
 
 gpu_record! {
@@ -151,7 +156,7 @@ mod tests {
         assert_eq!(std::mem::size_of::<GpuQuad>(), 48);
         assert_eq!(std::mem::size_of::<GpuTriangle>(), 32);
         assert_eq!(std::mem::size_of::<GpuVertex>(), 32);
-        assert_eq!(std::mem::size_of::<GpuPrimitive>(), 8);
+        assert_eq!(std::mem::size_of::<GpuPrimitive>(), 32);
         assert_eq!(std::mem::size_of::<GpuMaterial>(), 32);
         assert_eq!(std::mem::size_of::<GpuTexture>(), 32);
         assert_eq!(std::mem::size_of::<GpuEmitter>(), 8);

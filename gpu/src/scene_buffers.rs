@@ -152,9 +152,19 @@ impl PackedScene {
             primitives: scene
                 .primitives()
                 .iter()
-                .map(|p| GpuPrimitive {
-                    tag: p.tag,
-                    index: p.index,
+                .enumerate()
+                .map(|(i, p)| {
+                    let b = scene.primitive_bounds(i as u32);
+                    GpuPrimitive {
+                        tag: p.tag,
+                        index: p.index,
+                        lo_x: b.min.x,
+                        lo_y: b.min.y,
+                        lo_z: b.min.z,
+                        hi_x: b.max.x,
+                        hi_y: b.max.y,
+                        hi_z: b.max.z,
+                    }
                 })
                 .collect(),
             spheres: scene

@@ -109,9 +109,10 @@ pub fn next_down_normal(x: f32) -> f32 {
 /// sum (round to nearest errs by at most half the gap to the neighbour on
 /// the exact sum's side), the directed rounding of interval arithmetic.
 ///
-/// No subnormal enters or leaves the addition, so the bits are the same on
-/// a GPU that flushes subnormals as on one that keeps them (the WGSL twin
-/// `add_round_down` runs on both): a subnormal operand is first rounded
+/// No subnormal enters or leaves the addition, so the bits are the same
+/// whether or not the arithmetic flushes subnormals (the GPU reads the
+/// boxes built with it rather than rounding them itself, but the rule
+/// keeps the boxes independent of such a setting): a subnormal operand is first rounded
 /// down to a normal or zero (`snap_down`), a subnormal sum is flushed to
 /// its signed zero (what a flushing adder returns, and still within the
 /// step below), and the step skips the subnormals ([`next_down_normal`]).

@@ -18,7 +18,7 @@
 //! bit: the GPU walks the reference's tree, so a box computed differently
 //! would refuse or admit other hits than the reference does.
 
-use super::{camera_and_random_rays, ensure, run_kernel, run_kernel_with_library, Outcome};
+use super::{camera_and_random_rays, ensure, run_kernel_with_library, Outcome};
 use crate::compare::gate::fixture_scene;
 use glam::{Vec2, Vec3};
 use gpu::GpuContext;
@@ -223,49 +223,4 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
         lines.push(hit_records(ctx, &name, &scene, &library)?);
     }
     Ok(lines.join("\n"))
-}
-
-const BOUNDS_SNIPPET: &str = "
-@compute @workgroup_size(64)
-fn bounds_main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = gid.x;
-    if i >= arrayLength(&input) {
-        return;
-    }
-    let b = primitive_bounds(input[i]);
-    let w = array<f32, 6>(b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z);
-    for (var k = 0u; k < 6u; k++) {
-        output[6u * i + k] = bitcast<u32>(w[k]);
-    }
-}
-";
-
-/// The WGSL `primitive_bounds` equals `Scene::primitive_bounds` bit for
-/// bit on far small shapes, rtow-final and the Cornell box.
-pub fn primitive_boxes(ctx: &GpuContext) -> Outcome {
-    let load = |spec: &str| reference::load_scene(spec).map_err(|e| e.to_string());
-    let mut total = 0;
-    for (name, scene) in [
-        ("far small shapes", far_small_shapes(200)),
-        ("rtow-final", load("rtow-final")?),
-        ("cornell", load("cornell")?),
-    ] {
-        let n = scene.primitives().len();
-        let input: Vec<u32> = (0..n as u32).collect();
-        let out = run_kernel(ctx, &scene, BOUNDS_SNIPPET, "bounds_main", &input, n, 6 * n)?;
-        for prim in 0..n {
-            let b = scene.primitive_bounds(prim as u32);
-            let want: Vec<u32> = [b.min.to_array(), b.max.to_array()]
-                .concat()
-                .into_iter()
-                .map(f32::to_bits)
-                .collect();
-            ensure!(
-                out[6 * prim..6 * prim + 6] == want[..],
-                "{name}: primitive {prim} box differs from the reference's {b:?}"
-            );
-        }
-        total += n;
-    }
-    Ok(format!("{total} boxes of 3 scenes, bit for bit"))
 }

@@ -144,10 +144,6 @@ pub const CHECKS: &[Check] = &[
         run: numerics::cube_root,
     },
     Check {
-        name: "twin: primitive boxes (the admits rule's)",
-        run: hits::primitive_boxes,
-    },
-    Check {
         name: "twin: hit records",
         run: hits::all_scenes,
     },
