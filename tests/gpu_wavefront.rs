@@ -1,6 +1,8 @@
 //! The wavefront variant (`gpu::wavefront`: generate / extend / shade /
 //! accumulate kernels over compacted queues of live paths) renders every
-//! fixture and built-in scene bit for bit as the megakernel does, with
+//! fixture and built-in scene as the megakernel does (bit for bit, but
+//! for means a few ulp apart where a driver contracts the two programs'
+//! arithmetic differently: `twintrace::twins::wavefront`), with
 //! either estimator and either path layout, its renders split into waves
 //! three ways (`twintrace::twins::wavefront`, also run by `twintrace
 //! selftest`). Mutants of the wavefront's WGSL prove the comparison can
@@ -11,9 +13,10 @@ use reference::integrator::Integrator;
 use twintrace::twins::wavefront::{all_scenes, compare_scene};
 
 #[test]
-fn wavefront_renders_every_scene_as_the_megakernel_bit_for_bit() {
-    if let Err(e) = all_scenes(common::gpu()) {
-        panic!("{e}");
+fn wavefront_renders_every_scene_as_the_megakernel() {
+    match all_scenes(common::gpu()) {
+        Ok(summary) => println!("{summary}"),
+        Err(e) => panic!("{e}"),
     }
 }
 
@@ -44,6 +47,13 @@ const MUTANTS: &[(&str, &str, &str, &str, Integrator)] = &[
         "a shaded vertex draws the randoms of the vertex before it",
         "let u = vertex_randoms(params.seed, pixel, sample, segment + 1u);\n    let s = scatter",
         "let u = vertex_randoms(params.seed, pixel, sample, segment);\n    let s = scatter",
+        "rtow-final",
+        Integrator::Bsdf,
+    ),
+    (
+        "the sky's light on a BSDF path 10^-6 too bright (8 ulp: beyond the ulp rule)",
+        "(*v).radiance += (*v).throughput * evaluate_background(ray.direction);",
+        "(*v).radiance += (*v).throughput * evaluate_background(ray.direction) * 1.000001;",
         "rtow-final",
         Integrator::Bsdf,
     ),

@@ -1,15 +1,25 @@
 //! The wavefront variant against the megakernel: the same scene, estimator
 //! and kernel features rendered by the wavefront's kernels (either path
-//! layout, `gpu::wavefront`) must give the megakernel's film bit for bit
-//! (every pixel's count, rejected samples, mean and moments): each path
+//! layout, `gpu::wavefront`) must give the megakernel's film: each path
 //! takes the same keyed randoms through the same functions, and the film
 //! folds every pixel's samples in sample order. Run on every fixture and
 //! built-in scene, with the renders split into waves three ways (one
 //! wave; several samples a wave; runs of pixels, one sample a wave), so
 //! the wave bookkeeping is compared too. GPU against GPU, like
 //! [`super::specialization`]: it holds a user's driver to the same rule.
+//!
+//! The rule: every pixel's count and rejected samples equal; every mean,
+//! M2 and M3 equal bit for bit, except that a pixel's means may differ by
+//! at most [`MEAN_ULP_MAX`] ulp, its moments then following. The driver
+//! compiles the path's arithmetic into two different programs, and may
+//! fuse a multiply into an add (Vulkan allows contraction) in one and not
+//! the other: lavapipe renders every scene bit for bit; NVIDIA's compiler
+//! (H200, driver 580) left 3 of 384 BSDF paths on two scenes 1–2 ulp
+//! apart. The moments of such a pixel are those samples folded by the same
+//! code (bit for bit wherever the means agree), so they are not compared
+//! there. The summary line says how many pixels were not bit for bit.
 
-use super::specialization::{counts, first_difference, scene_specs, variant_film_bits, SIZE};
+use super::specialization::{counts, scene_specs, variant_film_bits, SIZE, WORDS_PER_PIXEL};
 use super::Outcome;
 use gpu::features::Kernel;
 use gpu::{GpuContext, Schedule};
@@ -23,15 +33,17 @@ use reference::Scene;
 pub const WAVE_SLOTS: [Option<u32>; 3] = [None, Some(200), Some(100)];
 
 /// The megakernel's film and the wavefront's (each path layout, each of
-/// [`WAVE_SLOTS`]) for one scene and estimator; `program` is the
-/// wavefront's WGSL (`gpu::shader::wavefront_source`, or a test's edit).
+/// [`WAVE_SLOTS`]) for one scene and estimator under the module's rule;
+/// `program` is the wavefront's WGSL (`gpu::shader::wavefront_source`, or
+/// a test's edit). Returns the pixels not bit for bit and their largest
+/// mean difference in ulp.
 pub fn compare_scene(
     ctx: &GpuContext,
     spec: &str,
     scene: &Scene,
     integrator: Integrator,
     program: &str,
-) -> Outcome {
+) -> Result<(usize, u64), String> {
     let features = Kernel::Specialized.features(scene);
     let mega = variant_film_bits(
         ctx,
@@ -52,6 +64,7 @@ pub fn compare_scene(
             integrator.name()
         ));
     }
+    let mut inexact = Inexact::default();
     for schedule in Schedule::ALL {
         if schedule == Schedule::Megakernel {
             continue;
@@ -66,32 +79,170 @@ pub fn compare_scene(
             &WAVE_SLOTS,
         )?;
         for (wave, slots) in films.iter().zip(WAVE_SLOTS) {
-            if *wave != mega {
-                return Err(format!(
-                    "{spec} ({}, {}, {} slots a wave): the wavefront's film differs from the megakernel's, first at pixel {}",
+            let what = || {
+                format!(
+                    "{spec} ({}, {}, {} slots a wave)",
                     integrator.name(),
                     schedule.name(),
                     slots.map_or("default".to_string(), |s| s.to_string()),
-                    first_difference(&mega, wave)
-                ));
-            }
+                )
+            };
+            compare_films(&mega, wave, &mut inexact).map_err(|e| format!("{}: {e}", what()))?;
         }
     }
-    Ok(String::new())
+    Ok((inexact.pixels, inexact.mean_ulp))
 }
 
-/// Every scene of [`scene_specs`], both estimators: wavefront == megakernel.
+/// The most a pixel's means may differ, in f32 ulp: twice the 2 ulp seen on
+/// NVIDIA (module docs); a slip in the wavefront's bookkeeping changes a
+/// path's light by far more, or its count.
+pub const MEAN_ULP_MAX: u64 = 4;
+
+/// Pixels compared under the ulp rule rather than bit for bit, and their
+/// largest mean difference.
+#[derive(Default)]
+struct Inexact {
+    pixels: usize,
+    mean_ulp: u64,
+}
+
+/// The f32 ulps between two f32 values stored as f64 bits.
+fn ulps(a: u64, b: u64) -> u64 {
+    let key = |bits: u64| {
+        let x = f64::from_bits(bits) as f32;
+        let i = x.to_bits() as i32 as i64;
+        // Sign-magnitude to a monotonic integer line.
+        if i < 0 {
+            -(i & 0x7fff_ffff)
+        } else {
+            i
+        }
+    };
+    key(a).abs_diff(key(b))
+}
+
+/// The rule of the module docs on two [`super::specialization::film_bits`]
+/// films.
+fn compare_films(mega: &[u64], wave: &[u64], inexact: &mut Inexact) -> Result<(), String> {
+    let pixels = mega.len() / WORDS_PER_PIXEL;
+    for (i, (m, w)) in mega
+        .chunks(WORDS_PER_PIXEL)
+        .zip(wave.chunks(WORDS_PER_PIXEL))
+        .enumerate()
+    {
+        if m == w {
+            continue;
+        }
+        if m[..2] != w[..2] {
+            return Err(format!(
+                "pixel {i} of {pixels}: the wavefront counted {} samples and rejected {}, the megakernel {} and {}",
+                w[0], w[1], m[0], m[1]
+            ));
+        }
+        let mean_ulp = (2..5).map(|k| ulps(m[k], w[k])).max().unwrap_or(0);
+        if mean_ulp == 0 {
+            return Err(format!(
+                "pixel {i} of {pixels}: equal means but different moments (the samples are folded differently)"
+            ));
+        }
+        if mean_ulp > MEAN_ULP_MAX {
+            return Err(format!(
+                "pixel {i} of {pixels}: the means differ by {mean_ulp} ulp (at most {MEAN_ULP_MAX})"
+            ));
+        }
+        inexact.pixels += 1;
+        inexact.mean_ulp = inexact.mean_ulp.max(mean_ulp);
+    }
+    Ok(())
+}
+
+/// Every scene of [`scene_specs`], both estimators: wavefront == megakernel
+/// under the module's rule. Every scene is compared; the error lists each
+/// one that fails.
 pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let specs = scene_specs()?;
     let program = gpu::shader::wavefront_source();
+    let mut failures = Vec::new();
+    let (mut inexact, mut worst) = (0usize, 0u64);
     for spec in &specs {
         let scene = reference::load_scene(spec).map_err(|e| format!("{spec}: {e}"))?;
         for integrator in Integrator::ALL {
-            compare_scene(ctx, spec, &scene, integrator, &program)?;
+            match compare_scene(ctx, spec, &scene, integrator, &program) {
+                Ok((pixels, ulp)) => {
+                    inexact += pixels;
+                    worst = worst.max(ulp);
+                }
+                Err(e) => failures.push(e),
+            }
         }
     }
+    if !failures.is_empty() {
+        return Err(failures.join("; "));
+    }
+    let (width, height, _) = SIZE;
+    let compared = specs.len() * 2 * 2 * WAVE_SLOTS.len() * (width * height) as usize;
+    let exactness = if inexact == 0 {
+        "bit for bit".to_string()
+    } else {
+        format!(
+            "bit for bit but for {inexact} of {compared} pixels, whose means differ by at most {worst} ulp"
+        )
+    };
     Ok(format!(
-        "{} scenes × 2 estimators × 2 path layouts × 3 wave splits: the wavefront's films equal the megakernel's bit for bit",
+        "{} scenes × 2 estimators × 2 path layouts × 3 wave splits: the wavefront's films equal the megakernel's {exactness}",
         specs.len()
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One pixel's words: count, rejected, mean, M2, M3 (f32 values as
+    /// f64 bits).
+    fn pixel(count: u64, mean: f32, m2: f32) -> Vec<u64> {
+        let f = |x: f32| (x as f64).to_bits();
+        vec![
+            count,
+            0,
+            f(mean),
+            f(mean),
+            f(mean),
+            f(m2),
+            f(m2),
+            f(m2),
+            0,
+            0,
+            0,
+        ]
+    }
+
+    fn up(x: f32, k: u32) -> f32 {
+        f32::from_bits(x.to_bits() + k)
+    }
+
+    #[test]
+    fn ulps_count_steps_across_zero() {
+        let b = |x: f32| (x as f64).to_bits();
+        assert_eq!(ulps(b(1.0), b(up(1.0, 3))), 3);
+        assert_eq!(ulps(b(-f32::from_bits(1)), b(f32::from_bits(1))), 2);
+        assert_eq!(ulps(b(0.0), b(-0.0)), 0);
+    }
+
+    #[test]
+    fn the_rule_takes_means_a_few_ulp_apart_and_nothing_else() {
+        let mega = pixel(2, 0.5, 0.25);
+        let mut seen = Inexact::default();
+        assert!(compare_films(&mega, &mega, &mut seen).is_ok());
+        assert_eq!(seen.pixels, 0);
+        let near = pixel(2, up(0.5, MEAN_ULP_MAX as u32), 0.3);
+        assert!(compare_films(&mega, &near, &mut seen).is_ok());
+        assert_eq!((seen.pixels, seen.mean_ulp), (1, MEAN_ULP_MAX));
+        let far = pixel(2, up(0.5, MEAN_ULP_MAX as u32 + 1), 0.25);
+        assert!(compare_films(&mega, &far, &mut seen).is_err());
+        let refolded = pixel(2, 0.5, 0.3);
+        assert!(compare_films(&mega, &refolded, &mut seen).is_err());
+        let recounted = pixel(1, 0.5, 0.25);
+        assert!(compare_films(&mega, &recounted, &mut seen).is_err());
+    }
 }
