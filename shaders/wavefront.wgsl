@@ -425,6 +425,22 @@ fn wf_shade(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
     }
 }
 
+// The path megakernel (gpu::wavefront::Schedule::PathMegakernel): each
+// invocation traces one path of the wave to the end, as render_main's
+// loop body does, and leaves its light for wf_accumulate.
+@compute @workgroup_size(WAVE_GROUP, 1, 1)
+fn wf_trace_paths(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = flat_index(gid, groups);
+    if i >= wave_paths() {
+        return;
+    }
+    let pixel = slot_pixel(i);
+    let sample = slot_sample(i);
+    let l = trace(camera_ray(pixel % params.width, pixel / params.width, sample), pixel, sample);
+    set_path_v(i, PF_RADIANCE, l);
+    set_path_u(i, PF_FLAGS, select(0u, PATH_POISONED, poisoned));
+}
+
 @compute @workgroup_size(WAVE_GROUP, 1, 1)
 fn wf_accumulate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let t = flat_index(gid, groups);

@@ -183,7 +183,7 @@ impl<'a> GpuRenderer<'a> {
         let packed = PackedScene::new(scene);
         let program = match schedule {
             Schedule::Megakernel => shader::render_source(),
-            Schedule::Wavefront(_) => shader::wavefront_source(),
+            Schedule::Wavefront(_) | Schedule::PathMegakernel => shader::wavefront_source(),
         };
         Self::build_scheduled(
             ctx,
@@ -301,8 +301,8 @@ impl<'a> GpuRenderer<'a> {
                 &[&layout],
                 &constants,
             )?),
-            Schedule::Wavefront(path_layout) => Kernels::Wavefront(Box::new(
-                wavefront::Pipelines::new(ctx, &layout, program, &constants, path_layout)?,
+            Schedule::Wavefront(_) | Schedule::PathMegakernel => Kernels::Wavefront(Box::new(
+                wavefront::Pipelines::new(ctx, &layout, program, &constants, schedule)?,
             )),
         };
         Ok(Self {

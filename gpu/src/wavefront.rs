@@ -61,14 +61,22 @@ pub enum Schedule {
     Megakernel,
     /// Kernels per stage over queues of live paths.
     Wavefront(PathLayout),
+    /// One invocation per path of a wave (pixel × sample) traces it to the
+    /// end, as the megakernel's loop body does, and the wavefront's
+    /// accumulate kernel folds the paths' light into the film in sample
+    /// order: the megakernel's code with the parallelism of the
+    /// wavefront's waves (a 256x256 image is 65,536 megakernel invocations,
+    /// a quarter of what an H100 holds resident).
+    PathMegakernel,
 }
 
 impl Schedule {
     /// Every schedule, for the tests and the CLI.
-    pub const ALL: [Schedule; 3] = [
+    pub const ALL: [Schedule; 4] = [
         Schedule::Megakernel,
         Schedule::Wavefront(PathLayout::Aos),
         Schedule::Wavefront(PathLayout::Soa),
+        Schedule::PathMegakernel,
     ];
 
     /// The CLI's and perf's name.
@@ -77,6 +85,7 @@ impl Schedule {
             Schedule::Megakernel => "megakernel",
             Schedule::Wavefront(PathLayout::Aos) => "wavefront",
             Schedule::Wavefront(PathLayout::Soa) => "wavefront-soa",
+            Schedule::PathMegakernel => "megakernel-paths",
         }
     }
 
@@ -129,15 +138,25 @@ impl Variant {
     }
 }
 
-/// The wavefront's compiled kernels and bind group layouts.
+/// The compiled kernels of a wave schedule and their bind group layouts.
 pub struct Pipelines {
     wave_layout: wgpu::BindGroupLayout,
     args_layout: wgpu::BindGroupLayout,
-    generate: wgpu::ComputePipeline,
-    prepare: wgpu::ComputePipeline,
-    extend: wgpu::ComputePipeline,
-    shade: wgpu::ComputePipeline,
+    stages: Stages,
     accumulate: wgpu::ComputePipeline,
+}
+
+/// What runs before a wave's accumulate kernel.
+enum Stages {
+    /// The wavefront: generate, then per bounce prepare / extend / shade.
+    Bounces {
+        generate: wgpu::ComputePipeline,
+        prepare: wgpu::ComputePipeline,
+        extend: wgpu::ComputePipeline,
+        shade: wgpu::ComputePipeline,
+    },
+    /// [`Schedule::PathMegakernel`]: one kernel traces every path.
+    Paths(wgpu::ComputePipeline),
 }
 
 fn layout(device: &wgpu::Device, label: &str, group: &[Binding]) -> wgpu::BindGroupLayout {
@@ -149,15 +168,17 @@ fn layout(device: &wgpu::Device, label: &str, group: &[Binding]) -> wgpu::BindGr
 }
 
 impl Pipelines {
-    /// Compiles the wavefront `program` (`shader::wavefront_source`, or a
+    /// Compiles the wave kernels of `schedule` (the wavefront's, or the
+    /// path megakernel's) from `program` (`shader::wavefront_source`, or a
     /// test's edit of it) with the given override constants and
-    /// `PATH_SOA` from `path_layout`.
+    /// `PATH_SOA` from the path layout (the path megakernel's: structure
+    /// of arrays).
     pub fn new(
         ctx: &GpuContext,
         scene_layout: &wgpu::BindGroupLayout,
         program: &str,
         constants: &[(&str, f64)],
-        path_layout: PathLayout,
+        schedule: Schedule,
     ) -> Result<Self, GpuError> {
         let have = ctx.device.limits().max_storage_buffers_per_shader_stage;
         if have < STORAGE_BUFFERS_NEEDED {
@@ -171,29 +192,40 @@ impl Pipelines {
         let device = &ctx.device;
         let wave_layout = layout(device, "wavefront paths", &bindings::WAVE_GROUP);
         let args_layout = layout(device, "wavefront arguments", &[bindings::WAVE_ARGS]);
+        let path_layout = match schedule {
+            Schedule::Wavefront(l) => l,
+            _ => PathLayout::Soa,
+        };
         let mut constants = constants.to_vec();
         constants.push(("PATH_SOA", (path_layout == PathLayout::Soa) as u32 as f64));
         let main = [scene_layout, &wave_layout];
         let with_args = [scene_layout, &wave_layout, &args_layout];
-        let mut p = compile_entries(
-            ctx,
-            program,
-            &[
-                ("wf_generate", &main),
-                ("wf_prepare", &with_args),
-                ("wf_extend", &main),
-                ("wf_shade", &main),
-                ("wf_accumulate", &main),
-            ],
-            &constants,
-        )?
-        .into_iter();
+        let entries: Vec<(&str, &[&wgpu::BindGroupLayout])> =
+            if schedule == Schedule::PathMegakernel {
+                vec![("wf_trace_paths", &main), ("wf_accumulate", &main)]
+            } else {
+                vec![
+                    ("wf_generate", &main),
+                    ("wf_prepare", &with_args),
+                    ("wf_extend", &main),
+                    ("wf_shade", &main),
+                    ("wf_accumulate", &main),
+                ]
+            };
+        let mut p = compile_entries(ctx, program, &entries, &constants)?.into_iter();
         let mut next = || p.next().expect("one pipeline per entry");
+        let stages = if schedule == Schedule::PathMegakernel {
+            Stages::Paths(next())
+        } else {
+            Stages::Bounces {
+                generate: next(),
+                prepare: next(),
+                extend: next(),
+                shade: next(),
+            }
+        };
         Ok(Self {
-            generate: next(),
-            prepare: next(),
-            extend: next(),
-            shade: next(),
+            stages,
             accumulate: next(),
             wave_layout,
             args_layout,
@@ -341,7 +373,7 @@ impl Pipelines {
 
     /// Records one wave into `pass` (the params buffer already holds the
     /// wave's `GpuParams`, from [`wave_params`]): generate, `max_depth`
-    /// bounces, accumulate.
+    /// bounces, accumulate (the path megakernel: trace, accumulate).
     pub fn record(
         &self,
         pass: &mut wgpu::ComputePass<'_>,
@@ -353,16 +385,29 @@ impl Pipelines {
         pass.set_bind_group(0, scene_group, &[]);
         pass.set_bind_group(1, &buffers.wave_group, &[]);
         pass.set_bind_group(2, &buffers.args_group, &[]);
-        pass.set_pipeline(&self.generate);
         let (x, y) = grid(wave.pixel_count as u64 * wave.sample_count as u64);
-        pass.dispatch_workgroups(x, y, 1);
-        for _ in 0..max_depth {
-            pass.set_pipeline(&self.prepare);
-            pass.dispatch_workgroups(1, 1, 1);
-            pass.set_pipeline(&self.extend);
-            pass.dispatch_workgroups_indirect(&buffers.args, 0);
-            pass.set_pipeline(&self.shade);
-            pass.dispatch_workgroups_indirect(&buffers.args, 12);
+        match &self.stages {
+            Stages::Paths(trace) => {
+                pass.set_pipeline(trace);
+                pass.dispatch_workgroups(x, y, 1);
+            }
+            Stages::Bounces {
+                generate,
+                prepare,
+                extend,
+                shade,
+            } => {
+                pass.set_pipeline(generate);
+                pass.dispatch_workgroups(x, y, 1);
+                for _ in 0..max_depth {
+                    pass.set_pipeline(prepare);
+                    pass.dispatch_workgroups(1, 1, 1);
+                    pass.set_pipeline(extend);
+                    pass.dispatch_workgroups_indirect(&buffers.args, 0);
+                    pass.set_pipeline(shade);
+                    pass.dispatch_workgroups_indirect(&buffers.args, 12);
+                }
+            }
         }
         pass.set_pipeline(&self.accumulate);
         let (x, y) = grid(wave.pixel_count as u64);
@@ -433,7 +478,7 @@ mod tests {
         names.sort();
         names.dedup();
         assert_eq!(names.len(), n);
-        assert_eq!(n, 12);
+        assert_eq!(n, 16);
     }
 
     /// The grid covers n invocations, within 65,535 workgroups a side.

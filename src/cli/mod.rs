@@ -138,8 +138,11 @@ pub struct RenderArgs {
     /// How the GPU schedules the paths: megakernel (one invocation traces
     /// a pixel's paths to the end), wavefront (kernels per stage over
     /// queues of live paths, path state as an array of structs) or
-    /// wavefront-soa (the same, structure of arrays). All three render the
-    /// same image bit for bit.
+    /// wavefront-soa (the same, structure of arrays), or megakernel-paths
+    /// (one invocation per path of a wave, the film folded after: fills
+    /// the GPU at small image sizes). All render the same image (bit for
+    /// bit, or a few ulp apart where the driver contracts arithmetic
+    /// differently).
     #[arg(long, value_enum, default_value_t = ScheduleArg::Megakernel)]
     pub schedule: ScheduleArg,
 }
@@ -150,6 +153,7 @@ pub enum ScheduleArg {
     Megakernel,
     Wavefront,
     WavefrontSoa,
+    MegakernelPaths,
 }
 
 impl ScheduleArg {
@@ -158,6 +162,7 @@ impl ScheduleArg {
             ScheduleArg::Megakernel => gpu::Schedule::Megakernel,
             ScheduleArg::Wavefront => gpu::Schedule::Wavefront(gpu::PathLayout::Aos),
             ScheduleArg::WavefrontSoa => gpu::Schedule::Wavefront(gpu::PathLayout::Soa),
+            ScheduleArg::MegakernelPaths => gpu::Schedule::PathMegakernel,
         }
     }
 }

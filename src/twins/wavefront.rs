@@ -1,6 +1,7 @@
-//! The wavefront variant against the megakernel: the same scene, estimator
+//! The wave schedules against the megakernel: the same scene, estimator
 //! and kernel features rendered by the wavefront's kernels (either path
-//! layout, `gpu::wavefront`) must give the megakernel's film: each path
+//! layout) and by the path megakernel (`gpu::wavefront::Schedule`) must
+//! give the megakernel's film: each path
 //! takes the same keyed randoms through the same functions, and the film
 //! folds every pixel's samples in sample order. Run on every fixture and
 //! built-in scene, with the renders split into waves three ways (one
@@ -180,7 +181,8 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
         return Err(failures.join("; "));
     }
     let (width, height, _) = SIZE;
-    let compared = specs.len() * 2 * 2 * WAVE_SLOTS.len() * (width * height) as usize;
+    let schedules = Schedule::ALL.len() - 1;
+    let compared = specs.len() * 2 * schedules * WAVE_SLOTS.len() * (width * height) as usize;
     let exactness = if inexact == 0 {
         "bit for bit".to_string()
     } else {
@@ -189,7 +191,7 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
         )
     };
     Ok(format!(
-        "{} scenes × 2 estimators × 2 path layouts × 3 wave splits: the wavefront's films equal the megakernel's {exactness}",
+        "{} scenes × 2 estimators × {schedules} wave schedules (wavefront, wavefront-soa, megakernel-paths) × 3 wave splits: their films equal the megakernel's {exactness}",
         specs.len()
     ))
 }
