@@ -26,14 +26,14 @@
 override PATH_SOA: bool = false;
 
 // A path's state: word offsets of its fields.
-const PF_ORIGIN: u32 = 0u;          // vec3: the extension ray
-const PF_DIRECTION: u32 = 3u;       // vec3
-const PF_THROUGHPUT: u32 = 6u;      // vec3
-const PF_RADIANCE: u32 = 9u;        // vec3
-const PF_FROM_P: u32 = 12u;         // vec3: MIS, where the ray left
-const PF_FROM_PDF: u32 = 15u;       // MIS, the BSDF density that chose it
-const PF_SEGMENT: u32 = 16u;        // the vertex the next hit makes
-const PF_FLAGS: u32 = 17u;          // PATH_*
+const PF_RADIANCE: u32 = 0u;        // vec3 (first: the path megakernel
+const PF_FLAGS: u32 = 3u;           // stores only these two, PATH_*)
+const PF_ORIGIN: u32 = 4u;          // vec3: the extension ray
+const PF_DIRECTION: u32 = 7u;       // vec3
+const PF_THROUGHPUT: u32 = 10u;     // vec3
+const PF_FROM_P: u32 = 13u;         // vec3: MIS, where the ray left
+const PF_FROM_PDF: u32 = 16u;       // MIS, the BSDF density that chose it
+const PF_SEGMENT: u32 = 17u;        // the vertex the next hit makes
 const PF_HIT: u32 = 18u;            // hit record (5 words): extension ray
 const PF_SHADOW_HIT: u32 = 23u;     // hit record: shadow ray
 const PF_SHADOW_ORIGIN: u32 = 28u;  // vec3: the ShadowQuery
@@ -43,6 +43,7 @@ const PF_SHADOW_WEIGHT: u32 = 35u;  // vec3
 const PF_SHADOW_BSDF_PDF: u32 = 38u;
 const PF_SHADOW_P: u32 = 39u;       // vec3
 const_assert PF_SHADOW_P + 3u == PATH_WORDS;
+const_assert PF_FLAGS + 1u == PATH_MEGAKERNEL_WORDS;
 
 // PF_FLAGS bits.
 const PATH_EXTEND: u32 = 1u;    // an extension ray is queued

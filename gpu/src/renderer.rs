@@ -61,6 +61,14 @@ pub struct GpuRenderer<'a> {
     scene: &'a Scene,
     /// The wavefront's path slots per wave, where a test sets them.
     wave_slots: Option<u32>,
+    /// The last render's wave buffers, kept for the next render that needs
+    /// no more slots (a wave's path state is up to 1.4 GB: allocating it per
+    /// render made repeated short renders several times slower on the
+    /// H100).
+    wave_cache: std::sync::Mutex<Option<std::sync::Arc<wavefront::WaveBuffers>>>,
+    /// The last render's film buffer, kept for the next render of that
+    /// size.
+    film_cache: std::sync::Mutex<Option<wgpu::Buffer>>,
 }
 
 /// The bind group layout shared by the render kernel and the test kernels
@@ -317,6 +325,8 @@ impl<'a> GpuRenderer<'a> {
             scene_buffers,
             scene,
             wave_slots: None,
+            wave_cache: std::sync::Mutex::new(None),
+            film_cache: std::sync::Mutex::new(None),
         })
     }
 
@@ -407,12 +417,30 @@ impl<'a> GpuRenderer<'a> {
                 limit,
             });
         }
-        let film = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("film"),
-            size: film_bytes,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
+        // The film buffer of the last render of this size is reused (and
+        // cleared by the first submit), as the wave buffers are.
+        let film = {
+            let mut cache = self
+                .film_cache
+                .lock()
+                .unwrap_or_else(|poisoned| poisoned.into_inner());
+            match cache.as_ref() {
+                Some(f) if f.size() == film_bytes => f.clone(),
+                _ => {
+                    *cache = None;
+                    let f = device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some("film"),
+                        size: film_bytes,
+                        usage: wgpu::BufferUsages::STORAGE
+                            | wgpu::BufferUsages::COPY_SRC
+                            | wgpu::BufferUsages::COPY_DST,
+                        mapped_at_creation: false,
+                    });
+                    *cache = Some(f.clone());
+                    f
+                }
+            }
+        };
         let params_buf = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("params"),
             size: std::mem::size_of::<GpuParams>() as u64,
@@ -450,12 +478,25 @@ impl<'a> GpuRenderer<'a> {
                 let slots = self
                     .wave_slots
                     .unwrap_or_else(|| wavefront::slots(ctx, pixels, settings.spp));
-                wave_buffers = w.buffers(ctx, slots)?;
+                let mut cache = self
+                    .wave_cache
+                    .lock()
+                    .unwrap_or_else(|poisoned| poisoned.into_inner());
+                wave_buffers = match cache.as_ref() {
+                    Some(b) if b.slots >= slots => b.clone(),
+                    _ => {
+                        // Drop the old buffers before making the new ones.
+                        *cache = None;
+                        let b = std::sync::Arc::new(w.buffers(ctx, slots)?);
+                        *cache = Some(b.clone());
+                        b
+                    }
+                };
                 wavefront::waves(pixels as u32, settings.spp, slots)
                     .into_iter()
                     .map(|wave| {
                         (
-                            wavefront::wave_params(&base, wave, slots),
+                            wavefront::wave_params(&base, wave, wave_buffers.slots),
                             Batch::Wave(w, wave, &wave_buffers),
                         )
                     })
@@ -485,6 +526,9 @@ impl<'a> GpuRenderer<'a> {
             let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("render"),
             });
+            if index == 0 {
+                encoder.clear_buffer(&film, 0, None);
+            }
             {
                 let timestamp_writes =
                     query_set

@@ -178,8 +178,9 @@ pub fn wavefront_source() -> String {
     let mut declarations = bindings::wgsl_declarations(&bindings::WAVE_GROUP);
     declarations += &bindings::WAVE_ARGS.wgsl();
     declarations += &format!(
-        "const PATH_WORDS: u32 = {}u;\n",
-        crate::wavefront::PATH_WORDS
+        "const PATH_WORDS: u32 = {}u;\nconst PATH_MEGAKERNEL_WORDS: u32 = {}u;\n",
+        crate::wavefront::PATH_WORDS,
+        crate::wavefront::PATH_MEGAKERNEL_WORDS
     );
     [
         render_source().as_str(),

@@ -22,14 +22,19 @@ use crate::renderer::compile_entries;
 /// which asserts the sum).
 pub const PATH_WORDS: u32 = 42;
 
+/// Words of a path slot in the path megakernel: its light and flags (the
+/// first fields, so that with the structure-of-arrays layout only these
+/// words of each slot are allocated).
+pub const PATH_MEGAKERNEL_WORDS: u32 = 4;
+
 /// Invocations per workgroup of the wavefront kernels (`WAVE_GROUP`).
 pub const WAVE_GROUP: u32 = 64;
 
 /// Bytes of `WaveQueues` before its entries.
 const QUEUE_HEADER_BYTES: u64 = 24;
 
-/// Path slots of a wave on a discrete GPU: 2^23 (1.4 GB of path state at
-/// 168 bytes a path). Every bounce of a wave costs a few dispatches
+/// Path slots of a wave on a discrete GPU: 2^23 (the wavefront's path
+/// state 1.4 GB at 168 bytes a path, the path megakernel's 134 MB). Every bounce of a wave costs a few dispatches
 /// whether or not paths are left (the longest path of a wave sets its
 /// bounces), so fewer, larger waves pay: on the H100 an empty bounce
 /// measured ~25 µs, and 2^21-slot waves spent an eighth of a Cornell MIS
@@ -140,6 +145,8 @@ impl Variant {
 
 /// The compiled kernels of a wave schedule and their bind group layouts.
 pub struct Pipelines {
+    /// Words a path slot needs ([`PATH_WORDS`] or [`PATH_MEGAKERNEL_WORDS`]).
+    words: u32,
     wave_layout: wgpu::BindGroupLayout,
     args_layout: wgpu::BindGroupLayout,
     stages: Stages,
@@ -224,7 +231,12 @@ impl Pipelines {
                 shade: next(),
             }
         };
+        let words = match stages {
+            Stages::Paths(_) => PATH_MEGAKERNEL_WORDS,
+            Stages::Bounces { .. } => PATH_WORDS,
+        };
         Ok(Self {
+            words,
             stages,
             accumulate: next(),
             wave_layout,
@@ -311,8 +323,14 @@ impl Pipelines {
     pub fn buffers(&self, ctx: &GpuContext, slots: u32) -> Result<WaveBuffers, GpuError> {
         let device = &ctx.device;
         let limit = device.limits().max_storage_buffer_binding_size;
-        let path_bytes = slots as u64 * PATH_WORDS as u64 * 4;
-        let queue_bytes = QUEUE_HEADER_BYTES + slots as u64 * 16;
+        let path_bytes = slots as u64 * self.words as u64 * 4;
+        // The path megakernel queues nothing (one entry: a binding may not
+        // be empty).
+        let queue_entries = match self.stages {
+            Stages::Paths(_) => 1,
+            Stages::Bounces { .. } => 4 * slots as u64,
+        };
+        let queue_bytes = QUEUE_HEADER_BYTES + queue_entries * 4;
         for (what, needed) in [
             ("the wavefront's paths", path_bytes),
             ("the wavefront's queues", queue_bytes),

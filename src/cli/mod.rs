@@ -135,15 +135,15 @@ pub struct RenderArgs {
     /// code; it renders the same image bit for bit).
     #[arg(long, value_enum, default_value_t = KernelArg::Specialized)]
     pub kernel: KernelArg,
-    /// How the GPU schedules the paths: megakernel (one invocation traces
-    /// a pixel's paths to the end), wavefront (kernels per stage over
+    /// How the GPU schedules the paths: megakernel-paths (the default: one
+    /// invocation per path of a wave, the film folded after; fills the GPU
+    /// at any image size), megakernel (one invocation traces a pixel's
+    /// paths to the end), wavefront (kernels per stage over
     /// queues of live paths, path state as an array of structs) or
-    /// wavefront-soa (the same, structure of arrays), or megakernel-paths
-    /// (one invocation per path of a wave, the film folded after: fills
-    /// the GPU at small image sizes). All render the same image (bit for
-    /// bit, or a few ulp apart where the driver contracts arithmetic
-    /// differently).
-    #[arg(long, value_enum, default_value_t = ScheduleArg::Megakernel)]
+    /// wavefront-soa (the same, structure of arrays). All render the same
+    /// image (bit for bit, or a few ulp apart where the driver contracts
+    /// arithmetic differently).
+    #[arg(long, value_enum, default_value_t = ScheduleArg::MegakernelPaths)]
     pub schedule: ScheduleArg,
 }
 
