@@ -13,12 +13,14 @@
 //   wf_accumulate each pixel's samples folded into the film, in sample order
 //
 // Terminated paths leave the queues (stream compaction: the queues hold
-// only live paths, appended through one atomic per workgroup), so later
-// bounces dispatch only what is left. Every path computes exactly what
-// trace_path / trace_path_mis compute, in the same order, from the same
-// counter-based randoms (keyed by pixel, sample and vertex), and the film
-// folds samples in the same order: the films equal the megakernel's bit
-// for bit (tests/gpu_wavefront.rs), whatever order the queues take.
+// only live paths, appended through two atomics per workgroup, one for
+// the paths and one for the rays), so later bounces dispatch only what is
+// left. Every path computes what trace_path / trace_path_mis compute, in
+// the same order, from the same counter-based randoms (keyed by pixel,
+// sample and vertex), and the film folds samples in the same order,
+// whatever order the queues take: the films equal the megakernel's, bit
+// for bit or, where a driver contracts the two programs' arithmetic
+// differently, with means a few ulp apart (twintrace::twins::wavefront).
 
 // The path state's layout (gpu::wavefront::PathLayout): false, array of
 // structs (PATH_WORDS consecutive words per path); true, structure of

@@ -9,8 +9,9 @@
 //! fail: each is a plausible bookkeeping slip of a wavefront renderer.
 
 use crate::common;
+use gpu::features::{feature, Features};
 use reference::integrator::Integrator;
-use twintrace::twins::wavefront::{all_scenes, compare_scene};
+use twintrace::twins::wavefront::{all_scenes, compare_poisoned, compare_scene};
 
 #[test]
 fn wavefront_renders_every_scene_as_the_megakernel() {
@@ -58,6 +59,13 @@ const MUTANTS: &[(&str, &str, &str, &str, Integrator)] = &[
         Integrator::Bsdf,
     ),
     (
+        "the path megakernel traces the next sample's camera ray",
+        "let l = trace(camera_ray(pixel % params.width, pixel / params.width, sample), pixel, sample);",
+        "let l = trace(camera_ray(pixel % params.width, pixel / params.width, sample + 1u), pixel, sample);",
+        "cornell",
+        Integrator::Bsdf,
+    ),
+    (
         "the MIS weight of emission forgets the BSDF density of the ray that found it",
         "v.from_pdf = path_f(slot, PF_FROM_PDF);",
         "v.from_pdf = 0.0;",
@@ -65,6 +73,12 @@ const MUTANTS: &[(&str, &str, &str, &str, Integrator)] = &[
         Integrator::Mis,
     ),
 ];
+
+/// A mutant is caught when the gate reports a film difference (not when
+/// the mutant fails to compile or the oracle fails).
+fn caught(outcome: Result<(), String>) -> bool {
+    matches!(outcome, Err(e) if e.contains(": pixel "))
+}
 
 #[test]
 fn wavefront_mutants_are_caught() {
@@ -78,9 +92,58 @@ fn wavefront_mutants_are_caught() {
         );
         let mutant = program.replace(from, to);
         let scene = reference::load_scene(spec).unwrap();
+        let outcome = compare_scene(ctx, spec, &scene, integrator, &mutant).map(|_| ());
         assert!(
-            compare_scene(ctx, spec, &scene, integrator, &mutant).is_err(),
-            "{slip}: the wavefront gate passed it"
+            caught(outcome.clone()),
+            "{slip}: the wavefront gate passed it ({outcome:?})"
         );
     }
+}
+
+/// The Cornell box's kernels without Lambertian (shading poisons) or
+/// without quads (the traversal poisons).
+fn poisoning_features(scene: &reference::Scene) -> Vec<Features> {
+    let all = Features::of(scene);
+    [feature::LAMBERTIAN, feature::QUADS]
+        .into_iter()
+        .map(|bit| Features(all.0 & !bit))
+        .collect()
+}
+
+#[test]
+fn wave_schedules_count_poisoned_samples_as_the_megakernel_does() {
+    let ctx = common::gpu();
+    let program = gpu::shader::wavefront_source();
+    let scene = reference::load_scene("cornell").unwrap();
+    for features in poisoning_features(&scene) {
+        for integrator in Integrator::ALL {
+            if let Err(e) = compare_poisoned(ctx, "cornell", &scene, integrator, &program, features)
+            {
+                panic!("{e}");
+            }
+        }
+    }
+}
+
+#[test]
+fn a_traversal_poison_lost_between_kernels_is_caught() {
+    let ctx = common::gpu();
+    let program = gpu::shader::wavefront_source();
+    let from = "select(0u, HIT_FOUND, h.hit) | select(0u, HIT_POISONED, poisoned)";
+    assert_eq!(program.matches(from).count(), 1);
+    let mutant = program.replace(from, "select(0u, HIT_FOUND, h.hit)");
+    let scene = reference::load_scene("cornell").unwrap();
+    let without_quads = poisoning_features(&scene)[1];
+    let outcome = compare_poisoned(
+        ctx,
+        "cornell",
+        &scene,
+        Integrator::Bsdf,
+        &mutant,
+        without_quads,
+    );
+    assert!(
+        caught(outcome.clone()),
+        "the dropped poison passed ({outcome:?})"
+    );
 }

@@ -425,9 +425,9 @@ fn shaders_mirror_reference_modules() {
     }
     for entry in fs::read_dir(root().join("shaders")).unwrap() {
         let name = entry.unwrap().file_name().into_string().unwrap();
-        // wavefront.wgsl: GPU only, the wavefront schedule of
-        // integrator.wgsl's path loop (gpu::wavefront), gated bit for bit
-        // against the megakernel rather than twinned.
+        // wavefront.wgsl: GPU only, the wave schedules of integrator.wgsl's
+        // path loop (gpu::wavefront), gated against the megakernel (bit for
+        // bit, or means within a few ulp) rather than twinned.
         assert!(
             listed.contains(&name)
                 || ["integrator.wgsl", "generated.wgsl", "wavefront.wgsl"].contains(&name.as_str()),

@@ -21,16 +21,45 @@ use wgpu::util::DeviceExt;
 pub const PATHS_PER_DISPATCH_GPU: u64 = 1 << 23;
 pub const PATHS_PER_DISPATCH_SOFTWARE: u64 = 1 << 17;
 
-/// One submit of a render.
-enum Batch<'b> {
-    /// A dispatch of the megakernel over every pixel.
-    Dispatch(&'b wgpu::ComputePipeline),
-    /// A wave of the wavefront's kernels, in its buffers.
-    Wave(
-        &'b wavefront::Pipelines,
-        wavefront::Wave,
-        &'b wavefront::WaveBuffers,
-    ),
+/// How a render's submits are made.
+enum Plan<'b> {
+    /// Dispatches of the megakernel over every pixel, `per` samples each.
+    Dispatches {
+        pipeline: &'b wgpu::ComputePipeline,
+        per: u32,
+    },
+    /// The waves of a wave schedule, in its buffers.
+    Waves {
+        pipelines: &'b wavefront::Pipelines,
+        waves: wavefront::Waves,
+        buffers: wavefront::WaveBuffers,
+    },
+}
+
+impl Plan<'_> {
+    fn count(&self, spp: u32) -> u64 {
+        match self {
+            Plan::Dispatches { per, .. } => (spp as u64).div_ceil(*per as u64),
+            Plan::Waves { waves, .. } => waves.count(),
+        }
+    }
+
+    /// The params of submit `index`.
+    fn params(&self, base: &GpuParams, index: u64, spp: u32) -> GpuParams {
+        match self {
+            Plan::Dispatches { per, .. } => {
+                let start = (index * *per as u64) as u32;
+                GpuParams {
+                    sample_start: start,
+                    sample_count: (*per).min(spp - start),
+                    ..*base
+                }
+            }
+            Plan::Waves { waves, buffers, .. } => {
+                wavefront::wave_params(base, waves.at(index), buffers.slots)
+            }
+        }
+    }
 }
 
 /// A render's film and, where the adapter has timestamp queries, the GPU
@@ -65,7 +94,7 @@ pub struct GpuRenderer<'a> {
     /// no more slots (a wave's path state is up to 1.4 GB: allocating it per
     /// render made repeated short renders several times slower on the
     /// H100).
-    wave_cache: std::sync::Mutex<Option<std::sync::Arc<wavefront::WaveBuffers>>>,
+    wave_cache: std::sync::Mutex<Option<wavefront::WaveBuffers>>,
     /// The last render's film buffer, kept for the next render of that
     /// size.
     film_cache: std::sync::Mutex<Option<wgpu::Buffer>>,
@@ -418,28 +447,20 @@ impl<'a> GpuRenderer<'a> {
             });
         }
         // The film buffer of the last render of this size is reused (and
-        // cleared by the first submit), as the wave buffers are.
-        let film = {
-            let mut cache = self
-                .film_cache
-                .lock()
-                .unwrap_or_else(|poisoned| poisoned.into_inner());
-            match cache.as_ref() {
-                Some(f) if f.size() == film_bytes => f.clone(),
-                _ => {
-                    *cache = None;
-                    let f = device.create_buffer(&wgpu::BufferDescriptor {
-                        label: Some("film"),
-                        size: film_bytes,
-                        usage: wgpu::BufferUsages::STORAGE
-                            | wgpu::BufferUsages::COPY_SRC
-                            | wgpu::BufferUsages::COPY_DST,
-                        mapped_at_creation: false,
-                    });
-                    *cache = Some(f.clone());
-                    f
-                }
-            }
+        // cleared by the first submit), as the wave buffers are: taken out
+        // of the cache for the render (a concurrent render on this
+        // renderer makes its own) and put back after.
+        let cached = self.film_cache.lock().ok().and_then(|mut c| c.take());
+        let film = match cached {
+            Some(f) if f.size() == film_bytes => f,
+            _ => device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("film"),
+                size: film_bytes,
+                usage: wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::COPY_SRC
+                    | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
         };
         let params_buf = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("params"),
@@ -449,68 +470,47 @@ impl<'a> GpuRenderer<'a> {
         });
         let bind_group = self.bind_group(&params_buf, &film);
         let base = self.params(settings);
-        // One submit per batch (a dispatch of the megakernel, a wave of the
-        // wavefront), each with its own params.
-        let wave_buffers;
-        let batches: Vec<(GpuParams, Batch)> = match &self.kernels {
+        // One submit per batch (a dispatch of the megakernel, a wave of a
+        // wave schedule), each with its own params; batches are made one
+        // at a time (a large render on a small adapter has billions).
+        let plan = match &self.kernels {
             Kernels::Megakernel(pipeline) => {
                 let target = if ctx.is_software {
                     PATHS_PER_DISPATCH_SOFTWARE
                 } else {
                     PATHS_PER_DISPATCH_GPU
                 };
-                let per_dispatch = (target / pixels.max(1)).clamp(1, settings.spp as u64) as u32;
-                let mut out = Vec::new();
-                let mut done = 0u32;
-                while done < settings.spp {
-                    let n = per_dispatch.min(settings.spp - done);
-                    let p = GpuParams {
-                        sample_start: done,
-                        sample_count: n,
-                        ..base
-                    };
-                    out.push((p, Batch::Dispatch(pipeline)));
-                    done += n;
-                }
-                out
+                let per = (target / pixels.max(1)).clamp(1, settings.spp as u64) as u32;
+                Plan::Dispatches { pipeline, per }
             }
             Kernels::Wavefront(w) => {
                 let slots = self
                     .wave_slots
                     .unwrap_or_else(|| wavefront::slots(ctx, pixels, settings.spp));
-                let mut cache = self
-                    .wave_cache
-                    .lock()
-                    .unwrap_or_else(|poisoned| poisoned.into_inner());
-                wave_buffers = match cache.as_ref() {
-                    Some(b) if b.slots >= slots => b.clone(),
-                    _ => {
-                        // Drop the old buffers before making the new ones.
-                        *cache = None;
-                        let b = std::sync::Arc::new(w.buffers(ctx, slots)?);
-                        *cache = Some(b.clone());
-                        b
+                let cached = self.wave_cache.lock().ok().and_then(|mut c| c.take());
+                let buffers = match cached {
+                    Some(b) if b.slots >= slots => b,
+                    cached => {
+                        // The old buffers go before the new ones are made.
+                        drop(cached);
+                        w.buffers(ctx, slots)?
                     }
                 };
-                wavefront::waves(pixels as u32, settings.spp, slots)
-                    .into_iter()
-                    .map(|wave| {
-                        (
-                            wavefront::wave_params(&base, wave, wave_buffers.slots),
-                            Batch::Wave(w, wave, &wave_buffers),
-                        )
-                    })
-                    .collect()
+                Plan::Waves {
+                    pipelines: w,
+                    waves: wavefront::Waves::new(pixels as u32, settings.spp, slots),
+                    buffers,
+                }
             }
         };
-        let dispatches = batches.len() as u32;
+        let batches = plan.count(settings.spp);
         // Two timestamps per batch; wgpu caps a query set at 4096 queries.
-        let timestamps = ctx.timestamps && dispatches * 2 <= 4096;
+        let timestamps = ctx.timestamps && batches <= 2048;
         let query_set = timestamps.then(|| {
             device.create_query_set(&wgpu::QuerySetDescriptor {
                 label: Some("kernel time"),
                 ty: wgpu::QueryType::Timestamp,
-                count: dispatches * 2,
+                count: batches as u32 * 2,
             })
         });
         let groups = (
@@ -519,10 +519,10 @@ impl<'a> GpuRenderer<'a> {
         );
         let total = settings.spp as u64 * pixels;
         let mut done = 0u64;
-        for (index, (params, batch)) in batches.iter().enumerate() {
-            let index = index as u32;
+        for index in 0..batches {
+            let params = plan.params(&base, index, settings.spp);
             ctx.queue
-                .write_buffer(&params_buf, 0, bytemuck::bytes_of(params));
+                .write_buffer(&params_buf, 0, bytemuck::bytes_of(&params));
             let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("render"),
             });
@@ -535,18 +535,23 @@ impl<'a> GpuRenderer<'a> {
                         .as_ref()
                         .map(|qs| wgpu::ComputePassTimestampWrites {
                             query_set: qs,
-                            beginning_of_pass_write_index: Some(2 * index),
-                            end_of_pass_write_index: Some(2 * index + 1),
+                            beginning_of_pass_write_index: Some(2 * index as u32),
+                            end_of_pass_write_index: Some(2 * index as u32 + 1),
                         });
                 let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                     label: Some("render"),
                     timestamp_writes,
                 });
-                match batch {
-                    Batch::Wave(w, wave, buffers) => {
-                        w.record(&mut pass, &bind_group, buffers, *wave, settings.max_depth);
+                match &plan {
+                    Plan::Waves {
+                        pipelines,
+                        waves,
+                        buffers,
+                    } => {
+                        let wave = waves.at(index);
+                        pipelines.record(&mut pass, &bind_group, buffers, wave, settings.max_depth);
                     }
-                    Batch::Dispatch(pipeline) => {
+                    Plan::Dispatches { pipeline, .. } => {
                         pass.set_pipeline(pipeline);
                         pass.set_bind_group(0, &bind_group, &[]);
                         pass.dispatch_workgroups(groups.0, groups.1, 1);
@@ -556,15 +561,20 @@ impl<'a> GpuRenderer<'a> {
             ctx.queue.submit([encoder.finish()]);
             ctx.wait()?;
             done += params.sample_count as u64
-                * match batch {
-                    Batch::Dispatch(_) => pixels,
-                    Batch::Wave(_, w, _) => w.pixel_count as u64,
+                * match &plan {
+                    Plan::Dispatches { .. } => pixels,
+                    Plan::Waves { .. } => params.wave_pixel_count as u64,
                 };
             progress(done, total);
         }
+        if let Plan::Waves { buffers, .. } = plan {
+            if let Ok(mut c) = self.wave_cache.lock() {
+                *c = Some(buffers);
+            }
+        }
         let gpu_pixels: Vec<GpuPixel> = read_buffer(ctx, &film, film_bytes)?;
         let gpu_time = match &query_set {
-            Some(qs) => Some(read_timestamps(ctx, qs, dispatches)?),
+            Some(qs) => Some(read_timestamps(ctx, qs, batches as u32)?),
             None => None,
         };
         let mut out = Film::new(settings.width, settings.height);
@@ -584,10 +594,13 @@ impl<'a> GpuRenderer<'a> {
                 m3: glam::DVec3::new(src.m3_r as f64, src.m3_g as f64, src.m3_b as f64),
             };
         }
+        if let Ok(mut c) = self.film_cache.lock() {
+            *c = Some(film);
+        }
         Ok(GpuRender {
             film: out,
             gpu_time,
-            dispatches,
+            dispatches: batches.min(u32::MAX as u64) as u32,
         })
     }
 }

@@ -10,7 +10,9 @@
 //! taken in an order that keeps each pixel's samples in sample order, so
 //! the film folds them exactly as the megakernel does. Each path computes
 //! what the megakernel's computes from the same keyed randoms: the films
-//! are equal bit for bit (tests/gpu_wavefront.rs).
+//! are equal, bit for bit or with means a few ulp apart where a driver
+//! contracts the two programs differently (`twintrace::twins::wavefront`,
+//! tests/gpu_wavefront.rs).
 
 use crate::bindings::{self, Binding};
 use crate::context::GpuContext;
@@ -46,6 +48,10 @@ pub const WAVE_SLOTS_SOFTWARE: u32 = 1 << 15;
 /// Storage buffers wf_prepare's pipeline layout holds (scene group, wave
 /// group, arguments): the wavefront needs an adapter with this many.
 pub const STORAGE_BUFFERS_NEEDED: u32 = 17;
+
+/// Storage buffers the path megakernel's layouts hold (scene group, wave
+/// group).
+pub const STORAGE_BUFFERS_NEEDED_PATHS: u32 = 16;
 
 /// How the wavefront stores a path's state.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -188,11 +194,17 @@ impl Pipelines {
         schedule: Schedule,
     ) -> Result<Self, GpuError> {
         let have = ctx.device.limits().max_storage_buffers_per_shader_stage;
-        if have < STORAGE_BUFFERS_NEEDED {
+        let need = if schedule == Schedule::PathMegakernel {
+            STORAGE_BUFFERS_NEEDED_PATHS
+        } else {
+            STORAGE_BUFFERS_NEEDED
+        };
+        if have < need {
             return Err(GpuError::UnsuitableAdapter {
                 adapter: ctx.adapter.name.clone(),
                 reason: format!(
-                    "it allows {have} storage buffers per shader stage, the wavefront kernels need {STORAGE_BUFFERS_NEEDED}"
+                    "it allows {have} storage buffers per shader stage, the {} kernels need {need} (--schedule megakernel needs fewer)",
+                    schedule.name()
                 ),
             });
         }
@@ -258,38 +270,70 @@ pub struct Wave {
 /// The waves of a render of `pixels` pixels and `spp` samples with `slots`
 /// path slots, in an order that gives every pixel its samples in sample
 /// order: when the image fits, every pixel and as many samples as fit;
-/// otherwise runs of pixels, one sample at a time.
-pub fn waves(pixels: u32, spp: u32, slots: u32) -> Vec<Wave> {
-    let mut out = Vec::new();
-    if pixels <= slots {
-        let per = (slots / pixels).clamp(1, spp.max(1));
-        let mut s = 0;
-        while s < spp {
-            let n = per.min(spp - s);
-            out.push(Wave {
-                pixel_start: 0,
-                pixel_count: pixels,
-                sample_start: s,
-                sample_count: n,
-            });
-            s += n;
+/// otherwise runs of pixels, one sample at a time. Indexed ([`Waves::at`])
+/// rather than listed: a large image on a small adapter can take billions.
+#[derive(Clone, Copy, Debug)]
+pub struct Waves {
+    pixels: u32,
+    spp: u32,
+    slots: u32,
+}
+
+impl Waves {
+    pub fn new(pixels: u32, spp: u32, slots: u32) -> Self {
+        Waves {
+            pixels: pixels.max(1),
+            spp,
+            slots: slots.max(1),
         }
-    } else {
-        for s in 0..spp {
-            let mut p = 0;
-            while p < pixels {
-                let n = slots.min(pixels - p);
-                out.push(Wave {
-                    pixel_start: p,
-                    pixel_count: n,
-                    sample_start: s,
-                    sample_count: 1,
-                });
-                p += n;
+    }
+
+    /// Samples a wave holds when the image fits its slots.
+    fn per_wave(&self) -> u32 {
+        (self.slots / self.pixels).clamp(1, self.spp.max(1))
+    }
+
+    /// Runs of pixels a sample takes when it does not.
+    fn runs(&self) -> u64 {
+        (self.pixels as u64).div_ceil(self.slots as u64)
+    }
+
+    pub fn count(&self) -> u64 {
+        if self.pixels <= self.slots {
+            (self.spp as u64).div_ceil(self.per_wave() as u64)
+        } else {
+            self.spp as u64 * self.runs()
+        }
+    }
+
+    /// Wave `i` of [`Self::count`].
+    pub fn at(&self, i: u64) -> Wave {
+        if self.pixels <= self.slots {
+            let per = self.per_wave();
+            let start = (i * per as u64) as u32;
+            Wave {
+                pixel_start: 0,
+                pixel_count: self.pixels,
+                sample_start: start,
+                sample_count: per.min(self.spp - start),
+            }
+        } else {
+            let (sample, run) = (i / self.runs(), i % self.runs());
+            let start = (run * self.slots as u64) as u32;
+            Wave {
+                pixel_start: start,
+                pixel_count: self.slots.min(self.pixels - start),
+                sample_start: sample as u32,
+                sample_count: 1,
             }
         }
     }
-    out
+}
+
+/// Every wave of [`Waves`], in order (for small renders and the tests).
+pub fn waves(pixels: u32, spp: u32, slots: u32) -> Vec<Wave> {
+    let w = Waves::new(pixels, spp, slots);
+    (0..w.count()).map(|i| w.at(i)).collect()
 }
 
 /// The path slots a wave gets on this adapter for an image of `pixels`
@@ -332,8 +376,8 @@ impl Pipelines {
         };
         let queue_bytes = QUEUE_HEADER_BYTES + queue_entries * 4;
         for (what, needed) in [
-            ("the wavefront's paths", path_bytes),
-            ("the wavefront's queues", queue_bytes),
+            ("a wave's path state", path_bytes),
+            ("a wave's queues", queue_bytes),
         ] {
             if needed > limit {
                 return Err(GpuError::TooLarge {

@@ -14,9 +14,10 @@
 //!   functions' `EDGE_ERROR_ULPS · u · L`) over the primitive's smallest
 //!   altitude. A swapped pair of barycentrics fails it.
 //!
-//! The primitive boxes (what the admits rule tests) are compared bit for
-//! bit: the GPU walks the reference's tree, so a box computed differently
-//! would refuse or admit other hits than the reference does.
+//! The primitive boxes (what the admits rule tests) are the reference's
+//! own: the host packs them into `GpuPrimitive`, so the GPU admits the
+//! hits the reference admits (tests/gpu_buffer_layout.rs checks the
+//! fields the kernel reads).
 
 use super::{camera_and_random_rays, ensure, run_kernel_with_library, Outcome};
 use crate::compare::gate::fixture_scene;

@@ -9,8 +9,7 @@
 //! - [`rng`]: the counter-based generator, bit for bit.
 //! - [`numerics`]: the float steps (bit for bit), GGX Λ and the sphere's
 //!   root choice at their limits, the cube root (1 ulp).
-//! - [`hits`]: hit records of the BVH walk (flag, primitive, t, uv) and
-//!   primitive boxes.
+//! - [`hits`]: hit records of the BVH walk (flag, primitive, t, uv).
 //! - [`surface`]: surface interactions and spawn points.
 //! - [`light`]: light samples (emitter, direction) and their densities.
 //! - [`specialization`]: the render kernel built for each scene's features
