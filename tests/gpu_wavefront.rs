@@ -147,3 +147,57 @@ fn a_traversal_poison_lost_between_kernels_is_caught() {
         "the dropped poison passed ({outcome:?})"
     );
 }
+
+/// A wave of more than 65,535 workgroups of 64 paths is dispatched as a
+/// two-dimensional grid (the kernels' flat index): one wave of 4,218,880
+/// paths of the path megakernel (4 words a slot: 69 MB, within lavapipe's
+/// 128 MB binding limit; the wavefront's 168-byte slots are not) on a
+/// scene whose rays nearly all miss (a small far sphere under a sky), so
+/// that lavapipe renders it in seconds, against the megakernel. A flat
+/// index that ignored the second row leaves the last 24,640 paths (samples
+/// 1024–1029) untraced: their zeros change every pixel's mean.
+#[test]
+fn a_wave_dispatched_as_a_two_dimensional_grid_renders_as_the_megakernel() {
+    let ctx = common::gpu();
+    let scene = twintrace::twins::hits::far_small_shapes(0)
+        .edited(|a| {
+            a.background = reference::background::Background::Sky {
+                horizon: glam::Vec3::ONE,
+                zenith: glam::Vec3::new(0.5, 0.7, 1.0),
+            }
+        })
+        .unwrap();
+    // 64 · 64 · 1030 = 4,218,880 paths: 65,920 workgroups, two rows.
+    let settings = reference::RenderSettings {
+        width: 64,
+        height: 64,
+        spp: 1030,
+        max_depth: 4,
+        ..scene.render_settings()
+    };
+    let paths = 64 * 64 * 1030u32;
+    assert!(gpu::wavefront::grid(paths as u64).1 == 2);
+    let film = |schedule| {
+        let mut r = gpu::GpuRenderer::with_variant(
+            ctx,
+            &scene,
+            Integrator::Bsdf,
+            gpu::Kernel::Specialized,
+            schedule,
+        )
+        .unwrap();
+        r.set_wave_slots(Some(paths));
+        let out = r.render(&settings, &|_, _| {}).unwrap();
+        twintrace::twins::specialization::film_words(&out.film)
+    };
+    let mega = film(gpu::Schedule::Megakernel);
+    // Not vacuous: every pixel sees the sky (a path left untraced would
+    // fold a zero).
+    for p in mega.chunks(twintrace::twins::specialization::WORDS_PER_PIXEL) {
+        assert!(f64::from_bits(p[2]) > 0.0, "a pixel's mean is not positive");
+    }
+    let paths_film = film(gpu::Schedule::PathMegakernel);
+    if let Err(e) = twintrace::twins::wavefront::compare_words(&mega, &paths_film) {
+        panic!("{e}");
+    }
+}

@@ -93,19 +93,23 @@ pub fn variant_film_bits(
             .render(&settings, &|_, _| {})
             .map_err(|e| e.to_string())?
             .film;
-        films.push(
-            film.pixels
-                .iter()
-                .flat_map(|p| {
-                    let moments = [p.mean, p.m2, p.m3].map(|v| v.to_array().map(f64::to_bits));
-                    [p.count as u64, p.nonfinite as u64]
-                        .into_iter()
-                        .chain(moments.into_iter().flatten())
-                })
-                .collect(),
-        );
+        films.push(film_words(&film));
     }
     Ok(films)
+}
+
+/// A film as words: per pixel the count, the rejected samples, then the
+/// mean, M2 and M3 as f64 bits ([`WORDS_PER_PIXEL`]).
+pub fn film_words(film: &reference::film::Film) -> Vec<u64> {
+    film.pixels
+        .iter()
+        .flat_map(|p| {
+            let moments = [p.mean, p.m2, p.m3].map(|v| v.to_array().map(f64::to_bits));
+            [p.count as u64, p.nonfinite as u64]
+                .into_iter()
+                .chain(moments.into_iter().flatten())
+        })
+        .collect()
 }
 
 /// The first pixel where two [`film_bits`] films differ.

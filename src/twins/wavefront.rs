@@ -173,8 +173,16 @@ fn ulps(a: u64, b: u64) -> u64 {
     key(a).abs_diff(key(b))
 }
 
-/// The rule of the module docs on two [`super::specialization::film_bits`]
-/// films.
+/// The rule of the module docs on two films as
+/// [`super::specialization::film_words`]: the pixels not bit for bit and
+/// their largest mean difference in ulp, or the first pixel that breaks it.
+pub fn compare_words(mega: &[u64], wave: &[u64]) -> Result<(usize, u64), String> {
+    let mut inexact = Inexact::default();
+    compare_films(mega, wave, &mut inexact)?;
+    Ok((inexact.pixels, inexact.mean_ulp))
+}
+
+/// [`compare_words`], accumulating into `inexact`.
 fn compare_films(mega: &[u64], wave: &[u64], inexact: &mut Inexact) -> Result<(), String> {
     let pixels = mega.len() / WORDS_PER_PIXEL;
     for (i, (m, w)) in mega
