@@ -21,7 +21,9 @@
 //! code, which lavapipe holds bit for bit, so they are not compared there.
 //! The summary line says how many pixels were not bit for bit.
 
-use super::specialization::{counts, scene_specs, variant_film_bits, SIZE, WORDS_PER_PIXEL};
+use super::specialization::{
+    counts, film_bits, scene_specs, variant_film_bits, SIZE, WORDS_PER_PIXEL,
+};
 use super::Outcome;
 use gpu::features::Kernel;
 use gpu::{GpuContext, Schedule};
@@ -47,16 +49,7 @@ pub fn compare_scene(
     program: &str,
 ) -> Result<(usize, u64), String> {
     let features = Kernel::Specialized.features(scene);
-    let mega = variant_film_bits(
-        ctx,
-        scene,
-        &gpu::shader::render_source(),
-        integrator,
-        features,
-        Schedule::Megakernel,
-        &[None],
-    )?
-    .remove(0);
+    let mega = film_bits(ctx, scene, integrator, features)?;
     // Not a vacuous comparison: the megakernel counted every sample.
     let (width, height, spp) = SIZE;
     let (counted, rejected) = counts(&mega);
@@ -108,16 +101,7 @@ pub fn compare_poisoned(
     program: &str,
     features: gpu::Features,
 ) -> Result<(), String> {
-    let mega = variant_film_bits(
-        ctx,
-        scene,
-        &gpu::shader::render_source(),
-        integrator,
-        features,
-        Schedule::Megakernel,
-        &[None],
-    )?
-    .remove(0);
+    let mega = film_bits(ctx, scene, integrator, features)?;
     let (_, rejected) = counts(&mega);
     if rejected == 0 {
         return Err(format!(
