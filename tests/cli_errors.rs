@@ -222,6 +222,29 @@ fn gpu_backend_renders_and_info_lists_the_adapter() {
     );
 }
 
+/// An error inside a scene file is said once (the file, the field, the
+/// problem), not once more as its own cause.
+#[test]
+fn a_scene_error_is_printed_once() {
+    let scene = r#"{ "camera": { "look_from": [0, 0, 5], "look_at": [0, 0, 0] },
+  "render": { "max_depth": 100000 },
+  "materials": { "m": { "type": "lambertian", "albedo": [0.5, 0.5, 0.5] } },
+  "objects": [ { "type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "m" } ] }"#;
+    let err = fails(
+        &[("deep.json", scene)],
+        &["render", "deep.json", "--backend", "cpu", "-o", "out"],
+    );
+    assert_eq!(
+        err.matches("must be between 1 and 1024").count(),
+        1,
+        "{err}"
+    );
+    assert!(
+        err.contains("deep.json") && err.contains("render.max_depth"),
+        "{err}"
+    );
+}
+
 #[test]
 fn unknown_builtin_scene() {
     let e = fails(&[], &["render", "no-such-builtin", "-o", "out"]);

@@ -245,3 +245,33 @@ fn unknown_builtin_is_reported() {
         "{e}"
     );
 }
+
+/// Nothing but whitespace may follow the scene's JSON object; the error
+/// gives the line and column of the first stray character.
+#[test]
+fn trailing_content_after_the_scene_is_an_error() {
+    let ok = scene_with(r#"{ "type": "sphere", "center": [0,0,0], "radius": 1, "material": "m" }"#);
+    let msg = error_of(&format!("{ok}\n }}}}}}"));
+    assert!(
+        msg.contains("scene.json:4:2") && msg.contains("trailing characters"),
+        "{msg}"
+    );
+    // Trailing whitespace is fine.
+    let dir = tempfile::tempdir().unwrap();
+    let p = write_scene(dir.path(), "ok.json", &format!("{ok}\n \n"));
+    assert!(reference::load_scene(p.to_str().unwrap()).is_ok());
+}
+
+/// Every image a document names is read at load time, used or not.
+#[test]
+fn an_image_texture_no_material_uses_must_still_exist() {
+    let text = format!(
+        r#"{{ {HEADER},
+  "textures": {{ "wood": {{ "type": "image", "path": "no-such-wood.png" }} }},
+  "objects": [ {{ "type": "sphere", "center": [0,0,0], "radius": 1, "material": "m" }} ] }}"#
+    );
+    check(
+        &text,
+        &["textures.wood.path", "no material uses", "no-such-wood.png"],
+    );
+}

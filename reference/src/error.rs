@@ -21,11 +21,13 @@ pub enum SceneError {
     /// A file the scene refers to (or the scene itself) cannot be read.
     #[error("{path}: {message}", path = path.display())]
     Io { path: PathBuf, message: String },
-    /// A problem inside a scene file, with the file named.
-    #[error("{path}: {source}", path = path.display())]
+    /// A problem inside a scene file, with the file named. The problem is
+    /// part of this message and not an error source, so that a printer of
+    /// the source chain (anyhow's `{:#}`) does not say it twice.
+    #[error("{path}: {problem}", path = path.display())]
     InFile {
         path: PathBuf,
-        source: Box<SceneError>,
+        problem: Box<SceneError>,
     },
     /// A built-in scene name that does not exist.
     #[error("unknown built-in scene `{0}` (known: {known})", known = crate::builtin::NAMES.join(", "))]
@@ -61,7 +63,7 @@ impl SceneError {
             e @ (SceneError::Parse { .. } | SceneError::Io { .. } | SceneError::InFile { .. }) => e,
             e => SceneError::InFile {
                 path: path.into(),
-                source: Box::new(e),
+                problem: Box::new(e),
             },
         }
     }

@@ -321,7 +321,20 @@ pub struct SceneJson {
 /// line and column.
 pub fn parse_scene_json(text: &str, path: &Path) -> Result<SceneJson, SceneError> {
     let de = &mut serde_json::Deserializer::from_str(text);
-    let parsed: Result<SceneJson, _> = serde_path_to_error::deserialize(de);
+    let parsed: Result<SceneJson, _> = serde_path_to_error::deserialize(&mut *de);
+    // Nothing but whitespace may follow the scene's object: `{...} }}}` is
+    // a broken file, not a scene.
+    if parsed.is_ok() {
+        if let Err(e) = de.end() {
+            return Err(SceneError::Parse {
+                path: path.to_path_buf(),
+                line: e.line(),
+                column: e.column(),
+                field: "(document)".into(),
+                message: "trailing characters after the scene's JSON object".into(),
+            });
+        }
+    }
     parsed.map_err(|e| {
         let mut field = e.path().to_string();
         let inner = e.inner();
@@ -741,6 +754,21 @@ pub fn build_scene(doc: &SceneJson, base: &Path) -> Result<Scene, SceneError> {
     for (i, o) in doc.objects.iter().enumerate() {
         r.object(o)
             .map_err(|e| e.within(&format!("objects[{i}]")))?;
+    }
+    // Every file the document names is read, used or not: a typo in the
+    // path of a texture no material uses yet must not go unnoticed.
+    for (name, t) in &doc.textures {
+        if let TextureJson::Image(ImageTextureJson { path, srgb }) = t {
+            let full = base.join(path);
+            if !r.images.contains_key(&(full.clone(), *srgb)) {
+                load_image(&full, *srgb).map_err(|e| {
+                    SceneError::invalid(
+                        &format!("textures.{name}.path"),
+                        format!("(a texture no material uses) {e}"),
+                    )
+                })?;
+            }
+        }
     }
     if doc.camera.is_none() && !doc.objects.iter().any(|o| matches!(o, ObjectJson::Gltf(_))) {
         return Err(SceneError::invalid(
