@@ -253,11 +253,16 @@ fn size_arg(size: &str) -> Result<(u32, u32)> {
 }
 
 /// Loads a scene; an error without a file name gets the scene's name.
+/// Each of the scene's warnings goes to stderr as one `warning:` line.
 pub fn load_scene(spec: &str) -> Result<Scene> {
-    reference::load_scene(spec).map_err(|e| match e {
+    let scene = reference::load_scene(spec).map_err(|e| match e {
         e @ SceneError::Invalid { .. } => anyhow!("scene `{spec}`: {e}"),
         e => anyhow!(e),
-    })
+    })?;
+    for w in scene.warnings() {
+        eprintln!("warning: {w}");
+    }
+    Ok(scene)
 }
 
 /// The device a render runs on, once chosen.

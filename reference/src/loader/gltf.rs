@@ -8,6 +8,11 @@
 //!   `SceneBuilder::add_mesh` per primitive instance (the `gltf` object);
 //! - [`load_gltf_document`]: a whole document as a [`Scene`].
 //!
+//! Extensions: the importer implements those of [`SUPPORTED_EXTENSIONS`]. A
+//! document whose `extensionsRequired` names another is refused, naming
+//! it; other extensions in `extensionsUsed` are ignored with one warning
+//! line ([`Scene::warnings`], printed by the CLI).
+//!
 //! Which nodes: the default scene, else the first scene; a document without
 //! scenes contributes every mesh once, untransformed. Nodes are walked
 //! depth first in document order; a node reached twice (the hierarchy is
@@ -174,6 +179,13 @@ fn import_scene(
     take_camera: bool,
 ) -> Result<ImportSummary, SceneError> {
     let file = GltfFile::open(path)?;
+    if !file.ignored_extensions.is_empty() {
+        builder.warnings.push(format!(
+            "{}: glTF extensions not supported, ignored: {}",
+            path.display(),
+            file.ignored_extensions.join(", ")
+        ));
+    }
     let mut importer = Importer {
         file: &file,
         images: HashMap::new(),
@@ -271,12 +283,18 @@ fn apply_camera(
     true
 }
 
+/// The glTF extensions the importer implements.
+pub const SUPPORTED_EXTENSIONS: &[&str] = &["KHR_materials_emissive_strength"];
+
 /// A parsed document with its buffers loaded.
 struct GltfFile {
     path: PathBuf,
     base: PathBuf,
     document: Document,
     buffers: Vec<BufferData>,
+    /// Extensions the document uses (without requiring them) that the
+    /// importer ignores.
+    ignored_extensions: Vec<String>,
 }
 
 impl GltfFile {
@@ -292,6 +310,21 @@ impl GltfFile {
         let gltf::Gltf { document, mut blob } =
             gltf::Gltf::from_slice(&bytes).map_err(|e| fail(format!("cannot read glTF: {e}")))?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        let unsupported = |names: &mut dyn Iterator<Item = &str>| -> Vec<String> {
+            names
+                .filter(|n| !SUPPORTED_EXTENSIONS.contains(n))
+                .map(str::to_string)
+                .collect()
+        };
+        let required = unsupported(&mut document.extensions_required());
+        if !required.is_empty() {
+            return Err(fail(format!(
+                "requires glTF extensions this importer does not support: {} (supported: {})",
+                required.join(", "),
+                SUPPORTED_EXTENSIONS.join(", ")
+            )));
+        }
+        let ignored_extensions = unsupported(&mut document.extensions_used());
         check_uris(&document).map_err(&fail)?;
         check_views(&document).map_err(&fail)?;
         let mut buffers = Vec::new();
@@ -325,6 +358,7 @@ impl GltfFile {
             base,
             document,
             buffers,
+            ignored_extensions,
         })
     }
 
@@ -1141,6 +1175,74 @@ mod tests {
                 "accessors": [accessor],
             }),
         )
+    }
+
+    /// The triangle document with `extensionsUsed` and `extensionsRequired`.
+    fn with_extensions(used: &[&str], required: &[&str]) -> Vec<u8> {
+        let mut doc: serde_json::Value = serde_json::from_slice(&triangle_doc(
+            serde_json::json!({ "mesh": 0 }),
+            serde_json::Value::Null,
+        ))
+        .unwrap();
+        doc["extensionsUsed"] = serde_json::json!(used);
+        if !required.is_empty() {
+            doc["extensionsRequired"] = serde_json::json!(required);
+        }
+        serde_json::to_vec(&doc).unwrap()
+    }
+
+    #[test]
+    fn required_extensions_the_importer_lacks_are_an_error_naming_them() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = write(
+            dir.path(),
+            "draco.gltf",
+            &with_extensions(
+                &[
+                    "KHR_draco_mesh_compression",
+                    "KHR_materials_emissive_strength",
+                ],
+                &["KHR_draco_mesh_compression"],
+            ),
+        );
+        let Err(e) = load_gltf_document(&p) else {
+            panic!("a required extension the importer lacks was accepted");
+        };
+        let e = e.to_string();
+        assert!(
+            e.contains("draco.gltf") && e.contains("KHR_draco_mesh_compression"),
+            "{e}"
+        );
+        assert!(load_gltf_mesh(&p).is_err());
+        // A required extension the importer has is fine.
+        let p = write(
+            dir.path(),
+            "emissive.gltf",
+            &with_extensions(
+                &["KHR_materials_emissive_strength"],
+                &["KHR_materials_emissive_strength"],
+            ),
+        );
+        let scene = load_gltf_document(&p).unwrap();
+        assert!(scene.warnings().is_empty(), "{:?}", scene.warnings());
+    }
+
+    #[test]
+    fn used_extensions_the_importer_lacks_are_one_warning() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = write(
+            dir.path(),
+            "clearcoat.gltf",
+            &with_extensions(&["KHR_materials_clearcoat", "KHR_texture_transform"], &[]),
+        );
+        let scene = load_gltf_document(&p).unwrap();
+        assert_eq!(scene.warnings().len(), 1, "{:?}", scene.warnings());
+        let w = &scene.warnings()[0];
+        assert!(
+            w.contains("clearcoat.gltf")
+                && w.contains("KHR_materials_clearcoat, KHR_texture_transform"),
+            "{w}"
+        );
     }
 
     #[test]

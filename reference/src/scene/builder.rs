@@ -28,6 +28,9 @@ pub struct SceneBuilder {
     pub camera: CameraSettings,
     pub render: RenderSettings,
     pub background: Option<Background>,
+    /// What the loaders ignored and the user should hear of (one line
+    /// each), kept with the scene ([`Scene::warnings`]).
+    pub warnings: Vec<String>,
     spheres: Vec<Sphere>,
     quads: Vec<Quad>,
     triangles: Vec<Triangle>,
@@ -529,6 +532,7 @@ impl SceneBuilder {
             leaf_bounds: Vec::new(),
             leaf_blocks: Vec::new(),
             quad_blocks: Vec::new(),
+            warnings: self.warnings,
         };
         scene.put_bvh(bvh);
         Ok(scene)

@@ -86,9 +86,18 @@ pub struct Scene {
     leaf_blocks: Vec<LeafBlock>,
     /// The lanes of the leaves of quads, by [`LeafBlock`]'s index.
     quad_blocks: Vec<Quads4>,
+    /// What the loaders ignored ([`SceneBuilder::warnings`]).
+    warnings: Vec<String>,
 }
 
 impl Scene {
+    /// What the loaders ignored and the user should hear of, one line each
+    /// (e.g. glTF extensions the importer does not support and the file
+    /// does not require).
+    pub fn warnings(&self) -> &[String] {
+        &self.warnings
+    }
+
     /// The camera for an image of `width x height`.
     pub fn camera(&self, width: u32, height: u32) -> Camera {
         Camera::new(&self.camera_settings, width as f32 / height as f32)
