@@ -82,7 +82,6 @@ struct WaveArgs {
     shade_z: u32,
 }
 
-const WAVE_GROUP: u32 = 64u;
 
 fn path_index(slot: u32, field: u32) -> u32 {
     if PATH_SOA {
@@ -198,12 +197,12 @@ fn wf_generate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
 // Indirect dispatch arguments for n invocations: at most 65,535
 // workgroups a dimension (the flat index skips the surplus).
 fn grid_x(n: u32) -> u32 {
-    return min((n + WAVE_GROUP - 1u) / WAVE_GROUP, 65535u);
+    return min((n + WAVE_GROUP - 1u) / WAVE_GROUP, MAX_GROUPS_PER_DIMENSION);
 }
 
 fn grid_y(n: u32) -> u32 {
     let groups = (n + WAVE_GROUP - 1u) / WAVE_GROUP;
-    return max((groups + 65534u) / 65535u, 1u);
+    return max((groups + MAX_GROUPS_PER_DIMENSION - 1u) / MAX_GROUPS_PER_DIMENSION, 1u);
 }
 
 @compute @workgroup_size(1, 1, 1)

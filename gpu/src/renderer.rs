@@ -360,7 +360,7 @@ impl<'a> GpuRenderer<'a> {
     }
 
     /// Sets the wavefront's path slots per wave (`None`: fill the
-    /// adapter, `wavefront::slots`): the tests split a small render into
+    /// adapter, `wavefront::Pipelines::slots`): the tests split a small render into
     /// many waves with it. No effect on the megakernel.
     pub fn set_wave_slots(&mut self, slots: Option<u32>) {
         self.wave_slots = slots.map(|s| s.max(1));
@@ -486,7 +486,7 @@ impl<'a> GpuRenderer<'a> {
             Kernels::Wavefront(w) => {
                 let slots = self
                     .wave_slots
-                    .unwrap_or_else(|| wavefront::slots(ctx, pixels, settings.spp));
+                    .unwrap_or_else(|| w.slots(ctx, pixels, settings.spp));
                 let cached = self.wave_cache.lock().ok().and_then(|mut c| c.take());
                 let buffers = match cached {
                     Some(b) if b.slots >= slots => b,

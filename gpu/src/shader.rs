@@ -172,16 +172,26 @@ pub fn render_source() -> String {
 }
 
 /// The wavefront program: the render program, the wavefront's bindings
-/// ([`bindings::WAVE_GROUP`], [`bindings::WAVE_ARGS`]) and path size, and
-/// its kernels.
+/// ([`bindings::WAVE_GROUP`], [`bindings::WAVE_ARGS`]) and the constants
+/// it shares with `gpu::wavefront` (slot sizes, workgroup size, grid
+/// limit), and its kernels.
 pub fn wavefront_source() -> String {
     let mut declarations = bindings::wgsl_declarations(&bindings::WAVE_GROUP);
     declarations += &bindings::WAVE_ARGS.wgsl();
-    declarations += &format!(
-        "const PATH_WORDS: u32 = {}u;\nconst PATH_MEGAKERNEL_WORDS: u32 = {}u;\n",
-        crate::wavefront::PATH_WORDS,
-        crate::wavefront::PATH_MEGAKERNEL_WORDS
-    );
+    for (name, v) in [
+        ("PATH_WORDS", crate::wavefront::PATH_WORDS),
+        (
+            "PATH_MEGAKERNEL_WORDS",
+            crate::wavefront::PATH_MEGAKERNEL_WORDS,
+        ),
+        ("WAVE_GROUP", crate::wavefront::WAVE_GROUP),
+        (
+            "MAX_GROUPS_PER_DIMENSION",
+            crate::wavefront::MAX_GROUPS_PER_DIMENSION,
+        ),
+    ] {
+        declarations += &format!("const {name}: u32 = {v}u;\n");
+    }
     [
         render_source().as_str(),
         declarations.as_str(),

@@ -29,8 +29,13 @@ pub const PATH_WORDS: u32 = 42;
 /// words of each slot are allocated).
 pub const PATH_MEGAKERNEL_WORDS: u32 = 4;
 
-/// Invocations per workgroup of the wavefront kernels (`WAVE_GROUP`).
+/// Invocations per workgroup of the wavefront kernels (`WAVE_GROUP` in
+/// the WGSL, generated from this).
 pub const WAVE_GROUP: u32 = 64;
+
+/// The most workgroups a dispatch takes in one dimension (WebGPU's
+/// default `maxComputeWorkgroupsPerDimension`); more make a second row.
+pub const MAX_GROUPS_PER_DIMENSION: u32 = 65_535;
 
 /// Bytes of `WaveQueues` before its entries.
 const QUEUE_HEADER_BYTES: u64 = 24;
@@ -85,6 +90,13 @@ impl Schedule {
     /// Every schedule, for the tests and the CLI.
     pub const ALL: [Schedule; 4] = [
         Schedule::Megakernel,
+        Self::WAVES[0],
+        Self::WAVES[1],
+        Self::WAVES[2],
+    ];
+
+    /// The schedules other than the megakernel, which is their oracle.
+    pub const WAVES: [Schedule; 3] = [
         Schedule::Wavefront(PathLayout::Aos),
         Schedule::Wavefront(PathLayout::Soa),
         Schedule::PathMegakernel,
@@ -336,23 +348,37 @@ pub fn waves(pixels: u32, spp: u32, slots: u32) -> Vec<Wave> {
     (0..w.count()).map(|i| w.at(i)).collect()
 }
 
-/// The path slots a wave gets on this adapter for an image of `pixels`
-/// (never more than the image's paths need, nor than the adapter's
-/// largest storage binding holds).
-pub fn slots(ctx: &GpuContext, pixels: u64, spp: u32) -> u32 {
-    let target = if ctx.is_software {
-        WAVE_SLOTS_SOFTWARE
-    } else {
-        WAVE_SLOTS_GPU
-    };
-    let limit = ctx.device.limits().max_storage_buffer_binding_size;
-    let by_limit =
-        (limit / (PATH_WORDS as u64 * 4)).min(limit.saturating_sub(QUEUE_HEADER_BYTES) / 16);
-    let need = pixels.saturating_mul(spp as u64).max(1);
-    target
-        .min(by_limit.min(u32::MAX as u64) as u32)
-        .min(need.min(u32::MAX as u64) as u32)
-        .max(1)
+impl Pipelines {
+    /// The path slots a wave gets on this adapter for an image of `pixels`
+    /// (never more than the image's paths need, nor than the adapter's
+    /// largest storage binding holds of this schedule's slots and queues).
+    pub fn slots(&self, ctx: &GpuContext, pixels: u64, spp: u32) -> u32 {
+        let target = if ctx.is_software {
+            WAVE_SLOTS_SOFTWARE
+        } else {
+            WAVE_SLOTS_GPU
+        };
+        let limit = ctx.device.limits().max_storage_buffer_binding_size;
+        let queue_words = self.queue_words_per_slot();
+        let mut by_limit = limit / (self.words as u64 * 4);
+        if queue_words > 0 {
+            by_limit = by_limit.min(limit.saturating_sub(QUEUE_HEADER_BYTES) / (queue_words * 4));
+        }
+        let need = pixels.saturating_mul(spp as u64).max(1);
+        target
+            .min(by_limit.min(u32::MAX as u64) as u32)
+            .min(need.min(u32::MAX as u64) as u32)
+            .max(1)
+    }
+
+    /// Queue entries a slot needs: two live-path queues and up to two rays
+    /// (the path megakernel queues nothing).
+    fn queue_words_per_slot(&self) -> u64 {
+        match self.stages {
+            Stages::Paths(_) => 0,
+            Stages::Bounces { .. } => 4,
+        }
+    }
 }
 
 /// The buffers of a render's waves.
@@ -370,10 +396,7 @@ impl Pipelines {
         let path_bytes = slots as u64 * self.words as u64 * 4;
         // The path megakernel queues nothing (one entry: a binding may not
         // be empty).
-        let queue_entries = match self.stages {
-            Stages::Paths(_) => 1,
-            Stages::Bounces { .. } => 4 * slots as u64,
-        };
+        let queue_entries = (self.queue_words_per_slot() * slots as u64).max(1);
         let queue_bytes = QUEUE_HEADER_BYTES + queue_entries * 4;
         for (what, needed) in [
             ("a wave's path state", path_bytes),
@@ -482,7 +505,7 @@ impl Pipelines {
 /// computes the same for its indirect dispatches.
 pub fn grid(n: u64) -> (u32, u32) {
     let groups = n.div_ceil(WAVE_GROUP as u64).max(1);
-    let x = groups.min(65_535);
+    let x = groups.min(MAX_GROUPS_PER_DIMENSION as u64);
     (x as u32, groups.div_ceil(x) as u32)
 }
 
