@@ -1,6 +1,11 @@
-// The BVH walk over the binary node array and its box test: the twin of
-// reference/src/bvh/ (the walk the reference runs on the wide collapse
-// of the same nodes) and reference::Scene::intersect.
+// The BVH walks and their box test: the twin of reference/src/bvh/ (the
+// walk the reference runs on its 8-wide collapse of the same nodes) and
+// reference::Scene::intersect. The binary walk reads the node array as
+// the reference built it; the four-wide walk reads gpu::traversal's
+// records of the same tree (brute force is the binary walk over one leaf).
+
+// Which walk `nodes` holds records for (gpu::traversal::Traversal::tag).
+override TRAVERSAL: u32 = TRAVERSAL_BINARY;
 
 // Slab test; see reference::bvh::intersect_aabb. WGSL leaves min/max of NaN
 // undefined, so zero direction components are replaced (in inv_dir, by the
@@ -47,9 +52,170 @@ fn node_max(n: BvhNode) -> vec3<f32> {
     return vec3<f32>(n.max_x, n.max_y, n.max_z);
 }
 
-// Closest hit: iterative, explicit stack, near child first; ties in t go to
-// the smaller primitive id (as on the CPU).
+// Closest hit by the walk the records are for; every walk tests the same
+// primitives the same way, so they return the same hit.
 fn bvh_intersect(ray: Ray, t_min: f32, t_max: f32) -> Hit {
+    if TRAVERSAL == TRAVERSAL_WIDE {
+        return bvh_intersect_wide(ray, t_min, t_max);
+    }
+    return bvh_intersect_binary(ray, t_min, t_max);
+}
+
+// How leaf_entries holds the leaves (gpu::traversal::LeafLayout::tag).
+override LEAVES: u32 = LEAVES_INDEXED;
+
+// A leaf's entries offered to `best`: ties in t go to the smaller primitive
+// id (as on the CPU), so the order leaves are met in does not matter.
+fn intersect_leaf(first: u32, count: u32, ray: Ray, inv_dir: vec3<f32>, pad: f32, t_min: f32, best_in: Hit) -> Hit {
+    var best = best_in;
+    for (var i = 0u; i < count; i++) {
+        var limit = best.t;
+        if best.hit {
+            limit = next_up(best.t);
+        }
+        let entry = first + i;
+        var prim: u32;
+        var h: ShapeHit;
+        if LEAVES == LEAVES_INLINE {
+            let e = INLINE_WORDS * entry;
+            let r0 = leaf_entries[e];
+            prim = r0.x & ((1u << INLINE_TAG_SHIFT) - 1u);
+            h = intersect_inline(r0, leaf_entries[e + 1u], leaf_entries[e + 2u], leaf_entries[e + 3u], ray, inv_dir, pad, t_min, limit);
+        } else {
+            prim = leaf_entries[entry >> 2u][entry & 3u];
+            h = intersect_primitive(prim, ray, inv_dir, pad, t_min, limit);
+        }
+        if h.hit && (!best.hit || h.t < best.t || (h.t == best.t && prim < best.prim)) {
+            best = Hit(true, h.t, prim, h.uv);
+        }
+    }
+    return best;
+}
+
+// intersect_primitive on an inline leaf entry (gpu::traversal::
+// inline_entries): kind and id, the admits box, then the shape's nine
+// floats, the same floats the indexed records hold.
+fn intersect_inline(r0: vec4<u32>, r1: vec4<u32>, r2: vec4<u32>, r3: vec4<u32>, ray: Ray, inv_dir: vec3<f32>, pad: f32, t_min: f32, t_max: f32) -> ShapeHit {
+    let a = bitcast<vec3<f32>>(vec3<u32>(r1.w, r2.x, r2.y));
+    let b = bitcast<vec3<f32>>(vec3<u32>(r2.z, r2.w, r3.x));
+    let c = bitcast<vec3<f32>>(r3.yzw);
+    var h = no_hit();
+    switch r0.x >> INLINE_TAG_SHIFT {
+        case PRIMITIVE_SPHERE: {
+            if !uses(FEATURE_SPHERES) { poison(); break; }
+            h = intersect_sphere(a, b.x, ray, t_min, t_max);
+        }
+        case PRIMITIVE_QUAD: {
+            if !uses(FEATURE_QUADS) { poison(); break; }
+            h = intersect_quad(a, b, c, ray, t_min, t_max);
+        }
+        case PRIMITIVE_TRIANGLE: {
+            if !uses(FEATURE_TRIANGLES) { poison(); break; }
+            h = intersect_triangle(a, b, c, ray, t_min, t_max);
+        }
+        default: {
+            poison();
+        }
+    }
+    if h.hit {
+        let lo = bitcast<vec3<f32>>(r0.yzw);
+        let hi = bitcast<vec3<f32>>(r1.xyz);
+        if intersect_aabb(lo, hi, ray.origin, inv_dir, pad, h.t) < 0.0 {
+            return no_hit();
+        }
+    }
+    return h;
+}
+
+// A lane of the four-wide walk, tested: its box's entry distance and what
+// the walk enters for it (a wide node's index, or a leaf lane's record
+// index with WIDE_LEAF_ENTRY set); F32_MAX and WIDE_EMPTY where the ray
+// misses the box or the lane is unused.
+struct WideLane {
+    t: f32,
+    entry: u32,
+}
+
+fn wide_lane(record: u32, origin: vec3<f32>, inv_dir: vec3<f32>, pad: f32, t_max: f32) -> WideLane {
+    let n = nodes[record];
+    if n.meta_bits == WIDE_EMPTY {
+        return WideLane(F32_MAX, WIDE_EMPTY);
+    }
+    let t = intersect_aabb(node_min(n), node_max(n), origin, inv_dir, pad, t_max);
+    if t < 0.0 {
+        return WideLane(F32_MAX, WIDE_EMPTY);
+    }
+    if (n.meta_bits & 3u) == BVH_LEAF {
+        return WideLane(t, WIDE_LEAF_ENTRY | record);
+    }
+    return WideLane(t, n.index);
+}
+
+// The four-wide walk: record 0 is the root's box, wide node w the lanes
+// 1 + 4w .. 1 + 4w + 3 (unused lanes last, meta WIDE_EMPTY). A node's four
+// lanes are tested, sorted near to far (a sorting network over four
+// values held in registers), the nearest entered and the others stacked
+// far first, leaves among them: a leaf is tested when the walk reaches
+// it, so leaves are met roughly front to back, as the binary walk meets
+// them (gpu::traversal::wide_records checks that the stack holds every
+// deferred lane).
+fn bvh_intersect_wide(ray: Ray, t_min: f32, t_max: f32) -> Hit {
+    var best = Hit(false, t_max, 0u, vec2<f32>(0.0));
+    let inv_dir = safe_inv_dir(ray.direction);
+    let root = nodes[0];
+    let pad = box_pad(node_min(root), node_max(root), ray.origin, ray.direction);
+    if intersect_aabb(node_min(root), node_max(root), ray.origin, inv_dir, pad, best.t) < 0.0 {
+        return best;
+    }
+    var stack: array<u32, BVH_STACK_SIZE>;
+    var sp = 0u;
+    var entry = 0u;
+    loop {
+        if (entry & WIDE_LEAF_ENTRY) != 0u {
+            let n = nodes[entry & ~WIDE_LEAF_ENTRY];
+            best = intersect_leaf(n.index, n.meta_bits >> 2u, ray, inv_dir, pad, t_min, best);
+        } else {
+            let base = 1u + WIDE_LANES * entry;
+            var a = wide_lane(base, ray.origin, inv_dir, pad, best.t);
+            var b = wide_lane(base + 1u, ray.origin, inv_dir, pad, best.t);
+            var c = wide_lane(base + 2u, ray.origin, inv_dir, pad, best.t);
+            var d = wide_lane(base + 3u, ray.origin, inv_dir, pad, best.t);
+            if b.t < a.t { let x = a; a = b; b = x; }
+            if d.t < c.t { let x = c; c = d; d = x; }
+            if c.t < a.t { let x = a; a = c; c = x; }
+            if d.t < b.t { let x = b; b = d; d = x; }
+            if c.t < b.t { let x = b; b = c; c = x; }
+            if a.entry != WIDE_EMPTY {
+                if d.entry != WIDE_EMPTY {
+                    stack[sp] = d.entry;
+                    sp += 1u;
+                }
+                if c.entry != WIDE_EMPTY {
+                    stack[sp] = c.entry;
+                    sp += 1u;
+                }
+                if b.entry != WIDE_EMPTY {
+                    stack[sp] = b.entry;
+                    sp += 1u;
+                }
+                entry = a.entry;
+                continue;
+            }
+        }
+        if sp == 0u {
+            break;
+        }
+        sp -= 1u;
+        entry = stack[sp];
+    }
+    return best;
+}
+
+// The binary walk: iterative, explicit stack, near child first. (Keeping
+// the entered child's record from its box test, rather than reading it
+// again, measured no faster on the H100: 9.5e8 against 9.8e8 rays/s on
+// the 10^6-triangle torus, docs/benchmarks.md.)
+fn bvh_intersect_binary(ray: Ray, t_min: f32, t_max: f32) -> Hit {
     var best = Hit(false, t_max, 0u, vec2<f32>(0.0));
     let inv_dir = safe_inv_dir(ray.direction);
     let root = nodes[0];
@@ -63,19 +229,7 @@ fn bvh_intersect(ray: Ray, t_min: f32, t_max: f32) -> Hit {
     loop {
         let n = nodes[node];
         if (n.meta_bits & 3u) == BVH_LEAF {
-            let first = n.index;
-            let count = n.meta_bits >> 2u;
-            for (var i = 0u; i < count; i++) {
-                let prim = prim_order[first + i];
-                var limit = best.t;
-                if best.hit {
-                    limit = next_up(best.t);
-                }
-                let h = intersect_primitive(prim, ray, inv_dir, pad, t_min, limit);
-                if h.hit && (!best.hit || h.t < best.t || (h.t == best.t && prim < best.prim)) {
-                    best = Hit(true, h.t, prim, h.uv);
-                }
-            }
+            best = intersect_leaf(n.index, n.meta_bits >> 2u, ray, inv_dir, pad, t_min, best);
         } else {
             let l = node + 1u;
             let r = n.index;

@@ -18,6 +18,15 @@ const TRIANGLE_HAS_NORMALS: u32 = 1u;
 const TRIANGLE_HAS_UVS: u32 = 2u;
 const BVH_LEAF: u32 = 3u;
 const BVH_STACK_SIZE: u32 = 64u;
+const TRAVERSAL_BINARY: u32 = 0u;
+const TRAVERSAL_WIDE: u32 = 1u;
+const WIDE_LANES: u32 = 4u;
+const WIDE_EMPTY: u32 = 4294967295u;
+const WIDE_LEAF_ENTRY: u32 = 2147483648u;
+const LEAVES_INDEXED: u32 = 0u;
+const LEAVES_INLINE: u32 = 1u;
+const INLINE_WORDS: u32 = 4u;
+const INLINE_TAG_SHIFT: u32 = 30u;
 const SLAB_FAR_SCALE: f32 = 1.0000004e0;
 const BOX_NEAR_SLACK: f32 = 9.9975586e-1;
 const BOX_T_PAD: f32 = 9.536743e-7;
@@ -230,7 +239,7 @@ struct BvhNode {
 
 @group(0) @binding(0) var<uniform> params: GpuParams;
 @group(0) @binding(1) var<storage, read> nodes: array<BvhNode>;
-@group(0) @binding(2) var<storage, read> prim_order: array<u32>;
+@group(0) @binding(2) var<storage, read> leaf_entries: array<vec4<u32>>;
 @group(0) @binding(3) var<storage, read> primitives: array<GpuPrimitive>;
 @group(0) @binding(4) var<storage, read> spheres: array<GpuSphere>;
 @group(0) @binding(5) var<storage, read> quads: array<GpuQuad>;

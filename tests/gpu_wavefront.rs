@@ -178,14 +178,14 @@ fn a_wave_dispatched_as_a_two_dimensional_grid_renders_as_the_megakernel() {
     let paths = 64 * 64 * 1030u32;
     assert!(gpu::wavefront::grid(paths as u64).1 == 2);
     let film = |schedule| {
-        let mut r = gpu::GpuRenderer::with_variant(
-            ctx,
-            &scene,
-            Integrator::Bsdf,
-            gpu::Kernel::Specialized,
+        let variant = gpu::Variant {
+            integrator: Integrator::Bsdf,
+            kernel: gpu::Kernel::Specialized,
             schedule,
-        )
-        .unwrap();
+            traversal: gpu::Traversal::Binary,
+            leaves: gpu::LeafLayout::Indexed,
+        };
+        let mut r = gpu::GpuRenderer::with_variant(ctx, &scene, variant).unwrap();
         r.set_wave_slots(Some(paths));
         let out = r.render(&settings, &|_, _| {}).unwrap();
         twintrace::twins::specialization::film_words(&out.film)

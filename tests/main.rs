@@ -39,4 +39,5 @@ mod gpu_rng_matches_cpu;
 mod gpu_sampling_chi2;
 mod gpu_specialization;
 mod gpu_surface_match_reference;
+mod gpu_traversal;
 mod gpu_wavefront;

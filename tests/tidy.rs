@@ -60,6 +60,22 @@ const GPU_ONLY: &[(&str, &str)] = &[
         "safe_inv_dir",
         "WGSL min/max are undefined on NaN; the reference divides by zero",
     ),
+    (
+        "bvh_intersect_binary",
+        "the walk of the binary node array (the reference walks its 8-wide collapse of the same tree in Bvh::intersect)",
+    ),
+    (
+        "bvh_intersect_wide",
+        "the GPU's four-wide walk (gpu::traversal; the reference's collapse is 8-wide, Bvh::intersect)",
+    ),
+    (
+        "intersect_inline",
+        "intersect_primitive on a leaf-ordered copy of the records it reads (gpu::traversal::LeafLayout::Inline)",
+    ),
+    (
+        "wide_lane",
+        "one lane's box test of the GPU's four-wide walk",
+    ),
     ("node_min", "reads a packed BvhNode record"),
     ("node_max", "reads a packed BvhNode record"),
     ("f32_infinity", "WGSL const-expressions may not be infinite"),

@@ -39,7 +39,7 @@ pub const PARAMS: Binding = Binding {
     access: Access::Uniform,
 };
 pub const NODES: Binding = scene(1, "nodes", "array<BvhNode>");
-pub const PRIM_ORDER: Binding = scene(2, "prim_order", "array<u32>");
+pub const LEAF_ENTRIES: Binding = scene(2, "leaf_entries", "array<vec4<u32>>");
 pub const PRIMITIVES: Binding = scene(3, "primitives", "array<GpuPrimitive>");
 pub const SPHERES: Binding = scene(4, "spheres", "array<GpuSphere>");
 pub const QUADS: Binding = scene(5, "quads", "array<GpuQuad>");
@@ -62,7 +62,7 @@ pub const FILM: Binding = Binding {
 /// The scene's read-only arrays, in slot order.
 pub const SCENE_ARRAYS: [Binding; 13] = [
     NODES,
-    PRIM_ORDER,
+    LEAF_ENTRIES,
     PRIMITIVES,
     SPHERES,
     QUADS,

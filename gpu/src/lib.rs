@@ -19,10 +19,12 @@ pub mod renderer;
 pub mod scene_buffers;
 pub mod shader;
 pub mod testing;
+pub mod traversal;
 pub mod wavefront;
 
 pub use context::{list_adapters, AdapterSummary, GpuContext};
 pub use error::GpuError;
 pub use features::{Features, Kernel};
 pub use renderer::{GpuRender, GpuRenderer};
+pub use traversal::{LeafLayout, Traversal};
 pub use wavefront::{PathLayout, Schedule, Variant};

@@ -9,6 +9,7 @@ use crate::context::GpuContext;
 use crate::error::GpuError;
 use crate::features::{Kernel, FEATURES_CONSTANT};
 use crate::renderer::{bind_group_layout, compile_with, read_buffer, read_timestamps, GpuRenderer};
+use crate::traversal::{LeafLayout, Traversal};
 use reference::geometry::Ray;
 use reference::Scene;
 use std::time::{Duration, Instant};
@@ -61,13 +62,14 @@ pub const WARM_UP: Duration = Duration::from_millis(500);
 /// Traces `rays` through `scene` on the GPU `repeats` times (after
 /// untimed warm-up dispatches for at least [`WARM_UP`]), with the kernel built for `kernel`'s
 /// features of the scene ([`Kernel::Specialized`]: only the scene's
-/// primitive tests in the walk).
+/// primitive tests in the walk), walking it by `traversal` over `leaves`.
 pub fn trace_closest(
     ctx: &GpuContext,
     scene: &Scene,
     rays: &[Ray],
     repeats: u32,
     kernel: Kernel,
+    (traversal, leaves): (Traversal, LeafLayout),
 ) -> Result<RayTimings, GpuError> {
     let device = &ctx.device;
     let groups = (rays.len() as u32).div_ceil(WORKGROUP);
@@ -79,7 +81,17 @@ pub fn trace_closest(
             max_groups as u64 * WORKGROUP as u64
         )));
     }
-    let renderer = GpuRenderer::new(ctx, scene)?;
+    let renderer = GpuRenderer::with_variant(
+        ctx,
+        scene,
+        crate::Variant {
+            integrator: reference::integrator::Integrator::Bsdf,
+            kernel,
+            schedule: crate::Schedule::Megakernel,
+            traversal,
+            leaves,
+        },
+    )?;
     let source = [
         crate::shader::library_source().as_str(),
         &bindings::wgsl_declarations(&bindings::TEST_IO_GROUP),
@@ -96,7 +108,11 @@ pub fn trace_closest(
         &source,
         "closest_hit_main",
         &[&scene_layout, &io_layout],
-        &[(FEATURES_CONSTANT, kernel.features(scene).0 as f64)],
+        &[
+            (FEATURES_CONSTANT, kernel.features(scene).0 as f64),
+            renderer.record_constants()[0],
+            renderer.record_constants()[1],
+        ],
     )?;
     let words: Vec<u32> = rays
         .iter()

@@ -9,17 +9,53 @@ use crate::features::{Features, Kernel, FEATURES_CONSTANT};
 use crate::records::{GpuParams, GpuPixel};
 use crate::scene_buffers::{pack_background, PackedScene};
 use crate::shader;
-use crate::wavefront::{self, Schedule};
+use crate::traversal::{LeafLayout, Traversal, LEAVES_CONSTANT, TRAVERSAL_CONSTANT};
+use crate::wavefront::{self, Schedule, Variant};
 use reference::film::{Film, PixelStats};
 use reference::integrator::Integrator;
 use reference::{RenderSettings, Scene};
 use std::time::Duration;
 use wgpu::util::DeviceExt;
 
-/// Paths per dispatch: ~2^23 keeps one submit in the tens of milliseconds
-/// on a discrete GPU; lavapipe gets 2^17 so progress stays visible.
+/// The megakernel's paths per dispatch: ~2^23 keeps one submit in the
+/// tens of milliseconds on a discrete GPU (a software adapter gets one
+/// sample a pixel: [`SOFTWARE_LOOP_LIMIT`]).
 pub const PATHS_PER_DISPATCH_GPU: u64 = 1 << 23;
-pub const PATHS_PER_DISPATCH_SOFTWARE: u64 = 1 << 17;
+
+/// Loop iterations llvmpipe (lavapipe) lets one invocation run, counted
+/// over all of its loops together: past it, every loop exits early and the
+/// invocation goes on with whatever it had (Mesa's gallivm,
+/// `LP_MAX_TGSI_LOOP_ITERATIONS`, "shared between every loop"). Measured
+/// here: a 4x4 Cornell box of 2,048 samples, all in one megakernel
+/// dispatch, held 354 samples a pixel. So on a software adapter the
+/// megakernel traces one sample an invocation per dispatch (as the wave
+/// schedules always do), and brute force is refused where one path could
+/// reach the limit ([`brute_force_refusal`]).
+pub const SOFTWARE_LOOP_LIMIT: u64 = 65_535;
+
+/// The most primitives [`Traversal::BruteForce`] takes: it is for tiny
+/// scenes (a BVH walk of 1,024 primitives visits a few dozen nodes; the
+/// brute-force loop, all 1,024 primitives a ray).
+pub const BRUTE_FORCE_MAX_PRIMITIVES: usize = 1024;
+
+/// Why a brute-force render of `primitives` at `max_depth` is refused, if
+/// it is: more than [`BRUTE_FORCE_MAX_PRIMITIVES`], or on a software
+/// adapter a path whose rays (two a segment: extension and shadow) could
+/// make more than [`SOFTWARE_LOOP_LIMIT`] leaf iterations.
+pub fn brute_force_refusal(primitives: usize, max_depth: u32, software: bool) -> Option<String> {
+    if primitives > BRUTE_FORCE_MAX_PRIMITIVES {
+        return Some(format!(
+            "brute force tests every primitive per ray and takes at most {BRUTE_FORCE_MAX_PRIMITIVES}; this scene has {primitives} (use --traversal bvh2 or bvh4)"
+        ));
+    }
+    let iterations = primitives as u64 * 2 * max_depth as u64;
+    if software && iterations > SOFTWARE_LOOP_LIMIT {
+        return Some(format!(
+            "brute force on a software adapter: a path of {max_depth} segments may test {iterations} primitives, past llvmpipe's {SOFTWARE_LOOP_LIMIT} loop iterations an invocation (use --traversal bvh2 or bvh4)"
+        ));
+    }
+    None
+}
 
 /// How a render's submits are made.
 enum Plan<'b> {
@@ -88,6 +124,11 @@ pub struct GpuRenderer<'a> {
     /// Each scene array with the binding it is bound to.
     scene_buffers: Vec<(Binding, wgpu::Buffer)>,
     scene: &'a Scene,
+    /// The walk the kernels run and, where it is not the one asked for,
+    /// why ([`PackedScene::traversal_note`]).
+    traversal: (Traversal, Option<String>),
+    /// How the leaves hold their primitives.
+    leaves: LeafLayout,
     /// The wavefront's path slots per wave, where a test sets them.
     wave_slots: Option<u32>,
     /// The last render's wave buffers, kept for the next render that needs
@@ -205,19 +246,37 @@ impl<'a> GpuRenderer<'a> {
         integrator: Integrator,
         kernel: Kernel,
     ) -> Result<Self, GpuError> {
-        Self::with_variant(ctx, scene, integrator, kernel, Schedule::Megakernel)
+        Self::with_variant(
+            ctx,
+            scene,
+            Variant {
+                integrator,
+                kernel,
+                schedule: Schedule::Megakernel,
+                traversal: Traversal::Binary,
+                leaves: LeafLayout::Indexed,
+            },
+        )
     }
 
-    /// [`Self::with_kernel`] with the paths' schedule given (the
-    /// megakernel, or the wavefront with a path layout).
+    /// Packs and uploads `scene` for the variant's walk, compiles its
+    /// kernels: the estimator, the specialization, the paths' schedule
+    /// (the megakernel, or a wave schedule) and the walk
+    /// ([`Self::traversal`] says which one the kernels run: the binary one
+    /// where the wide records were refused).
     pub fn with_variant(
         ctx: &'a GpuContext,
         scene: &'a Scene,
-        integrator: Integrator,
-        kernel: Kernel,
-        schedule: Schedule,
+        variant: Variant,
     ) -> Result<Self, GpuError> {
-        let packed = PackedScene::new(scene);
+        let Variant {
+            integrator,
+            kernel,
+            schedule,
+            traversal,
+            leaves,
+        } = variant;
+        let packed = PackedScene::for_walk(scene, traversal, leaves);
         let program = match schedule {
             Schedule::Megakernel => shader::render_source(),
             Schedule::Wavefront(_) | Schedule::PathMegakernel => shader::wavefront_source(),
@@ -329,6 +388,8 @@ impl<'a> GpuRenderer<'a> {
                 shader::integrator_tag(integrator) as f64,
             ),
             (FEATURES_CONSTANT, features.0 as f64),
+            (TRAVERSAL_CONSTANT, packed.traversal.tag() as f64),
+            (LEAVES_CONSTANT, packed.leaves.tag() as f64),
         ];
         let kernels = match schedule {
             Schedule::Megakernel => Kernels::Megakernel(compile_with(
@@ -353,6 +414,8 @@ impl<'a> GpuRenderer<'a> {
             layout,
             scene_buffers,
             scene,
+            traversal: (packed.traversal, packed.traversal_note.clone()),
+            leaves: packed.leaves,
             wave_slots: None,
             wave_cache: std::sync::Mutex::new(None),
             film_cache: std::sync::Mutex::new(None),
@@ -362,6 +425,27 @@ impl<'a> GpuRenderer<'a> {
     /// Sets the wavefront's path slots per wave (`None`: fill the
     /// adapter, `wavefront::Pipelines::slots`): the tests split a small render into
     /// many waves with it. No effect on the megakernel.
+    /// The walk the kernels run, and why it is not the one asked for
+    /// where it is not.
+    pub fn traversal(&self) -> (Traversal, Option<&str>) {
+        (self.traversal.0, self.traversal.1.as_deref())
+    }
+
+    /// The leaf layout the kernels read.
+    pub fn leaves(&self) -> LeafLayout {
+        self.leaves
+    }
+
+    /// The pipeline constants that say how the scene's records are laid
+    /// out (walk and leaves), for a kernel compiled over them (the test
+    /// and ray kernels).
+    pub fn record_constants(&self) -> [(&'static str, f64); 2] {
+        [
+            (TRAVERSAL_CONSTANT, self.traversal.0.tag() as f64),
+            (LEAVES_CONSTANT, self.leaves.tag() as f64),
+        ]
+    }
+
     pub fn set_wave_slots(&mut self, slots: Option<u32>) {
         self.wave_slots = slots.map(|s| s.max(1));
     }
@@ -434,6 +518,12 @@ impl<'a> GpuRenderer<'a> {
             .validate()
             .map_err(|e| GpuError::Validation(e.to_string()))?;
         let ctx = self.ctx;
+        if self.traversal.0 == Traversal::BruteForce {
+            let prims = self.scene.primitives().len();
+            if let Some(why) = brute_force_refusal(prims, settings.max_depth, ctx.is_software) {
+                return Err(GpuError::Validation(why));
+            }
+        }
         let device = &ctx.device;
         let pixels = settings.width as u64 * settings.height as u64;
         let film_bytes = pixels * std::mem::size_of::<GpuPixel>() as u64;
@@ -475,12 +565,13 @@ impl<'a> GpuRenderer<'a> {
         // at a time (a large render on a small adapter has billions).
         let plan = match &self.kernels {
             Kernels::Megakernel(pipeline) => {
-                let target = if ctx.is_software {
-                    PATHS_PER_DISPATCH_SOFTWARE
+                // One sample an invocation on a software adapter
+                // (SOFTWARE_LOOP_LIMIT).
+                let per = if ctx.is_software {
+                    1
                 } else {
-                    PATHS_PER_DISPATCH_GPU
+                    (PATHS_PER_DISPATCH_GPU / pixels.max(1)).clamp(1, settings.spp as u64) as u32
                 };
-                let per = (target / pixels.max(1)).clamp(1, settings.spp as u64) as u32;
                 Plan::Dispatches { pipeline, per }
             }
             Kernels::Wavefront(w) => {

@@ -1,8 +1,11 @@
 //! Packs a `reference::Scene` into GPU records. The BVH node array is
-//! uploaded as the reference built it (the one BVH).
+//! uploaded as the reference built it (the one BVH), or in the wide or
+//! brute-force form of the same tree that another walk reads
+//! (`crate::traversal`).
 
 use crate::bindings::{self, Binding};
 use crate::records::*;
+use crate::traversal::{LeafLayout, Traversal};
 use reference::background::Background;
 use reference::light::LightSet;
 use reference::material::Material;
@@ -12,8 +15,20 @@ use reference::Scene;
 /// The scene as flat record arrays, ready to upload.
 #[derive(Clone, Debug, Default)]
 pub struct PackedScene {
+    /// The walk `nodes` and `leaf_entries` are for (`crate::traversal`).
+    pub traversal: Traversal,
+    /// How `leaf_entries` holds the leaves' primitives.
+    pub leaves: LeafLayout,
+    /// Why `traversal` or `leaves` is not what was asked for, where it is
+    /// not (the wide records of a pathological tree:
+    /// [`crate::traversal::arrays`]; inline entries of more than 2^30
+    /// primitives).
+    pub traversal_note: Option<String>,
     pub nodes: Vec<reference::bvh::BvhNode>,
-    pub prim_order: Vec<u32>,
+    /// The leaves' entries in the tree's primitive order, as `leaves`
+    /// says ([`crate::traversal::indexed_entries`],
+    /// [`crate::traversal::inline_entries`]).
+    pub leaf_entries: Vec<[u32; 4]>,
     pub primitives: Vec<GpuPrimitive>,
     pub spheres: Vec<GpuSphere>,
     pub quads: Vec<GpuQuad>,
@@ -109,7 +124,7 @@ impl PackedScene {
         use bytemuck::cast_slice as bytes;
         [
             (bindings::NODES, bytes(&self.nodes)),
-            (bindings::PRIM_ORDER, bytes(&self.prim_order)),
+            (bindings::LEAF_ENTRIES, bytes(&self.leaf_entries)),
             (bindings::PRIMITIVES, bytes(&self.primitives)),
             (bindings::SPHERES, bytes(&self.spheres)),
             (bindings::QUADS, bytes(&self.quads)),
@@ -124,7 +139,30 @@ impl PackedScene {
         ]
     }
 
+    /// The scene's records for the binary walk ([`Traversal::Binary`]).
     pub fn new(scene: &Scene) -> Self {
+        Self::with_traversal(scene, Traversal::Binary)
+    }
+
+    /// The scene's records for `traversal` with indexed leaves, or for the
+    /// binary walk where the wide records are refused
+    /// ([`Self::traversal_note`] says why).
+    pub fn with_traversal(scene: &Scene, traversal: Traversal) -> Self {
+        Self::for_walk(scene, traversal, LeafLayout::Indexed)
+    }
+
+    /// The scene's records for `traversal` with `leaves`, or for the binary
+    /// walk or indexed leaves where the others are refused
+    /// ([`Self::traversal_note`] says why).
+    pub fn for_walk(scene: &Scene, traversal: Traversal, leaves: LeafLayout) -> Self {
+        let (nodes, order, refused) = crate::traversal::arrays(scene, traversal);
+        let (traversal, traversal_note) = match refused {
+            Ok(()) => (traversal, None),
+            Err(why) => (
+                Traversal::Binary,
+                Some(format!("{why}: the binary walk is used")),
+            ),
+        };
         let mut images = Vec::with_capacity(scene.images().len());
         let mut texels = Vec::new();
         for img in scene.images() {
@@ -146,9 +184,12 @@ impl PackedScene {
             texels.extend_from_slice(&env.col_cdf);
             texels.extend_from_slice(&env.cell_pdf);
         }
-        PackedScene {
-            nodes: scene.bvh().nodes().to_vec(),
-            prim_order: scene.bvh().prim_order().to_vec(),
+        let mut packed = PackedScene {
+            traversal,
+            leaves: LeafLayout::Indexed,
+            traversal_note,
+            nodes,
+            leaf_entries: crate::traversal::indexed_entries(&order),
             primitives: scene
                 .primitives()
                 .iter()
@@ -239,7 +280,23 @@ impl PackedScene {
                 .collect(),
             env_pmf,
             env_table,
+        };
+        if leaves == LeafLayout::Inline {
+            match crate::traversal::inline_entries(&order, &packed) {
+                Ok(entries) => {
+                    packed.leaves = LeafLayout::Inline;
+                    packed.leaf_entries = entries;
+                }
+                Err(why) => {
+                    let note = format!("{why}: indexed leaves are used");
+                    packed.traversal_note = Some(match packed.traversal_note.take() {
+                        Some(first) => format!("{first}; {note}"),
+                        None => note,
+                    });
+                }
+            }
         }
+        packed
     }
 }
 

@@ -98,6 +98,15 @@ pub fn generate() -> String {
     s += &u("TRIANGLE_HAS_UVS", TRIANGLE_HAS_UVS);
     s += &u("BVH_LEAF", reference::bvh::BvhNode::LEAF);
     s += &u("BVH_STACK_SIZE", reference::bvh::BVH_STACK_SIZE as u32);
+    s += &u("TRAVERSAL_BINARY", crate::traversal::TRAVERSAL_BINARY);
+    s += &u("TRAVERSAL_WIDE", crate::traversal::TRAVERSAL_WIDE);
+    s += &u("WIDE_LANES", crate::traversal::WIDE_LANES as u32);
+    s += &u("WIDE_EMPTY", crate::traversal::WIDE_EMPTY);
+    s += &u("WIDE_LEAF_ENTRY", crate::traversal::WIDE_LEAF_ENTRY);
+    s += &u("LEAVES_INDEXED", crate::traversal::LEAVES_INDEXED);
+    s += &u("LEAVES_INLINE", crate::traversal::LEAVES_INLINE);
+    s += &u("INLINE_WORDS", crate::traversal::INLINE_WORDS as u32);
+    s += &u("INLINE_TAG_SHIFT", crate::traversal::INLINE_TAG_SHIFT);
     s += &f("SLAB_FAR_SCALE", reference::bvh::SLAB_FAR_SCALE);
     s += &f("BOX_NEAR_SLACK", reference::bvh::BOX_NEAR_SLACK);
     s += &f("BOX_T_PAD", reference::bvh::BOX_T_PAD);

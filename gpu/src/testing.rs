@@ -8,7 +8,7 @@ use crate::bindings::{self, Binding};
 use crate::context::GpuContext;
 use crate::error::GpuError;
 use crate::records::{GpuParams, GpuPixel};
-use crate::renderer::{bind_group_layout, compile, read_buffer, GpuRenderer};
+use crate::renderer::{bind_group_layout, compile_with, read_buffer, GpuRenderer};
 use wgpu::util::DeviceExt;
 
 /// A test kernel run.
@@ -68,7 +68,14 @@ pub fn run_test_kernel_with_library(
         entries: &bindings::TEST_IO_GROUP.map(|b: Binding| b.layout_entry()),
     });
     let scene_layout = bind_group_layout(device);
-    let pipeline = compile(ctx, &source, entry, &[&scene_layout, &io_layout])?;
+    // The renderer's walk and leaves: its records are laid out for them.
+    let pipeline = compile_with(
+        ctx,
+        &source,
+        entry,
+        &[&scene_layout, &io_layout],
+        &renderer.record_constants(),
+    )?;
     let input_words: &[u32] = if input.is_empty() { &[0] } else { input };
     let input_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("test input"),

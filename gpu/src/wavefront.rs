@@ -19,6 +19,7 @@ use crate::context::GpuContext;
 use crate::error::GpuError;
 use crate::records::GpuParams;
 use crate::renderer::compile_entries;
+use crate::traversal::{LeafLayout, Traversal};
 
 /// Words of one path's state (the `PF_…` fields of shaders/wavefront.wgsl,
 /// which asserts the sum).
@@ -117,17 +118,21 @@ impl Schedule {
     }
 }
 
-/// A GPU renderer variant: estimator, kernel specialization and schedule,
-/// named for the perf tables (`megakernel`, `wavefront-soa-mis-general`).
+/// A GPU renderer variant: estimator, kernel specialization, schedule and
+/// walk, named for the perf tables (`megakernel`,
+/// `wavefront-soa-mis-general`, `megakernel-paths-bvh4`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Variant {
     pub integrator: reference::integrator::Integrator,
     pub kernel: crate::Kernel,
     pub schedule: Schedule,
+    pub traversal: Traversal,
+    pub leaves: LeafLayout,
 }
 
 impl Variant {
-    /// `<schedule>[-mis][-general]`.
+    /// `<schedule>[-mis][-general][-<walk>][-inline]`, the binary walk and
+    /// indexed leaves unnamed.
     pub fn name(self) -> String {
         let mut s = self.schedule.name().to_string();
         if self.integrator == reference::integrator::Integrator::Mis {
@@ -136,20 +141,34 @@ impl Variant {
         if self.kernel == crate::Kernel::General {
             s += "-general";
         }
+        if self.traversal != Traversal::Binary {
+            s += "-";
+            s += self.traversal.name();
+        }
+        if self.leaves != LeafLayout::Indexed {
+            s += "-";
+            s += self.leaves.name();
+        }
         s
     }
 
     /// Every variant, the megakernel's first.
     pub fn all() -> Vec<Variant> {
         let mut out = Vec::new();
-        for schedule in Schedule::ALL {
-            for kernel in [crate::Kernel::Specialized, crate::Kernel::General] {
-                for integrator in reference::integrator::Integrator::ALL {
-                    out.push(Variant {
-                        integrator,
-                        kernel,
-                        schedule,
-                    });
+        for leaves in LeafLayout::ALL {
+            for traversal in Traversal::ALL {
+                for schedule in Schedule::ALL {
+                    for kernel in [crate::Kernel::Specialized, crate::Kernel::General] {
+                        for integrator in reference::integrator::Integrator::ALL {
+                            out.push(Variant {
+                                integrator,
+                                kernel,
+                                schedule,
+                                traversal,
+                                leaves,
+                            });
+                        }
+                    }
                 }
             }
         }
@@ -563,7 +582,9 @@ mod tests {
         names.sort();
         names.dedup();
         assert_eq!(names.len(), n);
-        assert_eq!(n, 16);
+        assert!(names.contains(&"megakernel-paths-mis-bvh4".to_string()));
+        assert!(names.contains(&"megakernel-paths-bvh4-inline".to_string()));
+        assert_eq!(n, 96);
     }
 
     /// The grid covers n invocations, within 65,535 workgroups a side.

@@ -74,7 +74,10 @@ pub struct RunArgs {
     /// SCHEDULE[-mis][-general]: SCHEDULE megakernel, wavefront (path
     /// state as an array of structs), wavefront-soa (structure of arrays)
     /// or megakernel-paths (one invocation per path of a wave), -mis light sampling with MIS, -general the general kernel
-    /// (every feature's code) instead of the one specialized to the scene).
+    /// (every feature's code) instead of the one specialized to the scene,
+    /// -bvh4 the four-wide BVH walk or -brute every primitive tested,
+    /// instead of the binary BVH walk, -inline leaf entries holding what
+    /// their test reads instead of primitive ids).
     #[arg(long)]
     pub variant: Vec<String>,
     /// Only the cases and workloads whose name contains this.
@@ -358,6 +361,8 @@ fn run_suite(a: &RunArgs) -> Result<()> {
             integrator: Integrator::Bsdf,
             kernel: Kernel::Specialized,
             schedule: Schedule::Megakernel,
+            traversal: gpu::Traversal::Binary,
+            leaves: gpu::LeafLayout::Indexed,
         }]
     } else {
         Variant::all()

@@ -105,20 +105,16 @@ struct Timed {
 /// Renders with a backend, the GPU pipeline built once per scene.
 enum Prepared<'a> {
     Cpu(&'a rayon::ThreadPool, &'a Scene, Integrator),
-    Gpu(gpu::GpuRenderer<'a>),
+    Gpu(Box<gpu::GpuRenderer<'a>>),
 }
 
 impl<'a> Prepared<'a> {
     fn new(backend: Backend<'a>, scene: &'a Scene) -> Result<Self> {
         Ok(match backend {
             Backend::Cpu(pool, integrator) => Prepared::Cpu(pool, scene, integrator),
-            Backend::Gpu(ctx, v) => Prepared::Gpu(gpu::GpuRenderer::with_variant(
-                ctx,
-                scene,
-                v.integrator,
-                v.kernel,
-                v.schedule,
-            )?),
+            Backend::Gpu(ctx, v) => {
+                Prepared::Gpu(Box::new(gpu::GpuRenderer::with_variant(ctx, scene, v)?))
+            }
         })
     }
 
@@ -243,14 +239,15 @@ pub fn run(options: &Options, metric: &mut dyn FnMut(&str)) -> Result<PerfRun> {
     for load in &loads {
         for &backend in &backends {
             // Ray queries depend on neither the estimator nor the
-            // schedule: one CPU row, one GPU row per kernel (from the
-            // first variant measured with that kernel).
+            // schedule: one CPU row, one GPU row per kernel, walk and leaf
+            // layout (from the first variant measured with them).
             if let Workload::Rays { .. } = load {
                 match backend {
                     Backend::Cpu(_, Integrator::Mis) => continue,
                     Backend::Gpu(_, v)
-                        if options.gpu_variants.iter().find(|w| w.kernel == v.kernel)
-                            != Some(&v) =>
+                        if options.gpu_variants.iter().find(|w| {
+                            (w.kernel, w.traversal, w.leaves) == (v.kernel, v.traversal, v.leaves)
+                        }) != Some(&v) =>
                     {
                         continue
                     }
@@ -500,14 +497,15 @@ fn measure_workload(
                     ("rays", batch.len() as u64, walls, None, note)
                 }
                 Backend::Gpu(ctx, v) => {
-                    let kernel = v.kernel;
-                    let t = gpu::rays::trace_closest(ctx, &scene, &batch, reps, kernel)?;
+                    let (kernel, walk) = (v.kernel, (v.traversal, v.leaves));
+                    let t = gpu::rays::trace_closest(ctx, &scene, &batch, reps, kernel, walk)?;
                     let mut walls: Vec<f64> = t.wall.iter().map(|d| d.as_secs_f64()).collect();
                     let mut gpus: Option<Vec<f64>> =
                         t.gpu.map(|g| g.iter().map(|d| d.as_secs_f64()).collect());
                     if options.inject_slowdown {
                         let tenth = &batch[..batch.len() / INJECTED_STRIDE as usize];
-                        let extra = gpu::rays::trace_closest(ctx, &scene, tenth, reps, kernel)?;
+                        let extra =
+                            gpu::rays::trace_closest(ctx, &scene, tenth, reps, kernel, walk)?;
                         for (w, e) in walls.iter_mut().zip(&extra.wall) {
                             *w += e.as_secs_f64();
                         }

@@ -14,6 +14,8 @@
 //! - [`light`]: light samples (emitter, direction) and their densities.
 //! - [`specialization`]: the render kernel built for each scene's features
 //!   against the general kernel, bit for bit (GPU against GPU).
+//! - [`traversal`]: the four-wide and brute-force walks against the
+//!   binary one: hit records and films bit for bit (GPU against GPU).
 //! - [`wavefront`]: the wave schedules (the wavefront's kernels, the path
 //!   megakernel) against the megakernel, bit for bit or within a few ulp
 //!   (GPU against GPU).
@@ -27,6 +29,7 @@ pub mod numerics;
 pub mod rng;
 pub mod specialization;
 pub mod surface;
+pub mod traversal;
 pub mod wavefront;
 
 use glam::{Vec2, Vec3};
@@ -104,7 +107,30 @@ pub(crate) fn run_kernel_with_library(
     (invocations, output_words): (usize, usize),
     library: &str,
 ) -> Result<Vec<u32>, String> {
-    let renderer = GpuRenderer::new(ctx, scene).map_err(|e| e.to_string())?;
+    run_kernel_walking(
+        ctx,
+        (scene, &gpu::scene_buffers::PackedScene::new(scene)),
+        (snippet, entry),
+        input,
+        (invocations, output_words),
+        library,
+    )
+}
+
+/// [`run_kernel_with_library`] over `scene`'s records as packed (for a
+/// walk: the kernel's `bvh_intersect` takes `packed.traversal`'s).
+pub(crate) fn run_kernel_walking(
+    ctx: &GpuContext,
+    (scene, packed): (&Scene, &gpu::scene_buffers::PackedScene),
+    (snippet, entry): (&str, &str),
+    input: &[u32],
+    (invocations, output_words): (usize, usize),
+    library: &str,
+) -> Result<Vec<u32>, String> {
+    let program = gpu::shader::render_source();
+    let bsdf = reference::integrator::Integrator::Bsdf;
+    let renderer =
+        GpuRenderer::with_program(ctx, packed, scene, &program, bsdf).map_err(|e| e.to_string())?;
     let invocations = u32::try_from(invocations).map_err(|_| "too many invocations".to_string())?;
     let kernel = TestKernel {
         snippet,
@@ -166,5 +192,9 @@ pub const CHECKS: &[Check] = &[
     Check {
         name: "wavefront and path megakernel == megakernel (every scene, both estimators)",
         run: wavefront::all_scenes,
+    },
+    Check {
+        name: "four-wide and brute-force walks == binary walk (hit records, films)",
+        run: traversal::all_scenes,
     },
 ];

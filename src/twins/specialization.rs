@@ -10,7 +10,7 @@
 use super::Outcome;
 use crate::compare::gate::workspace_root;
 use gpu::features::{Features, Kernel};
-use gpu::{GpuContext, Schedule};
+use gpu::{GpuContext, LeafLayout, Schedule, Traversal};
 use reference::integrator::Integrator;
 use reference::{RenderSettings, Scene};
 
@@ -48,34 +48,60 @@ pub fn film_bits(
     features: Features,
 ) -> Result<Vec<u64>, String> {
     let program = gpu::shader::render_source();
-    let mut films = variant_film_bits(
-        ctx,
-        scene,
-        &program,
-        integrator,
-        features,
-        Schedule::Megakernel,
-        &[None],
-    )?;
+    let build = Build::megakernel(&program, integrator, features);
+    let mut films = variant_film_bits(ctx, scene, build, &[None])?;
     Ok(films.remove(0))
 }
 
-/// [`film_bits`] for any variant: `program` compiled for `schedule` (its
-/// WGSL: `gpu::shader::render_source` or `wavefront_source`, or a test's
-/// edit), rendered once for each of `wave_slots` (the wavefront's slots
-/// per wave; `None`, the adapter's default), with one compiled kernel.
+/// What a compared render is built with.
+#[derive(Clone, Copy, Debug)]
+pub struct Build<'a> {
+    /// The schedule's WGSL (`gpu::shader::render_source` or
+    /// `wavefront_source`), or a test's edit of it.
+    pub program: &'a str,
+    pub integrator: Integrator,
+    pub features: Features,
+    pub schedule: Schedule,
+    pub traversal: Traversal,
+    pub leaves: LeafLayout,
+}
+
+impl<'a> Build<'a> {
+    /// The megakernel with the binary walk and indexed leaves (the oracle
+    /// of the others).
+    pub fn megakernel(program: &'a str, integrator: Integrator, features: Features) -> Self {
+        Build {
+            program,
+            integrator,
+            features,
+            schedule: Schedule::Megakernel,
+            traversal: Traversal::Binary,
+            leaves: LeafLayout::Indexed,
+        }
+    }
+}
+
+/// [`film_bits`] for any variant: rendered once for each of `wave_slots`
+/// (the wave schedules' slots per wave; `None`, the adapter's default),
+/// with one compiled kernel.
 pub fn variant_film_bits(
     ctx: &GpuContext,
     scene: &Scene,
-    program: &str,
-    integrator: Integrator,
-    features: Features,
-    schedule: Schedule,
+    build: Build,
     wave_slots: &[Option<u32>],
 ) -> Result<Vec<Vec<u64>>, String> {
-    let packed = gpu::scene_buffers::PackedScene::new(scene);
+    let packed = gpu::scene_buffers::PackedScene::for_walk(scene, build.traversal, build.leaves);
+    if let Some(why) = &packed.traversal_note {
+        return Err(why.clone());
+    }
     let mut renderer = gpu::GpuRenderer::build_scheduled(
-        ctx, &packed, scene, program, integrator, features, schedule,
+        ctx,
+        &packed,
+        scene,
+        build.program,
+        build.integrator,
+        build.features,
+        build.schedule,
     )
     .map_err(|e| e.to_string())?;
     let (width, height, spp) = SIZE;

@@ -22,7 +22,7 @@
 //! The summary line says how many pixels were not bit for bit.
 
 use super::specialization::{
-    counts, film_bits, scene_specs, variant_film_bits, SIZE, WORDS_PER_PIXEL,
+    counts, film_bits, scene_specs, variant_film_bits, Build, SIZE, WORDS_PER_PIXEL,
 };
 use super::Outcome;
 use gpu::features::Kernel;
@@ -61,15 +61,11 @@ pub fn compare_scene(
     }
     let mut inexact = Inexact::default();
     for schedule in Schedule::WAVES {
-        let films = variant_film_bits(
-            ctx,
-            scene,
-            program,
-            integrator,
-            features,
+        let build = Build {
             schedule,
-            &WAVE_SLOTS,
-        )?;
+            ..Build::megakernel(program, integrator, features)
+        };
+        let films = variant_film_bits(ctx, scene, build, &WAVE_SLOTS)?;
         for (wave, slots) in films.iter().zip(WAVE_SLOTS) {
             let what = || {
                 format!(
@@ -109,8 +105,11 @@ pub fn compare_poisoned(
     }
     let mut inexact = Inexact::default();
     for schedule in Schedule::WAVES {
-        let films =
-            variant_film_bits(ctx, scene, program, integrator, features, schedule, &[None])?;
+        let build = Build {
+            schedule,
+            ..Build::megakernel(program, integrator, features)
+        };
+        let films = variant_film_bits(ctx, scene, build, &[None])?;
         compare_films(&mega, &films[0], &mut inexact).map_err(|e| {
             format!(
                 "{spec} ({}, {}, features {:?}): {e}",
@@ -131,9 +130,30 @@ pub const MEAN_ULP_MAX: u64 = 4;
 /// Pixels compared under the ulp rule rather than bit for bit, and their
 /// largest mean difference.
 #[derive(Default)]
-struct Inexact {
-    pixels: usize,
-    mean_ulp: u64,
+pub struct Inexact {
+    pub pixels: usize,
+    pub mean_ulp: u64,
+}
+
+impl Inexact {
+    /// Adds a comparison's `(pixels, mean_ulp)` ([`compare_words`]).
+    pub fn add(&mut self, (pixels, mean_ulp): (usize, u64)) {
+        self.pixels += pixels;
+        self.mean_ulp = self.mean_ulp.max(mean_ulp);
+    }
+
+    /// "bit for bit", or how many of `compared` pixels were not and by how
+    /// much: the summary lines' words.
+    pub fn exactness(&self, compared: usize) -> String {
+        if self.pixels == 0 {
+            "bit for bit".to_string()
+        } else {
+            format!(
+                "bit for bit but for {} of {compared} pixels, whose means differ by at most {} ulp",
+                self.pixels, self.mean_ulp
+            )
+        }
+    }
 }
 
 /// The f32 ulps between two f32 values stored as f64 bits.
@@ -173,7 +193,7 @@ fn compare_films(mega: &[u64], wave: &[u64], inexact: &mut Inexact) -> Result<()
         }
         if m[..2] != w[..2] {
             return Err(format!(
-                "pixel {i} of {pixels}: the wavefront counted {} samples and rejected {}, the megakernel {} and {}",
+                "pixel {i} of {pixels}: the variant counted {} samples and rejected {}, its oracle {} and {}",
                 w[0], w[1], m[0], m[1]
             ));
         }
@@ -183,8 +203,7 @@ fn compare_films(mega: &[u64], wave: &[u64], inexact: &mut Inexact) -> Result<()
                 "pixel {i} of {pixels}: the means differ by {mean_ulp} ulp (at most {MEAN_ULP_MAX})"
             ));
         }
-        inexact.pixels += 1;
-        inexact.mean_ulp = inexact.mean_ulp.max(mean_ulp);
+        inexact.add((1, mean_ulp));
     }
     Ok(())
 }
@@ -196,15 +215,12 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let specs = scene_specs()?;
     let program = gpu::shader::wavefront_source();
     let mut failures = Vec::new();
-    let (mut inexact, mut worst) = (0usize, 0u64);
+    let mut inexact = Inexact::default();
     for spec in &specs {
         let scene = reference::load_scene(spec).map_err(|e| format!("{spec}: {e}"))?;
         for integrator in Integrator::ALL {
             match compare_scene(ctx, spec, &scene, integrator, &program) {
-                Ok((pixels, ulp)) => {
-                    inexact += pixels;
-                    worst = worst.max(ulp);
-                }
+                Ok(found) => inexact.add(found),
                 Err(e) => failures.push(e),
             }
         }
@@ -215,13 +231,7 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let (width, height, _) = SIZE;
     let schedules = Schedule::WAVES.len();
     let compared = specs.len() * 2 * schedules * WAVE_SLOTS.len() * (width * height) as usize;
-    let exactness = if inexact == 0 {
-        "bit for bit".to_string()
-    } else {
-        format!(
-            "bit for bit but for {inexact} of {compared} pixels, whose means differ by at most {worst} ulp"
-        )
-    };
+    let exactness = inexact.exactness(compared);
     Ok(format!(
         "{} scenes × 2 estimators × {schedules} wave schedules (wavefront, wavefront-soa, megakernel-paths) × 3 wave splits: their films equal the megakernel's {exactness}",
         specs.len()

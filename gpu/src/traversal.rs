@@ -1,0 +1,484 @@
+//! How the GPU walks the scene's primitives (issue: GPU variants,
+//! traversal): the binary BVH as the reference builds it (the baseline),
+//! a four-wide view of the same tree, or one leaf holding every primitive
+//! (brute force). All three test the same primitives with the same
+//! admits rule and keep the closest hit, ties in t to the smaller
+//! primitive id, so a box only decides what is skipped: the hit records
+//! are the same bits whatever the walk (`twintrace::twins::traversal`
+//! checks it on every scene).
+//!
+//! The wide records live in the `nodes` binding, as [`BvhNode`]s: record 0
+//! is the binary root (its box starts every walk), then wide node `w` is
+//! records `1 + 4w .. 1 + 4w + 4`, one lane each. A lane is a binary node
+//! with its box bit for bit: an interior lane's `index` is the wide node
+//! made of its subtree's top, a leaf lane's is the binary leaf's first
+//! entry (`meta` as in the binary tree); unused lanes come last and have
+//! `meta` [`WIDE_EMPTY`]. The walk tests a node's four lanes, enters the
+//! nearest and stacks the others, leaf lanes as [`WIDE_LEAF_ENTRY`] with
+//! their record index. The collapse is the greedy one of Wald et al.,
+//! "Getting Rid of Packets" (2008): a node's two children, then the
+//! interior lane of largest surface area opened into its two children
+//! while lanes remain (the CPU reference's 8-wide view is planned by a
+//! cost model instead; the GPU's lanes need no such plan to be exact).
+
+use reference::bvh::{BvhNode, BVH_STACK_SIZE};
+use reference::Scene;
+
+/// Lanes of a wide node.
+pub const WIDE_LANES: usize = 4;
+
+/// `meta` of an unused lane. Its low bits are those of a leaf, so the walk
+/// tests for it before anything else.
+pub const WIDE_EMPTY: u32 = u32::MAX;
+
+/// The bit that marks a leaf lane on the four-wide walk's stack (the rest
+/// is the lane's record index): records number fewer than 2^31
+/// ([`wide_records`] refuses more).
+pub const WIDE_LEAF_ENTRY: u32 = 1 << 31;
+
+/// The render program's pipeline-overridable constant that picks the walk
+/// ([`Traversal::tag`]).
+pub const TRAVERSAL_CONSTANT: &str = "TRAVERSAL";
+
+/// [`TRAVERSAL_CONSTANT`] of the binary walk (also brute force's: one
+/// leaf).
+pub const TRAVERSAL_BINARY: u32 = 0;
+
+/// [`TRAVERSAL_CONSTANT`] of the four-wide walk.
+pub const TRAVERSAL_WIDE: u32 = 1;
+
+/// How a render walks the scene.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Traversal {
+    /// The reference's binary tree, near child first, one explicit stack
+    /// (the baseline, the oracle of the others).
+    #[default]
+    Binary,
+    /// The same tree collapsed four children to a node ([`wide_records`]).
+    Wide,
+    /// Every primitive tested, in id order: the binary walk over one leaf
+    /// that holds them all (for tiny scenes, and as the plainest oracle).
+    BruteForce,
+}
+
+impl Traversal {
+    /// Every walk, the baseline first.
+    pub const ALL: [Traversal; 3] = [Traversal::Binary, Traversal::Wide, Traversal::BruteForce];
+
+    /// The CLI's and perf's name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Traversal::Binary => "bvh2",
+            Traversal::Wide => "bvh4",
+            Traversal::BruteForce => "brute",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|t| t.name() == name)
+    }
+
+    /// The value of [`TRAVERSAL_CONSTANT`] for this walk.
+    pub fn tag(self) -> u32 {
+        match self {
+            Traversal::Binary | Traversal::BruteForce => TRAVERSAL_BINARY,
+            Traversal::Wide => TRAVERSAL_WIDE,
+        }
+    }
+}
+
+/// How a walk's leaves name what they hold (`leaf_entries`, one entry per
+/// position of the tree's primitive order).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum LeafLayout {
+    /// The primitive's id, four to a `vec4<u32>`: a test reads the
+    /// `primitives` record, then the shape's (sphere, quad, or triangle
+    /// and its three vertices): two to four dependent reads (the
+    /// baseline).
+    #[default]
+    Indexed,
+    /// A 64-byte record in leaf order with what the test reads: the id
+    /// and kind, the admits box, the shape's nine floats (sphere centre
+    /// and radius; quad corner, u, v; triangle's three vertex positions),
+    /// copied from the same packed records: one read per test, the same
+    /// bits ([`inline_entries`]).
+    Inline,
+}
+
+impl LeafLayout {
+    pub const ALL: [LeafLayout; 2] = [LeafLayout::Indexed, LeafLayout::Inline];
+
+    /// The CLI's and perf's name.
+    pub fn name(self) -> &'static str {
+        match self {
+            LeafLayout::Indexed => "indexed",
+            LeafLayout::Inline => "inline",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|l| l.name() == name)
+    }
+
+    /// The value of [`LEAVES_CONSTANT`].
+    pub fn tag(self) -> u32 {
+        match self {
+            LeafLayout::Indexed => LEAVES_INDEXED,
+            LeafLayout::Inline => LEAVES_INLINE,
+        }
+    }
+}
+
+/// The render program's pipeline-overridable constant that picks the leaf
+/// layout ([`LeafLayout::tag`]).
+pub const LEAVES_CONSTANT: &str = "LEAVES";
+
+/// [`LEAVES_CONSTANT`] of [`LeafLayout::Indexed`].
+pub const LEAVES_INDEXED: u32 = 0;
+
+/// [`LEAVES_CONSTANT`] of [`LeafLayout::Inline`].
+pub const LEAVES_INLINE: u32 = 1;
+
+/// `vec4<u32>` words of an inline leaf entry.
+pub const INLINE_WORDS: usize = 4;
+
+/// An inline entry's first word holds the primitive's kind above this
+/// bit and its id below (ids under 2^30: [`inline_entries`] refuses more).
+pub const INLINE_TAG_SHIFT: u32 = 30;
+
+/// The ids of `order` as the indexed layout holds them, four to a word.
+pub fn indexed_entries(order: &[u32]) -> Vec<[u32; 4]> {
+    order
+        .chunks(4)
+        .map(|c| std::array::from_fn(|k| c.get(k).copied().unwrap_or(0)))
+        .collect()
+}
+
+/// The inline entries of `order` ([`LeafLayout::Inline`]), from the packed
+/// records the indexed layout's test reads (so the same floats), or why
+/// not (ids past [`INLINE_TAG_SHIFT`]'s range).
+pub fn inline_entries(
+    order: &[u32],
+    p: &crate::scene_buffers::PackedScene,
+) -> Result<Vec<[u32; 4]>, String> {
+    use reference::scene::primitive_tag;
+    if p.primitives.len() as u64 > 1 << INLINE_TAG_SHIFT {
+        return Err(format!(
+            "inline leaf entries hold ids under 2^{INLINE_TAG_SHIFT}; this scene has {} primitives",
+            p.primitives.len()
+        ));
+    }
+    let mut out = Vec::with_capacity(order.len() * INLINE_WORDS);
+    for &prim in order {
+        let g = &p.primitives[prim as usize];
+        let i = g.index as usize;
+        let shape: [f32; 9] = match g.tag {
+            primitive_tag::SPHERE => {
+                let s = &p.spheres[i];
+                [
+                    s.center_x, s.center_y, s.center_z, s.radius, 0.0, 0.0, 0.0, 0.0, 0.0,
+                ]
+            }
+            primitive_tag::QUAD => {
+                let q = &p.quads[i];
+                [
+                    q.corner_x, q.corner_y, q.corner_z, q.u_x, q.u_y, q.u_z, q.v_x, q.v_y, q.v_z,
+                ]
+            }
+            _ => {
+                // Triangles, and any other tag: the kernel poisons an
+                // unknown tag whatever the floats.
+                let t = p.triangles.get(i);
+                let v = |k: Option<u32>| {
+                    k.and_then(|k| p.vertices.get(k as usize))
+                        .map_or([0.0; 3], |v| [v.p_x, v.p_y, v.p_z])
+                };
+                let (a, b, c) = (v(t.map(|t| t.v0)), v(t.map(|t| t.v1)), v(t.map(|t| t.v2)));
+                [a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2]]
+            }
+        };
+        let f = |x: f32| x.to_bits();
+        // An unknown tag stays unknown (3 is none): the kernel poisons it.
+        let head = prim | (g.tag.min(3) << INLINE_TAG_SHIFT);
+        out.push([head, f(g.lo_x), f(g.lo_y), f(g.lo_z)]);
+        out.push([f(g.hi_x), f(g.hi_y), f(g.hi_z), f(shape[0])]);
+        out.push([f(shape[1]), f(shape[2]), f(shape[3]), f(shape[4])]);
+        out.push([f(shape[5]), f(shape[6]), f(shape[7]), f(shape[8])]);
+    }
+    Ok(out)
+}
+
+/// The `nodes` and `prim_order` arrays a walk reads for `scene`, and the
+/// walk they are for: `Err` with the reason where the wide records would
+/// need a deeper stack than the kernels hold (the binary tree's arrays
+/// come back with it, so a caller can go on with [`Traversal::Binary`]).
+pub fn arrays(scene: &Scene, traversal: Traversal) -> (Vec<BvhNode>, Vec<u32>, Result<(), String>) {
+    let bvh = scene.bvh();
+    match traversal {
+        Traversal::Binary => (bvh.nodes().to_vec(), bvh.prim_order().to_vec(), Ok(())),
+        Traversal::Wide => match wide_records(bvh.nodes()) {
+            Ok(records) => (records, bvh.prim_order().to_vec(), Ok(())),
+            Err(e) => (bvh.nodes().to_vec(), bvh.prim_order().to_vec(), Err(e)),
+        },
+        Traversal::BruteForce => {
+            let prims = scene.primitives().len() as u32;
+            let root = bvh.nodes().first().copied().unwrap_or(BvhNode {
+                min: [0.0; 3],
+                index: 0,
+                max: [0.0; 3],
+                meta: BvhNode::LEAF,
+            });
+            let leaf = BvhNode {
+                index: 0,
+                meta: (prims << 2) | BvhNode::LEAF,
+                ..root
+            };
+            (vec![leaf], (0..prims).collect(), Ok(()))
+        }
+    }
+}
+
+/// The four-wide records of the binary tree `nodes` (module docs), or why
+/// not: the walk defers up to all but one lane of each wide node it
+/// enters, and the records are refused where some chain of wide nodes
+/// could defer more than the kernels' [`BVH_STACK_SIZE`] at once.
+pub fn wide_records(nodes: &[BvhNode]) -> Result<Vec<BvhNode>, String> {
+    let empty = BvhNode {
+        min: [0.0; 3],
+        index: 0,
+        max: [0.0; 3],
+        meta: WIDE_EMPTY,
+    };
+    let Some(&root) = nodes.first() else {
+        // No primitives: the root record and one wide node with no lanes.
+        return Ok(vec![empty; 1 + WIDE_LANES]);
+    };
+    let mut out = vec![root];
+    out.extend([empty; WIDE_LANES]);
+    // (binary node, wide node made of its subtree's top)
+    let mut pending = vec![(0usize, 0usize)];
+    // Per wide node: its lanes, and its interior lanes' wide nodes (for
+    // the stack need).
+    let mut lanes_used: Vec<usize> = vec![0];
+    let mut children: Vec<Vec<usize>> = vec![Vec::new()];
+    while let Some((b, w)) = pending.pop() {
+        let lanes = open(nodes, b);
+        lanes_used[w] = lanes.len();
+        for (lane, &n) in lanes.iter().enumerate() {
+            let mut record = nodes[n];
+            if !record.is_leaf() {
+                let child = children.len();
+                children.push(Vec::new());
+                lanes_used.push(0);
+                children[w].push(child);
+                out.extend([empty; WIDE_LANES]);
+                record.index = child as u32;
+                pending.push((n, child));
+            }
+            out[1 + WIDE_LANES * w + lane] = record;
+        }
+    }
+    if out.len() as u64 >= WIDE_LEAF_ENTRY as u64 {
+        return Err(format!(
+            "the four-wide walk's stack entries address fewer than {WIDE_LEAF_ENTRY} records; this tree needs {}",
+            out.len()
+        ));
+    }
+    // The walk enters the nearest lane it hits and stacks the others
+    // (leaves too), so a wide node adds at most its lanes less one to
+    // what its deepest interior lane needs. Children come after their
+    // parent: one pass from the end sees every child's need first.
+    let mut need = vec![0usize; children.len()];
+    for w in (0..children.len()).rev() {
+        let deepest = children[w].iter().map(|&c| need[c]).max().unwrap_or(0);
+        need[w] = lanes_used[w].saturating_sub(1) + deepest;
+    }
+    if need[0] > BVH_STACK_SIZE {
+        return Err(format!(
+            "the four-wide walk of this tree could hold {} deferred lanes, more than its stack's {BVH_STACK_SIZE}",
+            need[0]
+        ));
+    }
+    Ok(out)
+}
+
+/// The binary nodes that become the lanes of binary node `b`'s wide node:
+/// a leaf root is its own lane; else its children, then the interior lane
+/// of largest surface area replaced by its two children (in place, so
+/// lanes keep the tree's left-to-right order) until every lane is used or
+/// every lane is a leaf.
+fn open(nodes: &[BvhNode], b: usize) -> Vec<usize> {
+    let n = &nodes[b];
+    if n.is_leaf() {
+        return vec![b];
+    }
+    let mut lanes = vec![b + 1, n.index as usize];
+    while lanes.len() < WIDE_LANES {
+        let widest = lanes
+            .iter()
+            .enumerate()
+            .filter(|(_, &l)| !nodes[l].is_leaf())
+            .max_by(|(_, &x), (_, &y)| {
+                let (ax, ay) = (
+                    nodes[x].bounds().surface_area(),
+                    nodes[y].bounds().surface_area(),
+                );
+                ax.total_cmp(&ay)
+            })
+            .map(|(i, _)| i);
+        let Some(i) = widest else { break };
+        let l = lanes[i];
+        lanes.splice(i..=i, [l + 1, nodes[l].index as usize]);
+    }
+    lanes
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn leaf(first: u32, count: u32, lo: f32) -> BvhNode {
+        BvhNode {
+            min: [lo; 3],
+            index: first,
+            max: [lo + 1.0; 3],
+            meta: (count << 2) | BvhNode::LEAF,
+        }
+    }
+
+    fn interior(right: u32, lo: f32, hi: f32) -> BvhNode {
+        BvhNode {
+            min: [lo; 3],
+            index: right,
+            max: [hi; 3],
+            meta: 0,
+        }
+    }
+
+    /// The leaf lanes of `records` (first entry, count), sorted.
+    fn leaves(records: &[BvhNode]) -> Vec<(u32, u32)> {
+        let mut out: Vec<_> = records[1..]
+            .iter()
+            .filter(|r| r.meta != WIDE_EMPTY && r.is_leaf())
+            .map(|r| (r.index, r.count()))
+            .collect();
+        out.sort();
+        out
+    }
+
+    #[test]
+    fn a_leaf_root_is_one_lane() {
+        let r = wide_records(&[leaf(0, 3, 0.0)]).unwrap();
+        assert_eq!(r.len(), 1 + WIDE_LANES);
+        assert_eq!(r[1], leaf(0, 3, 0.0));
+        assert!(r[2..].iter().all(|l| l.meta == WIDE_EMPTY));
+    }
+
+    #[test]
+    fn every_leaf_appears_once_with_its_box() {
+        // A scene's real tree: every binary leaf is a lane, bit for bit.
+        let scene = reference::load_scene("rtow-final").unwrap();
+        let nodes = scene.bvh().nodes();
+        let r = wide_records(nodes).unwrap();
+        let mut binary: Vec<_> = nodes
+            .iter()
+            .filter(|n| n.is_leaf())
+            .map(|n| (n.index, n.count()))
+            .collect();
+        binary.sort();
+        assert_eq!(leaves(&r), binary);
+        for lane in &r[1..] {
+            if lane.meta != WIDE_EMPTY && lane.is_leaf() {
+                assert!(nodes.contains(lane), "{lane:?} is not a binary leaf");
+            }
+        }
+        // Interior lanes: a binary interior node's box and axis, and the
+        // wide node they name exists.
+        let wide = (r.len() - 1) / WIDE_LANES;
+        for lane in r[1..]
+            .iter()
+            .filter(|l| l.meta != WIDE_EMPTY && !l.is_leaf())
+        {
+            assert!((lane.index as usize) < wide);
+            assert!(nodes.iter().any(|n| !n.is_leaf()
+                && n.min == lane.min
+                && n.max == lane.max
+                && n.meta == lane.meta));
+        }
+        // Most lanes are used (the point of opening the widest lanes).
+        let used = r[1..].iter().filter(|l| l.meta != WIDE_EMPTY).count();
+        assert!(
+            used * 10 >= (r.len() - 1) * 7,
+            "{used} of {} lanes used",
+            r.len() - 1
+        );
+    }
+
+    #[test]
+    fn the_widest_interior_lane_is_opened() {
+        // root(0) -> a(1), b(4); a -> leaves 2, 3; b -> c(5), leaf 8;
+        // c -> leaves 6, 7. b is wider than a: opened first, into c and
+        // leaf 8; then c (area 96) is wider than a (24): opened into its
+        // leaves. Four lanes, in the tree's order: a, 6, 7, 8.
+        let nodes = [
+            interior(4, 0.0, 2.0),
+            interior(3, 0.0, 2.0),
+            leaf(0, 1, 0.0),
+            leaf(1, 1, 1.0),
+            interior(8, 2.0, 10.0),
+            interior(7, 2.0, 6.0),
+            leaf(2, 1, 2.0),
+            leaf(3, 1, 3.0),
+            leaf(4, 1, 7.0),
+        ];
+        assert_eq!(open(&nodes, 0), vec![1, 6, 7, 8]);
+        let r = wide_records(&nodes).unwrap();
+        assert_eq!(r.len(), 1 + 2 * WIDE_LANES);
+        assert_eq!(r[1].index, 1, "a's lane names wide node 1");
+        assert_eq!(&r[2..5], &[nodes[6], nodes[7], nodes[8]]);
+        assert_eq!(&r[5..7], &[nodes[2], nodes[3]]);
+        assert!(r[7..].iter().all(|l| l.meta == WIDE_EMPTY));
+    }
+
+    /// A spine of `len` interior nodes, each with a small two-leaf node on
+    /// the left and the rest of the spine (wider) on the right: every wide
+    /// node opens the spine twice and holds four interior lanes, three of
+    /// them deferred by the walk.
+    fn spine(len: u32) -> Vec<BvhNode> {
+        let mut nodes = Vec::new();
+        for k in 0..len {
+            let at = nodes.len() as u32;
+            nodes.push(interior(at + 4, 0.0, 1000.0 - k as f32));
+            nodes.push(interior(at + 3, k as f32, k as f32 + 1.0));
+            nodes.push(leaf(2 * k, 1, k as f32));
+            nodes.push(leaf(2 * k + 1, 1, k as f32));
+        }
+        nodes.push(leaf(2 * len, 1, 0.0));
+        nodes
+    }
+
+    #[test]
+    fn a_walk_that_could_outgrow_the_stack_is_refused() {
+        // 30 spine nodes: 10 wide nodes deep, 3 deferred each.
+        assert!(wide_records(&spine(30)).is_ok());
+        // 90: 30 deep, 90 deferred > 64.
+        let e = wide_records(&spine(90)).unwrap_err();
+        assert!(e.contains("more than its stack's 64"), "{e}");
+        // A caterpillar (a leaf on the left of each spine node): three
+        // leaves and the spine's rest a wide node, three deferred each (the
+        // leaves wait on the stack too): 60 spine nodes are 20 wide nodes
+        // deep (60 deferred, accepted), 75 are 25 (75, refused).
+        let caterpillar = |len: u32| {
+            let mut nodes = Vec::new();
+            for i in 0..len {
+                let at = nodes.len() as u32;
+                nodes.push(interior(at + 2, 0.0, 1000.0 - i as f32));
+                nodes.push(leaf(i, 1, 0.0));
+            }
+            nodes.push(leaf(len, 1, 0.0));
+            nodes
+        };
+        assert!(wide_records(&caterpillar(60)).is_ok());
+        assert!(wide_records(&caterpillar(75)).is_err());
+    }
+}

@@ -1,0 +1,211 @@
+//! The GPU's walks against each other (`gpu::traversal`): the four-wide
+//! walk, brute force and the inline leaf layout must return the binary
+//! walk's hit records (over indexed leaves) bit for bit (flag, primitive,
+//! t, uv) on the rays of [`super::hits`], on every scene, and render every
+//! fixture and built-in scene as it does with either estimator. Not a CPU
+//! twin: the binary walk is the oracle (itself held to the reference by
+//! [`super::hits`]).
+//!
+//! Why bit for bit: every walk offers the same primitives to the same
+//! test (`intersect_primitive`, or `intersect_inline` on copies of the
+//! same floats, with the admits box) and keeps the closest
+//! hit, ties in t to the smaller primitive id; a box only decides what is
+//! skipped, and a box test is conservative (it never hides a hit the
+//! primitive test would report). So the order of the walk cannot change
+//! the hit. The films are compared under the wavefront's rule
+//! ([`super::wavefront::compare_words`]: counts exact, means bit for bit
+//! or a few ulp apart where a driver contracts the shading code of two
+//! programs differently); the summary line says how many pixels were not
+//! bit for bit.
+
+use super::hits::{ray_words, scenes, SNIPPET};
+use super::specialization::{counts, scene_specs, variant_film_bits, Build, SIZE};
+use super::wavefront::{compare_words, Inexact};
+use super::{camera_and_random_rays, run_kernel_walking, Outcome};
+use gpu::features::Kernel;
+use gpu::scene_buffers::PackedScene;
+use gpu::{GpuContext, LeafLayout, Traversal};
+use reference::integrator::Integrator;
+use reference::Scene;
+
+/// A walk and the leaf layout it reads.
+pub type Walk = (Traversal, LeafLayout);
+
+/// The walks compared with the binary one over indexed leaves.
+pub const VARIANTS: [Walk; 4] = [
+    (Traversal::Wide, LeafLayout::Indexed),
+    (Traversal::BruteForce, LeafLayout::Indexed),
+    (Traversal::Binary, LeafLayout::Inline),
+    (Traversal::Wide, LeafLayout::Inline),
+];
+
+/// A walk's name in the messages: `bvh4`, `bvh2-inline`.
+pub fn walk_name((traversal, leaves): Walk) -> String {
+    match leaves {
+        LeafLayout::Indexed => traversal.name().to_string(),
+        _ => format!("{}-{}", traversal.name(), leaves.name()),
+    }
+}
+
+/// `scene`'s records for a walk; an error where it was refused
+/// (`PackedScene::traversal_note`).
+pub fn packed(scene: &Scene, (traversal, leaves): Walk) -> Result<PackedScene, String> {
+    let packed = PackedScene::for_walk(scene, traversal, leaves);
+    match &packed.traversal_note {
+        Some(why) => Err(why.clone()),
+        None => Ok(packed),
+    }
+}
+
+/// The hit-record kernel's output (five words a ray) for `scene`'s
+/// records as packed, over `library` (the production WGSL, or an edit).
+pub fn hit_words(
+    ctx: &GpuContext,
+    scene: &Scene,
+    packed: &PackedScene,
+    library: &str,
+) -> Result<Vec<u32>, String> {
+    let rays = camera_and_random_rays(scene, 64, 4096, 5);
+    run_kernel_walking(
+        ctx,
+        (scene, packed),
+        (SNIPPET, "hits_main"),
+        &ray_words(&rays),
+        (rays.len(), rays.len() * 5),
+        library,
+    )
+}
+
+/// The hit records of `packed` (a walk's records, or a test's edit of
+/// them) against the binary walk's, over `library`: the number of rays
+/// that hit, or the first ray whose records differ.
+pub fn compare_hits(
+    ctx: &GpuContext,
+    name: &str,
+    scene: &Scene,
+    packed: &PackedScene,
+    library: &str,
+) -> Result<usize, String> {
+    let production = gpu::shader::library_source();
+    let oracle = hit_words(ctx, scene, &PackedScene::new(scene), &production)?;
+    let words = hit_words(ctx, scene, packed, library)?;
+    let walk = walk_name((packed.traversal, packed.leaves));
+    for (i, (b, w)) in oracle.chunks(5).zip(words.chunks(5)).enumerate() {
+        if b != w {
+            let show = |r: &[u32]| {
+                format!(
+                    "hit {} prim {} t {} uv ({}, {})",
+                    r[0],
+                    r[1],
+                    f32::from_bits(r[2]),
+                    f32::from_bits(r[3]),
+                    f32::from_bits(r[4])
+                )
+            };
+            return Err(format!(
+                "{name}, ray {i}: the {walk} walk gives {}, the binary walk {}",
+                show(w),
+                show(b)
+            ));
+        }
+    }
+    Ok(oracle.chunks(5).filter(|r| r[0] == 1).count())
+}
+
+/// A walk's films of `scene` against the binary walk's (the
+/// megakernel, kernel specialized to the scene) for one estimator, over
+/// `program` (the megakernel's WGSL, or an edit): the pixels not bit for
+/// bit and their largest mean difference in ulp.
+pub fn compare_films(
+    ctx: &GpuContext,
+    spec: &str,
+    scene: &Scene,
+    (walk, integrator): (Walk, Integrator),
+    program: &str,
+) -> Result<(usize, u64), String> {
+    let features = Kernel::Specialized.features(scene);
+    let production = gpu::shader::render_source();
+    let oracle = Build::megakernel(&production, integrator, features);
+    let binary = variant_film_bits(ctx, scene, oracle, &[None])?.remove(0);
+    let (width, height, spp) = SIZE;
+    let (counted, rejected) = counts(&binary);
+    if counted != (width * height * spp) as u64 || rejected != 0 {
+        return Err(format!(
+            "{spec} ({}): the binary walk's film counted {counted} samples and rejected {rejected}",
+            integrator.name()
+        ));
+    }
+    let build = Build {
+        traversal: walk.0,
+        leaves: walk.1,
+        ..Build::megakernel(program, integrator, features)
+    };
+    let film = variant_film_bits(ctx, scene, build, &[None])?.remove(0);
+    compare_words(&binary, &film).map_err(|e| {
+        format!(
+            "{spec} ({}, {} walk): {e}",
+            integrator.name(),
+            walk_name(walk)
+        )
+    })
+}
+
+/// Hit records on every scene of [`scenes`] and films of every scene of
+/// [`scene_specs`], both estimators, each walk of [`VARIANTS`] against the
+/// binary one. Every case is compared; the error lists each one that
+/// fails.
+pub fn all_scenes(ctx: &GpuContext) -> Outcome {
+    let library = gpu::shader::library_source();
+    let program = gpu::shader::render_source();
+    let mut failures = Vec::new();
+    let mut hit_lines = Vec::new();
+    for (name, scene) in scenes()? {
+        let mut hits = None;
+        for walk in VARIANTS {
+            let outcome =
+                packed(&scene, walk).and_then(|p| compare_hits(ctx, &name, &scene, &p, &library));
+            match outcome {
+                Ok(n) => hits = Some(n),
+                Err(e) => failures.push(e),
+            }
+        }
+        if let Some(n) = hits {
+            hit_lines.push(format!("{name} {n}"));
+        }
+    }
+    let specs = scene_specs()?;
+    let (mut inexact, mut films) = (Inexact::default(), 0usize);
+    for spec in &specs {
+        let scene = reference::load_scene(spec).map_err(|e| format!("{spec}: {e}"))?;
+        // Brute force takes tiny scenes only (the renderer refuses more).
+        let walks: Vec<Walk> = VARIANTS
+            .into_iter()
+            .filter(|&(t, _)| {
+                t != Traversal::BruteForce
+                    || scene.primitives().len() <= gpu::renderer::BRUTE_FORCE_MAX_PRIMITIVES
+            })
+            .collect();
+        for integrator in Integrator::ALL {
+            for &walk in &walks {
+                films += 1;
+                match compare_films(ctx, spec, &scene, (walk, integrator), &program) {
+                    Ok(found) => inexact.add(found),
+                    Err(e) => failures.push(e),
+                }
+            }
+        }
+    }
+    if !failures.is_empty() {
+        return Err(failures.join("; "));
+    }
+    let (width, height, _) = SIZE;
+    let compared = films * (width * height) as usize;
+    let exactness = inexact.exactness(compared);
+    Ok(format!(
+        "bvh4, brute force and inline leaves (bvh2, bvh4): hit records equal the binary walk's bit for bit (rays that hit: {}); \
+         {} scenes × 2 estimators ({films} films: brute force on the scenes of at most {} primitives, the others on every scene): films equal the binary walk's {exactness}",
+        hit_lines.join(", "),
+        specs.len(),
+        gpu::renderer::BRUTE_FORCE_MAX_PRIMITIVES
+    ))
+}

@@ -1,0 +1,283 @@
+//! The GPU's walks (`gpu::traversal`): the four-wide BVH walk and brute
+//! force return the binary walk's hit records bit for bit and render the
+//! same films (`twintrace::twins::traversal`, also run by `twintrace
+//! selftest`). Mutants of the wide walk's WGSL and of the records the host
+//! packs prove the comparisons can fail.
+
+use crate::common;
+use gpu::scene_buffers::PackedScene;
+use gpu::traversal::WIDE_EMPTY;
+use gpu::{LeafLayout, Traversal};
+use reference::integrator::Integrator;
+use twintrace::twins::traversal::{all_scenes, compare_films, compare_hits, packed};
+
+#[test]
+fn every_walk_finds_the_binary_walks_hits_and_renders_its_films() {
+    match all_scenes(common::gpu()) {
+        Ok(summary) => println!("{summary}"),
+        Err(e) => panic!("{e}"),
+    }
+}
+
+/// (what the slip is, WGSL replaced, its replacement).
+const WIDE_MUTANTS: &[(&str, &str, &str)] = &[
+    (
+        "the fourth lane of every wide node is never tested",
+        "var d = wide_lane(base + 3u, ray.origin, inv_dir, pad, best.t);",
+        "var d = WideLane(F32_MAX, WIDE_EMPTY);",
+    ),
+    (
+        "the second-nearest hit lane is never stacked (the third stacked twice)",
+        "stack[sp] = b.entry;",
+        "stack[sp] = c.entry;",
+    ),
+    // Each slip keeps the walk finite: a real GPU has no loop limit (a
+    // stacked leaf reading the record before its own met an unused lane's
+    // count, 2^30 - 1, and held the H100 for minutes; lavapipe's loop
+    // limit had cut it short).
+    (
+        "a stacked leaf's entries are read from one past their start",
+        "best = intersect_leaf(n.index, n.meta_bits >> 2u, ray, inv_dir, pad, t_min, best);\n        } else {\n            let base",
+        "best = intersect_leaf(n.index + 1u, n.meta_bits >> 2u, ray, inv_dir, pad, t_min, best);\n        } else {\n            let base",
+    ),
+    (
+        "a leaf takes only its first entry",
+        "best = intersect_leaf(n.index, n.meta_bits >> 2u, ray, inv_dir, pad, t_min, best);\n        } else {\n            let base",
+        "best = intersect_leaf(n.index, 1u, ray, inv_dir, pad, t_min, best);\n        } else {\n            let base",
+    ),
+];
+
+fn rtow() -> reference::Scene {
+    reference::load_scene("rtow-final").unwrap()
+}
+
+#[test]
+fn wide_walk_mutants_fail_the_hit_records() {
+    let ctx = common::gpu();
+    let library = gpu::shader::library_source();
+    let scene = rtow();
+    let wide = packed(&scene, (Traversal::Wide, LeafLayout::Indexed)).unwrap();
+    let hits = compare_hits(ctx, "rtow-final", &scene, &wide, &library).unwrap();
+    assert!(hits > 4096, "only {hits} rays hit: a weak comparison");
+    for &(slip, from, to) in WIDE_MUTANTS {
+        assert_eq!(
+            library.matches(from).count(),
+            1,
+            "{slip}: `{from}` not found once"
+        );
+        let mutant = library.replace(from, to);
+        let e = compare_hits(ctx, "rtow-final", &scene, &wide, &mutant).expect_err(slip);
+        assert!(e.contains(", ray "), "{slip}: not a hit difference: {e}");
+        println!("{slip}: {e}");
+    }
+}
+
+/// (what the slip is, WGSL replaced, its replacement, scene).
+const INLINE_MUTANTS: &[(&str, &str, &str, &str)] = &[
+    (
+        "an inline sphere's radius read from the word after it",
+        "h = intersect_sphere(a, b.x, ray, t_min, t_max);",
+        "h = intersect_sphere(a, b.y, ray, t_min, t_max);",
+        "rtow-final",
+    ),
+    (
+        "an inline entry's id keeps its kind's bits",
+        "prim = r0.x & ((1u << INLINE_TAG_SHIFT) - 1u);",
+        "prim = r0.x;",
+        "cornell",
+    ),
+    (
+        "an inline quad's u and v read swapped",
+        "h = intersect_quad(a, b, c, ray, t_min, t_max);",
+        "h = intersect_quad(a, c, b, ray, t_min, t_max);",
+        "cornell",
+    ),
+];
+
+#[test]
+fn inline_leaf_mutants_fail_the_hit_records() {
+    let ctx = common::gpu();
+    let library = gpu::shader::library_source();
+    for &(slip, from, to, spec) in INLINE_MUTANTS {
+        let scene = reference::load_scene(spec).unwrap();
+        let inline = packed(&scene, (Traversal::Binary, LeafLayout::Inline)).unwrap();
+        compare_hits(ctx, spec, &scene, &inline, &library).unwrap();
+        assert_eq!(
+            library.matches(from).count(),
+            1,
+            "{slip}: `{from}` not found once"
+        );
+        let mutant = library.replace(from, to);
+        let e = compare_hits(ctx, spec, &scene, &inline, &mutant).expect_err(slip);
+        assert!(e.contains(", ray "), "{slip}: not a hit difference: {e}");
+        println!("{slip}: {e}");
+    }
+    // Packed wrong: a triangle's second and third vertices swapped in its
+    // inline entry (words 10 to 12 and 13 to 15 of its sixteen).
+    let scene =
+        reference::load_scene(&twintrace::compare::gate::fixture_scene("gltf-mesh.json")).unwrap();
+    let mut inline = packed(&scene, (Traversal::Binary, LeafLayout::Inline)).unwrap();
+    for e in inline.leaf_entries.chunks_mut(4) {
+        let mut w: Vec<u32> = e.iter().flatten().copied().collect();
+        let (b, c): (Vec<u32>, Vec<u32>) = (w[10..13].to_vec(), w[13..16].to_vec());
+        w[10..13].copy_from_slice(&c);
+        w[13..16].copy_from_slice(&b);
+        for (k, r) in e.iter_mut().enumerate() {
+            r.copy_from_slice(&w[4 * k..4 * k + 4]);
+        }
+    }
+    let e = compare_hits(ctx, "gltf-mesh", &scene, &inline, &library)
+        .expect_err("swapped triangle vertices passed");
+    println!("inline triangle vertices swapped: {e}");
+}
+
+#[test]
+fn a_wide_walk_mutant_fails_the_film_comparison() {
+    let ctx = common::gpu();
+    let (slip, from, to) = WIDE_MUTANTS[0];
+    let program = gpu::shader::render_source();
+    assert_eq!(program.matches(from).count(), 1);
+    let mutant = program.replace(from, to);
+    let scene = reference::load_scene("cornell").unwrap();
+    compare_films(
+        ctx,
+        "cornell",
+        &scene,
+        ((Traversal::Wide, LeafLayout::Indexed), Integrator::Mis),
+        &program,
+    )
+    .unwrap();
+    let e = compare_films(
+        ctx,
+        "cornell",
+        &scene,
+        ((Traversal::Wide, LeafLayout::Indexed), Integrator::Mis),
+        &mutant,
+    )
+    .expect_err(slip);
+    assert!(e.contains(": pixel "), "{slip}: not a film difference: {e}");
+}
+
+#[test]
+fn records_packed_wrong_fail_the_hit_records() {
+    let ctx = common::gpu();
+    let library = gpu::shader::library_source();
+    let scene = rtow();
+    // Every interior lane's box shrunk to the middle half of each axis.
+    let mut wide = packed(&scene, (Traversal::Wide, LeafLayout::Indexed)).unwrap();
+    for lane in wide.nodes[1..].iter_mut() {
+        if lane.meta != WIDE_EMPTY && !lane.is_leaf() {
+            for k in 0..3 {
+                let (lo, hi) = (lane.min[k], lane.max[k]);
+                lane.min[k] = lo + (hi - lo) / 4.0;
+                lane.max[k] = hi - (hi - lo) / 4.0;
+            }
+        }
+    }
+    let e = compare_hits(ctx, "rtow-final", &scene, &wide, &library)
+        .expect_err("shrunk wide boxes passed");
+    println!("wide boxes shrunk: {e}");
+    // Brute force over half the primitives.
+    let mut brute = packed(&scene, (Traversal::BruteForce, LeafLayout::Indexed)).unwrap();
+    assert_eq!(brute.nodes.len(), 1);
+    brute.nodes[0].meta = ((brute.nodes[0].count() / 2) << 2) | 3;
+    let e = compare_hits(ctx, "rtow-final", &scene, &brute, &library)
+        .expect_err("brute force over half the primitives passed");
+    println!("brute force over half: {e}");
+}
+
+#[test]
+fn renderers_report_the_walk_they_run() {
+    let ctx = common::gpu();
+    let scene = rtow();
+    for traversal in Traversal::ALL {
+        for leaves in LeafLayout::ALL {
+            let variant = gpu::Variant {
+                integrator: Integrator::Bsdf,
+                kernel: gpu::Kernel::Specialized,
+                schedule: gpu::Schedule::PathMegakernel,
+                traversal,
+                leaves,
+            };
+            let r = gpu::GpuRenderer::with_variant(ctx, &scene, variant).unwrap();
+            assert_eq!(r.traversal(), (traversal, None));
+            assert_eq!(r.leaves(), leaves);
+        }
+    }
+    // The brute-force records: one leaf of every primitive, in id order.
+    let p = PackedScene::with_traversal(&scene, Traversal::BruteForce);
+    assert_eq!(p.nodes[0].count() as usize, scene.primitives().len());
+    let ids: Vec<u32> = p.leaf_entries.iter().flatten().copied().collect();
+    assert!(ids[..scene.primitives().len()]
+        .iter()
+        .enumerate()
+        .all(|(i, &q)| i as u32 == q));
+}
+
+#[test]
+fn brute_force_is_refused_beyond_tiny_scenes_and_llvmpipes_loop_limit() {
+    use gpu::renderer::{brute_force_refusal, BRUTE_FORCE_MAX_PRIMITIVES};
+    assert_eq!(
+        brute_force_refusal(BRUTE_FORCE_MAX_PRIMITIVES, 8, true),
+        None
+    );
+    assert!(brute_force_refusal(BRUTE_FORCE_MAX_PRIMITIVES + 1, 8, false).is_some());
+    // 1,024 primitives, 2 rays a segment: 32 segments reach 65,536.
+    assert_eq!(brute_force_refusal(1024, 31, true), None);
+    assert!(brute_force_refusal(1024, 32, true).is_some());
+    assert_eq!(brute_force_refusal(1024, 1024, false), None);
+    // The renderer refuses with one line naming the way out.
+    let ctx = common::gpu();
+    let scene = reference::load_scene("spheres-10k").unwrap();
+    let variant = gpu::Variant {
+        integrator: Integrator::Bsdf,
+        kernel: gpu::Kernel::Specialized,
+        schedule: gpu::Schedule::PathMegakernel,
+        traversal: Traversal::BruteForce,
+        leaves: LeafLayout::Indexed,
+    };
+    let r = gpu::GpuRenderer::with_variant(ctx, &scene, variant).unwrap();
+    let settings = reference::RenderSettings {
+        width: 4,
+        height: 4,
+        spp: 1,
+        ..scene.render_settings()
+    };
+    let e = r
+        .render(&settings, &|_, _| {})
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(e.contains("use --traversal bvh2 or bvh4"), "{e}");
+}
+
+/// llvmpipe stops every loop of an invocation after 65,535 iterations in
+/// all; the megakernel used to trace a dispatch's samples in one loop and
+/// lost most of 2,048 samples of a 4x4 image there. Where the adapter is
+/// a GPU this is an ordinary render, equal to the path megakernel's.
+#[test]
+fn many_samples_of_a_tiny_image_are_all_traced() {
+    let ctx = common::gpu();
+    let scene = reference::load_scene("cornell").unwrap();
+    let settings = reference::RenderSettings {
+        width: 4,
+        height: 4,
+        spp: 2048,
+        max_depth: 8,
+        ..scene.render_settings()
+    };
+    let film = |schedule| {
+        let variant = gpu::Variant {
+            integrator: Integrator::Bsdf,
+            kernel: gpu::Kernel::Specialized,
+            schedule,
+            traversal: Traversal::Binary,
+            leaves: LeafLayout::Indexed,
+        };
+        let r = gpu::GpuRenderer::with_variant(ctx, &scene, variant).unwrap();
+        twintrace::twins::specialization::film_words(&r.render(&settings, &|_, _| {}).unwrap().film)
+    };
+    let mega = film(gpu::Schedule::Megakernel);
+    let paths = film(gpu::Schedule::PathMegakernel);
+    twintrace::twins::wavefront::compare_words(&mega, &paths).unwrap();
+}
