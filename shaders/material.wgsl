@@ -1,5 +1,5 @@
 // Materials: the twin of reference/src/material.rs. Dispatch is a switch
-// on the material tag.
+// on the material tag (or, for `scatter`, a chain of tag tests: DISPATCH).
 
 fn schlick_reflectance(cos_i: f32, eta: f32) -> f32 {
     let r = (1.0 - eta) / (1.0 + eta);
@@ -126,6 +126,9 @@ fn absorbed() -> Scatter {
     return Scatter(false, vec3<f32>(0.0), vec3<f32>(0.0));
 }
 
+// The material's sampling routine, picked by a switch on the tag (the
+// baseline) or, with DISPATCH == DISPATCH_BRANCHES, by a chain of tag tests
+// (gpu::Dispatch): the two ways WGSL has to stand for a virtual call.
 fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, u: VertexRandoms) -> Scatter {
     var n = si.shading_normal;
     var ng = si.geometric_normal;
@@ -133,59 +136,37 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, u: Vertex
         n = -n;
         ng = -ng;
     }
+    if DISPATCH == DISPATCH_BRANCHES {
+        if m.tag == MATERIAL_LAMBERTIAN {
+            return scatter_lambertian(m, si, n, u);
+        }
+        if m.tag == MATERIAL_METAL {
+            return scatter_metal(m, ray_dir, si, n, ng, u);
+        }
+        if m.tag == MATERIAL_DIELECTRIC {
+            return scatter_dielectric(m, ray_dir, si, n, u);
+        }
+        if m.tag == MATERIAL_GGX {
+            return scatter_ggx(m, ray_dir, si, n, u);
+        }
+        if m.tag == MATERIAL_DIFFUSE_LIGHT {
+            return absorbed();
+        }
+        poison();
+        return absorbed();
+    }
     switch m.tag {
         case MATERIAL_LAMBERTIAN: {
-            if !uses(FEATURE_LAMBERTIAN) { poison(); break; }
-            let local = sample_cosine_hemisphere(vec2<f32>(vr_get(u, DIM_DIRECTION_U), vr_get(u, DIM_DIRECTION_V)));
-            return Scatter(true, onb_to_world(onb_from_normal(n), local), evaluate_texture(m.texture, si.p, si.uv));
+            return scatter_lambertian(m, si, n, u);
         }
         case MATERIAL_METAL: {
-            if !uses(FEATURE_METAL) { poison(); break; }
-            let ball = sample_unit_ball(vec3<f32>(vr_get(u, DIM_BALL_X), vr_get(u, DIM_BALL_Y), vr_get(u, DIM_BALL_Z)));
-            let direction = reflect_about(ray_dir, n) + m.p0 * ball;
-            if dot(direction, ng) <= 0.0 {
-                return absorbed();
-            }
-            return Scatter(true, normalize(direction), evaluate_texture(m.texture, si.p, si.uv));
+            return scatter_metal(m, ray_dir, si, n, ng, u);
         }
         case MATERIAL_DIELECTRIC: {
-            if !uses(FEATURE_DIELECTRIC) { poison(); break; }
-            var eta = m.p0;
-            if si.front_face {
-                eta = 1.0 / m.p0;
-            }
-            let cos_i = min(dot(-ray_dir, n), 1.0);
-            let r = refract_through(ray_dir, n, eta);
-            var direction = reflect_about(ray_dir, n);
-            if r.ok && schlick_reflectance(cos_i, eta) <= vr_get(u, DIM_LOBE) {
-                direction = normalize(r.direction);
-            }
-            return Scatter(true, direction, vec3<f32>(1.0));
+            return scatter_dielectric(m, ray_dir, si, n, u);
         }
         case MATERIAL_GGX: {
-            if !uses(FEATURE_GGX) { poison(); break; }
-            let frame = onb_from_normal(n);
-            let wo = onb_to_local(frame, -ray_dir);
-            if wo.z <= 0.0 {
-                return absorbed();
-            }
-            let lobes = ggx_lobes_new(evaluate_texture(m.texture, si.p, si.uv), m.p0, m.p1, wo);
-            let dir_u = vec2<f32>(vr_get(u, DIM_DIRECTION_U), vr_get(u, DIM_DIRECTION_V));
-            var wi: vec3<f32>;
-            if vr_get(u, DIM_LOBE) < lobes.specular_probability {
-                let mm = ggx_sample_visible_normal(wo, lobes.alpha, dir_u);
-                wi = reflect_about(-wo, mm);
-            } else {
-                wi = sample_cosine_hemisphere(dir_u);
-            }
-            if wi.z <= 0.0 {
-                return absorbed();
-            }
-            let pdf = ggx_lobes_pdf(lobes, wo, wi);
-            if pdf <= 0.0 {
-                return absorbed();
-            }
-            return Scatter(true, onb_to_world(frame, wi), ggx_lobes_eval(lobes, wo, wi) * wi.z / pdf);
+            return scatter_ggx(m, ray_dir, si, n, u);
         }
         case MATERIAL_DIFFUSE_LIGHT: {
             return absorbed();
@@ -195,5 +176,62 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, u: Vertex
             return absorbed();
         }
     }
-    return absorbed();
+}
+
+// scatter's cases, `n` and `ng` already facing the ray's side.
+fn scatter_lambertian(m: GpuMaterial, si: SurfaceInteraction, n: vec3<f32>, u: VertexRandoms) -> Scatter {
+    if !uses(FEATURE_LAMBERTIAN) { poison(); return absorbed(); }
+    let local = sample_cosine_hemisphere(vec2<f32>(vr_get(u, DIM_DIRECTION_U), vr_get(u, DIM_DIRECTION_V)));
+    return Scatter(true, onb_to_world(onb_from_normal(n), local), evaluate_texture(m.texture, si.p, si.uv));
+}
+
+fn scatter_metal(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, n: vec3<f32>, ng: vec3<f32>, u: VertexRandoms) -> Scatter {
+    if !uses(FEATURE_METAL) { poison(); return absorbed(); }
+    let ball = sample_unit_ball(vec3<f32>(vr_get(u, DIM_BALL_X), vr_get(u, DIM_BALL_Y), vr_get(u, DIM_BALL_Z)));
+    let direction = reflect_about(ray_dir, n) + m.p0 * ball;
+    if dot(direction, ng) <= 0.0 {
+        return absorbed();
+    }
+    return Scatter(true, normalize(direction), evaluate_texture(m.texture, si.p, si.uv));
+}
+
+fn scatter_dielectric(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, n: vec3<f32>, u: VertexRandoms) -> Scatter {
+    if !uses(FEATURE_DIELECTRIC) { poison(); return absorbed(); }
+    var eta = m.p0;
+    if si.front_face {
+        eta = 1.0 / m.p0;
+    }
+    let cos_i = min(dot(-ray_dir, n), 1.0);
+    let r = refract_through(ray_dir, n, eta);
+    var direction = reflect_about(ray_dir, n);
+    if r.ok && schlick_reflectance(cos_i, eta) <= vr_get(u, DIM_LOBE) {
+        direction = normalize(r.direction);
+    }
+    return Scatter(true, direction, vec3<f32>(1.0));
+}
+
+fn scatter_ggx(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, n: vec3<f32>, u: VertexRandoms) -> Scatter {
+    if !uses(FEATURE_GGX) { poison(); return absorbed(); }
+    let frame = onb_from_normal(n);
+    let wo = onb_to_local(frame, -ray_dir);
+    if wo.z <= 0.0 {
+        return absorbed();
+    }
+    let lobes = ggx_lobes_new(evaluate_texture(m.texture, si.p, si.uv), m.p0, m.p1, wo);
+    let dir_u = vec2<f32>(vr_get(u, DIM_DIRECTION_U), vr_get(u, DIM_DIRECTION_V));
+    var wi: vec3<f32>;
+    if vr_get(u, DIM_LOBE) < lobes.specular_probability {
+        let mm = ggx_sample_visible_normal(wo, lobes.alpha, dir_u);
+        wi = reflect_about(-wo, mm);
+    } else {
+        wi = sample_cosine_hemisphere(dir_u);
+    }
+    if wi.z <= 0.0 {
+        return absorbed();
+    }
+    let pdf = ggx_lobes_pdf(lobes, wo, wi);
+    if pdf <= 0.0 {
+        return absorbed();
+    }
+    return Scatter(true, onb_to_world(frame, wi), ggx_lobes_eval(lobes, wo, wi) * wi.z / pdf);
 }

@@ -14,6 +14,10 @@ fn uses(feature: u32) -> bool {
     return (FEATURES & feature) != 0u;
 }
 
+// How a tag picks its code where both ways are written (intersect_shape,
+// scatter): a switch (the baseline) or a chain of tag tests (gpu::Dispatch).
+override DISPATCH: u32 = DISPATCH_SWITCH;
+
 struct Hit {
     hit: bool,
     t: f32,
@@ -46,28 +50,53 @@ fn intersect_primitive(prim: u32, ray: Ray, inv_dir: vec3<f32>, pad: f32, t_min:
 }
 
 fn intersect_shape(p: GpuPrimitive, ray: Ray, t_min: f32, t_max: f32) -> ShapeHit {
+    if DISPATCH == DISPATCH_BRANCHES {
+        if p.tag == PRIMITIVE_SPHERE {
+            return intersect_sphere_record(p.index, ray, t_min, t_max);
+        }
+        if p.tag == PRIMITIVE_QUAD {
+            return intersect_quad_record(p.index, ray, t_min, t_max);
+        }
+        if p.tag == PRIMITIVE_TRIANGLE {
+            return intersect_triangle_record(p.index, ray, t_min, t_max);
+        }
+        poison();
+        return no_hit();
+    }
     switch p.tag {
         case PRIMITIVE_SPHERE: {
-            if !uses(FEATURE_SPHERES) { poison(); break; }
-            let s = spheres[p.index];
-            return intersect_sphere(vec3<f32>(s.center_x, s.center_y, s.center_z), s.radius, ray, t_min, t_max);
+            return intersect_sphere_record(p.index, ray, t_min, t_max);
         }
         case PRIMITIVE_QUAD: {
-            if !uses(FEATURE_QUADS) { poison(); break; }
-            let q = quads[p.index];
-            return intersect_quad(vec3<f32>(q.corner_x, q.corner_y, q.corner_z), vec3<f32>(q.u_x, q.u_y, q.u_z), vec3<f32>(q.v_x, q.v_y, q.v_z), ray, t_min, t_max);
+            return intersect_quad_record(p.index, ray, t_min, t_max);
         }
         case PRIMITIVE_TRIANGLE: {
-            if !uses(FEATURE_TRIANGLES) { poison(); break; }
-            let tri = triangles[p.index];
-            return intersect_triangle(vertex_position(tri.v0), vertex_position(tri.v1), vertex_position(tri.v2), ray, t_min, t_max);
+            return intersect_triangle_record(p.index, ray, t_min, t_max);
         }
         default: {
             poison();
             return no_hit();
         }
     }
-    return no_hit();
+}
+
+// intersect_shape's cases: the shape's record read, its routine run.
+fn intersect_sphere_record(index: u32, ray: Ray, t_min: f32, t_max: f32) -> ShapeHit {
+    if !uses(FEATURE_SPHERES) { poison(); return no_hit(); }
+    let s = spheres[index];
+    return intersect_sphere(vec3<f32>(s.center_x, s.center_y, s.center_z), s.radius, ray, t_min, t_max);
+}
+
+fn intersect_quad_record(index: u32, ray: Ray, t_min: f32, t_max: f32) -> ShapeHit {
+    if !uses(FEATURE_QUADS) { poison(); return no_hit(); }
+    let q = quads[index];
+    return intersect_quad(vec3<f32>(q.corner_x, q.corner_y, q.corner_z), vec3<f32>(q.u_x, q.u_y, q.u_z), vec3<f32>(q.v_x, q.v_y, q.v_z), ray, t_min, t_max);
+}
+
+fn intersect_triangle_record(index: u32, ray: Ray, t_min: f32, t_max: f32) -> ShapeHit {
+    if !uses(FEATURE_TRIANGLES) { poison(); return no_hit(); }
+    let tri = triangles[index];
+    return intersect_triangle(vertex_position(tri.v0), vertex_position(tri.v1), vertex_position(tri.v2), ray, t_min, t_max);
 }
 
 fn surface_interaction(ray: Ray, hit: Hit) -> SurfaceInteraction {

@@ -50,3 +50,48 @@ fn a_kernel_without_a_feature_its_scene_uses_is_caught() {
     // background: at least 3 features, 48 mutants.
     assert!(mutants >= 48, "only {mutants} mutants");
 }
+
+/// The kernel selecting code by chains of tag tests renders every scene as
+/// the switch does (`twintrace::twins::dispatch`); chains that send a kind
+/// to another's code, or lose one, are caught as film differences.
+#[test]
+fn branch_dispatch_renders_every_scene_as_the_switch() {
+    match twintrace::twins::dispatch::all_scenes(common::gpu()) {
+        Ok(summary) => println!("{summary}"),
+        Err(e) => panic!("{e}"),
+    }
+}
+
+#[test]
+fn branch_dispatch_mutants_are_caught() {
+    use twintrace::twins::dispatch::compare_scene;
+    let ctx = common::gpu();
+    let program = gpu::shader::render_source();
+    // (slip, WGSL replaced, its replacement, scene)
+    let mutants = [
+        (
+            "metal sent to the dielectric's code",
+            "if m.tag == MATERIAL_METAL {\n            return scatter_metal(m, ray_dir, si, n, ng, u);",
+            "if m.tag == MATERIAL_METAL {\n            return scatter_dielectric(m, ray_dir, si, n, u);",
+            "rtow-final",
+        ),
+        (
+            "quads fall through to the end of the chain",
+            "if p.tag == PRIMITIVE_QUAD {\n            return intersect_quad_record(p.index, ray, t_min, t_max);\n        }",
+            "",
+            "cornell",
+        ),
+    ];
+    for (slip, from, to, spec) in mutants {
+        assert_eq!(
+            program.matches(from).count(),
+            1,
+            "{slip}: `{from}` not found once"
+        );
+        let scene = reference::load_scene(spec).unwrap();
+        let mutant = program.replace(from, to);
+        let e = compare_scene(ctx, spec, &scene, Integrator::Bsdf, &mutant).expect_err(slip);
+        assert!(e.contains(": pixel "), "{slip}: not a film difference: {e}");
+        println!("{slip}: {e}");
+    }
+}

@@ -198,6 +198,7 @@ fn renderers_report_the_walk_they_run() {
                 schedule: gpu::Schedule::PathMegakernel,
                 traversal,
                 leaves,
+                dispatch: gpu::Dispatch::Switch,
             };
             let r = gpu::GpuRenderer::with_variant(ctx, &scene, variant).unwrap();
             assert_eq!(r.traversal(), (traversal, None));
@@ -235,6 +236,7 @@ fn brute_force_is_refused_beyond_tiny_scenes_and_llvmpipes_loop_limit() {
         schedule: gpu::Schedule::PathMegakernel,
         traversal: Traversal::BruteForce,
         leaves: LeafLayout::Indexed,
+        dispatch: gpu::Dispatch::Switch,
     };
     let r = gpu::GpuRenderer::with_variant(ctx, &scene, variant).unwrap();
     let settings = reference::RenderSettings {
@@ -273,6 +275,7 @@ fn many_samples_of_a_tiny_image_are_all_traced() {
             schedule,
             traversal: Traversal::Binary,
             leaves: LeafLayout::Indexed,
+            dispatch: gpu::Dispatch::Switch,
         };
         let r = gpu::GpuRenderer::with_variant(ctx, &scene, variant).unwrap();
         twintrace::twins::specialization::film_words(&r.render(&settings, &|_, _| {}).unwrap().film)

@@ -184,6 +184,7 @@ fn a_wave_dispatched_as_a_two_dimensional_grid_renders_as_the_megakernel() {
             schedule,
             traversal: gpu::Traversal::Binary,
             leaves: gpu::LeafLayout::Indexed,
+            dispatch: gpu::Dispatch::Switch,
         };
         let mut r = gpu::GpuRenderer::with_variant(ctx, &scene, variant).unwrap();
         r.set_wave_slots(Some(paths));

@@ -68,6 +68,22 @@ const GPU_ONLY: &[(&str, &str)] = &[
         "bvh_intersect_wide",
         "the GPU's four-wide walk (gpu::traversal; the reference's collapse is 8-wide, Bvh::intersect)",
     ),
+    ("scatter_lambertian", "the Lambertian arm of material::scatter's match"),
+    ("scatter_metal", "the metal arm of material::scatter's match"),
+    ("scatter_dielectric", "the dielectric arm of material::scatter's match"),
+    ("scatter_ggx", "the GGX arm of material::scatter's match"),
+    (
+        "intersect_sphere_record",
+        "the sphere arm of the shape match in LeafPrim::intersect",
+    ),
+    (
+        "intersect_quad_record",
+        "the quad arm of the shape match in LeafPrim::intersect",
+    ),
+    (
+        "intersect_triangle_record",
+        "the triangle arm of the shape match in LeafPrim::intersect",
+    ),
     (
         "intersect_inline",
         "intersect_primitive on a leaf-ordered copy of the records it reads (gpu::traversal::LeafLayout::Inline)",

@@ -24,7 +24,7 @@ pub mod wavefront;
 
 pub use context::{list_adapters, AdapterSummary, GpuContext};
 pub use error::GpuError;
-pub use features::{Features, Kernel};
-pub use renderer::{GpuRender, GpuRenderer};
+pub use features::{Dispatch, Features, Kernel};
+pub use renderer::{GpuRender, GpuRenderer, KernelSpec};
 pub use traversal::{LeafLayout, Traversal};
 pub use wavefront::{PathLayout, Schedule, Variant};

@@ -7,9 +7,8 @@
 use crate::bindings::{self, Binding};
 use crate::context::GpuContext;
 use crate::error::GpuError;
-use crate::features::{Kernel, FEATURES_CONSTANT};
+use crate::features::FEATURES_CONSTANT;
 use crate::renderer::{bind_group_layout, compile_with, read_buffer, read_timestamps, GpuRenderer};
-use crate::traversal::{LeafLayout, Traversal};
 use reference::geometry::Ray;
 use reference::Scene;
 use std::time::{Duration, Instant};
@@ -60,16 +59,17 @@ pub struct RayTimings {
 pub const WARM_UP: Duration = Duration::from_millis(500);
 
 /// Traces `rays` through `scene` on the GPU `repeats` times (after
-/// untimed warm-up dispatches for at least [`WARM_UP`]), with the kernel built for `kernel`'s
-/// features of the scene ([`Kernel::Specialized`]: only the scene's
-/// primitive tests in the walk), walking it by `traversal` over `leaves`.
+/// untimed warm-up dispatches for at least [`WARM_UP`]), with the kernel built as
+/// `variant` says: its kernel's features of the scene
+/// ([`crate::Kernel::Specialized`]: only the scene's primitive tests in the walk),
+/// its walk, leaves and dispatch (its estimator and schedule do not
+/// matter to a ray query).
 pub fn trace_closest(
     ctx: &GpuContext,
     scene: &Scene,
     rays: &[Ray],
     repeats: u32,
-    kernel: Kernel,
-    (traversal, leaves): (Traversal, LeafLayout),
+    variant: crate::Variant,
 ) -> Result<RayTimings, GpuError> {
     let device = &ctx.device;
     let groups = (rays.len() as u32).div_ceil(WORKGROUP);
@@ -81,17 +81,8 @@ pub fn trace_closest(
             max_groups as u64 * WORKGROUP as u64
         )));
     }
-    let renderer = GpuRenderer::with_variant(
-        ctx,
-        scene,
-        crate::Variant {
-            integrator: reference::integrator::Integrator::Bsdf,
-            kernel,
-            schedule: crate::Schedule::Megakernel,
-            traversal,
-            leaves,
-        },
-    )?;
+    let renderer = GpuRenderer::with_variant(ctx, scene, variant)?;
+    let shared = renderer.shared_constants();
     let source = [
         crate::shader::library_source().as_str(),
         &bindings::wgsl_declarations(&bindings::TEST_IO_GROUP),
@@ -109,9 +100,10 @@ pub fn trace_closest(
         "closest_hit_main",
         &[&scene_layout, &io_layout],
         &[
-            (FEATURES_CONSTANT, kernel.features(scene).0 as f64),
-            renderer.record_constants()[0],
-            renderer.record_constants()[1],
+            (FEATURES_CONSTANT, variant.kernel.features(scene).0 as f64),
+            shared[0],
+            shared[1],
+            shared[2],
         ],
     )?;
     let words: Vec<u32> = rays

@@ -5,7 +5,7 @@
 use crate::bindings::{self, Binding};
 use crate::context::GpuContext;
 use crate::error::GpuError;
-use crate::features::{Features, Kernel, FEATURES_CONSTANT};
+use crate::features::{Dispatch, Features, Kernel, DISPATCH_CONSTANT, FEATURES_CONSTANT};
 use crate::records::{GpuParams, GpuPixel};
 use crate::scene_buffers::{pack_background, PackedScene};
 use crate::shader;
@@ -106,6 +106,16 @@ pub struct GpuRender {
     pub dispatches: u32,
 }
 
+/// What a render's kernels are compiled for (besides the records' layout,
+/// which the packed scene says).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct KernelSpec {
+    pub integrator: Integrator,
+    pub features: Features,
+    pub schedule: Schedule,
+    pub dispatch: Dispatch,
+}
+
 /// The compiled kernels of a schedule.
 enum Kernels {
     Megakernel(wgpu::ComputePipeline),
@@ -129,6 +139,8 @@ pub struct GpuRenderer<'a> {
     traversal: (Traversal, Option<String>),
     /// How the leaves hold their primitives.
     leaves: LeafLayout,
+    /// How tags select their code.
+    dispatch: Dispatch,
     /// The wavefront's path slots per wave, where a test sets them.
     wave_slots: Option<u32>,
     /// The last render's wave buffers, kept for the next render that needs
@@ -255,6 +267,7 @@ impl<'a> GpuRenderer<'a> {
                 schedule: Schedule::Megakernel,
                 traversal: Traversal::Binary,
                 leaves: LeafLayout::Indexed,
+                dispatch: Dispatch::Switch,
             },
         )
     }
@@ -275,21 +288,20 @@ impl<'a> GpuRenderer<'a> {
             schedule,
             traversal,
             leaves,
+            dispatch,
         } = variant;
         let packed = PackedScene::for_walk(scene, traversal, leaves);
         let program = match schedule {
             Schedule::Megakernel => shader::render_source(),
             Schedule::Wavefront(_) | Schedule::PathMegakernel => shader::wavefront_source(),
         };
-        Self::build_scheduled(
-            ctx,
-            &packed,
-            scene,
-            &program,
+        let spec = KernelSpec {
             integrator,
-            kernel.features(scene),
+            features: kernel.features(scene),
             schedule,
-        )
+            dispatch,
+        };
+        Self::build_scheduled(ctx, &packed, scene, &program, spec)
     }
 
     /// Uploads already packed records (tests overwrite some first); `scene`
@@ -335,15 +347,13 @@ impl<'a> GpuRenderer<'a> {
         integrator: Integrator,
         features: Features,
     ) -> Result<Self, GpuError> {
-        Self::build_scheduled(
-            ctx,
-            packed,
-            scene,
-            program,
+        let spec = KernelSpec {
             integrator,
             features,
-            Schedule::Megakernel,
-        )
+            schedule: Schedule::Megakernel,
+            dispatch: Dispatch::Switch,
+        };
+        Self::build_scheduled(ctx, packed, scene, program, spec)
     }
 
     /// [`Self::build`] for a schedule: `program` is the megakernel's
@@ -354,10 +364,14 @@ impl<'a> GpuRenderer<'a> {
         packed: &PackedScene,
         scene: &'a Scene,
         program: &str,
-        integrator: Integrator,
-        features: Features,
-        schedule: Schedule,
+        spec: KernelSpec,
     ) -> Result<Self, GpuError> {
+        let KernelSpec {
+            integrator,
+            features,
+            schedule,
+            dispatch,
+        } = spec;
         let limit = ctx.device.limits().max_storage_buffer_binding_size;
         let device = &ctx.device;
         let arrays = packed.arrays();
@@ -390,6 +404,7 @@ impl<'a> GpuRenderer<'a> {
             (FEATURES_CONSTANT, features.0 as f64),
             (TRAVERSAL_CONSTANT, packed.traversal.tag() as f64),
             (LEAVES_CONSTANT, packed.leaves.tag() as f64),
+            (DISPATCH_CONSTANT, dispatch.tag() as f64),
         ];
         let kernels = match schedule {
             Schedule::Megakernel => Kernels::Megakernel(compile_with(
@@ -416,6 +431,7 @@ impl<'a> GpuRenderer<'a> {
             scene,
             traversal: (packed.traversal, packed.traversal_note.clone()),
             leaves: packed.leaves,
+            dispatch,
             wave_slots: None,
             wave_cache: std::sync::Mutex::new(None),
             film_cache: std::sync::Mutex::new(None),
@@ -436,13 +452,14 @@ impl<'a> GpuRenderer<'a> {
         self.leaves
     }
 
-    /// The pipeline constants that say how the scene's records are laid
-    /// out (walk and leaves), for a kernel compiled over them (the test
-    /// and ray kernels).
-    pub fn record_constants(&self) -> [(&'static str, f64); 2] {
+    /// The pipeline constants a kernel compiled over this renderer's
+    /// records takes from it (the test and ray kernels): how the records
+    /// are laid out (walk and leaves) and the dispatch.
+    pub fn shared_constants(&self) -> [(&'static str, f64); 3] {
         [
             (TRAVERSAL_CONSTANT, self.traversal.0.tag() as f64),
             (LEAVES_CONSTANT, self.leaves.tag() as f64),
+            (DISPATCH_CONSTANT, self.dispatch.tag() as f64),
         ]
     }
 

@@ -103,6 +103,8 @@ pub fn generate() -> String {
     s += &u("WIDE_LANES", crate::traversal::WIDE_LANES as u32);
     s += &u("WIDE_EMPTY", crate::traversal::WIDE_EMPTY);
     s += &u("WIDE_LEAF_ENTRY", crate::traversal::WIDE_LEAF_ENTRY);
+    s += &u("DISPATCH_SWITCH", crate::features::DISPATCH_SWITCH);
+    s += &u("DISPATCH_BRANCHES", crate::features::DISPATCH_BRANCHES);
     s += &u("LEAVES_INDEXED", crate::traversal::LEAVES_INDEXED);
     s += &u("LEAVES_INLINE", crate::traversal::LEAVES_INLINE);
     s += &u("INLINE_WORDS", crate::traversal::INLINE_WORDS as u32);

@@ -74,7 +74,7 @@ pub fn run_test_kernel_with_library(
         &source,
         entry,
         &[&scene_layout, &io_layout],
-        &renderer.record_constants(),
+        &renderer.shared_constants(),
     )?;
     let input_words: &[u32] = if input.is_empty() { &[0] } else { input };
     let input_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {

@@ -128,11 +128,12 @@ pub struct Variant {
     pub schedule: Schedule,
     pub traversal: Traversal,
     pub leaves: LeafLayout,
+    pub dispatch: crate::Dispatch,
 }
 
 impl Variant {
-    /// `<schedule>[-mis][-general][-<walk>][-inline]`, the binary walk and
-    /// indexed leaves unnamed.
+    /// `<schedule>[-mis][-general][-<walk>][-inline][-branches]`, the
+    /// binary walk, indexed leaves and switch dispatch unnamed.
     pub fn name(self) -> String {
         let mut s = self.schedule.name().to_string();
         if self.integrator == reference::integrator::Integrator::Mis {
@@ -149,24 +150,31 @@ impl Variant {
             s += "-";
             s += self.leaves.name();
         }
+        if self.dispatch != crate::Dispatch::Switch {
+            s += "-";
+            s += self.dispatch.name();
+        }
         s
     }
 
     /// Every variant, the megakernel's first.
     pub fn all() -> Vec<Variant> {
         let mut out = Vec::new();
-        for leaves in LeafLayout::ALL {
-            for traversal in Traversal::ALL {
-                for schedule in Schedule::ALL {
-                    for kernel in [crate::Kernel::Specialized, crate::Kernel::General] {
-                        for integrator in reference::integrator::Integrator::ALL {
-                            out.push(Variant {
-                                integrator,
-                                kernel,
-                                schedule,
-                                traversal,
-                                leaves,
-                            });
+        for dispatch in crate::Dispatch::ALL {
+            for leaves in LeafLayout::ALL {
+                for traversal in Traversal::ALL {
+                    for schedule in Schedule::ALL {
+                        for kernel in [crate::Kernel::Specialized, crate::Kernel::General] {
+                            for integrator in reference::integrator::Integrator::ALL {
+                                out.push(Variant {
+                                    integrator,
+                                    kernel,
+                                    schedule,
+                                    traversal,
+                                    leaves,
+                                    dispatch,
+                                });
+                            }
                         }
                     }
                 }
@@ -584,7 +592,8 @@ mod tests {
         assert_eq!(names.len(), n);
         assert!(names.contains(&"megakernel-paths-mis-bvh4".to_string()));
         assert!(names.contains(&"megakernel-paths-bvh4-inline".to_string()));
-        assert_eq!(n, 96);
+        assert!(names.contains(&"megakernel-paths-mis-inline-branches".to_string()));
+        assert_eq!(n, 192);
     }
 
     /// The grid covers n invocations, within 65,535 workgroups a side.

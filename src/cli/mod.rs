@@ -159,6 +159,27 @@ pub struct RenderArgs {
     /// image.
     #[arg(long, value_enum, default_value_t = LeavesArg::Inline)]
     pub leaves: LeavesArg,
+    /// How the GPU kernel picks a primitive's intersection and a
+    /// material's sampling code from their tags: switch (the default) or
+    /// branches (a chain of tag tests). The same image.
+    #[arg(long, value_enum, default_value_t = DispatchArg::Switch)]
+    pub dispatch: DispatchArg,
+}
+
+/// `--dispatch`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum DispatchArg {
+    Switch,
+    Branches,
+}
+
+impl DispatchArg {
+    pub fn dispatch(self) -> gpu::Dispatch {
+        match self {
+            DispatchArg::Switch => gpu::Dispatch::Switch,
+            DispatchArg::Branches => gpu::Dispatch::Branches,
+        }
+    }
 }
 
 /// `--leaves`.
@@ -408,6 +429,7 @@ fn render(args: &RenderArgs) -> Result<()> {
                 schedule: args.schedule.schedule(),
                 traversal: args.traversal.traversal(),
                 leaves: args.leaves.leaves(),
+                dispatch: args.dispatch.dispatch(),
             };
             let renderer = gpu::GpuRenderer::with_variant(ctx, &scene, variant)?;
             if let (_, Some(why)) = renderer.traversal() {

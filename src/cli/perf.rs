@@ -77,7 +77,8 @@ pub struct RunArgs {
     /// (every feature's code) instead of the one specialized to the scene,
     /// -bvh4 the four-wide BVH walk or -brute every primitive tested,
     /// instead of the binary BVH walk, -inline leaf entries holding what
-    /// their test reads instead of primitive ids).
+    /// their test reads instead of primitive ids, -branches tag tests in a
+    /// chain instead of a switch).
     #[arg(long)]
     pub variant: Vec<String>,
     /// Only the cases and workloads whose name contains this.
@@ -363,6 +364,7 @@ fn run_suite(a: &RunArgs) -> Result<()> {
             schedule: Schedule::Megakernel,
             traversal: gpu::Traversal::Binary,
             leaves: gpu::LeafLayout::Indexed,
+            dispatch: gpu::Dispatch::Switch,
         }]
     } else {
         Variant::all()

@@ -239,14 +239,16 @@ pub fn run(options: &Options, metric: &mut dyn FnMut(&str)) -> Result<PerfRun> {
     for load in &loads {
         for &backend in &backends {
             // Ray queries depend on neither the estimator nor the
-            // schedule: one CPU row, one GPU row per kernel, walk and leaf
-            // layout (from the first variant measured with them).
+            // schedule: one CPU row, one GPU row per kernel, walk, leaf
+            // layout and dispatch (from the first variant measured with
+            // them).
             if let Workload::Rays { .. } = load {
                 match backend {
                     Backend::Cpu(_, Integrator::Mis) => continue,
                     Backend::Gpu(_, v)
                         if options.gpu_variants.iter().find(|w| {
-                            (w.kernel, w.traversal, w.leaves) == (v.kernel, v.traversal, v.leaves)
+                            (w.kernel, w.traversal, w.leaves, w.dispatch)
+                                == (v.kernel, v.traversal, v.leaves, v.dispatch)
                         }) != Some(&v) =>
                     {
                         continue
@@ -497,15 +499,13 @@ fn measure_workload(
                     ("rays", batch.len() as u64, walls, None, note)
                 }
                 Backend::Gpu(ctx, v) => {
-                    let (kernel, walk) = (v.kernel, (v.traversal, v.leaves));
-                    let t = gpu::rays::trace_closest(ctx, &scene, &batch, reps, kernel, walk)?;
+                    let t = gpu::rays::trace_closest(ctx, &scene, &batch, reps, v)?;
                     let mut walls: Vec<f64> = t.wall.iter().map(|d| d.as_secs_f64()).collect();
                     let mut gpus: Option<Vec<f64>> =
                         t.gpu.map(|g| g.iter().map(|d| d.as_secs_f64()).collect());
                     if options.inject_slowdown {
                         let tenth = &batch[..batch.len() / INJECTED_STRIDE as usize];
-                        let extra =
-                            gpu::rays::trace_closest(ctx, &scene, tenth, reps, kernel, walk)?;
+                        let extra = gpu::rays::trace_closest(ctx, &scene, tenth, reps, v)?;
                         for (w, e) in walls.iter_mut().zip(&extra.wall) {
                             *w += e.as_secs_f64();
                         }

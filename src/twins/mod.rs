@@ -12,6 +12,8 @@
 //! - [`hits`]: hit records of the BVH walk (flag, primitive, t, uv).
 //! - [`surface`]: surface interactions and spawn points.
 //! - [`light`]: light samples (emitter, direction) and their densities.
+//! - [`dispatch`]: the kernel selecting code by chains of tag tests
+//!   against the one switching on tags (GPU against GPU).
 //! - [`specialization`]: the render kernel built for each scene's features
 //!   against the general kernel, bit for bit (GPU against GPU).
 //! - [`traversal`]: the four-wide and brute-force walks against the
@@ -23,6 +25,7 @@
 //! Each check returns an [`Outcome`]: a one-line summary of what agreed,
 //! or the first disagreement (or the GPU error that stopped it).
 
+pub mod dispatch;
 pub mod hits;
 pub mod light;
 pub mod numerics;
@@ -192,6 +195,10 @@ pub const CHECKS: &[Check] = &[
     Check {
         name: "wavefront and path megakernel == megakernel (every scene, both estimators)",
         run: wavefront::all_scenes,
+    },
+    Check {
+        name: "branch dispatch == switch dispatch (every scene, both estimators)",
+        run: dispatch::all_scenes,
     },
     Check {
         name: "four-wide and brute-force walks == binary walk (hit records, films)",

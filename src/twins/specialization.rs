@@ -10,7 +10,7 @@
 use super::Outcome;
 use crate::compare::gate::workspace_root;
 use gpu::features::{Features, Kernel};
-use gpu::{GpuContext, LeafLayout, Schedule, Traversal};
+use gpu::{Dispatch, GpuContext, LeafLayout, Schedule, Traversal};
 use reference::integrator::Integrator;
 use reference::{RenderSettings, Scene};
 
@@ -53,6 +53,56 @@ pub fn film_bits(
     Ok(films.remove(0))
 }
 
+/// The oracle's film of `scene` for the GPU-against-GPU gates (the
+/// megakernel, switch dispatch, binary walk over indexed leaves, kernel
+/// specialized to the scene), checked not to be vacuous: every sample
+/// counted, none rejected (a poisoned sample in both films would compare
+/// equal). `oracle` names it in the error.
+pub fn oracle_film(
+    ctx: &GpuContext,
+    spec: &str,
+    scene: &Scene,
+    integrator: Integrator,
+    oracle: &str,
+) -> Result<Vec<u64>, String> {
+    let features = Kernel::Specialized.features(scene);
+    let film = film_bits(ctx, scene, integrator, features)?;
+    let (width, height, spp) = SIZE;
+    let (counted, rejected) = counts(&film);
+    if counted != (width * height * spp) as u64 || rejected != 0 {
+        return Err(format!(
+            "{spec} ({}): {oracle}'s film counted {counted} samples and rejected {rejected}",
+            integrator.name()
+        ));
+    }
+    Ok(film)
+}
+
+/// Runs `compare` on every scene of [`scene_specs`] with both estimators
+/// and gathers what was not bit for bit: the number of scenes, or every
+/// failure joined. Every scene is compared, so the error lists each one
+/// that fails.
+pub fn every_scene(
+    mut compare: impl FnMut(&str, &Scene, Integrator) -> Result<(usize, u64), String>,
+) -> Result<(usize, super::wavefront::Inexact), String> {
+    let specs = scene_specs()?;
+    let mut failures = Vec::new();
+    let mut inexact = super::wavefront::Inexact::default();
+    for spec in &specs {
+        let scene = reference::load_scene(spec).map_err(|e| format!("{spec}: {e}"))?;
+        for integrator in Integrator::ALL {
+            match compare(spec, &scene, integrator) {
+                Ok(found) => inexact.add(found),
+                Err(e) => failures.push(e),
+            }
+        }
+    }
+    if !failures.is_empty() {
+        return Err(failures.join("; "));
+    }
+    Ok((specs.len(), inexact))
+}
+
 /// What a compared render is built with.
 #[derive(Clone, Copy, Debug)]
 pub struct Build<'a> {
@@ -64,6 +114,7 @@ pub struct Build<'a> {
     pub schedule: Schedule,
     pub traversal: Traversal,
     pub leaves: LeafLayout,
+    pub dispatch: Dispatch,
 }
 
 impl<'a> Build<'a> {
@@ -77,6 +128,7 @@ impl<'a> Build<'a> {
             schedule: Schedule::Megakernel,
             traversal: Traversal::Binary,
             leaves: LeafLayout::Indexed,
+            dispatch: Dispatch::Switch,
         }
     }
 }
@@ -94,16 +146,14 @@ pub fn variant_film_bits(
     if let Some(why) = &packed.traversal_note {
         return Err(why.clone());
     }
-    let mut renderer = gpu::GpuRenderer::build_scheduled(
-        ctx,
-        &packed,
-        scene,
-        build.program,
-        build.integrator,
-        build.features,
-        build.schedule,
-    )
-    .map_err(|e| e.to_string())?;
+    let spec = gpu::KernelSpec {
+        integrator: build.integrator,
+        features: build.features,
+        schedule: build.schedule,
+        dispatch: build.dispatch,
+    };
+    let mut renderer = gpu::GpuRenderer::build_scheduled(ctx, &packed, scene, build.program, spec)
+        .map_err(|e| e.to_string())?;
     let (width, height, spp) = SIZE;
     let settings = RenderSettings {
         width,

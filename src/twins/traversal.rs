@@ -19,7 +19,7 @@
 //! bit for bit.
 
 use super::hits::{ray_words, scenes, SNIPPET};
-use super::specialization::{counts, scene_specs, variant_film_bits, Build, SIZE};
+use super::specialization::{oracle_film, scene_specs, variant_film_bits, Build, SIZE};
 use super::wavefront::{compare_words, Inexact};
 use super::{camera_and_random_rays, run_kernel_walking, Outcome};
 use gpu::features::Kernel;
@@ -124,17 +124,7 @@ pub fn compare_films(
     program: &str,
 ) -> Result<(usize, u64), String> {
     let features = Kernel::Specialized.features(scene);
-    let production = gpu::shader::render_source();
-    let oracle = Build::megakernel(&production, integrator, features);
-    let binary = variant_film_bits(ctx, scene, oracle, &[None])?.remove(0);
-    let (width, height, spp) = SIZE;
-    let (counted, rejected) = counts(&binary);
-    if counted != (width * height * spp) as u64 || rejected != 0 {
-        return Err(format!(
-            "{spec} ({}): the binary walk's film counted {counted} samples and rejected {rejected}",
-            integrator.name()
-        ));
-    }
+    let binary = oracle_film(ctx, spec, scene, integrator, "the binary walk")?;
     let build = Build {
         traversal: walk.0,
         leaves: walk.1,

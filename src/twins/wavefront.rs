@@ -22,7 +22,7 @@
 //! The summary line says how many pixels were not bit for bit.
 
 use super::specialization::{
-    counts, film_bits, scene_specs, variant_film_bits, Build, SIZE, WORDS_PER_PIXEL,
+    counts, every_scene, film_bits, oracle_film, variant_film_bits, Build, SIZE, WORDS_PER_PIXEL,
 };
 use super::Outcome;
 use gpu::features::Kernel;
@@ -49,16 +49,7 @@ pub fn compare_scene(
     program: &str,
 ) -> Result<(usize, u64), String> {
     let features = Kernel::Specialized.features(scene);
-    let mega = film_bits(ctx, scene, integrator, features)?;
-    // Not a vacuous comparison: the megakernel counted every sample.
-    let (width, height, spp) = SIZE;
-    let (counted, rejected) = counts(&mega);
-    if counted != (width * height * spp) as u64 || rejected != 0 {
-        return Err(format!(
-            "{spec} ({}): the megakernel's film counted {counted} samples and rejected {rejected}",
-            integrator.name()
-        ));
-    }
+    let mega = oracle_film(ctx, spec, scene, integrator, "the megakernel")?;
     let mut inexact = Inexact::default();
     for schedule in Schedule::WAVES {
         let build = Build {
@@ -212,29 +203,16 @@ fn compare_films(mega: &[u64], wave: &[u64], inexact: &mut Inexact) -> Result<()
 /// under the module's rule. Every scene is compared; the error lists each
 /// one that fails.
 pub fn all_scenes(ctx: &GpuContext) -> Outcome {
-    let specs = scene_specs()?;
     let program = gpu::shader::wavefront_source();
-    let mut failures = Vec::new();
-    let mut inexact = Inexact::default();
-    for spec in &specs {
-        let scene = reference::load_scene(spec).map_err(|e| format!("{spec}: {e}"))?;
-        for integrator in Integrator::ALL {
-            match compare_scene(ctx, spec, &scene, integrator, &program) {
-                Ok(found) => inexact.add(found),
-                Err(e) => failures.push(e),
-            }
-        }
-    }
-    if !failures.is_empty() {
-        return Err(failures.join("; "));
-    }
+    let (scenes, inexact) = every_scene(|spec, scene, integrator| {
+        compare_scene(ctx, spec, scene, integrator, &program)
+    })?;
     let (width, height, _) = SIZE;
     let schedules = Schedule::WAVES.len();
-    let compared = specs.len() * 2 * schedules * WAVE_SLOTS.len() * (width * height) as usize;
+    let compared = scenes * 2 * schedules * WAVE_SLOTS.len() * (width * height) as usize;
     let exactness = inexact.exactness(compared);
     Ok(format!(
-        "{} scenes × 2 estimators × {schedules} wave schedules (wavefront, wavefront-soa, megakernel-paths) × 3 wave splits: their films equal the megakernel's {exactness}",
-        specs.len()
+        "{scenes} scenes × 2 estimators × {schedules} wave schedules (wavefront, wavefront-soa, megakernel-paths) × 3 wave splits: their films equal the megakernel's {exactness}"
     ))
 }
 

@@ -1,0 +1,53 @@
+//! The kernel that picks a primitive's intersection and a material's
+//! sampling code by a chain of tag tests (`gpu::Dispatch::Branches`)
+//! against the one that switches on the tag (the baseline): every fixture
+//! and built-in scene, both estimators, films under the wavefront's rule
+//! ([`super::wavefront::compare_words`]: counts exact, means bit for bit
+//! or a few ulp apart where a driver contracts two programs' shared code
+//! differently). Both run the same per-kind functions; only the selection
+//! differs, so any difference beyond the rule is a selection slip (a kind
+//! sent to another's code, or lost).
+
+use super::specialization::{every_scene, oracle_film, variant_film_bits, Build, SIZE};
+use super::wavefront::compare_words;
+use super::Outcome;
+use gpu::features::Kernel;
+use gpu::{Dispatch, GpuContext};
+use reference::integrator::Integrator;
+use reference::Scene;
+
+/// The branch-dispatch film of `scene` (over `program`, the megakernel's
+/// WGSL or an edit) against the switch's (production), one estimator: the
+/// pixels not bit for bit and their largest mean difference in ulp.
+pub fn compare_scene(
+    ctx: &GpuContext,
+    spec: &str,
+    scene: &Scene,
+    integrator: Integrator,
+    program: &str,
+) -> Result<(usize, u64), String> {
+    let features = Kernel::Specialized.features(scene);
+    let oracle = oracle_film(ctx, spec, scene, integrator, "the switch kernel")?;
+    let branches = Build {
+        dispatch: Dispatch::Branches,
+        ..Build::megakernel(program, integrator, features)
+    };
+    let film = variant_film_bits(ctx, scene, branches, &[None])?.remove(0);
+    compare_words(&oracle, &film)
+        .map_err(|e| format!("{spec} ({}, branch dispatch): {e}", integrator.name()))
+}
+
+/// Every fixture and built-in scene, both estimators: branches == switch
+/// under the rule. Every scene is compared; the error lists each failure.
+pub fn all_scenes(ctx: &GpuContext) -> Outcome {
+    let program = gpu::shader::render_source();
+    let (scenes, inexact) = every_scene(|spec, scene, integrator| {
+        compare_scene(ctx, spec, scene, integrator, &program)
+    })?;
+    let (width, height, _) = SIZE;
+    let compared = scenes * 2 * (width * height) as usize;
+    Ok(format!(
+        "{scenes} scenes × 2 estimators: the branch-dispatch kernel's films equal the switch kernel's {}",
+        inexact.exactness(compared)
+    ))
+}
