@@ -259,6 +259,10 @@ fn brute_force_is_refused_beyond_tiny_scenes_and_llvmpipes_loop_limit() {
 /// a GPU this is an ordinary render, equal to the path megakernel's.
 #[test]
 fn many_samples_of_a_tiny_image_are_all_traced() {
+    use gpu::renderer::software_samples_per_invocation as most;
+    // 9 segments of 2 · (1 + 1) + 256 iterations, plus one: 2,341 a sample.
+    assert_eq!(most(1, 1, 8), 65_535 / 2_341);
+    assert_eq!(most(10_000, 20_000, 8), 1);
     let ctx = common::gpu();
     let scene = reference::load_scene("cornell").unwrap();
     let settings = reference::RenderSettings {

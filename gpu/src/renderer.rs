@@ -28,10 +28,25 @@ pub const PATHS_PER_DISPATCH_GPU: u64 = 1 << 23;
 /// `LP_MAX_TGSI_LOOP_ITERATIONS`, "shared between every loop"). Measured
 /// here: a 4x4 Cornell box of 2,048 samples, all in one megakernel
 /// dispatch, held 354 samples a pixel. So on a software adapter the
-/// megakernel traces one sample an invocation per dispatch (as the wave
-/// schedules always do), and brute force is refused where one path could
-/// reach the limit ([`brute_force_refusal`]).
+/// megakernel traces no more samples an invocation per dispatch than
+/// [`software_samples_per_invocation`] allows (the wave schedules trace
+/// one path an invocation), and brute force is refused where one path
+/// could reach the limit ([`brute_force_refusal`]).
 pub const SOFTWARE_LOOP_LIMIT: u64 = 65_535;
+
+/// The most samples one megakernel invocation may trace on a software
+/// adapter: [`SOFTWARE_LOOP_LIMIT`] over a bound on one sample's loop
+/// iterations, at least 1. A ray's walk visits each of the `records` at
+/// most once and tests each of the `entries` at most once; a path
+/// segment traces at most two rays, and its other loops are three binary
+/// searches (emitter and environment-map CDFs, at most 33 steps each on
+/// 2^32 entries), spawn offsets (3 steps each) and the path loops' own
+/// steps, all within 256; a sample has at most `max_depth + 1` segments.
+pub fn software_samples_per_invocation(records: u64, entries: u64, max_depth: u32) -> u64 {
+    let per_segment = 2 * (records + entries) + 256;
+    let per_sample = (max_depth as u64 + 1) * per_segment + 1;
+    (SOFTWARE_LOOP_LIMIT / per_sample).max(1)
+}
 
 /// The most primitives [`Traversal::BruteForce`] takes: it is for tiny
 /// scenes (a BVH walk of 1,024 primitives visits a few dozen nodes; the
@@ -141,6 +156,9 @@ pub struct GpuRenderer<'a> {
     leaves: LeafLayout,
     /// How tags select their code.
     dispatch: Dispatch,
+    /// The walk's node records and leaf entries (bounds on one ray's walk:
+    /// [`software_samples_per_invocation`]).
+    walk_size: (u64, u64),
     /// The wavefront's path slots per wave, where a test sets them.
     wave_slots: Option<u32>,
     /// The last render's wave buffers, kept for the next render that needs
@@ -432,6 +450,7 @@ impl<'a> GpuRenderer<'a> {
             traversal: (packed.traversal, packed.traversal_note.clone()),
             leaves: packed.leaves,
             dispatch,
+            walk_size: (packed.nodes.len() as u64, scene.primitives().len() as u64),
             wave_slots: None,
             wave_cache: std::sync::Mutex::new(None),
             film_cache: std::sync::Mutex::new(None),
@@ -582,13 +601,15 @@ impl<'a> GpuRenderer<'a> {
         // at a time (a large render on a small adapter has billions).
         let plan = match &self.kernels {
             Kernels::Megakernel(pipeline) => {
-                // One sample an invocation on a software adapter
-                // (SOFTWARE_LOOP_LIMIT).
-                let per = if ctx.is_software {
-                    1
+                // On a software adapter, no more samples an invocation than
+                // llvmpipe's loop limit allows (SOFTWARE_LOOP_LIMIT).
+                let most = if ctx.is_software {
+                    let (records, entries) = self.walk_size;
+                    software_samples_per_invocation(records, entries, settings.max_depth)
                 } else {
-                    (PATHS_PER_DISPATCH_GPU / pixels.max(1)).clamp(1, settings.spp as u64) as u32
+                    (PATHS_PER_DISPATCH_GPU / pixels.max(1)).max(1)
                 };
+                let per = most.clamp(1, settings.spp as u64) as u32;
                 Plan::Dispatches { pipeline, per }
             }
             Kernels::Wavefront(w) => {
