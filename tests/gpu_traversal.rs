@@ -206,7 +206,7 @@ fn renderers_report_the_walk_they_run() {
         }
     }
     // The brute-force records: one leaf of every primitive, in id order.
-    let p = PackedScene::with_traversal(&scene, Traversal::BruteForce);
+    let p = PackedScene::for_walk(&scene, Traversal::BruteForce, LeafLayout::Indexed);
     assert_eq!(p.nodes[0].count() as usize, scene.primitives().len());
     let ids: Vec<u32> = p.leaf_entries.iter().flatten().copied().collect();
     assert!(ids[..scene.primitives().len()]

@@ -82,7 +82,6 @@ pub fn trace_closest(
         )));
     }
     let renderer = GpuRenderer::with_variant(ctx, scene, variant)?;
-    let shared = renderer.shared_constants();
     let source = [
         crate::shader::library_source().as_str(),
         &bindings::wgsl_declarations(&bindings::TEST_IO_GROUP),
@@ -99,12 +98,10 @@ pub fn trace_closest(
         &source,
         "closest_hit_main",
         &[&scene_layout, &io_layout],
-        &[
-            (FEATURES_CONSTANT, variant.kernel.features(scene).0 as f64),
-            shared[0],
-            shared[1],
-            shared[2],
-        ],
+        &[(FEATURES_CONSTANT, variant.kernel.features(scene).0 as f64)]
+            .into_iter()
+            .chain(renderer.shared_constants())
+            .collect::<Vec<_>>(),
     )?;
     let words: Vec<u32> = rays
         .iter()

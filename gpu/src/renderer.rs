@@ -171,6 +171,20 @@ pub struct GpuRenderer<'a> {
     film_cache: std::sync::Mutex<Option<wgpu::Buffer>>,
 }
 
+/// The pipeline constants of a records' layout (walk and leaves) and a
+/// dispatch: the render kernels' and [`GpuRenderer::shared_constants`].
+fn shared_constants(
+    traversal: Traversal,
+    leaves: LeafLayout,
+    dispatch: Dispatch,
+) -> [(&'static str, f64); 3] {
+    [
+        (TRAVERSAL_CONSTANT, traversal.tag() as f64),
+        (LEAVES_CONSTANT, leaves.tag() as f64),
+        (DISPATCH_CONSTANT, dispatch.tag() as f64),
+    ]
+}
+
 /// The bind group layout shared by the render kernel and the test kernels
 /// ([`bindings::scene_group`]).
 pub fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
@@ -414,15 +428,17 @@ impl<'a> GpuRenderer<'a> {
             scene_buffers.push((binding, buffer));
         }
         let layout = bind_group_layout(device);
+        let [walk, leaves, dispatching] =
+            shared_constants(packed.traversal, packed.leaves, dispatch);
         let constants = [
             (
                 shader::INTEGRATOR_CONSTANT,
                 shader::integrator_tag(integrator) as f64,
             ),
             (FEATURES_CONSTANT, features.0 as f64),
-            (TRAVERSAL_CONSTANT, packed.traversal.tag() as f64),
-            (LEAVES_CONSTANT, packed.leaves.tag() as f64),
-            (DISPATCH_CONSTANT, dispatch.tag() as f64),
+            walk,
+            leaves,
+            dispatching,
         ];
         let kernels = match schedule {
             Schedule::Megakernel => Kernels::Megakernel(compile_with(
@@ -475,11 +491,7 @@ impl<'a> GpuRenderer<'a> {
     /// records takes from it (the test and ray kernels): how the records
     /// are laid out (walk and leaves) and the dispatch.
     pub fn shared_constants(&self) -> [(&'static str, f64); 3] {
-        [
-            (TRAVERSAL_CONSTANT, self.traversal.0.tag() as f64),
-            (LEAVES_CONSTANT, self.leaves.tag() as f64),
-            (DISPATCH_CONSTANT, self.dispatch.tag() as f64),
-        ]
+        shared_constants(self.traversal.0, self.leaves, self.dispatch)
     }
 
     pub fn set_wave_slots(&mut self, slots: Option<u32>) {

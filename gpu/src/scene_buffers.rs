@@ -139,16 +139,10 @@ impl PackedScene {
         ]
     }
 
-    /// The scene's records for the binary walk ([`Traversal::Binary`]).
+    /// The scene's records for the binary walk over indexed leaves (the
+    /// baseline).
     pub fn new(scene: &Scene) -> Self {
-        Self::with_traversal(scene, Traversal::Binary)
-    }
-
-    /// The scene's records for `traversal` with indexed leaves, or for the
-    /// binary walk where the wide records are refused
-    /// ([`Self::traversal_note`] says why).
-    pub fn with_traversal(scene: &Scene, traversal: Traversal) -> Self {
-        Self::for_walk(scene, traversal, LeafLayout::Indexed)
+        Self::for_walk(scene, Traversal::Binary, LeafLayout::Indexed)
     }
 
     /// The scene's records for `traversal` with `leaves`, or for the binary

@@ -74,10 +74,6 @@ impl Traversal {
         }
     }
 
-    pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|t| t.name() == name)
-    }
-
     /// The value of [`TRAVERSAL_CONSTANT`] for this walk.
     pub fn tag(self) -> u32 {
         match self {
@@ -114,10 +110,6 @@ impl LeafLayout {
             LeafLayout::Indexed => "indexed",
             LeafLayout::Inline => "inline",
         }
-    }
-
-    pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|l| l.name() == name)
     }
 
     /// The value of [`LEAVES_CONSTANT`].
