@@ -44,6 +44,26 @@ fn safe_inv_dir(d: vec3<f32>) -> vec3<f32> {
     return 1.0 / dd;
 }
 
+// How `nodes` holds the records (gpu::traversal::NodeLayout::tag): each
+// record's two words (box minimum and index; box maximum and meta) side by
+// side, or every record's first words, then every record's second.
+override NODE_LAYOUT: u32 = NODE_LAYOUT_AOS;
+
+fn bvh_node(i: u32) -> BvhNode {
+    var lo: vec4<u32>;
+    var hi: vec4<u32>;
+    if NODE_LAYOUT == NODE_LAYOUT_SOA {
+        lo = nodes[i];
+        hi = nodes[(arrayLength(&nodes) >> 1u) + i];
+    } else {
+        lo = nodes[2u * i];
+        hi = nodes[2u * i + 1u];
+    }
+    let a = bitcast<vec3<f32>>(lo.xyz);
+    let b = bitcast<vec3<f32>>(hi.xyz);
+    return BvhNode(a.x, a.y, a.z, lo.w, b.x, b.y, b.z, hi.w);
+}
+
 fn node_min(n: BvhNode) -> vec3<f32> {
     return vec3<f32>(n.min_x, n.min_y, n.min_z);
 }
@@ -137,7 +157,7 @@ struct WideLane {
 }
 
 fn wide_lane(record: u32, origin: vec3<f32>, inv_dir: vec3<f32>, pad: f32, t_max: f32) -> WideLane {
-    let n = nodes[record];
+    let n = bvh_node(record);
     if n.meta_bits == WIDE_EMPTY {
         return WideLane(F32_MAX, WIDE_EMPTY);
     }
@@ -162,7 +182,7 @@ fn wide_lane(record: u32, origin: vec3<f32>, inv_dir: vec3<f32>, pad: f32, t_max
 fn bvh_intersect_wide(ray: Ray, t_min: f32, t_max: f32) -> Hit {
     var best = Hit(false, t_max, 0u, vec2<f32>(0.0));
     let inv_dir = safe_inv_dir(ray.direction);
-    let root = nodes[0];
+    let root = bvh_node(0u);
     let pad = box_pad(node_min(root), node_max(root), ray.origin, ray.direction);
     if intersect_aabb(node_min(root), node_max(root), ray.origin, inv_dir, pad, best.t) < 0.0 {
         return best;
@@ -172,7 +192,7 @@ fn bvh_intersect_wide(ray: Ray, t_min: f32, t_max: f32) -> Hit {
     var entry = 0u;
     loop {
         if (entry & WIDE_LEAF_ENTRY) != 0u {
-            let n = nodes[entry & ~WIDE_LEAF_ENTRY];
+            let n = bvh_node(entry & ~WIDE_LEAF_ENTRY);
             best = intersect_leaf(n.index, n.meta_bits >> 2u, ray, inv_dir, pad, t_min, best);
         } else {
             let base = 1u + WIDE_LANES * entry;
@@ -218,7 +238,7 @@ fn bvh_intersect_wide(ray: Ray, t_min: f32, t_max: f32) -> Hit {
 fn bvh_intersect_binary(ray: Ray, t_min: f32, t_max: f32) -> Hit {
     var best = Hit(false, t_max, 0u, vec2<f32>(0.0));
     let inv_dir = safe_inv_dir(ray.direction);
-    let root = nodes[0];
+    let root = bvh_node(0u);
     let pad = box_pad(node_min(root), node_max(root), ray.origin, ray.direction);
     if intersect_aabb(node_min(root), node_max(root), ray.origin, inv_dir, pad, best.t) < 0.0 {
         return best;
@@ -227,14 +247,14 @@ fn bvh_intersect_binary(ray: Ray, t_min: f32, t_max: f32) -> Hit {
     var sp = 0u;
     var node = 0u;
     loop {
-        let n = nodes[node];
+        let n = bvh_node(node);
         if (n.meta_bits & 3u) == BVH_LEAF {
             best = intersect_leaf(n.index, n.meta_bits >> 2u, ray, inv_dir, pad, t_min, best);
         } else {
             let l = node + 1u;
             let r = n.index;
-            let tl = intersect_aabb(node_min(nodes[l]), node_max(nodes[l]), ray.origin, inv_dir, pad, best.t);
-            let tr = intersect_aabb(node_min(nodes[r]), node_max(nodes[r]), ray.origin, inv_dir, pad, best.t);
+            let tl = intersect_aabb(node_min(bvh_node(l)), node_max(bvh_node(l)), ray.origin, inv_dir, pad, best.t);
+            let tr = intersect_aabb(node_min(bvh_node(r)), node_max(bvh_node(r)), ray.origin, inv_dir, pad, best.t);
             if tl >= 0.0 && tr >= 0.0 {
                 var near = l;
                 var far = r;

@@ -25,6 +25,8 @@ const WIDE_EMPTY: u32 = 4294967295u;
 const WIDE_LEAF_ENTRY: u32 = 2147483648u;
 const DISPATCH_SWITCH: u32 = 0u;
 const DISPATCH_BRANCHES: u32 = 1u;
+const NODE_LAYOUT_AOS: u32 = 0u;
+const NODE_LAYOUT_SOA: u32 = 1u;
 const LEAVES_INDEXED: u32 = 0u;
 const LEAVES_INLINE: u32 = 1u;
 const INLINE_WORDS: u32 = 4u;
@@ -240,7 +242,7 @@ struct BvhNode {
 }
 
 @group(0) @binding(0) var<uniform> params: GpuParams;
-@group(0) @binding(1) var<storage, read> nodes: array<BvhNode>;
+@group(0) @binding(1) var<storage, read> nodes: array<vec4<u32>>;
 @group(0) @binding(2) var<storage, read> leaf_entries: array<vec4<u32>>;
 @group(0) @binding(3) var<storage, read> primitives: array<GpuPrimitive>;
 @group(0) @binding(4) var<storage, read> spheres: array<GpuSphere>;

@@ -95,12 +95,19 @@ fn base() -> PackedScene {
 
 #[test]
 fn scene_records() {
-    let mut p = base();
-    p.nodes[0] = counting();
-    expect_counting(
-        read_back(&p, BVH_NODE_FIELDS, "nodes[0]", None, None),
-        "BvhNode",
-    );
+    // Node records through their accessor, in both layouts, first and
+    // last (the structure of arrays' second words start halfway).
+    for layout in gpu::NodeLayout::ALL {
+        let last = base().nodes.len() - 1;
+        for k in [0, last] {
+            let mut p = base().with_node_layout(layout);
+            p.nodes[k] = counting();
+            expect_counting(
+                read_back(&p, BVH_NODE_FIELDS, &format!("bvh_node({k}u)"), None, None),
+                &format!("BvhNode {k} ({})", layout.name()),
+            );
+        }
+    }
     let mut p = base();
     p.primitives[0] = counting();
     expect_counting(

@@ -1,5 +1,6 @@
-//! The GPU's walks (`gpu::traversal`): the four-wide BVH walk and brute
-//! force return the binary walk's hit records bit for bit and render the
+//! The GPU's walks (`gpu::traversal`): the four-wide BVH walk, brute
+//! force and the node and leaf layouts return the binary walk's hit
+//! records bit for bit and render the
 //! same films (`twintrace::twins::traversal`, also run by `twintrace
 //! selftest`). Mutants of the wide walk's WGSL and of the records the host
 //! packs prove the comparisons can fail.
@@ -7,7 +8,7 @@
 use crate::common;
 use gpu::scene_buffers::PackedScene;
 use gpu::traversal::WIDE_EMPTY;
-use gpu::{LeafLayout, Traversal};
+use gpu::{LeafLayout, NodeLayout, Traversal};
 use reference::integrator::Integrator;
 use twintrace::twins::traversal::{all_scenes, compare_films, compare_hits, packed};
 
@@ -56,7 +57,11 @@ fn wide_walk_mutants_fail_the_hit_records() {
     let ctx = common::gpu();
     let library = gpu::shader::library_source();
     let scene = rtow();
-    let wide = packed(&scene, (Traversal::Wide, LeafLayout::Indexed)).unwrap();
+    let wide = packed(
+        &scene,
+        (Traversal::Wide, NodeLayout::Aos, LeafLayout::Indexed),
+    )
+    .unwrap();
     let hits = compare_hits(ctx, "rtow-final", &scene, &wide, &library).unwrap();
     assert!(hits > 4096, "only {hits} rays hit: a weak comparison");
     for &(slip, from, to) in WIDE_MUTANTS {
@@ -100,7 +105,11 @@ fn inline_leaf_mutants_fail_the_hit_records() {
     let library = gpu::shader::library_source();
     for &(slip, from, to, spec) in INLINE_MUTANTS {
         let scene = reference::load_scene(spec).unwrap();
-        let inline = packed(&scene, (Traversal::Binary, LeafLayout::Inline)).unwrap();
+        let inline = packed(
+            &scene,
+            (Traversal::Binary, NodeLayout::Aos, LeafLayout::Inline),
+        )
+        .unwrap();
         compare_hits(ctx, spec, &scene, &inline, &library).unwrap();
         assert_eq!(
             library.matches(from).count(),
@@ -116,7 +125,11 @@ fn inline_leaf_mutants_fail_the_hit_records() {
     // inline entry (words 10 to 12 and 13 to 15 of its sixteen).
     let scene =
         reference::load_scene(&twintrace::compare::gate::fixture_scene("gltf-mesh.json")).unwrap();
-    let mut inline = packed(&scene, (Traversal::Binary, LeafLayout::Inline)).unwrap();
+    let mut inline = packed(
+        &scene,
+        (Traversal::Binary, NodeLayout::Aos, LeafLayout::Inline),
+    )
+    .unwrap();
     for e in inline.leaf_entries.chunks_mut(4) {
         let mut w: Vec<u32> = e.iter().flatten().copied().collect();
         let (b, c): (Vec<u32>, Vec<u32>) = (w[10..13].to_vec(), w[13..16].to_vec());
@@ -131,6 +144,62 @@ fn inline_leaf_mutants_fail_the_hit_records() {
     println!("inline triangle vertices swapped: {e}");
 }
 
+/// The structure-of-arrays node records: a read of the wrong words, and
+/// the host's words in the other layout's order, are caught by the hit
+/// records. Each slip keeps the walk finite (a record's `meta` still comes
+/// from a binary node, never an unused wide lane's 2^32 - 1).
+#[test]
+fn soa_node_mutants_fail_the_hit_records() {
+    let ctx = common::gpu();
+    let library = gpu::shader::library_source();
+    let scene = rtow();
+    let soa = packed(
+        &scene,
+        (Traversal::Binary, NodeLayout::Soa, LeafLayout::Indexed),
+    )
+    .unwrap();
+    compare_hits(ctx, "rtow-final", &scene, &soa, &library).unwrap();
+    let (from, to) = (
+        "hi = nodes[(arrayLength(&nodes) >> 1u) + i];",
+        "hi = nodes[(arrayLength(&nodes) >> 1u) + i].yxzw;",
+    );
+    assert_eq!(library.matches(from).count(), 1, "`{from}` not found once");
+    let e = compare_hits(ctx, "rtow-final", &scene, &soa, &library.replace(from, to))
+        .expect_err("SoA box maximum read with x and y swapped passed");
+    assert!(e.contains(", ray "), "not a hit difference: {e}");
+    println!("SoA box maximum x and y swapped: {e}");
+    // The host's words: each record's maximum x and y swapped.
+    let mut swapped = soa.clone();
+    for n in &mut swapped.nodes {
+        n.max.swap(0, 1);
+    }
+    let e = compare_hits(ctx, "rtow-final", &scene, &swapped, &library)
+        .expect_err("SoA records with swapped maxima passed");
+    println!("SoA records with swapped maxima: {e}");
+}
+
+#[test]
+fn soa_words_are_the_aos_words_regrouped() {
+    use gpu::traversal::node_words;
+    let scene = rtow();
+    let nodes = &PackedScene::new(&scene).nodes;
+    let (aos, soa) = (
+        node_words(nodes, NodeLayout::Aos),
+        node_words(nodes, NodeLayout::Soa),
+    );
+    let n = nodes.len();
+    assert_eq!((aos.len(), soa.len()), (2 * n, 2 * n));
+    for i in 0..n {
+        assert_eq!(
+            (aos[2 * i], aos[2 * i + 1]),
+            (soa[i], soa[n + i]),
+            "record {i}"
+        );
+    }
+    assert_eq!(aos[1][3], nodes[0].meta);
+    assert_eq!(aos[0][3], nodes[0].index);
+}
+
 #[test]
 fn a_wide_walk_mutant_fails_the_film_comparison() {
     let ctx = common::gpu();
@@ -143,7 +212,10 @@ fn a_wide_walk_mutant_fails_the_film_comparison() {
         ctx,
         "cornell",
         &scene,
-        ((Traversal::Wide, LeafLayout::Indexed), Integrator::Mis),
+        (
+            (Traversal::Wide, NodeLayout::Aos, LeafLayout::Indexed),
+            Integrator::Mis,
+        ),
         &program,
     )
     .unwrap();
@@ -151,7 +223,10 @@ fn a_wide_walk_mutant_fails_the_film_comparison() {
         ctx,
         "cornell",
         &scene,
-        ((Traversal::Wide, LeafLayout::Indexed), Integrator::Mis),
+        (
+            (Traversal::Wide, NodeLayout::Aos, LeafLayout::Indexed),
+            Integrator::Mis,
+        ),
         &mutant,
     )
     .expect_err(slip);
@@ -164,7 +239,11 @@ fn records_packed_wrong_fail_the_hit_records() {
     let library = gpu::shader::library_source();
     let scene = rtow();
     // Every interior lane's box shrunk to the middle half of each axis.
-    let mut wide = packed(&scene, (Traversal::Wide, LeafLayout::Indexed)).unwrap();
+    let mut wide = packed(
+        &scene,
+        (Traversal::Wide, NodeLayout::Aos, LeafLayout::Indexed),
+    )
+    .unwrap();
     for lane in wide.nodes[1..].iter_mut() {
         if lane.meta != WIDE_EMPTY && !lane.is_leaf() {
             for k in 0..3 {
@@ -178,7 +257,11 @@ fn records_packed_wrong_fail_the_hit_records() {
         .expect_err("shrunk wide boxes passed");
     println!("wide boxes shrunk: {e}");
     // Brute force over half the primitives.
-    let mut brute = packed(&scene, (Traversal::BruteForce, LeafLayout::Indexed)).unwrap();
+    let mut brute = packed(
+        &scene,
+        (Traversal::BruteForce, NodeLayout::Aos, LeafLayout::Indexed),
+    )
+    .unwrap();
     assert_eq!(brute.nodes.len(), 1);
     brute.nodes[0].meta = ((brute.nodes[0].count() / 2) << 2) | 3;
     let e = compare_hits(ctx, "rtow-final", &scene, &brute, &library)
@@ -192,17 +275,21 @@ fn renderers_report_the_walk_they_run() {
     let scene = rtow();
     for traversal in Traversal::ALL {
         for leaves in LeafLayout::ALL {
-            let variant = gpu::Variant {
-                integrator: Integrator::Bsdf,
-                kernel: gpu::Kernel::Specialized,
-                schedule: gpu::Schedule::PathMegakernel,
-                traversal,
-                leaves,
-                dispatch: gpu::Dispatch::Switch,
-            };
-            let r = gpu::GpuRenderer::with_variant(ctx, &scene, variant).unwrap();
-            assert_eq!(r.traversal(), (traversal, None));
-            assert_eq!(r.leaves(), leaves);
+            for nodes in NodeLayout::ALL {
+                let variant = gpu::Variant {
+                    integrator: Integrator::Bsdf,
+                    kernel: gpu::Kernel::Specialized,
+                    schedule: gpu::Schedule::PathMegakernel,
+                    traversal,
+                    nodes,
+                    leaves,
+                    dispatch: gpu::Dispatch::Switch,
+                };
+                let r = gpu::GpuRenderer::with_variant(ctx, &scene, variant).unwrap();
+                assert_eq!(r.traversal(), (traversal, None));
+                assert_eq!(r.node_layout(), nodes);
+                assert_eq!(r.leaves(), leaves);
+            }
         }
     }
     // The brute-force records: one leaf of every primitive, in id order.
@@ -235,6 +322,7 @@ fn brute_force_is_refused_beyond_tiny_scenes_and_llvmpipes_loop_limit() {
         kernel: gpu::Kernel::Specialized,
         schedule: gpu::Schedule::PathMegakernel,
         traversal: Traversal::BruteForce,
+        nodes: NodeLayout::Aos,
         leaves: LeafLayout::Indexed,
         dispatch: gpu::Dispatch::Switch,
     };
@@ -278,6 +366,7 @@ fn many_samples_of_a_tiny_image_are_all_traced() {
             kernel: gpu::Kernel::Specialized,
             schedule,
             traversal: Traversal::Binary,
+            nodes: NodeLayout::Aos,
             leaves: LeafLayout::Indexed,
             dispatch: gpu::Dispatch::Switch,
         };

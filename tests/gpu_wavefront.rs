@@ -183,6 +183,7 @@ fn a_wave_dispatched_as_a_two_dimensional_grid_renders_as_the_megakernel() {
             kernel: gpu::Kernel::Specialized,
             schedule,
             traversal: gpu::Traversal::Binary,
+            nodes: gpu::NodeLayout::Aos,
             leaves: gpu::LeafLayout::Indexed,
             dispatch: gpu::Dispatch::Switch,
         };

@@ -38,7 +38,7 @@ pub const PARAMS: Binding = Binding {
     wgsl_type: "GpuParams",
     access: Access::Uniform,
 };
-pub const NODES: Binding = scene(1, "nodes", "array<BvhNode>");
+pub const NODES: Binding = scene(1, "nodes", "array<vec4<u32>>");
 pub const LEAF_ENTRIES: Binding = scene(2, "leaf_entries", "array<vec4<u32>>");
 pub const PRIMITIVES: Binding = scene(3, "primitives", "array<GpuPrimitive>");
 pub const SPHERES: Binding = scene(4, "spheres", "array<GpuSphere>");

@@ -26,5 +26,5 @@ pub use context::{list_adapters, AdapterSummary, GpuContext};
 pub use error::GpuError;
 pub use features::{Dispatch, Features, Kernel};
 pub use renderer::{GpuRender, GpuRenderer, KernelSpec};
-pub use traversal::{LeafLayout, Traversal};
+pub use traversal::{LeafLayout, NodeLayout, Traversal};
 pub use wavefront::{PathLayout, Schedule, Variant};

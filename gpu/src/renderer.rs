@@ -9,7 +9,9 @@ use crate::features::{Dispatch, Features, Kernel, DISPATCH_CONSTANT, FEATURES_CO
 use crate::records::{GpuParams, GpuPixel};
 use crate::scene_buffers::{pack_background, PackedScene};
 use crate::shader;
-use crate::traversal::{LeafLayout, Traversal, LEAVES_CONSTANT, TRAVERSAL_CONSTANT};
+use crate::traversal::{
+    LeafLayout, NodeLayout, Traversal, LEAVES_CONSTANT, NODE_LAYOUT_CONSTANT, TRAVERSAL_CONSTANT,
+};
 use crate::wavefront::{self, Schedule, Variant};
 use reference::film::{Film, PixelStats};
 use reference::integrator::Integrator;
@@ -152,6 +154,8 @@ pub struct GpuRenderer<'a> {
     /// The walk the kernels run and, where it is not the one asked for,
     /// why ([`PackedScene::traversal_note`]).
     traversal: (Traversal, Option<String>),
+    /// How the node records are laid out.
+    node_layout: NodeLayout,
     /// How the leaves hold their primitives.
     leaves: LeafLayout,
     /// How tags select their code.
@@ -175,10 +179,12 @@ pub struct GpuRenderer<'a> {
 /// dispatch: the render kernels' and [`GpuRenderer::shared_constants`].
 fn shared_constants(
     traversal: Traversal,
+    nodes: NodeLayout,
     leaves: LeafLayout,
     dispatch: Dispatch,
-) -> [(&'static str, f64); 3] {
+) -> [(&'static str, f64); 4] {
     [
+        (NODE_LAYOUT_CONSTANT, nodes.tag() as f64),
         (TRAVERSAL_CONSTANT, traversal.tag() as f64),
         (LEAVES_CONSTANT, leaves.tag() as f64),
         (DISPATCH_CONSTANT, dispatch.tag() as f64),
@@ -298,6 +304,7 @@ impl<'a> GpuRenderer<'a> {
                 kernel,
                 schedule: Schedule::Megakernel,
                 traversal: Traversal::Binary,
+                nodes: NodeLayout::Aos,
                 leaves: LeafLayout::Indexed,
                 dispatch: Dispatch::Switch,
             },
@@ -319,10 +326,11 @@ impl<'a> GpuRenderer<'a> {
             kernel,
             schedule,
             traversal,
+            nodes,
             leaves,
             dispatch,
         } = variant;
-        let packed = PackedScene::for_walk(scene, traversal, leaves);
+        let packed = PackedScene::for_walk(scene, traversal, leaves).with_node_layout(nodes);
         let program = match schedule {
             Schedule::Megakernel => shader::render_source(),
             Schedule::Wavefront(_) | Schedule::PathMegakernel => shader::wavefront_source(),
@@ -419,7 +427,11 @@ impl<'a> GpuRenderer<'a> {
             }
             // Bindings may not be empty: an empty array gets one zero record.
             let zeros = [0u8; 64]; // at least one of the largest record (48 bytes)
-            let contents = if bytes.is_empty() { &zeros[..] } else { bytes };
+            let contents = if bytes.is_empty() {
+                &zeros[..]
+            } else {
+                &bytes[..]
+            };
             let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(binding.name),
                 contents,
@@ -428,14 +440,19 @@ impl<'a> GpuRenderer<'a> {
             scene_buffers.push((binding, buffer));
         }
         let layout = bind_group_layout(device);
-        let [walk, leaves, dispatching] =
-            shared_constants(packed.traversal, packed.leaves, dispatch);
+        let [node_layout, walk, leaves, dispatching] = shared_constants(
+            packed.traversal,
+            packed.node_layout,
+            packed.leaves,
+            dispatch,
+        );
         let constants = [
             (
                 shader::INTEGRATOR_CONSTANT,
                 shader::integrator_tag(integrator) as f64,
             ),
             (FEATURES_CONSTANT, features.0 as f64),
+            node_layout,
             walk,
             leaves,
             dispatching,
@@ -464,6 +481,7 @@ impl<'a> GpuRenderer<'a> {
             scene_buffers,
             scene,
             traversal: (packed.traversal, packed.traversal_note.clone()),
+            node_layout: packed.node_layout,
             leaves: packed.leaves,
             dispatch,
             walk_size: (packed.nodes.len() as u64, scene.primitives().len() as u64),
@@ -482,6 +500,11 @@ impl<'a> GpuRenderer<'a> {
         (self.traversal.0, self.traversal.1.as_deref())
     }
 
+    /// The node layout the kernels read.
+    pub fn node_layout(&self) -> NodeLayout {
+        self.node_layout
+    }
+
     /// The leaf layout the kernels read.
     pub fn leaves(&self) -> LeafLayout {
         self.leaves
@@ -490,8 +513,13 @@ impl<'a> GpuRenderer<'a> {
     /// The pipeline constants a kernel compiled over this renderer's
     /// records takes from it (the test and ray kernels): how the records
     /// are laid out (walk and leaves) and the dispatch.
-    pub fn shared_constants(&self) -> [(&'static str, f64); 3] {
-        shared_constants(self.traversal.0, self.leaves, self.dispatch)
+    pub fn shared_constants(&self) -> [(&'static str, f64); 4] {
+        shared_constants(
+            self.traversal.0,
+            self.node_layout,
+            self.leaves,
+            self.dispatch,
+        )
     }
 
     pub fn set_wave_slots(&mut self, slots: Option<u32>) {

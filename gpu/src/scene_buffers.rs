@@ -5,7 +5,7 @@
 
 use crate::bindings::{self, Binding};
 use crate::records::*;
-use crate::traversal::{LeafLayout, Traversal};
+use crate::traversal::{LeafLayout, NodeLayout, Traversal};
 use reference::background::Background;
 use reference::light::LightSet;
 use reference::material::Material;
@@ -24,7 +24,10 @@ pub struct PackedScene {
     /// [`crate::traversal::arrays`]; inline entries of more than 2^30
     /// primitives).
     pub traversal_note: Option<String>,
+    /// The walk's records ([`crate::traversal::arrays`]), uploaded as
+    /// `node_layout` says.
     pub nodes: Vec<reference::bvh::BvhNode>,
+    pub node_layout: NodeLayout,
     /// The leaves' entries in the tree's primitive order, as `leaves`
     /// says ([`crate::traversal::indexed_entries`],
     /// [`crate::traversal::inline_entries`]).
@@ -120,10 +123,15 @@ pub fn pack_texture(t: &Texture) -> GpuTexture {
 impl PackedScene {
     /// Each array with the binding it is uploaded to (every one of
     /// [`bindings::SCENE_ARRAYS`], in slot order).
-    pub fn arrays(&self) -> [(Binding, &[u8]); 13] {
-        use bytemuck::cast_slice as bytes;
+    pub fn arrays(&self) -> [(Binding, std::borrow::Cow<'_, [u8]>); 13] {
+        use bytemuck::cast_slice;
+        use std::borrow::Cow;
+        fn bytes<T: bytemuck::Pod>(v: &[T]) -> Cow<'_, [u8]> {
+            Cow::Borrowed(cast_slice(v))
+        }
+        let nodes = crate::traversal::node_words(&self.nodes, self.node_layout);
         [
-            (bindings::NODES, bytes(&self.nodes)),
+            (bindings::NODES, Cow::Owned(cast_slice(&nodes).to_vec())),
             (bindings::LEAF_ENTRIES, bytes(&self.leaf_entries)),
             (bindings::PRIMITIVES, bytes(&self.primitives)),
             (bindings::SPHERES, bytes(&self.spheres)),
@@ -183,6 +191,7 @@ impl PackedScene {
             leaves: LeafLayout::Indexed,
             traversal_note,
             nodes,
+            node_layout: NodeLayout::Aos,
             leaf_entries: crate::traversal::indexed_entries(&order),
             primitives: scene
                 .primitives()
@@ -291,6 +300,14 @@ impl PackedScene {
             }
         }
         packed
+    }
+
+    /// The same records, uploaded in `layout`.
+    pub fn with_node_layout(self, layout: NodeLayout) -> Self {
+        Self {
+            node_layout: layout,
+            ..self
+        }
     }
 }
 

@@ -105,6 +105,8 @@ pub fn generate() -> String {
     s += &u("WIDE_LEAF_ENTRY", crate::traversal::WIDE_LEAF_ENTRY);
     s += &u("DISPATCH_SWITCH", crate::features::DISPATCH_SWITCH);
     s += &u("DISPATCH_BRANCHES", crate::features::DISPATCH_BRANCHES);
+    s += &u("NODE_LAYOUT_AOS", crate::traversal::NODE_LAYOUT_AOS);
+    s += &u("NODE_LAYOUT_SOA", crate::traversal::NODE_LAYOUT_SOA);
     s += &u("LEAVES_INDEXED", crate::traversal::LEAVES_INDEXED);
     s += &u("LEAVES_INLINE", crate::traversal::LEAVES_INLINE);
     s += &u("INLINE_WORDS", crate::traversal::INLINE_WORDS as u32);

@@ -121,6 +121,78 @@ impl LeafLayout {
     }
 }
 
+/// How the `nodes` binding holds the walk's records: each [`BvhNode`] is
+/// two `vec4<u32>` words (box minimum and `index`; box maximum and
+/// `meta`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum NodeLayout {
+    /// A record's two words side by side (array of structs).
+    #[default]
+    Aos,
+    /// Every record's first word, then every record's second (structure
+    /// of arrays).
+    Soa,
+}
+
+impl NodeLayout {
+    /// Both layouts, the baseline first.
+    pub const ALL: [NodeLayout; 2] = [NodeLayout::Aos, NodeLayout::Soa];
+
+    /// The CLI's and perf's name.
+    pub fn name(self) -> &'static str {
+        match self {
+            NodeLayout::Aos => "aos",
+            NodeLayout::Soa => "soa",
+        }
+    }
+
+    /// The value of [`NODE_LAYOUT_CONSTANT`].
+    pub fn tag(self) -> u32 {
+        match self {
+            NodeLayout::Aos => NODE_LAYOUT_AOS,
+            NodeLayout::Soa => NODE_LAYOUT_SOA,
+        }
+    }
+}
+
+/// The render program's pipeline-overridable constant that picks the node
+/// layout ([`NodeLayout::tag`]).
+pub const NODE_LAYOUT_CONSTANT: &str = "NODE_LAYOUT";
+
+/// [`NODE_LAYOUT_CONSTANT`] of [`NodeLayout::Aos`].
+pub const NODE_LAYOUT_AOS: u32 = 0;
+
+/// [`NODE_LAYOUT_CONSTANT`] of [`NodeLayout::Soa`].
+pub const NODE_LAYOUT_SOA: u32 = 1;
+
+/// The words of `records` as `layout` holds them.
+pub fn node_words(records: &[BvhNode], layout: NodeLayout) -> Vec<[u32; 4]> {
+    let lo = |n: &BvhNode| {
+        [
+            n.min[0].to_bits(),
+            n.min[1].to_bits(),
+            n.min[2].to_bits(),
+            n.index,
+        ]
+    };
+    let hi = |n: &BvhNode| {
+        [
+            n.max[0].to_bits(),
+            n.max[1].to_bits(),
+            n.max[2].to_bits(),
+            n.meta,
+        ]
+    };
+    match layout {
+        NodeLayout::Aos => records.iter().flat_map(|n| [lo(n), hi(n)]).collect(),
+        NodeLayout::Soa => records
+            .iter()
+            .map(lo)
+            .chain(records.iter().map(hi))
+            .collect(),
+    }
+}
+
 /// The render program's pipeline-overridable constant that picks the leaf
 /// layout ([`LeafLayout::tag`]).
 pub const LEAVES_CONSTANT: &str = "LEAVES";

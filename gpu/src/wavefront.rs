@@ -127,13 +127,15 @@ pub struct Variant {
     pub kernel: crate::Kernel,
     pub schedule: Schedule,
     pub traversal: Traversal,
+    pub nodes: crate::NodeLayout,
     pub leaves: LeafLayout,
     pub dispatch: crate::Dispatch,
 }
 
 impl Variant {
-    /// `<schedule>[-mis][-general][-<walk>][-inline][-branches]`, the
-    /// binary walk, indexed leaves and switch dispatch unnamed.
+    /// `<schedule>[-mis][-general][-<walk>][-nodes-soa][-inline][-branches]`,
+    /// the binary walk, array-of-structs nodes, indexed leaves and switch
+    /// dispatch unnamed.
     pub fn name(self) -> String {
         let mut s = self.schedule.name().to_string();
         if self.integrator == reference::integrator::Integrator::Mis {
@@ -145,6 +147,11 @@ impl Variant {
         if self.traversal != Traversal::Binary {
             s += "-";
             s += self.traversal.name();
+        }
+        if self.nodes != crate::NodeLayout::Aos {
+            // `-soa` alone names the wavefront's path state.
+            s += "-nodes-";
+            s += self.nodes.name();
         }
         if self.leaves != LeafLayout::Indexed {
             s += "-";
@@ -162,18 +169,21 @@ impl Variant {
         let mut out = Vec::new();
         for dispatch in crate::Dispatch::ALL {
             for leaves in LeafLayout::ALL {
-                for traversal in Traversal::ALL {
-                    for schedule in Schedule::ALL {
-                        for kernel in [crate::Kernel::Specialized, crate::Kernel::General] {
-                            for integrator in reference::integrator::Integrator::ALL {
-                                out.push(Variant {
-                                    integrator,
-                                    kernel,
-                                    schedule,
-                                    traversal,
-                                    leaves,
-                                    dispatch,
-                                });
+                for nodes in crate::NodeLayout::ALL {
+                    for traversal in Traversal::ALL {
+                        for schedule in Schedule::ALL {
+                            for kernel in [crate::Kernel::Specialized, crate::Kernel::General] {
+                                for integrator in reference::integrator::Integrator::ALL {
+                                    out.push(Variant {
+                                        integrator,
+                                        kernel,
+                                        schedule,
+                                        traversal,
+                                        nodes,
+                                        leaves,
+                                        dispatch,
+                                    });
+                                }
                             }
                         }
                     }
@@ -592,8 +602,11 @@ mod tests {
         assert_eq!(names.len(), n);
         assert!(names.contains(&"megakernel-paths-mis-bvh4".to_string()));
         assert!(names.contains(&"megakernel-paths-bvh4-inline".to_string()));
+        assert!(names.contains(&"wavefront-soa-bvh4-nodes-soa-inline".to_string()));
         assert!(names.contains(&"megakernel-paths-mis-inline-branches".to_string()));
-        assert_eq!(n, 192);
+        // 4 schedules, 2 kernels, 2 estimators, 3 walks, 2 node layouts,
+        // 2 leaf layouts, 2 dispatches.
+        assert_eq!(n, 384);
     }
 
     /// The grid covers n invocations, within 65,535 workgroups a side.

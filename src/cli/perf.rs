@@ -76,7 +76,8 @@ pub struct RunArgs {
     /// or megakernel-paths (one invocation per path of a wave), -mis light sampling with MIS, -general the general kernel
     /// (every feature's code) instead of the one specialized to the scene,
     /// -bvh4 the four-wide BVH walk or -brute every primitive tested,
-    /// instead of the binary BVH walk, -inline leaf entries holding what
+    /// instead of the binary BVH walk, -nodes-soa node records as a structure
+    /// of arrays, -inline leaf entries holding what
     /// their test reads instead of primitive ids, -branches tag tests in a
     /// chain instead of a switch).
     #[arg(long)]
@@ -363,6 +364,7 @@ fn run_suite(a: &RunArgs) -> Result<()> {
             kernel: Kernel::Specialized,
             schedule: Schedule::Megakernel,
             traversal: gpu::Traversal::Binary,
+            nodes: gpu::NodeLayout::Aos,
             leaves: gpu::LeafLayout::Indexed,
             dispatch: gpu::Dispatch::Switch,
         }]

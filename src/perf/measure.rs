@@ -239,16 +239,16 @@ pub fn run(options: &Options, metric: &mut dyn FnMut(&str)) -> Result<PerfRun> {
     for load in &loads {
         for &backend in &backends {
             // Ray queries depend on neither the estimator nor the
-            // schedule: one CPU row, one GPU row per kernel, walk, leaf
-            // layout and dispatch (from the first variant measured with
+            // schedule: one CPU row, one GPU row per kernel, walk, node
+            // and leaf layout and dispatch (from the first variant measured with
             // them).
             if let Workload::Rays { .. } = load {
                 match backend {
                     Backend::Cpu(_, Integrator::Mis) => continue,
                     Backend::Gpu(_, v)
                         if options.gpu_variants.iter().find(|w| {
-                            (w.kernel, w.traversal, w.leaves, w.dispatch)
-                                == (v.kernel, v.traversal, v.leaves, v.dispatch)
+                            (w.kernel, w.traversal, w.nodes, w.leaves, w.dispatch)
+                                == (v.kernel, v.traversal, v.nodes, v.leaves, v.dispatch)
                         }) != Some(&v) =>
                     {
                         continue

@@ -16,8 +16,9 @@
 //!   against the one switching on tags (GPU against GPU).
 //! - [`specialization`]: the render kernel built for each scene's features
 //!   against the general kernel, bit for bit (GPU against GPU).
-//! - [`traversal`]: the four-wide and brute-force walks against the
-//!   binary one: hit records and films bit for bit (GPU against GPU).
+//! - [`traversal`]: the four-wide and brute-force walks and the node and
+//!   leaf layouts against the binary walk over array-of-structs nodes and
+//!   indexed leaves: hit records and films bit for bit (GPU against GPU).
 //! - [`wavefront`]: the wave schedules (the wavefront's kernels, the path
 //!   megakernel) against the megakernel, bit for bit or within a few ulp
 //!   (GPU against GPU).
@@ -201,7 +202,7 @@ pub const CHECKS: &[Check] = &[
         run: dispatch::all_scenes,
     },
     Check {
-        name: "four-wide and brute-force walks == binary walk (hit records, films)",
+        name: "four-wide and brute-force walks, node and leaf layouts == binary walk (hit records, films)",
         run: traversal::all_scenes,
     },
 ];

@@ -10,7 +10,7 @@
 use super::Outcome;
 use crate::compare::gate::workspace_root;
 use gpu::features::{Features, Kernel};
-use gpu::{Dispatch, GpuContext, LeafLayout, Schedule, Traversal};
+use gpu::{Dispatch, GpuContext, LeafLayout, NodeLayout, Schedule, Traversal};
 use reference::integrator::Integrator;
 use reference::{RenderSettings, Scene};
 
@@ -113,6 +113,7 @@ pub struct Build<'a> {
     pub features: Features,
     pub schedule: Schedule,
     pub traversal: Traversal,
+    pub nodes: NodeLayout,
     pub leaves: LeafLayout,
     pub dispatch: Dispatch,
 }
@@ -127,6 +128,7 @@ impl<'a> Build<'a> {
             features,
             schedule: Schedule::Megakernel,
             traversal: Traversal::Binary,
+            nodes: NodeLayout::Aos,
             leaves: LeafLayout::Indexed,
             dispatch: Dispatch::Switch,
         }
@@ -142,7 +144,8 @@ pub fn variant_film_bits(
     build: Build,
     wave_slots: &[Option<u32>],
 ) -> Result<Vec<Vec<u64>>, String> {
-    let packed = gpu::scene_buffers::PackedScene::for_walk(scene, build.traversal, build.leaves);
+    let packed = gpu::scene_buffers::PackedScene::for_walk(scene, build.traversal, build.leaves)
+        .with_node_layout(build.nodes);
     if let Some(why) = &packed.traversal_note {
         return Err(why.clone());
     }

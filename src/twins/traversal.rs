@@ -1,6 +1,7 @@
 //! The GPU's walks against each other (`gpu::traversal`): the four-wide
-//! walk, brute force and the inline leaf layout must return the binary
-//! walk's hit records (over indexed leaves) bit for bit (flag, primitive,
+//! walk, brute force, the structure-of-arrays node layout and the inline
+//! leaf layout must return the binary walk's hit records (over
+//! array-of-structs nodes and indexed leaves) bit for bit (flag, primitive,
 //! t, uv) on the rays of [`super::hits`], on every scene, and render every
 //! fixture and built-in scene as it does with either estimator. Not a CPU
 //! twin: the binary walk is the oracle (itself held to the reference by
@@ -24,33 +25,40 @@ use super::wavefront::{compare_words, Inexact};
 use super::{camera_and_random_rays, run_kernel_walking, Outcome};
 use gpu::features::Kernel;
 use gpu::scene_buffers::PackedScene;
-use gpu::{GpuContext, LeafLayout, Traversal};
+use gpu::{GpuContext, LeafLayout, NodeLayout, Traversal};
 use reference::integrator::Integrator;
 use reference::Scene;
 
-/// A walk and the leaf layout it reads.
-pub type Walk = (Traversal, LeafLayout);
+/// A walk and the node and leaf layouts it reads.
+pub type Walk = (Traversal, NodeLayout, LeafLayout);
 
-/// The walks compared with the binary one over indexed leaves.
-pub const VARIANTS: [Walk; 4] = [
-    (Traversal::Wide, LeafLayout::Indexed),
-    (Traversal::BruteForce, LeafLayout::Indexed),
-    (Traversal::Binary, LeafLayout::Inline),
-    (Traversal::Wide, LeafLayout::Inline),
+/// The walks compared with the binary one over array-of-structs nodes
+/// and indexed leaves.
+pub const VARIANTS: [Walk; 6] = [
+    (Traversal::Wide, NodeLayout::Aos, LeafLayout::Indexed),
+    (Traversal::BruteForce, NodeLayout::Aos, LeafLayout::Indexed),
+    (Traversal::Binary, NodeLayout::Soa, LeafLayout::Indexed),
+    (Traversal::Binary, NodeLayout::Aos, LeafLayout::Inline),
+    (Traversal::Wide, NodeLayout::Aos, LeafLayout::Inline),
+    (Traversal::Wide, NodeLayout::Soa, LeafLayout::Inline),
 ];
 
-/// A walk's name in the messages: `bvh4`, `bvh2-inline`.
-pub fn walk_name((traversal, leaves): Walk) -> String {
-    match leaves {
-        LeafLayout::Indexed => traversal.name().to_string(),
-        _ => format!("{}-{}", traversal.name(), leaves.name()),
+/// A walk's name in the messages: `bvh4`, `bvh2-soa`, `bvh2-inline`.
+pub fn walk_name((traversal, nodes, leaves): Walk) -> String {
+    let mut name = traversal.name().to_string();
+    if nodes != NodeLayout::Aos {
+        name = format!("{name}-{}", nodes.name());
     }
+    if leaves != LeafLayout::Indexed {
+        name = format!("{name}-{}", leaves.name());
+    }
+    name
 }
 
 /// `scene`'s records for a walk; an error where it was refused
 /// (`PackedScene::traversal_note`).
-pub fn packed(scene: &Scene, (traversal, leaves): Walk) -> Result<PackedScene, String> {
-    let packed = PackedScene::for_walk(scene, traversal, leaves);
+pub fn packed(scene: &Scene, (traversal, nodes, leaves): Walk) -> Result<PackedScene, String> {
+    let packed = PackedScene::for_walk(scene, traversal, leaves).with_node_layout(nodes);
     match &packed.traversal_note {
         Some(why) => Err(why.clone()),
         None => Ok(packed),
@@ -89,7 +97,7 @@ pub fn compare_hits(
     let production = gpu::shader::library_source();
     let oracle = hit_words(ctx, scene, &PackedScene::new(scene), &production)?;
     let words = hit_words(ctx, scene, packed, library)?;
-    let walk = walk_name((packed.traversal, packed.leaves));
+    let walk = walk_name((packed.traversal, packed.node_layout, packed.leaves));
     for (i, (b, w)) in oracle.chunks(5).zip(words.chunks(5)).enumerate() {
         if b != w {
             let show = |r: &[u32]| {
@@ -127,7 +135,8 @@ pub fn compare_films(
     let binary = oracle_film(ctx, spec, scene, integrator, "the binary walk")?;
     let build = Build {
         traversal: walk.0,
-        leaves: walk.1,
+        nodes: walk.1,
+        leaves: walk.2,
         ..Build::megakernel(program, integrator, features)
     };
     let film = variant_film_bits(ctx, scene, build, &[None])?.remove(0);
@@ -170,7 +179,7 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
         // Brute force takes tiny scenes only (the renderer refuses more).
         let walks: Vec<Walk> = VARIANTS
             .into_iter()
-            .filter(|&(t, _)| {
+            .filter(|&(t, _, _)| {
                 t != Traversal::BruteForce
                     || scene.primitives().len() <= gpu::renderer::BRUTE_FORCE_MAX_PRIMITIVES
             })
@@ -192,7 +201,7 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let compared = films * (width * height) as usize;
     let exactness = inexact.exactness(compared);
     Ok(format!(
-        "bvh4, brute force and inline leaves (bvh2, bvh4): hit records equal the binary walk's bit for bit (rays that hit: {}); \
+        "bvh4, brute force, SoA nodes (bvh2, bvh4) and inline leaves (bvh2, bvh4): hit records equal the binary walk's bit for bit (rays that hit: {}); \
          {} scenes × 2 estimators ({films} films: brute force on the scenes of at most {} primitives, the others on every scene): films equal the binary walk's {exactness}",
         hit_lines.join(", "),
         specs.len(),
