@@ -96,14 +96,21 @@ fn intersect_leaf(first: u32, count: u32, ray: Ray, inv_dir: vec3<f32>, pad: f32
         let entry = first + i;
         var prim: u32;
         var h: ShapeHit;
-        if LEAVES == LEAVES_INLINE {
-            let e = INLINE_WORDS * entry;
-            let r0 = leaf_entries[e];
-            prim = r0.x & ((1u << INLINE_TAG_SHIFT) - 1u);
-            h = intersect_inline(r0, leaf_entries[e + 1u], leaf_entries[e + 2u], leaf_entries[e + 3u], ray, inv_dir, pad, t_min, limit);
-        } else {
+        if LEAVES == LEAVES_INDEXED {
             prim = leaf_entries[entry >> 2u][entry & 3u];
             h = intersect_primitive(prim, ray, inv_dir, pad, t_min, limit);
+        } else {
+            // An inline entry's four words: side by side, or word k of
+            // every entry in the k-th quarter of the array.
+            var e = INLINE_WORDS * entry;
+            var step = 1u;
+            if LEAVES == LEAVES_INLINE_SOA {
+                e = entry;
+                step = arrayLength(&leaf_entries) / INLINE_WORDS;
+            }
+            let r0 = leaf_entries[e];
+            prim = r0.x & ((1u << INLINE_TAG_SHIFT) - 1u);
+            h = intersect_inline(r0, leaf_entries[e + step], leaf_entries[e + 2u * step], leaf_entries[e + 3u * step], ray, inv_dir, pad, t_min, limit);
         }
         if h.hit && (!best.hit || h.t < best.t || (h.t == best.t && prim < best.prim)) {
             best = Hit(true, h.t, prim, h.uv);

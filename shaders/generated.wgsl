@@ -29,6 +29,7 @@ const NODE_LAYOUT_AOS: u32 = 0u;
 const NODE_LAYOUT_SOA: u32 = 1u;
 const LEAVES_INDEXED: u32 = 0u;
 const LEAVES_INLINE: u32 = 1u;
+const LEAVES_INLINE_SOA: u32 = 2u;
 const INLINE_WORDS: u32 = 4u;
 const INLINE_TAG_SHIFT: u32 = 30u;
 const SLAB_FAR_SCALE: f32 = 1.0000004e0;

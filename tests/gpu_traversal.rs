@@ -178,6 +178,35 @@ fn soa_node_mutants_fail_the_hit_records() {
     println!("SoA records with swapped maxima: {e}");
 }
 
+/// Inline entries as a structure of arrays: the entries regrouped word by
+/// word, and a read with the wrong stride caught by the hit records.
+#[test]
+fn inline_soa_entries_are_regrouped_and_a_wrong_stride_is_caught() {
+    let ctx = common::gpu();
+    let library = gpu::shader::library_source();
+    let scene = reference::load_scene("cornell").unwrap();
+    let walk = |leaves| packed(&scene, (Traversal::Binary, NodeLayout::Aos, leaves)).unwrap();
+    let (inline, soa) = (walk(LeafLayout::Inline), walk(LeafLayout::InlineSoa));
+    let n = inline.leaf_entries.len() / 4;
+    assert_eq!(n, scene.primitives().len());
+    assert_eq!(soa.leaf_entries.len(), 4 * n);
+    for i in 0..n {
+        for k in 0..4 {
+            assert_eq!(soa.leaf_entries[k * n + i], inline.leaf_entries[4 * i + k]);
+        }
+    }
+    compare_hits(ctx, "cornell", &scene, &soa, &library).unwrap();
+    let (from, to) = (
+        "step = arrayLength(&leaf_entries) / INLINE_WORDS;",
+        "step = arrayLength(&leaf_entries) / INLINE_WORDS + 1u;",
+    );
+    assert_eq!(library.matches(from).count(), 1, "`{from}` not found once");
+    let e = compare_hits(ctx, "cornell", &scene, &soa, &library.replace(from, to))
+        .expect_err("SoA inline entries read with a stride one too long passed");
+    assert!(e.contains(", ray "), "not a hit difference: {e}");
+    println!("SoA inline entries, stride one too long: {e}");
+}
+
 #[test]
 fn soa_words_are_the_aos_words_regrouped() {
     use gpu::traversal::node_words;

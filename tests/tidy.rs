@@ -92,6 +92,10 @@ const GPU_ONLY: &[(&str, &str)] = &[
         "wide_lane",
         "one lane's box test of the GPU's four-wide walk",
     ),
+    (
+        "bvh_node",
+        "reads a BvhNode record from the nodes binding's words (gpu::traversal::NodeLayout)",
+    ),
     ("node_min", "reads a packed BvhNode record"),
     ("node_max", "reads a packed BvhNode record"),
     ("f32_infinity", "WGSL const-expressions may not be infinite"),

@@ -284,11 +284,14 @@ impl PackedScene {
             env_pmf,
             env_table,
         };
-        if leaves == LeafLayout::Inline {
+        if leaves != LeafLayout::Indexed {
             match crate::traversal::inline_entries(&order, &packed) {
                 Ok(entries) => {
-                    packed.leaves = LeafLayout::Inline;
-                    packed.leaf_entries = entries;
+                    packed.leaves = leaves;
+                    packed.leaf_entries = match leaves {
+                        LeafLayout::InlineSoa => crate::traversal::soa_entries(&entries),
+                        _ => entries,
+                    };
                 }
                 Err(why) => {
                     let note = format!("{why}: indexed leaves are used");

@@ -109,6 +109,7 @@ pub fn generate() -> String {
     s += &u("NODE_LAYOUT_SOA", crate::traversal::NODE_LAYOUT_SOA);
     s += &u("LEAVES_INDEXED", crate::traversal::LEAVES_INDEXED);
     s += &u("LEAVES_INLINE", crate::traversal::LEAVES_INLINE);
+    s += &u("LEAVES_INLINE_SOA", crate::traversal::LEAVES_INLINE_SOA);
     s += &u("INLINE_WORDS", crate::traversal::INLINE_WORDS as u32);
     s += &u("INLINE_TAG_SHIFT", crate::traversal::INLINE_TAG_SHIFT);
     s += &f("SLAB_FAR_SCALE", reference::bvh::SLAB_FAR_SCALE);

@@ -99,16 +99,25 @@ pub enum LeafLayout {
     /// copied from the same packed records: one read per test, the same
     /// bits ([`inline_entries`]).
     Inline,
+    /// The inline entries as a structure of arrays: every entry's first
+    /// 16-byte word, then every entry's second, third and fourth
+    /// ([`soa_entries`]).
+    InlineSoa,
 }
 
 impl LeafLayout {
-    pub const ALL: [LeafLayout; 2] = [LeafLayout::Indexed, LeafLayout::Inline];
+    pub const ALL: [LeafLayout; 3] = [
+        LeafLayout::Indexed,
+        LeafLayout::Inline,
+        LeafLayout::InlineSoa,
+    ];
 
     /// The CLI's and perf's name.
     pub fn name(self) -> &'static str {
         match self {
             LeafLayout::Indexed => "indexed",
             LeafLayout::Inline => "inline",
+            LeafLayout::InlineSoa => "inline-soa",
         }
     }
 
@@ -117,6 +126,7 @@ impl LeafLayout {
         match self {
             LeafLayout::Indexed => LEAVES_INDEXED,
             LeafLayout::Inline => LEAVES_INLINE,
+            LeafLayout::InlineSoa => LEAVES_INLINE_SOA,
         }
     }
 }
@@ -203,6 +213,9 @@ pub const LEAVES_INDEXED: u32 = 0;
 /// [`LEAVES_CONSTANT`] of [`LeafLayout::Inline`].
 pub const LEAVES_INLINE: u32 = 1;
 
+/// [`LEAVES_CONSTANT`] of [`LeafLayout::InlineSoa`].
+pub const LEAVES_INLINE_SOA: u32 = 2;
+
 /// `vec4<u32>` words of an inline leaf entry.
 pub const INLINE_WORDS: usize = 4;
 
@@ -270,6 +283,16 @@ pub fn inline_entries(
         out.push([f(shape[5]), f(shape[6]), f(shape[7]), f(shape[8])]);
     }
     Ok(out)
+}
+
+/// Inline entries (`INLINE_WORDS` words each, side by side) regrouped as
+/// [`LeafLayout::InlineSoa`] holds them: word `k` of entry `i` at
+/// `k · n + i`.
+pub fn soa_entries(inline: &[[u32; 4]]) -> Vec<[u32; 4]> {
+    let n = inline.len() / INLINE_WORDS;
+    (0..INLINE_WORDS)
+        .flat_map(|k| (0..n).map(move |i| inline[INLINE_WORDS * i + k]))
+        .collect()
 }
 
 /// The `nodes` and `prim_order` arrays a walk reads for `scene`, and the

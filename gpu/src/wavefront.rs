@@ -133,7 +133,7 @@ pub struct Variant {
 }
 
 impl Variant {
-    /// `<schedule>[-mis][-general][-<walk>][-nodes-soa][-inline][-branches]`,
+    /// `<schedule>[-mis][-general][-<walk>][-nodes-soa][-inline[-soa]][-branches]`,
     /// the binary walk, array-of-structs nodes, indexed leaves and switch
     /// dispatch unnamed.
     pub fn name(self) -> String {
@@ -604,9 +604,10 @@ mod tests {
         assert!(names.contains(&"megakernel-paths-bvh4-inline".to_string()));
         assert!(names.contains(&"wavefront-soa-bvh4-nodes-soa-inline".to_string()));
         assert!(names.contains(&"megakernel-paths-mis-inline-branches".to_string()));
+        assert!(names.contains(&"megakernel-paths-inline-soa".to_string()));
         // 4 schedules, 2 kernels, 2 estimators, 3 walks, 2 node layouts,
-        // 2 leaf layouts, 2 dispatches.
-        assert_eq!(n, 384);
+        // 3 leaf layouts, 2 dispatches.
+        assert_eq!(n, 576);
     }
 
     /// The grid covers n invocations, within 65,535 workgroups a side.

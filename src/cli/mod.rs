@@ -154,9 +154,10 @@ pub struct RenderArgs {
     /// How the GPU's BVH leaves hold their primitives: inline (the
     /// default: each leaf entry a 64-byte copy of what its test reads, in
     /// leaf order; 1.03-1.2x faster on an H100, 60 more bytes a
-    /// primitive) or indexed (primitive ids: a test reads the primitive's
-    /// record, then its shape's). Both test the same floats: the same
-    /// image.
+    /// primitive), inline-soa (the same entries as a structure of arrays
+    /// of their four 16-byte words) or indexed (primitive ids: a test
+    /// reads the primitive's record, then its shape's). All test the same
+    /// floats: the same image.
     #[arg(long, value_enum, default_value_t = LeavesArg::Inline)]
     pub leaves: LeavesArg,
     /// How the GPU's BVH node records are laid out: aos (the default:
@@ -209,6 +210,7 @@ impl NodesArg {
 pub enum LeavesArg {
     Indexed,
     Inline,
+    InlineSoa,
 }
 
 impl LeavesArg {
@@ -216,6 +218,7 @@ impl LeavesArg {
         match self {
             LeavesArg::Indexed => gpu::LeafLayout::Indexed,
             LeavesArg::Inline => gpu::LeafLayout::Inline,
+            LeavesArg::InlineSoa => gpu::LeafLayout::InlineSoa,
         }
     }
 }

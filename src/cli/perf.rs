@@ -78,7 +78,8 @@ pub struct RunArgs {
     /// -bvh4 the four-wide BVH walk or -brute every primitive tested,
     /// instead of the binary BVH walk, -nodes-soa node records as a structure
     /// of arrays, -inline leaf entries holding what
-    /// their test reads instead of primitive ids, -branches tag tests in a
+    /// their test reads instead of primitive ids (-inline-soa the same as a
+    /// structure of arrays), -branches tag tests in a
     /// chain instead of a switch).
     #[arg(long)]
     pub variant: Vec<String>,
