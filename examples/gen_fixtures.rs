@@ -1,7 +1,8 @@
 //! Regenerates the generated fixture files under fixtures/ (run through
-//! `cargo xtask fixtures`): the bumpy-sphere glTF mesh, the UV-grid PNG
-//! texture and the procedural sky HDR environment map. Every file is a
-//! pure function of the code here, so the fixtures need no licence.
+//! `cargo xtask fixtures`): the bumpy-sphere glTF mesh, the glTF of the
+//! glTF-materials scene, the UV-grid PNG texture and the procedural sky
+//! HDR environment map. Every file is a pure function of the code here, so
+//! the fixtures need no licence.
 
 use glam::Vec3;
 use std::path::Path;
@@ -11,6 +12,7 @@ fn main() -> anyhow::Result<()> {
     // 20 · 4^5 = 20480 triangles, closed (the watertightness suite uses it).
     let mesh = reference::procedural::bumpy_sphere(5, 0.08, 6.0);
     reference::procedural::write_glb(&root.join("meshes/bumpy_sphere.glb"), &mesh)?;
+    std::fs::write(root.join("meshes/gltf-materials.glb"), gltf_materials()?)?;
     uv_grid(&root.join("textures/uv_grid.png"))?;
     sky_hdr(&root.join("textures/sky.hdr"))?;
     println!("fixtures written under {}", root.display());
@@ -67,4 +69,125 @@ fn sky_hdr(path: &Path) -> anyhow::Result<()> {
     });
     image::DynamicImage::ImageRgb32F(img).save(path)?;
     Ok(())
+}
+
+/// The glTF of fixtures/scenes/gltf-materials.json: two UV spheres
+/// (radius 1, 32 segments, 16 rings; POSITION, NORMAL, TEXCOORD_0), each a
+/// node with its own material, as other tools write them:
+/// - left: base colour factor (0.9, 0.6, 0.3), metallic and roughness
+///   factors 1, scaled per point by an 8x8 `metallicRoughnessTexture`
+///   (linear data): green (roughness) rises from 0.1 to 0.9 across u, blue
+///   (metallic) is 1 in the image's top half and 0 in its bottom half;
+/// - right: `KHR_materials_transmission` 1, `KHR_materials_ior` 1.5,
+///   `KHR_materials_volume` (thickness 1, attenuation colour (0.9, 0.6,
+///   0.3) at distance 1): smooth glass with Beer-Lambert absorption.
+fn gltf_materials() -> anyhow::Result<Vec<u8>> {
+    use serde_json::json;
+    const SEGMENTS: u32 = 32;
+    const RINGS: u32 = 16;
+    let (mut positions, mut uvs, mut indices) = (Vec::new(), Vec::new(), Vec::<u16>::new());
+    for r in 0..=RINGS {
+        let theta = std::f32::consts::PI * r as f32 / RINGS as f32;
+        for s in 0..=SEGMENTS {
+            let phi = 2.0 * std::f32::consts::PI * s as f32 / SEGMENTS as f32;
+            positions.push([
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin(),
+            ]);
+            // glTF's texture origin is the top-left corner: v = 0 on top.
+            uvs.push([s as f32 / SEGMENTS as f32, r as f32 / RINGS as f32]);
+        }
+    }
+    let row = (SEGMENTS + 1) as u16;
+    for r in 0..RINGS as u16 {
+        for s in 0..SEGMENTS as u16 {
+            let (a, b) = (r * row + s, r * row + s + 1);
+            let (c, d) = (a + row, b + row);
+            // Counter-clockwise seen from outside; no slivers at the poles.
+            if r != 0 {
+                indices.extend([a, b, c]);
+            }
+            if r != RINGS as u16 - 1 {
+                indices.extend([b, d, c]);
+            }
+        }
+    }
+    let mut png = Vec::new();
+    let image = image::RgbImage::from_fn(8, 8, |x, y| {
+        let rough = (255.0 * (0.1 + 0.8 * x as f32 / 7.0)).round() as u8;
+        image::Rgb([0, rough, if y < 4 { 255 } else { 0 }])
+    });
+    image.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
+
+    let mut bin = Vec::new();
+    let mut views = Vec::new();
+    let mut add_view = |data: &[u8], target: Option<u32>| {
+        bin.resize(bin.len().next_multiple_of(4), 0);
+        let mut view = json!({ "buffer": 0, "byteOffset": bin.len(), "byteLength": data.len() });
+        if let Some(t) = target {
+            view["target"] = t.into();
+        }
+        bin.extend_from_slice(data);
+        views.push(view);
+        views.len() - 1
+    };
+    let floats =
+        |v: &[[f32; 3]]| -> Vec<u8> { v.iter().flatten().flat_map(|f| f.to_le_bytes()).collect() };
+    let positions_view = add_view(&floats(&positions), Some(34962));
+    let uv_bytes: Vec<u8> = uvs
+        .iter()
+        .flatten()
+        .flat_map(|f: &f32| f.to_le_bytes())
+        .collect();
+    let uv_view = add_view(&uv_bytes, Some(34962));
+    let index_bytes: Vec<u8> = indices.iter().flat_map(|i| i.to_le_bytes()).collect();
+    let index_view = add_view(&index_bytes, Some(34963));
+    let image_view = add_view(&png, None);
+    bin.resize(bin.len().next_multiple_of(4), 0);
+    let n = positions.len();
+    // A unit sphere's normals are its positions: one accessor for both.
+    let accessors = json!([
+        { "bufferView": positions_view, "componentType": 5126, "count": n, "type": "VEC3", "min": [-1, -1, -1], "max": [1, 1, 1] },
+        { "bufferView": uv_view, "componentType": 5126, "count": n, "type": "VEC2" },
+        { "bufferView": index_view, "componentType": 5123, "count": indices.len(), "type": "SCALAR" },
+    ]);
+    let primitive = |material: u32| json!({ "attributes": { "POSITION": 0, "NORMAL": 0, "TEXCOORD_0": 1 }, "indices": 2, "material": material });
+    let document = json!({
+        "asset": { "version": "2.0", "generator": "twintrace examples/gen_fixtures.rs" },
+        "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume"],
+        "scene": 0,
+        "scenes": [{ "nodes": [0, 1] }],
+        "nodes": [
+            { "name": "metallic-roughness", "mesh": 0, "translation": [-1.1, 1.0, 0.0] },
+            { "name": "glass", "mesh": 1, "translation": [1.1, 1.0, 0.0] },
+        ],
+        "meshes": [{ "primitives": [primitive(0)] }, { "primitives": [primitive(1)] }],
+        "materials": [
+            {
+                "name": "textured metal-roughness",
+                "pbrMetallicRoughness": {
+                    "baseColorFactor": [0.9, 0.6, 0.3, 1.0],
+                    "metallicFactor": 1.0,
+                    "roughnessFactor": 1.0,
+                    "metallicRoughnessTexture": { "index": 0 },
+                },
+            },
+            {
+                "name": "glass",
+                "pbrMetallicRoughness": { "metallicFactor": 0.0, "roughnessFactor": 0.0 },
+                "extensions": {
+                    "KHR_materials_transmission": { "transmissionFactor": 1.0 },
+                    "KHR_materials_ior": { "ior": 1.5 },
+                    "KHR_materials_volume": { "thicknessFactor": 1.0, "attenuationDistance": 1.0, "attenuationColor": [0.9, 0.6, 0.3] },
+                },
+            },
+        ],
+        "textures": [{ "source": 0 }],
+        "images": [{ "bufferView": image_view, "mimeType": "image/png" }],
+        "buffers": [{ "byteLength": bin.len() }],
+        "bufferViews": views,
+        "accessors": accessors,
+    });
+    Ok(reference::procedural::glb_container(&document, bin)?)
 }

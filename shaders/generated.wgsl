@@ -16,6 +16,7 @@ const BACKGROUND_SKY: u32 = 1u;
 const BACKGROUND_ENVMAP: u32 = 2u;
 const TRIANGLE_HAS_NORMALS: u32 = 1u;
 const TRIANGLE_HAS_UVS: u32 = 2u;
+const NO_TEXTURE: u32 = 4294967295u;
 const BVH_LEAF: u32 = 3u;
 const BVH_STACK_SIZE: u32 = 64u;
 const TRAVERSAL_BINARY: u32 = 0u;
@@ -145,7 +146,7 @@ struct GpuMaterial {
     absorption_r: f32,
     absorption_g: f32,
     absorption_b: f32,
-    _pad0: u32,
+    texture2: u32,
 }
 struct GpuTexture {
     tag: u32,

@@ -102,7 +102,8 @@ fn bsdf_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, wi: vec
             if wo.z <= 0.0 || wl.z <= 0.0 {
                 return zero;
             }
-            let lobes = ggx_lobes_new(evaluate_texture(m.texture, si.p, si.uv), m.p0, m.p1, wo);
+            let mr = ggx_parameters(m, si);
+            let lobes = ggx_lobes_new(evaluate_texture(m.texture, si.p, si.uv), mr.x, mr.y, wo);
             return BsdfEval(true, ggx_lobes_eval(lobes, wo, wl) * wl.z, ggx_lobes_pdf(lobes, wo, wl));
         }
         case MATERIAL_METAL, MATERIAL_DIELECTRIC, MATERIAL_DIFFUSE_LIGHT: {
@@ -210,6 +211,17 @@ fn scatter_dielectric(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction
     return Scatter(true, direction, vec3<f32>(1.0));
 }
 
+// reference::material::ggx_parameters: metallic and roughness at si, the
+// factors times the metallic-roughness texture's blue and green channels
+// where the material has one.
+fn ggx_parameters(m: GpuMaterial, si: SurfaceInteraction) -> vec2<f32> {
+    if m.texture2 == NO_TEXTURE {
+        return vec2<f32>(m.p0, m.p1);
+    }
+    let t = evaluate_texture(m.texture2, si.p, si.uv);
+    return vec2<f32>(m.p0 * t.z, m.p1 * t.y);
+}
+
 fn scatter_ggx(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, n: vec3<f32>, u: VertexRandoms) -> Scatter {
     if !uses(FEATURE_GGX) { poison(); return absorbed(); }
     let frame = onb_from_normal(n);
@@ -217,7 +229,8 @@ fn scatter_ggx(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, n: ve
     if wo.z <= 0.0 {
         return absorbed();
     }
-    let lobes = ggx_lobes_new(evaluate_texture(m.texture, si.p, si.uv), m.p0, m.p1, wo);
+    let mr = ggx_parameters(m, si);
+    let lobes = ggx_lobes_new(evaluate_texture(m.texture, si.p, si.uv), mr.x, mr.y, wo);
     let dir_u = vec2<f32>(vr_get(u, DIM_DIRECTION_U), vr_get(u, DIM_DIRECTION_V));
     var wi: vec3<f32>;
     if vr_get(u, DIM_LOBE) < lobes.specular_probability {

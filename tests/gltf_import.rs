@@ -84,7 +84,8 @@ fn procedural_glb_loads_frames_and_renders() {
         vec![Material::Ggx {
             base_color: 0,
             metallic: 1.0,
-            roughness: 1.0
+            roughness: 1.0,
+            metallic_roughness: None,
         }]
     );
     assert_eq!(scene.textures(), vec![Texture::Constant(Vec3::ONE)]);
@@ -141,6 +142,7 @@ fn gltf_materials_emission_and_camera_come_through() {
             base_color,
             metallic,
             roughness,
+            metallic_roughness: None,
         } => {
             assert_eq!(
                 texture(base_color),

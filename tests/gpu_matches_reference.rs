@@ -77,3 +77,38 @@ fn gpu_and_cpu_agree_by_welch_at_equal_budgets_and_a_biased_gpu_does_not() {
     println!("GPU with albedo x1.02:\n{}", run.verdict.summary());
     assert!(!run.passes(), "a 2% albedo bias on the GPU went undetected");
 }
+
+/// The glTF-materials fixture's gate sees the metallic-roughness texture:
+/// a GPU kernel that ignores it (the factors alone, metallic 1 and
+/// roughness 1) fails the stored reference.
+#[test]
+fn a_gpu_kernel_ignoring_the_metallic_roughness_texture_fails_its_gate() {
+    let spec = manifest_entry("gltf-materials").unwrap();
+    let reference = load_reference(&spec).unwrap();
+    let scene = load_scene(&spec).unwrap();
+    let (from, to) = ("if m.texture2 == NO_TEXTURE {", "if true {");
+    let program = gpu::shader::render_source();
+    assert_eq!(program.matches(from).count(), 1, "`{from}` not found once");
+    let mutant = program.replace(from, to);
+    let render = |scene: &Scene, settings: &RenderSettings| -> Result<Film> {
+        let packed = gpu::scene_buffers::PackedScene::new(scene);
+        Ok(gpu::GpuRenderer::with_program(
+            common::gpu(),
+            &packed,
+            scene,
+            &mutant,
+            reference::integrator::Integrator::Bsdf,
+        )?
+        .render(settings, &|_, _| {})?
+        .film)
+    };
+    let run = run_gate(&reference, &scene, 1024, GPU_SEED, &render).unwrap();
+    println!(
+        "GPU without the metallic-roughness texture:\n{}",
+        run.verdict.summary()
+    );
+    assert!(
+        !run.passes(),
+        "a kernel ignoring the metallic-roughness texture passed"
+    );
+}

@@ -240,6 +240,7 @@ fn gpu_sampling_routines_match_their_densities() {
                 base_color: 0,
                 metallic,
                 roughness,
+                metallic_roughness: None,
             }),
             ..Job::new(Mode::Scatter, 1030 + k as u32)
         };

@@ -199,6 +199,7 @@ fn ggx_material_samples_its_mixture_density() {
             base_color: 0,
             metallic,
             roughness,
+            metallic_roughness: None,
         };
         let wo = towards(theta);
         let lobes = GgxLobes::new(Vec3::new(0.9, 0.6, 0.3), metallic, roughness, wo);

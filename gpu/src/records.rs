@@ -57,12 +57,17 @@ gpu_record! {
     }
 }
 
+/// `GpuMaterial::texture2` of a material without a second texture.
+pub const NO_TEXTURE: u32 = u32::MAX;
+
 gpu_record! {
     /// A material (`reference::material::Material`), by tag:
     /// LAMBERTIAN `texture` = albedo; METAL `texture` = albedo, `p0` = fuzz;
     /// DIELECTRIC `p0` = ior, `absorption_*`; DIFFUSE_LIGHT `texture` =
-    /// emission; GGX `texture` = base colour, `p0` = metallic, `p1` = roughness.
-    GpuMaterial { tag: u32, texture: u32, p0: f32, p1: f32, absorption_r: f32, absorption_g: f32, absorption_b: f32, _pad0: u32 }
+    /// emission; GGX `texture` = base colour, `p0` = metallic, `p1` =
+    /// roughness, `texture2` = the metallic-roughness texture or
+    /// `NO_TEXTURE`.
+    GpuMaterial { tag: u32, texture: u32, p0: f32, p1: f32, absorption_r: f32, absorption_g: f32, absorption_b: f32, texture2: u32 }
 }
 
 gpu_record! {

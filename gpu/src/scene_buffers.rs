@@ -82,11 +82,13 @@ pub fn pack_material(m: &Material) -> GpuMaterial {
             base_color,
             metallic,
             roughness,
+            metallic_roughness,
         } => GpuMaterial {
             tag,
             texture: base_color,
             p0: metallic,
             p1: roughness,
+            texture2: metallic_roughness.unwrap_or(NO_TEXTURE),
             ..Default::default()
         },
     }

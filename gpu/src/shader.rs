@@ -96,6 +96,7 @@ pub fn generate() -> String {
     s += &u("BACKGROUND_ENVMAP", background_tag::ENVMAP);
     s += &u("TRIANGLE_HAS_NORMALS", TRIANGLE_HAS_NORMALS);
     s += &u("TRIANGLE_HAS_UVS", TRIANGLE_HAS_UVS);
+    s += &u("NO_TEXTURE", crate::records::NO_TEXTURE);
     s += &u("BVH_LEAF", reference::bvh::BvhNode::LEAF);
     s += &u("BVH_STACK_SIZE", reference::bvh::BVH_STACK_SIZE as u32);
     s += &u("TRAVERSAL_BINARY", crate::traversal::TRAVERSAL_BINARY);

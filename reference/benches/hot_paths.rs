@@ -180,6 +180,7 @@ fn bsdf_sampling(c: &mut Criterion) {
                 base_color: 0,
                 metallic: 0.5,
                 roughness: 0.4,
+                metallic_roughness: None,
             },
         ),
     ] {

@@ -28,10 +28,14 @@ pub enum Material {
     /// glTF metallic-roughness: Lambertian base weighted by `1 - F` and
     /// `1 - metallic`, plus GGX specular (height-correlated Smith G2,
     /// Schlick F with `F0 = lerp(0.04, base, metallic)`), `alpha = roughness²`.
+    /// `metallic_roughness`: a texture (linear data) whose blue channel
+    /// scales `metallic` and green `roughness` at each point, as glTF's
+    /// `metallicRoughnessTexture` ([`ggx_parameters`]).
     Ggx {
         base_color: u32,
         metallic: f32,
         roughness: f32,
+        metallic_roughness: Option<u32>,
     },
 }
 
@@ -155,12 +159,15 @@ pub fn scatter(
             base_color,
             metallic,
             roughness,
+            metallic_roughness,
         } => {
             let frame = Onb::from_normal(n);
             let wo = frame.to_local(-ray_dir);
             if wo.z <= 0.0 {
                 return None;
             }
+            let (metallic, roughness) =
+                ggx_parameters(metallic, roughness, metallic_roughness, ctx, si);
             let lobes = GgxLobes::new(ctx.eval(base_color, si), metallic, roughness, wo);
             let dir_u = Vec2::new(u[dims::DIRECTION_U], u[dims::DIRECTION_V]);
             let wi = if u[dims::LOBE] < lobes.specular_probability {
@@ -216,17 +223,40 @@ pub fn bsdf_eval(
             base_color,
             metallic,
             roughness,
+            metallic_roughness,
         } => {
             let frame = Onb::from_normal(n);
             let (wo, wi) = (frame.to_local(-ray_dir), frame.to_local(wi));
             if wo.z <= 0.0 || wi.z <= 0.0 {
                 return Some((Vec3::ZERO, 0.0));
             }
+            let (metallic, roughness) =
+                ggx_parameters(metallic, roughness, metallic_roughness, ctx, si);
             let lobes = GgxLobes::new(ctx.eval(base_color, si), metallic, roughness, wo);
             Some((lobes.eval(wo, wi) * wi.z, lobes.pdf(wo, wi)))
         }
         Material::Metal { .. } | Material::Dielectric { .. } | Material::DiffuseLight { .. } => {
             None
+        }
+    }
+}
+
+/// The GGX material's metallic and roughness at `si`: the factors, each
+/// times the `metallic_roughness` texture's channel where the material has
+/// one (blue: metallic, green: roughness; glTF's layout).
+#[inline]
+pub fn ggx_parameters(
+    metallic: f32,
+    roughness: f32,
+    metallic_roughness: Option<u32>,
+    ctx: TextureContext,
+    si: &SurfaceInteraction,
+) -> (f32, f32) {
+    match metallic_roughness {
+        None => (metallic, roughness),
+        Some(t) => {
+            let texel = ctx.eval(t, si);
+            (metallic * texel.z, roughness * texel.y)
         }
     }
 }
@@ -438,6 +468,49 @@ mod tests {
         assert!(scatter(&m, ctx(&tex), -Vec3::Y, &si(true), &randoms(0)).is_none());
     }
 
+    /// A metallic-roughness texture scales the factors by its blue and
+    /// green channels: the material scatters and evaluates exactly as the
+    /// one with those products as its factors.
+    #[test]
+    fn the_metallic_roughness_texture_scales_the_factors() {
+        let tex = [
+            Texture::Constant(Vec3::new(0.9, 0.5, 0.2)),
+            Texture::Constant(Vec3::new(0.7, 0.5, 0.25)),
+        ];
+        let c = ctx(&tex);
+        assert_eq!(
+            ggx_parameters(0.8, 0.6, Some(1), c, &si(true)),
+            (0.8 * 0.25, 0.6 * 0.5)
+        );
+        assert_eq!(ggx_parameters(0.8, 0.6, None, c, &si(true)), (0.8, 0.6));
+        let textured = Material::Ggx {
+            base_color: 0,
+            metallic: 0.8,
+            roughness: 0.6,
+            metallic_roughness: Some(1),
+        };
+        let plain = Material::Ggx {
+            base_color: 0,
+            metallic: 0.8 * 0.25,
+            roughness: 0.6 * 0.5,
+            metallic_roughness: None,
+        };
+        let d = Vec3::new(0.3, -1.0, 0.1).normalize();
+        for i in 0..64 {
+            let (a, b) = (
+                scatter(&textured, c, d, &si(true), &randoms(i)),
+                scatter(&plain, c, d, &si(true), &randoms(i)),
+            );
+            assert_eq!(a, b, "sample {i}");
+            if let Some(s) = a {
+                assert_eq!(
+                    bsdf_eval(&textured, c, d, &si(true), s.direction),
+                    bsdf_eval(&plain, c, d, &si(true), s.direction)
+                );
+            }
+        }
+    }
+
     #[test]
     fn ggx_weight_matches_eval_cos_over_pdf_and_conserves_energy() {
         let tex = [Texture::Constant(Vec3::new(0.9, 0.5, 0.2))];
@@ -446,6 +519,7 @@ mod tests {
                 base_color: 0,
                 metallic,
                 roughness,
+                metallic_roughness: None,
             };
             let d = Vec3::new(0.5, -1.0, 0.2).normalize();
             let n = 20_000;

@@ -316,12 +316,22 @@ pub fn glb_bytes(mesh: &MeshInput) -> io::Result<Vec<u8>> {
         "bufferViews": views,
         "accessors": accessors,
     });
-    let mut json = serde_json::to_vec(&document).map_err(io::Error::other)?;
+    glb_container(&document, bin)
+}
+
+/// A GLB file of `document` (its one buffer's `byteLength` must be
+/// `bin`'s length padded to 4) and the binary chunk `bin`.
+pub fn glb_container(document: &serde_json::Value, mut bin: Vec<u8>) -> io::Result<Vec<u8>> {
+    let mut json = serde_json::to_vec(document).map_err(io::Error::other)?;
     json.resize(json.len().next_multiple_of(4), b' ');
     bin.resize(bin.len().next_multiple_of(4), 0);
     let total = 12 + 8 + json.len() + 8 + bin.len();
-    let total = u32::try_from(total)
-        .map_err(|_| invalid(format!("{total} bytes exceed the GLB size limit of 4 GiB")))?;
+    let total = u32::try_from(total).map_err(|_| {
+        io::Error::new(
+            io::ErrorKind::InvalidInput,
+            format!("{total} bytes exceed the GLB size limit of 4 GiB"),
+        )
+    })?;
     let mut out = Vec::with_capacity(total as usize);
     out.extend(b"glTF");
     out.extend(2u32.to_le_bytes());

@@ -34,9 +34,15 @@
 //! whose emission (`emissiveFactor` × `KHR_materials_emissive_strength`,
 //! optionally times `emissiveTexture`) is non-zero becomes a
 //! [`Material::DiffuseLight`] instead: the reference has no material that
-//! both reflects and emits, and such surfaces are lights in practice. Not
-//! supported (ignored): the metallic-roughness, normal and occlusion
-//! textures, `texCoord` sets other than 0 (TEXCOORD_0 is used for every
+//! both reflects and emits, and such surfaces are lights in practice. A
+//! material that transmits (`KHR_materials_transmission`, with
+//! `KHR_materials_ior` and `KHR_materials_volume`) becomes a
+//! [`Material::Dielectric`] (`Importer::dielectric` says how, and what is
+//! lost is one warning line). The `metallicRoughnessTexture` scales the
+//! factors per point (blue: metallic, green: roughness;
+//! `material::ggx_parameters`). Not supported (ignored): the normal and
+//! occlusion textures (occlusion is baked ambient light, which a path
+//! tracer computes itself), `texCoord` sets other than 0 (TEXCOORD_0 is used for every
 //! texture), texture transforms and samplers (the reference filters
 //! bilinearly with repeat wrapping), alpha modes, `doubleSided` (other
 //! materials shade both sides anyway; emitters emit from the front face
@@ -46,9 +52,10 @@
 //! pair and image is added to the builder once.
 //!
 //! Images are decoded by the `gltf` crate (PNG, JPEG), only when a material
-//! uses them. 8- and 16-bit channels are sRGB-encoded colour (base colour
-//! and emissive are the only textures read) and are decoded to linear;
-//! float images are taken as linear. Grey images become grey RGB; alpha is
+//! uses them. 8- and 16-bit channels of base colour and emissive textures
+//! are sRGB-encoded colour and are decoded to linear, those of the
+//! metallic-roughness texture linear data (an image used both ways is
+//! decoded once each way); float images are taken as linear. Grey images become grey RGB; alpha is
 //! dropped. Row 0 of the decoded image is the top row, as in [`ImageData`].
 //!
 //! Every problem in the file (unreadable, not glTF, a buffer that is
@@ -284,7 +291,12 @@ fn apply_camera(
 }
 
 /// The glTF extensions the importer implements.
-pub const SUPPORTED_EXTENSIONS: &[&str] = &["KHR_materials_emissive_strength"];
+pub const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
+    "KHR_materials_transmission",
+    "KHR_materials_volume",
+];
 
 /// A parsed document with its buffers loaded.
 struct GltfFile {
@@ -913,9 +925,10 @@ fn merge(parts: Vec<MeshInput>) -> Result<MeshInput, String> {
 /// Materials, textures and images added so far, by glTF index.
 struct Importer<'f> {
     file: &'f GltfFile,
-    images: HashMap<usize, u32>,
-    /// (glTF texture index, factor bits) → builder texture.
-    textures: HashMap<(usize, [u32; 3]), u32>,
+    /// (glTF image index, sRGB-decoded) → builder image.
+    images: HashMap<(usize, bool), u32>,
+    /// (glTF texture index, factor bits, sRGB-decoded) → builder texture.
+    textures: HashMap<(usize, [u32; 3], bool), u32>,
     /// glTF material index (`None`: the default material) → builder material.
     materials: HashMap<Option<usize>, u32>,
 }
@@ -939,6 +952,11 @@ impl Importer<'_> {
         let pbr = material.pbr_metallic_roughness();
         let emission =
             Vec3::from(material.emissive_factor()) * material.emissive_strength().unwrap_or(1.0);
+        let glass = self.dielectric(builder, &material, &context).map_err(|m| {
+            SceneError::invalid("KHR_materials_ior", m)
+                .within(&context)
+                .in_file(&file.path)
+        })?;
         let converted = if emission != Vec3::ZERO {
             let texture = match material.emissive_texture() {
                 Some(info) => self.image_texture(builder, &info.texture(), emission)?,
@@ -947,6 +965,8 @@ impl Importer<'_> {
                     .map_err(|e| in_context(e.within("emissive")))?,
             };
             Material::DiffuseLight { emission: texture }
+        } else if let Some(glass) = glass {
+            glass
         } else {
             let [r, g, b, _alpha] = pbr.base_color_factor();
             let factor = Vec3::new(r, g, b);
@@ -956,10 +976,15 @@ impl Importer<'_> {
                     .constant(factor)
                     .map_err(|e| in_context(e.within("baseColorFactor")))?,
             };
+            let metallic_roughness = match pbr.metallic_roughness_texture() {
+                Some(info) => Some(self.data_texture(builder, &info.texture())?),
+                None => None,
+            };
             Material::Ggx {
                 base_color: texture,
                 metallic: pbr.metallic_factor(),
                 roughness: pbr.roughness_factor(),
+                metallic_roughness,
             }
         };
         let id = builder.add_material(converted).map_err(in_context)?;
@@ -967,17 +992,135 @@ impl Importer<'_> {
         Ok(id)
     }
 
+    /// `KHR_materials_transmission` as the reference's smooth dielectric,
+    /// with `KHR_materials_ior`'s index (1.5 without it) and, where
+    /// `KHR_materials_volume` gives the material a thickness, its
+    /// Beer-Lambert absorption `-ln(attenuationColor) / attenuationDistance`
+    /// per unit length; `None` for a material that transmits nothing (no
+    /// extension, a zero factor, or fully metallic). What the dielectric
+    /// cannot show (partial or textured transmission, roughness, the base
+    /// colour's tint, a thin wall) is one warning line per material. An
+    /// `ior` on an opaque material is a warning too: the GGX material's
+    /// dielectric F0 is 0.04 (ior 1.5).
+    fn dielectric(
+        &self,
+        builder: &mut SceneBuilder,
+        material: &gltf::Material,
+        context: &str,
+    ) -> Result<Option<Material>, String> {
+        let pbr = material.pbr_metallic_roughness();
+        let ior = material.ior();
+        // The extension allows 1 and above, and 0 (a legacy value for an
+        // infinite index, which no dielectric can be).
+        if let Some(i) = ior {
+            if !(i.is_finite() && (i >= 1.0 || i == 0.0)) {
+                return Err(format!("ior {i} must be at least 1 (or 0)"));
+            }
+        }
+        let transmission = material
+            .transmission()
+            .filter(|t| t.transmission_factor() > 0.0 && pbr.metallic_factor() < 1.0);
+        let mut lost: Vec<String> = Vec::new();
+        let Some(transmission) = transmission else {
+            if let Some(ior) = ior.filter(|&i| i != 1.5) {
+                lost.push(format!(
+                    "KHR_materials_ior {ior} ignored on an opaque material (its specular F0 stays 0.04, ior 1.5)"
+                ));
+            }
+            self.warn(builder, context, &lost);
+            return Ok(None);
+        };
+        if ior == Some(0.0) {
+            return Err("ior 0 (an infinite index) cannot be a transmissive material's".into());
+        }
+        let mut absorption = Vec3::ZERO;
+        match material.volume() {
+            Some(v) if v.thickness_factor() > 0.0 => {
+                let distance = v.attenuation_distance();
+                if distance.is_finite() && distance > 0.0 {
+                    // A channel that keeps nothing (colour 0) is given
+                    // 1e-6 of its light per attenuationDistance: opaque
+                    // in practice, and a finite coefficient.
+                    let colour =
+                        Vec3::from(v.attenuation_color()).clamp(Vec3::splat(1e-6), Vec3::ONE);
+                    absorption = -Vec3::from(colour.to_array().map(f32::ln)) / distance;
+                }
+            }
+            _ => lost.push(
+                "thin-walled (no KHR_materials_volume thickness): rendered as solid glass".into(),
+            ),
+        }
+        let factor = transmission.transmission_factor();
+        if factor < 1.0 {
+            lost.push(format!(
+                "transmissionFactor {factor} rendered as 1 (the dielectric transmits fully)"
+            ));
+        }
+        if transmission.transmission_texture().is_some() {
+            lost.push("transmissionTexture ignored".into());
+        }
+        if pbr.roughness_factor() > 0.0 || pbr.metallic_roughness_texture().is_some() {
+            lost.push(format!(
+                "roughness {} rendered smooth (the dielectric is smooth)",
+                pbr.roughness_factor()
+            ));
+        }
+        if pbr.metallic_factor() > 0.0 {
+            lost.push(format!("metallicFactor {} ignored", pbr.metallic_factor()));
+        }
+        let [r, g, b, _] = pbr.base_color_factor();
+        if Vec3::new(r, g, b) != Vec3::ONE || pbr.base_color_texture().is_some() {
+            lost.push("the base colour's tint of transmitted light ignored".into());
+        }
+        self.warn(builder, context, &lost);
+        Ok(Some(Material::Dielectric {
+            ior: ior.unwrap_or(1.5),
+            absorption,
+        }))
+    }
+
+    /// One warning line for `context` listing what was not imported.
+    fn warn(&self, builder: &mut SceneBuilder, context: &str, lost: &[String]) {
+        if !lost.is_empty() {
+            builder.warnings.push(format!(
+                "{}: {context}: {}",
+                self.file.path.display(),
+                lost.join("; ")
+            ));
+        }
+    }
+
+    /// A colour texture (sRGB-encoded integer texels) times `factor`.
     fn image_texture(
         &mut self,
         builder: &mut SceneBuilder,
         texture: &gltf::Texture,
         factor: Vec3,
     ) -> Result<u32, SceneError> {
-        let key = (texture.index(), factor.to_array().map(f32::to_bits));
+        self.texture(builder, texture, factor, true)
+    }
+
+    /// A data texture (linear texels: metallic-roughness), factor 1.
+    fn data_texture(
+        &mut self,
+        builder: &mut SceneBuilder,
+        texture: &gltf::Texture,
+    ) -> Result<u32, SceneError> {
+        self.texture(builder, texture, Vec3::ONE, false)
+    }
+
+    fn texture(
+        &mut self,
+        builder: &mut SceneBuilder,
+        texture: &gltf::Texture,
+        factor: Vec3,
+        srgb: bool,
+    ) -> Result<u32, SceneError> {
+        let key = (texture.index(), factor.to_array().map(f32::to_bits), srgb);
         if let Some(&id) = self.textures.get(&key) {
             return Ok(id);
         }
-        let image = self.image(builder, &texture.source())?;
+        let image = self.image(builder, &texture.source(), srgb)?;
         let id = builder
             .add_texture(Texture::Image { image, factor })
             .map_err(|e| {
@@ -988,13 +1131,16 @@ impl Importer<'_> {
         Ok(id)
     }
 
+    /// Image `image` decoded to linear RGB (`srgb`: its integer texels are
+    /// sRGB-encoded colour), added once per decoding.
     fn image(
         &mut self,
         builder: &mut SceneBuilder,
         image: &gltf::Image,
+        srgb: bool,
     ) -> Result<u32, SceneError> {
         let index = image.index();
-        if let Some(&id) = self.images.get(&index) {
+        if let Some(&id) = self.images.get(&(index, srgb)) {
             return Ok(id);
         }
         let file = self.file;
@@ -1023,10 +1169,10 @@ impl Importer<'_> {
                 .map_err(|e| {
                     file.error(format!("cannot decode image {index} from {source}: {e}"))
                 })?;
-        let data = convert_image(&decoded, true)
+        let data = convert_image(&decoded, srgb)
             .map_err(|m| file.error(format!("image {index} from {source}: {m}")))?;
         let id = builder.add_image(data);
-        self.images.insert(index, id);
+        self.images.insert((index, srgb), id);
         Ok(id)
     }
 }
@@ -1549,28 +1695,217 @@ mod tests {
         assert!(convert_image(&short, true).is_err());
     }
 
-    #[test]
-    fn base_colour_texture_comes_through_with_its_factor() {
-        // A 1x2 PNG (top red, bottom blue) embedded in a bufferView.
+    /// The unit triangle with material 0, `material`, whose texture 0 is
+    /// a `width` x `height` PNG of `rgb` bytes in a bufferView.
+    fn textured_triangle(
+        width: u32,
+        height: u32,
+        rgb: Vec<u8>,
+        material: serde_json::Value,
+    ) -> Vec<u8> {
         let mut png = Vec::new();
-        let img = image::RgbImage::from_raw(1, 2, vec![255, 0, 0, 0, 0, 255]).unwrap();
+        let img = image::RgbImage::from_raw(width, height, rgb).unwrap();
         img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
             .unwrap();
         let mut bytes = unit_triangle();
         bytes.extend(&png);
         bytes.resize(bytes.len().next_multiple_of(4), 0);
-        let doc = gltf_with(
+        gltf_with(
             &bytes,
             serde_json::json!({
                 "scenes": [{ "nodes": [0] }],
                 "nodes": [{ "mesh": 0 }],
                 "meshes": [{ "primitives": [{ "attributes": { "POSITION": 0 }, "material": 0 }] }],
-                "materials": [{ "pbrMetallicRoughness": { "baseColorFactor": [0.5, 0.5, 0.5, 1], "baseColorTexture": { "index": 0 }, "metallicFactor": 0.25, "roughnessFactor": 0.75 } }],
+                "materials": [material],
                 "textures": [{ "source": 0 }],
                 "images": [{ "bufferView": 1, "mimeType": "image/png" }],
                 "bufferViews": [{ "buffer": 0, "byteLength": 36 }, { "buffer": 0, "byteOffset": 36, "byteLength": png.len() }],
                 "accessors": [{ "bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0] }],
             }),
+        )
+    }
+
+    /// The triangle document whose primitive has material 0, `material`.
+    fn with_material(material: serde_json::Value, used: &[&str]) -> Vec<u8> {
+        let mut doc: serde_json::Value = serde_json::from_slice(&triangle_doc(
+            serde_json::json!({ "mesh": 0 }),
+            serde_json::Value::Null,
+        ))
+        .unwrap();
+        doc["meshes"][0]["primitives"][0]["material"] = serde_json::json!(0);
+        doc["materials"] = serde_json::json!([material]);
+        doc["extensionsUsed"] = serde_json::json!(used);
+        serde_json::to_vec(&doc).unwrap()
+    }
+
+    const GLASS_EXTENSIONS: &[&str] = &[
+        "KHR_materials_transmission",
+        "KHR_materials_ior",
+        "KHR_materials_volume",
+    ];
+
+    #[test]
+    fn transmission_ior_and_volume_become_the_dielectric() {
+        let dir = tempfile::tempdir().unwrap();
+        let glass = serde_json::json!({
+            "pbrMetallicRoughness": { "metallicFactor": 0, "roughnessFactor": 0 },
+            "extensions": {
+                "KHR_materials_transmission": { "transmissionFactor": 1 },
+                "KHR_materials_ior": { "ior": 1.33 },
+                "KHR_materials_volume": { "thicknessFactor": 0.5, "attenuationDistance": 2, "attenuationColor": [0.5, 1, 0.25] }
+            }
+        });
+        let p = write(
+            dir.path(),
+            "glass.gltf",
+            &with_material(glass, GLASS_EXTENSIONS),
+        );
+        let scene = load_gltf_document(&p).unwrap();
+        assert!(scene.warnings().is_empty(), "{:?}", scene.warnings());
+        let ln2 = std::f32::consts::LN_2;
+        assert_eq!(
+            scene.materials(),
+            vec![Material::Dielectric {
+                ior: 1.33,
+                absorption: Vec3::new(ln2 / 2.0, 0.0, 2.0 * ln2 / 2.0),
+            }]
+        );
+        // No ior: 1.5; no volume: no absorption, and a warning that the
+        // thin wall is solid glass; the factor, roughness and tint lost
+        // are named in the same line.
+        let partial = serde_json::json!({
+            "pbrMetallicRoughness": { "baseColorFactor": [0.9, 0.8, 0.7, 1], "metallicFactor": 0 },
+            "extensions": { "KHR_materials_transmission": { "transmissionFactor": 0.5 } }
+        });
+        let p = write(
+            dir.path(),
+            "thin.gltf",
+            &with_material(partial, GLASS_EXTENSIONS),
+        );
+        let scene = load_gltf_document(&p).unwrap();
+        assert_eq!(
+            scene.materials(),
+            vec![Material::Dielectric {
+                ior: 1.5,
+                absorption: Vec3::ZERO
+            }]
+        );
+        assert_eq!(scene.warnings().len(), 1, "{:?}", scene.warnings());
+        let w = &scene.warnings()[0];
+        for part in [
+            "thin.gltf: materials[0]",
+            "thin-walled",
+            "transmissionFactor 0.5",
+            "roughness 1",
+            "tint",
+        ] {
+            assert!(w.contains(part), "`{part}` not in: {w}");
+        }
+        // A metal transmits nothing; an opaque material's ior is a warning.
+        let metal = serde_json::json!({
+            "pbrMetallicRoughness": { "metallicFactor": 1 },
+            "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1 }, "KHR_materials_ior": { "ior": 2.0 } }
+        });
+        let p = write(
+            dir.path(),
+            "metal.gltf",
+            &with_material(metal, GLASS_EXTENSIONS),
+        );
+        let scene = load_gltf_document(&p).unwrap();
+        assert!(matches!(scene.materials()[0], Material::Ggx { .. }));
+        assert_eq!(scene.warnings().len(), 1, "{:?}", scene.warnings());
+        assert!(scene.warnings()[0].contains("KHR_materials_ior 2 ignored"));
+    }
+
+    #[test]
+    fn the_metallic_roughness_texture_is_linear_data() {
+        // A 1x1 PNG (0, 128, 64): roughness 128/255 and metallic 64/255,
+        // not sRGB-decoded; the same image as a base colour is decoded.
+        let doc = textured_triangle(
+            1,
+            1,
+            vec![0, 128, 64],
+            serde_json::json!({ "pbrMetallicRoughness": { "baseColorTexture": { "index": 0 }, "metallicFactor": 0.5, "roughnessFactor": 0.75, "metallicRoughnessTexture": { "index": 0 } } }),
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let path = write(dir.path(), "mr.gltf", &doc);
+        let scene = load_gltf_document(&path).unwrap();
+        let Material::Ggx {
+            base_color,
+            metallic,
+            roughness,
+            metallic_roughness: Some(mr),
+        } = scene.materials()[0]
+        else {
+            panic!("{:?}", scene.materials());
+        };
+        assert_eq!((metallic, roughness), (0.5, 0.75));
+        let image_of = |t: u32| match scene.textures()[t as usize] {
+            Texture::Image { image, factor } => {
+                assert_eq!(factor, Vec3::ONE);
+                &scene.images()[image as usize]
+            }
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(
+            image_of(mr).texels,
+            vec![Vec3::new(0.0, 128.0 / 255.0, 64.0 / 255.0)]
+        );
+        assert_eq!(
+            image_of(base_color).texels,
+            vec![Vec3::new(
+                0.0,
+                srgb_to_linear(128.0 / 255.0),
+                srgb_to_linear(64.0 / 255.0)
+            )]
+        );
+        assert_eq!(scene.images().len(), 2, "one image, decoded two ways");
+    }
+
+    #[test]
+    fn malformed_glass_extensions_are_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        for (name, ext) in [
+            (
+                "texture index out of range",
+                serde_json::json!({ "KHR_materials_transmission": { "transmissionFactor": 1, "transmissionTexture": { "index": 7 } } }),
+            ),
+            (
+                "ior not a number",
+                serde_json::json!({ "KHR_materials_transmission": { "transmissionFactor": 1 }, "KHR_materials_ior": { "ior": "glass" } }),
+            ),
+            (
+                "ior below 1",
+                serde_json::json!({ "KHR_materials_transmission": { "transmissionFactor": 1 }, "KHR_materials_ior": { "ior": 0.5 } }),
+            ),
+            (
+                "negative ior on an opaque material",
+                serde_json::json!({ "KHR_materials_ior": { "ior": -1.0 } }),
+            ),
+            (
+                "ior 0 on glass",
+                serde_json::json!({ "KHR_materials_transmission": { "transmissionFactor": 1 }, "KHR_materials_ior": { "ior": 0.0 } }),
+            ),
+        ] {
+            let m = serde_json::json!({ "pbrMetallicRoughness": { "metallicFactor": 0, "roughnessFactor": 0 }, "extensions": ext });
+            let p = write(dir.path(), "bad.gltf", &with_material(m, GLASS_EXTENSIONS));
+            let e = load_gltf_document(&p)
+                .map(|_| ())
+                .expect_err(name)
+                .to_string();
+            assert!(e.contains("bad.gltf"), "{name}: {e}");
+            println!("{name}: {e}");
+        }
+    }
+
+    #[test]
+    fn base_colour_texture_comes_through_with_its_factor() {
+        // A 1x2 PNG (top red, bottom blue) embedded in a bufferView.
+        let doc = textured_triangle(
+            1,
+            2,
+            vec![255, 0, 0, 0, 0, 255],
+            serde_json::json!({ "pbrMetallicRoughness": { "baseColorFactor": [0.5, 0.5, 0.5, 1], "baseColorTexture": { "index": 0 }, "metallicFactor": 0.25, "roughnessFactor": 0.75 } }),
         );
         let dir = tempfile::tempdir().unwrap();
         let path = write(dir.path(), "textured.gltf", &doc);
@@ -1580,7 +1915,8 @@ mod tests {
             vec![Material::Ggx {
                 base_color: 0,
                 metallic: 0.25,
-                roughness: 0.75
+                roughness: 0.75,
+                metallic_roughness: None,
             }]
         );
         assert_eq!(

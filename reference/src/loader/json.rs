@@ -624,6 +624,7 @@ impl Resolver<'_> {
                 base_color: self.colour(base_color, 0).map_err(field("base_color"))?,
                 metallic: *metallic,
                 roughness: *roughness,
+                metallic_roughness: None,
             },
         };
         let id = self

@@ -140,8 +140,12 @@ fn check_material(material: &Material, textures: usize) -> Result<(), SceneError
             base_color,
             metallic,
             roughness,
+            metallic_roughness,
         } => {
             tex_ok("base_color", base_color)?;
+            if let Some(t) = metallic_roughness {
+                tex_ok("metallic_roughness", t)?;
+            }
             if !(0.0..=1.0).contains(&metallic) {
                 return Err(SceneError::invalid(
                     "metallic",
