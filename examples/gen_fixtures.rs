@@ -71,7 +71,8 @@ fn sky_hdr(path: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The glTF of fixtures/scenes/gltf-materials.json: two UV spheres
+/// The glTF of fixtures/scenes/gltf-materials.json: a sampled backdrop
+/// (below) and two UV spheres
 /// (radius 1, 32 segments, 16 rings; POSITION, NORMAL, TEXCOORD_0), each a
 /// node with its own material, as other tools write them:
 /// - left: base colour factor (0.9, 0.6, 0.3), metallic and roughness
@@ -144,6 +145,45 @@ fn gltf_materials() -> anyhow::Result<Vec<u8>> {
     let index_bytes: Vec<u8> = indices.iter().flat_map(|i| i.to_le_bytes()).collect();
     let index_view = add_view(&index_bytes, Some(34963));
     let image_view = add_view(&png, None);
+    // The backdrop: a 5.2 x 2.6 panel facing +z behind the spheres, uv 0..1
+    // over it (v = 0 along its top edge), with a 4x4 base colour image of
+    // distinct texels read through a clamp / mirror / nearest sampler and a
+    // texture transform that carries uv well outside [0, 1].
+    let panel: [[f32; 3]; 4] = [
+        [-2.6, 0.0, -1.6],
+        [2.6, 0.0, -1.6],
+        [2.6, 2.6, -1.6],
+        [-2.6, 2.6, -1.6],
+    ];
+    let panel_view = add_view(&floats(&panel), Some(34962));
+    let panel_normal_view = add_view(&floats(&[[0.0, 0.0, 1.0]; 4]), Some(34962));
+    let panel_uvs: Vec<u8> = [[0.0f32, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]]
+        .iter()
+        .flatten()
+        .flat_map(|f| f.to_le_bytes())
+        .collect();
+    let panel_uv_view = add_view(&panel_uvs, Some(34962));
+    let panel_index_view = add_view(
+        &[0u16, 1, 2, 0, 2, 3]
+            .iter()
+            .flat_map(|i| i.to_le_bytes())
+            .collect::<Vec<u8>>(),
+        Some(34963),
+    );
+    let mut tiles = Vec::new();
+    image::RgbImage::from_fn(4, 4, |x, y| {
+        let k = (4 * y + x) as u8;
+        image::Rgb([
+            40 + 13 * k,
+            230 - 12 * k,
+            if (x + y) % 2 == 0 { 220 } else { 30 },
+        ])
+    })
+    .write_to(
+        &mut std::io::Cursor::new(&mut tiles),
+        image::ImageFormat::Png,
+    )?;
+    let tiles_view = add_view(&tiles, None);
     bin.resize(bin.len().next_multiple_of(4), 0);
     let n = positions.len();
     // A unit sphere's normals are its positions: one accessor for both.
@@ -151,18 +191,27 @@ fn gltf_materials() -> anyhow::Result<Vec<u8>> {
         { "bufferView": positions_view, "componentType": 5126, "count": n, "type": "VEC3", "min": [-1, -1, -1], "max": [1, 1, 1] },
         { "bufferView": uv_view, "componentType": 5126, "count": n, "type": "VEC2" },
         { "bufferView": index_view, "componentType": 5123, "count": indices.len(), "type": "SCALAR" },
+        { "bufferView": panel_view, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-2.6, 0.0, -1.6], "max": [2.6, 2.6, -1.6] },
+        { "bufferView": panel_normal_view, "componentType": 5126, "count": 4, "type": "VEC3" },
+        { "bufferView": panel_uv_view, "componentType": 5126, "count": 4, "type": "VEC2" },
+        { "bufferView": panel_index_view, "componentType": 5123, "count": 6, "type": "SCALAR" },
     ]);
     let primitive = |material: u32| json!({ "attributes": { "POSITION": 0, "NORMAL": 0, "TEXCOORD_0": 1 }, "indices": 2, "material": material });
     let document = json!({
         "asset": { "version": "2.0", "generator": "twintrace examples/gen_fixtures.rs" },
-        "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume"],
+        "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume", "KHR_texture_transform"],
         "scene": 0,
-        "scenes": [{ "nodes": [0, 1] }],
+        "scenes": [{ "nodes": [0, 1, 2] }],
         "nodes": [
             { "name": "metallic-roughness", "mesh": 0, "translation": [-1.1, 1.0, 0.0] },
             { "name": "glass", "mesh": 1, "translation": [1.1, 1.0, 0.0] },
+            { "name": "sampled backdrop", "mesh": 2 },
         ],
-        "meshes": [{ "primitives": [primitive(0)] }, { "primitives": [primitive(1)] }],
+        "meshes": [
+            { "primitives": [primitive(0)] },
+            { "primitives": [primitive(1)] },
+            { "primitives": [{ "attributes": { "POSITION": 3, "NORMAL": 4, "TEXCOORD_0": 5 }, "indices": 6, "material": 2 }] },
+        ],
         "materials": [
             {
                 "name": "textured metal-roughness",
@@ -182,9 +231,24 @@ fn gltf_materials() -> anyhow::Result<Vec<u8>> {
                     "KHR_materials_volume": { "thicknessFactor": 1.0, "attenuationDistance": 1.0, "attenuationColor": [0.9, 0.6, 0.3] },
                 },
             },
+            {
+                "name": "sampled backdrop",
+                "pbrMetallicRoughness": {
+                    "baseColorTexture": {
+                        "index": 1,
+                        "extensions": { "KHR_texture_transform": { "offset": [-0.3, 0.2], "rotation": 0.3, "scale": [1.6, 2.2] } },
+                    },
+                    "metallicFactor": 0.0,
+                    "roughnessFactor": 1.0,
+                },
+            },
         ],
-        "textures": [{ "source": 0 }],
-        "images": [{ "bufferView": image_view, "mimeType": "image/png" }],
+        "samplers": [{ "wrapS": 33071, "wrapT": 33648, "magFilter": 9728 }],
+        "textures": [{ "source": 0 }, { "source": 1, "sampler": 0 }],
+        "images": [
+            { "bufferView": image_view, "mimeType": "image/png" },
+            { "bufferView": tiles_view, "mimeType": "image/png" },
+        ],
         "buffers": [{ "byteLength": bin.len() }],
         "bufferViews": views,
         "accessors": accessors,

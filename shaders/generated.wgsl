@@ -11,6 +11,13 @@ const MATERIAL_GGX: u32 = 4u;
 const TEXTURE_CONSTANT: u32 = 0u;
 const TEXTURE_CHECKER: u32 = 1u;
 const TEXTURE_IMAGE: u32 = 2u;
+const WRAP_REPEAT: u32 = 0u;
+const WRAP_CLAMP_TO_EDGE: u32 = 1u;
+const WRAP_MIRRORED_REPEAT: u32 = 2u;
+const SAMPLER_WRAP_V_SHIFT: u32 = 2u;
+const SAMPLER_WRAP_MASK: u32 = 3u;
+const SAMPLER_NEAREST: u32 = 16u;
+const SAMPLER_TRANSFORM: u32 = 32u;
 const BACKGROUND_SOLID: u32 = 0u;
 const BACKGROUND_SKY: u32 = 1u;
 const BACKGROUND_ENVMAP: u32 = 2u;
@@ -157,6 +164,14 @@ struct GpuTexture {
     g: f32,
     b: f32,
     scale: f32,
+    sampler: u32,
+    t0: f32,
+    t1: f32,
+    t2: f32,
+    t3: f32,
+    t4: f32,
+    t5: f32,
+    _pad0: u32,
 }
 struct GpuImage {
     offset: u32,

@@ -6,33 +6,82 @@ fn texel(img: GpuImage, x: u32, y: u32) -> vec3<f32> {
     return vec3<f32>(texels[i], texels[i + 1u], texels[i + 2u]);
 }
 
-fn wrap_index(i: f32, n: u32) -> u32 {
+// reference::texture::Wrap::index: a whole texel index brought into 0..n.
+fn wrap_index(i: f32, n: u32, mode: u32) -> u32 {
     let m = i32(n);
-    return u32(((i32(i) % m) + m) % m);
+    let k = i32(i);
+    switch mode {
+        case WRAP_CLAMP_TO_EDGE: {
+            return u32(clamp(k, 0, m - 1));
+        }
+        case WRAP_MIRRORED_REPEAT: {
+            let p = ((k % (2 * m)) + 2 * m) % (2 * m);
+            return u32(select(p, 2 * m - 1 - p, p >= m));
+        }
+        default: {
+            return u32(((k % m) + m) % m);
+        }
+    }
 }
 
 fn fract_euclid(x: f32) -> f32 {
     return x - floor(x);
 }
 
-// Bilinear, repeat wrapping; uv (0,0) is the image's bottom-left corner.
-fn sample_bilinear(image: u32, uv: vec2<f32>) -> vec3<f32> {
+// reference::texture::Wrap::coordinate: a coordinate brought into [0, 1].
+fn wrap_coordinate(c: f32, mode: u32) -> f32 {
+    switch mode {
+        case WRAP_CLAMP_TO_EDGE: {
+            return clamp(c, 0.0, 1.0);
+        }
+        case WRAP_MIRRORED_REPEAT: {
+            let t = c - 2.0 * floor(c * 0.5);
+            return select(t, 2.0 - t, t > 1.0);
+        }
+        default: {
+            return fract_euclid(c);
+        }
+    }
+}
+
+// reference::texture::Sampler::transformed_uv: uv as the texture reads it.
+fn transformed_uv(t: GpuTexture, uv: vec2<f32>) -> vec2<f32> {
+    if (t.sampler & SAMPLER_TRANSFORM) == 0u {
+        return uv;
+    }
+    return vec2<f32>(t.t0 * uv.x + t.t1 * uv.y + t.t2, t.t3 * uv.x + t.t4 * uv.y + t.t5);
+}
+
+// reference::texture::ImageData::sample_image: each axis wrapped by its
+// mode (`sampler`'s bits, gpu::records::SAMPLER_*), then the nearest
+// texel or bilinear filtering; uv (0,0) is the image's bottom-left corner.
+fn sample_image(image: u32, uv: vec2<f32>, sampler: u32) -> vec3<f32> {
     let img = images[image];
+    let wrap_u = sampler & SAMPLER_WRAP_MASK;
+    let wrap_v = (sampler >> SAMPLER_WRAP_V_SHIFT) & SAMPLER_WRAP_MASK;
     let w = f32(img.width);
     let h = f32(img.height);
-    let x = fract_euclid(uv.x) * w - 0.5;
-    let y = (1.0 - fract_euclid(uv.y)) * h - 0.5;
+    let x = wrap_coordinate(uv.x, wrap_u) * w - 0.5;
+    let y = (1.0 - wrap_coordinate(uv.y, wrap_v)) * h - 0.5;
+    if (sampler & SAMPLER_NEAREST) != 0u {
+        return texel(img, wrap_index(floor(x + 0.5), img.width, wrap_u), wrap_index(floor(y + 0.5), img.height, wrap_v));
+    }
     let x0 = floor(x);
     let y0 = floor(y);
     let fx = x - x0;
     let fy = y - y0;
-    let xa = wrap_index(x0, img.width);
-    let xb = wrap_index(x0 + 1.0, img.width);
-    let ya = wrap_index(y0, img.height);
-    let yb = wrap_index(y0 + 1.0, img.height);
+    let xa = wrap_index(x0, img.width, wrap_u);
+    let xb = wrap_index(x0 + 1.0, img.width, wrap_u);
+    let ya = wrap_index(y0, img.height, wrap_v);
+    let yb = wrap_index(y0 + 1.0, img.height, wrap_v);
     let top = mix(texel(img, xa, ya), texel(img, xb, ya), fx);
     let bottom = mix(texel(img, xa, yb), texel(img, xb, yb), fx);
     return mix(top, bottom, fy);
+}
+
+// Bilinear, repeat wrapping (the default sampler; environment maps).
+fn sample_bilinear(image: u32, uv: vec2<f32>) -> vec3<f32> {
+    return sample_image(image, uv, (WRAP_REPEAT << SAMPLER_WRAP_V_SHIFT) | WRAP_REPEAT);
 }
 
 fn evaluate_leaf(id: u32, uv: vec2<f32>) -> vec3<f32> {
@@ -43,7 +92,7 @@ fn evaluate_leaf(id: u32, uv: vec2<f32>) -> vec3<f32> {
         }
         case TEXTURE_IMAGE: {
             if !uses(FEATURE_IMAGE_TEXTURES) { poison(); break; }
-            return vec3<f32>(t.r, t.g, t.b) * sample_bilinear(t.image, uv);
+            return vec3<f32>(t.r, t.g, t.b) * sample_image(t.image, transformed_uv(t, uv), t.sampler);
         }
         case TEXTURE_CHECKER: {
             // The scene builder rejects checkers nested in checkers.

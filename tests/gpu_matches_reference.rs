@@ -78,15 +78,46 @@ fn gpu_and_cpu_agree_by_welch_at_equal_budgets_and_a_biased_gpu_does_not() {
     assert!(!run.passes(), "a 2% albedo bias on the GPU went undetected");
 }
 
-/// The glTF-materials fixture's gate sees the metallic-roughness texture:
-/// a GPU kernel that ignores it (the factors alone, metallic 1 and
-/// roughness 1) fails the stored reference.
+/// The glTF-materials fixture's gate sees each glTF material feature the
+/// GPU implements: a kernel that ignores the metallic-roughness texture
+/// (the factors alone, metallic 1 and roughness 1), the texture transform,
+/// the mirrored wrap or the nearest filter fails the stored reference.
 #[test]
-fn a_gpu_kernel_ignoring_the_metallic_roughness_texture_fails_its_gate() {
+fn gpu_kernels_missing_a_gltf_material_feature_fail_its_gate() {
+    for (what, from, to) in [
+        (
+            "the metallic-roughness texture ignored",
+            "if m.texture2 == NO_TEXTURE {",
+            "if true {",
+        ),
+        (
+            "the texture transform ignored",
+            "if (t.sampler & SAMPLER_TRANSFORM) == 0u {",
+            "if true {",
+        ),
+        (
+            "mirrored repeat read as repeat",
+            "return select(t, 2.0 - t, t > 1.0);",
+            "return fract_euclid(c);",
+        ),
+        (
+            "the nearest filter read as bilinear",
+            "if (sampler & SAMPLER_NEAREST) != 0u {",
+            "if false {",
+        ),
+    ] {
+        let run = gltf_materials_gate_with(from, to);
+        println!("GPU with {what}:\n{}", run.verdict.summary());
+        assert!(!run.passes(), "a kernel with {what} passed");
+    }
+}
+
+/// The gltf-materials gate of a GPU kernel built from the production WGSL
+/// with `from` replaced by `to`.
+fn gltf_materials_gate_with(from: &str, to: &str) -> twintrace::compare::gate::GateRun {
     let spec = manifest_entry("gltf-materials").unwrap();
     let reference = load_reference(&spec).unwrap();
     let scene = load_scene(&spec).unwrap();
-    let (from, to) = ("if m.texture2 == NO_TEXTURE {", "if true {");
     let program = gpu::shader::render_source();
     assert_eq!(program.matches(from).count(), 1, "`{from}` not found once");
     let mutant = program.replace(from, to);
@@ -102,13 +133,5 @@ fn a_gpu_kernel_ignoring_the_metallic_roughness_texture_fails_its_gate() {
         .render(settings, &|_, _| {})?
         .film)
     };
-    let run = run_gate(&reference, &scene, 1024, GPU_SEED, &render).unwrap();
-    println!(
-        "GPU without the metallic-roughness texture:\n{}",
-        run.verdict.summary()
-    );
-    assert!(
-        !run.passes(),
-        "a kernel ignoring the metallic-roughness texture passed"
-    );
+    run_gate(&reference, &scene, 1024, GPU_SEED, &render).unwrap()
 }

@@ -141,7 +141,6 @@ const GPU_ONLY: &[(&str, &str)] = &[
         "uses",
         "the kernel's specialization (gpu::features): the reference always holds every feature's code",
     ),
-    ("wrap_index", "i32::rem_euclid in ImageData::texel"),
     (
         "moments_load",
         "reads a GpuPixel record into film::PixelStats's fields",
@@ -153,7 +152,7 @@ const GPU_ONLY: &[(&str, &str)] = &[
     ("moments_store", "writes a GpuPixel record"),
     (
         "fract_euclid",
-        "f32::rem_euclid in ImageData::sample_bilinear",
+        "f32::rem_euclid in Wrap::wrap_coordinate",
     ),
 ];
 

@@ -70,11 +70,20 @@ gpu_record! {
     GpuMaterial { tag: u32, texture: u32, p0: f32, p1: f32, absorption_r: f32, absorption_g: f32, absorption_b: f32, texture2: u32 }
 }
 
+/// `GpuTexture::sampler` bits: the u axis's wrap tag
+/// (`reference::texture::wrap_tag`) in bits 0-1, the v axis's in 2-3, then
+/// the nearest filter and whether `t0..t5` transform uv.
+pub const SAMPLER_WRAP_V_SHIFT: u32 = 2;
+pub const SAMPLER_WRAP_MASK: u32 = 3;
+pub const SAMPLER_NEAREST: u32 = 1 << 4;
+pub const SAMPLER_TRANSFORM: u32 = 1 << 5;
+
 gpu_record! {
     /// A texture (`reference::texture::Texture`), by tag: CONSTANT colour
     /// in `r, g, b`; CHECKER `scale`, `even`, `odd`; IMAGE `image` with the
-    /// factor in `r, g, b`.
-    GpuTexture { tag: u32, even: u32, odd: u32, image: u32, r: f32, g: f32, b: f32, scale: f32 }
+    /// factor in `r, g, b`, its sampler's bits in `sampler` and its uv
+    /// transform in `t0..t5`.
+    GpuTexture { tag: u32, even: u32, odd: u32, image: u32, r: f32, g: f32, b: f32, scale: f32, sampler: u32, t0: f32, t1: f32, t2: f32, t3: f32, t4: f32, t5: f32, _pad0: u32 }
 }
 
 gpu_record! {
@@ -163,7 +172,7 @@ mod tests {
         assert_eq!(std::mem::size_of::<GpuVertex>(), 32);
         assert_eq!(std::mem::size_of::<GpuPrimitive>(), 32);
         assert_eq!(std::mem::size_of::<GpuMaterial>(), 32);
-        assert_eq!(std::mem::size_of::<GpuTexture>(), 32);
+        assert_eq!(std::mem::size_of::<GpuTexture>(), 64);
         assert_eq!(std::mem::size_of::<GpuEmitter>(), 8);
         assert_eq!(std::mem::size_of::<GpuLightDensity>(), 8);
         assert_eq!(std::mem::size_of::<GpuPixel>(), 48);

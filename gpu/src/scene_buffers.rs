@@ -111,14 +111,36 @@ pub fn pack_texture(t: &Texture) -> GpuTexture {
             scale,
             ..Default::default()
         },
-        Texture::Image { image, factor } => GpuTexture {
-            tag,
+        Texture::Image {
             image,
-            r: factor.x,
-            g: factor.y,
-            b: factor.z,
-            ..Default::default()
-        },
+            factor,
+            sampler,
+        } => {
+            let mut bits = sampler.wrap_u.tag() | sampler.wrap_v.tag() << SAMPLER_WRAP_V_SHIFT;
+            if sampler.nearest {
+                bits |= SAMPLER_NEAREST;
+            }
+            if sampler.transform.is_some() {
+                bits |= SAMPLER_TRANSFORM;
+            }
+            let [t0, t1, t2, t3, t4, t5] =
+                sampler.transform.unwrap_or([1.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
+            GpuTexture {
+                tag,
+                image,
+                r: factor.x,
+                g: factor.y,
+                b: factor.z,
+                sampler: bits,
+                t0,
+                t1,
+                t2,
+                t3,
+                t4,
+                t5,
+                ..Default::default()
+            }
+        }
     }
 }
 

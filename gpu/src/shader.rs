@@ -91,6 +91,19 @@ pub fn generate() -> String {
     s += &u("TEXTURE_CONSTANT", texture_tag::CONSTANT);
     s += &u("TEXTURE_CHECKER", texture_tag::CHECKER);
     s += &u("TEXTURE_IMAGE", texture_tag::IMAGE);
+    s += &u("WRAP_REPEAT", reference::texture::wrap_tag::REPEAT);
+    s += &u(
+        "WRAP_CLAMP_TO_EDGE",
+        reference::texture::wrap_tag::CLAMP_TO_EDGE,
+    );
+    s += &u(
+        "WRAP_MIRRORED_REPEAT",
+        reference::texture::wrap_tag::MIRRORED_REPEAT,
+    );
+    s += &u("SAMPLER_WRAP_V_SHIFT", crate::records::SAMPLER_WRAP_V_SHIFT);
+    s += &u("SAMPLER_WRAP_MASK", crate::records::SAMPLER_WRAP_MASK);
+    s += &u("SAMPLER_NEAREST", crate::records::SAMPLER_NEAREST);
+    s += &u("SAMPLER_TRANSFORM", crate::records::SAMPLER_TRANSFORM);
     s += &u("BACKGROUND_SOLID", background_tag::SOLID);
     s += &u("BACKGROUND_SKY", background_tag::SKY);
     s += &u("BACKGROUND_ENVMAP", background_tag::ENVMAP);

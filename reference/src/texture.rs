@@ -21,17 +21,132 @@ impl ImageData {
     /// corner of the image and `(1, 1)` the top-right (the convention of
     /// Ray Tracing: The Next Week; the glTF loader flips v on import).
     pub fn sample_bilinear(&self, uv: Vec2) -> Vec3 {
+        self.sample_image(uv, &Sampler::default())
+    }
+
+    /// The lookup `sampler` describes at `uv` (already transformed:
+    /// [`Sampler::transformed_uv`]): each axis wrapped by its mode, then
+    /// the nearest texel or bilinear filtering (texel centres at
+    /// half-integers, as in glTF and OpenGL).
+    pub fn sample_image(&self, uv: Vec2, sampler: &Sampler) -> Vec3 {
         let (w, h) = (self.width as f32, self.height as f32);
-        let x = uv.x.rem_euclid(1.0) * w - 0.5;
-        let y = (1.0 - uv.y.rem_euclid(1.0)) * h - 0.5;
+        let (wrap_u, wrap_v) = (sampler.wrap_u, sampler.wrap_v);
+        let x = wrap_u.wrap_coordinate(uv.x) * w - 0.5;
+        let y = (1.0 - wrap_v.wrap_coordinate(uv.y)) * h - 0.5;
+        if sampler.nearest {
+            let xi = wrap_u.wrap_index((x + 0.5).floor(), self.width);
+            let yi = wrap_v.wrap_index((y + 0.5).floor(), self.height);
+            return self.texel(xi, yi);
+        }
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = (x - x0, y - y0);
-        let wrap = |i: f32, n: u32| (i as i64).rem_euclid(n as i64) as u32;
-        let (xa, xb) = (wrap(x0, self.width), wrap(x0 + 1.0, self.width));
-        let (ya, yb) = (wrap(y0, self.height), wrap(y0 + 1.0, self.height));
+        let (xa, xb) = (
+            wrap_u.wrap_index(x0, self.width),
+            wrap_u.wrap_index(x0 + 1.0, self.width),
+        );
+        let (ya, yb) = (
+            wrap_v.wrap_index(y0, self.height),
+            wrap_v.wrap_index(y0 + 1.0, self.height),
+        );
         let top = self.texel(xa, ya).lerp(self.texel(xb, ya), fx);
         let bottom = self.texel(xa, yb).lerp(self.texel(xb, yb), fx);
         top.lerp(bottom, fy)
+    }
+}
+
+/// How an image's coordinates continue outside [0, 1] along one axis
+/// (glTF's sampler `wrapS` / `wrapT`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Wrap {
+    /// The image tiles.
+    #[default]
+    Repeat,
+    /// The edge texels extend.
+    ClampToEdge,
+    /// The image tiles, every other copy mirrored.
+    MirroredRepeat,
+}
+
+/// Numeric tags of [`Wrap`], shared with the GPU.
+pub mod wrap_tag {
+    pub const REPEAT: u32 = 0;
+    pub const CLAMP_TO_EDGE: u32 = 1;
+    pub const MIRRORED_REPEAT: u32 = 2;
+}
+
+impl Wrap {
+    pub fn tag(self) -> u32 {
+        match self {
+            Wrap::Repeat => wrap_tag::REPEAT,
+            Wrap::ClampToEdge => wrap_tag::CLAMP_TO_EDGE,
+            Wrap::MirroredRepeat => wrap_tag::MIRRORED_REPEAT,
+        }
+    }
+
+    /// A texture coordinate brought into [0, 1].
+    #[inline]
+    pub fn wrap_coordinate(self, c: f32) -> f32 {
+        match self {
+            Wrap::Repeat => c.rem_euclid(1.0),
+            Wrap::ClampToEdge => c.clamp(0.0, 1.0),
+            Wrap::MirroredRepeat => {
+                let t = c.rem_euclid(2.0);
+                if t > 1.0 {
+                    2.0 - t
+                } else {
+                    t
+                }
+            }
+        }
+    }
+
+    /// A texel index `i` (a whole number, perhaps outside the image)
+    /// brought into `0..n`.
+    #[inline]
+    pub fn wrap_index(self, i: f32, n: u32) -> u32 {
+        let (i, n) = (i as i64, n as i64);
+        let k = match self {
+            Wrap::Repeat => i.rem_euclid(n),
+            Wrap::ClampToEdge => i.clamp(0, n - 1),
+            Wrap::MirroredRepeat => {
+                let m = i.rem_euclid(2 * n);
+                if m >= n {
+                    2 * n - 1 - m
+                } else {
+                    m
+                }
+            }
+        };
+        k as u32
+    }
+}
+
+/// How an image texture is looked up: an affine map of the surface's uv
+/// first (glTF's `KHR_texture_transform`), each axis's wrap mode, and the
+/// filter (glTF's sampler; the default: repeat, bilinear, uv as is).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Sampler {
+    pub wrap_u: Wrap,
+    pub wrap_v: Wrap,
+    /// The nearest texel instead of bilinear filtering (glTF's
+    /// `magFilter` NEAREST).
+    pub nearest: bool,
+    /// `uv' = (t0·u + t1·v + t2, t3·u + t4·v + t5)` in the renderer's uv
+    /// convention (v up); `None`: uv as is.
+    pub transform: Option<[f32; 6]>,
+}
+
+impl Sampler {
+    /// `uv` as the texture reads it.
+    #[inline]
+    pub fn transformed_uv(&self, uv: Vec2) -> Vec2 {
+        match self.transform {
+            None => uv,
+            Some(t) => Vec2::new(
+                t[0] * uv.x + t[1] * uv.y + t[2],
+                t[3] * uv.x + t[4] * uv.y + t[5],
+            ),
+        }
     }
 }
 
@@ -48,10 +163,12 @@ pub enum Texture {
         even: u32,
         odd: u32,
     },
-    /// An image, multiplied by `factor` (glTF's base colour factor, say).
+    /// An image, multiplied by `factor` (glTF's base colour factor, say),
+    /// looked up as `sampler` says.
     Image {
         image: u32,
         factor: Vec3,
+        sampler: Sampler,
     },
 }
 
@@ -87,14 +204,22 @@ pub fn evaluate_texture(
             let pick = if sines < 0.0 { odd } else { even };
             evaluate_leaf(textures, images, pick, uv)
         }
-        Texture::Image { image, factor } => factor * images[image as usize].sample_bilinear(uv),
+        Texture::Image {
+            image,
+            factor,
+            sampler,
+        } => factor * images[image as usize].sample_image(sampler.transformed_uv(uv), &sampler),
     }
 }
 
 fn evaluate_leaf(textures: &[Texture], images: &[ImageData], id: u32, uv: Vec2) -> Vec3 {
     match textures[id as usize] {
         Texture::Constant(c) => c,
-        Texture::Image { image, factor } => factor * images[image as usize].sample_bilinear(uv),
+        Texture::Image {
+            image,
+            factor,
+            sampler,
+        } => factor * images[image as usize].sample_image(sampler.transformed_uv(uv), &sampler),
         // The scene builder rejects checkers nested in checkers.
         Texture::Checker { .. } => Vec3::ZERO,
     }
@@ -141,6 +266,81 @@ mod tests {
     }
 
     #[test]
+    fn wrap_modes_fold_coordinates_and_indices() {
+        use Wrap::*;
+        for (c, repeat, clamp, mirror) in [
+            (0.25, 0.25, 0.25, 0.25),
+            (1.25, 0.25, 1.0, 0.75),
+            (-0.25, 0.75, 0.0, 0.25),
+            (2.5, 0.5, 1.0, 0.5),
+            (-1.25, 0.75, 0.0, 0.75),
+        ] {
+            assert_eq!(Repeat.wrap_coordinate(c), repeat, "{c}");
+            assert_eq!(ClampToEdge.wrap_coordinate(c), clamp, "{c}");
+            assert_eq!(MirroredRepeat.wrap_coordinate(c), mirror, "{c}");
+        }
+        // Four texels: index -1 is the last (repeat), the first (clamp),
+        // the first again (mirror: ... 1 0 | 0 1 2 3 | 3 2 ...).
+        for (i, repeat, clamp, mirror) in [
+            (-1.0, 3, 0, 0),
+            (-2.0, 2, 0, 1),
+            (4.0, 0, 3, 3),
+            (5.0, 1, 3, 2),
+            (8.0, 0, 3, 0),
+        ] {
+            assert_eq!(Repeat.wrap_index(i, 4), repeat, "{i}");
+            assert_eq!(ClampToEdge.wrap_index(i, 4), clamp, "{i}");
+            assert_eq!(MirroredRepeat.wrap_index(i, 4), mirror, "{i}");
+        }
+    }
+
+    #[test]
+    fn samplers_clamp_mirror_filter_and_transform() {
+        let img = two_by_two(); // top: red, green; bottom: blue, white
+        let clamp = Sampler {
+            wrap_u: Wrap::ClampToEdge,
+            wrap_v: Wrap::ClampToEdge,
+            ..Sampler::default()
+        };
+        // Past the right edge: the right column, not the left.
+        assert_eq!(img.sample_image(Vec2::new(1.5, 0.25), &clamp), Vec3::ONE);
+        assert_eq!(img.sample_image(Vec2::new(1.0, 0.75), &clamp), Vec3::Y);
+        // Mirrored: 1.25 reads as 0.75.
+        let mirror = Sampler {
+            wrap_u: Wrap::MirroredRepeat,
+            ..Sampler::default()
+        };
+        assert_eq!(img.sample_image(Vec2::new(1.25, 0.75), &mirror), Vec3::Y);
+        // Nearest: no blend halfway between red and green.
+        let nearest = Sampler {
+            nearest: true,
+            ..Sampler::default()
+        };
+        assert_eq!(img.sample_image(Vec2::new(0.49, 0.75), &nearest), Vec3::X);
+        assert_eq!(img.sample_image(Vec2::new(0.51, 0.75), &nearest), Vec3::Y);
+        // A transform: u' = u + 0.5 moves red's quarter to green's.
+        let shifted = Sampler {
+            transform: Some([1.0, 0.0, 0.5, 0.0, 1.0, 0.0]),
+            ..Sampler::default()
+        };
+        assert_eq!(
+            img.sample_image(shifted.transformed_uv(Vec2::new(0.25, 0.75)), &shifted),
+            Vec3::Y
+        );
+        // The default sampler is the plain bilinear repeat lookup.
+        for uv in [
+            Vec2::new(0.1, 0.9),
+            Vec2::new(-3.3, 7.7),
+            Vec2::new(0.5, 0.5),
+        ] {
+            assert_eq!(
+                img.sample_image(uv, &Sampler::default()),
+                img.sample_bilinear(uv)
+            );
+        }
+    }
+
+    #[test]
     fn checker_alternates_with_sign_of_sines() {
         let textures = [
             Texture::Constant(Vec3::ONE),
@@ -168,6 +368,7 @@ mod tests {
         let textures = [Texture::Image {
             image: 0,
             factor: Vec3::splat(0.5),
+            sampler: Sampler::default(),
         }];
         let c = evaluate_texture(
             &textures,

@@ -42,14 +42,19 @@
 //! factors per point (blue: metallic, green: roughness;
 //! `material::ggx_parameters`). Not supported (ignored): the normal and
 //! occlusion textures (occlusion is baked ambient light, which a path
-//! tracer computes itself), `texCoord` sets other than 0 (TEXCOORD_0 is used for every
-//! texture), texture transforms and samplers (the reference filters
-//! bilinearly with repeat wrapping), alpha modes, `doubleSided` (other
+//! tracer computes itself), `texCoord` sets other than 0 (TEXCOORD_0 is
+//! used for every texture, with a warning), alpha modes, `doubleSided` (other
 //! materials shade both sides anyway; emitters emit from the front face
 //! only), skins, morph targets, animations and orthographic cameras.
 //! A primitive without a material gets the spec's default material: base
 //! colour 1, metallic 1, roughness 1. Each glTF material, texture/factor
 //! pair and image is added to the builder once.
+//!
+//! Textures keep their sampler (wrap modes per axis: repeat, clamp to
+//! edge, mirrored repeat; a NEAREST magnification filter) and their
+//! `KHR_texture_transform` (offset, rotation, scale), rewritten for the
+//! renderer's uv convention (`sampler`); the renderer builds no mipmaps,
+//! so minification filters are read as the magnification one.
 //!
 //! Images are decoded by the `gltf` crate (PNG, JPEG), only when a material
 //! uses them. 8- and 16-bit channels of base colour and emissive textures
@@ -296,6 +301,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_ior",
     "KHR_materials_transmission",
     "KHR_materials_volume",
+    "KHR_texture_transform",
 ];
 
 /// A parsed document with its buffers loaded.
@@ -927,8 +933,10 @@ struct Importer<'f> {
     file: &'f GltfFile,
     /// (glTF image index, sRGB-decoded) → builder image.
     images: HashMap<(usize, bool), u32>,
-    /// (glTF texture index, factor bits, sRGB-decoded) → builder texture.
-    textures: HashMap<(usize, [u32; 3], bool), u32>,
+    /// (glTF texture index, factor bits, sRGB-decoded, transform bits) →
+    /// builder texture.
+    #[allow(clippy::type_complexity)]
+    textures: HashMap<(usize, [u32; 3], bool, Option<[u32; 6]>), u32>,
     /// glTF material index (`None`: the default material) → builder material.
     materials: HashMap<Option<usize>, u32>,
 }
@@ -959,7 +967,7 @@ impl Importer<'_> {
         })?;
         let converted = if emission != Vec3::ZERO {
             let texture = match material.emissive_texture() {
-                Some(info) => self.image_texture(builder, &info.texture(), emission)?,
+                Some(info) => self.image_texture(builder, &info, emission, &context)?,
                 None => builder
                     .constant(emission)
                     .map_err(|e| in_context(e.within("emissive")))?,
@@ -971,13 +979,13 @@ impl Importer<'_> {
             let [r, g, b, _alpha] = pbr.base_color_factor();
             let factor = Vec3::new(r, g, b);
             let texture = match pbr.base_color_texture() {
-                Some(info) => self.image_texture(builder, &info.texture(), factor)?,
+                Some(info) => self.image_texture(builder, &info, factor, &context)?,
                 None => builder
                     .constant(factor)
                     .map_err(|e| in_context(e.within("baseColorFactor")))?,
             };
             let metallic_roughness = match pbr.metallic_roughness_texture() {
-                Some(info) => Some(self.data_texture(builder, &info.texture())?),
+                Some(info) => Some(self.data_texture(builder, &info, &context)?),
                 None => None,
             };
             Material::Ggx {
@@ -1094,35 +1102,66 @@ impl Importer<'_> {
     fn image_texture(
         &mut self,
         builder: &mut SceneBuilder,
-        texture: &gltf::Texture,
+        info: &gltf::texture::Info,
         factor: Vec3,
+        context: &str,
     ) -> Result<u32, SceneError> {
-        self.texture(builder, texture, factor, true)
+        self.texture(builder, info, factor, true, context)
     }
 
     /// A data texture (linear texels: metallic-roughness), factor 1.
     fn data_texture(
         &mut self,
         builder: &mut SceneBuilder,
-        texture: &gltf::Texture,
+        info: &gltf::texture::Info,
+        context: &str,
     ) -> Result<u32, SceneError> {
-        self.texture(builder, texture, Vec3::ONE, false)
+        self.texture(builder, info, Vec3::ONE, false, context)
     }
 
+    /// The texture `info` names with its sampler and transform: a
+    /// `texCoord` other than 0 is a warning (TEXCOORD_0 is read).
     fn texture(
         &mut self,
         builder: &mut SceneBuilder,
-        texture: &gltf::Texture,
+        info: &gltf::texture::Info,
         factor: Vec3,
         srgb: bool,
+        context: &str,
     ) -> Result<u32, SceneError> {
-        let key = (texture.index(), factor.to_array().map(f32::to_bits), srgb);
+        let texture = info.texture();
+        let transform = info.texture_transform();
+        let set = transform
+            .as_ref()
+            .and_then(|t| t.tex_coord())
+            .unwrap_or(info.tex_coord());
+        if set != 0 {
+            self.warn(
+                builder,
+                context,
+                &[format!(
+                    "texture {} reads TEXCOORD_{set}: TEXCOORD_0 is used",
+                    texture.index()
+                )],
+            );
+        }
+        let sampler = sampler(&texture, transform.as_ref());
+        let key = (
+            texture.index(),
+            factor.to_array().map(f32::to_bits),
+            srgb,
+            sampler.transform.map(|t| t.map(f32::to_bits)),
+        );
         if let Some(&id) = self.textures.get(&key) {
             return Ok(id);
         }
         let image = self.image(builder, &texture.source(), srgb)?;
         let id = builder
-            .add_texture(Texture::Image { image, factor })
+            .add_texture(Texture::Image {
+                image,
+                factor,
+                sampler,
+            })
             .map_err(|e| {
                 e.within(&format!("textures[{}]", texture.index()))
                     .in_file(&self.file.path)
@@ -1174,6 +1213,51 @@ impl Importer<'_> {
         let id = builder.add_image(data);
         self.images.insert((index, srgb), id);
         Ok(id)
+    }
+}
+
+/// The renderer's sampler for glTF `texture` (its wrap modes and
+/// magnification filter; minification filters name mipmaps, which the
+/// renderer does not build: it filters as the magnification filter says)
+/// and a `KHR_texture_transform`, rewritten for the renderer's uv
+/// convention (v up, `v = 1 - v_glTF`). With `c, s` the rotation's cosine
+/// and sine, glTF's map is `u' = c·sx·u + s·sy·v + ox`,
+/// `v' = −s·sx·u + c·sy·v + oy` (scale, then rotate, then offset; the
+/// rotation's sign is the one that makes the extension's own example,
+/// offset (0, 1), rotation π/2, scale ½, read "the lower left quadrant of
+/// the image, rotated clockwise 90°"); in the renderer's convention
+/// `u' = c·sx·u − s·sy·v + (ox + s·sy)`,
+/// `v' = s·sx·u + c·sy·v + (1 − c·sy − oy)` (computed in f64).
+fn sampler(
+    texture: &gltf::Texture,
+    transform: Option<&gltf::texture::TextureTransform>,
+) -> crate::texture::Sampler {
+    use crate::texture::{Sampler, Wrap};
+    use gltf::texture::{MagFilter, WrappingMode};
+    let wrap = |m: WrappingMode| match m {
+        WrappingMode::Repeat => Wrap::Repeat,
+        WrappingMode::ClampToEdge => Wrap::ClampToEdge,
+        WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
+    };
+    let s = texture.sampler();
+    let transform = transform.map(|t| {
+        let ([ox, oy], [sx, sy]) = (t.offset().map(f64::from), t.scale().map(f64::from));
+        let (sin, cos) = f64::from(t.rotation()).sin_cos();
+        [
+            cos * sx,
+            -sin * sy,
+            ox + sin * sy,
+            sin * sx,
+            cos * sy,
+            1.0 - cos * sy - oy,
+        ]
+        .map(|v| v as f32)
+    });
+    Sampler {
+        wrap_u: wrap(s.wrap_s()),
+        wrap_v: wrap(s.wrap_t()),
+        nearest: s.mag_filter() == Some(MagFilter::Nearest),
+        transform,
     }
 }
 
@@ -1254,6 +1338,7 @@ fn convert_image(image: &gltf::image::Data, srgb: bool) -> Result<ImageData, Str
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::texture::Sampler;
     use std::io::Write;
 
     fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
@@ -1379,14 +1464,14 @@ mod tests {
         let p = write(
             dir.path(),
             "clearcoat.gltf",
-            &with_extensions(&["KHR_materials_clearcoat", "KHR_texture_transform"], &[]),
+            &with_extensions(&["KHR_materials_clearcoat", "KHR_materials_specular"], &[]),
         );
         let scene = load_gltf_document(&p).unwrap();
         assert_eq!(scene.warnings().len(), 1, "{:?}", scene.warnings());
         let w = &scene.warnings()[0];
         assert!(
             w.contains("clearcoat.gltf")
-                && w.contains("KHR_materials_clearcoat, KHR_texture_transform"),
+                && w.contains("KHR_materials_clearcoat, KHR_materials_specular"),
             "{w}"
         );
     }
@@ -1841,7 +1926,7 @@ mod tests {
         };
         assert_eq!((metallic, roughness), (0.5, 0.75));
         let image_of = |t: u32| match scene.textures()[t as usize] {
-            Texture::Image { image, factor } => {
+            Texture::Image { image, factor, .. } => {
                 assert_eq!(factor, Vec3::ONE);
                 &scene.images()[image as usize]
             }
@@ -1860,6 +1945,71 @@ mod tests {
             )]
         );
         assert_eq!(scene.images().len(), 2, "one image, decoded two ways");
+    }
+
+    #[test]
+    fn samplers_and_texture_transforms_come_through() {
+        // A 2x2 image: top row red, green; bottom row blue, white.
+        let rgb = vec![255, 0, 0, 0, 255, 0, 0, 0, 255, 255, 255, 255];
+        let transform = serde_json::json!({ "KHR_texture_transform": { "offset": [0, 1], "rotation": std::f64::consts::FRAC_PI_2, "scale": [0.5, 0.5] } });
+        let mut doc: serde_json::Value = serde_json::from_slice(&textured_triangle(
+            2,
+            2,
+            rgb,
+            serde_json::json!({ "pbrMetallicRoughness": { "baseColorTexture": { "index": 0, "extensions": transform } } }),
+        ))
+        .unwrap();
+        doc["samplers"] =
+            serde_json::json!([{ "wrapS": 33071, "wrapT": 33648, "magFilter": 9728 }]);
+        doc["textures"][0]["sampler"] = serde_json::json!(0);
+        doc["extensionsUsed"] = serde_json::json!(["KHR_texture_transform"]);
+        let dir = tempfile::tempdir().unwrap();
+        let path = write(
+            dir.path(),
+            "sampled.gltf",
+            &serde_json::to_vec(&doc).unwrap(),
+        );
+        let scene = load_gltf_document(&path).unwrap();
+        assert!(scene.warnings().is_empty(), "{:?}", scene.warnings());
+        let Texture::Image { sampler, .. } = scene.textures()[0] else {
+            panic!("{:?}", scene.textures());
+        };
+        use crate::texture::Wrap;
+        assert_eq!(
+            (sampler.wrap_u, sampler.wrap_v, sampler.nearest),
+            (Wrap::ClampToEdge, Wrap::MirroredRepeat, true)
+        );
+        // The extension's example: the lower left quadrant of the image
+        // (the blue texel), rotated clockwise 90°: the surface's whole uv
+        // square reads inside it (renderer uv: v up, so the lower left
+        // quadrant is u, v in [0, 0.5]).
+        for (u, v) in [(0.1, 0.1), (0.5, 0.5), (0.9, 0.2), (0.3, 0.95)] {
+            let t = sampler.transformed_uv(Vec2::new(u, v));
+            assert!(
+                (-1e-6..=0.5 + 1e-6).contains(&t.x) && (-1e-6..=0.5 + 1e-6).contains(&t.y),
+                "({u}, {v}) -> {t}"
+            );
+        }
+        // Rotated clockwise: the image's up points along the surface's
+        // +u (the surface's +u reads the image's +v), its right along the
+        // surface's -v.
+        let (o, du, dv) = (
+            sampler.transformed_uv(Vec2::ZERO),
+            sampler.transformed_uv(Vec2::X),
+            sampler.transformed_uv(Vec2::Y),
+        );
+        assert!((du - o - Vec2::new(0.0, 0.5)).length() < 1e-6, "{o} {du}");
+        assert!((dv - o - Vec2::new(-0.5, 0.0)).length() < 1e-6, "{o} {dv}");
+        // TEXCOORD_1 is not read yet: a warning names it.
+        doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["texCoord"] =
+            serde_json::json!(1);
+        let path = write(dir.path(), "set1.gltf", &serde_json::to_vec(&doc).unwrap());
+        let scene = load_gltf_document(&path).unwrap();
+        assert!(
+            scene.warnings().iter().any(|w| w.contains("TEXCOORD_1")),
+            "{:?}",
+            scene.warnings()
+        );
     }
 
     #[test]
@@ -1923,7 +2073,8 @@ mod tests {
             scene.textures(),
             vec![Texture::Image {
                 image: 0,
-                factor: Vec3::splat(0.5)
+                factor: Vec3::splat(0.5),
+                sampler: Sampler::default(),
             }]
         );
         assert_eq!(

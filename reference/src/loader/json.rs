@@ -568,6 +568,7 @@ impl Resolver<'_> {
                     .add_texture(Texture::Image {
                         image,
                         factor: Vec3::ONE,
+                        sampler: Default::default(),
                     })
                     .map_err(at)?
             }

@@ -90,8 +90,20 @@ fn check_texture(texture: &Texture, earlier: &[Texture], images: usize) -> Resul
                 }
             }
         }
-        Texture::Image { image, factor } => {
+        Texture::Image {
+            image,
+            factor,
+            sampler,
+        } => {
             check_colour("texture.factor", factor)?;
+            if let Some(t) = sampler.transform {
+                if t.iter().any(|v| !v.is_finite()) {
+                    return Err(SceneError::invalid(
+                        "texture.transform",
+                        format!("{t:?} must be finite"),
+                    ));
+                }
+            }
             if image as usize >= images {
                 return Err(SceneError::invalid(
                     "texture.image",
