@@ -78,7 +78,9 @@ fn sky_hdr(path: &Path) -> anyhow::Result<()> {
 /// - left: base colour factor (0.9, 0.6, 0.3), metallic and roughness
 ///   factors 1, scaled per point by an 8x8 `metallicRoughnessTexture`
 ///   (linear data): green (roughness) rises from 0.1 to 0.9 across u, blue
-///   (metallic) is 1 in the image's top half and 0 in its bottom half;
+///   (metallic) is 1 in the image's top half and 0 in its bottom half; and
+///   by vertex colours (COLOR_0, normalized bytes) that shade from
+///   (1, 0.4, 1) at the bottom to (1, 1, 0.3) at the top;
 /// - right: `KHR_materials_transmission` 1, `KHR_materials_ior` 1.5,
 ///   `KHR_materials_volume` (thickness 1, attenuation colour (0.9, 0.6,
 ///   0.3) at distance 1): smooth glass with Beer-Lambert absorption.
@@ -136,6 +138,14 @@ fn gltf_materials() -> anyhow::Result<Vec<u8>> {
     let floats =
         |v: &[[f32; 3]]| -> Vec<u8> { v.iter().flatten().flat_map(|f| f.to_le_bytes()).collect() };
     let positions_view = add_view(&floats(&positions), Some(34962));
+    let colors: Vec<u8> = positions
+        .iter()
+        .flat_map(|p| {
+            let t = (p[1] + 1.0) / 2.0;
+            [1.0, 0.4 + 0.6 * t, 1.0 - 0.7 * t, 1.0].map(|c: f32| (255.0 * c).round() as u8)
+        })
+        .collect();
+    let colors_view = add_view(&colors, Some(34962));
     let uv_bytes: Vec<u8> = uvs
         .iter()
         .flatten()
@@ -148,7 +158,9 @@ fn gltf_materials() -> anyhow::Result<Vec<u8>> {
     // The backdrop: a 5.2 x 2.6 panel facing +z behind the spheres, uv 0..1
     // over it (v = 0 along its top edge), with a 4x4 base colour image of
     // distinct texels read through a clamp / mirror / nearest sampler and a
-    // texture transform that carries uv well outside [0, 1].
+    // texture transform that carries uv well outside [0, 1]; and a normal
+    // map, tiled 3x2 by its own transform, over the second coordinate set
+    // (u mirrored).
     let panel: [[f32; 3]; 4] = [
         [-2.6, 0.0, -1.6],
         [2.6, 0.0, -1.6],
@@ -163,6 +175,32 @@ fn gltf_materials() -> anyhow::Result<Vec<u8>> {
         .flat_map(|f| f.to_le_bytes())
         .collect();
     let panel_uv_view = add_view(&panel_uvs, Some(34962));
+    // The second set: u mirrored, read by the normal map.
+    let panel_uvs1: Vec<u8> = [[1.0f32, 1.0], [0.0, 1.0], [0.0, 0.0], [1.0, 0.0]]
+        .iter()
+        .flatten()
+        .flat_map(|f| f.to_le_bytes())
+        .collect();
+    let panel_uv1_view = add_view(&panel_uvs1, Some(34962));
+    // An 8x8 tangent-space normal map (linear data) in four quadrants,
+    // each tilted 50 degrees: toward +tangent (top left), -tangent (top
+    // right), +bitangent (bottom left), -bitangent (bottom right).
+    let mut normals_png = Vec::new();
+    let (sin, cos) = 50f32.to_radians().sin_cos();
+    image::RgbImage::from_fn(8, 8, |x, y| {
+        let n = match (x < 4, y < 4) {
+            (true, true) => [sin, 0.0, cos],
+            (false, true) => [-sin, 0.0, cos],
+            (true, false) => [0.0, sin, cos],
+            (false, false) => [0.0, -sin, cos],
+        };
+        image::Rgb(n.map(|c| (255.0 * (c + 1.0) / 2.0).round() as u8))
+    })
+    .write_to(
+        &mut std::io::Cursor::new(&mut normals_png),
+        image::ImageFormat::Png,
+    )?;
+    let normals_view = add_view(&normals_png, None);
     let panel_index_view = add_view(
         &[0u16, 1, 2, 0, 2, 3]
             .iter()
@@ -195,8 +233,12 @@ fn gltf_materials() -> anyhow::Result<Vec<u8>> {
         { "bufferView": panel_normal_view, "componentType": 5126, "count": 4, "type": "VEC3" },
         { "bufferView": panel_uv_view, "componentType": 5126, "count": 4, "type": "VEC2" },
         { "bufferView": panel_index_view, "componentType": 5123, "count": 6, "type": "SCALAR" },
+        { "bufferView": colors_view, "componentType": 5121, "normalized": true, "count": n, "type": "VEC4" },
+        { "bufferView": panel_uv1_view, "componentType": 5126, "count": 4, "type": "VEC2" },
     ]);
-    let primitive = |material: u32| json!({ "attributes": { "POSITION": 0, "NORMAL": 0, "TEXCOORD_0": 1 }, "indices": 2, "material": material });
+    let sphere = json!({ "POSITION": 0, "NORMAL": 0, "TEXCOORD_0": 1 });
+    let mut coloured = sphere.clone();
+    coloured["COLOR_0"] = 7.into();
     let document = json!({
         "asset": { "version": "2.0", "generator": "twintrace examples/gen_fixtures.rs" },
         "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume", "KHR_texture_transform"],
@@ -208,9 +250,9 @@ fn gltf_materials() -> anyhow::Result<Vec<u8>> {
             { "name": "sampled backdrop", "mesh": 2 },
         ],
         "meshes": [
-            { "primitives": [primitive(0)] },
-            { "primitives": [primitive(1)] },
-            { "primitives": [{ "attributes": { "POSITION": 3, "NORMAL": 4, "TEXCOORD_0": 5 }, "indices": 6, "material": 2 }] },
+            { "primitives": [{ "attributes": coloured, "indices": 2, "material": 0 }] },
+            { "primitives": [{ "attributes": sphere, "indices": 2, "material": 1 }] },
+            { "primitives": [{ "attributes": { "POSITION": 3, "NORMAL": 4, "TEXCOORD_0": 5, "TEXCOORD_1": 8 }, "indices": 6, "material": 2 }] },
         ],
         "materials": [
             {
@@ -241,13 +283,22 @@ fn gltf_materials() -> anyhow::Result<Vec<u8>> {
                     "metallicFactor": 0.0,
                     "roughnessFactor": 1.0,
                 },
+                // No TANGENT: the importer generates MikkTSpace tangents
+                // (from the second set, mirrored: w = -1).
+                "normalTexture": {
+                    "index": 2,
+                    "texCoord": 1,
+                    "scale": 0.8,
+                    "extensions": { "KHR_texture_transform": { "scale": [3.0, 2.0] } },
+                },
             },
         ],
         "samplers": [{ "wrapS": 33071, "wrapT": 33648, "magFilter": 9728 }],
-        "textures": [{ "source": 0 }, { "source": 1, "sampler": 0 }],
+        "textures": [{ "source": 0 }, { "source": 1, "sampler": 0 }, { "source": 2 }],
         "images": [
             { "bufferView": image_view, "mimeType": "image/png" },
             { "bufferView": tiles_view, "mimeType": "image/png" },
+            { "bufferView": normals_view, "mimeType": "image/png" },
         ],
         "buffers": [{ "byteLength": bin.len() }],
         "bufferViews": views,

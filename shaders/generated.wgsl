@@ -18,11 +18,15 @@ const SAMPLER_WRAP_V_SHIFT: u32 = 2u;
 const SAMPLER_WRAP_MASK: u32 = 3u;
 const SAMPLER_NEAREST: u32 = 16u;
 const SAMPLER_TRANSFORM: u32 = 32u;
+const SAMPLER_UV1: u32 = 64u;
 const BACKGROUND_SOLID: u32 = 0u;
 const BACKGROUND_SKY: u32 = 1u;
 const BACKGROUND_ENVMAP: u32 = 2u;
 const TRIANGLE_HAS_NORMALS: u32 = 1u;
 const TRIANGLE_HAS_UVS: u32 = 2u;
+const TRIANGLE_HAS_COLORS: u32 = 4u;
+const TRIANGLE_HAS_TANGENTS: u32 = 8u;
+const TRIANGLE_HAS_UV1: u32 = 16u;
 const NO_TEXTURE: u32 = 4294967295u;
 const BVH_LEAF: u32 = 3u;
 const BVH_STACK_SIZE: u32 = 64u;
@@ -71,6 +75,7 @@ const FEATURE_CHECKER_TEXTURES: u32 = 256u;
 const FEATURE_SOLID_BACKGROUND: u32 = 512u;
 const FEATURE_SKY_BACKGROUND: u32 = 1024u;
 const FEATURE_ENVMAP_BACKGROUND: u32 = 2048u;
+const FEATURE_NORMAL_MAPS: u32 = 4096u;
 const INTEGRATOR_BSDF: u32 = 0u;
 const INTEGRATOR_MIS: u32 = 1u;
 const SMALL_CONE_SIN2: f32 = 6.8523e-4;
@@ -135,6 +140,20 @@ struct GpuVertex {
     u: f32,
     v: f32,
 }
+struct GpuVertexExtra {
+    r: f32,
+    g: f32,
+    b: f32,
+    a: f32,
+    t_x: f32,
+    t_y: f32,
+    t_z: f32,
+    t_w: f32,
+    u1: f32,
+    v1: f32,
+    _pad0: u32,
+    _pad1: u32,
+}
 struct GpuPrimitive {
     tag: u32,
     index: u32,
@@ -154,6 +173,10 @@ struct GpuMaterial {
     absorption_g: f32,
     absorption_b: f32,
     texture2: u32,
+    texture3: u32,
+    p2: f32,
+    _pad0: u32,
+    _pad1: u32,
 }
 struct GpuTexture {
     tag: u32,
@@ -272,4 +295,5 @@ struct BvhNode {
 @group(0) @binding(11) var<storage, read> texels: array<f32>;
 @group(0) @binding(12) var<storage, read> emitters: array<GpuEmitter>;
 @group(0) @binding(13) var<storage, read> light_densities: array<GpuLightDensity>;
-@group(0) @binding(14) var<storage, read_write> film: array<GpuPixel>;
+@group(0) @binding(14) var<storage, read> vertex_extras: array<GpuVertexExtra>;
+@group(0) @binding(15) var<storage, read_write> film: array<GpuPixel>;

@@ -58,6 +58,8 @@ struct SurfaceInteraction {
     geometric_normal: vec3<f32>,
     shading_normal: vec3<f32>,
     uv: vec2<f32>,
+    uv1: vec2<f32>,
+    color: vec3<f32>,
     p_error: f32,
     front_face: bool,
     material: u32,

@@ -60,7 +60,7 @@ fn ggx_lobes_pdf(l: GgxLobes, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
 
 fn emitted(m: GpuMaterial, si: SurfaceInteraction) -> vec3<f32> {
     if m.tag == MATERIAL_DIFFUSE_LIGHT && si.front_face {
-        return evaluate_texture(m.texture, si.p, si.uv);
+        return evaluate_texture(m.texture, si.p, si.uv, si.uv1);
     }
     return vec3<f32>(0.0);
 }
@@ -92,7 +92,7 @@ fn bsdf_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, wi: vec
             if cos_i <= 0.0 {
                 return zero;
             }
-            return BsdfEval(true, evaluate_texture(m.texture, si.p, si.uv) * (FRAC_1_PI * cos_i), cos_i * FRAC_1_PI);
+            return BsdfEval(true, evaluate_texture(m.texture, si.p, si.uv, si.uv1) * (FRAC_1_PI * cos_i), cos_i * FRAC_1_PI);
         }
         case MATERIAL_GGX: {
             if !uses(FEATURE_GGX) { poison(); break; }
@@ -103,7 +103,7 @@ fn bsdf_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, wi: vec
                 return zero;
             }
             let mr = ggx_parameters(m, si);
-            let lobes = ggx_lobes_new(evaluate_texture(m.texture, si.p, si.uv), mr.x, mr.y, wo);
+            let lobes = ggx_lobes_new(evaluate_texture(m.texture, si.p, si.uv, si.uv1) * si.color, mr.x, mr.y, wo);
             return BsdfEval(true, ggx_lobes_eval(lobes, wo, wl) * wl.z, ggx_lobes_pdf(lobes, wo, wl));
         }
         case MATERIAL_METAL, MATERIAL_DIELECTRIC, MATERIAL_DIFFUSE_LIGHT: {
@@ -183,7 +183,7 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, u: Vertex
 fn scatter_lambertian(m: GpuMaterial, si: SurfaceInteraction, n: vec3<f32>, u: VertexRandoms) -> Scatter {
     if !uses(FEATURE_LAMBERTIAN) { poison(); return absorbed(); }
     let local = sample_cosine_hemisphere(vec2<f32>(vr_get(u, DIM_DIRECTION_U), vr_get(u, DIM_DIRECTION_V)));
-    return Scatter(true, onb_to_world(onb_from_normal(n), local), evaluate_texture(m.texture, si.p, si.uv));
+    return Scatter(true, onb_to_world(onb_from_normal(n), local), evaluate_texture(m.texture, si.p, si.uv, si.uv1));
 }
 
 fn scatter_metal(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, n: vec3<f32>, ng: vec3<f32>, u: VertexRandoms) -> Scatter {
@@ -193,7 +193,7 @@ fn scatter_metal(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, n: 
     if dot(direction, ng) <= 0.0 {
         return absorbed();
     }
-    return Scatter(true, normalize(direction), evaluate_texture(m.texture, si.p, si.uv));
+    return Scatter(true, normalize(direction), evaluate_texture(m.texture, si.p, si.uv, si.uv1));
 }
 
 fn scatter_dielectric(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, n: vec3<f32>, u: VertexRandoms) -> Scatter {
@@ -211,6 +211,25 @@ fn scatter_dielectric(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction
     return Scatter(true, direction, vec3<f32>(1.0));
 }
 
+// reference::material::normal_mapped: the shading normal a normal map
+// gives (frame of the interpolated normal n, its flip `side` onto ng's
+// side; the unmapped side * n where the result would face away from ng or
+// the frame is degenerate).
+fn normal_mapped(n: vec3<f32>, side: f32, ng: vec3<f32>, tangent: vec4<f32>, texel: vec3<f32>, scale: f32) -> vec3<f32> {
+    let unmapped = side * n;
+    let t = normalize_or(tangent.xyz - n * dot(n, tangent.xyz), vec3<f32>(0.0));
+    if all(t == vec3<f32>(0.0)) {
+        return unmapped;
+    }
+    let b = select(cross(n, t), -cross(n, t), tangent.w < 0.0);
+    let mm = (2.0 * texel - vec3<f32>(1.0)) * vec3<f32>(scale, scale, 1.0);
+    let mapped = side * normalize_or(mm.x * t + mm.y * b + mm.z * n, vec3<f32>(0.0));
+    if dot(mapped, ng) > 0.0 {
+        return mapped;
+    }
+    return unmapped;
+}
+
 // reference::material::ggx_parameters: metallic and roughness at si, the
 // factors times the metallic-roughness texture's blue and green channels
 // where the material has one.
@@ -218,7 +237,7 @@ fn ggx_parameters(m: GpuMaterial, si: SurfaceInteraction) -> vec2<f32> {
     if m.texture2 == NO_TEXTURE {
         return vec2<f32>(m.p0, m.p1);
     }
-    let t = evaluate_texture(m.texture2, si.p, si.uv);
+    let t = evaluate_texture(m.texture2, si.p, si.uv, si.uv1);
     return vec2<f32>(m.p0 * t.z, m.p1 * t.y);
 }
 
@@ -230,7 +249,7 @@ fn scatter_ggx(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, n: ve
         return absorbed();
     }
     let mr = ggx_parameters(m, si);
-    let lobes = ggx_lobes_new(evaluate_texture(m.texture, si.p, si.uv), mr.x, mr.y, wo);
+    let lobes = ggx_lobes_new(evaluate_texture(m.texture, si.p, si.uv, si.uv1) * si.color, mr.x, mr.y, wo);
     let dir_u = vec2<f32>(vr_get(u, DIM_DIRECTION_U), vr_get(u, DIM_DIRECTION_V));
     var wi: vec3<f32>;
     if vr_get(u, DIM_LOBE) < lobes.specular_probability {

@@ -102,6 +102,7 @@ fn intersect_triangle_record(index: u32, ray: Ray, t_min: f32, t_max: f32) -> Sh
 fn surface_interaction(ray: Ray, hit: Hit) -> SurfaceInteraction {
     let p = primitives[hit.prim];
     var si: SurfaceInteraction;
+    si.color = vec3<f32>(1.0);
     switch p.tag {
         case PRIMITIVE_SPHERE: {
             if !uses(FEATURE_SPHERES) { poison(); break; }
@@ -148,14 +149,40 @@ fn surface_interaction(ray: Ray, hit: Hit) -> SurfaceInteraction {
             si.p = b0 * pa + b1 * pb + b2 * pc;
             si.p_error = gamma(7.0) * max3(abs(b0 * pa) + abs(b1 * pb) + abs(b2 * pc));
             let ng = normalize_or(cross(pb - pa, pc - pa), vec3<f32>(0.0, 1.0, 0.0));
-            var ns = ng;
+            // The interpolated normal, and the flip that puts it on the
+            // geometric normal's side.
+            var n = ng;
+            var side = 1.0;
             if (tri.flags & TRIANGLE_HAS_NORMALS) != 0u {
-                let nn = normalize_or(b0 * vec3<f32>(a.n_x, a.n_y, a.n_z) + b1 * vec3<f32>(b.n_x, b.n_y, b.n_z) + b2 * vec3<f32>(c.n_x, c.n_y, c.n_z), ng);
-                ns = select(nn, -nn, dot(nn, ng) < 0.0);
+                n = normalize_or(b0 * vec3<f32>(a.n_x, a.n_y, a.n_z) + b1 * vec3<f32>(b.n_x, b.n_y, b.n_z) + b2 * vec3<f32>(c.n_x, c.n_y, c.n_z), ng);
+                side = select(1.0, -1.0, dot(n, ng) < 0.0);
             }
             var uv = hit.uv;
             if (tri.flags & TRIANGLE_HAS_UVS) != 0u {
                 uv = b0 * vec2<f32>(a.u, a.v) + b1 * vec2<f32>(b.u, b.v) + b2 * vec2<f32>(c.u, c.v);
+            }
+            let extras = TRIANGLE_HAS_UV1 | TRIANGLE_HAS_COLORS | TRIANGLE_HAS_TANGENTS;
+            var ns = side * n;
+            if (tri.flags & extras) != 0u {
+                let ea = vertex_extras[tri.v0];
+                let eb = vertex_extras[tri.v1];
+                let ec = vertex_extras[tri.v2];
+                if (tri.flags & TRIANGLE_HAS_UV1) != 0u {
+                    si.uv1 = b0 * vec2<f32>(ea.u1, ea.v1) + b1 * vec2<f32>(eb.u1, eb.v1) + b2 * vec2<f32>(ec.u1, ec.v1);
+                }
+                if (tri.flags & TRIANGLE_HAS_COLORS) != 0u {
+                    si.color = b0 * vec3<f32>(ea.r, ea.g, ea.b) + b1 * vec3<f32>(eb.r, eb.g, eb.b) + b2 * vec3<f32>(ec.r, ec.g, ec.b);
+                }
+                let m = materials[tri.material];
+                if (tri.flags & TRIANGLE_HAS_TANGENTS) != 0u && m.tag == MATERIAL_GGX && m.texture3 != NO_TEXTURE {
+                    if !uses(FEATURE_NORMAL_MAPS) {
+                        poison();
+                    } else {
+                        let tangent = b0 * vec4<f32>(ea.t_x, ea.t_y, ea.t_z, ea.t_w) + b1 * vec4<f32>(eb.t_x, eb.t_y, eb.t_z, eb.t_w) + b2 * vec4<f32>(ec.t_x, ec.t_y, ec.t_z, ec.t_w);
+                        let texel = evaluate_texture(m.texture3, si.p, uv, si.uv1);
+                        ns = normal_mapped(n, side, ng, tangent, texel, m.p2);
+                    }
+                }
             }
             si.geometric_normal = ng;
             si.shading_normal = ns;

@@ -84,8 +84,10 @@ fn sample_bilinear(image: u32, uv: vec2<f32>) -> vec3<f32> {
     return sample_image(image, uv, (WRAP_REPEAT << SAMPLER_WRAP_V_SHIFT) | WRAP_REPEAT);
 }
 
-fn evaluate_leaf(id: u32, uv: vec2<f32>) -> vec3<f32> {
+fn evaluate_leaf(id: u32, uv0: vec2<f32>, uv1: vec2<f32>) -> vec3<f32> {
     let t = textures[id];
+    // reference::texture::Sampler::coordinates: the sampler's set.
+    let uv = select(uv0, uv1, (t.sampler & SAMPLER_UV1) != 0u);
     switch t.tag {
         case TEXTURE_CONSTANT: {
             return vec3<f32>(t.r, t.g, t.b);
@@ -106,7 +108,7 @@ fn evaluate_leaf(id: u32, uv: vec2<f32>) -> vec3<f32> {
     return vec3<f32>(0.0);
 }
 
-fn evaluate_texture(id: u32, p: vec3<f32>, uv: vec2<f32>) -> vec3<f32> {
+fn evaluate_texture(id: u32, p: vec3<f32>, uv: vec2<f32>, uv1: vec2<f32>) -> vec3<f32> {
     let t = textures[id];
     if t.tag == TEXTURE_CHECKER {
         if !uses(FEATURE_CHECKER_TEXTURES) {
@@ -115,9 +117,9 @@ fn evaluate_texture(id: u32, p: vec3<f32>, uv: vec2<f32>) -> vec3<f32> {
         }
         let sines = sin(t.scale * p.x) * sin(t.scale * p.y) * sin(t.scale * p.z);
         if sines < 0.0 {
-            return evaluate_leaf(t.odd, uv);
+            return evaluate_leaf(t.odd, uv, uv1);
         }
-        return evaluate_leaf(t.even, uv);
+        return evaluate_leaf(t.even, uv, uv1);
     }
-    return evaluate_leaf(id, uv);
+    return evaluate_leaf(id, uv, uv1);
 }

@@ -86,6 +86,7 @@ fn procedural_glb_loads_frames_and_renders() {
             metallic: 1.0,
             roughness: 1.0,
             metallic_roughness: None,
+            normal_map: None,
         }]
     );
     assert_eq!(scene.textures(), vec![Texture::Constant(Vec3::ONE)]);
@@ -143,6 +144,7 @@ fn gltf_materials_emission_and_camera_come_through() {
             metallic,
             roughness,
             metallic_roughness: None,
+            normal_map: None,
         } => {
             assert_eq!(
                 texture(base_color),

@@ -51,7 +51,7 @@ fn sample_main(@builtin(global_invocation_id) gid: vec3<u32>) {
         case 3u: { d = sample_unit_ball(vec3<f32>(vr_get(u, DIM_BALL_X), vr_get(u, DIM_BALL_Y), vr_get(u, DIM_BALL_Z))); }
         case 4u: { d = ggx_sample_visible_normal(wo, bitcast<f32>(input[8]), dir_u); }
         default: {
-            let m = GpuMaterial(input[9], input[10], bitcast<f32>(input[11]), bitcast<f32>(input[12]), bitcast<f32>(input[13]), bitcast<f32>(input[14]), bitcast<f32>(input[15]), input[16]);
+            let m = GpuMaterial(input[9], input[10], bitcast<f32>(input[11]), bitcast<f32>(input[12]), bitcast<f32>(input[13]), bitcast<f32>(input[14]), bitcast<f32>(input[15]), input[16], NO_TEXTURE, 0.0, 0u, 0u);
             let front = input[3] != 0u;
             var ray_dir = -wo;
             if input[4] != 0u {
@@ -60,7 +60,7 @@ fn sample_main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 ray_dir = select(c, -c, front);
             }
             let z = vec3<f32>(0.0, 0.0, 1.0);
-            let si = SurfaceInteraction(vec3<f32>(0.0), z, z, vec2<f32>(0.0), 0.0, front, 0u);
+            let si = SurfaceInteraction(vec3<f32>(0.0), z, z, vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(1.0), 0.0, front, 0u);
             let s = scatter(m, ray_dir, si, u);
             ok = s.ok;
             d = s.direction;
@@ -241,6 +241,7 @@ fn gpu_sampling_routines_match_their_densities() {
                 metallic,
                 roughness,
                 metallic_roughness: None,
+                normal_map: None,
             }),
             ..Job::new(Mode::Scatter, 1030 + k as u32)
         };

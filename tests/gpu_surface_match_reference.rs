@@ -3,6 +3,7 @@
 //! bounded, and why).
 
 use crate::common;
+use twintrace::compare::gate::fixture_scene;
 use twintrace::twins::{self, surface};
 
 fn pass(what: &str, outcome: twins::Outcome) {
@@ -13,10 +14,53 @@ fn pass(what: &str, outcome: twins::Outcome) {
 }
 
 /// Spheres (rtow-final), quads (cornell), triangles with shading normals
-/// and uv (the glTF fixture).
+/// and uv (the glTF fixture), and with vertex colours, a second uv set and
+/// normal maps (the glTF materials fixture).
 #[test]
 fn surface_interactions_match_the_reference() {
     pass("surface interactions", surface::all_scenes(common::gpu()));
+}
+
+/// The check sees each vertex attribute and the normal map: a kernel that
+/// ignores the colours, reads the first uv set for the second, ignores the
+/// normal map, or turns its bitangent the other way fails it.
+#[test]
+fn surface_kernels_missing_a_vertex_attribute_or_the_normal_map_fail() {
+    let scene = reference::load_scene(&fixture_scene("gltf-materials.json")).unwrap();
+    let library = gpu::shader::library_source();
+    for (what, from, to) in [
+        (
+            "vertex colours ignored",
+            "if (tri.flags & TRIANGLE_HAS_COLORS) != 0u {",
+            "if false {",
+        ),
+        (
+            "the first uv set read for the second",
+            "let uv = select(uv0, uv1, (t.sampler & SAMPLER_UV1) != 0u);",
+            "let uv = uv0;",
+        ),
+        (
+            "the normal map ignored",
+            "ns = normal_mapped(n, side, ng, tangent, texel, m.p2);",
+            "ns = side * n;",
+        ),
+        (
+            "the bitangent turned",
+            "let b = select(cross(n, t), -cross(n, t), tangent.w < 0.0);",
+            "let b = select(-cross(n, t), cross(n, t), tangent.w < 0.0);",
+        ),
+    ] {
+        assert_eq!(library.matches(from).count(), 1, "`{from}` not found once");
+        let mutant = library.replace(from, to);
+        let e = surface::surface_interactions_with_library(
+            common::gpu(),
+            "gltf-materials",
+            &scene,
+            &mutant,
+        )
+        .expect_err(what);
+        println!("{what}: {}", e.lines().next().unwrap_or(""));
+    }
 }
 
 #[test]

@@ -53,6 +53,8 @@ fn surface() -> SurfaceInteraction {
         geometric_normal: Vec3::Z,
         shading_normal: Vec3::Z,
         uv: Vec2::ZERO,
+        uv1: Vec2::ZERO,
+        color: Vec3::ONE,
         p_error: 0.0,
         front_face: true,
         material: 0,
@@ -200,6 +202,7 @@ fn ggx_material_samples_its_mixture_density() {
             metallic,
             roughness,
             metallic_roughness: None,
+            normal_map: None,
         };
         let wo = towards(theta);
         let lobes = GgxLobes::new(Vec3::new(0.9, 0.6, 0.3), metallic, roughness, wo);

@@ -51,16 +51,17 @@ pub const IMAGES: Binding = scene(10, "images", "array<GpuImage>");
 pub const TEXELS: Binding = scene(11, "texels", "array<f32>");
 pub const EMITTERS: Binding = scene(12, "emitters", "array<GpuEmitter>");
 pub const LIGHT_DENSITIES: Binding = scene(13, "light_densities", "array<GpuLightDensity>");
+pub const VERTEX_EXTRAS: Binding = scene(14, "vertex_extras", "array<GpuVertexExtra>");
 pub const FILM: Binding = Binding {
     group: 0,
-    slot: 14,
+    slot: 15,
     name: "film",
     wgsl_type: "array<GpuPixel>",
     access: Access::ReadWrite,
 };
 
 /// The scene's read-only arrays, in slot order.
-pub const SCENE_ARRAYS: [Binding; 13] = [
+pub const SCENE_ARRAYS: [Binding; 14] = [
     NODES,
     LEAF_ENTRIES,
     PRIMITIVES,
@@ -74,6 +75,7 @@ pub const SCENE_ARRAYS: [Binding; 13] = [
     TEXELS,
     EMITTERS,
     LIGHT_DENSITIES,
+    VERTEX_EXTRAS,
 ];
 
 /// Group 0, shared by the render kernel and the test kernels.

@@ -6,7 +6,7 @@ use crate::error::GpuError;
 use std::sync::{Arc, Mutex};
 
 /// Storage buffers the render kernel binds (scene arrays + film).
-pub const STORAGE_BUFFERS_NEEDED: u32 = 14;
+pub const STORAGE_BUFFERS_NEEDED: u32 = 15;
 /// Storage buffers requested when the adapter has them: the test kernels
 /// bind two more (input, output) beside the scene, the wavefront's
 /// wf_prepare three (paths, queues, dispatch arguments).

@@ -52,6 +52,7 @@ feature_bits! {
     SOLID_BACKGROUND = 9,
     SKY_BACKGROUND = 10,
     ENVMAP_BACKGROUND = 11,
+    NORMAL_MAPS = 12,
 }
 
 /// The render program's pipeline-overridable constant that picks how a
@@ -142,6 +143,10 @@ impl Features {
                 Material::Lambertian { .. } => feature::LAMBERTIAN,
                 Material::Metal { .. } => feature::METAL,
                 Material::Dielectric { .. } => feature::DIELECTRIC,
+                Material::Ggx {
+                    normal_map: Some(_),
+                    ..
+                } => feature::GGX | feature::NORMAL_MAPS,
                 Material::Ggx { .. } => feature::GGX,
                 // Emission is read by tag, with no code of its own to drop.
                 Material::DiffuseLight { .. } => 0,

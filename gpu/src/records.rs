@@ -48,6 +48,18 @@ gpu_record! {
 }
 
 gpu_record! {
+    /// A vertex's optional attributes (`reference::shapes::MeshData`'s
+    /// `colors`, `tangents` and `uvs1`), read where the triangle's flags
+    /// say it has them: linear RGBA colour, tangent (`w`: the bitangent's
+    /// side), the second uv set.
+    GpuVertexExtra {
+        r: f32, g: f32, b: f32, a: f32,
+        t_x: f32, t_y: f32, t_z: f32, t_w: f32,
+        u1: f32, v1: f32, _pad0: u32, _pad1: u32,
+    }
+}
+
+gpu_record! {
     /// An entry of the primitive list (`reference::scene::Primitive`).
     GpuPrimitive {
         tag: u32, index: u32,
@@ -66,17 +78,25 @@ gpu_record! {
     /// DIELECTRIC `p0` = ior, `absorption_*`; DIFFUSE_LIGHT `texture` =
     /// emission; GGX `texture` = base colour, `p0` = metallic, `p1` =
     /// roughness, `texture2` = the metallic-roughness texture or
-    /// `NO_TEXTURE`.
-    GpuMaterial { tag: u32, texture: u32, p0: f32, p1: f32, absorption_r: f32, absorption_g: f32, absorption_b: f32, texture2: u32 }
+    /// `NO_TEXTURE`, `texture3` = the normal map or `NO_TEXTURE`, `p2` =
+    /// the normal map's scale.
+    GpuMaterial {
+        tag: u32, texture: u32, p0: f32, p1: f32,
+        absorption_r: f32, absorption_g: f32, absorption_b: f32, texture2: u32,
+        texture3: u32, p2: f32, _pad0: u32, _pad1: u32,
+    }
 }
 
 /// `GpuTexture::sampler` bits: the u axis's wrap tag
 /// (`reference::texture::wrap_tag`) in bits 0-1, the v axis's in 2-3, then
-/// the nearest filter and whether `t0..t5` transform uv.
+/// the nearest filter, whether `t0..t5` transform uv, and the
+/// coordinate set.
 pub const SAMPLER_WRAP_V_SHIFT: u32 = 2;
 pub const SAMPLER_WRAP_MASK: u32 = 3;
 pub const SAMPLER_NEAREST: u32 = 1 << 4;
 pub const SAMPLER_TRANSFORM: u32 = 1 << 5;
+/// The texture reads the second set of texture coordinates.
+pub const SAMPLER_UV1: u32 = 1 << 6;
 
 gpu_record! {
     /// A texture (`reference::texture::Texture`), by tag: CONSTANT colour
@@ -147,6 +167,7 @@ pub fn wgsl_records() -> String {
         GpuQuad::WGSL,
         GpuTriangle::WGSL,
         GpuVertex::WGSL,
+        GpuVertexExtra::WGSL,
         GpuPrimitive::WGSL,
         GpuMaterial::WGSL,
         GpuTexture::WGSL,
@@ -171,7 +192,8 @@ mod tests {
         assert_eq!(std::mem::size_of::<GpuTriangle>(), 32);
         assert_eq!(std::mem::size_of::<GpuVertex>(), 32);
         assert_eq!(std::mem::size_of::<GpuPrimitive>(), 32);
-        assert_eq!(std::mem::size_of::<GpuMaterial>(), 32);
+        assert_eq!(std::mem::size_of::<GpuVertexExtra>(), 48);
+        assert_eq!(std::mem::size_of::<GpuMaterial>(), 48);
         assert_eq!(std::mem::size_of::<GpuTexture>(), 64);
         assert_eq!(std::mem::size_of::<GpuEmitter>(), 8);
         assert_eq!(std::mem::size_of::<GpuLightDensity>(), 8);

@@ -37,6 +37,8 @@ pub struct PackedScene {
     pub quads: Vec<GpuQuad>,
     pub triangles: Vec<GpuTriangle>,
     pub vertices: Vec<GpuVertex>,
+    /// Empty when no triangle has colours, tangents or a second uv set.
+    pub vertex_extras: Vec<GpuVertexExtra>,
     pub materials: Vec<GpuMaterial>,
     pub textures: Vec<GpuTexture>,
     pub images: Vec<GpuImage>,
@@ -83,15 +85,47 @@ pub fn pack_material(m: &Material) -> GpuMaterial {
             metallic,
             roughness,
             metallic_roughness,
+            normal_map,
         } => GpuMaterial {
             tag,
             texture: base_color,
             p0: metallic,
             p1: roughness,
             texture2: metallic_roughness.unwrap_or(NO_TEXTURE),
+            texture3: normal_map.map_or(NO_TEXTURE, |n| n.texture),
+            p2: normal_map.map_or(0.0, |n| n.scale),
             ..Default::default()
         },
     }
+}
+
+/// The vertices' optional attributes, one record a vertex where the scene
+/// has any (each array of `mesh` is empty or one entry a vertex), else
+/// none.
+fn vertex_extras(mesh: &reference::shapes::MeshData) -> Vec<GpuVertexExtra> {
+    if mesh.colors.is_empty() && mesh.tangents.is_empty() && mesh.uvs1.is_empty() {
+        return Vec::new();
+    }
+    (0..mesh.positions.len())
+        .map(|i| {
+            let c = mesh.colors.get(i).copied().unwrap_or(glam::Vec4::ONE);
+            let t = mesh.tangents.get(i).copied().unwrap_or(glam::Vec4::ZERO);
+            let uv = mesh.uvs1.get(i).copied().unwrap_or(glam::Vec2::ZERO);
+            GpuVertexExtra {
+                r: c.x,
+                g: c.y,
+                b: c.z,
+                a: c.w,
+                t_x: t.x,
+                t_y: t.y,
+                t_z: t.z,
+                t_w: t.w,
+                u1: uv.x,
+                v1: uv.y,
+                ..Default::default()
+            }
+        })
+        .collect()
 }
 
 pub fn pack_texture(t: &Texture) -> GpuTexture {
@@ -120,6 +154,9 @@ pub fn pack_texture(t: &Texture) -> GpuTexture {
             if sampler.nearest {
                 bits |= SAMPLER_NEAREST;
             }
+            if sampler.tex_coord == 1 {
+                bits |= SAMPLER_UV1;
+            }
             if sampler.transform.is_some() {
                 bits |= SAMPLER_TRANSFORM;
             }
@@ -147,15 +184,21 @@ pub fn pack_texture(t: &Texture) -> GpuTexture {
 impl PackedScene {
     /// Each array with the binding it is uploaded to (every one of
     /// [`bindings::SCENE_ARRAYS`], in slot order).
-    pub fn arrays(&self) -> [(Binding, std::borrow::Cow<'_, [u8]>); 13] {
+    pub fn arrays(&self) -> [(Binding, std::borrow::Cow<'_, [u8]>); 14] {
         use bytemuck::cast_slice;
         use std::borrow::Cow;
         fn bytes<T: bytemuck::Pod>(v: &[T]) -> Cow<'_, [u8]> {
             Cow::Borrowed(cast_slice(v))
         }
-        let nodes = crate::traversal::node_words(&self.nodes, self.node_layout);
+        // The array-of-structures words are the records' own bytes.
+        let nodes = match self.node_layout {
+            NodeLayout::Aos => bytes(&self.nodes),
+            NodeLayout::Soa => Cow::Owned(
+                cast_slice(&crate::traversal::node_words(&self.nodes, self.node_layout)).to_vec(),
+            ),
+        };
         [
-            (bindings::NODES, Cow::Owned(cast_slice(&nodes).to_vec())),
+            (bindings::NODES, nodes),
             (bindings::LEAF_ENTRIES, bytes(&self.leaf_entries)),
             (bindings::PRIMITIVES, bytes(&self.primitives)),
             (bindings::SPHERES, bytes(&self.spheres)),
@@ -168,6 +211,7 @@ impl PackedScene {
             (bindings::TEXELS, bytes(&self.texels)),
             (bindings::EMITTERS, bytes(&self.emitters)),
             (bindings::LIGHT_DENSITIES, bytes(&self.light_densities)),
+            (bindings::VERTEX_EXTRAS, bytes(&self.vertex_extras)),
         ]
     }
 
@@ -291,6 +335,7 @@ impl PackedScene {
                     }
                 })
                 .collect(),
+            vertex_extras: vertex_extras(m),
             materials: scene.materials().iter().map(pack_material).collect(),
             textures: scene.textures().iter().map(pack_texture).collect(),
             images,

@@ -16,7 +16,10 @@ use reference::material::{
 };
 use reference::rng::{dims, light_dims};
 use reference::scene::primitive_tag;
-use reference::shapes::{TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_UVS};
+use reference::shapes::{
+    TRIANGLE_HAS_COLORS, TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_TANGENTS, TRIANGLE_HAS_UV1,
+    TRIANGLE_HAS_UVS,
+};
 use reference::texture::texture_tag;
 
 /// The render program's pipeline-overridable constant that picks the
@@ -104,11 +107,15 @@ pub fn generate() -> String {
     s += &u("SAMPLER_WRAP_MASK", crate::records::SAMPLER_WRAP_MASK);
     s += &u("SAMPLER_NEAREST", crate::records::SAMPLER_NEAREST);
     s += &u("SAMPLER_TRANSFORM", crate::records::SAMPLER_TRANSFORM);
+    s += &u("SAMPLER_UV1", crate::records::SAMPLER_UV1);
     s += &u("BACKGROUND_SOLID", background_tag::SOLID);
     s += &u("BACKGROUND_SKY", background_tag::SKY);
     s += &u("BACKGROUND_ENVMAP", background_tag::ENVMAP);
     s += &u("TRIANGLE_HAS_NORMALS", TRIANGLE_HAS_NORMALS);
     s += &u("TRIANGLE_HAS_UVS", TRIANGLE_HAS_UVS);
+    s += &u("TRIANGLE_HAS_COLORS", TRIANGLE_HAS_COLORS);
+    s += &u("TRIANGLE_HAS_TANGENTS", TRIANGLE_HAS_TANGENTS);
+    s += &u("TRIANGLE_HAS_UV1", TRIANGLE_HAS_UV1);
     s += &u("NO_TEXTURE", crate::records::NO_TEXTURE);
     s += &u("BVH_LEAF", reference::bvh::BvhNode::LEAF);
     s += &u("BVH_STACK_SIZE", reference::bvh::BVH_STACK_SIZE as u32);

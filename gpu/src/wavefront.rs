@@ -53,11 +53,11 @@ pub const WAVE_SLOTS_SOFTWARE: u32 = 1 << 15;
 
 /// Storage buffers wf_prepare's pipeline layout holds (scene group, wave
 /// group, arguments): the wavefront needs an adapter with this many.
-pub const STORAGE_BUFFERS_NEEDED: u32 = 17;
+pub const STORAGE_BUFFERS_NEEDED: u32 = 18;
 
 /// Storage buffers the path megakernel's layouts hold (scene group, wave
 /// group).
-pub const STORAGE_BUFFERS_NEEDED_PATHS: u32 = 16;
+pub const STORAGE_BUFFERS_NEEDED_PATHS: u32 = 17;
 
 /// How the wavefront stores a path's state.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]

@@ -148,6 +148,8 @@ fn bsdf_sampling(c: &mut Criterion) {
         geometric_normal: Vec3::Y,
         shading_normal: Vec3::Y,
         uv: Vec2::ZERO,
+        uv1: Vec2::ZERO,
+        color: Vec3::ONE,
         p_error: 0.0,
         front_face: true,
         material: 0,
@@ -181,6 +183,7 @@ fn bsdf_sampling(c: &mut Criterion) {
                 metallic: 0.5,
                 roughness: 0.4,
                 metallic_roughness: None,
+                normal_map: None,
             },
         ),
     ] {

@@ -44,6 +44,12 @@ pub struct SurfaceInteraction {
     pub shading_normal: Vec3,
     /// Texture coordinates (v = 0 at the bottom of an image).
     pub uv: Vec2,
+    /// The second set of texture coordinates (zero where the shape has
+    /// none).
+    pub uv1: Vec2,
+    /// The vertex colour (linear RGB; one where the shape has none): it
+    /// scales the GGX base colour.
+    pub color: Vec3,
     /// Bound on the absolute error of each coordinate of `p` (see
     /// [`spawn_origin`]).
     pub p_error: f32,

@@ -7,7 +7,7 @@ use crate::mutants::{self, Mutant};
 use crate::rng::dims;
 use crate::sampling::{ggx, sample_cosine_hemisphere, sample_unit_ball};
 use crate::texture::{evaluate_texture, ImageData, Texture};
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::FRAC_1_PI;
 
 /// A material. Colour parameters are texture indices.
@@ -31,12 +31,26 @@ pub enum Material {
     /// `metallic_roughness`: a texture (linear data) whose blue channel
     /// scales `metallic` and green `roughness` at each point, as glTF's
     /// `metallicRoughnessTexture` ([`ggx_parameters`]).
+    ///
+    /// The base colour is the texture times the vertex colour
+    /// ([`SurfaceInteraction::color`]); `normal_map` bends the shading
+    /// normal where the surface has tangents ([`normal_mapped`]).
     Ggx {
         base_color: u32,
         metallic: f32,
         roughness: f32,
         metallic_roughness: Option<u32>,
+        normal_map: Option<NormalMap>,
     },
+}
+
+/// A tangent-space normal map (glTF's `normalTexture`): a texture of
+/// linear data whose texel `c` is the normal `(2c − 1)` in the frame
+/// (tangent, bitangent, normal), its x and y scaled by `scale`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NormalMap {
+    pub texture: u32,
+    pub scale: f32,
 }
 
 /// Numeric tags of [`Material`], shared with the GPU.
@@ -75,7 +89,13 @@ pub struct TextureContext<'a> {
 impl TextureContext<'_> {
     #[inline]
     pub fn eval(&self, id: u32, si: &SurfaceInteraction) -> Vec3 {
-        evaluate_texture(self.textures, self.images, id, si.p, si.uv)
+        evaluate_texture(self.textures, self.images, id, si.p, [si.uv, si.uv1])
+    }
+
+    /// The GGX base colour at `si`: texture `id` times the vertex colour.
+    #[inline]
+    pub fn base_color(&self, id: u32, si: &SurfaceInteraction) -> Vec3 {
+        self.eval(id, si) * si.color
     }
 }
 
@@ -160,6 +180,7 @@ pub fn scatter(
             metallic,
             roughness,
             metallic_roughness,
+            ..
         } => {
             let frame = Onb::from_normal(n);
             let wo = frame.to_local(-ray_dir);
@@ -168,7 +189,7 @@ pub fn scatter(
             }
             let (metallic, roughness) =
                 ggx_parameters(metallic, roughness, metallic_roughness, ctx, si);
-            let lobes = GgxLobes::new(ctx.eval(base_color, si), metallic, roughness, wo);
+            let lobes = GgxLobes::new(ctx.base_color(base_color, si), metallic, roughness, wo);
             let dir_u = Vec2::new(u[dims::DIRECTION_U], u[dims::DIRECTION_V]);
             let wi = if u[dims::LOBE] < lobes.specular_probability {
                 let m = ggx::sample_visible_normal(wo, lobes.alpha, dir_u);
@@ -224,6 +245,7 @@ pub fn bsdf_eval(
             metallic,
             roughness,
             metallic_roughness,
+            ..
         } => {
             let frame = Onb::from_normal(n);
             let (wo, wi) = (frame.to_local(-ray_dir), frame.to_local(wi));
@@ -232,7 +254,7 @@ pub fn bsdf_eval(
             }
             let (metallic, roughness) =
                 ggx_parameters(metallic, roughness, metallic_roughness, ctx, si);
-            let lobes = GgxLobes::new(ctx.eval(base_color, si), metallic, roughness, wo);
+            let lobes = GgxLobes::new(ctx.base_color(base_color, si), metallic, roughness, wo);
             Some((lobes.eval(wo, wi) * wi.z, lobes.pdf(wo, wi)))
         }
         Material::Metal { .. } | Material::Dielectric { .. } | Material::DiffuseLight { .. } => {
@@ -258,6 +280,40 @@ pub fn ggx_parameters(
             let texel = ctx.eval(t, si);
             (metallic * texel.z, roughness * texel.y)
         }
+    }
+}
+
+/// The shading normal a normal map gives: `n` the interpolated vertex
+/// normal (unit; the geometric one where the surface has none) in whose
+/// frame the map is written, `side` ±1 the flip that put it on the side of
+/// `ng`, `tangent` the interpolated tangent (`xyz` toward increasing u,
+/// `w`'s sign the bitangent's side) and `texel` the map's value. The
+/// tangent is made orthogonal to `n` (Gram-Schmidt), the bitangent is
+/// `sign(w) · n × t`, and the mapped normal `(2·texel − 1)` with x and y
+/// times `scale` is taken into that frame and normalized (glTF 2.0,
+/// "normalTexture"). Where the result is not on `ng`'s side (a map tilted
+/// past the horizon), or the frame is degenerate, the unmapped
+/// `side · n` is kept: the shading normal never faces away from the
+/// geometric one.
+#[inline]
+pub fn normal_mapped(n: Vec3, side: f32, ng: Vec3, tangent: Vec4, texel: Vec3, scale: f32) -> Vec3 {
+    let unmapped = side * n;
+    let t = tangent.truncate();
+    let t = (t - n * n.dot(t)).normalize_or_zero();
+    if t == Vec3::ZERO {
+        return unmapped;
+    }
+    let b = if tangent.w < 0.0 {
+        -n.cross(t)
+    } else {
+        n.cross(t)
+    };
+    let m = (2.0 * texel - Vec3::ONE) * Vec3::new(scale, scale, 1.0);
+    let mapped = side * (m.x * t + m.y * b + m.z * n).normalize_or_zero();
+    if mapped.dot(ng) > 0.0 {
+        mapped
+    } else {
+        unmapped
     }
 }
 
@@ -358,6 +414,8 @@ mod tests {
             geometric_normal: Vec3::Y,
             shading_normal: Vec3::Y,
             uv: Vec2::ZERO,
+            uv1: Vec2::ZERO,
+            color: Vec3::ONE,
             p_error: 0.0,
             front_face,
             material: 0,
@@ -488,12 +546,14 @@ mod tests {
             metallic: 0.8,
             roughness: 0.6,
             metallic_roughness: Some(1),
+            normal_map: None,
         };
         let plain = Material::Ggx {
             base_color: 0,
             metallic: 0.8 * 0.25,
             roughness: 0.6 * 0.5,
             metallic_roughness: None,
+            normal_map: None,
         };
         let d = Vec3::new(0.3, -1.0, 0.1).normalize();
         for i in 0..64 {
@@ -512,6 +572,78 @@ mod tests {
     }
 
     #[test]
+    fn normal_maps_tilt_the_normal_in_the_tangent_frame() {
+        let (n, ng) = (Vec3::Z, Vec3::Z);
+        let tangent = Vec4::new(1.0, 0.0, 0.3, 1.0); // not orthogonal to n
+        let texel = |m: Vec3| (m + Vec3::ONE) / 2.0;
+        let close = |a: Vec3, b: Vec3| (a - b).length() < 1e-6;
+        // The flat texel keeps the normal.
+        assert!(close(
+            normal_mapped(n, 1.0, ng, tangent, texel(Vec3::Z), 1.0),
+            n
+        ));
+        // Toward the tangent (x) and the bitangent (y = n × t, its side
+        // given by w), x and y scaled by `scale`.
+        let (s, c) = 0.5f32.sin_cos();
+        let toward_t = texel(Vec3::new(s, 0.0, c));
+        let toward_b = texel(Vec3::new(0.0, s, c));
+        assert!(close(
+            normal_mapped(n, 1.0, ng, tangent, toward_t, 1.0),
+            Vec3::new(s, 0.0, c)
+        ));
+        assert!(close(
+            normal_mapped(n, 1.0, ng, tangent, toward_b, 1.0),
+            Vec3::new(0.0, s, c)
+        ));
+        let mirrored = Vec4::new(1.0, 0.0, 0.0, -1.0);
+        assert!(close(
+            normal_mapped(n, 1.0, ng, mirrored, toward_b, 1.0),
+            Vec3::new(0.0, -s, c)
+        ));
+        let half = normal_mapped(n, 1.0, ng, tangent, toward_t, 0.5);
+        assert!(close(half, Vec3::new(0.5 * s, 0.0, c).normalize()));
+        // A normal flipped onto the geometric side (side −1) has its
+        // mapped normal flipped with it.
+        assert!(close(
+            normal_mapped(-n, -1.0, ng, tangent, toward_t, 1.0),
+            Vec3::new(-s, 0.0, c)
+        ));
+        // Past the horizon, or with no usable tangent: the unmapped normal.
+        let grazing = texel(Vec3::new(1.0, 0.0, -0.2));
+        assert_eq!(normal_mapped(n, 1.0, ng, tangent, grazing, 1.0), n);
+        let along_n = Vec4::new(0.0, 0.0, 2.0, 1.0);
+        assert_eq!(normal_mapped(n, 1.0, ng, along_n, toward_t, 1.0), n);
+    }
+
+    #[test]
+    fn the_vertex_colour_scales_the_ggx_base_colour() {
+        let tex = [Texture::Constant(Vec3::new(0.9, 0.5, 0.2))];
+        let m = Material::Ggx {
+            base_color: 0,
+            metallic: 0.0,
+            roughness: 0.5,
+            metallic_roughness: None,
+            normal_map: None,
+        };
+        let tinted = SurfaceInteraction {
+            color: Vec3::new(0.5, 1.0, 0.25),
+            ..si(true)
+        };
+        let d = Vec3::new(0.5, -1.0, 0.2).normalize();
+        let wi = Vec3::new(-0.3, 1.0, 0.1).normalize();
+        let (plain, _) = bsdf_eval(&m, ctx(&tex), d, &si(true), wi).unwrap();
+        let (scaled, _) = bsdf_eval(&m, ctx(&tex), d, &tinted, wi).unwrap();
+        // The diffuse lobe scales with the colour; the dielectric specular
+        // (F0 0.04) does not: each channel between the two bounds.
+        for k in 0..3 {
+            let c = tinted.color[k];
+            assert!(scaled[k] <= plain[k] + 1e-7 && scaled[k] >= c * plain[k] - 1e-7);
+        }
+        assert!(scaled.x < plain.x && scaled.z < plain.z);
+        assert_eq!(scaled.y, plain.y);
+    }
+
+    #[test]
     fn ggx_weight_matches_eval_cos_over_pdf_and_conserves_energy() {
         let tex = [Texture::Constant(Vec3::new(0.9, 0.5, 0.2))];
         for (metallic, roughness) in [(0.0, 0.5), (1.0, 0.3), (0.5, 0.8), (1.0, 0.0)] {
@@ -520,6 +652,7 @@ mod tests {
                 metallic,
                 roughness,
                 metallic_roughness: None,
+                normal_map: None,
             };
             let d = Vec3::new(0.5, -1.0, 0.2).normalize();
             let n = 20_000;

@@ -57,6 +57,7 @@ pub fn icosphere(subdivisions: u32) -> MeshInput {
         positions,
         uvs: None,
         indices: triangles.into_iter().flatten().collect(),
+        ..MeshInput::default()
     }
 }
 
@@ -133,6 +134,7 @@ pub fn torus(major: f32, minor: f32, segments_major: u32, segments_minor: u32) -
         normals: Some(normals),
         uvs: None,
         indices,
+        ..MeshInput::default()
     }
 }
 

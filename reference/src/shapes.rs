@@ -32,7 +32,7 @@ pub struct Triangle {
     /// Indices into `MeshData::positions` (and `normals`/`uvs` when present).
     pub vertices: [u32; 3],
     pub material: u32,
-    /// `TRIANGLE_HAS_NORMALS | TRIANGLE_HAS_UVS`.
+    /// Which per-vertex attributes it carries: `TRIANGLE_HAS_*`.
     pub flags: u32,
 }
 
@@ -40,6 +40,13 @@ pub struct Triangle {
 pub const TRIANGLE_HAS_NORMALS: u32 = 1;
 /// The triangle carries per-vertex texture coordinates.
 pub const TRIANGLE_HAS_UVS: u32 = 2;
+/// The triangle carries per-vertex colours (`MeshData::colors`).
+pub const TRIANGLE_HAS_COLORS: u32 = 4;
+/// The triangle carries per-vertex tangents (`MeshData::tangents`).
+pub const TRIANGLE_HAS_TANGENTS: u32 = 8;
+/// The triangle carries a second set of texture coordinates
+/// (`MeshData::uvs1`).
+pub const TRIANGLE_HAS_UV1: u32 = 16;
 
 /// Vertex arrays shared by all triangles of a scene (world space).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -49,6 +56,18 @@ pub struct MeshData {
     pub normals: Vec<Vec3>,
     /// Same length as `positions`; zero where a mesh had no uvs.
     pub uvs: Vec<Vec2>,
+    /// Linear RGBA vertex colours (glTF's COLOR_0): empty when no mesh of
+    /// the scene has them, else the length of `positions` (one where a
+    /// mesh had none).
+    pub colors: Vec<Vec4>,
+    /// Tangents: `xyz` the direction of increasing u, `w` (±1) the
+    /// bitangent's side, `bitangent = w · (normal × xyz)` (glTF's
+    /// TANGENT). Empty when no mesh has them, else the length of
+    /// `positions` (zero where a mesh had none).
+    pub tangents: Vec<Vec4>,
+    /// A second set of texture coordinates (glTF's TEXCOORD_1): empty or
+    /// the length of `positions`, as `tangents`.
+    pub uvs1: Vec<Vec2>,
 }
 
 impl Sphere {

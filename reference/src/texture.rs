@@ -134,9 +134,20 @@ pub struct Sampler {
     /// `uv' = (t0·u + t1·v + t2, t3·u + t4·v + t5)` in the renderer's uv
     /// convention (v up); `None`: uv as is.
     pub transform: Option<[f32; 6]>,
+    /// Which set of the surface's texture coordinates it reads, 0 or 1
+    /// (glTF's `texCoord`).
+    pub tex_coord: u32,
 }
 
 impl Sampler {
+    /// The coordinates the texture reads at a point whose two sets are
+    /// `uvs`: its set, transformed.
+    #[inline]
+    pub fn coordinates(&self, uvs: [Vec2; 2]) -> Vec2 {
+        let uv = if self.tex_coord == 1 { uvs[1] } else { uvs[0] };
+        self.transformed_uv(uv)
+    }
+
     /// `uv` as the texture reads it.
     #[inline]
     pub fn transformed_uv(&self, uv: Vec2) -> Vec2 {
@@ -189,37 +200,38 @@ impl Texture {
     }
 }
 
-/// Evaluates texture `id` at point `p` with coordinates `uv`.
+/// Evaluates texture `id` at point `p` whose texture coordinates (both
+/// sets) are `uvs`.
 pub fn evaluate_texture(
     textures: &[Texture],
     images: &[ImageData],
     id: u32,
     p: Vec3,
-    uv: Vec2,
+    uvs: [Vec2; 2],
 ) -> Vec3 {
     match textures[id as usize] {
         Texture::Constant(c) => c,
         Texture::Checker { scale, even, odd } => {
             let sines = (scale * p.x).sin() * (scale * p.y).sin() * (scale * p.z).sin();
             let pick = if sines < 0.0 { odd } else { even };
-            evaluate_leaf(textures, images, pick, uv)
+            evaluate_leaf(textures, images, pick, uvs)
         }
         Texture::Image {
             image,
             factor,
             sampler,
-        } => factor * images[image as usize].sample_image(sampler.transformed_uv(uv), &sampler),
+        } => factor * images[image as usize].sample_image(sampler.coordinates(uvs), &sampler),
     }
 }
 
-fn evaluate_leaf(textures: &[Texture], images: &[ImageData], id: u32, uv: Vec2) -> Vec3 {
+fn evaluate_leaf(textures: &[Texture], images: &[ImageData], id: u32, uvs: [Vec2; 2]) -> Vec3 {
     match textures[id as usize] {
         Texture::Constant(c) => c,
         Texture::Image {
             image,
             factor,
             sampler,
-        } => factor * images[image as usize].sample_image(sampler.transformed_uv(uv), &sampler),
+        } => factor * images[image as usize].sample_image(sampler.coordinates(uvs), &sampler),
         // The scene builder rejects checkers nested in checkers.
         Texture::Checker { .. } => Vec3::ZERO,
     }
@@ -354,11 +366,11 @@ mod tests {
         let p_even = Vec3::splat(1.0); // sin(1)^3 > 0
         let p_odd = Vec3::new(-1.0, 1.0, 1.0);
         assert_eq!(
-            evaluate_texture(&textures, &[], 2, p_even, Vec2::ZERO),
+            evaluate_texture(&textures, &[], 2, p_even, [Vec2::ZERO; 2]),
             Vec3::ONE
         );
         assert_eq!(
-            evaluate_texture(&textures, &[], 2, p_odd, Vec2::ZERO),
+            evaluate_texture(&textures, &[], 2, p_odd, [Vec2::ZERO; 2]),
             Vec3::ZERO
         );
     }
@@ -375,9 +387,28 @@ mod tests {
             &[two_by_two()],
             0,
             Vec3::ZERO,
-            Vec2::new(0.75, 0.25),
+            [Vec2::new(0.75, 0.25), Vec2::ZERO],
         );
         assert_eq!(c, Vec3::splat(0.5));
+    }
+
+    #[test]
+    fn a_texture_reads_the_coordinate_set_its_sampler_names() {
+        let img = two_by_two();
+        let uvs = [Vec2::new(0.25, 0.25), Vec2::new(0.75, 0.75)];
+        let read = |tex_coord| {
+            let textures = [Texture::Image {
+                image: 0,
+                factor: Vec3::ONE,
+                sampler: Sampler {
+                    tex_coord,
+                    ..Sampler::default()
+                },
+            }];
+            evaluate_texture(&textures, std::slice::from_ref(&img), 0, Vec3::ZERO, uvs)
+        };
+        assert_eq!(read(0), Vec3::Z);
+        assert_eq!(read(1), Vec3::Y);
     }
 
     #[test]

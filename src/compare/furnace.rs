@@ -394,6 +394,7 @@ pub fn ggx_metal_plane(
         metallic: 1.0,
         roughness,
         metallic_roughness: None,
+        normal_map: None,
     })?;
     // The plane y = 0, normal +y: u × v = (0,0,1000) × (1000,0,0) = +y.
     b.add_quad(

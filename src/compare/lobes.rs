@@ -52,6 +52,8 @@ impl LobeCase {
             geometric_normal: Vec3::Z,
             shading_normal: Vec3::Z,
             uv: Vec2::ZERO,
+            uv1: Vec2::ZERO,
+            color: Vec3::ONE,
             p_error: 0.0,
             front_face: self.front_face,
             material: 0,

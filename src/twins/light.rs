@@ -103,6 +103,7 @@ pub fn add_three_lights(b: &mut SceneBuilder, sphere: (Vec3, f32)) {
             normals: None,
             uvs: None,
             indices: vec![0, 1, 2],
+            ..MeshInput::default()
         },
         warm,
         &id,

@@ -13,11 +13,12 @@
 //!   once where the CPU rounds twice), and always strictly on the normal's
 //!   side of the point.
 
-use super::{camera_and_random_rays, ensure, run_kernel, Outcome};
+use super::{camera_and_random_rays, ensure, run_kernel, run_kernel_with_library, Outcome};
 use crate::compare::gate::fixture_scene;
 use glam::{Vec2, Vec3};
 use gpu::GpuContext;
 use reference::geometry::{gamma, spawn_origin, Ray};
+use reference::material::Material;
 use reference::rng::random_f32;
 use reference::scene::primitive_tag;
 use reference::Scene;
@@ -36,6 +37,15 @@ const NORMAL_TOL: f32 = 8.0 * EPS;
 /// hit's (exact).
 const SPHERE_UV_TOL: f32 = 4096.0 * EPS;
 
+/// A normal-mapped shading normal adds to the interpolated one's error
+/// (within NORMAL_TOL): the interpolated tangent (a three-term sum), its
+/// Gram-Schmidt step and normalization (about 8 roundings and an
+/// `inverseSqrt`), the bilinear texel (three lerps of 2 roundings each,
+/// times 2 and minus 1), the mapped sum of three products and its
+/// normalization: some 30 ulps, counted generously as 64. (Measured worst
+/// on the fixtures: printed by the test as a fraction of the bound.)
+const NORMAL_MAPPED_TOL: f32 = 64.0 * EPS;
+
 /// `p_error` is γ(n) times a sum of magnitudes of the point: relative
 /// error of a few roundings plus the point's own difference, 16 ε.
 const P_ERROR_REL_TOL: f32 = 16.0 * EPS;
@@ -52,7 +62,7 @@ fn si_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let d = vec3<f32>(bitcast<f32>(input[w + 3u]), bitcast<f32>(input[w + 4u]), bitcast<f32>(input[w + 5u]));
     let uv = vec2<f32>(bitcast<f32>(input[w + 8u]), bitcast<f32>(input[w + 9u]));
     let si = surface_interaction(Ray(o, d), Hit(true, bitcast<f32>(input[w + 6u]), input[w + 7u], uv));
-    let r = 14u * i;
+    let r = 19u * i;
     output[r] = bitcast<u32>(si.p.x);
     output[r + 1u] = bitcast<u32>(si.p.y);
     output[r + 2u] = bitcast<u32>(si.p.z);
@@ -67,8 +77,16 @@ fn si_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     output[r + 11u] = bitcast<u32>(si.p_error);
     output[r + 12u] = select(0u, 1u, si.front_face);
     output[r + 13u] = si.material;
+    output[r + 14u] = bitcast<u32>(si.uv1.x);
+    output[r + 15u] = bitcast<u32>(si.uv1.y);
+    output[r + 16u] = bitcast<u32>(si.color.x);
+    output[r + 17u] = bitcast<u32>(si.color.y);
+    output[r + 18u] = bitcast<u32>(si.color.z);
 }
 ";
+
+/// Words a case's output holds.
+const SI_WORDS: usize = 19;
 
 /// Camera rays and random rays through the scene's bounds that hit.
 fn hits(scene: &Scene) -> Vec<(Ray, reference::geometry::Hit)> {
@@ -89,6 +107,35 @@ fn v3(w: &[u32]) -> Vec3 {
 /// The surface interactions of `scene` at the reference's own hits, GPU vs
 /// reference, within the tolerances above.
 pub fn surface_interactions(ctx: &GpuContext, name: &str, scene: &Scene) -> Outcome {
+    surface_interactions_with_library(ctx, name, scene, &gpu::shader::library_source())
+}
+
+/// Whether the reference bends the shading normal of primitive `prim` by a
+/// normal map (a triangle with tangents whose material has one).
+fn normal_mapped(scene: &Scene, prim: u32) -> bool {
+    let p = scene.primitives()[prim as usize];
+    if p.tag != primitive_tag::TRIANGLE {
+        return false;
+    }
+    let tri = scene.triangles()[p.index as usize];
+    tri.flags & reference::shapes::TRIANGLE_HAS_TANGENTS != 0
+        && matches!(
+            scene.materials()[tri.material as usize],
+            Material::Ggx {
+                normal_map: Some(_),
+                ..
+            }
+        )
+}
+
+/// [`surface_interactions`] over `library` (the production WGSL, or a
+/// mutant's).
+pub fn surface_interactions_with_library(
+    ctx: &GpuContext,
+    name: &str,
+    scene: &Scene,
+    library: &str,
+) -> Outcome {
     let cases = hits(scene);
     ensure!(cases.len() > 500, "{name}: only {} hits", cases.len());
     let input: Vec<u32> = cases
@@ -103,22 +150,24 @@ pub fn surface_interactions(ctx: &GpuContext, name: &str, scene: &Scene) -> Outc
                 .collect::<Vec<_>>()
         })
         .collect();
-    let out = run_kernel(
+    let out = run_kernel_with_library(
         ctx,
         scene,
-        SI_SNIPPET,
-        "si_main",
+        (SI_SNIPPET, "si_main"),
         &input,
-        cases.len(),
-        14 * cases.len(),
+        (cases.len(), SI_WORDS * cases.len()),
+        library,
     )?;
     let mut worst = [0.0f32; 4];
+    let mut mapped = 0;
     let mut failures = Vec::new();
     for (i, (ray, hit)) in cases.iter().enumerate() {
         let cpu = scene.surface_interaction(ray, hit);
-        let w = &out[14 * i..14 * (i + 1)];
+        let w = &out[SI_WORDS * i..SI_WORDS * (i + 1)];
         let (p, ng, ns) = (v3(&w[0..3]), v3(&w[3..6]), v3(&w[6..9]));
         let uv = Vec2::new(f32::from_bits(w[9]), f32::from_bits(w[10]));
+        let uv1 = Vec2::new(f32::from_bits(w[14]), f32::from_bits(w[15]));
+        let color = v3(&w[16..19]);
         let p_error = f32::from_bits(w[11]);
         let at = format!("{name} case {i} (prim {}, t {})", hit.prim, hit.t);
         let prim = scene.primitives()[hit.prim as usize];
@@ -153,16 +202,37 @@ pub fn surface_interactions(ctx: &GpuContext, name: &str, scene: &Scene) -> Outc
                 cpu.geometric_normal
             ));
         }
+        let shading_tol = if normal_mapped(scene, hit.prim) {
+            mapped += 1;
+            NORMAL_MAPPED_TOL
+        } else {
+            normal_tol
+        };
         let ds = (ns - cpu.shading_normal).abs().max_element();
-        if ds > normal_tol {
+        if ds > shading_tol {
             fail(format!(
-                "shading normal {ns} vs {} (bound {normal_tol})",
+                "shading normal {ns} vs {} (bound {shading_tol})",
                 cpu.shading_normal
             ));
         }
         let duv = (uv - cpu.uv).abs().max_element();
         if duv > uv_tol {
             fail(format!("uv {uv} vs {} (bound {uv_tol})", cpu.uv));
+        }
+        // The second set and the colour are three-term sums, as triangle
+        // uv (zero and one where the surface has none: exact).
+        let uv1_tol = NORMAL_TOL * cpu.uv1.abs().max_element().max(1.0);
+        let duv1 = (uv1 - cpu.uv1).abs().max_element();
+        if duv1 > uv1_tol {
+            fail(format!("uv1 {uv1} vs {} (bound {uv1_tol})", cpu.uv1));
+        }
+        let color_tol = NORMAL_TOL * cpu.color.abs().max_element().max(1.0);
+        let dc = (color - cpu.color).abs().max_element();
+        if dc > color_tol {
+            fail(format!(
+                "colour {color} vs {} (bound {color_tol})",
+                cpu.color
+            ));
         }
         let de = (p_error - cpu.p_error).abs() / cpu.p_error;
         if de > P_ERROR_REL_TOL {
@@ -174,8 +244,8 @@ pub fn surface_interactions(ctx: &GpuContext, name: &str, scene: &Scene) -> Outc
         }
         for (k, x) in [
             dp / p_tol,
-            dn.max(ds) / normal_tol,
-            duv / uv_tol,
+            (dn / normal_tol).max(ds / shading_tol),
+            (duv / uv_tol).max(duv1 / uv1_tol).max(dc / color_tol),
             de / P_ERROR_REL_TOL,
         ]
         .into_iter()
@@ -192,7 +262,7 @@ pub fn surface_interactions(ctx: &GpuContext, name: &str, scene: &Scene) -> Outc
         &failures[..failures.len().min(5)]
     );
     Ok(format!(
-        "{name}: {} hits; largest |Δp| {:.3}, |Δn| {:.3}, |Δuv| {:.3}, |Δp_error| {:.3} of their bounds",
+        "{name}: {} hits ({mapped} normal-mapped); largest |Δp| {:.3}, |Δn| {:.3}, |Δuv, Δuv1, Δcolour| {:.3}, |Δp_error| {:.3} of their bounds",
         cases.len(),
         worst[0],
         worst[1],
@@ -201,8 +271,10 @@ pub fn surface_interactions(ctx: &GpuContext, name: &str, scene: &Scene) -> Outc
     ))
 }
 
-/// [`surface_interactions`] on spheres (rtow-final), quads (cornell), and
-/// triangles with shading normals and uv (the glTF fixture).
+/// [`surface_interactions`] on spheres (rtow-final), quads (cornell),
+/// triangles with shading normals and uv (the glTF fixture), and triangles
+/// with vertex colours, a second uv set and normal maps (the glTF
+/// materials fixture).
 pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let load = |spec: &str| reference::load_scene(spec).map_err(|e| e.to_string());
     let mut lines = Vec::new();
@@ -210,6 +282,10 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
         ("rtow-final", load("rtow-final")?),
         ("cornell", load("cornell")?),
         ("gltf-mesh", load(&fixture_scene("gltf-mesh.json"))?),
+        (
+            "gltf-materials",
+            load(&fixture_scene("gltf-materials.json"))?,
+        ),
     ] {
         lines.push(surface_interactions(ctx, name, &scene)?);
     }

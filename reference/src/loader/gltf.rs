@@ -21,12 +21,19 @@
 //! Geometry: `Triangles`, `TriangleStrip` and `TriangleFan` primitives are
 //! imported (strips and fans are converted to triangles as the glTF spec
 //! defines them); points and lines are skipped. Attributes read: POSITION,
-//! NORMAL and TEXCOORD_0, stored as float or (normalized) integers, dense or
-//! sparse. glTF's texture origin is the top-left corner and the reference's
-//! the bottom-left, so `v` becomes `1 - v`. Normals go through the inverse
-//! transpose of the node's matrix, and a node whose matrix mirrors (negative
-//! determinant) has its triangles' winding reversed so that front faces stay
-//! front faces, as the glTF spec requires.
+//! NORMAL, TEXCOORD_0 and TEXCOORD_1, COLOR_0 (RGB or RGBA) and TANGENT
+//! (kept only where the material has a normal map, and ignored without
+//! NORMAL, as the spec says), stored as float or (normalized) integers,
+//! dense or sparse. glTF's texture origin is the top-left corner and the
+//! reference's the bottom-left, so `v` becomes `1 - v`. Normals go through
+//! the inverse transpose of the node's matrix, tangents through the matrix
+//! (their `w` changing sign under a mirror), and a node whose matrix
+//! mirrors (negative determinant) has its triangles' winding reversed so
+//! that front faces stay front faces, as the glTF spec requires. A
+//! primitive whose material has a normal map but no TANGENT gets MikkTSpace
+//! tangents ([`with_generated_tangents`]). The `mesh` object
+//! ([`load_gltf_mesh`]) keeps positions, normals and TEXCOORD_0 only: its
+//! material is the scene file's.
 //!
 //! Materials (metallic-roughness): `baseColorFactor` (RGB; alpha is
 //! ignored) and `baseColorTexture` become the base colour of a
@@ -40,10 +47,14 @@
 //! [`Material::Dielectric`] (`Importer::dielectric` says how, and what is
 //! lost is one warning line). The `metallicRoughnessTexture` scales the
 //! factors per point (blue: metallic, green: roughness;
-//! `material::ggx_parameters`). Not supported (ignored): the normal and
-//! occlusion textures (occlusion is baked ambient light, which a path
-//! tracer computes itself), `texCoord` sets other than 0 (TEXCOORD_0 is
-//! used for every texture, with a warning), alpha modes, `doubleSided` (other
+//! `material::ggx_parameters`); vertex colours scale the base colour; the
+//! `normalTexture` bends the GGX material's shading normal
+//! ([`crate::material::normal_mapped`]). A texture reads the coordinate
+//! set its `texCoord` (or its transform's) names, 0 or 1 (a set above 1 is
+//! a warning, and TEXCOORD_0 is read). Not supported (ignored): the
+//! occlusion texture (occlusion is baked ambient light, which a path
+//! tracer computes itself), alpha modes (MASK and BLEND are rendered
+//! opaque, with a warning), `doubleSided` (other
 //! materials shade both sides anyway; emitters emit from the front face
 //! only), skins, morph targets, animations and orthographic cameras.
 //! A primitive without a material gets the spec's default material: base
@@ -72,10 +83,10 @@
 use crate::background::Background;
 use crate::camera::CameraSettings;
 use crate::error::SceneError;
-use crate::material::Material;
+use crate::material::{Material, NormalMap};
 use crate::scene::{MeshInput, Scene, SceneBuilder, Transform, MAX_IMAGE_SIDE};
 use crate::texture::{srgb_to_linear, ImageData, Texture};
-use glam::{Affine3A, Mat3, Mat4, Vec2, Vec3};
+use glam::{Affine3A, Mat3, Mat4, Vec2, Vec3, Vec4};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::buffer::Data as BufferData;
 use gltf::mesh::{Mode, Semantic};
@@ -226,6 +237,14 @@ fn import_scene(
                 continue;
             };
             let material = importer.material(builder, primitive.material())?;
+            if local.uvs1.is_none() && texture_sets(&primitive.material()).contains(&1) {
+                builder.warnings.push(format!(
+                    "{}: meshes[{}].primitives[{}]: its material reads TEXCOORD_1, which the primitive lacks: (0, 0) is read",
+                    path.display(),
+                    mesh.index(),
+                    primitive.index()
+                ));
+            }
             let mut input = local.clone();
             if Mat3::from(world.matrix.matrix3).determinant() < 0.0 {
                 flip_winding(&mut input.indices);
@@ -593,18 +612,53 @@ fn read_primitive(
         ),
         None => None,
     };
-    let uvs = match primitive.get(&Semantic::TexCoords(0)) {
-        Some(a) => Some(
-            read_floats(&a, buffers, "TEXCOORD_0", Dimensions::Vec2)?
+    // A texture coordinate set, v flipped into the renderer's convention.
+    let read_uvs = |set: u32| -> Result<Option<Vec<Vec2>>, String> {
+        let Some(a) = primitive.get(&Semantic::TexCoords(set)) else {
+            return Ok(None);
+        };
+        let name = format!("TEXCOORD_{set}");
+        Ok(Some(
+            read_floats(&a, buffers, &name, Dimensions::Vec2)?
                 .chunks_exact(2)
                 .map(|c| Vec2::new(c[0], 1.0 - c[1]))
+                .collect(),
+        ))
+    };
+    let (uvs, uvs1) = (read_uvs(0)?, read_uvs(1)?);
+    let colors = match primitive.get(&Semantic::Colors(0)) {
+        Some(a) => {
+            let shape = match a.dimensions() {
+                Dimensions::Vec3 => Dimensions::Vec3,
+                _ => Dimensions::Vec4,
+            };
+            let floats = read_floats(&a, buffers, "COLOR_0", shape)?;
+            Some(match shape {
+                Dimensions::Vec3 => floats
+                    .chunks_exact(3)
+                    .map(|c| Vec3::from_slice(c).extend(1.0))
+                    .collect::<Vec<_>>(),
+                _ => floats.chunks_exact(4).map(Vec4::from_slice).collect(),
+            })
+        }
+        None => None,
+    };
+    // Tangents without normals are to be ignored (glTF 2.0, "Meshes").
+    let tangents = match (primitive.get(&Semantic::Tangents), &normals) {
+        (Some(a), Some(_)) => Some(
+            read_floats(&a, buffers, "TANGENT", Dimensions::Vec4)?
+                .chunks_exact(4)
+                .map(Vec4::from_slice)
                 .collect::<Vec<_>>(),
         ),
-        None => None,
+        _ => None,
     };
     for (name, len) in [
         ("NORMAL", normals.as_ref().map(Vec::len)),
         ("TEXCOORD_0", uvs.as_ref().map(Vec::len)),
+        ("TEXCOORD_1", uvs1.as_ref().map(Vec::len)),
+        ("COLOR_0", colors.as_ref().map(Vec::len)),
+        ("TANGENT", tangents.as_ref().map(Vec::len)),
     ] {
         if let Some(len) = len.filter(|&l| l != n) {
             return Err(format!("{name} has {len} elements but POSITION has {n}"));
@@ -645,12 +699,156 @@ fn read_primitive(
             .flat_map(|i| [vertices[i + 1], vertices[i + 2], vertices[0]])
             .collect(),
     };
-    Ok(Some(MeshInput {
+    let mut mesh = MeshInput {
         positions,
         normals,
         uvs,
         indices,
-    }))
+        colors,
+        tangents,
+        uvs1,
+    };
+    match normal_map_set(&primitive.material())? {
+        // Tangents serve normal maps only.
+        None => mesh.tangents = None,
+        Some(set) if mesh.tangents.is_none() => mesh = with_generated_tangents(mesh, set),
+        Some(_) => {}
+    }
+    Ok(Some(mesh))
+}
+
+/// The coordinate sets the material's textures read (a normal texture
+/// whose transform does not parse is left out: importing the material
+/// reports it).
+fn texture_sets(material: &gltf::Material) -> Vec<u32> {
+    let pbr = material.pbr_metallic_roughness();
+    let infos = [
+        pbr.base_color_texture(),
+        pbr.metallic_roughness_texture(),
+        material.emissive_texture(),
+    ];
+    let mut sets: Vec<u32> = infos
+        .iter()
+        .flatten()
+        .map(|info| TextureRef::of(info).set())
+        .collect();
+    sets.extend(normal_map_set(material).ok().flatten());
+    sets
+}
+
+/// The texture coordinate set the material's normal map reads (`None`:
+/// the material has no normal map).
+fn normal_map_set(material: &gltf::Material) -> Result<Option<u32>, String> {
+    match material.normal_texture() {
+        Some(normal) => Ok(Some(
+            TextureRef::of_normal(&normal)
+                .map_err(|m| format!("normalTexture: {m}"))?
+                .set(),
+        )),
+        None => Ok(None),
+    }
+}
+
+/// `mesh` with MikkTSpace tangents (the algorithm glTF 2.0 names for files
+/// without TANGENT) computed from its positions, its normals (the face
+/// normal where it has none) and texture coordinate set `set` in the
+/// renderer's convention (v up: the bitangent then points up the image,
+/// the convention of glTF's normal maps). The algorithm gives each
+/// triangle corner its own tangent; a vertex whose corners got different
+/// ones (at a uv seam or mirror) is split, one copy per tangent. A mesh
+/// with no coordinates of that set, or with non-finite values (which the
+/// scene builder refuses anyway), is returned as it is: no tangents, no
+/// normal mapping.
+fn with_generated_tangents(mesh: MeshInput, set: u32) -> MeshInput {
+    let uvs = match set {
+        0 => mesh.uvs.as_ref(),
+        1 => mesh.uvs1.as_ref(),
+        _ => None,
+    };
+    let Some(uvs) = uvs else { return mesh };
+    let finite = mesh.positions.iter().all(|p| p.is_finite())
+        && uvs.iter().all(|uv| uv.is_finite())
+        && mesh.normals.iter().flatten().all(|n| n.is_finite());
+    if !finite {
+        return mesh;
+    }
+    struct Corners<'m> {
+        mesh: &'m MeshInput,
+        uvs: &'m [Vec2],
+        tangents: Vec<Vec4>,
+    }
+    impl Corners<'_> {
+        fn vertex(&self, face: usize, vert: usize) -> usize {
+            self.mesh.indices[3 * face + vert] as usize
+        }
+    }
+    impl mikktspace::Geometry for Corners<'_> {
+        fn num_faces(&self) -> usize {
+            self.mesh.indices.len() / 3
+        }
+        fn num_vertices_of_face(&self, _face: usize) -> usize {
+            3
+        }
+        fn position(&self, face: usize, vert: usize) -> [f32; 3] {
+            self.mesh.positions[self.vertex(face, vert)].to_array()
+        }
+        fn normal(&self, face: usize, vert: usize) -> [f32; 3] {
+            match &self.mesh.normals {
+                Some(normals) => normals[self.vertex(face, vert)].to_array(),
+                None => {
+                    let [a, b, c] = [0, 1, 2].map(|v| self.mesh.positions[self.vertex(face, v)]);
+                    (b - a).cross(c - a).normalize_or_zero().to_array()
+                }
+            }
+        }
+        fn tex_coord(&self, face: usize, vert: usize) -> [f32; 2] {
+            self.uvs[self.vertex(face, vert)].to_array()
+        }
+        fn set_tangent_encoded(&mut self, tangent: [f32; 4], face: usize, vert: usize) {
+            self.tangents[3 * face + vert] = Vec4::from_array(tangent);
+        }
+    }
+    let mut corners = Corners {
+        mesh: &mesh,
+        uvs,
+        tangents: vec![Vec4::ZERO; mesh.indices.len()],
+    };
+    if !mikktspace::generate_tangents(&mut corners) {
+        return mesh;
+    }
+    let corner_tangents = corners.tangents;
+    // Weld corners back: one vertex per (original vertex, tangent).
+    let mut first_copy: HashMap<(u32, [u32; 4]), u32> = HashMap::new();
+    let mut source: Vec<u32> = Vec::new();
+    let mut tangents: Vec<Vec4> = Vec::new();
+    let indices: Vec<u32> = mesh
+        .indices
+        .iter()
+        .zip(&corner_tangents)
+        .map(|(&v, t)| {
+            *first_copy
+                .entry((v, t.to_array().map(f32::to_bits)))
+                .or_insert_with(|| {
+                    source.push(v);
+                    tangents.push(*t);
+                    source.len() as u32 - 1
+                })
+        })
+        .collect();
+    let pick = |values: &Vec<Vec3>| source.iter().map(|&v| values[v as usize]).collect();
+    let pick2 = |values: &Vec<Vec2>| source.iter().map(|&v| values[v as usize]).collect();
+    MeshInput {
+        positions: pick(&mesh.positions),
+        normals: mesh.normals.as_ref().map(pick),
+        uvs: mesh.uvs.as_ref().map(pick2),
+        uvs1: mesh.uvs1.as_ref().map(pick2),
+        colors: mesh
+            .colors
+            .as_ref()
+            .map(|c| source.iter().map(|&v| c[v as usize]).collect()),
+        tangents: Some(tangents),
+        indices,
+    }
 }
 
 /// The accessor's elements, tightly packed, with sparse substitutions applied.
@@ -865,6 +1063,7 @@ fn place(local: &MeshInput, world: &Affine3A) -> MeshInput {
         }),
         uvs: local.uvs.clone(),
         indices,
+        ..MeshInput::default()
     }
 }
 
@@ -874,7 +1073,7 @@ fn flat_shaded(mesh: MeshInput) -> MeshInput {
         positions: Vec::new(),
         normals: Some(Vec::new()),
         uvs: mesh.uvs.as_ref().map(|_| Vec::new()),
-        indices: Vec::new(),
+        ..MeshInput::default()
     };
     let normals = out.normals.get_or_insert_with(Vec::new);
     for (t, tri) in mesh.indices.chunks_exact(3).enumerate() {
@@ -901,7 +1100,7 @@ fn merge(parts: Vec<MeshInput>) -> Result<MeshInput, String> {
         positions: Vec::new(),
         normals: any_normals.then(Vec::new),
         uvs: any_uvs.then(Vec::new),
-        indices: Vec::new(),
+        ..MeshInput::default()
     };
     for part in parts {
         let part = if any_normals && part.normals.is_none() {
@@ -933,10 +1132,10 @@ struct Importer<'f> {
     file: &'f GltfFile,
     /// (glTF image index, sRGB-decoded) → builder image.
     images: HashMap<(usize, bool), u32>,
-    /// (glTF texture index, factor bits, sRGB-decoded, transform bits) →
-    /// builder texture.
+    /// (glTF texture index, factor bits, sRGB-decoded, transform bits,
+    /// coordinate set) → builder texture.
     #[allow(clippy::type_complexity)]
-    textures: HashMap<(usize, [u32; 3], bool, Option<[u32; 6]>), u32>,
+    textures: HashMap<(usize, [u32; 3], bool, Option<[u32; 6]>, u32), u32>,
     /// glTF material index (`None`: the default material) → builder material.
     materials: HashMap<Option<usize>, u32>,
 }
@@ -967,7 +1166,9 @@ impl Importer<'_> {
         })?;
         let converted = if emission != Vec3::ZERO {
             let texture = match material.emissive_texture() {
-                Some(info) => self.image_texture(builder, &info, emission, &context)?,
+                Some(info) => {
+                    self.image_texture(builder, &TextureRef::of(&info), emission, &context)?
+                }
                 None => builder
                     .constant(emission)
                     .map_err(|e| in_context(e.within("emissive")))?,
@@ -979,13 +1180,26 @@ impl Importer<'_> {
             let [r, g, b, _alpha] = pbr.base_color_factor();
             let factor = Vec3::new(r, g, b);
             let texture = match pbr.base_color_texture() {
-                Some(info) => self.image_texture(builder, &info, factor, &context)?,
+                Some(info) => {
+                    self.image_texture(builder, &TextureRef::of(&info), factor, &context)?
+                }
                 None => builder
                     .constant(factor)
                     .map_err(|e| in_context(e.within("baseColorFactor")))?,
             };
             let metallic_roughness = match pbr.metallic_roughness_texture() {
-                Some(info) => Some(self.data_texture(builder, &info, &context)?),
+                Some(info) => Some(self.data_texture(builder, &TextureRef::of(&info), &context)?),
+                None => None,
+            };
+            let normal_map = match material.normal_texture() {
+                Some(normal) => {
+                    let texture = TextureRef::of_normal(&normal)
+                        .map_err(|m| file.error(format!("{context}: normalTexture: {m}")))?;
+                    Some(NormalMap {
+                        texture: self.data_texture(builder, &texture, &context)?,
+                        scale: normal.scale(),
+                    })
+                }
                 None => None,
             };
             Material::Ggx {
@@ -993,8 +1207,36 @@ impl Importer<'_> {
                 metallic: pbr.metallic_factor(),
                 roughness: pbr.roughness_factor(),
                 metallic_roughness,
+                normal_map,
             }
         };
+        use gltf::material::AlphaMode;
+        let alpha = match material.alpha_mode() {
+            AlphaMode::Opaque => None,
+            AlphaMode::Mask => Some(format!(
+                "MASK (cutoff {})",
+                material.alpha_cutoff().unwrap_or(0.5)
+            )),
+            AlphaMode::Blend => Some("BLEND".to_string()),
+        };
+        if let Some(mode) = alpha {
+            self.warn(
+                builder,
+                &context,
+                &[format!("alphaMode {mode} rendered opaque")],
+            );
+        }
+        if material.normal_texture().is_some() && !matches!(converted, Material::Ggx { .. }) {
+            let kind = match converted {
+                Material::DiffuseLight { .. } => "an emitter",
+                _ => "the dielectric",
+            };
+            self.warn(
+                builder,
+                &context,
+                &[format!("normalTexture ignored on {kind}")],
+            );
+        }
         let id = builder.add_material(converted).map_err(in_context)?;
         self.materials.insert(key, id);
         Ok(id)
@@ -1102,55 +1344,56 @@ impl Importer<'_> {
     fn image_texture(
         &mut self,
         builder: &mut SceneBuilder,
-        info: &gltf::texture::Info,
+        texture: &TextureRef,
         factor: Vec3,
         context: &str,
     ) -> Result<u32, SceneError> {
-        self.texture(builder, info, factor, true, context)
+        self.texture(builder, texture, factor, true, context)
     }
 
-    /// A data texture (linear texels: metallic-roughness), factor 1.
+    /// A data texture (linear texels: metallic-roughness, normals),
+    /// factor 1.
     fn data_texture(
         &mut self,
         builder: &mut SceneBuilder,
-        info: &gltf::texture::Info,
+        texture: &TextureRef,
         context: &str,
     ) -> Result<u32, SceneError> {
-        self.texture(builder, info, Vec3::ONE, false, context)
+        self.texture(builder, texture, Vec3::ONE, false, context)
     }
 
-    /// The texture `info` names with its sampler and transform: a
-    /// `texCoord` other than 0 is a warning (TEXCOORD_0 is read).
+    /// The texture `texture` names with its sampler, transform and
+    /// coordinate set: a set other than 0 and 1 is a warning (TEXCOORD_0
+    /// is read).
     fn texture(
         &mut self,
         builder: &mut SceneBuilder,
-        info: &gltf::texture::Info,
+        reference: &TextureRef,
         factor: Vec3,
         srgb: bool,
         context: &str,
     ) -> Result<u32, SceneError> {
-        let texture = info.texture();
-        let transform = info.texture_transform();
-        let set = transform
-            .as_ref()
-            .and_then(|t| t.tex_coord())
-            .unwrap_or(info.tex_coord());
-        if set != 0 {
+        let texture = &reference.texture;
+        let mut set = reference.set();
+        if set > 1 {
             self.warn(
                 builder,
                 context,
                 &[format!(
-                    "texture {} reads TEXCOORD_{set}: TEXCOORD_0 is used",
+                    "texture {} reads TEXCOORD_{set}: TEXCOORD_0 is used (sets 0 and 1 are read)",
                     texture.index()
                 )],
             );
+            set = 0;
         }
-        let sampler = sampler(&texture, transform.as_ref());
+        let mut sampler = sampler(texture, reference.transform.as_ref());
+        sampler.tex_coord = set;
         let key = (
             texture.index(),
             factor.to_array().map(f32::to_bits),
             srgb,
             sampler.transform.map(|t| t.map(f32::to_bits)),
+            set,
         );
         if let Some(&id) = self.textures.get(&key) {
             return Ok(id);
@@ -1228,10 +1471,7 @@ impl Importer<'_> {
 /// the image, rotated clockwise 90°"); in the renderer's convention
 /// `u' = c·sx·u − s·sy·v + (ox + s·sy)`,
 /// `v' = s·sx·u + c·sy·v + (1 − c·sy − oy)` (computed in f64).
-fn sampler(
-    texture: &gltf::Texture,
-    transform: Option<&gltf::texture::TextureTransform>,
-) -> crate::texture::Sampler {
+fn sampler(texture: &gltf::Texture, transform: Option<&UvTransform>) -> crate::texture::Sampler {
     use crate::texture::{Sampler, Wrap};
     use gltf::texture::{MagFilter, WrappingMode};
     let wrap = |m: WrappingMode| match m {
@@ -1241,8 +1481,8 @@ fn sampler(
     };
     let s = texture.sampler();
     let transform = transform.map(|t| {
-        let ([ox, oy], [sx, sy]) = (t.offset().map(f64::from), t.scale().map(f64::from));
-        let (sin, cos) = f64::from(t.rotation()).sin_cos();
+        let ([ox, oy], [sx, sy]) = (t.offset.map(f64::from), t.scale.map(f64::from));
+        let (sin, cos) = f64::from(t.rotation).sin_cos();
         [
             cos * sx,
             -sin * sy,
@@ -1258,6 +1498,105 @@ fn sampler(
         wrap_v: wrap(s.wrap_t()),
         nearest: s.mag_filter() == Some(MagFilter::Nearest),
         transform,
+        tex_coord: 0,
+    }
+}
+
+/// The name of the texture transform extension.
+const TEXTURE_TRANSFORM: &str = "KHR_texture_transform";
+
+/// `KHR_texture_transform`'s values (defaults: no offset, rotation 0,
+/// scale 1) and its optional override of the coordinate set.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct UvTransform {
+    offset: [f32; 2],
+    rotation: f32,
+    scale: [f32; 2],
+    tex_coord: Option<u32>,
+}
+
+impl UvTransform {
+    fn of_info(info: &gltf::texture::Info) -> Option<Self> {
+        info.texture_transform().map(|t| UvTransform {
+            offset: t.offset(),
+            rotation: t.rotation(),
+            scale: t.scale(),
+            tex_coord: t.tex_coord(),
+        })
+    }
+
+    /// The extension's object as raw JSON (the `gltf` crate has no typed
+    /// accessor on normal textures): each member, where present, must be
+    /// of the extension's type and finite.
+    fn of_extension(value: Option<&serde_json::Value>) -> Result<Option<Self>, String> {
+        let Some(value) = value else { return Ok(None) };
+        let object = value
+            .as_object()
+            .ok_or_else(|| format!("{TEXTURE_TRANSFORM} is not an object"))?;
+        let number = |v: &serde_json::Value, name: &str| -> Result<f32, String> {
+            v.as_f64()
+                .map(|x| x as f32)
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| format!("{TEXTURE_TRANSFORM}.{name} {v} is not a finite number"))
+        };
+        let pair = |name: &str, default: [f32; 2]| -> Result<[f32; 2], String> {
+            match object.get(name) {
+                None => Ok(default),
+                Some(serde_json::Value::Array(a)) if a.len() == 2 => {
+                    Ok([number(&a[0], name)?, number(&a[1], name)?])
+                }
+                Some(v) => Err(format!("{TEXTURE_TRANSFORM}.{name} {v} is not two numbers")),
+            }
+        };
+        let tex_coord =
+            match object.get("texCoord") {
+                None => None,
+                Some(v) => Some(v.as_u64().and_then(|c| u32::try_from(c).ok()).ok_or_else(
+                    || format!("{TEXTURE_TRANSFORM}.texCoord {v} is not a set index"),
+                )?),
+            };
+        Ok(Some(UvTransform {
+            offset: pair("offset", [0.0, 0.0])?,
+            rotation: object
+                .get("rotation")
+                .map_or(Ok(0.0), |v| number(v, "rotation"))?,
+            scale: pair("scale", [1.0, 1.0])?,
+            tex_coord,
+        }))
+    }
+}
+
+/// A material's reference to a texture: which texture, which coordinate
+/// set, and its transform.
+struct TextureRef<'a> {
+    texture: gltf::Texture<'a>,
+    tex_coord: u32,
+    transform: Option<UvTransform>,
+}
+
+impl<'a> TextureRef<'a> {
+    fn of(info: &gltf::texture::Info<'a>) -> Self {
+        TextureRef {
+            texture: info.texture(),
+            tex_coord: info.tex_coord(),
+            transform: UvTransform::of_info(info),
+        }
+    }
+
+    fn of_normal(normal: &gltf::material::NormalTexture<'a>) -> Result<Self, String> {
+        Ok(TextureRef {
+            texture: normal.texture(),
+            tex_coord: normal.tex_coord(),
+            transform: UvTransform::of_extension(normal.extension_value(TEXTURE_TRANSFORM))?,
+        })
+    }
+
+    /// The coordinate set read: the transform's override, else the
+    /// reference's own.
+    fn set(&self) -> u32 {
+        self.transform
+            .and_then(|t| t.tex_coord)
+            .unwrap_or(self.tex_coord)
     }
 }
 
@@ -1715,12 +2054,14 @@ mod tests {
             normals: Some(vec![Vec3::Z; 3]),
             uvs: None,
             indices: vec![0, 1, 2],
+            ..MeshInput::default()
         };
         let b = MeshInput {
             positions: vec![Vec3::ZERO, Vec3::Y, Vec3::Z, Vec3::X],
             normals: None,
             uvs: Some(vec![Vec2::ONE; 4]),
             indices: vec![0, 2, 1, 3, 1, 2],
+            ..MeshInput::default()
         };
         let m = merge(vec![a, b]).unwrap();
         assert_eq!(m.positions.len(), 3 + 6);
@@ -1920,6 +2261,7 @@ mod tests {
             metallic,
             roughness,
             metallic_roughness: Some(mr),
+            normal_map: None,
         } = scene.materials()[0]
         else {
             panic!("{:?}", scene.materials());
@@ -2000,16 +2342,308 @@ mod tests {
         );
         assert!((du - o - Vec2::new(0.0, 0.5)).length() < 1e-6, "{o} {du}");
         assert!((dv - o - Vec2::new(-0.5, 0.0)).length() < 1e-6, "{o} {dv}");
-        // TEXCOORD_1 is not read yet: a warning names it.
-        doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["texCoord"] =
-            serde_json::json!(1);
-        let path = write(dir.path(), "set1.gltf", &serde_json::to_vec(&doc).unwrap());
-        let scene = load_gltf_document(&path).unwrap();
-        assert!(
-            scene.warnings().iter().any(|w| w.contains("TEXCOORD_1")),
-            "{:?}",
-            scene.warnings()
+        // Set 1 on a primitive without TEXCOORD_1, and set 2 (not read):
+        // each a warning naming the set.
+        for (set, says) in [
+            (1, "which the primitive lacks"),
+            (2, "sets 0 and 1 are read"),
+        ] {
+            doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["texCoord"] =
+                serde_json::json!(set);
+            let path = write(dir.path(), "set.gltf", &serde_json::to_vec(&doc).unwrap());
+            let scene = load_gltf_document(&path).unwrap();
+            assert!(
+                scene
+                    .warnings()
+                    .iter()
+                    .any(|w| w.contains(&format!("TEXCOORD_{set}")) && w.contains(says)),
+                "{:?}",
+                scene.warnings()
+            );
+        }
+    }
+
+    /// An added vertex attribute: name, accessor type, component type,
+    /// normalized, bytes.
+    type Attribute<'a> = (&'a str, &'a str, u32, bool, Vec<u8>);
+
+    /// The unit quad (z = 0, facing +z, NORMAL +z, glTF uv with v = 0 along
+    /// its top edge y = 1) with `attributes` added (name → accessor type,
+    /// component type, normalized, bytes) and material 0, `material`, whose
+    /// texture 0 is a 1x1 PNG of `texel`.
+    fn attributed_quad(
+        attributes: &[Attribute],
+        material: serde_json::Value,
+        texel: [u8; 3],
+    ) -> Vec<u8> {
+        let mut png = Vec::new();
+        image::RgbImage::from_raw(1, 1, texel.to_vec())
+            .unwrap()
+            .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+            .unwrap();
+        let mut bytes = Vec::new();
+        let mut views = Vec::new();
+        let mut add = |data: &[u8]| {
+            bytes.resize(bytes.len().next_multiple_of(4), 0);
+            views.push(serde_json::json!({ "buffer": 0, "byteOffset": bytes.len(), "byteLength": data.len() }));
+            bytes.extend_from_slice(data);
+            views.len() - 1
+        };
+        let p = add(&f32_bytes(&[
+            0., 0., 0., 1., 0., 0., 1., 1., 0., 0., 1., 0.,
+        ]));
+        let n = add(&f32_bytes(&[
+            0., 0., 1., 0., 0., 1., 0., 0., 1., 0., 0., 1.,
+        ]));
+        let uv = add(&f32_bytes(&[0., 1., 1., 1., 1., 0., 0., 0.]));
+        let i = add(&[0u16, 1, 2, 0, 2, 3].map(u16::to_le_bytes).concat());
+        let image = add(&png);
+        let mut accessors = vec![
+            serde_json::json!({ "bufferView": p, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0] }),
+            serde_json::json!({ "bufferView": n, "componentType": 5126, "count": 4, "type": "VEC3" }),
+            serde_json::json!({ "bufferView": uv, "componentType": 5126, "count": 4, "type": "VEC2" }),
+            serde_json::json!({ "bufferView": i, "componentType": 5123, "count": 6, "type": "SCALAR" }),
+        ];
+        let mut primitive_attributes =
+            serde_json::json!({ "POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2 });
+        for (name, kind, component, normalized, data) in attributes {
+            let count = match *name {
+                "COLOR_0" if *kind == "VEC3" && *component == 5126 => data.len() / 12,
+                _ => 4,
+            };
+            let view = add(data);
+            accessors.push(serde_json::json!({ "bufferView": view, "componentType": component, "normalized": normalized, "count": count, "type": kind }));
+            primitive_attributes[*name] = serde_json::json!(accessors.len() - 1);
+        }
+        bytes.resize(bytes.len().next_multiple_of(4), 0);
+        gltf_with(
+            &bytes,
+            serde_json::json!({
+                "scenes": [{ "nodes": [0] }],
+                "nodes": [{ "mesh": 0 }],
+                "meshes": [{ "primitives": [{ "attributes": primitive_attributes, "indices": 3, "material": 0 }] }],
+                "materials": [material],
+                "textures": [{ "source": 0 }],
+                "images": [{ "bufferView": image, "mimeType": "image/png" }],
+                "bufferViews": views,
+                "accessors": accessors,
+            }),
+        )
+    }
+
+    fn load_quad(
+        attributes: &[Attribute],
+        material: serde_json::Value,
+    ) -> Result<Scene, SceneError> {
+        let dir = tempfile::tempdir().unwrap();
+        let path = write(
+            dir.path(),
+            "quad.gltf",
+            &attributed_quad(attributes, material, [128, 128, 255]),
         );
+        load_gltf_document(&path)
+    }
+
+    #[test]
+    fn vertex_colours_the_second_uv_set_and_tangents_come_through() {
+        let colours = [
+            0.1f32, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 0.5, 0.0,
+        ];
+        let material = serde_json::json!({
+            "pbrMetallicRoughness": { "baseColorTexture": { "index": 0, "texCoord": 1 } },
+            "normalTexture": { "index": 0, "scale": 0.5 },
+        });
+        let scene = load_quad(
+            &[
+                ("COLOR_0", "VEC3", 5126, false, f32_bytes(&colours)),
+                (
+                    "TEXCOORD_1",
+                    "VEC2",
+                    5126,
+                    false,
+                    f32_bytes(&[1., 1., 0., 1., 0., 0., 1., 0.]),
+                ),
+                (
+                    "TANGENT",
+                    "VEC4",
+                    5126,
+                    false,
+                    f32_bytes(&[1., 0., 0., 1.].repeat(4)),
+                ),
+            ],
+            material,
+        )
+        .unwrap();
+        assert!(scene.warnings().is_empty(), "{:?}", scene.warnings());
+        let m = scene.mesh();
+        let expect: Vec<Vec4> = colours
+            .chunks(3)
+            .map(|c| Vec3::from_slice(c).extend(1.0))
+            .collect();
+        assert_eq!(m.colors, expect);
+        // v flipped into the renderer's convention, as TEXCOORD_0.
+        assert_eq!(
+            m.uvs1,
+            [
+                Vec2::new(1., 0.),
+                Vec2::new(0., 0.),
+                Vec2::new(0., 1.),
+                Vec2::new(1., 1.)
+            ]
+        );
+        assert_eq!(m.tangents, vec![Vec4::new(1., 0., 0., 1.); 4]);
+        use crate::shapes::*;
+        let all = TRIANGLE_HAS_NORMALS
+            | TRIANGLE_HAS_UVS
+            | TRIANGLE_HAS_COLORS
+            | TRIANGLE_HAS_TANGENTS
+            | TRIANGLE_HAS_UV1;
+        assert!(scene.triangles().iter().all(|t| t.flags == all));
+        let Material::Ggx {
+            base_color,
+            normal_map: Some(map),
+            ..
+        } = scene.materials()[0]
+        else {
+            panic!("{:?}", scene.materials());
+        };
+        assert_eq!(map.scale, 0.5);
+        let sampler_of = |t: u32| match scene.textures()[t as usize] {
+            Texture::Image { sampler, .. } => sampler,
+            ref other => panic!("{other:?}"),
+        };
+        assert_eq!(sampler_of(base_color).tex_coord, 1);
+        assert_eq!(sampler_of(map.texture).tex_coord, 0);
+        // Normalized bytes, with alpha.
+        let bytes: Vec<u8> = [255u8, 0, 51, 255].repeat(4);
+        let scene = load_quad(
+            &[("COLOR_0", "VEC4", 5121, true, bytes)],
+            serde_json::json!({}),
+        )
+        .unwrap();
+        assert_eq!(scene.mesh().colors, vec![Vec4::new(1.0, 0.0, 0.2, 1.0); 4]);
+        // Tangents serve normal maps only: without one they are dropped.
+        assert!(scene.mesh().tangents.is_empty());
+    }
+
+    #[test]
+    fn generated_tangents_point_along_u_with_the_bitangent_up_the_image() {
+        let material = serde_json::json!({ "normalTexture": { "index": 0 } });
+        let tangents = |uvs: &[f32]| {
+            let scene = load_quad(
+                &[("TEXCOORD_1", "VEC2", 5126, false, f32_bytes(uvs))],
+                serde_json::json!({ "normalTexture": { "index": 0, "texCoord": 1 } }),
+            )
+            .unwrap();
+            scene.mesh().tangents.clone()
+        };
+        // The quad's own uv (u along +x, the image's top at y = 1): the
+        // tangent is +x and w = +1, so w · (n × t) = +y, up the image.
+        let scene = load_quad(&[], material).unwrap();
+        assert_eq!(scene.mesh().tangents.len(), 4);
+        for t in &scene.mesh().tangents {
+            assert!(
+                (t.truncate() - Vec3::X).length() < 1e-5 && t.w == 1.0,
+                "{t}"
+            );
+        }
+        // Read from set 1, mirrored in u: the tangent is -x, and w = -1
+        // keeps the bitangent up the image.
+        for t in tangents(&[1., 1., 0., 1., 0., 0., 1., 0.]) {
+            assert!(
+                (t.truncate() + Vec3::X).length() < 1e-5 && t.w == -1.0,
+                "{t}"
+            );
+        }
+        // Mirrored in v: the bitangent points down the image, w = -1 with
+        // the tangent still +x.
+        for t in tangents(&[0., 0., 1., 0., 1., 1., 0., 1.]) {
+            assert!(
+                (t.truncate() - Vec3::X).length() < 1e-5 && t.w == -1.0,
+                "{t}"
+            );
+        }
+    }
+
+    #[test]
+    fn malformed_vertex_attributes_and_normal_textures_are_errors() {
+        let f = |v: &[f32]| f32_bytes(v);
+        let cases: Vec<(&str, Vec<Attribute>, serde_json::Value, &str)> = vec![
+            (
+                "colour as scalars",
+                vec![("COLOR_0", "SCALAR", 5126, false, f(&[1.0; 4]))],
+                serde_json::json!({}),
+                "COLOR_0 accessor",
+            ),
+            (
+                "tangent as VEC3",
+                vec![("TANGENT", "VEC3", 5126, false, f(&[1.0; 12]))],
+                serde_json::json!({}),
+                "TANGENT accessor",
+            ),
+            (
+                "too few colours",
+                vec![("COLOR_0", "VEC3", 5126, false, f(&[1.0; 9]))],
+                serde_json::json!({}),
+                "COLOR_0 has 3 elements but POSITION has 4",
+            ),
+            (
+                "negative colour",
+                vec![("COLOR_0", "VEC4", 5126, false, f(&[-1.0; 16]))],
+                serde_json::json!({}),
+                "negative",
+            ),
+            (
+                "transform scale not numbers",
+                vec![],
+                serde_json::json!({ "normalTexture": { "index": 0, "extensions": { "KHR_texture_transform": { "scale": ["big", 1] } } } }),
+                "normalTexture: KHR_texture_transform.scale",
+            ),
+            (
+                "transform rotation not finite",
+                vec![],
+                serde_json::json!({ "normalTexture": { "index": 0, "extensions": { "KHR_texture_transform": { "rotation": "pi" } } } }),
+                "KHR_texture_transform.rotation",
+            ),
+        ];
+        for (what, attributes, material, says) in cases {
+            let e = load_quad(&attributes, material)
+                .expect_err(what)
+                .to_string();
+            assert!(e.contains("quad.gltf") && e.contains(says), "{what}: {e}");
+        }
+        // The normal map's transform read from raw JSON, as the typed
+        // accessor reads the other textures'.
+        let scene = load_quad(
+            &[],
+            serde_json::json!({ "normalTexture": { "index": 0, "extensions": { "KHR_texture_transform": { "offset": [0.5, 0], "scale": [2, 3], "texCoord": 0 } } } }),
+        )
+        .unwrap();
+        let Material::Ggx {
+            normal_map: Some(map),
+            ..
+        } = scene.materials()[0]
+        else {
+            panic!("{:?}", scene.materials());
+        };
+        let Texture::Image { sampler, .. } = scene.textures()[map.texture as usize] else {
+            panic!("{:?}", scene.textures());
+        };
+        let expect = super::sampler(
+            &gltf::Gltf::from_slice(&attributed_quad(&[], serde_json::json!({}), [0; 3]))
+                .unwrap()
+                .textures()
+                .next()
+                .unwrap(),
+            Some(&UvTransform {
+                offset: [0.5, 0.0],
+                rotation: 0.0,
+                scale: [2.0, 3.0],
+                tex_coord: Some(0),
+            }),
+        );
+        assert_eq!(sampler.transform, expect.transform);
+        assert!(sampler.transform.is_some());
     }
 
     #[test]
@@ -2067,6 +2701,7 @@ mod tests {
                 metallic: 0.25,
                 roughness: 0.75,
                 metallic_roughness: None,
+                normal_map: None,
             }]
         );
         assert_eq!(

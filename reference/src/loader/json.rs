@@ -626,6 +626,7 @@ impl Resolver<'_> {
                 metallic: *metallic,
                 roughness: *roughness,
                 metallic_roughness: None,
+                normal_map: None,
             },
         };
         let id = self

@@ -8,9 +8,12 @@ use crate::camera::CameraSettings;
 use crate::error::SceneError;
 use crate::geometry::Aabb;
 use crate::material::Material;
-use crate::shapes::{MeshData, Quad, Sphere, Triangle, TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_UVS};
+use crate::shapes::{
+    MeshData, Quad, Sphere, Triangle, TRIANGLE_HAS_COLORS, TRIANGLE_HAS_NORMALS,
+    TRIANGLE_HAS_TANGENTS, TRIANGLE_HAS_UV1, TRIANGLE_HAS_UVS,
+};
 use crate::texture::{ImageData, Texture};
-use glam::{Mat3, Vec2, Vec3};
+use glam::{Mat3, Vec2, Vec3, Vec4};
 
 /// An indexed triangle mesh before placement.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -20,6 +23,12 @@ pub struct MeshInput {
     pub uvs: Option<Vec<Vec2>>,
     /// Three indices per triangle.
     pub indices: Vec<u32>,
+    /// Linear RGBA vertex colours (they scale the GGX base colour).
+    pub colors: Option<Vec<Vec4>>,
+    /// Tangents in the mesh's space (`MeshData::tangents`), for normal maps.
+    pub tangents: Option<Vec<Vec4>>,
+    /// A second set of texture coordinates (v up, as `uvs`).
+    pub uvs1: Option<Vec<Vec2>>,
 }
 
 /// Collects a scene, checks it, and builds its BVH.
@@ -58,6 +67,27 @@ fn check_colour(field: &str, c: Vec3) -> Result<(), SceneError> {
         ));
     }
     Ok(())
+}
+
+/// Appends a mesh's `n` values of an optional vertex attribute to the
+/// scene's array, which stays empty until some mesh has the attribute and
+/// from then on has one entry per vertex (`fill` where a mesh had none).
+fn push_attribute<T: Copy>(
+    scene: &mut Vec<T>,
+    base: u32,
+    n: usize,
+    fill: T,
+    values: &Option<Vec<T>>,
+    place: impl Fn(T) -> T,
+) {
+    match values {
+        Some(values) => {
+            scene.resize(base as usize, fill);
+            scene.extend(values.iter().map(|&v| place(v)));
+        }
+        None if !scene.is_empty() => scene.extend(std::iter::repeat_n(fill, n)),
+        None => {}
+    }
 }
 
 /// A texture's values, and its references: to `images` images, and for a
@@ -103,6 +133,15 @@ fn check_texture(texture: &Texture, earlier: &[Texture], images: usize) -> Resul
                         format!("{t:?} must be finite"),
                     ));
                 }
+            }
+            if sampler.tex_coord > 1 {
+                return Err(SceneError::invalid(
+                    "texture.tex_coord",
+                    format!(
+                        "coordinate set {} does not exist (0 or 1)",
+                        sampler.tex_coord
+                    ),
+                ));
             }
             if image as usize >= images {
                 return Err(SceneError::invalid(
@@ -153,10 +192,20 @@ fn check_material(material: &Material, textures: usize) -> Result<(), SceneError
             metallic,
             roughness,
             metallic_roughness,
+            normal_map,
         } => {
             tex_ok("base_color", base_color)?;
             if let Some(t) = metallic_roughness {
                 tex_ok("metallic_roughness", t)?;
+            }
+            if let Some(map) = normal_map {
+                tex_ok("normal_map", map.texture)?;
+                if !map.scale.is_finite() {
+                    return Err(SceneError::invalid(
+                        "normal_map.scale",
+                        format!("{} is not finite", map.scale),
+                    ));
+                }
             }
             if !(0.0..=1.0).contains(&metallic) {
                 return Err(SceneError::invalid(
@@ -441,6 +490,9 @@ impl SceneBuilder {
         for (name, len) in [
             ("normals", mesh.normals.as_ref().map(Vec::len)),
             ("uvs", mesh.uvs.as_ref().map(Vec::len)),
+            ("colors", mesh.colors.as_ref().map(Vec::len)),
+            ("tangents", mesh.tangents.as_ref().map(Vec::len)),
+            ("uvs1", mesh.uvs1.as_ref().map(Vec::len)),
         ] {
             if let Some(len) = len.filter(|&l| l != n) {
                 return Err(SceneError::invalid(
@@ -459,15 +511,32 @@ impl SceneBuilder {
         if (base as usize + n) > u32::MAX as usize / 2 {
             return Err(SceneError::invalid("positions", "too many vertices".into()));
         }
-        let nm = transform.normal_matrix();
-        for (i, &p) in mesh.positions.iter().enumerate() {
-            let wp = transform.point(p);
-            if !wp.is_finite() {
+        // Everything is checked before the scene's arrays change, so a mesh
+        // refused leaves the builder as it was.
+        if let Some(colors) = &mesh.colors {
+            if let Some((i, c)) = colors
+                .iter()
+                .enumerate()
+                .find(|(_, c)| !c.is_finite() || c.min_element() < 0.0)
+            {
                 return Err(SceneError::invalid(
-                    "positions",
-                    format!("vertex {i} ({p}) is not finite once placed"),
+                    "colors",
+                    format!("vertex {i}'s colour {c} is negative or not finite"),
                 ));
             }
+        }
+        let placed: Vec<Vec3> = mesh.positions.iter().map(|&p| transform.point(p)).collect();
+        if let Some(i) = placed.iter().position(|p| !p.is_finite()) {
+            return Err(SceneError::invalid(
+                "positions",
+                format!(
+                    "vertex {i} ({}) is not finite once placed",
+                    mesh.positions[i]
+                ),
+            ));
+        }
+        let nm = transform.normal_matrix();
+        for (i, wp) in placed.into_iter().enumerate() {
             self.mesh.positions.push(wp);
             let wn = mesh
                 .normals
@@ -481,15 +550,50 @@ impl SceneBuilder {
                 .uvs
                 .push(if uv.is_finite() { uv } else { Vec2::ZERO });
         }
-        let flags = if mesh.normals.is_some() {
-            TRIANGLE_HAS_NORMALS
-        } else {
-            0
-        } | if mesh.uvs.is_some() {
-            TRIANGLE_HAS_UVS
-        } else {
-            0
+        // A mirroring placement turns the tangent frame's handedness.
+        let mirrors = Mat3::from(transform.matrix.matrix3).determinant() < 0.0;
+        let placed_tangent = |t: Vec4| {
+            let xyz = transform.vector(t.truncate()).normalize_or_zero();
+            let w = if (t.w < 0.0) != mirrors { -1.0 } else { 1.0 };
+            if xyz.is_finite() && t.w.is_finite() {
+                xyz.extend(w)
+            } else {
+                Vec4::ZERO
+            }
         };
+        push_attribute(
+            &mut self.mesh.colors,
+            base,
+            n,
+            Vec4::ONE,
+            &mesh.colors,
+            |c| c,
+        );
+        push_attribute(
+            &mut self.mesh.tangents,
+            base,
+            n,
+            Vec4::ZERO,
+            &mesh.tangents,
+            placed_tangent,
+        );
+        push_attribute(&mut self.mesh.uvs1, base, n, Vec2::ZERO, &mesh.uvs1, |uv| {
+            if uv.is_finite() {
+                uv
+            } else {
+                Vec2::ZERO
+            }
+        });
+        let flags = [
+            (mesh.normals.is_some(), TRIANGLE_HAS_NORMALS),
+            (mesh.uvs.is_some(), TRIANGLE_HAS_UVS),
+            (mesh.colors.is_some(), TRIANGLE_HAS_COLORS),
+            (mesh.tangents.is_some(), TRIANGLE_HAS_TANGENTS),
+            (mesh.uvs1.is_some(), TRIANGLE_HAS_UV1),
+        ]
+        .iter()
+        .filter(|(has, _)| *has)
+        .fold(0, |flags, (_, bit)| flags | bit);
         for tri in mesh.indices.chunks_exact(3) {
             self.triangles.push(Triangle {
                 vertices: [base + tri[0], base + tri[1], base + tri[2]],

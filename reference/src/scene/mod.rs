@@ -24,12 +24,13 @@ use crate::background::Background;
 use crate::bvh::{box_pad, Bvh, BvhBuildStats};
 use crate::camera::{Camera, CameraSettings};
 use crate::geometry::{gamma, Aabb, Hit, Ray, SurfaceInteraction};
-use crate::material::Material;
+use crate::material::{normal_mapped, Material};
 use crate::mutants::{self, Mutant};
 use crate::shapes::{
-    MeshData, Quad, Quads4, RayShear, Sphere, Triangle, TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_UVS,
+    MeshData, Quad, Quads4, RayShear, Sphere, Triangle, TRIANGLE_HAS_COLORS, TRIANGLE_HAS_NORMALS,
+    TRIANGLE_HAS_TANGENTS, TRIANGLE_HAS_UV1, TRIANGLE_HAS_UVS,
 };
-use crate::texture::{ImageData, Texture};
+use crate::texture::{evaluate_texture, ImageData, Texture};
 use glam::{Vec2, Vec3};
 use leaf::{primitive_bounds, LeafBlock, LeafPrim, LeafTests, RayConstants};
 use std::f32::consts::PI;
@@ -257,6 +258,7 @@ impl Scene {
     /// Everything shading needs about a hit.
     pub fn surface_interaction(&self, ray: &Ray, hit: &Hit) -> SurfaceInteraction {
         let p = self.primitives[hit.prim as usize];
+        let (mut uv1, mut color) = (Vec2::ZERO, Vec3::ONE);
         let (pos, ng, ns, uv, material, p_error) = match p.tag {
             primitive_tag::SPHERE => {
                 let s = &self.spheres[p.index as usize];
@@ -307,17 +309,41 @@ impl Scene {
                 let ng = (m.positions[i1] - m.positions[i0])
                     .cross(m.positions[i2] - m.positions[i0])
                     .normalize_or(Vec3::Y);
-                let mut ns = ng;
+                // The interpolated normal, and the flip that puts it on
+                // the geometric normal's side.
+                let (mut n, mut side) = (ng, 1.0);
                 if tri.flags & TRIANGLE_HAS_NORMALS != 0 {
-                    let n = (b0 * m.normals[i0] + b1 * m.normals[i1] + b2 * m.normals[i2])
+                    n = (b0 * m.normals[i0] + b1 * m.normals[i1] + b2 * m.normals[i2])
                         .normalize_or(ng);
-                    ns = if n.dot(ng) < 0.0 { -n } else { n };
+                    side = if n.dot(ng) < 0.0 { -1.0 } else { 1.0 };
                 }
                 let uv = if tri.flags & TRIANGLE_HAS_UVS != 0 {
                     b0 * m.uvs[i0] + b1 * m.uvs[i1] + b2 * m.uvs[i2]
                 } else {
                     hit.uv
                 };
+                if tri.flags & TRIANGLE_HAS_UV1 != 0 {
+                    uv1 = b0 * m.uvs1[i0] + b1 * m.uvs1[i1] + b2 * m.uvs1[i2];
+                }
+                if tri.flags & TRIANGLE_HAS_COLORS != 0 {
+                    color = (b0 * m.colors[i0] + b1 * m.colors[i1] + b2 * m.colors[i2]).truncate();
+                }
+                let mut ns = side * n;
+                if let (
+                    true,
+                    Material::Ggx {
+                        normal_map: Some(map),
+                        ..
+                    },
+                ) = (
+                    tri.flags & TRIANGLE_HAS_TANGENTS != 0,
+                    self.materials[tri.material as usize],
+                ) {
+                    let tangent = b0 * m.tangents[i0] + b1 * m.tangents[i1] + b2 * m.tangents[i2];
+                    let texel =
+                        evaluate_texture(&self.textures, &self.images, map.texture, pos, [uv, uv1]);
+                    ns = normal_mapped(n, side, ng, tangent, texel, map.scale);
+                }
                 (pos, ng, ns, uv, tri.material, err)
             }
         };
@@ -326,6 +352,8 @@ impl Scene {
             geometric_normal: ng,
             shading_normal: ns,
             uv,
+            uv1,
+            color,
             p_error,
             front_face: ray.direction.dot(ng) < 0.0,
             material,

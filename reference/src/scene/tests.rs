@@ -121,3 +121,50 @@ fn a_tree_is_put_under_a_scene_only_if_it_indexes_its_primitives() {
         .intersect_brute_force(&ray, 0.0, f32::INFINITY)
         .is_some());
 }
+
+#[test]
+fn optional_vertex_attributes_are_placed_and_padded_per_vertex() {
+    use crate::scene::{MeshInput, Transform};
+    use glam::{Quat, Vec2, Vec4};
+    let triangle = |colors: Option<Vec<Vec4>>, tangents: Option<Vec<Vec4>>| MeshInput {
+        positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+        normals: Some(vec![Vec3::Z; 3]),
+        uvs: Some(vec![Vec2::ZERO, Vec2::X, Vec2::Y]),
+        indices: vec![0, 1, 2],
+        colors,
+        tangents,
+        uvs1: None,
+    };
+    let mut b = SceneBuilder::new();
+    let grey = b.constant(Vec3::splat(0.5)).unwrap();
+    let m = b
+        .add_material(Material::Lambertian { albedo: grey })
+        .unwrap();
+    let plain = Transform::default();
+    // A mirror in x: the tangent turns with it and w changes sign, so the
+    // bitangent w·(n × t) is the mirrored one.
+    let mirror = Transform::from_parts(Vec3::new(-1.0, 1.0, 1.0), Quat::IDENTITY, Vec3::ZERO);
+    b.add_mesh(&triangle(None, None), m, &plain).unwrap();
+    let tangent = Vec4::new(1.0, 0.0, 0.0, 1.0);
+    b.add_mesh(&triangle(None, Some(vec![tangent; 3])), m, &mirror)
+        .unwrap();
+    b.add_mesh(&triangle(Some(vec![Vec4::splat(0.5); 3]), None), m, &plain)
+        .unwrap();
+    let red = Vec4::new(1.0, 0.0, 0.0, 1.0);
+    let negative = triangle(Some(vec![-red; 3]), None);
+    assert_eq!(
+        field_of(b.add_mesh(&negative, m, &plain).unwrap_err()),
+        "colors"
+    );
+    let scene = b.build().unwrap();
+    let mesh = scene.mesh();
+    assert_eq!(mesh.positions.len(), 9);
+    // Tangents: zero where a mesh had none (before and after).
+    assert_eq!(mesh.tangents[..3], [Vec4::ZERO; 3]);
+    assert_eq!(mesh.tangents[3..6], [Vec4::new(-1.0, 0.0, 0.0, -1.0); 3]);
+    assert_eq!(mesh.tangents[6..], [Vec4::ZERO; 3]);
+    // Colours: one where a mesh had none; no second uv set at all.
+    assert_eq!(mesh.colors[..6], [Vec4::ONE; 6]);
+    assert_eq!(mesh.colors[6..], [Vec4::splat(0.5); 3]);
+    assert!(mesh.uvs1.is_empty());
+}

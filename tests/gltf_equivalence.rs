@@ -1,0 +1,347 @@
+//! glTF material features against what they mean: each procedurally
+//! written glTF file renders as a scene built without the feature that
+//! means the same, by Welch's test between the two renders at equal
+//! budgets (Jung et al. 2020; the gate's default settings, whose false
+//! alarms are measured in docs/gates.md), on the CPU reference and on the
+//! GPU:
+//! - a normal map on a plane under grazing light renders as the plane whose
+//!   vertex normals are the normal the map encodes;
+//! - vertex colours (COLOR_0) render as the base colour factor they equal;
+//! - `KHR_materials_transmission` with `KHR_materials_ior` and
+//!   `KHR_materials_volume` renders as the scene file's dielectric (the
+//!   `mesh` object's material) of that index and absorption.
+//!
+//! Each is also compared with a twin that means something else (the map's
+//! bitangent turned, a colour channel off, another index), which must
+//! fail: the comparison can fail.
+
+use crate::common;
+use glam::Vec3;
+use reference::background::Background;
+use reference::camera::CameraSettings;
+use reference::integrator::{render_with, Integrator};
+use reference::loader::gltf::{add_gltf_scene, load_gltf_mesh};
+use reference::material::Material;
+use reference::procedural::{glb_container, icosphere};
+use reference::scene::{SceneBuilder, Transform};
+use reference::{Film, RenderSettings, Scene};
+use serde_json::{json, Value};
+use twintrace::compare::image::{compare, Method, NoisyImage, TestSettings};
+
+/// A GLB's binary chunk, buffer views and accessors, written as added.
+#[derive(Default)]
+struct Glb {
+    bin: Vec<u8>,
+    views: Vec<Value>,
+    accessors: Vec<Value>,
+}
+
+impl Glb {
+    fn view(&mut self, data: &[u8]) -> usize {
+        self.bin.resize(self.bin.len().next_multiple_of(4), 0);
+        self.views
+            .push(json!({ "buffer": 0, "byteOffset": self.bin.len(), "byteLength": data.len() }));
+        self.bin.extend_from_slice(data);
+        self.views.len() - 1
+    }
+
+    /// An accessor of float vectors of `kind` (VEC2, VEC3, ...).
+    fn floats(&mut self, values: &[f32], kind: &str, width: usize) -> usize {
+        let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let view = self.view(&bytes);
+        let mut accessor = json!({ "bufferView": view, "componentType": 5126, "count": values.len() / width, "type": kind });
+        if kind == "VEC3" {
+            let column = |k: usize| values.iter().skip(k).step_by(3).copied();
+            let (min, max): (Vec<f32>, Vec<f32>) = (0..3)
+                .map(|k| {
+                    (
+                        column(k).fold(f32::INFINITY, f32::min),
+                        column(k).fold(f32::NEG_INFINITY, f32::max),
+                    )
+                })
+                .unzip();
+            accessor["min"] = json!(min);
+            accessor["max"] = json!(max);
+        }
+        self.accessors.push(accessor);
+        self.accessors.len() - 1
+    }
+
+    fn indices(&mut self, indices: &[u32]) -> usize {
+        let bytes: Vec<u8> = indices.iter().flat_map(|i| i.to_le_bytes()).collect();
+        let view = self.view(&bytes);
+        self.accessors.push(json!({ "bufferView": view, "componentType": 5125, "count": indices.len(), "type": "SCALAR" }));
+        self.accessors.len() - 1
+    }
+
+    /// A 1x1 PNG of `texel`, as a buffer view.
+    fn png(&mut self, texel: [u8; 3]) -> usize {
+        let mut png = Vec::new();
+        image::RgbImage::from_raw(1, 1, texel.to_vec())
+            .unwrap()
+            .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+            .unwrap();
+        self.view(&png)
+    }
+
+    /// The file: `document` with the buffer, views and accessors added.
+    fn finish(mut self, mut document: Value) -> Vec<u8> {
+        self.bin.resize(self.bin.len().next_multiple_of(4), 0);
+        document["asset"] = json!({ "version": "2.0" });
+        document["buffers"] = json!([{ "byteLength": self.bin.len() }]);
+        document["bufferViews"] = json!(self.views);
+        document["accessors"] = json!(self.accessors);
+        glb_container(&document, self.bin).unwrap()
+    }
+}
+
+/// The 2x2 plane y = 0 facing +y, u along +x and glTF's v along +z (so
+/// the renderer's v, and a tangent frame's bitangent, point along -z), as
+/// one primitive with material 0 (`material`); `extra` adds attributes
+/// (name, values, accessor type, width), `normal` is every vertex's NORMAL,
+/// `image` a texel for texture 0 (the normal map's).
+fn plane(
+    normal: Vec3,
+    extra: &[(&str, Vec<f32>, &str, usize)],
+    material: Value,
+    image: Option<[u8; 3]>,
+) -> Vec<u8> {
+    let mut glb = Glb::default();
+    let positions = [-1., 0., -1., -1., 0., 1., 1., 0., 1., 1., 0., -1.];
+    let mut attributes = json!({
+        "POSITION": glb.floats(&positions, "VEC3", 3),
+        "NORMAL": glb.floats(&normal.to_array().repeat(4), "VEC3", 3),
+        "TEXCOORD_0": glb.floats(&[0., 0., 0., 1., 1., 1., 1., 0.], "VEC2", 2),
+    });
+    for (name, values, kind, width) in extra {
+        attributes[*name] = json!(glb.floats(values, kind, *width));
+    }
+    let indices = glb.indices(&[0, 1, 2, 0, 2, 3]);
+    let mut document = json!({
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [{ "mesh": 0 }],
+        "meshes": [{ "primitives": [{ "attributes": attributes, "indices": indices, "material": 0 }] }],
+        "materials": [material],
+    });
+    if let Some(texel) = image {
+        let view = glb.png(texel);
+        document["images"] = json!([{ "bufferView": view, "mimeType": "image/png" }]);
+        document["textures"] = json!([{ "source": 0 }]);
+    }
+    glb.finish(document)
+}
+
+/// A unit icosphere (3 subdivisions) of radius 0.5 at (0, 0.5, 0), with
+/// material 0 (`material`; `None`: no material).
+fn sphere(material: Option<Value>, used: &[&str]) -> Vec<u8> {
+    let mesh = icosphere(3);
+    let mut glb = Glb::default();
+    let positions: Vec<f32> = mesh.positions.iter().flat_map(|p| p.to_array()).collect();
+    let normals: Vec<f32> = mesh
+        .normals
+        .iter()
+        .flatten()
+        .flat_map(|n| n.to_array())
+        .collect();
+    let mut primitive = json!({
+        "attributes": {
+            "POSITION": glb.floats(&positions, "VEC3", 3),
+            "NORMAL": glb.floats(&normals, "VEC3", 3),
+        },
+        "indices": glb.indices(&mesh.indices),
+    });
+    let mut document = json!({
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [{ "mesh": 0, "translation": [0, 0.5, 0], "scale": [0.5, 0.5, 0.5] }],
+        "extensionsUsed": used,
+    });
+    if let Some(m) = material {
+        primitive["material"] = json!(0);
+        document["materials"] = json!([m]);
+    }
+    document["meshes"] = json!([{ "primitives": [primitive] }]);
+    glb.finish(document)
+}
+
+/// A GLB added with its own materials (the scene file's `gltf` object),
+/// or as a mesh with the given material (the `mesh` object).
+enum Part<'a> {
+    Gltf(&'a [u8]),
+    Mesh(&'a [u8], Material),
+}
+
+/// A scene of `parts` seen from above, lit by a grazing emitter or by a
+/// sky.
+fn scene(parts: &[Part], grazing_light: bool) -> Scene {
+    let dir = tempfile::tempdir().unwrap();
+    let mut b = SceneBuilder::new();
+    b.camera = CameraSettings {
+        look_from: Vec3::new(0.0, 2.5, 2.0),
+        look_at: Vec3::new(0.0, 0.2, 0.0),
+        up: Vec3::Y,
+        vfov: 40.0,
+        ..CameraSettings::default()
+    };
+    for (i, part) in parts.iter().enumerate() {
+        let path = dir.path().join(format!("part{i}.glb"));
+        let bytes = match part {
+            Part::Gltf(bytes) | Part::Mesh(bytes, _) => bytes,
+        };
+        std::fs::write(&path, bytes).unwrap();
+        match part {
+            Part::Gltf(_) => add_gltf_scene(&mut b, &path, &Transform::default(), false).unwrap(),
+            Part::Mesh(_, material) => {
+                let id = b.add_material(*material).unwrap();
+                let mesh = load_gltf_mesh(&path).unwrap();
+                b.add_mesh(&mesh, id, &Transform::default()).unwrap();
+            }
+        }
+    }
+    if grazing_light {
+        // A 0.7 x 0.5 emitter standing on the plane's diagonal, 0.1 above
+        // it and 2.8 away, facing the centre: light at about 10 degrees of
+        // elevation; nothing else lights the scene.
+        let emission = b.constant(Vec3::splat(40.0)).unwrap();
+        let light = b.add_material(Material::DiffuseLight { emission }).unwrap();
+        let (u, v) = (Vec3::new(0.5, 0.0, 0.5), Vec3::new(0.0, 0.5, 0.0));
+        let corner = Vec3::new(2.0, 0.35, -2.0) - 0.5 * u - 0.5 * v;
+        b.add_quad(corner, u, v, light, &Transform::default())
+            .unwrap();
+        b.background = Some(Background::Solid(Vec3::ZERO));
+    } else {
+        b.background = Some(Background::Sky {
+            horizon: Vec3::new(0.9, 0.8, 0.7),
+            zenith: Vec3::new(0.2, 0.4, 0.9),
+        });
+    }
+    b.build().unwrap()
+}
+
+fn settings(seed: u32) -> RenderSettings {
+    RenderSettings {
+        width: 24,
+        height: 24,
+        spp: 512,
+        max_depth: 8,
+        seed,
+        ..RenderSettings::default()
+    }
+}
+
+fn render(backend: &str, scene: &Scene, seed: u32) -> NoisyImage {
+    let film: Film = match backend {
+        "cpu" => render_with(scene, &settings(seed), Integrator::Mis, &|_| {}),
+        _ => {
+            gpu::GpuRenderer::with_integrator(common::gpu(), scene, Integrator::Mis)
+                .unwrap()
+                .render(&settings(seed), &|_, _| {})
+                .unwrap()
+                .film
+        }
+    };
+    NoisyImage::from_film(&film)
+}
+
+/// `gltf` and `meaning` render alike, and `gltf` and `other` do not, on
+/// both backends.
+fn assert_means(what: &str, gltf: &Scene, meaning: &Scene, other: &Scene) {
+    for backend in ["cpu", "gpu"] {
+        let a = render(backend, gltf, 41);
+        let b = render(backend, meaning, 42);
+        let c = render(backend, other, 43);
+        let same = compare(&a, &b, Method::Welch, &TestSettings::default()).unwrap();
+        println!("{what} ({backend}), as meant:\n{}", same.summary());
+        assert!(same.passes(), "{what} ({backend}):\n{}", same.summary());
+        let differ = compare(&a, &c, Method::Welch, &TestSettings::default()).unwrap();
+        println!(
+            "{what} ({backend}), against the wrong twin:\n{}",
+            differ.summary()
+        );
+        assert!(
+            !differ.passes(),
+            "{what} ({backend}): the wrong twin passed"
+        );
+    }
+}
+
+/// A grey, dielectric, fairly rough glTF material.
+fn ggx() -> Value {
+    json!({ "pbrMetallicRoughness": { "baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0, "roughnessFactor": 0.4 } })
+}
+
+#[test]
+fn a_normal_map_renders_as_the_normals_it_encodes() {
+    // The map's one texel, linear data: m = 2·texel/255 − 1 in the frame
+    // (tangent +x, bitangent −z, normal +y) of the plane's uv.
+    let texel = [170u8, 100, 220];
+    let m = Vec3::from_array(texel.map(|c| 2.0 * c as f32 / 255.0 - 1.0));
+    let mapped = (m.x * Vec3::X - m.y * Vec3::Z + m.z * Vec3::Y).normalize();
+    let turned = (m.x * Vec3::X + m.y * Vec3::Z + m.z * Vec3::Y).normalize();
+    let mut with_map = ggx();
+    with_map["normalTexture"] = json!({ "index": 0 });
+    let gltf = plane(Vec3::Y, &[], with_map, Some(texel));
+    let meaning = plane(mapped, &[], ggx(), None);
+    let other = plane(turned, &[], ggx(), None);
+    assert_means(
+        "a normal-mapped plane vs its mapped vertex normals",
+        &scene(&[Part::Gltf(&gltf)], true),
+        &scene(&[Part::Gltf(&meaning)], true),
+        &scene(&[Part::Gltf(&other)], true),
+    );
+}
+
+#[test]
+fn vertex_colours_render_as_the_base_colour_they_equal() {
+    let colour = [0.9f32, 0.5, 0.2];
+    let coloured = plane(
+        Vec3::Y,
+        &[("COLOR_0", colour.repeat(4), "VEC3", 3)],
+        ggx(),
+        None,
+    );
+    let factor = |c: [f32; 3]| json!({ "pbrMetallicRoughness": { "baseColorFactor": [0.8 * c[0], 0.8 * c[1], 0.8 * c[2], 1], "metallicFactor": 0, "roughnessFactor": 0.4 } });
+    let meaning = plane(Vec3::Y, &[], factor(colour), None);
+    let other = plane(Vec3::Y, &[], factor([0.9, 0.5, 0.3]), None);
+    assert_means(
+        "vertex colours vs the base colour factor",
+        &scene(&[Part::Gltf(&coloured)], true),
+        &scene(&[Part::Gltf(&meaning)], true),
+        &scene(&[Part::Gltf(&other)], true),
+    );
+}
+
+#[test]
+fn transmission_renders_as_the_json_dielectric() {
+    let extensions = [
+        "KHR_materials_transmission",
+        "KHR_materials_ior",
+        "KHR_materials_volume",
+    ];
+    let glass = sphere(
+        Some(json!({
+            "pbrMetallicRoughness": { "metallicFactor": 0, "roughnessFactor": 0 },
+            "extensions": {
+                "KHR_materials_transmission": { "transmissionFactor": 1 },
+                "KHR_materials_ior": { "ior": 1.4 },
+                "KHR_materials_volume": { "thicknessFactor": 1, "attenuationDistance": 0.5, "attenuationColor": [0.9, 0.5, 0.3] },
+            },
+        })),
+        &extensions,
+    );
+    let bare = sphere(None, &[]);
+    let ground = plane(Vec3::Y, &[], ggx(), None);
+    let absorption = -Vec3::new(0.9f32.ln(), 0.5f32.ln(), 0.3f32.ln()) / 0.5;
+    let dielectric = |ior| Material::Dielectric { ior, absorption };
+    assert_means(
+        "a transmissive glTF sphere vs the scene file's dielectric",
+        &scene(&[Part::Gltf(&ground), Part::Gltf(&glass)], false),
+        &scene(
+            &[Part::Gltf(&ground), Part::Mesh(&bare, dielectric(1.4))],
+            false,
+        ),
+        &scene(
+            &[Part::Gltf(&ground), Part::Mesh(&bare, dielectric(1.6))],
+            false,
+        ),
+    );
+}
