@@ -12,7 +12,9 @@
 //!   `run.sh` sets to DIR, so no path of the build machine is needed);
 //! - `lib/`: shared libraries the binary needs that a bare machine lacks
 //!   (the Embree wheel's, when the linker kept them);
-//! - `run.sh`: runs every GPU test (names containing `gpu_`), prints one line per
+//! - `run.sh`: runs every GPU test (names containing `gpu_`, and the modules
+//!   that render each case on both backends: `gltf_equivalence`,
+//!   `khronos_assets`), prints one line per
 //!   test and the closing count, and keeps the whole log in `gpu-suite.log`.
 //!
 //! docs/gates.md says how to run it on the GPU machine and records results.
@@ -23,7 +25,8 @@ use std::process::{Command, Stdio};
 
 const RUNNER: &str = r#"#!/bin/sh
 # Runs twintrace's GPU gates (the integration tests named gpu_*: the gpu_*
-# modules and the GPU mutants of gates_catch_mutants) on this machine's
+# modules and the GPU mutants of gates_catch_mutants; and the modules that
+# render each case on both backends) on this machine's
 # GPU adapter. Extra arguments go to the test binary
 # (e.g. a test name filter, --nocapture). Exit status: the test binary's.
 here=$(cd "$(dirname "$0")" && pwd)
@@ -32,7 +35,7 @@ export TWINTRACE_BIN="$here/twintrace"
 export LD_LIBRARY_PATH="$here/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
 log="$here/gpu-suite.log"
-"$here/integration" gpu_ --test-threads=1 "$@" >"$log" 2>&1
+"$here/integration" gpu_ gltf_equivalence khronos_assets --test-threads=1 "$@" >"$log" 2>&1
 status=$?
 grep -E '^test |^test result' "$log"
 # Each failure's own output and panic message.
