@@ -19,6 +19,13 @@ const SAMPLER_WRAP_MASK: u32 = 3u;
 const SAMPLER_NEAREST: u32 = 16u;
 const SAMPLER_TRANSFORM: u32 = 32u;
 const SAMPLER_UV1: u32 = 64u;
+const IMAGE_F32: u32 = 0u;
+const IMAGE_SRGB8: u32 = 1u;
+const IMAGE_UNORM8: u32 = 2u;
+const TEXEL_TABLE_SRGB8: u32 = 0u;
+const TEXEL_TABLE_UNORM8: u32 = 256u;
+const PACKED_CHANNEL_BITS: u32 = 8u;
+const PACKED_CHANNEL_MASK: u32 = 255u;
 const BACKGROUND_SOLID: u32 = 0u;
 const BACKGROUND_SKY: u32 = 1u;
 const BACKGROUND_ENVMAP: u32 = 2u;
@@ -200,7 +207,7 @@ struct GpuImage {
     offset: u32,
     width: u32,
     height: u32,
-    _pad0: u32,
+    format: u32,
 }
 struct GpuEmitter {
     prim: u32,

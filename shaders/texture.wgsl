@@ -1,9 +1,20 @@
 // Textures: the twin of reference/src/texture.rs. Dispatch is a switch on
 // the texture tag.
 
+// One texel as gpu::records::GpuImage stores it: three floats, or packed
+// bytes decoded through their table (the floats the reference holds).
 fn texel(img: GpuImage, x: u32, y: u32) -> vec3<f32> {
-    let i = img.offset + 3u * (y * img.width + x);
-    return vec3<f32>(texels[i], texels[i + 1u], texels[i + 2u]);
+    let k = y * img.width + x;
+    if img.format == IMAGE_F32 {
+        let i = img.offset + 3u * k;
+        return vec3<f32>(texels[i], texels[i + 1u], texels[i + 2u]);
+    }
+    let word = u32(texels[img.offset + k]);
+    let table = select(TEXEL_TABLE_SRGB8, TEXEL_TABLE_UNORM8, img.format == IMAGE_UNORM8);
+    let r = word & PACKED_CHANNEL_MASK;
+    let g = (word >> PACKED_CHANNEL_BITS) & PACKED_CHANNEL_MASK;
+    let b = word >> (2u * PACKED_CHANNEL_BITS);
+    return vec3<f32>(texels[table + r], texels[table + g], texels[table + b]);
 }
 
 // reference::texture::Wrap::index: a whole texel index brought into 0..n.

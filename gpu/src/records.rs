@@ -107,9 +107,29 @@ gpu_record! {
 }
 
 gpu_record! {
-    /// An image's place in the shared texel array (3 floats per texel).
-    GpuImage { offset: u32, width: u32, height: u32, _pad0: u32 }
+    /// An image's place in the shared texel array and how its texels are
+    /// stored there (`format`: `IMAGE_F32`, three floats a texel; or
+    /// `IMAGE_SRGB8` / `IMAGE_UNORM8`, one float a texel holding the
+    /// integer `r + 256·g + 65536·b` of its bytes, decoded through the
+    /// table at `TEXEL_TABLE_SRGB8` / `TEXEL_TABLE_UNORM8`).
+    GpuImage { offset: u32, width: u32, height: u32, format: u32 }
 }
+
+/// `GpuImage::format`: three f32 a texel.
+pub const IMAGE_F32: u32 = 0;
+/// `GpuImage::format`: packed bytes of sRGB-encoded colour.
+pub const IMAGE_SRGB8: u32 = 1;
+/// `GpuImage::format`: packed bytes of data (`c / 255`).
+pub const IMAGE_UNORM8: u32 = 2;
+/// Where the texel array holds the 256 linear values of sRGB-encoded
+/// bytes (`reference::texture::decode_8bit`), and after them those of data
+/// bytes.
+pub const TEXEL_TABLE_SRGB8: u32 = 0;
+pub const TEXEL_TABLE_UNORM8: u32 = 256;
+/// Bits of a channel in a packed texel (an integer below 2^24, exact in
+/// an f32).
+pub const PACKED_CHANNEL_BITS: u32 = 8;
+pub const PACKED_CHANNEL_MASK: u32 = 255;
 
 gpu_record! {
     /// An emitter of the light set (`reference::light::LightSet::emitters`):

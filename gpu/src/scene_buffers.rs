@@ -99,6 +99,60 @@ pub fn pack_material(m: &Material) -> GpuMaterial {
     }
 }
 
+/// The images as the GPU stores them: the two byte-decoding tables first
+/// (`TEXEL_TABLE_SRGB8`, `TEXEL_TABLE_UNORM8`), then each image, as packed
+/// bytes where every channel of every texel is one of a table's values
+/// (an 8-bit image decoded by the loaders: a third of the memory, and the
+/// same floats once looked up), else as three floats a texel.
+fn pack_images(images: &[reference::texture::ImageData]) -> (Vec<GpuImage>, Vec<f32>) {
+    use reference::texture::decode_8bit;
+    use std::collections::HashMap;
+    let mut texels: Vec<f32> = [true, false]
+        .iter()
+        .flat_map(|&srgb| (0..=255).map(move |c| decode_8bit(c, srgb)))
+        .collect();
+    debug_assert_eq!(texels.len() as u32, TEXEL_TABLE_UNORM8 + 256);
+    // Bits of a table's values → the byte (a value in both tables, such
+    // as 0 or 1, decodes the same through either).
+    let index = |srgb: bool| -> HashMap<u32, u32> {
+        (0..=255u8)
+            .map(|c| (decode_8bit(c, srgb).to_bits(), c as u32))
+            .collect()
+    };
+    let tables = [(IMAGE_SRGB8, index(true)), (IMAGE_UNORM8, index(false))];
+    let mut packed = Vec::with_capacity(images.len());
+    for img in images {
+        let offset = texels.len() as u32;
+        let table = tables.iter().find(|(_, bytes)| {
+            img.texels.iter().all(|t| {
+                t.to_array()
+                    .iter()
+                    .all(|c| bytes.contains_key(&c.to_bits()))
+            })
+        });
+        let format = match table {
+            Some((format, bytes)) => {
+                texels.extend(img.texels.iter().map(|t| {
+                    let [r, g, b] = t.to_array().map(|c| bytes[&c.to_bits()]);
+                    (r | g << PACKED_CHANNEL_BITS | b << (2 * PACKED_CHANNEL_BITS)) as f32
+                }));
+                *format
+            }
+            None => {
+                texels.extend(img.texels.iter().flat_map(|t| t.to_array()));
+                IMAGE_F32
+            }
+        };
+        packed.push(GpuImage {
+            offset,
+            width: img.width,
+            height: img.height,
+            format,
+        });
+    }
+    (packed, texels)
+}
+
 /// The vertices' optional attributes, one record a vertex where the scene
 /// has any (each array of `mesh` is empty or one entry a vertex), else
 /// none.
@@ -233,17 +287,8 @@ impl PackedScene {
                 Some(format!("{why}: the binary walk is used")),
             ),
         };
-        let mut images = Vec::with_capacity(scene.images().len());
-        let mut texels = Vec::new();
-        for img in scene.images() {
-            images.push(GpuImage {
-                offset: texels.len() as u32,
-                width: img.width,
-                height: img.height,
-                _pad0: 0,
-            });
-            texels.extend(img.texels.iter().flat_map(|t| t.to_array()));
-        }
+        let (images, texels) = pack_images(scene.images());
+        let mut texels = texels;
         let m = &scene.mesh();
         let lights = LightSet::new(scene);
         let (mut env_pmf, mut env_table) = (0.0, 0);
@@ -404,6 +449,95 @@ pub fn pack_background(bg: &Background, p: &mut GpuParams) {
             let (s, c) = (-rotate_y.to_radians()).sin_cos();
             p.bg_rot_sin = s;
             p.bg_rot_cos = c;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+    use reference::texture::{decode_8bit, ImageData};
+
+    /// The WGSL `texel`, in Rust: what the GPU reads for texel `k`.
+    fn texel(texels: &[f32], img: &GpuImage, k: u32) -> Vec3 {
+        if img.format == IMAGE_F32 {
+            let i = (img.offset + 3 * k) as usize;
+            return Vec3::new(texels[i], texels[i + 1], texels[i + 2]);
+        }
+        let word = texels[(img.offset + k) as usize] as u32;
+        let table = match img.format {
+            IMAGE_UNORM8 => TEXEL_TABLE_UNORM8,
+            _ => TEXEL_TABLE_SRGB8,
+        };
+        let channel = |c: u32| texels[(table + c) as usize];
+        Vec3::new(
+            channel(word & PACKED_CHANNEL_MASK),
+            channel((word >> PACKED_CHANNEL_BITS) & PACKED_CHANNEL_MASK),
+            channel(word >> (2 * PACKED_CHANNEL_BITS)),
+        )
+    }
+
+    fn image(texels: Vec<Vec3>) -> ImageData {
+        ImageData {
+            width: texels.len() as u32,
+            height: 1,
+            texels,
+        }
+    }
+
+    /// The scene-file image loader decodes 8-bit images to the same
+    /// floats as `decode_8bit`, so they pack; an HDR image does not.
+    #[test]
+    fn a_scene_files_png_is_packed_and_its_hdr_is_not() {
+        let formats = |scene: &str| -> Vec<u32> {
+            let path = format!("{}/../fixtures/scenes/{scene}", env!("CARGO_MANIFEST_DIR"));
+            let scene = reference::load_scene(&path).unwrap();
+            pack_images(scene.images())
+                .0
+                .iter()
+                .map(|p| p.format)
+                .collect()
+        };
+        assert_eq!(formats("textures.json"), [IMAGE_SRGB8]); // uv_grid.png
+        assert_eq!(formats("skybox.json"), [IMAGE_F32]); // sky.hdr
+    }
+
+    #[test]
+    fn eight_bit_images_pack_to_a_float_a_texel_and_read_back_bit_for_bit() {
+        let bytes = |srgb: bool| -> Vec<Vec3> {
+            (0..=255u8)
+                .map(|c| {
+                    Vec3::new(
+                        decode_8bit(c, srgb),
+                        decode_8bit(255 - c, srgb),
+                        decode_8bit(c / 3, srgb),
+                    )
+                })
+                .collect()
+        };
+        let hdr = vec![Vec3::new(0.1, 2.5, 1e-3), Vec3::splat(0.3)];
+        let grey = vec![Vec3::ZERO, Vec3::ONE];
+        let images = [
+            image(bytes(true)),
+            image(bytes(false)),
+            image(hdr),
+            image(grey),
+        ];
+        let (packed, texels) = pack_images(&images);
+        let formats: Vec<u32> = packed.iter().map(|p| p.format).collect();
+        assert_eq!(formats, [IMAGE_SRGB8, IMAGE_UNORM8, IMAGE_F32, IMAGE_SRGB8]);
+        // Tables (512), then 256 + 256 packed texels, 2 x 3 floats, 2.
+        assert_eq!(texels.len(), 512 + 256 + 256 + 6 + 2);
+        for (img, gpu) in images.iter().zip(&packed) {
+            for (k, t) in img.texels.iter().enumerate() {
+                let read = texel(&texels, gpu, k as u32);
+                assert_eq!(
+                    read.to_array().map(f32::to_bits),
+                    t.to_array().map(f32::to_bits),
+                    "texel {k}"
+                );
+            }
         }
     }
 }

@@ -108,6 +108,13 @@ pub fn generate() -> String {
     s += &u("SAMPLER_NEAREST", crate::records::SAMPLER_NEAREST);
     s += &u("SAMPLER_TRANSFORM", crate::records::SAMPLER_TRANSFORM);
     s += &u("SAMPLER_UV1", crate::records::SAMPLER_UV1);
+    s += &u("IMAGE_F32", crate::records::IMAGE_F32);
+    s += &u("IMAGE_SRGB8", crate::records::IMAGE_SRGB8);
+    s += &u("IMAGE_UNORM8", crate::records::IMAGE_UNORM8);
+    s += &u("TEXEL_TABLE_SRGB8", crate::records::TEXEL_TABLE_SRGB8);
+    s += &u("TEXEL_TABLE_UNORM8", crate::records::TEXEL_TABLE_UNORM8);
+    s += &u("PACKED_CHANNEL_BITS", crate::records::PACKED_CHANNEL_BITS);
+    s += &u("PACKED_CHANNEL_MASK", crate::records::PACKED_CHANNEL_MASK);
     s += &u("BACKGROUND_SOLID", background_tag::SOLID);
     s += &u("BACKGROUND_SKY", background_tag::SKY);
     s += &u("BACKGROUND_ENVMAP", background_tag::ENVMAP);

@@ -237,6 +237,18 @@ fn evaluate_leaf(textures: &[Texture], images: &[ImageData], id: u32, uvs: [Vec2
     }
 }
 
+/// The linear value of an 8-bit channel: sRGB-encoded colour
+/// (`srgb`) or data (`c / 255`). The loaders decode 8-bit images through
+/// this table, and the GPU stores such images as the bytes and the table.
+pub fn decode_8bit(c: u8, srgb: bool) -> f32 {
+    let v = c as f32 / 255.0;
+    if srgb {
+        srgb_to_linear(v)
+    } else {
+        v
+    }
+}
+
 /// sRGB transfer function to linear (IEC 61966-2-1).
 pub fn srgb_to_linear(c: f32) -> f32 {
     if c <= 0.04045 {

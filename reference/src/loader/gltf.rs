@@ -85,7 +85,7 @@ use crate::camera::CameraSettings;
 use crate::error::SceneError;
 use crate::material::{Material, NormalMap};
 use crate::scene::{MeshInput, Scene, SceneBuilder, Transform, MAX_IMAGE_SIDE};
-use crate::texture::{srgb_to_linear, ImageData, Texture};
+use crate::texture::{decode_8bit, srgb_to_linear, ImageData, Texture};
 use glam::{Affine3A, Mat3, Mat4, Vec2, Vec3, Vec4};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::buffer::Data as BufferData;
@@ -1631,15 +1631,7 @@ fn convert_image(image: &gltf::image::Data, srgb: bool) -> Result<ImageData, Str
             image.pixels.len()
         ));
     }
-    let lut: Vec<f32> = (0..256)
-        .map(|i| {
-            if srgb {
-                srgb_to_linear(i as f32 / 255.0)
-            } else {
-                i as f32 / 255.0
-            }
-        })
-        .collect();
+    let lut: Vec<f32> = (0..=255).map(|i| decode_8bit(i, srgb)).collect();
     let channel = |c: &[u8]| -> f32 {
         match bytes_per_channel {
             1 => lut[c[0] as usize],
