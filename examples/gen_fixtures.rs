@@ -83,7 +83,14 @@ fn sky_hdr(path: &Path) -> anyhow::Result<()> {
 ///   (1, 0.4, 1) at the bottom to (1, 1, 0.3) at the top;
 /// - right: `KHR_materials_transmission` 1, `KHR_materials_ior` 1.5,
 ///   `KHR_materials_volume` (thickness 1, attenuation colour (0.9, 0.6,
-///   0.3) at distance 1): smooth glass with Beer-Lambert absorption.
+///   0.3) at distance 1): smooth glass with Beer-Lambert absorption;
+///
+/// and two panels in front: a lattice between the spheres, `alphaMode`
+/// MASK (cutoff 0.5) over an 8x8 RGBA base colour image whose alpha is 0
+/// on every third diagonal (bilinear: the holes' edges lie where the
+/// filtered alpha crosses the cutoff), and a pane before the left sphere,
+/// BLEND, alpha 0.7 times a vertex alpha (COLOR_0, floats) from 1 at the
+/// bottom to 0.2 at the top.
 fn gltf_materials() -> anyhow::Result<Vec<u8>> {
     use serde_json::json;
     const SEGMENTS: u32 = 32;
@@ -222,6 +229,38 @@ fn gltf_materials() -> anyhow::Result<Vec<u8>> {
         image::ImageFormat::Png,
     )?;
     let tiles_view = add_view(&tiles, None);
+    // The MASK lattice and the BLEND pane (quads facing +z, uv 0..1 as the
+    // backdrop's).
+    let lattice: [[f32; 3]; 4] = [
+        [-0.5, 0.2, 1.2],
+        [0.5, 0.2, 1.2],
+        [0.5, 1.4, 1.2],
+        [-0.5, 1.4, 1.2],
+    ];
+    let lattice_view = add_view(&floats(&lattice), Some(34962));
+    let pane: [[f32; 3]; 4] = [
+        [-2.3, 0.1, 1.4],
+        [-1.3, 0.1, 1.4],
+        [-1.3, 0.8, 1.4],
+        [-2.3, 0.8, 1.4],
+    ];
+    let pane_view = add_view(&floats(&pane), Some(34962));
+    let pane_colors: Vec<u8> = [1.0f32, 1.0, 0.2, 0.2]
+        .iter()
+        .flat_map(|&a| [0.3f32, 0.5, 0.9, a])
+        .flat_map(f32::to_le_bytes)
+        .collect();
+    let pane_colors_view = add_view(&pane_colors, Some(34962));
+    let mut lattice_png = Vec::new();
+    image::RgbaImage::from_fn(8, 8, |x, y| {
+        let open = (x + y) % 3 == 0;
+        image::Rgba([200, 70, 60, if open { 0 } else { 255 }])
+    })
+    .write_to(
+        &mut std::io::Cursor::new(&mut lattice_png),
+        image::ImageFormat::Png,
+    )?;
+    let lattice_image_view = add_view(&lattice_png, None);
     bin.resize(bin.len().next_multiple_of(4), 0);
     let n = positions.len();
     // A unit sphere's normals are its positions: one accessor for both.
@@ -235,6 +274,9 @@ fn gltf_materials() -> anyhow::Result<Vec<u8>> {
         { "bufferView": panel_index_view, "componentType": 5123, "count": 6, "type": "SCALAR" },
         { "bufferView": colors_view, "componentType": 5121, "normalized": true, "count": n, "type": "VEC4" },
         { "bufferView": panel_uv1_view, "componentType": 5126, "count": 4, "type": "VEC2" },
+        { "bufferView": lattice_view, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-0.5, 0.2, 1.2], "max": [0.5, 1.4, 1.2] },
+        { "bufferView": pane_view, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-2.3, 0.1, 1.4], "max": [-1.3, 0.8, 1.4] },
+        { "bufferView": pane_colors_view, "componentType": 5126, "count": 4, "type": "VEC4" },
     ]);
     let sphere = json!({ "POSITION": 0, "NORMAL": 0, "TEXCOORD_0": 1 });
     let mut coloured = sphere.clone();
@@ -243,16 +285,20 @@ fn gltf_materials() -> anyhow::Result<Vec<u8>> {
         "asset": { "version": "2.0", "generator": "twintrace examples/gen_fixtures.rs" },
         "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume", "KHR_texture_transform"],
         "scene": 0,
-        "scenes": [{ "nodes": [0, 1, 2] }],
+        "scenes": [{ "nodes": [0, 1, 2, 3, 4] }],
         "nodes": [
             { "name": "metallic-roughness", "mesh": 0, "translation": [-1.1, 1.0, 0.0] },
             { "name": "glass", "mesh": 1, "translation": [1.1, 1.0, 0.0] },
             { "name": "sampled backdrop", "mesh": 2 },
+            { "name": "masked lattice", "mesh": 3 },
+            { "name": "blended pane", "mesh": 4 },
         ],
         "meshes": [
             { "primitives": [{ "attributes": coloured, "indices": 2, "material": 0 }] },
             { "primitives": [{ "attributes": sphere, "indices": 2, "material": 1 }] },
             { "primitives": [{ "attributes": { "POSITION": 3, "NORMAL": 4, "TEXCOORD_0": 5, "TEXCOORD_1": 8 }, "indices": 6, "material": 2 }] },
+            { "primitives": [{ "attributes": { "POSITION": 9, "NORMAL": 4, "TEXCOORD_0": 5 }, "indices": 6, "material": 3 }] },
+            { "primitives": [{ "attributes": { "POSITION": 10, "NORMAL": 4, "COLOR_0": 11 }, "indices": 6, "material": 4 }] },
         ],
         "materials": [
             {
@@ -292,13 +338,25 @@ fn gltf_materials() -> anyhow::Result<Vec<u8>> {
                     "extensions": { "KHR_texture_transform": { "scale": [3.0, 2.0] } },
                 },
             },
+            {
+                "name": "masked lattice",
+                "pbrMetallicRoughness": { "baseColorTexture": { "index": 3 }, "metallicFactor": 0.0, "roughnessFactor": 0.6 },
+                "alphaMode": "MASK",
+                "alphaCutoff": 0.5,
+            },
+            {
+                "name": "blended pane",
+                "pbrMetallicRoughness": { "baseColorFactor": [1.0, 1.0, 1.0, 0.7], "metallicFactor": 0.0, "roughnessFactor": 0.3 },
+                "alphaMode": "BLEND",
+            },
         ],
         "samplers": [{ "wrapS": 33071, "wrapT": 33648, "magFilter": 9728 }],
-        "textures": [{ "source": 0 }, { "source": 1, "sampler": 0 }, { "source": 2 }],
+        "textures": [{ "source": 0 }, { "source": 1, "sampler": 0 }, { "source": 2 }, { "source": 3 }],
         "images": [
             { "bufferView": image_view, "mimeType": "image/png" },
             { "bufferView": tiles_view, "mimeType": "image/png" },
             { "bufferView": normals_view, "mimeType": "image/png" },
+            { "bufferView": lattice_image_view, "mimeType": "image/png" },
         ],
         "buffers": [{ "byteLength": bin.len() }],
         "bufferViews": views,

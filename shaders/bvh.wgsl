@@ -96,9 +96,11 @@ fn intersect_leaf(first: u32, count: u32, ray: Ray, inv_dir: vec3<f32>, pad: f32
         let entry = first + i;
         var prim: u32;
         var h: ShapeHit;
+        var alpha = false;
         if LEAVES == LEAVES_INDEXED {
             prim = leaf_entries[entry >> 2u][entry & 3u];
             h = intersect_primitive(prim, ray, inv_dir, pad, t_min, limit);
+            alpha = h.hit && has_alpha(prim);
         } else {
             // An inline entry's four words: side by side, or word k of
             // every entry in the k-th quarter of the array.
@@ -109,8 +111,18 @@ fn intersect_leaf(first: u32, count: u32, ray: Ray, inv_dir: vec3<f32>, pad: f32
                 step = arrayLength(&leaf_entries) / INLINE_WORDS;
             }
             let r0 = leaf_entries[e];
-            prim = r0.x & ((1u << INLINE_TAG_SHIFT) - 1u);
+            prim = r0.x & (INLINE_ALPHA - 1u);
+            alpha = (r0.x & INLINE_ALPHA) != 0u;
             h = intersect_inline(r0, leaf_entries[e + step], leaf_entries[e + 2u * step], leaf_entries[e + 3u * step], ray, inv_dir, pad, t_min, limit);
+        }
+        // A triangle with an alpha counts where its surface covers the
+        // hit (reference::Scene::alpha_covers), in every walk and layout.
+        if h.hit && alpha {
+            if !uses(FEATURE_ALPHA) {
+                poison();
+            } else if !alpha_covers(ray, prim, h.uv) {
+                h.hit = false;
+            }
         }
         if h.hit && (!best.hit || h.t < best.t || (h.t == best.t && prim < best.prim)) {
             best = Hit(true, h.t, prim, h.uv);

@@ -34,7 +34,9 @@ const TRIANGLE_HAS_UVS: u32 = 2u;
 const TRIANGLE_HAS_COLORS: u32 = 4u;
 const TRIANGLE_HAS_TANGENTS: u32 = 8u;
 const TRIANGLE_HAS_UV1: u32 = 16u;
+const TRIANGLE_HAS_ALPHA: u32 = 32u;
 const NO_TEXTURE: u32 = 4294967295u;
+const ALPHA_BLEND: f32 = -1e0;
 const BVH_LEAF: u32 = 3u;
 const BVH_STACK_SIZE: u32 = 64u;
 const TRAVERSAL_BINARY: u32 = 0u;
@@ -51,6 +53,7 @@ const LEAVES_INLINE: u32 = 1u;
 const LEAVES_INLINE_SOA: u32 = 2u;
 const INLINE_WORDS: u32 = 4u;
 const INLINE_TAG_SHIFT: u32 = 30u;
+const INLINE_ALPHA: u32 = 536870912u;
 const SLAB_FAR_SCALE: f32 = 1.0000004e0;
 const BOX_NEAR_SLACK: f32 = 9.9975586e-1;
 const BOX_T_PAD: f32 = 9.536743e-7;
@@ -83,6 +86,7 @@ const FEATURE_SOLID_BACKGROUND: u32 = 512u;
 const FEATURE_SKY_BACKGROUND: u32 = 1024u;
 const FEATURE_ENVMAP_BACKGROUND: u32 = 2048u;
 const FEATURE_NORMAL_MAPS: u32 = 4096u;
+const FEATURE_ALPHA: u32 = 8192u;
 const INTEGRATOR_BSDF: u32 = 0u;
 const INTEGRATOR_MIS: u32 = 1u;
 const SMALL_CONE_SIN2: f32 = 6.8523e-4;
@@ -182,8 +186,8 @@ struct GpuMaterial {
     texture2: u32,
     texture3: u32,
     p2: f32,
-    _pad0: u32,
-    _pad1: u32,
+    alpha_texture: u32,
+    alpha_cutoff: f32,
 }
 struct GpuTexture {
     tag: u32,

@@ -67,9 +67,10 @@ fn trace_path(ray_in: Ray, pixel: u32, sample: u32) -> vec3<f32> {
         let si = surface_interaction(ray, hit);
         let m = materials[si.material];
         throughput *= transmittance(m, si, hit.t);
-        radiance += throughput * emitted(m, si);
+        let tx = material_textures(m, si);
+        radiance += throughput * emitted(m, si, tx);
         let u = vertex_randoms(params.seed, pixel, sample, segment + 1u);
-        let s = scatter(m, ray.direction, si, u);
+        let s = scatter(m, ray.direction, si, tx, u);
         if !s.ok {
             break;
         }
@@ -121,12 +122,12 @@ fn no_shadow_query() -> ShadowQuery {
 // The first half of next_event: the light sample, the BSDF's value and
 // density toward it, and the shadow ray (aimed from the spawn point at
 // the sampled point itself; along the direction for the environment).
-fn next_event_ray(m: GpuMaterial, ray: Ray, si: SurfaceInteraction, ul: vec4<f32>, throughput: vec3<f32>) -> ShadowQuery {
+fn next_event_ray(m: GpuMaterial, ray: Ray, si: SurfaceInteraction, tx: MaterialTextures, ul: vec4<f32>, throughput: vec3<f32>) -> ShadowQuery {
     let ls = light_set_sample(si.p, ul[LIGHT_DIM_SELECT], vec2<f32>(ul[LIGHT_DIM_POINT_U], ul[LIGHT_DIM_POINT_V]));
     if !ls.ok {
         return no_shadow_query();
     }
-    let b = bsdf_eval(m, ray.direction, si, ls.direction);
+    let b = bsdf_eval(m, ray.direction, si, tx, ls.direction);
     if !b.ok || all(b.f_cos == vec3<f32>(0.0)) {
         return no_shadow_query();
     }
@@ -160,7 +161,8 @@ fn next_event_finish(q: ShadowQuery, hit: Hit) -> vec3<f32> {
         return none;
     }
     let sl = surface_interaction(q.ray, hit);
-    let le = emitted(materials[sl.material], sl);
+    let lm = materials[sl.material];
+    let le = emitted(lm, sl, light_textures(lm, sl));
     let pdf_light = light_set_pdf(q.prim, q.p, sl.p, sl.geometric_normal);
     if all(le == none) || !(pdf_light > 0.0 && pdf_light <= F32_MAX) {
         return none;
@@ -207,7 +209,8 @@ fn trace_path_mis(ray_in: Ray, pixel: u32, sample: u32) -> vec3<f32> {
         let si = surface_interaction(ray, hit);
         let m = materials[si.material];
         throughput *= transmittance(m, si, hit.t);
-        let le = emitted(m, si);
+        let tx = material_textures(m, si);
+        let le = emitted(m, si, tx);
         if any(le != vec3<f32>(0.0)) {
             var weight = 1.0;
             if from_pdf > 0.0 {
@@ -220,14 +223,14 @@ fn trace_path_mis(ray_in: Ray, pixel: u32, sample: u32) -> vec3<f32> {
         // The shadow ray is the path's next segment: none after the last.
         if density && params.emitter_count > 0u && segment + 1u < params.max_depth {
             let ul = light_randoms(params.seed, pixel, sample, segment + 1u);
-            shadow = next_event_ray(m, ray, si, ul, throughput);
+            shadow = next_event_ray(m, ray, si, tx, ul, throughput);
         }
-        let s = scatter(m, ray.direction, si, u);
+        let s = scatter(m, ray.direction, si, tx, u);
         alive = s.ok;
         if alive {
             from_pdf = 0.0;
             if density {
-                let b = bsdf_eval(m, ray.direction, si, s.direction);
+                let b = bsdf_eval(m, ray.direction, si, tx, s.direction);
                 if b.ok && b.pdf > 0.0 {
                     from_p = si.p;
                     from_pdf = b.pdf;

@@ -58,9 +58,51 @@ fn ggx_lobes_pdf(l: GgxLobes, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
     return p * spec_pdf + (1.0 - p) * wi.z * FRAC_1_PI;
 }
 
-fn emitted(m: GpuMaterial, si: SurfaceInteraction) -> vec3<f32> {
+// reference::material::alpha_hash: BLEND's number in [0, 1) from the ray's
+// bits and the primitive.
+fn alpha_hash(ray: Ray, prim: u32) -> f32 {
+    let o = bitcast<vec3<u32>>(ray.origin);
+    let d = bitcast<vec3<u32>>(ray.direction);
+    let h = pcg4d(vec4<u32>(o, prim));
+    return u32_to_unit_f32(pcg4d(vec4<u32>(h.x ^ d.x, h.y ^ d.y, h.z ^ d.z, h.w)).x);
+}
+
+// The material's textures at a surface point, evaluated once a path
+// vertex and handed to emitted, bsdf_eval and scatter. The reference
+// evaluates them inside each of those (through its TextureContext); the
+// values are the same. Once a vertex, because llvmpipe (CI's Vulkan) and
+// the drivers inline every call: each texture call site is a copy of the
+// bilinear image lookup, and with one a use the kernels took several times
+// longer to compile (the textures fixture's MIS kernel 65 s cold, 4 s so).
+struct MaterialTextures {
+    // The albedo (Lambertian, metal), the emission (diffuse light), the
+    // base colour times the vertex colour (GGX); zero for the dielectric.
+    base: vec3<f32>,
+    // GGX: metallic and roughness (ggx_parameters).
+    metal_rough: vec2<f32>,
+}
+
+fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures {
+    var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0));
+    if m.tag == MATERIAL_DIELECTRIC {
+        return t;
+    }
+    t.base = evaluate_texture(m.texture, si.p, si.uv, si.uv1);
+    if m.tag == MATERIAL_GGX {
+        t.base *= si.color;
+        t.metal_rough = ggx_parameters(m, si);
+    }
+    return t;
+}
+
+// What emitted reads at a light's sampled point (no GGX parameters).
+fn light_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures {
+    return MaterialTextures(evaluate_texture(m.texture, si.p, si.uv, si.uv1), vec2<f32>(0.0));
+}
+
+fn emitted(m: GpuMaterial, si: SurfaceInteraction, tx: MaterialTextures) -> vec3<f32> {
     if m.tag == MATERIAL_DIFFUSE_LIGHT && si.front_face {
-        return evaluate_texture(m.texture, si.p, si.uv, si.uv1);
+        return tx.base;
     }
     return vec3<f32>(0.0);
 }
@@ -79,7 +121,7 @@ struct BsdfEval {
     pdf: f32,
 }
 
-fn bsdf_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, wi: vec3<f32>) -> BsdfEval {
+fn bsdf_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: MaterialTextures, wi: vec3<f32>) -> BsdfEval {
     var n = si.shading_normal;
     if !si.front_face {
         n = -n;
@@ -92,7 +134,7 @@ fn bsdf_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, wi: vec
             if cos_i <= 0.0 {
                 return zero;
             }
-            return BsdfEval(true, evaluate_texture(m.texture, si.p, si.uv, si.uv1) * (FRAC_1_PI * cos_i), cos_i * FRAC_1_PI);
+            return BsdfEval(true, tx.base * (FRAC_1_PI * cos_i), cos_i * FRAC_1_PI);
         }
         case MATERIAL_GGX: {
             if !uses(FEATURE_GGX) { poison(); break; }
@@ -102,8 +144,7 @@ fn bsdf_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, wi: vec
             if wo.z <= 0.0 || wl.z <= 0.0 {
                 return zero;
             }
-            let mr = ggx_parameters(m, si);
-            let lobes = ggx_lobes_new(evaluate_texture(m.texture, si.p, si.uv, si.uv1) * si.color, mr.x, mr.y, wo);
+            let lobes = ggx_lobes_new(tx.base, tx.metal_rough.x, tx.metal_rough.y, wo);
             return BsdfEval(true, ggx_lobes_eval(lobes, wo, wl) * wl.z, ggx_lobes_pdf(lobes, wo, wl));
         }
         case MATERIAL_METAL, MATERIAL_DIELECTRIC, MATERIAL_DIFFUSE_LIGHT: {
@@ -130,7 +171,7 @@ fn absorbed() -> Scatter {
 // The material's sampling routine, picked by a switch on the tag (the
 // baseline) or, with DISPATCH == DISPATCH_BRANCHES, by a chain of tag tests
 // (gpu::Dispatch): the two ways WGSL has to stand for a virtual call.
-fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, u: VertexRandoms) -> Scatter {
+fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: MaterialTextures, u: VertexRandoms) -> Scatter {
     var n = si.shading_normal;
     var ng = si.geometric_normal;
     if !si.front_face {
@@ -139,16 +180,16 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, u: Vertex
     }
     if DISPATCH == DISPATCH_BRANCHES {
         if m.tag == MATERIAL_LAMBERTIAN {
-            return scatter_lambertian(m, si, n, u);
+            return scatter_lambertian(tx, n, u);
         }
         if m.tag == MATERIAL_METAL {
-            return scatter_metal(m, ray_dir, si, n, ng, u);
+            return scatter_metal(m, ray_dir, tx, n, ng, u);
         }
         if m.tag == MATERIAL_DIELECTRIC {
             return scatter_dielectric(m, ray_dir, si, n, u);
         }
         if m.tag == MATERIAL_GGX {
-            return scatter_ggx(m, ray_dir, si, n, u);
+            return scatter_ggx(m, ray_dir, tx, n, u);
         }
         if m.tag == MATERIAL_DIFFUSE_LIGHT {
             return absorbed();
@@ -158,16 +199,16 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, u: Vertex
     }
     switch m.tag {
         case MATERIAL_LAMBERTIAN: {
-            return scatter_lambertian(m, si, n, u);
+            return scatter_lambertian(tx, n, u);
         }
         case MATERIAL_METAL: {
-            return scatter_metal(m, ray_dir, si, n, ng, u);
+            return scatter_metal(m, ray_dir, tx, n, ng, u);
         }
         case MATERIAL_DIELECTRIC: {
             return scatter_dielectric(m, ray_dir, si, n, u);
         }
         case MATERIAL_GGX: {
-            return scatter_ggx(m, ray_dir, si, n, u);
+            return scatter_ggx(m, ray_dir, tx, n, u);
         }
         case MATERIAL_DIFFUSE_LIGHT: {
             return absorbed();
@@ -180,20 +221,20 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, u: Vertex
 }
 
 // scatter's cases, `n` and `ng` already facing the ray's side.
-fn scatter_lambertian(m: GpuMaterial, si: SurfaceInteraction, n: vec3<f32>, u: VertexRandoms) -> Scatter {
+fn scatter_lambertian(tx: MaterialTextures, n: vec3<f32>, u: VertexRandoms) -> Scatter {
     if !uses(FEATURE_LAMBERTIAN) { poison(); return absorbed(); }
     let local = sample_cosine_hemisphere(vec2<f32>(vr_get(u, DIM_DIRECTION_U), vr_get(u, DIM_DIRECTION_V)));
-    return Scatter(true, onb_to_world(onb_from_normal(n), local), evaluate_texture(m.texture, si.p, si.uv, si.uv1));
+    return Scatter(true, onb_to_world(onb_from_normal(n), local), tx.base);
 }
 
-fn scatter_metal(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, n: vec3<f32>, ng: vec3<f32>, u: VertexRandoms) -> Scatter {
+fn scatter_metal(m: GpuMaterial, ray_dir: vec3<f32>, tx: MaterialTextures, n: vec3<f32>, ng: vec3<f32>, u: VertexRandoms) -> Scatter {
     if !uses(FEATURE_METAL) { poison(); return absorbed(); }
     let ball = sample_unit_ball(vec3<f32>(vr_get(u, DIM_BALL_X), vr_get(u, DIM_BALL_Y), vr_get(u, DIM_BALL_Z)));
     let direction = reflect_about(ray_dir, n) + m.p0 * ball;
     if dot(direction, ng) <= 0.0 {
         return absorbed();
     }
-    return Scatter(true, normalize(direction), evaluate_texture(m.texture, si.p, si.uv, si.uv1));
+    return Scatter(true, normalize(direction), tx.base);
 }
 
 fn scatter_dielectric(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, n: vec3<f32>, u: VertexRandoms) -> Scatter {
@@ -241,15 +282,14 @@ fn ggx_parameters(m: GpuMaterial, si: SurfaceInteraction) -> vec2<f32> {
     return vec2<f32>(m.p0 * t.z, m.p1 * t.y);
 }
 
-fn scatter_ggx(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, n: vec3<f32>, u: VertexRandoms) -> Scatter {
+fn scatter_ggx(m: GpuMaterial, ray_dir: vec3<f32>, tx: MaterialTextures, n: vec3<f32>, u: VertexRandoms) -> Scatter {
     if !uses(FEATURE_GGX) { poison(); return absorbed(); }
     let frame = onb_from_normal(n);
     let wo = onb_to_local(frame, -ray_dir);
     if wo.z <= 0.0 {
         return absorbed();
     }
-    let mr = ggx_parameters(m, si);
-    let lobes = ggx_lobes_new(evaluate_texture(m.texture, si.p, si.uv, si.uv1) * si.color, mr.x, mr.y, wo);
+    let lobes = ggx_lobes_new(tx.base, tx.metal_rough.x, tx.metal_rough.y, wo);
     let dir_u = vec2<f32>(vr_get(u, DIM_DIRECTION_U), vr_get(u, DIM_DIRECTION_V));
     var wi: vec3<f32>;
     if vr_get(u, DIM_LOBE) < lobes.specular_probability {

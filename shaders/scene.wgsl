@@ -49,6 +49,55 @@ fn intersect_primitive(prim: u32, ray: Ray, inv_dir: vec3<f32>, pad: f32, t_min:
     return h;
 }
 
+// Whether primitive `prim` is a triangle with an alpha
+// (TRIANGLE_HAS_ALPHA): an indexed leaf entry's hit asks, from the records
+// intersect_primitive has just read.
+fn has_alpha(prim: u32) -> bool {
+    let p = primitives[prim];
+    return p.tag == PRIMITIVE_TRIANGLE && (triangles[p.index].flags & TRIANGLE_HAS_ALPHA) != 0u;
+}
+
+// reference::Scene::alpha_covers, for a triangle with an alpha hit at
+// barycentrics `bary` (of vertices 1 and 2): the alpha texture at the
+// texture coordinates surface_interaction interpolates, times the vertex
+// colour's alpha, against MASK's cutoff or BLEND's hash.
+fn alpha_covers(ray: Ray, prim: u32, bary: vec2<f32>) -> bool {
+    let tri = triangles[primitives[prim].index];
+    let m = materials[tri.material];
+    if m.alpha_texture == NO_TEXTURE {
+        return true;
+    }
+    let a = vertices[tri.v0];
+    let b = vertices[tri.v1];
+    let c = vertices[tri.v2];
+    let b1 = bary.x;
+    let b2 = bary.y;
+    let b0 = 1.0 - b1 - b2;
+    let p = b0 * vec3<f32>(a.p_x, a.p_y, a.p_z) + b1 * vec3<f32>(b.p_x, b.p_y, b.p_z) + b2 * vec3<f32>(c.p_x, c.p_y, c.p_z);
+    var uv = bary;
+    if (tri.flags & TRIANGLE_HAS_UVS) != 0u {
+        uv = b0 * vec2<f32>(a.u, a.v) + b1 * vec2<f32>(b.u, b.v) + b2 * vec2<f32>(c.u, c.v);
+    }
+    var uv1 = vec2<f32>(0.0);
+    var vertex_alpha = 1.0;
+    if (tri.flags & (TRIANGLE_HAS_UV1 | TRIANGLE_HAS_COLORS)) != 0u {
+        let ea = vertex_extras[tri.v0];
+        let eb = vertex_extras[tri.v1];
+        let ec = vertex_extras[tri.v2];
+        if (tri.flags & TRIANGLE_HAS_UV1) != 0u {
+            uv1 = b0 * vec2<f32>(ea.u1, ea.v1) + b1 * vec2<f32>(eb.u1, eb.v1) + b2 * vec2<f32>(ec.u1, ec.v1);
+        }
+        if (tri.flags & TRIANGLE_HAS_COLORS) != 0u {
+            vertex_alpha = b0 * ea.a + b1 * eb.a + b2 * ec.a;
+        }
+    }
+    let alpha = evaluate_texture(m.alpha_texture, p, uv, uv1).x * vertex_alpha;
+    if m.alpha_cutoff == ALPHA_BLEND {
+        return alpha_hash(ray, prim) < alpha;
+    }
+    return alpha >= m.alpha_cutoff;
+}
+
 fn intersect_shape(p: GpuPrimitive, ray: Ray, t_min: f32, t_max: f32) -> ShapeHit {
     if DISPATCH == DISPATCH_BRANCHES {
         if p.tag == PRIMITIVE_SPHERE {

@@ -121,16 +121,14 @@ fn evaluate_leaf(id: u32, uv0: vec2<f32>, uv1: vec2<f32>) -> vec3<f32> {
 
 fn evaluate_texture(id: u32, p: vec3<f32>, uv: vec2<f32>, uv1: vec2<f32>) -> vec3<f32> {
     let t = textures[id];
+    var leaf = id;
     if t.tag == TEXTURE_CHECKER {
         if !uses(FEATURE_CHECKER_TEXTURES) {
             poison();
             return vec3<f32>(0.0);
         }
         let sines = sin(t.scale * p.x) * sin(t.scale * p.y) * sin(t.scale * p.z);
-        if sines < 0.0 {
-            return evaluate_leaf(t.odd, uv, uv1);
-        }
-        return evaluate_leaf(t.even, uv, uv1);
+        leaf = select(t.even, t.odd, sines < 0.0);
     }
-    return evaluate_leaf(id, uv, uv1);
+    return evaluate_leaf(leaf, uv, uv1);
 }

@@ -264,10 +264,11 @@ fn shade_bsdf(v: ptr<function, Vertex>, hit: Hit, pixel: u32, sample: u32) {
     let si = surface_interaction(ray, hit);
     let m = materials[si.material];
     (*v).throughput *= transmittance(m, si, hit.t);
-    (*v).radiance += (*v).throughput * emitted(m, si);
+    let tx = material_textures(m, si);
+    (*v).radiance += (*v).throughput * emitted(m, si, tx);
     let segment = (*v).segment;
     let u = vertex_randoms(params.seed, pixel, sample, segment + 1u);
-    let s = scatter(m, ray.direction, si, u);
+    let s = scatter(m, ray.direction, si, tx, u);
     if !s.ok {
         return;
     }
@@ -299,7 +300,8 @@ fn shade_mis(v: ptr<function, Vertex>, hit: Hit, pixel: u32, sample: u32) {
     let si = surface_interaction(ray, hit);
     let m = materials[si.material];
     (*v).throughput *= transmittance(m, si, hit.t);
-    let le = emitted(m, si);
+    let tx = material_textures(m, si);
+    let le = emitted(m, si, tx);
     if any(le != vec3<f32>(0.0)) {
         var weight = 1.0;
         if (*v).from_pdf > 0.0 {
@@ -312,17 +314,17 @@ fn shade_mis(v: ptr<function, Vertex>, hit: Hit, pixel: u32, sample: u32) {
     let density = has_density(m);
     if density && params.emitter_count > 0u && segment + 1u < params.max_depth {
         let ul = light_randoms(params.seed, pixel, sample, segment + 1u);
-        (*v).shadow = next_event_ray(m, ray, si, ul, (*v).throughput);
+        (*v).shadow = next_event_ray(m, ray, si, tx, ul, (*v).throughput);
         if (*v).shadow.ok {
             (*v).next |= PATH_SHADOW;
         }
     }
-    let s = scatter(m, ray.direction, si, u);
+    let s = scatter(m, ray.direction, si, tx, u);
     var alive = s.ok;
     if alive {
         (*v).from_pdf = 0.0;
         if density {
-            let b = bsdf_eval(m, ray.direction, si, s.direction);
+            let b = bsdf_eval(m, ray.direction, si, tx, s.direction);
             if b.ok && b.pdf > 0.0 {
                 (*v).from_p = si.p;
                 (*v).from_pdf = b.pdf;

@@ -9,10 +9,12 @@
 //! - vertex colours (COLOR_0) render as the base colour factor they equal;
 //! - `KHR_materials_transmission` with `KHR_materials_ior` and
 //!   `KHR_materials_volume` renders as the scene file's dielectric (the
-//!   `mesh` object's material) of that index and absorption.
+//!   `mesh` object's material) of that index and absorption;
+//! - `alphaMode` MASK with a texture's alpha 0 over a quarter of a plane
+//!   renders as the plane without that quarter (its look and its shadow).
 //!
 //! Each is also compared with a twin that means something else (the map's
-//! bitangent turned, a colour channel off, another index), which must
+//! bitangent turned, a colour channel off, another index, no hole), which must
 //! fail: the comparison can fail.
 
 use crate::common;
@@ -343,5 +345,89 @@ fn transmission_renders_as_the_json_dielectric() {
             &[Part::Gltf(&ground), Part::Mesh(&bare, dielectric(1.6))],
             false,
         ),
+    );
+}
+
+/// The 2x2 plane y = 0 as four quarter squares (uv over the whole plane,
+/// as `plane`'s), those of `quarters` (0: x < 0, z < 0; 1: x > 0, z < 0;
+/// 2: x < 0, z > 0; 3: x > 0, z > 0), with material 0 (`material`); a
+/// 3x3 ground at y = -0.5 below it (material 1, opaque); `alpha` a 2x2
+/// RGBA texture's alphas for texture 0 (row 0 is the image's top: v = 0,
+/// glTF's, along z = -1), read through a nearest sampler.
+fn quarters(quarters: &[usize], material: Value, alpha: Option<[u8; 4]>) -> Vec<u8> {
+    let mut glb = Glb::default();
+    let (mut positions, mut uvs, mut indices) = (Vec::new(), Vec::new(), Vec::new());
+    for &q in quarters {
+        let (x0, z0) = ((q % 2) as f32 - 1.0, (q / 2) as f32 - 1.0);
+        let base = (positions.len() / 3) as u32;
+        for (dx, dz) in [(0.0, 0.0), (0.0, 1.0), (1.0, 1.0), (1.0, 0.0)] {
+            let (x, z) = (x0 + dx, z0 + dz);
+            positions.extend([x, 0.0, z]);
+            uvs.extend([(x + 1.0) / 2.0, (z + 1.0) / 2.0]);
+        }
+        indices.extend([0, 1, 2, 0, 2, 3].map(|i| base + i));
+    }
+    let n = positions.len() / 3;
+    let plane = json!({
+        "attributes": {
+            "POSITION": glb.floats(&positions, "VEC3", 3),
+            "NORMAL": glb.floats(&[0.0, 1.0, 0.0].repeat(n), "VEC3", 3),
+            "TEXCOORD_0": glb.floats(&uvs, "VEC2", 2),
+        },
+        "indices": glb.indices(&indices),
+        "material": 0,
+    });
+    let ground = [
+        -1.5, -0.5, -1.5, -1.5, -0.5, 1.5, 1.5, -0.5, 1.5, 1.5, -0.5, -1.5,
+    ];
+    let ground = json!({
+        "attributes": {
+            "POSITION": glb.floats(&ground, "VEC3", 3),
+            "NORMAL": glb.floats(&[0.0, 1.0, 0.0].repeat(4), "VEC3", 3),
+        },
+        "indices": glb.indices(&[0, 1, 2, 0, 2, 3]),
+        "material": 1,
+    });
+    let mut document = json!({
+        "scenes": [{ "nodes": [0, 1] }],
+        "nodes": [{ "mesh": 0 }, { "mesh": 1 }],
+        "meshes": [{ "primitives": [plane] }, { "primitives": [ground] }],
+        "materials": [material, json!({ "pbrMetallicRoughness": { "baseColorFactor": [0.3, 0.6, 0.3, 1], "metallicFactor": 0, "roughnessFactor": 0.8 } })],
+    });
+    if let Some(alpha) = alpha {
+        let rgba: Vec<u8> = alpha.iter().flat_map(|&a| [200, 200, 200, a]).collect();
+        let mut png = Vec::new();
+        image::RgbaImage::from_raw(2, 2, rgba)
+            .unwrap()
+            .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+            .unwrap();
+        let view = glb.view(&png);
+        document["images"] = json!([{ "bufferView": view, "mimeType": "image/png" }]);
+        document["samplers"] = json!([{ "magFilter": 9728 }]);
+        document["textures"] = json!([{ "source": 0, "sampler": 0 }]);
+    }
+    glb.finish(document)
+}
+
+#[test]
+fn an_alpha_mask_cuts_the_hole_the_geometry_has() {
+    // The alpha of the first quarter is 0 (below the cutoff, 0.5): the
+    // masked plane is the plane without that quarter, in its own look and
+    // in the shadow it casts on the ground (sky light). The base colour
+    // texture's RGB (200/255, sRGB) is the opaque twins' factor.
+    let grey = reference::texture::srgb_to_linear(200.0 / 255.0);
+    let masked = json!({
+        "pbrMetallicRoughness": { "baseColorTexture": { "index": 0 }, "metallicFactor": 0, "roughnessFactor": 0.4 },
+        "alphaMode": "MASK",
+    });
+    let opaque = json!({ "pbrMetallicRoughness": { "baseColorFactor": [grey, grey, grey, 1], "metallicFactor": 0, "roughnessFactor": 0.4 } });
+    let gltf = quarters(&[0, 1, 2, 3], masked, Some([0, 255, 255, 255]));
+    let meaning = quarters(&[1, 2, 3], opaque.clone(), None);
+    let other = quarters(&[0, 1, 2, 3], opaque, None);
+    assert_means(
+        "a masked plane vs the plane with the hole",
+        &scene(&[Part::Gltf(&gltf)], false),
+        &scene(&[Part::Gltf(&meaning)], false),
+        &scene(&[Part::Gltf(&other)], false),
     );
 }

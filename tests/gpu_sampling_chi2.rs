@@ -51,7 +51,7 @@ fn sample_main(@builtin(global_invocation_id) gid: vec3<u32>) {
         case 3u: { d = sample_unit_ball(vec3<f32>(vr_get(u, DIM_BALL_X), vr_get(u, DIM_BALL_Y), vr_get(u, DIM_BALL_Z))); }
         case 4u: { d = ggx_sample_visible_normal(wo, bitcast<f32>(input[8]), dir_u); }
         default: {
-            let m = GpuMaterial(input[9], input[10], bitcast<f32>(input[11]), bitcast<f32>(input[12]), bitcast<f32>(input[13]), bitcast<f32>(input[14]), bitcast<f32>(input[15]), input[16], NO_TEXTURE, 0.0, 0u, 0u);
+            let m = GpuMaterial(input[9], input[10], bitcast<f32>(input[11]), bitcast<f32>(input[12]), bitcast<f32>(input[13]), bitcast<f32>(input[14]), bitcast<f32>(input[15]), input[16], NO_TEXTURE, 0.0, NO_TEXTURE, 0.0);
             let front = input[3] != 0u;
             var ray_dir = -wo;
             if input[4] != 0u {
@@ -61,7 +61,7 @@ fn sample_main(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
             let z = vec3<f32>(0.0, 0.0, 1.0);
             let si = SurfaceInteraction(vec3<f32>(0.0), z, z, vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(1.0), 0.0, front, 0u);
-            let s = scatter(m, ray_dir, si, u);
+            let s = scatter(m, ray_dir, si, material_textures(m, si), u);
             ok = s.ok;
             d = s.direction;
         }
@@ -119,7 +119,10 @@ fn gpu_samples(job: &Job) -> Vec<Option<DVec3>> {
     b.camera.look_from = Vec3::new(0.0, 0.0, 5.0);
     let scene = b.build().unwrap();
     let renderer = gpu::GpuRenderer::new(ctx, &scene).unwrap();
-    let mat = job.material.map(|m| pack_material(&m)).unwrap_or_default();
+    let mat = job
+        .material
+        .map(|m| pack_material(&m, None))
+        .unwrap_or_default();
     let mut input = vec![
         job.seed,
         job.mode as u32,

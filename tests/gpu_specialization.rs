@@ -71,7 +71,7 @@ fn branch_dispatch_mutants_are_caught() {
     let mutants = [
         (
             "metal sent to the dielectric's code",
-            "if m.tag == MATERIAL_METAL {\n            return scatter_metal(m, ray_dir, si, n, ng, u);",
+            "if m.tag == MATERIAL_METAL {\n            return scatter_metal(m, ray_dir, tx, n, ng, u);",
             "if m.tag == MATERIAL_METAL {\n            return scatter_dielectric(m, ray_dir, si, n, u);",
             "rtow-final",
         ),

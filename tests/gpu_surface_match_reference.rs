@@ -31,8 +31,8 @@ fn surface_kernels_missing_a_vertex_attribute_or_the_normal_map_fail() {
     for (what, from, to) in [
         (
             "vertex colours ignored",
-            "if (tri.flags & TRIANGLE_HAS_COLORS) != 0u {",
-            "if false {",
+            "si.color = b0 * vec3<f32>(ea.r, ea.g, ea.b) + b1 * vec3<f32>(eb.r, eb.g, eb.b) + b2 * vec3<f32>(ec.r, ec.g, ec.b);",
+            "si.color = vec3<f32>(1.0);",
         ),
         (
             "the first uv set read for the second",

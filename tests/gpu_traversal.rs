@@ -87,7 +87,7 @@ const INLINE_MUTANTS: &[(&str, &str, &str, &str)] = &[
     ),
     (
         "an inline entry's id keeps its kind's bits",
-        "prim = r0.x & ((1u << INLINE_TAG_SHIFT) - 1u);",
+        "prim = r0.x & (INLINE_ALPHA - 1u);",
         "prim = r0.x;",
         "cornell",
     ),

@@ -96,6 +96,18 @@ const GPU_ONLY: &[(&str, &str)] = &[
         "bvh_node",
         "reads a BvhNode record from the nodes binding's words (gpu::traversal::NodeLayout)",
     ),
+    (
+        "has_alpha",
+        "an indexed leaf entry's TRIANGLE_HAS_ALPHA test (the reference keeps the bit in its LeafPrim copy)",
+    ),
+    (
+        "material_textures",
+        "the TextureContext lookups of emitted, bsdf_eval and scatter, made once a path vertex (one inlined copy of the image lookup)",
+    ),
+    (
+        "light_textures",
+        "emitted's TextureContext lookup at a light's sampled point",
+    ),
     ("node_min", "reads a packed BvhNode record"),
     ("node_max", "reads a packed BvhNode record"),
     ("f32_infinity", "WGSL const-expressions may not be infinite"),

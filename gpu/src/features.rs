@@ -53,6 +53,7 @@ feature_bits! {
     SKY_BACKGROUND = 10,
     ENVMAP_BACKGROUND = 11,
     NORMAL_MAPS = 12,
+    ALPHA = 13,
 }
 
 /// The render program's pipeline-overridable constant that picks how a
@@ -151,6 +152,9 @@ impl Features {
                 // Emission is read by tag, with no code of its own to drop.
                 Material::DiffuseLight { .. } => 0,
             };
+        }
+        if (0..scene.materials().len() as u32).any(|m| scene.alpha(m).is_some()) {
+            bits |= feature::ALPHA;
         }
         for t in scene.textures() {
             bits |= match t {

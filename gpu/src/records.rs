@@ -72,6 +72,10 @@ gpu_record! {
 /// `GpuMaterial::texture2` of a material without a second texture.
 pub const NO_TEXTURE: u32 = u32::MAX;
 
+/// `GpuMaterial::alpha_cutoff` of BLEND (stochastic transparency): below
+/// every MASK cutoff, which are stored at least 0.
+pub const ALPHA_BLEND: f32 = -1.0;
+
 gpu_record! {
     /// A material (`reference::material::Material`), by tag:
     /// LAMBERTIAN `texture` = albedo; METAL `texture` = albedo, `p0` = fuzz;
@@ -79,11 +83,14 @@ gpu_record! {
     /// emission; GGX `texture` = base colour, `p0` = metallic, `p1` =
     /// roughness, `texture2` = the metallic-roughness texture or
     /// `NO_TEXTURE`, `texture3` = the normal map or `NO_TEXTURE`, `p2` =
-    /// the normal map's scale.
+    /// the normal map's scale. Any tag: `alpha_texture` = the coverage's
+    /// texture (`reference::material::Alpha`) or `NO_TEXTURE`,
+    /// `alpha_cutoff` = MASK's cutoff (at least 0: alpha is never
+    /// negative, so a lower cutoff covers alike) or [`ALPHA_BLEND`].
     GpuMaterial {
         tag: u32, texture: u32, p0: f32, p1: f32,
         absorption_r: f32, absorption_g: f32, absorption_b: f32, texture2: u32,
-        texture3: u32, p2: f32, _pad0: u32, _pad1: u32,
+        texture3: u32, p2: f32, alpha_texture: u32, alpha_cutoff: f32,
     }
 }
 

@@ -8,7 +8,7 @@ use crate::records::*;
 use crate::traversal::{LeafLayout, NodeLayout, Traversal};
 use reference::background::Background;
 use reference::light::LightSet;
-use reference::material::Material;
+use reference::material::{Alpha, AlphaMode, Material};
 use reference::texture::Texture;
 use reference::Scene;
 
@@ -21,7 +21,7 @@ pub struct PackedScene {
     pub leaves: LeafLayout,
     /// Why `traversal` or `leaves` is not what was asked for, where it is
     /// not (the wide records of a pathological tree:
-    /// [`crate::traversal::arrays`]; inline entries of more than 2^30
+    /// [`crate::traversal::arrays`]; inline entries of more than 2^29
     /// primitives).
     pub traversal_note: Option<String>,
     /// The walk's records ([`crate::traversal::arrays`]), uploaded as
@@ -53,7 +53,27 @@ pub struct PackedScene {
     pub env_table: u32,
 }
 
-pub fn pack_material(m: &Material) -> GpuMaterial {
+/// A material's record with its coverage (`alpha`), if it has one.
+pub fn pack_material(m: &Material, alpha: Option<Alpha>) -> GpuMaterial {
+    let (alpha_texture, alpha_cutoff) = match alpha {
+        None => (NO_TEXTURE, 0.0),
+        Some(Alpha {
+            texture,
+            mode: AlphaMode::Mask { cutoff },
+        }) => (texture, cutoff.max(0.0)),
+        Some(Alpha {
+            texture,
+            mode: AlphaMode::Blend,
+        }) => (texture, ALPHA_BLEND),
+    };
+    GpuMaterial {
+        alpha_texture,
+        alpha_cutoff,
+        ..pack_bsdf(m)
+    }
+}
+
+fn pack_bsdf(m: &Material) -> GpuMaterial {
     let tag = m.tag();
     match *m {
         Material::Lambertian { albedo } => GpuMaterial {
@@ -381,7 +401,9 @@ impl PackedScene {
                 })
                 .collect(),
             vertex_extras: vertex_extras(m),
-            materials: scene.materials().iter().map(pack_material).collect(),
+            materials: (scene.materials().iter().enumerate())
+                .map(|(i, m)| pack_material(m, scene.alpha(i as u32)))
+                .collect(),
             textures: scene.textures().iter().map(pack_texture).collect(),
             images,
             texels,

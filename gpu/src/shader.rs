@@ -17,8 +17,8 @@ use reference::material::{
 use reference::rng::{dims, light_dims};
 use reference::scene::primitive_tag;
 use reference::shapes::{
-    TRIANGLE_HAS_COLORS, TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_TANGENTS, TRIANGLE_HAS_UV1,
-    TRIANGLE_HAS_UVS,
+    TRIANGLE_HAS_ALPHA, TRIANGLE_HAS_COLORS, TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_TANGENTS,
+    TRIANGLE_HAS_UV1, TRIANGLE_HAS_UVS,
 };
 use reference::texture::texture_tag;
 
@@ -123,7 +123,9 @@ pub fn generate() -> String {
     s += &u("TRIANGLE_HAS_COLORS", TRIANGLE_HAS_COLORS);
     s += &u("TRIANGLE_HAS_TANGENTS", TRIANGLE_HAS_TANGENTS);
     s += &u("TRIANGLE_HAS_UV1", TRIANGLE_HAS_UV1);
+    s += &u("TRIANGLE_HAS_ALPHA", TRIANGLE_HAS_ALPHA);
     s += &u("NO_TEXTURE", crate::records::NO_TEXTURE);
+    s += &f("ALPHA_BLEND", crate::records::ALPHA_BLEND);
     s += &u("BVH_LEAF", reference::bvh::BvhNode::LEAF);
     s += &u("BVH_STACK_SIZE", reference::bvh::BVH_STACK_SIZE as u32);
     s += &u("TRAVERSAL_BINARY", crate::traversal::TRAVERSAL_BINARY);
@@ -140,6 +142,7 @@ pub fn generate() -> String {
     s += &u("LEAVES_INLINE_SOA", crate::traversal::LEAVES_INLINE_SOA);
     s += &u("INLINE_WORDS", crate::traversal::INLINE_WORDS as u32);
     s += &u("INLINE_TAG_SHIFT", crate::traversal::INLINE_TAG_SHIFT);
+    s += &u("INLINE_ALPHA", crate::traversal::INLINE_ALPHA);
     s += &f("SLAB_FAR_SCALE", reference::bvh::SLAB_FAR_SCALE);
     s += &f("BOX_NEAR_SLACK", reference::bvh::BOX_NEAR_SLACK);
     s += &f("BOX_T_PAD", reference::bvh::BOX_T_PAD);

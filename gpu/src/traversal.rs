@@ -220,8 +220,14 @@ pub const LEAVES_INLINE_SOA: u32 = 2;
 pub const INLINE_WORDS: usize = 4;
 
 /// An inline entry's first word holds the primitive's kind above this
-/// bit and its id below (ids under 2^30: [`inline_entries`] refuses more).
+/// bit, [`INLINE_ALPHA`] and its id below (ids under 2^29:
+/// [`inline_entries`] refuses more).
 pub const INLINE_TAG_SHIFT: u32 = 30;
+
+/// The bit of an inline entry's first word that marks a triangle with an
+/// alpha (`reference::shapes::TRIANGLE_HAS_ALPHA`): only such entries read
+/// the triangle record, for the coverage test.
+pub const INLINE_ALPHA: u32 = 1 << 29;
 
 /// The ids of `order` as the indexed layout holds them, four to a word.
 pub fn indexed_entries(order: &[u32]) -> Vec<[u32; 4]> {
@@ -233,15 +239,17 @@ pub fn indexed_entries(order: &[u32]) -> Vec<[u32; 4]> {
 
 /// The inline entries of `order` ([`LeafLayout::Inline`]), from the packed
 /// records the indexed layout's test reads (so the same floats), or why
-/// not (ids past [`INLINE_TAG_SHIFT`]'s range).
+/// not (ids from [`INLINE_ALPHA`] up).
 pub fn inline_entries(
     order: &[u32],
     p: &crate::scene_buffers::PackedScene,
 ) -> Result<Vec<[u32; 4]>, String> {
     use reference::scene::primitive_tag;
-    if p.primitives.len() as u64 > 1 << INLINE_TAG_SHIFT {
+    use reference::shapes::TRIANGLE_HAS_ALPHA;
+    if p.primitives.len() as u64 > INLINE_ALPHA as u64 {
         return Err(format!(
-            "inline leaf entries hold ids under 2^{INLINE_TAG_SHIFT}; this scene has {} primitives",
+            "inline leaf entries hold ids under 2^{}; this scene has {} primitives",
+            INLINE_ALPHA.trailing_zeros(),
             p.primitives.len()
         ));
     }
@@ -275,8 +283,12 @@ pub fn inline_entries(
             }
         };
         let f = |x: f32| x.to_bits();
+        let alpha = g.tag == primitive_tag::TRIANGLE
+            && p.triangles
+                .get(i)
+                .is_some_and(|t| t.flags & TRIANGLE_HAS_ALPHA != 0);
         // An unknown tag stays unknown (3 is none): the kernel poisons it.
-        let head = prim | (g.tag.min(3) << INLINE_TAG_SHIFT);
+        let head = prim | (g.tag.min(3) << INLINE_TAG_SHIFT) | if alpha { INLINE_ALPHA } else { 0 };
         out.push([head, f(g.lo_x), f(g.lo_y), f(g.lo_z)]);
         out.push([f(g.hi_x), f(g.hi_y), f(g.hi_z), f(shape[0])]);
         out.push([f(shape[1]), f(shape[2]), f(shape[3]), f(shape[4])]);

@@ -26,12 +26,23 @@
 //! the next float above `t_min` and below `t_max`, so both answer the
 //! same question.
 //!
+//! Coverage (glTF alpha, [`crate::material::Alpha`]): where the scene's
+//! triangles have one, the triangle geometry gets an intersection filter
+//! (Embree's any-hit callback, `rtcSetGeometryIntersectFilterFunction`)
+//! that rejects a hit the surface does not cover there, as the reference's
+//! traversal does. The decision is the reference's
+//! [`Scene::alpha_covers`] (the alpha texture, the cutoff, BLEND's hash),
+//! asked at Embree's own hit (its `t` and barycentrics): what Embree
+//! checks is that its BVH visits the cut-out surfaces' other hits, and that
+//! a hit rejected there does not end the search.
+//!
 //! Besides one prefetch hint ([`crate::bvh::prefetch`]), this is the only
 //! module of the crate with `unsafe` code: FFI calls into libembree4
 //! through `embree4-sys`. Every call's error state is checked.
 
 use crate::geometry::{next_down, next_up, Ray};
 use crate::scene::{primitive_tag, Scene};
+use crate::shapes::TRIANGLE_HAS_ALPHA;
 use embree4_sys as sys;
 use glam::{Vec2, Vec3};
 use std::ffi::c_void;
@@ -65,6 +76,51 @@ pub struct EmbreeScene {
     /// For each Embree geometry id, the reference primitive id of each of
     /// its Embree primitives.
     prim_ids: Vec<Vec<u32>>,
+    /// What the triangle geometry's intersection filter reads, where the
+    /// scene has triangles with a coverage: boxed so that the address
+    /// Embree holds stays put; dropped after the Embree scene (the drop
+    /// releases the scene first).
+    filter: Option<Box<AlphaFilter>>,
+}
+
+/// The intersection filter's data: the reference scene (for
+/// [`Scene::alpha_covers`]) and the reference id of each Embree triangle.
+struct AlphaFilter {
+    scene: Scene,
+    prims: Vec<u32>,
+}
+
+/// Embree's intersection filter of the triangle geometry: rejects a hit
+/// the surface does not cover ([`Scene::alpha_covers`] at Embree's hit).
+unsafe extern "C" fn alpha_filter(args: *const sys::RTCFilterFunctionNArguments) {
+    // SAFETY: Embree passes a valid argument block; `geometryUserPtr` is
+    // the `AlphaFilter` set with the filter, alive while the scene is
+    // (EmbreeScene owns both); rtcIntersect1 calls with N = 1, whose ray
+    // and hit blocks are laid out as RTCRay and RTCHit.
+    unsafe {
+        let args = &*args;
+        if args.N != 1 || *args.valid == 0 {
+            return;
+        }
+        let data = &*(args.geometryUserPtr as *const AlphaFilter);
+        let ray = &*(args.ray as *const sys::RTCRay);
+        let hit = &*(args.hit as *const sys::RTCHit);
+        let Some(&prim) = data.prims.get(hit.primID as usize) else {
+            return;
+        };
+        let r = Ray {
+            origin: Vec3::new(ray.org_x, ray.org_y, ray.org_z),
+            direction: Vec3::new(ray.dir_x, ray.dir_y, ray.dir_z),
+        };
+        let h = crate::geometry::Hit {
+            t: ray.tfar,
+            prim,
+            uv: Vec2::new(hit.u, hit.v),
+        };
+        if !data.scene.alpha_covers(&r, &h) {
+            *args.valid = 0;
+        }
+    }
 }
 
 // SAFETY: Embree documents committed scenes as safe to traverse from any
@@ -115,6 +171,7 @@ impl EmbreeScene {
             device,
             scene: ptr::null_mut(),
             prim_ids: Vec::new(),
+            filter: None,
         };
         // SAFETY: `device` is live.
         me.scene = unsafe { sys::rtcNewScene(device) };
@@ -151,12 +208,24 @@ impl EmbreeScene {
                 .iter()
                 .map(|&(_, i)| scene.triangles()[i as usize].vertices)
                 .collect();
+            let alpha = tris
+                .iter()
+                .any(|&(_, i)| scene.triangles()[i as usize].flags & TRIANGLE_HAS_ALPHA != 0);
+            if alpha {
+                me.filter = Some(Box::new(AlphaFilter {
+                    scene: scene.clone(),
+                    prims: tris.iter().map(|&(id, _)| id).collect(),
+                }));
+            }
+            let filter = me
+                .filter
+                .as_ref()
+                .map(|f| &**f as *const AlphaFilter as *mut c_void);
             me.attach(
                 sys::RTCGeometryType::TRIANGLE,
-                sys::RTCFormat::FLOAT3,
-                &vertices,
-                sys::RTCFormat::UINT3,
-                &indices,
+                (sys::RTCFormat::FLOAT3, &vertices),
+                (sys::RTCFormat::UINT3, &indices),
+                filter,
             )?;
             me.prim_ids.push(tris.iter().map(|&(id, _)| id).collect());
         }
@@ -178,10 +247,9 @@ impl EmbreeScene {
                 .collect();
             me.attach(
                 sys::RTCGeometryType::QUAD,
-                sys::RTCFormat::FLOAT3,
-                &vertices,
-                sys::RTCFormat::UINT4,
-                &indices,
+                (sys::RTCFormat::FLOAT3, &vertices),
+                (sys::RTCFormat::UINT4, &indices),
+                None,
             )?;
             me.prim_ids.push(quads.iter().map(|&(id, _)| id).collect());
         }
@@ -195,10 +263,9 @@ impl EmbreeScene {
                 .collect();
             me.attach::<[f32; 4], [u32; 0]>(
                 sys::RTCGeometryType::SPHERE_POINT,
-                sys::RTCFormat::FLOAT4,
-                &points,
-                sys::RTCFormat::UNDEFINED,
-                &[],
+                (sys::RTCFormat::FLOAT4, &points),
+                (sys::RTCFormat::UNDEFINED, &[]),
+                None,
             )?;
             me.prim_ids
                 .push(spheres.iter().map(|&(id, _)| id).collect());
@@ -209,15 +276,15 @@ impl EmbreeScene {
         Ok(me)
     }
 
-    /// Creates, fills, commits and attaches one geometry. Geometry ids are
-    /// handed out in attach order from 0, which `prim_ids` relies on.
+    /// Creates, fills, commits and attaches one geometry, with
+    /// [`alpha_filter`] over `filter` (its data) where given. Geometry ids
+    /// are handed out in attach order from 0, which `prim_ids` relies on.
     fn attach<V: Copy, I: Copy>(
         &self,
         kind: sys::RTCGeometryType,
-        vertex_format: sys::RTCFormat,
-        vertices: &[V],
-        index_format: sys::RTCFormat,
-        indices: &[I],
+        (vertex_format, vertices): (sys::RTCFormat, &[V]),
+        (index_format, indices): (sys::RTCFormat, &[I]),
+        filter: Option<*mut c_void>,
     ) -> Result<(), EmbreeError> {
         // SAFETY: the device is live; each buffer Embree returns has room
         // for exactly `len` items of `size_of::<T>()` bytes (the stride we
@@ -244,6 +311,11 @@ impl EmbreeScene {
                     },
                 )?;
                 check(self.device, "index buffer")?;
+            }
+            if let Some(data) = filter {
+                sys::rtcSetGeometryUserData(geometry.0, data);
+                sys::rtcSetGeometryIntersectFilterFunction(geometry.0, Some(alpha_filter));
+                check(self.device, "intersection filter")?;
             }
             sys::rtcCommitGeometry(geometry.0);
             check(self.device, "rtcCommitGeometry")?;
@@ -358,6 +430,57 @@ mod tests {
     use super::*;
     use crate::material::Material;
     use crate::scene::{SceneBuilder, Transform};
+
+    /// Two triangles on one ray: the nearer one's material has a coverage
+    /// of 0.25 (MASK: cut away at cutoff 0.5, kept at 0.25): Embree's filter
+    /// lets the ray through to the farther one, or stops it, as the
+    /// reference does.
+    #[test]
+    fn the_intersection_filter_cuts_what_the_reference_cuts() {
+        use crate::material::{Alpha, AlphaMode};
+        for (cutoff, expect) in [(0.5, 1u32), (0.25, 0)] {
+            let mut b = SceneBuilder::new();
+            let white = b.constant(Vec3::ONE).unwrap();
+            let quarter = b.constant(Vec3::splat(0.25)).unwrap();
+            let near = b
+                .add_material(Material::Lambertian { albedo: white })
+                .unwrap();
+            let far = b
+                .add_material(Material::Lambertian { albedo: white })
+                .unwrap();
+            b.set_alpha(
+                near,
+                Alpha {
+                    texture: quarter,
+                    mode: AlphaMode::Mask { cutoff },
+                },
+            )
+            .unwrap();
+            let id = Transform::default();
+            for (z, m) in [(-2.0, near), (-4.0, far)] {
+                let tri = crate::scene::MeshInput {
+                    positions: vec![
+                        Vec3::new(-1.0, -1.0, z),
+                        Vec3::new(1.0, -1.0, z),
+                        Vec3::new(0.0, 1.0, z),
+                    ],
+                    indices: vec![0, 1, 2],
+                    ..Default::default()
+                };
+                b.add_mesh(&tri, m, &id).unwrap();
+            }
+            let scene = b.build().unwrap();
+            let e = EmbreeScene::new(&scene).unwrap();
+            let ray = Ray::new(Vec3::ZERO, -Vec3::Z);
+            let embree = e.intersect(&ray, 0.0, f32::INFINITY).unwrap();
+            let reference = scene.intersect(&ray, 0.0, f32::INFINITY).unwrap();
+            assert_eq!(
+                (embree.prim, reference.prim),
+                (expect, expect),
+                "cutoff {cutoff}"
+            );
+        }
+    }
 
     #[test]
     fn one_of_each_shape_is_hit_with_reference_ids() {

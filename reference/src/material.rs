@@ -53,6 +53,58 @@ pub struct NormalMap {
     pub scale: f32,
 }
 
+/// A surface's coverage (glTF's alpha): where it does not cover a point,
+/// a ray passes the surface there as if it were not in the scene. It is
+/// decided in the traversal, where a hit is accepted
+/// ([`crate::scene::Scene::alpha_covers`]), so that every ray (camera,
+/// extension, shadow) and every walk sees the same cut-out surface.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Alpha {
+    /// The alpha at a point is this texture's first channel (the loaders
+    /// give it the factor as its tint) times the vertex colour's alpha.
+    pub texture: u32,
+    pub mode: AlphaMode,
+}
+
+/// How the alpha at a point decides coverage.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum AlphaMode {
+    /// glTF's MASK: covered where alpha ≥ `cutoff`.
+    Mask { cutoff: f32 },
+    /// glTF's BLEND as stochastic transparency (pbrt-v4's treatment of
+    /// alpha): covered with probability alpha, the "random" number a hash
+    /// of the ray and the primitive ([`alpha_hash`]), so the same ray
+    /// always gets the same answer (the BVH may test a primitive more than
+    /// once) and both twins decide alike without random state. Unbiased
+    /// for partial coverage; not the order-dependent blending of a
+    /// rasterizer.
+    Blend,
+}
+
+impl Alpha {
+    /// Whether the surface covers a point of alpha `a`, for a ray whose
+    /// [`alpha_hash`] is `u`.
+    #[inline]
+    pub fn covers(&self, a: f32, u: f32) -> bool {
+        match self.mode {
+            AlphaMode::Mask { cutoff } => a >= cutoff,
+            AlphaMode::Blend => u < a,
+        }
+    }
+}
+
+/// A number uniform on `[0, 1)` from a ray's bits and a primitive id: two
+/// rounds of the path randoms' hash ([`crate::rng::pcg4d`]), the origin
+/// and the primitive in the first, the direction mixed into the second.
+#[inline]
+pub fn alpha_hash(ray: &crate::geometry::Ray, prim: u32) -> f32 {
+    use crate::rng::{pcg4d, u32_to_unit_f32};
+    let [ox, oy, oz] = ray.origin.to_array().map(f32::to_bits);
+    let [dx, dy, dz] = ray.direction.to_array().map(f32::to_bits);
+    let h = pcg4d([ox, oy, oz, prim]);
+    u32_to_unit_f32(pcg4d([h[0] ^ dx, h[1] ^ dy, h[2] ^ dz, h[3]])[0])
+}
+
 /// Numeric tags of [`Material`], shared with the GPU.
 pub mod material_tag {
     pub const LAMBERTIAN: u32 = 0;

@@ -34,6 +34,9 @@ pub enum Mutant {
     /// The environment map's density in solid angle without the
     /// equirectangular Jacobian's `sin θ` (`light::EnvLight::pdf`).
     EnvPdfNoSinTheta,
+    /// The four-wide leaf blocks accept a triangle's hit without asking
+    /// its coverage (`scene::leaf`'s `LeafTests::intersect_leaf`).
+    AlphaIgnoredInLeafBlocks,
 }
 
 #[cfg(feature = "mutants")]

@@ -47,6 +47,10 @@ pub const TRIANGLE_HAS_TANGENTS: u32 = 8;
 /// The triangle carries a second set of texture coordinates
 /// (`MeshData::uvs1`).
 pub const TRIANGLE_HAS_UV1: u32 = 16;
+/// The triangle's material has an alpha ([`crate::material::Alpha`]): a
+/// hit on it counts only where the surface covers the point
+/// ([`crate::scene::Scene::alpha_covers`]). Set by the scene build.
+pub const TRIANGLE_HAS_ALPHA: u32 = 32;
 
 /// Vertex arrays shared by all triangles of a scene (world space).
 #[derive(Clone, Debug, Default, PartialEq)]

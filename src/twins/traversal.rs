@@ -110,8 +110,27 @@ pub fn compare_hits(
     packed: &PackedScene,
     library: &str,
 ) -> Result<usize, String> {
+    let oracle = binary_hit_words(ctx, scene)?;
+    compare_hits_with(ctx, name, scene, &oracle, packed, library)
+}
+
+/// The binary walk's hit records of `scene` (production WGSL): the
+/// oracle of [`compare_hits`].
+pub fn binary_hit_words(ctx: &GpuContext, scene: &Scene) -> Result<Vec<u32>, String> {
     let production = gpu::shader::library_source();
-    let oracle = hit_words(ctx, scene, &PackedScene::new(scene), &production)?;
+    hit_words(ctx, scene, &PackedScene::new(scene), &production)
+}
+
+/// [`compare_hits`] against the binary walk's records already made
+/// ([`binary_hit_words`]).
+pub fn compare_hits_with(
+    ctx: &GpuContext,
+    name: &str,
+    scene: &Scene,
+    oracle: &[u32],
+    packed: &PackedScene,
+    library: &str,
+) -> Result<usize, String> {
     let words = hit_words(ctx, scene, packed, library)?;
     let walk = walk_name((packed.traversal, packed.node_layout, packed.leaves));
     for (i, (b, w)) in oracle.chunks(5).zip(words.chunks(5)).enumerate() {
@@ -147,8 +166,21 @@ pub fn compare_films(
     (walk, integrator): (Walk, Integrator),
     program: &str,
 ) -> Result<(usize, u64), String> {
-    let features = Kernel::Specialized.features(scene);
     let binary = oracle_film(ctx, spec, scene, integrator, "the binary walk")?;
+    compare_films_with(ctx, spec, scene, &binary, (walk, integrator), program)
+}
+
+/// [`compare_films`] against the binary walk's film already rendered
+/// (`oracle_film`).
+pub fn compare_films_with(
+    ctx: &GpuContext,
+    spec: &str,
+    scene: &Scene,
+    binary: &[u64],
+    (walk, integrator): (Walk, Integrator),
+    program: &str,
+) -> Result<(usize, u64), String> {
+    let features = Kernel::Specialized.features(scene);
     let build = Build {
         traversal: walk.0,
         nodes: walk.1,
@@ -156,13 +188,21 @@ pub fn compare_films(
         ..Build::megakernel(program, integrator, features)
     };
     let film = variant_film_bits(ctx, scene, build, &[None])?.remove(0);
-    compare_words(&binary, &film).map_err(|e| {
+    compare_words(binary, &film).map_err(|e| {
         format!(
             "{spec} ({}, {} walk): {e}",
             integrator.name(),
             walk_name(walk)
         )
     })
+}
+
+/// Whether [`all_scenes`] runs `walk` on `scene`: brute force takes tiny
+/// scenes only (the renderer refuses more; its hit records on a mesh of
+/// thousands of triangles took most of the gate's time on lavapipe).
+fn brute_force_takes(scene: &Scene, (traversal, _, _): Walk) -> bool {
+    traversal != Traversal::BruteForce
+        || scene.primitives().len() <= gpu::renderer::BRUTE_FORCE_MAX_PRIMITIVES
 }
 
 /// Hit records on every scene of [`scenes`] and films of every scene of
@@ -176,9 +216,13 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let mut hit_lines = Vec::new();
     for (name, scene) in scenes()? {
         let mut hits = None;
-        for walk in VARIANTS {
-            let outcome =
-                packed(&scene, walk).and_then(|p| compare_hits(ctx, &name, &scene, &p, &library));
+        let oracle = binary_hit_words(ctx, &scene)?;
+        for walk in VARIANTS
+            .into_iter()
+            .filter(|&w| brute_force_takes(&scene, w))
+        {
+            let outcome = packed(&scene, walk)
+                .and_then(|p| compare_hits_with(ctx, &name, &scene, &oracle, &p, &library));
             match outcome {
                 Ok(n) => hits = Some(n),
                 Err(e) => failures.push(e),
@@ -192,21 +236,18 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let (mut inexact, mut films) = (Inexact::default(), 0usize);
     for spec in &specs {
         let scene = reference::load_scene(spec).map_err(|e| format!("{spec}: {e}"))?;
-        // Brute force takes tiny scenes only (the renderer refuses more).
         let walks: Vec<Walk> = VARIANTS
             .into_iter()
-            .filter(|&(t, _, _)| {
-                t != Traversal::BruteForce
-                    || scene.primitives().len() <= gpu::renderer::BRUTE_FORCE_MAX_PRIMITIVES
-            })
+            .filter(|&w| brute_force_takes(&scene, w))
             .collect();
         for integrator in Integrator::ALL {
+            let binary = oracle_film(ctx, spec, &scene, integrator, "the binary walk")?;
             for &walk in &walks {
                 if !film_estimators(walk).contains(&integrator) {
                     continue;
                 }
                 films += 1;
-                match compare_films(ctx, spec, &scene, (walk, integrator), &program) {
+                match compare_films_with(ctx, spec, &scene, &binary, (walk, integrator), &program) {
                     Ok(found) => inexact.add(found),
                     Err(e) => failures.push(e),
                 }
@@ -220,8 +261,9 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let compared = films * (width * height) as usize;
     let exactness = inexact.exactness(compared);
     Ok(format!(
-        "bvh4, brute force, SoA nodes (bvh2, bvh4) and inline leaves (bvh2, bvh4; SoA on bvh2): hit records equal the binary walk's bit for bit (rays that hit: {}); \
+        "bvh4, brute force (scenes of at most {} primitives), SoA nodes (bvh2, bvh4) and inline leaves (bvh2, bvh4; SoA on bvh2): hit records equal the binary walk's bit for bit (rays that hit: {}); \
          {} scenes × 2 estimators ({films} films: brute force on the scenes of at most {} primitives, the layouts under the binary walk with MIS only, the others on every scene): films equal the binary walk's {exactness}",
+        gpu::renderer::BRUTE_FORCE_MAX_PRIMITIVES,
         hit_lines.join(", "),
         specs.len(),
         gpu::renderer::BRUTE_FORCE_MAX_PRIMITIVES

@@ -35,8 +35,8 @@
 //! ([`load_gltf_mesh`]) keeps positions, normals and TEXCOORD_0 only: its
 //! material is the scene file's.
 //!
-//! Materials (metallic-roughness): `baseColorFactor` (RGB; alpha is
-//! ignored) and `baseColorTexture` become the base colour of a
+//! Materials (metallic-roughness): `baseColorFactor` and
+//! `baseColorTexture` (their RGB) become the base colour of a
 //! [`Material::Ggx`] with `metallicFactor` and `roughnessFactor`. A material
 //! whose emission (`emissiveFactor` × `KHR_materials_emissive_strength`,
 //! optionally times `emissiveTexture`) is non-zero becomes a
@@ -53,10 +53,14 @@
 //! set its `texCoord` (or its transform's) names, 0 or 1 (a set above 1 is
 //! a warning, and TEXCOORD_0 is read). Not supported (ignored): the
 //! occlusion texture (occlusion is baked ambient light, which a path
-//! tracer computes itself), alpha modes (MASK and BLEND are rendered
-//! opaque, with a warning), `doubleSided` (other
+//! tracer computes itself), `doubleSided` (other
 //! materials shade both sides anyway; emitters emit from the front face
 //! only), skins, morph targets, animations and orthographic cameras.
+//! `alphaMode` MASK (with `alphaCutoff`, 0.5 by default) and BLEND give
+//! the material a coverage ([`crate::material::Alpha`]): the alpha of the
+//! base colour texture (its own decoding, [`Decoding::Alpha`]) times the
+//! factor's and the vertex colour's, tested where the traversal accepts a
+//! hit; BLEND is stochastic transparency ([`AlphaMode::Blend`]).
 //! A primitive without a material gets the spec's default material: base
 //! colour 1, metallic 1, roughness 1. Each glTF material, texture/factor
 //! pair and image is added to the builder once.
@@ -71,8 +75,9 @@
 //! uses them. 8- and 16-bit channels of base colour and emissive textures
 //! are sRGB-encoded colour and are decoded to linear, those of the
 //! metallic-roughness texture linear data (an image used both ways is
-//! decoded once each way); float images are taken as linear. Grey images become grey RGB; alpha is
-//! dropped. Row 0 of the decoded image is the top row, as in [`ImageData`].
+//! decoded once each way); float images are taken as linear. Grey images
+//! become grey RGB; the alpha channel is decoded (linear) into an image of
+//! its own where a material's alpha mode reads it. Row 0 of the decoded image is the top row, as in [`ImageData`].
 //!
 //! Every problem in the file (unreadable, not glTF, a buffer that is
 //! missing or too short, an accessor that reaches past its buffer, an
@@ -83,7 +88,7 @@
 use crate::background::Background;
 use crate::camera::CameraSettings;
 use crate::error::SceneError;
-use crate::material::{Material, NormalMap};
+use crate::material::{Alpha, AlphaMode, Material, NormalMap};
 use crate::scene::{MeshInput, Scene, SceneBuilder, Transform, MAX_IMAGE_SIDE};
 use crate::texture::{decode_8bit, srgb_to_linear, ImageData, Texture};
 use glam::{Affine3A, Mat3, Mat4, Vec2, Vec3, Vec4};
@@ -1130,12 +1135,12 @@ fn merge(parts: Vec<MeshInput>) -> Result<MeshInput, String> {
 /// Materials, textures and images added so far, by glTF index.
 struct Importer<'f> {
     file: &'f GltfFile,
-    /// (glTF image index, sRGB-decoded) → builder image.
-    images: HashMap<(usize, bool), u32>,
-    /// (glTF texture index, factor bits, sRGB-decoded, transform bits,
+    /// (glTF image index, decoding) → builder image.
+    images: HashMap<(usize, Decoding), u32>,
+    /// (glTF texture index, factor bits, decoding, transform bits,
     /// coordinate set) → builder texture.
     #[allow(clippy::type_complexity)]
-    textures: HashMap<(usize, [u32; 3], bool, Option<[u32; 6]>, u32), u32>,
+    textures: HashMap<(usize, [u32; 3], Decoding, Option<[u32; 6]>, u32), u32>,
     /// glTF material index (`None`: the default material) → builder material.
     materials: HashMap<Option<usize>, u32>,
 }
@@ -1210,22 +1215,28 @@ impl Importer<'_> {
                 normal_map,
             }
         };
-        use gltf::material::AlphaMode;
-        let alpha = match material.alpha_mode() {
-            AlphaMode::Opaque => None,
-            AlphaMode::Mask => Some(format!(
-                "MASK (cutoff {})",
-                material.alpha_cutoff().unwrap_or(0.5)
-            )),
-            AlphaMode::Blend => Some("BLEND".to_string()),
+        use gltf::material::AlphaMode as Mode;
+        let mode = match material.alpha_mode() {
+            Mode::Opaque => None,
+            Mode::Mask => {
+                let cutoff = material.alpha_cutoff().unwrap_or(0.5);
+                // The schema's minimum; a NaN or infinity is malformed too.
+                if !(cutoff >= 0.0 && cutoff.is_finite()) {
+                    return Err(file.error(format!(
+                        "{context}: alphaCutoff {cutoff} must be a finite number ≥ 0"
+                    )));
+                }
+                Some(AlphaMode::Mask { cutoff })
+            }
+            Mode::Blend => Some(AlphaMode::Blend),
         };
-        if let Some(mode) = alpha {
-            self.warn(
-                builder,
-                &context,
-                &[format!("alphaMode {mode} rendered opaque")],
-            );
-        }
+        let alpha = match mode {
+            Some(mode) => Some(Alpha {
+                texture: self.alpha_texture(builder, &material, &context)?,
+                mode,
+            }),
+            None => None,
+        };
         if material.normal_texture().is_some() && !matches!(converted, Material::Ggx { .. }) {
             let kind = match converted {
                 Material::DiffuseLight { .. } => "an emitter",
@@ -1238,8 +1249,42 @@ impl Importer<'_> {
             );
         }
         let id = builder.add_material(converted).map_err(in_context)?;
+        if let Some(alpha) = alpha {
+            builder
+                .set_alpha(id, alpha)
+                .map_err(|e| in_context(e.within("alphaMode")))?;
+        }
         self.materials.insert(key, id);
         Ok(id)
+    }
+
+    /// The texture whose first channel is the material's alpha: the base
+    /// colour texture's alpha channel (linear, with the base colour's
+    /// sampler, transform and coordinate set) times `baseColorFactor`'s
+    /// alpha, or that factor alone. The vertex colour's alpha multiplies
+    /// it at each hit ([`Scene::alpha_covers`]).
+    fn alpha_texture(
+        &mut self,
+        builder: &mut SceneBuilder,
+        material: &gltf::Material,
+        context: &str,
+    ) -> Result<u32, SceneError> {
+        let pbr = material.pbr_metallic_roughness();
+        let factor = Vec3::splat(pbr.base_color_factor()[3]);
+        match pbr.base_color_texture() {
+            Some(info) => self.texture(
+                builder,
+                &TextureRef::of(&info),
+                factor,
+                Decoding::Alpha,
+                context,
+            ),
+            None => builder.constant(factor).map_err(|e| {
+                e.within("baseColorFactor")
+                    .within(context)
+                    .in_file(&self.file.path)
+            }),
+        }
     }
 
     /// `KHR_materials_transmission` as the reference's smooth dielectric,
@@ -1348,7 +1393,7 @@ impl Importer<'_> {
         factor: Vec3,
         context: &str,
     ) -> Result<u32, SceneError> {
-        self.texture(builder, texture, factor, true, context)
+        self.texture(builder, texture, factor, Decoding::Srgb, context)
     }
 
     /// A data texture (linear texels: metallic-roughness, normals),
@@ -1359,7 +1404,7 @@ impl Importer<'_> {
         texture: &TextureRef,
         context: &str,
     ) -> Result<u32, SceneError> {
-        self.texture(builder, texture, Vec3::ONE, false, context)
+        self.texture(builder, texture, Vec3::ONE, Decoding::Linear, context)
     }
 
     /// The texture `texture` names with its sampler, transform and
@@ -1370,7 +1415,7 @@ impl Importer<'_> {
         builder: &mut SceneBuilder,
         reference: &TextureRef,
         factor: Vec3,
-        srgb: bool,
+        decoding: Decoding,
         context: &str,
     ) -> Result<u32, SceneError> {
         let texture = &reference.texture;
@@ -1391,14 +1436,14 @@ impl Importer<'_> {
         let key = (
             texture.index(),
             factor.to_array().map(f32::to_bits),
-            srgb,
+            decoding,
             sampler.transform.map(|t| t.map(f32::to_bits)),
             set,
         );
         if let Some(&id) = self.textures.get(&key) {
             return Ok(id);
         }
-        let image = self.image(builder, &texture.source(), srgb)?;
+        let image = self.image(builder, &texture.source(), decoding)?;
         let id = builder
             .add_texture(Texture::Image {
                 image,
@@ -1413,16 +1458,16 @@ impl Importer<'_> {
         Ok(id)
     }
 
-    /// Image `image` decoded to linear RGB (`srgb`: its integer texels are
-    /// sRGB-encoded colour), added once per decoding.
+    /// Image `image` decoded to linear RGB as `decoding` says, added once
+    /// per decoding.
     fn image(
         &mut self,
         builder: &mut SceneBuilder,
         image: &gltf::Image,
-        srgb: bool,
+        decoding: Decoding,
     ) -> Result<u32, SceneError> {
         let index = image.index();
-        if let Some(&id) = self.images.get(&(index, srgb)) {
+        if let Some(&id) = self.images.get(&(index, decoding)) {
             return Ok(id);
         }
         let file = self.file;
@@ -1451,10 +1496,20 @@ impl Importer<'_> {
                 .map_err(|e| {
                     file.error(format!("cannot decode image {index} from {source}: {e}"))
                 })?;
-        let data = convert_image(&decoded, srgb)
-            .map_err(|m| file.error(format!("image {index} from {source}: {m}")))?;
+        // An image without alpha is opaque: one texel says so.
+        let opaque = decoding == Decoding::Alpha && !has_alpha_channel(decoded.format);
+        let data = if opaque {
+            Ok(ImageData {
+                width: 1,
+                height: 1,
+                texels: vec![Vec3::ONE],
+            })
+        } else {
+            convert_image(&decoded, decoding)
+        }
+        .map_err(|m| file.error(format!("image {index} from {source}: {m}")))?;
         let id = builder.add_image(data);
-        self.images.insert((index, srgb), id);
+        self.images.insert((index, decoding), id);
         Ok(id)
     }
 }
@@ -1600,9 +1655,34 @@ impl<'a> TextureRef<'a> {
     }
 }
 
-/// Converts a decoded glTF image to linear RGB; `srgb`: integer channels
-/// are sRGB-encoded. Row 0 stays the top row.
-fn convert_image(image: &gltf::image::Data, srgb: bool) -> Result<ImageData, String> {
+/// How an image's texels are read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum Decoding {
+    /// Colour (base colour, emission): integer channels are sRGB-encoded.
+    Srgb,
+    /// Data (metallic-roughness, normals): integer channels are linear.
+    Linear,
+    /// The alpha channel (linear, as grey; 1 where the image has none).
+    Alpha,
+}
+
+/// Whether an image of this format has an alpha channel.
+fn has_alpha_channel(format: gltf::image::Format) -> bool {
+    use gltf::image::Format;
+    matches!(
+        format,
+        Format::R8G8
+            | Format::R8G8B8A8
+            | Format::R16G16
+            | Format::R16G16B16A16
+            | Format::R32G32B32A32FLOAT
+    )
+}
+
+/// Converts a decoded glTF image to linear RGB as `decoding` says. Row 0
+/// stays the top row.
+fn convert_image(image: &gltf::image::Data, decoding: Decoding) -> Result<ImageData, String> {
+    let srgb = decoding == Decoding::Srgb;
     use gltf::image::Format;
     let (channels, bytes_per_channel) = match image.format {
         Format::R8 => (1, 1),
@@ -1651,6 +1731,14 @@ fn convert_image(image: &gltf::image::Data, srgb: bool) -> Result<ImageData, Str
         .chunks_exact(texel_bytes)
         .map(|t| {
             let c: Vec<f32> = t.chunks_exact(bytes_per_channel).map(channel).collect();
+            if decoding == Decoding::Alpha {
+                // Grey with alpha, or RGBA: the last channel.
+                return Vec3::splat(if channels % 2 == 0 {
+                    c[channels - 1]
+                } else {
+                    1.0
+                });
+            }
             // One or two channels: grey (with alpha).
             if channels < 3 {
                 Vec3::splat(c[0])
@@ -2072,7 +2160,7 @@ mod tests {
             width: 1,
             height: 2,
         };
-        let img = convert_image(&grey, true).unwrap();
+        let img = convert_image(&grey, Decoding::Srgb).unwrap();
         assert_eq!(img.texels, vec![Vec3::ZERO, Vec3::ONE]);
         let rgba = Data {
             pixels: vec![255, 0, 0, 7, 0, 0, 255, 9],
@@ -2081,7 +2169,7 @@ mod tests {
             height: 1,
         };
         assert_eq!(
-            convert_image(&rgba, true).unwrap().texels,
+            convert_image(&rgba, Decoding::Srgb).unwrap().texels,
             vec![Vec3::X, Vec3::Z]
         );
         let half = Data {
@@ -2091,7 +2179,9 @@ mod tests {
             height: 1,
         };
         assert!(
-            (convert_image(&half, true).unwrap().texels[0].x - srgb_to_linear(128.0 / 255.0)).abs()
+            (convert_image(&half, Decoding::Srgb).unwrap().texels[0].x
+                - srgb_to_linear(128.0 / 255.0))
+            .abs()
                 < 1e-7
         );
         let float = Data {
@@ -2101,7 +2191,7 @@ mod tests {
             height: 1,
         };
         assert_eq!(
-            convert_image(&float, true).unwrap().texels,
+            convert_image(&float, Decoding::Srgb).unwrap().texels,
             vec![Vec3::new(2.0, 0.5, 0.25)]
         );
         let short = Data {
@@ -2110,7 +2200,7 @@ mod tests {
             width: 2,
             height: 1,
         };
-        assert!(convert_image(&short, true).is_err());
+        assert!(convert_image(&short, Decoding::Srgb).is_err());
     }
 
     /// The unit triangle with material 0, `material`, whose texture 0 is
@@ -2125,6 +2215,12 @@ mod tests {
         let img = image::RgbImage::from_raw(width, height, rgb).unwrap();
         img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
             .unwrap();
+        triangle_with_png(png, material)
+    }
+
+    /// The unit triangle with material 0, `material`, whose texture 0 is
+    /// the PNG `png` in a bufferView.
+    fn triangle_with_png(png: Vec<u8>, material: serde_json::Value) -> Vec<u8> {
         let mut bytes = unit_triangle();
         bytes.extend(&png);
         bytes.resize(bytes.len().next_multiple_of(4), 0);
@@ -2233,6 +2329,112 @@ mod tests {
         assert!(matches!(scene.materials()[0], Material::Ggx { .. }));
         assert_eq!(scene.warnings().len(), 1, "{:?}", scene.warnings());
         assert!(scene.warnings()[0].contains("KHR_materials_ior 2 ignored"));
+    }
+
+    #[test]
+    fn alpha_modes_give_the_material_a_coverage() {
+        use crate::material::{Alpha, AlphaMode};
+        let dir = tempfile::tempdir().unwrap();
+        // A 2x1 RGBA image: alpha 128 and 255, read linear (not sRGB).
+        let mut rgba = Vec::new();
+        image::RgbaImage::from_raw(2, 1, vec![10, 20, 30, 128, 40, 50, 60, 255])
+            .unwrap()
+            .write_to(
+                &mut std::io::Cursor::new(&mut rgba),
+                image::ImageFormat::Png,
+            )
+            .unwrap();
+        let load = |name: &str, doc: Vec<u8>| {
+            let scene = load_gltf_document(&write(dir.path(), name, &doc)).unwrap();
+            assert!(scene.warnings().is_empty(), "{:?}", scene.warnings());
+            scene
+        };
+        let scene = load(
+            "mask.gltf",
+            triangle_with_png(
+                rgba.clone(),
+                serde_json::json!({ "pbrMetallicRoughness": { "baseColorTexture": { "index": 0 }, "baseColorFactor": [1, 1, 1, 0.5] }, "alphaMode": "MASK", "alphaCutoff": 0.3 }),
+            ),
+        );
+        let Some(Alpha {
+            texture,
+            mode: AlphaMode::Mask { cutoff },
+        }) = scene.alpha(0)
+        else {
+            panic!("{:?}", scene.alpha(0));
+        };
+        assert_eq!(cutoff, 0.3);
+        let Texture::Image { image, factor, .. } = scene.textures()[texture as usize] else {
+            panic!("{:?}", scene.textures()[texture as usize]);
+        };
+        assert_eq!(factor, Vec3::splat(0.5), "the factor's alpha");
+        assert_eq!(
+            scene.images()[image as usize].texels,
+            vec![Vec3::splat(128.0 / 255.0), Vec3::ONE]
+        );
+        assert_ne!(
+            scene.triangles()[0].flags & crate::shapes::TRIANGLE_HAS_ALPHA,
+            0
+        );
+        // BLEND without a texture: the factor alone; MASK's default cutoff.
+        for (mode, expected) in [
+            ("BLEND", AlphaMode::Blend),
+            ("MASK", AlphaMode::Mask { cutoff: 0.5 }),
+        ] {
+            let scene = load(
+                "factor.gltf",
+                with_material(
+                    serde_json::json!({ "pbrMetallicRoughness": { "baseColorFactor": [1, 1, 1, 0.25] }, "alphaMode": mode }),
+                    &[],
+                ),
+            );
+            let alpha = scene.alpha(0).unwrap();
+            assert_eq!(alpha.mode, expected);
+            assert_eq!(
+                scene.textures()[alpha.texture as usize],
+                Texture::Constant(Vec3::splat(0.25))
+            );
+        }
+        // An image without alpha is opaque: one texel of 1.
+        let scene = load(
+            "rgb.gltf",
+            textured_triangle(
+                1,
+                1,
+                vec![1, 2, 3],
+                serde_json::json!({ "pbrMetallicRoughness": { "baseColorTexture": { "index": 0 } }, "alphaMode": "BLEND" }),
+            ),
+        );
+        let Texture::Image { image, .. } =
+            scene.textures()[scene.alpha(0).unwrap().texture as usize]
+        else {
+            panic!()
+        };
+        assert_eq!(scene.images()[image as usize].texels, vec![Vec3::ONE]);
+        // OPAQUE (the default): no coverage, no flag.
+        let scene = load(
+            "opaque.gltf",
+            with_material(serde_json::json!({ "alphaMode": "OPAQUE" }), &[]),
+        );
+        assert_eq!(scene.alpha(0), None);
+        assert_eq!(
+            scene.triangles()[0].flags & crate::shapes::TRIANGLE_HAS_ALPHA,
+            0
+        );
+        // A negative cutoff is malformed.
+        let p = write(
+            dir.path(),
+            "negative.gltf",
+            &with_material(
+                serde_json::json!({ "alphaMode": "MASK", "alphaCutoff": -0.5 }),
+                &[],
+            ),
+        );
+        let e = load_gltf_document(&p).unwrap_err().to_string();
+        assert!(
+            e.contains("negative.gltf") && e.contains("alphaCutoff"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -7,10 +7,10 @@ use crate::bvh::Bvh;
 use crate::camera::CameraSettings;
 use crate::error::SceneError;
 use crate::geometry::Aabb;
-use crate::material::Material;
+use crate::material::{Alpha, AlphaMode, Material};
 use crate::shapes::{
-    MeshData, Quad, Sphere, Triangle, TRIANGLE_HAS_COLORS, TRIANGLE_HAS_NORMALS,
-    TRIANGLE_HAS_TANGENTS, TRIANGLE_HAS_UV1, TRIANGLE_HAS_UVS,
+    MeshData, Quad, Sphere, Triangle, TRIANGLE_HAS_ALPHA, TRIANGLE_HAS_COLORS,
+    TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_TANGENTS, TRIANGLE_HAS_UV1, TRIANGLE_HAS_UVS,
 };
 use crate::texture::{ImageData, Texture};
 use glam::{Mat3, Vec2, Vec3, Vec4};
@@ -45,6 +45,9 @@ pub struct SceneBuilder {
     triangles: Vec<Triangle>,
     mesh: MeshData,
     materials: Vec<Material>,
+    /// By material: its coverage ([`SceneBuilder::set_alpha`]); shorter
+    /// than `materials` until the build.
+    alphas: Vec<Option<Alpha>>,
     textures: Vec<Texture>,
     images: Vec<ImageData>,
     primitives: Vec<Primitive>,
@@ -149,6 +152,25 @@ fn check_texture(texture: &Texture, earlier: &[Texture], images: usize) -> Resul
                     format!("image index {image} does not exist"),
                 ));
             }
+        }
+    }
+    Ok(())
+}
+
+/// A coverage's texture reference and cutoff.
+pub(super) fn check_alpha(alpha: &Alpha, textures: usize) -> Result<(), SceneError> {
+    if alpha.texture as usize >= textures {
+        return Err(SceneError::invalid(
+            "alpha.texture",
+            format!("texture index {} does not exist", alpha.texture),
+        ));
+    }
+    if let AlphaMode::Mask { cutoff } = alpha.mode {
+        if !cutoff.is_finite() {
+            return Err(SceneError::invalid(
+                "alpha.cutoff",
+                format!("{cutoff} is not finite"),
+            ));
         }
     }
     Ok(())
@@ -332,6 +354,21 @@ impl SceneBuilder {
         check_material(&material, self.textures.len())?;
         self.materials.push(material);
         Ok(self.materials.len() as u32 - 1)
+    }
+
+    /// Gives material `material` a coverage: the triangles that use it are
+    /// hit only where it covers the point ([`Scene::alpha_covers`]). Only
+    /// triangles can have one (the build refuses a sphere or quad whose
+    /// material has).
+    pub fn set_alpha(&mut self, material: u32, alpha: Alpha) -> Result<(), SceneError> {
+        self.check_material(material)?;
+        check_alpha(&alpha, self.textures.len())?;
+        let m = material as usize;
+        if self.alphas.len() <= m {
+            self.alphas.resize(m + 1, None);
+        }
+        self.alphas[m] = Some(alpha);
+        Ok(())
     }
 
     fn check_material(&self, material: u32) -> Result<(), SceneError> {
@@ -627,10 +664,26 @@ impl SceneBuilder {
         }
         let background = self.background.unwrap_or(Background::Solid(Vec3::ZERO));
         check_view(&self.camera, &self.render, &background, self.images.len())?;
+        let mut alphas = self.alphas;
+        alphas.resize(self.materials.len(), None);
+        let has_alpha = |m: u32| alphas[m as usize].is_some();
+        if let Some(m) = (self.spheres.iter().map(|s| s.material))
+            .chain(self.quads.iter().map(|q| q.material))
+            .find(|&m| has_alpha(m))
+        {
+            return Err(SceneError::invalid(
+                "alpha",
+                format!("material {m} has an alpha (coverage), which only triangles can have, but a sphere or quad uses it"),
+            ));
+        }
+        let mut triangles = self.triangles;
+        for tri in triangles.iter_mut().filter(|t| has_alpha(t.material)) {
+            tri.flags |= TRIANGLE_HAS_ALPHA;
+        }
         let bounds: Vec<Aabb> = self
             .primitives
             .iter()
-            .map(|&p| primitive_bounds(p, &self.spheres, &self.quads, &self.triangles, &self.mesh))
+            .map(|&p| primitive_bounds(p, &self.spheres, &self.quads, &triangles, &self.mesh))
             .collect();
         let batched: Vec<bool> = self.primitives.iter().map(|p| batched(p.tag)).collect();
         let (bvh, bvh_stats) = Bvh::build_batched(&bounds, &batched);
@@ -640,9 +693,10 @@ impl SceneBuilder {
             background,
             spheres: self.spheres,
             quads: self.quads,
-            triangles: self.triangles,
+            triangles,
             mesh: self.mesh,
             materials: self.materials,
+            alphas,
             textures: self.textures,
             images: self.images,
             primitives: self.primitives,
@@ -696,6 +750,9 @@ impl Scene {
         for (i, material) in look.materials.iter().enumerate() {
             check_material(material, look.textures.len())
                 .map_err(|e| e.within(&format!("materials[{i}]")))?;
+        }
+        for alpha in self.alphas.iter().flatten() {
+            check_alpha(alpha, look.textures.len()).map_err(|e| e.within("alphas"))?;
         }
         let used = (self.spheres.iter().map(|s| s.material))
             .chain(self.quads.iter().map(|q| q.material))

@@ -8,9 +8,10 @@ use super::{primitive_tag, Primitive, Scene};
 use crate::bvh::Bvh;
 use crate::bvh::{intersect_aabb_padded, intersect_entries, Closest, LeafRef, Leaves, LEAF_BATCH};
 use crate::geometry::{Aabb, Hit, Ray};
+use crate::mutants::{self, Mutant};
 use crate::shapes::{
     intersect_quads4, intersect_triangles4, MeshData, Quad, Quads4, RayShear, Sphere, Triangle,
-    Triangles4,
+    Triangles4, TRIANGLE_HAS_ALPHA,
 };
 use glam::{Vec2, Vec3};
 
@@ -43,10 +44,17 @@ pub(super) struct LeafPrim {
     /// three vertices.
     p: [Vec3; 3],
     prim: u32,
+    /// The primitive's tag in the low 16 bits; [`LeafPrim::ALPHA`] set
+    /// for a triangle whose material has an alpha (its hits go through
+    /// [`Scene::alpha_covers`]; a bit here so that other entries never
+    /// read the triangle record).
     tag: u32,
 }
 
 impl LeafPrim {
+    /// The bit of `tag` that marks a triangle with an alpha.
+    const ALPHA: u32 = 1 << 16;
+
     pub(super) fn of(scene: &Scene, prim: u32) -> Self {
         let p = scene.primitives[prim as usize];
         let geometry = match p.tag {
@@ -62,18 +70,32 @@ impl LeafPrim {
                 .vertices
                 .map(|i| scene.mesh.positions[i as usize]),
         };
+        let alpha = p.tag == primitive_tag::TRIANGLE
+            && scene.triangles[p.index as usize].flags & TRIANGLE_HAS_ALPHA != 0;
         LeafPrim {
             p: geometry,
             prim,
-            tag: p.tag,
+            tag: p.tag | if alpha { Self::ALPHA } else { 0 },
         }
+    }
+
+    /// The primitive's kind (`primitive_tag`).
+    #[inline]
+    fn kind(&self) -> u32 {
+        self.tag & (Self::ALPHA - 1)
+    }
+
+    /// Whether a hit on it must pass [`Scene::alpha_covers`].
+    #[inline]
+    pub(super) fn has_alpha(&self) -> bool {
+        self.tag & Self::ALPHA != 0
     }
 
     /// [`primitive_bounds`], from the copied floats (the same operations).
     #[inline]
     pub(super) fn bounds(&self) -> Aabb {
         let [a, b, c] = self.p;
-        match self.tag {
+        match self.kind() {
             primitive_tag::SPHERE => Sphere {
                 center: a,
                 radius: b.x,
@@ -126,7 +148,7 @@ impl LeafPrim {
         use crate::shapes::{intersect_quad, intersect_sphere, intersect_triangle_sheared};
         let [a, b, c] = self.p;
         let prim = self.prim;
-        match self.tag {
+        match self.kind() {
             primitive_tag::SPHERE => intersect_sphere(a, b.x, ray, t_min, t_max).map(|t| Hit {
                 t,
                 prim,
@@ -155,6 +177,9 @@ pub(super) struct LeafBlock {
     entries: [u32; 2],
     quads: u32,
     kind: LeafKind,
+    /// Bit `lane` set: that lane's triangle has an alpha
+    /// ([`LeafPrim::has_alpha`]).
+    alpha: u8,
 }
 
 /// How a leaf is tested.
@@ -193,17 +218,19 @@ impl LeafBlock {
             entries: [first, end],
             quads: 0,
             kind: LeafKind::ByEntry,
+            alpha: 0,
         };
         if !(1..=LEAF_BATCH).contains(&prims.len()) {
             return block;
         }
-        if prims.iter().all(|p| batched(p.tag)) {
+        if prims.iter().all(|p| batched(p.kind())) {
             block.kind = LeafKind::Triangles;
             for (lane, p) in prims.iter().enumerate() {
                 block.tris.set(lane, p.p);
                 block.prim[lane] = p.prim;
+                block.alpha |= u8::from(p.has_alpha()) << lane;
             }
-        } else if prims.iter().all(|p| p.tag == primitive_tag::QUAD) {
+        } else if prims.iter().all(|p| p.kind() == primitive_tag::QUAD) {
             block.kind = LeafKind::Quads;
             // Fewer leaves than primitives: the index fits.
             block.quads = quad_blocks.len() as u32;
@@ -230,25 +257,30 @@ pub(super) struct LeafTests<'a> {
     pub(super) ray: &'a Ray,
     pub(super) constants: RayConstants,
     pub(super) t_min: f32,
+    /// For [`Scene::alpha_covers`].
+    pub(super) scene: &'a Scene,
 }
 
 impl Leaves for LeafTests<'_> {
     #[inline]
     fn intersect(&mut self, entry: usize, t_max: f32) -> Option<Hit> {
-        self.prims[entry].intersect_in(
+        let prim = &self.prims[entry];
+        let hit = prim.intersect_in(
             self.bounds[entry],
             self.ray,
             &self.constants,
             self.t_min,
             t_max,
-        )
+        )?;
+        (!prim.has_alpha() || self.scene.alpha_covers(self.ray, &hit)).then_some(hit)
     }
 
     /// A leaf of triangles or of quads in one four-wide test, at the
     /// limit the first entry would be tested with; then, in entry order,
     /// each lane's hit is taken only if it lies below the limit as it
-    /// stands by then (which only shrinks) and passes [`Bvh::admits`]:
-    /// what testing the entries one by one gives, bit for bit.
+    /// stands by then (which only shrinks), passes [`Bvh::admits`] and,
+    /// for a triangle with an alpha, [`Scene::alpha_covers`]: what testing
+    /// the entries one by one gives, bit for bit.
     #[inline]
     fn intersect_leaf(&mut self, leaf: LeafRef, closest: &mut Closest) {
         let block = &self.blocks[leaf.index()];
@@ -283,11 +315,17 @@ impl Leaves for LeafTests<'_> {
                 _ => self.bounds[first + lane],
             };
             if t < closest.limit() && self.constants.admits(bounds, self.ray, t) {
-                closest.offer(Hit {
+                let hit = Hit {
                     t,
                     prim: block.prim[lane],
                     uv: Vec2::new(hits.b1[lane], hits.b2[lane]),
-                });
+                };
+                if block.alpha & (1 << lane) == 0
+                    || mutants::is(Mutant::AlphaIgnoredInLeafBlocks)
+                    || self.scene.alpha_covers(self.ray, &hit)
+                {
+                    closest.offer(hit);
+                }
             }
         }
     }

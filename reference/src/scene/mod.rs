@@ -24,11 +24,11 @@ use crate::background::Background;
 use crate::bvh::{box_pad, Bvh, BvhBuildStats};
 use crate::camera::{Camera, CameraSettings};
 use crate::geometry::{gamma, Aabb, Hit, Ray, SurfaceInteraction};
-use crate::material::{normal_mapped, Material};
+use crate::material::{alpha_hash, normal_mapped, Alpha, Material};
 use crate::mutants::{self, Mutant};
 use crate::shapes::{
-    MeshData, Quad, Quads4, RayShear, Sphere, Triangle, TRIANGLE_HAS_COLORS, TRIANGLE_HAS_NORMALS,
-    TRIANGLE_HAS_TANGENTS, TRIANGLE_HAS_UV1, TRIANGLE_HAS_UVS,
+    MeshData, Quad, Quads4, RayShear, Sphere, Triangle, TRIANGLE_HAS_ALPHA, TRIANGLE_HAS_COLORS,
+    TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_TANGENTS, TRIANGLE_HAS_UV1, TRIANGLE_HAS_UVS,
 };
 use crate::texture::{evaluate_texture, ImageData, Texture};
 use glam::{Vec2, Vec3};
@@ -65,6 +65,8 @@ pub struct Scene {
     triangles: Vec<Triangle>,
     mesh: MeshData,
     materials: Vec<Material>,
+    /// By material: its coverage, if it has one ([`Scene::alpha_covers`]).
+    alphas: Vec<Option<Alpha>>,
     textures: Vec<Texture>,
     images: Vec<ImageData>,
     /// All primitives in scene order; the index is the primitive id.
@@ -140,6 +142,11 @@ impl Scene {
         &self.materials
     }
 
+    /// Material `material`'s coverage, if it has one.
+    pub fn alpha(&self, material: u32) -> Option<Alpha> {
+        self.alphas.get(material as usize).copied().flatten()
+    }
+
     pub fn textures(&self) -> &[Texture] {
         &self.textures
     }
@@ -207,7 +214,9 @@ impl Scene {
     /// scan agree bit for bit.
     #[inline]
     pub fn intersect_primitive(&self, prim: u32, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-        LeafPrim::of(self, prim).intersect(ray, &self.ray_constants(ray)?, t_min, t_max)
+        let leaf = LeafPrim::of(self, prim);
+        let hit = leaf.intersect(ray, &self.ray_constants(ray)?, t_min, t_max)?;
+        (!leaf.has_alpha() || self.alpha_covers(ray, &hit)).then_some(hit)
     }
 
     /// The per-ray constants of the primitive tests; `None` for an empty
@@ -235,6 +244,7 @@ impl Scene {
             ray,
             constants: c,
             t_min,
+            scene: self,
         };
         self.bvh.intersect(ray, t_max, leaves)
     }
@@ -246,13 +256,56 @@ impl Scene {
         let c = self.ray_constants(ray)?;
         let mut best: Option<Hit> = None;
         for prim in 0..self.primitives.len() as u32 {
-            if let Some(h) = LeafPrim::of(self, prim).intersect(ray, &c, t_min, t_max) {
-                if best.is_none_or(|b| h.t < b.t) {
+            let leaf = LeafPrim::of(self, prim);
+            if let Some(h) = leaf.intersect(ray, &c, t_min, t_max) {
+                let covered = !leaf.has_alpha() || self.alpha_covers(ray, &h);
+                if covered && best.is_none_or(|b| h.t < b.t) {
                     best = Some(h);
                 }
             }
         }
         best
+    }
+
+    /// Whether the surface covers the point `hit` found on `ray`: false
+    /// only on a triangle whose material has an alpha
+    /// ([`TRIANGLE_HAS_ALPHA`]) that does not cover it there (the alpha
+    /// texture at the hit's texture coordinates, as
+    /// [`Scene::surface_interaction`] interpolates them, times the vertex
+    /// colour's alpha). Every traversal asks this where it accepts a hit.
+    #[inline]
+    pub fn alpha_covers(&self, ray: &Ray, hit: &Hit) -> bool {
+        let p = self.primitives[hit.prim as usize];
+        if p.tag != primitive_tag::TRIANGLE {
+            return true;
+        }
+        let tri = &self.triangles[p.index as usize];
+        let Some(alpha) = self
+            .alpha(tri.material)
+            .filter(|_| tri.flags & TRIANGLE_HAS_ALPHA != 0)
+        else {
+            return true;
+        };
+        let [i0, i1, i2] = tri.vertices.map(|i| i as usize);
+        let m = &self.mesh;
+        let (b1, b2) = (hit.uv.x, hit.uv.y);
+        let b0 = 1.0 - b1 - b2;
+        let pos = b0 * m.positions[i0] + b1 * m.positions[i1] + b2 * m.positions[i2];
+        let uv = if tri.flags & TRIANGLE_HAS_UVS != 0 {
+            b0 * m.uvs[i0] + b1 * m.uvs[i1] + b2 * m.uvs[i2]
+        } else {
+            hit.uv
+        };
+        let uv1 = if tri.flags & TRIANGLE_HAS_UV1 != 0 {
+            b0 * m.uvs1[i0] + b1 * m.uvs1[i1] + b2 * m.uvs1[i2]
+        } else {
+            Vec2::ZERO
+        };
+        let mut a = evaluate_texture(&self.textures, &self.images, alpha.texture, pos, [uv, uv1]).x;
+        if tri.flags & TRIANGLE_HAS_COLORS != 0 {
+            a *= b0 * m.colors[i0].w + b1 * m.colors[i1].w + b2 * m.colors[i2].w;
+        }
+        alpha.covers(a, alpha_hash(ray, hit.prim))
     }
 
     /// Everything shading needs about a hit.

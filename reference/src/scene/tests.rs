@@ -168,3 +168,165 @@ fn optional_vertex_attributes_are_placed_and_padded_per_vertex() {
     assert_eq!(mesh.colors[6..], [Vec4::splat(0.5); 3]);
     assert!(mesh.uvs1.is_empty());
 }
+
+/// A 4x4 grid of triangle pairs over [0, 1]² in z = 0 (uv = (x, y); 32
+/// triangles: leaves of four-wide blocks), every vertex's colour alpha
+/// `vertex_alpha`, its material's coverage made by `alpha`.
+fn alpha_grid(alpha: impl FnOnce(&mut SceneBuilder) -> Alpha, vertex_alpha: f32) -> Scene {
+    use crate::scene::{MeshInput, Transform};
+    use glam::{Vec2, Vec4};
+    let mut mesh = MeshInput::default();
+    for j in 0..=4 {
+        for i in 0..=4 {
+            let (x, y) = (i as f32 / 4.0, j as f32 / 4.0);
+            mesh.positions.push(Vec3::new(x, y, 0.0));
+        }
+    }
+    for j in 0..4 {
+        for i in 0..4 {
+            let k = j * 5 + i;
+            mesh.indices.extend([k, k + 1, k + 6, k, k + 6, k + 5]);
+        }
+    }
+    mesh.uvs = Some(mesh.positions.iter().map(|p| Vec2::new(p.x, p.y)).collect());
+    mesh.colors = Some(vec![Vec4::new(1.0, 1.0, 1.0, vertex_alpha); 25]);
+    let mut b = SceneBuilder::new();
+    let white = b.constant(Vec3::ONE).unwrap();
+    let m = b
+        .add_material(Material::Lambertian { albedo: white })
+        .unwrap();
+    b.add_mesh(&mesh, m, &Transform::default()).unwrap();
+    let a = alpha(&mut b);
+    b.set_alpha(m, a).unwrap();
+    b.build().unwrap()
+}
+
+/// Which of the rays straight down at (x, y) hit, asked of the BVH, the
+/// brute-force scan and the primitive test (which must agree).
+fn hits_at(scene: &Scene, points: &[(f32, f32)]) -> Vec<bool> {
+    points
+        .iter()
+        .map(|&(x, y)| {
+            let ray = Ray::new(Vec3::new(x, y, 1.0), Vec3::NEG_Z);
+            let bvh = scene.intersect(&ray, 0.0, f32::INFINITY);
+            let brute = scene.intersect_brute_force(&ray, 0.0, f32::INFINITY);
+            assert_eq!(bvh, brute, "({x}, {y})");
+            if let Some(h) = bvh {
+                assert_eq!(
+                    scene.intersect_primitive(h.prim, &ray, 0.0, f32::INFINITY),
+                    Some(h)
+                );
+            }
+            bvh.is_some()
+        })
+        .collect()
+}
+
+#[test]
+fn alpha_cuts_the_surface_in_every_traversal() {
+    use crate::material::{Alpha, AlphaMode};
+    use crate::texture::{ImageData, Sampler};
+    let points: Vec<(f32, f32)> = (0..10)
+        .flat_map(|j| (0..10).map(move |i| (0.05 + 0.1 * i as f32, 0.05 + 0.1 * j as f32)))
+        .collect();
+    let constant = |value: f32, mode: AlphaMode| {
+        move |b: &mut SceneBuilder| Alpha {
+            texture: b.constant(Vec3::splat(value)).unwrap(),
+            mode,
+        }
+    };
+    let mask = |cutoff| AlphaMode::Mask { cutoff };
+    // A constant alpha against the cutoff (≥ covers), then times the
+    // vertex alpha.
+    assert!(hits_at(&alpha_grid(constant(0.4, mask(0.5)), 1.0), &points)
+        .iter()
+        .all(|h| !h));
+    assert!(hits_at(&alpha_grid(constant(0.4, mask(0.4)), 1.0), &points)
+        .iter()
+        .all(|h| *h));
+    assert!(hits_at(&alpha_grid(constant(1.0, mask(0.6)), 0.5), &points)
+        .iter()
+        .all(|h| !h));
+    assert!(hits_at(&alpha_grid(constant(1.0, mask(0.5)), 0.5), &points)
+        .iter()
+        .all(|h| *h));
+    // An image: alpha 0 in its left column, 1 in its right, nearest
+    // filter: the left half of the grid is cut away.
+    let halves = |b: &mut SceneBuilder| {
+        let image = b.add_image(ImageData {
+            width: 2,
+            height: 1,
+            texels: vec![Vec3::ZERO, Vec3::ONE],
+        });
+        let texture = b
+            .add_texture(Texture::Image {
+                image,
+                factor: Vec3::ONE,
+                sampler: Sampler {
+                    nearest: true,
+                    ..Sampler::default()
+                },
+            })
+            .unwrap();
+        Alpha {
+            texture,
+            mode: mask(0.5),
+        }
+    };
+    let hits = hits_at(&alpha_grid(halves, 1.0), &points);
+    for (&(x, _), hit) in points.iter().zip(&hits) {
+        assert_eq!(*hit, x > 0.5, "x = {x}");
+    }
+    // BLEND 0.3: about 30 % of rays stop, the same ray always alike.
+    let scene = alpha_grid(constant(0.3, AlphaMode::Blend), 1.0);
+    let n = 4000;
+    let dense: Vec<(f32, f32)> = (0..n)
+        .map(|k| {
+            let u = crate::rng::random_f32(7, k, 0, 0, 0);
+            let v = crate::rng::random_f32(7, k, 0, 0, 1);
+            (u, v)
+        })
+        .collect();
+    let hits = hits_at(&scene, &dense);
+    assert_eq!(
+        hits,
+        hits_at(&scene, &dense),
+        "the same rays, the same answers"
+    );
+    let p = hits.iter().filter(|h| **h).count() as f64 / n as f64;
+    // Binomial: σ = sqrt(0.3·0.7/4000) ≈ 0.0072; 5σ.
+    assert!((p - 0.3).abs() < 0.036, "{p}");
+}
+
+#[test]
+fn only_triangles_take_a_coverage_and_it_is_checked() {
+    use crate::material::{Alpha, AlphaMode};
+    use crate::scene::Transform;
+    let mut b = SceneBuilder::new();
+    let white = b.constant(Vec3::ONE).unwrap();
+    let m = b
+        .add_material(Material::Lambertian { albedo: white })
+        .unwrap();
+    let missing = Alpha {
+        texture: 5,
+        mode: AlphaMode::Blend,
+    };
+    assert_eq!(
+        field_of(b.set_alpha(m, missing).unwrap_err()),
+        "alpha.texture"
+    );
+    let nan = Alpha {
+        texture: white,
+        mode: AlphaMode::Mask { cutoff: f32::NAN },
+    };
+    assert_eq!(field_of(b.set_alpha(m, nan).unwrap_err()), "alpha.cutoff");
+    let blend = Alpha {
+        texture: white,
+        mode: AlphaMode::Blend,
+    };
+    assert_eq!(field_of(b.set_alpha(m + 1, blend).unwrap_err()), "material");
+    b.set_alpha(m, blend).unwrap();
+    b.add_quad(Vec3::ZERO, Vec3::X, Vec3::Y, m, &Transform::default())
+        .unwrap();
+    assert_eq!(field_of(b.build().unwrap_err()), "alpha");
+}

@@ -6,8 +6,9 @@
 use glam::{Quat, Vec3};
 use proptest::prelude::*;
 use reference::geometry::{spawn_origin, Ray};
-use reference::material::Material;
+use reference::material::{Alpha, AlphaMode, Material};
 use reference::scene::{primitive_tag, MeshInput, Scene, SceneBuilder, Transform};
+use reference::texture::Texture;
 
 /// Every scene the repository ships: the built-ins and the JSON fixtures.
 pub fn fixture_names() -> Vec<String> {
@@ -203,11 +204,45 @@ pub fn build_scene(spec: &[ShapeSpec]) -> Option<Scene> {
 
 /// As [`build_scene`], every shape placed by `placement`.
 pub fn build_scene_placed(spec: &[ShapeSpec], placement: &Transform) -> Option<Scene> {
+    build(spec, placement, None)
+}
+
+/// As [`build_scene`], the triangle meshes' material with a coverage:
+/// MASK (cutoff 0.5) over a 3-D checker of alpha 0 and 1 (no texture
+/// coordinates needed: holes in every mesh), or BLEND at alpha 0.5.
+pub fn build_scene_alpha(spec: &[ShapeSpec], mode: AlphaMode) -> Option<Scene> {
+    build(spec, &Transform::default(), Some(mode))
+}
+
+fn build(spec: &[ShapeSpec], placement: &Transform, alpha: Option<AlphaMode>) -> Option<Scene> {
     let mut b = SceneBuilder::new();
     let white = b.constant(Vec3::splat(0.7)).unwrap();
     let m = b
         .add_material(Material::Lambertian { albedo: white })
         .unwrap();
+    let mesh_material = match alpha {
+        None => m,
+        Some(mode) => {
+            let mt = b
+                .add_material(Material::Lambertian { albedo: white })
+                .unwrap();
+            let texture = match mode {
+                AlphaMode::Mask { .. } => {
+                    let odd = b.constant(Vec3::ZERO).unwrap();
+                    let even = b.constant(Vec3::ONE).unwrap();
+                    b.add_texture(Texture::Checker {
+                        scale: 3.0,
+                        even,
+                        odd,
+                    })
+                    .unwrap()
+                }
+                AlphaMode::Blend => b.constant(Vec3::splat(0.5)).unwrap(),
+            };
+            b.set_alpha(mt, Alpha { texture, mode }).unwrap();
+            mt
+        }
+    };
     let mut placed = 0;
     for (k, s) in spec.iter().enumerate() {
         // Resolve duplicates to a concrete earlier shape (the index strictly
@@ -243,12 +278,12 @@ pub fn build_scene_placed(spec: &[ShapeSpec], placement: &Transform) -> Option<S
                         indices: vec![0, 1, 2],
                         ..Default::default()
                     },
-                    m,
+                    mesh_material,
                     placement,
                 )
                 .is_ok(),
             ShapeSpec::Grid { corner, u, v, n } => b
-                .add_mesh(&grid_mesh(corner, u, v, n), m, placement)
+                .add_mesh(&grid_mesh(corner, u, v, n), mesh_material, placement)
                 .is_ok(),
             ShapeSpec::Icosphere {
                 center,
@@ -263,8 +298,12 @@ pub fn build_scene_placed(spec: &[ShapeSpec], placement: &Transform) -> Option<S
                             center,
                         ),
                 };
-                b.add_mesh(&reference::procedural::icosphere(subdivisions), m, &t)
-                    .is_ok()
+                b.add_mesh(
+                    &reference::procedural::icosphere(subdivisions),
+                    mesh_material,
+                    &t,
+                )
+                .is_ok()
             }
             ShapeSpec::Duplicate(_) => false,
         };
