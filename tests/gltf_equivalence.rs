@@ -11,10 +11,13 @@
 //!   `KHR_materials_volume` renders as the scene file's dielectric (the
 //!   `mesh` object's material) of that index and absorption;
 //! - `alphaMode` MASK with a texture's alpha 0 over a quarter of a plane
-//!   renders as the plane without that quarter (its look and its shadow).
+//!   renders as the plane without that quarter (its look and its shadow);
+//! - an emissive material (`emissiveFactor` × `KHR_materials_emissive_strength`)
+//!   renders as the scene file's `diffuse_light` of that radiance.
 //!
 //! Each is also compared with a twin that means something else (the map's
-//! bitangent turned, a colour channel off, another index, no hole), which must
+//! bitangent turned, a colour channel off, another index, no hole, 10 %
+//! more light), which must
 //! fail: the comparison can fail.
 
 use crate::common;
@@ -166,10 +169,12 @@ fn sphere(material: Option<Value>, used: &[&str]) -> Vec<u8> {
 }
 
 /// A GLB added with its own materials (the scene file's `gltf` object),
-/// or as a mesh with the given material (the `mesh` object).
+/// as a mesh with the given material (the `mesh` object), or as a mesh
+/// emitting the given radiance (a `diffuse_light` material).
 enum Part<'a> {
     Gltf(&'a [u8]),
     Mesh(&'a [u8], Material),
+    Light(&'a [u8], Vec3),
 }
 
 /// A scene of `parts` seen from above, lit by a grazing emitter or by a
@@ -187,17 +192,22 @@ fn scene(parts: &[Part], grazing_light: bool) -> Scene {
     for (i, part) in parts.iter().enumerate() {
         let path = dir.path().join(format!("part{i}.glb"));
         let bytes = match part {
-            Part::Gltf(bytes) | Part::Mesh(bytes, _) => bytes,
+            Part::Gltf(bytes) | Part::Mesh(bytes, _) | Part::Light(bytes, _) => bytes,
         };
         std::fs::write(&path, bytes).unwrap();
-        match part {
-            Part::Gltf(_) => add_gltf_scene(&mut b, &path, &Transform::default(), false).unwrap(),
-            Part::Mesh(_, material) => {
-                let id = b.add_material(*material).unwrap();
-                let mesh = load_gltf_mesh(&path).unwrap();
-                b.add_mesh(&mesh, id, &Transform::default()).unwrap();
+        let material = match part {
+            Part::Gltf(_) => {
+                add_gltf_scene(&mut b, &path, &Transform::default(), false).unwrap();
+                continue;
             }
-        }
+            Part::Mesh(_, material) => *material,
+            Part::Light(_, radiance) => Material::DiffuseLight {
+                emission: b.constant(*radiance).unwrap(),
+            },
+        };
+        let id = b.add_material(material).unwrap();
+        let mesh = load_gltf_mesh(&path).unwrap();
+        b.add_mesh(&mesh, id, &Transform::default()).unwrap();
     }
     if grazing_light {
         // A 0.7 x 0.5 emitter standing on the plane's diagonal, 0.1 above
@@ -429,5 +439,30 @@ fn an_alpha_mask_cuts_the_hole_the_geometry_has() {
         &scene(&[Part::Gltf(&gltf)], false),
         &scene(&[Part::Gltf(&meaning)], false),
         &scene(&[Part::Gltf(&other)], false),
+    );
+}
+
+#[test]
+fn an_emissive_material_renders_as_the_json_diffuse_light() {
+    // emissiveFactor × KHR_materials_emissive_strength: the sphere is a
+    // light (sampled as one by MIS) of that radiance, on both backends.
+    let emissive = sphere(
+        Some(json!({
+            "emissiveFactor": [1.0, 0.8, 0.5],
+            "extensions": { "KHR_materials_emissive_strength": { "emissiveStrength": 3.0 } },
+        })),
+        &["KHR_materials_emissive_strength"],
+    );
+    let bare = sphere(None, &[]);
+    let ground = plane(Vec3::Y, &[], ggx(), None);
+    let radiance = Vec3::new(3.0, 2.4, 1.5);
+    assert_means(
+        "an emissive glTF sphere vs the scene file's diffuse light",
+        &scene(&[Part::Gltf(&ground), Part::Gltf(&emissive)], true),
+        &scene(&[Part::Gltf(&ground), Part::Light(&bare, radiance)], true),
+        &scene(
+            &[Part::Gltf(&ground), Part::Light(&bare, radiance * 1.1)],
+            true,
+        ),
     );
 }
