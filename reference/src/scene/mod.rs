@@ -31,9 +31,18 @@ use crate::shapes::{
     TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_TANGENTS, TRIANGLE_HAS_UV1, TRIANGLE_HAS_UVS,
 };
 use crate::texture::{evaluate_texture, ImageData, Texture};
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec4};
 use leaf::{primitive_bounds, LeafBlock, LeafPrim, LeafTests, RayConstants};
 use std::f32::consts::PI;
+
+/// A triangle hit's interpolated point, texture coordinates (both sets:
+/// the barycentrics where the mesh has no uvs, zero where it has no second
+/// set) and vertex colour (one where it has none).
+struct TrianglePoint {
+    p: Vec3,
+    uvs: [Vec2; 2],
+    color: Vec4,
+}
 
 /// Numeric tags of primitive kinds, shared with the GPU.
 pub mod primitive_tag {
@@ -286,11 +295,19 @@ impl Scene {
         else {
             return true;
         };
+        let at = self.triangle_point(tri, hit);
+        let a = evaluate_texture(&self.textures, &self.images, alpha.texture, at.p, at.uvs).x;
+        alpha.covers(a * at.color.w, alpha_hash(ray, hit.prim))
+    }
+
+    /// What a hit on triangle `tri` interpolates for texturing, as both
+    /// [`Scene::surface_interaction`] and [`Scene::alpha_covers`] read it.
+    #[inline]
+    fn triangle_point(&self, tri: &Triangle, hit: &Hit) -> TrianglePoint {
         let [i0, i1, i2] = tri.vertices.map(|i| i as usize);
         let m = &self.mesh;
         let (b1, b2) = (hit.uv.x, hit.uv.y);
         let b0 = 1.0 - b1 - b2;
-        let pos = b0 * m.positions[i0] + b1 * m.positions[i1] + b2 * m.positions[i2];
         let uv = if tri.flags & TRIANGLE_HAS_UVS != 0 {
             b0 * m.uvs[i0] + b1 * m.uvs[i1] + b2 * m.uvs[i2]
         } else {
@@ -301,11 +318,16 @@ impl Scene {
         } else {
             Vec2::ZERO
         };
-        let mut a = evaluate_texture(&self.textures, &self.images, alpha.texture, pos, [uv, uv1]).x;
-        if tri.flags & TRIANGLE_HAS_COLORS != 0 {
-            a *= b0 * m.colors[i0].w + b1 * m.colors[i1].w + b2 * m.colors[i2].w;
+        let color = if tri.flags & TRIANGLE_HAS_COLORS != 0 {
+            b0 * m.colors[i0] + b1 * m.colors[i1] + b2 * m.colors[i2]
+        } else {
+            Vec4::ONE
+        };
+        TrianglePoint {
+            p: b0 * m.positions[i0] + b1 * m.positions[i1] + b2 * m.positions[i2],
+            uvs: [uv, uv1],
+            color,
         }
-        alpha.covers(a, alpha_hash(ray, hit.prim))
     }
 
     /// Everything shading needs about a hit.
@@ -352,7 +374,8 @@ impl Scene {
                 let m = &self.mesh;
                 let (b1, b2) = (hit.uv.x, hit.uv.y);
                 let b0 = 1.0 - b1 - b2;
-                let pos = b0 * m.positions[i0] + b1 * m.positions[i1] + b2 * m.positions[i2];
+                let at = self.triangle_point(tri, hit);
+                let pos = at.p;
                 // pbrt-v4's bound for barycentric interpolation.
                 let err = gamma(7)
                     * ((b0 * m.positions[i0]).abs()
@@ -370,17 +393,9 @@ impl Scene {
                         .normalize_or(ng);
                     side = if n.dot(ng) < 0.0 { -1.0 } else { 1.0 };
                 }
-                let uv = if tri.flags & TRIANGLE_HAS_UVS != 0 {
-                    b0 * m.uvs[i0] + b1 * m.uvs[i1] + b2 * m.uvs[i2]
-                } else {
-                    hit.uv
-                };
-                if tri.flags & TRIANGLE_HAS_UV1 != 0 {
-                    uv1 = b0 * m.uvs1[i0] + b1 * m.uvs1[i1] + b2 * m.uvs1[i2];
-                }
-                if tri.flags & TRIANGLE_HAS_COLORS != 0 {
-                    color = (b0 * m.colors[i0] + b1 * m.colors[i1] + b2 * m.colors[i2]).truncate();
-                }
+                let [uv, second] = at.uvs;
+                uv1 = second;
+                color = at.color.truncate();
                 let mut ns = side * n;
                 if let (
                     true,
@@ -394,7 +409,7 @@ impl Scene {
                 ) {
                     let tangent = b0 * m.tangents[i0] + b1 * m.tangents[i1] + b2 * m.tangents[i2];
                     let texel =
-                        evaluate_texture(&self.textures, &self.images, map.texture, pos, [uv, uv1]);
+                        evaluate_texture(&self.textures, &self.images, map.texture, pos, at.uvs);
                     ns = normal_mapped(n, side, ng, tangent, texel, map.scale);
                 }
                 (pos, ng, ns, uv, tri.material, err)
