@@ -85,6 +85,9 @@ fn sky_hdr(path: &Path) -> anyhow::Result<()> {
 ///   `KHR_materials_volume` (thickness 1, attenuation colour (0.9, 0.6,
 ///   0.3) at distance 1): smooth glass with Beer-Lambert absorption;
 ///
+/// the backdrop is coated (`KHR_materials_clearcoat`, factor 1 times its
+/// tiles' red channel, roughness 0.15);
+///
 /// and two panels in front: a lattice between the spheres, `alphaMode`
 /// MASK (cutoff 0.5) over an 8x8 RGBA base colour image whose alpha is 0
 /// on every third diagonal (bilinear: the holes' edges lie where the
@@ -283,7 +286,7 @@ fn gltf_materials() -> anyhow::Result<Vec<u8>> {
     coloured["COLOR_0"] = 7.into();
     let document = json!({
         "asset": { "version": "2.0", "generator": "twintrace examples/gen_fixtures.rs" },
-        "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume", "KHR_texture_transform"],
+        "extensionsUsed": ["KHR_materials_clearcoat", "KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume", "KHR_texture_transform"],
         "scene": 0,
         "scenes": [{ "nodes": [0, 1, 2, 3, 4] }],
         "nodes": [
@@ -328,6 +331,11 @@ fn gltf_materials() -> anyhow::Result<Vec<u8>> {
                     },
                     "metallicFactor": 0.0,
                     "roughnessFactor": 1.0,
+                },
+                // A clear coat whose weight follows the tiles' red channel
+                // (the image read a second time, as linear data).
+                "extensions": {
+                    "KHR_materials_clearcoat": { "clearcoatFactor": 1.0, "clearcoatTexture": { "index": 1 }, "clearcoatRoughnessFactor": 0.15 },
                 },
                 // No TANGENT: the importer generates MikkTSpace tangents
                 // (from the second set, mirrored: w = -1).

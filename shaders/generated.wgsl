@@ -87,6 +87,7 @@ const FEATURE_SKY_BACKGROUND: u32 = 1024u;
 const FEATURE_ENVMAP_BACKGROUND: u32 = 2048u;
 const FEATURE_NORMAL_MAPS: u32 = 4096u;
 const FEATURE_ALPHA: u32 = 8192u;
+const FEATURE_CLEARCOAT: u32 = 16384u;
 const INTEGRATOR_BSDF: u32 = 0u;
 const INTEGRATOR_MIS: u32 = 1u;
 const SMALL_CONE_SIN2: f32 = 6.8523e-4;
@@ -188,6 +189,10 @@ struct GpuMaterial {
     p2: f32,
     alpha_texture: u32,
     alpha_cutoff: f32,
+    coat: f32,
+    coat_texture: u32,
+    coat_roughness: f32,
+    coat_roughness_texture: u32,
 }
 struct GpuTexture {
     tag: u32,

@@ -23,6 +23,9 @@ struct GgxLobes {
     alpha: f32,
     f0: vec3<f32>,
     specular_probability: f32,
+    // The clear coat's share c·Fc(wo) (0: none) and its GGX alpha.
+    coat: f32,
+    coat_alpha: f32,
 }
 
 fn ggx_lobes_new(base_color: vec3<f32>, metallic: f32, roughness: f32, wo: vec3<f32>) -> GgxLobes {
@@ -34,7 +37,19 @@ fn ggx_lobes_new(base_color: vec3<f32>, metallic: f32, roughness: f32, wo: vec3<
     if diff > 0.0 {
         p = clamp(spec / (spec + diff), SPECULAR_PROBABILITY_MIN, SPECULAR_PROBABILITY_MAX);
     }
-    return GgxLobes(base_color, metallic, alpha, f0, p);
+    return GgxLobes(base_color, metallic, alpha, f0, p, 0.0, GGX_MIN_ALPHA);
+}
+
+// reference::material::GgxLobes::with_coat: the lobes under a clear coat
+// of `weight` and `roughness` seen from wo (weight 0: unchanged).
+fn ggx_lobes_with_coat(l: GgxLobes, weight: f32, roughness: f32, wo: vec3<f32>) -> GgxLobes {
+    if weight <= 0.0 {
+        return l;
+    }
+    var c = l;
+    c.coat = weight * fresnel_schlick(vec3<f32>(DIELECTRIC_F0), wo.z).x;
+    c.coat_alpha = max(roughness * roughness, GGX_MIN_ALPHA);
+    return c;
 }
 
 fn ggx_lobes_eval(l: GgxLobes, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
@@ -45,7 +60,12 @@ fn ggx_lobes_eval(l: GgxLobes, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
     let f = fresnel_schlick(l.f0, dot(wi, h));
     let spec = f * (ggx_d(h, l.alpha) * ggx_g2(wo, wi, l.alpha) / (4.0 * wo.z * wi.z));
     let diffuse = (vec3<f32>(1.0) - f) * (1.0 - l.metallic) * l.base_color * FRAC_1_PI;
-    return spec + diffuse;
+    let base = spec + diffuse;
+    if l.coat <= 0.0 {
+        return base;
+    }
+    let coat = ggx_d(h, l.coat_alpha) * ggx_g2(wo, wi, l.coat_alpha) / (4.0 * wo.z * wi.z);
+    return (1.0 - l.coat) * base + vec3<f32>(l.coat * coat);
 }
 
 fn ggx_lobes_pdf(l: GgxLobes, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
@@ -55,7 +75,12 @@ fn ggx_lobes_pdf(l: GgxLobes, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
     let h = normalize(wo + wi);
     let spec_pdf = ggx_visible_normal_pdf(wo, h, l.alpha) / (4.0 * dot(wo, h));
     let p = l.specular_probability;
-    return p * spec_pdf + (1.0 - p) * wi.z * FRAC_1_PI;
+    let base = p * spec_pdf + (1.0 - p) * wi.z * FRAC_1_PI;
+    if l.coat <= 0.0 {
+        return base;
+    }
+    let coat_pdf = ggx_visible_normal_pdf(wo, h, l.coat_alpha) / (4.0 * dot(wo, h));
+    return l.coat * coat_pdf + (1.0 - l.coat) * base;
 }
 
 // reference::material::alpha_hash: BLEND's number in [0, 1) from the ray's
@@ -80,10 +105,12 @@ struct MaterialTextures {
     base: vec3<f32>,
     // GGX: metallic and roughness (ggx_parameters).
     metal_rough: vec2<f32>,
+    // GGX: the clear coat's weight and roughness (coat_parameters).
+    coat: vec2<f32>,
 }
 
 fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures {
-    var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0));
+    var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0));
     if m.tag == MATERIAL_DIELECTRIC {
         return t;
     }
@@ -91,13 +118,14 @@ fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures
     if m.tag == MATERIAL_GGX {
         t.base *= si.color;
         t.metal_rough = ggx_parameters(m, si);
+        t.coat = coat_parameters(m, si);
     }
     return t;
 }
 
 // What emitted reads at a light's sampled point (no GGX parameters).
 fn light_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures {
-    return MaterialTextures(evaluate_texture(m.texture, si.p, si.uv, si.uv1), vec2<f32>(0.0));
+    return MaterialTextures(evaluate_texture(m.texture, si.p, si.uv, si.uv1), vec2<f32>(0.0), vec2<f32>(0.0));
 }
 
 fn emitted(m: GpuMaterial, si: SurfaceInteraction, tx: MaterialTextures) -> vec3<f32> {
@@ -144,7 +172,7 @@ fn bsdf_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mat
             if wo.z <= 0.0 || wl.z <= 0.0 {
                 return zero;
             }
-            let lobes = ggx_lobes_new(tx.base, tx.metal_rough.x, tx.metal_rough.y, wo);
+            let lobes = ggx_lobes_with_coat(ggx_lobes_new(tx.base, tx.metal_rough.x, tx.metal_rough.y, wo), tx.coat.x, tx.coat.y, wo);
             return BsdfEval(true, ggx_lobes_eval(lobes, wo, wl) * wl.z, ggx_lobes_pdf(lobes, wo, wl));
         }
         case MATERIAL_METAL, MATERIAL_DIELECTRIC, MATERIAL_DIFFUSE_LIGHT: {
@@ -282,6 +310,27 @@ fn ggx_parameters(m: GpuMaterial, si: SurfaceInteraction) -> vec2<f32> {
     return vec2<f32>(m.p0 * t.z, m.p1 * t.y);
 }
 
+// reference::material::coat_parameters: the clear coat's weight and
+// roughness at si (0 without a coat), the factors times the red and green
+// channels of their textures where the coat has them.
+fn coat_parameters(m: GpuMaterial, si: SurfaceInteraction) -> vec2<f32> {
+    if m.coat <= 0.0 {
+        return vec2<f32>(0.0);
+    }
+    if !uses(FEATURE_CLEARCOAT) {
+        poison();
+        return vec2<f32>(0.0);
+    }
+    var c = vec2<f32>(m.coat, m.coat_roughness);
+    if m.coat_texture != NO_TEXTURE {
+        c.x *= evaluate_texture(m.coat_texture, si.p, si.uv, si.uv1).x;
+    }
+    if m.coat_roughness_texture != NO_TEXTURE {
+        c.y *= evaluate_texture(m.coat_roughness_texture, si.p, si.uv, si.uv1).y;
+    }
+    return c;
+}
+
 fn scatter_ggx(m: GpuMaterial, ray_dir: vec3<f32>, tx: MaterialTextures, n: vec3<f32>, u: VertexRandoms) -> Scatter {
     if !uses(FEATURE_GGX) { poison(); return absorbed(); }
     let frame = onb_from_normal(n);
@@ -289,10 +338,15 @@ fn scatter_ggx(m: GpuMaterial, ray_dir: vec3<f32>, tx: MaterialTextures, n: vec3
     if wo.z <= 0.0 {
         return absorbed();
     }
-    let lobes = ggx_lobes_new(tx.base, tx.metal_rough.x, tx.metal_rough.y, wo);
+    let lobes = ggx_lobes_with_coat(ggx_lobes_new(tx.base, tx.metal_rough.x, tx.metal_rough.y, wo), tx.coat.x, tx.coat.y, wo);
     let dir_u = vec2<f32>(vr_get(u, DIM_DIRECTION_U), vr_get(u, DIM_DIRECTION_V));
+    // One number picks the lobe: the coat, the base's specular share of
+    // the rest, then its diffuse lobe (as the reference).
+    let lobe = vr_get(u, DIM_LOBE);
     var wi: vec3<f32>;
-    if vr_get(u, DIM_LOBE) < lobes.specular_probability {
+    if lobe < lobes.coat {
+        wi = reflect_about(-wo, ggx_sample_visible_normal(wo, lobes.coat_alpha, dir_u));
+    } else if lobe < lobes.coat + (1.0 - lobes.coat) * lobes.specular_probability {
         let mm = ggx_sample_visible_normal(wo, lobes.alpha, dir_u);
         wi = reflect_about(-wo, mm);
     } else {

@@ -13,11 +13,13 @@
 //! - `alphaMode` MASK with a texture's alpha 0 over a quarter of a plane
 //!   renders as the plane without that quarter (its look and its shadow);
 //! - an emissive material (`emissiveFactor` × `KHR_materials_emissive_strength`)
-//!   renders as the scene file's `diffuse_light` of that radiance.
+//!   renders as the scene file's `diffuse_light` of that radiance;
+//! - `KHR_materials_clearcoat` with textures renders as the coat of the
+//!   weight and roughness their channels (red, green) scale the factors to.
 //!
 //! Each is also compared with a twin that means something else (the map's
 //! bitangent turned, a colour channel off, another index, no hole, 10 %
-//! more light), which must
+//! more light, half the coat), which must
 //! fail: the comparison can fail.
 
 use crate::common;
@@ -463,6 +465,45 @@ fn an_emissive_material_renders_as_the_json_diffuse_light() {
         &scene(
             &[Part::Gltf(&ground), Part::Light(&bare, radiance * 1.1)],
             true,
+        ),
+    );
+}
+
+#[test]
+fn a_textured_clear_coat_renders_as_the_coat_its_channels_give() {
+    // A dark, rough base under a coat: clearcoatTexture's red channel
+    // scales the weight, clearcoatRoughnessTexture's green the roughness
+    // (one 1x1 texel for both, read as linear data).
+    let texel = [128u8, 100, 0];
+    let coated = |coat: Value| {
+        json!({
+            "pbrMetallicRoughness": { "baseColorFactor": [0.05, 0.05, 0.05, 1], "metallicFactor": 0, "roughnessFactor": 0.6 },
+            "extensions": { "KHR_materials_clearcoat": coat },
+        })
+    };
+    let textured = coated(json!({
+        "clearcoatFactor": 1.0,
+        "clearcoatTexture": { "index": 0 },
+        "clearcoatRoughnessFactor": 0.5,
+        "clearcoatRoughnessTexture": { "index": 0 },
+    }));
+    let (weight, roughness) = (128.0 / 255.0, 0.5 * 100.0 / 255.0);
+    let plain = |weight: f64| {
+        coated(json!({ "clearcoatFactor": weight, "clearcoatRoughnessFactor": roughness }))
+    };
+    assert_means(
+        "a textured clear coat vs its factors",
+        &scene(
+            &[Part::Gltf(&plane(Vec3::Y, &[], textured, Some(texel)))],
+            false,
+        ),
+        &scene(
+            &[Part::Gltf(&plane(Vec3::Y, &[], plain(weight), None))],
+            false,
+        ),
+        &scene(
+            &[Part::Gltf(&plane(Vec3::Y, &[], plain(weight / 2.0), None))],
+            false,
         ),
     );
 }

@@ -87,6 +87,7 @@ fn procedural_glb_loads_frames_and_renders() {
             roughness: 1.0,
             metallic_roughness: None,
             normal_map: None,
+            clearcoat: None,
         }]
     );
     assert_eq!(scene.textures(), vec![Texture::Constant(Vec3::ONE)]);
@@ -145,6 +146,7 @@ fn gltf_materials_emission_and_camera_come_through() {
             roughness,
             metallic_roughness: None,
             normal_map: None,
+            clearcoat: None,
         } => {
             assert_eq!(
                 texture(base_color),

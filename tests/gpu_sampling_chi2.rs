@@ -11,7 +11,7 @@ use crate::common::gates::assert_family_passes;
 use glam::{DVec3, Vec3};
 use gpu::scene_buffers::pack_material;
 use gpu::testing::{run_test_kernel, TestKernel};
-use reference::material::{GgxLobes, Material};
+use reference::material::{ClearCoat, GgxLobes, Material};
 use reference::sampling::{cosine_hemisphere_pdf, ggx, UNIFORM_SPHERE_PDF};
 use reference::scene::Transform;
 use std::f64::consts::PI;
@@ -30,7 +30,7 @@ const SPHERE: Domain = Domain::Sphere {
 const BASE: Vec3 = Vec3::new(0.9, 0.6, 0.3);
 
 const SNIPPET: &str = "
-// input: [seed, mode, n, front_face, random_incidence, wo.x, wo.y, wo.z, alpha, material (8 words)]
+// input: [seed, mode, n, front_face, random_incidence, wo.x, wo.y, wo.z, alpha, material (16 words; its textures beyond the first are none)]
 @compute @workgroup_size(64)
 fn sample_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
@@ -51,7 +51,7 @@ fn sample_main(@builtin(global_invocation_id) gid: vec3<u32>) {
         case 3u: { d = sample_unit_ball(vec3<f32>(vr_get(u, DIM_BALL_X), vr_get(u, DIM_BALL_Y), vr_get(u, DIM_BALL_Z))); }
         case 4u: { d = ggx_sample_visible_normal(wo, bitcast<f32>(input[8]), dir_u); }
         default: {
-            let m = GpuMaterial(input[9], input[10], bitcast<f32>(input[11]), bitcast<f32>(input[12]), bitcast<f32>(input[13]), bitcast<f32>(input[14]), bitcast<f32>(input[15]), input[16], NO_TEXTURE, 0.0, NO_TEXTURE, 0.0);
+            let m = GpuMaterial(input[9], input[10], bitcast<f32>(input[11]), bitcast<f32>(input[12]), bitcast<f32>(input[13]), bitcast<f32>(input[14]), bitcast<f32>(input[15]), input[16], NO_TEXTURE, 0.0, NO_TEXTURE, 0.0, bitcast<f32>(input[21]), NO_TEXTURE, bitcast<f32>(input[23]), NO_TEXTURE);
             let front = input[3] != 0u;
             var ray_dir = -wo;
             if input[4] != 0u {
@@ -227,16 +227,21 @@ fn gpu_sampling_routines_match_their_densities() {
         "Lambertian material".to_string(),
         test_density(&SPHERE, gpu_samples(&lambert), &cos),
     ));
-    for (k, (metallic, roughness, theta)) in [
-        (0.0f32, 0.5f32, 20.0f32),
-        (1.0, 0.4, 50.0),
-        (0.5, 0.8, 75.0),
+    // The last two under a clear coat (weight, roughness), as the CPU's.
+    for (k, (metallic, roughness, theta, coat)) in [
+        (0.0f32, 0.5f32, 20.0f32, None),
+        (1.0, 0.4, 50.0, None),
+        (0.5, 0.8, 75.0, None),
+        (0.0, 0.8, 30.0, Some((1.0f32, 0.1f32))),
+        (0.5, 0.3, 70.0, Some((0.7, 0.6))),
     ]
     .into_iter()
     .enumerate()
     {
         let wo = towards(theta);
-        let lobes = GgxLobes::new(BASE, metallic, roughness, wo);
+        let (weight, coat_roughness) = coat.unwrap_or((0.0, 0.0));
+        let lobes =
+            GgxLobes::new(BASE, metallic, roughness, wo).with_coat(weight, coat_roughness, wo);
         let job = Job {
             wo,
             material: Some(Material::Ggx {
@@ -245,6 +250,12 @@ fn gpu_sampling_routines_match_their_densities() {
                 roughness,
                 metallic_roughness: None,
                 normal_map: None,
+                clearcoat: coat.map(|(factor, roughness)| ClearCoat {
+                    factor,
+                    texture: None,
+                    roughness,
+                    roughness_texture: None,
+                }),
             }),
             ..Job::new(Mode::Scatter, 1030 + k as u32)
         };
@@ -252,7 +263,7 @@ fn gpu_sampling_routines_match_their_densities() {
             lobes.pdf(wo, wi.as_vec3()) as f64
         });
         runs.push((
-            format!("GGX material metallic {metallic}, roughness {roughness}, θo {theta}°"),
+            format!("GGX material metallic {metallic}, roughness {roughness}, θo {theta}°, coat {coat:?}"),
             o,
         ));
     }

@@ -11,7 +11,7 @@
 use crate::common::gates::assert_family_passes;
 use glam::{DVec3, Vec2, Vec3};
 use reference::geometry::SurfaceInteraction;
-use reference::material::{scatter, GgxLobes, Material, TextureContext};
+use reference::material::{scatter, ClearCoat, GgxLobes, Material, TextureContext};
 use reference::rng::{dims, vertex_randoms};
 use reference::sampling::{
     cosine_hemisphere_pdf, ggx, sample_cosine_hemisphere, sample_uniform_sphere, sample_unit_ball,
@@ -182,16 +182,26 @@ fn ggx_material_samples_its_mixture_density() {
     // The material's scatter (lobe choice, visible normals, reflection,
     // cosine lobe) against GgxLobes::pdf; the mass below the horizon is
     // absorbed and lands in the rejected-samples cell.
+    // The last two under a clear coat (weight, roughness): a smooth coat
+    // over a rough base, a rough one at grazing incidence.
     let mut runs = Vec::new();
-    for (k, &(metallic, roughness, theta)) in [
-        (0.0f32, 0.5f32, 20.0),
-        (1.0, 0.4, 50.0),
-        (0.5, 0.8, 75.0),
-        (1.0, 1.0, 0.0),
+    for (k, &(metallic, roughness, theta, coat)) in [
+        (0.0f32, 0.5f32, 20.0, None),
+        (1.0, 0.4, 50.0, None),
+        (0.5, 0.8, 75.0, None),
+        (1.0, 1.0, 0.0, None),
+        (0.0, 0.8, 30.0, Some((1.0f32, 0.1f32))),
+        (0.5, 0.3, 70.0, Some((0.7, 0.6))),
     ]
     .iter()
     .enumerate()
     {
+        let clearcoat = coat.map(|(factor, roughness)| ClearCoat {
+            factor,
+            texture: None,
+            roughness,
+            roughness_texture: None,
+        });
         let textures = [Texture::Constant(Vec3::new(0.9, 0.6, 0.3))];
         let ctx = TextureContext {
             textures: &textures,
@@ -203,9 +213,15 @@ fn ggx_material_samples_its_mixture_density() {
             roughness,
             metallic_roughness: None,
             normal_map: None,
+            clearcoat,
         };
         let wo = towards(theta);
-        let lobes = GgxLobes::new(Vec3::new(0.9, 0.6, 0.3), metallic, roughness, wo);
+        let (weight, coat_roughness) = coat.unwrap_or((0.0, 0.0));
+        let lobes = GgxLobes::new(Vec3::new(0.9, 0.6, 0.3), metallic, roughness, wo).with_coat(
+            weight,
+            coat_roughness,
+            wo,
+        );
         let seed = 200 + k as u32;
         let o = test_density(
             &SPHERE,
@@ -216,7 +232,7 @@ fn ggx_material_samples_its_mixture_density() {
             &|wi| lobes.pdf(wo, wi.as_vec3()) as f64,
         );
         runs.push((
-            format!("metallic {metallic}, roughness {roughness}, θo {theta}°"),
+            format!("metallic {metallic}, roughness {roughness}, θo {theta}°, coat {coat:?}"),
             o,
         ));
     }

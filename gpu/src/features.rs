@@ -54,6 +54,7 @@ feature_bits! {
     ENVMAP_BACKGROUND = 11,
     NORMAL_MAPS = 12,
     ALPHA = 13,
+    CLEARCOAT = 14,
 }
 
 /// The render program's pipeline-overridable constant that picks how a
@@ -145,10 +146,19 @@ impl Features {
                 Material::Metal { .. } => feature::METAL,
                 Material::Dielectric { .. } => feature::DIELECTRIC,
                 Material::Ggx {
-                    normal_map: Some(_),
+                    normal_map,
+                    clearcoat,
                     ..
-                } => feature::GGX | feature::NORMAL_MAPS,
-                Material::Ggx { .. } => feature::GGX,
+                } => {
+                    let mut ggx = feature::GGX;
+                    if normal_map.is_some() {
+                        ggx |= feature::NORMAL_MAPS;
+                    }
+                    if clearcoat.is_some_and(|c| c.factor > 0.0) {
+                        ggx |= feature::CLEARCOAT;
+                    }
+                    ggx
+                }
                 // Emission is read by tag, with no code of its own to drop.
                 Material::DiffuseLight { .. } => 0,
             };

@@ -87,10 +87,14 @@ gpu_record! {
     /// texture (`reference::material::Alpha`) or `NO_TEXTURE`,
     /// `alpha_cutoff` = MASK's cutoff (at least 0: alpha is never
     /// negative, so a lower cutoff covers alike) or [`ALPHA_BLEND`].
+    /// GGX's clear coat (`reference::material::ClearCoat`): `coat` = its
+    /// weight (0: none), `coat_texture` its texture or `NO_TEXTURE`,
+    /// `coat_roughness`, `coat_roughness_texture`.
     GpuMaterial {
         tag: u32, texture: u32, p0: f32, p1: f32,
         absorption_r: f32, absorption_g: f32, absorption_b: f32, texture2: u32,
         texture3: u32, p2: f32, alpha_texture: u32, alpha_cutoff: f32,
+        coat: f32, coat_texture: u32, coat_roughness: f32, coat_roughness_texture: u32,
     }
 }
 
@@ -220,7 +224,7 @@ mod tests {
         assert_eq!(std::mem::size_of::<GpuVertex>(), 32);
         assert_eq!(std::mem::size_of::<GpuPrimitive>(), 32);
         assert_eq!(std::mem::size_of::<GpuVertexExtra>(), 48);
-        assert_eq!(std::mem::size_of::<GpuMaterial>(), 48);
+        assert_eq!(std::mem::size_of::<GpuMaterial>(), 64);
         assert_eq!(std::mem::size_of::<GpuTexture>(), 64);
         assert_eq!(std::mem::size_of::<GpuEmitter>(), 8);
         assert_eq!(std::mem::size_of::<GpuLightDensity>(), 8);

@@ -106,6 +106,7 @@ fn pack_bsdf(m: &Material) -> GpuMaterial {
             roughness,
             metallic_roughness,
             normal_map,
+            clearcoat,
         } => GpuMaterial {
             tag,
             texture: base_color,
@@ -114,6 +115,12 @@ fn pack_bsdf(m: &Material) -> GpuMaterial {
             texture2: metallic_roughness.unwrap_or(NO_TEXTURE),
             texture3: normal_map.map_or(NO_TEXTURE, |n| n.texture),
             p2: normal_map.map_or(0.0, |n| n.scale),
+            coat: clearcoat.map_or(0.0, |c| c.factor),
+            coat_texture: clearcoat.and_then(|c| c.texture).unwrap_or(NO_TEXTURE),
+            coat_roughness: clearcoat.map_or(0.0, |c| c.roughness),
+            coat_roughness_texture: clearcoat
+                .and_then(|c| c.roughness_texture)
+                .unwrap_or(NO_TEXTURE),
             ..Default::default()
         },
     }

@@ -184,6 +184,7 @@ fn bsdf_sampling(c: &mut Criterion) {
                 roughness: 0.4,
                 metallic_roughness: None,
                 normal_map: None,
+                clearcoat: None,
             },
         ),
     ] {

@@ -34,14 +34,37 @@ pub enum Material {
     ///
     /// The base colour is the texture times the vertex colour
     /// ([`SurfaceInteraction::color`]); `normal_map` bends the shading
-    /// normal where the surface has tangents ([`normal_mapped`]).
+    /// normal where the surface has tangents ([`normal_mapped`]);
+    /// `clearcoat` lays a GGX coat over both lobes ([`ClearCoat`]).
     Ggx {
         base_color: u32,
         metallic: f32,
         roughness: f32,
         metallic_roughness: Option<u32>,
         normal_map: Option<NormalMap>,
+        clearcoat: Option<ClearCoat>,
     },
+}
+
+/// A clear coat (glTF's `KHR_materials_clearcoat`): a dielectric layer
+/// (index 1.5, so F0 = 0.04) with its own GGX roughness over the GGX
+/// material. The layered BRDF is glTF's `fresnel_coat` mix,
+/// `(1 − c·Fc(ωo))·f_base + c·Fc(ωo)·D·G2 / (4 cos θo cos θi)`, `c` the
+/// coat's weight and `Fc` Schlick's Fresnel of F0 0.04 at the outgoing
+/// angle ([`GgxLobes::with_coat`]). The coat shares the base's shading
+/// normal (normal map included): glTF's separate `clearcoatNormalTexture`
+/// is not read.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClearCoat {
+    /// The weight `c` in [0, 1] (`clearcoatFactor`), times the red channel
+    /// of `texture` where there is one (`clearcoatTexture`, linear data).
+    pub factor: f32,
+    pub texture: Option<u32>,
+    /// The coat's roughness in [0, 1] (`clearcoatRoughnessFactor`, GGX
+    /// `alpha = roughness²`), times the green channel of
+    /// `roughness_texture` where there is one.
+    pub roughness: f32,
+    pub roughness_texture: Option<u32>,
 }
 
 /// A tangent-space normal map (glTF's `normalTexture`): a texture of
@@ -232,6 +255,7 @@ pub fn scatter(
             metallic,
             roughness,
             metallic_roughness,
+            clearcoat,
             ..
         } => {
             let frame = Onb::from_normal(n);
@@ -241,9 +265,17 @@ pub fn scatter(
             }
             let (metallic, roughness) =
                 ggx_parameters(metallic, roughness, metallic_roughness, ctx, si);
-            let lobes = GgxLobes::new(ctx.base_color(base_color, si), metallic, roughness, wo);
+            let (coat, coat_roughness) = coat_parameters(clearcoat, ctx, si);
+            let lobes = GgxLobes::new(ctx.base_color(base_color, si), metallic, roughness, wo)
+                .with_coat(coat, coat_roughness, wo);
             let dir_u = Vec2::new(u[dims::DIRECTION_U], u[dims::DIRECTION_V]);
-            let wi = if u[dims::LOBE] < lobes.specular_probability {
+            // One number picks the lobe: [0, coat) the coat, then the
+            // base's specular share of the rest, then its diffuse lobe.
+            let lobe = u[dims::LOBE];
+            let wi = if lobe < lobes.coat {
+                let m = ggx::sample_visible_normal(wo, lobes.coat_alpha, dir_u);
+                reflect(-wo, m)
+            } else if lobe < lobes.coat + (1.0 - lobes.coat) * lobes.specular_probability {
                 let m = ggx::sample_visible_normal(wo, lobes.alpha, dir_u);
                 reflect(-wo, m)
             } else {
@@ -297,6 +329,7 @@ pub fn bsdf_eval(
             metallic,
             roughness,
             metallic_roughness,
+            clearcoat,
             ..
         } => {
             let frame = Onb::from_normal(n);
@@ -306,7 +339,9 @@ pub fn bsdf_eval(
             }
             let (metallic, roughness) =
                 ggx_parameters(metallic, roughness, metallic_roughness, ctx, si);
-            let lobes = GgxLobes::new(ctx.base_color(base_color, si), metallic, roughness, wo);
+            let (coat, coat_roughness) = coat_parameters(clearcoat, ctx, si);
+            let lobes = GgxLobes::new(ctx.base_color(base_color, si), metallic, roughness, wo)
+                .with_coat(coat, coat_roughness, wo);
             Some((lobes.eval(wo, wi) * wi.z, lobes.pdf(wo, wi)))
         }
         Material::Metal { .. } | Material::Dielectric { .. } | Material::DiffuseLight { .. } => {
@@ -333,6 +368,29 @@ pub fn ggx_parameters(
             (metallic * texel.z, roughness * texel.y)
         }
     }
+}
+
+/// A clear coat's weight and roughness at `si` (both 0 without a coat):
+/// the factors, each times its texture's channel where it has one (red:
+/// weight, green: roughness; glTF's layout).
+#[inline]
+pub fn coat_parameters(
+    coat: Option<ClearCoat>,
+    ctx: TextureContext,
+    si: &SurfaceInteraction,
+) -> (f32, f32) {
+    let Some(c) = coat else {
+        return (0.0, 0.0);
+    };
+    let weight = match c.texture {
+        Some(t) => c.factor * ctx.eval(t, si).x,
+        None => c.factor,
+    };
+    let roughness = match c.roughness_texture {
+        Some(t) => c.roughness * ctx.eval(t, si).y,
+        None => c.roughness,
+    };
+    (weight, roughness)
 }
 
 /// The shading normal a normal map gives: `n` the interpolated vertex
@@ -377,17 +435,26 @@ pub fn schlick_reflectance(cos_i: f32, eta: f32) -> f32 {
     r0 + (1.0 - r0) * (1.0 - cos_i).powi(5)
 }
 
-/// The GGX material's two lobes at one point, in the local frame (+z up).
+/// The GGX material's lobes at one point, in the local frame (+z up):
+/// the base's specular and diffuse lobes and, where the material has a
+/// clear coat, the coat's.
 #[derive(Clone, Copy, Debug)]
 pub struct GgxLobes {
     pub base_color: Vec3,
     pub metallic: f32,
     pub alpha: f32,
     pub f0: Vec3,
-    /// Probability of sampling the specular lobe: its share of the
-    /// estimated albedo (Fresnel at `wo` against the diffuse weight), kept
-    /// in [0.05, 0.95] unless the diffuse lobe is black.
+    /// Probability of sampling the base's specular lobe rather than its
+    /// diffuse one: its share of the estimated albedo (Fresnel at `wo`
+    /// against the diffuse weight), kept in [0.05, 0.95] unless the
+    /// diffuse lobe is black.
     pub specular_probability: f32,
+    /// The coat's share `c·Fc(ωo)` ([`ClearCoat`]): the weight of its
+    /// lobe in the BRDF and the probability of sampling it (0 without a
+    /// coat).
+    pub coat: f32,
+    /// The coat's GGX alpha.
+    pub coat_alpha: f32,
 }
 
 /// Rec. 709 / sRGB luminance weights of linear R, G, B.
@@ -422,6 +489,22 @@ impl GgxLobes {
             alpha,
             f0,
             specular_probability,
+            coat: 0.0,
+            coat_alpha: GGX_MIN_ALPHA,
+        }
+    }
+
+    /// These lobes under a clear coat of weight `weight` and roughness
+    /// `roughness` seen from `wo` (weight 0: unchanged).
+    pub fn with_coat(self, weight: f32, roughness: f32, wo: Vec3) -> Self {
+        if weight <= 0.0 {
+            return self;
+        }
+        let fresnel = fresnel_schlick(Vec3::splat(DIELECTRIC_F0), wo.z).x;
+        Self {
+            coat: weight * fresnel,
+            coat_alpha: (roughness * roughness).max(GGX_MIN_ALPHA),
+            ..self
         }
     }
 
@@ -434,7 +517,13 @@ impl GgxLobes {
         let f = fresnel_schlick(self.f0, wi.dot(h));
         let spec = f * (ggx::d(h, self.alpha) * ggx::g2(wo, wi, self.alpha) / (4.0 * wo.z * wi.z));
         let diffuse = (Vec3::ONE - f) * (1.0 - self.metallic) * self.base_color * FRAC_1_PI;
-        spec + diffuse
+        let base = spec + diffuse;
+        if self.coat <= 0.0 {
+            return base;
+        }
+        let a = self.coat_alpha;
+        let coat = ggx::d(h, a) * ggx::g2(wo, wi, a) / (4.0 * wo.z * wi.z);
+        (1.0 - self.coat) * base + Vec3::splat(self.coat * coat)
     }
 
     /// The density of the mixture that `scatter` samples.
@@ -445,7 +534,12 @@ impl GgxLobes {
         let h = (wo + wi).normalize();
         let spec_pdf = ggx::visible_normal_pdf(wo, h, self.alpha) / (4.0 * wo.dot(h));
         let p = self.specular_probability;
-        p * spec_pdf + (1.0 - p) * wi.z * FRAC_1_PI
+        let base = p * spec_pdf + (1.0 - p) * wi.z * FRAC_1_PI;
+        if self.coat <= 0.0 {
+            return base;
+        }
+        let coat_pdf = ggx::visible_normal_pdf(wo, h, self.coat_alpha) / (4.0 * wo.dot(h));
+        self.coat * coat_pdf + (1.0 - self.coat) * base
     }
 }
 
@@ -599,6 +693,7 @@ mod tests {
             roughness: 0.6,
             metallic_roughness: Some(1),
             normal_map: None,
+            clearcoat: None,
         };
         let plain = Material::Ggx {
             base_color: 0,
@@ -606,6 +701,7 @@ mod tests {
             roughness: 0.6 * 0.5,
             metallic_roughness: None,
             normal_map: None,
+            clearcoat: None,
         };
         let d = Vec3::new(0.3, -1.0, 0.1).normalize();
         for i in 0..64 {
@@ -676,6 +772,7 @@ mod tests {
             roughness: 0.5,
             metallic_roughness: None,
             normal_map: None,
+            clearcoat: None,
         };
         let tinted = SurfaceInteraction {
             color: Vec3::new(0.5, 1.0, 0.25),
@@ -698,13 +795,30 @@ mod tests {
     #[test]
     fn ggx_weight_matches_eval_cos_over_pdf_and_conserves_energy() {
         let tex = [Texture::Constant(Vec3::new(0.9, 0.5, 0.2))];
-        for (metallic, roughness) in [(0.0, 0.5), (1.0, 0.3), (0.5, 0.8), (1.0, 0.0)] {
+        // The last three under a clear coat: a smooth one, a rough one, a
+        // half-weight one.
+        for (metallic, roughness, coat) in [
+            (0.0, 0.5, None),
+            (1.0, 0.3, None),
+            (0.5, 0.8, None),
+            (1.0, 0.0, None),
+            (0.0, 0.5, Some((1.0, 0.0))),
+            (1.0, 0.3, Some((1.0, 0.6))),
+            (0.5, 0.8, Some((0.5, 0.2))),
+        ] {
+            let clearcoat = coat.map(|(factor, roughness)| ClearCoat {
+                factor,
+                texture: None,
+                roughness,
+                roughness_texture: None,
+            });
             let m = Material::Ggx {
                 base_color: 0,
                 metallic,
                 roughness,
                 metallic_roughness: None,
                 normal_map: None,
+                clearcoat,
             };
             let d = Vec3::new(0.5, -1.0, 0.2).normalize();
             let n = 20_000;
@@ -718,6 +832,11 @@ mod tests {
                         metallic,
                         roughness,
                         frame.to_local(-d),
+                    )
+                    .with_coat(
+                        coat.map_or(0.0, |c| c.0),
+                        coat.map_or(0.0, |c| c.1),
+                        frame.to_local(-d),
                     );
                     let (wo, wi) = (frame.to_local(-d), frame.to_local(s.direction));
                     let expect = lobes.eval(wo, wi) * wi.z / lobes.pdf(wo, wi);
@@ -729,7 +848,7 @@ mod tests {
             mean /= n as f32;
             assert!(
                 mean.max_element() <= 1.0 + 0.02,
-                "metallic {metallic} roughness {roughness}: albedo {mean}"
+                "metallic {metallic} roughness {roughness} coat {coat:?}: albedo {mean}"
             );
             assert!(mean.min_element() > 0.0);
         }
@@ -740,18 +859,75 @@ mod tests {
         // ∫ pdf dω over the upper hemisphere = 1 minus the specular mass
         // that reflects below the horizon; midpoint quadrature.
         let wo = Vec3::new(0.6, 0.0, 0.8);
-        let lobes = GgxLobes::new(Vec3::splat(0.5), 0.5, 0.5, wo);
-        let (nt, np) = (400, 400);
-        let mut total = 0.0f64;
-        for i in 0..nt {
-            let c = (i as f32 + 0.5) / nt as f32;
-            let s = (1.0 - c * c).sqrt();
-            for j in 0..np {
-                let phi = (j as f32 + 0.5) / np as f32 * 2.0 * std::f32::consts::PI;
-                let wi = Vec3::new(s * phi.cos(), s * phi.sin(), c);
-                total += lobes.pdf(wo, wi) as f64 * (2.0 * std::f64::consts::PI / (nt * np) as f64);
+        let plain = GgxLobes::new(Vec3::splat(0.5), 0.5, 0.5, wo);
+        for lobes in [plain, plain.with_coat(1.0, 0.3, wo)] {
+            let (nt, np) = (400, 400);
+            let mut total = 0.0f64;
+            for i in 0..nt {
+                let c = (i as f32 + 0.5) / nt as f32;
+                let s = (1.0 - c * c).sqrt();
+                for j in 0..np {
+                    let phi = (j as f32 + 0.5) / np as f32 * 2.0 * std::f32::consts::PI;
+                    let wi = Vec3::new(s * phi.cos(), s * phi.sin(), c);
+                    total +=
+                        lobes.pdf(wo, wi) as f64 * (2.0 * std::f64::consts::PI / (nt * np) as f64);
+                }
+            }
+            assert!(total > 0.95 && total <= 1.0 + 2e-3, "pdf mass {total}");
+        }
+    }
+
+    #[test]
+    fn the_coat_textures_scale_its_factors_and_a_zero_coat_is_none() {
+        let tex = [
+            Texture::Constant(Vec3::new(0.9, 0.5, 0.2)),
+            Texture::Constant(Vec3::new(0.5, 0.25, 0.75)),
+        ];
+        let c = ctx(&tex);
+        let coat = ClearCoat {
+            factor: 0.8,
+            texture: Some(1),
+            roughness: 0.6,
+            roughness_texture: Some(1),
+        };
+        // Red scales the weight, green the roughness.
+        assert_eq!(
+            coat_parameters(Some(coat), c, &si(true)),
+            (0.8 * 0.5, 0.6 * 0.25)
+        );
+        assert_eq!(coat_parameters(None, c, &si(true)), (0.0, 0.0));
+        let with = |clearcoat| Material::Ggx {
+            base_color: 0,
+            metallic: 0.3,
+            roughness: 0.5,
+            metallic_roughness: None,
+            normal_map: None,
+            clearcoat,
+        };
+        let zero = ClearCoat {
+            factor: 0.0,
+            ..coat
+        };
+        let d = Vec3::new(0.3, -1.0, 0.1).normalize();
+        let mut differ = 0;
+        for i in 0..64 {
+            let plain = scatter(&with(None), c, d, &si(true), &randoms(i));
+            assert_eq!(
+                plain,
+                scatter(&with(Some(zero)), c, d, &si(true), &randoms(i))
+            );
+            if plain != scatter(&with(Some(coat)), c, d, &si(true), &randoms(i)) {
+                differ += 1;
             }
         }
-        assert!(total > 0.95 && total <= 1.0 + 2e-3, "pdf mass {total}");
+        assert!(differ > 0);
+        // The coat's lobe: at the mirror direction of a smooth coat the
+        // coated BRDF is far above the rough base's.
+        let wo = Vec3::new(0.6, 0.0, 0.8);
+        let wi = Vec3::new(-0.6, 0.0, 0.8);
+        let base = GgxLobes::new(Vec3::splat(0.5), 0.0, 0.8, wo);
+        let coated = base.with_coat(1.0, 0.05, wo);
+        assert!(coated.eval(wo, wi).x > 10.0 * base.eval(wo, wi).x);
+        assert!(coated.coat > DIELECTRIC_F0 && coated.coat < 1.0);
     }
 }

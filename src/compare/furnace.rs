@@ -395,6 +395,7 @@ pub fn ggx_metal_plane(
         roughness,
         metallic_roughness: None,
         normal_map: None,
+        clearcoat: None,
     })?;
     // The plane y = 0, normal +y: u × v = (0,0,1000) × (1000,0,0) = +y.
     b.add_quad(

@@ -49,7 +49,10 @@
 //! factors per point (blue: metallic, green: roughness;
 //! `material::ggx_parameters`); vertex colours scale the base colour; the
 //! `normalTexture` bends the GGX material's shading normal
-//! ([`crate::material::normal_mapped`]). A texture reads the coordinate
+//! ([`crate::material::normal_mapped`]); `KHR_materials_clearcoat` lays
+//! a [`crate::material::ClearCoat`] over it (`Importer::clearcoat`; its
+//! `clearcoatNormalTexture` is a warning: the coat follows the base's
+//! shading normal). A texture reads the coordinate
 //! set its `texCoord` (or its transform's) names, 0 or 1 (a set above 1 is
 //! a warning, and TEXCOORD_0 is read). Not supported (ignored): the
 //! occlusion texture (occlusion is baked ambient light, which a path
@@ -88,7 +91,7 @@
 use crate::background::Background;
 use crate::camera::CameraSettings;
 use crate::error::SceneError;
-use crate::material::{Alpha, AlphaMode, Material, NormalMap};
+use crate::material::{Alpha, AlphaMode, ClearCoat, Material, NormalMap};
 use crate::scene::{MeshInput, Scene, SceneBuilder, Transform, MAX_IMAGE_SIDE};
 use crate::texture::{decode_8bit, srgb_to_linear, ImageData, Texture};
 use glam::{Affine3A, Mat3, Mat4, Vec2, Vec3, Vec4};
@@ -321,6 +324,7 @@ fn apply_camera(
 
 /// The glTF extensions the importer implements.
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
+    CLEARCOAT,
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_transmission",
@@ -1213,6 +1217,7 @@ impl Importer<'_> {
                 roughness: pbr.roughness_factor(),
                 metallic_roughness,
                 normal_map,
+                clearcoat: self.clearcoat(builder, &material, &context)?,
             }
         };
         use gltf::material::AlphaMode as Mode;
@@ -1237,16 +1242,21 @@ impl Importer<'_> {
             }),
             None => None,
         };
-        if material.normal_texture().is_some() && !matches!(converted, Material::Ggx { .. }) {
+        if !matches!(converted, Material::Ggx { .. }) {
             let kind = match converted {
                 Material::DiffuseLight { .. } => "an emitter",
                 _ => "the dielectric",
             };
-            self.warn(
-                builder,
-                &context,
-                &[format!("normalTexture ignored on {kind}")],
-            );
+            let ignored = [
+                ("normalTexture", material.normal_texture().is_some()),
+                (CLEARCOAT, material.extension_value(CLEARCOAT).is_some()),
+            ];
+            let lost: Vec<String> = ignored
+                .iter()
+                .filter(|(_, present)| *present)
+                .map(|(what, _)| format!("{what} ignored on {kind}"))
+                .collect();
+            self.warn(builder, &context, &lost);
         }
         let id = builder.add_material(converted).map_err(in_context)?;
         if let Some(alpha) = alpha {
@@ -1285,6 +1295,108 @@ impl Importer<'_> {
                     .in_file(&self.file.path)
             }),
         }
+    }
+
+    /// `KHR_materials_clearcoat` as the GGX material's [`ClearCoat`]
+    /// (`None` where the extension is absent or its factor is 0). The
+    /// `gltf` crate has no typed accessor, so the object is read as JSON:
+    /// the factors must be numbers in [0, 1] and the textures' references
+    /// valid, like any texture's. `clearcoatNormalTexture` is one warning
+    /// line: the coat shares the base's shading normal.
+    fn clearcoat(
+        &mut self,
+        builder: &mut SceneBuilder,
+        material: &gltf::Material,
+        context: &str,
+    ) -> Result<Option<ClearCoat>, SceneError> {
+        let Some(value) = material.extension_value(CLEARCOAT) else {
+            return Ok(None);
+        };
+        let file = self.file;
+        let error = |m: String| file.error(format!("{context}: {CLEARCOAT}{m}"));
+        let object = value
+            .as_object()
+            .ok_or_else(|| error(" is not an object".into()))?;
+        let factor = |name: &str| match object.get(name) {
+            None => Ok(0.0),
+            Some(v) => v
+                .as_f64()
+                .map(|x| x as f32)
+                .filter(|x| (0.0..=1.0).contains(x))
+                .ok_or_else(|| error(format!(".{name} {v} is not a number in [0, 1]"))),
+        };
+        let weight = factor("clearcoatFactor")?;
+        let roughness = factor("clearcoatRoughnessFactor")?;
+        let texture = self.extension_texture(builder, object, "clearcoatTexture", context)?;
+        let roughness_texture =
+            self.extension_texture(builder, object, "clearcoatRoughnessTexture", context)?;
+        if object.contains_key("clearcoatNormalTexture") {
+            self.warn(
+                builder,
+                context,
+                &[format!(
+                    "{CLEARCOAT}.clearcoatNormalTexture ignored (the coat follows the base's shading normal)"
+                )],
+            );
+        }
+        if weight == 0.0 {
+            return Ok(None);
+        }
+        Ok(Some(ClearCoat {
+            factor: weight,
+            texture,
+            roughness,
+            roughness_texture,
+        }))
+    }
+
+    /// A data texture an extension names by a glTF `textureInfo` object
+    /// (`index`, `texCoord`, its own `KHR_texture_transform`) in member
+    /// `name` of `object`, read as JSON; `None` where the member is absent.
+    fn extension_texture(
+        &mut self,
+        builder: &mut SceneBuilder,
+        object: &serde_json::Map<String, serde_json::Value>,
+        name: &str,
+        context: &str,
+    ) -> Result<Option<u32>, SceneError> {
+        let Some(info) = object.get(name) else {
+            return Ok(None);
+        };
+        let file = self.file;
+        let error = |m: String| file.error(format!("{context}: {name}: {m}"));
+        let index = |key: &str| -> Result<Option<u32>, SceneError> {
+            match info.get(key) {
+                None => Ok(None),
+                Some(v) => v
+                    .as_u64()
+                    .and_then(|i| u32::try_from(i).ok())
+                    .map(Some)
+                    .ok_or_else(|| error(format!("{key} {v} is not an index"))),
+            }
+        };
+        if !info.is_object() {
+            return Err(error(format!("{info} is not a textureInfo object")));
+        }
+        let Some(i) = index("index")? else {
+            return Err(error("has no index".into()));
+        };
+        let texture = file
+            .document
+            .textures()
+            .nth(i as usize)
+            .ok_or_else(|| error(format!("texture {i} does not exist")))?;
+        let transform = UvTransform::of_extension(
+            info.get("extensions")
+                .and_then(|e| e.get(TEXTURE_TRANSFORM)),
+        )
+        .map_err(error)?;
+        let reference = TextureRef {
+            texture,
+            tex_coord: index("texCoord")?.unwrap_or(0),
+            transform,
+        };
+        Ok(Some(self.data_texture(builder, &reference, context)?))
     }
 
     /// `KHR_materials_transmission` as the reference's smooth dielectric,
@@ -1559,6 +1671,8 @@ fn sampler(texture: &gltf::Texture, transform: Option<&UvTransform>) -> crate::t
 
 /// The name of the texture transform extension.
 const TEXTURE_TRANSFORM: &str = "KHR_texture_transform";
+/// The name of the clear coat extension.
+const CLEARCOAT: &str = "KHR_materials_clearcoat";
 
 /// `KHR_texture_transform`'s values (defaults: no offset, rotation 0,
 /// scale 1) and its optional override of the coordinate set.
@@ -1882,15 +1996,14 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let p = write(
             dir.path(),
-            "clearcoat.gltf",
-            &with_extensions(&["KHR_materials_clearcoat", "KHR_materials_specular"], &[]),
+            "sheen.gltf",
+            &with_extensions(&["KHR_materials_sheen", "KHR_materials_specular"], &[]),
         );
         let scene = load_gltf_document(&p).unwrap();
         assert_eq!(scene.warnings().len(), 1, "{:?}", scene.warnings());
         let w = &scene.warnings()[0];
         assert!(
-            w.contains("clearcoat.gltf")
-                && w.contains("KHR_materials_clearcoat, KHR_materials_specular"),
+            w.contains("sheen.gltf") && w.contains("KHR_materials_sheen, KHR_materials_specular"),
             "{w}"
         );
     }
@@ -2456,6 +2569,7 @@ mod tests {
             roughness,
             metallic_roughness: Some(mr),
             normal_map: None,
+            clearcoat: None,
         } = scene.materials()[0]
         else {
             panic!("{:?}", scene.materials());
@@ -2841,6 +2955,104 @@ mod tests {
     }
 
     #[test]
+    fn clear_coats_come_through_and_malformed_ones_are_errors() {
+        let coat = |c: serde_json::Value| serde_json::json!({ "extensions": { "KHR_materials_clearcoat": c } });
+        let scene = load_quad(
+            &[],
+            coat(serde_json::json!({
+                "clearcoatFactor": 0.7,
+                "clearcoatTexture": { "index": 0 },
+                "clearcoatRoughnessFactor": 0.3,
+                "clearcoatRoughnessTexture": { "index": 0, "extensions": { "KHR_texture_transform": { "scale": [2, 2] } } },
+                "clearcoatNormalTexture": { "index": 0 },
+            })),
+        )
+        .unwrap();
+        let Material::Ggx {
+            clearcoat: Some(c), ..
+        } = scene.materials()[0]
+        else {
+            panic!("{:?}", scene.materials());
+        };
+        assert_eq!((c.factor, c.roughness), (0.7, 0.3));
+        // Two textures of one image (linear data), the second transformed.
+        let (Some(t), Some(r)) = (c.texture, c.roughness_texture) else {
+            panic!("{c:?}");
+        };
+        let image = |t: u32| match scene.textures()[t as usize] {
+            Texture::Image { image, sampler, .. } => (image, sampler.transform.is_some()),
+            ref other => panic!("{other:?}"),
+        };
+        assert_eq!(image(t).0, image(r).0);
+        assert!(!image(t).1 && image(r).1);
+        assert_eq!(scene.warnings().len(), 1, "{:?}", scene.warnings());
+        assert!(scene.warnings()[0].contains("clearcoatNormalTexture ignored"));
+        // A zero coat is none.
+        let bare = load_quad(
+            &[],
+            coat(serde_json::json!({ "clearcoatRoughnessFactor": 0.5 })),
+        )
+        .unwrap();
+        assert!(matches!(
+            bare.materials()[0],
+            Material::Ggx {
+                clearcoat: None,
+                ..
+            }
+        ));
+        for (what, c, says) in [
+            (
+                "not an object",
+                serde_json::json!(true),
+                "KHR_materials_clearcoat is not an object",
+            ),
+            (
+                "factor a string",
+                serde_json::json!({ "clearcoatFactor": "thick" }),
+                "clearcoatFactor",
+            ),
+            (
+                "factor above 1",
+                serde_json::json!({ "clearcoatFactor": 1.5 }),
+                "clearcoatFactor 1.5",
+            ),
+            (
+                "negative roughness",
+                serde_json::json!({ "clearcoatFactor": 1, "clearcoatRoughnessFactor": -0.1 }),
+                "clearcoatRoughnessFactor",
+            ),
+            (
+                "texture out of range",
+                serde_json::json!({ "clearcoatFactor": 1, "clearcoatTexture": { "index": 9 } }),
+                "texture 9 does not exist",
+            ),
+            (
+                "texture without index",
+                serde_json::json!({ "clearcoatFactor": 1, "clearcoatRoughnessTexture": { "texCoord": 0 } }),
+                "clearcoatRoughnessTexture: has no index",
+            ),
+            (
+                "texture not an object",
+                serde_json::json!({ "clearcoatFactor": 1, "clearcoatTexture": 0 }),
+                "not a textureInfo object",
+            ),
+            (
+                "texCoord negative",
+                serde_json::json!({ "clearcoatFactor": 1, "clearcoatTexture": { "index": 0, "texCoord": -1 } }),
+                "texCoord -1 is not an index",
+            ),
+            (
+                "bad transform",
+                serde_json::json!({ "clearcoatFactor": 1, "clearcoatTexture": { "index": 0, "extensions": { "KHR_texture_transform": { "offset": 3 } } } }),
+                "KHR_texture_transform.offset",
+            ),
+        ] {
+            let e = load_quad(&[], coat(c)).expect_err(what).to_string();
+            assert!(e.contains("quad.gltf") && e.contains(says), "{what}: {e}");
+        }
+    }
+
+    #[test]
     fn malformed_glass_extensions_are_errors() {
         let dir = tempfile::tempdir().unwrap();
         for (name, ext) in [
@@ -2896,6 +3108,7 @@ mod tests {
                 roughness: 0.75,
                 metallic_roughness: None,
                 normal_map: None,
+                clearcoat: None,
             }]
         );
         assert_eq!(

@@ -8,7 +8,7 @@ use crate::background::Background;
 use crate::camera::CameraSettings;
 use crate::error::SceneError;
 use crate::loader::image::load_image;
-use crate::material::Material;
+use crate::material::{ClearCoat, Material};
 use crate::scene::{RenderSettings, Scene, SceneBuilder, Transform};
 use crate::texture::Texture;
 use glam::{Quat, Vec3};
@@ -252,6 +252,12 @@ pub struct GgxMaterialJson {
     pub metallic: f32,
     #[serde(default = "default_roughness")]
     pub roughness: f32,
+    /// The clear coat's weight (0: none) and roughness
+    /// (`reference::material::ClearCoat`).
+    #[serde(default)]
+    pub clearcoat: f32,
+    #[serde(default)]
+    pub clearcoat_roughness: f32,
 }
 
 #[derive(Clone, Debug, PartialEq, Deserialize)]
@@ -621,12 +627,23 @@ impl Resolver<'_> {
                 base_color,
                 metallic,
                 roughness,
+                clearcoat,
+                clearcoat_roughness,
             }) => Material::Ggx {
                 base_color: self.colour(base_color, 0).map_err(field("base_color"))?,
                 metallic: *metallic,
                 roughness: *roughness,
                 metallic_roughness: None,
                 normal_map: None,
+                // Absent, none; the builder checks both are in [0, 1].
+                clearcoat: (*clearcoat != 0.0 || *clearcoat_roughness != 0.0).then_some(
+                    ClearCoat {
+                        factor: *clearcoat,
+                        texture: None,
+                        roughness: *clearcoat_roughness,
+                        roughness_texture: None,
+                    },
+                ),
             },
         };
         let id = self

@@ -215,8 +215,27 @@ fn check_material(material: &Material, textures: usize) -> Result<(), SceneError
             roughness,
             metallic_roughness,
             normal_map,
+            clearcoat,
         } => {
             tex_ok("base_color", base_color)?;
+            if let Some(coat) = clearcoat {
+                for (name, t) in [
+                    ("clearcoat.texture", coat.texture),
+                    ("clearcoat.roughness_texture", coat.roughness_texture),
+                ] {
+                    if let Some(t) = t {
+                        tex_ok(name, t)?;
+                    }
+                }
+                for (name, v) in [
+                    ("clearcoat", coat.factor),
+                    ("clearcoat_roughness", coat.roughness),
+                ] {
+                    if !(0.0..=1.0).contains(&v) {
+                        return Err(SceneError::invalid(name, format!("{v} is outside [0, 1]")));
+                    }
+                }
+            }
             if let Some(t) = metallic_roughness {
                 tex_ok("metallic_roughness", t)?;
             }
