@@ -37,6 +37,9 @@ const TRIANGLE_HAS_UV1: u32 = 16u;
 const TRIANGLE_HAS_ALPHA: u32 = 32u;
 const NO_TEXTURE: u32 = 4294967295u;
 const ALPHA_BLEND: f32 = -1e0;
+const FIXED_POINT_REJECT_EXPONENT: u32 = 159u;
+const FIXED_POINT_SHIFT_EXPONENT: u32 = 118u;
+const FILM_CHANNEL_WORDS: u32 = 18u;
 const BVH_LEAF: u32 = 3u;
 const BVH_STACK_SIZE: u32 = 64u;
 const TRAVERSAL_BINARY: u32 = 0u;
@@ -228,17 +231,8 @@ struct GpuLightDensity {
 }
 struct GpuPixel {
     count: u32,
-    nonfinite: u32,
-    mean_r: f32,
-    mean_g: f32,
-    mean_b: f32,
-    m2_r: f32,
-    m2_g: f32,
-    m2_b: f32,
-    m3_r: f32,
-    m3_g: f32,
-    m3_b: f32,
-    _pad0: u32,
+    rejected: u32,
+    sums: array<u32, 54>,
 }
 struct GpuParams {
     width: u32,

@@ -267,38 +267,39 @@ fn trace(ray: Ray, pixel: u32, sample: u32) -> vec3<f32> {
 
 // A pixel's running statistics while a kernel folds samples into it
 // (GpuPixel's fields as vectors).
-struct Moments {
-    count: u32,
-    nonfinite: u32,
-    mean: vec3<f32>,
-    m2: vec3<f32>,
-    m3: vec3<f32>,
+// A channel's sums from its FILM_CHANNEL_WORDS words of a GpuPixel
+// (gpu::records: Σq at 0, Σq² at 4, Σq³ at 10).
+fn channel_sums_load(p: GpuPixel, base: u32) -> ChannelSums {
+    return ChannelSums(
+        vec4<u32>(p.sums[base], p.sums[base + 1u], p.sums[base + 2u], p.sums[base + 3u]),
+        vec4<u32>(p.sums[base + 4u], p.sums[base + 5u], p.sums[base + 6u], p.sums[base + 7u]),
+        vec2<u32>(p.sums[base + 8u], p.sums[base + 9u]),
+        vec4<u32>(p.sums[base + 10u], p.sums[base + 11u], p.sums[base + 12u], p.sums[base + 13u]),
+        vec4<u32>(p.sums[base + 14u], p.sums[base + 15u], p.sums[base + 16u], p.sums[base + 17u]),
+    );
 }
 
-fn moments_load(acc: GpuPixel) -> Moments {
-    return Moments(acc.count, acc.nonfinite, vec3<f32>(acc.mean_r, acc.mean_g, acc.mean_b), vec3<f32>(acc.m2_r, acc.m2_g, acc.m2_b), vec3<f32>(acc.m3_r, acc.m3_g, acc.m3_b));
+fn pixel_sums_load(p: GpuPixel) -> PixelSums {
+    return PixelSums(p.count, p.rejected, channel_sums_load(p, 0u), channel_sums_load(p, FILM_CHANNEL_WORDS), channel_sums_load(p, 2u * FILM_CHANNEL_WORDS));
 }
 
-// Folds one path's radiance into the statistics, in sample order (the
-// megakernel and the wavefront's accumulate kernel both call this, so
-// their films agree bit for bit when their paths do).
-fn moments_add(s: ptr<function, Moments>, l: vec3<f32>, path_poisoned: bool) {
-    if path_poisoned || !is_finite3(l) {
-        (*s).nonfinite += 1u;
-        return;
+fn channel_sums_store(pixel: u32, base: u32, c: ChannelSums) {
+    for (var i = 0u; i < 4u; i++) {
+        film[pixel].sums[base + i] = c.s1[i];
+        film[pixel].sums[base + 4u + i] = c.s2[i];
+        film[pixel].sums[base + 10u + i] = c.s3[i];
+        film[pixel].sums[base + 14u + i] = c.s3_high[i];
     }
-    (*s).count += 1u;
-    let n = f32((*s).count);
-    let delta = l - (*s).mean;
-    let delta_n = delta / n;
-    (*s).mean += delta_n;
-    // M3 before M2: its update takes the M2 of the first n − 1 samples.
-    (*s).m3 += delta * delta_n * delta_n * ((n - 1.0) * (n - 2.0)) - 3.0 * delta_n * (*s).m2;
-    (*s).m2 += delta * (l - (*s).mean);
+    film[pixel].sums[base + 8u] = c.s2_high.x;
+    film[pixel].sums[base + 9u] = c.s2_high.y;
 }
 
-fn moments_store(pixel: u32, s: Moments) {
-    film[pixel] = GpuPixel(s.count, s.nonfinite, s.mean.x, s.mean.y, s.mean.z, s.m2.x, s.m2.y, s.m2.z, s.m3.x, s.m3.y, s.m3.z, 0u);
+fn pixel_sums_store(pixel: u32, s: PixelSums) {
+    film[pixel].count = s.count;
+    film[pixel].rejected = s.rejected;
+    channel_sums_store(pixel, 0u, s.r);
+    channel_sums_store(pixel, FILM_CHANNEL_WORDS, s.g);
+    channel_sums_store(pixel, 2u * FILM_CHANNEL_WORDS, s.b);
 }
 
 @compute @workgroup_size(WORKGROUP_X, WORKGROUP_Y, 1)
@@ -307,11 +308,11 @@ fn render_main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let pixel = gid.y * params.width + gid.x;
-    var acc = moments_load(film[pixel]);
+    var acc = pixel_sums_load(film[pixel]);
     for (var i = 0u; i < params.sample_count; i++) {
         let sample = params.sample_start + i;
         let l = trace(camera_ray(gid.x, gid.y, sample), pixel, sample);
-        moments_add(&acc, l, poisoned);
+        pixel_sums_add(&acc, l, poisoned);
     }
-    moments_store(pixel, acc);
+    pixel_sums_store(pixel, acc);
 }

@@ -452,10 +452,10 @@ fn wf_accumulate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
         return;
     }
     let pixel = params.wave_pixel_start + t;
-    var acc = moments_load(film[pixel]);
+    var acc = pixel_sums_load(film[pixel]);
     for (var j = 0u; j < params.sample_count; j++) {
         let slot = j * params.wave_pixel_count + t;
-        moments_add(&acc, path_v(slot, PF_RADIANCE), (path_u(slot, PF_FLAGS) & PATH_POISONED) != 0u);
+        pixel_sums_add(&acc, path_v(slot, PF_RADIANCE), (path_u(slot, PF_FLAGS) & PATH_POISONED) != 0u);
     }
-    moments_store(pixel, acc);
+    pixel_sums_store(pixel, acc);
 }

@@ -309,10 +309,57 @@ fn rgb_channels(prefix: &str, pixels: &[Vec3]) -> [AnyChannel<FlatSamples>; 3] {
     })
 }
 
+/// What an EXR holds beyond the render image: 32-bit unsigned integer
+/// channels (lossless; a partial film's exact sums, [`crate::partial`])
+/// and text attributes, each by name.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ExrExtras {
+    pub u32_channels: Vec<(String, Vec<u32>)>,
+    pub text: Vec<(String, String)>,
+}
+
+impl ExrExtras {
+    pub fn channel(&self, name: &str) -> Option<&[u32]> {
+        self.u32_channels
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v.as_slice())
+    }
+
+    pub fn text(&self, name: &str) -> Option<&str> {
+        self.text
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v.as_str())
+    }
+}
+
 /// Encodes an image as the EXR layout described in the module docs.
 pub fn write_exr_to(writer: impl Write + Seek, image: &RenderImage) -> Result<()> {
+    write_exr_with(writer, image, &ExrExtras::default())
+}
+
+/// [`write_exr_to`] with `extras`' channels and attributes added.
+pub fn write_exr_with(
+    writer: impl Write + Seek,
+    image: &RenderImage,
+    extras: &ExrExtras,
+) -> Result<()> {
     image.check()?;
     let mut channels: Vec<AnyChannel<FlatSamples>> = rgb_channels("", &image.mean).into();
+    let n = image.width as usize * image.height as usize;
+    for (name, values) in &extras.u32_channels {
+        if values.len() != n {
+            bail!(
+                "channel `{name}` has {} values for {n} pixels",
+                values.len()
+            );
+        }
+        channels.push(AnyChannel::new(
+            name.as_str(),
+            FlatSamples::U32(values.clone()),
+        ));
+    }
     if let Some(variance) = &image.variance {
         channels.extend(rgb_channels(&format!("{VARIANCE_LAYER}."), variance));
     }
@@ -340,6 +387,12 @@ pub fn write_exr_to(writer: impl Write + Seek, image: &RenderImage) -> Result<()
     }
     if let Some(software) = &m.software {
         attributes.software_name = Some(latin1(software));
+    }
+    for (name, value) in &extras.text {
+        other.insert(
+            Text::from(name.as_str()),
+            AttributeValue::Text(latin1(value)),
+        );
     }
     let size = (image.width as usize, image.height as usize);
     let layer = Layer::new(
@@ -406,10 +459,20 @@ pub fn write_render_outputs(
     image: &RenderImage,
     tonemap: Tonemap,
 ) -> Result<()> {
+    write_render_outputs_with(paths, image, &ExrExtras::default(), tonemap)
+}
+
+/// [`write_render_outputs`] with `extras` in the EXR.
+pub fn write_render_outputs_with(
+    paths: &OutputPaths,
+    image: &RenderImage,
+    extras: &ExrExtras,
+    tonemap: Tonemap,
+) -> Result<()> {
     image.check()?;
     let mut exr = AtomicFile::create(&paths.exr)?;
     let mut png = AtomicFile::create(&paths.png)?;
-    write_exr_to(exr.file(), image)
+    write_exr_with(exr.file(), image, extras)
         .with_context(|| format!("cannot write `{}`", paths.exr.display()))?;
     write_png_to(png.file(), image.width, image.height, &image.mean, tonemap)
         .with_context(|| format!("cannot write `{}`", paths.png.display()))?;
@@ -430,6 +493,13 @@ fn attribute_u32(value: &AttributeValue) -> Option<u32> {
 /// channels) back: the mean, the variance and skewness if the file has
 /// them, and the metadata attributes. 32-bit float channels come back bit-exactly.
 pub fn read_exr(path: &Path) -> Result<RenderImage> {
+    Ok(read_exr_with_extras(path)?.0)
+}
+
+/// [`read_exr`], and the file's 32-bit unsigned integer channels and text
+/// attributes ([`ExrExtras`]; attributes the render image reads are in
+/// it too).
+pub fn read_exr_with_extras(path: &Path) -> Result<(RenderImage, ExrExtras)> {
     let what = || format!("cannot read EXR `{}`", path.display());
     let image = exr::prelude::read()
         .no_deep_data()
@@ -514,14 +584,28 @@ pub fn read_exr(path: &Path) -> Result<RenderImage> {
         }),
         software: attrs.software_name.as_ref().map(|t| t.to_string()),
     };
-    Ok(RenderImage {
-        width,
-        height,
-        mean,
-        variance,
-        skewness,
-        metadata,
-    })
+    let mut extras = ExrExtras::default();
+    for (name, samples) in &channels {
+        if let FlatSamples::U32(values) = samples {
+            extras.u32_channels.push((name.clone(), values.clone()));
+        }
+    }
+    for (name, value) in attrs.other.iter().chain(image.attributes.other.iter()) {
+        if let AttributeValue::Text(t) = value {
+            extras.text.push((name.to_string(), t.to_string()));
+        }
+    }
+    Ok((
+        RenderImage {
+            width,
+            height,
+            mean,
+            variance,
+            skewness,
+            metadata,
+        },
+        extras,
+    ))
 }
 
 /// Parses `WIDTHxHEIGHT` (`x` or `X`, no spaces inside): `1200x800`.

@@ -24,6 +24,7 @@
 
 pub mod compare;
 pub mod image_io;
+pub mod partial;
 pub mod perf;
 pub mod report;
 pub mod selftest;

@@ -22,12 +22,12 @@
 //! | exact white furnace | metal weight ×0.95 (production mutation point) |
 //! | sphere normals radial (known_answers) | sphere normal tilted 1.1° (production mutation point) |
 //! | GPU hit records (gpu_hits_match_reference) | b1 and b2 swapped in the production WGSL |
-//! | variance furnace, GPU | the kernel's M2 ×4 in the production WGSL |
+//! | variance furnace, GPU | the kernel's Σq² ×4 and Σq³ ×2 in the production WGSL |
 //! | image vs stored reference (four-materials, 1024 spp) | darkest quarter ×0.9; one 8x8 tile ×1.1 or ×0.9 at four positions |
 
 use glam::{DVec3, Vec2, Vec3};
 use reference::bvh::{Bvh, BvhNode};
-use reference::film::{Film, PixelStats};
+use reference::film::{Film, FilmSums, PixelSums};
 use reference::geometry::{reflect, refract, Onb, Ray, SurfaceInteraction};
 use reference::integrator::{spawn_toward, Integrator, ROULETTE_MAX_SURVIVAL, TILE_SIZE};
 use reference::material::{
@@ -183,14 +183,14 @@ fn render_mutant(scene: &Scene, settings: &RenderSettings, mutation: Mutation) -
     let camera = scene.camera(settings.width, settings.height);
     let (w, h) = (settings.width, settings.height);
     let tiles_x = w.div_ceil(TILE_SIZE);
-    let tiles: Vec<(u32, Vec<PixelStats>)> = (0..tiles_x * h.div_ceil(TILE_SIZE))
+    let tiles: Vec<(u32, Vec<PixelSums>)> = (0..tiles_x * h.div_ceil(TILE_SIZE))
         .into_par_iter()
         .map(|tile| {
             let (x0, y0) = ((tile % tiles_x) * TILE_SIZE, (tile / tiles_x) * TILE_SIZE);
             let mut out = Vec::new();
             for y in y0..(y0 + TILE_SIZE).min(h) {
                 for x in x0..(x0 + TILE_SIZE).min(w) {
-                    let mut stats = PixelStats::default();
+                    let mut stats = PixelSums::default();
                     let pixel = y * w + x;
                     for sample in 0..settings.spp {
                         let u = vertex_randoms(settings.seed, key(pixel, mutation), sample, 0);
@@ -208,7 +208,7 @@ fn render_mutant(scene: &Scene, settings: &RenderSettings, mutation: Mutation) -
             (tile, out)
         })
         .collect();
-    let mut film = Film::new(w, h);
+    let mut film = FilmSums::new(w, h);
     for (tile, pixels) in tiles {
         let (x0, y0) = ((tile % tiles_x) * TILE_SIZE, (tile / tiles_x) * TILE_SIZE);
         let tw = ((x0 + TILE_SIZE).min(w) - x0) as usize;
@@ -216,7 +216,7 @@ fn render_mutant(scene: &Scene, settings: &RenderSettings, mutation: Mutation) -
             film.pixels[((y0 + (i / tw) as u32) * w + x0 + (i % tw) as u32) as usize] = p;
         }
     }
-    film
+    film.to_film()
 }
 
 #[test]
@@ -760,8 +760,8 @@ fn bernoulli_furnace_with_film_line(line: &str, mutant: &str) -> furnace::Furnac
 #[test]
 fn gpu_variance_times_4_in_the_wgsl_fails_the_variance_furnace() {
     let out = bernoulli_furnace_with_film_line(
-        "(*s).m2 += delta * (l - (*s).mean);",
-        "(*s).m2 += 4.0 * delta * (l - (*s).mean);",
+        "let a2 = add_words(s.s2, q2.lo, 0u);",
+        "let a2 = add_words(s.s2, mul_words(q2.lo, vec2<u32>(4u, 0u)).lo, 0u);",
     );
     println!("variance ×4: z {:?}", out.variance_z);
 }
@@ -772,8 +772,8 @@ fn gpu_variance_times_4_in_the_wgsl_fails_the_variance_furnace() {
 #[test]
 fn gpu_third_moment_times_2_in_the_wgsl_fails_the_variance_furnace() {
     let out = bernoulli_furnace_with_film_line(
-        "(*s).m3 += delta * delta_n * delta_n * ((n - 1.0) * (n - 2.0)) - 3.0 * delta_n * (*s).m2;",
-        "(*s).m3 += 2.0 * (delta * delta_n * delta_n * ((n - 1.0) * (n - 2.0)) - 3.0 * delta_n * (*s).m2);",
+        "let a3 = add_words(s.s3, q3.lo, 0u);",
+        "let a3 = add_words(s.s3, mul_words(q3.lo, vec2<u32>(2u, 0u)).lo, 0u);",
     );
     println!(
         "M3 ×2: variance z {:?}, third-moment z {:?}",

@@ -165,8 +165,10 @@ fn params_and_film_records() {
         "GpuParams",
     );
     let film = [counting::<GpuPixel>()];
+    let fields = GpuPixel::fields();
+    let fields: Vec<&str> = fields.iter().map(String::as_str).collect();
     expect_counting(
-        read_back(&base(), GpuPixel::FIELDS, "film[0]", None, Some(&film)),
+        read_back(&base(), &fields, "film[0]", None, Some(&film)),
         "GpuPixel",
     );
 }

@@ -22,7 +22,7 @@ fn a_broken_shader_is_a_shader_error() {
 fn a_film_beyond_the_buffer_limit_is_refused() {
     let ctx = common::gpu();
     let limit = ctx.device.limits().max_storage_buffer_binding_size;
-    // The largest image the settings allow: 8192² pixels of 48 bytes (3 GiB)
+    // The largest image the settings allow: 8192² pixels of 224 bytes (14 GiB)
     // exceeds the binding limits wgpu reports (lavapipe: 128 MiB, the H100:
     // 2047 MiB).
     let settings = RenderSettings {

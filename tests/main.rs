@@ -27,10 +27,12 @@ mod render_determinism;
 mod sampling_chi2;
 mod scale_invariance;
 mod scene_loading_errors;
+mod split_render;
 mod tidy;
 
 mod gpu_buffer_layout;
 mod gpu_errors;
+mod gpu_film_matches_reference;
 mod gpu_furnace;
 mod gpu_hits_match_reference;
 mod gpu_light_sampling;

@@ -153,15 +153,23 @@ const GPU_ONLY: &[(&str, &str)] = &[
         "uses",
         "the kernel's specialization (gpu::features): the reference always holds every feature's code",
     ),
+    ("mul_wide", "a u64 product (WGSL has no 64-bit integers)"),
     (
-        "moments_load",
-        "reads a GpuPixel record into film::PixelStats's fields",
+        "mul_words",
+        "film.rs's u128 products and big::mul, on WGSL's 32-bit words",
+    ),
+    ("add_words", "film::add_limbs on 32-bit words"),
+    ("channel_sums_add", "one channel of film::PixelSums::add"),
+    (
+        "channel_sums_load",
+        "reads one channel of a GpuPixel record (GpuPixel::to_sums on the host)",
     ),
     (
-        "moments_add",
-        "film::PixelStats::add in f32 (the film has no WGSL file of its own)",
+        "pixel_sums_load",
+        "reads a GpuPixel record (GpuPixel::to_sums on the host)",
     ),
-    ("moments_store", "writes a GpuPixel record"),
+    ("channel_sums_store", "writes one channel of a GpuPixel record"),
+    ("pixel_sums_store", "writes a GpuPixel record"),
     (
         "fract_euclid",
         "f32::rem_euclid in Wrap::wrap_coordinate",

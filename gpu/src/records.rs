@@ -155,12 +155,69 @@ gpu_record! {
     GpuLightDensity { pmf: f32, area: f32 }
 }
 
-gpu_record! {
-    /// A pixel's running statistics (Welford, f32): the GPU film
-    /// (`reference::film::PixelStats`).
-    GpuPixel {
-        count: u32, nonfinite: u32, mean_r: f32, mean_g: f32, mean_b: f32,
-        m2_r: f32, m2_g: f32, m2_b: f32, m3_r: f32, m3_g: f32, m3_b: f32, _pad0: u32,
+/// Words of one channel's exact sums in [`GpuPixel::sums`]: `Σq` (4),
+/// `Σq²` (6), `Σq³` (8), each least significant word first: twice
+/// `reference::film::SUM_LIMBS` (the WGSL's `ChannelSums`).
+pub const FILM_CHANNEL_WORDS: usize = 18;
+/// Where `Σq²` and `Σq³` start in a channel's words.
+pub const FILM_S2_WORD: usize = 4;
+pub const FILM_S3_WORD: usize = 10;
+/// Words of a pixel's sums: three channels.
+pub const FILM_SUM_WORDS: usize = 3 * FILM_CHANNEL_WORDS;
+
+/// A pixel's exact sums (`reference::film::PixelSums`): the GPU film,
+/// accumulated by shaders/film.wgsl. Written by hand rather than by
+/// `gpu_record!` (which takes scalar fields): its WGSL is
+/// [`GpuPixel::WGSL`], its layout checked by tests/gpu_buffer_layout.rs.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GpuPixel {
+    pub count: u32,
+    pub rejected: u32,
+    /// Per channel (R, G, B), [`FILM_CHANNEL_WORDS`] words.
+    pub sums: [u32; FILM_SUM_WORDS],
+}
+
+impl Default for GpuPixel {
+    fn default() -> Self {
+        bytemuck::Zeroable::zeroed()
+    }
+}
+
+impl GpuPixel {
+    /// The WGSL declaration of this record.
+    pub const WGSL: &'static str =
+        "struct GpuPixel {\n    count: u32,\n    rejected: u32,\n    sums: array<u32, 54>,\n}\n";
+
+    /// The field accesses of every word, in memory order (for the layout
+    /// test).
+    pub fn fields() -> Vec<String> {
+        let mut f = vec!["count".to_string(), "rejected".to_string()];
+        f.extend((0..FILM_SUM_WORDS).map(|i| format!("sums[{i}]")));
+        f
+    }
+
+    /// The reference's accumulator of the same sums.
+    pub fn to_sums(&self) -> reference::film::PixelSums {
+        let mut p = reference::film::PixelSums {
+            count: self.count,
+            rejected: self.rejected,
+            ..Default::default()
+        };
+        let limb = |w: &[u32], i: usize| w[2 * i] as u64 | (w[2 * i + 1] as u64) << 32;
+        for c in 0..3 {
+            let w = &self.sums[c * FILM_CHANNEL_WORDS..(c + 1) * FILM_CHANNEL_WORDS];
+            for (i, l) in p.s1[c].iter_mut().enumerate() {
+                *l = limb(w, i);
+            }
+            for (i, l) in p.s2[c].iter_mut().enumerate() {
+                *l = limb(&w[FILM_S2_WORD..], i);
+            }
+            for (i, l) in p.s3[c].iter_mut().enumerate() {
+                *l = limb(&w[FILM_S3_WORD..], i);
+            }
+        }
+        p
     }
 }
 
@@ -228,7 +285,11 @@ mod tests {
         assert_eq!(std::mem::size_of::<GpuTexture>(), 64);
         assert_eq!(std::mem::size_of::<GpuEmitter>(), 8);
         assert_eq!(std::mem::size_of::<GpuLightDensity>(), 8);
-        assert_eq!(std::mem::size_of::<GpuPixel>(), 48);
+        assert_eq!(std::mem::size_of::<GpuPixel>(), 224);
+        assert_eq!(
+            GpuPixel::WGSL.matches(&FILM_SUM_WORDS.to_string()).count(),
+            1
+        );
         // Uniform buffers need a size that is a multiple of 16.
         assert_eq!(std::mem::size_of::<GpuParams>() % 16, 0);
         assert_eq!(

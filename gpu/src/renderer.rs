@@ -13,7 +13,7 @@ use crate::traversal::{
     LeafLayout, NodeLayout, Traversal, LEAVES_CONSTANT, NODE_LAYOUT_CONSTANT, TRAVERSAL_CONSTANT,
 };
 use crate::wavefront::{self, Schedule, Variant};
-use reference::film::{Film, PixelStats};
+use reference::film::{Film, FilmSums};
 use reference::integrator::Integrator;
 use reference::{RenderSettings, Scene};
 use std::time::Duration;
@@ -119,6 +119,8 @@ impl Plan<'_> {
 /// time of the kernel dispatches.
 pub struct GpuRender {
     pub film: Film,
+    /// The film's exact sums (`film` is their statistics).
+    pub sums: FilmSums,
     pub gpu_time: Option<Duration>,
     pub dispatches: u32,
 }
@@ -590,6 +592,30 @@ impl<'a> GpuRenderer<'a> {
         settings: &RenderSettings,
         progress: &dyn Fn(u64, u64),
     ) -> Result<GpuRender, GpuError> {
+        self.render_samples(settings, 0..settings.spp, progress)
+    }
+
+    /// Renders sample indices `samples` of every pixel (the paths a whole
+    /// render traces for them; `settings.spp` is not read). The film's
+    /// sums are exact (shaders/film.wgsl), so the films of ranges tiling
+    /// `0..N` merge into the `N`-sample render's bit for bit
+    /// (`reference::film::FilmSums::merge`).
+    pub fn render_samples(
+        &self,
+        settings: &RenderSettings,
+        samples: std::ops::Range<u32>,
+        progress: &dyn Fn(u64, u64),
+    ) -> Result<GpuRender, GpuError> {
+        if samples.start >= samples.end {
+            return Err(GpuError::Validation(format!(
+                "the sample range {}..{} is empty",
+                samples.start, samples.end
+            )));
+        }
+        let settings = &RenderSettings {
+            spp: samples.end - samples.start,
+            ..*settings
+        };
         settings
             .validate()
             .map_err(|e| GpuError::Validation(e.to_string()))?;
@@ -689,7 +715,8 @@ impl<'a> GpuRenderer<'a> {
         let total = settings.spp as u64 * pixels;
         let mut done = 0u64;
         for index in 0..batches {
-            let params = plan.params(&base, index, settings.spp);
+            let mut params = plan.params(&base, index, settings.spp);
+            params.sample_start += samples.start;
             ctx.queue
                 .write_buffer(&params_buf, 0, bytemuck::bytes_of(&params));
             let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
@@ -746,28 +773,23 @@ impl<'a> GpuRenderer<'a> {
             Some(qs) => Some(read_timestamps(ctx, qs, batches as u32)?),
             None => None,
         };
-        let mut out = Film::new(settings.width, settings.height);
-        for (dst, src) in out.pixels.iter_mut().zip(&gpu_pixels) {
-            if src.count + src.nonfinite != settings.spp {
+        let mut sums = FilmSums::new(settings.width, settings.height);
+        for (dst, src) in sums.pixels.iter_mut().zip(&gpu_pixels) {
+            if src.count as u64 + src.rejected as u64 != settings.spp as u64 {
                 return Err(GpuError::Readback(format!(
                     "a pixel holds {} samples instead of {}: the kernel did not run to completion",
-                    src.count + src.nonfinite,
+                    src.count as u64 + src.rejected as u64,
                     settings.spp
                 )));
             }
-            *dst = PixelStats {
-                count: src.count,
-                nonfinite: src.nonfinite,
-                mean: glam::DVec3::new(src.mean_r as f64, src.mean_g as f64, src.mean_b as f64),
-                m2: glam::DVec3::new(src.m2_r as f64, src.m2_g as f64, src.m2_b as f64),
-                m3: glam::DVec3::new(src.m3_r as f64, src.m3_g as f64, src.m3_b as f64),
-            };
+            *dst = src.to_sums();
         }
         if let Ok(mut c) = self.film_cache.lock() {
             *c = Some(film);
         }
         Ok(GpuRender {
-            film: out,
+            film: sums.to_film(),
+            sums,
             gpu_time,
             dispatches: batches.min(u32::MAX as u64) as u32,
         })

@@ -42,7 +42,7 @@ pub const WORKGROUP: (u32, u32) = (8, 8);
 /// The WGSL library shared by the render kernel and the test kernels: one
 /// file per `reference/src` module (same file name, same function names),
 /// in the order they are joined.
-pub const LIBRARY_FILES: [(&str, &str); 10] = [
+pub const LIBRARY_FILES: [(&str, &str); 11] = [
     ("rng", include_str!("../../shaders/rng.wgsl")),
     ("sampling", include_str!("../../shaders/sampling.wgsl")),
     ("geometry", include_str!("../../shaders/geometry.wgsl")),
@@ -53,6 +53,7 @@ pub const LIBRARY_FILES: [(&str, &str); 10] = [
     ("background", include_str!("../../shaders/background.wgsl")),
     ("material", include_str!("../../shaders/material.wgsl")),
     ("light", include_str!("../../shaders/light.wgsl")),
+    ("film", include_str!("../../shaders/film.wgsl")),
 ];
 
 /// The render kernel (film binding, path loop, entry point): the twin of
@@ -126,6 +127,21 @@ pub fn generate() -> String {
     s += &u("TRIANGLE_HAS_ALPHA", TRIANGLE_HAS_ALPHA);
     s += &u("NO_TEXTURE", crate::records::NO_TEXTURE);
     s += &f("ALPHA_BLEND", crate::records::ALPHA_BLEND);
+    // reference::film::fixed_point's bounds, as f32 exponent fields: a
+    // value with this exponent or above is at least 2^FIXED_POINT_BITS;
+    // q = round(m · 2^(e − FIXED_POINT_SHIFT_EXPONENT)).
+    s += &u(
+        "FIXED_POINT_REJECT_EXPONENT",
+        127 + reference::film::FIXED_POINT_BITS,
+    );
+    s += &u(
+        "FIXED_POINT_SHIFT_EXPONENT",
+        150 - reference::film::FIXED_POINT_BITS,
+    );
+    s += &u(
+        "FILM_CHANNEL_WORDS",
+        crate::records::FILM_CHANNEL_WORDS as u32,
+    );
     s += &u("BVH_LEAF", reference::bvh::BvhNode::LEAF);
     s += &u("BVH_STACK_SIZE", reference::bvh::BVH_STACK_SIZE as u32);
     s += &u("TRAVERSAL_BINARY", crate::traversal::TRAVERSAL_BINARY);

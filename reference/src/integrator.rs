@@ -18,7 +18,7 @@
 //! gather light over paths of the same lengths.
 
 use crate::background::evaluate_background;
-use crate::film::{Film, PixelStats};
+use crate::film::{Film, FilmSums, PixelSums};
 use crate::geometry::{spawn_origin, Ray, SurfaceInteraction};
 use crate::light::{LightSet, ENV_PRIM};
 use crate::material::{bsdf_eval, emitted, has_density, scatter, Material, TextureContext};
@@ -27,6 +27,7 @@ use crate::rng::{dims, light_dims, light_randoms, vertex_randoms};
 use crate::scene::{RenderSettings, Scene};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
+use std::ops::Range;
 
 /// Russian roulette survival probability is the throughput's largest
 /// component, capped so that bright paths still end sometimes (0.95:
@@ -334,15 +335,30 @@ pub fn render(scene: &Scene, settings: &RenderSettings, progress: &(dyn Fn(u64) 
     render_with(scene, settings, Integrator::Bsdf, progress)
 }
 
-/// Renders `settings.spp` samples per pixel with `integrator`.
-/// Tiles run in parallel on rayon's current pool; `progress` is called
-/// after each tile with the number of pixels done in it.
+/// Renders `settings.spp` samples per pixel with `integrator`: the film
+/// of [`render_samples`] over `0..spp`.
 pub fn render_with(
     scene: &Scene,
     settings: &RenderSettings,
     integrator: Integrator,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Film {
+    render_samples(scene, settings, integrator, 0..settings.spp, progress).to_film()
+}
+
+/// Renders sample indices `samples` of every pixel (the same paths, keyed
+/// by the same indices, as a whole render traces for them) into a film of
+/// exact sums ([`crate::film`]), so that the films of ranges tiling
+/// `0..spp` merge into the whole render's film bit for bit. Tiles run in
+/// parallel on rayon's current pool; `progress` is called after each tile
+/// with the number of pixels done in it.
+pub fn render_samples(
+    scene: &Scene,
+    settings: &RenderSettings,
+    integrator: Integrator,
+    samples: Range<u32>,
+    progress: &(dyn Fn(u64) + Sync),
+) -> FilmSums {
     let lights = match integrator {
         Integrator::Mis => LightSet::new(scene),
         Integrator::Bsdf => LightSet::default(),
@@ -351,7 +367,7 @@ pub fn render_with(
     let (w, h) = (settings.width, settings.height);
     let tiles_x = w.div_ceil(TILE_SIZE);
     let tiles_y = h.div_ceil(TILE_SIZE);
-    let tiles: Vec<(u32, Vec<PixelStats>)> = (0..tiles_x * tiles_y)
+    let tiles: Vec<(u32, Vec<PixelSums>)> = (0..tiles_x * tiles_y)
         .into_par_iter()
         .map(|tile| {
             let (x0, y0) = ((tile % tiles_x) * TILE_SIZE, (tile / tiles_x) * TILE_SIZE);
@@ -359,25 +375,25 @@ pub fn render_with(
             let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
             for y in y0..y1 {
                 for x in x0..x1 {
-                    let mut stats = PixelStats::default();
+                    let mut sums = PixelSums::default();
                     let pixel = y * w + x;
-                    for sample in 0..settings.spp {
+                    for sample in samples.clone() {
                         let ray = camera_ray(&camera, settings, x, y, sample);
-                        stats.add(match integrator {
+                        sums.add(match integrator {
                             Integrator::Bsdf => trace_path(scene, ray, settings, pixel, sample),
                             Integrator::Mis => {
                                 trace_path_mis(scene, &lights, ray, settings, pixel, sample)
                             }
                         });
                     }
-                    out.push(stats);
+                    out.push(sums);
                 }
             }
             progress(out.len() as u64);
             (tile, out)
         })
         .collect();
-    let mut film = Film::new(w, h);
+    let mut film = FilmSums::new(w, h);
     for (tile, pixels) in tiles {
         let (x0, y0) = ((tile % tiles_x) * TILE_SIZE, (tile / tiles_x) * TILE_SIZE);
         let x1 = (x0 + TILE_SIZE).min(w);

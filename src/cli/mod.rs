@@ -53,6 +53,8 @@ pub enum Command {
     Info(InfoArgs),
     /// Compare two renders statistically and write an HTML report (exit 0: no difference, 1: different, 2: cannot compare).
     Diff(diff::DiffArgs),
+    /// Merge partial films (`render --samples A..B`) of one render into the film of their sample range: for 0..N, the film an N-sample render writes, bit for bit.
+    Merge(MergeArgs),
     /// Run the gates on this machine's GPU against the stored references and known answers, one verdict per gate (exit 0: all pass, 1: a gate failed or an error).
     Selftest(selftest::SelftestArgs),
     /// Write the scene as a Mitsuba 3 scene (DIR/scene.xml and its meshes) for an independent render; refuses features Mitsuba would render differently.
@@ -171,6 +173,25 @@ pub struct RenderArgs {
     /// branches (a chain of tag tests). The same image.
     #[arg(long, value_enum, default_value_t = DispatchArg::Switch)]
     pub dispatch: DispatchArg,
+    /// Render only sample indices A..B of every pixel (the same samples a
+    /// whole render traces for them) and write a partial film, with its
+    /// exact sums, for `twintrace merge`. Any split works (no alignment).
+    #[arg(long, value_name = "A..B")]
+    pub samples: Option<String>,
+}
+
+#[derive(Debug, Args)]
+pub struct MergeArgs {
+    /// Partial films (EXR) of one render whose sample ranges tile one
+    /// range, in any order.
+    #[arg(required = true, value_name = "PART")]
+    pub parts: Vec<PathBuf>,
+    /// Output path; `.exr` and `.png` are added (a given .exr/.png extension is dropped).
+    #[arg(short = 'o', long = "output", value_name = "OUT")]
+    pub output: PathBuf,
+    /// Display transform for the PNG (the EXR is always linear).
+    #[arg(long, value_enum, default_value_t = Tonemap::Aces)]
+    pub tonemap: Tonemap,
 }
 
 /// `--dispatch`.
@@ -306,6 +327,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Render(args) => render(&args),
         Command::Info(args) => info(&args),
         Command::Diff(args) => diff::run(&args),
+        Command::Merge(args) => merge(&args),
         Command::Selftest(args) => match selftest::execute(&args)? {
             true => Ok(()),
             false => bail!("selftest: a gate failed (see its FAIL line)"),
@@ -408,8 +430,25 @@ fn render(args: &RenderArgs) -> Result<()> {
     if let Some(size) = &args.size {
         size_arg(size)?;
     }
+    let samples = args
+        .samples
+        .as_deref()
+        .map(twintrace::partial::parse_samples)
+        .transpose()?;
     let scene = load_scene(&args.scene)?;
-    let settings = resolve_settings(scene.render_settings(), args)?;
+    let mut settings = resolve_settings(scene.render_settings(), args)?;
+    if let Some(range) = &samples {
+        if args.spp.is_some_and(|spp| range.end > spp) {
+            bail!(
+                "--samples {}..{} reaches past --spp {}",
+                range.start,
+                range.end,
+                args.spp.unwrap_or_default()
+            );
+        }
+        // The range, not spp, says which samples are traced.
+        settings.spp = range.end - range.start;
+    }
     let pool = match args.threads {
         Some(n) => Some(
             rayon::ThreadPoolBuilder::new()
@@ -437,15 +476,24 @@ fn render(args: &RenderArgs) -> Result<()> {
     }
     let start = Instant::now();
     let mut gpu_time = None;
-    let film = match &device {
+    let (film, sums) = match &device {
         Device::Cpu => {
             let progress = |n: u64| bar.inc(n * settings.spp as u64);
-            let render =
-                || reference::integrator::render_with(&scene, &settings, integrator, &progress);
-            match &pool {
+            let range = samples.clone().unwrap_or(0..settings.spp);
+            let render = || {
+                reference::integrator::render_samples(
+                    &scene,
+                    &settings,
+                    integrator,
+                    range.clone(),
+                    &progress,
+                )
+            };
+            let film_sums = match &pool {
                 Some(pool) => pool.install(render),
                 None => render(),
-            }
+            };
+            (film_sums.to_film(), film_sums)
         }
         Device::Gpu(ctx) => {
             let variant = gpu::Variant {
@@ -461,9 +509,11 @@ fn render(args: &RenderArgs) -> Result<()> {
             if let (_, Some(why)) = renderer.traversal() {
                 eprintln!("warning: {why}");
             }
-            let out = renderer.render(&settings, &|done, _| bar.set_position(done))?;
+            let range = samples.clone().unwrap_or(0..settings.spp);
+            let out =
+                renderer.render_samples(&settings, range, &|done, _| bar.set_position(done))?;
             gpu_time = out.gpu_time;
-            out.film
+            (out.film, out.sums)
         }
     };
     let seconds = start.elapsed().as_secs_f64();
@@ -480,8 +530,22 @@ fn render(args: &RenderArgs) -> Result<()> {
             integrator.name()
         )),
     };
-    let image = RenderImage::from_film(&film, metadata);
-    image_io::write_render_outputs(&paths, &image, args.tonemap)?;
+    match samples.clone() {
+        Some(range) => {
+            let part = twintrace::partial::Part {
+                key: twintrace::partial::RenderKey::new(&scene, &settings, integrator),
+                samples: range,
+                devices: device_name.clone(),
+                sums,
+                metadata,
+            };
+            part.write(&args.output, args.tonemap)?;
+        }
+        None => {
+            let image = RenderImage::from_film(&film, metadata);
+            image_io::write_render_outputs(&paths, &image, args.tonemap)?;
+        }
+    }
 
     let paths_per_second = (pixels * settings.spp as u64) as f64 / seconds.max(1e-9);
     let gpu_note = match gpu_time {
@@ -492,8 +556,12 @@ fn render(args: &RenderArgs) -> Result<()> {
         ),
         None => String::new(),
     };
+    let range_note = match &samples {
+        Some(r) => format!(" (samples {}..{}, a partial film)", r.start, r.end),
+        None => String::new(),
+    };
     print_stdout(&format!(
-        "rendered {} {}x{}, {} spp, depth {} on {device_name} in {:.2} s{gpu_note}: {:.2e} samples/s, {} NaN/Inf samples -> {}, {}\n",
+        "rendered {} {}x{}, {} spp{range_note}, depth {} on {device_name} in {:.2} s{gpu_note}: {:.2e} samples/s, {} NaN/Inf samples -> {}, {}\n",
         args.scene,
         settings.width,
         settings.height,
@@ -502,6 +570,30 @@ fn render(args: &RenderArgs) -> Result<()> {
         seconds,
         paths_per_second,
         film.nonfinite_samples(),
+        paths.exr.display(),
+        paths.png.display()
+    ))
+}
+
+/// `twintrace merge`: reads every part (each checked whole), merges them
+/// ([`twintrace::partial::merge`]) and writes the film of their range.
+fn merge(args: &MergeArgs) -> Result<()> {
+    // Fail on an unusable output path before reading the parts.
+    let paths = image_io::output_paths(&args.output)?;
+    drop(AtomicFile::create(&paths.exr)?);
+    let mut parts = Vec::with_capacity(args.parts.len());
+    for path in &args.parts {
+        parts.push((path.clone(), twintrace::partial::Part::read(path)?));
+    }
+    let count = parts.len();
+    let merged = twintrace::partial::merge(parts)?;
+    merged.write(&args.output, args.tonemap)?;
+    print_stdout(&format!(
+        "merged {count} parts: samples {}..{} of {} ({}) -> {}, {}\n",
+        merged.samples.start,
+        merged.samples.end,
+        merged.metadata.scene.as_deref().unwrap_or("a scene"),
+        merged.devices,
         paths.exr.display(),
         paths.png.display()
     ))

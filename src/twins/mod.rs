@@ -7,6 +7,8 @@
 //! is held to what the H100 and lavapipe are.
 //!
 //! - [`rng`]: the counter-based generator, bit for bit.
+//! - [`film`]: the film's exact sums (fixed point, `Σq`, `Σq²`, `Σq³`),
+//!   word for word.
 //! - [`numerics`]: the float steps (bit for bit), GGX Λ and the sphere's
 //!   root choice at their limits, the cube root (1 ulp).
 //! - [`hits`]: hit records of the BVH walk (flag, primitive, t, uv).
@@ -27,6 +29,7 @@
 //! or the first disagreement (or the GPU error that stopped it).
 
 pub mod dispatch;
+pub mod film;
 pub mod hits;
 pub mod light;
 pub mod numerics;
@@ -160,6 +163,10 @@ pub const CHECKS: &[Check] = &[
     Check {
         name: "twin: random numbers (pcg4d, vertex_randoms)",
         run: rng::streams,
+    },
+    Check {
+        name: "twin: film sums (fixed point, exact Σq, Σq², Σq³)",
+        run: film::sums,
     },
     Check {
         name: "twin: float steps (next_up, next_up_normal, next_down_normal, flush_subnormal)",

@@ -102,7 +102,81 @@ pub struct Scene {
     warnings: Vec<String>,
 }
 
+/// A 64-bit FNV-1a hash over 32-bit words (and the bytes of text):
+/// [`Scene::fingerprint`]'s. Not a cryptographic hash: it tells apart
+/// scenes that differ by mistake, not by design.
+struct Fingerprint(u64);
+
+impl Fingerprint {
+    const PRIME: u64 = 0x0000_0100_0000_01b3;
+
+    fn word(&mut self, w: u32) {
+        self.0 = (self.0 ^ w as u64).wrapping_mul(Self::PRIME);
+    }
+
+    fn floats(&mut self, values: impl IntoIterator<Item = f32>) {
+        for v in values {
+            self.word(v.to_bits());
+        }
+    }
+}
+
+impl std::fmt::Write for Fingerprint {
+    fn write_str(&mut self, s: &str) -> std::fmt::Result {
+        for b in s.bytes() {
+            self.word(b as u32);
+        }
+        Ok(())
+    }
+}
+
 impl Scene {
+    /// A fingerprint of everything that decides what the scene renders
+    /// (camera, background, shapes, vertex data, materials and their
+    /// coverage, textures, image texels; the scene's own render settings
+    /// are not in it): partial renders of one scene carry it, so that
+    /// parts of different scenes are not merged. Floats enter by their
+    /// bits (through `Debug`, which prints every f32 so that it reads back
+    /// to the same bits, for the small structured parts).
+    pub fn fingerprint(&self) -> u64 {
+        use std::fmt::Write;
+        let mut h = Fingerprint(0xcbf2_9ce4_8422_2325);
+        let _ = write!(
+            h,
+            "{:?}{:?}{:?}{:?}{:?}",
+            self.camera_settings, self.background, self.materials, self.alphas, self.textures
+        );
+        for s in &self.spheres {
+            let _ = write!(h, "{s:?}");
+        }
+        for q in &self.quads {
+            let _ = write!(h, "{q:?}");
+        }
+        for t in &self.triangles {
+            let _ = write!(h, "{t:?}");
+        }
+        let m = &self.mesh;
+        h.floats(
+            m.positions
+                .iter()
+                .chain(&m.normals)
+                .flat_map(|v| v.to_array()),
+        );
+        h.floats(m.uvs.iter().chain(&m.uvs1).flat_map(|v| v.to_array()));
+        h.floats(
+            m.colors
+                .iter()
+                .chain(&m.tangents)
+                .flat_map(|v| v.to_array()),
+        );
+        for image in &self.images {
+            h.word(image.width);
+            h.word(image.height);
+            h.floats(image.texels.iter().flat_map(|t| t.to_array()));
+        }
+        h.0
+    }
+
     /// What the loaders ignored and the user should hear of, one line each
     /// (e.g. glTF extensions the importer does not support and the file
     /// does not require).

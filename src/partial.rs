@@ -1,0 +1,333 @@
+//! Split renders: partial films of sample ranges, and their exact merge.
+//!
+//! `twintrace render --samples A..B` traces sample indices `A..B` of every
+//! pixel (the same paths, under the same RNG keys, as a whole render
+//! traces for those indices) and writes a partial film: the usual EXR
+//! layers for that range, plus the film's exact sums
+//! ([`reference::film::PixelSums`]) as 32-bit unsigned integer channels,
+//! which EXR stores losslessly:
+//!
+//! | channel | meaning |
+//! |---|---|
+//! | `sums.count`, `sums.rejected` | samples accepted and rejected, per pixel |
+//! | `sums.<C>.s<k>.<i>` | word `i` (32 bits, least significant first) of channel `C`'s (`R`, `G`, `B`) sum of the `k`-th powers (1, 2, 3) of the fixed-point sample values |
+//!
+//! and text attributes naming the render it is a part of ([`RenderKey`]):
+//! `twintrace.samples` (`A..B`), `twintrace.scene` (the scene's
+//! fingerprint, [`reference::Scene::fingerprint`]), `twintrace.settings`
+//! (size, seed, depth limits, estimator), `twintrace.version` and
+//! `twintrace.devices`.
+//!
+//! `twintrace merge PART… -o OUT` ([`merge`]) checks that the parts are of
+//! one render (the same key) and that their ranges tile one range without
+//! a gap or an overlap, adds their sums and writes the partial film of
+//! that range: for the range `0..N`, the film a single `N`-sample render
+//! writes, bit for bit (its mean, variance and skewness layers; the sums
+//! are integers, whose addition does not depend on the order or the
+//! grouping, so a split needs no alignment). A part whose sums do not
+//! give its own layers, or whose pixels do not hold its range's samples,
+//! is corrupt and refused by name.
+
+use crate::image_io::{self, ExrExtras, RenderImage, RenderMetadata};
+use anyhow::{anyhow, bail, Context, Result};
+use reference::film::{FilmSums, PixelSums};
+use reference::integrator::Integrator;
+use reference::scene::MAX_SPP;
+use reference::{RenderSettings, Scene};
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+const SAMPLES: &str = "twintrace.samples";
+const SCENE: &str = "twintrace.scene";
+const SETTINGS: &str = "twintrace.settings";
+const VERSION: &str = "twintrace.version";
+const DEVICES: &str = "twintrace.devices";
+const COUNT: &str = "sums.count";
+const REJECTED: &str = "sums.rejected";
+
+/// What makes films parts of one render: the same scene, image, seed,
+/// path limits, estimator and renderer version.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RenderKey {
+    /// [`reference::Scene::fingerprint`], in hexadecimal.
+    pub scene: String,
+    /// `WxH seed S maxDepth D rouletteDepth R integrator I`.
+    pub settings: String,
+    /// twintrace's version.
+    pub version: String,
+}
+
+impl RenderKey {
+    pub fn new(scene: &Scene, settings: &RenderSettings, integrator: Integrator) -> Self {
+        RenderKey {
+            scene: format!("{:016x}", scene.fingerprint()),
+            settings: format!(
+                "{}x{} seed {} maxDepth {} rouletteDepth {} integrator {}",
+                settings.width,
+                settings.height,
+                settings.seed,
+                settings.max_depth,
+                settings.roulette_depth,
+                integrator.name()
+            ),
+            version: env!("CARGO_PKG_VERSION").to_string(),
+        }
+    }
+}
+
+/// A partial film: the exact sums of sample range `samples` of a render.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Part {
+    pub key: RenderKey,
+    pub samples: Range<u32>,
+    /// The devices that traced it, comma-separated.
+    pub devices: String,
+    pub sums: FilmSums,
+    /// The render image's metadata (its `spp` is the range's length).
+    pub metadata: RenderMetadata,
+}
+
+/// Parses `A..B` (sample indices `A` up to, not including, `B`), with
+/// `A < B ≤` [`MAX_SPP`].
+pub fn parse_samples(s: &str) -> Result<Range<u32>> {
+    let bad = || anyhow!("--samples `{s}`: expected A..B, as in 0..256 (A < B ≤ {MAX_SPP})");
+    let (a, b) = s.split_once("..").ok_or_else(bad)?;
+    let (a, b): (u32, u32) = (
+        a.trim().parse().map_err(|_| bad())?,
+        b.trim().parse().map_err(|_| bad())?,
+    );
+    if a >= b || b > MAX_SPP {
+        return Err(bad());
+    }
+    Ok(a..b)
+}
+
+/// The channel of word `word` of channel `c`'s sum of `k`-th powers.
+fn sum_channel(c: usize, k: usize, word: usize) -> String {
+    format!("sums.{}.s{}.{word}", ["R", "G", "B"][c], k + 1)
+}
+
+/// The 64-bit limbs of channel `c`'s sum of `k`-th powers (`k` from 0).
+fn limbs(p: &PixelSums, c: usize, k: usize) -> &[u64] {
+    match k {
+        0 => &p.s1[c],
+        1 => &p.s2[c],
+        _ => &p.s3[c],
+    }
+}
+
+fn limbs_mut(p: &mut PixelSums, c: usize, k: usize) -> &mut [u64] {
+    match k {
+        0 => &mut p.s1[c],
+        1 => &mut p.s2[c],
+        _ => &mut p.s3[c],
+    }
+}
+
+impl Part {
+    /// The render image of this range (mean, variance, skewness from the
+    /// sums).
+    pub fn image(&self) -> RenderImage {
+        RenderImage::from_film(&self.sums.to_film(), self.metadata.clone())
+    }
+
+    /// The sums and the key as EXR channels and attributes.
+    pub fn extras(&self) -> ExrExtras {
+        let px = &self.sums.pixels;
+        let mut channels = vec![
+            (COUNT.to_string(), px.iter().map(|p| p.count).collect()),
+            (
+                REJECTED.to_string(),
+                px.iter().map(|p| p.rejected).collect(),
+            ),
+        ];
+        for c in 0..3 {
+            for k in 0..3 {
+                let n = limbs(&PixelSums::default(), c, k).len();
+                for word in 0..2 * n {
+                    let values = px
+                        .iter()
+                        .map(|p| (limbs(p, c, k)[word / 2] >> (32 * (word % 2))) as u32)
+                        .collect();
+                    channels.push((sum_channel(c, k, word), values));
+                }
+            }
+        }
+        ExrExtras {
+            u32_channels: channels,
+            text: vec![
+                (
+                    SAMPLES.into(),
+                    format!("{}..{}", self.samples.start, self.samples.end),
+                ),
+                (SCENE.into(), self.key.scene.clone()),
+                (SETTINGS.into(), self.key.settings.clone()),
+                (VERSION.into(), self.key.version.clone()),
+                (DEVICES.into(), self.devices.clone()),
+            ],
+        }
+    }
+
+    /// Writes the partial film as OUT.exr and OUT.png (nothing is written
+    /// if anything fails).
+    pub fn write(
+        &self,
+        out: &Path,
+        tonemap: crate::tonemap::Tonemap,
+    ) -> Result<image_io::OutputPaths> {
+        let paths = image_io::output_paths(out)?;
+        image_io::write_render_outputs_with(&paths, &self.image(), &self.extras(), tonemap)?;
+        Ok(paths)
+    }
+
+    /// Reads a partial film, checking that it is whole: its attributes and
+    /// channels are there, every pixel holds its range's samples, and its
+    /// sums give its own mean, variance and skewness.
+    pub fn read(path: &Path) -> Result<Part> {
+        let name = path.display();
+        let (image, extras) = image_io::read_exr_with_extras(path)?;
+        let text = |attr: &str| {
+            extras.text(attr).map(str::to_string).ok_or_else(|| {
+                anyhow!("`{name}` is not a partial film (no `{attr}` attribute; render parts with --samples A..B)")
+            })
+        };
+        let samples = parse_samples(&text(SAMPLES)?).with_context(|| format!("`{name}`"))?;
+        let key = RenderKey {
+            scene: text(SCENE)?,
+            settings: text(SETTINGS)?,
+            version: text(VERSION)?,
+        };
+        let devices = text(DEVICES)?;
+        let n = image.width as usize * image.height as usize;
+        let channel = |c: &str| {
+            extras
+                .channel(c)
+                .filter(|v| v.len() == n)
+                .ok_or_else(|| anyhow!("`{name}` is corrupt: its channel `{c}` is missing"))
+        };
+        let mut sums = FilmSums::new(image.width, image.height);
+        for (p, (&count, &rejected)) in sums
+            .pixels
+            .iter_mut()
+            .zip(channel(COUNT)?.iter().zip(channel(REJECTED)?))
+        {
+            p.count = count;
+            p.rejected = rejected;
+        }
+        for c in 0..3 {
+            for k in 0..3 {
+                let words = 2 * limbs(&PixelSums::default(), c, k).len();
+                for word in 0..words {
+                    let values = channel(&sum_channel(c, k, word))?;
+                    for (p, &v) in sums.pixels.iter_mut().zip(values) {
+                        limbs_mut(p, c, k)[word / 2] |= (v as u64) << (32 * (word % 2));
+                    }
+                }
+            }
+        }
+        let expected = samples.end - samples.start;
+        for (i, p) in sums.pixels.iter().enumerate() {
+            if p.count as u64 + p.rejected as u64 != expected as u64 {
+                let (x, y) = (i as u32 % image.width, i as u32 / image.width);
+                bail!(
+                    "`{name}` is corrupt: pixel ({x}, {y}) holds {} samples, its range {}..{} has {expected}",
+                    p.count as u64 + p.rejected as u64,
+                    samples.start,
+                    samples.end
+                );
+            }
+        }
+        let part = Part {
+            key,
+            samples,
+            devices,
+            sums,
+            metadata: image.metadata.clone(),
+        };
+        let own = part.image();
+        let bits = |v: &Option<Vec<glam::Vec3>>| {
+            v.as_ref().map(|v| {
+                v.iter()
+                    .flat_map(|p| p.to_array().map(f32::to_bits))
+                    .collect::<Vec<_>>()
+            })
+        };
+        let mean_bits = |v: &[glam::Vec3]| {
+            v.iter()
+                .flat_map(|p| p.to_array().map(f32::to_bits))
+                .collect::<Vec<_>>()
+        };
+        if mean_bits(&own.mean) != mean_bits(&image.mean)
+            || bits(&own.variance) != bits(&image.variance)
+            || bits(&own.skewness) != bits(&image.skewness)
+        {
+            bail!("`{name}` is corrupt: its sums do not give its mean, variance and skewness");
+        }
+        Ok(part)
+    }
+}
+
+/// Merges `parts` (each with the path it came from, for messages): they
+/// must be of one render and tile one sample range, in any order.
+pub fn merge(mut parts: Vec<(PathBuf, Part)>) -> Result<Part> {
+    let Some((first_path, first)) = parts.first() else {
+        bail!("nothing to merge: name the parts");
+    };
+    for (path, part) in &parts[1..] {
+        for (what, a, b) in [
+            ("scene", &first.key.scene, &part.key.scene),
+            ("settings", &first.key.settings, &part.key.settings),
+            ("twintrace version", &first.key.version, &part.key.version),
+        ] {
+            if a != b {
+                bail!(
+                    "`{}` is a part of another render than `{}`: its {what} is `{b}`, not `{a}`",
+                    path.display(),
+                    first_path.display()
+                );
+            }
+        }
+    }
+    parts.sort_by_key(|(_, p)| (p.samples.start, p.samples.end));
+    for pair in parts.windows(2) {
+        let ((pa, a), (pb, b)) = (&pair[0], &pair[1]);
+        if b.samples.start < a.samples.end {
+            bail!(
+                "`{}` (samples {}..{}) and `{}` (samples {}..{}) overlap",
+                pa.display(),
+                a.samples.start,
+                a.samples.end,
+                pb.display(),
+                b.samples.start,
+                b.samples.end
+            );
+        }
+        if b.samples.start > a.samples.end {
+            bail!(
+                "samples {}..{} are in no part (between `{}` and `{}`)",
+                a.samples.end,
+                b.samples.start,
+                pa.display(),
+                pb.display()
+            );
+        }
+    }
+    let mut parts = parts.into_iter();
+    let (_, mut merged) = parts.next().expect("checked non-empty");
+    let mut devices: Vec<String> = merged.devices.split(", ").map(str::to_string).collect();
+    for (path, part) in parts {
+        merged
+            .sums
+            .merge(&part.sums)
+            .map_err(|e| anyhow!("`{}`: {e}", path.display()))?;
+        merged.samples.end = part.samples.end;
+        for d in part.devices.split(", ") {
+            if !devices.iter().any(|x| x == d) {
+                devices.push(d.to_string());
+            }
+        }
+    }
+    merged.devices = devices.join(", ");
+    merged.metadata.spp = Some(merged.samples.end - merged.samples.start);
+    Ok(merged)
+}

@@ -1,0 +1,174 @@
+//! The GPU film's exact sums are the reference's, word for word: the
+//! same samples fed through shaders/film.wgsl's `pixel_sums_add` and
+//! through `reference::film::PixelSums::add` give the same counts and the
+//! same `Σq`, `Σq²`, `Σq³` (so the same mean, variance and skewness, and
+//! any split of a render's samples merges into the whole on either
+//! backend). The samples cover what `fixed_point` must get right: zeros of
+//! both signs, subnormals, halves of the last unit, values just below and
+//! at the rejection bound, NaN, infinities, negatives, poisoned paths, and
+//! values from 1e-9 to 4e9 whose powers carry across every word.
+
+use super::{ensure, run_kernel_with_library, Outcome};
+use glam::Vec3;
+use gpu::records::GpuPixel;
+use gpu::GpuContext;
+use reference::film::{PixelSums, SAMPLE_LIMIT};
+
+const SNIPPET: &str = "
+// input: per pixel [first sample, sample count]; then per sample
+// [r, g, b bits, poisoned] from word 2 · pixels (the first input word is
+// the pixel count).
+@compute @workgroup_size(64)
+fn film_main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let pixels = input[0];
+    let i = gid.x;
+    if i >= pixels {
+        return;
+    }
+    let first = input[1u + 2u * i];
+    let count = input[2u + 2u * i];
+    let base = 1u + 2u * pixels;
+    var acc = PixelSums(0u, 0u, ChannelSums(vec4<u32>(0u), vec4<u32>(0u), vec2<u32>(0u), vec4<u32>(0u), vec4<u32>(0u)), ChannelSums(vec4<u32>(0u), vec4<u32>(0u), vec2<u32>(0u), vec4<u32>(0u), vec4<u32>(0u)), ChannelSums(vec4<u32>(0u), vec4<u32>(0u), vec2<u32>(0u), vec4<u32>(0u), vec4<u32>(0u)));
+    for (var k = 0u; k < count; k++) {
+        let w = base + 4u * (first + k);
+        let l = vec3<f32>(bitcast<f32>(input[w]), bitcast<f32>(input[w + 1u]), bitcast<f32>(input[w + 2u]));
+        pixel_sums_add(&acc, l, input[w + 3u] != 0u);
+    }
+    let o = 56u * i;
+    output[o] = acc.count;
+    output[o + 1u] = acc.rejected;
+    let cs = array<ChannelSums, 3>(acc.r, acc.g, acc.b);
+    for (var c = 0u; c < 3u; c++) {
+        let b = o + 2u + 18u * c;
+        for (var j = 0u; j < 4u; j++) {
+            output[b + j] = cs[c].s1[j];
+            output[b + 4u + j] = cs[c].s2[j];
+            output[b + 10u + j] = cs[c].s3[j];
+            output[b + 14u + j] = cs[c].s3_high[j];
+        }
+        output[b + 8u] = cs[c].s2_high.x;
+        output[b + 9u] = cs[c].s2_high.y;
+    }
+}
+";
+
+/// One value of every kind `fixed_point` distinguishes, and a sweep of
+/// magnitudes.
+fn values() -> Vec<f32> {
+    let below_limit = f32::from_bits(SAMPLE_LIMIT.to_bits() - 1);
+    let mut v = vec![
+        0.0,
+        -0.0,
+        f32::from_bits(1),
+        f32::MIN_POSITIVE,
+        2f32.powi(-33),
+        2f32.powi(-33) * 1.5,
+        2f32.powi(-32),
+        2f32.powi(-34),
+        0.5,
+        1.0,
+        below_limit,
+        SAMPLE_LIMIT,
+        f32::INFINITY,
+        f32::NAN,
+        -1e-3,
+        1e30,
+    ];
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    for _ in 0..240 {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        let u = (state >> 40) as f32 / (1u64 << 24) as f32;
+        v.push(10f32.powf(18.6 * u - 9.0));
+    }
+    v
+}
+
+/// The samples of each test pixel: long runs of large values (the sums'
+/// high words), single rejected samples, poisoned paths.
+fn pixels() -> Vec<Vec<(Vec3, bool)>> {
+    let v = values();
+    let n = v.len();
+    let mut out = Vec::new();
+    for p in 0..64usize {
+        let len = [1, 2, 7, 64, 255][p % 5];
+        out.push(
+            (0..len)
+                .map(|k| {
+                    let i = p * 31 + k * 7;
+                    let s = Vec3::new(v[i % n], v[(i + 5) % n], v[(i + 11) % n]);
+                    (s, (p + k) % 29 == 3)
+                })
+                .collect(),
+        );
+    }
+    // Many copies of the largest accepted value: every carry taken.
+    let big = f32::from_bits(SAMPLE_LIMIT.to_bits() - 1);
+    out.push(vec![(Vec3::splat(big), false); 4096]);
+    out
+}
+
+fn words(p: &PixelSums) -> Vec<u32> {
+    let mut w = vec![p.count, p.rejected];
+    for c in 0..3 {
+        let limbs = p.s1[c].iter().chain(&p.s2[c]).chain(&p.s3[c]);
+        w.extend(limbs.flat_map(|&l| [l as u32, (l >> 32) as u32]));
+    }
+    w
+}
+
+/// The film twin over `library` (the production WGSL, or a mutant's).
+pub fn sums_with_library(ctx: &GpuContext, library: &str) -> Outcome {
+    let scene = reference::load_scene("cornell").map_err(|e| e.to_string())?;
+    let pixels = pixels();
+    let mut input = vec![pixels.len() as u32];
+    let mut first = 0u32;
+    for p in &pixels {
+        input.extend([first, p.len() as u32]);
+        first += p.len() as u32;
+    }
+    for p in &pixels {
+        for (s, poisoned) in p {
+            input.extend(s.to_array().map(f32::to_bits));
+            input.push(*poisoned as u32);
+        }
+    }
+    let words_per_pixel = std::mem::size_of::<GpuPixel>() / 4;
+    let out = run_kernel_with_library(
+        ctx,
+        &scene,
+        (SNIPPET, "film_main"),
+        &input,
+        (pixels.len(), pixels.len() * words_per_pixel),
+        library,
+    )?;
+    let mut samples = 0;
+    for (i, p) in pixels.iter().enumerate() {
+        let mut sums = PixelSums::default();
+        for (s, poisoned) in p {
+            if *poisoned {
+                sums.rejected += 1;
+            } else {
+                sums.add(*s);
+            }
+        }
+        samples += p.len();
+        let got = &out[i * words_per_pixel..(i + 1) * words_per_pixel];
+        ensure!(
+            got == &words(&sums)[..],
+            "pixel {i} ({} samples): GPU {got:08x?}, reference {:08x?}",
+            p.len(),
+            words(&sums)
+        );
+    }
+    Ok(format!(
+        "{} pixels, {samples} samples: counts and sums word for word",
+        pixels.len()
+    ))
+}
+
+/// The film twin over the production WGSL.
+pub fn sums(ctx: &GpuContext) -> Outcome {
+    sums_with_library(ctx, &gpu::shader::library_source())
+}
