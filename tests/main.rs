@@ -32,7 +32,6 @@ mod tidy;
 
 mod gpu_buffer_layout;
 mod gpu_errors;
-mod gpu_film_matches_reference;
 mod gpu_furnace;
 mod gpu_hits_match_reference;
 mod gpu_light_sampling;
@@ -42,6 +41,7 @@ mod gpu_renders_fixtures;
 mod gpu_rng_matches_cpu;
 mod gpu_sampling_chi2;
 mod gpu_specialization;
+mod gpu_split_render;
 mod gpu_surface_match_reference;
 mod gpu_traversal;
 mod gpu_wavefront;

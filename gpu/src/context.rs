@@ -64,6 +64,12 @@ pub fn list_adapters() -> Vec<AdapterSummary> {
     adapters().iter().map(summarize).collect()
 }
 
+/// The adapters in [`list_adapters`]'s order (the indices `--devices`
+/// names).
+pub(crate) fn adapters_in_order() -> Vec<wgpu::Adapter> {
+    adapters()
+}
+
 /// Ranks adapters: discrete > integrated > virtual > CPU (lavapipe) >
 /// other; Vulkan before the other backends at equal type.
 fn rank(a: &wgpu::Adapter) -> (u32, u32) {
@@ -109,7 +115,8 @@ impl GpuContext {
         Err(last_err.unwrap_or(GpuError::NoAdapter))
     }
 
-    fn open(adapter: &wgpu::Adapter) -> Result<Self, GpuError> {
+    /// Opens a device on `adapter`, if it can run the kernels.
+    pub fn open(adapter: &wgpu::Adapter) -> Result<Self, GpuError> {
         let summary = summarize(adapter);
         let al = adapter.limits();
         if al.max_storage_buffers_per_shader_stage < STORAGE_BUFFERS_NEEDED {

@@ -11,6 +11,7 @@
 
 pub mod bindings;
 pub mod context;
+pub mod devices;
 pub mod error;
 pub mod features;
 pub mod rays;

@@ -264,18 +264,31 @@ impl PixelSums {
             return p;
         }
         let n = self.count as f64;
-        let nn = [self.count as u64];
+        let nn = big::wide(&[self.count as u64]);
+        let three_n = big::wide(&[3 * self.count as u64]);
+        let n_squared = big::mul(&nn, &nn);
         for c in 0..3 {
-            let (s1, s2, s3) = (&self.s1[c][..], &self.s2[c][..], &self.s3[c][..]);
-            p.mean[c] = big::to_f64(s1) / n / 2f64.powi(FIXED_POINT_BITS as i32);
-            let m2 = big::sub(&big::mul(&nn, s2), &big::mul(s1, s1));
-            p.m2[c] = big::to_f64(&m2) / n / 2f64.powi(2 * FIXED_POINT_BITS as i32);
-            let s1_cubed = big::mul(&big::mul(s1, s1), s1);
-            let plus = big::add(
-                &big::mul(&big::mul(&nn, &nn), s3),
-                &big::add(&s1_cubed, &s1_cubed),
+            let (s1, s2, s3) = (
+                big::wide(&self.s1[c]),
+                big::wide(&self.s2[c]),
+                big::wide(&self.s3[c]),
             );
-            let minus = big::mul(&[3 * self.count as u64], &big::mul(s1, s2));
+            p.mean[c] = big::to_f64(&s1) / n / 2f64.powi(FIXED_POINT_BITS as i32);
+            if self.s1[c] == [0, 0] {
+                // Every accepted sample of the channel was 0.
+                continue;
+            }
+            let s1_squared = big::mul(&s1, &s1);
+            // n·Σq² ≥ (Σq)² for sums of samples (Cauchy-Schwarz); sums
+            // read from a damaged file may break it, and get M2 = 0.
+            let n_s2 = big::mul(&nn, &s2);
+            if !big::less(&n_s2, &s1_squared) {
+                let m2 = big::sub(&n_s2, &s1_squared);
+                p.m2[c] = big::to_f64(&m2) / n / 2f64.powi(2 * FIXED_POINT_BITS as i32);
+            }
+            let s1_cubed = big::mul(&s1_squared, &s1);
+            let plus = big::add(&big::mul(&n_squared, &s3), &big::add(&s1_cubed, &s1_cubed));
+            let minus = big::mul(&three_n, &big::mul(&s1, &s2));
             let m3 = if big::less(&plus, &minus) {
                 -big::to_f64(&big::sub(&minus, &plus))
             } else {
@@ -287,36 +300,54 @@ impl PixelSums {
     }
 }
 
-/// Unsigned integers of any length as little-endian 64-bit limbs: the
-/// few operations [`PixelSums::stats`] needs.
+/// Unsigned integers of up to [`big::LIMBS`] little-endian 64-bit limbs,
+/// on the stack: the few operations [`PixelSums::stats`] needs. Seven
+/// limbs hold every value it forms from sums of the stored widths with
+/// any count (the largest, `(Σq)³ < 2^384`, and the sums of two such),
+/// so even a crafted file's sums cannot overflow them.
 mod big {
-    pub fn mul(a: &[u64], b: &[u64]) -> Vec<u64> {
-        let mut out = vec![0u64; a.len() + b.len()];
-        for (i, &x) in a.iter().enumerate() {
+    pub const LIMBS: usize = 7;
+    pub type Wide = [u64; LIMBS];
+
+    pub fn wide(a: &[u64]) -> Wide {
+        let mut w = [0; LIMBS];
+        w[..a.len()].copy_from_slice(a);
+        w
+    }
+
+    fn len(a: &[u64]) -> usize {
+        a.iter().rposition(|&l| l != 0).map_or(0, |i| i + 1)
+    }
+
+    /// `a · b`; the operands' lengths add up to at most [`LIMBS`] in
+    /// every use (a longer product would index past the array: a panic,
+    /// never a wrong value).
+    pub fn mul(a: &Wide, b: &Wide) -> Wide {
+        let (la, lb) = (len(a), len(b));
+        let mut out = [0u64; LIMBS];
+        for i in 0..la {
             let mut carry = 0u128;
-            for (j, &y) in b.iter().enumerate() {
-                let t = x as u128 * y as u128 + out[i + j] as u128 + carry;
+            for j in 0..lb {
+                let t = a[i] as u128 * b[j] as u128 + out[i + j] as u128 + carry;
                 out[i + j] = t as u64;
                 carry = t >> 64;
             }
-            out[i + b.len()] = carry as u64;
+            if carry != 0 {
+                out[i + lb] = carry as u64;
+            }
         }
         out
     }
 
-    pub fn add(a: &[u64], b: &[u64]) -> Vec<u64> {
-        let mut out = vec![0u64; a.len().max(b.len()) + 1];
-        out[..a.len()].copy_from_slice(a);
+    pub fn add(a: &Wide, b: &Wide) -> Wide {
+        let mut out = *a;
         super::add_limbs(&mut out, b);
         out
     }
 
-    fn limb(a: &[u64], i: usize) -> u64 {
-        a.get(i).copied().unwrap_or(0)
-    }
-
     /// `a < b`.
     pub fn less(a: &[u64], b: &[u64]) -> bool {
+        let limb = |x: &[u64], i: usize| x.get(i).copied().unwrap_or(0);
         for i in (0..a.len().max(b.len())).rev() {
             if limb(a, i) != limb(b, i) {
                 return limb(a, i) < limb(b, i);
@@ -326,12 +357,12 @@ mod big {
     }
 
     /// `a − b`, for `a ≥ b`.
-    pub fn sub(a: &[u64], b: &[u64]) -> Vec<u64> {
+    pub fn sub(a: &Wide, b: &Wide) -> Wide {
         debug_assert!(!less(a, b));
-        let mut out = a.to_vec();
+        let mut out = *a;
         let mut borrow = false;
-        for (i, o) in out.iter_mut().enumerate() {
-            let (d, b1) = o.overflowing_sub(limb(b, i));
+        for (o, &x) in out.iter_mut().zip(b) {
+            let (d, b1) = o.overflowing_sub(x);
             let (d, b2) = d.overflowing_sub(borrow as u64);
             *o = d;
             borrow = b1 || b2;
@@ -409,10 +440,11 @@ impl FilmSums {
 
     /// The film of statistics these sums give ([`PixelSums::stats`]).
     pub fn to_film(&self) -> Film {
+        use rayon::prelude::*;
         Film {
             width: self.width,
             height: self.height,
-            pixels: self.pixels.iter().map(PixelSums::stats).collect(),
+            pixels: self.pixels.par_iter().map(PixelSums::stats).collect(),
         }
     }
 }
@@ -599,16 +631,21 @@ mod tests {
         );
         // Products and differences against u128 arithmetic.
         let (a, b) = (0xdead_beef_1234_5678u64, 0x0fed_cba9_8765_4321u64);
-        let p = big::mul(&[a], &[b]);
-        assert_eq!(
-            p,
-            vec![
-                (a as u128 * b as u128) as u64,
-                ((a as u128 * b as u128) >> 64) as u64
-            ]
-        );
-        assert_eq!(big::sub(&p, &[1]), vec![p[0] - 1, p[1]]);
+        let p = big::mul(&big::wide(&[a]), &big::wide(&[b]));
+        let product = a as u128 * b as u128;
+        assert_eq!(p, big::wide(&[product as u64, (product >> 64) as u64]));
+        assert_eq!(big::sub(&p, &big::wide(&[1])), big::wide(&[p[0] - 1, p[1]]));
         assert!(big::less(&[5], &[0, 1]) && !big::less(&[0, 1], &[5]));
+        // The widest values the stored sums can hold, with any count: the
+        // moments' arithmetic stays within its limbs (no panic).
+        let full = PixelSums {
+            count: u32::MAX,
+            rejected: 0,
+            s1: [[u64::MAX; 2]; 3],
+            s2: [[u64::MAX; 3]; 3],
+            s3: [[u64::MAX; 4]; 3],
+        };
+        assert!(full.stats().mean.is_finite());
     }
 
     /// One rare large sample among `n`: the mean's skewness is about

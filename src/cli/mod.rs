@@ -178,6 +178,13 @@ pub struct RenderArgs {
     /// exact sums, for `twintrace merge`. Any split works (no alignment).
     #[arg(long, value_name = "A..B")]
     pub samples: Option<String>,
+    /// Render on several GPUs at once: `all` (every hardware adapter) or
+    /// adapter indices as `twintrace info` lists them (e.g. 0,1; an index
+    /// may repeat). Each device takes chunks of samples from a shared
+    /// queue, and their films' exact sums are added: on devices of one
+    /// kind, the one-device image bit for bit.
+    #[arg(long, value_name = "all|LIST")]
+    pub devices: Option<String>,
 }
 
 #[derive(Debug, Args)]
@@ -385,6 +392,8 @@ pub fn load_scene(spec: &str) -> Result<Scene> {
 pub(crate) enum Device {
     Cpu,
     Gpu(gpu::GpuContext),
+    /// `--devices`: several devices sharing the samples.
+    Gpus(Vec<gpu::GpuContext>),
 }
 
 /// `gpu` must open a device; `auto` takes a hardware GPU if there is one
@@ -460,7 +469,24 @@ fn render(args: &RenderArgs) -> Result<()> {
     };
 
     let integrator = args.integrator.integrator();
-    let (device, device_name, why) = choose_device(args.backend)?;
+    let (device, device_name, why) = match &args.devices {
+        Some(list) => {
+            if args.backend == Backend::Cpu {
+                bail!("--devices: the cpu backend runs on one machine's cores (use --backend gpu)");
+            }
+            let selection = gpu::devices::DeviceSelection::parse(list).map_err(|e| anyhow!(e))?;
+            let contexts = selection
+                .open()
+                .map_err(|e| anyhow!("--devices {list}: {e}"))?;
+            let names: Vec<String> = contexts
+                .iter()
+                .map(|c| format!("`{}`", c.adapter.name))
+                .collect();
+            let name = format!("{} gpus ({})", contexts.len(), names.join(", "));
+            (Device::Gpus(contexts), name, String::new())
+        }
+        None => choose_device(args.backend)?,
+    };
     if args.backend == Backend::Auto {
         // Printed only once everything is checked, so that a failing run
         // prints nothing but its error line.
@@ -476,6 +502,15 @@ fn render(args: &RenderArgs) -> Result<()> {
     }
     let start = Instant::now();
     let mut gpu_time = None;
+    let variant = gpu::Variant {
+        integrator,
+        kernel: args.kernel.kernel(),
+        schedule: args.schedule.schedule(),
+        traversal: args.traversal.traversal(),
+        nodes: args.nodes.nodes(),
+        leaves: args.leaves.leaves(),
+        dispatch: args.dispatch.dispatch(),
+    };
     let (film, sums) = match &device {
         Device::Cpu => {
             let progress = |n: u64| bar.inc(n * settings.spp as u64);
@@ -496,15 +531,6 @@ fn render(args: &RenderArgs) -> Result<()> {
             (film_sums.to_film(), film_sums)
         }
         Device::Gpu(ctx) => {
-            let variant = gpu::Variant {
-                integrator,
-                kernel: args.kernel.kernel(),
-                schedule: args.schedule.schedule(),
-                traversal: args.traversal.traversal(),
-                nodes: args.nodes.nodes(),
-                leaves: args.leaves.leaves(),
-                dispatch: args.dispatch.dispatch(),
-            };
             let renderer = gpu::GpuRenderer::with_variant(ctx, &scene, variant)?;
             if let (_, Some(why)) = renderer.traversal() {
                 eprintln!("warning: {why}");
@@ -514,6 +540,28 @@ fn render(args: &RenderArgs) -> Result<()> {
                 renderer.render_samples(&settings, range, &|done, _| bar.set_position(done))?;
             gpu_time = out.gpu_time;
             (out.film, out.sums)
+        }
+        Device::Gpus(contexts) => {
+            let range = samples.clone().unwrap_or(0..settings.spp);
+            let chunk = gpu::devices::chunk_samples(range.end - range.start, contexts.len());
+            let out = gpu::devices::render_on_devices(
+                contexts,
+                &scene,
+                variant,
+                &settings,
+                range,
+                chunk,
+                &|done, _| bar.set_position(done),
+            )?;
+            for (i, share) in out.shares.iter().enumerate() {
+                eprintln!(
+                    "device {i} `{}`: {} samples a pixel ({:.0} %)",
+                    share.adapter,
+                    share.samples,
+                    100.0 * share.samples as f64 / settings.spp as f64
+                );
+            }
+            (out.sums.to_film(), out.sums)
         }
     };
     let seconds = start.elapsed().as_secs_f64();
@@ -627,10 +675,10 @@ pub fn adapter_summary(adapters: &[gpu::AdapterSummary]) -> String {
             .into();
     }
     let mut o = format!("GPU adapters: {}\n", adapters.len());
-    for a in adapters {
+    for (i, a) in adapters.iter().enumerate() {
         let _ = writeln!(
             o,
-            "  {} ({}, {}; {}): max storage buffer binding {} MiB, max buffer {} MiB, {} storage buffers per stage, {} invocations per workgroup, timestamps {}",
+            "  {i}: {} ({}, {}; {}): max storage buffer binding {} MiB, max buffer {} MiB, {} storage buffers per stage, {} invocations per workgroup, timestamps {}",
             a.name,
             a.backend,
             a.device_type,

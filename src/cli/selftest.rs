@@ -101,6 +101,8 @@ pub fn execute(args: &SelftestArgs) -> Result<bool> {
     eprintln!("selftest on {name}{why}");
     let gpu_ctx = match &device {
         Device::Gpu(ctx) => Some(ctx),
+        // choose_device opens one device at most.
+        Device::Gpus(contexts) => contexts.first(),
         Device::Cpu => None,
     };
     let renderer = On(gpu_ctx, args.integrator.integrator());

@@ -1,0 +1,188 @@
+//! One render over several devices: each device takes sample chunks from
+//! a shared counter (work stealing: a slower device takes fewer), renders
+//! them into its own film of exact sums, and the films are added. The
+//! sums are integers (`reference::film`), so the result does not depend
+//! on which device took which chunk: on devices that compute the same
+//! samples (one kind of adapter, or two devices opened on one adapter) it
+//! is the one-device render bit for bit; across different adapters it is
+//! a render whose samples come from several implementations of one
+//! estimator, which the statistical gates judge.
+
+use crate::context::{adapters_in_order, GpuContext};
+use crate::{GpuError, GpuRenderer, Variant};
+use reference::film::FilmSums;
+use reference::{RenderSettings, Scene};
+use std::ops::Range;
+use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
+use std::time::{Duration, Instant};
+
+/// What `--devices` names: every hardware adapter (or, where there is
+/// none, every software one), or adapters by their index in
+/// [`crate::list_adapters`] (an index may repeat: several devices opened
+/// on one adapter).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum DeviceSelection {
+    All,
+    Indices(Vec<usize>),
+}
+
+impl DeviceSelection {
+    /// `all` or a comma-separated list of adapter indices.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        if s.trim() == "all" {
+            return Ok(DeviceSelection::All);
+        }
+        let indices: Result<Vec<usize>, _> = s.split(',').map(|i| i.trim().parse()).collect();
+        match indices {
+            Ok(v) if !v.is_empty() => Ok(DeviceSelection::Indices(v)),
+            _ => Err(format!(
+                "--devices `{s}`: expected `all` or adapter indices such as 0,1 (`twintrace info` lists them)"
+            )),
+        }
+    }
+
+    /// Opens the selected devices.
+    pub fn open(&self) -> Result<Vec<GpuContext>, GpuError> {
+        let adapters = adapters_in_order();
+        let picked: Vec<&wgpu::Adapter> = match self {
+            DeviceSelection::All => {
+                let hardware: Vec<&wgpu::Adapter> = adapters
+                    .iter()
+                    .filter(|a| a.get_info().device_type != wgpu::DeviceType::Cpu)
+                    .collect();
+                if hardware.is_empty() {
+                    adapters.iter().collect()
+                } else {
+                    hardware
+                }
+            }
+            DeviceSelection::Indices(v) => {
+                let mut picked = Vec::with_capacity(v.len());
+                for &i in v {
+                    picked.push(adapters.get(i).ok_or_else(|| {
+                        GpuError::Validation(format!(
+                            "--devices: there is no adapter {i} (this machine has {}; `twintrace info` lists them)",
+                            adapters.len()
+                        ))
+                    })?);
+                }
+                picked
+            }
+        };
+        if picked.is_empty() {
+            return Err(GpuError::NoAdapter);
+        }
+        picked.into_iter().map(GpuContext::open).collect()
+    }
+}
+
+/// What one device did in a multi-device render.
+#[derive(Clone, Debug)]
+pub struct DeviceShare {
+    pub adapter: String,
+    /// Samples per pixel it traced.
+    pub samples: u64,
+    /// Its kernels' time (where it has timestamp queries), summed over
+    /// its chunks.
+    pub gpu_time: Option<Duration>,
+}
+
+/// A multi-device render: the film's sums, each device's share, and the
+/// wall time.
+#[derive(Clone, Debug)]
+pub struct MultiRender {
+    pub sums: FilmSums,
+    pub shares: Vec<DeviceShare>,
+    pub wall: Duration,
+}
+
+/// Samples a chunk: enough that a chunk's dispatch, readback and merge
+/// stay small against its paths, few enough that every device gets
+/// several (about eight chunks a device), and at least 1.
+pub fn chunk_samples(samples: u32, devices: usize) -> u32 {
+    (samples / (8 * devices.max(1) as u32)).max(1)
+}
+
+/// Renders sample indices `samples` of `scene` with `variant` on every
+/// context of `contexts` (one thread each), in chunks of `chunk` samples
+/// taken from a shared counter. `progress(samples done, total)` after
+/// each chunk (pixels × samples).
+pub fn render_on_devices(
+    contexts: &[GpuContext],
+    scene: &Scene,
+    variant: Variant,
+    settings: &RenderSettings,
+    samples: Range<u32>,
+    chunk: u32,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<MultiRender, GpuError> {
+    if samples.start >= samples.end || chunk == 0 {
+        return Err(GpuError::Validation(format!(
+            "the sample range {}..{} is empty (or the chunk is 0)",
+            samples.start, samples.end
+        )));
+    }
+    let start = Instant::now();
+    let next = AtomicU32::new(samples.start);
+    let pixels = settings.width as u64 * settings.height as u64;
+    let total = (samples.end - samples.start) as u64 * pixels;
+    let done = AtomicU64::new(0);
+    let results: Vec<Result<(FilmSums, DeviceShare), GpuError>> = std::thread::scope(|s| {
+        let handles: Vec<_> = contexts
+            .iter()
+            .map(|ctx| {
+                let (next, done) = (&next, &done);
+                let samples = samples.clone();
+                s.spawn(move || -> Result<(FilmSums, DeviceShare), GpuError> {
+                    let renderer = GpuRenderer::with_variant(ctx, scene, variant)?;
+                    let mut sums = FilmSums::new(settings.width, settings.height);
+                    let mut share = DeviceShare {
+                        adapter: ctx.adapter.name.clone(),
+                        samples: 0,
+                        gpu_time: Some(Duration::ZERO),
+                    };
+                    loop {
+                        let first = next.fetch_add(chunk, Ordering::Relaxed);
+                        if first >= samples.end {
+                            break;
+                        }
+                        let range = first..first.saturating_add(chunk).min(samples.end);
+                        let n = (range.end - range.start) as u64;
+                        let out = renderer.render_samples(settings, range, &|_, _| {})?;
+                        sums.merge(&out.sums).map_err(GpuError::Readback)?;
+                        share.samples += n;
+                        share.gpu_time = match (share.gpu_time, out.gpu_time) {
+                            (Some(a), Some(b)) => Some(a + b),
+                            _ => None,
+                        };
+                        let d = done.fetch_add(n * pixels, Ordering::Relaxed) + n * pixels;
+                        progress(d, total);
+                    }
+                    Ok((sums, share))
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| {
+                h.join().unwrap_or_else(|_| {
+                    Err(GpuError::Readback(
+                        "a device's render thread panicked".into(),
+                    ))
+                })
+            })
+            .collect()
+    });
+    let mut sums = FilmSums::new(settings.width, settings.height);
+    let mut shares = Vec::with_capacity(results.len());
+    for r in results {
+        let (film, share) = r?;
+        sums.merge(&film).map_err(GpuError::Readback)?;
+        shares.push(share);
+    }
+    Ok(MultiRender {
+        sums,
+        shares,
+        wall: start.elapsed(),
+    })
+}

@@ -1,0 +1,252 @@
+//! The GPU film's exact sums equal the reference's word for word
+//! (`twintrace::twins::film`, also run by `twintrace selftest`), and a
+//! kernel whose fixed-point conversion truncates instead of rounding
+//! fails that comparison. A GPU render split into sample ranges merges
+//! into the whole GPU render bit for bit, under every schedule; a render
+//! on two devices opened on one adapter (samples taken in chunks from a
+//! shared queue) is the one-device render bit for bit, through the
+//! library and the CLI's `--devices`, whose bad selections are one error
+//! line each.
+
+use crate::common;
+use reference::film::FilmSums;
+use reference::integrator::Integrator;
+use reference::RenderSettings;
+use std::process::{Command, Stdio};
+use twintrace::twins::film;
+
+#[test]
+fn film_sums_are_the_references_word_for_word() {
+    match film::sums(common::gpu()) {
+        Ok(summary) => println!("film: {summary}"),
+        Err(e) => panic!("{e}"),
+    }
+}
+
+#[test]
+fn a_truncating_fixed_point_fails_the_film_twin() {
+    let library = gpu::shader::library_source();
+    let rounding = "(m + (1u << (r - 1u))) >> r";
+    assert_eq!(library.matches(rounding).count(), 1);
+    let mutant = library.replace(rounding, "m >> r");
+    let e = film::sums_with_library(common::gpu(), &mutant)
+        .expect_err("a truncating fixed point passed the film twin");
+    println!("truncation caught: {}", &e[..e.len().min(200)]);
+}
+
+#[test]
+fn gpu_sample_ranges_merge_into_the_whole_gpu_render_bit_for_bit() {
+    let ctx = common::gpu();
+    let scene = reference::load_scene("cornell-spheres").unwrap();
+    let settings = RenderSettings {
+        width: 10,
+        height: 8,
+        spp: 24,
+        max_depth: 6,
+        seed: 3,
+        ..RenderSettings::default()
+    };
+    for schedule in gpu::Schedule::ALL {
+        let r = gpu::GpuRenderer::with_variant(ctx, &scene, variant(schedule)).unwrap();
+        let whole = r.render(&settings, &|_, _| {}).unwrap().sums;
+        for cuts in [
+            &[0u32, 17, 24][..],
+            &[0, 1, 9, 24],
+            &[0, 3, 4, 11, 12, 13, 20, 24],
+        ] {
+            let mut merged = FilmSums::new(settings.width, settings.height);
+            for w in cuts.windows(2).rev() {
+                let part = r.render_samples(&settings, w[0]..w[1], &|_, _| {}).unwrap();
+                merged.merge(&part.sums).unwrap();
+            }
+            assert_eq!(merged, whole, "{schedule:?}, cuts {cuts:?}");
+        }
+    }
+}
+
+fn variant(schedule: gpu::Schedule) -> gpu::Variant {
+    gpu::Variant {
+        integrator: Integrator::Mis,
+        kernel: gpu::Kernel::Specialized,
+        schedule,
+        traversal: gpu::Traversal::Binary,
+        nodes: gpu::NodeLayout::Aos,
+        leaves: gpu::LeafLayout::Indexed,
+        dispatch: gpu::Dispatch::Switch,
+    }
+}
+
+/// The index of the adapter the tests run on, as `--devices` names it.
+fn test_adapter_index() -> usize {
+    let name = &common::gpu().adapter.name;
+    gpu::list_adapters()
+        .iter()
+        .position(|a| &a.name == name)
+        .expect("the test adapter is listed")
+}
+
+#[test]
+fn two_devices_on_one_adapter_render_the_one_device_image_bit_for_bit() {
+    let ctx = common::gpu();
+    let scene = reference::load_scene("cornell-spheres").unwrap();
+    let settings = RenderSettings {
+        width: 10,
+        height: 8,
+        spp: 30,
+        max_depth: 6,
+        seed: 4,
+        ..RenderSettings::default()
+    };
+    let v = variant(gpu::Schedule::Megakernel);
+    let one = gpu::GpuRenderer::with_variant(ctx, &scene, v)
+        .unwrap()
+        .render(&settings, &|_, _| {})
+        .unwrap()
+        .sums;
+    let i = test_adapter_index();
+    let contexts = gpu::devices::DeviceSelection::Indices(vec![i, i])
+        .open()
+        .unwrap();
+    // Chunks of 4 and of 7 samples: uneven shares, a short last chunk.
+    for chunk in [4, 7] {
+        let two = gpu::devices::render_on_devices(
+            &contexts,
+            &scene,
+            v,
+            &settings,
+            0..settings.spp,
+            chunk,
+            &|_, _| {},
+        )
+        .unwrap();
+        assert_eq!(two.sums, one, "chunk {chunk}");
+        assert_eq!(two.shares.iter().map(|s| s.samples).sum::<u64>(), 30);
+        println!(
+            "chunk {chunk}: shares {:?}",
+            two.shares.iter().map(|s| s.samples).collect::<Vec<_>>()
+        );
+    }
+}
+
+/// Every hardware adapter of the host (`--devices all`; on a machine
+/// with several GPUs of one kind, the real multi-GPU case), against the
+/// one-device render on the first of them.
+#[test]
+fn all_devices_render_the_one_device_image_where_they_are_of_one_kind() {
+    let scene = reference::load_scene("cornell-spheres").unwrap();
+    let settings = RenderSettings {
+        width: 16,
+        height: 12,
+        spp: 64,
+        max_depth: 8,
+        seed: 6,
+        ..RenderSettings::default()
+    };
+    let v = variant(gpu::Schedule::PathMegakernel);
+    let contexts = gpu::devices::DeviceSelection::All.open().unwrap();
+    let names: Vec<&str> = contexts.iter().map(|c| c.adapter.name.as_str()).collect();
+    if names.iter().any(|n| *n != names[0]) {
+        println!("adapters of different kinds ({names:?}): the statistical gates judge them");
+        return;
+    }
+    let one = gpu::GpuRenderer::with_variant(&contexts[0], &scene, v)
+        .unwrap()
+        .render(&settings, &|_, _| {})
+        .unwrap()
+        .sums;
+    let all =
+        gpu::devices::render_on_devices(&contexts, &scene, v, &settings, 0..64, 5, &|_, _| {})
+            .unwrap();
+    assert_eq!(all.sums, one, "{} devices", contexts.len());
+    println!(
+        "{} device(s) {names:?}: shares {:?}, bit for bit",
+        contexts.len(),
+        all.shares.iter().map(|s| s.samples).collect::<Vec<_>>()
+    );
+}
+
+fn cli(args: &[&str]) -> (bool, String) {
+    let out = Command::new(common::twintrace_bin())
+        .args(args)
+        .stdin(Stdio::null())
+        .output()
+        .expect("the binary runs");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn the_cli_renders_on_two_devices_as_on_one_and_refuses_bad_selections() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = |name: &str| dir.path().join(name).display().to_string();
+    let i = test_adapter_index().to_string();
+    let pair = format!("{i},{i}");
+    let base = [
+        "render",
+        "cornell-spheres",
+        "--backend",
+        "gpu",
+        "--schedule",
+        "megakernel",
+        "--size",
+        "12x10",
+        "--spp",
+        "20",
+        "--max-depth",
+        "6",
+    ];
+    let run = |extra: &[&str]| {
+        let mut a: Vec<&str> = base.to_vec();
+        a.extend_from_slice(extra);
+        cli(&a)
+    };
+    let (ok, err) = run(&["-o", &d("one")]);
+    assert!(ok, "{err}");
+    let (ok, err) = run(&["--devices", &pair, "-o", &d("two")]);
+    assert!(ok, "{err}");
+    assert!(err.contains("device 1"), "{err}");
+    let read = |n: &str| twintrace::read_exr(&dir.path().join(n)).unwrap();
+    let bits = |img: &twintrace::RenderImage| -> Vec<u32> {
+        img.mean
+            .iter()
+            .chain(img.variance.iter().flatten())
+            .chain(img.skewness.iter().flatten())
+            .flat_map(|p| p.to_array().map(f32::to_bits))
+            .collect()
+    };
+    assert_eq!(bits(&read("two.exr")), bits(&read("one.exr")));
+    // A two-device partial film merges like any other.
+    let (ok, err) = run(&["--devices", &pair, "--samples", "0..7", "-o", &d("a")]);
+    assert!(ok, "{err}");
+    let (ok, err) = run(&["--samples", "7..20", "-o", &d("b")]);
+    assert!(ok, "{err}");
+    let (ok, err) = cli(&["merge", &d("a.exr"), &d("b.exr"), "-o", &d("ab")]);
+    assert!(ok, "{err}");
+    assert_eq!(bits(&read("ab.exr")), bits(&read("one.exr")));
+    for (extra, says) in [
+        (vec!["--devices", "99"], "no adapter 99"),
+        (vec!["--devices", "one,two"], "--devices `one,two`"),
+        (vec!["--devices", ""], "--devices"),
+    ] {
+        let mut e = extra.clone();
+        let out = d("bad");
+        e.extend_from_slice(&["-o", &out]);
+        let (ok, err) = run(&e);
+        assert!(!ok && err.contains(says), "{extra:?}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(!dir.path().join("bad.exr").exists());
+    }
+    let (ok, err) = cli(&[
+        "render",
+        "cornell-spheres",
+        "--backend",
+        "cpu",
+        "--devices",
+        "all",
+        "-o",
+        &d("bad"),
+    ]);
+    assert!(!ok && err.contains("--devices: the cpu backend"), "{err}");
+}
