@@ -112,11 +112,24 @@ struct ChannelSums {
     s3_high: vec4<u32>,
 }
 
-// Adds q, q² and q³ to a channel's sums.
+// Adds q, q² and q³ to a channel's sums. A value below 1 (q under 2^32,
+// most samples) takes three word products instead of sixteen.
 fn channel_sums_add(s: ChannelSums, q: vec2<u32>) -> ChannelSums {
     let q1 = vec4<u32>(q, 0u, 0u);
-    let q2 = mul_words(q1, q);
-    let q3 = mul_words(q2.lo, q);
+    var q2: Words6;
+    var q3: Words6;
+    if q.y == 0u {
+        let p = mul_wide(q.x, q.x);
+        let lo = mul_wide(p.x, q.x);
+        let hi = mul_wide(p.y, q.x);
+        // q³ = lo + hi · 2^32, below 2^96.
+        let w1 = lo.y + hi.x;
+        q2 = Words6(vec4<u32>(p, 0u, 0u), vec2<u32>(0u));
+        q3 = Words6(vec4<u32>(lo.x, w1, hi.y + select(0u, 1u, w1 < lo.y), 0u), vec2<u32>(0u));
+    } else {
+        q2 = mul_words(q1, q);
+        q3 = mul_words(q2.lo, q);
+    }
     var out = s;
     out.s1 = add_words(s.s1, q1, 0u).w;
     let a2 = add_words(s.s2, q2.lo, 0u);

@@ -14,6 +14,7 @@ use reference::film::FilmSums;
 use reference::{RenderSettings, Scene};
 use std::ops::Range;
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
+use std::sync::Barrier;
 use std::time::{Duration, Instant};
 
 /// What `--devices` names: every hardware adapter (or, where there is
@@ -82,9 +83,6 @@ pub struct DeviceShare {
     pub adapter: String,
     /// Samples per pixel it traced.
     pub samples: u64,
-    /// Its kernels' time (where it has timestamp queries), summed over
-    /// its chunks.
-    pub gpu_time: Option<Duration>,
 }
 
 /// A multi-device render: the film's sums, each device's share, and the
@@ -96,9 +94,9 @@ pub struct MultiRender {
     pub wall: Duration,
 }
 
-/// Samples a chunk: enough that a chunk's dispatch, readback and merge
-/// stay small against its paths, few enough that every device gets
-/// several (about eight chunks a device), and at least 1.
+/// Samples a chunk: about eight chunks a device, so that a slower device
+/// takes fewer; a chunk costs only its dispatches (the device's chunks add
+/// up in its own film, read back once); at least 1.
 pub fn chunk_samples(samples: u32, devices: usize) -> u32 {
     (samples / (8 * devices.max(1) as u32)).max(1)
 }
@@ -127,37 +125,46 @@ pub fn render_on_devices(
     let pixels = settings.width as u64 * settings.height as u64;
     let total = (samples.end - samples.start) as u64 * pixels;
     let done = AtomicU64::new(0);
+    let ready = Barrier::new(contexts.len());
     let results: Vec<Result<(FilmSums, DeviceShare), GpuError>> = std::thread::scope(|s| {
         let handles: Vec<_> = contexts
             .iter()
             .map(|ctx| {
-                let (next, done) = (&next, &done);
+                let (next, done, ready) = (&next, &done, &ready);
                 let samples = samples.clone();
                 s.spawn(move || -> Result<(FilmSums, DeviceShare), GpuError> {
-                    let renderer = GpuRenderer::with_variant(ctx, scene, variant)?;
-                    let mut sums = FilmSums::new(settings.width, settings.height);
+                    // Every device builds its kernels before any takes a
+                    // chunk, so that the first does not take them all
+                    // while the others compile.
+                    let renderer = GpuRenderer::with_variant(ctx, scene, variant);
+                    ready.wait();
+                    let renderer = renderer?;
+                    // The device's chunks add up in its own film; it is
+                    // read back once, after its last chunk.
                     let mut share = DeviceShare {
                         adapter: ctx.adapter.name.clone(),
                         samples: 0,
-                        gpu_time: Some(Duration::ZERO),
                     };
+                    let mut held = 0u32;
                     loop {
                         let first = next.fetch_add(chunk, Ordering::Relaxed);
                         if first >= samples.end {
                             break;
                         }
                         let range = first..first.saturating_add(chunk).min(samples.end);
-                        let n = (range.end - range.start) as u64;
-                        let out = renderer.render_samples(settings, range, &|_, _| {})?;
-                        sums.merge(&out.sums).map_err(GpuError::Readback)?;
-                        share.samples += n;
-                        share.gpu_time = match (share.gpu_time, out.gpu_time) {
-                            (Some(a), Some(b)) => Some(a + b),
-                            _ => None,
-                        };
-                        let d = done.fetch_add(n * pixels, Ordering::Relaxed) + n * pixels;
+                        let n = range.end - range.start;
+                        renderer.accumulate(settings, range, &|_, _| {}, held == 0, None)?;
+                        held += n;
+                        share.samples += n as u64;
+                        let d = done.fetch_add(n as u64 * pixels, Ordering::Relaxed)
+                            + n as u64 * pixels;
                         progress(d, total);
                     }
+                    let sums = if held == 0 {
+                        FilmSums::new(settings.width, settings.height)
+                    } else {
+                        renderer.read_film(settings, held)?
+                    };
                     Ok((sums, share))
                 })
             })

@@ -26,6 +26,6 @@ pub mod wavefront;
 pub use context::{list_adapters, AdapterSummary, GpuContext};
 pub use error::GpuError;
 pub use features::{Dispatch, Features, Kernel};
-pub use renderer::{GpuRender, GpuRenderer, KernelSpec};
+pub use renderer::{GpuRender, GpuRenderer, GpuSums, KernelSpec};
 pub use traversal::{LeafLayout, NodeLayout, Traversal};
 pub use wavefront::{PathLayout, Schedule, Variant};

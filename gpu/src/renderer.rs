@@ -115,8 +115,17 @@ impl Plan<'_> {
     }
 }
 
-/// A render's film and, where the adapter has timestamp queries, the GPU
-/// time of the kernel dispatches.
+/// A render's exact sums and, where the adapter has timestamp queries,
+/// the GPU time of the kernel dispatches.
+#[derive(Clone, Debug)]
+pub struct GpuSums {
+    pub sums: FilmSums,
+    pub gpu_time: Option<Duration>,
+    pub dispatches: u32,
+}
+
+/// A render's film, its sums and, where the adapter has timestamp
+/// queries, the GPU time of the kernel dispatches.
 pub struct GpuRender {
     pub film: Film,
     /// The film's exact sums (`film` is their statistics).
@@ -606,6 +615,41 @@ impl<'a> GpuRenderer<'a> {
         samples: std::ops::Range<u32>,
         progress: &dyn Fn(u64, u64),
     ) -> Result<GpuRender, GpuError> {
+        let out = self.render_sums(settings, samples, progress)?;
+        Ok(GpuRender {
+            film: out.sums.to_film(),
+            sums: out.sums,
+            gpu_time: out.gpu_time,
+            dispatches: out.dispatches,
+        })
+    }
+
+    /// [`GpuRenderer::render_samples`] without the film's statistics:
+    /// the sums alone (what a multi-device render adds up).
+    pub fn render_sums(
+        &self,
+        settings: &RenderSettings,
+        samples: std::ops::Range<u32>,
+        progress: &dyn Fn(u64, u64),
+    ) -> Result<GpuSums, GpuError> {
+        let spp = samples.end.saturating_sub(samples.start);
+        let out = self.accumulate(settings, samples, progress, true, Some(spp))?;
+        Ok(out.expect("read back"))
+    }
+
+    /// Adds the samples `samples` to the device's film: cleared first
+    /// where `clear`, else the film the last call left (a chunk of a
+    /// multi-device render, `crate::devices`); read back where
+    /// `read_back` gives the samples a pixel the film must then hold
+    /// (`None`: the film stays on the device, nothing is returned).
+    pub(crate) fn accumulate(
+        &self,
+        settings: &RenderSettings,
+        samples: std::ops::Range<u32>,
+        progress: &dyn Fn(u64, u64),
+        clear: bool,
+        read_back: Option<u32>,
+    ) -> Result<Option<GpuSums>, GpuError> {
         if samples.start >= samples.end {
             return Err(GpuError::Validation(format!(
                 "the sample range {}..{} is empty",
@@ -645,6 +689,11 @@ impl<'a> GpuRenderer<'a> {
         let cached = self.film_cache.lock().ok().and_then(|mut c| c.take());
         let film = match cached {
             Some(f) if f.size() == film_bytes => f,
+            _ if !clear => {
+                return Err(GpuError::Readback(
+                    "no film of this size to add the samples to".into(),
+                ))
+            }
             _ => device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("film"),
                 size: film_bytes,
@@ -722,7 +771,7 @@ impl<'a> GpuRenderer<'a> {
             let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("render"),
             });
-            if index == 0 {
+            if index == 0 && clear {
                 encoder.clear_buffer(&film, 0, None);
             }
             {
@@ -768,18 +817,53 @@ impl<'a> GpuRenderer<'a> {
                 *c = Some(buffers);
             }
         }
-        let gpu_pixels: Vec<GpuPixel> = read_buffer(ctx, &film, film_bytes)?;
         let gpu_time = match &query_set {
             Some(qs) => Some(read_timestamps(ctx, qs, batches as u32)?),
             None => None,
         };
+        let Some(expected) = read_back else {
+            // Kept on the device for the next chunk.
+            if let Ok(mut c) = self.film_cache.lock() {
+                *c = Some(film);
+            }
+            return Ok(None);
+        };
+        if let Ok(mut c) = self.film_cache.lock() {
+            *c = Some(film);
+        }
+        let sums = self.read_film(settings, expected)?;
+        Ok(Some(GpuSums {
+            sums,
+            gpu_time,
+            dispatches: batches.min(u32::MAX as u64) as u32,
+        }))
+    }
+}
+
+impl GpuRenderer<'_> {
+    /// The film [`GpuRenderer::accumulate`] left on the device, read back;
+    /// every pixel must hold `expected` samples.
+    pub(crate) fn read_film(
+        &self,
+        settings: &RenderSettings,
+        expected: u32,
+    ) -> Result<FilmSums, GpuError> {
+        let pixels = settings.width as u64 * settings.height as u64;
+        let film_bytes = pixels * std::mem::size_of::<GpuPixel>() as u64;
+        let film = self
+            .film_cache
+            .lock()
+            .ok()
+            .and_then(|mut c| c.take())
+            .filter(|f| f.size() == film_bytes)
+            .ok_or_else(|| GpuError::Readback("no film of this size on the device".into()))?;
+        let gpu_pixels: Vec<GpuPixel> = read_buffer(self.ctx, &film, film_bytes)?;
         let mut sums = FilmSums::new(settings.width, settings.height);
         for (dst, src) in sums.pixels.iter_mut().zip(&gpu_pixels) {
-            if src.count as u64 + src.rejected as u64 != settings.spp as u64 {
+            if src.count as u64 + src.rejected as u64 != expected as u64 {
                 return Err(GpuError::Readback(format!(
-                    "a pixel holds {} samples instead of {}: the kernel did not run to completion",
+                    "a pixel holds {} samples instead of {expected}: the kernel did not run to completion",
                     src.count as u64 + src.rejected as u64,
-                    settings.spp
                 )));
             }
             *dst = src.to_sums();
@@ -787,12 +871,7 @@ impl<'a> GpuRenderer<'a> {
         if let Ok(mut c) = self.film_cache.lock() {
             *c = Some(film);
         }
-        Ok(GpuRender {
-            film: sums.to_film(),
-            sums,
-            gpu_time,
-            dispatches: batches.min(u32::MAX as u64) as u32,
-        })
+        Ok(sums)
     }
 }
 
