@@ -30,7 +30,7 @@
 
 use crate::image_io::{self, ExrExtras, RenderImage, RenderMetadata};
 use anyhow::{anyhow, bail, Context, Result};
-use reference::film::{FilmSums, PixelSums};
+use reference::film::{FilmSums, PixelSums, PIXEL_WORDS, SUM_LIMBS};
 use reference::integrator::Integrator;
 use reference::scene::MAX_SPP;
 use reference::{RenderSettings, Scene};
@@ -102,25 +102,22 @@ pub fn parse_samples(s: &str) -> Result<Range<u32>> {
     Ok(a..b)
 }
 
-/// The channel of word `word` of channel `c`'s sum of `k`-th powers.
-fn sum_channel(c: usize, k: usize, word: usize) -> String {
-    format!("sums.{}.s{}.{word}", ["R", "G", "B"][c], k + 1)
-}
-
-/// The 64-bit limbs of channel `c`'s sum of `k`-th powers (`k` from 0).
-fn limbs(p: &PixelSums, c: usize, k: usize) -> &[u64] {
-    match k {
-        0 => &p.s1[c],
-        1 => &p.s2[c],
-        _ => &p.s3[c],
-    }
-}
-
-fn limbs_mut(p: &mut PixelSums, c: usize, k: usize) -> &mut [u64] {
-    match k {
-        0 => &mut p.s1[c],
-        1 => &mut p.s2[c],
-        _ => &mut p.s3[c],
+/// The EXR channel of word `i` of [`PixelSums::to_words`]: `sums.count`,
+/// `sums.rejected`, then `sums.<C>.s<k>.<word>`.
+fn word_channel(i: usize) -> String {
+    match i {
+        0 => COUNT.into(),
+        1 => REJECTED.into(),
+        _ => {
+            let per_channel = 2 * SUM_LIMBS.iter().sum::<usize>();
+            let (c, mut w) = ((i - 2) / per_channel, (i - 2) % per_channel);
+            let mut k = 0;
+            while w >= 2 * SUM_LIMBS[k] {
+                w -= 2 * SUM_LIMBS[k];
+                k += 1;
+            }
+            format!("sums.{}.s{}.{w}", ["R", "G", "B"][c], k + 1)
+        }
     }
 }
 
@@ -133,26 +130,11 @@ impl Part {
 
     /// The sums and the key as EXR channels and attributes.
     pub fn extras(&self) -> ExrExtras {
-        let px = &self.sums.pixels;
-        let mut channels = vec![
-            (COUNT.to_string(), px.iter().map(|p| p.count).collect()),
-            (
-                REJECTED.to_string(),
-                px.iter().map(|p| p.rejected).collect(),
-            ),
-        ];
-        for c in 0..3 {
-            for k in 0..3 {
-                let n = limbs(&PixelSums::default(), c, k).len();
-                for word in 0..2 * n {
-                    let values = px
-                        .iter()
-                        .map(|p| (limbs(p, c, k)[word / 2] >> (32 * (word % 2))) as u32)
-                        .collect();
-                    channels.push((sum_channel(c, k, word), values));
-                }
-            }
-        }
+        let words: Vec<[u32; PIXEL_WORDS]> =
+            self.sums.pixels.iter().map(PixelSums::to_words).collect();
+        let channels = (0..PIXEL_WORDS)
+            .map(|i| (word_channel(i), words.iter().map(|w| w[i]).collect()))
+            .collect();
         ExrExtras {
             u32_channels: channels,
             text: vec![
@@ -205,26 +187,17 @@ impl Part {
                 .filter(|v| v.len() == n)
                 .ok_or_else(|| anyhow!("`{name}` is corrupt: its channel `{c}` is missing"))
         };
-        let mut sums = FilmSums::new(image.width, image.height);
-        for (p, (&count, &rejected)) in sums
-            .pixels
-            .iter_mut()
-            .zip(channel(COUNT)?.iter().zip(channel(REJECTED)?))
-        {
-            p.count = count;
-            p.rejected = rejected;
-        }
-        for c in 0..3 {
-            for k in 0..3 {
-                let words = 2 * limbs(&PixelSums::default(), c, k).len();
-                for word in 0..words {
-                    let values = channel(&sum_channel(c, k, word))?;
-                    for (p, &v) in sums.pixels.iter_mut().zip(values) {
-                        limbs_mut(p, c, k)[word / 2] |= (v as u64) << (32 * (word % 2));
-                    }
-                }
+        let mut words = vec![[0u32; PIXEL_WORDS]; n];
+        for i in 0..PIXEL_WORDS {
+            for (w, &v) in words.iter_mut().zip(channel(&word_channel(i))?) {
+                w[i] = v;
             }
         }
+        let sums = FilmSums {
+            width: image.width,
+            height: image.height,
+            pixels: words.iter().map(PixelSums::from_words).collect(),
+        };
         let expected = samples.end - samples.start;
         for (i, p) in sums.pixels.iter().enumerate() {
             if p.count as u64 + p.rejected as u64 != expected as u64 {
@@ -245,22 +218,24 @@ impl Part {
             metadata: image.metadata.clone(),
         };
         let own = part.image();
-        let bits = |v: &Option<Vec<glam::Vec3>>| {
-            v.as_ref().map(|v| {
-                v.iter()
-                    .flat_map(|p| p.to_array().map(f32::to_bits))
-                    .collect::<Vec<_>>()
+        // Bits, not values: NaN layers compare too. A missing layer is
+        // a layer that differs.
+        let bits = |image: &RenderImage| -> Vec<Option<Vec<u32>>> {
+            [
+                Some(&image.mean),
+                image.variance.as_ref(),
+                image.skewness.as_ref(),
+            ]
+            .map(|layer| {
+                layer.map(|v| {
+                    v.iter()
+                        .flat_map(|p| p.to_array().map(f32::to_bits))
+                        .collect()
+                })
             })
+            .into()
         };
-        let mean_bits = |v: &[glam::Vec3]| {
-            v.iter()
-                .flat_map(|p| p.to_array().map(f32::to_bits))
-                .collect::<Vec<_>>()
-        };
-        if mean_bits(&own.mean) != mean_bits(&image.mean)
-            || bits(&own.variance) != bits(&image.variance)
-            || bits(&own.skewness) != bits(&image.skewness)
-        {
+        if bits(&own) != bits(&image) {
             bail!("`{name}` is corrupt: its sums do not give its mean, variance and skewness");
         }
         Ok(part)

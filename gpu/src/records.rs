@@ -156,12 +156,9 @@ gpu_record! {
 }
 
 /// Words of one channel's exact sums in [`GpuPixel::sums`]: `Σq` (4),
-/// `Σq²` (6), `Σq³` (8), each least significant word first: twice
-/// `reference::film::SUM_LIMBS` (the WGSL's `ChannelSums`).
-pub const FILM_CHANNEL_WORDS: usize = 18;
-/// Where `Σq²` and `Σq³` start in a channel's words.
-pub const FILM_S2_WORD: usize = 4;
-pub const FILM_S3_WORD: usize = 10;
+/// `Σq²` (6), `Σq³` (8), each least significant word first, the order of
+/// `reference::film::PixelSums::to_words` (the WGSL's `ChannelSums`).
+pub const FILM_CHANNEL_WORDS: usize = (reference::film::PIXEL_WORDS - 2) / 3;
 /// Words of a pixel's sums: three channels.
 pub const FILM_SUM_WORDS: usize = 3 * FILM_CHANNEL_WORDS;
 
@@ -197,27 +194,10 @@ impl GpuPixel {
         f
     }
 
-    /// The reference's accumulator of the same sums.
+    /// The reference's accumulator of the same sums (the record is
+    /// `reference::film::PixelSums::to_words`'s words).
     pub fn to_sums(&self) -> reference::film::PixelSums {
-        let mut p = reference::film::PixelSums {
-            count: self.count,
-            rejected: self.rejected,
-            ..Default::default()
-        };
-        let limb = |w: &[u32], i: usize| w[2 * i] as u64 | (w[2 * i + 1] as u64) << 32;
-        for c in 0..3 {
-            let w = &self.sums[c * FILM_CHANNEL_WORDS..(c + 1) * FILM_CHANNEL_WORDS];
-            for (i, l) in p.s1[c].iter_mut().enumerate() {
-                *l = limb(w, i);
-            }
-            for (i, l) in p.s2[c].iter_mut().enumerate() {
-                *l = limb(&w[FILM_S2_WORD..], i);
-            }
-            for (i, l) in p.s3[c].iter_mut().enumerate() {
-                *l = limb(&w[FILM_S3_WORD..], i);
-            }
-        }
-        p
+        reference::film::PixelSums::from_words(bytemuck::cast_ref(self))
     }
 }
 

@@ -193,6 +193,57 @@ pub struct PixelSums {
     pub s3: [[u64; 4]; 3],
 }
 
+/// Words (32-bit) of a pixel's sums as they are stored outside the
+/// reference (the GPU film's `GpuPixel`, a partial film's EXR channels):
+/// `count`, `rejected`, then per channel (R, G, B) `Σq`, `Σq²`, `Σq³`, each
+/// limb as its low word then its high word ([`PixelSums::to_words`]).
+pub const PIXEL_WORDS: usize = 2 + 3 * 2 * (SUM_LIMBS[0] + SUM_LIMBS[1] + SUM_LIMBS[2]);
+
+impl PixelSums {
+    fn limbs(&self) -> impl Iterator<Item = u64> + '_ {
+        (0..3).flat_map(move |c| {
+            self.s1[c]
+                .iter()
+                .chain(&self.s2[c])
+                .chain(&self.s3[c])
+                .copied()
+        })
+    }
+
+    fn limbs_mut(&mut self) -> impl Iterator<Item = &mut u64> + '_ {
+        let (s1, s2, s3) = (&mut self.s1, &mut self.s2, &mut self.s3);
+        s1.iter_mut()
+            .zip(s2.iter_mut())
+            .zip(s3.iter_mut())
+            .flat_map(|((a, b), c)| a.iter_mut().chain(b.iter_mut()).chain(c.iter_mut()))
+    }
+
+    /// The sums as [`PIXEL_WORDS`] 32-bit words.
+    pub fn to_words(&self) -> [u32; PIXEL_WORDS] {
+        let mut w = [0u32; PIXEL_WORDS];
+        w[0] = self.count;
+        w[1] = self.rejected;
+        for (i, l) in self.limbs().enumerate() {
+            w[2 + 2 * i] = l as u32;
+            w[3 + 2 * i] = (l >> 32) as u32;
+        }
+        w
+    }
+
+    /// The sums from their [`PIXEL_WORDS`] words ([`PixelSums::to_words`]).
+    pub fn from_words(w: &[u32; PIXEL_WORDS]) -> Self {
+        let mut p = PixelSums {
+            count: w[0],
+            rejected: w[1],
+            ..PixelSums::default()
+        };
+        for (i, l) in p.limbs_mut().enumerate() {
+            *l = w[2 + 2 * i] as u64 | (w[3 + 2 * i] as u64) << 32;
+        }
+        p
+    }
+}
+
 /// `acc += x` over little-endian limbs (`x` no longer than `acc`);
 /// whether it carried out of `acc`.
 fn add_limbs(acc: &mut [u64], x: &[u64]) -> bool {
@@ -537,6 +588,21 @@ mod tests {
         let f = flat.stats();
         assert_eq!((f.m2, f.m3), (DVec3::ZERO, DVec3::ZERO));
         assert_eq!(f.mean.y, fixed_point(3.7).unwrap() as f64 / 2f64.powi(32));
+    }
+
+    #[test]
+    fn words_round_trip_in_their_documented_order() {
+        let mut p = PixelSums::default();
+        for x in samples(50, 3) {
+            p.add(x);
+        }
+        p.rejected = 7;
+        let w = p.to_words();
+        assert_eq!(PixelSums::from_words(&w), p);
+        assert_eq!((w[0], w[1]), (p.count, 7));
+        // The green channel's Σq² starts after R's 9 limbs and G's Σq.
+        let g_s2 = 2 + 2 * (9 + 2);
+        assert_eq!(w[g_s2] as u64 | (w[g_s2 + 1] as u64) << 32, p.s2[1][0]);
     }
 
     #[test]

@@ -110,12 +110,7 @@ fn pixels() -> Vec<Vec<(Vec3, bool)>> {
 }
 
 fn words(p: &PixelSums) -> Vec<u32> {
-    let mut w = vec![p.count, p.rejected];
-    for c in 0..3 {
-        let limbs = p.s1[c].iter().chain(&p.s2[c]).chain(&p.s3[c]);
-        w.extend(limbs.flat_map(|&l| [l as u32, (l >> 32) as u32]));
-    }
-    w
+    p.to_words().to_vec()
 }
 
 /// The film twin over `library` (the production WGSL, or a mutant's).
