@@ -6,13 +6,21 @@
 //! on two devices opened on one adapter (samples taken in chunks from a
 //! shared queue) is the one-device render bit for bit, through the
 //! library and the CLI's `--devices`, whose bad selections are one error
-//! line each.
+//! line each. Devices of different kinds (a GPU and lavapipe: different
+//! compilers and arithmetic, so different samples) render the stored
+//! reference's image by its statistical gate, and a device computing a
+//! biased estimator fails it.
 
 use crate::common;
+use crate::common::gates::gate_fixture;
+use anyhow::Result;
 use reference::film::FilmSums;
 use reference::integrator::Integrator;
-use reference::RenderSettings;
+use reference::{Film, RenderSettings, Scene};
 use std::process::{Command, Stdio};
+use twintrace::compare::gate::{
+    load_reference, load_scene, manifest_entry, run_gate, scaled_albedo,
+};
 use twintrace::twins::film;
 
 #[test]
@@ -162,6 +170,106 @@ fn all_devices_render_the_one_device_image_where_they_are_of_one_kind() {
         "{} device(s) {names:?}: shares {:?}, bit for bit",
         contexts.len(),
         all.shares.iter().map(|s| s.samples).collect::<Vec<_>>()
+    );
+}
+
+/// One device on each kind of adapter the host has (by name and
+/// backend: a GPU and lavapipe on a GPU host with Mesa installed); on a
+/// host with one kind, two devices on it.
+fn one_device_of_each_kind() -> Vec<gpu::GpuContext> {
+    let adapters = gpu::list_adapters();
+    let mut kinds: Vec<(&str, &str)> = Vec::new();
+    let mut picked = Vec::new();
+    for (i, a) in adapters.iter().enumerate() {
+        let kind = (a.name.as_str(), a.backend.as_str());
+        if !kinds.contains(&kind) {
+            kinds.push(kind);
+            picked.push(i);
+        }
+    }
+    if picked.len() == 1 {
+        picked.push(picked[0]);
+    }
+    gpu::devices::DeviceSelection::Indices(picked)
+        .open()
+        .unwrap()
+}
+
+/// The seed of these renders (the references use 1, the other GPU gates 11).
+const DEVICES_SEED: u32 = 13;
+
+/// A render whose samples come from several devices: the stored
+/// reference's statistical gate judges it (as it judges a one-device GPU
+/// render in tests/gpu_matches_reference.rs), every device having traced
+/// some of them. The mutant: one device renders its half of the samples
+/// with albedo x1.08 (about 4 % bias in the merged image; the
+/// cornell-boxes gate catches 2 % at 512 spp on one device) and must fail.
+#[test]
+fn devices_of_different_kinds_render_the_reference_image_and_a_biased_device_fails() {
+    let contexts = one_device_of_each_kind();
+    let names: Vec<String> = contexts
+        .iter()
+        .map(|c| format!("{} ({})", c.adapter.name, c.adapter.backend))
+        .collect();
+    let v = gpu::Variant {
+        integrator: Integrator::Bsdf,
+        ..variant(gpu::Schedule::Megakernel)
+    };
+    let shares = std::sync::Mutex::new(Vec::new());
+    let render = |scene: &Scene, settings: &RenderSettings| -> Result<Film> {
+        // About four chunks a device: each takes one as they start together.
+        let chunk = gpu::devices::chunk_samples(settings.spp, contexts.len()) * 2;
+        let r = gpu::devices::render_on_devices(
+            &contexts,
+            scene,
+            v,
+            settings,
+            0..settings.spp,
+            chunk,
+            &|_, _| {},
+        )?;
+        *shares.lock().unwrap() = r.shares.iter().map(|s| s.samples).collect::<Vec<_>>();
+        Ok(r.sums.to_film())
+    };
+    gate_fixture(
+        "gpu_split_render/devices",
+        "cornell-boxes",
+        512,
+        DEVICES_SEED,
+        &render,
+    );
+    let shares = shares.into_inner().unwrap();
+    println!("devices {names:?}: shares {shares:?}");
+    assert!(
+        shares.len() == contexts.len() && shares.iter().all(|&n| n > 0),
+        "every device must trace some samples: {names:?} took {shares:?}"
+    );
+
+    // The mutant: the last device's half from a scene with albedo x1.08.
+    let spec = manifest_entry("cornell-boxes").unwrap();
+    let reference = load_reference(&spec).unwrap();
+    let biased = scaled_albedo(&load_scene(&spec).unwrap(), 1.08).unwrap();
+    let mutant = |scene: &Scene, settings: &RenderSettings| -> Result<Film> {
+        let half = settings.spp / 2;
+        let (first, last) = (&contexts[0], &contexts[contexts.len() - 1]);
+        let mut sums = gpu::GpuRenderer::with_variant(first, scene, v)?
+            .render_samples(settings, 0..half, &|_, _| {})?
+            .sums;
+        let other = gpu::GpuRenderer::with_variant(last, &biased, v)?
+            .render_samples(settings, half..settings.spp, &|_, _| {})?
+            .sums;
+        sums.merge(&other).map_err(anyhow::Error::msg)?;
+        Ok(sums.to_film())
+    };
+    let scene = load_scene(&spec).unwrap();
+    let run = run_gate(&reference, &scene, 512, DEVICES_SEED, &mutant).unwrap();
+    println!(
+        "{names:?}, the last with albedo x1.08:\n{}",
+        run.verdict.summary()
+    );
+    assert!(
+        !run.passes(),
+        "a device with an 8 % albedo bias on half the samples went undetected"
     );
 }
 
