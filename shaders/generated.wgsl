@@ -39,6 +39,10 @@ const NO_TEXTURE: u32 = 4294967295u;
 const ALPHA_BLEND: f32 = -1e0;
 const FIXED_POINT_REJECT_EXPONENT: u32 = 159u;
 const FIXED_POINT_SHIFT_EXPONENT: u32 = 118u;
+const FILM_CHANNELS: u32 = 3u;
+const FILM_COUNT_WORD: u32 = 0u;
+const FILM_REJECTED_WORD: u32 = 1u;
+const FILM_SUMS_WORD: u32 = 2u;
 const FILM_CHANNEL_WORDS: u32 = 18u;
 const BVH_LEAF: u32 = 3u;
 const BVH_STACK_SIZE: u32 = 64u;
@@ -229,11 +233,6 @@ struct GpuLightDensity {
     pmf: f32,
     area: f32,
 }
-struct GpuPixel {
-    count: u32,
-    rejected: u32,
-    sums: array<u32, 54>,
-}
 struct GpuParams {
     width: u32,
     height: u32,
@@ -306,4 +305,4 @@ struct BvhNode {
 @group(0) @binding(12) var<storage, read> emitters: array<GpuEmitter>;
 @group(0) @binding(13) var<storage, read> light_densities: array<GpuLightDensity>;
 @group(0) @binding(14) var<storage, read> vertex_extras: array<GpuVertexExtra>;
-@group(0) @binding(15) var<storage, read_write> film: array<GpuPixel>;
+@group(0) @binding(15) var<storage, read_write> film: array<u32>;

@@ -265,50 +265,13 @@ fn trace(ray: Ray, pixel: u32, sample: u32) -> vec3<f32> {
     return trace_path(ray, pixel, sample);
 }
 
-// A pixel's running statistics while a kernel folds samples into it
-// (GpuPixel's fields as vectors).
-// A channel's sums from its FILM_CHANNEL_WORDS words of a GpuPixel
-// (gpu::records: Σq at 0, Σq² at 4, Σq³ at 10).
-fn channel_sums_load(p: GpuPixel, base: u32) -> ChannelSums {
-    return ChannelSums(
-        vec4<u32>(p.sums[base], p.sums[base + 1u], p.sums[base + 2u], p.sums[base + 3u]),
-        vec4<u32>(p.sums[base + 4u], p.sums[base + 5u], p.sums[base + 6u], p.sums[base + 7u]),
-        vec2<u32>(p.sums[base + 8u], p.sums[base + 9u]),
-        vec4<u32>(p.sums[base + 10u], p.sums[base + 11u], p.sums[base + 12u], p.sums[base + 13u]),
-        vec4<u32>(p.sums[base + 14u], p.sums[base + 15u], p.sums[base + 16u], p.sums[base + 17u]),
-    );
-}
-
-fn pixel_sums_load(p: GpuPixel) -> PixelSums {
-    return PixelSums(p.count, p.rejected, channel_sums_load(p, 0u), channel_sums_load(p, FILM_CHANNEL_WORDS), channel_sums_load(p, 2u * FILM_CHANNEL_WORDS));
-}
-
-fn channel_sums_store(pixel: u32, base: u32, c: ChannelSums) {
-    for (var i = 0u; i < 4u; i++) {
-        film[pixel].sums[base + i] = c.s1[i];
-        film[pixel].sums[base + 4u + i] = c.s2[i];
-        film[pixel].sums[base + 10u + i] = c.s3[i];
-        film[pixel].sums[base + 14u + i] = c.s3_high[i];
-    }
-    film[pixel].sums[base + 8u] = c.s2_high.x;
-    film[pixel].sums[base + 9u] = c.s2_high.y;
-}
-
-fn pixel_sums_store(pixel: u32, s: PixelSums) {
-    film[pixel].count = s.count;
-    film[pixel].rejected = s.rejected;
-    channel_sums_store(pixel, 0u, s.r);
-    channel_sums_store(pixel, FILM_CHANNEL_WORDS, s.g);
-    channel_sums_store(pixel, 2u * FILM_CHANNEL_WORDS, s.b);
-}
-
 @compute @workgroup_size(WORKGROUP_X, WORKGROUP_Y, 1)
 fn render_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if gid.x >= params.width || gid.y >= params.height {
         return;
     }
     let pixel = gid.y * params.width + gid.x;
-    var acc = pixel_sums_load(film[pixel]);
+    var acc = pixel_sums_load(pixel);
     for (var i = 0u; i < params.sample_count; i++) {
         let sample = params.sample_start + i;
         let l = trace(camera_ray(gid.x, gid.y, sample), pixel, sample);

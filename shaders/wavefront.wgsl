@@ -445,17 +445,36 @@ fn wf_trace_paths(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
     set_path_u(i, PF_FLAGS, select(0u, PATH_POISONED, poisoned));
 }
 
+// The fold: one invocation per pixel and channel (FILM_CHANNELS times
+// the wave's pixels, channel by channel, so that neighbouring invocations
+// read neighbouring slots), each adding the wave's samples of its pixel
+// to that channel's sums in sample order; the first channel's invocation
+// also counts them. A channel's exact sums cost tens of integer
+// operations a sample: folding the three channels side by side keeps
+// the kernel short where an image has few pixels.
 @compute @workgroup_size(WAVE_GROUP, 1, 1)
 fn wf_accumulate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let t = flat_index(gid, groups);
-    if t >= params.wave_pixel_count {
+    if t >= FILM_CHANNELS * params.wave_pixel_count {
         return;
     }
-    let pixel = params.wave_pixel_start + t;
-    var acc = pixel_sums_load(film[pixel]);
+    let c = t / params.wave_pixel_count;
+    let p = t % params.wave_pixel_count;
+    let pixel = params.wave_pixel_start + p;
+    let base = c * FILM_CHANNEL_WORDS;
+    var sums = channel_sums_load(pixel, base);
+    var accepted = 0u;
     for (var j = 0u; j < params.sample_count; j++) {
-        let slot = j * params.wave_pixel_count + t;
-        pixel_sums_add(&acc, path_v(slot, PF_RADIANCE), (path_u(slot, PF_FLAGS) & PATH_POISONED) != 0u);
+        let slot = j * params.wave_pixel_count + p;
+        let l = path_v(slot, PF_RADIANCE);
+        if sample_accepted(l, (path_u(slot, PF_FLAGS) & PATH_POISONED) != 0u) {
+            accepted += 1u;
+            sums = channel_sums_add(sums, fixed_point(l[c]).q);
+        }
     }
-    pixel_sums_store(pixel, acc);
+    channel_sums_store(pixel, base, sums);
+    if c == 0u {
+        film[film_at(pixel, FILM_COUNT_WORD)] += accepted;
+        film[film_at(pixel, FILM_REJECTED_WORD)] += params.sample_count - accepted;
+    }
 }

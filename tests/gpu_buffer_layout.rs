@@ -164,13 +164,68 @@ fn params_and_film_records() {
         read_back(&base(), GpuParams::FIELDS, "params", Some(counting()), None),
         "GpuParams",
     );
-    let film = [counting::<GpuPixel>()];
-    let fields = GpuPixel::fields();
-    let fields: Vec<&str> = fields.iter().map(String::as_str).collect();
-    expect_counting(
-        read_back(&base(), &fields, "film[0]", None, Some(&film)),
-        "GpuPixel",
-    );
+    film_words_are_the_pixels_words();
+}
+
+/// The film is word-major on the device (`gpu::records::film_words`): a
+/// two-pixel film of known words, read by the WGSL's `pixel_sums_load`
+/// and written out by `channel_sums_words`, gives each pixel's words in
+/// `PixelSums::to_words`'s order (the film twin checks that order against
+/// the reference's sums).
+fn film_words_are_the_pixels_words() {
+    let first = counting::<GpuPixel>();
+    let mut second = first;
+    for w in bytemuck::cast_mut::<GpuPixel, [u32; gpu::records::FILM_PIXEL_WORDS]>(&mut second) {
+        *w += 1000;
+    }
+    let params = GpuParams {
+        width: 2,
+        height: 1,
+        ..counting()
+    };
+    let ctx = common::gpu();
+    let scene = reference::load_scene("cornell").unwrap();
+    let packed = base();
+    let renderer = gpu::GpuRenderer::from_packed(ctx, &packed, &scene).unwrap();
+    let snippet = "@compute @workgroup_size(64)
+fn layout_main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let p = gid.x;
+    if p >= 2u { return; }
+    let s = pixel_sums_load(p);
+    let o = p * (2u + 3u * FILM_CHANNEL_WORDS);
+    output[o] = s.count;
+    output[o + 1u] = s.rejected;
+    let cs = array<ChannelSums, 3>(s.r, s.g, s.b);
+    for (var c = 0u; c < 3u; c++) {
+        let w = channel_sums_words(cs[c]);
+        for (var j = 0u; j < FILM_CHANNEL_WORDS; j++) {
+            output[o + 2u + FILM_CHANNEL_WORDS * c + j] = w[j];
+        }
+    }
+}
+";
+    let words = run_test_kernel_with_library(
+        ctx,
+        &renderer,
+        &TestKernel {
+            snippet,
+            entry: "layout_main",
+            input: &[],
+            invocations: 2,
+            output_words: 2 * gpu::records::FILM_PIXEL_WORDS,
+            params: Some(params),
+            film: Some(&[first, second]),
+        },
+        &gpu::shader::library_source(),
+    )
+    .unwrap();
+    let expected: Vec<u32> = [first, second]
+        .iter()
+        .flat_map(|p| {
+            bytemuck::cast_ref::<GpuPixel, [u32; gpu::records::FILM_PIXEL_WORDS]>(p).to_vec()
+        })
+        .collect();
+    assert_eq!(words, expected, "the film's words as the WGSL reads them");
 }
 
 #[test]

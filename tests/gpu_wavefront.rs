@@ -25,8 +25,8 @@ fn wavefront_renders_every_scene_as_the_megakernel() {
 const MUTANTS: &[(&str, &str, &str, &str, Integrator)] = &[
     (
         "the accumulate kernel reads the slots pixel-major (they are sample-major)",
-        "let slot = j * params.wave_pixel_count + t;",
-        "let slot = t * params.sample_count + j;",
+        "let slot = j * params.wave_pixel_count + p;",
+        "let slot = p * params.sample_count + j;",
         "cornell",
         Integrator::Bsdf,
     ),

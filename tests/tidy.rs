@@ -161,15 +161,36 @@ const GPU_ONLY: &[(&str, &str)] = &[
     ("add_words", "film::add_limbs on 32-bit words"),
     ("channel_sums_add", "one channel of film::PixelSums::add"),
     (
+        "mul_add",
+        "one step of mul_words: w + a·b + c in two 32-bit words",
+    ),
+    ("add_carry", "one word of add_words with its carry"),
+    (
+        "channel_sums_words",
+        "one channel of film::PixelSums::to_words",
+    ),
+    (
+        "fixed_point_ok",
+        "fixed_point's acceptance alone (film::fixed_point returns None)",
+    ),
+    (
+        "sample_accepted",
+        "the acceptance test of film::PixelSums::add, apart for the fold's one-channel invocations",
+    ),
+    (
+        "film_at",
+        "the word-major index of the device film (gpu::records::film_words on the host)",
+    ),
+    (
         "channel_sums_load",
-        "reads one channel of a GpuPixel record (GpuPixel::to_sums on the host)",
+        "reads one channel of a pixel from the device film (gpu::records::film_pixels on the host)",
     ),
     (
         "pixel_sums_load",
-        "reads a GpuPixel record (GpuPixel::to_sums on the host)",
+        "reads a pixel from the device film (gpu::records::film_pixels on the host)",
     ),
-    ("channel_sums_store", "writes one channel of a GpuPixel record"),
-    ("pixel_sums_store", "writes a GpuPixel record"),
+    ("channel_sums_store", "writes one channel of a pixel to the device film"),
+    ("pixel_sums_store", "writes a pixel to the device film"),
     (
         "fract_euclid",
         "f32::rem_euclid in Wrap::wrap_coordinate",

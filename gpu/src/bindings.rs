@@ -56,7 +56,8 @@ pub const FILM: Binding = Binding {
     group: 0,
     slot: 15,
     name: "film",
-    wgsl_type: "array<GpuPixel>",
+    // Word-major: gpu::records::film_words.
+    wgsl_type: "array<u32>",
     access: Access::ReadWrite,
 };
 

@@ -155,17 +155,22 @@ gpu_record! {
     GpuLightDensity { pmf: f32, area: f32 }
 }
 
+/// Channels of a film pixel (R, G, B): the wave schedules' fold runs one
+/// invocation per pixel and channel.
+pub const FILM_CHANNELS: usize = 3;
 /// Words of one channel's exact sums in [`GpuPixel::sums`]: `Σq` (4),
 /// `Σq²` (6), `Σq³` (8), each least significant word first, the order of
 /// `reference::film::PixelSums::to_words` (the WGSL's `ChannelSums`).
-pub const FILM_CHANNEL_WORDS: usize = (reference::film::PIXEL_WORDS - 2) / 3;
+pub const FILM_CHANNEL_WORDS: usize = (reference::film::PIXEL_WORDS - 2) / FILM_CHANNELS;
 /// Words of a pixel's sums: three channels.
-pub const FILM_SUM_WORDS: usize = 3 * FILM_CHANNEL_WORDS;
+pub const FILM_SUM_WORDS: usize = FILM_CHANNELS * FILM_CHANNEL_WORDS;
 
-/// A pixel's exact sums (`reference::film::PixelSums`): the GPU film,
-/// accumulated by shaders/film.wgsl. Written by hand rather than by
-/// `gpu_record!` (which takes scalar fields): its WGSL is
-/// [`GpuPixel::WGSL`], its layout checked by tests/gpu_buffer_layout.rs.
+/// A pixel's exact sums (`reference::film::PixelSums`), as the GPU film
+/// holds them (shaders/film.wgsl accumulates them): its words are
+/// `PixelSums::to_words`'s. The film on the device is word-major (word
+/// `w` of pixel `p` at `w · pixels + p`, [`film_words`]), so that the
+/// kernels folding neighbouring pixels touch neighbouring words; this
+/// record is one pixel's words gathered on the host.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct GpuPixel {
@@ -181,19 +186,50 @@ impl Default for GpuPixel {
     }
 }
 
-impl GpuPixel {
-    /// The WGSL declaration of this record.
-    pub const WGSL: &'static str =
-        "struct GpuPixel {\n    count: u32,\n    rejected: u32,\n    sums: array<u32, 54>,\n}\n";
+/// Where a pixel's count, rejected count and sums start among its words
+/// (`reference::film::PixelSums::to_words`).
+pub const FILM_COUNT_WORD: usize = 0;
+pub const FILM_REJECTED_WORD: usize = 1;
+pub const FILM_SUMS_WORD: usize = 2;
+/// Words of a pixel.
+pub const FILM_PIXEL_WORDS: usize = std::mem::size_of::<GpuPixel>() / 4;
 
-    /// The field accesses of every word, in memory order (for the layout
-    /// test).
-    pub fn fields() -> Vec<String> {
-        let mut f = vec!["count".to_string(), "rejected".to_string()];
-        f.extend((0..FILM_SUM_WORDS).map(|i| format!("sums[{i}]")));
-        f
+/// The device film's words for `pixels`: word-major, word `w` of pixel
+/// `p` at `w · pixels.len() + p` (the WGSL's `film_at`).
+pub fn film_words(pixels: &[GpuPixel]) -> Vec<u32> {
+    let n = pixels.len();
+    let mut out = vec![0u32; n * FILM_PIXEL_WORDS];
+    for (p, px) in pixels.iter().enumerate() {
+        let words: &[u32; FILM_PIXEL_WORDS] = bytemuck::cast_ref(px);
+        for (w, &v) in words.iter().enumerate() {
+            out[w * n + p] = v;
+        }
     }
+    out
+}
 
+/// The pixels of a device film's words ([`film_words`] undone), gathered
+/// in blocks of pixels that stay in cache, in parallel.
+pub fn film_pixels(words: &[u32]) -> Vec<GpuPixel> {
+    use rayon::prelude::*;
+    let n = words.len() / FILM_PIXEL_WORDS;
+    let mut out = vec![GpuPixel::default(); n];
+    const BLOCK: usize = 1024;
+    out.par_chunks_mut(BLOCK)
+        .enumerate()
+        .for_each(|(b, block)| {
+            let first = b * BLOCK;
+            for w in 0..FILM_PIXEL_WORDS {
+                let column = &words[w * n + first..w * n + first + block.len()];
+                for (px, &v) in block.iter_mut().zip(column) {
+                    bytemuck::cast_mut::<GpuPixel, [u32; FILM_PIXEL_WORDS]>(px)[w] = v;
+                }
+            }
+        });
+    out
+}
+
+impl GpuPixel {
     /// The reference's accumulator of the same sums (the record is
     /// `reference::film::PixelSums::to_words`'s words).
     pub fn to_sums(&self) -> reference::film::PixelSums {
@@ -242,7 +278,6 @@ pub fn wgsl_records() -> String {
         GpuImage::WGSL,
         GpuEmitter::WGSL,
         GpuLightDensity::WGSL,
-        GpuPixel::WGSL,
         GpuParams::WGSL,
         BVH_NODE_WGSL,
     ]
@@ -252,6 +287,27 @@ pub fn wgsl_records() -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn film_words_are_word_major_and_film_pixels_undo_them() {
+        // 2,500 pixels: more than one gathering block, the last one short.
+        let pixels: Vec<GpuPixel> = (0..2500u32)
+            .map(|p| {
+                let mut px = GpuPixel::default();
+                for (w, v) in bytemuck::cast_mut::<GpuPixel, [u32; FILM_PIXEL_WORDS]>(&mut px)
+                    .iter_mut()
+                    .enumerate()
+                {
+                    *v = p * 1000 + w as u32;
+                }
+                px
+            })
+            .collect();
+        let words = film_words(&pixels);
+        assert_eq!(words[FILM_REJECTED_WORD * 2500 + 7], 7 * 1000 + 1);
+        assert_eq!(words[(FILM_SUMS_WORD + 53) * 2500 + 2499], 2499 * 1000 + 55);
+        assert_eq!(film_pixels(&words), pixels);
+    }
 
     #[test]
     fn sizes_are_multiples_of_16_where_arrays_need_it() {
@@ -266,10 +322,7 @@ mod tests {
         assert_eq!(std::mem::size_of::<GpuEmitter>(), 8);
         assert_eq!(std::mem::size_of::<GpuLightDensity>(), 8);
         assert_eq!(std::mem::size_of::<GpuPixel>(), 224);
-        assert_eq!(
-            GpuPixel::WGSL.matches(&FILM_SUM_WORDS.to_string()).count(),
-            1
-        );
+        assert_eq!(FILM_PIXEL_WORDS, reference::film::PIXEL_WORDS);
         // Uniform buffers need a size that is a multiple of 16.
         assert_eq!(std::mem::size_of::<GpuParams>() % 16, 0);
         assert_eq!(

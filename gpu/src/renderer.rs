@@ -857,7 +857,8 @@ impl GpuRenderer<'_> {
             .and_then(|mut c| c.take())
             .filter(|f| f.size() == film_bytes)
             .ok_or_else(|| GpuError::Readback("no film of this size on the device".into()))?;
-        let gpu_pixels: Vec<GpuPixel> = read_buffer(self.ctx, &film, film_bytes)?;
+        let words: Vec<u32> = read_buffer(self.ctx, &film, film_bytes)?;
+        let gpu_pixels = crate::records::film_pixels(&words);
         let mut sums = FilmSums::new(settings.width, settings.height);
         for (dst, src) in sums.pixels.iter_mut().zip(&gpu_pixels) {
             if src.count as u64 + src.rejected as u64 != expected as u64 {

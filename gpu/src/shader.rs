@@ -138,6 +138,13 @@ pub fn generate() -> String {
         "FIXED_POINT_SHIFT_EXPONENT",
         150 - reference::film::FIXED_POINT_BITS,
     );
+    s += &u("FILM_CHANNELS", crate::records::FILM_CHANNELS as u32);
+    s += &u("FILM_COUNT_WORD", crate::records::FILM_COUNT_WORD as u32);
+    s += &u(
+        "FILM_REJECTED_WORD",
+        crate::records::FILM_REJECTED_WORD as u32,
+    );
+    s += &u("FILM_SUMS_WORD", crate::records::FILM_SUMS_WORD as u32);
     s += &u(
         "FILM_CHANNEL_WORDS",
         crate::records::FILM_CHANNEL_WORDS as u32,

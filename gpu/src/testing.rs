@@ -24,7 +24,9 @@ pub struct TestKernel<'a> {
     pub output_words: usize,
     /// Parameters (binding 0); default: the renderer's for a 1x1 image.
     pub params: Option<GpuParams>,
-    /// Film contents (the film binding); default: one zero pixel.
+    /// Film contents (the film binding, word-major as
+    /// [`crate::records::film_words`] lays them out); default: one zero
+    /// pixel.
     pub film: Option<&'a [GpuPixel]>,
 }
 
@@ -101,9 +103,10 @@ pub fn run_test_kernel_with_library(
         usage: wgpu::BufferUsages::UNIFORM,
     });
     let zero_pixel = [GpuPixel::default()];
+    let film_words = crate::records::film_words(k.film.unwrap_or(&zero_pixel));
     let film = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("film"),
-        contents: bytemuck::cast_slice(k.film.unwrap_or(&zero_pixel)),
+        contents: bytemuck::cast_slice(&film_words),
         usage: wgpu::BufferUsages::STORAGE,
     });
     let scene_group = renderer.bind_group(&params, &film);

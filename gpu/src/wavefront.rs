@@ -532,7 +532,7 @@ impl Pipelines {
             }
         }
         pass.set_pipeline(&self.accumulate);
-        let (x, y) = grid(wave.pixel_count as u64);
+        let (x, y) = grid(wave.pixel_count as u64 * crate::records::FILM_CHANNELS as u64);
         pass.dispatch_workgroups(x, y, 1);
     }
 }

@@ -39,15 +39,10 @@ fn film_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     output[o + 1u] = acc.rejected;
     let cs = array<ChannelSums, 3>(acc.r, acc.g, acc.b);
     for (var c = 0u; c < 3u; c++) {
-        let b = o + 2u + 18u * c;
-        for (var j = 0u; j < 4u; j++) {
-            output[b + j] = cs[c].s1[j];
-            output[b + 4u + j] = cs[c].s2[j];
-            output[b + 10u + j] = cs[c].s3[j];
-            output[b + 14u + j] = cs[c].s3_high[j];
+        let w = channel_sums_words(cs[c]);
+        for (var j = 0u; j < FILM_CHANNEL_WORDS; j++) {
+            output[o + 2u + FILM_CHANNEL_WORDS * c + j] = w[j];
         }
-        output[b + 8u] = cs[c].s2_high.x;
-        output[b + 9u] = cs[c].s2_high.y;
     }
 }
 ";
