@@ -27,15 +27,29 @@ const RUNNER: &str = r#"#!/bin/sh
 # Runs twintrace's GPU gates (the integration tests named gpu_*: the gpu_*
 # modules and the GPU mutants of gates_catch_mutants; and the modules that
 # render each case on both backends) on this machine's
-# GPU adapter. Extra arguments go to the test binary
-# (e.g. a test name filter, --nocapture). Exit status: the test binary's.
+# GPU adapter. Extra arguments go to the test binary (e.g. --nocapture);
+# test name filters among them replace the suite's own (`sh run.sh
+# gpu_split_render` runs that module alone). Exit status: the test
+# binary's.
 here=$(cd "$(dirname "$0")" && pwd)
+filtered=no
+after=
+for a in "$@"; do
+    # The value of an option that takes one is not a filter.
+    if [ -n "$after" ]; then after=; continue; fi
+    case "$a" in
+        --skip|--test-threads|--format|--color|--logfile|-Z) after=yes ;;
+        -*) ;;
+        *) filtered=yes ;;
+    esac
+done
+[ $filtered = yes ] || set -- gpu_ gltf_equivalence khronos_assets "$@"
 export TWINTRACE_ROOT="$here"
 export TWINTRACE_BIN="$here/twintrace"
 export LD_LIBRARY_PATH="$here/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
 log="$here/gpu-suite.log"
-"$here/integration" gpu_ gltf_equivalence khronos_assets --test-threads=1 "$@" >"$log" 2>&1
+"$here/integration" --test-threads=1 "$@" >"$log" 2>&1
 status=$?
 grep -E '^test |^test result' "$log"
 # Each failure's own output and panic message.
@@ -174,7 +188,42 @@ pub(crate) fn make_executable(path: &Path) -> Result<(), String> {
 
 #[cfg(test)]
 mod tests {
-    use super::artifact_executable;
+    use super::{artifact_executable, RUNNER};
+
+    /// The runner against a stand-in test binary that prints its
+    /// arguments: the suite's filters by default, a given filter instead
+    /// of them, options (and the values of --skip and the like) beside
+    /// them.
+    #[test]
+    fn the_runner_passes_the_suites_filters_unless_given_its_own() {
+        let dir = std::env::temp_dir().join(format!("gpu-suite-runner-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("run.sh"), RUNNER).unwrap();
+        let stand_in = dir.join("integration");
+        std::fs::write(&stand_in, "#!/bin/sh\necho \"test args: $*\"\n").unwrap();
+        super::make_executable(&stand_in).unwrap();
+        let args = |extra: &[&str]| -> String {
+            let out = std::process::Command::new("sh")
+                .arg(dir.join("run.sh"))
+                .args(extra)
+                .output()
+                .unwrap();
+            assert!(out.status.success());
+            let log = std::fs::read_to_string(dir.join("gpu-suite.log")).unwrap();
+            log.trim().to_string()
+        };
+        let suite = "gpu_ gltf_equivalence khronos_assets";
+        assert_eq!(args(&[]), format!("test args: --test-threads=1 {suite}"));
+        assert_eq!(
+            args(&["--nocapture", "--skip", "gpu_furnace"]),
+            format!("test args: --test-threads=1 {suite} --nocapture --skip gpu_furnace")
+        );
+        assert_eq!(
+            args(&["gpu_split_render", "--nocapture"]),
+            "test args: --test-threads=1 gpu_split_render --nocapture"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn finds_the_test_executable_in_cargo_json() {
