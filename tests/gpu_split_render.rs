@@ -73,15 +73,7 @@ fn gpu_sample_ranges_merge_into_the_whole_gpu_render_bit_for_bit() {
 }
 
 fn variant(schedule: gpu::Schedule) -> gpu::Variant {
-    gpu::Variant {
-        integrator: Integrator::Mis,
-        kernel: gpu::Kernel::Specialized,
-        schedule,
-        traversal: gpu::Traversal::Binary,
-        nodes: gpu::NodeLayout::Aos,
-        leaves: gpu::LeafLayout::Indexed,
-        dispatch: gpu::Dispatch::Switch,
-    }
+    gpu::Variant::plain(Integrator::Mis, schedule)
 }
 
 /// The index of the adapter the tests run on, as `--devices` names it.
@@ -211,10 +203,7 @@ fn devices_of_different_kinds_render_the_reference_image_and_a_biased_device_fai
         .iter()
         .map(|c| format!("{} ({})", c.adapter.name, c.adapter.backend))
         .collect();
-    let v = gpu::Variant {
-        integrator: Integrator::Bsdf,
-        ..variant(gpu::Schedule::Megakernel)
-    };
+    let v = gpu::Variant::plain(Integrator::Bsdf, gpu::Schedule::Megakernel);
     let shares = std::sync::Mutex::new(Vec::new());
     let render = |scene: &Scene, settings: &RenderSettings| -> Result<Film> {
         // About four chunks a device: each takes one as they start together.

@@ -178,15 +178,7 @@ fn a_wave_dispatched_as_a_two_dimensional_grid_renders_as_the_megakernel() {
     let paths = 64 * 64 * 1030u32;
     assert!(gpu::wavefront::grid(paths as u64).1 == 2);
     let film = |schedule| {
-        let variant = gpu::Variant {
-            integrator: Integrator::Bsdf,
-            kernel: gpu::Kernel::Specialized,
-            schedule,
-            traversal: gpu::Traversal::Binary,
-            nodes: gpu::NodeLayout::Aos,
-            leaves: gpu::LeafLayout::Indexed,
-            dispatch: gpu::Dispatch::Switch,
-        };
+        let variant = gpu::Variant::plain(Integrator::Bsdf, schedule);
         let mut r = gpu::GpuRenderer::with_variant(ctx, &scene, variant).unwrap();
         r.set_wave_slots(Some(paths));
         let out = r.render(&settings, &|_, _| {}).unwrap();

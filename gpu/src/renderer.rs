@@ -311,13 +311,8 @@ impl<'a> GpuRenderer<'a> {
             ctx,
             scene,
             Variant {
-                integrator,
                 kernel,
-                schedule: Schedule::Megakernel,
-                traversal: Traversal::Binary,
-                nodes: NodeLayout::Aos,
-                leaves: LeafLayout::Indexed,
-                dispatch: Dispatch::Switch,
+                ..Variant::plain(integrator, Schedule::Megakernel)
             },
         )
     }
@@ -672,7 +667,7 @@ impl<'a> GpuRenderer<'a> {
         }
         let device = &ctx.device;
         let pixels = settings.width as u64 * settings.height as u64;
-        let film_bytes = pixels * std::mem::size_of::<GpuPixel>() as u64;
+        let film_bytes = film_bytes(settings);
         let limit = device.limits().max_storage_buffer_binding_size;
         if film_bytes > limit {
             return Err(GpuError::TooLarge {
@@ -840,6 +835,12 @@ impl<'a> GpuRenderer<'a> {
     }
 }
 
+/// Bytes of the device film of a render: 56 words a pixel
+/// ([`crate::records::film_words`]).
+fn film_bytes(settings: &RenderSettings) -> u64 {
+    settings.width as u64 * settings.height as u64 * std::mem::size_of::<GpuPixel>() as u64
+}
+
 impl GpuRenderer<'_> {
     /// The film [`GpuRenderer::accumulate`] left on the device, read back;
     /// every pixel must hold `expected` samples.
@@ -848,8 +849,7 @@ impl GpuRenderer<'_> {
         settings: &RenderSettings,
         expected: u32,
     ) -> Result<FilmSums, GpuError> {
-        let pixels = settings.width as u64 * settings.height as u64;
-        let film_bytes = pixels * std::mem::size_of::<GpuPixel>() as u64;
+        let film_bytes = film_bytes(settings);
         let film = self
             .film_cache
             .lock()

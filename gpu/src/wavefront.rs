@@ -133,6 +133,21 @@ pub struct Variant {
 }
 
 impl Variant {
+    /// `schedule` running `integrator` in its plain form: the kernel
+    /// specialized to the scene, the binary walk over array-of-structs
+    /// nodes and indexed leaves, switch dispatch.
+    pub fn plain(integrator: reference::integrator::Integrator, schedule: Schedule) -> Self {
+        Variant {
+            integrator,
+            kernel: crate::Kernel::Specialized,
+            schedule,
+            traversal: Traversal::Binary,
+            nodes: crate::NodeLayout::Aos,
+            leaves: LeafLayout::Indexed,
+            dispatch: crate::Dispatch::Switch,
+        }
+    }
+
     /// `<schedule>[-mis][-general][-<walk>][-nodes-soa][-inline[-soa]][-branches]`,
     /// the binary walk, array-of-structs nodes, indexed leaves and switch
     /// dispatch unnamed.
