@@ -26,6 +26,7 @@ pub mod compare;
 pub mod image_io;
 pub mod partial;
 pub mod perf;
+pub mod render;
 pub mod report;
 pub mod selftest;
 pub mod stats;

@@ -166,38 +166,53 @@ fn furnace_gate(case: Result<FurnaceCase>, render: RenderFn) -> Result<GateOutco
     })
 }
 
-/// Runs every gate with `render`, calling `report` after each; an error
-/// (a missing reference, a device lost) ends the run.
+/// What a run of gates reports as it goes: a gate starting (by name),
+/// and its verdict.
+pub enum GateEvent<'g> {
+    Started(&'g str),
+    Finished(&'g GateOutcome),
+}
+
+/// The known-answer furnace gates [`run_gates`] runs after the image
+/// gates.
+pub const FURNACE_GATES: usize = 3;
+
+/// Runs every gate with `render`, reporting each as it starts and ends;
+/// an error (a missing reference, a device lost) ends the run.
 pub fn run_gates(
     renderer: &dyn Renderer,
     spp: u32,
     seed: u32,
     only: Option<&str>,
-    report: &mut dyn FnMut(&GateOutcome),
+    report: &mut dyn FnMut(GateEvent),
 ) -> Result<Vec<GateOutcome>> {
     let render = |scene: &Scene, settings: &RenderSettings| renderer.prepare(scene)?(settings);
     let render: RenderFn = &render;
     let mut out = Vec::new();
-    let mut keep = |g: GateOutcome, out: &mut Vec<GateOutcome>| {
-        report(&g);
-        out.push(g);
-    };
     for spec in read_manifest()? {
         if only.is_some_and(|o| o != spec.name) {
             continue;
         }
+        report(GateEvent::Started(&spec.name));
         let g = stored_gate(renderer.refs(), &spec, render, spp, seed)?;
-        keep(g, &mut out);
+        report(GateEvent::Finished(&g));
+        out.push(g);
     }
     if only.is_none() {
-        let cases = [
+        let cases: [Result<FurnaceCase>; FURNACE_GATES] = [
             furnace::white_furnace(false, 64, seed),
             furnace::concentric_spheres(0.5, true, 256, seed),
             furnace::bernoulli_furnace(0.3, 256, seed),
         ];
         for case in cases {
+            let name = match &case {
+                Ok(c) => c.name.clone(),
+                Err(_) => "a furnace".to_string(),
+            };
+            report(GateEvent::Started(&name));
             let g = furnace_gate(case, render)?;
-            keep(g, &mut out);
+            report(GateEvent::Finished(&g));
+            out.push(g);
         }
     }
     if out.is_empty() {
@@ -206,14 +221,24 @@ pub fn run_gates(
     Ok(out)
 }
 
-/// Runs every check of [`crate::twins::CHECKS`] on `ctx`, one verdict
-/// each, reported as it comes.
+/// The twin checks a run takes: every one of [`crate::twins::CHECKS`],
+/// or where `quick` those that are not variant gates.
+pub fn twin_checks(quick: bool) -> impl Iterator<Item = &'static crate::twins::Check> {
+    crate::twins::CHECKS
+        .iter()
+        .filter(move |c| !(quick && c.variant))
+}
+
+/// Runs the twin checks of [`twin_checks`] on `ctx`, one verdict each,
+/// reported as each starts and ends.
 pub fn run_twin_checks(
     ctx: &gpu::GpuContext,
-    report: &mut dyn FnMut(&GateOutcome),
+    quick: bool,
+    report: &mut dyn FnMut(GateEvent),
 ) -> Vec<GateOutcome> {
     let mut out = Vec::new();
-    for check in crate::twins::CHECKS {
+    for check in twin_checks(quick) {
+        report(GateEvent::Started(check.name));
         let start = Instant::now();
         let outcome = (check.run)(ctx);
         let g = GateOutcome {
@@ -222,7 +247,7 @@ pub fn run_twin_checks(
             detail: outcome.unwrap_or_else(|e| e),
             seconds: start.elapsed().as_secs_f64(),
         };
-        report(&g);
+        report(GateEvent::Finished(&g));
         out.push(g);
     }
     out
@@ -457,6 +482,100 @@ pub fn calibration_table(rows: &[Calibration]) -> String {
         pct(k, n),
         100.0 * rate_upper_bound(k, n, 0.95)
     );
+    o
+}
+
+/// How renders stopped by `--target-relmse` land: for one fixture,
+/// renders with `renders` seeds, each stopped when the film's predicted
+/// relMSE reached `target` ([`crate::render::run_budget`]), and the
+/// relMSE each one has against the stored reference
+/// ([`crate::perf::error::relmse`]: the reference's own variance
+/// subtracted).
+#[derive(Clone, Debug)]
+pub struct BudgetCalibration {
+    pub name: String,
+    pub target: f64,
+    /// Measured relMSE over the target, one a render.
+    pub ratios: Vec<f64>,
+    /// Samples a pixel each render took.
+    pub samples: Vec<u32>,
+}
+
+/// Renders `seeds` of the reference's scene on `render` (opened on that
+/// scene), each to the predicted relMSE `target` (at most `cap` samples a
+/// pixel), and measures each against `reference`.
+pub fn calibrate_budget(
+    reference: &StoredReference,
+    render: &mut dyn crate::render::Progressive,
+    target: f64,
+    seeds: std::ops::Range<u32>,
+    cap: u32,
+    progress: &mut dyn FnMut(u32),
+) -> Result<BudgetCalibration> {
+    let mut out = BudgetCalibration {
+        name: reference.spec.name.clone(),
+        target,
+        ratios: Vec::new(),
+        samples: Vec::new(),
+    };
+    for seed in seeds {
+        let settings = RenderSettings {
+            seed,
+            ..*render.settings()
+        };
+        render.reset(settings)?;
+        let budget = crate::render::Budget {
+            max_samples: cap,
+            time: None,
+            target_relmse: Some(target),
+        };
+        let stop = crate::render::run_budget(render, &budget, &mut |_, _, _| {}, &|_| {})?;
+        let layers = render.layers()?;
+        let image = NoisyImage {
+            width: layers.width,
+            height: layers.height,
+            mean: layers.mean.iter().map(|m| m.as_dvec3()).collect(),
+            variance: Some(layers.variance.iter().map(|v| v.as_dvec3()).collect()),
+            skewness: None,
+            spp: Some(stop.samples),
+            nonfinite_samples: layers.rejected,
+            renderer: None,
+        };
+        let measured = crate::perf::error::relmse(&image, &reference.image)?;
+        out.ratios.push(measured.relmse / target);
+        out.samples.push(stop.samples);
+        progress(seed);
+    }
+    Ok(out)
+}
+
+/// The budget calibration as a Markdown table (docs/gates.md, "Budgets").
+pub fn budget_table(rows: &[BudgetCalibration]) -> String {
+    let mut o = String::from(
+        "| fixture | target relMSE | renders | median spp | measured / target: median | 5 % | 95 % | max |\n|---|---|---|---|---|---|---|---|\n",
+    );
+    let quantile = |v: &[f64], q: f64| -> f64 {
+        let mut s = v.to_vec();
+        s.sort_by(f64::total_cmp);
+        s.get(((s.len().saturating_sub(1)) as f64 * q).round() as usize)
+            .copied()
+            .unwrap_or(f64::NAN)
+    };
+    for r in rows {
+        let spp: Vec<f64> = r.samples.iter().map(|&s| s as f64).collect();
+        let _ = writeln!(
+            o,
+            "| {} | {:.0e} | {} | {:.0} | {:.2} | {:.2} | {:.2} | {:.2} |",
+            r.name,
+            r.target,
+            r.ratios.len(),
+            quantile(&spp, 0.5),
+            quantile(&r.ratios, 0.5),
+            quantile(&r.ratios, 0.05),
+            quantile(&r.ratios, 0.95),
+            quantile(&r.ratios, 1.0),
+        );
+    }
     o
 }
 

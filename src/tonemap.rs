@@ -100,6 +100,10 @@ impl Tonemap {
 
     /// A whole image, row-major, to packed 8-bit RGB.
     pub fn to_srgb8_image(self, pixels: &[Vec3]) -> Vec<u8> {
-        pixels.iter().flat_map(|&p| self.to_srgb8(p)).collect()
+        use rayon::prelude::*;
+        pixels
+            .par_iter()
+            .flat_map_iter(|&p| self.to_srgb8(p))
+            .collect()
     }
 }

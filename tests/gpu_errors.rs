@@ -8,8 +8,8 @@ use reference::RenderSettings;
 #[test]
 fn a_broken_shader_is_a_shader_error() {
     let ctx = common::gpu();
-    let layout = gpu::renderer::bind_group_layout(&ctx.device);
-    let Err(err) = gpu::renderer::compile(ctx, "fn main( {", "main", &[&layout]) else {
+    let layout = gpu::pipeline::scene_layout(ctx);
+    let Err(err) = gpu::pipeline::compile(ctx, "fn main( {", "main", &[&layout]) else {
         panic!("garbage compiled")
     };
     assert!(matches!(err, GpuError::Shader(_)), "{err}");

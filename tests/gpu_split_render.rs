@@ -347,3 +347,22 @@ fn the_cli_renders_on_two_devices_as_on_one_and_refuses_bad_selections() {
     ]);
     assert!(!ok && err.contains("--devices: the cpu backend"), "{err}");
 }
+
+#[test]
+fn the_film_layers_are_the_references_bit_for_bit() {
+    match film::layers(common::gpu()) {
+        Ok(summary) => println!("layers: {summary}"),
+        Err(e) => panic!("{e}"),
+    }
+}
+
+#[test]
+fn a_layers_kernel_that_truncates_to_f32_fails_the_layer_twin() {
+    let program = gpu::film::layers_source();
+    let rounding = "return q + select(0u, 1u, up);";
+    assert_eq!(program.matches(rounding).count(), 1);
+    let mutant = program.replace(rounding, "return q;");
+    let e = film::layers_with_program(common::gpu(), &mutant)
+        .expect_err("a truncating f64-to-f32 conversion passed the layer twin");
+    println!("truncation caught: {}", &e[..e.len().min(200)]);
+}

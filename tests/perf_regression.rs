@@ -38,6 +38,9 @@ fn instructions(dir: &Path, tag: &str, inject: bool) -> u64 {
         "cpu",
         "--only",
         "cornell-128",
+        // BSDF sampling: the injection's size below was measured on it.
+        "--variant",
+        "reference",
         "--repeats",
         "1",
         "--threads",
@@ -157,8 +160,9 @@ fn the_json(dir: &Path) -> PathBuf {
         .expect("a JSON in the output folder")
 }
 
-/// `twintrace perf run --backend cpu --repeats 3 --out OUT EXTRA`, which
-/// must succeed.
+/// `twintrace perf run --backend cpu --variant reference --repeats 3
+/// --out OUT EXTRA`, which must succeed (the CPU's BSDF sampling, named:
+/// the rows and ladders below are its).
 fn cpu_run(out: &Path, extra: &[&str]) -> Output {
     let out = out.to_string_lossy();
     let mut args = vec![
@@ -166,6 +170,8 @@ fn cpu_run(out: &Path, extra: &[&str]) -> Output {
         "run",
         "--backend",
         "cpu",
+        "--variant",
+        "reference",
         "--repeats",
         "3",
         "--out",

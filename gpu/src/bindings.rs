@@ -132,6 +132,15 @@ pub const WAVE_ARGS: Binding = Binding {
     access: Access::ReadWrite,
 };
 
+/// The film's image layers the layers kernel writes (`gpu::film`).
+pub const FILM_LAYERS: Binding = Binding {
+    group: 1,
+    slot: 0,
+    name: "layers",
+    wgsl_type: "array<u32>",
+    access: Access::ReadWrite,
+};
+
 impl Binding {
     /// The WGSL declaration.
     pub fn wgsl(&self) -> String {

@@ -98,6 +98,30 @@ pub struct GpuContext {
     pub timestamps: bool,
     lost: Arc<Mutex<Option<String>>>,
     uncaptured: Arc<Mutex<Option<String>>>,
+    /// Compute pipelines created on the device ([`Self::pipelines_built`]).
+    pipelines: std::sync::atomic::AtomicU64,
+    /// Modules, layouts and pipelines built on the device.
+    pub(crate) caches: crate::pipeline::Caches,
+    /// The driver's pipeline cache and its file, where the adapter has one.
+    pub(crate) disk_cache: Option<crate::pipeline::DiskCache>,
+    /// What the caller should tell the user ([`Self::take_warnings`]).
+    warnings: Mutex<Vec<String>>,
+}
+
+/// Opens a device on adapter `index` of [`list_adapters`]'s order, with
+/// its pipeline cache in `cache_dir` (`None`: none on disk).
+pub fn open_adapter(
+    index: usize,
+    cache_dir: Option<&std::path::Path>,
+) -> Result<GpuContext, GpuError> {
+    let adapters = adapters_in_order();
+    let adapter = adapters.get(index).ok_or_else(|| {
+        GpuError::Validation(format!(
+            "there is no adapter {index} (this machine has {})",
+            adapters.len()
+        ))
+    })?;
+    GpuContext::open_with_cache(adapter, cache_dir)
 }
 
 impl GpuContext {
@@ -115,8 +139,28 @@ impl GpuContext {
         Err(last_err.unwrap_or(GpuError::NoAdapter))
     }
 
-    /// Opens a device on `adapter`, if it can run the kernels.
+    /// Opens a device on `adapter`, if it can run the kernels, with the
+    /// on-disk pipeline cache in [`crate::pipeline::cache_dir`] on a
+    /// hardware adapter. A software adapter (lavapipe) gets none: its
+    /// driver cache holds every pipeline's machine code, megabytes each,
+    /// for the life of the device (the test suite's one device grew past
+    /// 20 GB with it).
     pub fn open(adapter: &wgpu::Adapter) -> Result<Self, GpuError> {
+        let software = adapter.get_info().device_type == wgpu::DeviceType::Cpu;
+        let dir = if software {
+            None
+        } else {
+            crate::pipeline::cache_dir()
+        };
+        Self::open_with_cache(adapter, dir.as_deref())
+    }
+
+    /// [`Self::open`] with the pipeline cache's folder given (`None`: no
+    /// cache on disk).
+    pub fn open_with_cache(
+        adapter: &wgpu::Adapter,
+        cache_dir: Option<&std::path::Path>,
+    ) -> Result<Self, GpuError> {
         let summary = summarize(adapter);
         let al = adapter.limits();
         if al.max_storage_buffers_per_shader_stage < STORAGE_BUFFERS_NEEDED {
@@ -137,13 +181,18 @@ impl GpuContext {
             max_buffer_size: al.max_buffer_size,
             ..wgpu::Limits::downlevel_defaults()
         };
+        let mut features = wgpu::Features::empty();
+        if timestamps {
+            features |= wgpu::Features::TIMESTAMP_QUERY;
+        }
+        let disk =
+            cache_dir.is_some() && adapter.features().contains(wgpu::Features::PIPELINE_CACHE);
+        if disk {
+            features |= wgpu::Features::PIPELINE_CACHE;
+        }
         let desc = wgpu::DeviceDescriptor {
             label: Some("twintrace"),
-            required_features: if timestamps {
-                wgpu::Features::TIMESTAMP_QUERY
-            } else {
-                wgpu::Features::empty()
-            },
+            required_features: features,
             required_limits: limits,
             ..Default::default()
         };
@@ -168,6 +217,12 @@ impl GpuContext {
             }
         }));
         let is_software = adapter.get_info().device_type == wgpu::DeviceType::Cpu;
+        let (disk_cache, warning) = match cache_dir {
+            Some(dir) if disk => {
+                crate::pipeline::DiskCache::open(&device, &adapter.get_info(), dir)
+            }
+            _ => (None, None),
+        };
         Ok(Self {
             device,
             queue,
@@ -176,7 +231,69 @@ impl GpuContext {
             timestamps,
             lost,
             uncaptured,
+            pipelines: std::sync::atomic::AtomicU64::new(0),
+            caches: crate::pipeline::Caches::new(is_software),
+            disk_cache,
+            warnings: Mutex::new(warning.into_iter().collect()),
         })
+    }
+
+    /// Fails where a buffer of `needed` bytes, `what`, cannot be bound as
+    /// one storage buffer on this device.
+    pub fn check_binding_size(&self, what: &'static str, needed: u64) -> Result<(), GpuError> {
+        let limit = self.device.limits().max_storage_buffer_binding_size;
+        if needed > limit {
+            return Err(GpuError::TooLarge {
+                adapter: self.adapter.name.clone(),
+                what,
+                needed,
+                limit,
+            });
+        }
+        Ok(())
+    }
+
+    /// Shader modules and pipelines the device's caches hold now (they
+    /// are bounded: `gpu::pipeline`).
+    pub fn cached_kernels(&self) -> (usize, usize) {
+        self.caches.held()
+    }
+
+    /// Warnings for the user since the last call (a pipeline cache that
+    /// could not be used or written), each one line.
+    pub fn take_warnings(&self) -> Vec<String> {
+        std::mem::take(&mut *self.warnings.lock().unwrap_or_else(|p| p.into_inner()))
+    }
+
+    /// The on-disk pipeline cache's file and the bytes loaded from it when
+    /// the device opened, where the device has one.
+    pub fn pipeline_cache(&self) -> Option<(&std::path::Path, usize)> {
+        self.disk_cache.as_ref().map(|d| (d.path(), d.loaded))
+    }
+
+    /// Writes the pipeline cache to its file now (it is also written when
+    /// the context is dropped).
+    pub fn save_pipeline_cache(&self) -> Result<(), GpuError> {
+        match &self.disk_cache {
+            Some(d) => d.save().map_err(|e| {
+                GpuError::Validation(format!(
+                    "pipeline cache {}: cannot write it: {e}",
+                    d.path().display()
+                ))
+            }),
+            None => Ok(()),
+        }
+    }
+
+    /// Compute pipelines created on this device so far: a progressive
+    /// render's ranges must add none.
+    pub fn pipelines_built(&self) -> u64 {
+        self.pipelines.load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    pub(crate) fn count_pipelines(&self, n: usize) {
+        self.pipelines
+            .fetch_add(n as u64, std::sync::atomic::Ordering::Relaxed);
     }
 
     /// Fails if the device was lost or an error went unreported.
@@ -201,5 +318,16 @@ impl GpuContext {
             .poll(wgpu::PollType::wait_indefinitely())
             .map_err(|e| GpuError::DeviceLost(e.to_string()))?;
         self.check()
+    }
+}
+
+impl Drop for GpuContext {
+    /// Writes the pipeline cache back; a failure costs only the next
+    /// run's compile time, so it is not reported here (the CLI saves
+    /// explicitly and reports).
+    fn drop(&mut self) {
+        if let Some(d) = &self.disk_cache {
+            let _ = d.save();
+        }
     }
 }

@@ -14,7 +14,6 @@ use reference::film::FilmSums;
 use reference::{RenderSettings, Scene};
 use std::ops::Range;
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
-use std::sync::Barrier;
 use std::time::{Duration, Instant};
 
 /// What `--devices` names: every hardware adapter (or, where there is
@@ -101,8 +100,147 @@ pub fn chunk_samples(samples: u32, devices: usize) -> u32 {
     (samples / (8 * devices.max(1) as u32)).max(1)
 }
 
+/// A scene uploaded to several devices, each with its kernels compiled
+/// and its own film on the device: what a progressive multi-device render
+/// adds sample ranges to ([`DeviceGroup::add`]) and reads once
+/// ([`DeviceGroup::read_sums`]).
+pub struct DeviceGroup<'a> {
+    renderers: Vec<GpuRenderer<'a>>,
+    /// Samples a pixel each device's film holds.
+    held: Vec<u32>,
+}
+
+impl<'a> DeviceGroup<'a> {
+    /// Uploads `scene` and compiles `variant`'s kernels on every context,
+    /// one thread each.
+    pub fn new(
+        contexts: &'a [GpuContext],
+        scene: &'a Scene,
+        variant: Variant,
+    ) -> Result<Self, GpuError> {
+        if contexts.is_empty() {
+            return Err(GpuError::NoAdapter);
+        }
+        let built: Vec<Result<GpuRenderer<'a>, GpuError>> = std::thread::scope(|s| {
+            let handles: Vec<_> = contexts
+                .iter()
+                .map(|ctx| s.spawn(move || GpuRenderer::with_variant(ctx, scene, variant)))
+                .collect();
+            join_all(handles, "build")
+        });
+        let renderers = built.into_iter().collect::<Result<Vec<_>, _>>()?;
+        let held = vec![0; renderers.len()];
+        Ok(Self { renderers, held })
+    }
+
+    /// The group's renderers, one a device.
+    pub fn renderers(&self) -> &[GpuRenderer<'a>] {
+        &self.renderers
+    }
+
+    /// Forgets every device's film: the next [`Self::add`] starts new ones.
+    pub fn reset(&mut self) {
+        self.held.iter_mut().for_each(|h| *h = 0);
+    }
+
+    /// Adds sample indices `samples` of every pixel to the devices' films:
+    /// each device (a thread each) takes chunks of `chunk` samples from a
+    /// shared counter until the range is done. `progress(samples done,
+    /// total)` after each chunk (pixels × samples). Returns each device's
+    /// share of this range.
+    pub fn add(
+        &mut self,
+        settings: &RenderSettings,
+        samples: Range<u32>,
+        chunk: u32,
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) -> Result<Vec<DeviceShare>, GpuError> {
+        if samples.start >= samples.end || chunk == 0 {
+            return Err(GpuError::Validation(format!(
+                "the sample range {}..{} is empty (or the chunk is 0)",
+                samples.start, samples.end
+            )));
+        }
+        let next = AtomicU32::new(samples.start);
+        let pixels = settings.width as u64 * settings.height as u64;
+        let total = (samples.end - samples.start) as u64 * pixels;
+        let done = AtomicU64::new(0);
+        let results: Vec<Result<(u32, DeviceShare), GpuError>> = std::thread::scope(|s| {
+            let handles: Vec<_> = self
+                .renderers
+                .iter()
+                .zip(&self.held)
+                .map(|(renderer, &held)| {
+                    let (next, done) = (&next, &done);
+                    let samples = samples.clone();
+                    s.spawn(move || -> Result<(u32, DeviceShare), GpuError> {
+                        let mut share = DeviceShare {
+                            adapter: renderer.adapter_name().to_string(),
+                            samples: 0,
+                        };
+                        let mut held = held;
+                        loop {
+                            let first = next.fetch_add(chunk, Ordering::Relaxed);
+                            if first >= samples.end {
+                                break;
+                            }
+                            let range = first..first.saturating_add(chunk).min(samples.end);
+                            let n = range.end - range.start;
+                            renderer.accumulate(settings, range, &|_, _| {}, held == 0)?;
+                            held += n;
+                            share.samples += n as u64;
+                            let d = done.fetch_add(n as u64 * pixels, Ordering::Relaxed)
+                                + n as u64 * pixels;
+                            progress(d, total);
+                        }
+                        Ok((held, share))
+                    })
+                })
+                .collect();
+            join_all(handles, "render")
+        });
+        let mut shares = Vec::with_capacity(results.len());
+        for (held, r) in self.held.iter_mut().zip(results) {
+            let (h, share) = r?;
+            *held = h;
+            shares.push(share);
+        }
+        Ok(shares)
+    }
+
+    /// The sums of every device's film, added (each film read back once).
+    pub fn read_sums(&self, settings: &RenderSettings) -> Result<FilmSums, GpuError> {
+        let mut sums = FilmSums::new(settings.width, settings.height);
+        for (renderer, &held) in self.renderers.iter().zip(&self.held) {
+            if held > 0 {
+                let film = renderer.read_film(settings, held)?;
+                sums.merge(&film).map_err(GpuError::Readback)?;
+            }
+        }
+        Ok(sums)
+    }
+}
+
+/// Each device thread's result; a thread that panicked is an error (its
+/// `work` named).
+fn join_all<T>(
+    handles: Vec<std::thread::ScopedJoinHandle<'_, Result<T, GpuError>>>,
+    work: &str,
+) -> Vec<Result<T, GpuError>> {
+    handles
+        .into_iter()
+        .map(|h| {
+            h.join().unwrap_or_else(|_| {
+                Err(GpuError::Readback(format!(
+                    "a device's {work} thread panicked"
+                )))
+            })
+        })
+        .collect()
+}
+
 /// Renders sample indices `samples` of `scene` with `variant` on every
-/// context of `contexts` (one thread each), in chunks of `chunk` samples
+/// context of `contexts` (a [`DeviceGroup`]), in chunks of `chunk` samples
 /// taken from a shared counter. `progress(samples done, total)` after
 /// each chunk (pixels × samples).
 pub fn render_on_devices(
@@ -114,79 +252,10 @@ pub fn render_on_devices(
     chunk: u32,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<MultiRender, GpuError> {
-    if samples.start >= samples.end || chunk == 0 {
-        return Err(GpuError::Validation(format!(
-            "the sample range {}..{} is empty (or the chunk is 0)",
-            samples.start, samples.end
-        )));
-    }
     let start = Instant::now();
-    let next = AtomicU32::new(samples.start);
-    let pixels = settings.width as u64 * settings.height as u64;
-    let total = (samples.end - samples.start) as u64 * pixels;
-    let done = AtomicU64::new(0);
-    let ready = Barrier::new(contexts.len());
-    let results: Vec<Result<(FilmSums, DeviceShare), GpuError>> = std::thread::scope(|s| {
-        let handles: Vec<_> = contexts
-            .iter()
-            .map(|ctx| {
-                let (next, done, ready) = (&next, &done, &ready);
-                let samples = samples.clone();
-                s.spawn(move || -> Result<(FilmSums, DeviceShare), GpuError> {
-                    // Every device builds its kernels before any takes a
-                    // chunk, so that the first does not take them all
-                    // while the others compile.
-                    let renderer = GpuRenderer::with_variant(ctx, scene, variant);
-                    ready.wait();
-                    let renderer = renderer?;
-                    // The device's chunks add up in its own film; it is
-                    // read back once, after its last chunk.
-                    let mut share = DeviceShare {
-                        adapter: ctx.adapter.name.clone(),
-                        samples: 0,
-                    };
-                    let mut held = 0u32;
-                    loop {
-                        let first = next.fetch_add(chunk, Ordering::Relaxed);
-                        if first >= samples.end {
-                            break;
-                        }
-                        let range = first..first.saturating_add(chunk).min(samples.end);
-                        let n = range.end - range.start;
-                        renderer.accumulate(settings, range, &|_, _| {}, held == 0, None)?;
-                        held += n;
-                        share.samples += n as u64;
-                        let d = done.fetch_add(n as u64 * pixels, Ordering::Relaxed)
-                            + n as u64 * pixels;
-                        progress(d, total);
-                    }
-                    let sums = if held == 0 {
-                        FilmSums::new(settings.width, settings.height)
-                    } else {
-                        renderer.read_film(settings, held)?
-                    };
-                    Ok((sums, share))
-                })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| {
-                h.join().unwrap_or_else(|_| {
-                    Err(GpuError::Readback(
-                        "a device's render thread panicked".into(),
-                    ))
-                })
-            })
-            .collect()
-    });
-    let mut sums = FilmSums::new(settings.width, settings.height);
-    let mut shares = Vec::with_capacity(results.len());
-    for r in results {
-        let (film, share) = r?;
-        sums.merge(&film).map_err(GpuError::Readback)?;
-        shares.push(share);
-    }
+    let mut group = DeviceGroup::new(contexts, scene, variant)?;
+    let shares = group.add(settings, samples, chunk, progress)?;
+    let sums = group.read_sums(settings)?;
     Ok(MultiRender {
         sums,
         shares,

@@ -4,11 +4,12 @@
 //! hit records come back so that the caller can check them against the
 //! reference.
 
-use crate::bindings::{self, Binding};
+use crate::bindings;
 use crate::context::GpuContext;
 use crate::error::GpuError;
 use crate::features::FEATURES_CONSTANT;
-use crate::renderer::{bind_group_layout, compile_with, read_buffer, read_timestamps, GpuRenderer};
+use crate::pipeline::compile_with;
+use crate::renderer::{bind_group_layout, read_buffer, read_timestamps, GpuRenderer};
 use reference::geometry::Ray;
 use reference::Scene;
 use std::time::{Duration, Instant};
@@ -88,11 +89,8 @@ pub fn trace_closest(
         SNIPPET,
     ]
     .join("\n");
-    let io_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("rays io"),
-        entries: &bindings::TEST_IO_GROUP.map(|b: Binding| b.layout_entry()),
-    });
-    let scene_layout = bind_group_layout(device);
+    let io_layout = crate::pipeline::layout(ctx, "rays io", &bindings::TEST_IO_GROUP);
+    let scene_layout = bind_group_layout(ctx);
     let pipeline = compile_with(
         ctx,
         &source,

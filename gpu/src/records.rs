@@ -235,6 +235,11 @@ impl GpuPixel {
     pub fn to_sums(&self) -> reference::film::PixelSums {
         reference::film::PixelSums::from_words(bytemuck::cast_ref(self))
     }
+
+    /// The record of the reference's sums ([`Self::to_sums`]'s inverse).
+    pub fn from_sums(sums: &reference::film::PixelSums) -> Self {
+        bytemuck::cast(sums.to_words())
+    }
 }
 
 gpu_record! {

@@ -6,7 +6,9 @@ use crate::bindings::{self, Binding};
 use crate::context::GpuContext;
 use crate::error::GpuError;
 use crate::features::{Dispatch, Features, Kernel, DISPATCH_CONSTANT, FEATURES_CONSTANT};
-use crate::records::{GpuParams, GpuPixel};
+use crate::film::film_bytes;
+use crate::pipeline::compile_with;
+use crate::records::GpuParams;
 use crate::scene_buffers::{pack_background, PackedScene};
 use crate::shader;
 use crate::traversal::{
@@ -124,6 +126,14 @@ pub struct GpuSums {
     pub dispatches: u32,
 }
 
+/// What [`GpuRenderer::accumulate`] did: the GPU time of its kernel
+/// dispatches, where the adapter has timestamp queries, and their count.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Accumulated {
+    pub gpu_time: Option<Duration>,
+    pub dispatches: u32,
+}
+
 /// A render's film, its sums and, where the adapter has timestamp
 /// queries, the GPU time of the kernel dispatches.
 pub struct GpuRender {
@@ -183,7 +193,7 @@ pub struct GpuRenderer<'a> {
     wave_cache: std::sync::Mutex<Option<wavefront::WaveBuffers>>,
     /// The last render's film buffer, kept for the next render of that
     /// size.
-    film_cache: std::sync::Mutex<Option<wgpu::Buffer>>,
+    pub(crate) film_cache: std::sync::Mutex<Option<wgpu::Buffer>>,
 }
 
 /// The pipeline constants of a records' layout (walk and leaves) and a
@@ -203,82 +213,9 @@ fn shared_constants(
 }
 
 /// The bind group layout shared by the render kernel and the test kernels
-/// ([`bindings::scene_group`]).
-pub fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
-    let entries: Vec<_> = bindings::scene_group()
-        .iter()
-        .map(Binding::layout_entry)
-        .collect();
-    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("twintrace scene"),
-        entries: &entries,
-    })
-}
-
-/// Compiles a WGSL program and one entry point into a compute pipeline,
-/// reporting compile and validation errors as `GpuError::Shader`.
-pub fn compile(
-    ctx: &GpuContext,
-    source: &str,
-    entry: &str,
-    layouts: &[&wgpu::BindGroupLayout],
-) -> Result<wgpu::ComputePipeline, GpuError> {
-    compile_with(ctx, source, entry, layouts, &[])
-}
-
-/// [`compile`] with values for the program's pipeline-overridable
-/// constants (`override NAME` in WGSL).
-pub fn compile_with(
-    ctx: &GpuContext,
-    source: &str,
-    entry: &str,
-    layouts: &[&wgpu::BindGroupLayout],
-    constants: &[(&str, f64)],
-) -> Result<wgpu::ComputePipeline, GpuError> {
-    let mut p = compile_entries(ctx, source, &[(entry, layouts)], constants)?;
-    Ok(p.remove(0))
-}
-
-/// One shader module, a pipeline for each entry point with its bind group
-/// layouts.
-pub fn compile_entries(
-    ctx: &GpuContext,
-    source: &str,
-    entries: &[(&str, &[&wgpu::BindGroupLayout])],
-    constants: &[(&str, f64)],
-) -> Result<Vec<wgpu::ComputePipeline>, GpuError> {
-    let device = &ctx.device;
-    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: entries.first().map(|e| e.0),
-        source: wgpu::ShaderSource::Wgsl(source.into()),
-    });
-    let pipelines = entries
-        .iter()
-        .map(|(entry, layouts)| {
-            let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some(entry),
-                bind_group_layouts: &layouts.iter().map(|l| Some(*l)).collect::<Vec<_>>(),
-                immediate_size: 0,
-            });
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: Some(&pl),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: wgpu::PipelineCompilationOptions {
-                    constants,
-                    ..Default::default()
-                },
-                cache: None,
-            })
-        })
-        .collect();
-    if let Some(e) = pollster::block_on(scope.pop()) {
-        return Err(GpuError::Shader(e.to_string()));
-    }
-    ctx.check()?;
-    Ok(pipelines)
+/// ([`bindings::scene_group`]; one per device, [`crate::pipeline::scene_layout`]).
+pub fn bind_group_layout(ctx: &GpuContext) -> wgpu::BindGroupLayout {
+    crate::pipeline::scene_layout(ctx)
 }
 
 impl<'a> GpuRenderer<'a> {
@@ -418,19 +355,11 @@ impl<'a> GpuRenderer<'a> {
             schedule,
             dispatch,
         } = spec;
-        let limit = ctx.device.limits().max_storage_buffer_binding_size;
         let device = &ctx.device;
         let arrays = packed.arrays();
         let mut scene_buffers = Vec::with_capacity(arrays.len());
         for (binding, bytes) in arrays {
-            if bytes.len() as u64 > limit {
-                return Err(GpuError::TooLarge {
-                    adapter: ctx.adapter.name.clone(),
-                    what: binding.name,
-                    needed: bytes.len() as u64,
-                    limit,
-                });
-            }
+            ctx.check_binding_size(binding.name, bytes.len() as u64)?;
             // Bindings may not be empty: an empty array gets one zero record.
             let zeros = [0u8; 64]; // at least one of the largest record (48 bytes)
             let contents = if bytes.is_empty() {
@@ -445,7 +374,7 @@ impl<'a> GpuRenderer<'a> {
             });
             scene_buffers.push((binding, buffer));
         }
-        let layout = bind_group_layout(device);
+        let layout = bind_group_layout(ctx);
         let [node_layout, walk, leaves, dispatching] = shared_constants(
             packed.traversal,
             packed.node_layout,
@@ -526,6 +455,16 @@ impl<'a> GpuRenderer<'a> {
             self.leaves,
             self.dispatch,
         )
+    }
+
+    /// The device the renderer runs on.
+    pub fn context(&self) -> &'a GpuContext {
+        self.ctx
+    }
+
+    /// The name of the device's adapter.
+    pub fn adapter_name(&self) -> &str {
+        &self.ctx.adapter.name
     }
 
     pub fn set_wave_slots(&mut self, slots: Option<u32>) {
@@ -628,23 +567,26 @@ impl<'a> GpuRenderer<'a> {
         progress: &dyn Fn(u64, u64),
     ) -> Result<GpuSums, GpuError> {
         let spp = samples.end.saturating_sub(samples.start);
-        let out = self.accumulate(settings, samples, progress, true, Some(spp))?;
-        Ok(out.expect("read back"))
+        let out = self.accumulate(settings, samples, progress, true)?;
+        let sums = self.read_film(settings, spp)?;
+        Ok(GpuSums {
+            sums,
+            gpu_time: out.gpu_time,
+            dispatches: out.dispatches,
+        })
     }
 
     /// Adds the samples `samples` to the device's film: cleared first
-    /// where `clear`, else the film the last call left (a chunk of a
-    /// multi-device render, `crate::devices`); read back where
-    /// `read_back` gives the samples a pixel the film must then hold
-    /// (`None`: the film stays on the device, nothing is returned).
-    pub(crate) fn accumulate(
+    /// where `clear`, else the film the last call left (a progressive
+    /// render's earlier ranges, a chunk of a multi-device render). The
+    /// film stays on the device ([`Self::read_film`] reads it).
+    pub fn accumulate(
         &self,
         settings: &RenderSettings,
         samples: std::ops::Range<u32>,
         progress: &dyn Fn(u64, u64),
         clear: bool,
-        read_back: Option<u32>,
-    ) -> Result<Option<GpuSums>, GpuError> {
+    ) -> Result<Accumulated, GpuError> {
         if samples.start >= samples.end {
             return Err(GpuError::Validation(format!(
                 "the sample range {}..{} is empty",
@@ -668,15 +610,7 @@ impl<'a> GpuRenderer<'a> {
         let device = &ctx.device;
         let pixels = settings.width as u64 * settings.height as u64;
         let film_bytes = film_bytes(settings);
-        let limit = device.limits().max_storage_buffer_binding_size;
-        if film_bytes > limit {
-            return Err(GpuError::TooLarge {
-                adapter: ctx.adapter.name.clone(),
-                what: "the film",
-                needed: film_bytes,
-                limit,
-            });
-        }
+        ctx.check_binding_size("the film", film_bytes)?;
         // The film buffer of the last render of this size is reused (and
         // cleared by the first submit), as the wave buffers are: taken out
         // of the cache for the render (a concurrent render on this
@@ -816,63 +750,14 @@ impl<'a> GpuRenderer<'a> {
             Some(qs) => Some(read_timestamps(ctx, qs, batches as u32)?),
             None => None,
         };
-        let Some(expected) = read_back else {
-            // Kept on the device for the next chunk.
-            if let Ok(mut c) = self.film_cache.lock() {
-                *c = Some(film);
-            }
-            return Ok(None);
-        };
+        // Kept on the device for the next range and the readback.
         if let Ok(mut c) = self.film_cache.lock() {
             *c = Some(film);
         }
-        let sums = self.read_film(settings, expected)?;
-        Ok(Some(GpuSums {
-            sums,
+        Ok(Accumulated {
             gpu_time,
             dispatches: batches.min(u32::MAX as u64) as u32,
-        }))
-    }
-}
-
-/// Bytes of the device film of a render: 56 words a pixel
-/// ([`crate::records::film_words`]).
-fn film_bytes(settings: &RenderSettings) -> u64 {
-    settings.width as u64 * settings.height as u64 * std::mem::size_of::<GpuPixel>() as u64
-}
-
-impl GpuRenderer<'_> {
-    /// The film [`GpuRenderer::accumulate`] left on the device, read back;
-    /// every pixel must hold `expected` samples.
-    pub(crate) fn read_film(
-        &self,
-        settings: &RenderSettings,
-        expected: u32,
-    ) -> Result<FilmSums, GpuError> {
-        let film_bytes = film_bytes(settings);
-        let film = self
-            .film_cache
-            .lock()
-            .ok()
-            .and_then(|mut c| c.take())
-            .filter(|f| f.size() == film_bytes)
-            .ok_or_else(|| GpuError::Readback("no film of this size on the device".into()))?;
-        let words: Vec<u32> = read_buffer(self.ctx, &film, film_bytes)?;
-        let gpu_pixels = crate::records::film_pixels(&words);
-        let mut sums = FilmSums::new(settings.width, settings.height);
-        for (dst, src) in sums.pixels.iter_mut().zip(&gpu_pixels) {
-            if src.count as u64 + src.rejected as u64 != expected as u64 {
-                return Err(GpuError::Readback(format!(
-                    "a pixel holds {} samples instead of {expected}: the kernel did not run to completion",
-                    src.count as u64 + src.rejected as u64,
-                )));
-            }
-            *dst = src.to_sums();
-        }
-        if let Ok(mut c) = self.film_cache.lock() {
-            *c = Some(film);
-        }
-        Ok(sums)
+        })
     }
 }
 

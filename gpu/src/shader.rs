@@ -53,11 +53,14 @@ pub const LIBRARY_FILES: [(&str, &str); 11] = [
     ("background", include_str!("../../shaders/background.wgsl")),
     ("material", include_str!("../../shaders/material.wgsl")),
     ("light", include_str!("../../shaders/light.wgsl")),
-    ("film", include_str!("../../shaders/film.wgsl")),
+    ("film", FILM_WGSL),
 ];
 
 /// The render kernel (film binding, path loop, entry point): the twin of
 /// `reference/src/integrator.rs`.
+/// shaders/film.wgsl: the film's exact sums and the layers computed from them.
+pub const FILM_WGSL: &str = include_str!("../../shaders/film.wgsl");
+
 pub const INTEGRATOR_WGSL: &str = include_str!("../../shaders/integrator.wgsl");
 
 /// The wavefront variant's kernels (`gpu::wavefront`), compiled after the

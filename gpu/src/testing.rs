@@ -4,11 +4,12 @@
 //! group 1 with `input` and `output` words ([`bindings::TEST_IO_GROUP`]),
 //! and a snippet with an entry point.
 
-use crate::bindings::{self, Binding};
+use crate::bindings;
 use crate::context::GpuContext;
 use crate::error::GpuError;
+use crate::pipeline::compile_with;
 use crate::records::{GpuParams, GpuPixel};
-use crate::renderer::{bind_group_layout, compile_with, read_buffer, GpuRenderer};
+use crate::renderer::{bind_group_layout, read_buffer, GpuRenderer};
 use wgpu::util::DeviceExt;
 
 /// A test kernel run.
@@ -65,11 +66,8 @@ pub fn run_test_kernel_with_library(
         snippet,
     ]
     .join("\n");
-    let io_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("test io"),
-        entries: &bindings::TEST_IO_GROUP.map(|b: Binding| b.layout_entry()),
-    });
-    let scene_layout = bind_group_layout(device);
+    let io_layout = crate::pipeline::layout(ctx, "test io", &bindings::TEST_IO_GROUP);
+    let scene_layout = bind_group_layout(ctx);
     // The renderer's walk and leaves: its records are laid out for them.
     let pipeline = compile_with(
         ctx,

@@ -14,11 +14,11 @@
 //! contracts the two programs differently (`twintrace::twins::wavefront`,
 //! tests/gpu_wavefront.rs).
 
-use crate::bindings::{self, Binding};
+use crate::bindings;
 use crate::context::GpuContext;
 use crate::error::GpuError;
+use crate::pipeline::compile_entries;
 use crate::records::GpuParams;
-use crate::renderer::compile_entries;
 use crate::traversal::{LeafLayout, Traversal};
 
 /// Words of one path's state (the `PF_…` fields of shaders/wavefront.wgsl,
@@ -132,7 +132,29 @@ pub struct Variant {
     pub dispatch: crate::Dispatch,
 }
 
+impl Default for Variant {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
 impl Variant {
+    /// The variant a render runs unless told otherwise: the CLI's,
+    /// `perf`'s and `selftest`'s default, defined here only. MIS; the
+    /// kernel specialized to the scene; one invocation a path
+    /// ([`Schedule::PathMegakernel`]: fills the GPU at any image size);
+    /// the binary walk over array-of-structs nodes; inline leaf entries
+    /// (1.03-1.2x on an H100, docs/benchmarks.md); switch dispatch.
+    pub const DEFAULT: Variant = Variant {
+        integrator: reference::integrator::Integrator::Mis,
+        kernel: crate::Kernel::Specialized,
+        schedule: Schedule::PathMegakernel,
+        traversal: Traversal::Binary,
+        nodes: crate::NodeLayout::Aos,
+        leaves: LeafLayout::Inline,
+        dispatch: crate::Dispatch::Switch,
+    };
+
     /// `schedule` running `integrator` in its plain form: the kernel
     /// specialized to the scene, the binary walk over array-of-structs
     /// nodes and indexed leaves, switch dispatch.
@@ -236,14 +258,6 @@ enum Stages {
     Paths(wgpu::ComputePipeline),
 }
 
-fn layout(device: &wgpu::Device, label: &str, group: &[Binding]) -> wgpu::BindGroupLayout {
-    let entries: Vec<_> = group.iter().map(Binding::layout_entry).collect();
-    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some(label),
-        entries: &entries,
-    })
-}
-
 impl Pipelines {
     /// Compiles the wave kernels of `schedule` (the wavefront's, or the
     /// path megakernel's) from `program` (`shader::wavefront_source`, or a
@@ -272,9 +286,9 @@ impl Pipelines {
                 ),
             });
         }
-        let device = &ctx.device;
-        let wave_layout = layout(device, "wavefront paths", &bindings::WAVE_GROUP);
-        let args_layout = layout(device, "wavefront arguments", &[bindings::WAVE_ARGS]);
+        let wave_layout = crate::pipeline::layout(ctx, "wavefront paths", &bindings::WAVE_GROUP);
+        let args_layout =
+            crate::pipeline::layout(ctx, "wavefront arguments", &[bindings::WAVE_ARGS]);
         let path_layout = match schedule {
             Schedule::Wavefront(l) => l,
             _ => PathLayout::Soa,

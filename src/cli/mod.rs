@@ -23,6 +23,7 @@ pub mod diff;
 pub mod export;
 pub mod perf;
 pub mod selftest;
+pub mod spec;
 
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Parser, Subcommand, ValueEnum};
@@ -121,58 +122,22 @@ pub struct RenderArgs {
     /// Preset for spp and depth: low = 64/4, medium = 256/16, high = 2048/64.
     #[arg(long, value_enum)]
     pub quality: Option<Quality>,
-    /// Display transform for the PNG (the EXR is always linear).
-    #[arg(long, value_enum, default_value_t = Tonemap::Aces)]
-    pub tonemap: Tonemap,
     /// Worker threads for the CPU backend (default: one per core).
     #[arg(long)]
     pub threads: Option<usize>,
-    /// The estimator: mis (light sampling and BSDF sampling combined by
-    /// multiple importance sampling) or bsdf (BSDF sampling only), on
-    /// either backend.
-    #[arg(long, value_enum, default_value_t = IntegratorArg::Mis)]
-    pub integrator: IntegratorArg,
-    /// The GPU's render kernel: specialized (built without the code of
-    /// the features the scene does not use) or general (every feature's
-    /// code; it renders the same image bit for bit).
-    #[arg(long, value_enum, default_value_t = KernelArg::Specialized)]
-    pub kernel: KernelArg,
-    /// How the GPU schedules the paths: megakernel-paths (the default: one
-    /// invocation per path of a wave, the film folded after; fills the GPU
-    /// at any image size), megakernel (one invocation traces a pixel's
-    /// paths to the end), wavefront (kernels per stage over
-    /// queues of live paths, path state as an array of structs) or
-    /// wavefront-soa (the same, structure of arrays). All render the same
-    /// image (bit for bit, or a few ulp apart where the driver contracts
-    /// arithmetic differently).
-    #[arg(long, value_enum, default_value_t = ScheduleArg::MegakernelPaths)]
-    pub schedule: ScheduleArg,
-    /// How the GPU walks the scene: bvh2 (the reference's binary BVH),
-    /// bvh4 (the same tree, four children a node) or brute (every
-    /// primitive tested; for tiny scenes). All find the same hits, so
-    /// they render the same image.
-    #[arg(long, value_enum, default_value_t = TraversalArg::Bvh2)]
-    pub traversal: TraversalArg,
-    /// How the GPU's BVH leaves hold their primitives: inline (the
-    /// default: each leaf entry a 64-byte copy of what its test reads, in
-    /// leaf order; 1.03-1.2x faster on an H100, 60 more bytes a
-    /// primitive), inline-soa (the same entries as a structure of arrays
-    /// of their four 16-byte words) or indexed (primitive ids: a test
-    /// reads the primitive's record, then its shape's). All test the same
-    /// floats: the same image.
-    #[arg(long, value_enum, default_value_t = LeavesArg::Inline)]
-    pub leaves: LeavesArg,
-    /// How the GPU's BVH node records are laid out: aos (the default:
-    /// each 32-byte record's two 16-byte words side by side) or soa (every
-    /// record's first word, then every record's second; 0.91-0.96x on an
-    /// H100). The same records: the same image.
-    #[arg(long, value_enum, default_value_t = NodesArg::Aos)]
-    pub nodes: NodesArg,
-    /// How the GPU kernel picks a primitive's intersection and a
-    /// material's sampling code from their tags: switch (the default) or
-    /// branches (a chain of tag tests). The same image.
-    #[arg(long, value_enum, default_value_t = DispatchArg::Switch)]
-    pub dispatch: DispatchArg,
+    /// Render for this long (e.g. 90s, 2m, 1.5h, 500ms; plain seconds):
+    /// samples are added until the next would end past it. --spp (or
+    /// --quality), if given, still caps the samples.
+    #[arg(long, value_name = "DURATION", allow_hyphen_values = true)]
+    pub time: Option<String>,
+    /// Render until the film's own estimate of the relative MSE of its
+    /// mean reaches X (docs/gates.md: how it is estimated and how close
+    /// the true error lands). --spp (or --quality), if given, caps the
+    /// samples.
+    #[arg(long, value_name = "X", allow_hyphen_values = true)]
+    pub target_relmse: Option<f64>,
+    #[command(flatten)]
+    pub look: spec::LookArgs,
     /// Render only sample indices A..B of every pixel (the same samples a
     /// whole render traces for them) and write a partial film, with its
     /// exact sums, for `twintrace merge`. Any split works (no alignment).
@@ -185,6 +150,8 @@ pub struct RenderArgs {
     /// kind, the one-device image bit for bit.
     #[arg(long, value_name = "all|LIST")]
     pub devices: Option<String>,
+    #[command(flatten)]
+    pub variant: spec::VariantArgs,
 }
 
 #[derive(Debug, Args)]
@@ -199,126 +166,6 @@ pub struct MergeArgs {
     /// Display transform for the PNG (the EXR is always linear).
     #[arg(long, value_enum, default_value_t = Tonemap::Aces)]
     pub tonemap: Tonemap,
-}
-
-/// `--dispatch`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum DispatchArg {
-    Switch,
-    Branches,
-}
-
-impl DispatchArg {
-    pub fn dispatch(self) -> gpu::Dispatch {
-        match self {
-            DispatchArg::Switch => gpu::Dispatch::Switch,
-            DispatchArg::Branches => gpu::Dispatch::Branches,
-        }
-    }
-}
-
-/// `--nodes`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum NodesArg {
-    Aos,
-    Soa,
-}
-
-impl NodesArg {
-    pub fn nodes(self) -> gpu::NodeLayout {
-        match self {
-            NodesArg::Aos => gpu::NodeLayout::Aos,
-            NodesArg::Soa => gpu::NodeLayout::Soa,
-        }
-    }
-}
-
-/// `--leaves`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum LeavesArg {
-    Indexed,
-    Inline,
-    InlineSoa,
-}
-
-impl LeavesArg {
-    pub fn leaves(self) -> gpu::LeafLayout {
-        match self {
-            LeavesArg::Indexed => gpu::LeafLayout::Indexed,
-            LeavesArg::Inline => gpu::LeafLayout::Inline,
-            LeavesArg::InlineSoa => gpu::LeafLayout::InlineSoa,
-        }
-    }
-}
-
-/// `--traversal`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum TraversalArg {
-    Bvh2,
-    Bvh4,
-    Brute,
-}
-
-impl TraversalArg {
-    pub fn traversal(self) -> gpu::Traversal {
-        match self {
-            TraversalArg::Bvh2 => gpu::Traversal::Binary,
-            TraversalArg::Bvh4 => gpu::Traversal::Wide,
-            TraversalArg::Brute => gpu::Traversal::BruteForce,
-        }
-    }
-}
-
-/// `--schedule`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum ScheduleArg {
-    Megakernel,
-    Wavefront,
-    WavefrontSoa,
-    MegakernelPaths,
-}
-
-impl ScheduleArg {
-    pub fn schedule(self) -> gpu::Schedule {
-        match self {
-            ScheduleArg::Megakernel => gpu::Schedule::Megakernel,
-            ScheduleArg::Wavefront => gpu::Schedule::Wavefront(gpu::PathLayout::Aos),
-            ScheduleArg::WavefrontSoa => gpu::Schedule::Wavefront(gpu::PathLayout::Soa),
-            ScheduleArg::MegakernelPaths => gpu::Schedule::PathMegakernel,
-        }
-    }
-}
-
-/// `--kernel`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum KernelArg {
-    Specialized,
-    General,
-}
-
-impl KernelArg {
-    pub fn kernel(self) -> gpu::Kernel {
-        match self {
-            KernelArg::Specialized => gpu::Kernel::Specialized,
-            KernelArg::General => gpu::Kernel::General,
-        }
-    }
-}
-
-/// `--integrator`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum IntegratorArg {
-    Bsdf,
-    Mis,
-}
-
-impl IntegratorArg {
-    pub fn integrator(self) -> reference::integrator::Integrator {
-        match self {
-            IntegratorArg::Bsdf => reference::integrator::Integrator::Bsdf,
-            IntegratorArg::Mis => reference::integrator::Integrator::Mis,
-        }
-    }
 }
 
 #[derive(Debug, Args)]
@@ -391,7 +238,7 @@ pub fn load_scene(spec: &str) -> Result<Scene> {
 /// The device a render runs on, once chosen.
 pub(crate) enum Device {
     Cpu,
-    Gpu(gpu::GpuContext),
+    Gpu(Box<gpu::GpuContext>),
     /// `--devices`: several devices sharing the samples.
     Gpus(Vec<gpu::GpuContext>),
 }
@@ -402,19 +249,21 @@ pub(crate) enum Device {
 /// Returns the device, its name for the summary line, and why it was
 /// chosen (for `auto`'s note).
 pub(crate) fn choose_device(backend: Backend) -> Result<(Device, String, String)> {
-    let gpu_name =
-        |ctx: &gpu::GpuContext| format!("gpu `{}` ({})", ctx.adapter.name, ctx.adapter.backend);
+    let gpu_name = |ctx: &gpu::GpuContext| {
+        print_warnings(ctx);
+        format!("gpu `{}` ({})", ctx.adapter.name, ctx.adapter.backend)
+    };
     match backend {
         Backend::Cpu => Ok((Device::Cpu, "cpu reference".into(), String::new())),
         Backend::Gpu => {
             let ctx = gpu::GpuContext::new().map_err(|e| anyhow!("--backend gpu: {e}"))?;
             let name = gpu_name(&ctx);
-            Ok((Device::Gpu(ctx), name, String::new()))
+            Ok((Device::Gpu(Box::new(ctx)), name, String::new()))
         }
         Backend::Auto => match gpu::GpuContext::new() {
             Ok(ctx) if !ctx.is_software => {
                 let name = gpu_name(&ctx);
-                Ok((Device::Gpu(ctx), name, String::new()))
+                Ok((Device::Gpu(Box::new(ctx)), name, String::new()))
             }
             Ok(ctx) => Ok((
                 Device::Cpu,
@@ -429,15 +278,88 @@ pub(crate) fn choose_device(backend: Backend) -> Result<(Device, String, String)
     }
 }
 
+/// Opens the device `--backend` and `--devices` name; the device, its
+/// name for the summary line, and why it was chosen (for `auto`'s note).
+fn open_device(args: &RenderArgs) -> Result<(Device, String, String)> {
+    let Some(list) = &args.devices else {
+        return choose_device(args.backend);
+    };
+    if args.backend == Backend::Cpu {
+        bail!("--devices: the cpu backend runs on one machine's cores (use --backend gpu)");
+    }
+    let selection = gpu::devices::DeviceSelection::parse(list).map_err(|e| anyhow!(e))?;
+    let contexts = selection
+        .open()
+        .map_err(|e| anyhow!("--devices {list}: {e}"))?;
+    contexts.iter().for_each(print_warnings);
+    Ok((Device::Gpus(contexts), String::new(), String::new()))
+}
+
+/// Prints what a device has to tell the user (a pipeline cache it could
+/// not use), one `warning:` line each.
+pub(crate) fn print_warnings(ctx: &gpu::GpuContext) {
+    for w in ctx.take_warnings() {
+        eprintln!("warning: {w}");
+    }
+}
+
+/// `--time DURATION`: `90s`, `2m`, `1.5h`, `500ms` or plain seconds.
+pub fn parse_duration(text: &str) -> Result<std::time::Duration> {
+    let t = text.trim();
+    let (number, scale) = [("ms", 1e-3), ("s", 1.0), ("m", 60.0), ("h", 3600.0)]
+        .iter()
+        .find_map(|(unit, scale)| t.strip_suffix(unit).map(|n| (n, *scale)))
+        .unwrap_or((t, 1.0));
+    match number.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 && v * scale < 1e9 => {
+            Ok(std::time::Duration::from_secs_f64(v * scale))
+        }
+        _ => bail!("--time `{text}`: expected a positive duration such as 90s, 2m, 1.5h or 500ms"),
+    }
+}
+
+/// The budget of `--time` and `--target-relmse`, if either is given.
+fn budget(
+    args: &RenderArgs,
+    settings: &RenderSettings,
+) -> Result<Option<twintrace::render::Budget>> {
+    let time = args.time.as_deref().map(parse_duration).transpose()?;
+    if let Some(x) = args.target_relmse {
+        if !(x.is_finite() && x > 0.0) {
+            bail!("--target-relmse {x}: expected a positive relative MSE such as 1e-3");
+        }
+    }
+    if time.is_none() && args.target_relmse.is_none() {
+        return Ok(None);
+    }
+    if args.samples.is_some() {
+        bail!("--samples renders a fixed range; it cannot be given with --time or --target-relmse");
+    }
+    let capped = args.spp.is_some() || args.quality.is_some();
+    Ok(Some(twintrace::render::Budget {
+        max_samples: if capped {
+            settings.spp
+        } else {
+            reference::scene::MAX_SPP
+        },
+        time,
+        target_relmse: args.target_relmse,
+    }))
+}
+
 fn render(args: &RenderArgs) -> Result<()> {
+    use twintrace::render::{CpuProgressive, GpuProgressive, GroupProgressive, Progressive};
     if args.threads == Some(0) {
         bail!("--threads 0: at least one thread is needed");
     }
-    // Fail on an unusable output path now, not after a long render.
+    // Fail on an unusable output path or option now, not after a long render.
     let paths = image_io::output_paths(&args.output)?;
     drop(AtomicFile::create(&paths.exr)?);
     if let Some(size) = &args.size {
         size_arg(size)?;
+    }
+    if let Some(t) = &args.time {
+        parse_duration(t)?;
     }
     let samples = args
         .samples
@@ -458,6 +380,7 @@ fn render(args: &RenderArgs) -> Result<()> {
         // The range, not spp, says which samples are traced.
         settings.spp = range.end - range.start;
     }
+    let budget = budget(args, &settings)?;
     let pool = match args.threads {
         Some(n) => Some(
             rayon::ThreadPoolBuilder::new()
@@ -467,26 +390,22 @@ fn render(args: &RenderArgs) -> Result<()> {
         ),
         None => None,
     };
-
-    let integrator = args.integrator.integrator();
-    let (device, device_name, why) = match &args.devices {
-        Some(list) => {
-            if args.backend == Backend::Cpu {
-                bail!("--devices: the cpu backend runs on one machine's cores (use --backend gpu)");
+    let spec = spec::spec(&args.look, &args.variant);
+    let (device, _, why) = open_device(args)?;
+    let mut progressive: Box<dyn Progressive + '_> = match &device {
+        Device::Cpu => Box::new(CpuProgressive::new(&scene, &spec, settings, pool.as_ref())?),
+        Device::Gpu(ctx) => {
+            let render = GpuProgressive::new(ctx, &scene, &spec, settings)?;
+            if let (_, Some(why)) = render.renderer().traversal() {
+                eprintln!("warning: {why}");
             }
-            let selection = gpu::devices::DeviceSelection::parse(list).map_err(|e| anyhow!(e))?;
-            let contexts = selection
-                .open()
-                .map_err(|e| anyhow!("--devices {list}: {e}"))?;
-            let names: Vec<String> = contexts
-                .iter()
-                .map(|c| format!("`{}`", c.adapter.name))
-                .collect();
-            let name = format!("{} gpus ({})", contexts.len(), names.join(", "));
-            (Device::Gpus(contexts), name, String::new())
+            Box::new(render)
         }
-        None => choose_device(args.backend)?,
+        Device::Gpus(contexts) => {
+            Box::new(GroupProgressive::new(contexts, &scene, &spec, settings)?)
+        }
     };
+    let device_name = progressive.device();
     if args.backend == Backend::Auto {
         // Printed only once everything is checked, so that a failing run
         // prints nothing but its error line.
@@ -494,66 +413,14 @@ fn render(args: &RenderArgs) -> Result<()> {
     }
 
     let pixels = settings.width as u64 * settings.height as u64;
-    let bar = indicatif::ProgressBar::new(pixels * settings.spp as u64);
-    if let Ok(style) = indicatif::ProgressStyle::with_template(
-        "rendering {wide_bar} {percent:>3}% {elapsed_precise} (eta {eta})",
-    ) {
-        bar.set_style(style);
-    }
     let start = Instant::now();
-    let mut gpu_time = None;
-    let variant = gpu::Variant {
-        integrator,
-        kernel: args.kernel.kernel(),
-        schedule: args.schedule.schedule(),
-        traversal: args.traversal.traversal(),
-        nodes: args.nodes.nodes(),
-        leaves: args.leaves.leaves(),
-        dispatch: args.dispatch.dispatch(),
-    };
-    let (film, sums) = match &device {
-        Device::Cpu => {
-            let progress = |n: u64| bar.inc(n * settings.spp as u64);
+    let (gpu_time, stopped) = match &budget {
+        None => {
+            let bar = progress_bar(pixels * settings.spp as u64);
             let range = samples.clone().unwrap_or(0..settings.spp);
-            let render = || {
-                reference::integrator::render_samples(
-                    &scene,
-                    &settings,
-                    integrator,
-                    range.clone(),
-                    &progress,
-                )
-            };
-            let film_sums = match &pool {
-                Some(pool) => pool.install(render),
-                None => render(),
-            };
-            (film_sums.to_film(), film_sums)
-        }
-        Device::Gpu(ctx) => {
-            let renderer = gpu::GpuRenderer::with_variant(ctx, &scene, variant)?;
-            if let (_, Some(why)) = renderer.traversal() {
-                eprintln!("warning: {why}");
-            }
-            let range = samples.clone().unwrap_or(0..settings.spp);
-            let out =
-                renderer.render_samples(&settings, range, &|done, _| bar.set_position(done))?;
-            gpu_time = out.gpu_time;
-            (out.film, out.sums)
-        }
-        Device::Gpus(contexts) => {
-            let range = samples.clone().unwrap_or(0..settings.spp);
-            let chunk = gpu::devices::chunk_samples(range.end - range.start, contexts.len());
-            let out = gpu::devices::render_on_devices(
-                contexts,
-                &scene,
-                variant,
-                &settings,
-                range,
-                chunk,
-                &|done, _| bar.set_position(done),
-            )?;
-            for (i, share) in out.shares.iter().enumerate() {
+            let added = progressive.add(range, &|n| bar.inc(n))?;
+            bar.finish_and_clear();
+            for (i, share) in added.shares.iter().enumerate() {
                 eprintln!(
                     "device {i} `{}`: {} samples a pixel ({:.0} %)",
                     share.adapter,
@@ -561,11 +428,39 @@ fn render(args: &RenderArgs) -> Result<()> {
                     100.0 * share.samples as f64 / settings.spp as f64
                 );
             }
-            (out.sums.to_film(), out.sums)
+            (added.gpu_time, String::new())
+        }
+        Some(budget) => {
+            let bar = indicatif::ProgressBar::new_spinner();
+            let mut status = |spp: u32, relmse: Option<f64>, left: Option<std::time::Duration>| {
+                let mut m = format!("{spp} spp");
+                if let Some(e) = relmse {
+                    let _ = write!(m, ", relMSE ~{e:.2e}");
+                }
+                if let Some(l) = left {
+                    let _ = write!(m, ", {:.1} s left", l.as_secs_f64());
+                }
+                bar.set_message(m);
+                bar.tick();
+            };
+            let out =
+                twintrace::render::run_budget(progressive.as_mut(), budget, &mut status, &|_| {})?;
+            bar.finish_and_clear();
+            settings.spp = out.samples;
+            let relmse = out
+                .relmse
+                .map(|e| format!(", predicted relMSE {e:.2e}"))
+                .unwrap_or_default();
+            (
+                out.gpu_time,
+                format!(" (stopped by {}{relmse})", out.stopped),
+            )
         }
     };
     let seconds = start.elapsed().as_secs_f64();
-    bar.finish_and_clear();
+    let writing = Instant::now();
+    // The image's readback (the layers, or a partial film's sums).
+    let read;
 
     let metadata = RenderMetadata {
         spp: Some(settings.spp),
@@ -575,32 +470,41 @@ fn render(args: &RenderArgs) -> Result<()> {
         software: Some(format!(
             "twintrace {} ({device_name}, {} integrator)",
             env!("CARGO_PKG_VERSION"),
-            integrator.name()
+            spec.integrator().name()
         )),
     };
-    match samples.clone() {
+    let nonfinite = match samples.clone() {
         Some(range) => {
+            let sums = progressive.sums()?;
+            read = writing.elapsed().as_secs_f64();
+            let nonfinite = sums.pixels.iter().map(|p| p.rejected as u64).sum();
             let part = twintrace::partial::Part {
-                key: twintrace::partial::RenderKey::new(&scene, &settings, integrator),
+                key: twintrace::partial::RenderKey::new(&scene, &settings, spec.integrator()),
                 samples: range,
                 devices: device_name.clone(),
                 sums,
                 metadata,
             };
-            part.write(&args.output, args.tonemap)?;
+            part.write(&args.output, spec.tonemap)?;
+            nonfinite
         }
         None => {
-            let image = RenderImage::from_film(&film, metadata);
-            image_io::write_render_outputs(&paths, &image, args.tonemap)?;
+            let layers = progressive.layers()?;
+            read = writing.elapsed().as_secs_f64();
+            let nonfinite = layers.rejected;
+            let image = RenderImage::from_layers(layers, metadata);
+            image_io::write_render_outputs(&paths, &image, spec.tonemap)?;
+            nonfinite
         }
-    }
+    };
 
-    let paths_per_second = (pixels * settings.spp as u64) as f64 / seconds.max(1e-9);
+    let written = writing.elapsed().as_secs_f64();
+    let traced = (pixels * settings.spp as u64) as f64;
     let gpu_note = match gpu_time {
         Some(t) => format!(
             " (GPU time {:.3} s: {:.2e} samples/s)",
             t.as_secs_f64(),
-            (pixels * settings.spp as u64) as f64 / t.as_secs_f64().max(1e-9)
+            traced / t.as_secs_f64().max(1e-9)
         ),
         None => String::new(),
     };
@@ -609,18 +513,30 @@ fn render(args: &RenderArgs) -> Result<()> {
         None => String::new(),
     };
     print_stdout(&format!(
-        "rendered {} {}x{}, {} spp{range_note}, depth {} on {device_name} in {:.2} s{gpu_note}: {:.2e} samples/s, {} NaN/Inf samples -> {}, {}\n",
+        "rendered {} {}x{}, {} spp{range_note}{stopped}, depth {} on {device_name} in {:.2} s{gpu_note}: {:.2e} samples/s, {} NaN/Inf samples -> {}, {} (image read in {read:.2} s, written in {:.2} s)\n",
         args.scene,
         settings.width,
         settings.height,
         settings.spp,
         settings.max_depth,
         seconds,
-        paths_per_second,
-        film.nonfinite_samples(),
+        traced / seconds.max(1e-9),
+        nonfinite,
         paths.exr.display(),
-        paths.png.display()
+        paths.png.display(),
+        written - read
     ))
+}
+
+/// The render's progress bar over `total` pixel-samples.
+fn progress_bar(total: u64) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(total);
+    if let Ok(style) = indicatif::ProgressStyle::with_template(
+        "rendering {wide_bar} {percent:>3}% {elapsed_precise} (eta {eta})",
+    ) {
+        bar.set_style(style);
+    }
+    bar
 }
 
 /// `twintrace merge`: reads every part (each checked whole), merges them

@@ -16,7 +16,7 @@
 use super::print_stdout;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
-use gpu::{Kernel, Schedule, Variant};
+use gpu::Variant;
 use reference::integrator::Integrator;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
@@ -51,9 +51,10 @@ pub enum PerfBackend {
 }
 
 /// The renderer variants there are, with their backends: the CPU's two,
-/// then every `gpu::Variant`. Without `--variant`, `reference` and
-/// `megakernel` run (the others only when asked for, so that runs stay
-/// comparable with the stored baselines).
+/// then every `gpu::Variant`. Without `--variant`, the CPU reference and
+/// the GPU run the render spec's default ([`gpu::Variant::DEFAULT`]: the
+/// estimator `twintrace render` and `selftest` use, and its GPU variant);
+/// the others run only when asked for.
 fn variants() -> Vec<(String, &'static str)> {
     let mut v = vec![
         ("reference".to_string(), "cpu"),
@@ -338,7 +339,10 @@ fn run_suite(a: &RunArgs) -> Result<()> {
     };
     let ctx = if want_gpu {
         match gpu::GpuContext::new() {
-            Ok(ctx) => Some(ctx),
+            Ok(ctx) => {
+                super::print_warnings(&ctx);
+                Some(ctx)
+            }
             Err(e) if a.backend == PerfBackend::All => {
                 eprintln!("perf: no GPU backend ({e}); measuring the CPU reference only");
                 None
@@ -350,7 +354,7 @@ fn run_suite(a: &RunArgs) -> Result<()> {
     };
     let integrators = |bsdf: &str, mis: &str| -> Vec<Integrator> {
         if a.variant.is_empty() {
-            return vec![Integrator::Bsdf];
+            return vec![Variant::DEFAULT.integrator];
         }
         [(bsdf, Integrator::Bsdf), (mis, Integrator::Mis)]
             .into_iter()
@@ -360,15 +364,7 @@ fn run_suite(a: &RunArgs) -> Result<()> {
     };
     let cpu_integrators = integrators("reference", "reference-mis");
     let gpu_variants: Vec<Variant> = if a.variant.is_empty() {
-        vec![Variant {
-            integrator: Integrator::Bsdf,
-            kernel: Kernel::Specialized,
-            schedule: Schedule::Megakernel,
-            traversal: gpu::Traversal::Binary,
-            nodes: gpu::NodeLayout::Aos,
-            leaves: gpu::LeafLayout::Indexed,
-            dispatch: gpu::Dispatch::Switch,
-        }]
+        vec![Variant::DEFAULT]
     } else {
         Variant::all()
             .into_iter()

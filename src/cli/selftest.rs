@@ -4,43 +4,39 @@
 //! `--calibrate N` measures the stored-reference gate's false alarms and
 //! power over N seeds per fixture instead.
 
-use super::{choose_device, Backend, Device, IntegratorArg};
+use super::{choose_device, spec::axis, Backend, Device};
 use anyhow::{bail, Result};
 use clap::Args;
 use reference::integrator::Integrator;
 use reference::{Film, RenderSettings, Scene};
+use std::cell::RefCell;
 use std::path::PathBuf;
-use twintrace::compare::gate::{read_manifest, refs_for, workspace_root, RefSet, MANIFEST};
-use twintrace::selftest::{self, GateOutcome, PreparedRender, Renderer};
+use twintrace::compare::gate::{
+    gate_settings, load_reference_in, load_scene, read_manifest, refs_for, workspace_root, RefSet,
+    MANIFEST,
+};
+use twintrace::render::{render_film, CpuProgressive, GpuProgressive, Progressive, RenderSpec};
+use twintrace::selftest::{self, GateEvent, PreparedRender, Renderer};
 
-/// The chosen device and estimator as a [`Renderer`].
-struct On<'a>(Option<&'a gpu::GpuContext>, Integrator);
+/// The chosen device and spec as a [`Renderer`]: a progressive render
+/// opened once a scene, its film emptied for each render.
+struct On<'a>(Option<&'a gpu::GpuContext>, RenderSpec);
 
 impl Renderer for On<'_> {
     fn refs(&self) -> &'static RefSet {
-        refs_for(self.1)
+        refs_for(self.1.integrator())
     }
 
     fn prepare<'s>(&'s self, scene: &'s Scene) -> Result<PreparedRender<'s>> {
-        Ok(match self.0 {
-            Some(ctx) => {
-                let gpu = gpu::GpuRenderer::with_integrator(ctx, scene, self.1)?;
-                Box::new(move |settings: &RenderSettings| -> Result<Film> {
-                    Ok(gpu.render(settings, &|_, _| {})?.film)
-                })
-            }
-            None => {
-                let integrator = self.1;
-                Box::new(move |settings: &RenderSettings| -> Result<Film> {
-                    Ok(reference::integrator::render_with(
-                        scene,
-                        settings,
-                        integrator,
-                        &|_| {},
-                    ))
-                })
-            }
-        })
+        let settings = scene.render_settings();
+        let render: Box<dyn Progressive + 's> = match self.0 {
+            Some(ctx) => Box::new(GpuProgressive::new(ctx, scene, &self.1, settings)?),
+            None => Box::new(CpuProgressive::new(scene, &self.1, settings, None)?),
+        };
+        let render = RefCell::new(render);
+        Ok(Box::new(move |settings: &RenderSettings| -> Result<Film> {
+            render_film(render.borrow_mut().as_mut(), settings)
+        }))
     }
 }
 
@@ -55,8 +51,8 @@ pub struct SelftestArgs {
     #[arg(long, value_name = "DIR")]
     pub root: Option<PathBuf>,
     /// The estimator the gates render with (default: the render command's).
-    #[arg(long, value_enum, default_value_t = IntegratorArg::Mis)]
-    pub integrator: IntegratorArg,
+    #[arg(long, value_parser = axis::<Integrator>(), default_value = RenderSpec::DEFAULT.variant.integrator.name())]
+    pub integrator: Integrator,
     /// Run only the image gate of this fixture (a manifest name).
     #[arg(long, value_name = "NAME")]
     pub only: Option<String>,
@@ -66,11 +62,26 @@ pub struct SelftestArgs {
     /// Seed of the gate renders (the references use 1).
     #[arg(long, default_value_t = selftest::GATE_SEED)]
     pub seed: u32,
+    /// The quick selftest: the kernel-level twin checks, the image gates
+    /// and the furnaces, without the variant gates (schedules, walks,
+    /// layouts, specialization, dispatch held to their oracles on every
+    /// scene), which build most of the kernels.
+    #[arg(long)]
+    pub quick: bool,
     /// Instead of the gates: calibrate the stored-reference gate with N
     /// correct renders per fixture (false alarms, and the smallest biases
     /// caught in 95 % of them), printed as a Markdown table.
     #[arg(long, value_name = "N")]
     pub calibrate: Option<u32>,
+    /// Instead of the gates: render every fixture N times with
+    /// `--target-relmse X` (default 1e-3) and print how the relMSE they
+    /// reach against the stored references compares with X (a Markdown
+    /// table, docs/gates.md, "Budgets").
+    #[arg(long, value_name = "N")]
+    pub calibrate_budget: Option<u32>,
+    /// The target relMSE of --calibrate-budget.
+    #[arg(long, value_name = "X", default_value_t = 1e-3)]
+    pub target_relmse: f64,
     /// First seed of the calibration renders.
     #[arg(long, default_value_t = 1000)]
     pub first_seed: u32,
@@ -100,12 +111,56 @@ pub fn execute(args: &SelftestArgs) -> Result<bool> {
     let (device, name, why) = choose_device(args.backend)?;
     eprintln!("selftest on {name}{why}");
     let gpu_ctx = match &device {
-        Device::Gpu(ctx) => Some(ctx),
+        Device::Gpu(ctx) => Some(&**ctx),
         // choose_device opens one device at most.
         Device::Gpus(contexts) => contexts.first(),
         Device::Cpu => None,
     };
-    let renderer = On(gpu_ctx, args.integrator.integrator());
+    let renderer = On(
+        gpu_ctx,
+        RenderSpec::DEFAULT.with_integrator(args.integrator),
+    );
+    if let Some(count) = args.calibrate_budget {
+        if count == 0 || !(args.target_relmse.is_finite() && args.target_relmse > 0.0) {
+            bail!("--calibrate-budget needs at least 1 render and a positive --target-relmse");
+        }
+        let spec = RenderSpec::DEFAULT.with_integrator(args.integrator);
+        let mut rows = Vec::new();
+        for fixture in read_manifest()? {
+            if args.only.as_ref().is_some_and(|o| *o != fixture.name) {
+                continue;
+            }
+            let reference = load_reference_in(refs_for(args.integrator), &fixture)?;
+            let scene = load_scene(&fixture)?;
+            let settings = gate_settings(&reference, &scene, 1, args.first_seed);
+            let mut render: Box<dyn Progressive + '_> = match gpu_ctx {
+                Some(ctx) => Box::new(GpuProgressive::new(ctx, &scene, &spec, settings)?),
+                None => Box::new(CpuProgressive::new(&scene, &spec, settings, None)?),
+            };
+            let row = selftest::calibrate_budget(
+                &reference,
+                render.as_mut(),
+                args.target_relmse,
+                args.first_seed..args.first_seed + count,
+                reference::scene::MAX_SPP,
+                &mut |_| {},
+            )?;
+            eprintln!(
+                "calibrate-budget {}: {} renders",
+                fixture.name,
+                row.ratios.len()
+            );
+            rows.push(row);
+        }
+        if rows.is_empty() {
+            bail!(
+                "no fixture is called `{}`",
+                args.only.as_deref().unwrap_or("")
+            );
+        }
+        print!("{}", selftest::budget_table(&rows));
+        return Ok(true);
+    }
     if let Some(count) = args.calibrate {
         let mut rows = Vec::new();
         for spec in read_manifest()? {
@@ -139,19 +194,45 @@ pub fn execute(args: &SelftestArgs) -> Result<bool> {
         print!("{}", selftest::calibration_table(&rows));
         return Ok(true);
     }
-    let print = |g: &GateOutcome| {
-        println!(
-            "{} {} ({:.1} s)\n    {}",
-            if g.passed { "PASS" } else { "FAIL" },
-            g.name,
-            g.seconds,
-            g.detail.replace('\n', "\n    ")
-        );
-    };
     // The kernel-level twin checks first: they take seconds, and a GPU that
     // fails them will not pass the image gates for the right reasons.
+    let twins = match gpu_ctx {
+        Some(_) if args.only.is_none() => selftest::twin_checks(args.quick).count(),
+        _ => 0,
+    };
+    let images = match &args.only {
+        Some(_) => 1,
+        None => read_manifest()?.len() + selftest::FURNACE_GATES,
+    };
+    let total = twins + images;
+    let started = std::time::Instant::now();
+    let mut done = 0usize;
+    let mut report = |e: GateEvent| match e {
+        GateEvent::Started(name) => {
+            // The time left from the gates done so far (they differ, so
+            // it is a rough figure; it says the run is moving).
+            let left = match done {
+                0 => String::new(),
+                d => format!(
+                    ", about {:.0} s left",
+                    started.elapsed().as_secs_f64() / d as f64 * (total - d) as f64
+                ),
+            };
+            eprintln!("[{}/{total}] {name}{left}", done + 1);
+        }
+        GateEvent::Finished(g) => {
+            done += 1;
+            println!(
+                "{} {} ({:.1} s)\n    {}",
+                if g.passed { "PASS" } else { "FAIL" },
+                g.name,
+                g.seconds,
+                g.detail.replace('\n', "\n    ")
+            );
+        }
+    };
     let mut gates = match gpu_ctx {
-        Some(ctx) if args.only.is_none() => selftest::run_twin_checks(ctx, &mut |g| print(g)),
+        Some(ctx) if args.only.is_none() => selftest::run_twin_checks(ctx, args.quick, &mut report),
         _ => Vec::new(),
     };
     gates.extend(selftest::run_gates(
@@ -159,7 +240,7 @@ pub fn execute(args: &SelftestArgs) -> Result<bool> {
         args.spp,
         args.seed,
         args.only.as_deref(),
-        &mut |g| print(g),
+        &mut report,
     )?);
     let failed = gates.iter().filter(|g| !g.passed).count();
     println!(

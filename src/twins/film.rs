@@ -12,7 +12,7 @@ use super::{ensure, run_kernel_with_library, Outcome};
 use glam::Vec3;
 use gpu::records::GpuPixel;
 use gpu::GpuContext;
-use reference::film::{PixelSums, SAMPLE_LIMIT};
+use reference::film::{FilmSums, PixelSums, SAMPLE_LIMIT};
 
 const SNIPPET: &str = "
 // input: per pixel [first sample, sample count]; then per sample
@@ -161,4 +161,162 @@ pub fn sums_with_library(ctx: &GpuContext, library: &str) -> Outcome {
 /// The film twin over the production WGSL.
 pub fn sums(ctx: &GpuContext) -> Outcome {
     sums_with_library(ctx, &gpu::shader::library_source())
+}
+
+/// splitmix64: the layer twin's films of chosen sums.
+struct Mix(u64);
+
+impl Mix {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+
+    fn below(&mut self, n: u64) -> u64 {
+        self.next() % n
+    }
+
+    /// Uniform in [0, 1).
+    fn unit(&mut self) -> f32 {
+        (self.next() >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
+/// One channel value of pixel kind `kind`: zeros, tiny values (the
+/// fixed point's last units), values near 1, values just under 2^32, rare
+/// spikes on zeros, constants (no variance), two neighbouring floats (M2
+/// a few units), and magnitudes from 1e-9 to 4e9.
+fn layer_value(kind: u64, constant: f32, r: &mut Mix) -> f32 {
+    let below_limit = f32::from_bits(SAMPLE_LIMIT.to_bits() - 1);
+    match kind {
+        0 => 0.0,
+        1 => [1e-9, 2f32.powi(-33), 2f32.powi(-32), 3.0 * 2f32.powi(-33)][r.below(4) as usize],
+        2 => 1.0 + (r.unit() - 0.5) * 1e-3,
+        3 => f32::from_bits(below_limit.to_bits() - r.below(64) as u32),
+        4 => {
+            if r.below(1000) == 0 {
+                [below_limit, 1e4, 0.3][r.below(3) as usize]
+            } else {
+                0.0
+            }
+        }
+        5 => constant,
+        6 => f32::from_bits(constant.to_bits() + r.below(2) as u32),
+        _ => 10f32.powf(18.6 * r.unit() - 9.0),
+    }
+}
+
+/// Films of chosen sums for the layer twin: pixels of sampled values of
+/// every kind and count (0, 1, 2, 3, tens, thousands), the same pixels
+/// with one word damaged (sums no samples give: `n·Σq² < (Σq)²`, counts
+/// without sums), raw random words, and counts near 2^32 (a pixel merged
+/// into itself).
+pub fn layer_films() -> FilmSums {
+    let (width, height) = (64, 32);
+    let mut film = FilmSums::new(width, height);
+    let mut r = Mix(0x5eed_f11e);
+    for (i, p) in film.pixels.iter_mut().enumerate() {
+        let count = match r.below(6) {
+            0 => r.below(4),
+            1 | 2 => 4 + r.below(60),
+            3 => 100 + r.below(3000),
+            _ => 1 + r.below(16),
+        } as usize;
+        let kinds = [r.below(8), r.below(8), r.below(8)];
+        let constant = 10f32.powf(12.0 * r.unit() - 6.0);
+        for _ in 0..count {
+            let s = Vec3::new(
+                layer_value(kinds[0], constant, &mut r),
+                layer_value(kinds[1], constant, &mut r),
+                layer_value(kinds[2], constant, &mut r),
+            );
+            p.add(s);
+        }
+        let mut words = p.to_words();
+        match i % 8 {
+            // Damaged: one word replaced.
+            5 => {
+                let w = r.below(words.len() as u64) as usize;
+                words[w] = r.next() as u32;
+            }
+            // Raw words, a count of any size.
+            6 => words.iter_mut().for_each(|w| *w = r.next() as u32),
+            _ => {}
+        }
+        *p = PixelSums::from_words(&words);
+        // Counts in the billions: merged into itself while it fits.
+        if i % 8 == 7 {
+            while p.count < 1 << 30 && p.count > 0 {
+                let copy = *p;
+                if p.merge(&copy).is_err() {
+                    break;
+                }
+            }
+        }
+    }
+    film
+}
+
+/// The layer twin over `program` (the production layers kernel, or a
+/// mutant's): the device's mean, variance and skewness of each pixel's
+/// mean, computed from the sums (gpu::film), equal the reference's from
+/// the same sums bit for bit.
+pub fn layers_with_program(ctx: &GpuContext, program: &str) -> Outcome {
+    let scene = reference::load_scene("cornell").map_err(|e| e.to_string())?;
+    let renderer = gpu::GpuRenderer::new(ctx, &scene).map_err(|e| e.to_string())?;
+    let film = layer_films();
+    let settings = reference::RenderSettings {
+        width: film.width,
+        height: film.height,
+        ..reference::RenderSettings::default()
+    };
+    renderer
+        .load_film(&settings, &film)
+        .map_err(|e| e.to_string())?;
+    // Each pixel's count is its own here: check every pixel below.
+    let mut stats = 0;
+    let host = crate::render::Layers::from_sums(&film);
+    let held: Vec<u64> = film
+        .pixels
+        .iter()
+        .map(|p| p.count as u64 + p.rejected as u64)
+        .collect();
+    let device = renderer.read_layers_unchecked(&settings, program);
+    let (device, counts) = device.map_err(|e| e.to_string())?;
+    for (i, p) in film.pixels.iter().enumerate() {
+        ensure!(
+            counts[i] == held[i],
+            "pixel {i}: the device counts {} samples, the sums {}",
+            counts[i],
+            held[i]
+        );
+        for (layer, h, d) in [
+            ("mean", host.mean[i], device.mean[i]),
+            ("variance", host.variance[i], device.variance[i]),
+            ("skewness", host.skewness[i], device.skewness[i]),
+        ] {
+            let (h, d) = (
+                h.to_array().map(f32::to_bits),
+                d.to_array().map(f32::to_bits),
+            );
+            ensure!(
+                h == d,
+                "pixel {i} {layer}: GPU {d:08x?}, reference {h:08x?} (sums {:08x?})",
+                p.to_words()
+            );
+            stats += 3;
+        }
+    }
+    Ok(format!(
+        "{} pixels of chosen sums (sampled, damaged, raw, counts to 2^31): {stats} values bit for bit",
+        film.pixels.len()
+    ))
+}
+
+/// The layer twin over the production kernel.
+pub fn layers(ctx: &GpuContext) -> Outcome {
+    layers_with_program(ctx, &gpu::film::layers_source())
 }

@@ -151,10 +151,52 @@ pub(crate) fn run_kernel_walking(
     run_test_kernel_with_library(ctx, &renderer, &kernel, library).map_err(|e| e.to_string())
 }
 
+/// `f` over every item, on as many threads as the machine has cores (at
+/// most one an item), results in the items' order. The variant gates
+/// build kernels for every scene, and building a pipeline (naga's
+/// translation, the driver's compiler) is CPU work that one device takes
+/// from several threads at once.
+pub fn par_map<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync) -> Vec<R> {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(items.len())
+        .max(1);
+    let next = AtomicUsize::new(0);
+    let mut done: Vec<(usize, R)> = std::thread::scope(|s| {
+        let workers: Vec<_> = (0..threads)
+            .map(|_| {
+                s.spawn(|| {
+                    let mut out = Vec::new();
+                    loop {
+                        let i = next.fetch_add(1, Ordering::Relaxed);
+                        let Some(item) = items.get(i) else { break };
+                        out.push((i, f(item)));
+                    }
+                    out
+                })
+            })
+            .collect();
+        workers
+            .into_iter()
+            .flat_map(|w| match w.join() {
+                Ok(out) => out,
+                Err(panic) => std::panic::resume_unwind(panic),
+            })
+            .collect()
+    });
+    done.sort_by_key(|(i, _)| *i);
+    done.into_iter().map(|(_, r)| r).collect()
+}
+
 /// One twin check as `twintrace selftest` lists it.
 pub struct Check {
     pub name: &'static str,
     pub run: fn(&GpuContext) -> Outcome,
+    /// A variant gate (a schedule, walk, layout or specialization held to
+    /// its oracle over every scene): left out of `selftest --quick`,
+    /// whose checks hold the functions and films every variant shares.
+    pub variant: bool,
 }
 
 /// Every check, in the order `twintrace selftest` runs them. Scenes: the
@@ -163,53 +205,71 @@ pub const CHECKS: &[Check] = &[
     Check {
         name: "twin: random numbers (pcg4d, vertex_randoms)",
         run: rng::streams,
+        variant: false,
     },
     Check {
         name: "twin: film sums (fixed point, exact Σq, Σq², Σq³)",
         run: film::sums,
+        variant: false,
+    },
+    Check {
+        name: "twin: film layers (mean, variance, skewness from the sums, on the device)",
+        run: film::layers,
+        variant: false,
     },
     Check {
         name: "twin: float steps (next_up, next_up_normal, next_down_normal, flush_subnormal)",
         run: numerics::float_steps,
+        variant: false,
     },
     Check {
         name: "twin: GGX Λ, G1 and sphere roots at their limits",
         run: numerics::limits,
+        variant: false,
     },
     Check {
         name: "twin: cube root",
         run: numerics::cube_root,
+        variant: false,
     },
     Check {
         name: "twin: hit records",
         run: hits::all_scenes,
+        variant: false,
     },
     Check {
         name: "twin: surface interactions",
         run: surface::all_scenes,
+        variant: false,
     },
     Check {
         name: "twin: spawn points",
         run: surface::spawn_points,
+        variant: false,
     },
     Check {
         name: "twin: light samples and densities",
         run: light::all_scenes,
+        variant: false,
     },
     Check {
         name: "specialized kernel == general kernel (every scene, both estimators)",
         run: specialization::all_scenes,
+        variant: true,
     },
     Check {
         name: "wavefront and path megakernel == megakernel (every scene, both estimators)",
         run: wavefront::all_scenes,
+        variant: true,
     },
     Check {
         name: "branch dispatch == switch dispatch (every scene, both estimators)",
         run: dispatch::all_scenes,
+        variant: true,
     },
     Check {
         name: "four-wide and brute-force walks, node and leaf layouts == binary walk (hit records, films)",
         run: traversal::all_scenes,
+        variant: true,
     },
 ];

@@ -83,15 +83,23 @@ pub fn oracle_film(
 /// failure joined. Every scene is compared, so the error lists each one
 /// that fails.
 pub fn every_scene(
-    mut compare: impl FnMut(&str, &Scene, Integrator) -> Result<(usize, u64), String>,
+    compare: impl Fn(&str, &Scene, Integrator) -> Result<(usize, u64), String> + Sync,
 ) -> Result<(usize, super::wavefront::Inexact), String> {
     let specs = scene_specs()?;
     let mut failures = Vec::new();
     let mut inexact = super::wavefront::Inexact::default();
-    for spec in &specs {
+    // Scenes in parallel (super::par_map), each with both estimators.
+    let outcomes = super::par_map(&specs, |spec| {
         let scene = reference::load_scene(spec).map_err(|e| format!("{spec}: {e}"))?;
-        for integrator in Integrator::ALL {
-            match compare(spec, &scene, integrator) {
+        Ok::<_, String>(
+            Integrator::ALL
+                .map(|integrator| compare(spec, &scene, integrator))
+                .to_vec(),
+        )
+    });
+    for outcome in outcomes {
+        for found in outcome? {
+            match found {
                 Ok(found) => inexact.add(found),
                 Err(e) => failures.push(e),
             }
@@ -212,7 +220,8 @@ pub fn counts(bits: &[u64]) -> (u64, u64) {
 pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let specs = scene_specs()?;
     let (width, height, spp) = SIZE;
-    for spec in &specs {
+    // Scenes in parallel (super::par_map); the first failure in scene order.
+    let outcomes = super::par_map(&specs, |spec| -> Result<(), String> {
         let scene = reference::load_scene(spec).map_err(|e| format!("{spec}: {e}"))?;
         let features = Kernel::Specialized.features(&scene);
         for integrator in Integrator::ALL {
@@ -237,7 +246,9 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
                 ));
             }
         }
-    }
+        Ok(())
+    });
+    outcomes.into_iter().collect::<Result<Vec<()>, String>>()?;
     Ok(format!(
         "{} scenes × 2 estimators: the specialized kernel's films equal the general kernel's bit for bit",
         specs.len()

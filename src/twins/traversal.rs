@@ -214,43 +214,66 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let program = gpu::shader::render_source();
     let mut failures = Vec::new();
     let mut hit_lines = Vec::new();
-    for (name, scene) in scenes()? {
-        let mut hits = None;
-        let oracle = binary_hit_words(ctx, &scene)?;
-        for walk in VARIANTS
-            .into_iter()
-            .filter(|&w| brute_force_takes(&scene, w))
-        {
-            let outcome = packed(&scene, walk)
-                .and_then(|p| compare_hits_with(ctx, &name, &scene, &oracle, &p, &library));
-            match outcome {
-                Ok(n) => hits = Some(n),
-                Err(e) => failures.push(e),
-            }
+    // Scenes in parallel (super::par_map), each scene's walks in turn.
+    let hit_scenes = scenes()?;
+    // Each scene's binary hit records, then every (scene, walk) against
+    // them: the items in parallel (super::par_map), so that no one scene's
+    // walks make the gate's critical path.
+    let oracles = super::par_map(&hit_scenes, |(_, scene)| binary_hit_words(ctx, scene));
+    let oracles = oracles.into_iter().collect::<Result<Vec<_>, String>>()?;
+    let hit_items: Vec<(usize, Walk)> = hit_scenes
+        .iter()
+        .enumerate()
+        .flat_map(|(i, (_, scene))| {
+            VARIANTS
+                .into_iter()
+                .filter(move |&w| brute_force_takes(scene, w))
+                .map(move |w| (i, w))
+        })
+        .collect();
+    let outcomes = super::par_map(&hit_items, |&(i, walk)| {
+        let (name, scene) = &hit_scenes[i];
+        packed(scene, walk)
+            .and_then(|p| compare_hits_with(ctx, name, scene, &oracles[i], &p, &library))
+    });
+    let mut hits: Vec<Option<usize>> = vec![None; hit_scenes.len()];
+    for (&(i, _), outcome) in hit_items.iter().zip(outcomes) {
+        match outcome {
+            Ok(n) => hits[i] = Some(n),
+            Err(e) => failures.push(e),
         }
-        if let Some(n) = hits {
+    }
+    for ((name, _), n) in hit_scenes.iter().zip(hits) {
+        if let Some(n) = n {
             hit_lines.push(format!("{name} {n}"));
         }
     }
     let specs = scene_specs()?;
     let (mut inexact, mut films) = (Inexact::default(), 0usize);
-    for spec in &specs {
+    // Every (scene, estimator) in parallel: its binary walk's film, then
+    // each walk's against it.
+    let film_items: Vec<(&String, Integrator)> = specs
+        .iter()
+        .flat_map(|spec| Integrator::ALL.map(|i| (spec, i)))
+        .collect();
+    let outcomes = super::par_map(&film_items, |&(spec, integrator)| {
         let scene = reference::load_scene(spec).map_err(|e| format!("{spec}: {e}"))?;
-        let walks: Vec<Walk> = VARIANTS
+        let binary = oracle_film(ctx, spec, &scene, integrator, "the binary walk")?;
+        let found: Vec<_> = VARIANTS
             .into_iter()
-            .filter(|&w| brute_force_takes(&scene, w))
+            .filter(|&w| brute_force_takes(&scene, w) && film_estimators(w).contains(&integrator))
+            .map(|walk| {
+                compare_films_with(ctx, spec, &scene, &binary, (walk, integrator), &program)
+            })
             .collect();
-        for integrator in Integrator::ALL {
-            let binary = oracle_film(ctx, spec, &scene, integrator, "the binary walk")?;
-            for &walk in &walks {
-                if !film_estimators(walk).contains(&integrator) {
-                    continue;
-                }
-                films += 1;
-                match compare_films_with(ctx, spec, &scene, &binary, (walk, integrator), &program) {
-                    Ok(found) => inexact.add(found),
-                    Err(e) => failures.push(e),
-                }
+        Ok::<_, String>(found)
+    });
+    for outcome in outcomes {
+        for found in outcome? {
+            films += 1;
+            match found {
+                Ok(found) => inexact.add(found),
+                Err(e) => failures.push(e),
             }
         }
     }

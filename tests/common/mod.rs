@@ -46,6 +46,18 @@ pub fn gpu() -> &'static gpu::GpuContext {
     })
 }
 
+/// A device of its own on the test adapter (no pipeline cache on disk),
+/// for tests that count what is built on it while other tests share
+/// [`gpu`].
+pub fn own_gpu() -> gpu::GpuContext {
+    let name = &gpu().adapter.name;
+    let index = gpu::list_adapters()
+        .iter()
+        .position(|a| &a.name == name)
+        .expect("the test adapter is listed");
+    gpu::context::open_adapter(index, None).unwrap()
+}
+
 /// Every fixture scene (its path) and built-in (its name), as
 /// `reference::load_scene` takes them: fixtures sorted, then built-ins.
 pub fn every_scene() -> Vec<String> {

@@ -1,0 +1,342 @@
+//! The device film: a render's exact sums in the device's memory
+//! (`shaders/film.wgsl`: word `w` of pixel `p` at `w · pixels + p`),
+//! added to by every range of a progressive render and read in one of
+//! two ways:
+//!
+//! - [`GpuRenderer::read_film`]: the sums themselves (224 bytes a pixel),
+//!   for a partial film, a merge, or a group of devices adding films;
+//! - [`GpuRenderer::read_layers`]: the image, computed on the device by
+//!   `film_layers_main` from the sums (`pixel_layers` in film.wgsl: the
+//!   mean, variance and skewness of each pixel's mean as the reference's
+//!   `PixelSums::stats` gives them, bit for bit, by integer arithmetic),
+//!   44 bytes a pixel: what a render writes to its EXR.
+
+use crate::context::GpuContext;
+use crate::error::GpuError;
+use crate::records::{GpuParams, GpuPixel};
+use crate::renderer::{read_buffer, GpuRenderer};
+use glam::Vec3;
+use reference::film::FilmSums;
+use reference::RenderSettings;
+
+/// Bytes of the device film of a render: 56 words a pixel
+/// ([`crate::records::film_words`]).
+pub fn film_bytes(settings: &RenderSettings) -> u64 {
+    settings.width as u64 * settings.height as u64 * std::mem::size_of::<GpuPixel>() as u64
+}
+
+/// Words a pixel of the layers buffer: count, rejected, then mean,
+/// variance and skewness (R, G, B each) as f32 bits; layer-major (word
+/// `k` of pixel `p` at `k · pixels + p`).
+pub const LAYER_WORDS: usize = 11;
+
+/// The layers kernel's invocations a workgroup.
+const LAYERS_WORKGROUP: u32 = 64;
+
+/// The layers kernel: film.wgsl's `pixel_layers` over every pixel, into
+/// the layers buffer ([`crate::bindings::FILM_LAYERS`]). One invocation a pixel, on a grid of
+/// workgroups as wide as the device allows.
+const LAYERS_KERNEL: &str = r#"
+@compute @workgroup_size(LAYERS_WORKGROUP)
+fn film_layers_main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let pixels = params.width * params.height;
+    let p = id.x + id.y * groups.x * LAYERS_WORKGROUP;
+    if p >= pixels {
+        return;
+    }
+    let s = pixel_sums_load(p);
+    var l = pixel_layers(s);
+    layers[p] = s.count;
+    layers[pixels + p] = s.rejected;
+    for (var k = 0u; k < 9u; k++) {
+        layers[(2u + k) * pixels + p] = l[k];
+    }
+}
+"#;
+
+/// The layers kernel's program: the generated declarations, the film's
+/// library and the kernel.
+pub fn layers_source() -> String {
+    [
+        crate::shader::GENERATED_WGSL,
+        crate::shader::FILM_WGSL,
+        &crate::bindings::FILM_LAYERS.wgsl(),
+        &format!("const LAYERS_WORKGROUP: u32 = {LAYERS_WORKGROUP}u;"),
+        LAYERS_KERNEL,
+    ]
+    .join("\n")
+}
+
+/// A film's image: per pixel (row-major, top row first) the mean, the
+/// variance of the mean and the skewness of the mean as f32, computed on
+/// the device ([`GpuRenderer::read_layers`]) or on the host
+/// ([`FilmLayers::from_sums`]), the same bits either way, and the film's
+/// sample counts.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FilmLayers {
+    pub width: u32,
+    pub height: u32,
+    pub mean: Vec<Vec3>,
+    pub variance: Vec<Vec3>,
+    pub skewness: Vec<Vec3>,
+    /// Samples accepted, over all pixels.
+    pub samples: u64,
+    /// Samples rejected, over all pixels.
+    pub rejected: u64,
+}
+
+impl FilmLayers {
+    /// The layers of `sums`, computed on the host from each pixel's
+    /// statistics (`PixelSums::stats`), in parallel, without keeping them.
+    pub fn from_sums(sums: &FilmSums) -> Self {
+        use rayon::prelude::*;
+        let per_pixel: Vec<(Vec3, Vec3, Vec3)> = sums
+            .pixels
+            .par_iter()
+            .map(|p| {
+                let s = p.stats();
+                (
+                    s.mean.as_vec3(),
+                    s.variance_of_mean().as_vec3(),
+                    s.skewness_of_mean().as_vec3(),
+                )
+            })
+            .collect();
+        let n = per_pixel.len();
+        let (mut mean, mut variance, mut skewness) = (
+            Vec::with_capacity(n),
+            Vec::with_capacity(n),
+            Vec::with_capacity(n),
+        );
+        for (m, v, k) in per_pixel {
+            mean.push(m);
+            variance.push(v);
+            skewness.push(k);
+        }
+        FilmLayers {
+            width: sums.width,
+            height: sums.height,
+            mean,
+            variance,
+            skewness,
+            samples: sums.pixels.iter().map(|p| p.count as u64).sum(),
+            rejected: sums.pixels.iter().map(|p| p.rejected as u64).sum(),
+        }
+    }
+}
+
+impl GpuRenderer<'_> {
+    /// The film [`GpuRenderer::accumulate`] left on the device (taken out
+    /// of the renderer's cache; [`Self::put_film`] puts it back).
+    fn take_film(&self, settings: &RenderSettings) -> Result<wgpu::Buffer, GpuError> {
+        let film_bytes = film_bytes(settings);
+        self.film_cache
+            .lock()
+            .ok()
+            .and_then(|mut c| c.take())
+            .filter(|f| f.size() == film_bytes)
+            .ok_or_else(|| GpuError::Readback("no film of this size on the device".into()))
+    }
+
+    fn put_film(&self, film: wgpu::Buffer) {
+        if let Ok(mut c) = self.film_cache.lock() {
+            *c = Some(film);
+        }
+    }
+
+    /// The film [`GpuRenderer::accumulate`] left on the device, read back;
+    /// every pixel must hold `expected` samples.
+    pub fn read_film(
+        &self,
+        settings: &RenderSettings,
+        expected: u32,
+    ) -> Result<FilmSums, GpuError> {
+        let film = self.take_film(settings)?;
+        let words = read_buffer::<u32>(self.context(), &film, film_bytes(settings));
+        self.put_film(film);
+        let gpu_pixels = crate::records::film_pixels(&words?);
+        let mut sums = FilmSums::new(settings.width, settings.height);
+        for (dst, src) in sums.pixels.iter_mut().zip(&gpu_pixels) {
+            check_count(src.count as u64 + src.rejected as u64, expected)?;
+            *dst = src.to_sums();
+        }
+        Ok(sums)
+    }
+
+    /// Puts `sums` on the device as the film of `settings`' size, as if
+    /// [`GpuRenderer::accumulate`] had traced them: the next range adds
+    /// to them (a render resumed from a partial film; the twin checks'
+    /// films of chosen sums).
+    pub fn load_film(&self, settings: &RenderSettings, sums: &FilmSums) -> Result<(), GpuError> {
+        if (sums.width, sums.height) != (settings.width, settings.height) {
+            return Err(GpuError::Validation(format!(
+                "a {}x{} film cannot be the film of a {}x{} render",
+                sums.width, sums.height, settings.width, settings.height
+            )));
+        }
+        let pixels: Vec<GpuPixel> = sums.pixels.iter().map(GpuPixel::from_sums).collect();
+        let words = crate::records::film_words(&pixels);
+        let film = wgpu::util::DeviceExt::create_buffer_init(
+            &self.context().device,
+            &wgpu::util::BufferInitDescriptor {
+                label: Some("film"),
+                contents: bytemuck::cast_slice(&words),
+                usage: wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::COPY_SRC
+                    | wgpu::BufferUsages::COPY_DST,
+            },
+        );
+        self.put_film(film);
+        Ok(())
+    }
+
+    /// The image of the film [`GpuRenderer::accumulate`] left on the
+    /// device, computed there (`film_layers_main`); every pixel must hold
+    /// `expected` samples. Bit for bit the layers the reference computes
+    /// from the same sums (`twins::film`).
+    pub fn read_layers(
+        &self,
+        settings: &RenderSettings,
+        expected: u32,
+    ) -> Result<FilmLayers, GpuError> {
+        self.read_layers_with(settings, expected, &layers_source())
+    }
+
+    /// [`Self::read_layers`] with the layers kernel's program given (the
+    /// tests' mutants of it).
+    pub fn read_layers_with(
+        &self,
+        settings: &RenderSettings,
+        expected: u32,
+        program: &str,
+    ) -> Result<FilmLayers, GpuError> {
+        let (layers, held) = self.read_layers_unchecked(settings, program)?;
+        for h in held {
+            check_count(h, expected)?;
+        }
+        Ok(layers)
+    }
+
+    /// The layers of the film on the device and each pixel's samples
+    /// (accepted and rejected), unchecked: the twin checks' films of
+    /// chosen sums hold a different count in every pixel.
+    pub fn read_layers_unchecked(
+        &self,
+        settings: &RenderSettings,
+        program: &str,
+    ) -> Result<(FilmLayers, Vec<u64>), GpuError> {
+        let film = self.take_film(settings)?;
+        let out = self.layers_of(settings, &film, program);
+        self.put_film(film);
+        let words = out?;
+        let pixels = settings.width as usize * settings.height as usize;
+        let word = |k: usize, p: usize| words[k * pixels + p];
+        use rayon::prelude::*;
+        let layer = |k: usize| -> Vec<Vec3> {
+            (0..pixels)
+                .into_par_iter()
+                .map(|p| {
+                    Vec3::new(
+                        f32::from_bits(word(k, p)),
+                        f32::from_bits(word(k + 1, p)),
+                        f32::from_bits(word(k + 2, p)),
+                    )
+                })
+                .collect()
+        };
+        let held: Vec<u64> = (0..pixels)
+            .map(|p| word(0, p) as u64 + word(1, p) as u64)
+            .collect();
+        let (mean, (variance, skewness)) =
+            rayon::join(|| layer(2), || rayon::join(|| layer(5), || layer(8)));
+        let layers = FilmLayers {
+            width: settings.width,
+            height: settings.height,
+            mean,
+            variance,
+            skewness,
+            samples: (0..pixels).map(|p| word(0, p) as u64).sum(),
+            rejected: (0..pixels).map(|p| word(1, p) as u64).sum(),
+        };
+        Ok((layers, held))
+    }
+
+    /// Runs the layers kernel over `film` and reads its words back.
+    fn layers_of(
+        &self,
+        settings: &RenderSettings,
+        film: &wgpu::Buffer,
+        program: &str,
+    ) -> Result<Vec<u32>, GpuError> {
+        let ctx: &GpuContext = self.context();
+        let device = &ctx.device;
+        let pixels = settings.width as u64 * settings.height as u64;
+        let bytes = pixels * LAYER_WORDS as u64 * 4;
+        ctx.check_binding_size("the film's layers", bytes)?;
+        let scene_layout = crate::pipeline::scene_layout(ctx);
+        let out_layout =
+            crate::pipeline::layout(ctx, "film layers", &[crate::bindings::FILM_LAYERS]);
+        let pipeline = crate::pipeline::compile(
+            ctx,
+            program,
+            "film_layers_main",
+            &[&scene_layout, &out_layout],
+        )?;
+        let params = GpuParams {
+            width: settings.width,
+            height: settings.height,
+            ..Default::default()
+        };
+        let params_buf = wgpu::util::DeviceExt::create_buffer_init(
+            device,
+            &wgpu::util::BufferInitDescriptor {
+                label: Some("layers params"),
+                contents: bytemuck::bytes_of(&params),
+                usage: wgpu::BufferUsages::UNIFORM,
+            },
+        );
+        let out = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("film layers"),
+            size: bytes,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let scene_group = self.bind_group(&params_buf, film);
+        let out_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("film layers"),
+            layout: &out_layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: crate::bindings::FILM_LAYERS.slot,
+                resource: out.as_entire_binding(),
+            }],
+        });
+        let groups = pixels.div_ceil(LAYERS_WORKGROUP as u64);
+        let max = device.limits().max_compute_workgroups_per_dimension as u64;
+        let (gx, gy) = (groups.min(max), groups.div_ceil(max));
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("film layers"),
+        });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("film layers"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(&pipeline);
+            pass.set_bind_group(0, &scene_group, &[]);
+            pass.set_bind_group(1, &out_group, &[]);
+            pass.dispatch_workgroups(gx as u32, gy as u32, 1);
+        }
+        ctx.queue.submit([encoder.finish()]);
+        read_buffer(ctx, &out, bytes)
+    }
+}
+
+/// A pixel's samples, accepted and rejected, must be what was traced.
+fn check_count(held: u64, expected: u32) -> Result<(), GpuError> {
+    if held != expected as u64 {
+        return Err(GpuError::Readback(format!(
+            "a pixel holds {held} samples instead of {expected}: the kernel did not run to completion"
+        )));
+    }
+    Ok(())
+}

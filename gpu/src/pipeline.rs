@@ -1,0 +1,499 @@
+//! Kernel compilation: WGSL programs into compute pipelines, with three
+//! caches so that a kernel is built once.
+//!
+//! - **Modules**, per device: a program's text is parsed and validated by
+//!   naga once ([`wgpu::ShaderModule`] per source text).
+//! - **Pipelines**, per device: a pipeline is created once per program,
+//!   entry point, override constants and bind group layouts. The layouts
+//!   are shared per device too ([`layout`]), so the renderers of several
+//!   scenes, which differ only in their constants, and the oracle kernels
+//!   the variant gates build for every scene, find their pipelines built.
+//! - **On disk**, across runs: where the adapter supports it
+//!   (`wgpu::Features::PIPELINE_CACHE`: Vulkan), the driver's pipeline
+//!   cache is loaded when a device opens and written back when it closes,
+//!   in `<cache dir>/pipelines-<adapter key>.bin` ([`cache_dir`]). The
+//!   file holds a header naming the adapter, driver and twintrace version
+//!   and a checksum of the data; a corrupt or foreign file is ignored
+//!   (a warning, [`crate::GpuContext::take_warnings`]) and replaced.
+//!
+//! None of them changes what a kernel computes: the cached pipeline is
+//! the one the same inputs would build.
+
+use crate::bindings::Binding;
+use crate::context::GpuContext;
+use crate::error::GpuError;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+/// Shader modules a device keeps: a module holds naga's form of a whole
+/// program (megabytes for the render program), and the tests compile
+/// many edited programs once each.
+const MODULES_KEPT: usize = 4;
+
+/// Pipelines a hardware device keeps: 64 hold the oracle kernels the
+/// variant gates of `selftest` build for every scene and estimator (the
+/// H200's `selftest` peaked at 1.1 GB of host memory with them).
+const PIPELINES_KEPT: usize = 64;
+
+/// Pipelines a software device keeps: on lavapipe a compiled pipeline
+/// holds its machine code, up to hundreds of megabytes for the render
+/// kernels, and the test suite's one device, keeping 64, grew past 20 GB.
+const PIPELINES_KEPT_SOFTWARE: usize = 4;
+
+/// A map that keeps its `capacity` most recently used entries.
+pub(crate) struct Lru<K, V> {
+    capacity: usize,
+    clock: u64,
+    entries: HashMap<K, (V, u64)>,
+}
+
+impl<K: std::hash::Hash + Eq + Clone, V: Clone> Lru<K, V> {
+    fn new(capacity: usize) -> Self {
+        Lru {
+            capacity,
+            clock: 0,
+            entries: HashMap::new(),
+        }
+    }
+
+    fn get<Q>(&mut self, key: &Q) -> Option<V>
+    where
+        K: std::borrow::Borrow<Q>,
+        Q: std::hash::Hash + Eq + ?Sized,
+    {
+        self.clock += 1;
+        let now = self.clock;
+        self.entries.get_mut(key).map(|(v, used)| {
+            *used = now;
+            v.clone()
+        })
+    }
+
+    fn insert(&mut self, key: K, value: V) {
+        self.clock += 1;
+        if !self.entries.contains_key(&key) && self.entries.len() >= self.capacity {
+            let oldest = self
+                .entries
+                .iter()
+                .min_by_key(|(_, (_, used))| *used)
+                .map(|(k, _)| k.clone());
+            if let Some(k) = oldest {
+                self.entries.remove(&k);
+            }
+        }
+        self.entries.insert(key, (value, self.clock));
+    }
+
+    fn remove<Q>(&mut self, key: &Q)
+    where
+        K: std::borrow::Borrow<Q>,
+        Q: std::hash::Hash + Eq + ?Sized,
+    {
+        self.entries.remove(key);
+    }
+
+    fn len(&self) -> usize {
+        self.entries.len()
+    }
+}
+
+/// The per-device caches of modules, layouts and pipelines.
+pub(crate) struct Caches {
+    modules: Mutex<Lru<String, wgpu::ShaderModule>>,
+    layouts: Mutex<HashMap<&'static str, wgpu::BindGroupLayout>>,
+    pipelines: Mutex<Lru<PipelineKey, wgpu::ComputePipeline>>,
+}
+
+impl Caches {
+    /// The caches of a device, a software one (lavapipe) where `software`.
+    pub(crate) fn new(software: bool) -> Self {
+        let pipelines = if software {
+            PIPELINES_KEPT_SOFTWARE
+        } else {
+            PIPELINES_KEPT
+        };
+        Caches {
+            modules: Mutex::new(Lru::new(MODULES_KEPT)),
+            layouts: Mutex::new(HashMap::new()),
+            pipelines: Mutex::new(Lru::new(pipelines)),
+        }
+    }
+
+    /// Modules and pipelines held.
+    pub(crate) fn held(&self) -> (usize, usize) {
+        let m = self.modules.lock().unwrap_or_else(|p| p.into_inner()).len();
+        let p = self
+            .pipelines
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .len();
+        (m, p)
+    }
+}
+
+/// What a pipeline is built from: the program (by its text), the entry
+/// point, the constants (by their bits) and the layouts (by identity).
+#[derive(Clone, PartialEq, Eq, Hash)]
+struct PipelineKey {
+    source: String,
+    entry: String,
+    constants: Vec<(String, u64)>,
+    layouts: Vec<wgpu::BindGroupLayout>,
+}
+
+/// The bind group layout of `group`, made once per device and `name`
+/// (pipelines built over the same layout object are found in the cache).
+pub fn layout(ctx: &GpuContext, name: &'static str, group: &[Binding]) -> wgpu::BindGroupLayout {
+    let mut layouts = ctx.caches.layouts.lock().unwrap_or_else(|p| p.into_inner());
+    layouts
+        .entry(name)
+        .or_insert_with(|| {
+            let entries: Vec<_> = group.iter().map(Binding::layout_entry).collect();
+            ctx.device
+                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some(name),
+                    entries: &entries,
+                })
+        })
+        .clone()
+}
+
+/// The bind group layout shared by the render kernel and the test kernels
+/// ([`crate::bindings::scene_group`]).
+pub fn scene_layout(ctx: &GpuContext) -> wgpu::BindGroupLayout {
+    layout(ctx, "twintrace scene", &crate::bindings::scene_group())
+}
+
+/// Compiles a WGSL program and one entry point into a compute pipeline,
+/// reporting compile and validation errors as `GpuError::Shader`.
+pub fn compile(
+    ctx: &GpuContext,
+    source: &str,
+    entry: &str,
+    layouts: &[&wgpu::BindGroupLayout],
+) -> Result<wgpu::ComputePipeline, GpuError> {
+    compile_with(ctx, source, entry, layouts, &[])
+}
+
+/// [`compile`] with values for the program's pipeline-overridable
+/// constants (`override NAME` in WGSL).
+pub fn compile_with(
+    ctx: &GpuContext,
+    source: &str,
+    entry: &str,
+    layouts: &[&wgpu::BindGroupLayout],
+    constants: &[(&str, f64)],
+) -> Result<wgpu::ComputePipeline, GpuError> {
+    let mut p = compile_entries(ctx, source, &[(entry, layouts)], constants)?;
+    Ok(p.remove(0))
+}
+
+/// One shader module, a pipeline for each entry point with its bind group
+/// layouts; each found in the device's caches where it was built before.
+pub fn compile_entries(
+    ctx: &GpuContext,
+    source: &str,
+    entries: &[(&str, &[&wgpu::BindGroupLayout])],
+    constants: &[(&str, f64)],
+) -> Result<Vec<wgpu::ComputePipeline>, GpuError> {
+    let keys: Vec<PipelineKey> = entries
+        .iter()
+        .map(|(entry, layouts)| PipelineKey {
+            source: source.to_string(),
+            entry: entry.to_string(),
+            constants: constants
+                .iter()
+                .map(|(n, v)| (n.to_string(), v.to_bits()))
+                .collect(),
+            layouts: layouts.iter().map(|l| (*l).clone()).collect(),
+        })
+        .collect();
+    {
+        let mut cached = ctx
+            .caches
+            .pipelines
+            .lock()
+            .unwrap_or_else(|p| p.into_inner());
+        if let Some(found) = keys
+            .iter()
+            .map(|k| cached.get(k))
+            .collect::<Option<Vec<_>>>()
+        {
+            return Ok(found);
+        }
+    }
+    let device = &ctx.device;
+    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let module = {
+        let mut modules = ctx.caches.modules.lock().unwrap_or_else(|p| p.into_inner());
+        match modules.get(source) {
+            Some(m) => m,
+            None => {
+                let m = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                    label: entries.first().map(|e| e.0),
+                    source: wgpu::ShaderSource::Wgsl(source.into()),
+                });
+                modules.insert(source.to_string(), m.clone());
+                m
+            }
+        }
+    };
+    ctx.count_pipelines(entries.len());
+    let disk = ctx.disk_cache.as_ref().map(|d| &d.cache);
+    let pipelines: Vec<wgpu::ComputePipeline> = entries
+        .iter()
+        .map(|(entry, layouts)| {
+            let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(entry),
+                bind_group_layouts: &layouts.iter().map(|l| Some(*l)).collect::<Vec<_>>(),
+                immediate_size: 0,
+            });
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(&pl),
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants,
+                    ..Default::default()
+                },
+                cache: disk,
+            })
+        })
+        .collect();
+    if let Some(e) = pollster::block_on(scope.pop()) {
+        // A program that failed is not kept.
+        ctx.caches
+            .modules
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .remove(source);
+        return Err(GpuError::Shader(e.to_string()));
+    }
+    ctx.check()?;
+    let mut cached = ctx
+        .caches
+        .pipelines
+        .lock()
+        .unwrap_or_else(|p| p.into_inner());
+    for (k, p) in keys.into_iter().zip(&pipelines) {
+        cached.insert(k, p.clone());
+    }
+    Ok(pipelines)
+}
+
+/// The folder of the on-disk pipeline cache: `$TWINTRACE_CACHE_DIR` (set
+/// and empty: no cache on disk), else `$XDG_CACHE_HOME/twintrace`, else
+/// `$HOME/.cache/twintrace`.
+pub fn cache_dir() -> Option<PathBuf> {
+    match std::env::var_os("TWINTRACE_CACHE_DIR") {
+        Some(d) if d.is_empty() => None,
+        Some(d) => Some(PathBuf::from(d)),
+        None => std::env::var_os("XDG_CACHE_HOME")
+            .filter(|d| !d.is_empty())
+            .map(|d| PathBuf::from(d).join("twintrace"))
+            .or_else(|| {
+                std::env::var_os("HOME")
+                    .filter(|d| !d.is_empty())
+                    .map(|h| PathBuf::from(h).join(".cache").join("twintrace"))
+            }),
+    }
+}
+
+/// The driver's pipeline cache of one device and the file it is kept in.
+pub(crate) struct DiskCache {
+    pub(crate) cache: wgpu::PipelineCache,
+    path: PathBuf,
+    /// The header's identity line: adapter, driver, twintrace version.
+    identity: String,
+    /// Bytes of cache data loaded when the device opened (0: none).
+    pub(crate) loaded: usize,
+}
+
+/// The first bytes of a cache file.
+const MAGIC: &[u8; 8] = b"TTPCACHE";
+
+/// FNV-1a, 64 bits: the file's checksum (against truncation and damage,
+/// not against tampering; the driver validates the data it is given too).
+fn checksum(data: &[u8]) -> u64 {
+    data.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
+        (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
+/// A cache file's bytes: magic, identity length and identity, data
+/// length and checksum, data.
+fn encode(identity: &str, data: &[u8]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(32 + identity.len() + data.len());
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&(identity.len() as u32).to_le_bytes());
+    out.extend_from_slice(identity.as_bytes());
+    out.extend_from_slice(&(data.len() as u64).to_le_bytes());
+    out.extend_from_slice(&checksum(data).to_le_bytes());
+    out.extend_from_slice(data);
+    out
+}
+
+/// The data of a cache file written for `identity`, or why it is not
+/// usable.
+fn decode<'b>(bytes: &'b [u8], identity: &str) -> Result<&'b [u8], String> {
+    let corrupt = || "it is damaged or not a twintrace pipeline cache".to_string();
+    let rest = bytes.strip_prefix(&MAGIC[..]).ok_or_else(corrupt)?;
+    let (len, rest) = rest.split_first_chunk::<4>().ok_or_else(corrupt)?;
+    let len = u32::from_le_bytes(*len) as usize;
+    if rest.len() < len {
+        return Err(corrupt());
+    }
+    let (id, rest) = rest.split_at(len);
+    let (data_len, rest) = rest.split_first_chunk::<8>().ok_or_else(corrupt)?;
+    let (sum, data) = rest.split_first_chunk::<8>().ok_or_else(corrupt)?;
+    if u64::from_le_bytes(*data_len) != data.len() as u64
+        || u64::from_le_bytes(*sum) != checksum(data)
+    {
+        return Err(corrupt());
+    }
+    if id != identity.as_bytes() {
+        return Err(format!(
+            "it was written for another adapter, driver or version ({})",
+            String::from_utf8_lossy(id)
+        ));
+    }
+    Ok(data)
+}
+
+impl DiskCache {
+    /// Opens the pipeline cache of `device` (which must have
+    /// `Features::PIPELINE_CACHE`) in `dir`, loading what the file holds
+    /// for this adapter; a warning where a file was there and could not be
+    /// used.
+    pub(crate) fn open(
+        device: &wgpu::Device,
+        info: &wgpu::AdapterInfo,
+        dir: &Path,
+    ) -> (Option<DiskCache>, Option<String>) {
+        let Some(key) = wgpu::util::pipeline_cache_key(info) else {
+            return (None, None);
+        };
+        let path = dir.join(format!("pipelines-{key}.bin"));
+        let identity = format!(
+            "{} | {} | {} | {} | twintrace {}",
+            info.name,
+            info.driver,
+            info.driver_info,
+            key,
+            env!("CARGO_PKG_VERSION")
+        );
+        let mut warning = None;
+        let bytes = match std::fs::read(&path) {
+            Ok(b) => Some(b),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+            Err(e) => {
+                warning = Some(format!(
+                    "pipeline cache {}: cannot read it ({e}); kernels are compiled anew",
+                    path.display()
+                ));
+                None
+            }
+        };
+        let data = bytes.as_deref().and_then(|b| match decode(b, &identity) {
+            Ok(d) => Some(d),
+            Err(why) => {
+                warning = Some(format!(
+                    "pipeline cache {} ignored: {why}; it will be replaced",
+                    path.display()
+                ));
+                None
+            }
+        });
+        // SAFETY: wgpu asks that the data come from `PipelineCache::get_data`
+        // of a compatible adapter. The file's header names the adapter,
+        // driver and version it was written for, its checksum matches, and
+        // `fallback` makes wgpu start an empty cache where the driver still
+        // finds the data unusable.
+        let cache = unsafe {
+            device.create_pipeline_cache(&wgpu::PipelineCacheDescriptor {
+                label: Some("twintrace pipelines"),
+                data,
+                fallback: true,
+            })
+        };
+        let loaded = data.map_or(0, <[u8]>::len);
+        (
+            Some(DiskCache {
+                cache,
+                path,
+                identity,
+                loaded,
+            }),
+            warning,
+        )
+    }
+
+    /// Writes the cache's data back to its file (a temporary file in the
+    /// same folder, renamed into place: another process reading it sees
+    /// the old file or the new one, never a part). Errors are returned
+    /// for the caller to report or drop: a cache that cannot be written
+    /// costs only the next run's compile time.
+    pub(crate) fn save(&self) -> std::io::Result<()> {
+        let Some(data) = self.cache.get_data() else {
+            return Ok(());
+        };
+        if data.is_empty() {
+            return Ok(());
+        }
+        let dir = self.path.parent().unwrap_or(Path::new("."));
+        std::fs::create_dir_all(dir)?;
+        let mut tmp = tempfile::NamedTempFile::new_in(dir)?;
+        std::io::Write::write_all(&mut tmp, &encode(&self.identity, &data))?;
+        tmp.persist(&self.path).map_err(|e| e.error)?;
+        Ok(())
+    }
+
+    pub(crate) fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_lru_keeps_the_most_recently_used() {
+        let mut l = Lru::new(3);
+        for k in 0..3 {
+            l.insert(k, k * 10);
+        }
+        assert_eq!(l.get(&0), Some(0));
+        l.insert(3, 30);
+        assert_eq!(l.len(), 3);
+        assert_eq!(l.get(&1), None, "the least recently used went");
+        assert_eq!(
+            (l.get(&0), l.get(&2), l.get(&3)),
+            (Some(0), Some(20), Some(30))
+        );
+        l.insert(2, 21);
+        assert_eq!((l.len(), l.get(&2)), (3, Some(21)));
+    }
+
+    #[test]
+    fn a_cache_file_round_trips_and_refuses_damage_and_strangers() {
+        let data: Vec<u8> = (0..1000u32).map(|i| (i * 7 % 251) as u8).collect();
+        let bytes = encode("adapter A | driver 1", &data);
+        assert_eq!(decode(&bytes, "adapter A | driver 1").unwrap(), &data[..]);
+        let foreign = decode(&bytes, "adapter B | driver 1").unwrap_err();
+        assert!(foreign.contains("another adapter"), "{foreign}");
+        for cut in [0, 4, 8, 12, 30, bytes.len() - 1] {
+            assert!(
+                decode(&bytes[..cut], "adapter A | driver 1").is_err(),
+                "cut at {cut}"
+            );
+        }
+        let mut flipped = bytes.clone();
+        let last = flipped.len() - 1;
+        flipped[last] ^= 1;
+        let damaged = decode(&flipped, "adapter A | driver 1").unwrap_err();
+        assert!(damaged.contains("damaged"), "{damaged}");
+    }
+}

@@ -1,0 +1,130 @@
+//! The render boundary on GPUs (`twintrace::render`): a progressive
+//! render on one device takes a thousand one-sample ranges into the film
+//! in the device's memory, compiling no pipeline after it is opened, and
+//! holds the film of one thousand-sample render bit for bit; so does
+//! every schedule over uneven ranges, and a group of two devices opened
+//! on the test adapter, whose ranges are shared out in chunks. A reset
+//! with new settings starts a new film on the same kernels.
+
+use crate::common;
+use reference::integrator::Integrator;
+use reference::RenderSettings;
+use twintrace::render::{GpuProgressive, GroupProgressive, Layers, Progressive, RenderSpec};
+
+fn tiny() -> RenderSettings {
+    RenderSettings {
+        width: 4,
+        height: 3,
+        spp: 1000,
+        max_depth: 5,
+        seed: 9,
+        ..RenderSettings::default()
+    }
+}
+
+#[test]
+fn a_thousand_single_sample_ranges_stay_on_the_device_and_are_one_render() {
+    let ctx = &common::own_gpu();
+    let scene = reference::load_scene("cornell-spheres").unwrap();
+    let settings = tiny();
+    let spec = RenderSpec::DEFAULT;
+    let mut p = GpuProgressive::new(ctx, &scene, &spec, settings).unwrap();
+    let whole = p.renderer().render(&settings, &|_, _| {}).unwrap().sums;
+    let built = ctx.pipelines_built();
+    for i in (0..1000u32).rev() {
+        p.add(i..i + 1, &|_| {}).unwrap();
+    }
+    assert_eq!(ctx.pipelines_built(), built, "a range compiled a pipeline");
+    assert_eq!(format!("{:?}", p.ranges()), "[0..1000]");
+    assert_eq!(p.sums().unwrap(), whole);
+    assert_eq!(p.layers().unwrap(), Layers::from_sums(&whole));
+}
+
+#[test]
+fn ranges_that_trace_the_same_samples_again_are_not_the_whole_film() {
+    // The mutant: every range traces samples 0..1 (keyed by its length,
+    // not its indices). Every pixel still counts 20 samples, so only the
+    // comparison of the sums can tell.
+    let ctx = common::gpu();
+    let scene = reference::load_scene("cornell-spheres").unwrap();
+    let settings = RenderSettings { spp: 20, ..tiny() };
+    let spec = RenderSpec::DEFAULT;
+    let p = GpuProgressive::new(ctx, &scene, &spec, settings).unwrap();
+    let r = p.renderer();
+    let whole = r.render(&settings, &|_, _| {}).unwrap().sums;
+    for i in 0..20 {
+        r.accumulate(&settings, 0..1, &|_, _| {}, i == 0).unwrap();
+    }
+    let repeated = r.read_film(&settings, 20).unwrap();
+    assert!(repeated.pixels.iter().all(|p| p.count + p.rejected == 20));
+    assert_ne!(
+        repeated, whole,
+        "twenty copies of sample 0 passed for samples 0..20"
+    );
+}
+
+#[test]
+fn every_schedule_takes_uneven_ranges_into_one_render_and_resets() {
+    let ctx = common::gpu();
+    let scene = reference::load_scene("cornell-spheres").unwrap();
+    let settings = RenderSettings { spp: 40, ..tiny() };
+    for schedule in gpu::Schedule::ALL {
+        let spec = RenderSpec {
+            variant: gpu::Variant {
+                schedule,
+                ..RenderSpec::DEFAULT.variant
+            },
+            ..RenderSpec::DEFAULT
+        };
+        let mut p = GpuProgressive::new(ctx, &scene, &spec, settings).unwrap();
+        let whole = p.renderer().render(&settings, &|_, _| {}).unwrap().sums;
+        for r in [17..40, 0..1, 3..17, 1..3] {
+            p.add(r, &|_| {}).unwrap();
+        }
+        assert_eq!(p.sums().unwrap(), whole, "{schedule:?}");
+        assert!(
+            p.add(5..6, &|_| {}).is_err(),
+            "{schedule:?}: an overlap was taken"
+        );
+        let other = RenderSettings {
+            width: 6,
+            seed: 2,
+            spp: 9,
+            ..settings
+        };
+        p.reset(other).unwrap();
+        p.add(0..9, &|_| {}).unwrap();
+        let fresh = p.renderer().render(&other, &|_, _| {}).unwrap().sums;
+        assert_eq!(p.sums().unwrap(), fresh, "{schedule:?} after a reset");
+    }
+}
+
+#[test]
+fn a_group_of_two_devices_is_the_one_device_film_bit_for_bit() {
+    let ctx = common::gpu();
+    let scene = reference::load_scene("cornell-spheres").unwrap();
+    let settings = RenderSettings { spp: 50, ..tiny() };
+    let spec = RenderSpec::DEFAULT.with_integrator(Integrator::Mis);
+    let one = GpuProgressive::new(ctx, &scene, &spec, settings)
+        .unwrap()
+        .renderer()
+        .render(&settings, &|_, _| {})
+        .unwrap()
+        .sums;
+    let i = gpu::list_adapters()
+        .iter()
+        .position(|a| a.name == ctx.adapter.name)
+        .expect("the test adapter is listed");
+    let contexts = gpu::devices::DeviceSelection::Indices(vec![i, i])
+        .open()
+        .unwrap();
+    let mut group = GroupProgressive::new(&contexts, &scene, &spec, settings).unwrap();
+    group.set_chunk(Some(3));
+    for r in [0..7, 30..50, 7..30] {
+        let added = group.add(r.clone(), &|_| {}).unwrap();
+        let shared: u64 = added.shares.iter().map(|s| s.samples).sum();
+        assert_eq!(shared, (r.end - r.start) as u64);
+    }
+    assert_eq!(group.sums().unwrap(), one);
+    assert!(group.device().starts_with("2 gpus"), "{}", group.device());
+}
