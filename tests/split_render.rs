@@ -270,6 +270,24 @@ fn the_cli_merges_parts_into_the_whole_render_and_refuses_what_is_not_one() {
         assert_eq!(o.stderr.trim().lines().count(), 1, "{}", o.stderr);
         assert!(!d.join("refused.exr").exists() && !d.join("refused.png").exists());
     }
+    // An output naming one of the parts (as given, or through another
+    // path to it) is refused and the part is left as it was.
+    let before = std::fs::read(d.join("part0.exr")).unwrap();
+    for out in ["part0", "part0.exr", "./sub/../part0"] {
+        std::fs::create_dir_all(d.join("sub")).unwrap();
+        let o = twintrace(
+            d,
+            &["merge", "part0.exr", "part1.exr", "part2.exr", "-o", out],
+        );
+        assert!(!o.ok, "-o {out} overwrote a part");
+        assert!(
+            o.stderr.contains("would overwrite the part"),
+            "{}",
+            o.stderr
+        );
+        assert_eq!(o.stderr.trim().lines().count(), 1, "{}", o.stderr);
+        assert_eq!(std::fs::read(d.join("part0.exr")).unwrap(), before);
+    }
     // Malformed ranges and a range past --spp.
     for bad in ["5..5", "9..3", "a..b", "0..99999999", "7"] {
         let o = render(d, "bad", &["--samples", bad]);

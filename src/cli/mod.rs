@@ -542,8 +542,20 @@ fn progress_bar(total: u64) -> indicatif::ProgressBar {
 /// `twintrace merge`: reads every part (each checked whole), merges them
 /// ([`twintrace::partial::merge`]) and writes the film of their range.
 fn merge(args: &MergeArgs) -> Result<()> {
-    // Fail on an unusable output path before reading the parts.
+    // Fail on an unusable output path before reading the parts, and on
+    // an output that would overwrite one of them.
     let paths = image_io::output_paths(&args.output)?;
+    for part in &args.parts {
+        for out in [&paths.exr, &paths.png] {
+            if same_file(part, out) {
+                bail!(
+                    "-o {}: it would overwrite the part `{}`; name another output",
+                    args.output.display(),
+                    part.display()
+                );
+            }
+        }
+    }
     drop(AtomicFile::create(&paths.exr)?);
     let mut parts = Vec::with_capacity(args.parts.len());
     for path in &args.parts {
@@ -561,6 +573,15 @@ fn merge(args: &MergeArgs) -> Result<()> {
         paths.exr.display(),
         paths.png.display()
     ))
+}
+
+/// Whether `a` and `b` name one existing file (through links, `..` and
+/// relative paths alike).
+fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
+    match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    }
 }
 
 /// Writes to stdout; a closed pipe (`twintrace info x | head -1`) is not an error.
