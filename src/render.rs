@@ -128,10 +128,48 @@ pub trait Progressive {
     /// The sample ranges the film holds, sorted and joined.
     fn ranges(&self) -> &[Range<u32>];
 
+    /// What the user should know about how the render runs (a GPU walk
+    /// other than the one asked for, and why), one line each.
+    fn notes(&self) -> Vec<String> {
+        Vec::new()
+    }
+
     /// Samples a pixel the film holds.
     fn samples(&self) -> u64 {
         self.ranges().iter().map(|r| (r.end - r.start) as u64).sum()
     }
+}
+
+/// `settings`, validated, as every progressive render takes them.
+fn check(settings: &RenderSettings) -> Result<()> {
+    settings
+        .validate()
+        .map_err(|e| anyhow!("invalid render settings: {e}"))
+}
+
+/// Where a progressive render runs: the CPU reference (in a thread pool
+/// where one is given), one GPU, or several.
+pub enum Devices<'a> {
+    Cpu(Option<&'a rayon::ThreadPool>),
+    Gpu(&'a gpu::GpuContext),
+    Gpus(&'a [gpu::GpuContext]),
+}
+
+/// Opens a progressive render of `scene` with `spec` on `devices`: the
+/// one place a backend is chosen for a render.
+pub fn open<'a>(
+    devices: Devices<'a>,
+    scene: &'a Scene,
+    spec: &RenderSpec,
+    settings: RenderSettings,
+) -> Result<Box<dyn Progressive + 'a>> {
+    Ok(match devices {
+        Devices::Cpu(pool) => Box::new(CpuProgressive::new(scene, spec, settings, pool)?),
+        Devices::Gpu(ctx) => Box::new(GpuProgressive::new(ctx, scene, spec, settings)?),
+        Devices::Gpus(contexts) => {
+            Box::new(GroupProgressive::new(contexts, scene, spec, settings)?)
+        }
+    })
 }
 
 /// The sample ranges a film holds: sorted, disjoint, adjacent ones joined.
@@ -195,9 +233,7 @@ impl<'a> CpuProgressive<'a> {
         settings: RenderSettings,
         pool: Option<&'a rayon::ThreadPool>,
     ) -> Result<Self> {
-        settings
-            .validate()
-            .map_err(|e| anyhow!("invalid render settings: {e}"))?;
+        check(&settings)?;
         Ok(Self {
             scene,
             integrator: spec.integrator(),
@@ -226,9 +262,7 @@ impl Progressive for CpuProgressive<'_> {
             spp: samples.end - samples.start,
             ..self.settings
         };
-        settings
-            .validate()
-            .map_err(|e| anyhow!("invalid render settings: {e}"))?;
+        check(&settings)?;
         let (scene, integrator) = (self.scene, self.integrator);
         let pixel_progress = |pixels: u64| progress(pixels * n);
         let render = || {
@@ -258,9 +292,7 @@ impl Progressive for CpuProgressive<'_> {
     }
 
     fn reset(&mut self, settings: RenderSettings) -> Result<()> {
-        settings
-            .validate()
-            .map_err(|e| anyhow!("invalid render settings: {e}"))?;
+        check(&settings)?;
         self.film = FilmSums::new(settings.width, settings.height);
         self.settings = settings;
         self.ranges.clear();
@@ -296,9 +328,7 @@ impl<'a> GpuProgressive<'a> {
     /// A progressive render on a renderer already built (a test's edited
     /// program or records).
     pub fn from_renderer(renderer: gpu::GpuRenderer<'a>, settings: RenderSettings) -> Result<Self> {
-        settings
-            .validate()
-            .map_err(|e| anyhow!("invalid render settings: {e}"))?;
+        check(&settings)?;
         Ok(Self {
             renderer,
             settings,
@@ -368,9 +398,7 @@ impl Progressive for GpuProgressive<'_> {
     }
 
     fn reset(&mut self, settings: RenderSettings) -> Result<()> {
-        settings
-            .validate()
-            .map_err(|e| anyhow!("invalid render settings: {e}"))?;
+        check(&settings)?;
         self.settings = settings;
         self.ranges.clear();
         Ok(())
@@ -378,6 +406,15 @@ impl Progressive for GpuProgressive<'_> {
 
     fn ranges(&self) -> &[Range<u32>] {
         self.ranges.as_slice()
+    }
+
+    fn notes(&self) -> Vec<String> {
+        self.renderer
+            .traversal()
+            .1
+            .map(str::to_string)
+            .into_iter()
+            .collect()
     }
 }
 
@@ -402,9 +439,7 @@ impl<'a> GroupProgressive<'a> {
         spec: &RenderSpec,
         settings: RenderSettings,
     ) -> Result<Self> {
-        settings
-            .validate()
-            .map_err(|e| anyhow!("invalid render settings: {e}"))?;
+        check(&settings)?;
         let group = gpu::devices::DeviceGroup::new(contexts, scene, spec.variant)?;
         Ok(Self {
             group,
@@ -457,9 +492,7 @@ impl Progressive for GroupProgressive<'_> {
     }
 
     fn reset(&mut self, settings: RenderSettings) -> Result<()> {
-        settings
-            .validate()
-            .map_err(|e| anyhow!("invalid render settings: {e}"))?;
+        check(&settings)?;
         self.group.reset();
         self.settings = settings;
         self.ranges.clear();
@@ -468,6 +501,17 @@ impl Progressive for GroupProgressive<'_> {
 
     fn ranges(&self) -> &[Range<u32>] {
         self.ranges.as_slice()
+    }
+
+    fn notes(&self) -> Vec<String> {
+        let mut notes: Vec<String> = self
+            .group
+            .renderers()
+            .iter()
+            .filter_map(|r| r.traversal().1.map(str::to_string))
+            .collect();
+        notes.dedup();
+        notes
     }
 }
 

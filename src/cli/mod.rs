@@ -348,7 +348,6 @@ fn budget(
 }
 
 fn render(args: &RenderArgs) -> Result<()> {
-    use twintrace::render::{CpuProgressive, GpuProgressive, GroupProgressive, Progressive};
     if args.threads == Some(0) {
         bail!("--threads 0: at least one thread is needed");
     }
@@ -392,19 +391,15 @@ fn render(args: &RenderArgs) -> Result<()> {
     };
     let spec = spec::spec(&args.look, &args.variant);
     let (device, _, why) = open_device(args)?;
-    let mut progressive: Box<dyn Progressive + '_> = match &device {
-        Device::Cpu => Box::new(CpuProgressive::new(&scene, &spec, settings, pool.as_ref())?),
-        Device::Gpu(ctx) => {
-            let render = GpuProgressive::new(ctx, &scene, &spec, settings)?;
-            if let (_, Some(why)) = render.renderer().traversal() {
-                eprintln!("warning: {why}");
-            }
-            Box::new(render)
-        }
-        Device::Gpus(contexts) => {
-            Box::new(GroupProgressive::new(contexts, &scene, &spec, settings)?)
-        }
+    let devices = match &device {
+        Device::Cpu => twintrace::render::Devices::Cpu(pool.as_ref()),
+        Device::Gpu(ctx) => twintrace::render::Devices::Gpu(ctx),
+        Device::Gpus(contexts) => twintrace::render::Devices::Gpus(contexts),
     };
+    let mut progressive = twintrace::render::open(devices, &scene, &spec, settings)?;
+    for note in progressive.notes() {
+        eprintln!("warning: {note}");
+    }
     let device_name = progressive.device();
     if args.backend == Backend::Auto {
         // Printed only once everything is checked, so that a failing run

@@ -15,7 +15,7 @@ use twintrace::compare::gate::{
     gate_settings, load_reference_in, load_scene, read_manifest, refs_for, workspace_root, RefSet,
     MANIFEST,
 };
-use twintrace::render::{render_film, CpuProgressive, GpuProgressive, Progressive, RenderSpec};
+use twintrace::render::{open, render_film, Devices, RenderSpec};
 use twintrace::selftest::{self, GateEvent, PreparedRender, Renderer};
 
 /// The chosen device and spec as a [`Renderer`]: a progressive render
@@ -28,15 +28,19 @@ impl Renderer for On<'_> {
     }
 
     fn prepare<'s>(&'s self, scene: &'s Scene) -> Result<PreparedRender<'s>> {
-        let settings = scene.render_settings();
-        let render: Box<dyn Progressive + 's> = match self.0 {
-            Some(ctx) => Box::new(GpuProgressive::new(ctx, scene, &self.1, settings)?),
-            None => Box::new(CpuProgressive::new(scene, &self.1, settings, None)?),
-        };
+        let render = open(devices(self.0), scene, &self.1, scene.render_settings())?;
         let render = RefCell::new(render);
         Ok(Box::new(move |settings: &RenderSettings| -> Result<Film> {
             render_film(render.borrow_mut().as_mut(), settings)
         }))
+    }
+}
+
+/// The GPU under test, else the CPU reference.
+fn devices(gpu: Option<&gpu::GpuContext>) -> Devices<'_> {
+    match gpu {
+        Some(ctx) => Devices::Gpu(ctx),
+        None => Devices::Cpu(None),
     }
 }
 
@@ -133,10 +137,7 @@ pub fn execute(args: &SelftestArgs) -> Result<bool> {
             let reference = load_reference_in(refs_for(args.integrator), &fixture)?;
             let scene = load_scene(&fixture)?;
             let settings = gate_settings(&reference, &scene, 1, args.first_seed);
-            let mut render: Box<dyn Progressive + '_> = match gpu_ctx {
-                Some(ctx) => Box::new(GpuProgressive::new(ctx, &scene, &spec, settings)?),
-                None => Box::new(CpuProgressive::new(&scene, &spec, settings, None)?),
-            };
+            let mut render = open(devices(gpu_ctx), &scene, &spec, settings)?;
             let row = selftest::calibrate_budget(
                 &reference,
                 render.as_mut(),
