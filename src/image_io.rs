@@ -6,8 +6,10 @@
 //! `twintrace render -o OUT` writes `OUT.exr`, a single-part scan-line
 //! OpenEXR file, ZIP compressed (16 lines per block, lossless), increasing
 //! line order, data window = display window = `(0, 0)–(width−1, height−1)`,
-//! row 0 at the top. It holds six 32-bit float channels (stored in the
-//! alphabetical order the format requires):
+//! row 0 at the top, written by [`crate::exr_write`] (blocks compressed in
+//! parallel; the header's attributes sorted by name, so identical renders
+//! give identical bytes). It holds nine 32-bit float channels (stored in
+//! the alphabetical order the format requires):
 //!
 //! | channel | meaning |
 //! |---|---|
@@ -41,16 +43,15 @@
 //!
 //! [`AtomicFile`] writes to a temporary file in the destination directory
 //! and renames it over the destination only on [`AtomicFile::commit`]; if
-//! anything fails first, dropping it removes the temporary file. A missing
+//! anything fails first, dropping it removes the temporary file. Where it
+//! replaces a file, the data is flushed to disk before the rename, so that
+//! not even a power loss can leave the old file's place empty. A missing
 //! destination directory is an error naming that directory (nothing is
 //! created).
 
 use crate::tonemap::Tonemap;
 use anyhow::{anyhow, bail, Context, Result};
-use exr::prelude::{
-    AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Image, ImageAttributes, Layer,
-    LayerAttributes, ReadChannels, ReadLayers, SmallVec, Text, WritableImage,
-};
+use exr::prelude::{AttributeValue, FlatSamples, ReadChannels, ReadLayers, Text};
 use glam::Vec3;
 use reference::film::Film;
 use std::ffi::OsString;
@@ -217,6 +218,14 @@ pub fn existing_parent_dir(path: &Path) -> Result<PathBuf> {
 /// `AtomicFile` deletes the temporary file.
 #[derive(Debug)]
 pub struct AtomicFile {
+    /// Whether the data has been flushed to disk ([`AtomicFile::sync`]).
+    synced: bool,
+    /// Whether a file stood at the destination when this one was created:
+    /// only then is the data flushed to disk before the rename (what an
+    /// interrupted process would otherwise leave is the temporary file;
+    /// what a power loss could lose, without the flush, is the older
+    /// file's data, replaced by a file the disk has not yet written).
+    replaces: bool,
     temp: tempfile::NamedTempFile,
     dest: PathBuf,
 }
@@ -249,6 +258,8 @@ impl AtomicFile {
             )
         })?;
         Ok(Self {
+            synced: false,
+            replaces: dest.exists(),
             temp,
             dest: dest.to_path_buf(),
         })
@@ -262,13 +273,29 @@ impl AtomicFile {
         &self.dest
     }
 
-    /// Flushes the data to disk and renames the file into place.
-    pub fn commit(self) -> Result<PathBuf> {
-        let dest = self.dest;
+    /// Flushes the data to disk now if it replaces a file (a writer of
+    /// several files flushes each as it ends, while the others are still
+    /// being written).
+    pub fn sync(&mut self) -> Result<()> {
+        if !self.replaces {
+            self.synced = true;
+            return Ok(());
+        }
         self.temp
             .as_file()
             .sync_all()
-            .with_context(|| format!("cannot write `{}`", dest.display()))?;
+            .with_context(|| format!("cannot write `{}`", self.dest.display()))?;
+        self.synced = true;
+        Ok(())
+    }
+
+    /// Flushes the data to disk (where it replaces a file, unless
+    /// [`AtomicFile::sync`] did) and renames the file into place.
+    pub fn commit(mut self) -> Result<PathBuf> {
+        if !self.synced {
+            self.sync()?;
+        }
+        let dest = self.dest;
         self.temp.persist(&dest).map_err(|e| {
             anyhow!(
                 "cannot write `{}`: {}",
@@ -299,28 +326,6 @@ pub fn write_atomic(path: &Path, write: impl FnOnce(&mut File) -> Result<()>) ->
     Ok(())
 }
 
-/// EXR text is Latin-1: other characters become `?`.
-fn latin1(s: &str) -> Text {
-    let bytes: Vec<u8> = s
-        .chars()
-        .map(|c| u8::try_from(u32::from(c)).unwrap_or(b'?'))
-        .collect();
-    Text::from_bytes_unchecked(SmallVec::from_vec(bytes))
-}
-
-fn channel(name: &str, values: impl Iterator<Item = f32>) -> AnyChannel<FlatSamples> {
-    AnyChannel::new(name, FlatSamples::F32(values.collect()))
-}
-
-fn rgb_channels(prefix: &str, pixels: &[Vec3]) -> [AnyChannel<FlatSamples>; 3] {
-    [0, 1, 2].map(|c| {
-        channel(
-            &format!("{prefix}{}", ["R", "G", "B"][c]),
-            pixels.iter().map(move |p| p[c]),
-        )
-    })
-}
-
 /// What an EXR holds beyond the render image: 32-bit unsigned integer
 /// channels (lossless; a partial film's exact sums, [`crate::partial`])
 /// and text attributes, each by name.
@@ -347,78 +352,68 @@ impl ExrExtras {
 }
 
 /// Encodes an image as the EXR layout described in the module docs.
-pub fn write_exr_to(writer: impl Write + Seek, image: &RenderImage) -> Result<()> {
+pub fn write_exr_to(writer: impl Write + Seek + Send, image: &RenderImage) -> Result<()> {
     write_exr_with(writer, image, &ExrExtras::default())
 }
 
 /// [`write_exr_to`] with `extras`' channels and attributes added.
 pub fn write_exr_with(
-    writer: impl Write + Seek,
+    writer: impl Write + Seek + Send,
     image: &RenderImage,
     extras: &ExrExtras,
 ) -> Result<()> {
+    use crate::exr_write::{Attribute, ExrImage, Samples};
     image.check()?;
-    let mut channels: Vec<AnyChannel<FlatSamples>> = rgb_channels("", &image.mean).into();
-    let n = image.width as usize * image.height as usize;
-    for (name, values) in &extras.u32_channels {
-        if values.len() != n {
-            bail!(
-                "channel `{name}` has {} values for {n} pixels",
-                values.len()
-            );
-        }
-        channels.push(AnyChannel::new(
-            name.as_str(),
-            FlatSamples::U32(values.clone()),
-        ));
-    }
+    let mut layers = vec![("", &image.mean)];
     if let Some(variance) = &image.variance {
-        channels.extend(rgb_channels(&format!("{VARIANCE_LAYER}."), variance));
+        layers.push((VARIANCE_LAYER, variance));
     }
     if let Some(skewness) = &image.skewness {
-        channels.extend(rgb_channels(&format!("{SKEWNESS_LAYER}."), skewness));
+        layers.push((SKEWNESS_LAYER, skewness));
     }
-    let mut attributes = LayerAttributes::default();
+    let mut channels = Vec::new();
+    for (layer, pixels) in layers {
+        let prefix = if layer.is_empty() {
+            String::new()
+        } else {
+            format!("{layer}.")
+        };
+        for (c, name) in ["R", "G", "B"].iter().enumerate() {
+            channels.push((format!("{prefix}{name}"), Samples::Component(pixels, c)));
+        }
+    }
+    for (name, values) in &extras.u32_channels {
+        channels.push((name.clone(), Samples::U32(values)));
+    }
     let m = &image.metadata;
-    let int = |v: u32| AttributeValue::I32(i32::try_from(v).unwrap_or(i32::MAX));
-    let other = &mut attributes.other;
+    let int = |v: u32| Attribute::Int(i32::try_from(v).unwrap_or(i32::MAX));
+    let mut attributes = Vec::new();
     if let Some(spp) = m.spp {
-        other.insert(Text::from("spp"), int(spp));
+        attributes.push(("spp".to_string(), int(spp)));
     }
     if let Some(depth) = m.max_depth {
-        other.insert(Text::from("maxDepth"), int(depth));
+        attributes.push(("maxDepth".to_string(), int(depth)));
     }
     if let Some(seed) = m.seed {
-        other.insert(
-            Text::from("seed"),
-            AttributeValue::Text(Text::from(seed.to_string().as_str())),
-        );
+        attributes.push(("seed".to_string(), Attribute::Text(seed.to_string())));
     }
     if let Some(scene) = &m.scene {
-        other.insert(Text::from("scene"), AttributeValue::Text(latin1(scene)));
+        attributes.push(("scene".to_string(), Attribute::Text(scene.clone())));
     }
     if let Some(software) = &m.software {
-        attributes.software_name = Some(latin1(software));
+        attributes.push(("software".to_string(), Attribute::Text(software.clone())));
     }
     for (name, value) in &extras.text {
-        other.insert(
-            Text::from(name.as_str()),
-            AttributeValue::Text(latin1(value)),
-        );
+        attributes.push((name.clone(), Attribute::Text(value.clone())));
     }
-    let size = (image.width as usize, image.height as usize);
-    let layer = Layer::new(
-        size,
+    let exr = ExrImage {
+        width: image.width as usize,
+        height: image.height as usize,
+        channels,
         attributes,
-        Encoding::SMALL_LOSSLESS,
-        AnyChannels::sort(SmallVec::from_vec(channels)),
-    );
-    let exr_image = Image::new(ImageAttributes::with_size(size), layer);
+    };
     let mut buffered = BufWriter::new(writer);
-    exr_image
-        .write()
-        .to_buffered(&mut buffered)
-        .map_err(|e| anyhow!("EXR encoding failed: {e}"))?;
+    crate::exr_write::write(&mut buffered, &exr).context("EXR encoding failed")?;
     buffered.flush()?;
     Ok(())
 }
@@ -472,8 +467,16 @@ pub fn write_render_outputs(
     paths: &OutputPaths,
     image: &RenderImage,
     tonemap: Tonemap,
-) -> Result<()> {
+) -> Result<WriteTimes> {
     write_render_outputs_with(paths, image, &ExrExtras::default(), tonemap)
+}
+
+/// How long each file of a render took to encode and write (they are
+/// written at once).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct WriteTimes {
+    pub exr: std::time::Duration,
+    pub png: std::time::Duration,
 }
 
 /// [`write_render_outputs`] with `extras` in the EXR.
@@ -482,27 +485,106 @@ pub fn write_render_outputs_with(
     image: &RenderImage,
     extras: &ExrExtras,
     tonemap: Tonemap,
-) -> Result<()> {
+) -> Result<WriteTimes> {
     image.check()?;
     let mut exr = AtomicFile::create(&paths.exr)?;
     let mut png = AtomicFile::create(&paths.png)?;
     // The two files are written at once (a 4K EXR's compression and the
     // PNG's tone map and deflate each take a good part of a second).
+    // Each file is flushed to disk as soon as it is written, while the
+    // other is still being written.
     let (e, p) = rayon::join(
-        || {
-            write_exr_with(exr.file(), image, extras)
-                .with_context(|| format!("cannot write `{}`", paths.exr.display()))
+        || -> Result<std::time::Duration> {
+            let start = std::time::Instant::now();
+            // Where the file will be flushed to disk (it replaces one),
+            // its write-back starts as it is written.
+            let replaces = exr.replaces;
+            let file = exr.file();
+            if replaces {
+                write_exr_with(WriteBehind::new(file), image, extras)
+            } else {
+                write_exr_with(file, image, extras)
+            }
+            .with_context(|| format!("cannot write `{}`", paths.exr.display()))?;
+            exr.sync()?;
+            Ok(start.elapsed())
         },
-        || {
+        || -> Result<std::time::Duration> {
+            let start = std::time::Instant::now();
             write_png_to(png.file(), image.width, image.height, &image.mean, tonemap)
-                .with_context(|| format!("cannot write `{}`", paths.png.display()))
+                .with_context(|| format!("cannot write `{}`", paths.png.display()))?;
+            png.sync()?;
+            Ok(start.elapsed())
         },
     );
-    e?;
-    p?;
+    let times = WriteTimes { exr: e?, png: p? };
     exr.commit()?;
     png.commit()?;
-    Ok(())
+    Ok(times)
+}
+
+/// A file writer that asks the kernel to start writing each few
+/// megabytes to disk as soon as they are written (Linux's
+/// `sync_file_range`, which does not wait), so that the `fsync` that ends
+/// an output finds most of a large file already on disk instead of
+/// writing all of it then.
+struct WriteBehind<'a> {
+    file: &'a mut File,
+    /// Where the written data starts that has not been handed to the disk.
+    flushed: u64,
+    position: u64,
+}
+
+impl<'a> WriteBehind<'a> {
+    /// Bytes handed to the disk at a time.
+    const STEP: u64 = 16 << 20;
+
+    fn new(file: &'a mut File) -> Self {
+        WriteBehind {
+            file,
+            flushed: 0,
+            position: 0,
+        }
+    }
+}
+
+impl Write for WriteBehind<'_> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.file.write(buf)?;
+        self.position += n as u64;
+        if self.position >= self.flushed + Self::STEP {
+            #[cfg(target_os = "linux")]
+            {
+                use std::os::fd::AsRawFd;
+                // SAFETY: the descriptor is the open file's; the call only
+                // starts the write-back of a range of it. Its failure
+                // changes nothing (the final fsync writes what is left).
+                unsafe {
+                    libc::sync_file_range(
+                        self.file.as_raw_fd(),
+                        self.flushed as libc::off64_t,
+                        (self.position - self.flushed) as libc::off64_t,
+                        libc::SYNC_FILE_RANGE_WRITE,
+                    );
+                }
+            }
+            self.flushed = self.position;
+        }
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.file.flush()
+    }
+}
+
+impl Seek for WriteBehind<'_> {
+    fn seek(&mut self, to: std::io::SeekFrom) -> std::io::Result<u64> {
+        self.position = self.file.seek(to)?;
+        // Write-back resumes from wherever the writing goes on.
+        self.flushed = self.flushed.min(self.position);
+        Ok(self.position)
+    }
 }
 
 fn attribute_u32(value: &AttributeValue) -> Option<u32> {

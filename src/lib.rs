@@ -23,6 +23,7 @@
 //!   `twintrace selftest`.
 
 pub mod compare;
+pub mod exr_write;
 pub mod image_io;
 pub mod partial;
 pub mod perf;

@@ -243,3 +243,219 @@ fn a_failed_write_leaves_no_file() {
     .is_err());
     assert!(files_in(dir.path()).is_empty());
 }
+
+/// Writes `image` with the project's EXR writer into memory.
+fn exr_bytes(image: &twintrace::exr_write::ExrImage<'_>) -> Vec<u8> {
+    let mut out = std::io::Cursor::new(Vec::new());
+    twintrace::exr_write::write(&mut out, image).unwrap();
+    out.into_inner()
+}
+
+/// The writer's files decoded by the `exr` crate (an independent
+/// implementation): every channel's bits and every attribute come back,
+/// for sizes that end a ZIP block early or hold a single one, blocks that
+/// compress (constant) and blocks that do not (random bits, stored as they
+/// are), and names beyond the format's 31-byte short names.
+#[test]
+fn exr_writer_files_decode_bit_exactly_in_another_reader() {
+    use twintrace::exr_write::{Attribute, ExrImage, Samples};
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = || {
+        // SplitMix64: any bits, NaNs and subnormals included.
+        state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        (z ^ (z >> 31)) as u32
+    };
+    let long = "a.channel.name.longer.than.thirty.one.bytes";
+    for (w, h) in [(1, 1), (7, 5), (3, 16), (5, 17), (33, 40)] {
+        let n = w * h;
+        let random: Vec<u32> = (0..n).map(|_| next()).collect();
+        let floats: Vec<f32> = (0..n).map(|_| f32::from_bits(next())).collect();
+        let constant = vec![Vec3::splat(0.25); n];
+        let image = ExrImage {
+            width: w,
+            height: h,
+            channels: vec![
+                ("G".into(), Samples::Component(&constant, 1)),
+                ("R".into(), Samples::F32(&floats)),
+                ("count".into(), Samples::U32(&random)),
+                (long.into(), Samples::Component(&constant, 0)),
+            ],
+            attributes: vec![
+                ("spp".into(), Attribute::Int(-7)),
+                ("scene".into(), Attribute::Text("caf\u{e9} \u{263a}".into())),
+                (long.into(), Attribute::Text("x".into())),
+            ],
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("x.exr");
+        std::fs::write(&path, exr_bytes(&image)).unwrap();
+        let decoded = exr::prelude::read_all_flat_layers_from_file(&path)
+            .unwrap_or_else(|e| panic!("{w}x{h}: {e}"));
+        let layer = &decoded.layer_data[0];
+        assert_eq!((layer.size.0, layer.size.1), (w, h));
+        let channel = |name: &str| {
+            layer
+                .channel_data
+                .list
+                .iter()
+                .find(|c| c.name == *name)
+                .unwrap_or_else(|| panic!("{w}x{h}: no channel {name}"))
+        };
+        let f32_bits = |name: &str| match &channel(name).sample_data {
+            exr::prelude::FlatSamples::F32(v) => v.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+            other => panic!("{name}: {other:?}"),
+        };
+        assert_eq!(
+            f32_bits("R"),
+            floats.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
+        );
+        assert_eq!(f32_bits("G"), vec![0.25f32.to_bits(); n]);
+        assert_eq!(f32_bits(long), vec![0.25f32.to_bits(); n]);
+        match &channel("count").sample_data {
+            exr::prelude::FlatSamples::U32(v) => assert_eq!(v, &random),
+            other => panic!("count: {other:?}"),
+        }
+        let other = &layer.attributes.other;
+        assert_eq!(
+            other.get(&exr::prelude::Text::from("spp")),
+            Some(&exr::prelude::AttributeValue::I32(-7))
+        );
+        assert_eq!(
+            other.get(&exr::prelude::Text::from("scene")),
+            Some(&exr::prelude::AttributeValue::Text(
+                exr::prelude::Text::from_bytes_unchecked(b"caf\xe9 ?".as_slice().into())
+            )),
+            "Latin-1 text, `?` for what Latin-1 lacks"
+        );
+        assert!(other.contains_key(&exr::prelude::Text::from(long)));
+    }
+}
+
+/// Identical inputs give identical bytes, whatever order the attributes
+/// and channels are given in; blocks that compress are compressed.
+#[test]
+fn exr_writer_is_deterministic_and_compresses() {
+    use twintrace::exr_write::{Attribute, ExrImage, Samples};
+    let flat = vec![Vec3::new(1.0, 2.0, 3.0); 64 * 48];
+    let image = |reversed: bool| {
+        let mut channels: Vec<(String, Samples)> = ["B", "G", "R"]
+            .iter()
+            .enumerate()
+            .map(|(c, n)| (n.to_string(), Samples::Component(&flat, 2 - c)))
+            .collect();
+        let mut attributes: Vec<(String, Attribute)> = (0..12)
+            .map(|i| (format!("attr{i}"), Attribute::Int(i)))
+            .collect();
+        if reversed {
+            channels.reverse();
+            attributes.reverse();
+        }
+        ExrImage {
+            width: 64,
+            height: 48,
+            channels,
+            attributes,
+        }
+    };
+    let a = exr_bytes(&image(false));
+    assert!(a == exr_bytes(&image(false)), "two writes differ");
+    assert!(
+        a == exr_bytes(&image(true)),
+        "the bytes depend on the order attributes and channels are given in"
+    );
+    assert!(
+        a.len() < 64 * 48 * 12 / 10,
+        "a constant image takes {} bytes: its blocks were not compressed",
+        a.len()
+    );
+}
+
+/// What the format cannot hold is an error, never a panic or a file.
+#[test]
+fn exr_writer_refuses_what_the_format_cannot_hold() {
+    use twintrace::exr_write::{Attribute, ExrImage, Samples};
+    let four = vec![0u32; 4];
+    let three = vec![0u32; 3];
+    let cases: Vec<(&str, ExrImage)> = vec![
+        (
+            "no pixels",
+            ExrImage {
+                width: 0,
+                height: 4,
+                channels: vec![("R".into(), Samples::U32(&[]))],
+                attributes: vec![],
+            },
+        ),
+        (
+            "no channels",
+            ExrImage {
+                width: 2,
+                height: 2,
+                channels: vec![],
+                attributes: vec![],
+            },
+        ),
+        (
+            "short channel",
+            ExrImage {
+                width: 2,
+                height: 2,
+                channels: vec![("R".into(), Samples::U32(&three))],
+                attributes: vec![],
+            },
+        ),
+        (
+            "twice a channel",
+            ExrImage {
+                width: 2,
+                height: 2,
+                channels: vec![
+                    ("R".into(), Samples::U32(&four)),
+                    ("R".into(), Samples::U32(&four)),
+                ],
+                attributes: vec![],
+            },
+        ),
+        (
+            "a required attribute",
+            ExrImage {
+                width: 2,
+                height: 2,
+                channels: vec![("R".into(), Samples::U32(&four))],
+                attributes: vec![("compression".into(), Attribute::Int(0))],
+            },
+        ),
+        (
+            "twice an attribute",
+            ExrImage {
+                width: 2,
+                height: 2,
+                channels: vec![("R".into(), Samples::U32(&four))],
+                attributes: vec![
+                    ("a".into(), Attribute::Int(0)),
+                    ("a".into(), Attribute::Int(1)),
+                ],
+            },
+        ),
+        (
+            "a null in a name",
+            ExrImage {
+                width: 2,
+                height: 2,
+                channels: vec![("R\0".into(), Samples::U32(&four))],
+                attributes: vec![],
+            },
+        ),
+    ];
+    for (what, image) in cases {
+        let mut out = std::io::Cursor::new(Vec::new());
+        assert!(
+            twintrace::exr_write::write(&mut out, &image).is_err(),
+            "{what} was accepted"
+        );
+        assert!(out.into_inner().is_empty(), "{what}: bytes were written");
+    }
+}
