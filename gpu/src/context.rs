@@ -26,8 +26,13 @@ pub struct AdapterSummary {
     pub timestamp_queries: bool,
 }
 
-fn instance() -> wgpu::Instance {
-    wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env())
+/// An instance of `backends` only (less any `WGPU_BACKEND` leaves out):
+/// an instance of every backend would start OpenGL's too, which costs
+/// time on every run even where the native backend has the adapter.
+fn instance(backends: wgpu::Backends) -> wgpu::Instance {
+    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+    desc.backends &= backends;
+    wgpu::Instance::new(desc)
 }
 
 fn summarize(a: &wgpu::Adapter) -> AdapterSummary {
@@ -51,12 +56,13 @@ fn summarize(a: &wgpu::Adapter) -> AdapterSummary {
 /// Native backends first; OpenGL only when none of them has an adapter
 /// (probing GL also prints windowing-system noise on headless machines).
 fn adapters() -> Vec<wgpu::Adapter> {
-    let inst = instance();
-    let native = pollster::block_on(inst.enumerate_adapters(wgpu::Backends::PRIMARY));
+    let native = pollster::block_on(
+        instance(wgpu::Backends::PRIMARY).enumerate_adapters(wgpu::Backends::PRIMARY),
+    );
     if !native.is_empty() {
         return native;
     }
-    pollster::block_on(inst.enumerate_adapters(wgpu::Backends::GL))
+    pollster::block_on(instance(wgpu::Backends::GL).enumerate_adapters(wgpu::Backends::GL))
 }
 
 /// Every adapter twintrace would consider.
@@ -291,6 +297,16 @@ impl GpuContext {
         self.pipelines.load(std::sync::atomic::Ordering::Relaxed)
     }
 
+    /// Pipelines built and the time spent building them.
+    pub fn compile_stats(&self) -> crate::pipeline::CompileStats {
+        let (module_time, pipeline_time) = self.caches.times();
+        crate::pipeline::CompileStats {
+            pipelines: self.pipelines_built(),
+            module_time,
+            pipeline_time,
+        }
+    }
+
     pub(crate) fn count_pipelines(&self, n: usize) {
         self.pipelines
             .fetch_add(n as u64, std::sync::atomic::Ordering::Relaxed);
@@ -316,6 +332,17 @@ impl GpuContext {
     pub fn wait(&self) -> Result<(), GpuError> {
         self.device
             .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| GpuError::DeviceLost(e.to_string()))?;
+        self.check()
+    }
+
+    /// Blocks until `submission` has run (later ones may still run).
+    pub fn wait_for(&self, submission: wgpu::SubmissionIndex) -> Result<(), GpuError> {
+        self.device
+            .poll(wgpu::PollType::Wait {
+                submission_index: Some(submission),
+                timeout: None,
+            })
             .map_err(|e| GpuError::DeviceLost(e.to_string()))?;
         self.check()
     }

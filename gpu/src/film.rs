@@ -14,7 +14,7 @@
 use crate::context::GpuContext;
 use crate::error::GpuError;
 use crate::records::{GpuParams, GpuPixel};
-use crate::renderer::{read_buffer, GpuRenderer};
+use crate::renderer::{read_buffer, read_buffer_with, GpuRenderer};
 use glam::Vec3;
 use reference::film::FilmSums;
 use reference::RenderSettings;
@@ -210,9 +210,19 @@ impl GpuRenderer<'_> {
         expected: u32,
         program: &str,
     ) -> Result<FilmLayers, GpuError> {
-        let (layers, held) = self.read_layers_unchecked(settings, program)?;
-        for h in held {
-            check_count(h, expected)?;
+        use rayon::prelude::*;
+        let pixels = settings.width as usize * settings.height as usize;
+        let (layers, wrong) = self.read_layers_then(settings, program, |words| {
+            let layers = layers_of_words(settings, words);
+            // The first pixel (in any order) whose samples are not `expected`.
+            let wrong = (0..pixels).into_par_iter().find_map_any(|p| {
+                let held = words[p] as u64 + words[pixels + p] as u64;
+                (held != expected as u64).then_some(held)
+            });
+            (layers, wrong)
+        })?;
+        if let Some(held) = wrong {
+            check_count(held, expected)?;
         }
         Ok(layers)
     }
@@ -225,49 +235,37 @@ impl GpuRenderer<'_> {
         settings: &RenderSettings,
         program: &str,
     ) -> Result<(FilmLayers, Vec<u64>), GpuError> {
-        let film = self.take_film(settings)?;
-        let out = self.layers_of(settings, &film, program);
-        self.put_film(film);
-        let words = out?;
         let pixels = settings.width as usize * settings.height as usize;
-        let word = |k: usize, p: usize| words[k * pixels + p];
-        use rayon::prelude::*;
-        let layer = |k: usize| -> Vec<Vec3> {
-            (0..pixels)
-                .into_par_iter()
-                .map(|p| {
-                    Vec3::new(
-                        f32::from_bits(word(k, p)),
-                        f32::from_bits(word(k + 1, p)),
-                        f32::from_bits(word(k + 2, p)),
-                    )
-                })
-                .collect()
-        };
-        let held: Vec<u64> = (0..pixels)
-            .map(|p| word(0, p) as u64 + word(1, p) as u64)
-            .collect();
-        let (mean, (variance, skewness)) =
-            rayon::join(|| layer(2), || rayon::join(|| layer(5), || layer(8)));
-        let layers = FilmLayers {
-            width: settings.width,
-            height: settings.height,
-            mean,
-            variance,
-            skewness,
-            samples: (0..pixels).map(|p| word(0, p) as u64).sum(),
-            rejected: (0..pixels).map(|p| word(1, p) as u64).sum(),
-        };
-        Ok((layers, held))
+        self.read_layers_then(settings, program, |words| {
+            let held = (0..pixels)
+                .map(|p| words[p] as u64 + words[pixels + p] as u64)
+                .collect();
+            (layers_of_words(settings, words), held)
+        })
+    }
+
+    /// Runs the layers kernel over the film and hands its words, as the
+    /// device's mapped memory holds them, to `read` (no copy in between).
+    fn read_layers_then<R>(
+        &self,
+        settings: &RenderSettings,
+        program: &str,
+        read: impl FnOnce(&[u32]) -> R,
+    ) -> Result<R, GpuError> {
+        let film = self.take_film(settings)?;
+        let out = self.layers_of(settings, &film, program, read);
+        self.put_film(film);
+        out
     }
 
     /// Runs the layers kernel over `film` and reads its words back.
-    fn layers_of(
+    fn layers_of<R>(
         &self,
         settings: &RenderSettings,
         film: &wgpu::Buffer,
         program: &str,
-    ) -> Result<Vec<u32>, GpuError> {
+        read: impl FnOnce(&[u32]) -> R,
+    ) -> Result<R, GpuError> {
         let ctx: &GpuContext = self.context();
         let device = &ctx.device;
         let pixels = settings.width as u64 * settings.height as u64;
@@ -327,7 +325,44 @@ impl GpuRenderer<'_> {
             pass.dispatch_workgroups(gx as u32, gy as u32, 1);
         }
         ctx.queue.submit([encoder.finish()]);
-        read_buffer(ctx, &out, bytes)
+        read_buffer_with(ctx, &out, bytes, |b| read(bytemuck::cast_slice(b)))
+    }
+}
+
+/// The layers in the layers kernel's `words` (layer-major), converted in
+/// parallel: each layer by rows, the sample totals by a parallel sum.
+fn layers_of_words(settings: &RenderSettings, words: &[u32]) -> FilmLayers {
+    use rayon::prelude::*;
+    let pixels = settings.width as usize * settings.height as usize;
+    let layer = |k: usize| -> Vec<Vec3> {
+        let (r, g, b) = (
+            &words[k * pixels..(k + 1) * pixels],
+            &words[(k + 1) * pixels..(k + 2) * pixels],
+            &words[(k + 2) * pixels..(k + 3) * pixels],
+        );
+        (r, g, b)
+            .into_par_iter()
+            .map(|(r, g, b)| Vec3::new(f32::from_bits(*r), f32::from_bits(*g), f32::from_bits(*b)))
+            .collect()
+    };
+    let total = |k: usize| -> u64 {
+        words[k * pixels..(k + 1) * pixels]
+            .par_iter()
+            .map(|&w| w as u64)
+            .sum()
+    };
+    let ((mean, variance), (skewness, (samples, rejected))) = rayon::join(
+        || rayon::join(|| layer(2), || layer(5)),
+        || rayon::join(|| layer(8), || rayon::join(|| total(0), || total(1))),
+    );
+    FilmLayers {
+        width: settings.width,
+        height: settings.height,
+        mean,
+        variance,
+        skewness,
+        samples,
+        rejected,
     }
 }
 

@@ -24,7 +24,9 @@ use crate::context::GpuContext;
 use crate::error::GpuError;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
+use std::time::Instant;
 
 /// Shader modules a device keeps: a module holds naga's form of a whole
 /// program (megabytes for the render program), and the tests compile
@@ -98,11 +100,28 @@ impl<K: std::hash::Hash + Eq + Clone, V: Clone> Lru<K, V> {
     }
 }
 
+/// A module being built or built: threads that need the same program
+/// wait for the one building it; other programs build meanwhile.
+type ModuleCell = std::sync::Arc<std::sync::OnceLock<wgpu::ShaderModule>>;
+
 /// The per-device caches of modules, layouts and pipelines.
 pub(crate) struct Caches {
-    modules: Mutex<Lru<String, wgpu::ShaderModule>>,
+    modules: Mutex<Lru<String, ModuleCell>>,
     layouts: Mutex<HashMap<&'static str, wgpu::BindGroupLayout>>,
     pipelines: Mutex<Lru<PipelineKey, wgpu::ComputePipeline>>,
+    /// Time spent building modules and pipelines, summed over threads.
+    module_nanos: AtomicU64,
+    pipeline_nanos: AtomicU64,
+}
+
+/// What a device has compiled: modules and pipelines built and the time
+/// spent building them, summed over threads (so above the wall time where
+/// several threads compiled at once).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CompileStats {
+    pub pipelines: u64,
+    pub module_time: std::time::Duration,
+    pub pipeline_time: std::time::Duration,
 }
 
 impl Caches {
@@ -117,7 +136,15 @@ impl Caches {
             modules: Mutex::new(Lru::new(MODULES_KEPT)),
             layouts: Mutex::new(HashMap::new()),
             pipelines: Mutex::new(Lru::new(pipelines)),
+            module_nanos: AtomicU64::new(0),
+            pipeline_nanos: AtomicU64::new(0),
         }
+    }
+
+    /// Time spent building modules and pipelines.
+    pub(crate) fn times(&self) -> (std::time::Duration, std::time::Duration) {
+        let d = |a: &AtomicU64| std::time::Duration::from_nanos(a.load(Ordering::Relaxed));
+        (d(&self.module_nanos), d(&self.pipeline_nanos))
     }
 
     /// Modules and pipelines held.
@@ -225,20 +252,31 @@ pub fn compile_entries(
     }
     let device = &ctx.device;
     let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-    let module = {
+    let cell = {
         let mut modules = ctx.caches.modules.lock().unwrap_or_else(|p| p.into_inner());
         match modules.get(source) {
-            Some(m) => m,
+            Some(cell) => cell,
             None => {
-                let m = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                    label: entries.first().map(|e| e.0),
-                    source: wgpu::ShaderSource::Wgsl(source.into()),
-                });
-                modules.insert(source.to_string(), m.clone());
-                m
+                let cell = ModuleCell::default();
+                modules.insert(source.to_string(), cell.clone());
+                cell
             }
         }
     };
+    // Built outside the cache's lock: naga's parse and validation of one
+    // program do not hold up the others'.
+    let module = cell
+        .get_or_init(|| {
+            let start = Instant::now();
+            let m = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: entries.first().map(|e| e.0),
+                source: wgpu::ShaderSource::Wgsl(source.into()),
+            });
+            add_nanos(&ctx.caches.module_nanos, start);
+            m
+        })
+        .clone();
+    let start = Instant::now();
     ctx.count_pipelines(entries.len());
     let disk = ctx.disk_cache.as_ref().map(|d| &d.cache);
     let pipelines: Vec<wgpu::ComputePipeline> = entries
@@ -262,6 +300,7 @@ pub fn compile_entries(
             })
         })
         .collect();
+    add_nanos(&ctx.caches.pipeline_nanos, start);
     if let Some(e) = pollster::block_on(scope.pop()) {
         // A program that failed is not kept.
         ctx.caches
@@ -281,6 +320,11 @@ pub fn compile_entries(
         cached.insert(k, p.clone());
     }
     Ok(pipelines)
+}
+
+fn add_nanos(total: &AtomicU64, since: Instant) {
+    let n = u64::try_from(since.elapsed().as_nanos()).unwrap_or(u64::MAX);
+    total.fetch_add(n, Ordering::Relaxed);
 }
 
 /// The folder of the on-disk pipeline cache: `$TWINTRACE_CACHE_DIR` (set
@@ -309,6 +353,9 @@ pub(crate) struct DiskCache {
     identity: String,
     /// Bytes of cache data loaded when the device opened (0: none).
     pub(crate) loaded: usize,
+    /// The loaded data's checksum: a run that added nothing to the cache
+    /// does not write it again.
+    loaded_checksum: Option<u64>,
 }
 
 /// The first bytes of a cache file.
@@ -419,12 +466,14 @@ impl DiskCache {
             })
         };
         let loaded = data.map_or(0, <[u8]>::len);
+        let loaded_checksum = data.map(checksum);
         (
             Some(DiskCache {
                 cache,
                 path,
                 identity,
                 loaded,
+                loaded_checksum,
             }),
             warning,
         )
@@ -439,7 +488,9 @@ impl DiskCache {
         let Some(data) = self.cache.get_data() else {
             return Ok(());
         };
-        if data.is_empty() {
+        if data.is_empty()
+            || (data.len() == self.loaded && self.loaded_checksum == Some(checksum(&data)))
+        {
             return Ok(());
         }
         let dir = self.path.parent().unwrap_or(Path::new("."));

@@ -692,6 +692,11 @@ impl<'a> GpuRenderer<'a> {
         );
         let total = settings.spp as u64 * pixels;
         let mut done = 0u64;
+        // Two batches in flight: the next is recorded and submitted while
+        // the device runs the last, so that the device does not idle
+        // between batches (a 4K render is a thousand batches). Its params
+        // are written on the queue's timeline, after the batch before it.
+        let mut in_flight: Option<(wgpu::SubmissionIndex, u64)> = None;
         for index in 0..batches {
             let mut params = plan.params(&base, index, settings.spp);
             params.sample_start += samples.start;
@@ -732,14 +737,20 @@ impl<'a> GpuRenderer<'a> {
                     }
                 }
             }
-            ctx.queue.submit([encoder.finish()]);
-            ctx.wait()?;
+            let submitted = ctx.queue.submit([encoder.finish()]);
             done += params.sample_count as u64
                 * match &plan {
                     Plan::Dispatches { .. } => pixels,
                     Plan::Waves { .. } => params.wave_pixel_count as u64,
                 };
-            progress(done, total);
+            if let Some((before, done_before)) = in_flight.replace((submitted, done)) {
+                ctx.wait_for(before)?;
+                progress(done_before, total);
+            }
+        }
+        if let Some((last, done_last)) = in_flight {
+            ctx.wait_for(last)?;
+            progress(done_last, total);
         }
         if let Plan::Waves { buffers, .. } = plan {
             if let Ok(mut c) = self.wave_cache.lock() {
@@ -767,6 +778,20 @@ pub fn read_buffer<T: bytemuck::Pod>(
     src: &wgpu::Buffer,
     size: u64,
 ) -> Result<Vec<T>, GpuError> {
+    read_buffer_with(ctx, src, size, |b| {
+        bytemuck::cast_slice::<u8, T>(b).to_vec()
+    })
+}
+
+/// Copies `size` bytes of `src` to a mappable buffer and hands them,
+/// mapped, to `read`: what it needs is converted straight from the
+/// device's memory, without a copy in between.
+pub fn read_buffer_with<R>(
+    ctx: &GpuContext,
+    src: &wgpu::Buffer,
+    size: u64,
+    read: impl FnOnce(&[u8]) -> R,
+) -> Result<R, GpuError> {
     let device = &ctx.device;
     let staging = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("readback"),
@@ -791,7 +816,7 @@ pub fn read_buffer<T: bytemuck::Pod>(
     let data = slice
         .get_mapped_range()
         .map_err(|e| GpuError::Readback(e.to_string()))?;
-    let out = bytemuck::cast_slice::<u8, T>(&data).to_vec();
+    let out = read(&data);
     drop(data);
     staging.unmap();
     Ok(out)
