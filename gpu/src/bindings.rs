@@ -132,6 +132,16 @@ pub const WAVE_ARGS: Binding = Binding {
     access: Access::ReadWrite,
 };
 
+/// Storage buffers wf_prepare's pipeline layout holds (scene group, wave
+/// group, arguments): the wavefront needs an adapter with this many
+/// (`gpu::wavefront::STORAGE_BUFFERS_NEEDED`), and a device is opened with
+/// as many where its adapter has them (`gpu::context`).
+pub const WAVEFRONT_STORAGE_BUFFERS: u32 = 18;
+
+/// Storage buffers the path megakernel's layouts hold (scene group, wave
+/// group; `gpu::wavefront::STORAGE_BUFFERS_NEEDED_PATHS`).
+pub const PATH_MEGAKERNEL_STORAGE_BUFFERS: u32 = 17;
+
 /// The film's image layers the layers kernel writes (`gpu::film`).
 pub const FILM_LAYERS: Binding = Binding {
     group: 1,

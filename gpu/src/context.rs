@@ -10,7 +10,7 @@ pub const STORAGE_BUFFERS_NEEDED: u32 = 15;
 /// Storage buffers requested when the adapter has them: the test kernels
 /// bind two more (input, output) beside the scene, the wavefront's
 /// wf_prepare three (paths, queues, dispatch arguments).
-pub const STORAGE_BUFFERS_WANTED: u32 = crate::wavefront::STORAGE_BUFFERS_NEEDED;
+pub const STORAGE_BUFFERS_WANTED: u32 = crate::bindings::WAVEFRONT_STORAGE_BUFFERS;
 
 /// A summary of one adapter for `twintrace info`.
 #[derive(Clone, Debug)]
@@ -107,9 +107,9 @@ pub struct GpuContext {
     /// Compute pipelines created on the device ([`Self::pipelines_built`]).
     pipelines: std::sync::atomic::AtomicU64,
     /// Modules, layouts and pipelines built on the device.
-    pub(crate) caches: crate::pipeline::Caches,
+    pub(crate) caches: crate::pipeline::cache::Caches,
     /// The driver's pipeline cache and its file, where the adapter has one.
-    pub(crate) disk_cache: Option<crate::pipeline::DiskCache>,
+    pub(crate) disk_cache: Option<crate::pipeline::cache::DiskCache>,
     /// What the caller should tell the user ([`Self::take_warnings`]).
     warnings: Mutex<Vec<String>>,
 }
@@ -156,7 +156,7 @@ impl GpuContext {
         let dir = if software {
             None
         } else {
-            crate::pipeline::cache_dir()
+            crate::pipeline::cache::cache_dir()
         };
         Self::open_with_cache(adapter, dir.as_deref())
     }
@@ -225,7 +225,7 @@ impl GpuContext {
         let is_software = adapter.get_info().device_type == wgpu::DeviceType::Cpu;
         let (disk_cache, warning) = match cache_dir {
             Some(dir) if disk => {
-                crate::pipeline::DiskCache::open(&device, &adapter.get_info(), dir)
+                crate::pipeline::cache::DiskCache::open(&device, &adapter.get_info(), dir)
             }
             _ => (None, None),
         };
@@ -238,7 +238,7 @@ impl GpuContext {
             lost,
             uncaptured,
             pipelines: std::sync::atomic::AtomicU64::new(0),
-            caches: crate::pipeline::Caches::new(is_software),
+            caches: crate::pipeline::cache::Caches::new(is_software),
             disk_cache,
             warnings: Mutex::new(warning.into_iter().collect()),
         })
@@ -298,9 +298,9 @@ impl GpuContext {
     }
 
     /// Pipelines built and the time spent building them.
-    pub fn compile_stats(&self) -> crate::pipeline::CompileStats {
+    pub fn compile_stats(&self) -> crate::pipeline::cache::CompileStats {
         let (module_time, pipeline_time) = self.caches.times();
-        crate::pipeline::CompileStats {
+        crate::pipeline::cache::CompileStats {
             pipelines: self.pipelines_built(),
             module_time,
             pipeline_time,

@@ -9,7 +9,9 @@
 //! estimator, which the statistical gates judge.
 
 use crate::context::{adapters_in_order, GpuContext};
-use crate::{GpuError, GpuRenderer, Variant};
+use crate::error::GpuError;
+use crate::renderer::GpuRenderer;
+use crate::variants::Variant;
 use reference::film::FilmSums;
 use reference::{RenderSettings, Scene};
 use std::ops::Range;

@@ -15,11 +15,19 @@
 //! rather than a wrong image. The default, [`Features::ALL`], is the general kernel:
 //! the oracle the specialized one is gated against (bit for bit, every
 //! fixture: tests/gpu_specialization.rs).
+//!
+//! The kernel axis itself ([`Kernel`]) and the dispatch axis ([`Dispatch`],
+//! with its constant) are defined in `crate::variants` and re-exported
+//! here; [`Kernel::features`] is here, with the feature sets.
 
 use reference::background::Background;
 use reference::material::Material;
 use reference::scene::{primitive_tag, Scene};
 use reference::texture::Texture;
+
+pub use crate::variants::{
+    Dispatch, Kernel, DISPATCH_BRANCHES, DISPATCH_CONSTANT, DISPATCH_SWITCH,
+};
 
 /// The render program's pipeline-overridable constant that holds the
 /// scene's [`Features`].
@@ -55,58 +63,6 @@ feature_bits! {
     NORMAL_MAPS = 12,
     ALPHA = 13,
     CLEARCOAT = 14,
-}
-
-/// The render program's pipeline-overridable constant that picks how a
-/// tag selects its code ([`Dispatch::tag`]).
-pub const DISPATCH_CONSTANT: &str = "DISPATCH";
-
-/// [`DISPATCH_CONSTANT`] of [`Dispatch::Switch`].
-pub const DISPATCH_SWITCH: u32 = 0;
-
-/// [`DISPATCH_CONSTANT`] of [`Dispatch::Branches`].
-pub const DISPATCH_BRANCHES: u32 = 1;
-
-/// How a tag selects its code where the kernel has both ways written (the
-/// primitive's intersection, the material's sampling): WGSL has no
-/// virtual calls, and these are its two stand-ins.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum Dispatch {
-    /// A `switch` on the tag (the baseline).
-    #[default]
-    Switch,
-    /// A chain of `if tag == …` tests, one per kind, in a fixed order.
-    Branches,
-}
-
-impl Dispatch {
-    pub const ALL: [Dispatch; 2] = [Dispatch::Switch, Dispatch::Branches];
-
-    /// The CLI's and perf's name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Dispatch::Switch => "switch",
-            Dispatch::Branches => "branches",
-        }
-    }
-
-    /// The value of [`DISPATCH_CONSTANT`].
-    pub fn tag(self) -> u32 {
-        match self {
-            Dispatch::Switch => DISPATCH_SWITCH,
-            Dispatch::Branches => DISPATCH_BRANCHES,
-        }
-    }
-}
-
-/// Which kernel a render compiles.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Kernel {
-    /// Specialized to the scene's [`Features`] (the default).
-    #[default]
-    Specialized,
-    /// Every feature's code (the oracle of the specialized kernel).
-    General,
 }
 
 impl Kernel {

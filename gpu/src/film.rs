@@ -3,18 +3,23 @@
 //! added to by every range of a progressive render and read in one of
 //! two ways:
 //!
-//! - [`GpuRenderer::read_film`]: the sums themselves (224 bytes a pixel),
+//! - `GpuRenderer::read_film`: the sums themselves (224 bytes a pixel),
 //!   for a partial film, a merge, or a group of devices adding films;
-//! - [`GpuRenderer::read_layers`]: the image, computed on the device by
+//! - `GpuRenderer::read_layers`: the image, computed on the device by
 //!   `film_layers_main` from the sums (`pixel_layers` in film.wgsl: the
 //!   mean, variance and skewness of each pixel's mean as the reference's
 //!   `PixelSums::stats` gives them, bit for bit, by integer arithmetic),
 //!   44 bytes a pixel: what a render writes to its EXR.
+//!
+//! Those methods are thin: the work is done here, by functions over what
+//! it needs of a renderer (its device, the slot it keeps the film in, and
+//! its bind group over the scene), so that this module sits below the
+//! renderer.
 
 use crate::context::GpuContext;
 use crate::error::GpuError;
+use crate::readback::{read_buffer, read_buffer_with};
 use crate::records::{GpuParams, GpuPixel};
-use crate::renderer::{read_buffer, read_buffer_with, GpuRenderer};
 use glam::Vec3;
 use reference::film::FilmSums;
 use reference::RenderSettings;
@@ -69,7 +74,7 @@ pub fn layers_source() -> String {
 
 /// A film's image: per pixel (row-major, top row first) the mean, the
 /// variance of the mean and the skewness of the mean as f32, computed on
-/// the device ([`GpuRenderer::read_layers`]) or on the host
+/// the device (`GpuRenderer::read_layers`) or on the host
 /// ([`FilmLayers::from_sums`]), the same bits either way, and the film's
 /// sample counts.
 #[derive(Clone, Debug, PartialEq)]
@@ -125,208 +130,211 @@ impl FilmLayers {
     }
 }
 
-impl GpuRenderer<'_> {
-    /// The film [`GpuRenderer::accumulate`] left on the device (taken out
-    /// of the renderer's cache; [`Self::put_film`] puts it back).
-    fn take_film(&self, settings: &RenderSettings) -> Result<wgpu::Buffer, GpuError> {
-        let film_bytes = film_bytes(settings);
-        self.film_cache
-            .lock()
-            .ok()
-            .and_then(|mut c| c.take())
-            .filter(|f| f.size() == film_bytes)
-            .ok_or_else(|| GpuError::Readback("no film of this size on the device".into()))
-    }
+/// Where a renderer keeps its device film between calls (`None`: none
+/// yet): `GpuRenderer::accumulate` leaves its film there, and the readers
+/// below take it out and put it back.
+pub(crate) type FilmSlot = std::sync::Mutex<Option<wgpu::Buffer>>;
 
-    fn put_film(&self, film: wgpu::Buffer) {
-        if let Ok(mut c) = self.film_cache.lock() {
-            *c = Some(film);
-        }
-    }
+/// A renderer's bind group over its scene with the given params and film
+/// buffers (`GpuRenderer::bind_group`): group 0 of the layers kernel.
+pub(crate) type SceneGroup<'r> = dyn Fn(&wgpu::Buffer, &wgpu::Buffer) -> wgpu::BindGroup + 'r;
 
-    /// The film [`GpuRenderer::accumulate`] left on the device, read back;
-    /// every pixel must hold `expected` samples.
-    pub fn read_film(
-        &self,
-        settings: &RenderSettings,
-        expected: u32,
-    ) -> Result<FilmSums, GpuError> {
-        let film = self.take_film(settings)?;
-        let words = read_buffer::<u32>(self.context(), &film, film_bytes(settings));
-        self.put_film(film);
-        let gpu_pixels = crate::records::film_pixels(&words?);
-        let mut sums = FilmSums::new(settings.width, settings.height);
-        for (dst, src) in sums.pixels.iter_mut().zip(&gpu_pixels) {
-            check_count(src.count as u64 + src.rejected as u64, expected)?;
-            *dst = src.to_sums();
-        }
-        Ok(sums)
-    }
+/// The film `GpuRenderer::accumulate` left on the device (taken out of
+/// the renderer's `slot`; [`put_film`] puts it back).
+fn take_film(slot: &FilmSlot, settings: &RenderSettings) -> Result<wgpu::Buffer, GpuError> {
+    let film_bytes = film_bytes(settings);
+    slot.lock()
+        .ok()
+        .and_then(|mut c| c.take())
+        .filter(|f| f.size() == film_bytes)
+        .ok_or_else(|| GpuError::Readback("no film of this size on the device".into()))
+}
 
-    /// Puts `sums` on the device as the film of `settings`' size, as if
-    /// [`GpuRenderer::accumulate`] had traced them: the next range adds
-    /// to them (a render resumed from a partial film; the twin checks'
-    /// films of chosen sums).
-    pub fn load_film(&self, settings: &RenderSettings, sums: &FilmSums) -> Result<(), GpuError> {
-        if (sums.width, sums.height) != (settings.width, settings.height) {
-            return Err(GpuError::Validation(format!(
-                "a {}x{} film cannot be the film of a {}x{} render",
-                sums.width, sums.height, settings.width, settings.height
-            )));
-        }
-        let pixels: Vec<GpuPixel> = sums.pixels.iter().map(GpuPixel::from_sums).collect();
-        let words = crate::records::film_words(&pixels);
-        let film = wgpu::util::DeviceExt::create_buffer_init(
-            &self.context().device,
-            &wgpu::util::BufferInitDescriptor {
-                label: Some("film"),
-                contents: bytemuck::cast_slice(&words),
-                usage: wgpu::BufferUsages::STORAGE
-                    | wgpu::BufferUsages::COPY_SRC
-                    | wgpu::BufferUsages::COPY_DST,
-            },
-        );
-        self.put_film(film);
-        Ok(())
+fn put_film(slot: &FilmSlot, film: wgpu::Buffer) {
+    if let Ok(mut c) = slot.lock() {
+        *c = Some(film);
     }
+}
 
-    /// The image of the film [`GpuRenderer::accumulate`] left on the
-    /// device, computed there (`film_layers_main`); every pixel must hold
-    /// `expected` samples. Bit for bit the layers the reference computes
-    /// from the same sums (`twins::film`).
-    pub fn read_layers(
-        &self,
-        settings: &RenderSettings,
-        expected: u32,
-    ) -> Result<FilmLayers, GpuError> {
-        self.read_layers_with(settings, expected, &layers_source())
+/// `GpuRenderer::read_film`: the film in `slot`, read back; every pixel
+/// must hold `expected` samples.
+pub(crate) fn read_film(
+    ctx: &GpuContext,
+    slot: &FilmSlot,
+    settings: &RenderSettings,
+    expected: u32,
+) -> Result<FilmSums, GpuError> {
+    let film = take_film(slot, settings)?;
+    let words = read_buffer::<u32>(ctx, &film, film_bytes(settings));
+    put_film(slot, film);
+    let gpu_pixels = crate::records::film_pixels(&words?);
+    let mut sums = FilmSums::new(settings.width, settings.height);
+    for (dst, src) in sums.pixels.iter_mut().zip(&gpu_pixels) {
+        check_count(src.count as u64 + src.rejected as u64, expected)?;
+        *dst = src.to_sums();
     }
+    Ok(sums)
+}
 
-    /// [`Self::read_layers`] with the layers kernel's program given (the
-    /// tests' mutants of it).
-    pub fn read_layers_with(
-        &self,
-        settings: &RenderSettings,
-        expected: u32,
-        program: &str,
-    ) -> Result<FilmLayers, GpuError> {
-        use rayon::prelude::*;
-        let pixels = settings.width as usize * settings.height as usize;
-        let (layers, wrong) = self.read_layers_then(settings, program, |words| {
-            let layers = layers_of_words(settings, words);
-            // The first pixel (in any order) whose samples are not `expected`.
-            let wrong = (0..pixels).into_par_iter().find_map_any(|p| {
-                let held = words[p] as u64 + words[pixels + p] as u64;
-                (held != expected as u64).then_some(held)
-            });
-            (layers, wrong)
-        })?;
-        if let Some(held) = wrong {
-            check_count(held, expected)?;
-        }
-        Ok(layers)
+/// `GpuRenderer::load_film`: `sums` put in `slot` as the film of
+/// `settings`' size.
+pub(crate) fn load_film(
+    ctx: &GpuContext,
+    slot: &FilmSlot,
+    settings: &RenderSettings,
+    sums: &FilmSums,
+) -> Result<(), GpuError> {
+    if (sums.width, sums.height) != (settings.width, settings.height) {
+        return Err(GpuError::Validation(format!(
+            "a {}x{} film cannot be the film of a {}x{} render",
+            sums.width, sums.height, settings.width, settings.height
+        )));
     }
+    let pixels: Vec<GpuPixel> = sums.pixels.iter().map(GpuPixel::from_sums).collect();
+    let words = crate::records::film_words(&pixels);
+    let film = wgpu::util::DeviceExt::create_buffer_init(
+        &ctx.device,
+        &wgpu::util::BufferInitDescriptor {
+            label: Some("film"),
+            contents: bytemuck::cast_slice(&words),
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_SRC
+                | wgpu::BufferUsages::COPY_DST,
+        },
+    );
+    put_film(slot, film);
+    Ok(())
+}
 
-    /// The layers of the film on the device and each pixel's samples
-    /// (accepted and rejected), unchecked: the twin checks' films of
-    /// chosen sums hold a different count in every pixel.
-    pub fn read_layers_unchecked(
-        &self,
-        settings: &RenderSettings,
-        program: &str,
-    ) -> Result<(FilmLayers, Vec<u64>), GpuError> {
-        let pixels = settings.width as usize * settings.height as usize;
-        self.read_layers_then(settings, program, |words| {
-            let held = (0..pixels)
-                .map(|p| words[p] as u64 + words[pixels + p] as u64)
-                .collect();
-            (layers_of_words(settings, words), held)
-        })
-    }
-
-    /// Runs the layers kernel over the film and hands its words, as the
-    /// device's mapped memory holds them, to `read` (no copy in between).
-    fn read_layers_then<R>(
-        &self,
-        settings: &RenderSettings,
-        program: &str,
-        read: impl FnOnce(&[u32]) -> R,
-    ) -> Result<R, GpuError> {
-        let film = self.take_film(settings)?;
-        let out = self.layers_of(settings, &film, program, read);
-        self.put_film(film);
-        out
-    }
-
-    /// Runs the layers kernel over `film` and reads its words back.
-    fn layers_of<R>(
-        &self,
-        settings: &RenderSettings,
-        film: &wgpu::Buffer,
-        program: &str,
-        read: impl FnOnce(&[u32]) -> R,
-    ) -> Result<R, GpuError> {
-        let ctx: &GpuContext = self.context();
-        let device = &ctx.device;
-        let pixels = settings.width as u64 * settings.height as u64;
-        let bytes = pixels * LAYER_WORDS as u64 * 4;
-        ctx.check_binding_size("the film's layers", bytes)?;
-        let scene_layout = crate::pipeline::scene_layout(ctx);
-        let out_layout =
-            crate::pipeline::layout(ctx, "film layers", &[crate::bindings::FILM_LAYERS]);
-        let pipeline = crate::pipeline::compile(
-            ctx,
-            program,
-            "film_layers_main",
-            &[&scene_layout, &out_layout],
-        )?;
-        let params = GpuParams {
-            width: settings.width,
-            height: settings.height,
-            ..Default::default()
-        };
-        let params_buf = wgpu::util::DeviceExt::create_buffer_init(
-            device,
-            &wgpu::util::BufferInitDescriptor {
-                label: Some("layers params"),
-                contents: bytemuck::bytes_of(&params),
-                usage: wgpu::BufferUsages::UNIFORM,
-            },
-        );
-        let out = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("film layers"),
-            size: bytes,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
+/// `GpuRenderer::read_layers_with`: the image of the film in `slot`,
+/// computed on the device by `program`'s layers kernel; every pixel must
+/// hold `expected` samples.
+pub(crate) fn read_layers_with(
+    ctx: &GpuContext,
+    slot: &FilmSlot,
+    scene_group: &SceneGroup<'_>,
+    settings: &RenderSettings,
+    expected: u32,
+    program: &str,
+) -> Result<FilmLayers, GpuError> {
+    use rayon::prelude::*;
+    let pixels = settings.width as usize * settings.height as usize;
+    let (layers, wrong) = read_layers_then(ctx, slot, scene_group, settings, program, |words| {
+        let layers = layers_of_words(settings, words);
+        // The first pixel (in any order) whose samples are not `expected`.
+        let wrong = (0..pixels).into_par_iter().find_map_any(|p| {
+            let held = words[p] as u64 + words[pixels + p] as u64;
+            (held != expected as u64).then_some(held)
         });
-        let scene_group = self.bind_group(&params_buf, film);
-        let out_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("film layers"),
-            layout: &out_layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: crate::bindings::FILM_LAYERS.slot,
-                resource: out.as_entire_binding(),
-            }],
-        });
-        let groups = pixels.div_ceil(LAYERS_WORKGROUP as u64);
-        let max = device.limits().max_compute_workgroups_per_dimension as u64;
-        let (gx, gy) = (groups.min(max), groups.div_ceil(max));
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("film layers"),
-        });
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("film layers"),
-                timestamp_writes: None,
-            });
-            pass.set_pipeline(&pipeline);
-            pass.set_bind_group(0, &scene_group, &[]);
-            pass.set_bind_group(1, &out_group, &[]);
-            pass.dispatch_workgroups(gx as u32, gy as u32, 1);
-        }
-        ctx.queue.submit([encoder.finish()]);
-        read_buffer_with(ctx, &out, bytes, |b| read(bytemuck::cast_slice(b)))
+        (layers, wrong)
+    })?;
+    if let Some(held) = wrong {
+        check_count(held, expected)?;
     }
+    Ok(layers)
+}
+
+/// `GpuRenderer::read_layers_unchecked`: the layers of the film in `slot`
+/// and each pixel's samples (accepted and rejected), unchecked.
+pub(crate) fn read_layers_unchecked(
+    ctx: &GpuContext,
+    slot: &FilmSlot,
+    scene_group: &SceneGroup<'_>,
+    settings: &RenderSettings,
+    program: &str,
+) -> Result<(FilmLayers, Vec<u64>), GpuError> {
+    let pixels = settings.width as usize * settings.height as usize;
+    read_layers_then(ctx, slot, scene_group, settings, program, |words| {
+        let held = (0..pixels)
+            .map(|p| words[p] as u64 + words[pixels + p] as u64)
+            .collect();
+        (layers_of_words(settings, words), held)
+    })
+}
+
+/// Runs the layers kernel over the film and hands its words, as the
+/// device's mapped memory holds them, to `read` (no copy in between).
+fn read_layers_then<R>(
+    ctx: &GpuContext,
+    slot: &FilmSlot,
+    scene_group: &SceneGroup<'_>,
+    settings: &RenderSettings,
+    program: &str,
+    read: impl FnOnce(&[u32]) -> R,
+) -> Result<R, GpuError> {
+    let film = take_film(slot, settings)?;
+    let out = layers_of(ctx, scene_group, settings, &film, program, read);
+    put_film(slot, film);
+    out
+}
+
+/// Runs the layers kernel over `film` and reads its words back.
+fn layers_of<R>(
+    ctx: &GpuContext,
+    scene_group: &SceneGroup<'_>,
+    settings: &RenderSettings,
+    film: &wgpu::Buffer,
+    program: &str,
+    read: impl FnOnce(&[u32]) -> R,
+) -> Result<R, GpuError> {
+    let device = &ctx.device;
+    let pixels = settings.width as u64 * settings.height as u64;
+    let bytes = pixels * LAYER_WORDS as u64 * 4;
+    ctx.check_binding_size("the film's layers", bytes)?;
+    let scene_layout = crate::pipeline::scene_layout(ctx);
+    let out_layout = crate::pipeline::layout(ctx, "film layers", &[crate::bindings::FILM_LAYERS]);
+    let pipeline = crate::pipeline::compile(
+        ctx,
+        program,
+        "film_layers_main",
+        &[&scene_layout, &out_layout],
+    )?;
+    let params = GpuParams {
+        width: settings.width,
+        height: settings.height,
+        ..Default::default()
+    };
+    let params_buf = wgpu::util::DeviceExt::create_buffer_init(
+        device,
+        &wgpu::util::BufferInitDescriptor {
+            label: Some("layers params"),
+            contents: bytemuck::bytes_of(&params),
+            usage: wgpu::BufferUsages::UNIFORM,
+        },
+    );
+    let out = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("film layers"),
+        size: bytes,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let scene_group = scene_group(&params_buf, film);
+    let out_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("film layers"),
+        layout: &out_layout,
+        entries: &[wgpu::BindGroupEntry {
+            binding: crate::bindings::FILM_LAYERS.slot,
+            resource: out.as_entire_binding(),
+        }],
+    });
+    let groups = pixels.div_ceil(LAYERS_WORKGROUP as u64);
+    let max = device.limits().max_compute_workgroups_per_dimension as u64;
+    let (gx, gy) = (groups.min(max), groups.div_ceil(max));
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+        label: Some("film layers"),
+    });
+    {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("film layers"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &scene_group, &[]);
+        pass.set_bind_group(1, &out_group, &[]);
+        pass.dispatch_workgroups(gx as u32, gy as u32, 1);
+    }
+    ctx.queue.submit([encoder.finish()]);
+    read_buffer_with(ctx, &out, bytes, |b| read(bytemuck::cast_slice(b)))
 }
 
 /// The layers in the layers kernel's `words` (layer-major), converted in

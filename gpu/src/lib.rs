@@ -5,9 +5,9 @@
 //! generated from `reference` (`shader`), opens an adapter (`context`) and
 //! runs the megakernel in short batches of samples (`renderer`) or the
 //! wavefront's kernels in waves of paths (`wavefront`), built for the
-//! scene's features (`features`). It never
-//! re-defines what a scene means: every tag, constant and the camera come
-//! from `reference`.
+//! scene's features (`features`) and the variant asked for (`variants`).
+//! It never re-defines what a scene means: every tag, constant and the
+//! camera come from `reference`.
 
 pub mod bindings;
 pub mod context;
@@ -17,17 +17,21 @@ pub mod features;
 pub mod film;
 pub mod pipeline;
 pub mod rays;
+pub mod readback;
 pub mod records;
 pub mod renderer;
 pub mod scene_buffers;
+mod schedule;
 pub mod shader;
 pub mod testing;
 pub mod traversal;
+pub mod variants;
 pub mod wavefront;
 
 pub use context::{list_adapters, AdapterSummary, GpuContext};
 pub use error::GpuError;
-pub use features::{Dispatch, Features, Kernel};
+pub use features::Features;
 pub use renderer::{Accumulated, GpuRender, GpuRenderer, GpuSums, KernelSpec};
-pub use traversal::{LeafLayout, NodeLayout, Traversal};
-pub use wavefront::{PathLayout, Schedule, Variant};
+pub use variants::{
+    Dispatch, Kernel, LeafLayout, NodeLayout, PathLayout, Schedule, Traversal, Variant,
+};

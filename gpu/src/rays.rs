@@ -9,7 +9,8 @@ use crate::context::GpuContext;
 use crate::error::GpuError;
 use crate::features::FEATURES_CONSTANT;
 use crate::pipeline::compile_with;
-use crate::renderer::{bind_group_layout, read_buffer, read_timestamps, GpuRenderer};
+use crate::readback::{read_buffer, read_timestamps};
+use crate::renderer::{bind_group_layout, GpuRenderer};
 use reference::geometry::Ray;
 use reference::Scene;
 use std::time::{Duration, Instant};
@@ -62,7 +63,7 @@ pub const WARM_UP: Duration = Duration::from_millis(500);
 /// Traces `rays` through `scene` on the GPU `repeats` times (after
 /// untimed warm-up dispatches for at least [`WARM_UP`]), with the kernel built as
 /// `variant` says: its kernel's features of the scene
-/// ([`crate::Kernel::Specialized`]: only the scene's primitive tests in the walk),
+/// ([`crate::variants::Kernel::Specialized`]: only the scene's primitive tests in the walk),
 /// its walk, leaves and dispatch (its estimator and schedule do not
 /// matter to a ray query).
 pub fn trace_closest(
@@ -70,7 +71,7 @@ pub fn trace_closest(
     scene: &Scene,
     rays: &[Ray],
     repeats: u32,
-    variant: crate::Variant,
+    variant: crate::variants::Variant,
 ) -> Result<RayTimings, GpuError> {
     let device = &ctx.device;
     let groups = (rays.len() as u32).div_ceil(WORKGROUP);

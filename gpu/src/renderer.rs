@@ -1,25 +1,33 @@
 //! The render loop: upload the packed scene once, then dispatch the
 //! megakernel in batches of samples (short submits: long dispatches lose
-//! the device on some platforms), then read the film back.
+//! the device on some platforms), then read the film back. The batches
+//! are submitted by `schedule`; the film is read and loaded by `film`,
+//! through the thin [`GpuRenderer`] methods here.
 
 use crate::bindings::{self, Binding};
 use crate::context::GpuContext;
 use crate::error::GpuError;
-use crate::features::{Dispatch, Features, Kernel, DISPATCH_CONSTANT, FEATURES_CONSTANT};
-use crate::film::film_bytes;
+use crate::features::{Features, FEATURES_CONSTANT};
+use crate::film::{self, film_bytes, layers_source, FilmLayers, FilmSlot};
 use crate::pipeline::compile_with;
+use crate::readback::read_timestamps;
 use crate::records::GpuParams;
 use crate::scene_buffers::{pack_background, PackedScene};
+use crate::schedule::{self, Plan};
 use crate::shader;
-use crate::traversal::{
-    LeafLayout, NodeLayout, Traversal, LEAVES_CONSTANT, NODE_LAYOUT_CONSTANT, TRAVERSAL_CONSTANT,
+use crate::variants::{
+    Dispatch, Kernel, LeafLayout, NodeLayout, Schedule, Traversal, Variant, DISPATCH_CONSTANT,
+    LEAVES_CONSTANT, NODE_LAYOUT_CONSTANT, TRAVERSAL_CONSTANT,
 };
-use crate::wavefront::{self, Schedule, Variant};
+use crate::wavefront;
 use reference::film::{Film, FilmSums};
 use reference::integrator::Integrator;
 use reference::{RenderSettings, Scene};
 use std::time::Duration;
 use wgpu::util::DeviceExt;
+
+// Readback lives in `crate::readback`; kept here under its old paths.
+pub use crate::readback::{read_buffer, read_buffer_with};
 
 /// The megakernel's paths per dispatch: ~2^23 keeps one submit in the
 /// tens of milliseconds on a discrete GPU (a software adapter gets one
@@ -74,47 +82,6 @@ pub fn brute_force_refusal(primitives: usize, max_depth: u32, software: bool) ->
         ));
     }
     None
-}
-
-/// How a render's submits are made.
-enum Plan<'b> {
-    /// Dispatches of the megakernel over every pixel, `per` samples each.
-    Dispatches {
-        pipeline: &'b wgpu::ComputePipeline,
-        per: u32,
-    },
-    /// The waves of a wave schedule, in its buffers.
-    Waves {
-        pipelines: &'b wavefront::Pipelines,
-        waves: wavefront::Waves,
-        buffers: wavefront::WaveBuffers,
-    },
-}
-
-impl Plan<'_> {
-    fn count(&self, spp: u32) -> u64 {
-        match self {
-            Plan::Dispatches { per, .. } => (spp as u64).div_ceil(*per as u64),
-            Plan::Waves { waves, .. } => waves.count(),
-        }
-    }
-
-    /// The params of submit `index`.
-    fn params(&self, base: &GpuParams, index: u64, spp: u32) -> GpuParams {
-        match self {
-            Plan::Dispatches { per, .. } => {
-                let start = (index * *per as u64) as u32;
-                GpuParams {
-                    sample_start: start,
-                    sample_count: (*per).min(spp - start),
-                    ..*base
-                }
-            }
-            Plan::Waves { waves, buffers, .. } => {
-                wavefront::wave_params(base, waves.at(index), buffers.slots)
-            }
-        }
-    }
 }
 
 /// A render's exact sums and, where the adapter has timestamp queries,
@@ -193,7 +160,7 @@ pub struct GpuRenderer<'a> {
     wave_cache: std::sync::Mutex<Option<wavefront::WaveBuffers>>,
     /// The last render's film buffer, kept for the next render of that
     /// size.
-    pub(crate) film_cache: std::sync::Mutex<Option<wgpu::Buffer>>,
+    film_cache: FilmSlot,
 }
 
 /// The pipeline constants of a records' layout (walk and leaves) and a
@@ -426,9 +393,6 @@ impl<'a> GpuRenderer<'a> {
         })
     }
 
-    /// Sets the wavefront's path slots per wave (`None`: fill the
-    /// adapter, `wavefront::Pipelines::slots`): the tests split a small render into
-    /// many waves with it. No effect on the megakernel.
     /// The walk the kernels run, and why it is not the one asked for
     /// where it is not.
     pub fn traversal(&self) -> (Traversal, Option<&str>) {
@@ -467,6 +431,9 @@ impl<'a> GpuRenderer<'a> {
         &self.ctx.adapter.name
     }
 
+    /// Sets the wavefront's path slots per wave (`None`: fill the
+    /// adapter, `wavefront::Pipelines::slots`): the tests split a small render into
+    /// many waves with it. No effect on the megakernel.
     pub fn set_wave_slots(&mut self, slots: Option<u32>) {
         self.wave_slots = slots.map(|s| s.max(1));
     }
@@ -676,82 +643,20 @@ impl<'a> GpuRenderer<'a> {
                 }
             }
         };
-        let batches = plan.count(settings.spp);
-        // Two timestamps per batch; wgpu caps a query set at 4096 queries.
-        let timestamps = ctx.timestamps && batches <= 2048;
-        let query_set = timestamps.then(|| {
-            device.create_query_set(&wgpu::QuerySetDescriptor {
-                label: Some("kernel time"),
-                ty: wgpu::QueryType::Timestamp,
-                count: batches as u32 * 2,
-            })
-        });
-        let groups = (
-            settings.width.div_ceil(shader::WORKGROUP.0),
-            settings.height.div_ceil(shader::WORKGROUP.1),
-        );
-        let total = settings.spp as u64 * pixels;
-        let mut done = 0u64;
-        // Two batches in flight: the next is recorded and submitted while
-        // the device runs the last, so that the device does not idle
-        // between batches (a 4K render is a thousand batches). Its params
-        // are written on the queue's timeline, after the batch before it.
-        let mut in_flight: Option<(wgpu::SubmissionIndex, u64)> = None;
-        for index in 0..batches {
-            let mut params = plan.params(&base, index, settings.spp);
-            params.sample_start += samples.start;
-            ctx.queue
-                .write_buffer(&params_buf, 0, bytemuck::bytes_of(&params));
-            let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("render"),
-            });
-            if index == 0 && clear {
-                encoder.clear_buffer(&film, 0, None);
-            }
-            {
-                let timestamp_writes =
-                    query_set
-                        .as_ref()
-                        .map(|qs| wgpu::ComputePassTimestampWrites {
-                            query_set: qs,
-                            beginning_of_pass_write_index: Some(2 * index as u32),
-                            end_of_pass_write_index: Some(2 * index as u32 + 1),
-                        });
-                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("render"),
-                    timestamp_writes,
-                });
-                match &plan {
-                    Plan::Waves {
-                        pipelines,
-                        waves,
-                        buffers,
-                    } => {
-                        let wave = waves.at(index);
-                        pipelines.record(&mut pass, &bind_group, buffers, wave, settings.max_depth);
-                    }
-                    Plan::Dispatches { pipeline, .. } => {
-                        pass.set_pipeline(pipeline);
-                        pass.set_bind_group(0, &bind_group, &[]);
-                        pass.dispatch_workgroups(groups.0, groups.1, 1);
-                    }
-                }
-            }
-            let submitted = ctx.queue.submit([encoder.finish()]);
-            done += params.sample_count as u64
-                * match &plan {
-                    Plan::Dispatches { .. } => pixels,
-                    Plan::Waves { .. } => params.wave_pixel_count as u64,
-                };
-            if let Some((before, done_before)) = in_flight.replace((submitted, done)) {
-                ctx.wait_for(before)?;
-                progress(done_before, total);
-            }
-        }
-        if let Some((last, done_last)) = in_flight {
-            ctx.wait_for(last)?;
-            progress(done_last, total);
-        }
+        let (batches, query_set) = schedule::submit(
+            ctx,
+            &plan,
+            settings,
+            &base,
+            samples.start,
+            &schedule::Target {
+                params: &params_buf,
+                film: &film,
+                bind_group: &bind_group,
+                clear,
+            },
+            progress,
+        )?;
         if let Plan::Waves { buffers, .. } = plan {
             if let Ok(mut c) = self.wave_cache.lock() {
                 *c = Some(buffers);
@@ -772,79 +677,69 @@ impl<'a> GpuRenderer<'a> {
     }
 }
 
-/// Copies a storage buffer into a mappable one and reads it.
-pub fn read_buffer<T: bytemuck::Pod>(
-    ctx: &GpuContext,
-    src: &wgpu::Buffer,
-    size: u64,
-) -> Result<Vec<T>, GpuError> {
-    read_buffer_with(ctx, src, size, |b| {
-        bytemuck::cast_slice::<u8, T>(b).to_vec()
-    })
-}
+/// The device film: these read and load it through `film`, which does the
+/// work over what it needs of the renderer.
+impl GpuRenderer<'_> {
+    /// The film [`GpuRenderer::accumulate`] left on the device, read back;
+    /// every pixel must hold `expected` samples.
+    pub fn read_film(
+        &self,
+        settings: &RenderSettings,
+        expected: u32,
+    ) -> Result<FilmSums, GpuError> {
+        film::read_film(self.ctx, &self.film_cache, settings, expected)
+    }
 
-/// Copies `size` bytes of `src` to a mappable buffer and hands them,
-/// mapped, to `read`: what it needs is converted straight from the
-/// device's memory, without a copy in between.
-pub fn read_buffer_with<R>(
-    ctx: &GpuContext,
-    src: &wgpu::Buffer,
-    size: u64,
-    read: impl FnOnce(&[u8]) -> R,
-) -> Result<R, GpuError> {
-    let device = &ctx.device;
-    let staging = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("readback"),
-        size,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-        label: Some("readback"),
-    });
-    encoder.copy_buffer_to_buffer(src, 0, &staging, 0, size);
-    ctx.queue.submit([encoder.finish()]);
-    let slice = staging.slice(..);
-    let (tx, rx) = std::sync::mpsc::channel();
-    slice.map_async(wgpu::MapMode::Read, move |r| {
-        let _ = tx.send(r);
-    });
-    ctx.wait()?;
-    rx.recv()
-        .map_err(|e| GpuError::Readback(e.to_string()))?
-        .map_err(|e| GpuError::Readback(e.to_string()))?;
-    let data = slice
-        .get_mapped_range()
-        .map_err(|e| GpuError::Readback(e.to_string()))?;
-    let out = read(&data);
-    drop(data);
-    staging.unmap();
-    Ok(out)
-}
+    /// Puts `sums` on the device as the film of `settings`' size, as if
+    /// [`GpuRenderer::accumulate`] had traced them: the next range adds
+    /// to them (a render resumed from a partial film; the twin checks'
+    /// films of chosen sums).
+    pub fn load_film(&self, settings: &RenderSettings, sums: &FilmSums) -> Result<(), GpuError> {
+        film::load_film(self.ctx, &self.film_cache, settings, sums)
+    }
 
-pub(crate) fn read_timestamps(
-    ctx: &GpuContext,
-    qs: &wgpu::QuerySet,
-    dispatches: u32,
-) -> Result<Duration, GpuError> {
-    let device = &ctx.device;
-    let size = dispatches as u64 * 2 * 8;
-    let resolve = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("timestamps"),
-        size,
-        usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
-    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-        label: Some("timestamps"),
-    });
-    encoder.resolve_query_set(qs, 0..dispatches * 2, &resolve, 0);
-    ctx.queue.submit([encoder.finish()]);
-    let ticks: Vec<u64> = read_buffer(ctx, &resolve, size)?;
-    let period = ctx.queue.get_timestamp_period() as f64;
-    let ns: f64 = ticks
-        .chunks_exact(2)
-        .map(|p| p[1].saturating_sub(p[0]) as f64 * period)
-        .sum();
-    Ok(Duration::from_nanos(ns as u64))
+    /// The image of the film [`GpuRenderer::accumulate`] left on the
+    /// device, computed there (`film_layers_main`); every pixel must hold
+    /// `expected` samples. Bit for bit the layers the reference computes
+    /// from the same sums (`twins::film`).
+    pub fn read_layers(
+        &self,
+        settings: &RenderSettings,
+        expected: u32,
+    ) -> Result<FilmLayers, GpuError> {
+        self.read_layers_with(settings, expected, &layers_source())
+    }
+
+    /// [`Self::read_layers`] with the layers kernel's program given (the
+    /// tests' mutants of it).
+    pub fn read_layers_with(
+        &self,
+        settings: &RenderSettings,
+        expected: u32,
+        program: &str,
+    ) -> Result<FilmLayers, GpuError> {
+        let scene_group =
+            |params: &wgpu::Buffer, film: &wgpu::Buffer| self.bind_group(params, film);
+        film::read_layers_with(
+            self.ctx,
+            &self.film_cache,
+            &scene_group,
+            settings,
+            expected,
+            program,
+        )
+    }
+
+    /// The layers of the film on the device and each pixel's samples
+    /// (accepted and rejected), unchecked: the twin checks' films of
+    /// chosen sums hold a different count in every pixel.
+    pub fn read_layers_unchecked(
+        &self,
+        settings: &RenderSettings,
+        program: &str,
+    ) -> Result<(FilmLayers, Vec<u64>), GpuError> {
+        let scene_group =
+            |params: &wgpu::Buffer, film: &wgpu::Buffer| self.bind_group(params, film);
+        film::read_layers_unchecked(self.ctx, &self.film_cache, &scene_group, settings, program)
+    }
 }

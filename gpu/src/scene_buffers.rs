@@ -1,11 +1,13 @@
 //! Packs a `reference::Scene` into GPU records. The BVH node array is
 //! uploaded as the reference built it (the one BVH), or in the wide or
 //! brute-force form of the same tree that another walk reads
-//! (`crate::traversal`).
+//! (`crate::traversal`), its leaves' entries indexed or, for the inline
+//! layouts, copied from the packed records ([`inline_entries`]).
 
 use crate::bindings::{self, Binding};
 use crate::records::*;
-use crate::traversal::{LeafLayout, NodeLayout, Traversal};
+use crate::traversal::{INLINE_ALPHA, INLINE_TAG_SHIFT, INLINE_WORDS};
+use crate::variants::{LeafLayout, NodeLayout, Traversal};
 use reference::background::Background;
 use reference::light::LightSet;
 use reference::material::{Alpha, AlphaMode, Material};
@@ -30,7 +32,7 @@ pub struct PackedScene {
     pub node_layout: NodeLayout,
     /// The leaves' entries in the tree's primitive order, as `leaves`
     /// says ([`crate::traversal::indexed_entries`],
-    /// [`crate::traversal::inline_entries`]).
+    /// [`inline_entries`]).
     pub leaf_entries: Vec<[u32; 4]>,
     pub primitives: Vec<GpuPrimitive>,
     pub spheres: Vec<GpuSphere>,
@@ -428,7 +430,7 @@ impl PackedScene {
             env_table,
         };
         if leaves != LeafLayout::Indexed {
-            match crate::traversal::inline_entries(&order, &packed) {
+            match inline_entries(&order, &packed) {
                 Ok(entries) => {
                     packed.leaves = leaves;
                     packed.leaf_entries = match leaves {
@@ -455,6 +457,64 @@ impl PackedScene {
             ..self
         }
     }
+}
+
+/// The inline entries of `order` ([`LeafLayout::Inline`]), from the packed
+/// records the indexed layout's test reads (so the same floats), or why
+/// not (ids from [`INLINE_ALPHA`] up). Its words are laid out as
+/// `crate::traversal` defines them ([`INLINE_WORDS`], [`INLINE_TAG_SHIFT`]).
+pub fn inline_entries(order: &[u32], p: &PackedScene) -> Result<Vec<[u32; 4]>, String> {
+    use reference::scene::primitive_tag;
+    use reference::shapes::TRIANGLE_HAS_ALPHA;
+    if p.primitives.len() as u64 > INLINE_ALPHA as u64 {
+        return Err(format!(
+            "inline leaf entries hold ids under 2^{}; this scene has {} primitives",
+            INLINE_ALPHA.trailing_zeros(),
+            p.primitives.len()
+        ));
+    }
+    let mut out = Vec::with_capacity(order.len() * INLINE_WORDS);
+    for &prim in order {
+        let g = &p.primitives[prim as usize];
+        let i = g.index as usize;
+        let shape: [f32; 9] = match g.tag {
+            primitive_tag::SPHERE => {
+                let s = &p.spheres[i];
+                [
+                    s.center_x, s.center_y, s.center_z, s.radius, 0.0, 0.0, 0.0, 0.0, 0.0,
+                ]
+            }
+            primitive_tag::QUAD => {
+                let q = &p.quads[i];
+                [
+                    q.corner_x, q.corner_y, q.corner_z, q.u_x, q.u_y, q.u_z, q.v_x, q.v_y, q.v_z,
+                ]
+            }
+            _ => {
+                // Triangles, and any other tag: the kernel poisons an
+                // unknown tag whatever the floats.
+                let t = p.triangles.get(i);
+                let v = |k: Option<u32>| {
+                    k.and_then(|k| p.vertices.get(k as usize))
+                        .map_or([0.0; 3], |v| [v.p_x, v.p_y, v.p_z])
+                };
+                let (a, b, c) = (v(t.map(|t| t.v0)), v(t.map(|t| t.v1)), v(t.map(|t| t.v2)));
+                [a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2]]
+            }
+        };
+        let f = |x: f32| x.to_bits();
+        let alpha = g.tag == primitive_tag::TRIANGLE
+            && p.triangles
+                .get(i)
+                .is_some_and(|t| t.flags & TRIANGLE_HAS_ALPHA != 0);
+        // An unknown tag stays unknown (3 is none): the kernel poisons it.
+        let head = prim | (g.tag.min(3) << INLINE_TAG_SHIFT) | if alpha { INLINE_ALPHA } else { 0 };
+        out.push([head, f(g.lo_x), f(g.lo_y), f(g.lo_z)]);
+        out.push([f(g.hi_x), f(g.hi_y), f(g.hi_z), f(shape[0])]);
+        out.push([f(shape[1]), f(shape[2]), f(shape[3]), f(shape[4])]);
+        out.push([f(shape[5]), f(shape[6]), f(shape[7]), f(shape[8])]);
+    }
+    Ok(out)
 }
 
 /// The background's part of the per-dispatch parameters.

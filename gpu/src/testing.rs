@@ -8,8 +8,9 @@ use crate::bindings;
 use crate::context::GpuContext;
 use crate::error::GpuError;
 use crate::pipeline::compile_with;
+use crate::readback::read_buffer;
 use crate::records::{GpuParams, GpuPixel};
-use crate::renderer::{bind_group_layout, read_buffer, GpuRenderer};
+use crate::renderer::{bind_group_layout, GpuRenderer};
 use wgpu::util::DeviceExt;
 
 /// A test kernel run.

@@ -20,9 +20,21 @@
 //! interior lane of largest surface area opened into its two children
 //! while lanes remain (the CPU reference's 8-wide view is planned by a
 //! cost model instead; the GPU's lanes need no such plan to be exact).
+//!
+//! The walk and the layouts themselves ([`Traversal`], [`NodeLayout`],
+//! [`LeafLayout`]) and the constants that pass them to the kernels are
+//! variant axes, defined in `crate::variants` and re-exported here; the
+//! inline entries are made from the packed records by
+//! `scene_buffers::inline_entries`.
 
 use reference::bvh::{BvhNode, BVH_STACK_SIZE};
 use reference::Scene;
+
+pub use crate::variants::{
+    LeafLayout, NodeLayout, Traversal, LEAVES_CONSTANT, LEAVES_INDEXED, LEAVES_INLINE,
+    LEAVES_INLINE_SOA, NODE_LAYOUT_AOS, NODE_LAYOUT_CONSTANT, NODE_LAYOUT_SOA, TRAVERSAL_BINARY,
+    TRAVERSAL_CONSTANT, TRAVERSAL_WIDE,
+};
 
 /// Lanes of a wide node.
 pub const WIDE_LANES: usize = 4;
@@ -35,145 +47,6 @@ pub const WIDE_EMPTY: u32 = u32::MAX;
 /// is the lane's record index): records number fewer than 2^31
 /// ([`wide_records`] refuses more).
 pub const WIDE_LEAF_ENTRY: u32 = 1 << 31;
-
-/// The render program's pipeline-overridable constant that picks the walk
-/// ([`Traversal::tag`]).
-pub const TRAVERSAL_CONSTANT: &str = "TRAVERSAL";
-
-/// [`TRAVERSAL_CONSTANT`] of the binary walk (also brute force's: one
-/// leaf).
-pub const TRAVERSAL_BINARY: u32 = 0;
-
-/// [`TRAVERSAL_CONSTANT`] of the four-wide walk.
-pub const TRAVERSAL_WIDE: u32 = 1;
-
-/// How a render walks the scene.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum Traversal {
-    /// The reference's binary tree, near child first, one explicit stack
-    /// (the baseline, the oracle of the others).
-    #[default]
-    Binary,
-    /// The same tree collapsed four children to a node ([`wide_records`]).
-    Wide,
-    /// Every primitive tested, in id order: the binary walk over one leaf
-    /// that holds them all (for tiny scenes, and as the plainest oracle).
-    BruteForce,
-}
-
-impl Traversal {
-    /// Every walk, the baseline first.
-    pub const ALL: [Traversal; 3] = [Traversal::Binary, Traversal::Wide, Traversal::BruteForce];
-
-    /// The CLI's and perf's name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Traversal::Binary => "bvh2",
-            Traversal::Wide => "bvh4",
-            Traversal::BruteForce => "brute",
-        }
-    }
-
-    /// The value of [`TRAVERSAL_CONSTANT`] for this walk.
-    pub fn tag(self) -> u32 {
-        match self {
-            Traversal::Binary | Traversal::BruteForce => TRAVERSAL_BINARY,
-            Traversal::Wide => TRAVERSAL_WIDE,
-        }
-    }
-}
-
-/// How a walk's leaves name what they hold (`leaf_entries`, one entry per
-/// position of the tree's primitive order).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum LeafLayout {
-    /// The primitive's id, four to a `vec4<u32>`: a test reads the
-    /// `primitives` record, then the shape's (sphere, quad, or triangle
-    /// and its three vertices): two to four dependent reads (the
-    /// baseline).
-    #[default]
-    Indexed,
-    /// A 64-byte record in leaf order with what the test reads: the id
-    /// and kind, the admits box, the shape's nine floats (sphere centre
-    /// and radius; quad corner, u, v; triangle's three vertex positions),
-    /// copied from the same packed records: one read per test, the same
-    /// bits ([`inline_entries`]).
-    Inline,
-    /// The inline entries as a structure of arrays: every entry's first
-    /// 16-byte word, then every entry's second, third and fourth
-    /// ([`soa_entries`]).
-    InlineSoa,
-}
-
-impl LeafLayout {
-    pub const ALL: [LeafLayout; 3] = [
-        LeafLayout::Indexed,
-        LeafLayout::Inline,
-        LeafLayout::InlineSoa,
-    ];
-
-    /// The CLI's and perf's name.
-    pub fn name(self) -> &'static str {
-        match self {
-            LeafLayout::Indexed => "indexed",
-            LeafLayout::Inline => "inline",
-            LeafLayout::InlineSoa => "inline-soa",
-        }
-    }
-
-    /// The value of [`LEAVES_CONSTANT`].
-    pub fn tag(self) -> u32 {
-        match self {
-            LeafLayout::Indexed => LEAVES_INDEXED,
-            LeafLayout::Inline => LEAVES_INLINE,
-            LeafLayout::InlineSoa => LEAVES_INLINE_SOA,
-        }
-    }
-}
-
-/// How the `nodes` binding holds the walk's records: each [`BvhNode`] is
-/// two `vec4<u32>` words (box minimum and `index`; box maximum and
-/// `meta`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum NodeLayout {
-    /// A record's two words side by side (array of structs).
-    #[default]
-    Aos,
-    /// Every record's first word, then every record's second (structure
-    /// of arrays).
-    Soa,
-}
-
-impl NodeLayout {
-    /// Both layouts, the baseline first.
-    pub const ALL: [NodeLayout; 2] = [NodeLayout::Aos, NodeLayout::Soa];
-
-    /// The CLI's and perf's name.
-    pub fn name(self) -> &'static str {
-        match self {
-            NodeLayout::Aos => "aos",
-            NodeLayout::Soa => "soa",
-        }
-    }
-
-    /// The value of [`NODE_LAYOUT_CONSTANT`].
-    pub fn tag(self) -> u32 {
-        match self {
-            NodeLayout::Aos => NODE_LAYOUT_AOS,
-            NodeLayout::Soa => NODE_LAYOUT_SOA,
-        }
-    }
-}
-
-/// The render program's pipeline-overridable constant that picks the node
-/// layout ([`NodeLayout::tag`]).
-pub const NODE_LAYOUT_CONSTANT: &str = "NODE_LAYOUT";
-
-/// [`NODE_LAYOUT_CONSTANT`] of [`NodeLayout::Aos`].
-pub const NODE_LAYOUT_AOS: u32 = 0;
-
-/// [`NODE_LAYOUT_CONSTANT`] of [`NodeLayout::Soa`].
-pub const NODE_LAYOUT_SOA: u32 = 1;
 
 /// The words of `records` as `layout` holds them.
 pub fn node_words(records: &[BvhNode], layout: NodeLayout) -> Vec<[u32; 4]> {
@@ -203,25 +76,12 @@ pub fn node_words(records: &[BvhNode], layout: NodeLayout) -> Vec<[u32; 4]> {
     }
 }
 
-/// The render program's pipeline-overridable constant that picks the leaf
-/// layout ([`LeafLayout::tag`]).
-pub const LEAVES_CONSTANT: &str = "LEAVES";
-
-/// [`LEAVES_CONSTANT`] of [`LeafLayout::Indexed`].
-pub const LEAVES_INDEXED: u32 = 0;
-
-/// [`LEAVES_CONSTANT`] of [`LeafLayout::Inline`].
-pub const LEAVES_INLINE: u32 = 1;
-
-/// [`LEAVES_CONSTANT`] of [`LeafLayout::InlineSoa`].
-pub const LEAVES_INLINE_SOA: u32 = 2;
-
 /// `vec4<u32>` words of an inline leaf entry.
 pub const INLINE_WORDS: usize = 4;
 
 /// An inline entry's first word holds the primitive's kind above this
 /// bit, [`INLINE_ALPHA`] and its id below (ids under 2^29:
-/// [`inline_entries`] refuses more).
+/// `scene_buffers::inline_entries` refuses more).
 pub const INLINE_TAG_SHIFT: u32 = 30;
 
 /// The bit of an inline entry's first word that marks a triangle with an
@@ -235,66 +95,6 @@ pub fn indexed_entries(order: &[u32]) -> Vec<[u32; 4]> {
         .chunks(4)
         .map(|c| std::array::from_fn(|k| c.get(k).copied().unwrap_or(0)))
         .collect()
-}
-
-/// The inline entries of `order` ([`LeafLayout::Inline`]), from the packed
-/// records the indexed layout's test reads (so the same floats), or why
-/// not (ids from [`INLINE_ALPHA`] up).
-pub fn inline_entries(
-    order: &[u32],
-    p: &crate::scene_buffers::PackedScene,
-) -> Result<Vec<[u32; 4]>, String> {
-    use reference::scene::primitive_tag;
-    use reference::shapes::TRIANGLE_HAS_ALPHA;
-    if p.primitives.len() as u64 > INLINE_ALPHA as u64 {
-        return Err(format!(
-            "inline leaf entries hold ids under 2^{}; this scene has {} primitives",
-            INLINE_ALPHA.trailing_zeros(),
-            p.primitives.len()
-        ));
-    }
-    let mut out = Vec::with_capacity(order.len() * INLINE_WORDS);
-    for &prim in order {
-        let g = &p.primitives[prim as usize];
-        let i = g.index as usize;
-        let shape: [f32; 9] = match g.tag {
-            primitive_tag::SPHERE => {
-                let s = &p.spheres[i];
-                [
-                    s.center_x, s.center_y, s.center_z, s.radius, 0.0, 0.0, 0.0, 0.0, 0.0,
-                ]
-            }
-            primitive_tag::QUAD => {
-                let q = &p.quads[i];
-                [
-                    q.corner_x, q.corner_y, q.corner_z, q.u_x, q.u_y, q.u_z, q.v_x, q.v_y, q.v_z,
-                ]
-            }
-            _ => {
-                // Triangles, and any other tag: the kernel poisons an
-                // unknown tag whatever the floats.
-                let t = p.triangles.get(i);
-                let v = |k: Option<u32>| {
-                    k.and_then(|k| p.vertices.get(k as usize))
-                        .map_or([0.0; 3], |v| [v.p_x, v.p_y, v.p_z])
-                };
-                let (a, b, c) = (v(t.map(|t| t.v0)), v(t.map(|t| t.v1)), v(t.map(|t| t.v2)));
-                [a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2]]
-            }
-        };
-        let f = |x: f32| x.to_bits();
-        let alpha = g.tag == primitive_tag::TRIANGLE
-            && p.triangles
-                .get(i)
-                .is_some_and(|t| t.flags & TRIANGLE_HAS_ALPHA != 0);
-        // An unknown tag stays unknown (3 is none): the kernel poisons it.
-        let head = prim | (g.tag.min(3) << INLINE_TAG_SHIFT) | if alpha { INLINE_ALPHA } else { 0 };
-        out.push([head, f(g.lo_x), f(g.lo_y), f(g.lo_z)]);
-        out.push([f(g.hi_x), f(g.hi_y), f(g.hi_z), f(shape[0])]);
-        out.push([f(shape[1]), f(shape[2]), f(shape[3]), f(shape[4])]);
-        out.push([f(shape[5]), f(shape[6]), f(shape[7]), f(shape[8])]);
-    }
-    Ok(out)
 }
 
 /// Inline entries (`INLINE_WORDS` words each, side by side) regrouped as

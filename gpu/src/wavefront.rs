@@ -13,13 +13,21 @@
 //! are equal, bit for bit or with means a few ulp apart where a driver
 //! contracts the two programs differently (`twintrace::twins::wavefront`,
 //! tests/gpu_wavefront.rs).
+//!
+//! The schedules themselves ([`Schedule`], [`PathLayout`]) and the
+//! [`Variant`] are defined in `crate::variants` and re-exported here.
 
 use crate::bindings;
 use crate::context::GpuContext;
 use crate::error::GpuError;
 use crate::pipeline::compile_entries;
 use crate::records::GpuParams;
-use crate::traversal::{LeafLayout, Traversal};
+
+pub use crate::bindings::{
+    PATH_MEGAKERNEL_STORAGE_BUFFERS as STORAGE_BUFFERS_NEEDED_PATHS,
+    WAVEFRONT_STORAGE_BUFFERS as STORAGE_BUFFERS_NEEDED,
+};
+pub use crate::variants::{PathLayout, Schedule, Variant};
 
 /// Words of one path's state (the `PF_…` fields of shaders/wavefront.wgsl,
 /// which asserts the sum).
@@ -50,190 +58,6 @@ const QUEUE_HEADER_BYTES: u64 = 24;
 pub const WAVE_SLOTS_GPU: u32 = 1 << 23;
 /// On a software adapter (lavapipe), 2^15 slots.
 pub const WAVE_SLOTS_SOFTWARE: u32 = 1 << 15;
-
-/// Storage buffers wf_prepare's pipeline layout holds (scene group, wave
-/// group, arguments): the wavefront needs an adapter with this many.
-pub const STORAGE_BUFFERS_NEEDED: u32 = 18;
-
-/// Storage buffers the path megakernel's layouts hold (scene group, wave
-/// group).
-pub const STORAGE_BUFFERS_NEEDED_PATHS: u32 = 17;
-
-/// How the wavefront stores a path's state.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum PathLayout {
-    /// Array of structs: a path's words together (the baseline).
-    #[default]
-    Aos,
-    /// Structure of arrays: each field's words of every path together.
-    Soa,
-}
-
-/// How a render's paths are scheduled on the GPU.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum Schedule {
-    /// One invocation traces a pixel's paths to the end (the baseline, the
-    /// oracle of the wavefront).
-    #[default]
-    Megakernel,
-    /// Kernels per stage over queues of live paths.
-    Wavefront(PathLayout),
-    /// One invocation per path of a wave (pixel × sample) traces it to the
-    /// end, as the megakernel's loop body does, and the wavefront's
-    /// accumulate kernel folds the paths' light into the film in sample
-    /// order: the megakernel's code with the parallelism of the
-    /// wavefront's waves (a 256x256 image is 65,536 megakernel invocations,
-    /// a quarter of what an H100 holds resident).
-    PathMegakernel,
-}
-
-impl Schedule {
-    /// Every schedule, for the tests and the CLI.
-    pub const ALL: [Schedule; 4] = [
-        Schedule::Megakernel,
-        Self::WAVES[0],
-        Self::WAVES[1],
-        Self::WAVES[2],
-    ];
-
-    /// The schedules other than the megakernel, which is their oracle.
-    pub const WAVES: [Schedule; 3] = [
-        Schedule::Wavefront(PathLayout::Aos),
-        Schedule::Wavefront(PathLayout::Soa),
-        Schedule::PathMegakernel,
-    ];
-
-    /// The CLI's and perf's name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Schedule::Megakernel => "megakernel",
-            Schedule::Wavefront(PathLayout::Aos) => "wavefront",
-            Schedule::Wavefront(PathLayout::Soa) => "wavefront-soa",
-            Schedule::PathMegakernel => "megakernel-paths",
-        }
-    }
-
-    pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|s| s.name() == name)
-    }
-}
-
-/// A GPU renderer variant: estimator, kernel specialization, schedule and
-/// walk, named for the perf tables (`megakernel`,
-/// `wavefront-soa-mis-general`, `megakernel-paths-bvh4`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Variant {
-    pub integrator: reference::integrator::Integrator,
-    pub kernel: crate::Kernel,
-    pub schedule: Schedule,
-    pub traversal: Traversal,
-    pub nodes: crate::NodeLayout,
-    pub leaves: LeafLayout,
-    pub dispatch: crate::Dispatch,
-}
-
-impl Default for Variant {
-    fn default() -> Self {
-        Self::DEFAULT
-    }
-}
-
-impl Variant {
-    /// The variant a render runs unless told otherwise: the CLI's,
-    /// `perf`'s and `selftest`'s default, defined here only. MIS; the
-    /// kernel specialized to the scene; one invocation a path
-    /// ([`Schedule::PathMegakernel`]: fills the GPU at any image size);
-    /// the binary walk over array-of-structs nodes; inline leaf entries
-    /// (1.03-1.2x on an H100, docs/benchmarks.md); switch dispatch.
-    pub const DEFAULT: Variant = Variant {
-        integrator: reference::integrator::Integrator::Mis,
-        kernel: crate::Kernel::Specialized,
-        schedule: Schedule::PathMegakernel,
-        traversal: Traversal::Binary,
-        nodes: crate::NodeLayout::Aos,
-        leaves: LeafLayout::Inline,
-        dispatch: crate::Dispatch::Switch,
-    };
-
-    /// `schedule` running `integrator` in its plain form: the kernel
-    /// specialized to the scene, the binary walk over array-of-structs
-    /// nodes and indexed leaves, switch dispatch.
-    pub fn plain(integrator: reference::integrator::Integrator, schedule: Schedule) -> Self {
-        Variant {
-            integrator,
-            kernel: crate::Kernel::Specialized,
-            schedule,
-            traversal: Traversal::Binary,
-            nodes: crate::NodeLayout::Aos,
-            leaves: LeafLayout::Indexed,
-            dispatch: crate::Dispatch::Switch,
-        }
-    }
-
-    /// `<schedule>[-mis][-general][-<walk>][-nodes-soa][-inline[-soa]][-branches]`,
-    /// the binary walk, array-of-structs nodes, indexed leaves and switch
-    /// dispatch unnamed.
-    pub fn name(self) -> String {
-        let mut s = self.schedule.name().to_string();
-        if self.integrator == reference::integrator::Integrator::Mis {
-            s += "-mis";
-        }
-        if self.kernel == crate::Kernel::General {
-            s += "-general";
-        }
-        if self.traversal != Traversal::Binary {
-            s += "-";
-            s += self.traversal.name();
-        }
-        if self.nodes != crate::NodeLayout::Aos {
-            // `-soa` alone names the wavefront's path state.
-            s += "-nodes-";
-            s += self.nodes.name();
-        }
-        if self.leaves != LeafLayout::Indexed {
-            s += "-";
-            s += self.leaves.name();
-        }
-        if self.dispatch != crate::Dispatch::Switch {
-            s += "-";
-            s += self.dispatch.name();
-        }
-        s
-    }
-
-    /// Every variant, the megakernel's first.
-    pub fn all() -> Vec<Variant> {
-        let mut out = Vec::new();
-        for dispatch in crate::Dispatch::ALL {
-            for leaves in LeafLayout::ALL {
-                for nodes in crate::NodeLayout::ALL {
-                    for traversal in Traversal::ALL {
-                        for schedule in Schedule::ALL {
-                            for kernel in [crate::Kernel::Specialized, crate::Kernel::General] {
-                                for integrator in reference::integrator::Integrator::ALL {
-                                    out.push(Variant {
-                                        integrator,
-                                        kernel,
-                                        schedule,
-                                        traversal,
-                                        nodes,
-                                        leaves,
-                                        dispatch,
-                                    });
-                                }
-                            }
-                        }
-                    }
-                }
-            }
-        }
-        out
-    }
-
-    pub fn from_name(name: &str) -> Option<Variant> {
-        Self::all().into_iter().find(|v| v.name() == name)
-    }
-}
 
 /// The compiled kernels of a wave schedule and their bind group layouts.
 pub struct Pipelines {
@@ -620,25 +444,6 @@ mod tests {
         }
     }
 
-    #[test]
-    fn variant_names_are_unique() {
-        let mut names: Vec<String> = Variant::all().iter().map(|v| v.name()).collect();
-        assert!(names.contains(&"megakernel-mis-general".to_string()));
-        assert!(names.contains(&"wavefront-soa-mis".to_string()));
-        let n = names.len();
-        names.sort();
-        names.dedup();
-        assert_eq!(names.len(), n);
-        assert!(names.contains(&"megakernel-paths-mis-bvh4".to_string()));
-        assert!(names.contains(&"megakernel-paths-bvh4-inline".to_string()));
-        assert!(names.contains(&"wavefront-soa-bvh4-nodes-soa-inline".to_string()));
-        assert!(names.contains(&"megakernel-paths-mis-inline-branches".to_string()));
-        assert!(names.contains(&"megakernel-paths-inline-soa".to_string()));
-        // 4 schedules, 2 kernels, 2 estimators, 3 walks, 2 node layouts,
-        // 3 leaf layouts, 2 dispatches.
-        assert_eq!(n, 576);
-    }
-
     /// The grid covers n invocations, within 65,535 workgroups a side.
     #[test]
     fn grids_cover_their_invocations() {
@@ -648,13 +453,5 @@ mod tests {
             assert!(x as u64 * y as u64 * WAVE_GROUP as u64 >= n);
             assert!((x as u64 * (y as u64 - 1)) * (WAVE_GROUP as u64) < n);
         }
-    }
-
-    #[test]
-    fn schedule_names_round_trip() {
-        for s in Schedule::ALL {
-            assert_eq!(Schedule::from_name(s.name()), Some(s));
-        }
-        assert_eq!(Schedule::from_name("wavefront-aos"), None);
     }
 }

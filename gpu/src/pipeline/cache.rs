@@ -1,32 +1,16 @@
-//! Kernel compilation: WGSL programs into compute pipelines, with three
-//! caches so that a kernel is built once.
-//!
-//! - **Modules**, per device: a program's text is parsed and validated by
-//!   naga once ([`wgpu::ShaderModule`] per source text).
-//! - **Pipelines**, per device: a pipeline is created once per program,
-//!   entry point, override constants and bind group layouts. The layouts
-//!   are shared per device too ([`layout`]), so the renderers of several
-//!   scenes, which differ only in their constants, and the oracle kernels
-//!   the variant gates build for every scene, find their pipelines built.
-//! - **On disk**, across runs: where the adapter supports it
-//!   (`wgpu::Features::PIPELINE_CACHE`: Vulkan), the driver's pipeline
-//!   cache is loaded when a device opens and written back when it closes,
-//!   in `<cache dir>/pipelines-<adapter key>.bin` ([`cache_dir`]). The
-//!   file holds a header naming the adapter, driver and twintrace version
-//!   and a checksum of the data; a corrupt or foreign file is ignored
-//!   (a warning, [`crate::GpuContext::take_warnings`]) and replaced.
-//!
-//! None of them changes what a kernel computes: the cached pipeline is
-//! the one the same inputs would build.
+//! What the device's caches hold of the kernels `pipeline` builds, and
+//! the driver's pipeline cache on disk: the modules and pipelines kept
+//! ([`Caches`], each kept while among the most recently used, [`Lru`]),
+//! the time spent building them ([`CompileStats`]), and the cache file
+//! ([`DiskCache`] in [`cache_dir`]: a header naming the adapter, driver
+//! and twintrace version, a checksum of the data). Nothing here builds a
+//! kernel or needs an open device's context: the context holds its
+//! device's caches, and `pipeline` looks kernels up in them and fills them.
 
-use crate::bindings::Binding;
-use crate::context::GpuContext;
-use crate::error::GpuError;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
-use std::time::Instant;
 
 /// Shader modules a device keeps: a module holds naga's form of a whole
 /// program (megabytes for the render program), and the tests compile
@@ -59,7 +43,7 @@ impl<K: std::hash::Hash + Eq + Clone, V: Clone> Lru<K, V> {
         }
     }
 
-    fn get<Q>(&mut self, key: &Q) -> Option<V>
+    pub(super) fn get<Q>(&mut self, key: &Q) -> Option<V>
     where
         K: std::borrow::Borrow<Q>,
         Q: std::hash::Hash + Eq + ?Sized,
@@ -72,7 +56,7 @@ impl<K: std::hash::Hash + Eq + Clone, V: Clone> Lru<K, V> {
         })
     }
 
-    fn insert(&mut self, key: K, value: V) {
+    pub(super) fn insert(&mut self, key: K, value: V) {
         self.clock += 1;
         if !self.entries.contains_key(&key) && self.entries.len() >= self.capacity {
             let oldest = self
@@ -87,7 +71,7 @@ impl<K: std::hash::Hash + Eq + Clone, V: Clone> Lru<K, V> {
         self.entries.insert(key, (value, self.clock));
     }
 
-    fn remove<Q>(&mut self, key: &Q)
+    pub(super) fn remove<Q>(&mut self, key: &Q)
     where
         K: std::borrow::Borrow<Q>,
         Q: std::hash::Hash + Eq + ?Sized,
@@ -102,16 +86,16 @@ impl<K: std::hash::Hash + Eq + Clone, V: Clone> Lru<K, V> {
 
 /// A module being built or built: threads that need the same program
 /// wait for the one building it; other programs build meanwhile.
-type ModuleCell = std::sync::Arc<std::sync::OnceLock<wgpu::ShaderModule>>;
+pub(super) type ModuleCell = std::sync::Arc<std::sync::OnceLock<wgpu::ShaderModule>>;
 
 /// The per-device caches of modules, layouts and pipelines.
 pub(crate) struct Caches {
-    modules: Mutex<Lru<String, ModuleCell>>,
-    layouts: Mutex<HashMap<&'static str, wgpu::BindGroupLayout>>,
-    pipelines: Mutex<Lru<PipelineKey, wgpu::ComputePipeline>>,
+    pub(super) modules: Mutex<Lru<String, ModuleCell>>,
+    pub(super) layouts: Mutex<HashMap<&'static str, wgpu::BindGroupLayout>>,
+    pub(super) pipelines: Mutex<Lru<PipelineKey, wgpu::ComputePipeline>>,
     /// Time spent building modules and pipelines, summed over threads.
-    module_nanos: AtomicU64,
-    pipeline_nanos: AtomicU64,
+    pub(super) module_nanos: AtomicU64,
+    pub(super) pipeline_nanos: AtomicU64,
 }
 
 /// What a device has compiled: modules and pipelines built and the time
@@ -162,169 +146,11 @@ impl Caches {
 /// What a pipeline is built from: the program (by its text), the entry
 /// point, the constants (by their bits) and the layouts (by identity).
 #[derive(Clone, PartialEq, Eq, Hash)]
-struct PipelineKey {
-    source: String,
-    entry: String,
-    constants: Vec<(String, u64)>,
-    layouts: Vec<wgpu::BindGroupLayout>,
-}
-
-/// The bind group layout of `group`, made once per device and `name`
-/// (pipelines built over the same layout object are found in the cache).
-pub fn layout(ctx: &GpuContext, name: &'static str, group: &[Binding]) -> wgpu::BindGroupLayout {
-    let mut layouts = ctx.caches.layouts.lock().unwrap_or_else(|p| p.into_inner());
-    layouts
-        .entry(name)
-        .or_insert_with(|| {
-            let entries: Vec<_> = group.iter().map(Binding::layout_entry).collect();
-            ctx.device
-                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                    label: Some(name),
-                    entries: &entries,
-                })
-        })
-        .clone()
-}
-
-/// The bind group layout shared by the render kernel and the test kernels
-/// ([`crate::bindings::scene_group`]).
-pub fn scene_layout(ctx: &GpuContext) -> wgpu::BindGroupLayout {
-    layout(ctx, "twintrace scene", &crate::bindings::scene_group())
-}
-
-/// Compiles a WGSL program and one entry point into a compute pipeline,
-/// reporting compile and validation errors as `GpuError::Shader`.
-pub fn compile(
-    ctx: &GpuContext,
-    source: &str,
-    entry: &str,
-    layouts: &[&wgpu::BindGroupLayout],
-) -> Result<wgpu::ComputePipeline, GpuError> {
-    compile_with(ctx, source, entry, layouts, &[])
-}
-
-/// [`compile`] with values for the program's pipeline-overridable
-/// constants (`override NAME` in WGSL).
-pub fn compile_with(
-    ctx: &GpuContext,
-    source: &str,
-    entry: &str,
-    layouts: &[&wgpu::BindGroupLayout],
-    constants: &[(&str, f64)],
-) -> Result<wgpu::ComputePipeline, GpuError> {
-    let mut p = compile_entries(ctx, source, &[(entry, layouts)], constants)?;
-    Ok(p.remove(0))
-}
-
-/// One shader module, a pipeline for each entry point with its bind group
-/// layouts; each found in the device's caches where it was built before.
-pub fn compile_entries(
-    ctx: &GpuContext,
-    source: &str,
-    entries: &[(&str, &[&wgpu::BindGroupLayout])],
-    constants: &[(&str, f64)],
-) -> Result<Vec<wgpu::ComputePipeline>, GpuError> {
-    let keys: Vec<PipelineKey> = entries
-        .iter()
-        .map(|(entry, layouts)| PipelineKey {
-            source: source.to_string(),
-            entry: entry.to_string(),
-            constants: constants
-                .iter()
-                .map(|(n, v)| (n.to_string(), v.to_bits()))
-                .collect(),
-            layouts: layouts.iter().map(|l| (*l).clone()).collect(),
-        })
-        .collect();
-    {
-        let mut cached = ctx
-            .caches
-            .pipelines
-            .lock()
-            .unwrap_or_else(|p| p.into_inner());
-        if let Some(found) = keys
-            .iter()
-            .map(|k| cached.get(k))
-            .collect::<Option<Vec<_>>>()
-        {
-            return Ok(found);
-        }
-    }
-    let device = &ctx.device;
-    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-    let cell = {
-        let mut modules = ctx.caches.modules.lock().unwrap_or_else(|p| p.into_inner());
-        match modules.get(source) {
-            Some(cell) => cell,
-            None => {
-                let cell = ModuleCell::default();
-                modules.insert(source.to_string(), cell.clone());
-                cell
-            }
-        }
-    };
-    // Built outside the cache's lock: naga's parse and validation of one
-    // program do not hold up the others'.
-    let module = cell
-        .get_or_init(|| {
-            let start = Instant::now();
-            let m = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: entries.first().map(|e| e.0),
-                source: wgpu::ShaderSource::Wgsl(source.into()),
-            });
-            add_nanos(&ctx.caches.module_nanos, start);
-            m
-        })
-        .clone();
-    let start = Instant::now();
-    ctx.count_pipelines(entries.len());
-    let disk = ctx.disk_cache.as_ref().map(|d| &d.cache);
-    let pipelines: Vec<wgpu::ComputePipeline> = entries
-        .iter()
-        .map(|(entry, layouts)| {
-            let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some(entry),
-                bind_group_layouts: &layouts.iter().map(|l| Some(*l)).collect::<Vec<_>>(),
-                immediate_size: 0,
-            });
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: Some(&pl),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: wgpu::PipelineCompilationOptions {
-                    constants,
-                    ..Default::default()
-                },
-                cache: disk,
-            })
-        })
-        .collect();
-    add_nanos(&ctx.caches.pipeline_nanos, start);
-    if let Some(e) = pollster::block_on(scope.pop()) {
-        // A program that failed is not kept.
-        ctx.caches
-            .modules
-            .lock()
-            .unwrap_or_else(|p| p.into_inner())
-            .remove(source);
-        return Err(GpuError::Shader(e.to_string()));
-    }
-    ctx.check()?;
-    let mut cached = ctx
-        .caches
-        .pipelines
-        .lock()
-        .unwrap_or_else(|p| p.into_inner());
-    for (k, p) in keys.into_iter().zip(&pipelines) {
-        cached.insert(k, p.clone());
-    }
-    Ok(pipelines)
-}
-
-fn add_nanos(total: &AtomicU64, since: Instant) {
-    let n = u64::try_from(since.elapsed().as_nanos()).unwrap_or(u64::MAX);
-    total.fetch_add(n, Ordering::Relaxed);
+pub(super) struct PipelineKey {
+    pub(super) source: String,
+    pub(super) entry: String,
+    pub(super) constants: Vec<(String, u64)>,
+    pub(super) layouts: Vec<wgpu::BindGroupLayout>,
 }
 
 /// The folder of the on-disk pipeline cache: `$TWINTRACE_CACHE_DIR` (set
