@@ -74,9 +74,14 @@ pub const PERF_REFS: RefSet = RefSet {
 /// A renderer under test: renders `settings.spp` samples per pixel of `scene`.
 pub type RenderFn<'a> = &'a dyn Fn(&Scene, &RenderSettings) -> Result<Film>;
 
-/// The scalar reference tracer as a [`RenderFn`].
+/// The scalar reference tracer (BSDF sampling) as a [`RenderFn`]: a
+/// progressive render on the CPU ([`crate::render::open`]) given the
+/// samples `0..spp`.
 pub fn cpu_reference(scene: &Scene, settings: &RenderSettings) -> Result<Film> {
-    Ok(reference::render(scene, settings, &|_| {}))
+    use crate::render::{open, render_film, Devices, RenderSpec};
+    let spec = RenderSpec::DEFAULT.with_integrator(reference::integrator::Integrator::Bsdf);
+    let mut render = open(Devices::Cpu(None), scene, &spec, *settings)?;
+    render_film(render.as_mut(), settings)
 }
 
 /// The workspace root, where `fixtures/` lives: `$TWINTRACE_ROOT` when set

@@ -7,12 +7,12 @@
 //!   clock starts (on the GPU, at least `gpu::rays::WARM_UP` of it, so
 //!   that the clocks have ramped up); scene loading and BVH building are
 //!   never timed;
-//! - wall time of a CPU render is `reference::integrator::render_with` (the
-//!   variant's estimator) on the run's thread
-//!   pool; of a GPU render, `GpuRenderer::render` (parameter upload, the
-//!   dispatches, waiting, the film's readback and conversion), with the
-//!   pipeline already built; GPU time is the sum of the dispatches'
-//!   timestamp-query intervals;
+//! - wall time of a render is that of a progressive render opened once
+//!   for the scene ([`crate::render::open`]: on the CPU, the reference on
+//!   the run's thread pool; on the GPU, the pipeline already built),
+//!   emptied, given the samples `0..spp` and read as its exact sums
+//!   (parameter upload, the dispatches, waiting, the film's readback);
+//!   GPU time is the sum of the dispatches' timestamp-query intervals;
 //! - each measurement is repeated `repeats` times; the JSON keeps every
 //!   repetition, tables use medians, comparisons each run's best
 //!   repetition ([`super::regress`]);
@@ -31,7 +31,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use gpu::{GpuContext, Variant};
 use rayon::prelude::*;
 use reference::geometry::Ray;
-use reference::integrator::{camera_ray, render_with, trace_path, Integrator};
+use reference::integrator::{camera_ray, trace_path, Integrator};
 use reference::{Film, RenderSettings, Scene};
 use std::hint::black_box;
 use std::time::Instant;
@@ -102,19 +102,37 @@ struct Timed {
     gpu: Option<f64>,
 }
 
-/// Renders with a backend, the GPU pipeline built once per scene.
-enum Prepared<'a> {
-    Cpu(&'a rayon::ThreadPool, &'a Scene, Integrator),
-    Gpu(Box<gpu::GpuRenderer<'a>>),
+/// Renders with a backend: a progressive render of the scene
+/// ([`crate::render::open`]; on the GPU its kernels built once), emptied
+/// and filled again for each timed render.
+struct Prepared<'a> {
+    render: std::cell::RefCell<Box<dyn crate::render::Progressive + 'a>>,
+    /// The CPU's pool and scene, for the injected slowdown's re-tracing.
+    cpu: Option<(&'a rayon::ThreadPool, &'a Scene)>,
 }
 
 impl<'a> Prepared<'a> {
     fn new(backend: Backend<'a>, scene: &'a Scene) -> Result<Self> {
-        Ok(match backend {
-            Backend::Cpu(pool, integrator) => Prepared::Cpu(pool, scene, integrator),
-            Backend::Gpu(ctx, v) => {
-                Prepared::Gpu(Box::new(gpu::GpuRenderer::with_variant(ctx, scene, v)?))
-            }
+        use crate::render::{open, Devices, RenderSpec};
+        let settings = scene.render_settings();
+        let (devices, spec, cpu) = match backend {
+            Backend::Cpu(pool, integrator) => (
+                Devices::Cpu(Some(pool)),
+                RenderSpec::DEFAULT.with_integrator(integrator),
+                Some((pool, scene)),
+            ),
+            Backend::Gpu(ctx, variant) => (
+                Devices::Gpu(ctx),
+                RenderSpec {
+                    variant,
+                    ..RenderSpec::DEFAULT
+                },
+                None,
+            ),
+        };
+        Ok(Prepared {
+            render: std::cell::RefCell::new(open(devices, scene, &spec, settings)?),
+            cpu,
         })
     }
 
@@ -126,7 +144,7 @@ impl<'a> Prepared<'a> {
     fn warm_up(&self, settings: &RenderSettings, inject: bool) -> Result<()> {
         let start = Instant::now();
         self.render(settings, inject)?;
-        if let Prepared::Gpu(_) = self {
+        if self.cpu.is_none() {
             while start.elapsed() < gpu::rays::WARM_UP {
                 self.render(settings, inject)?;
             }
@@ -135,38 +153,30 @@ impl<'a> Prepared<'a> {
     }
 
     fn render(&self, settings: &RenderSettings, inject: bool) -> Result<Timed> {
-        match self {
-            Prepared::Cpu(pool, scene, integrator) => {
-                let start = Instant::now();
-                let film = pool.install(|| render_with(scene, settings, *integrator, &|_| {}));
-                if inject {
-                    pool.install(|| retrace_share(scene, settings));
-                }
-                Ok(Timed {
-                    film,
-                    wall: start.elapsed().as_secs_f64(),
-                    gpu: None,
-                })
-            }
-            Prepared::Gpu(renderer) => {
-                let start = Instant::now();
-                let out = renderer.render(settings, &|_, _| {})?;
-                let mut gpu = out.gpu_time.map(|t| t.as_secs_f64());
-                if inject {
-                    let extra = RenderSettings {
-                        spp: (settings.spp / INJECTED_STRIDE as u32).max(1),
-                        ..*settings
-                    };
-                    let more = renderer.render(&extra, &|_, _| {})?;
+        let mut render = self.render.borrow_mut();
+        let start = Instant::now();
+        render.reset(*settings)?;
+        let added = render.add(0..settings.spp, &|_| {})?;
+        let film = render.sums()?.to_film();
+        let mut gpu = added.gpu_time.map(|t| t.as_secs_f64());
+        if inject {
+            match self.cpu {
+                Some((pool, scene)) => pool.install(|| retrace_share(scene, settings)),
+                None => {
+                    // As many samples again as a share of the paths
+                    // re-traced, into a film that is then discarded.
+                    let extra = (settings.spp / INJECTED_STRIDE as u32).max(1);
+                    render.reset(*settings)?;
+                    let more = render.add(0..extra, &|_| {})?;
                     gpu = gpu.zip(more.gpu_time).map(|(a, b)| a + b.as_secs_f64());
                 }
-                Ok(Timed {
-                    film: out.film,
-                    wall: start.elapsed().as_secs_f64(),
-                    gpu,
-                })
             }
         }
+        Ok(Timed {
+            film,
+            wall: start.elapsed().as_secs_f64(),
+            gpu,
+        })
     }
 }
 
