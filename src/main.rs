@@ -1,6 +1,7 @@
 //! The `twintrace` binary: parses the command line and runs it. Errors
 //! print as one line `error: <message>` on stderr with exit status 1;
-//! command-line usage errors are clap's (exit status 2).
+//! command-line usage errors are clap's (exit status 2), as are inputs a
+//! command cannot judge (`cli::Refused`).
 
 mod cli;
 
@@ -17,7 +18,23 @@ fn main() -> ExitCode {
     if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
         std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir());
     }
-    let args = Cli::parse();
+    let args = match Cli::try_parse() {
+        Ok(args) => args,
+        Err(e) if !e.use_stderr() => {
+            // --help and --version: clap's own text, exit status 0.
+            let _ = e.print();
+            return ExitCode::SUCCESS;
+        }
+        Err(e) => {
+            // One line, as every refusal: clap's first line (it names the
+            // argument and the value), without the usage block after it.
+            let text = e.render().to_string();
+            let first = text.lines().next().unwrap_or("error: invalid arguments");
+            let first = first.strip_prefix("error: ").unwrap_or(first);
+            let _ = writeln!(std::io::stderr(), "error: {first} (see `twintrace --help`)");
+            return ExitCode::from(2);
+        }
+    };
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
@@ -26,7 +43,11 @@ fn main() -> ExitCode {
                 "error: {}",
                 cli::one_line(&format!("{e:#}"))
             );
-            ExitCode::FAILURE
+            if e.downcast_ref::<cli::Refused>().is_some() {
+                ExitCode::from(2)
+            } else {
+                ExitCode::FAILURE
+            }
         }
     }
 }

@@ -92,10 +92,14 @@ pub struct Part {
 pub fn parse_samples(s: &str) -> Result<Range<u32>> {
     let bad = || anyhow!("--samples `{s}`: expected A..B, as in 0..256 (A < B ≤ {MAX_SPP})");
     let (a, b) = s.split_once("..").ok_or_else(bad)?;
-    let (a, b): (u32, u32) = (
-        a.trim().parse().map_err(|_| bad())?,
-        b.trim().parse().map_err(|_| bad())?,
-    );
+    // Digits only: no spaces, signs or other forms `parse` would take.
+    let number = |t: &str| -> Result<u32> {
+        if t.is_empty() || !t.bytes().all(|c| c.is_ascii_digit()) {
+            return Err(bad());
+        }
+        t.parse().map_err(|_| bad())
+    };
+    let (a, b) = (number(a)?, number(b)?);
     if a >= b || b > MAX_SPP {
         return Err(bad());
     }

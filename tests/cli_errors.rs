@@ -374,3 +374,75 @@ fn export_mitsuba_writes_the_scene_and_its_meshes() {
     }
     assert_eq!(faces, 36);
 }
+
+/// Usage a command cannot take (a malformed range, a value beginning
+/// with '-', an unknown option or value, a render of 0 samples to judge)
+/// is one `error:` line with exit status 2, nothing written.
+#[test]
+fn usage_errors_are_one_line_with_status_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("x.exr"), []).unwrap();
+    let render = |extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            "cornell",
+            "--backend",
+            "cpu",
+            "--size",
+            "4x4",
+            "-o",
+            "out",
+        ];
+        args.extend_from_slice(extra);
+        args.iter().map(|s| s.to_string()).collect::<Vec<_>>()
+    };
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (render(&["--samples", "0 .. 4"]), "--samples `0 .. 4`"),
+        (render(&["--samples", "-1..4"]), "--samples `-1..4`"),
+        (render(&["--samples", "+1..4"]), "--samples `+1..4`"),
+        (render(&["--samples", "4..2"]), "--samples `4..2`"),
+        (render(&["--no-such-option"]), "--no-such-option"),
+        (render(&["--threads", "many"]), "many"),
+    ];
+    for (args, names) in cases {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let o = twintrace(d, &args);
+        assert_eq!(o.code, Some(2), "{args:?}: {}", o.stderr);
+        let lines: Vec<&str> = o.stderr.lines().collect();
+        assert_eq!(lines.len(), 1, "{args:?}: {:?}", o.stderr);
+        assert!(
+            lines[0].starts_with("error: ") && lines[0].contains(names),
+            "{args:?}: {}",
+            lines[0]
+        );
+        assert_eq!(files_in(d), ["x.exr"], "{args:?} wrote a file");
+    }
+    // A render of 0 samples cannot be judged.
+    let out = d.join("r");
+    let o = twintrace(
+        d,
+        &[
+            "render",
+            "cornell",
+            "--backend",
+            "cpu",
+            "--size",
+            "4x4",
+            "--spp",
+            "2",
+            "-o",
+            out.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    let o = twintrace(
+        d,
+        &[
+            "diff", "r.exr", "r.exr", "--spp-a", "0", "--report", "d.html",
+        ],
+    );
+    assert_eq!(o.code, Some(2), "{}", o.stderr);
+    assert_eq!(o.stderr.lines().count(), 1, "{}", o.stderr);
+    assert!(o.stderr.contains("0 samples"), "{}", o.stderr);
+}

@@ -355,6 +355,63 @@ fn a_baseline_of_several_runs_judges_by_the_spread_between_them() {
     assert!(String::from_utf8_lossy(&refused.stderr).contains("injected slowdown"));
 }
 
+/// A run or baseline whose figures are not measurements (no time, a
+/// negative or infinite time, a non-finite relMSE) is refused with exit
+/// status 2 naming the rows, never judged "no regression" over what it
+/// could not compare; a sound pair is still judged.
+#[test]
+fn figures_that_are_not_measurements_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("perf");
+    cpu_run(&out, &["--only", "rays"]);
+    let good: PerfRun =
+        serde_json::from_str(&std::fs::read_to_string(the_json(&out)).unwrap()).unwrap();
+    let write = |name: &str, r: &PerfRun| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, serde_json::to_string(r).unwrap()).unwrap();
+        p.to_string_lossy().into_owned()
+    };
+    let base = write("base.json", &good);
+    let sound = twintrace(&["perf", "compare", &base, &base]);
+    assert!(
+        sound.status.success(),
+        "{}",
+        String::from_utf8_lossy(&sound.stderr)
+    );
+    type Damage = fn(&mut PerfRun);
+    let broken: [(&str, Damage); 3] = [
+        ("no time measured", |r| r.throughput[0].wall_s.clear()),
+        ("a time of -1 s", |r| r.throughput[0].wall_s = vec![-1.0]),
+        ("a time of inf s", |r| {
+            r.throughput[0].wall_s = vec![f64::INFINITY]
+        }),
+    ];
+    for (why, damage) in broken {
+        let mut r = good.clone();
+        damage(&mut r);
+        let bad = write("bad.json", &r);
+        for (new, old) in [(&bad, &base), (&base, &bad)] {
+            let out = twintrace(&["perf", "compare", new, old]);
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(2), "{why}: {stderr}");
+            assert!(
+                stderr.contains("cannot be judged") && stderr.contains(why),
+                "{why}: {stderr}"
+            );
+            assert!(!stderr.contains("no regression"), "{stderr}");
+        }
+    }
+    // Nothing in common: no row compared is no verdict either.
+    let mut other = good.clone();
+    other.throughput.clear();
+    other.curves.clear();
+    let empty = write("empty.json", &other);
+    let out = twintrace(&["perf", "compare", &empty, &base]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("no row could be compared"), "{stderr}");
+}
+
 #[test]
 fn bad_baselines_are_one_error_line() {
     let dir = tempfile::tempdir().unwrap();

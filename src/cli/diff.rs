@@ -96,6 +96,18 @@ fn load(path: &Path, variance: Option<&Path>, spp: Option<u32>) -> Result<NoisyI
     if spp.is_some() {
         image.spp = spp;
     }
+    if image.spp == Some(0) {
+        return Err(super::Refused(format!(
+            "`{}`: a render of 0 samples a pixel cannot be judged{}",
+            path.display(),
+            if spp.is_some() {
+                " (--spp-a/--spp-b 0)"
+            } else {
+                " (its spp attribute is 0)"
+            }
+        ))
+        .into());
+    }
     Ok(image)
 }
 

@@ -146,7 +146,7 @@ pub struct RenderArgs {
     /// Render only sample indices A..B of every pixel (the same samples a
     /// whole render traces for them) and write a partial film, with its
     /// exact sums, for `twintrace merge`. Any split works (no alignment).
-    #[arg(long, value_name = "A..B")]
+    #[arg(long, value_name = "A..B", allow_hyphen_values = true)]
     pub samples: Option<String>,
     /// Render on several GPUs at once: `all` (every hardware adapter) or
     /// adapter indices as `twintrace info` lists them (e.g. 0,1; an index
@@ -352,6 +352,19 @@ fn budget(
     }))
 }
 
+/// An input a command cannot judge or use (exit status 2, as for a usage
+/// error), as opposed to a failed gate or comparison (1).
+#[derive(Debug)]
+pub struct Refused(pub String);
+
+impl std::fmt::Display for Refused {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for Refused {}
+
 /// The wall time of a command's phases, each from the end of the one
 /// before (`render --timings`).
 struct Phases {
@@ -405,7 +418,8 @@ fn render(args: &RenderArgs) -> Result<()> {
         .samples
         .as_deref()
         .map(twintrace::partial::parse_samples)
-        .transpose()?;
+        .transpose()
+        .map_err(|e| Refused(e.to_string()))?;
     let scene = load_scene(&args.scene)?;
     phases.end("scene");
     let mut settings = resolve_settings(scene.render_settings(), args)?;

@@ -33,7 +33,7 @@ pub struct PerfArgs {
 pub enum PerfCommand {
     /// Measure a suite: error against time per case and renderer, paths/s and rays/s.
     Run(RunArgs),
-    /// Compare a saved run with a baseline (exit 0: no regression, 1: a row regressed or an error).
+    /// Compare a saved run with a baseline (exit 0: no regression, 1: a row regressed or an error, 2: figures that cannot be judged or no row compared).
     Compare(CompareArgs),
     /// Merge saved runs of one build into a baseline (several runs: the rule needs their spread).
     Baseline(BaselineArgs),
@@ -246,6 +246,13 @@ pub fn read_run(path: &Path) -> Result<PerfRun> {
 
 fn judge(new: &PerfRun, base: &[PerfRun], base_path: &Path) -> Result<()> {
     let cmp = regress::compare(new, base)?;
+    if let Some(why) = cmp.refusal() {
+        return Err(super::Refused(format!(
+            "perf: cannot judge against `{}`: {why}",
+            base_path.display()
+        ))
+        .into());
+    }
     print_stdout(&format!(
         "\n## Against {} ({} run(s) of revision {}, {})\n\n{}",
         base_path.display(),

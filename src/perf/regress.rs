@@ -59,6 +59,15 @@ pub const K: f64 = 4.0;
 /// rule", gives the rate measured on repeated runs of one build.
 pub const FAMILY_ALPHA: f64 = 0.01;
 
+/// Why a row gives no figure: a measurement that says nothing to
+/// compare (skipped, with a note), or a figure that is not a measurement
+/// (the comparison is refused).
+#[derive(Clone, Debug, PartialEq)]
+enum Unusable {
+    Skip(String),
+    Bad(String),
+}
+
 /// One compared row.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RowComparison {
@@ -80,9 +89,12 @@ pub struct RowComparison {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Comparison {
     pub rows: Vec<RowComparison>,
-    /// Rows of one run that the other lacks, and rows that could not be
-    /// compared, each with the reason.
+    /// Rows of one run that the other lacks, each with the reason.
     pub skipped: Vec<String>,
+    /// Rows both runs hold that cannot be judged: a missing, non-finite or
+    /// non-positive figure on either side, each with the reason. A
+    /// comparison holding any is refused ([`Comparison::refusal`]).
+    pub unjudgeable: Vec<String>,
     /// Differences in host, adapter or settings worth knowing.
     pub warnings: Vec<String>,
 }
@@ -94,6 +106,30 @@ impl Comparison {
 
     pub fn has_regression(&self) -> bool {
         self.regressions().next().is_some()
+    }
+
+    /// Why this comparison cannot stand as a verdict: rows that cannot be
+    /// judged, or no row compared at all ("no regression" over nothing
+    /// compared would pass anything).
+    pub fn refusal(&self) -> Option<String> {
+        if !self.unjudgeable.is_empty() {
+            return Some(format!(
+                "{} row(s) cannot be judged: {}",
+                self.unjudgeable.len(),
+                self.unjudgeable.join("; ")
+            ));
+        }
+        if self.rows.is_empty() {
+            return Some(format!(
+                "no row could be compared ({})",
+                if self.skipped.is_empty() {
+                    "neither run holds a row".to_string()
+                } else {
+                    self.skipped.join("; ")
+                }
+            ));
+        }
+        None
     }
 
     /// A markdown table of every row, then skipped rows and warnings.
@@ -119,6 +155,9 @@ impl Comparison {
         }
         for s in &self.skipped {
             let _ = writeln!(o, "\nnot compared: {s}");
+        }
+        for s in &self.unjudgeable {
+            let _ = writeln!(o, "\ncannot be judged: {s}");
         }
         for w in &self.warnings {
             let _ = writeln!(o, "\nnote: {w}");
@@ -259,17 +298,34 @@ pub fn compare_repetitions(
 }
 
 /// The figures of merit of a run's rows: key, measure and samples.
-fn figures(run: &PerfRun) -> Vec<(String, String, Result<Vec<f64>, String>)> {
+fn figures(run: &PerfRun) -> Vec<(String, String, Result<Vec<f64>, Unusable>)> {
+    // Times that give no figure: none, or one not finite and positive.
+    let times_ok = |times: &[f64]| -> Result<(), Unusable> {
+        if times.is_empty() {
+            return Err(Unusable::Bad("no time measured".into()));
+        }
+        match times.iter().find(|t| !(t.is_finite() && **t > 0.0)) {
+            Some(t) => Err(Unusable::Bad(format!("a time of {t} s"))),
+            None => Ok(()),
+        }
+    };
     let mut out = Vec::new();
     for c in &run.curves {
         let Some(top) = c.top() else { continue };
-        let eff = |times: &[f64]| -> Result<Vec<f64>, String> {
+        let eff = |times: &[f64]| -> Result<Vec<f64>, Unusable> {
+            if !top.relmse.is_finite() {
+                return Err(Unusable::Bad(format!(
+                    "relMSE at {} spp is {}",
+                    top.spp, top.relmse
+                )));
+            }
             if top.relmse <= 0.0 {
-                return Err(format!(
+                return Err(Unusable::Skip(format!(
                     "relMSE at {} spp is {:.2e}, below the reference's own noise",
                     top.spp, top.relmse
-                ));
+                )));
             }
+            times_ok(times)?;
             Ok(times.iter().map(|t| 1.0 / (top.relmse * t)).collect())
         };
         let key = format!("{} @ {} spp", c.key(), top.spp);
@@ -279,7 +335,8 @@ fn figures(run: &PerfRun) -> Vec<(String, String, Result<Vec<f64>, String>)> {
         }
     }
     for t in &run.throughput {
-        let rate = |times: &[f64]| -> Result<Vec<f64>, String> {
+        let rate = |times: &[f64]| -> Result<Vec<f64>, Unusable> {
+            times_ok(times)?;
             Ok(times.iter().map(|s| t.count as f64 / s).collect())
         };
         out.push((t.key(), format!("{}/s (wall)", t.unit), rate(&t.wall_s)));
@@ -357,8 +414,9 @@ pub fn compare(new: &PerfRun, base: &[PerfRun]) -> Result<Comparison> {
     let alpha = sidak(FAMILY_ALPHA, comparable);
     let mut rows = Vec::new();
     let mut skipped = Vec::new();
+    let mut unjudgeable = Vec::new();
     for (key, measure, samples) in &fnew {
-        let matching: Vec<&Result<Vec<f64>, String>> = fb
+        let matching: Vec<&Result<Vec<f64>, Unusable>> = fb
             .iter()
             .filter_map(|f| {
                 f.iter()
@@ -372,17 +430,25 @@ pub fn compare(new: &PerfRun, base: &[PerfRun]) -> Result<Comparison> {
         }
         let samples = match samples {
             Ok(s) => s,
-            Err(e) => {
+            Err(Unusable::Skip(e)) => {
                 skipped.push(format!("{key} {measure}: {e}"));
                 continue;
             }
+            Err(Unusable::Bad(e)) => {
+                unjudgeable.push(format!("{key} {measure}: {e}"));
+                continue;
+            }
         };
-        let base_ok: Result<Vec<&Vec<f64>>, &String> =
+        let base_ok: Result<Vec<&Vec<f64>>, &Unusable> =
             matching.iter().map(|r| r.as_ref()).collect();
         let base_ok = match base_ok {
             Ok(b) => b,
-            Err(e) => {
+            Err(Unusable::Skip(e)) => {
                 skipped.push(format!("{key} {measure}: {e} (baseline)"));
+                continue;
+            }
+            Err(Unusable::Bad(e)) => {
+                unjudgeable.push(format!("{key} {measure}: {e} (baseline)"));
                 continue;
             }
         };
@@ -394,7 +460,9 @@ pub fn compare(new: &PerfRun, base: &[PerfRun]) -> Result<Comparison> {
         };
         match compared {
             Some(row) => rows.push(row),
-            None => skipped.push(format!("{key} {measure}: a non-positive figure")),
+            None => unjudgeable.push(format!(
+                "{key} {measure}: a non-positive or non-finite figure"
+            )),
         }
     }
     for (key, measure, _) in &fb[0] {
@@ -405,6 +473,7 @@ pub fn compare(new: &PerfRun, base: &[PerfRun]) -> Result<Comparison> {
     Ok(Comparison {
         rows,
         skipped,
+        unjudgeable,
         warnings,
     })
 }
