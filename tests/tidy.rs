@@ -19,6 +19,8 @@
 //! - shaders/ mirrors reference/src file for file.
 //! - Files the sources and docs name by path exist, and nothing cites a
 //!   file outside the repository.
+//! - No file of gpu/src uses another that uses it back (the crate is
+//!   built in layers).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fs;
@@ -711,4 +713,216 @@ mod mutations {
         assert!(in_reference.is_empty());
         assert_eq!(dangling_paths("tests/embree_agreement.rs", &r, &r).len(), 1);
     }
+}
+
+/// The leaf paths of a `use`/path tree starting at `text` (after
+/// `crate::` or `super::`): `a::b`, `a::{b, c::{D, e}}`, `A`.
+fn path_tree(text: &str) -> Vec<Vec<String>> {
+    fn ident(s: &[u8], i: &mut usize) -> String {
+        let start = *i;
+        while *i < s.len() && (s[*i].is_ascii_alphanumeric() || s[*i] == b'_') {
+            *i += 1;
+        }
+        String::from_utf8_lossy(&s[start..*i]).into_owned()
+    }
+    fn skip_ws(s: &[u8], i: &mut usize) {
+        while *i < s.len() && s[*i].is_ascii_whitespace() {
+            *i += 1;
+        }
+    }
+    fn tree(s: &[u8], i: &mut usize, prefix: Vec<String>, out: &mut Vec<Vec<String>>) {
+        skip_ws(s, i);
+        if *i < s.len() && s[*i] == b'{' {
+            *i += 1;
+            loop {
+                skip_ws(s, i);
+                if *i >= s.len() || s[*i] == b'}' {
+                    *i += 1;
+                    return;
+                }
+                tree(s, i, prefix.clone(), out);
+                skip_ws(s, i);
+                if *i < s.len() && s[*i] == b',' {
+                    *i += 1;
+                }
+            }
+        }
+        let name = ident(s, i);
+        if name.is_empty() {
+            if !prefix.is_empty() {
+                out.push(prefix);
+            }
+            return;
+        }
+        let mut path = prefix;
+        path.push(name);
+        if s[*i..].starts_with(b"::") {
+            *i += 2;
+            tree(s, i, path, out);
+        } else {
+            out.push(path);
+        }
+    }
+    let mut out = Vec::new();
+    tree(text.as_bytes(), &mut 0, Vec::new(), &mut out);
+    out
+}
+
+/// The graph of which file of `gpu/src` uses which (comments left out;
+/// a name the crate root re-exports counts as a use of the module it comes
+/// from; a folder's `mod.rs` uses the files it declares).
+fn gpu_imports() -> BTreeMap<String, BTreeSet<String>> {
+    let src = root().join("gpu/src");
+    let mut files = Vec::new();
+    let mut stack = vec![src.clone()];
+    while let Some(dir) = stack.pop() {
+        for e in fs::read_dir(&dir).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().is_some_and(|x| x == "rs") {
+                files.push(p.strip_prefix(&src).unwrap().to_string_lossy().into_owned());
+            }
+        }
+    }
+    let code = |rel: &str| -> String {
+        fs::read_to_string(src.join(rel))
+            .unwrap()
+            .lines()
+            .map(|l| l.split("//").next().unwrap_or(""))
+            .collect::<Vec<_>>()
+            .join("\n")
+    };
+    // The module file of `a` or `a::b`, as far as files go.
+    let module = |parts: &[String]| -> Option<String> {
+        let first = parts.first()?;
+        if parts.len() > 1 && files.contains(&format!("{first}/{}.rs", parts[1])) {
+            return Some(format!("{first}/{}.rs", parts[1]));
+        }
+        [format!("{first}.rs"), format!("{first}/mod.rs")]
+            .into_iter()
+            .find(|f| files.contains(f))
+    };
+    // Root re-exports: item -> the module path it comes from.
+    let mut reexports: BTreeMap<String, Vec<String>> = BTreeMap::new();
+    let lib = code("lib.rs");
+    for (at, _) in lib.match_indices("pub use ") {
+        for path in path_tree(&lib[at + "pub use ".len()..]) {
+            if let Some((item, from)) = path.split_last() {
+                reexports.insert(item.clone(), from.to_vec());
+            }
+        }
+    }
+    let mut graph: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for f in files.iter().filter(|f| *f != "lib.rs") {
+        let text = code(f);
+        let mut uses = BTreeSet::new();
+        let dir = f.rsplit_once('/').map(|(d, _)| d.to_string());
+        for (at, _) in text.match_indices("crate::") {
+            for path in path_tree(&text[at + "crate::".len()..]) {
+                let target = match reexports.get(&path[0]) {
+                    Some(from) => module(from),
+                    None => module(&path),
+                };
+                uses.extend(target);
+            }
+        }
+        if let Some(dir) = &dir {
+            let parent = format!("{dir}/mod.rs");
+            for (at, _) in text.match_indices("super::") {
+                for path in path_tree(&text[at + "super::".len()..]) {
+                    let sibling = format!("{dir}/{}.rs", path[0]);
+                    uses.insert(if files.contains(&sibling) {
+                        sibling
+                    } else {
+                        parent.clone()
+                    });
+                }
+            }
+            if f.ends_with("mod.rs") {
+                for line in text.lines() {
+                    let decl = line
+                        .trim()
+                        .trim_start_matches("pub ")
+                        .trim_start_matches("pub(crate) ");
+                    if let Some(name) = decl.strip_prefix("mod ").and_then(|n| n.strip_suffix(';'))
+                    {
+                        uses.insert(format!("{dir}/{name}.rs"));
+                    }
+                }
+            }
+        }
+        uses.remove(f);
+        graph.insert(f.clone(), uses);
+    }
+    graph
+}
+
+/// A cycle of `graph`, if it has one.
+fn a_cycle(graph: &BTreeMap<String, BTreeSet<String>>) -> Option<Vec<String>> {
+    fn visit(
+        n: &str,
+        graph: &BTreeMap<String, BTreeSet<String>>,
+        state: &mut BTreeMap<String, u8>,
+        path: &mut Vec<String>,
+    ) -> Option<Vec<String>> {
+        match state.get(n) {
+            Some(2) => return None,
+            Some(1) => {
+                let from = path.iter().position(|p| p == n).unwrap_or(0);
+                let mut cycle = path[from..].to_vec();
+                cycle.push(n.to_string());
+                return Some(cycle);
+            }
+            _ => {}
+        }
+        state.insert(n.to_string(), 1);
+        path.push(n.to_string());
+        for m in graph.get(n).into_iter().flatten() {
+            if let Some(c) = visit(m, graph, state, path) {
+                return Some(c);
+            }
+        }
+        path.pop();
+        state.insert(n.to_string(), 2);
+        None
+    }
+    let mut state = BTreeMap::new();
+    graph
+        .keys()
+        .find_map(|n| visit(n, graph, &mut state, &mut Vec::new()))
+}
+
+/// gpu/ is built in layers: no file of `gpu/src` uses another that uses
+/// it back, however indirectly (ARCHITECTURE.md's map of the crate relies
+/// on it; a cycle is how the four render abstractions grew into one
+/// another).
+#[test]
+fn gpu_modules_import_each_other_in_no_cycle() {
+    let graph = gpu_imports();
+    assert!(graph.len() > 10, "too few files found: {graph:?}");
+    assert!(
+        graph["film.rs"].contains("context.rs") && graph["renderer.rs"].contains("film.rs"),
+        "the import graph misses plain uses: {graph:?}"
+    );
+    if let Some(cycle) = a_cycle(&graph) {
+        panic!("gpu/src imports in a cycle: {}", cycle.join(" -> "));
+    }
+    // The rule's own mutants: the graph with a use back added has a cycle.
+    for (from, to) in [
+        ("film.rs", "renderer.rs"),
+        ("pipeline/cache.rs", "context.rs"),
+    ] {
+        let mut g = graph.clone();
+        g.get_mut(from).unwrap().insert(to.to_string());
+        assert!(
+            a_cycle(&g).is_some(),
+            "{from} -> {to} was not seen as a cycle"
+        );
+    }
+    assert_eq!(
+        path_tree("{a::{B, c}, D};"),
+        [vec!["a", "B"], vec!["a", "c"], vec!["D"]]
+            .map(|v| v.into_iter().map(String::from).collect::<Vec<_>>())
+    );
 }
