@@ -59,23 +59,47 @@ pub trait Renderer {
 /// What [`Renderer::prepare`] returns.
 pub type PreparedRender<'s> = Box<dyn Fn(&RenderSettings) -> Result<Film> + 's>;
 
-/// The scalar CPU reference, with one estimator, as a [`Renderer`].
-pub struct CpuReference(pub Integrator);
+/// A spec on a device (a GPU, or the CPU reference where `None`) as a
+/// [`Renderer`]: a progressive render ([`crate::render::open`]) opened
+/// once a scene, its film emptied for each render.
+pub struct Progressively<'a>(
+    pub Option<&'a gpu::GpuContext>,
+    pub crate::render::RenderSpec,
+);
 
-impl Renderer for CpuReference {
+impl Progressively<'_> {
+    /// The CPU reference with `integrator`.
+    pub fn cpu(integrator: Integrator) -> Self {
+        Progressively(
+            None,
+            crate::render::RenderSpec::DEFAULT.with_integrator(integrator),
+        )
+    }
+
+    /// The device a render opens on.
+    pub fn devices(&self) -> crate::render::Devices<'_> {
+        match self.0 {
+            Some(ctx) => crate::render::Devices::Gpu(ctx),
+            None => crate::render::Devices::Cpu(None),
+        }
+    }
+}
+
+impl Renderer for Progressively<'_> {
     fn refs(&self) -> &'static RefSet {
-        refs_for(self.0)
+        refs_for(self.1.integrator())
     }
 
     fn prepare<'s>(&'s self, scene: &'s Scene) -> Result<PreparedRender<'s>> {
-        let integrator = self.0;
+        use crate::render::{open, render_film, Devices};
+        let devices = match self.0 {
+            Some(ctx) => Devices::Gpu(ctx),
+            None => Devices::Cpu(None),
+        };
+        let render =
+            std::cell::RefCell::new(open(devices, scene, &self.1, scene.render_settings())?);
         Ok(Box::new(move |settings: &RenderSettings| -> Result<Film> {
-            Ok(reference::integrator::render_with(
-                scene,
-                settings,
-                integrator,
-                &|_| {},
-            ))
+            render_film(render.borrow_mut().as_mut(), settings)
         }))
     }
 }

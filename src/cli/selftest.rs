@@ -8,41 +8,12 @@ use super::{choose_device, spec::axis, Backend, Device};
 use anyhow::{bail, Result};
 use clap::Args;
 use reference::integrator::Integrator;
-use reference::{Film, RenderSettings, Scene};
-use std::cell::RefCell;
 use std::path::PathBuf;
 use twintrace::compare::gate::{
-    gate_settings, load_reference_in, load_scene, read_manifest, refs_for, workspace_root, RefSet,
-    MANIFEST,
+    gate_settings, load_reference_in, load_scene, read_manifest, refs_for, workspace_root, MANIFEST,
 };
-use twintrace::render::{open, render_film, Devices, RenderSpec};
-use twintrace::selftest::{self, GateEvent, PreparedRender, Renderer};
-
-/// The chosen device and spec as a [`Renderer`]: a progressive render
-/// opened once a scene, its film emptied for each render.
-struct On<'a>(Option<&'a gpu::GpuContext>, RenderSpec);
-
-impl Renderer for On<'_> {
-    fn refs(&self) -> &'static RefSet {
-        refs_for(self.1.integrator())
-    }
-
-    fn prepare<'s>(&'s self, scene: &'s Scene) -> Result<PreparedRender<'s>> {
-        let render = open(devices(self.0), scene, &self.1, scene.render_settings())?;
-        let render = RefCell::new(render);
-        Ok(Box::new(move |settings: &RenderSettings| -> Result<Film> {
-            render_film(render.borrow_mut().as_mut(), settings)
-        }))
-    }
-}
-
-/// The GPU under test, else the CPU reference.
-fn devices(gpu: Option<&gpu::GpuContext>) -> Devices<'_> {
-    match gpu {
-        Some(ctx) => Devices::Gpu(ctx),
-        None => Devices::Cpu(None),
-    }
-}
+use twintrace::render::{open, RenderSpec};
+use twintrace::selftest::{self, GateEvent, Progressively};
 
 #[derive(Debug, Args)]
 pub struct SelftestArgs {
@@ -120,7 +91,7 @@ pub fn execute(args: &SelftestArgs) -> Result<bool> {
         Device::Gpus(contexts) => contexts.first(),
         Device::Cpu => None,
     };
-    let renderer = On(
+    let renderer = Progressively(
         gpu_ctx,
         RenderSpec::DEFAULT.with_integrator(args.integrator),
     );
@@ -128,7 +99,6 @@ pub fn execute(args: &SelftestArgs) -> Result<bool> {
         if count == 0 || !(args.target_relmse.is_finite() && args.target_relmse > 0.0) {
             bail!("--calibrate-budget needs at least 1 render and a positive --target-relmse");
         }
-        let spec = RenderSpec::DEFAULT.with_integrator(args.integrator);
         let mut rows = Vec::new();
         for fixture in read_manifest()? {
             if args.only.as_ref().is_some_and(|o| *o != fixture.name) {
@@ -137,7 +107,7 @@ pub fn execute(args: &SelftestArgs) -> Result<bool> {
             let reference = load_reference_in(refs_for(args.integrator), &fixture)?;
             let scene = load_scene(&fixture)?;
             let settings = gate_settings(&reference, &scene, 1, args.first_seed);
-            let mut render = open(devices(gpu_ctx), &scene, &spec, settings)?;
+            let mut render = open(renderer.devices(), &scene, &renderer.1, settings)?;
             let row = selftest::calibrate_budget(
                 &reference,
                 render.as_mut(),

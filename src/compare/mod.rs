@@ -21,8 +21,9 @@
 //!   and the evidence a failing gate writes under `target/diff/<test>/`.
 //!
 //! Renderers plug in as a [`gate::RenderFn`], a function that renders a
-//! `Film` for a scene and settings: [`gate::cpu_reference`] today, the GPU
-//! backend the same way (`|scene, settings| Ok(GpuRenderer::new(ctx, scene)?.render(settings, &|_, _| {})?.film)`).
+//! `Film` for a scene and settings: [`gate::cpu_reference`], or any backend
+//! as a progressive render (`crate::render::open` and
+//! `crate::render::render_film`, as `crate::selftest::Progressively` does).
 //! The lobe cases of [`lobes`] and the furnace cases of [`furnace`] are the
 //! CPU halves of the CPU-vs-GPU sampling and furnace gates.
 //!
