@@ -420,9 +420,9 @@ impl Progressive for GpuProgressive<'_> {
 
 /// Several GPUs as one [`Progressive`] render ([`gpu::devices::DeviceGroup`]):
 /// each range is shared out in chunks from a common counter, each device
-/// adding its chunks to its own film; the films are read and added when
-/// the sums are asked for. On devices of one kind, the one-device film
-/// bit for bit.
+/// adding its chunks to its own film; when the image or the sums are
+/// asked for, the films are added on one device and read from it once.
+/// On devices of one kind, the one-device film bit for bit.
 pub struct GroupProgressive<'a> {
     group: gpu::devices::DeviceGroup<'a>,
     settings: RenderSettings,
@@ -452,6 +452,12 @@ impl<'a> GroupProgressive<'a> {
     /// Sets the samples of a chunk (tests cut ranges finely with it).
     pub fn set_chunk(&mut self, chunk: Option<u32>) {
         self.chunk = chunk.map(|c| c.max(1));
+    }
+
+    /// Sets the pixels of a band the devices' films are added in (tests
+    /// cut them small; `None`: the default).
+    pub fn set_merge_band(&mut self, band: Option<u32>) {
+        self.group.set_merge_band(band);
     }
 }
 
@@ -489,6 +495,10 @@ impl Progressive for GroupProgressive<'_> {
 
     fn sums(&mut self) -> Result<FilmSums> {
         Ok(self.group.read_sums(&self.settings)?)
+    }
+
+    fn layers(&mut self) -> Result<Layers> {
+        Ok(self.group.read_layers(&self.settings)?)
     }
 
     fn reset(&mut self, settings: RenderSettings) -> Result<()> {

@@ -120,11 +120,24 @@ fn a_group_of_two_devices_is_the_one_device_film_bit_for_bit() {
         .unwrap();
     let mut group = GroupProgressive::new(&contexts, &scene, &spec, settings).unwrap();
     group.set_chunk(Some(3));
+    // Bands of 5 of the 12 pixels: the films are added in three bands,
+    // the last a short one.
+    group.set_merge_band(Some(5));
+    let mut part = GpuProgressive::new(ctx, &scene, &spec, settings).unwrap();
     for r in [0..7, 30..50, 7..30] {
         let added = group.add(r.clone(), &|_| {}).unwrap();
         let shared: u64 = added.shares.iter().map(|s| s.samples).sum();
         assert_eq!(shared, (r.end - r.start) as u64);
+        // Read between ranges: the films added on a device are not added
+        // again by the next read.
+        part.add(r.clone(), &|_| {}).unwrap();
+        assert_eq!(
+            group.layers().unwrap(),
+            part.layers().unwrap(),
+            "after {r:?}"
+        );
     }
     assert_eq!(group.sums().unwrap(), one);
+    assert_eq!(group.layers().unwrap(), Layers::from_sums(&one));
     assert!(group.device().starts_with("2 gpus"), "{}", group.device());
 }

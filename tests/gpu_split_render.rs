@@ -357,6 +357,38 @@ fn the_film_layers_are_the_references_bit_for_bit() {
 }
 
 #[test]
+fn films_added_on_the_device_are_the_references_merge_word_for_word() {
+    match film::merge(common::gpu()) {
+        Ok(summary) => println!("merge: {summary}"),
+        Err(e) => panic!("{e}"),
+    }
+}
+
+#[test]
+fn a_merge_kernel_that_drops_carries_or_a_band_fails_the_merge_twin() {
+    let program = gpu::film::merge_source();
+    for (what, from, to) in [
+        ("a dropped carry", "carry = r.y;", "carry = 0u;"),
+        (
+            "a band's pixels offset",
+            "let p = merge_band.x + i;",
+            "let p = i;",
+        ),
+        (
+            "the last word of Σq³ left out",
+            "merge_number(p, i, b + 10u, 8u);",
+            "merge_number(p, i, b + 10u, 7u);",
+        ),
+    ] {
+        assert_eq!(program.matches(from).count(), 1, "{what}");
+        let mutant = program.replace(from, to);
+        let e = film::merge_with_program(common::gpu(), &mutant)
+            .expect_err(&format!("{what} passed the merge twin"));
+        println!("{what} caught: {}", &e[..e.len().min(200)]);
+    }
+}
+
+#[test]
 fn a_layers_kernel_that_truncates_to_f32_fails_the_layer_twin() {
     let program = gpu::film::layers_source();
     let rounding = "return q + select(0u, 1u, up);";

@@ -151,6 +151,25 @@ pub const FILM_LAYERS: Binding = Binding {
     access: Access::ReadWrite,
 };
 
+/// Group 1 of the film merge kernel (`gpu::film::merge_film`): a band of
+/// another film's words (band-major: word `w` of the band's pixel `i` at
+/// `w · len + i`) and the band, `(first pixel, len, 0, 0)`.
+pub const MERGE_IN: Binding = Binding {
+    group: 1,
+    slot: 0,
+    name: "merge_in",
+    wgsl_type: "array<u32>",
+    access: Access::Read,
+};
+pub const MERGE_BAND: Binding = Binding {
+    group: 1,
+    slot: 1,
+    name: "merge_band",
+    wgsl_type: "vec4<u32>",
+    access: Access::Uniform,
+};
+pub const MERGE_GROUP: [Binding; 2] = [MERGE_IN, MERGE_BAND];
+
 impl Binding {
     /// The WGSL declaration.
     pub fn wgsl(&self) -> String {
@@ -203,6 +222,7 @@ mod tests {
             TEST_IO_GROUP.to_vec(),
             WAVE_GROUP.to_vec(),
             vec![WAVE_ARGS],
+            MERGE_GROUP.to_vec(),
         ] {
             for (i, b) in group.iter().enumerate() {
                 assert_eq!(b.slot, i as u32, "{}", b.name);
@@ -214,6 +234,7 @@ mod tests {
             .chain(&TEST_IO_GROUP)
             .chain(&WAVE_GROUP)
             .chain([&WAVE_ARGS])
+            .chain(&MERGE_GROUP)
             .map(|b| b.name)
             .collect();
         names.sort_unstable();

@@ -1,6 +1,7 @@
 //! One render over several devices: each device takes sample chunks from
 //! a shared counter (work stealing: a slower device takes fewer), renders
-//! them into its own film of exact sums, and the films are added. The
+//! them into its own film of exact sums, and the films are added on one
+//! of the devices (a band at a time through the host). The
 //! sums are integers (`reference::film`), so the result does not depend
 //! on which device took which chunk: on devices that compute the same
 //! samples (one kind of adapter, or two devices opened on one adapter) it
@@ -10,6 +11,7 @@
 
 use crate::context::{adapters_in_order, GpuContext};
 use crate::error::GpuError;
+use crate::film::FilmLayers;
 use crate::renderer::GpuRenderer;
 use crate::variants::Variant;
 use reference::film::FilmSums;
@@ -105,11 +107,13 @@ pub fn chunk_samples(samples: u32, devices: usize) -> u32 {
 /// A scene uploaded to several devices, each with its kernels compiled
 /// and its own film on the device: what a progressive multi-device render
 /// adds sample ranges to ([`DeviceGroup::add`]) and reads once
-/// ([`DeviceGroup::read_sums`]).
+/// ([`DeviceGroup::read_sums`], [`DeviceGroup::read_layers`]).
 pub struct DeviceGroup<'a> {
     renderers: Vec<GpuRenderer<'a>>,
     /// Samples a pixel each device's film holds.
     held: Vec<u32>,
+    /// Pixels a band of a film merge (`None`: the default).
+    band: Option<u32>,
 }
 
 impl<'a> DeviceGroup<'a> {
@@ -132,7 +136,11 @@ impl<'a> DeviceGroup<'a> {
         });
         let renderers = built.into_iter().collect::<Result<Vec<_>, _>>()?;
         let held = vec![0; renderers.len()];
-        Ok(Self { renderers, held })
+        Ok(Self {
+            renderers,
+            held,
+            band: None,
+        })
     }
 
     /// The group's renderers, one a device.
@@ -210,16 +218,55 @@ impl<'a> DeviceGroup<'a> {
         Ok(shares)
     }
 
-    /// The sums of every device's film, added (each film read back once).
-    pub fn read_sums(&self, settings: &RenderSettings) -> Result<FilmSums, GpuError> {
-        let mut sums = FilmSums::new(settings.width, settings.height);
-        for (renderer, &held) in self.renderers.iter().zip(&self.held) {
-            if held > 0 {
-                let film = renderer.read_film(settings, held)?;
-                sums.merge(&film).map_err(GpuError::Readback)?;
+    /// Adds every device's film to the first film that holds samples, on
+    /// that film's device (`GpuRenderer::merge_film_from`: the sums travel
+    /// a band at a time through the host and are added by a kernel), and
+    /// returns that device and the samples a pixel its film now holds.
+    /// The films added are forgotten: the next [`Self::add`] starts them
+    /// anew, so no sample is counted twice.
+    fn merge(&mut self, settings: &RenderSettings) -> Result<Option<(usize, u32)>, GpuError> {
+        let Some(first) = self.held.iter().position(|&h| h > 0) else {
+            return Ok(None);
+        };
+        for k in first + 1..self.renderers.len() {
+            if self.held[k] == 0 {
+                continue;
             }
+            let total = self.held[first].checked_add(self.held[k]).ok_or_else(|| {
+                GpuError::Validation("more samples a pixel than a film may hold".into())
+            })?;
+            self.renderers[first].merge_film_from(&self.renderers[k], settings, self.band)?;
+            self.held[first] = total;
+            self.held[k] = 0;
         }
-        Ok(sums)
+        Ok(Some((first, self.held[first])))
+    }
+
+    /// The sums of every device's film, added on a device and read back
+    /// once.
+    pub fn read_sums(&mut self, settings: &RenderSettings) -> Result<FilmSums, GpuError> {
+        match self.merge(settings)? {
+            Some((d, held)) => self.renderers[d].read_film(settings, held),
+            None => Ok(FilmSums::new(settings.width, settings.height)),
+        }
+    }
+
+    /// The image of every device's film, added on a device: the layers
+    /// computed there (`GpuRenderer::read_layers`), read back alone.
+    pub fn read_layers(&mut self, settings: &RenderSettings) -> Result<FilmLayers, GpuError> {
+        match self.merge(settings)? {
+            Some((d, held)) => self.renderers[d].read_layers(settings, held),
+            None => Ok(FilmLayers::from_sums(&FilmSums::new(
+                settings.width,
+                settings.height,
+            ))),
+        }
+    }
+
+    /// Sets the pixels of a band the films are added in (tests cut them
+    /// small; `None`: the default).
+    pub fn set_merge_band(&mut self, band: Option<u32>) {
+        self.band = band;
     }
 }
 

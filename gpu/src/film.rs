@@ -72,6 +72,61 @@ pub fn layers_source() -> String {
     .join("\n")
 }
 
+/// The merge kernel: adds a band of another film's sums (`merge_in`) to
+/// the film, word by word with the carries, as
+/// `reference::film::PixelSums::merge` adds them. The counts take no
+/// carry and the sums cannot carry out: a pixel's samples are fewer than
+/// 2^32, each `q` is below 2^64, so `Σq < 2^96`, `Σq² < 2^160` and
+/// `Σq³ < 2^224` fit their 128, 192 and 256 bits; the host checks the
+/// merged film's counts (`DeviceGroup`).
+const MERGE_KERNEL: &str = r#"
+// Adds the band's `len`-word number at word `base` of its pixel `i` to
+// the film's at word `base` of pixel `p`, least significant word first.
+fn merge_number(p: u32, i: u32, base: u32, len: u32) {
+    var carry = 0u;
+    for (var k = 0u; k < len; k++) {
+        let f = film_at(p, base + k);
+        let r = add_carry(film[f], merge_in[(base + k) * merge_band.y + i], carry);
+        film[f] = r.x;
+        carry = r.y;
+    }
+}
+
+@compute @workgroup_size(LAYERS_WORKGROUP)
+fn film_merge_main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = id.x + id.y * groups.x * LAYERS_WORKGROUP;
+    if i >= merge_band.y {
+        return;
+    }
+    let p = merge_band.x + i;
+    merge_number(p, i, FILM_COUNT_WORD, 1u);
+    merge_number(p, i, FILM_REJECTED_WORD, 1u);
+    for (var c = 0u; c < 3u; c++) {
+        let b = FILM_SUMS_WORD + c * FILM_CHANNEL_WORDS;
+        merge_number(p, i, b, 4u);
+        merge_number(p, i, b + 4u, 6u);
+        merge_number(p, i, b + 10u, 8u);
+    }
+}
+"#;
+
+/// The merge kernel's program: the generated declarations, the film's
+/// library and the kernel.
+pub fn merge_source() -> String {
+    [
+        crate::shader::GENERATED_WGSL,
+        crate::shader::FILM_WGSL,
+        &crate::bindings::wgsl_declarations(&crate::bindings::MERGE_GROUP),
+        &format!("const LAYERS_WORKGROUP: u32 = {LAYERS_WORKGROUP}u;"),
+        MERGE_KERNEL,
+    ]
+    .join("\n")
+}
+
+/// Pixels a band of a film merge: 2^19 (112 MiB of sums), fewer where
+/// the device binds less.
+const MERGE_BAND_PIXELS: u64 = 1 << 19;
+
 /// A film's image: per pixel (row-major, top row first) the mean, the
 /// variance of the mean and the skewness of the mean as f32, computed on
 /// the device (`GpuRenderer::read_layers`) or on the host
@@ -157,12 +212,12 @@ fn put_film(slot: &FilmSlot, film: wgpu::Buffer) {
 }
 
 /// `GpuRenderer::read_film`: the film in `slot`, read back; every pixel
-/// must hold `expected` samples.
+/// must hold `expected` samples where given.
 pub(crate) fn read_film(
     ctx: &GpuContext,
     slot: &FilmSlot,
     settings: &RenderSettings,
-    expected: u32,
+    expected: Option<u32>,
 ) -> Result<FilmSums, GpuError> {
     let film = take_film(slot, settings)?;
     let words = read_buffer::<u32>(ctx, &film, film_bytes(settings));
@@ -170,7 +225,9 @@ pub(crate) fn read_film(
     let gpu_pixels = crate::records::film_pixels(&words?);
     let mut sums = FilmSums::new(settings.width, settings.height);
     for (dst, src) in sums.pixels.iter_mut().zip(&gpu_pixels) {
-        check_count(src.count as u64 + src.rejected as u64, expected)?;
+        if let Some(expected) = expected {
+            check_count(src.count as u64 + src.rejected as u64, expected)?;
+        }
         *dst = src.to_sums();
     }
     Ok(sums)
@@ -204,6 +261,213 @@ pub(crate) fn load_film(
     );
     put_film(slot, film);
     Ok(())
+}
+
+/// `GpuRenderer::merge_film_from`: adds the film in `from_slot` (on
+/// `from`) to the one in `into_slot` (on `into`), on `into`'s device,
+/// with `program`'s merge kernel. The sums travel in bands of
+/// `band` pixels (`MERGE_BAND_PIXELS` unless given): a band is copied
+/// into a mappable buffer on `from` (two in turn, so that the next band
+/// is copied while this one is added), written to `into` and added there,
+/// so the host holds a band at a time, never a film.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn merge_film(
+    from: &GpuContext,
+    from_slot: &FilmSlot,
+    into: &GpuContext,
+    into_slot: &FilmSlot,
+    scene_group: &SceneGroup<'_>,
+    settings: &RenderSettings,
+    band: Option<u32>,
+    program: &str,
+) -> Result<(), GpuError> {
+    let source = take_film(from_slot, settings)?;
+    let target = match take_film(into_slot, settings) {
+        Ok(t) => t,
+        Err(e) => {
+            put_film(from_slot, source);
+            return Err(e);
+        }
+    };
+    let out = merge_buffers(
+        from,
+        &source,
+        into,
+        &target,
+        scene_group,
+        settings,
+        band,
+        program,
+    );
+    put_film(from_slot, source);
+    put_film(into_slot, target);
+    out
+}
+
+#[allow(clippy::too_many_arguments)]
+fn merge_buffers(
+    from: &GpuContext,
+    source: &wgpu::Buffer,
+    into: &GpuContext,
+    target: &wgpu::Buffer,
+    scene_group: &SceneGroup<'_>,
+    settings: &RenderSettings,
+    band: Option<u32>,
+    program: &str,
+) -> Result<(), GpuError> {
+    let words = (std::mem::size_of::<GpuPixel>() / 4) as u64;
+    let pixels = settings.width as u64 * settings.height as u64;
+    let fits = |ctx: &GpuContext| ctx.device.limits().max_storage_buffer_binding_size / (words * 4);
+    let band = band
+        .map_or(MERGE_BAND_PIXELS, u64::from)
+        .min(fits(into))
+        .min(pixels)
+        .max(1);
+    let band_bytes = band * words * 4;
+    into.check_binding_size("a band of a film merge", band_bytes)?;
+    let out_layout = crate::pipeline::layout(into, "film merge", &crate::bindings::MERGE_GROUP);
+    let scene_layout = crate::pipeline::scene_layout(into);
+    let pipeline = crate::pipeline::compile(
+        into,
+        program,
+        "film_merge_main",
+        &[&scene_layout, &out_layout],
+    )?;
+    let params = GpuParams {
+        width: settings.width,
+        height: settings.height,
+        ..Default::default()
+    };
+    let params_buf = wgpu::util::DeviceExt::create_buffer_init(
+        &into.device,
+        &wgpu::util::BufferInitDescriptor {
+            label: Some("merge params"),
+            contents: bytemuck::bytes_of(&params),
+            usage: wgpu::BufferUsages::UNIFORM,
+        },
+    );
+    let incoming = into.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("merge band"),
+        size: band_bytes,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let band_buf = into.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("merge band range"),
+        size: 16,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let scene_group = scene_group(&params_buf, target);
+    let out_group = into.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("film merge"),
+        layout: &out_layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: crate::bindings::MERGE_IN.slot,
+                resource: incoming.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: crate::bindings::MERGE_BAND.slot,
+                resource: band_buf.as_entire_binding(),
+            },
+        ],
+    });
+    let staging: [wgpu::Buffer; 2] = std::array::from_fn(|_| {
+        from.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("merge readback"),
+            size: band_bytes,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    });
+    let bands: Vec<(u64, u64)> = (0..pixels)
+        .step_by(band as usize)
+        .map(|first| (first, band.min(pixels - first)))
+        .collect();
+    // Copies band `b` of the source film into staging buffer `b % 2`
+    // (word `w` of its pixel `i` at `w · len + i`) and asks for it mapped.
+    let copy = |b: usize| -> (
+        wgpu::SubmissionIndex,
+        std::sync::mpsc::Receiver<Result<(), wgpu::BufferAsyncError>>,
+    ) {
+        let (first, len) = bands[b];
+        let dst = &staging[b % 2];
+        let mut encoder = from
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("merge readback"),
+            });
+        for w in 0..words {
+            encoder.copy_buffer_to_buffer(
+                source,
+                (w * pixels + first) * 4,
+                dst,
+                w * len * 4,
+                len * 4,
+            );
+        }
+        let index = from.queue.submit([encoder.finish()]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        dst.slice(..words * len * 4)
+            .map_async(wgpu::MapMode::Read, move |r| {
+                let _ = tx.send(r);
+            });
+        (index, rx)
+    };
+    let max = into.device.limits().max_compute_workgroups_per_dimension as u64;
+    let mut pending = Some(copy(0));
+    let mut merged: Option<wgpu::SubmissionIndex> = None;
+    for (b, &(first, len)) in bands.iter().enumerate() {
+        let (index, mapped) = pending.take().expect("a band's copy was submitted");
+        if b + 1 < bands.len() {
+            pending = Some(copy(b + 1));
+        }
+        from.wait_for(index)?;
+        mapped
+            .recv()
+            .map_err(|e| GpuError::Readback(e.to_string()))?
+            .map_err(|e| GpuError::Readback(e.to_string()))?;
+        // The last band's merge has read `incoming` before it is written again.
+        if let Some(m) = merged.take() {
+            into.wait_for(m)?;
+        }
+        let dst = &staging[b % 2];
+        {
+            let data = dst
+                .slice(..words * len * 4)
+                .get_mapped_range()
+                .map_err(|e| GpuError::Readback(e.to_string()))?;
+            into.queue.write_buffer(&incoming, 0, &data);
+        }
+        dst.unmap();
+        into.queue.write_buffer(
+            &band_buf,
+            0,
+            bytemuck::cast_slice(&[first as u32, len as u32, 0, 0]),
+        );
+        let groups = len.div_ceil(LAYERS_WORKGROUP as u64);
+        let mut encoder = into
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("film merge"),
+            });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("film merge"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(&pipeline);
+            pass.set_bind_group(0, &scene_group, &[]);
+            pass.set_bind_group(1, &out_group, &[]);
+            pass.dispatch_workgroups(groups.min(max) as u32, groups.div_ceil(max) as u32, 1);
+        }
+        merged = Some(into.queue.submit([encoder.finish()]));
+    }
+    match merged {
+        Some(m) => into.wait_for(m),
+        None => Ok(()),
+    }
 }
 
 /// `GpuRenderer::read_layers_with`: the image of the film in `slot`,

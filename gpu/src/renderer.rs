@@ -687,7 +687,14 @@ impl GpuRenderer<'_> {
         settings: &RenderSettings,
         expected: u32,
     ) -> Result<FilmSums, GpuError> {
-        film::read_film(self.ctx, &self.film_cache, settings, expected)
+        film::read_film(self.ctx, &self.film_cache, settings, Some(expected))
+    }
+
+    /// The film on the device, read back with each pixel's counts
+    /// unchecked: the twin checks' films of chosen sums hold a different
+    /// count in every pixel.
+    pub fn read_film_unchecked(&self, settings: &RenderSettings) -> Result<FilmSums, GpuError> {
+        film::read_film(self.ctx, &self.film_cache, settings, None)
     }
 
     /// Puts `sums` on the device as the film of `settings`' size, as if
@@ -696,6 +703,44 @@ impl GpuRenderer<'_> {
     /// films of chosen sums).
     pub fn load_film(&self, settings: &RenderSettings, sums: &FilmSums) -> Result<(), GpuError> {
         film::load_film(self.ctx, &self.film_cache, settings, sums)
+    }
+
+    /// Adds the film `other` holds (of `settings`' size, on its device,
+    /// which may be another) to this renderer's, on this device: a
+    /// group's films added where they are, read back once
+    /// (`gpu::devices::DeviceGroup`). `other`'s film is left as it was.
+    /// Bands of `band` pixels travel through the host (a default where
+    /// `None`; tests cut them small).
+    pub fn merge_film_from(
+        &self,
+        other: &GpuRenderer<'_>,
+        settings: &RenderSettings,
+        band: Option<u32>,
+    ) -> Result<(), GpuError> {
+        self.merge_film_from_with(other, settings, band, &film::merge_source())
+    }
+
+    /// [`Self::merge_film_from`] with the merge kernel's program given (the
+    /// tests' mutants of it).
+    pub fn merge_film_from_with(
+        &self,
+        other: &GpuRenderer<'_>,
+        settings: &RenderSettings,
+        band: Option<u32>,
+        program: &str,
+    ) -> Result<(), GpuError> {
+        let scene_group =
+            |params: &wgpu::Buffer, film: &wgpu::Buffer| self.bind_group(params, film);
+        film::merge_film(
+            other.ctx,
+            &other.film_cache,
+            self.ctx,
+            &self.film_cache,
+            &scene_group,
+            settings,
+            band,
+            program,
+        )
     }
 
     /// The image of the film [`GpuRenderer::accumulate`] left on the

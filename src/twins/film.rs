@@ -320,3 +320,71 @@ pub fn layers_with_program(ctx: &GpuContext, program: &str) -> Outcome {
 pub fn layers(ctx: &GpuContext) -> Outcome {
     layers_with_program(ctx, &gpu::film::layers_source())
 }
+
+/// Pixels a band of the merge twin: not a divisor of the film's 2048
+/// pixels, so the last band is a short one.
+const MERGE_TWIN_BAND: u32 = 300;
+
+/// The merge twin over `program` (the production merge kernel, or a
+/// mutant's): a film of chosen sums added on the device to another
+/// (`GpuRenderer::merge_film_from`, in bands) equals the reference's
+/// `FilmSums::merge` of the same films word for word, and the film added
+/// from is left as it was. The second film is the first's pixels in
+/// another order, each pair whose exact sum overflows (raw words, counts
+/// near 2^32, which no render reaches) replaced by an empty pixel.
+pub fn merge_with_program(ctx: &GpuContext, program: &str) -> Outcome {
+    let scene = reference::load_scene("cornell").map_err(|e| e.to_string())?;
+    let into = gpu::GpuRenderer::new(ctx, &scene).map_err(|e| e.to_string())?;
+    let from = gpu::GpuRenderer::new(ctx, &scene).map_err(|e| e.to_string())?;
+    let a = layer_films();
+    let n = a.pixels.len();
+    let mut b = FilmSums::new(a.width, a.height);
+    // 37 is prime to the 2048 pixels: a permutation.
+    for (i, p) in b.pixels.iter_mut().enumerate() {
+        *p = a.pixels[(i * 37 + 11) % n];
+    }
+    let mut host = a.clone();
+    let mut added = 0;
+    for (h, o) in host.pixels.iter_mut().zip(b.pixels.iter_mut()) {
+        let mut m = *h;
+        if m.merge(o).is_ok() {
+            *h = m;
+            added += 1;
+        } else {
+            *o = PixelSums::default();
+        }
+    }
+    let settings = reference::RenderSettings {
+        width: a.width,
+        height: a.height,
+        ..reference::RenderSettings::default()
+    };
+    into.load_film(&settings, &a).map_err(|e| e.to_string())?;
+    from.load_film(&settings, &b).map_err(|e| e.to_string())?;
+    into.merge_film_from_with(&from, &settings, Some(MERGE_TWIN_BAND), program)
+        .map_err(|e| e.to_string())?;
+    for (what, film, want) in [
+        ("the merged film", &into, &host),
+        ("the film added from", &from, &b),
+    ] {
+        let got = film
+            .read_film_unchecked(&settings)
+            .map_err(|e| e.to_string())?;
+        for (i, (g, w)) in got.pixels.iter().zip(&want.pixels).enumerate() {
+            ensure!(
+                g == w,
+                "{what}, pixel {i}: GPU {:08x?}, reference {:08x?}",
+                g.to_words(),
+                w.to_words()
+            );
+        }
+    }
+    Ok(format!(
+        "{n} pixels of chosen sums, {added} of them added to a pixel's other sums, in bands of {MERGE_TWIN_BAND}: word for word"
+    ))
+}
+
+/// The merge twin over the production kernel.
+pub fn merge(ctx: &GpuContext) -> Outcome {
+    merge_with_program(ctx, &gpu::film::merge_source())
+}

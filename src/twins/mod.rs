@@ -218,6 +218,11 @@ pub const CHECKS: &[Check] = &[
         variant: false,
     },
     Check {
+        name: "twin: film merge (one device's sums added to another's, on the device)",
+        run: film::merge,
+        variant: false,
+    },
+    Check {
         name: "twin: float steps (next_up, next_up_normal, next_down_normal, flush_subnormal)",
         run: numerics::float_steps,
         variant: false,
