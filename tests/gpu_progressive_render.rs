@@ -100,7 +100,7 @@ fn every_schedule_takes_uneven_ranges_into_one_render_and_resets() {
 }
 
 #[test]
-fn a_group_of_two_devices_is_the_one_device_film_bit_for_bit() {
+fn a_group_of_three_devices_is_the_one_device_film_bit_for_bit() {
     let ctx = common::gpu();
     let scene = reference::load_scene("cornell-spheres").unwrap();
     let settings = RenderSettings { spp: 50, ..tiny() };
@@ -115,11 +115,12 @@ fn a_group_of_two_devices_is_the_one_device_film_bit_for_bit() {
         .iter()
         .position(|a| a.name == ctx.adapter.name)
         .expect("the test adapter is listed");
-    let contexts = gpu::devices::DeviceSelection::Indices(vec![i, i])
+    // Three: the films are added as a tree, a pair and then the odd one.
+    let contexts = gpu::devices::DeviceSelection::Indices(vec![i, i, i])
         .open()
         .unwrap();
     let mut group = GroupProgressive::new(&contexts, &scene, &spec, settings).unwrap();
-    group.set_chunk(Some(3));
+    group.set_chunk(Some(2));
     // Bands of 5 of the 12 pixels: the films are added in three bands,
     // the last a short one.
     group.set_merge_band(Some(5));
@@ -139,5 +140,5 @@ fn a_group_of_two_devices_is_the_one_device_film_bit_for_bit() {
     }
     assert_eq!(group.sums().unwrap(), one);
     assert_eq!(group.layers().unwrap(), Layers::from_sums(&one));
-    assert!(group.device().starts_with("2 gpus"), "{}", group.device());
+    assert!(group.device().starts_with("3 gpus"), "{}", group.device());
 }

@@ -76,7 +76,16 @@ impl DeviceSelection {
         if picked.is_empty() {
             return Err(GpuError::NoAdapter);
         }
-        picked.into_iter().map(GpuContext::open).collect()
+        // One thread a device: the driver's device creation is most of
+        // the time of opening one.
+        let opened: Vec<Result<GpuContext, GpuError>> = std::thread::scope(|s| {
+            let handles: Vec<_> = picked
+                .into_iter()
+                .map(|a| s.spawn(move || GpuContext::open(a)))
+                .collect();
+            join_all(handles, "open")
+        });
+        opened.into_iter().collect()
     }
 }
 
@@ -219,27 +228,51 @@ impl<'a> DeviceGroup<'a> {
     }
 
     /// Adds every device's film to the first film that holds samples, on
-    /// that film's device (`GpuRenderer::merge_film_from`: the sums travel
-    /// a band at a time through the host and are added by a kernel), and
-    /// returns that device and the samples a pixel its film now holds.
+    /// the devices (`GpuRenderer::merge_film_from`: the sums travel a band
+    /// at a time through the host and are added by a kernel), and returns
+    /// that device and the samples a pixel its film now holds.
     /// The films added are forgotten: the next [`Self::add`] starts them
     /// anew, so no sample is counted twice.
     fn merge(&mut self, settings: &RenderSettings) -> Result<Option<(usize, u32)>, GpuError> {
-        let Some(first) = self.held.iter().position(|&h| h > 0) else {
-            return Ok(None);
-        };
-        for k in first + 1..self.renderers.len() {
-            if self.held[k] == 0 {
-                continue;
+        let mut holding: Vec<usize> = (0..self.held.len()).filter(|&d| self.held[d] > 0).collect();
+        // By rounds, as a tree: in each, the films of pairs of devices are
+        // added at once, the second's to the first's (four films in two
+        // rounds, not three).
+        while holding.len() > 1 {
+            let pairs: Vec<(usize, usize)> = holding
+                .chunks_exact(2)
+                .map(|pair| (pair[0], pair[1]))
+                .collect();
+            let mut totals = Vec::with_capacity(pairs.len());
+            for &(into, from) in &pairs {
+                totals.push(
+                    self.held[into]
+                        .checked_add(self.held[from])
+                        .ok_or_else(|| {
+                            GpuError::Validation("more samples a pixel than a film may hold".into())
+                        })?,
+                );
             }
-            let total = self.held[first].checked_add(self.held[k]).ok_or_else(|| {
-                GpuError::Validation("more samples a pixel than a film may hold".into())
-            })?;
-            self.renderers[first].merge_film_from(&self.renderers[k], settings, self.band)?;
-            self.held[first] = total;
-            self.held[k] = 0;
+            let (renderers, band) = (&self.renderers, self.band);
+            let merged: Vec<Result<(), GpuError>> = std::thread::scope(|s| {
+                let handles: Vec<_> = pairs
+                    .iter()
+                    .map(|&(into, from)| {
+                        s.spawn(move || {
+                            renderers[into].merge_film_from(&renderers[from], settings, band)
+                        })
+                    })
+                    .collect();
+                join_all(handles, "merge")
+            });
+            for ((&(into, from), total), r) in pairs.iter().zip(totals).zip(merged) {
+                r?;
+                self.held[into] = total;
+                self.held[from] = 0;
+            }
+            holding.retain(|&d| self.held[d] > 0);
         }
-        Ok(Some((first, self.held[first])))
+        Ok(holding.first().map(|&d| (d, self.held[d])))
     }
 
     /// The sums of every device's film, added on a device and read back

@@ -438,7 +438,14 @@ fn merge_buffers(
                 .slice(..words * len * 4)
                 .get_mapped_range()
                 .map_err(|e| GpuError::Readback(e.to_string()))?;
-            into.queue.write_buffer(&incoming, 0, &data);
+            // In pieces from several threads: one thread's copy into the
+            // queue's staging memory is slower than the transfers.
+            use rayon::prelude::*;
+            const PIECE: usize = 8 << 20;
+            data.par_chunks(PIECE).enumerate().for_each(|(k, piece)| {
+                into.queue
+                    .write_buffer(&incoming, (k * PIECE) as u64, piece)
+            });
         }
         dst.unmap();
         into.queue.write_buffer(
