@@ -32,6 +32,7 @@ mod split_render;
 mod tidy;
 
 mod gpu_buffer_layout;
+mod gpu_display;
 mod gpu_errors;
 mod gpu_furnace;
 mod gpu_hits_match_reference;

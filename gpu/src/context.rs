@@ -185,6 +185,9 @@ impl GpuContext {
                 .min(STORAGE_BUFFERS_WANTED),
             max_storage_buffer_binding_size: al.max_storage_buffer_binding_size,
             max_buffer_size: al.max_buffer_size,
+            // gpu::display's target is a texture of the film's size (the
+            // downlevel default allows 2048 texels a side).
+            max_texture_dimension_2d: al.max_texture_dimension_2d,
             ..wgpu::Limits::downlevel_defaults()
         };
         let mut features = wgpu::Features::empty();

@@ -211,6 +211,19 @@ fn put_film(slot: &FilmSlot, film: wgpu::Buffer) {
     }
 }
 
+/// The film in `slot`, lent to `use_film` and put back after:
+/// `gpu::display` draws from it where it is, without reading it back.
+pub(crate) fn with_film<R>(
+    slot: &FilmSlot,
+    settings: &RenderSettings,
+    use_film: impl FnOnce(&wgpu::Buffer) -> R,
+) -> Result<R, GpuError> {
+    let film = take_film(slot, settings)?;
+    let out = use_film(&film);
+    put_film(slot, film);
+    Ok(out)
+}
+
 /// `GpuRenderer::read_film`: the film in `slot`, read back; every pixel
 /// must hold `expected` samples where given.
 pub(crate) fn read_film(

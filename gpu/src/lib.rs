@@ -12,6 +12,7 @@
 pub mod bindings;
 pub mod context;
 pub mod devices;
+pub mod display;
 pub mod error;
 pub mod features;
 pub mod film;

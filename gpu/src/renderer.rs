@@ -775,6 +775,22 @@ impl GpuRenderer<'_> {
         )
     }
 
+    /// The film [`GpuRenderer::accumulate`] left on the device (of
+    /// `settings`' size), lent to `use_film` with the renderer's device
+    /// and its bind group over the scene (`gpu::display` draws it where
+    /// it is); put back after.
+    pub(crate) fn with_device_film<R>(
+        &self,
+        settings: &RenderSettings,
+        use_film: impl FnOnce(&GpuContext, &wgpu::Buffer, &film::SceneGroup<'_>) -> Result<R, GpuError>,
+    ) -> Result<R, GpuError> {
+        let scene_group =
+            |params: &wgpu::Buffer, film: &wgpu::Buffer| self.bind_group(params, film);
+        film::with_film(&self.film_cache, settings, |f| {
+            use_film(self.ctx, f, &scene_group)
+        })?
+    }
+
     /// The layers of the film on the device and each pixel's samples
     /// (accepted and rejected), unchecked: the twin checks' films of
     /// chosen sums hold a different count in every pixel.

@@ -9,6 +9,9 @@
 //! - [`rng`]: the counter-based generator, bit for bit.
 //! - [`film`]: the film's exact sums (fixed point, `Σq`, `Σq²`, `Σq³`),
 //!   word for word.
+//! - [`display`]: the viewer's display of the film on the device (mean,
+//!   exposure, tone map, 8-bit sRGB) against the host's PNG transform,
+//!   code for code (ACES one code off only next to a step, counted).
 //! - [`numerics`]: the float steps (bit for bit), GGX Λ and the sphere's
 //!   root choice at their limits, the cube root (1 ulp).
 //! - [`hits`]: hit records of the BVH walk (flag, primitive, t, uv).
@@ -29,6 +32,7 @@
 //! or the first disagreement (or the GPU error that stopped it).
 
 pub mod dispatch;
+pub mod display;
 pub mod film;
 pub mod hits;
 pub mod light;
@@ -220,6 +224,11 @@ pub const CHECKS: &[Check] = &[
     Check {
         name: "twin: film merge (one device's sums added to another's, on the device)",
         run: film::merge,
+        variant: false,
+    },
+    Check {
+        name: "twin: display (the film's means as 8-bit sRGB on the device, both tone maps, three exposures)",
+        run: display::codes,
         variant: false,
     },
     Check {
