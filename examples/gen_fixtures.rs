@@ -2,7 +2,9 @@
 //! `cargo xtask fixtures`): the bumpy-sphere glTF mesh, the glTF of the
 //! glTF-materials scene, the UV-grid PNG texture and the procedural sky
 //! HDR environment map. Every file is a pure function of the code here, so
-//! the fixtures need no licence.
+//! the fixtures need no licence. Each is written whole or not at all (a
+//! temporary file renamed into place), so an interrupted run leaves the
+//! fixture it was replacing.
 
 use glam::Vec3;
 use std::path::Path;
@@ -12,11 +14,23 @@ fn main() -> anyhow::Result<()> {
     // 20 · 4^5 = 20480 triangles, closed (the watertightness suite uses it).
     let mesh = reference::procedural::bumpy_sphere(5, 0.08, 6.0);
     reference::procedural::write_glb(&root.join("meshes/bumpy_sphere.glb"), &mesh)?;
-    std::fs::write(root.join("meshes/gltf-materials.glb"), gltf_materials()?)?;
+    write(&root.join("meshes/gltf-materials.glb"), &gltf_materials()?)?;
     uv_grid(&root.join("textures/uv_grid.png"))?;
     sky_hdr(&root.join("textures/sky.hdr"))?;
     println!("fixtures written under {}", root.display());
     Ok(())
+}
+
+/// Writes `path` atomically (`twintrace::image_io::write_atomic`).
+fn write(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    twintrace::image_io::write_atomic(path, |f| Ok(std::io::Write::write_all(f, bytes)?))
+}
+
+/// `image` encoded as `format`, written atomically.
+fn save(path: &Path, image: image::DynamicImage, format: image::ImageFormat) -> anyhow::Result<()> {
+    let mut bytes = Vec::new();
+    image.write_to(&mut std::io::Cursor::new(&mut bytes), format)?;
+    write(path, &bytes)
 }
 
 /// A 256x256 UV test grid: 8x8 coloured cells with dark lines, a white
@@ -36,8 +50,11 @@ fn uv_grid(path: &Path) -> anyhow::Result<()> {
         let b = if (cx + cy) % 2 == 0 { 200 } else { 60 };
         image::Rgb([r, g, b])
     });
-    img.save(path)?;
-    Ok(())
+    save(
+        path,
+        image::DynamicImage::ImageRgb8(img),
+        image::ImageFormat::Png,
+    )
 }
 
 /// A 512x256 equirectangular sky (see reference::background::equirect_uv):
@@ -67,8 +84,11 @@ fn sky_hdr(path: &Path) -> anyhow::Result<()> {
         };
         image::Rgb(c.to_array())
     });
-    image::DynamicImage::ImageRgb32F(img).save(path)?;
-    Ok(())
+    save(
+        path,
+        image::DynamicImage::ImageRgb32F(img),
+        image::ImageFormat::Hdr,
+    )
 }
 
 /// The glTF of fixtures/scenes/gltf-materials.json: a sampled backdrop

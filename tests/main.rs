@@ -25,6 +25,7 @@ mod perf_regression;
 mod progressive_render;
 mod reference_images;
 mod render_determinism;
+mod safe_outputs;
 mod sampling_chi2;
 mod scale_invariance;
 mod scene_loading_errors;

@@ -15,9 +15,10 @@
 //!
 //! Exit status, as diff(1) and cmp(1): 0 when no difference is detected,
 //! 1 when the images differ, 2 when they cannot be compared (unreadable
-//! file, size mismatch, no variance on either side).
+//! file, size mismatch, no variance on either side) or the report would
+//! overwrite one of the images.
 
-use super::one_line;
+use super::{one_line, outputs};
 use anyhow::{anyhow, bail, Result};
 use clap::{Args, ValueEnum};
 use std::io::Write as _;
@@ -121,6 +122,22 @@ fn default_report(a: &Path) -> PathBuf {
 
 /// Compares, writes the report and returns what to print.
 pub fn execute(args: &DiffArgs) -> Result<DiffOutcome> {
+    let report_path = args
+        .report
+        .clone()
+        .unwrap_or_else(|| default_report(&args.a));
+    let mut inputs = vec![
+        outputs::input_file("image", &args.a),
+        outputs::input_file("image", &args.b),
+    ];
+    for v in [&args.variance_a, &args.variance_b].into_iter().flatten() {
+        inputs.push(outputs::input_file("variance image", v));
+    }
+    let report_arg = match &args.report {
+        Some(r) => format!("--report {}", r.display()),
+        None => "the report".to_string(),
+    };
+    outputs::check(&inputs, &[outputs::output(report_arg, &report_path)])?;
     let a = load(&args.a, args.variance_a.as_deref(), args.spp_a)?;
     let b = load(&args.b, args.variance_b.as_deref(), args.spp_b)?;
     if (a.width, a.height) != (b.width, b.height) {
@@ -150,10 +167,6 @@ pub fn execute(args: &DiffArgs) -> Result<DiffOutcome> {
         format!("{}, {}", spp(a.spp), spp(b.spp)),
     )];
     let title = format!("twintrace diff: {} vs {}", labels[0], labels[1]);
-    let report_path = args
-        .report
-        .clone()
-        .unwrap_or_else(|| default_report(&args.a));
     report::write_html(
         &report_path,
         &Report {

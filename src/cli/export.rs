@@ -29,6 +29,7 @@
 //! samples the BSDF only: a different estimator of the same integral, so
 //! the two images agree in expectation and differ in noise.
 
+use super::outputs;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use glam::Vec3;
@@ -58,6 +59,16 @@ pub struct ExportArgs {
     pub spp: Option<u32>,
 }
 
+/// The scene file in the output folder.
+const XML_FILE: &str = "scene.xml";
+/// The sky's lat-long map in the output folder.
+const SKY_FILE: &str = "sky.exr";
+
+/// The PLY file of mesh `i` in the output folder.
+fn mesh_file(i: usize) -> String {
+    format!("mesh_{i}.ply")
+}
+
 /// Rows of the sky's lat-long map (columns: 8; the sky does not vary
 /// with azimuth).
 const SKY_ROWS: usize = 4096;
@@ -79,11 +90,33 @@ pub fn run(args: &ExportArgs) -> Result<()> {
             args.scene
         )
     })?;
+    // Nothing written may be the scene or a file it reads (nor the
+    // folder itself one of them).
+    let mut inputs = Vec::new();
+    let scene_file = Path::new(&args.scene);
+    if scene_file.exists() {
+        inputs.push(outputs::input_file("scene", scene_file));
+    }
+    inputs.extend(scene.sources().iter().map(|f| {
+        outputs::input(
+            format!("`{}`, which the scene reads", f.display()),
+            f.clone(),
+        )
+    }));
+    let arg = format!("-o {}", args.output.display());
+    let mut written = vec![outputs::output(arg.clone(), &args.output)];
+    written.extend(
+        export
+            .files()
+            .into_iter()
+            .map(|f| outputs::output(arg.clone(), args.output.join(f))),
+    );
+    outputs::check(&inputs, &written)?;
     image_io::existing_parent_dir(&args.output)?;
     let dir = args.output.clone();
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create `{}`", dir.display()))?;
     let xml = export.write(&dir, width, height, max_depth, spp)?;
-    image_io::write_atomic(&dir.join("scene.xml"), |f| {
+    image_io::write_atomic(&dir.join(XML_FILE), |f| {
         use std::io::Write as _;
         f.write_all(xml.as_bytes())?;
         Ok(())
@@ -91,7 +124,7 @@ pub fn run(args: &ExportArgs) -> Result<()> {
     println!(
         "exported {} to {} ({width}x{height}, {spp} spp, depth {max_depth}): {} shapes, {} spheres",
         args.scene,
-        dir.join("scene.xml").display(),
+        dir.join(XML_FILE).display(),
         export.meshes.len(),
         export.spheres.len()
     );
@@ -214,6 +247,17 @@ impl<'s> MitsubaScene<'s> {
         })
     }
 
+    /// The names of the files [`MitsubaScene::write`] and the XML take in
+    /// the output folder.
+    fn files(&self) -> Vec<String> {
+        let mut files = vec![XML_FILE.to_string()];
+        files.extend((0..self.meshes.len()).map(mesh_file));
+        if matches!(self.scene.background(), Background::Sky { .. }) {
+            files.push(SKY_FILE.to_string());
+        }
+        files
+    }
+
     /// Writes the PLY files and the sky map into `dir`; returns the XML.
     fn write(
         &self,
@@ -276,7 +320,7 @@ impl<'s> MitsubaScene<'s> {
         )?;
         x += "  </sensor>\n";
         for (i, (material, positions)) in self.meshes.iter().enumerate() {
-            let file = format!("mesh_{i}.ply");
+            let file = mesh_file(i);
             write_ply(&dir.join(&file), positions)?;
             writeln!(
                 x,
@@ -302,8 +346,11 @@ impl<'s> MitsubaScene<'s> {
                 triple(c)
             )?,
             Background::Sky { horizon, zenith } => {
-                write_sky(&dir.join("sky.exr"), horizon, zenith)?;
-                x += "  <emitter type=\"envmap\"><string name=\"filename\" value=\"sky.exr\"/></emitter>\n";
+                write_sky(&dir.join(SKY_FILE), horizon, zenith)?;
+                writeln!(
+                    x,
+                    r#"  <emitter type="envmap"><string name="filename" value="{SKY_FILE}"/></emitter>"#
+                )?;
             }
             Background::Envmap { .. } => {
                 bail!("the background is an environment map (not exported)")

@@ -17,10 +17,13 @@
 //! checked with [`reference::RenderSettings::validate`] before any work.
 //!
 //! Every failure is an [`anyhow::Error`]; the binary prints it as one line
-//! `error: <message>` and exits with status 1.
+//! `error: <message>` and exits with status 1, or 2 for a [`Refused`]
+//! input (among them an output that would overwrite an input or another
+//! output, [`outputs`]).
 
 pub mod diff;
 pub mod export;
+pub mod outputs;
 pub mod perf;
 pub mod selftest;
 pub mod spec;
@@ -407,6 +410,13 @@ fn render(args: &RenderArgs) -> Result<()> {
     }
     // Fail on an unusable output path or option now, not after a long render.
     let paths = image_io::output_paths(&args.output)?;
+    let written = render_outputs("-o", &args.output, &paths);
+    let scene_file = std::path::Path::new(&args.scene);
+    let mut read = Vec::new();
+    if scene_file.exists() {
+        read.push(outputs::input_file("scene", scene_file));
+    }
+    outputs::check(&read, &written)?;
     drop(AtomicFile::create(&paths.exr)?);
     if let Some(size) = &args.size {
         size_arg(size)?;
@@ -421,6 +431,13 @@ fn render(args: &RenderArgs) -> Result<()> {
         .transpose()
         .map_err(|e| Refused(e.to_string()))?;
     let scene = load_scene(&args.scene)?;
+    read.extend(scene.sources().iter().map(|f| {
+        outputs::input(
+            format!("`{}`, which the scene reads", f.display()),
+            f.clone(),
+        )
+    }));
+    outputs::check(&read, &written)?;
     phases.end("scene");
     let mut settings = resolve_settings(scene.render_settings(), args)?;
     if let Some(range) = &samples {
@@ -642,17 +659,12 @@ fn merge(args: &MergeArgs) -> Result<()> {
     // Fail on an unusable output path before reading the parts, and on
     // an output that would overwrite one of them.
     let paths = image_io::output_paths(&args.output)?;
-    for part in &args.parts {
-        for out in [&paths.exr, &paths.png] {
-            if same_file(part, out) {
-                bail!(
-                    "-o {}: it would overwrite the part `{}`; name another output",
-                    args.output.display(),
-                    part.display()
-                );
-            }
-        }
-    }
+    let parts: Vec<outputs::Named> = args
+        .parts
+        .iter()
+        .map(|p| outputs::input_file("part", p))
+        .collect();
+    outputs::check(&parts, &render_outputs("-o", &args.output, &paths))?;
     drop(AtomicFile::create(&paths.exr)?);
     let mut parts = Vec::with_capacity(args.parts.len());
     for path in &args.parts {
@@ -672,13 +684,17 @@ fn merge(args: &MergeArgs) -> Result<()> {
     ))
 }
 
-/// Whether `a` and `b` name one existing file (through links, `..` and
-/// relative paths alike).
-fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
-    match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
-        (Ok(a), Ok(b)) => a == b,
-        _ => false,
-    }
+/// The two files a render or merge writes for `flag OUT`, as outputs.
+fn render_outputs(
+    flag: &str,
+    out: &std::path::Path,
+    paths: &image_io::OutputPaths,
+) -> Vec<outputs::Named> {
+    let arg = format!("{flag} {}", out.display());
+    vec![
+        outputs::output(arg.clone(), &paths.exr),
+        outputs::output(arg, &paths.png),
+    ]
 }
 
 /// Writes to stdout; a closed pipe (`twintrace info x | head -1`) is not an error.

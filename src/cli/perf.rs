@@ -13,14 +13,14 @@
 //!   rule's false alarms on runs of one build and its detections of the
 //!   injected slowdown (how its K was chosen).
 
-use super::print_stdout;
+use super::{outputs, print_stdout};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
 use gpu::Variant;
 use reference::integrator::Integrator;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
-use twintrace::image_io::AtomicFile;
+use twintrace::image_io;
 use twintrace::perf::{measure, plot, regress, suite::Suite, PerfRun};
 
 #[derive(Debug, Args)]
@@ -151,6 +151,18 @@ pub fn run(args: &PerfArgs) -> Result<()> {
             judge(&new, &base, &a.baseline)
         }
         PerfCommand::Baseline(a) => {
+            let inputs: Vec<outputs::Named> = a
+                .runs
+                .iter()
+                .map(|p| outputs::input_file("run", p))
+                .collect();
+            outputs::check(
+                &inputs,
+                &[outputs::output(
+                    format!("-o {}", a.output.display()),
+                    &a.output,
+                )],
+            )?;
             let mut runs = Vec::new();
             for p in &a.runs {
                 runs.extend(read_runs(p)?);
@@ -293,13 +305,10 @@ fn judge(new: &PerfRun, base: &[PerfRun], base_path: &Path) -> Result<()> {
     }
 }
 
+/// Writes `bytes` to `path` all at once (a temporary file renamed into
+/// place), so an interrupted run leaves the previous file whole.
 fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
-    let mut f = AtomicFile::create(path)?;
-    f.file()
-        .write_all(bytes)
-        .with_context(|| format!("cannot write `{}`", path.display()))?;
-    f.commit()?;
-    Ok(())
+    image_io::write_atomic(path, |f| Ok(f.write_all(bytes)?))
 }
 
 fn run_suite(a: &RunArgs) -> Result<()> {
@@ -329,7 +338,25 @@ fn run_suite(a: &RunArgs) -> Result<()> {
                 .iter()
                 .any(|(n, b)| *b == backend && a.variant.iter().any(|v| v == n))
     };
-    // The baseline is read first: a bad path fails before a long run.
+    // The baseline is read first: a bad path fails before a long run;
+    // so does an output that would overwrite the baseline or a file of
+    // the suite.
+    let mut inputs: Vec<outputs::Named> = a
+        .baseline
+        .iter()
+        .map(|b| outputs::input_file("baseline", b))
+        .collect();
+    inputs.extend(
+        twintrace::perf::suite::input_files(suite)
+            .into_iter()
+            .map(|f| outputs::input_file("suite's file", &f)),
+    );
+    if let Some(save) = &a.save {
+        outputs::check(
+            &inputs,
+            &[outputs::output(format!("--save {}", save.display()), save)],
+        )?;
+    }
     let baseline = a.baseline.as_deref().map(read_runs).transpose()?;
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create `{}`", a.out.display()))?;
@@ -396,19 +423,32 @@ fn run_suite(a: &RunArgs) -> Result<()> {
     let stamp = result.date.replace(':', "-");
     let json = serde_json::to_string_pretty(&result).context("cannot encode the run")?;
     let json_path = a.out.join(format!("{stamp}.json"));
-    write_file(&json_path, json.as_bytes())?;
     let md = plot::markdown(&result);
     let md_path = a.out.join(format!("{stamp}.md"));
-    write_file(&md_path, md.as_bytes())?;
-    let mut plots = 0;
+    let mut files = vec![
+        (json_path.clone(), json.clone()),
+        (md_path.clone(), md.clone()),
+    ];
     for case in plot::cases(&result) {
         match plot::plot_case(&result, &case) {
-            Ok(svg) => {
-                write_file(&a.out.join(format!("{stamp}-{case}.svg")), svg.as_bytes())?;
-                plots += 1;
-            }
+            Ok(svg) => files.push((a.out.join(format!("{stamp}-{case}.svg")), svg)),
             Err(e) => eprintln!("perf: no plot: {e:#}"),
         }
+    }
+    let plots = files.len() - 2;
+    // Nothing is written unless every file can be: none may be an input
+    // or another of them.
+    let out_arg = format!("--out {}", a.out.display());
+    let mut written: Vec<outputs::Named> = files
+        .iter()
+        .map(|(path, _)| outputs::output(out_arg.clone(), path))
+        .collect();
+    if let Some(save) = &a.save {
+        written.push(outputs::output(format!("--save {}", save.display()), save));
+    }
+    outputs::check(&inputs, &written)?;
+    for (path, text) in &files {
+        write_file(path, text.as_bytes())?;
     }
     if let Some(save) = &a.save {
         if result.settings.injected_slowdown {

@@ -15,8 +15,9 @@
 //! is higher, so that its curve reaches the error the CPU's does and
 //! further.
 
-use crate::compare::gate::{RefSet, RefSpec, GATE_REFS, PERF_REFS};
+use crate::compare::gate::{workspace_root, RefSet, RefSpec, GATE_REFS, PERF_REFS};
 use anyhow::{anyhow, bail, Result};
+use std::path::PathBuf;
 
 /// Which suite.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -155,6 +156,31 @@ pub fn curves(suite: Suite) -> Result<Vec<CurveCase>> {
         }
     }
     Ok(out)
+}
+
+/// The files `suite` reads, as far as they are known before it runs: the
+/// manifests, each curve's reference EXR and provenance note, and the
+/// scene files of the curves and workloads (built-in scenes have none;
+/// what a scene file reads in turn is known once it is loaded). An output
+/// of `twintrace perf run` may not name one of them. A manifest that
+/// cannot be read lists what it can (the run then fails on it).
+pub fn input_files(suite: Suite) -> Vec<PathBuf> {
+    let root = workspace_root();
+    let mut files = vec![root.join(GATE_REFS.manifest)];
+    if suite == Suite::Full {
+        files.push(root.join(PERF_REFS.manifest));
+    }
+    for case in curves(suite).unwrap_or_default() {
+        let (exr, provenance) = case.set.paths(&case.spec.name);
+        files.extend([exr, provenance, root.join(&case.spec.scene)]);
+    }
+    for w in workloads(suite) {
+        if let Workload::Render { scene, .. } = w {
+            files.push(root.join(scene));
+        }
+    }
+    files.retain(|f| f.is_file());
+    files
 }
 
 /// The throughput workloads of `suite`.

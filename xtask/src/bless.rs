@@ -17,7 +17,7 @@
 //! `--spp N` also rewrites the spp column of the selected lines, so the
 //! manifest keeps describing the files (the image tests check that).
 
-use crate::util::run as sh;
+use crate::util::{refused, run as sh, write_atomic};
 use std::path::Path;
 use std::process::Command;
 use std::time::Instant;
@@ -191,6 +191,18 @@ pub fn run(args: &[String]) -> Result<(), String> {
         ));
     }
     lines.retain(|(_, l)| scenes.is_empty() || scenes.contains(&l.name));
+    // Two lines of one name would write one reference twice.
+    for (k, (i, l)) in lines.iter().enumerate() {
+        if let Some((j, _)) = lines[..k].iter().find(|(_, m)| m.name == l.name) {
+            return Err(refused(format!(
+                "{manifest}:{} and {manifest}:{}: both name the reference `{}` ({refs}/{}.exr); name them apart",
+                j + 1,
+                i + 1,
+                l.name,
+                l.name
+            )));
+        }
+    }
     if let Some(n) = spp {
         // Rewrite the spp column of the selected lines, keeping the rest of the file.
         let mut rows: Vec<String> = text.lines().map(String::from).collect();
@@ -198,8 +210,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
             l.spp = n.to_string();
             rows[*i] = replace_field(&rows[*i], 3, &l.spp);
         }
-        std::fs::write(manifest, rows.join("\n") + "\n")
-            .map_err(|e| format!("cannot write {manifest}: {e}"))?;
+        write_atomic(Path::new(manifest), (rows.join("\n") + "\n").as_bytes())?;
     }
     sh(
         "cargo",
@@ -256,7 +267,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
             date = capture("date", &["-u", "+%Y-%m-%dT%H:%M:%SZ"]),
         );
         let path = format!("{refs}/{}.provenance.txt", l.name);
-        std::fs::write(&path, note).map_err(|e| format!("cannot write {path}: {e}"))?;
+        write_atomic(Path::new(&path), note.as_bytes())?;
         eprintln!("xtask: blessed {out}.exr in {seconds:.1} s");
     }
     eprintln!(

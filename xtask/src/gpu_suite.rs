@@ -20,6 +20,7 @@
 //! docs/gates.md says how to run it on the GPU machine and records results.
 
 use crate::test::{embree_env, ensure_embree};
+use crate::util::{check_out_dir, replace_dir};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
@@ -64,7 +65,12 @@ pub fn run(args: &[String]) -> Result<(), String> {
         [flag, dir] if flag == "--out" => PathBuf::from(dir),
         _ => return Err("usage: cargo xtask gpu-suite [--out DIR]".into()),
     };
+    // Refused before the build as after it: a folder that is or holds what
+    // the pack is made from.
+    let fixtures = Path::new("fixtures");
+    check_out_dir("--out", &out, &[fixtures])?;
     let lib = ensure_embree()?;
+    check_out_dir("--out", &out, &[fixtures, &lib])?;
     let env = embree_env(&lib);
     let cargo_args = [
         "test",
@@ -96,31 +102,33 @@ pub fn run(args: &[String]) -> Result<(), String> {
     let cli = artifact_executable(&messages, "twintrace", false)
         .ok_or("cargo reported no executable for the binary `twintrace`")?;
 
-    let _ = std::fs::remove_dir_all(&out);
-    std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
-    let packed = out.join("integration");
-    for (from, to) in [(&binary, &packed), (&cli, &out.join("twintrace"))] {
-        copy(Path::new(from), to)?;
-        // Debug info makes a binary many times larger; the suite needs none
-        // (a panic still names the test and its message).
-        if !Command::new("strip")
-            .arg(to)
-            .status()
-            .is_ok_and(|s| s.success())
-        {
-            eprintln!(
-                "xtask: `strip` did not run; {} keeps its debug info",
-                to.display()
-            );
+    // The pack is made in a new folder that replaces DIR when complete.
+    let inputs = [fixtures, &lib, Path::new(&binary), Path::new(&cli)];
+    replace_dir("--out", &out, &inputs, |dir| {
+        let packed = dir.join("integration");
+        for (from, to) in [(&binary, &packed), (&cli, &dir.join("twintrace"))] {
+            copy(Path::new(from), to)?;
+            // Debug info makes a binary many times larger; the suite needs
+            // none (a panic still names the test and its message).
+            if !Command::new("strip")
+                .arg(to)
+                .status()
+                .is_ok_and(|s| s.success())
+            {
+                eprintln!(
+                    "xtask: `strip` did not run; {} keeps its debug info",
+                    to.display()
+                );
+            }
         }
-    }
-    copy_tree(Path::new("fixtures"), &out.join("fixtures"))?;
-    if needs_library(&packed, "libembree4") {
-        copy_tree(&lib, &out.join("lib"))?;
-    }
-    let runner = out.join("run.sh");
-    std::fs::write(&runner, RUNNER).map_err(|e| format!("{}: {e}", runner.display()))?;
-    make_executable(&runner)?;
+        copy_tree(fixtures, &dir.join("fixtures"))?;
+        if needs_library(&packed, "libembree4") {
+            copy_tree(&lib, &dir.join("lib"))?;
+        }
+        let runner = dir.join("run.sh");
+        std::fs::write(&runner, RUNNER).map_err(|e| format!("{}: {e}", runner.display()))?;
+        make_executable(&runner)
+    })?;
     eprintln!(
         "xtask: GPU suite in {} (run it there as `sh {}/run.sh`)",
         out.display(),

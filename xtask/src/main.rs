@@ -83,7 +83,13 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("xtask: {e}");
-            ExitCode::FAILURE
+            // A refusal of what was asked (an output that would overwrite
+            // an input) is a usage error.
+            if e.starts_with(util::REFUSED) {
+                ExitCode::from(2)
+            } else {
+                ExitCode::FAILURE
+            }
         }
     }
 }

@@ -19,7 +19,9 @@
 //! `twintrace diff`'s defaults.
 
 use crate::bless::{capture, parse, MANIFEST, PERF_MANIFEST, REFS};
-use crate::util::run as sh;
+use crate::util::{
+    check_out_dir, copy_atomic, refused, replace_dir, resolve, run as sh, write_atomic,
+};
 use std::path::{Path, PathBuf};
 
 const WHEELS: &str = "target/mitsuba-wheels";
@@ -100,13 +102,43 @@ fn pack(out: &Path, what: Pack) -> Result<(), String> {
     let root = crate::util::workspace_root();
     std::env::set_current_dir(&root)
         .map_err(|e| format!("cannot enter {}: {e}", root.display()))?;
+    let (fixtures, scripts, wheels) = (
+        Path::new("fixtures"),
+        Path::new("xtask/mitsuba"),
+        PathBuf::from(WHEELS),
+    );
+    let bin = Path::new("target/release/twintrace");
+    let inputs = [fixtures, scripts, &wheels, bin];
+    check_out_dir("--out", out, &inputs)?;
     sh(
         "cargo",
         &["build", "--release", "--quiet", "--bin", "twintrace"],
     )?;
-    if out.exists() {
-        std::fs::remove_dir_all(out).map_err(|e| format!("cannot clear {}: {e}", out.display()))?;
+    // The pack is made in a new folder that replaces DIR when complete.
+    let mut exported = 0;
+    replace_dir("--out", out, &inputs, |out| {
+        exported = fill(out, what, &wheels)?;
+        Ok(())
+    })?;
+    if what == Pack::Race {
+        eprintln!(
+            "xtask: the race packed into {}; on the GPU machine, with the perf suite beside it, run `sh {}/run.sh`",
+            out.display(),
+            out.display()
+        );
+    } else {
+        eprintln!(
+            "xtask: {exported} scene(s) packed into {}; on the GPU machine run `sh {}/run.sh`, then `cargo xtask mitsuba --import <its $OUT>`",
+            out.display(),
+            out.display()
+        );
     }
+    Ok(())
+}
+
+/// Writes the pack into the new folder `out`; returns how many scenes
+/// were exported.
+fn fill(out: &Path, what: Pack, wheels: &Path) -> Result<usize, String> {
     let scenes = out.join("scenes");
     std::fs::create_dir_all(&scenes)
         .map_err(|e| format!("cannot create {}: {e}", scenes.display()))?;
@@ -153,7 +185,6 @@ fn pack(out: &Path, what: Pack) -> Result<(), String> {
     if exported == 0 {
         return Err("no reference can be exported to Mitsuba".into());
     }
-    let wheels = PathBuf::from(WHEELS);
     if !wheels.join(MITSUBA_WHEEL).exists() {
         sh(
             "python3",
@@ -185,7 +216,7 @@ fn pack(out: &Path, what: Pack) -> Result<(), String> {
             &packed.join(MITSUBA_WHEEL).display().to_string(),
         ],
     )?;
-    let drjit = std::fs::read_dir(&wheels)
+    let drjit = std::fs::read_dir(wheels)
         .map_err(|e| format!("cannot list {WHEELS}: {e}"))?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .find(|p| {
@@ -202,12 +233,7 @@ fn pack(out: &Path, what: Pack) -> Result<(), String> {
         )?;
         std::fs::write(out.join("run.sh"), RACE_SH)
             .map_err(|e| format!("cannot write run.sh: {e}"))?;
-        eprintln!(
-            "xtask: the race packed into {}; on the GPU machine, with the perf suite beside it, run `sh {}/run.sh`",
-            out.display(),
-            out.display()
-        );
-        return Ok(());
+        return Ok(exported);
     }
     let run_sh = "#!/bin/sh\n\
         # Renders every exported scene with Mitsuba 3 (cuda_ad_rgb) into $OUT.\n\
@@ -221,12 +247,7 @@ fn pack(out: &Path, what: Pack) -> Result<(), String> {
         cp \"$here/gpu.txt\" \"$out/gpu.txt\"\n\
         PYTHONPATH=\"$py\" python3 \"$here/render.py\" \"$out\" \"$here\"/scenes/*\n";
     std::fs::write(out.join("run.sh"), run_sh).map_err(|e| format!("cannot write run.sh: {e}"))?;
-    eprintln!(
-        "xtask: {exported} scene(s) packed into {}; on the GPU machine run `sh {}/run.sh`, then `cargo xtask mitsuba --import <its $OUT>`",
-        out.display(),
-        out.display()
-    );
-    Ok(())
+    Ok(exported)
 }
 
 fn copy(from: &Path, to: &Path) -> Result<(), String> {
@@ -250,6 +271,13 @@ fn import(dir: &Path) -> Result<(), String> {
     std::env::set_current_dir(&root)
         .map_err(|e| format!("cannot enter {}: {e}", root.display()))?;
     let dest = Path::new(REFS).join("mitsuba");
+    if resolve(dir) == resolve(&dest) {
+        return Err(refused(format!(
+            "--import {}: it is where the renders are stored ({}); import from the folder run.sh wrote",
+            dir.display(),
+            dest.display()
+        )));
+    }
     std::fs::create_dir_all(&dest).map_err(|e| format!("cannot create {}: {e}", dest.display()))?;
     let gpu = std::fs::read_to_string(dir.join("gpu.txt")).unwrap_or_else(|_| "unknown".into());
     let revision = capture("git", &["rev-parse", "--short", "HEAD"]);
@@ -263,7 +291,9 @@ fn import(dir: &Path) -> Result<(), String> {
         let name = path.file_stem().unwrap().to_string_lossy().to_string();
         let info = std::fs::read_to_string(path.with_extension("json"))
             .map_err(|e| format!("{name}: no render.py report beside the EXR: {e}"))?;
-        copy(&path, &dest.join(format!("{name}.exr")))?;
+        // Each file whole or not at all: an interrupted import leaves the
+        // stored render it was replacing.
+        copy_atomic(&path, &dest.join(format!("{name}.exr")))?;
         let note = format!(
             "reference: {name} (independent check of fixtures/refs/{name}.exr)\n\
              renderer: {} (Dr.Jit {}), path integrator (emitter sampling with MIS)\n\
@@ -284,8 +314,10 @@ fn import(dir: &Path) -> Result<(), String> {
             json_field(&info, "render_s"),
             gpu.trim(),
         );
-        std::fs::write(dest.join(format!("{name}.provenance.txt")), note)
-            .map_err(|e| format!("cannot write provenance of {name}: {e}"))?;
+        write_atomic(
+            &dest.join(format!("{name}.provenance.txt")),
+            note.as_bytes(),
+        )?;
         eprintln!("xtask: imported {name}");
         imported += 1;
     }

@@ -15,7 +15,7 @@
 
 use crate::bless::capture;
 use crate::gpu_suite::{copy, copy_tree, make_executable};
-use crate::util::run as sh;
+use crate::util::{check_out_dir, refused, replace_dir, resolve, run as sh};
 use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -66,13 +66,21 @@ fn baseline(args: &[String]) -> Result<(), String> {
         .filter(|&n| n >= 3)
         .ok_or(format!("{usage} (N ≥ 3 runs)"))?;
     let file = args.get(1).ok_or(usage)?;
-    let mut saved = Vec::new();
-    for i in 0..n {
-        let path = format!("target/perf/baseline-run-{i}.json");
+    let saved: Vec<String> = (0..n)
+        .map(|i| format!("target/perf/baseline-run-{i}.json"))
+        .collect();
+    if let Some(run) = saved
+        .iter()
+        .find(|s| resolve(Path::new(s)) == resolve(Path::new(file)))
+    {
+        return Err(refused(format!(
+            "perf baseline {n} {file}: `{run}` is where one of the runs is saved; name another baseline file"
+        )));
+    }
+    for path in &saved {
         let mut a = args[2..].to_vec();
         a.extend(["--save".to_string(), path.clone()]);
         measure(&a)?;
-        saved.push(path);
     }
     let bin = build()?;
     let mut a: Vec<&str> = vec!["perf", "baseline", "-o", file];
@@ -121,25 +129,28 @@ fn measure(args: &[String]) -> Result<(), String> {
 }
 
 fn pack(dir: &str) -> Result<(), String> {
-    let bin = build()?;
     let out = Path::new(dir);
-    let _ = std::fs::remove_dir_all(out);
-    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
-    let packed = out.join("twintrace");
-    copy(&bin, &packed)?;
-    if !Command::new("strip")
-        .arg(&packed)
-        .status()
-        .is_ok_and(|s| s.success())
-    {
-        eprintln!("xtask: `strip` did not run; the binary keeps its debug info");
-    }
-    copy_tree(Path::new("fixtures"), &out.join("fixtures"))?;
-    std::fs::write(out.join("REVISION"), revision() + "\n")
-        .map_err(|e| format!("{}: {e}", out.display()))?;
-    let runner = out.join("run.sh");
-    std::fs::write(&runner, RUNNER).map_err(|e| format!("{}: {e}", runner.display()))?;
-    make_executable(&runner)?;
+    let fixtures = Path::new("fixtures");
+    check_out_dir("--pack", out, &[fixtures])?;
+    let bin = build()?;
+    // The pack is made in a new folder that replaces DIR when complete.
+    replace_dir("--pack", out, &[fixtures, &bin], |dir| {
+        let packed = dir.join("twintrace");
+        copy(&bin, &packed)?;
+        if !Command::new("strip")
+            .arg(&packed)
+            .status()
+            .is_ok_and(|s| s.success())
+        {
+            eprintln!("xtask: `strip` did not run; the binary keeps its debug info");
+        }
+        copy_tree(fixtures, &dir.join("fixtures"))?;
+        std::fs::write(dir.join("REVISION"), revision() + "\n")
+            .map_err(|e| format!("{}: {e}", dir.display()))?;
+        let runner = dir.join("run.sh");
+        std::fs::write(&runner, RUNNER).map_err(|e| format!("{}: {e}", runner.display()))?;
+        make_executable(&runner)
+    })?;
     eprintln!(
         "xtask: performance suite in {} (run it there as `sh {}/run.sh`; docs/benchmarks.md)",
         out.display(),

@@ -121,7 +121,17 @@ const MAX_VIEWLESS_ACCESSOR_BYTES: usize = 1 << 30;
 /// Texture coordinates: kept when any primitive has TEXCOORD_0; primitives
 /// without them get `(0, 0)`.
 pub fn load_gltf_mesh(path: &Path) -> Result<MeshInput, SceneError> {
+    load_gltf_mesh_reading(path, &mut Vec::new())
+}
+
+/// [`load_gltf_mesh`], adding the files it reads (the document and its
+/// external buffers) to `sources` ([`SceneBuilder::sources`]).
+pub fn load_gltf_mesh_reading(
+    path: &Path,
+    sources: &mut Vec<PathBuf>,
+) -> Result<MeshInput, SceneError> {
     let file = GltfFile::open(path)?;
+    sources.extend(file.files.iter().cloned());
     let mut parts: Vec<MeshInput> = Vec::new();
     let mut cache = MeshCache::default();
     for instance in instances(&file.document).map_err(|m| file.error(m))? {
@@ -210,6 +220,7 @@ fn import_scene(
     take_camera: bool,
 ) -> Result<ImportSummary, SceneError> {
     let file = GltfFile::open(path)?;
+    builder.sources.extend(file.files.iter().cloned());
     if !file.ignored_extensions.is_empty() {
         builder.warnings.push(format!(
             "{}: glTF extensions not supported, ignored: {}",
@@ -335,6 +346,8 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
 /// A parsed document with its buffers loaded.
 struct GltfFile {
     path: PathBuf,
+    /// The document and the files of its external buffers, as read.
+    files: Vec<PathBuf>,
     base: PathBuf,
     document: Document,
     buffers: Vec<BufferData>,
@@ -374,7 +387,11 @@ impl GltfFile {
         check_uris(&document).map_err(&fail)?;
         check_views(&document).map_err(&fail)?;
         let mut buffers = Vec::new();
+        let mut files = vec![path.to_path_buf()];
         for buffer in document.buffers() {
+            if let gltf::buffer::Source::Uri(uri) = buffer.source() {
+                files.extend(uri_file(&base, uri));
+            }
             let source = match buffer.source() {
                 gltf::buffer::Source::Bin => "the GLB binary chunk".to_string(),
                 gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => {
@@ -401,6 +418,7 @@ impl GltfFile {
         }
         Ok(Self {
             path: path.to_path_buf(),
+            files,
             base,
             document,
             buffers,
@@ -463,6 +481,12 @@ fn check_uris(document: &Document) -> Result<(), String> {
 }
 
 fn percent_decodes_to_utf8(uri: &str) -> bool {
+    percent_decode(uri).is_some()
+}
+
+/// `uri` with its `%XX` escapes decoded, if that is UTF-8 (as the `gltf`
+/// crate decodes a relative URI before reading it).
+fn percent_decode(uri: &str) -> Option<String> {
     let hex = |c: u8| (c as char).to_digit(16).map(|d| d as u8);
     let bytes = uri.as_bytes();
     let mut out = Vec::with_capacity(bytes.len());
@@ -481,7 +505,20 @@ fn percent_decodes_to_utf8(uri: &str) -> bool {
         out.push(bytes[i]);
         i += 1;
     }
-    String::from_utf8(out).is_ok()
+    String::from_utf8(out).ok()
+}
+
+/// The file a buffer or image URI names, as the `gltf` crate resolves it
+/// (a relative URI, percent-decoded, against `base`; `file:` as written);
+/// `None` for a `data:` URI or a scheme the crate does not read.
+fn uri_file(base: &Path, uri: &str) -> Option<PathBuf> {
+    if uri.contains(':') {
+        let rest = uri
+            .strip_prefix("file://")
+            .or_else(|| uri.strip_prefix("file:"))?;
+        return Some(PathBuf::from(rest));
+    }
+    percent_decode(uri).map(|p| base.join(p))
 }
 
 /// Every buffer view must lie inside its buffer (the image decoder slices
@@ -1603,6 +1640,9 @@ impl Importer<'_> {
             (None, _, Some(uri)) if uri.starts_with("data:") => "a data: URI".to_string(),
             (None, _, Some(uri)) => format!("`{}`", file.base.join(uri).display()),
         };
+        if let (None, Some(uri)) = (&json.buffer_view, &json.uri) {
+            builder.sources.extend(uri_file(&file.base, uri));
+        }
         let decoded =
             gltf::image::Data::from_source(image.source(), Some(&file.base), &file.buffers)
                 .map_err(|e| {
@@ -3127,5 +3167,75 @@ mod tests {
         // The default camera sees the triangle: it looks at its centre from +z.
         let c = scene.camera_settings();
         assert!((c.look_at - Vec3::new(0.5, 0.5, 0.0)).length() < 1e-6 && c.look_from.z > 1.0);
+    }
+
+    /// A scene's sources are every file its loaders read, each once: the
+    /// scene file, the glTF document, its external buffer (the URI
+    /// percent-decoded) and image, and a JSON texture; none for data:
+    /// URIs.
+    #[test]
+    fn a_scene_lists_the_files_it_was_read_from() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let mut png = Vec::new();
+        image::RgbImage::from_raw(1, 1, vec![9, 8, 7])
+            .unwrap()
+            .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+            .unwrap();
+        write(d, "albedo.png", &png);
+        write(d, "tri angle.bin", &unit_triangle());
+        let mut doc: serde_json::Value = serde_json::from_slice(&triangle_with_png(
+            png,
+            serde_json::json!({ "pbrMetallicRoughness": { "baseColorTexture": { "index": 0 } } }),
+        ))
+        .unwrap();
+        doc["buffers"] = serde_json::json!([{ "byteLength": 36, "uri": "tri%20angle.bin" }]);
+        doc["bufferViews"] = serde_json::json!([{ "buffer": 0, "byteLength": 36 }]);
+        doc["images"] = serde_json::json!([{ "uri": "albedo.png" }]);
+        let gltf = write(d, "doc.gltf", &serde_json::to_vec(&doc).unwrap());
+        let scene = load_gltf_document(&gltf).unwrap();
+        assert_eq!(
+            scene.sources(),
+            [gltf.clone(), d.join("tri angle.bin"), d.join("albedo.png")]
+        );
+        let mut read = Vec::new();
+        load_gltf_mesh_reading(&gltf, &mut read).unwrap();
+        assert_eq!(read, [gltf.clone(), d.join("tri angle.bin")]);
+        // A glTF of data: URIs reads only itself.
+        let inline = write(
+            d,
+            "inline.gltf",
+            &triangle_doc(serde_json::json!({ "mesh": 0 }), serde_json::Value::Null),
+        );
+        assert_eq!(
+            load_gltf_document(&inline).unwrap().sources(),
+            std::slice::from_ref(&inline)
+        );
+        // A JSON scene: itself, then what it reads in order, each once.
+        let json = write(
+            d,
+            "scene.json",
+            br#"{ "camera": { "look_from": [0, 0, 3], "look_at": [0, 0, 0] },
+                  "textures": { "t": { "type": "image", "path": "albedo.png" } },
+                  "materials": { "m": { "type": "lambertian", "albedo": "t" } },
+                  "objects": [ { "type": "mesh", "path": "doc.gltf", "material": "m" },
+                               { "type": "gltf", "path": "inline.gltf" },
+                               { "type": "mesh", "path": "doc.gltf", "material": "m" } ] }"#,
+        );
+        let scene = crate::loader::json::load_json_scene(&json).unwrap();
+        assert_eq!(
+            scene.sources(),
+            [
+                json,
+                d.join("albedo.png"),
+                gltf,
+                d.join("tri angle.bin"),
+                inline
+            ]
+        );
+        assert!(crate::builtin::load("cornell")
+            .unwrap()
+            .sources()
+            .is_empty());
     }
 }

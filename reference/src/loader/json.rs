@@ -436,7 +436,7 @@ pub fn load_json_scene(path: &Path) -> Result<Scene, SceneError> {
     })?;
     let doc = parse_scene_json(&text, path)?;
     let base = path.parent().unwrap_or(Path::new("."));
-    build_scene(&doc, base).map_err(|e| e.in_file(path))
+    build(&doc, base, vec![path.to_path_buf()]).map_err(|e| e.in_file(path))
 }
 
 impl TransformJson {
@@ -509,6 +509,7 @@ impl Resolver<'_> {
         if let Some(&id) = self.images.get(&(path.clone(), srgb)) {
             return Ok(id);
         }
+        self.builder.sources.push(path.clone());
         let img = load_image(&path, srgb)?;
         let id = self.builder.add_image(img);
         self.images.insert((path, srgb), id);
@@ -699,7 +700,10 @@ impl Resolver<'_> {
                 transform: t,
             }) => {
                 let m = self.material(material)?;
-                let mesh = crate::loader::gltf::load_gltf_mesh(&self.base.join(path))?;
+                let mesh = crate::loader::gltf::load_gltf_mesh_reading(
+                    &self.base.join(path),
+                    &mut self.builder.sources,
+                )?;
                 self.builder.add_mesh(&mesh, m, &transform(t)?)
             }
             ObjectJson::Gltf(GltfJson { path, transform: t }) => {
@@ -718,10 +722,18 @@ impl Resolver<'_> {
 
 /// Builds a parsed document; relative paths resolve against `base`.
 pub fn build_scene(doc: &SceneJson, base: &Path) -> Result<Scene, SceneError> {
+    build(doc, base, Vec::new())
+}
+
+/// [`build_scene`], the scene's sources starting with `sources` (the
+/// scene file, when there is one).
+fn build(doc: &SceneJson, base: &Path, sources: Vec<PathBuf>) -> Result<Scene, SceneError> {
+    let mut builder = SceneBuilder::new();
+    builder.sources = sources;
     let mut r = Resolver {
         doc,
         base,
-        builder: SceneBuilder::new(),
+        builder,
         textures: HashMap::new(),
         materials: HashMap::new(),
         images: HashMap::new(),
@@ -781,6 +793,7 @@ pub fn build_scene(doc: &SceneJson, base: &Path) -> Result<Scene, SceneError> {
         if let TextureJson::Image(ImageTextureJson { path, srgb }) = t {
             let full = base.join(path);
             if !r.images.contains_key(&(full.clone(), *srgb)) {
+                r.builder.sources.push(full.clone());
                 load_image(&full, *srgb).map_err(|e| {
                     SceneError::invalid(
                         &format!("textures.{name}.path"),

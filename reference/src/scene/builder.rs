@@ -14,6 +14,7 @@ use crate::shapes::{
 };
 use crate::texture::{ImageData, Texture};
 use glam::{Mat3, Vec2, Vec3, Vec4};
+use std::path::PathBuf;
 
 /// An indexed triangle mesh before placement.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -40,6 +41,10 @@ pub struct SceneBuilder {
     /// What the loaders ignored and the user should hear of (one line
     /// each), kept with the scene ([`Scene::warnings`]).
     pub warnings: Vec<String>,
+    /// The files the loaders read to make the scene (the scene file, its
+    /// meshes, glTF documents and buffers, images), as the loaders
+    /// named them; kept with the scene ([`Scene::sources`]).
+    pub sources: Vec<PathBuf>,
     spheres: Vec<Sphere>,
     quads: Vec<Quad>,
     triangles: Vec<Triangle>,
@@ -726,6 +731,13 @@ impl SceneBuilder {
             leaf_blocks: Vec::new(),
             quad_blocks: Vec::new(),
             warnings: self.warnings,
+            sources: {
+                let mut seen = std::collections::HashSet::new();
+                self.sources
+                    .into_iter()
+                    .filter(|p| seen.insert(p.clone()))
+                    .collect()
+            },
         };
         scene.put_bvh(bvh);
         Ok(scene)

@@ -34,6 +34,7 @@ use crate::texture::{evaluate_texture, ImageData, Texture};
 use glam::{Vec2, Vec3, Vec4};
 use leaf::{primitive_bounds, LeafBlock, LeafPrim, LeafTests, RayConstants};
 use std::f32::consts::PI;
+use std::path::PathBuf;
 
 /// A triangle hit's interpolated point, texture coordinates (both sets:
 /// the barycentrics where the mesh has no uvs, zero where it has no second
@@ -100,6 +101,8 @@ pub struct Scene {
     quad_blocks: Vec<Quads4>,
     /// What the loaders ignored ([`SceneBuilder::warnings`]).
     warnings: Vec<String>,
+    /// The files the scene was read from ([`SceneBuilder::sources`]).
+    sources: Vec<PathBuf>,
 }
 
 /// A 64-bit FNV-1a hash over 32-bit words (and the bytes of text):
@@ -182,6 +185,16 @@ impl Scene {
     /// does not require).
     pub fn warnings(&self) -> &[String] {
         &self.warnings
+    }
+
+    /// The files the loaders read to make the scene, each once, as they
+    /// named them (relative paths joined to the folder of the file that
+    /// names them): the scene file, its glTF documents and their external
+    /// buffers and images, meshes and image textures. Empty for a
+    /// built-in scene. A command that writes files refuses an output
+    /// naming one of them.
+    pub fn sources(&self) -> &[PathBuf] {
+        &self.sources
     }
 
     /// The camera for an image of `width x height`.
