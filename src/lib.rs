@@ -20,7 +20,9 @@
 //!   perf`): error against time, throughput, baselines and plots;
 //! - [`twins`]: the kernel-level twin checks (random numbers, float steps,
 //!   hit records, surface interactions), run by the GPU tests and by
-//!   `twintrace selftest`.
+//!   `twintrace selftest`;
+//! - [`view`]: the interactive viewer's state (camera controls, events,
+//!   paced frames of a progressive render), apart from any window.
 
 pub mod compare;
 pub mod exr_write;
@@ -33,6 +35,7 @@ pub mod selftest;
 pub mod stats;
 pub mod tonemap;
 pub mod twins;
+pub mod view;
 
 pub use image_io::{read_exr, write_exr, write_png, OutputPaths, RenderImage, RenderMetadata};
 pub use tonemap::Tonemap;

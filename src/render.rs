@@ -134,6 +134,13 @@ pub trait Progressive {
         Vec::new()
     }
 
+    /// The one GPU renderer whose device holds the film, where the render
+    /// runs on one GPU: what draws the film straight from the device (the
+    /// viewer's display).
+    fn gpu_renderer(&self) -> Option<&gpu::GpuRenderer<'_>> {
+        None
+    }
+
     /// Samples a pixel the film holds.
     fn samples(&self) -> u64 {
         self.ranges().iter().map(|r| (r.end - r.start) as u64).sum()
@@ -353,6 +360,10 @@ fn increments(progress: &(dyn Fn(u64) + Sync)) -> impl Fn(u64, u64) + Sync + '_ 
 }
 
 impl Progressive for GpuProgressive<'_> {
+    fn gpu_renderer(&self) -> Option<&gpu::GpuRenderer<'_>> {
+        Some(&self.renderer)
+    }
+
     fn device(&self) -> String {
         let ctx = self.renderer.context();
         format!("gpu `{}` ({})", ctx.adapter.name, ctx.adapter.backend)

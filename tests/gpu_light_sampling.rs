@@ -44,6 +44,7 @@ fn gpu_estimate(
         seed: 43,
         max_depth: 2,
         roulette_depth: 100,
+        camera: None,
     };
     let packed = gpu::scene_buffers::PackedScene::new(scene);
     let film = gpu::GpuRenderer::with_program(common::gpu(), &packed, scene, program, integrator)

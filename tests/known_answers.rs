@@ -32,6 +32,7 @@ fn centre_and_corner(
         max_depth: 64,
         roulette_depth: 1000,
         seed: 3,
+        camera: None,
     };
     let film = reference::render(&scene, &settings, &|_| {});
     (
@@ -108,6 +109,7 @@ fn russian_roulette_keeps_the_expectation() {
         max_depth: 64,
         roulette_depth: 1,
         seed: 1,
+        camera: None,
     };
     let film = reference::render(&scene, &settings, &|_| {});
     let p = film.pixel(2, 2);

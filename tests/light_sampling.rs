@@ -345,6 +345,7 @@ fn one_pixel_estimate(
         seed,
         max_depth: 2,
         roulette_depth: 100,
+        camera: None,
     };
     let go = || render_with(scene, &st, integrator, &|_| {});
     let film = if mutant == Mutant::None {

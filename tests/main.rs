@@ -50,3 +50,4 @@ mod gpu_split_render;
 mod gpu_surface_match_reference;
 mod gpu_traversal;
 mod gpu_wavefront;
+mod view;

@@ -144,6 +144,7 @@ fn render_scaled(scale: f32, albedo: f32, seed: u32) -> reference::Film {
         max_depth: 8,
         seed,
         roulette_depth: 3,
+        camera: None,
     };
     let film = reference::render(&scene, &settings, &|_| {});
     assert_eq!(
@@ -236,6 +237,7 @@ fn render_far(scene: &Scene, spp: u32, seed: u32) -> twintrace::compare::image::
         max_depth: 12,
         seed,
         roulette_depth: 3,
+        camera: None,
     };
     let film = reference::render(scene, &settings, &|_| {});
     assert_eq!(film.nonfinite_samples(), 0, "NaN/Inf samples");

@@ -444,7 +444,7 @@ impl<'a> GpuRenderer<'a> {
 
     /// Per-dispatch parameters for `settings` (sample range filled later).
     pub fn params(&self, settings: &RenderSettings) -> GpuParams {
-        let cam = self.scene.camera(settings.width, settings.height);
+        let cam = settings.camera(self.scene);
         let mut p = GpuParams {
             width: settings.width,
             height: settings.height,

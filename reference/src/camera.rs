@@ -1,5 +1,6 @@
 //! The thin-lens camera of Ray Tracing in One Weekend.
 
+use crate::error::SceneError;
 use crate::geometry::Ray;
 use crate::sampling::sample_unit_disk;
 use glam::{Vec2, Vec3};
@@ -28,6 +29,61 @@ impl Default for CameraSettings {
             aperture: 0.0,
             focus_distance: 1.0,
         }
+    }
+}
+
+impl CameraSettings {
+    /// Checks the camera: finite positions, an eye apart from the target,
+    /// an up vector not along the view, a field of view strictly between
+    /// 0 and 180 degrees, a finite non-negative aperture and a finite
+    /// positive focus distance. The error names the field (`camera.*`).
+    pub fn validate(&self) -> Result<(), SceneError> {
+        for (f, v) in [
+            ("camera.look_from", self.look_from),
+            ("camera.look_at", self.look_at),
+            ("camera.up", self.up),
+        ] {
+            if !v.is_finite() {
+                return Err(SceneError::invalid(f, format!("{v} is not finite")));
+            }
+        }
+        let view = self.look_at - self.look_from;
+        if view.length_squared() == 0.0 {
+            return Err(SceneError::invalid(
+                "camera.look_at",
+                "look_at equals look_from".into(),
+            ));
+        }
+        if view
+            .normalize()
+            .cross(self.up.normalize_or_zero())
+            .length_squared()
+            < 1e-12
+        {
+            return Err(SceneError::invalid(
+                "camera.up",
+                "up is zero or parallel to the view direction".into(),
+            ));
+        }
+        if !(self.vfov > 0.0 && self.vfov < 180.0) {
+            return Err(SceneError::invalid(
+                "camera.vfov",
+                format!("{} must lie strictly between 0 and 180 degrees", self.vfov),
+            ));
+        }
+        if !(self.aperture.is_finite() && self.aperture >= 0.0) {
+            return Err(SceneError::invalid(
+                "camera.aperture",
+                format!("{} must be finite and non-negative", self.aperture),
+            ));
+        }
+        if !(self.focus_distance.is_finite() && self.focus_distance > 0.0) {
+            return Err(SceneError::invalid(
+                "camera.focus_distance",
+                format!("{} must be finite and positive", self.focus_distance),
+            ));
+        }
+        Ok(())
     }
 }
 

@@ -363,7 +363,7 @@ pub fn render_samples(
         Integrator::Mis => LightSet::new(scene),
         Integrator::Bsdf => LightSet::default(),
     };
-    let camera = scene.camera(settings.width, settings.height);
+    let camera = settings.camera(scene);
     let (w, h) = (settings.width, settings.height);
     let tiles_x = w.div_ceil(TILE_SIZE);
     let tiles_y = h.div_ceil(TILE_SIZE);

@@ -27,6 +27,7 @@ pub mod outputs;
 pub mod perf;
 pub mod selftest;
 pub mod spec;
+pub mod view;
 
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Parser, Subcommand, ValueEnum};
@@ -65,6 +66,8 @@ pub enum Command {
     ExportMitsuba(export::ExportArgs),
     /// Measure run time against error (relMSE against stored references), paths/s and rays/s; compare with a baseline.
     Perf(perf::PerfArgs),
+    /// Look at a scene live: a window that renders progressively on the GPU while you move the camera and change settings (--headless: the same frames without a window, written to --out).
+    View(view::ViewArgs),
 }
 
 /// Which renderer runs the paths.
@@ -196,6 +199,7 @@ pub fn run(cli: Cli) -> Result<()> {
         },
         Command::ExportMitsuba(args) => export::run(&args),
         Command::Perf(args) => perf::run(&args),
+        Command::View(args) => view::view(&args),
     }
 }
 

@@ -107,6 +107,7 @@ fn settings(
         max_depth,
         seed,
         roulette_depth: if roulette { 3 } else { max_depth + 1 },
+        camera: None,
     }
 }
 

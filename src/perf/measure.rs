@@ -183,7 +183,7 @@ impl<'a> Prepared<'a> {
 /// Re-traces every [`INJECTED_STRIDE`]th path of a render (the injected
 /// slowdown), discarding the radiance.
 fn retrace_share(scene: &Scene, settings: &RenderSettings) {
-    let camera = scene.camera(settings.width, settings.height);
+    let camera = settings.camera(scene);
     let spp = settings.spp as u64;
     (0..settings.width * settings.height)
         .into_par_iter()

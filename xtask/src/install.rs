@@ -1,5 +1,7 @@
 //! Installing what the GPU tests need: a Vulkan loader and a driver. On a
 //! machine without a GPU that driver is Mesa's lavapipe (software Vulkan).
+//! The viewer's window test needs a virtual X display (Xvfb) and the X
+//! client libraries winit opens.
 //! The GPU tests never skip, so a machine where this cannot be installed
 //! fails here with the reason.
 
@@ -70,5 +72,59 @@ pub fn ensure_valgrind() -> Result<(), String> {
         Ok(())
     } else {
         Err("installed valgrind but `valgrind --version` still fails".into())
+    }
+}
+
+/// The X client libraries winit loads for a window (libX11, libXcursor,
+/// libXrandr, libXi, libxkbcommon-x11), as their Debian packages.
+const X_LIBRARIES: &[(&str, &str)] = &[
+    ("libX11-xcb.so.1", "libx11-xcb1"),
+    ("libXcursor.so.1", "libxcursor1"),
+    ("libXrandr.so.2", "libxrandr2"),
+    ("libXi.so.6", "libxi6"),
+    ("libxkbcommon-x11.so.0", "libxkbcommon-x11-0"),
+];
+
+fn has_library(name: &str) -> bool {
+    [
+        "/usr/lib/x86_64-linux-gnu",
+        "/usr/lib/aarch64-linux-gnu",
+        "/usr/lib64",
+        "/usr/lib",
+    ]
+    .iter()
+    .any(|d| Path::new(d).join(name).exists())
+}
+
+/// Makes sure Xvfb and the X client libraries are installed: the
+/// viewer's window test (tests/view.rs) opens its window on a virtual
+/// display, as a headless CI machine has no other.
+pub fn ensure_xvfb() -> Result<(), String> {
+    let xvfb = || {
+        ["/usr/bin/Xvfb", "/usr/local/bin/Xvfb"]
+            .iter()
+            .any(|p| Path::new(p).exists())
+    };
+    let missing: Vec<&str> = X_LIBRARIES
+        .iter()
+        .filter(|(lib, _)| !has_library(lib))
+        .map(|(_, package)| *package)
+        .chain((!xvfb()).then_some("xvfb"))
+        .collect();
+    if missing.is_empty() {
+        return Ok(());
+    }
+    eprintln!(
+        "xtask: installing {} (the viewer's window test runs on a virtual X display)",
+        missing.join(", ")
+    );
+    apt_install(&missing)?;
+    if xvfb() && X_LIBRARIES.iter().all(|(lib, _)| has_library(lib)) {
+        Ok(())
+    } else {
+        Err(format!(
+            "installed {} but Xvfb or an X library is still missing",
+            missing.join(", ")
+        ))
     }
 }

@@ -66,6 +66,7 @@ fn main() -> ExitCode {
     let result = match args.first().map(String::as_str) {
         Some("test") => install::ensure_vulkan()
             .and_then(|()| install::ensure_valgrind())
+            .and_then(|()| install::ensure_xvfb())
             .and_then(|()| test::run(&args[1..])),
         Some("gpu-suite") => gpu_suite::run(&args[1..]),
         Some("codegen") => codegen::run_codegen(),

@@ -96,6 +96,23 @@ pub struct CameraJson {
     pub focus_distance: Option<f32>,
 }
 
+impl CameraJson {
+    /// The camera it describes (the focus distance, where not given, the
+    /// distance from `look_from` to `look_at`); unchecked:
+    /// `CameraSettings::validate` checks it.
+    pub fn settings(&self) -> CameraSettings {
+        let (from, at) = (Vec3::from(self.look_from), Vec3::from(self.look_at));
+        CameraSettings {
+            look_from: from,
+            look_at: at,
+            up: Vec3::from(self.up),
+            vfov: self.vfov,
+            aperture: self.aperture,
+            focus_distance: self.focus_distance.unwrap_or((at - from).length()),
+        }
+    }
+}
+
 fn default_up() -> [f32; 3] {
     [0.0, 1.0, 0.0]
 }
@@ -747,17 +764,10 @@ fn build(doc: &SceneJson, base: &Path, sources: Vec<PathBuf>) -> Result<Scene, S
         max_depth: rj.max_depth.unwrap_or(defaults.max_depth),
         seed: rj.seed.unwrap_or(defaults.seed),
         roulette_depth: rj.roulette_depth.unwrap_or(defaults.roulette_depth),
+        camera: None,
     };
     if let Some(c) = &doc.camera {
-        let (from, at) = (Vec3::from(c.look_from), Vec3::from(c.look_at));
-        r.builder.camera = CameraSettings {
-            look_from: from,
-            look_at: at,
-            up: Vec3::from(c.up),
-            vfov: c.vfov,
-            aperture: c.aperture,
-            focus_distance: c.focus_distance.unwrap_or((at - from).length()),
-        };
+        r.builder.camera = c.settings();
     }
     r.builder.background = Some(match &doc.background {
         None => Background::Solid(Vec3::ZERO),

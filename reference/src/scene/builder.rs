@@ -279,50 +279,7 @@ fn check_view(
     images: usize,
 ) -> Result<(), SceneError> {
     render.validate()?;
-    let c = camera;
-    for (f, v) in [
-        ("camera.look_from", c.look_from),
-        ("camera.look_at", c.look_at),
-        ("camera.up", c.up),
-    ] {
-        check_finite_vec(f, v)?;
-    }
-    let view = c.look_at - c.look_from;
-    if view.length_squared() == 0.0 {
-        return Err(SceneError::invalid(
-            "camera.look_at",
-            "look_at equals look_from".into(),
-        ));
-    }
-    if view
-        .normalize()
-        .cross(c.up.normalize_or_zero())
-        .length_squared()
-        < 1e-12
-    {
-        return Err(SceneError::invalid(
-            "camera.up",
-            "up is zero or parallel to the view direction".into(),
-        ));
-    }
-    if !(c.vfov > 0.0 && c.vfov < 180.0) {
-        return Err(SceneError::invalid(
-            "camera.vfov",
-            format!("{} must lie strictly between 0 and 180 degrees", c.vfov),
-        ));
-    }
-    if !(c.aperture.is_finite() && c.aperture >= 0.0) {
-        return Err(SceneError::invalid(
-            "camera.aperture",
-            format!("{} must be finite and non-negative", c.aperture),
-        ));
-    }
-    if !(c.focus_distance.is_finite() && c.focus_distance > 0.0) {
-        return Err(SceneError::invalid(
-            "camera.focus_distance",
-            format!("{} must be finite and positive", c.focus_distance),
-        ));
-    }
+    camera.validate()?;
     match *background {
         Background::Solid(col) => check_colour("background.color", col)?,
         Background::Sky { horizon, zenith } => {

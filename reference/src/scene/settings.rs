@@ -1,9 +1,11 @@
 //! Render settings and the limits that keep a render's size sane.
 
+use crate::camera::{Camera, CameraSettings};
 use crate::error::SceneError;
+use crate::scene::Scene;
 
 /// Render parameters a scene proposes; the command line overrides them.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderSettings {
     pub width: u32,
     pub height: u32,
@@ -12,6 +14,9 @@ pub struct RenderSettings {
     pub seed: u32,
     /// Path vertex index from which Russian roulette may end paths.
     pub roulette_depth: u32,
+    /// The camera, where it is not the scene's own (the viewer's moved
+    /// camera, a saved view's).
+    pub camera: Option<CameraSettings>,
 }
 
 impl Default for RenderSettings {
@@ -23,6 +28,7 @@ impl Default for RenderSettings {
             max_depth: 16,
             seed: 0,
             roulette_depth: 3,
+            camera: None,
         }
     }
 }
@@ -40,8 +46,25 @@ pub const MAX_SPP: u32 = 1 << 24;
 pub const MAX_DEPTH: u32 = 1024;
 
 impl RenderSettings {
+    /// The camera the render sees `scene` from: this one's, else the
+    /// scene's.
+    pub fn camera_settings(&self, scene: &Scene) -> CameraSettings {
+        self.camera.unwrap_or(scene.camera_settings())
+    }
+
+    /// [`Self::camera_settings`] ready for an image of this size.
+    pub fn camera(&self, scene: &Scene) -> Camera {
+        Camera::new(
+            &self.camera_settings(scene),
+            self.width as f32 / self.height as f32,
+        )
+    }
+
     /// Checks the parameters; the error names the offending field.
     pub fn validate(&self) -> Result<(), SceneError> {
+        if let Some(camera) = &self.camera {
+            camera.validate()?;
+        }
         let bad = |field: &str, msg: String| Err(SceneError::invalid(field, msg));
         if self.width == 0
             || self.height == 0

@@ -1,0 +1,481 @@
+//! `twintrace view`: the viewer's film is a render's film. Its frames add
+//! sample ranges `0..spp` to a progressive render, so after any frames
+//! and any camera the film equals, bit for bit, a `render` of the same
+//! samples from the same camera: headless on the CPU and on the GPU
+//! (lavapipe), and in a window on a virtual X display (Xvfb). A camera
+//! the viewer sets renders as the same camera written in the scene file.
+
+use crate::common;
+use reference::camera::CameraSettings;
+use reference::integrator::Integrator;
+use reference::RenderSettings;
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use twintrace::render::{Devices, GpuProgressive, Progressive, RenderSpec};
+use twintrace::view::{Event, Pace, View};
+
+fn run(args: &[&str], env: &[(&str, &str)]) -> (bool, String, String) {
+    let out = Command::new(common::twintrace_bin())
+        .args(args)
+        .envs(env.iter().copied())
+        .stdin(Stdio::null())
+        .output()
+        .expect("the binary runs");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// The layers of two EXRs are the same bits.
+fn assert_same_film(a: &Path, b: &Path) {
+    let (a_img, b_img) = (
+        twintrace::read_exr(a).unwrap(),
+        twintrace::read_exr(b).unwrap(),
+    );
+    assert_eq!((a_img.width, a_img.height), (b_img.width, b_img.height));
+    let bits = |v: &[glam::Vec3]| -> Vec<[u32; 3]> {
+        v.iter().map(|p| p.to_array().map(f32::to_bits)).collect()
+    };
+    assert!(
+        bits(&a_img.mean) == bits(&b_img.mean),
+        "{a:?} and {b:?}: the means differ"
+    );
+    assert!(
+        bits(a_img.variance.as_deref().unwrap()) == bits(b_img.variance.as_deref().unwrap()),
+        "the variances differ"
+    );
+    assert!(
+        bits(a_img.skewness.as_deref().unwrap()) == bits(b_img.skewness.as_deref().unwrap()),
+        "the skewnesses differ"
+    );
+}
+
+#[test]
+fn a_headless_view_writes_the_film_a_render_of_its_samples_writes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = |n: &str| dir.path().join(n).to_string_lossy().into_owned();
+    for backend in ["cpu", "gpu"] {
+        let out = d(&format!("view-{backend}"));
+        let (ok, stdout, stderr) = run(
+            &[
+                "view",
+                "cornell",
+                "--headless",
+                "--backend",
+                backend,
+                "--size",
+                "20x14",
+                "--frames",
+                "5",
+                "--spp-per-frame",
+                "3",
+                "--out",
+                &out,
+            ],
+            &[],
+        );
+        assert!(ok, "{backend}: {stderr}");
+        assert!(stdout.contains("15 spp"), "{stdout}");
+        let render = d(&format!("render-{backend}"));
+        let (ok, _, stderr) = run(
+            &[
+                "render",
+                "cornell",
+                "--backend",
+                backend,
+                "--size",
+                "20x14",
+                "--spp",
+                "15",
+                "-o",
+                &render,
+            ],
+            &[],
+        );
+        assert!(ok, "{stderr}");
+        assert_same_film(
+            &Path::new(&out).join("view.exr"),
+            Path::new(&format!("{render}.exr")),
+        );
+    }
+}
+
+#[test]
+fn a_camera_path_renders_each_camera_into_its_own_film() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("path.json");
+    // The first camera is cornell's own; the second looks from the side.
+    let scene = reference::load_scene("cornell").unwrap();
+    let c = scene.camera_settings();
+    let json = serde_json::json!([
+        {
+            "look_from": c.look_from.to_array(),
+            "look_at": c.look_at.to_array(),
+            "up": c.up.to_array(),
+            "vfov": c.vfov,
+            "aperture": c.aperture,
+            "focus_distance": c.focus_distance,
+        },
+        {"look_from": [0.9, 0.5, 2.5], "look_at": [0.5, 0.5, 0.5], "vfov": 50},
+    ])
+    .to_string();
+    std::fs::write(&path, json).unwrap();
+    let out = dir.path().join("frames");
+    let (ok, stdout, stderr) = run(
+        &[
+            "view",
+            "cornell",
+            "--headless",
+            "--backend",
+            "cpu",
+            "--size",
+            "16x12",
+            "--frames",
+            "2",
+            "--spp-per-frame",
+            "2",
+            "--camera-path",
+            path.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        &[],
+    );
+    assert!(ok, "{stderr}");
+    assert_eq!(
+        stdout.matches(" 4 spp ").count(),
+        2,
+        "each camera starts an empty film: {stdout}"
+    );
+    let render = dir.path().join("render");
+    let (ok, _, stderr) = run(
+        &[
+            "render",
+            "cornell",
+            "--backend",
+            "cpu",
+            "--size",
+            "16x12",
+            "--spp",
+            "4",
+            "-o",
+            render.to_str().unwrap(),
+        ],
+        &[],
+    );
+    assert!(ok, "{stderr}");
+    assert_same_film(&out.join("view-0000.exr"), &dir.path().join("render.exr"));
+    let a = twintrace::read_exr(&out.join("view-0000.exr")).unwrap();
+    let b = twintrace::read_exr(&out.join("view-0001.exr")).unwrap();
+    assert_ne!(a.mean, b.mean, "the second camera sees another image");
+}
+
+#[test]
+fn a_bad_camera_path_or_a_headless_view_without_out_is_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("path.json");
+    std::fs::write(&path, r#"[{"look_from": [0, 0, 1], "look_at": [0, 0, 1]}]"#).unwrap();
+    let out = dir.path().join("o");
+    for (args, want) in [
+        (
+            vec![
+                "view",
+                "cornell",
+                "--headless",
+                "--camera-path",
+                path.to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+            ],
+            "camera 0",
+        ),
+        (vec!["view", "cornell", "--headless"], "--out"),
+        (
+            vec![
+                "view",
+                "cornell",
+                "--headless",
+                "--frames",
+                "0",
+                "--out",
+                out.to_str().unwrap(),
+            ],
+            "--frames 0",
+        ),
+    ] {
+        let (ok, _, stderr) = run(&args, &[]);
+        assert!(!ok, "{args:?} was accepted");
+        assert_eq!(stderr.trim().lines().count(), 1, "{args:?}: {stderr}");
+        assert!(stderr.contains(want), "{args:?}: {stderr}");
+    }
+}
+
+#[test]
+fn without_a_display_the_window_fails_in_one_line() {
+    let (ok, _, stderr) = run(
+        &["view", "cornell", "--size", "16x12", "--frames", "1"],
+        &[("DISPLAY", ""), ("WAYLAND_DISPLAY", "")],
+    );
+    assert!(!ok);
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("--headless"), "{stderr}");
+}
+
+#[test]
+fn a_moved_camera_renders_as_the_same_camera_written_in_the_scene() {
+    let ctx = common::gpu();
+    let dir = tempfile::tempdir().unwrap();
+    let fixture =
+        twintrace::compare::gate::workspace_root().join("fixtures/scenes/cornell-spheres.json");
+    let scene = reference::load_scene(fixture.to_str().unwrap()).unwrap();
+    let settings = RenderSettings {
+        width: 12,
+        height: 10,
+        spp: 6,
+        ..scene.render_settings()
+    };
+    let spec = RenderSpec::DEFAULT.with_integrator(Integrator::Mis);
+    let mut view = View::open(Devices::Gpu(ctx), &scene, spec, settings, Pace::Fixed(2)).unwrap();
+    for e in [
+        Event::Orbit {
+            yaw: 0.4,
+            pitch: 0.2,
+        },
+        Event::Zoom { factor: 0.8 },
+        Event::Pan {
+            dx: 0.05,
+            dy: -0.02,
+        },
+        Event::Fov(33.0),
+    ] {
+        view.apply(e).unwrap();
+    }
+    for _ in 0..3 {
+        view.frame().unwrap();
+    }
+    assert_eq!(view.spp(), 6);
+    let moved: CameraSettings = view.camera().settings();
+    let viewed = view.render().sums().unwrap();
+    // The same camera in a scene file of the same scene.
+    // The scene names no other files, so its copy loads from anywhere.
+    let file = dir.path().join("moved.json");
+    let text = std::fs::read_to_string(&fixture).unwrap();
+    let mut doc: serde_json::Value = serde_json::from_str(&text).unwrap();
+    doc["camera"] = serde_json::json!({
+        "look_from": moved.look_from.to_array(),
+        "look_at": moved.look_at.to_array(),
+        "up": moved.up.to_array(),
+        "vfov": moved.vfov,
+        "aperture": moved.aperture,
+        "focus_distance": moved.focus_distance,
+    });
+    std::fs::write(&file, doc.to_string()).unwrap();
+    let written = reference::load_scene(file.to_str().unwrap()).unwrap();
+    let mut p = GpuProgressive::new(ctx, &written, &spec, settings).unwrap();
+    p.add(0..6, &|_| {}).unwrap();
+    assert_eq!(
+        p.sums().unwrap(),
+        viewed,
+        "the viewer's camera and the file's differ"
+    );
+    // The CPU reference takes the camera the same way.
+    let cpu = reference::integrator::render_samples(
+        &scene,
+        &RenderSettings {
+            camera: Some(moved),
+            ..settings
+        },
+        Integrator::Mis,
+        0..6,
+        &|_| {},
+    );
+    let file_cpu =
+        reference::integrator::render_samples(&written, &settings, Integrator::Mis, 0..6, &|_| {});
+    assert_eq!(cpu, file_cpu);
+    // And the moved camera is not the scene's.
+    let mut own = GpuProgressive::new(ctx, &scene, &spec, settings).unwrap();
+    own.add(0..6, &|_| {}).unwrap();
+    assert_ne!(own.sums().unwrap(), viewed);
+}
+
+#[test]
+fn a_change_empties_the_film_and_a_change_to_what_is_so_keeps_it() {
+    let scene = reference::load_scene("cornell").unwrap();
+    let settings = RenderSettings {
+        width: 8,
+        height: 6,
+        ..scene.render_settings()
+    };
+    let mut view = View::open(
+        Devices::Cpu(None),
+        &scene,
+        RenderSpec::DEFAULT,
+        settings,
+        Pace::Fixed(1),
+    )
+    .unwrap();
+    view.frame().unwrap();
+    view.frame().unwrap();
+    assert_eq!(view.spp(), 2);
+    view.apply(Event::MaxDepth(settings.max_depth)).unwrap();
+    view.apply(Event::Fov(view.camera().vfov)).unwrap();
+    assert_eq!(view.spp(), 2, "no change, no new film");
+    view.apply(Event::MaxDepth(3)).unwrap();
+    assert_eq!(view.spp(), 0);
+    view.frame().unwrap();
+    view.apply(Event::Integrator(Integrator::Bsdf)).unwrap();
+    assert_eq!(view.spp(), 0);
+    // A refused setting leaves the view as it was.
+    view.frame().unwrap();
+    assert!(view.apply(Event::MaxDepth(0)).is_err());
+    assert_eq!((view.spp(), view.settings().max_depth), (1, 3));
+}
+
+/// A virtual X display for the window test: Xvfb on a free display
+/// number (CI installs it: `cargo xtask test`).
+struct Xvfb {
+    child: Child,
+    display: String,
+}
+
+impl Xvfb {
+    fn start() -> Xvfb {
+        for n in 90..140 {
+            if Path::new(&format!("/tmp/.X11-unix/X{n}")).exists() {
+                continue;
+            }
+            let display = format!(":{n}");
+            let mut child = Command::new("Xvfb")
+                .args([
+                    display.as_str(),
+                    "-screen",
+                    "0",
+                    "1024x768x24",
+                    "-nolisten",
+                    "tcp",
+                ])
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .spawn()
+                .expect("Xvfb runs (`cargo xtask test` installs it: apt package xvfb)");
+            for _ in 0..100 {
+                if Path::new(&format!("/tmp/.X11-unix/X{n}")).exists() {
+                    return Xvfb { child, display };
+                }
+                std::thread::sleep(std::time::Duration::from_millis(50));
+            }
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("Xvfb did not start on {display}");
+        }
+        panic!("no free X display number in 90..140");
+    }
+}
+
+impl Drop for Xvfb {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+#[test]
+fn the_window_shows_frames_and_leaves_the_film_a_render_of_its_samples_gives() {
+    // In compare mode: the CPU twin renders beside it, and the GPU's film
+    // is still the render's.
+    let x = Xvfb::start();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("win");
+    let (ok, stdout, stderr) = run(
+        &[
+            "view",
+            "cornell",
+            "--backend",
+            "gpu",
+            "--size",
+            "24x16",
+            "--frames",
+            "6",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        &[("DISPLAY", &x.display), ("WAYLAND_DISPLAY", "")],
+    );
+    assert!(ok, "{stderr}");
+    // "viewed 6 frames on ...: N spp at the close"
+    let spp: u32 = stdout
+        .split(": ")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no spp in {stdout}"));
+    assert!(stdout.starts_with("viewed 6 frames"), "{stdout}");
+    assert!(spp >= 6, "{stdout}");
+    let render = dir.path().join("render");
+    let (ok, _, stderr) = run(
+        &[
+            "render",
+            "cornell",
+            "--backend",
+            "gpu",
+            "--size",
+            "24x16",
+            "--spp",
+            &spp.to_string(),
+            "-o",
+            render.to_str().unwrap(),
+        ],
+        &[],
+    );
+    assert!(ok, "{stderr}");
+    assert_same_film(&out.join("view.exr"), &dir.path().join("render.exr"));
+}
+
+#[test]
+fn the_compare_verdict_passes_the_twins_and_fails_a_film_a_tenth_too_bright() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("cmp");
+    let (ok, stdout, stderr) = run(
+        &[
+            "view",
+            "cornell",
+            "--headless",
+            "--backend",
+            "gpu",
+            "--size",
+            "24x16",
+            "--frames",
+            "4",
+            "--spp-per-frame",
+            "16",
+            "--compare",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        &[],
+    );
+    assert!(ok, "{stdout}{stderr}");
+    assert!(stdout.contains("verdict: PASS"), "{stdout}");
+    assert!(out.join("view-cpu.exr").exists());
+    // The judgement itself fails a biased film.
+    let gpu = twintrace::read_exr(&out.join("view.exr")).unwrap();
+    let cpu = twintrace::read_exr(&out.join("view-cpu.exr")).unwrap();
+    let layers = |img: &twintrace::RenderImage, scale: f32| twintrace::render::Layers {
+        width: img.width,
+        height: img.height,
+        mean: img.mean.iter().map(|m| *m * scale).collect(),
+        variance: img.variance.clone().unwrap(),
+        skewness: img.skewness.clone().unwrap(),
+        samples: 0,
+        rejected: 0,
+    };
+    let fair =
+        twintrace::view::compare::judge(&layers(&gpu, 1.0), 64, &layers(&cpu, 1.0), 64).unwrap();
+    assert!(fair.verdict.passes(), "{}", fair.verdict.summary());
+    let biased =
+        twintrace::view::compare::judge(&layers(&gpu, 1.1), 64, &layers(&cpu, 1.0), 64).unwrap();
+    assert!(!biased.verdict.passes(), "{}", biased.verdict.summary());
+    assert!(biased.t.iter().any(|&t| t > 4.0));
+}
