@@ -110,14 +110,7 @@ fn a_camera_path_renders_each_camera_into_its_own_film() {
     let scene = reference::load_scene("cornell").unwrap();
     let c = scene.camera_settings();
     let json = serde_json::json!([
-        {
-            "look_from": c.look_from.to_array(),
-            "look_at": c.look_at.to_array(),
-            "up": c.up.to_array(),
-            "vfov": c.vfov,
-            "aperture": c.aperture,
-            "focus_distance": c.focus_distance,
-        },
+        twintrace::view::camera_json(&c),
         {"look_from": [0.9, 0.5, 2.5], "look_at": [0.5, 0.5, 0.5], "vfov": 50},
     ])
     .to_string();
@@ -256,21 +249,19 @@ fn a_moved_camera_renders_as_the_same_camera_written_in_the_scene() {
         view.frame().unwrap();
     }
     assert_eq!(view.spp(), 6);
-    let moved: CameraSettings = view.camera().settings();
+    let moved: CameraSettings = view.traced_camera();
+    assert_eq!(
+        moved,
+        view.camera().settings(),
+        "once moved, the controls' camera is traced"
+    );
     let viewed = view.render().sums().unwrap();
     // The same camera in a scene file of the same scene.
     // The scene names no other files, so its copy loads from anywhere.
     let file = dir.path().join("moved.json");
     let text = std::fs::read_to_string(&fixture).unwrap();
     let mut doc: serde_json::Value = serde_json::from_str(&text).unwrap();
-    doc["camera"] = serde_json::json!({
-        "look_from": moved.look_from.to_array(),
-        "look_at": moved.look_at.to_array(),
-        "up": moved.up.to_array(),
-        "vfov": moved.vfov,
-        "aperture": moved.aperture,
-        "focus_distance": moved.focus_distance,
-    });
+    doc["camera"] = twintrace::view::camera_json(&moved);
     std::fs::write(&file, doc.to_string()).unwrap();
     let written = reference::load_scene(file.to_str().unwrap()).unwrap();
     let mut p = GpuProgressive::new(ctx, &written, &spec, settings).unwrap();

@@ -52,7 +52,8 @@ pub struct ViewArgs {
     /// "focus_distance"}): headless, each is rendered for --frames frames.
     #[arg(long, value_name = "FILE")]
     pub camera_path: Option<PathBuf>,
-    /// Folder the film is written to (headless: required).
+    /// Folder the film is written to (headless: required; in a window,
+    /// where Ctrl+S saves, default the current folder).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
     /// Compare with the CPU reference: in a window, start in compare mode;
@@ -134,6 +135,8 @@ pub fn view(args: &ViewArgs) -> Result<()> {
             events,
             title: args.scene.clone(),
             compare: args.compare,
+            save_dir: args.out.clone().unwrap_or_else(|| PathBuf::from(".")),
+            scene_name: args.scene.clone(),
         },
     )?;
     println!(

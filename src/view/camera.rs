@@ -170,6 +170,13 @@ impl ViewCamera {
         }
     }
 
+    /// Sets the focus distance (finite, at least [`MIN_DISTANCE`]).
+    pub fn set_focus_distance(&mut self, d: f32) {
+        if d.is_finite() {
+            self.focus_distance = d.max(MIN_DISTANCE);
+        }
+    }
+
     /// Focuses on the point `hit`: the focus distance becomes its
     /// distance from the eye along the view direction (the thin lens's
     /// plane in focus passes through it). A point behind the eye is
@@ -354,5 +361,9 @@ mod tests {
         assert_eq!(v.vfov, FOV_RANGE.1);
         v.set_aperture(-1.0);
         assert_eq!(v.aperture, 0.0);
+        v.set_focus_distance(-3.0);
+        assert_eq!(v.focus_distance, MIN_DISTANCE);
+        v.set_focus_distance(f32::INFINITY);
+        assert_eq!(v.focus_distance, MIN_DISTANCE);
     }
 }

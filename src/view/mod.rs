@@ -44,6 +44,8 @@ pub enum Event {
     /// Focus on what the image shows at `(u, v)` (0..1 from the left and
     /// from the top).
     FocusAt { u: f32, v: f32 },
+    /// The distance of the plane in focus along the view direction.
+    FocusDistance(f32),
     /// A whole camera (a camera path's key, a saved view).
     Camera(CameraSettings),
     /// Back to the scene's own camera.
@@ -178,6 +180,12 @@ impl<'a> View<'a> {
         &self.camera
     }
 
+    /// The camera the film is traced from, exactly (the scene's until the
+    /// eye moves; the controls' [`ViewCamera`] rounds it).
+    pub fn traced_camera(&self) -> CameraSettings {
+        self.settings.camera_settings(self.scene)
+    }
+
     /// Samples a pixel the film holds.
     pub fn spp(&self) -> u32 {
         self.spp
@@ -234,6 +242,7 @@ impl<'a> View<'a> {
                     camera.focus_on(hit);
                 }
             }
+            Event::FocusDistance(d) => camera.set_focus_distance(d),
             Event::Camera(c) => {
                 validate_camera(&c)?;
                 camera = ViewCamera::from_settings(&c);
@@ -344,6 +353,19 @@ impl<'a> View<'a> {
     pub fn layers(&mut self) -> Result<Layers> {
         self.render.layers()
     }
+}
+
+/// A camera as the scene format's `camera` object (every field written,
+/// so it reads back exactly): what a saved view and a camera path hold.
+pub fn camera_json(c: &CameraSettings) -> serde_json::Value {
+    serde_json::json!({
+        "look_from": c.look_from.to_array(),
+        "look_at": c.look_at.to_array(),
+        "up": c.up.to_array(),
+        "vfov": c.vfov,
+        "aperture": c.aperture,
+        "focus_distance": c.focus_distance,
+    })
 }
 
 fn validate_settings(settings: &RenderSettings) -> Result<()> {

@@ -16,6 +16,7 @@
 
 use super::compare::{self, CpuTwin, Judgement, Latest};
 use super::{camera, Event, Frame, Pace, View};
+use crate::compare::image::RegionTest;
 use crate::render::{Devices, RenderSpec};
 use crate::tonemap::Tonemap;
 use anyhow::{anyhow, Context as _, Result};
@@ -45,6 +46,10 @@ pub struct Options {
     pub title: String,
     /// Start in compare mode (the CPU twin renders beside the GPU).
     pub compare: bool,
+    /// Where a save (Ctrl+S) writes the film and the camera.
+    pub save_dir: std::path::PathBuf,
+    /// The scene as the user named it, for the saved files' metadata.
+    pub scene_name: String,
 }
 
 /// What the window left when it closed.
@@ -77,6 +82,7 @@ pub const KEYS: &[(&str, &str)] = &[
         "focus the lens on what is under the pointer",
     ),
     ("R", "back to the scene's camera"),
+    ("Ctrl+S", "save the film (EXR, PNG) and the camera (JSON)"),
     ("space", "pause or resume sampling"),
     ("H", "show or hide this help"),
     ("Esc", "close"),
@@ -137,6 +143,9 @@ struct Running {
     egui_renderer: egui_wgpu::Renderer,
     panel: Panel,
     frames_left: Option<u64>,
+    save_dir: std::path::PathBuf,
+    scene_name: String,
+    saved: u32,
 }
 
 /// The panel's state: the display transform, the last frame, messages.
@@ -157,6 +166,8 @@ struct Panel {
     twin: Option<CpuTwin>,
     compared: Option<Compared>,
     judged_at: Option<Instant>,
+    /// Save the film and the camera after this frame.
+    save: bool,
 }
 
 /// What the image shows in compare mode.
@@ -166,6 +177,8 @@ enum Show {
     Cpu,
     Split,
     Z,
+    /// The GPU's film with the tile-sum tests drawn over it.
+    Tiles,
 }
 
 /// The last comparison of the two films, with the CPU's image and the z
@@ -342,8 +355,12 @@ impl Running {
                 twin: None,
                 compared: None,
                 judged_at: None,
+                save: false,
             },
             frames_left: options.frames,
+            save_dir: options.save_dir,
+            scene_name: options.scene_name,
+            saved: 0,
         })
     }
 
@@ -404,12 +421,81 @@ impl Running {
                 self.panel.relmse = None;
             }
         }
+        if std::mem::take(&mut self.panel.save) {
+            self.panel.message = Some(match self.save() {
+                Ok(m) => m,
+                Err(e) => format!("not saved: {e:#}"),
+            });
+        }
         self.paint(
             output.textures_delta,
             output.shapes,
             output.pixels_per_point,
         )?;
         Ok(!close)
+    }
+
+    /// Writes the film as `render` does (view-NNNN.exr and .png, the
+    /// PNG with the display's exposure) and the camera as a camera path of
+    /// one key in the scene format (view-NNNN.camera.json: `view
+    /// --camera-path` takes it, and its one object is a scene's `camera`).
+    fn save(&mut self) -> Result<String> {
+        std::fs::create_dir_all(&self.save_dir)
+            .with_context(|| format!("cannot create `{}`", self.save_dir.display()))?;
+        let name = loop {
+            let n = format!("view-{:04}", self.saved);
+            self.saved += 1;
+            if !self.save_dir.join(format!("{n}.exr")).exists() {
+                break n;
+            }
+        };
+        let layers = self.view.layers()?;
+        let settings = *self.view.settings();
+        let spec = *self.view.spec();
+        let device = self.view.render().device();
+        let metadata = crate::image_io::RenderMetadata {
+            spp: Some(self.view.spp()),
+            max_depth: Some(settings.max_depth),
+            seed: Some(settings.seed),
+            scene: Some(self.scene_name.clone()),
+            software: Some(format!(
+                "twintrace {} ({device}, {} integrator)",
+                env!("CARGO_PKG_VERSION"),
+                spec.integrator().name()
+            )),
+        };
+        let base = self.save_dir.join(&name);
+        let paths = crate::image_io::output_paths(&base)?;
+        let mean = layers.mean.clone();
+        let image = crate::image_io::RenderImage::from_layers(layers, metadata);
+        crate::image_io::write_render_outputs(&paths, &image, self.panel.tonemap)?;
+        if self.panel.exposure_stops != 0.0 {
+            let rgb = self
+                .panel
+                .tonemap
+                .to_srgb8_image_exposed(&mean, self.panel.exposure_stops);
+            crate::image_io::write_atomic(&paths.png, |f| {
+                use image::ImageEncoder as _;
+                image::codecs::png::PngEncoder::new(f)
+                    .write_image(
+                        &rgb,
+                        settings.width,
+                        settings.height,
+                        image::ExtendedColorType::Rgb8,
+                    )
+                    .map_err(Into::into)
+            })?;
+        }
+        let camera = serde_json::json!([super::camera_json(&self.view.traced_camera())]);
+        let json_path = self.save_dir.join(format!("{name}.camera.json"));
+        crate::image_io::write_atomic(&json_path, |f| {
+            std::io::Write::write_all(f, format!("{camera:#}\n").as_bytes()).map_err(Into::into)
+        })?;
+        Ok(format!(
+            "saved {} spp to {}.exr, .png and .camera.json",
+            self.view.spp(),
+            base.display()
+        ))
     }
 
     /// Compare mode: keeps the CPU twin on the view, and about once a
@@ -643,6 +729,25 @@ fn draw_ui(
         .default_size(280.0)
         .show(ui, |ui| {
             ui.heading("twintrace view");
+            ui.horizontal(|ui| {
+                let pause = if panel.paused { "resume" } else { "pause" };
+                if ui.button(pause).on_hover_text("space").clicked() {
+                    panel.paused = !panel.paused;
+                }
+                if ui
+                    .button("save")
+                    .on_hover_text("Ctrl+S: the film (EXR, PNG) and the camera (JSON)")
+                    .clicked()
+                {
+                    panel.save = true;
+                }
+                if ui.button("keys").on_hover_text("H").clicked() {
+                    panel.help = !panel.help;
+                }
+            });
+            if let Some(m) = &panel.message {
+                ui.label(m);
+            }
             let pixels = settings.width as u64 * settings.height as u64;
             ui.label(format!(
                 "{}x{}, {} spp{}",
@@ -666,83 +771,80 @@ fn draw_ui(
                 Some((e, _)) => ui.label(format!("relMSE (estimated) {e:.3e}")),
                 None => ui.label("relMSE (estimated) …"),
             };
-            ui.separator();
-            ui.label("Estimator");
-            let mut integrator = spec.integrator();
-            egui::ComboBox::from_id_salt("integrator")
-                .selected_text(integrator.name())
-                .show_ui(ui, |ui| {
-                    for i in Integrator::ALL {
-                        ui.selectable_value(&mut integrator, i, i.name());
-                    }
-                });
-            if integrator != spec.integrator() {
-                events.push(Event::Integrator(integrator));
-            }
-            let mut depth = settings.max_depth;
-            if ui
-                .add(egui::Slider::new(&mut depth, 1..=128).text("max depth"))
-                .changed()
-            {
-                events.push(Event::MaxDepth(depth));
-            }
-            ui.separator();
-            ui.label("Display");
-            egui::ComboBox::from_id_salt("tonemap")
-                .selected_text(tonemap_name(panel.tonemap))
-                .show_ui(ui, |ui| {
-                    for t in [Tonemap::Aces, Tonemap::None] {
-                        ui.selectable_value(&mut panel.tonemap, t, tonemap_name(t));
-                    }
-                });
-            ui.add(
-                egui::Slider::new(&mut panel.exposure_stops, -8.0..=8.0).text("exposure (stops)"),
-            );
-            ui.separator();
-            ui.label("Camera");
-            let mut fov = camera.vfov;
-            if ui
-                .add(
-                    egui::Slider::new(&mut fov, camera::FOV_RANGE.0..=camera::FOV_RANGE.1)
-                        .text("field of view"),
-                )
-                .changed()
-            {
-                events.push(Event::Fov(fov));
-            }
-            let mut aperture = camera.aperture;
-            let largest = (camera.distance * 0.5).max(aperture);
-            if ui
-                .add(egui::Slider::new(&mut aperture, 0.0..=largest).text("aperture"))
-                .changed()
-            {
-                events.push(Event::Aperture(aperture));
-            }
-            ui.label(format!("focus distance {:.4}", camera.focus_distance));
-            if ui.button("scene camera (R)").clicked() {
-                events.push(Event::SceneCamera);
-            }
-            ui.separator();
-            compare_ui(ui, panel, &settings);
-            ui.separator();
-            variant_ui(ui, spec.variant, events);
-            ui.separator();
-            if ui
-                .button(if panel.paused {
-                    "resume (space)"
-                } else {
-                    "pause (space)"
-                })
-                .clicked()
-            {
-                panel.paused = !panel.paused;
-            }
-            if ui.button("keys (H)").clicked() {
-                panel.help = !panel.help;
-            }
-            if let Some(m) = &panel.message {
-                ui.colored_label(egui::Color32::LIGHT_RED, m);
-            }
+            egui::ScrollArea::vertical().show(ui, |ui| {
+                ui.separator();
+                ui.label("Estimator");
+                let mut integrator = spec.integrator();
+                egui::ComboBox::from_id_salt("integrator")
+                    .selected_text(integrator.name())
+                    .show_ui(ui, |ui| {
+                        for i in Integrator::ALL {
+                            ui.selectable_value(&mut integrator, i, i.name());
+                        }
+                    });
+                if integrator != spec.integrator() {
+                    events.push(Event::Integrator(integrator));
+                }
+                let mut depth = settings.max_depth;
+                if ui
+                    .add(egui::Slider::new(&mut depth, 1..=128).text("max depth"))
+                    .changed()
+                {
+                    events.push(Event::MaxDepth(depth));
+                }
+                ui.separator();
+                ui.label("Display");
+                egui::ComboBox::from_id_salt("tonemap")
+                    .selected_text(tonemap_name(panel.tonemap))
+                    .show_ui(ui, |ui| {
+                        for t in [Tonemap::Aces, Tonemap::None] {
+                            ui.selectable_value(&mut panel.tonemap, t, tonemap_name(t));
+                        }
+                    });
+                ui.add(
+                    egui::Slider::new(&mut panel.exposure_stops, -8.0..=8.0)
+                        .text("exposure (stops)"),
+                );
+                ui.separator();
+                ui.label("Camera");
+                let mut fov = camera.vfov;
+                if ui
+                    .add(
+                        egui::Slider::new(&mut fov, camera::FOV_RANGE.0..=camera::FOV_RANGE.1)
+                            .text("field of view"),
+                    )
+                    .changed()
+                {
+                    events.push(Event::Fov(fov));
+                }
+                let mut aperture = camera.aperture;
+                let largest = (camera.distance * 0.5).max(aperture);
+                if ui
+                    .add(egui::Slider::new(&mut aperture, 0.0..=largest).text("aperture"))
+                    .changed()
+                {
+                    events.push(Event::Aperture(aperture));
+                }
+                let mut focus = camera.focus_distance;
+                let far = (4.0 * camera.distance).max(focus);
+                if ui
+                    .add(
+                        egui::Slider::new(&mut focus, camera::MIN_DISTANCE..=far)
+                            .logarithmic(true)
+                            .text("focus distance (double-click: pick)"),
+                    )
+                    .changed()
+                {
+                    events.push(Event::FocusDistance(focus));
+                }
+                if ui.button("scene camera (R)").clicked() {
+                    events.push(Event::SceneCamera);
+                }
+                ui.separator();
+                compare_ui(ui, panel, &settings);
+                ui.separator();
+                variant_ui(ui, spec.variant, events);
+            });
         });
     egui::CentralPanel::default().show(ui, |ui| {
         let avail = ui.available_size();
@@ -781,6 +883,11 @@ fn draw_ui(
                     r.y_range(),
                     egui::Stroke::new(1.0, egui::Color32::YELLOW),
                 );
+            }
+        }
+        if panel.compare && panel.show == Show::Tiles {
+            if let Some(c) = &panel.compared {
+                draw_tiles(ui, &response, c);
             }
         }
         if panel.compare {
@@ -846,11 +953,16 @@ fn draw_ui(
             let step = camera.distance * dt * fast;
             let axis =
                 |plus: Key, minus: Key| (i.key_down(plus) as i32 - i.key_down(minus) as i32) as f32;
-            let (f, r, u) = (
-                axis(Key::W, Key::S),
-                axis(Key::D, Key::A),
-                axis(Key::E, Key::Q),
-            );
+            // Not while Ctrl (save) is held.
+            let (f, r, u) = if i.modifiers.command {
+                (0.0, 0.0, 0.0)
+            } else {
+                (
+                    axis(Key::W, Key::S),
+                    axis(Key::D, Key::A),
+                    axis(Key::E, Key::Q),
+                )
+            };
             if f != 0.0 || r != 0.0 || u != 0.0 {
                 events.push(Event::Fly {
                     forward: f * step,
@@ -876,6 +988,9 @@ fn draw_ui(
             if i.key_pressed(Key::H) {
                 panel.help = !panel.help;
             }
+            if i.modifiers.command && i.key_pressed(Key::S) {
+                panel.save = true;
+            }
             if i.key_pressed(Key::Space) {
                 panel.paused = !panel.paused;
             }
@@ -900,6 +1015,7 @@ fn compare_ui(ui: &mut egui::Ui, panel: &mut Panel, settings: &RenderSettings) {
             (Show::Cpu, "CPU"),
             (Show::Split, "split"),
             (Show::Z, "|t| map"),
+            (Show::Tiles, "tiles"),
         ] {
             ui.selectable_value(&mut panel.show, show, name);
         }
@@ -928,6 +1044,58 @@ fn compare_ui(ui: &mut egui::Ui, panel: &mut Panel, settings: &RenderSettings) {
             };
             ui.colored_label(colour, format!("verdict: {word}"));
             ui.label(egui::RichText::new(v.summary()).small().monospace());
+        }
+    }
+}
+
+/// The tile-sum tests over the image: a failing tile filled red, the
+/// others outlined by how close they come (their smallest p over the
+/// channels against the family's level), the worst in yellow.
+fn draw_tiles(ui: &egui::Ui, response: &egui::Response, c: &Compared) {
+    let agg = &c.judgement.verdict.aggregate;
+    let (w, h) = (c.gpu.width as f32, c.gpu.height as f32);
+    let r = response.rect;
+    let to_screen = |x: u32, y: u32| {
+        egui::pos2(
+            r.left() + x as f32 / w * r.width(),
+            r.top() + y as f32 / h * r.height(),
+        )
+    };
+    // The smallest p of each tile over its channels.
+    let mut tiles: std::collections::BTreeMap<(u32, u32), &RegionTest> = Default::default();
+    for t in &agg.tiles {
+        let e = tiles.entry((t.x0, t.y0)).or_insert(t);
+        if t.p < e.p {
+            *e = t;
+        }
+    }
+    let worst = agg.worst_tile();
+    for t in tiles.values() {
+        let rect = egui::Rect::from_min_max(to_screen(t.x0, t.y0), to_screen(t.x1, t.y1));
+        if t.p <= agg.tile_alpha {
+            ui.painter().rect_filled(
+                rect,
+                0.0,
+                egui::Color32::from_rgba_unmultiplied(255, 0, 0, 90),
+            );
+        } else {
+            // -log10 p against -log10 α: 0 (p = 1) to 1 (at the level).
+            let closeness = (t.p.max(1e-300).log10() / agg.tile_alpha.log10()).clamp(0.0, 1.0);
+            let a = (40.0 + 160.0 * closeness) as u8;
+            ui.painter().rect_stroke(
+                rect,
+                0.0,
+                egui::Stroke::new(1.0, egui::Color32::from_rgba_unmultiplied(255, 160, 0, a)),
+                egui::StrokeKind::Inside,
+            );
+        }
+        if worst.is_some_and(|w| (w.x0, w.y0) == (t.x0, t.y0)) {
+            ui.painter().rect_stroke(
+                rect,
+                0.0,
+                egui::Stroke::new(2.0, egui::Color32::YELLOW),
+                egui::StrokeKind::Inside,
+            );
         }
     }
 }
