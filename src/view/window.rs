@@ -664,22 +664,7 @@ impl Image {
         egui_renderer: &mut egui_wgpu::Renderer,
         settings: &RenderSettings,
     ) -> Self {
-        let texture = ctx.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("view image"),
-            size: wgpu::Extent3d {
-                width: settings.width,
-                height: settings.height,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: wgpu::TextureFormat::Rgba8Unorm,
-            usage: wgpu::TextureUsages::STORAGE_BINDING
-                | wgpu::TextureUsages::TEXTURE_BINDING
-                | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        });
+        let texture = gpu::display::target_texture(ctx, settings.width, settings.height);
         // egui paints in gamma space from Rgba8Unorm textures: the display
         // kernel's bytes are sRGB codes, which is what egui takes.
         let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
