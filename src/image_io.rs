@@ -17,6 +17,10 @@
 //! | `variance.R`, `variance.G`, `variance.B` | variance of that **mean**, per channel: the unbiased sample variance divided by the sample count (`Film::variance()`); 0 where fewer than 2 samples were accepted |
 //! | `skewness.R`, `skewness.G`, `skewness.B` | skewness of that **mean**, per channel: `M3 / M2^{3/2}` of the accepted samples, which is the samples' skewness over `√n` (`Film::skewness()`); 0 where the samples do not vary. About `1/√k` where the estimate rests on `k` rare samples, so it tells where the mean is still far from normal |
 //!
+//! `render --aov` adds the first-hit layers `albedo.*`, `normal.*`,
+//! `depth.Z`, `position.*` (float) and `samples.count` (UINT), as
+//! [`crate::aov`] describes them.
+//!
 //! `variance.*` is the standard OpenEXR layer naming, so viewers (tev,
 //! Nuke, `exrheader`) show a second layer called `variance`. Its square
 //! root is the standard error of each pixel, which is what the z and Welch
@@ -329,15 +333,24 @@ pub fn write_atomic(path: &Path, write: impl FnOnce(&mut File) -> Result<()>) ->
 /// What an EXR holds beyond the render image: 32-bit unsigned integer
 /// channels (lossless; a partial film's exact sums, [`crate::partial`])
 /// and text attributes, each by name.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct ExrExtras {
     pub u32_channels: Vec<(String, Vec<u32>)>,
+    /// Float channels (a render's AOV layers, `crate::aov`).
+    pub f32_channels: Vec<(String, Vec<f32>)>,
     pub text: Vec<(String, String)>,
 }
 
 impl ExrExtras {
     pub fn channel(&self, name: &str) -> Option<&[u32]> {
         self.u32_channels
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v.as_slice())
+    }
+
+    pub fn f32_channel(&self, name: &str) -> Option<&[f32]> {
+        self.f32_channels
             .iter()
             .find(|(n, _)| n == name)
             .map(|(_, v)| v.as_slice())
@@ -384,6 +397,9 @@ pub fn write_exr_with(
     }
     for (name, values) in &extras.u32_channels {
         channels.push((name.clone(), Samples::U32(values)));
+    }
+    for (name, values) in &extras.f32_channels {
+        channels.push((name.clone(), Samples::F32(values)));
     }
     let m = &image.metadata;
     let int = |v: u32| Attribute::Int(i32::try_from(v).unwrap_or(i32::MAX));
@@ -691,9 +707,19 @@ pub fn read_exr_with_extras(path: &Path) -> Result<(RenderImage, ExrExtras)> {
         software: attrs.software_name.as_ref().map(|t| t.to_string()),
     };
     let mut extras = ExrExtras::default();
+    // The image's own channels are read above; the other float channels
+    // (a render's AOV layers) are extras.
+    let own = |name: &str| {
+        let (layer, channel) = name.rsplit_once('.').unwrap_or(("", name));
+        ["R", "G", "B"].contains(&channel) && ["", VARIANCE_LAYER, SKEWNESS_LAYER].contains(&layer)
+    };
     for (name, samples) in &channels {
-        if let FlatSamples::U32(values) = samples {
-            extras.u32_channels.push((name.clone(), values.clone()));
+        match samples {
+            FlatSamples::U32(values) => extras.u32_channels.push((name.clone(), values.clone())),
+            FlatSamples::F32(values) if !own(name) => {
+                extras.f32_channels.push((name.clone(), values.clone()))
+            }
+            _ => {}
         }
     }
     for (name, value) in attrs.other.iter().chain(image.attributes.other.iter()) {

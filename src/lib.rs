@@ -24,6 +24,7 @@
 //! - [`view`]: the interactive viewer's state (camera controls, events,
 //!   paced frames of a progressive render), apart from any window.
 
+pub mod aov;
 pub mod compare;
 pub mod exr_write;
 pub mod image_io;

@@ -141,6 +141,7 @@ impl Part {
             .collect();
         ExrExtras {
             u32_channels: channels,
+            f32_channels: Vec::new(),
             text: vec![
                 (
                     SAMPLES.into(),

@@ -16,6 +16,7 @@
 
 use crate::tonemap::Tonemap;
 use anyhow::{anyhow, bail, Result};
+use reference::aov::AovSums;
 use reference::film::FilmSums;
 use reference::integrator::Integrator;
 use reference::{RenderSettings, Scene};
@@ -120,6 +121,12 @@ pub trait Progressive {
     fn layers(&mut self) -> Result<Layers> {
         Ok(Layers::from_sums(&self.sums()?))
     }
+
+    /// The first-hit quantities (AOVs: albedo, normal, depth, position;
+    /// `reference::aov`) of sample indices `samples` of every pixel, from
+    /// the camera samples the film's paths start with, traced where the
+    /// render runs (a group: on its first device). The film is untouched.
+    fn aovs(&mut self, samples: Range<u32>) -> Result<AovSums>;
 
     /// Empties the film and takes new settings (a new size, depth or
     /// seed); the scene and the kernels stay.
@@ -298,6 +305,25 @@ impl Progressive for CpuProgressive<'_> {
         Ok(Layers::from_sums(&self.film))
     }
 
+    fn aovs(&mut self, samples: Range<u32>) -> Result<AovSums> {
+        if samples.start >= samples.end {
+            bail!(
+                "the sample range {}..{} is empty",
+                samples.start,
+                samples.end
+            );
+        }
+        let settings = self.settings;
+        let mut sums = AovSums::new(settings.width, settings.height);
+        let scene = self.scene;
+        let render = || reference::aov::render_aovs(scene, &settings, samples, &mut sums);
+        match self.pool {
+            Some(pool) => pool.install(render),
+            None => render(),
+        }
+        Ok(sums)
+    }
+
     fn reset(&mut self, settings: RenderSettings) -> Result<()> {
         check(&settings)?;
         self.film = FilmSums::new(settings.width, settings.height);
@@ -408,6 +434,10 @@ impl Progressive for GpuProgressive<'_> {
         Ok(self.renderer.read_layers(&self.settings, held as u32)?)
     }
 
+    fn aovs(&mut self, samples: Range<u32>) -> Result<AovSums> {
+        Ok(self.renderer.render_aovs(&self.settings, samples)?)
+    }
+
     fn reset(&mut self, settings: RenderSettings) -> Result<()> {
         check(&settings)?;
         self.settings = settings;
@@ -510,6 +540,12 @@ impl Progressive for GroupProgressive<'_> {
 
     fn layers(&mut self) -> Result<Layers> {
         Ok(self.group.read_layers(&self.settings)?)
+    }
+
+    fn aovs(&mut self, samples: Range<u32>) -> Result<AovSums> {
+        let first = self.group.renderers().first();
+        let first = first.ok_or_else(|| anyhow!("a group of no devices"))?;
+        Ok(first.render_aovs(&self.settings, samples)?)
     }
 
     fn reset(&mut self, settings: RenderSettings) -> Result<()> {

@@ -8,6 +8,7 @@
 
 mod common;
 
+mod aov;
 mod bvh_matches_brute_force;
 mod cli_errors;
 mod diff_command;
@@ -32,6 +33,7 @@ mod scene_loading_errors;
 mod split_render;
 mod tidy;
 
+mod gpu_aov;
 mod gpu_buffer_layout;
 mod gpu_display;
 mod gpu_errors;

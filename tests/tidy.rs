@@ -125,6 +125,21 @@ const GPU_ONLY: &[(&str, &str)] = &[
         "render_main",
         "the kernel entry point: one pixel of integrator::render",
     ),
+    (
+        "aov_main",
+        "the AOV kernel's entry point: one pixel of aov::render_aovs",
+    ),
+    (
+        "aov_f32",
+        "reads a word of the AOV sums (AovSums::words is a Vec on the host)",
+    ),
+    ("aov_v3", "reads three words of the AOV sums"),
+    ("aov_put_v3", "writes three words of the AOV sums"),
+    (
+        "aov_sums_load",
+        "reads a pixel's AOV sums into registers (the host's add_to works on the words)",
+    ),
+    ("aov_sums_store", "writes a pixel's AOV sums back"),
     ("absorbed", "the reference's `None` scatter"),
     (
         "trace",
@@ -282,11 +297,10 @@ fn unpaired(wgsl: &str, rust: &str) -> Vec<String> {
 #[test]
 fn every_wgsl_function_has_a_rust_twin() {
     let mut missing = Vec::new();
-    for (module, src) in gpu::shader::LIBRARY_FILES
-        .iter()
-        .copied()
-        .chain([("integrator", gpu::shader::INTEGRATOR_WGSL)])
-    {
+    for (module, src) in gpu::shader::LIBRARY_FILES.iter().copied().chain([
+        ("integrator", gpu::shader::INTEGRATOR_WGSL),
+        ("aov", gpu::aov::AOV_WGSL),
+    ]) {
         let rust = reference_module(module)
             .unwrap_or_else(|| panic!("no reference/src/{module}.rs nor reference/src/{module}/"));
         missing.extend(
@@ -307,7 +321,7 @@ fn the_tables_list_only_functions_that_exist() {
     let all: BTreeSet<String> = gpu::shader::LIBRARY_FILES
         .iter()
         .map(|(_, s)| *s)
-        .chain([gpu::shader::INTEGRATOR_WGSL])
+        .chain([gpu::shader::INTEGRATOR_WGSL, gpu::aov::AOV_WGSL])
         .flat_map(wgsl_functions)
         .collect();
     for name in GPU_ONLY
@@ -432,7 +446,10 @@ fn shader_files() -> Vec<(&'static str, &'static str)> {
     gpu::shader::LIBRARY_FILES
         .iter()
         .copied()
-        .chain([("integrator", gpu::shader::INTEGRATOR_WGSL)])
+        .chain([
+            ("integrator", gpu::shader::INTEGRATOR_WGSL),
+            ("aov", gpu::aov::AOV_WGSL),
+        ])
         .collect()
 }
 
@@ -531,7 +548,13 @@ fn shaders_mirror_reference_modules() {
         // bit, or means within a few ulp) rather than twinned.
         assert!(
             listed.contains(&name)
-                || ["integrator.wgsl", "generated.wgsl", "wavefront.wgsl"].contains(&name.as_str()),
+                || [
+                    "integrator.wgsl",
+                    "generated.wgsl",
+                    "wavefront.wgsl",
+                    "aov.wgsl"
+                ]
+                .contains(&name.as_str()),
             "shaders/{name} is not part of the program (gpu::shader::LIBRARY_FILES)"
         );
     }

@@ -470,3 +470,84 @@ fn the_compare_verdict_passes_the_twins_and_fails_a_film_a_tenth_too_bright() {
     assert!(!biased.verdict.passes(), "{}", biased.verdict.summary());
     assert!(biased.t.iter().any(|&t| t > 4.0));
 }
+
+#[test]
+fn the_viewers_layers_are_the_aovs_of_the_films_first_samples() {
+    let scene = reference::load_scene("cornell").unwrap();
+    let settings = RenderSettings {
+        width: 10,
+        height: 8,
+        ..scene.render_settings()
+    };
+    let traced = |samples: std::ops::Range<u32>, settings: &RenderSettings| {
+        let mut sums = reference::aov::AovSums::new(settings.width, settings.height);
+        reference::aov::render_aovs(&scene, settings, samples, &mut sums);
+        sums.layers()
+    };
+    let mut view = View::open(
+        Devices::Cpu(None),
+        &scene,
+        RenderSpec::DEFAULT,
+        settings,
+        Pace::Fixed(3),
+    )
+    .unwrap();
+    // Before a frame: one sample.
+    let (l, fresh) = view.aovs().unwrap();
+    assert!(fresh);
+    assert_eq!(*l, traced(0..1, &settings));
+    view.frame().unwrap();
+    view.frame().unwrap();
+    // 6 samples held: the first 4 traced, once.
+    let (l, fresh) = view.aovs().unwrap();
+    assert!(fresh);
+    assert_eq!(*l, traced(0..4, &settings));
+    assert!(!view.aovs().unwrap().1, "traced again for the same samples");
+    assert_eq!(view.sample_counts().unwrap(), vec![6; 80]);
+    // A new film: traced again.
+    view.apply(Event::MaxDepth(3)).unwrap();
+    assert!(view.aovs().unwrap().1);
+    // On the GPU: the kernel's AOVs of the same samples.
+    let ctx = common::gpu();
+    let mut gpu_view = View::open(
+        Devices::Gpu(ctx),
+        &scene,
+        RenderSpec::DEFAULT,
+        settings,
+        Pace::Fixed(3),
+    )
+    .unwrap();
+    gpu_view.frame().unwrap();
+    let (l, _) = gpu_view.aovs().unwrap();
+    let renderer = gpu::GpuRenderer::new(ctx, &scene).unwrap();
+    assert_eq!(*l, renderer.render_aovs(&settings, 0..2).unwrap().layers());
+}
+
+#[test]
+fn the_window_shows_a_layer() {
+    let x = Xvfb::start();
+    for layer in ["depth", "samples"] {
+        let (ok, stdout, stderr) = run(
+            &[
+                "view",
+                "cornell",
+                "--backend",
+                "gpu",
+                "--size",
+                "16x12",
+                "--frames",
+                "3",
+                "--layer",
+                layer,
+            ],
+            &[("DISPLAY", &x.display), ("WAYLAND_DISPLAY", "")],
+        );
+        assert!(ok, "{layer}: {stderr}");
+        assert!(stdout.starts_with("viewed 3 frames"), "{stdout}");
+    }
+    let (ok, _, stderr) = run(&["view", "cornell", "--layer", "colour"], &[]);
+    assert!(
+        !ok && stderr.trim().lines().count() == 1 && stderr.contains("--layer"),
+        "{stderr}"
+    );
+}

@@ -9,6 +9,7 @@
 //! It never re-defines what a scene means: every tag, constant and the
 //! camera come from `reference`.
 
+pub mod aov;
 pub mod bindings;
 pub mod context;
 pub mod devices;

@@ -150,7 +150,7 @@ pub struct GpuRenderer<'a> {
     dispatch: Dispatch,
     /// The walk's node records and leaf entries (bounds on one ray's walk:
     /// [`software_samples_per_invocation`]).
-    walk_size: (u64, u64),
+    pub(crate) walk_size: (u64, u64),
     /// The wavefront's path slots per wave, where a test sets them.
     wave_slots: Option<u32>,
     /// The last render's wave buffers, kept for the next render that needs
@@ -161,6 +161,11 @@ pub struct GpuRenderer<'a> {
     /// The last render's film buffer, kept for the next render of that
     /// size.
     film_cache: FilmSlot,
+    /// The pipeline constants the kernels were compiled with (the AOV
+    /// kernel, `crate::aov`, is compiled with the same).
+    pub(crate) constants: [(&'static str, f64); 6],
+    /// The AOV kernel, compiled the first time AOVs are asked for.
+    pub(crate) aov_pipeline: std::sync::OnceLock<wgpu::ComputePipeline>,
 }
 
 /// The pipeline constants of a records' layout (walk and leaves) and a
@@ -390,6 +395,8 @@ impl<'a> GpuRenderer<'a> {
             wave_slots: None,
             wave_cache: std::sync::Mutex::new(None),
             film_cache: std::sync::Mutex::new(None),
+            constants,
+            aov_pipeline: std::sync::OnceLock::new(),
         })
     }
 

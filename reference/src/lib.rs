@@ -10,6 +10,7 @@
 //!
 //! This crate knows nothing of wgpu or of any GPU.
 
+pub mod aov;
 pub mod background;
 pub mod builtin;
 pub mod bvh;

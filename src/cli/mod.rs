@@ -161,6 +161,11 @@ pub struct RenderArgs {
     /// kind, the one-device image bit for bit.
     #[arg(long, value_name = "all|LIST")]
     pub devices: Option<String>,
+    /// Also write first-hit layers (AOVs) into the EXR, from the image's
+    /// own camera samples: `all` or a list of albedo, normal, depth,
+    /// position, samples (e.g. albedo,normal for a denoiser).
+    #[arg(long, value_name = "all|LIST")]
+    pub aov: Option<String>,
     #[command(flatten)]
     pub variant: spec::VariantArgs,
 }
@@ -407,6 +412,26 @@ impl Phases {
     }
 }
 
+/// The EXR channels of the AOV layers `layers` of a render of `spp`
+/// samples a pixel (none: no channels).
+fn aov_extras(
+    progressive: &mut dyn twintrace::render::Progressive,
+    layers: &[twintrace::aov::AovLayer],
+    spp: u32,
+) -> Result<image_io::ExrExtras> {
+    let mut extras = image_io::ExrExtras::default();
+    if layers.iter().any(|l| l.traced()) {
+        let aovs = progressive.aovs(0..spp)?.layers();
+        extras.f32_channels = twintrace::aov::float_channels(layers, &aovs, glam::DVec3::ZERO);
+    }
+    if layers.contains(&twintrace::aov::AovLayer::Samples) {
+        extras
+            .u32_channels
+            .push(twintrace::aov::samples_channel(&progressive.sums()?));
+    }
+    Ok(extras)
+}
+
 fn render(args: &RenderArgs) -> Result<()> {
     let mut phases = Phases::new();
     if args.threads == Some(0) {
@@ -434,6 +459,19 @@ fn render(args: &RenderArgs) -> Result<()> {
         .map(twintrace::partial::parse_samples)
         .transpose()
         .map_err(|e| Refused(e.to_string()))?;
+    let aovs = args
+        .aov
+        .as_deref()
+        .map(twintrace::aov::AovLayer::parse_list)
+        .transpose()
+        .map_err(|e| Refused(e.to_string()))?
+        .unwrap_or_default();
+    if !aovs.is_empty() && samples.is_some() {
+        return Err(Refused(
+            "--aov with --samples: a partial film holds the image's sums only; render the AOVs with the whole render (or a render of their own)".into(),
+        )
+        .into());
+    }
     let scene = load_scene(&args.scene)?;
     read.extend(scene.sources().iter().map(|f| {
         outputs::input(
@@ -566,7 +604,11 @@ fn render(args: &RenderArgs) -> Result<()> {
             phases.end("image read");
             let nonfinite = layers.rejected;
             let image = RenderImage::from_layers(layers, metadata);
-            let times = image_io::write_render_outputs(&paths, &image, spec.tonemap)?;
+            let extras = aov_extras(progressive.as_mut(), &aovs, settings.spp)?;
+            if !aovs.is_empty() {
+                phases.end("AOVs");
+            }
+            let times = image_io::write_render_outputs_with(&paths, &image, &extras, spec.tonemap)?;
             file_times = format!(
                 " (EXR {:.3} s, PNG {:.3} s, at once)",
                 times.exr.as_secs_f64(),

@@ -62,6 +62,11 @@ pub struct ViewArgs {
     /// give and exit 1 where the films differ.
     #[arg(long)]
     pub compare: bool,
+    /// The layer the window shows at the start: image, or a first-hit
+    /// layer (albedo, normal, depth, position, samples); the panel
+    /// switches it.
+    #[arg(long, value_name = "NAME", default_value = "image")]
+    pub layer: String,
     #[command(flatten)]
     pub look: spec::LookArgs,
     #[command(flatten)]
@@ -83,6 +88,22 @@ pub fn view(args: &ViewArgs) -> Result<()> {
         return Err(Refused("--spp-per-frame 0: at least one sample is needed".into()).into());
     }
     let size = args.size.as_deref().map(size_arg).transpose()?;
+    let layer = match args.layer.as_str() {
+        "image" => None,
+        name => {
+            let l = twintrace::aov::AovLayer::parse_list(name)
+                .map_err(|e| Refused(e.to_string().replace("--aov", "--layer")))?;
+            match l[..] {
+                [one] => Some(one),
+                _ => {
+                    return Err(Refused(format!(
+                        "--layer `{name}`: one layer (image, albedo, normal, depth, position or samples)"
+                    ))
+                    .into())
+                }
+            }
+        }
+    };
     let cameras = match &args.camera_path {
         Some(path) => Some(read_camera_path(path)?),
         None => None,
@@ -137,6 +158,7 @@ pub fn view(args: &ViewArgs) -> Result<()> {
             compare: args.compare,
             save_dir: args.out.clone().unwrap_or_else(|| PathBuf::from(".")),
             scene_name: args.scene.clone(),
+            layer,
         },
     )?;
     println!(

@@ -17,6 +17,8 @@
 //! - [`hits`]: hit records of the BVH walk (flag, primitive, t, uv).
 //! - [`surface`]: surface interactions and spawn points.
 //! - [`light`]: light samples (emitter, direction) and their densities.
+//! - [`aov`]: the first-hit quantities (albedo, normal, depth, position)
+//!   of camera samples, summed per pixel.
 //! - [`dispatch`]: the kernel selecting code by chains of tag tests
 //!   against the one switching on tags (GPU against GPU).
 //! - [`specialization`]: the render kernel built for each scene's features
@@ -31,6 +33,7 @@
 //! Each check returns an [`Outcome`]: a one-line summary of what agreed,
 //! or the first disagreement (or the GPU error that stopped it).
 
+pub mod aov;
 pub mod dispatch;
 pub mod display;
 pub mod film;
@@ -264,6 +267,11 @@ pub const CHECKS: &[Check] = &[
     Check {
         name: "twin: light samples and densities",
         run: light::all_scenes,
+        variant: false,
+    },
+    Check {
+        name: "twin: AOVs (first-hit albedo, normal, depth, position of camera samples)",
+        run: aov::all_scenes,
         variant: false,
     },
     Check {

@@ -17,6 +17,7 @@ pub mod window;
 use crate::render::{self, Devices, Layers, Progressive, RenderSpec};
 use anyhow::{bail, Result};
 use camera::ViewCamera;
+use reference::aov::AovLayers;
 use reference::camera::CameraSettings;
 use reference::geometry::Ray;
 use reference::integrator::Integrator;
@@ -111,7 +112,16 @@ pub struct View<'a> {
     next: u32,
     /// Frames since the film was emptied.
     frames: u64,
+    /// Times the film was emptied (what the AOV layers were traced for).
+    epoch: u64,
+    /// The last AOV layers: the epoch and samples they were traced for.
+    aovs: Option<(u64, u32, AovLayers)>,
 }
+
+/// The most samples a pixel the viewer traces its AOV layers from: first
+/// hits converge in a few samples, and the layers are traced again for
+/// each new count up to it (1, 2, 4, … 16).
+pub const AOV_SAMPLES: u32 = 16;
 
 /// [`Devices`] kept to reopen the render on a change of spec.
 #[derive(Clone, Copy)]
@@ -165,6 +175,8 @@ impl<'a> View<'a> {
             pace,
             next,
             frames: 0,
+            epoch: 0,
+            aovs: None,
         })
     }
 
@@ -302,6 +314,7 @@ impl<'a> View<'a> {
     fn empty(&mut self) {
         self.spp = 0;
         self.frames = 0;
+        self.epoch += 1;
         if let Pace::Hold(_) = self.pace {
             self.next = 1;
         }
@@ -352,6 +365,35 @@ impl<'a> View<'a> {
     /// The film's image.
     pub fn layers(&mut self) -> Result<Layers> {
         self.render.layers()
+    }
+
+    /// The AOV layers of the film's first samples (the largest power of
+    /// two it holds, at most [`AOV_SAMPLES`]; one before the first frame),
+    /// traced where the film is, and whether they were traced anew for
+    /// this call (the film was emptied, or holds a larger power of two).
+    pub fn aovs(&mut self) -> Result<(&AovLayers, bool)> {
+        let held = self.spp.clamp(1, AOV_SAMPLES);
+        let samples = 1 << held.ilog2();
+        let fresh = !matches!(&self.aovs, Some((e, n, _)) if *e == self.epoch && *n == samples);
+        if fresh {
+            let layers = self.render.aovs(0..samples)?.layers();
+            self.aovs = Some((self.epoch, samples, layers));
+        }
+        let (_, _, layers) = self.aovs.as_ref().expect("traced above");
+        Ok((layers, fresh))
+    }
+
+    /// Each pixel's samples in the film (non-finite ones are not counted):
+    /// the `samples` layer. Reads the film's sums back.
+    pub fn sample_counts(&mut self) -> Result<Vec<u32>> {
+        Ok(self.render.sums()?.pixels.iter().map(|p| p.count).collect())
+    }
+
+    /// The scene's box in render space (what the position layer is drawn
+    /// against).
+    pub fn bounds(&self) -> (glam::Vec3, glam::Vec3) {
+        let b = self.scene.bounds();
+        (b.min, b.max)
     }
 }
 

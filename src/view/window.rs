@@ -16,6 +16,7 @@
 
 use super::compare::{self, CpuTwin, Judgement, Latest};
 use super::{camera, Event, Frame, Pace, View};
+use crate::aov::AovLayer;
 use crate::compare::image::RegionTest;
 use crate::render::{Devices, RenderSpec};
 use crate::tonemap::Tonemap;
@@ -50,6 +51,8 @@ pub struct Options {
     pub save_dir: std::path::PathBuf,
     /// The scene as the user named it, for the saved files' metadata.
     pub scene_name: String,
+    /// The AOV layer shown at the start (`None`: the image).
+    pub layer: Option<AovLayer>,
 }
 
 /// What the window left when it closed.
@@ -168,6 +171,14 @@ struct Panel {
     judged_at: Option<Instant>,
     /// Save the film and the camera after this frame.
     save: bool,
+    /// The AOV layer shown in place of the image (`None`: the image),
+    /// its drawing for the next UI pass, its texture, whether it must be
+    /// drawn again, and when the sample counts were last read.
+    layer: Option<AovLayer>,
+    layer_pending: Option<([usize; 2], Vec<u8>)>,
+    layer_texture: Option<egui::TextureHandle>,
+    layer_dirty: bool,
+    counts_at: Option<Instant>,
 }
 
 /// What the image shows in compare mode.
@@ -356,6 +367,11 @@ impl Running {
                 compared: None,
                 judged_at: None,
                 save: false,
+                layer: options.layer,
+                layer_pending: None,
+                layer_texture: None,
+                layer_dirty: true,
+                counts_at: None,
             },
             frames_left: options.frames,
             save_dir: options.save_dir,
@@ -387,6 +403,7 @@ impl Running {
         }
         self.refresh_relmse();
         self.refresh_compare()?;
+        self.refresh_layer()?;
         let settings = *self.view.settings();
         if self.image.size != (settings.width, settings.height) {
             self.egui_renderer.free_texture(&self.image.id);
@@ -496,6 +513,37 @@ impl Running {
             self.view.spp(),
             base.display()
         ))
+    }
+
+    /// The AOV layer shown: drawn again when its AOVs were traced anew
+    /// (`View::aovs`), when the user picked it, or (the sample counts,
+    /// which read the whole film back) at most once a second.
+    fn refresh_layer(&mut self) -> Result<()> {
+        let Some(layer) = self.panel.layer else {
+            return Ok(());
+        };
+        let bounds = self.view.bounds();
+        let counts = if layer == AovLayer::Samples {
+            let due = self
+                .panel
+                .counts_at
+                .is_none_or(|t| t.elapsed() >= Duration::from_secs(1));
+            if !due && !self.panel.layer_dirty {
+                return Ok(());
+            }
+            self.panel.counts_at = Some(Instant::now());
+            Some(self.view.sample_counts()?)
+        } else {
+            None
+        };
+        let (aovs, fresh) = self.view.aovs()?;
+        if fresh || counts.is_some() || self.panel.layer_dirty {
+            let size = [aovs.width as usize, aovs.height as usize];
+            let rgb = crate::aov::preview(layer, aovs, bounds, counts.as_deref());
+            self.panel.layer_pending = Some((size, rgb));
+            self.panel.layer_dirty = false;
+        }
+        Ok(())
     }
 
     /// Compare mode: keeps the CPU twin on the view, and about once a
@@ -709,6 +757,14 @@ fn draw_ui(
             load(&mut c.z_texture, "z map", &z);
         }
     }
+    if let Some((size, rgb)) = panel.layer_pending.take() {
+        let image = egui::ColorImage::from_rgb(size, &rgb);
+        let options = egui::TextureOptions::NEAREST;
+        match &mut panel.layer_texture {
+            Some(t) => t.set(image, options),
+            None => panel.layer_texture = Some(ui.ctx().load_texture("aov layer", image, options)),
+        }
+    }
     egui::Panel::right("settings")
         .resizable(false)
         .default_size(280.0)
@@ -790,6 +846,25 @@ fn draw_ui(
                     egui::Slider::new(&mut panel.exposure_stops, -8.0..=8.0)
                         .text("exposure (stops)"),
                 );
+                let name = |l: Option<AovLayer>| l.map_or("image", AovLayer::name);
+                let mut layer = panel.layer;
+                egui::ComboBox::from_label("layer")
+                    .selected_text(name(layer))
+                    .show_ui(ui, |ui| {
+                        ui.selectable_value(&mut layer, None, "image");
+                        for l in AovLayer::ALL {
+                            ui.selectable_value(&mut layer, Some(l), l.name());
+                        }
+                    })
+                    .response
+                    .on_hover_text(format!(
+                        "first-hit layers (AOVs), traced from the film's first {} samples",
+                        super::AOV_SAMPLES
+                    ));
+                if layer != panel.layer {
+                    panel.layer = layer;
+                    panel.layer_dirty = true;
+                }
                 ui.separator();
                 ui.label("Camera");
                 let mut fov = camera.vfov;
@@ -843,7 +918,12 @@ fn draw_ui(
             ),
             _ => (None, None),
         };
+        let layer_id = match (&panel.layer, &panel.layer_texture) {
+            (Some(_), Some(t)) => Some(t.id()),
+            _ => None,
+        };
         let shown = match panel.show {
+            _ if layer_id.is_some() => layer_id.unwrap_or(image.id),
             Show::Cpu if panel.compare => cpu_id.unwrap_or(image.id),
             Show::Z if panel.compare => z_id.unwrap_or(image.id),
             _ => image.id,
@@ -852,7 +932,7 @@ fn draw_ui(
             egui::Image::from_texture(egui::load::SizedTexture::new(shown, size))
                 .sense(egui::Sense::click_and_drag()),
         );
-        if panel.compare && panel.show == Show::Split {
+        if panel.compare && panel.show == Show::Split && layer_id.is_none() {
             // The CPU's film over the right half.
             if let Some(id) = cpu_id {
                 let r = response.rect;
@@ -870,7 +950,7 @@ fn draw_ui(
                 );
             }
         }
-        if panel.compare && panel.show == Show::Tiles {
+        if panel.compare && panel.show == Show::Tiles && layer_id.is_none() {
             if let Some(c) = &panel.compared {
                 draw_tiles(ui, &response, c);
             }
