@@ -324,15 +324,21 @@ fn a_change_empties_the_film_and_a_change_to_what_is_so_keeps_it() {
     assert_eq!((view.spp(), view.settings().max_depth), (1, 3));
 }
 
-/// A virtual X display for the window test: Xvfb on a free display
-/// number (CI installs it: `cargo xtask test`).
+/// A virtual X display for the window tests: Xvfb on a free display
+/// number (CI installs it: `cargo xtask test`). One at a time: two tests
+/// starting at once would find the same number free, and the second
+/// Xvfb, failing, would leave its test on the first's display, closed
+/// under it when that test ends.
 struct Xvfb {
     child: Child,
     display: String,
+    _one_at_a_time: std::sync::MutexGuard<'static, ()>,
 }
 
 impl Xvfb {
     fn start() -> Xvfb {
+        static ONE: std::sync::Mutex<()> = std::sync::Mutex::new(());
+        let guard = ONE.lock().unwrap_or_else(|p| p.into_inner());
         for n in 90..140 {
             if Path::new(&format!("/tmp/.X11-unix/X{n}")).exists() {
                 continue;
@@ -353,7 +359,11 @@ impl Xvfb {
                 .expect("Xvfb runs (`cargo xtask test` installs it: apt package xvfb)");
             for _ in 0..100 {
                 if Path::new(&format!("/tmp/.X11-unix/X{n}")).exists() {
-                    return Xvfb { child, display };
+                    return Xvfb {
+                        child,
+                        display,
+                        _one_at_a_time: guard,
+                    };
                 }
                 std::thread::sleep(std::time::Duration::from_millis(50));
             }
@@ -550,4 +560,100 @@ fn the_window_shows_a_layer() {
         !ok && stderr.trim().lines().count() == 1 && stderr.contains("--layer"),
         "{stderr}"
     );
+}
+
+#[test]
+fn a_saved_view_renders_as_the_film_beside_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("saves");
+    let ctx = common::gpu();
+    let fixture = twintrace::compare::gate::fixture_scene("cornell-boxes.json");
+    for (scene_spec, backend) in [(fixture.as_str(), "cpu"), ("cornell", "gpu")] {
+        let scene = reference::load_scene(scene_spec).unwrap();
+        let settings = RenderSettings {
+            width: 12,
+            height: 9,
+            max_depth: 6,
+            seed: 5,
+            ..scene.render_settings()
+        };
+        let devices = match backend {
+            "cpu" => Devices::Cpu(None),
+            _ => Devices::Gpu(ctx),
+        };
+        let spec = RenderSpec::DEFAULT.with_integrator(Integrator::Bsdf);
+        let mut view = View::open(devices, &scene, spec, settings, Pace::Fixed(2)).unwrap();
+        view.apply(Event::Orbit {
+            yaw: 0.3,
+            pitch: -0.1,
+        })
+        .unwrap();
+        view.apply(Event::Aperture(0.2)).unwrap();
+        view.frame().unwrap();
+        view.frame().unwrap();
+        let mut next = 0;
+        let look = (twintrace::tonemap::Tonemap::Aces, 0.0);
+        let saved =
+            twintrace::view::save::save(&mut view, &out, scene_spec, look, &mut next).unwrap();
+        let name = saved
+            .base
+            .file_name()
+            .unwrap()
+            .to_str()
+            .unwrap()
+            .to_string();
+        // The view file names the scene relative to itself (or by name)
+        // and says how to render it.
+        let doc: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(out.join(format!("{name}.json"))).unwrap(),
+        )
+        .unwrap();
+        let named = doc["scene"].as_str().unwrap();
+        assert!(named == "cornell" || named.starts_with(".."), "{doc}");
+        assert!(
+            doc["comment"]
+                .as_str()
+                .unwrap()
+                .contains("--integrator bsdf"),
+            "{doc}"
+        );
+        let render = dir.path().join(format!("render-{backend}"));
+        let (ok, _, stderr) = run(
+            &[
+                "render",
+                out.join(format!("{name}.json")).to_str().unwrap(),
+                "--backend",
+                backend,
+                "--integrator",
+                "bsdf",
+                "-o",
+                render.to_str().unwrap(),
+            ],
+            &[],
+        );
+        assert!(ok, "{stderr}");
+        assert_same_film(
+            &out.join(format!("{name}.exr")),
+            &render.with_extension("exr"),
+        );
+    }
+    // Saves never overwrite: the second took the next name.
+    assert!(out.join("view-0001.json").exists());
+    // A view of a view, and a view of nothing, are one line each.
+    std::fs::write(
+        dir.path().join("vv.json"),
+        r#"{"scene": "saves/view-0000.json"}"#,
+    )
+    .unwrap();
+    std::fs::write(dir.path().join("vn.json"), r#"{"scene": "no-such-scene"}"#).unwrap();
+    for (file, says) in [
+        ("vv.json", "is a view itself"),
+        ("vn.json", "neither a file"),
+    ] {
+        let (ok, _, stderr) = run(&["info", dir.path().join(file).to_str().unwrap()], &[]);
+        assert!(
+            !ok && stderr.trim().lines().count() == 1 && stderr.contains(says),
+            "{stderr}"
+        );
+    }
 }

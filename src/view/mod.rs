@@ -12,6 +12,7 @@
 
 pub mod camera;
 pub mod compare;
+pub mod save;
 pub mod window;
 
 use crate::render::{self, Devices, Layers, Progressive, RenderSpec};

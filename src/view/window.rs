@@ -452,66 +452,20 @@ impl Running {
         Ok(!close)
     }
 
-    /// Writes the film as `render` does (view-NNNN.exr and .png, the
-    /// PNG with the display's exposure) and the camera as a camera path of
-    /// one key in the scene format (view-NNNN.camera.json: `view
-    /// --camera-path` takes it, and its one object is a scene's `camera`).
+    /// Saves the film, the camera and the view ([`super::save::save`]).
     fn save(&mut self) -> Result<String> {
-        std::fs::create_dir_all(&self.save_dir)
-            .with_context(|| format!("cannot create `{}`", self.save_dir.display()))?;
-        let name = loop {
-            let n = format!("view-{:04}", self.saved);
-            self.saved += 1;
-            if !self.save_dir.join(format!("{n}.exr")).exists() {
-                break n;
-            }
-        };
-        let layers = self.view.layers()?;
-        let settings = *self.view.settings();
-        let spec = *self.view.spec();
-        let device = self.view.render().device();
-        let metadata = crate::image_io::RenderMetadata {
-            spp: Some(self.view.spp()),
-            max_depth: Some(settings.max_depth),
-            seed: Some(settings.seed),
-            scene: Some(self.scene_name.clone()),
-            software: Some(format!(
-                "twintrace {} ({device}, {} integrator)",
-                env!("CARGO_PKG_VERSION"),
-                spec.integrator().name()
-            )),
-        };
-        let base = self.save_dir.join(&name);
-        let paths = crate::image_io::output_paths(&base)?;
-        let mean = layers.mean.clone();
-        let image = crate::image_io::RenderImage::from_layers(layers, metadata);
-        crate::image_io::write_render_outputs(&paths, &image, self.panel.tonemap)?;
-        if self.panel.exposure_stops != 0.0 {
-            let rgb = self
-                .panel
-                .tonemap
-                .to_srgb8_image_exposed(&mean, self.panel.exposure_stops);
-            crate::image_io::write_atomic(&paths.png, |f| {
-                use image::ImageEncoder as _;
-                image::codecs::png::PngEncoder::new(f)
-                    .write_image(
-                        &rgb,
-                        settings.width,
-                        settings.height,
-                        image::ExtendedColorType::Rgb8,
-                    )
-                    .map_err(Into::into)
-            })?;
-        }
-        let camera = serde_json::json!([super::camera_json(&self.view.traced_camera())]);
-        let json_path = self.save_dir.join(format!("{name}.camera.json"));
-        crate::image_io::write_atomic(&json_path, |f| {
-            std::io::Write::write_all(f, format!("{camera:#}\n").as_bytes()).map_err(Into::into)
-        })?;
+        let look = (self.panel.tonemap, self.panel.exposure_stops);
+        let saved = super::save::save(
+            &mut self.view,
+            &self.save_dir,
+            &self.scene_name,
+            look,
+            &mut self.saved,
+        )?;
         Ok(format!(
-            "saved {} spp to {}.exr, .png and .camera.json",
-            self.view.spp(),
-            base.display()
+            "saved {} spp to {base}.exr, .png, .camera.json and the view {base}.json",
+            saved.spp,
+            base = saved.base.display()
         ))
     }
 

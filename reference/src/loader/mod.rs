@@ -1,8 +1,10 @@
-//! Scene input: JSON scene files, glTF 2.0, images, built-in scenes.
+//! Scene input: JSON scene files, glTF 2.0, images, built-in scenes, and
+//! view files (a scene from another camera: [`view`]).
 
 pub mod gltf;
 pub mod image;
 pub mod json;
+pub mod view;
 
 use crate::error::SceneError;
 use crate::scene::Scene;
