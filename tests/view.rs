@@ -536,7 +536,9 @@ fn the_viewers_layers_are_the_aovs_of_the_films_first_samples() {
 #[test]
 fn the_window_shows_a_layer() {
     let x = Xvfb::start();
+    let dir = tempfile::tempdir().unwrap();
     for layer in ["depth", "samples"] {
+        let shot = dir.path().join(format!("{layer}.png"));
         let (ok, stdout, stderr) = run(
             &[
                 "view",
@@ -549,11 +551,22 @@ fn the_window_shows_a_layer() {
                 "3",
                 "--layer",
                 layer,
+                "--screenshot",
+                shot.to_str().unwrap(),
             ],
             &[("DISPLAY", &x.display), ("WAYLAND_DISPLAY", "")],
         );
         assert!(ok, "{layer}: {stderr}");
         assert!(stdout.starts_with("viewed 3 frames"), "{stdout}");
+        // The last frame as drawn: the panel and the layer, many colours.
+        let img = image::open(&shot).unwrap().to_rgb8();
+        assert!(
+            img.width() >= 200 && img.height() >= 100,
+            "{:?}",
+            img.dimensions()
+        );
+        let colours: std::collections::BTreeSet<[u8; 3]> = img.pixels().map(|p| p.0).collect();
+        assert!(colours.len() > 20, "{layer}: {} colours", colours.len());
     }
     let (ok, _, stderr) = run(&["view", "cornell", "--layer", "colour"], &[]);
     assert!(

@@ -67,6 +67,10 @@ pub struct ViewArgs {
     /// switches it.
     #[arg(long, value_name = "NAME", default_value = "image")]
     pub layer: String,
+    /// Write the window's last frame (needs --frames), panel and all, to
+    /// this PNG.
+    #[arg(long, value_name = "FILE")]
+    pub screenshot: Option<PathBuf>,
     #[command(flatten)]
     pub look: spec::LookArgs,
     #[command(flatten)]
@@ -86,6 +90,13 @@ pub fn view(args: &ViewArgs) -> Result<()> {
     }
     if args.spp_per_frame == Some(0) {
         return Err(Refused("--spp-per-frame 0: at least one sample is needed".into()).into());
+    }
+    if args.screenshot.is_some() && (args.headless || args.frames.is_none()) {
+        return Err(Refused(
+            "--screenshot is of a window's last frame: it needs --frames N and no --headless"
+                .into(),
+        )
+        .into());
     }
     let size = args.size.as_deref().map(size_arg).transpose()?;
     let layer = match args.layer.as_str() {
@@ -159,6 +170,7 @@ pub fn view(args: &ViewArgs) -> Result<()> {
             save_dir: args.out.clone().unwrap_or_else(|| PathBuf::from(".")),
             scene_name: args.scene.clone(),
             layer,
+            screenshot: args.screenshot.clone(),
         },
     )?;
     println!(

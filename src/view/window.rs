@@ -53,6 +53,9 @@ pub struct Options {
     pub scene_name: String,
     /// The AOV layer shown at the start (`None`: the image).
     pub layer: Option<AovLayer>,
+    /// Write the window's last frame (of `frames`) to this PNG: the
+    /// image and the panel as they were drawn.
+    pub screenshot: Option<std::path::PathBuf>,
 }
 
 /// What the window left when it closed.
@@ -146,6 +149,7 @@ struct Running {
     egui_renderer: egui_wgpu::Renderer,
     panel: Panel,
     frames_left: Option<u64>,
+    screenshot: Option<std::path::PathBuf>,
     save_dir: std::path::PathBuf,
     scene_name: String,
     saved: u32,
@@ -374,6 +378,7 @@ impl Running {
                 counts_at: None,
             },
             frames_left: options.frames,
+            screenshot: options.screenshot,
             save_dir: options.save_dir,
             scene_name: options.scene_name,
             saved: 0,
@@ -588,7 +593,8 @@ impl Running {
                 self.egui_renderer.update_texture(device, queue, *id, delta);
             }
         }
-        let shown = self.present(shapes, pixels_per_point);
+        let capture = self.frames_left == Some(0) && self.screenshot.is_some();
+        let shown = self.present(shapes, pixels_per_point, capture);
         for id in &textures.free {
             self.egui_renderer.free_texture(id);
         }
@@ -603,6 +609,7 @@ impl Running {
         &mut self,
         shapes: Vec<egui::epaint::ClippedShape>,
         pixels_per_point: f32,
+        capture: bool,
     ) -> Result<()> {
         let frame = match self.surface.get_current_texture() {
             wgpu::CurrentSurfaceTexture::Success(f)
@@ -656,7 +663,110 @@ impl Running {
         }
         queue.submit(extra.into_iter().chain([encoder.finish()]));
         queue.present(frame);
+        if capture {
+            if let Some(path) = self.screenshot.take() {
+                self.capture(&jobs, &screen, &path)?;
+            }
+        }
         Ok(())
+    }
+
+    /// Paints egui's shapes once more, into a texture of the window's
+    /// size and format, and writes it to `path` as an 8-bit RGB PNG.
+    fn capture(
+        &mut self,
+        jobs: &[egui::ClippedPrimitive],
+        screen: &egui_wgpu::ScreenDescriptor,
+        path: &std::path::Path,
+    ) -> Result<()> {
+        let device = &self.ctx.device;
+        let queue = &self.ctx.queue;
+        let (w, h) = (self.config.width, self.config.height);
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("screenshot"),
+            size: wgpu::Extent3d {
+                width: w,
+                height: h,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: self.config.format,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
+        let row = (4 * w).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
+            * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("screenshot"),
+            size: row as u64 * h as u64,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("screenshot"),
+        });
+        {
+            let pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("screenshot"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &view,
+                    resolve_target: None,
+                    depth_slice: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            let mut pass = pass.forget_lifetime();
+            self.egui_renderer.render(&mut pass, jobs, screen);
+        }
+        encoder.copy_texture_to_buffer(
+            texture.as_image_copy(),
+            wgpu::TexelCopyBufferInfo {
+                buffer: &buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(row),
+                    rows_per_image: Some(h),
+                },
+            },
+            wgpu::Extent3d {
+                width: w,
+                height: h,
+                depth_or_array_layers: 1,
+            },
+        );
+        queue.submit([encoder.finish()]);
+        let bgra = matches!(
+            self.config.format,
+            wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb
+        );
+        let rgb = gpu::readback::read_buffer_with(self.ctx, &buffer, row as u64 * h as u64, |b| {
+            let mut rgb = Vec::with_capacity(3 * (w * h) as usize);
+            for y in 0..h as usize {
+                for px in b[y * row as usize..][..4 * w as usize].chunks_exact(4) {
+                    let (r, b) = if bgra { (px[2], px[0]) } else { (px[0], px[2]) };
+                    rgb.extend_from_slice(&[r, px[1], b]);
+                }
+            }
+            rgb
+        })
+        .map_err(|e| anyhow!("the screenshot could not be read back: {e}"))?;
+        crate::image_io::write_atomic(path, |f| {
+            use image::ImageEncoder as _;
+            image::codecs::png::PngEncoder::new(f)
+                .write_image(&rgb, w, h, image::ExtendedColorType::Rgb8)
+                .map_err(Into::into)
+        })
+        .with_context(|| format!("--screenshot `{}`", path.display()))
     }
 }
 
