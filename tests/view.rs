@@ -262,6 +262,9 @@ fn a_moved_camera_renders_as_the_same_camera_written_in_the_scene() {
     let text = std::fs::read_to_string(&fixture).unwrap();
     let mut doc: serde_json::Value = serde_json::from_str(&text).unwrap();
     doc["camera"] = twintrace::view::camera_json(&moved);
+    // In the render space of the scene the viewer traced (the scene's own
+    // camera's), so that the file's scene is the viewed one bit for bit.
+    doc["render_origin"] = serde_json::json!(scene.render_origin().to_array());
     std::fs::write(&file, doc.to_string()).unwrap();
     let written = reference::load_scene(file.to_str().unwrap()).unwrap();
     let mut p = GpuProgressive::new(ctx, &written, &spec, settings).unwrap();
