@@ -2,7 +2,7 @@
 //! statistically identical image (per-pixel z-test, Šidák-corrected, and
 //! the image-sum z), and the gate catches walls 5 % darker.
 
-use glam::{Affine3A, DVec3, Quat, Vec3};
+use glam::{DVec3, Quat, Vec3};
 use reference::material::Material;
 use reference::scene::{Scene, SceneBuilder, Transform};
 use twintrace::stats::{normal_two_sided_bound, sidak};
@@ -106,10 +106,12 @@ fn scaled_scene(scale: f32, albedo: f32) -> Scene {
         .unwrap();
     let block = Transform {
         matrix: s.matrix
-            * Affine3A::from_rotation_translation(
+            * Transform::from_parts(
+                Vec3::ONE,
                 Quat::from_rotation_y(0.4),
                 Vec3::new(0.7, -room, -0.6),
-            ),
+            )
+            .matrix,
     };
     b.add_box(
         Vec3::new(-0.5, 0.0, -0.5),
@@ -120,11 +122,12 @@ fn scaled_scene(scale: f32, albedo: f32) -> Scene {
     .unwrap();
     let ball = Transform {
         matrix: s.matrix
-            * Affine3A::from_scale_rotation_translation(
+            * Transform::from_parts(
                 Vec3::splat(0.45),
                 Quat::IDENTITY,
                 Vec3::new(0.9, -1.55, 1.0),
-            ),
+            )
+            .matrix,
     };
     b.add_mesh(&reference::procedural::icosphere(2), metal, &ball)
         .unwrap();
@@ -256,11 +259,31 @@ fn far_matches_origin(
     compare(far, near, method, &TestSettings::default()).unwrap()
 }
 
+/// precision-far.json traced in world coordinates: its `render_origin`
+/// pinned at the world's origin, so that its f32 numbers are 2·10^4 out
+/// as before render space (tests/render_space.rs checks render space
+/// itself).
+fn far_scene_in_world_space() -> Scene {
+    let root = twintrace::compare::gate::workspace_root();
+    let text = std::fs::read_to_string(root.join("fixtures/scenes/precision-far.json")).unwrap();
+    let mut doc: serde_json::Value = serde_json::from_str(&text).unwrap();
+    doc["render_origin"] = serde_json::json!([0.0, 0.0, 0.0]);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("precision-far-world.json");
+    std::fs::write(&path, serde_json::to_string(&doc).unwrap()).unwrap();
+    let scene = reference::loader::load_scene(path.to_str().unwrap()).unwrap();
+    assert_eq!(scene.render_origin(), DVec3::ZERO);
+    scene
+}
+
 /// Spawn offsets are relative to a point's error, not to its distance from
 /// the origin: the contact shadows of precision-far.json render as they do
-/// at the origin. Wächter & Binder's 256-ulp nudge (the defect this scene
-/// found, a quarter unit at 9000: ground points lifted out of the shadows
-/// of the spheres resting on it) fails the same comparison.
+/// at the origin, in render space (the camera's) and in world coordinates
+/// (f32 numbers 2·10^4 out). Wächter & Binder's 256-ulp nudge (the defect
+/// this scene found, a quarter unit at 9000: ground points lifted out of
+/// the shadows of the spheres resting on it) fails the same comparison in
+/// world coordinates (in render space the scene's numbers are small, and
+/// so is that nudge).
 #[test]
 fn a_scene_far_from_the_origin_renders_as_it_does_at_the_origin() {
     let near = render_far(&far_scene_at_origin(), 2048, 1);
@@ -273,6 +296,15 @@ fn a_scene_far_from_the_origin_renders_as_it_does_at_the_origin() {
     println!("far vs origin: {}", verdict.summary());
     assert!(verdict.passes(), "far vs origin: {}", verdict.summary());
 
+    let far_scene = far_scene_in_world_space();
+    let far = render_far(&far_scene, 512, 2);
+    let verdict = far_matches_origin(&far, &near);
+    println!("far in world coordinates vs origin: {}", verdict.summary());
+    assert!(
+        verdict.passes(),
+        "far in world coordinates vs origin: {}",
+        verdict.summary()
+    );
     let wide = reference::mutants::pool(reference::mutants::Mutant::WideSpawnNudge)
         .install(|| render_far(&far_scene, 512, 2));
     let verdict = far_matches_origin(&wide, &near);

@@ -262,6 +262,9 @@ fn a_moved_camera_renders_as_the_same_camera_written_in_the_scene() {
     let text = std::fs::read_to_string(&fixture).unwrap();
     let mut doc: serde_json::Value = serde_json::from_str(&text).unwrap();
     doc["camera"] = twintrace::view::camera_json(&moved);
+    // In the render space of the scene the viewer traced (the scene's own
+    // camera's), so that the file's scene is the viewed one bit for bit.
+    doc["render_origin"] = serde_json::json!(scene.render_origin().to_array());
     std::fs::write(&file, doc.to_string()).unwrap();
     let written = reference::load_scene(file.to_str().unwrap()).unwrap();
     let mut p = GpuProgressive::new(ctx, &written, &spec, settings).unwrap();
@@ -669,4 +672,37 @@ fn a_saved_view_renders_as_the_film_beside_it() {
             "{stderr}"
         );
     }
+}
+
+#[test]
+fn focus_picks_the_surface_in_world_coordinates_far_from_the_origin() {
+    // A one-unit box 3.3·10^4 out: traced in render space, picked and
+    // focused in the world's coordinates.
+    let scene = reference::load_scene(&twintrace::compare::gate::fixture_scene("cornell-far.json"))
+        .unwrap();
+    assert!(scene.render_origin().length() > 3e4);
+    let mut view = View::open(
+        Devices::Cpu(None),
+        &scene,
+        RenderSpec::DEFAULT,
+        scene.render_settings(),
+        Pace::Fixed(1),
+    )
+    .unwrap();
+    let p = view
+        .pick(0.5, 0.5)
+        .expect("the middle of the image shows the box");
+    let b = scene.bounds();
+    let (lo, hi) = (scene.to_world(b.min), scene.to_world(b.max));
+    let inside =
+        (p.as_dvec3() - lo).min_element() > -1e-2 && (hi - p.as_dvec3()).min_element() > -1e-2;
+    assert!(inside, "{p} is not in {lo} .. {hi}");
+    let eye = view.camera().eye();
+    let along = (p - eye).dot(view.camera().forward());
+    view.apply(Event::FocusAt { u: 0.5, v: 0.5 }).unwrap();
+    let focus = view.camera().focus_distance;
+    assert!(
+        (focus - along).abs() < 1e-2 * along,
+        "focus {focus}, the hit {along} ahead"
+    );
 }

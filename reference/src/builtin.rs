@@ -6,7 +6,7 @@ use crate::camera::CameraSettings;
 use crate::error::SceneError;
 use crate::material::Material;
 use crate::rng::random_f32;
-use crate::scene::{RenderSettings, Scene, SceneBuilder, Transform};
+use crate::scene::{RenderOrigin, RenderSettings, Scene, SceneBuilder, Transform};
 use glam::{Quat, Vec3};
 
 /// Names [`load`] accepts.
@@ -30,6 +30,7 @@ pub fn load(name: &str) -> Result<Scene, SceneError> {
 /// `seed`, so the scene is the same on every machine.
 pub fn rtow_final(seed: u32) -> Result<Scene, SceneError> {
     let mut b = SceneBuilder::new();
+    b.render_origin = RenderOrigin::Camera;
     let mut counter = 0u32;
     let mut rnd = || {
         counter += 1;
@@ -106,6 +107,7 @@ pub fn rtow_final(seed: u32) -> Result<Scene, SceneError> {
 /// "many primitives" showcase, where the BVH does the work.
 pub fn spheres_10k(seed: u32) -> Result<Scene, SceneError> {
     let mut b = SceneBuilder::new();
+    b.render_origin = RenderOrigin::Camera;
     let mut counter = 0u32;
     let mut rnd = || {
         counter += 1;
@@ -183,6 +185,7 @@ pub fn spheres_10k(seed: u32) -> Result<Scene, SceneError> {
 /// with a glass and a metal sphere instead.
 pub fn cornell(spheres: bool) -> Result<Scene, SceneError> {
     let mut b = SceneBuilder::new();
+    b.render_origin = RenderOrigin::Camera;
     let id = Transform::default();
     let red = b.constant(Vec3::new(0.65, 0.05, 0.05))?;
     let red = b.add_material(Material::Lambertian { albedo: red })?;

@@ -37,6 +37,10 @@ pub enum Mutant {
     /// The four-wide leaf blocks accept a triangle's hit without asking
     /// its coverage (`scene::leaf`'s `LeafTests::intersect_leaf`).
     AlphaIgnoredInLeafBlocks,
+    /// Render space left at the world's origin: a loaded scene is rounded
+    /// to f32 where its file puts it (`SceneBuilder::build`; active on
+    /// the thread that builds the scene: [`with`]).
+    NoRenderSpace,
 }
 
 #[cfg(feature = "mutants")]

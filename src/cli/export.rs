@@ -28,6 +28,11 @@
 //! Mitsuba's `path` integrator samples emitters with MIS, where twintrace
 //! samples the BSDF only: a different estimator of the same integral, so
 //! the two images agree in expectation and differ in noise.
+//!
+//! Coordinates are the scene's render space (the world minus
+//! `Scene::render_origin`, camera and shapes alike, as twintrace traces
+//! them; the XML says the origin in a comment): Mitsuba then traces the
+//! f32 numbers twintrace traces, not their world rounding.
 
 use super::outputs;
 use anyhow::{bail, Context, Result};
@@ -267,12 +272,18 @@ impl<'s> MitsubaScene<'s> {
         max_depth: u32,
         spp: u32,
     ) -> Result<String> {
-        let cam = &self.scene.camera_settings();
+        let cam = &self.scene.render_camera_settings();
         let mut x = String::from("<?xml version=\"1.0\" encoding=\"utf-8\"?>\n");
         writeln!(
             x,
             "<!-- Exported by twintrace {} (export-mitsuba). -->",
             env!("CARGO_PKG_VERSION")
+        )?;
+        let o = self.scene.render_origin();
+        writeln!(
+            x,
+            "<!-- Render space: world coordinates minus ({:?}, {:?}, {:?}). -->",
+            o.x, o.y, o.z
         )?;
         x += "<scene version=\"3.0.0\">\n";
         // Russian roulette from the same vertex: twintrace rolls at the

@@ -417,12 +417,13 @@ impl Phases {
 fn aov_extras(
     progressive: &mut dyn twintrace::render::Progressive,
     layers: &[twintrace::aov::AovLayer],
+    scene: &reference::Scene,
     spp: u32,
 ) -> Result<image_io::ExrExtras> {
     let mut extras = image_io::ExrExtras::default();
     if layers.iter().any(|l| l.traced()) {
         let aovs = progressive.aovs(0..spp)?.layers();
-        extras.f32_channels = twintrace::aov::float_channels(layers, &aovs, glam::DVec3::ZERO);
+        extras.f32_channels = twintrace::aov::float_channels(layers, &aovs, scene.render_origin());
     }
     if layers.contains(&twintrace::aov::AovLayer::Samples) {
         extras
@@ -604,7 +605,7 @@ fn render(args: &RenderArgs) -> Result<()> {
             phases.end("image read");
             let nonfinite = layers.rejected;
             let image = RenderImage::from_layers(layers, metadata);
-            let extras = aov_extras(progressive.as_mut(), &aovs, settings.spp)?;
+            let extras = aov_extras(progressive.as_mut(), &aovs, &scene, settings.spp)?;
             if !aovs.is_empty() {
                 phases.end("AOVs");
             }
@@ -810,8 +811,11 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
         scene.triangles().len(),
         scene.mesh().positions.len()
     );
+    // The box in the file's coordinates (the scene is traced in render
+    // space, about the camera).
     let b = scene.bounds();
-    say!("bounds: {} .. {}", b.min, b.max);
+    let (lo, hi) = (scene.to_world(b.min), scene.to_world(b.max));
+    say!("bounds: {} .. {}", lo.as_vec3(), hi.as_vec3());
     let count = |names: &[&'static str], of: &dyn Fn(usize) -> &'static str, n: usize| {
         let kinds: Vec<String> = names
             .iter()

@@ -321,15 +321,17 @@ impl<'a> View<'a> {
         }
     }
 
-    /// The point the image shows at `(u, v)`: the first surface along the
-    /// pinhole ray through it, from the reference's BVH.
+    /// The point the image shows at `(u, v)`, in world coordinates: the
+    /// first surface along the pinhole ray through it, from the
+    /// reference's BVH.
     pub fn pick(&self, u: f32, v: f32) -> Option<glam::Vec3> {
         let aspect = self.settings.width as f32 / self.settings.height as f32;
         let (origin, dir) = self.camera.pick_ray(u, v, aspect);
-        let ray = Ray::new(origin, dir);
+        // The view camera is in world coordinates, the BVH in render space.
+        let ray = Ray::new(self.scene.to_render(origin.as_dvec3()), dir);
         self.scene
             .intersect(&ray, 0.0, f32::INFINITY)
-            .map(|h| ray.at(h.t))
+            .map(|h| self.scene.to_world(ray.at(h.t)).as_vec3())
     }
 
     /// Adds the next samples to the film: `spp..spp + n`, `n` fixed or

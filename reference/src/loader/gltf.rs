@@ -92,9 +92,9 @@ use crate::background::Background;
 use crate::camera::CameraSettings;
 use crate::error::SceneError;
 use crate::material::{Alpha, AlphaMode, ClearCoat, Material, NormalMap};
-use crate::scene::{MeshInput, Scene, SceneBuilder, Transform, MAX_IMAGE_SIDE};
+use crate::scene::{MeshInput, RenderOrigin, Scene, SceneBuilder, Transform, MAX_IMAGE_SIDE};
 use crate::texture::{decode_8bit, srgb_to_linear, ImageData, Texture};
-use glam::{Affine3A, Mat3, Mat4, Vec2, Vec3, Vec4};
+use glam::{DAffine3, DMat3, DMat4, DQuat, DVec3, Vec2, Vec3, Vec4};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::buffer::Data as BufferData;
 use gltf::mesh::{Mode, Semantic};
@@ -171,6 +171,7 @@ pub fn add_gltf_scene(
 /// Tracing in One Weekend sky (white horizon, light blue zenith).
 pub fn load_gltf_document(path: &Path) -> Result<Scene, SceneError> {
     let mut builder = SceneBuilder::new();
+    builder.render_origin = RenderOrigin::Camera;
     builder.background = Some(Background::Sky {
         horizon: Vec3::ONE,
         zenith: Vec3::new(0.5, 0.7, 1.0),
@@ -265,7 +266,7 @@ fn import_scene(
                 ));
             }
             let mut input = local.clone();
-            if Mat3::from(world.matrix.matrix3).determinant() < 0.0 {
+            if world.mirrors() {
                 flip_winding(&mut input.indices);
             }
             let context = format!("meshes[{}].primitives[{}]", mesh.index(), primitive.index());
@@ -292,7 +293,7 @@ fn apply_camera(
     builder: &mut SceneBuilder,
     document: &Document,
     index: usize,
-    world: &Affine3A,
+    world: &DAffine3,
 ) -> bool {
     use gltf::json::camera::Type;
     use gltf::json::validation::Checked;
@@ -306,23 +307,27 @@ fn apply_camera(
     else {
         return false;
     };
-    let from = world.transform_point3(Vec3::ZERO);
-    let dir = world.transform_vector3(Vec3::NEG_Z).normalize_or_zero();
-    let up = world.transform_vector3(Vec3::Y).normalize_or_zero();
-    if !from.is_finite() || dir == Vec3::ZERO || up == Vec3::ZERO {
+    let from = world.transform_point3(DVec3::ZERO);
+    let dir = world.transform_vector3(DVec3::NEG_Z).normalize_or_zero();
+    let up = world.transform_vector3(DVec3::Y).normalize_or_zero();
+    if !from.as_vec3().is_finite() || dir == DVec3::ZERO || up.as_vec3() == Vec3::ZERO {
         return false;
     }
     // The look-at point and focus plane sit at a distance that f32 can
-    // still resolve next to `from` (aperture 0: the distance changes nothing else).
+    // still resolve next to `from` in world coordinates, as the camera is
+    // shown (aperture 0: the distance changes nothing else).
     let reach = from.abs().max_element().max(1.0);
-    builder.camera = CameraSettings {
-        look_from: from,
-        look_at: from + reach * dir,
-        up,
-        vfov: perspective.yfov.to_degrees(),
-        aperture: 0.0,
-        focus_distance: reach,
-    };
+    builder.set_camera_exact(
+        from,
+        from + reach * dir,
+        CameraSettings {
+            up: up.as_vec3(),
+            vfov: perspective.yfov.to_degrees(),
+            aperture: 0.0,
+            focus_distance: reach as f32,
+            ..CameraSettings::default()
+        },
+    );
     if let Some(aspect) = perspective
         .aspect_ratio
         .filter(|a| a.is_finite() && *a > 0.0)
@@ -544,7 +549,7 @@ fn check_views(document: &Document) -> Result<(), String> {
 struct Instance<'a> {
     mesh: Option<gltf::Mesh<'a>>,
     camera: Option<usize>,
-    world: Affine3A,
+    world: DAffine3,
 }
 
 /// The document's scene flattened, depth first in document order.
@@ -558,14 +563,14 @@ fn instances(document: &Document) -> Result<Vec<Instance<'_>>, String> {
             .map(|mesh| Instance {
                 mesh: Some(mesh),
                 camera: None,
-                world: Affine3A::IDENTITY,
+                world: DAffine3::IDENTITY,
             })
             .collect());
     };
     let mut visited = vec![false; document.as_json().nodes.len()];
     let mut out = Vec::new();
-    let mut stack: Vec<(gltf::Node, Affine3A)> =
-        scene.nodes().map(|n| (n, Affine3A::IDENTITY)).collect();
+    let mut stack: Vec<(gltf::Node, DAffine3)> =
+        scene.nodes().map(|n| (n, DAffine3::IDENTITY)).collect();
     stack.reverse();
     while let Some((node, parent)) = stack.pop() {
         let seen = visited
@@ -578,11 +583,11 @@ fn instances(document: &Document) -> Result<Vec<Instance<'_>>, String> {
                 scene.index()
             ));
         }
-        let local = Mat4::from_cols_array_2d(&node.transform().matrix());
+        let local = node_matrix(&node);
         if !local.is_finite() {
             return Err(format!("node {} has a non-finite transform", node.index()));
         }
-        let world = parent * Affine3A::from_mat4(local);
+        let world = parent * DAffine3::from_mat4(local);
         if !world.is_finite() {
             return Err(format!(
                 "node {}: the composed world transform is not finite",
@@ -598,6 +603,26 @@ fn instances(document: &Document) -> Result<Vec<Instance<'_>>, String> {
         stack.extend(children.into_iter().rev().map(|c| (c, world)));
     }
     Ok(out)
+}
+
+/// A node's local transform in f64: its matrix, or its translation,
+/// rotation and scale composed in f64 (the hierarchy is composed in f64
+/// too, and rounded to f32 only in render space).
+fn node_matrix(node: &gltf::Node) -> DMat4 {
+    match node.transform() {
+        gltf::scene::Transform::Matrix { matrix } => {
+            DMat4::from_cols_array_2d(&matrix.map(|c| c.map(|x| x as f64)))
+        }
+        gltf::scene::Transform::Decomposed {
+            translation,
+            rotation,
+            scale,
+        } => DMat4::from_scale_rotation_translation(
+            Vec3::from(scale).as_dvec3(),
+            DQuat::from_array(rotation.map(|x| x as f64)),
+            Vec3::from(translation).as_dvec3(),
+        ),
+    }
 }
 
 /// Primitives read once, in their own space, however many nodes use them.
@@ -1084,11 +1109,11 @@ fn flip_winding(indices: &mut [u32]) {
 }
 
 /// The primitive in world space (winding reversed under a mirroring matrix).
-fn place(local: &MeshInput, world: &Affine3A) -> MeshInput {
+fn place(local: &MeshInput, world: &DAffine3) -> MeshInput {
     let transform = Transform { matrix: *world };
     let normal_matrix = transform.normal_matrix();
     let mut indices = local.indices.clone();
-    if Mat3::from(world.matrix3).determinant() < 0.0 {
+    if transform.mirrors() {
         flip_winding(&mut indices);
     }
     MeshInput {
@@ -1099,7 +1124,7 @@ fn place(local: &MeshInput, world: &Affine3A) -> MeshInput {
             .collect(),
         // Under a pure translation the normals are kept bit for bit.
         normals: local.normals.as_ref().map(|ns| {
-            if world.matrix3 == glam::Mat3A::IDENTITY {
+            if world.matrix3 == DMat3::IDENTITY {
                 ns.clone()
             } else {
                 ns.iter()

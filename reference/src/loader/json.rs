@@ -9,9 +9,9 @@ use crate::camera::CameraSettings;
 use crate::error::SceneError;
 use crate::loader::image::load_image;
 use crate::material::{ClearCoat, Material};
-use crate::scene::{RenderSettings, Scene, SceneBuilder, Transform};
+use crate::scene::{RenderOrigin, RenderSettings, Scene, SceneBuilder, Transform};
 use crate::texture::Texture;
-use glam::{Quat, Vec3};
+use glam::{DQuat, DVec3, Vec3};
 use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use serde::Deserialize;
 use std::collections::{BTreeMap, HashMap};
@@ -57,35 +57,37 @@ impl<'de> Deserialize<'de> for ColorRef {
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(untagged, expecting = "a number or [x, y, z]")]
 pub enum ScaleJson {
-    Uniform(f32),
-    PerAxis([f32; 3]),
+    Uniform(f64),
+    PerAxis([f64; 3]),
 }
 
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct AxisAngleJson {
-    pub axis: [f32; 3],
+    pub axis: [f64; 3],
     /// Degrees.
-    pub angle: f32,
+    pub angle: f64,
 }
 
-/// Scale, then rotations (x, y, z, or axis-angle), then translation.
+/// Scale, then rotations (x, y, z, or axis-angle), then translation; read
+/// and composed in f64 (rounded to f32 only in render space).
 #[derive(Clone, Debug, Default, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TransformJson {
     pub scale: Option<ScaleJson>,
-    pub rotate_x: Option<f32>,
-    pub rotate_y: Option<f32>,
-    pub rotate_z: Option<f32>,
+    pub rotate_x: Option<f64>,
+    pub rotate_y: Option<f64>,
+    pub rotate_z: Option<f64>,
     pub rotate: Option<AxisAngleJson>,
-    pub translate: Option<[f32; 3]>,
+    pub translate: Option<[f64; 3]>,
 }
 
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CameraJson {
-    pub look_from: [f32; 3],
-    pub look_at: [f32; 3],
+    /// Read in f64: render space is placed by the file's numbers.
+    pub look_from: [f64; 3],
+    pub look_at: [f64; 3],
     #[serde(default = "default_up")]
     pub up: [f32; 3],
     #[serde(default = "default_vfov")]
@@ -101,15 +103,22 @@ impl CameraJson {
     /// distance from `look_from` to `look_at`); unchecked:
     /// `CameraSettings::validate` checks it.
     pub fn settings(&self) -> CameraSettings {
-        let (from, at) = (Vec3::from(self.look_from), Vec3::from(self.look_at));
+        let (from, at) = self.positions();
         CameraSettings {
-            look_from: from,
-            look_at: at,
+            look_from: from.as_vec3(),
+            look_at: at.as_vec3(),
             up: Vec3::from(self.up),
             vfov: self.vfov,
             aperture: self.aperture,
-            focus_distance: self.focus_distance.unwrap_or((at - from).length()),
+            focus_distance: self
+                .focus_distance
+                .unwrap_or((at.as_vec3() - from.as_vec3()).length()),
         }
+    }
+
+    /// `look_from` and `look_at` as the file gives them, in f64.
+    pub fn positions(&self) -> (DVec3, DVec3) {
+        (DVec3::from(self.look_from), DVec3::from(self.look_at))
     }
 }
 
@@ -280,7 +289,7 @@ pub struct GgxMaterialJson {
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SphereJson {
-    pub center: [f32; 3],
+    pub center: [f64; 3],
     pub radius: f32,
     pub material: String,
     #[serde(default)]
@@ -290,7 +299,7 @@ pub struct SphereJson {
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct QuadJson {
-    pub corner: [f32; 3],
+    pub corner: [f64; 3],
     pub u: [f32; 3],
     pub v: [f32; 3],
     pub material: String,
@@ -301,8 +310,8 @@ pub struct QuadJson {
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BoxJson {
-    pub min: [f32; 3],
-    pub max: [f32; 3],
+    pub min: [f64; 3],
+    pub max: [f64; 3],
     pub material: String,
     #[serde(default)]
     pub transform: TransformJson,
@@ -330,6 +339,9 @@ pub struct GltfJson {
 #[serde(deny_unknown_fields)]
 pub struct SceneJson {
     pub camera: Option<CameraJson>,
+    /// Where render space's origin lies, in world coordinates (default:
+    /// the camera's `look_from`; either moved to the checkers' lattice).
+    pub render_origin: Option<[f64; 3]>,
     #[serde(default)]
     pub render: RenderJson,
     pub background: Option<BackgroundJson>,
@@ -462,11 +474,11 @@ pub fn load_json_scene(path: &Path) -> Result<Scene, SceneError> {
 impl TransformJson {
     pub fn to_transform(&self) -> Result<Transform, SceneError> {
         let scale = match self.scale {
-            None => Vec3::ONE,
-            Some(ScaleJson::Uniform(s)) => Vec3::splat(s),
-            Some(ScaleJson::PerAxis(s)) => Vec3::from(s),
+            None => DVec3::ONE,
+            Some(ScaleJson::Uniform(s)) => DVec3::splat(s),
+            Some(ScaleJson::PerAxis(s)) => DVec3::from(s),
         };
-        if !scale.is_finite() || scale.cmpeq(Vec3::ZERO).any() {
+        if !scale.is_finite() || scale.cmpeq(DVec3::ZERO).any() {
             return Err(SceneError::invalid(
                 "scale",
                 format!("{scale} must be finite and non-zero"),
@@ -481,7 +493,7 @@ impl TransformJson {
                 ))
             }
             Some(AxisAngleJson { axis, angle }) => {
-                let axis = Vec3::from(*axis).try_normalize().ok_or_else(|| {
+                let axis = DVec3::from(*axis).try_normalize().ok_or_else(|| {
                     SceneError::invalid(
                         "rotate.axis",
                         "the axis must be a finite non-zero vector".into(),
@@ -493,7 +505,7 @@ impl TransformJson {
                         format!("{angle} is not finite"),
                     ));
                 }
-                Quat::from_axis_angle(axis, angle.to_radians())
+                DQuat::from_axis_angle(axis, angle.to_radians())
             }
             None => Transform::rotation_xyz(
                 self.rotate_x.unwrap_or(0.0),
@@ -501,8 +513,8 @@ impl TransformJson {
                 self.rotate_z.unwrap_or(0.0),
             ),
         };
-        let translate = Vec3::from(self.translate.unwrap_or([0.0; 3]));
-        let t = Transform::from_parts(scale, rotation, translate);
+        let translate = DVec3::from(self.translate.unwrap_or([0.0; 3]));
+        let t = Transform::from_parts_f64(scale, rotation, translate);
         if !t.is_finite() {
             return Err(SceneError::invalid(
                 "",
@@ -686,7 +698,7 @@ impl Resolver<'_> {
             }) => {
                 let m = self.material(material)?;
                 self.builder
-                    .add_sphere(Vec3::from(*center), *radius, m, &transform(t)?)
+                    .add_sphere(DVec3::from(*center), *radius, m, &transform(t)?)
             }
             ObjectJson::Quad(QuadJson {
                 corner,
@@ -697,7 +709,7 @@ impl Resolver<'_> {
             }) => {
                 let m = self.material(material)?;
                 self.builder.add_quad(
-                    Vec3::from(*corner),
+                    DVec3::from(*corner),
                     Vec3::from(*u),
                     Vec3::from(*v),
                     m,
@@ -712,7 +724,7 @@ impl Resolver<'_> {
             }) => {
                 let m = self.material(material)?;
                 self.builder
-                    .add_box(Vec3::from(*min), Vec3::from(*max), m, &transform(t)?)
+                    .add_box(DVec3::from(*min), DVec3::from(*max), m, &transform(t)?)
             }
             ObjectJson::Mesh(MeshJson {
                 path,
@@ -769,8 +781,19 @@ fn build(doc: &SceneJson, base: &Path, sources: Vec<PathBuf>) -> Result<Scene, S
         roulette_depth: rj.roulette_depth.unwrap_or(defaults.roulette_depth),
         camera: None,
     };
+    r.builder.render_origin = match doc.render_origin {
+        Some(p) if !DVec3::from(p).is_finite() => {
+            return Err(SceneError::invalid(
+                "render_origin",
+                format!("{} is not finite", DVec3::from(p)),
+            ))
+        }
+        Some(p) => RenderOrigin::At(DVec3::from(p)),
+        None => RenderOrigin::Camera,
+    };
     if let Some(c) = &doc.camera {
-        r.builder.camera = c.settings();
+        let (from, at) = c.positions();
+        r.builder.set_camera_exact(from, at, c.settings());
     }
     r.builder.background = Some(match &doc.background {
         None => Background::Solid(Vec3::ZERO),

@@ -1,6 +1,7 @@
 //! Building a scene: every parameter checked, then the BVH built.
 
 use super::leaf::{batched, primitive_bounds};
+use super::render_space::{RenderOrigin, RenderSpace};
 use super::{primitive_tag, Primitive, RenderSettings, Scene, Transform};
 use crate::background::Background;
 use crate::bvh::Bvh;
@@ -8,12 +9,13 @@ use crate::camera::CameraSettings;
 use crate::error::SceneError;
 use crate::geometry::Aabb;
 use crate::material::{Alpha, AlphaMode, Material};
+use crate::mutants::{self, Mutant};
 use crate::shapes::{
     MeshData, Quad, Sphere, Triangle, TRIANGLE_HAS_ALPHA, TRIANGLE_HAS_COLORS,
     TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_TANGENTS, TRIANGLE_HAS_UV1, TRIANGLE_HAS_UVS,
 };
 use crate::texture::{ImageData, Texture};
-use glam::{Mat3, Vec2, Vec3, Vec4};
+use glam::{DVec3, Vec2, Vec3, Vec4};
 use std::path::PathBuf;
 
 /// An indexed triangle mesh before placement.
@@ -32,10 +34,27 @@ pub struct MeshInput {
     pub uvs1: Option<Vec<Vec2>>,
 }
 
-/// Collects a scene, checks it, and builds its BVH.
+/// Collects a scene, checks it, and builds its BVH. Positions are kept in
+/// world coordinates, in f64, until [`SceneBuilder::build`] translates them
+/// into render space ([`SceneBuilder::render_origin`]) and rounds them to
+/// f32.
 #[derive(Clone, Debug, Default)]
 pub struct SceneBuilder {
+    /// The camera in world coordinates (see also
+    /// [`SceneBuilder::set_camera_exact`]).
     pub camera: CameraSettings,
+    /// Where render space's origin lies: the world's (the default, for
+    /// scenes built in code whose tests aim rays in world coordinates) or
+    /// the camera's (every loader).
+    pub render_origin: RenderOrigin,
+    /// The camera's `look_from` and `look_at` as the file gave them, in
+    /// f64, while they round to `camera`'s.
+    camera_exact: Option<(DVec3, DVec3)>,
+    /// World-space f64 twins of the spheres' centres, the quads' corners
+    /// and the mesh positions, which `build` translates and rounds.
+    sphere_centers: Vec<DVec3>,
+    quad_corners: Vec<DVec3>,
+    positions: Vec<DVec3>,
     pub render: RenderSettings,
     pub background: Option<Background>,
     /// What the loaders ignored and the user should hear of (one line
@@ -374,13 +393,19 @@ impl SceneBuilder {
     /// sphere under non-uniform scale is an ellipsoid, not a sphere).
     pub fn add_sphere(
         &mut self,
-        center: Vec3,
+        center: impl Into<DVec3>,
         radius: f32,
         material: u32,
         transform: &Transform,
     ) -> Result<(), SceneError> {
+        let center = center.into();
         self.check_material(material)?;
-        check_finite_vec("center", center)?;
+        if !center.is_finite() {
+            return Err(SceneError::invalid(
+                "center",
+                format!("{center} is not finite"),
+            ));
+        }
         if !(radius.is_finite() && radius != 0.0) {
             return Err(SceneError::invalid(
                 "radius",
@@ -390,9 +415,10 @@ impl SceneBuilder {
         let scale = transform.uniform_scale().ok_or_else(|| {
             SceneError::invalid("transform", "a sphere accepts only uniform scale".into())
         })?;
+        let placed = transform.point_f64(center);
         let s = Sphere {
-            center: transform.point(center),
-            radius: radius * scale,
+            center: placed.as_vec3(),
+            radius: (radius as f64 * scale) as f32,
             material,
         };
         check_finite_vec("transform", s.center)?;
@@ -403,6 +429,7 @@ impl SceneBuilder {
             ));
         }
         self.spheres.push(s);
+        self.sphere_centers.push(placed);
         self.push_primitive(primitive_tag::SPHERE, self.spheres.len() - 1);
         Ok(())
     }
@@ -410,18 +437,26 @@ impl SceneBuilder {
     /// A parallelogram `corner + s·u + t·v`, placed by `transform`.
     pub fn add_quad(
         &mut self,
-        corner: Vec3,
+        corner: impl Into<DVec3>,
         u: Vec3,
         v: Vec3,
         material: u32,
         transform: &Transform,
     ) -> Result<(), SceneError> {
+        let corner = corner.into();
         self.check_material(material)?;
-        for (f, x) in [("corner", corner), ("u", u), ("v", v)] {
+        if !corner.is_finite() {
+            return Err(SceneError::invalid(
+                "corner",
+                format!("{corner} is not finite"),
+            ));
+        }
+        for (f, x) in [("u", u), ("v", v)] {
             check_finite_vec(f, x)?;
         }
+        let placed = transform.point_f64(corner);
         let q = Quad {
-            corner: transform.point(corner),
+            corner: placed.as_vec3(),
             u: transform.vector(u),
             v: transform.vector(v),
             material,
@@ -434,6 +469,7 @@ impl SceneBuilder {
             ));
         }
         self.quads.push(q);
+        self.quad_corners.push(placed);
         self.push_primitive(primitive_tag::QUAD, self.quads.len() - 1);
         Ok(())
     }
@@ -441,20 +477,24 @@ impl SceneBuilder {
     /// An axis-aligned box in its own frame (six quads, outward normals).
     pub fn add_box(
         &mut self,
-        min: Vec3,
-        max: Vec3,
+        min: impl Into<DVec3>,
+        max: impl Into<DVec3>,
         material: u32,
         transform: &Transform,
     ) -> Result<(), SceneError> {
-        check_finite_vec("min", min)?;
-        check_finite_vec("max", max)?;
+        let (min, max) = (min.into(), max.into());
+        for (field, p) in [("min", min), ("max", max)] {
+            if !p.is_finite() {
+                return Err(SceneError::invalid(field, format!("{p} is not finite")));
+            }
+        }
         if !min.cmplt(max).all() {
             return Err(SceneError::invalid(
                 "min/max",
                 format!("min {min} must be below max {max} on every axis"),
             ));
         }
-        let d = max - min;
+        let d = (max - min).as_vec3();
         let (dx, dy, dz) = (
             Vec3::new(d.x, 0.0, 0.0),
             Vec3::new(0.0, d.y, 0.0),
@@ -462,22 +502,18 @@ impl SceneBuilder {
         );
         // Each face: corner, u, v with u × v pointing out of the box.
         let faces = [
-            (Vec3::new(min.x, min.y, max.z), dx, dy),  // front (+z)
-            (Vec3::new(max.x, min.y, max.z), -dz, dy), // right (+x)
-            (Vec3::new(max.x, min.y, min.z), -dx, dy), // back (-z)
-            (Vec3::new(min.x, min.y, min.z), dz, dy),  // left (-x)
-            (Vec3::new(min.x, max.y, max.z), dx, -dz), // top (+y)
-            (Vec3::new(min.x, min.y, min.z), dx, dz),  // bottom (-y)
+            (DVec3::new(min.x, min.y, max.z), dx, dy),  // front (+z)
+            (DVec3::new(max.x, min.y, max.z), -dz, dy), // right (+x)
+            (DVec3::new(max.x, min.y, min.z), -dx, dy), // back (-z)
+            (DVec3::new(min.x, min.y, min.z), dz, dy),  // left (-x)
+            (DVec3::new(min.x, max.y, max.z), dx, -dz), // top (+y)
+            (DVec3::new(min.x, min.y, min.z), dx, dz),  // bottom (-y)
         ];
-        let mirror = Mat3::from(transform.matrix.matrix3).determinant() < 0.0;
+        let mirror = transform.mirrors();
         for (corner, u, v) in faces {
             // A mirroring transform flips u × v; swap to keep normals outward.
-            let (u, v, c) = if mirror {
-                (v, u, corner)
-            } else {
-                (u, v, corner)
-            };
-            self.add_quad(c, u, v, material, transform)?;
+            let (u, v) = if mirror { (v, u) } else { (u, v) };
+            self.add_quad(corner, u, v, material, transform)?;
         }
         Ok(())
     }
@@ -543,8 +579,12 @@ impl SceneBuilder {
                 ));
             }
         }
-        let placed: Vec<Vec3> = mesh.positions.iter().map(|&p| transform.point(p)).collect();
-        if let Some(i) = placed.iter().position(|p| !p.is_finite()) {
+        let placed: Vec<DVec3> = mesh
+            .positions
+            .iter()
+            .map(|&p| transform.point_f64(p.as_dvec3()))
+            .collect();
+        if let Some(i) = placed.iter().position(|p| !p.as_vec3().is_finite()) {
             return Err(SceneError::invalid(
                 "positions",
                 format!(
@@ -555,7 +595,8 @@ impl SceneBuilder {
         }
         let nm = transform.normal_matrix();
         for (i, wp) in placed.into_iter().enumerate() {
-            self.mesh.positions.push(wp);
+            self.mesh.positions.push(wp.as_vec3());
+            self.positions.push(wp);
             let wn = mesh
                 .normals
                 .as_ref()
@@ -569,7 +610,7 @@ impl SceneBuilder {
                 .push(if uv.is_finite() { uv } else { Vec2::ZERO });
         }
         // A mirroring placement turns the tangent frame's handedness.
-        let mirrors = Mat3::from(transform.matrix.matrix3).determinant() < 0.0;
+        let mirrors = transform.mirrors();
         let placed_tangent = |t: Vec4| {
             let xyz = transform.vector(t.truncate()).normalize_or_zero();
             let w = if (t.w < 0.0) != mirrors { -1.0 } else { 1.0 };
@@ -623,6 +664,37 @@ impl SceneBuilder {
         Ok(())
     }
 
+    /// Sets the camera from positions given in f64 (a scene file's
+    /// numbers): render space is then placed by them, not by their f32
+    /// rounding, which `camera` holds. `settings` gives the rest of the
+    /// camera.
+    pub fn set_camera_exact(&mut self, look_from: DVec3, look_at: DVec3, settings: CameraSettings) {
+        self.camera = CameraSettings {
+            look_from: look_from.as_vec3(),
+            look_at: look_at.as_vec3(),
+            ..settings
+        };
+        self.camera_exact = Some((look_from, look_at));
+    }
+
+    /// The camera's position and target in f64: as
+    /// [`SceneBuilder::set_camera_exact`] gave them while `camera` still
+    /// holds their rounding, else `camera`'s own.
+    fn camera_positions(&self) -> (DVec3, DVec3) {
+        match self.camera_exact {
+            Some((from, at))
+                if from.as_vec3() == self.camera.look_from
+                    && at.as_vec3() == self.camera.look_at =>
+            {
+                (from, at)
+            }
+            _ => (
+                self.camera.look_from.as_dvec3(),
+                self.camera.look_at.as_dvec3(),
+            ),
+        }
+    }
+
     pub fn material_count(&self) -> usize {
         self.materials.len()
     }
@@ -643,6 +715,7 @@ impl SceneBuilder {
                 "the scene has no objects".into(),
             ));
         }
+        let (from, at) = self.camera_positions();
         let background = self.background.unwrap_or(Background::Solid(Vec3::ZERO));
         check_view(&self.camera, &self.render, &background, self.images.len())?;
         let mut alphas = self.alphas;
@@ -661,24 +734,68 @@ impl SceneBuilder {
         for tri in triangles.iter_mut().filter(|t| has_alpha(t.material)) {
             tri.flags |= TRIANGLE_HAS_ALPHA;
         }
+        // Render space: every position translated in f64, then rounded.
+        let space = match self.render_origin {
+            _ if mutants::is(Mutant::NoRenderSpace) => RenderSpace::WORLD,
+            RenderOrigin::World => RenderSpace::WORLD,
+            RenderOrigin::Camera => RenderSpace::near(from, &self.textures),
+            RenderOrigin::At(p) => RenderSpace::near(p, &self.textures),
+        };
+        let origin = space.origin();
+        let textures = render_textures(&space, &self.textures)?;
+        let mut spheres = self.spheres;
+        let mut quads = self.quads;
+        let mut mesh = self.mesh;
+        if origin != DVec3::ZERO {
+            let to_render = |field: &str, p: DVec3| {
+                let r = (p - origin).as_vec3();
+                if r.is_finite() {
+                    Ok(r)
+                } else {
+                    Err(SceneError::invalid(
+                        field,
+                        format!("{p} is not finite in f32 in render space (origin {origin})"),
+                    ))
+                }
+            };
+            for (s, &c) in spheres.iter_mut().zip(&self.sphere_centers) {
+                s.center = to_render("objects.center", c)?;
+            }
+            for (q, &c) in quads.iter_mut().zip(&self.quad_corners) {
+                q.corner = to_render("objects.corner", c)?;
+            }
+            for (m, &p) in mesh.positions.iter_mut().zip(&self.positions) {
+                *m = to_render("objects.positions", p)?;
+            }
+        }
+        let render_camera = CameraSettings {
+            look_from: (from - origin).as_vec3(),
+            look_at: (at - origin).as_vec3(),
+            ..self.camera
+        };
+        if origin != DVec3::ZERO {
+            render_camera.validate()?;
+        }
         let bounds: Vec<Aabb> = self
             .primitives
             .iter()
-            .map(|&p| primitive_bounds(p, &self.spheres, &self.quads, &triangles, &self.mesh))
+            .map(|&p| primitive_bounds(p, &spheres, &quads, &triangles, &mesh))
             .collect();
         let batched: Vec<bool> = self.primitives.iter().map(|p| batched(p.tag)).collect();
         let (bvh, bvh_stats) = Bvh::build_batched(&bounds, &batched);
         let mut scene = Scene {
             camera_settings: self.camera,
+            render_camera,
+            render_space: space,
             render: self.render,
             background,
-            spheres: self.spheres,
-            quads: self.quads,
+            spheres,
+            quads,
             triangles,
-            mesh: self.mesh,
+            mesh,
             materials: self.materials,
             alphas,
-            textures: self.textures,
+            textures,
             images: self.images,
             primitives: self.primitives,
             bvh: Bvh::default(),
@@ -701,8 +818,32 @@ impl SceneBuilder {
     }
 }
 
+/// `textures` (world meaning) as render space `space` evaluates them, or
+/// the other way (the map is its own inverse); an error names a checker
+/// whose pattern render space cannot keep.
+fn render_textures(space: &RenderSpace, textures: &[Texture]) -> Result<Vec<Texture>, SceneError> {
+    textures
+        .iter()
+        .enumerate()
+        .map(|(i, &t)| {
+            space.texture(t).ok_or_else(|| {
+                SceneError::invalid(
+                    &format!("textures[{i}].scale"),
+                    format!(
+                        "the checker does not repeat at render space's origin {} (a checker \
+                         whose scale is not a whole multiple of the scene's checkers' cannot \
+                         be added to a scene placed away from the world's origin)",
+                        space.origin()
+                    ),
+                )
+            })
+        })
+        .collect()
+}
+
 /// What [`Scene::edited`] may change in a built scene: all but the geometry
-/// (and so the BVH) and the images.
+/// (and so the BVH) and the images. The camera is in world coordinates
+/// and the textures have their world meaning, as the builder took them.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Appearance {
     pub camera: CameraSettings,
@@ -721,12 +862,13 @@ impl Scene {
     /// different scene, built anew). For tests and tools that derive a
     /// variant of a loaded scene: a dimmed albedo, another camera.
     pub fn edited(mut self, edit: impl FnOnce(&mut Appearance)) -> Result<Scene, SceneError> {
+        let world_textures = render_textures(&self.render_space, &self.textures)?;
         let mut look = Appearance {
             camera: self.camera_settings,
             render: self.render,
             background: self.background,
             materials: std::mem::take(&mut self.materials),
-            textures: std::mem::take(&mut self.textures),
+            textures: world_textures,
         };
         edit(&mut look);
         let images = self.images.len();
@@ -734,6 +876,11 @@ impl Scene {
         for (i, texture) in look.textures.iter().enumerate() {
             check_texture(texture, &look.textures[..i], images)
                 .map_err(|e| e.within(&format!("textures[{i}]")))?;
+        }
+        let textures = render_textures(&self.render_space, &look.textures)?;
+        let render_camera = self.render_camera_of(&look.camera);
+        if render_camera != self.render_camera {
+            render_camera.validate()?;
         }
         for (i, material) in look.materials.iter().enumerate() {
             check_material(material, look.textures.len())
@@ -756,10 +903,11 @@ impl Scene {
             ));
         }
         self.camera_settings = look.camera;
+        self.render_camera = render_camera;
         self.render = look.render;
         self.background = look.background;
         self.materials = look.materials;
-        self.textures = look.textures;
+        self.textures = textures;
         Ok(self)
     }
 

@@ -3,7 +3,9 @@
 //! and always valid.
 //!
 //! - `settings`: [`RenderSettings`] and the size limits.
-//! - `transform`: [`Transform`], how objects are placed.
+//! - `transform`: [`Transform`], how objects are placed (in f64).
+//! - `render_space`: [`RenderSpace`], the camera-relative coordinates the
+//!   twins trace in, and where [`SceneBuilder`] puts their origin.
 //! - `builder`: [`SceneBuilder`], which checks every parameter and builds
 //!   the BVH, and the checked ways to derive a scene from another.
 //! - `leaf`: the traversal's copies of the geometry in BVH leaf order and
@@ -11,12 +13,14 @@
 
 mod builder;
 mod leaf;
+mod render_space;
 mod settings;
 #[cfg(test)]
 mod tests;
 mod transform;
 
 pub use builder::{Appearance, MeshInput, SceneBuilder};
+pub use render_space::{RenderOrigin, RenderSpace};
 pub use settings::{RenderSettings, MAX_DEPTH, MAX_IMAGE_SIDE, MAX_PIXELS, MAX_SPP};
 pub use transform::Transform;
 
@@ -31,7 +35,7 @@ use crate::shapes::{
     TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_TANGENTS, TRIANGLE_HAS_UV1, TRIANGLE_HAS_UVS,
 };
 use crate::texture::{evaluate_texture, ImageData, Texture};
-use glam::{Vec2, Vec3, Vec4};
+use glam::{DVec3, Vec2, Vec3, Vec4};
 use leaf::{primitive_bounds, LeafBlock, LeafPrim, LeafTests, RayConstants};
 use std::f32::consts::PI;
 use std::path::PathBuf;
@@ -67,7 +71,12 @@ pub struct Primitive {
 /// geometry always match it. Read through the accessors.
 #[derive(Clone, Debug)]
 pub struct Scene {
+    /// The scene's camera in world coordinates, as the file states it.
     camera_settings: CameraSettings,
+    /// The same camera in render space, placed from the file's f64 numbers.
+    render_camera: CameraSettings,
+    /// Where render space lies: every position below is in it.
+    render_space: RenderSpace,
     render: RenderSettings,
     background: Background,
     spheres: Vec<Sphere>,
@@ -146,9 +155,19 @@ impl Scene {
         let mut h = Fingerprint(0xcbf2_9ce4_8422_2325);
         let _ = write!(
             h,
-            "{:?}{:?}{:?}{:?}{:?}",
-            self.camera_settings, self.background, self.materials, self.alphas, self.textures
+            "{:?}{:?}{:?}{:?}{:?}{:?}",
+            self.camera_settings,
+            self.render_camera,
+            self.background,
+            self.materials,
+            self.alphas,
+            self.textures
         );
+        for c in self.render_space.origin().to_array() {
+            let bits = c.to_bits();
+            h.word(bits as u32);
+            h.word((bits >> 32) as u32);
+        }
         for s in &self.spheres {
             let _ = write!(h, "{s:?}");
         }
@@ -197,14 +216,60 @@ impl Scene {
         &self.sources
     }
 
-    /// The camera for an image of `width x height`.
+    /// The scene's camera for an image of `width x height`, in render
+    /// space (what the twins trace).
     pub fn camera(&self, width: u32, height: u32) -> Camera {
-        Camera::new(&self.camera_settings, width as f32 / height as f32)
+        Camera::new(&self.render_camera, width as f32 / height as f32)
     }
 
-    /// The camera as the scene describes it.
+    /// The camera as the scene describes it, in world coordinates (what
+    /// tools show and save; [`Scene::render_camera_of`] takes it into
+    /// render space).
     pub fn camera_settings(&self) -> CameraSettings {
         self.camera_settings
+    }
+
+    /// The scene's own camera in render space.
+    pub fn render_camera_settings(&self) -> CameraSettings {
+        self.render_camera
+    }
+
+    /// A camera given in world coordinates, in render space: its position
+    /// and target translated in f64 and rounded; the scene's own camera
+    /// (equal field for field) is the one the file's f64 numbers placed.
+    /// Every camera a render traces goes through here
+    /// ([`RenderSettings::camera`]).
+    pub fn render_camera_of(&self, world: &CameraSettings) -> CameraSettings {
+        if *world == self.camera_settings {
+            return self.render_camera;
+        }
+        CameraSettings {
+            look_from: self.to_render(world.look_from.as_dvec3()),
+            look_at: self.to_render(world.look_at.as_dvec3()),
+            ..*world
+        }
+    }
+
+    /// Where render space lies (its origin in world coordinates and the
+    /// checkers' lattice).
+    pub fn render_space(&self) -> RenderSpace {
+        self.render_space
+    }
+
+    /// World coordinates of render space's origin: a world point is
+    /// `render-space point + render_origin()`.
+    pub fn render_origin(&self) -> DVec3 {
+        self.render_space.origin()
+    }
+
+    /// A world point in render space (translated in f64, rounded to f32).
+    pub fn to_render(&self, world: DVec3) -> Vec3 {
+        (world - self.render_space.origin()).as_vec3()
+    }
+
+    /// A render-space point in world coordinates (exact in f64).
+    pub fn to_world(&self, render: Vec3) -> DVec3 {
+        render.as_dvec3() + self.render_space.origin()
     }
 
     /// The scene's render defaults (size, spp, depth, seed, roulette), which
@@ -284,6 +349,8 @@ impl Scene {
         self.bvh = bvh;
     }
 
+    /// The bounds of every primitive in render space (where rays are
+    /// aimed); [`Scene::to_world`] takes its corners to world coordinates.
     pub fn bounds(&self) -> Aabb {
         self.bvh
             .nodes()

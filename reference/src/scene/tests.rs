@@ -39,11 +39,10 @@ fn an_edit_keeps_the_geometry_and_changes_what_it_says() {
         .filter(|(a, b)| a != b)
         .count();
     assert!(changed > 0, "no texture was dimmed");
-    let ray = Ray::new(scene.camera_settings().look_from, Vec3::new(0.1, -0.2, 1.0));
-    let ray = Ray::new(
-        ray.origin,
-        (scene.camera_settings().look_at - ray.origin) + ray.direction,
-    );
+    // Rays are aimed in render space, from the camera the twins trace.
+    let eye = scene.render_camera_settings();
+    let ray = Ray::new(eye.look_from, Vec3::new(0.1, -0.2, 1.0));
+    let ray = Ray::new(ray.origin, (eye.look_at - ray.origin) + ray.direction);
     assert_eq!(
         dimmed.intersect(&ray, 0.0, f32::INFINITY),
         scene.intersect(&ray, 0.0, f32::INFINITY)
@@ -114,7 +113,7 @@ fn a_tree_is_put_under_a_scene_only_if_it_indexes_its_primitives() {
     let empty = scene
         .with_bvh(Bvh::from_parts(vec![root], vec![]).unwrap())
         .unwrap();
-    let look = empty.camera_settings();
+    let look = empty.render_camera_settings();
     let ray = Ray::new(look.look_from, look.look_at - look.look_from);
     assert_eq!(empty.intersect(&ray, 0.0, f32::INFINITY), None);
     assert!(empty
@@ -329,4 +328,113 @@ fn only_triangles_take_a_coverage_and_it_is_checked() {
     b.add_quad(Vec3::ZERO, Vec3::X, Vec3::Y, m, &Transform::default())
         .unwrap();
     assert_eq!(field_of(b.build().unwrap_err()), "alpha");
+}
+
+/// A scene file's numbers far from the origin, as the loader reads them.
+fn far_scene(checker_scale: Option<f32>) -> Scene {
+    let textures = match checker_scale {
+        Some(s) => format!(
+            r#""textures": {{ "checks": {{ "type": "checker", "scale": {s}, "even": [0.1, 0.1, 0.1], "odd": [0.9, 0.9, 0.9] }} }},"#
+        ),
+        None => String::new(),
+    };
+    let albedo = if checker_scale.is_some() {
+        r#""checks""#
+    } else {
+        "[0.5, 0.5, 0.5]"
+    };
+    let text = format!(
+        r#"{{
+          "camera": {{ "look_from": [30000.3, -20000.1, 10000.7], "look_at": [30000.3, -20000.1, 9999.7] }},
+          {textures}
+          "materials": {{ "m": {{ "type": "lambertian", "albedo": {albedo} }} }},
+          "objects": [
+            {{ "type": "sphere", "center": [30000.35, -20000.05, 9999.2], "radius": 0.25, "material": "m" }},
+            {{ "type": "quad", "corner": [29999.3, -20001.1, 9998.7], "u": [2, 0, 0], "v": [0, 0, 2], "material": "m",
+               "transform": {{ "translate": [0.001, 0.002, 0.003] }} }}
+          ]
+        }}"#
+    );
+    let doc =
+        crate::loader::json::parse_scene_json(&text, std::path::Path::new("far.json")).unwrap();
+    crate::loader::json::build_scene(&doc, std::path::Path::new(".")).unwrap()
+}
+
+#[test]
+fn a_loaded_scene_is_rounded_to_f32_only_in_render_space() {
+    let scene = far_scene(None);
+    let origin = DVec3::new(30000.3, -20000.1, 10000.7);
+    assert_eq!(scene.render_origin(), origin);
+    // Each position is the f64 difference, rounded once.
+    assert_eq!(
+        scene.spheres()[0].center,
+        (DVec3::new(30000.35, -20000.05, 9999.2) - origin).as_vec3()
+    );
+    assert_eq!(
+        scene.quads()[0].corner,
+        (DVec3::new(29999.3 + 0.001, -20001.1 + 0.002, 9998.7 + 0.003) - origin).as_vec3()
+    );
+    let traced = scene.render_camera_settings();
+    assert_eq!(traced.look_from, Vec3::ZERO);
+    assert_eq!(
+        traced.look_at,
+        (DVec3::new(30000.3, -20000.1, 9999.7) - origin).as_vec3()
+    );
+    // The world camera is the file's rounding; it maps to the traced one.
+    let world = scene.camera_settings();
+    assert_eq!(world.look_from, origin.as_vec3());
+    assert_eq!(scene.render_camera_of(&world), traced);
+    let settings = RenderSettings {
+        camera: Some(world),
+        ..RenderSettings::default()
+    };
+    assert_eq!(
+        settings.camera(&scene),
+        RenderSettings::default().camera(&scene)
+    );
+    // Another world camera is translated in f64.
+    let moved = CameraSettings {
+        look_from: world.look_from + Vec3::new(0.0, 0.5, 0.0),
+        ..world
+    };
+    assert_eq!(
+        scene.render_camera_of(&moved).look_from,
+        scene.to_render(moved.look_from.as_dvec3())
+    );
+    assert_eq!(scene.to_world(Vec3::ZERO), origin);
+}
+
+#[test]
+fn checkers_keep_their_world_pattern_and_edits_keep_their_meaning() {
+    let scene = far_scene(Some(4.0));
+    let origin = scene.render_origin();
+    // On the lattice of half periods π/4, within half a step of the camera.
+    let camera = DVec3::new(30000.3, -20000.1, 10000.7);
+    let step = std::f64::consts::PI / 4.0;
+    assert!((origin - camera).abs().max_element() <= 0.5 * step + 1e-9);
+    for c in origin.to_array() {
+        assert!(((c / step).round() - c / step).abs() < 1e-6, "{origin}");
+    }
+    // An edit sees the textures as the builder took them, and an edit
+    // that changes nothing changes nothing.
+    let same = scene.clone().edited(|look| {
+        assert!(matches!(
+            look.textures.last(),
+            Some(Texture::Checker { scale, .. }) if *scale == 4.0
+        ));
+    });
+    assert_eq!(same.unwrap().textures(), scene.textures());
+    // A checker of a scale the lattice does not repeat is refused; one
+    // that it does (twice the scale) is taken.
+    let push = |scale: f32| {
+        scene.clone().edited(|look| {
+            look.textures.push(Texture::Checker {
+                scale,
+                even: 0,
+                odd: 1,
+            })
+        })
+    };
+    assert!(field_of(push(3.0).unwrap_err()).ends_with(".scale"));
+    assert!(push(8.0).is_ok());
 }

@@ -267,7 +267,12 @@ fn build(spec: &[ShapeSpec], placement: &Transform, alpha: Option<AlphaMode>) ->
             } => {
                 let t = Transform {
                     matrix: placement.matrix
-                        * glam::Affine3A::from_quat(Quat::from_rotation_y(rotate_y.to_radians())),
+                        * Transform::from_parts(
+                            Vec3::ONE,
+                            Quat::from_rotation_y(rotate_y.to_radians()),
+                            Vec3::ZERO,
+                        )
+                        .matrix,
                 };
                 b.add_box(min, min + size, m, &t).is_ok()
             }
@@ -292,11 +297,7 @@ fn build(spec: &[ShapeSpec], placement: &Transform, alpha: Option<AlphaMode>) ->
             } => {
                 let t = Transform {
                     matrix: placement.matrix
-                        * glam::Affine3A::from_scale_rotation_translation(
-                            Vec3::splat(radius),
-                            Quat::IDENTITY,
-                            center,
-                        ),
+                        * Transform::from_parts(Vec3::splat(radius), Quat::IDENTITY, center).matrix,
                 };
                 b.add_mesh(
                     &reference::procedural::icosphere(subdivisions),
