@@ -346,7 +346,7 @@ const MOVED_SPP: u32 = 256;
 
 #[test]
 fn every_fixture_moved_up_to_1e5_passes_its_stored_reference_gate() {
-    let mut offsets = Offsets(0x5eed_41_0001);
+    let mut offsets = Offsets(0x005e_ed41_0001);
     let mut failures = Vec::new();
     for (i, spec) in read_manifest().unwrap().iter().enumerate() {
         let path = workspace_root().join(&spec.scene);
