@@ -185,6 +185,32 @@ struct Panel {
     counts_at: Option<Instant>,
 }
 
+impl Panel {
+    fn new(tonemap: Tonemap, compare: bool, layer: Option<AovLayer>) -> Self {
+        Panel {
+            tonemap,
+            exposure_stops: 0.0,
+            help: false,
+            paused: false,
+            last: None,
+            last_draw: Instant::now(),
+            relmse: None,
+            message: None,
+            compare,
+            show: Show::Split,
+            twin: None,
+            compared: None,
+            judged_at: None,
+            save: false,
+            layer,
+            layer_pending: None,
+            layer_texture: None,
+            layer_dirty: true,
+            counts_at: None,
+        }
+    }
+}
+
 /// What the image shows in compare mode.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Show {
@@ -356,27 +382,7 @@ impl Running {
             egui_ctx,
             egui_state,
             egui_renderer,
-            panel: Panel {
-                tonemap: options.spec.tonemap,
-                exposure_stops: 0.0,
-                help: false,
-                paused: false,
-                last: None,
-                last_draw: Instant::now(),
-                relmse: None,
-                message: None,
-                compare: options.compare,
-                show: Show::Split,
-                twin: None,
-                compared: None,
-                judged_at: None,
-                save: false,
-                layer: options.layer,
-                layer_pending: None,
-                layer_texture: None,
-                layer_dirty: true,
-                counts_at: None,
-            },
+            panel: Panel::new(options.spec.tonemap, options.compare, options.layer),
             frames_left: options.frames,
             screenshot: options.screenshot,
             save_dir: options.save_dir,
@@ -431,7 +437,7 @@ impl Running {
             let panel = &mut self.panel;
             let image = &self.image;
             self.egui_ctx.run_ui(input, |ui| {
-                close |= draw_ui(ui, view, panel, image, &mut events);
+                close |= draw_ui(ui, view, panel, (image.id, image.size), &mut events);
             })
         };
         self.egui_state
@@ -796,9 +802,10 @@ fn draw_ui(
     ui: &mut egui::Ui,
     view: &View<'_>,
     panel: &mut Panel,
-    image: &Image,
+    image: (egui::TextureId, (u32, u32)),
     events: &mut Vec<Event>,
 ) -> bool {
+    let (image_id, image_size) = image;
     let mut close = false;
     let now = Instant::now();
     let dt = now.duration_since(panel.last_draw).as_secs_f32().min(0.1);
@@ -880,7 +887,7 @@ fn draw_ui(
                 ui.separator();
                 ui.label("Estimator");
                 let mut integrator = spec.integrator();
-                egui::ComboBox::from_id_salt("integrator")
+                egui::ComboBox::from_label("estimator")
                     .selected_text(integrator.name())
                     .show_ui(ui, |ui| {
                         for i in Integrator::ALL {
@@ -899,7 +906,7 @@ fn draw_ui(
                 }
                 ui.separator();
                 ui.label("Display");
-                egui::ComboBox::from_id_salt("tonemap")
+                egui::ComboBox::from_label("tone map")
                     .selected_text(tonemap_name(panel.tonemap))
                     .show_ui(ui, |ui| {
                         for t in [Tonemap::Aces, Tonemap::None] {
@@ -972,7 +979,7 @@ fn draw_ui(
         });
     egui::CentralPanel::default().show(ui, |ui| {
         let avail = ui.available_size();
-        let (w, h) = (image.size.0 as f32, image.size.1 as f32);
+        let (w, h) = (image_size.0 as f32, image_size.1 as f32);
         let scale = (avail.x / w).min(avail.y / h).max(1e-3);
         let size = egui::vec2(w * scale, h * scale);
         let (cpu_id, z_id) = match &panel.compared {
@@ -987,10 +994,10 @@ fn draw_ui(
             _ => None,
         };
         let shown = match panel.show {
-            _ if layer_id.is_some() => layer_id.unwrap_or(image.id),
-            Show::Cpu if panel.compare => cpu_id.unwrap_or(image.id),
-            Show::Z if panel.compare => z_id.unwrap_or(image.id),
-            _ => image.id,
+            _ if layer_id.is_some() => layer_id.unwrap_or(image_id),
+            Show::Cpu if panel.compare => cpu_id.unwrap_or(image_id),
+            Show::Z if panel.compare => z_id.unwrap_or(image_id),
+            _ => image_id,
         };
         let response = ui.add(
             egui::Image::from_texture(egui::load::SizedTexture::new(shown, size))
@@ -1341,4 +1348,120 @@ fn combo<T: Copy + PartialEq>(
                 ui.selectable_value(value, x, name(x));
             }
         });
+}
+
+/// The panel driven through egui's accessibility tree (egui_kittest):
+/// what a click on each control does to the view's events and the
+/// panel's state, with no window and no GPU.
+#[cfg(test)]
+mod panel_tests {
+    use super::*;
+    use egui_kittest::kittest::Queryable as _;
+    use egui_kittest::Harness;
+
+    fn cornell() -> &'static Scene {
+        static SCENE: std::sync::OnceLock<Scene> = std::sync::OnceLock::new();
+        SCENE.get_or_init(|| reference::load_scene("cornell").unwrap())
+    }
+
+    /// The panel over a CPU view of the Cornell box, and the events its
+    /// clicks made.
+    fn harness<'v>(view: &'v View<'static>) -> Harness<'v, (Panel, Vec<Event>)> {
+        let state = (Panel::new(Tonemap::Aces, false, None), Vec::new());
+        let mut h = Harness::new_ui_state(
+            move |ui, (panel, events): &mut (Panel, Vec<Event>)| {
+                let image = (egui::TextureId::User(0), (8, 6));
+                draw_ui(ui, view, panel, image, events);
+            },
+            state,
+        );
+        h.set_size(egui::vec2(1000.0, 900.0));
+        h.run();
+        h
+    }
+
+    fn view() -> View<'static> {
+        let scene = cornell();
+        let settings = RenderSettings {
+            width: 8,
+            height: 6,
+            ..scene.render_settings()
+        };
+        View::open(
+            Devices::Cpu(None),
+            scene,
+            RenderSpec::DEFAULT,
+            settings,
+            Pace::Fixed(1),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn the_buttons_pause_save_and_show_the_keys() {
+        let view = view();
+        let mut h = harness(&view);
+        h.get_by_label("pause").click();
+        h.run();
+        assert!(h.state().0.paused);
+        h.get_by_label("resume").click();
+        h.run();
+        assert!(!h.state().0.paused);
+        h.get_by_label("save").click();
+        h.run();
+        assert!(h.state().0.save);
+        h.get_by_label("keys").click();
+        h.run();
+        assert!(h.state().0.help);
+        // The help lists every key.
+        for (_, what) in KEYS {
+            h.get_by_label(what);
+        }
+        h.get_by_label("scene camera (R)").click();
+        h.run();
+        assert!(
+            h.state().1.contains(&Event::SceneCamera),
+            "{:?}",
+            h.state().1
+        );
+    }
+
+    #[test]
+    fn the_menus_pick_the_estimator_and_the_layer() {
+        let view = view();
+        let mut h = harness(&view);
+        // The estimator: MIS is the default; BSDF is picked from its menu.
+        h.get_by_label("estimator").click();
+        h.run();
+        h.get_by_label("bsdf").click();
+        h.run();
+        assert!(
+            h.state().1.contains(&Event::Integrator(Integrator::Bsdf)),
+            "{:?}",
+            h.state().1
+        );
+        // The layer: the image until depth is picked.
+        assert_eq!(h.state().0.layer, None);
+        h.get_by_label("layer").click();
+        h.run();
+        h.get_by_label("depth").click();
+        h.run();
+        let panel = &h.state().0;
+        assert_eq!(panel.layer, Some(AovLayer::Depth));
+        assert!(panel.layer_dirty, "a picked layer is drawn again");
+    }
+
+    #[test]
+    fn compare_mode_is_switched_on_by_its_box() {
+        let view = view();
+        let mut h = harness(&view);
+        assert!(!h.state().0.compare);
+        h.get_by_label("compare with the CPU reference").click();
+        h.run();
+        assert!(h.state().0.compare);
+        // Its views appear, the split one chosen.
+        h.get_by_label("|t| map").click();
+        h.run();
+        assert_eq!(h.state().0.show, Show::Z);
+    }
 }
