@@ -87,18 +87,31 @@ pub struct Part {
     pub metadata: RenderMetadata,
 }
 
+/// A whole number as the command line takes one: ASCII digits only (no
+/// sign, space or other form `str::parse` would take: `+4`, ` 4` and `-1`
+/// are refused), at most `u32::MAX`. The error says what was expected; clap
+/// names the argument and the value before it (`value_parser`, with
+/// `allow_hyphen_values` so that `-1` reaches it instead of being taken
+/// for an option).
+pub fn parse_count(s: &str) -> std::result::Result<u32, String> {
+    if s.is_empty() || !s.bytes().all(|c| c.is_ascii_digit()) {
+        return Err("expected a whole number written in digits, as in 64".into());
+    }
+    s.parse()
+        .map_err(|_| format!("expected a whole number at most {}", u32::MAX))
+}
+
+/// [`parse_count`] for a count that fits a `usize` (worker threads).
+pub fn parse_usize_count(s: &str) -> std::result::Result<usize, String> {
+    parse_count(s).map(|n| n as usize)
+}
+
 /// Parses `A..B` (sample indices `A` up to, not including, `B`), with
 /// `A < B ≤` [`MAX_SPP`].
 pub fn parse_samples(s: &str) -> Result<Range<u32>> {
     let bad = || anyhow!("--samples `{s}`: expected A..B, as in 0..256 (A < B ≤ {MAX_SPP})");
     let (a, b) = s.split_once("..").ok_or_else(bad)?;
-    // Digits only: no spaces, signs or other forms `parse` would take.
-    let number = |t: &str| -> Result<u32> {
-        if t.is_empty() || !t.bytes().all(|c| c.is_ascii_digit()) {
-            return Err(bad());
-        }
-        t.parse().map_err(|_| bad())
-    };
+    let number = |t: &str| -> Result<u32> { parse_count(t).map_err(|_| bad()) };
     let (a, b) = (number(a)?, number(b)?);
     if a >= b || b > MAX_SPP {
         return Err(bad());
@@ -310,4 +323,23 @@ pub fn merge(mut parts: Vec<(PathBuf, Part)>) -> Result<Part> {
     merged.devices = devices.join(", ");
     merged.metadata.spp = Some(merged.samples.end - merged.samples.start);
     Ok(merged)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn counts_and_ranges_are_digits_only() {
+        assert_eq!(parse_count("64"), Ok(64));
+        assert_eq!(parse_count("4294967295"), Ok(u32::MAX));
+        for bad in ["", "+4", " 4", "4 ", "-1", "1e3", "0x10", "4294967296"] {
+            assert!(parse_count(bad).is_err(), "`{bad}` accepted");
+        }
+        assert_eq!(parse_samples("0..4").unwrap(), 0..4);
+        for bad in ["0 .. 4", "-1..4", "+1..4", "4..2", "0..", "..4", "0...4"] {
+            let e = parse_samples(bad).unwrap_err().to_string();
+            assert!(e.starts_with(&format!("--samples `{bad}`")), "{e}");
+        }
+    }
 }

@@ -404,6 +404,21 @@ fn usage_errors_are_one_line_with_status_2() {
         (render(&["--samples", "4..2"]), "--samples `4..2`"),
         (render(&["--no-such-option"]), "--no-such-option"),
         (render(&["--threads", "many"]), "many"),
+        (render(&["--threads", "-2"]), "'-2' for '--threads"),
+        (render(&["--spp", "-1"]), "'-1' for '--spp"),
+        (render(&["--spp", "+4"]), "'+4' for '--spp"),
+        (render(&["--seed", " 3"]), "' 3' for '--seed"),
+        (render(&["--max-depth", "-1"]), "'-1' for '--max-depth"),
+        (
+            vec![
+                "diff".into(),
+                "x.exr".into(),
+                "x.exr".into(),
+                "--spp-a".into(),
+                "-1".into(),
+            ],
+            "'-1' for '--spp-a",
+        ),
     ];
     for (args, names) in cases {
         let args: Vec<&str> = args.iter().map(String::as_str).collect();
@@ -444,5 +459,11 @@ fn usage_errors_are_one_line_with_status_2() {
     );
     assert_eq!(o.code, Some(2), "{}", o.stderr);
     assert_eq!(o.stderr.lines().count(), 1, "{}", o.stderr);
-    assert!(o.stderr.contains("0 samples"), "{}", o.stderr);
+    assert!(
+        o.stderr.contains("0 samples")
+            && o.stderr.contains("--spp-a 0")
+            && o.stderr.contains("r.exr"),
+        "{}",
+        o.stderr
+    );
 }

@@ -237,11 +237,7 @@ fn a_separate_variance_image_is_used_and_no_variance_cannot_be_tested() {
         "{}",
         o.stderr
     );
-    assert!(
-        o.stdout.contains("RMSE"),
-        "metrics are still printed: {}",
-        o.stdout
-    );
+    assert_eq!(o.stderr.lines().count(), 1, "{}", o.stderr);
 
     let o = diff(dir.path(), &["a.exr", "missing.exr"]);
     assert_eq!(o.code, Some(2));
@@ -356,13 +352,13 @@ fn darkened_shadows_fail_against_a_reference_without_spp() {
         "{}",
         o.stdout
     );
-    // A correct render against the same reference: the aggregate tests
-    // pass. Its per-pixel Welch test does not (99.16 % at seed 2): with no
-    // sample count for B, the render's own variance must stand in for its
-    // noise, and pixels lit by a few rare light hits under-report it. That
-    // is asserted as known until the per-pixel test handles heavy tails
-    // (docs/gates.md, open item); given the count, `--spp-b`, the z-test
-    // against the reference applies and the render passes.
+    // A correct render against the same reference passes Welch's test.
+    // It failed per pixel before (99.16 % at seed 2): with no sample count
+    // for B, the render's own variance stands in for its noise, and
+    // pixels lit by a few rare light hits under-report it; now a side's
+    // variance counts with its effective samples' degrees of freedom and
+    // one of fewer than 4 is left to the sums. Given the count, `--spp-b`,
+    // the z-test against the reference applies, and passes too.
     render_cornell(dir.path(), "fine", 2, 0.0, 1.0);
     let o = diff(
         dir.path(),
@@ -377,11 +373,8 @@ fn darkened_shadows_fail_against_a_reference_without_spp() {
     };
     assert!(line("image sum").ends_with("pass"), "{}", o.stdout);
     assert!(line("8x8 tile sums").ends_with("pass"), "{}", o.stdout);
-    assert!(
-        line("per-pixel").ends_with("FAIL"),
-        "known heavy-tail false alarm gone? {}",
-        o.stdout
-    );
+    assert!(line("per-pixel").ends_with("pass"), "{}", o.stdout);
+    assert_eq!(o.code, Some(0), "{}{}", o.stdout, o.stderr);
     let o = diff(
         dir.path(),
         &[
@@ -426,4 +419,211 @@ fn the_default_report_goes_to_the_temporary_folder() {
     let report = tmp.path().join("twintrace-diff-a.html");
     assert!(String::from_utf8_lossy(&out.stdout).contains(&report.display().to_string()));
     assert_report(&report);
+}
+
+/// Renders a lamp-lit fixture at `w`x`h`, `spp`, with `integrator` and
+/// `seed` into `dir/name.exr`, its EXR naming the estimator as the CLI's
+/// does (`software`), so that `diff` sees which estimator made it.
+fn render_estimator(
+    dir: &Path,
+    name: &str,
+    fixture: &str,
+    (w, h, spp): (u32, u32, u32),
+    integrator: reference::integrator::Integrator,
+    seed: u32,
+    scale: impl Fn(usize, &mut glam::Vec3),
+) {
+    let spec = manifest_entry(fixture).unwrap();
+    let scene = load_scene(&spec).unwrap();
+    let settings = RenderSettings {
+        width: w,
+        height: h,
+        spp,
+        max_depth: spec.max_depth,
+        seed,
+        ..scene.render_settings()
+    };
+    let film = reference::integrator::render_with(&scene, &settings, integrator, &|_| {});
+    let mis = integrator == reference::integrator::Integrator::Mis;
+    let meta = RenderMetadata {
+        spp: Some(spp),
+        seed: Some(seed),
+        software: Some(format!(
+            "twintrace test (cpu{})",
+            if mis { ", mis integrator" } else { "" }
+        )),
+        ..Default::default()
+    };
+    let mut image = RenderImage::from_film(&film, meta);
+    for (i, m) in image.mean.iter_mut().enumerate() {
+        scale(i, m);
+    }
+    write_exr(&dir.join(format!("{name}.exr")), &image).unwrap();
+}
+
+/// Correct renders of different estimators (MIS against BSDF sampling,
+/// other seeds) pass `diff` by default on the lamp-lit Cornell boxes,
+/// where the old per-pixel Welch test failed every pair (a pixel no
+/// BSDF-sampled path had lit had variance 0 there: docs/gates.md,
+/// "Estimators that differ", 100 pairs a fixture), and the sums still
+/// catch a darker render and a local bias. 6 pairs, 16x16 at 256 spp.
+#[test]
+fn renders_of_different_estimators_pass_and_a_bias_still_fails() {
+    use reference::integrator::Integrator::{Bsdf, Mis};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let size = (16, 16, 256);
+    let json = |o: &Outcome| -> serde_json::Value {
+        serde_json::from_str(&o.stdout).unwrap_or_else(|e| panic!("{e}: {}", o.stdout))
+    };
+    for k in 0..6u32 {
+        render_estimator(d, "mis", "cornell-boxes", size, Mis, 2 * k + 1, |_, _| {});
+        render_estimator(d, "bsdf", "cornell-boxes", size, Bsdf, 2 * k + 2, |_, _| {});
+        let o = diff(d, &["mis.exr", "bsdf.exr", "--report", "r.html", "--json"]);
+        let v = json(&o);
+        assert_eq!(o.code, Some(0), "pair {k}: {v:#}\n{}", o.stderr);
+        assert_eq!(v["verdict"], "pass");
+        assert_eq!(v["families"]["pixels"]["estimators_differ"], true);
+    }
+    // Mutants on a fixture where BSDF sampling converges at this budget
+    // (precision-contact, lamp-lit; at 256 spp a Cornell box's BSDF
+    // render is too noisy for its sums to see a few per cent: the
+    // measured power is in docs/gates.md). Across estimators the sums
+    // catch every pixel ×0.98 (100 of 100 pairs there).
+    let pc = (36, 24, 256);
+    render_estimator(d, "mis", "precision-contact", pc, Mis, 101, |_, _| {});
+    render_estimator(d, "dark", "precision-contact", pc, Bsdf, 102, |_, m| {
+        *m *= 0.98
+    });
+    let o = diff(d, &["mis.exr", "dark.exr", "--report", "r.html", "--json"]);
+    let v = json(&o);
+    assert_eq!(o.code, Some(1), "{v:#}");
+    assert_eq!(v["families"]["image_sum"]["passes"], false, "{v:#}");
+    // Within one estimator the per-pixel family still judges, and alone
+    // catches 18 scattered pixels at a quarter of their brightness.
+    render_estimator(d, "bsdf", "precision-contact", pc, Bsdf, 103, |_, _| {});
+    render_estimator(d, "block", "precision-contact", pc, Bsdf, 104, |i, m| {
+        if i % 48 == 7 {
+            *m *= 0.25;
+        }
+    });
+    let o = diff(
+        d,
+        &["bsdf.exr", "block.exr", "--report", "r.html", "--json"],
+    );
+    let v = json(&o);
+    assert_eq!(o.code, Some(1), "{v:#}");
+    let px = &v["families"]["pixels"];
+    assert_eq!(
+        (&px["estimators_differ"], &px["passes"]),
+        (&false.into(), &false.into()),
+        "{v:#}"
+    );
+}
+
+/// `--json` holds the verdict, each family, the metrics and the report's
+/// path; the exit status is the text mode's.
+#[test]
+fn json_output_for_ci() {
+    let dir = tempfile::tempdir().unwrap();
+    render(dir.path(), "a", 1, 1.0);
+    render(dir.path(), "b", 2, 1.0);
+    let o = diff(
+        dir.path(),
+        &["a.exr", "b.exr", "--report", "r.html", "--json"],
+    );
+    assert_eq!(o.code, Some(0), "{}{}", o.stdout, o.stderr);
+    assert_eq!(o.stdout.lines().count(), 1, "{}", o.stdout);
+    let v: serde_json::Value = serde_json::from_str(&o.stdout).unwrap();
+    assert_eq!(
+        (v["verdict"].as_str(), v["exit_status"].as_i64()),
+        (Some("pass"), Some(0))
+    );
+    assert_eq!(v["a"]["spp"], 256);
+    assert_eq!(v["outputs"]["report"], "r.html");
+    for family in ["pixels", "image_sum", "tile_sums"] {
+        assert_eq!(v["families"][family]["passes"], true, "{family}: {v:#}");
+    }
+    assert_eq!(
+        v["families"]["image_sum"]["channels"]
+            .as_array()
+            .unwrap()
+            .len(),
+        3
+    );
+    assert!(v["metrics"]["rmse"].as_f64().unwrap() > 0.0);
+    render(dir.path(), "c", 2, 1.1);
+    let o = diff(
+        dir.path(),
+        &["c.exr", "b.exr", "--report", "r.html", "--json"],
+    );
+    let v: serde_json::Value = serde_json::from_str(&o.stdout).unwrap();
+    assert_eq!((o.code, v["verdict"].as_str()), (Some(1), Some("fail")));
+}
+
+/// An image without a variance layer or a sample count (a plain EXR of
+/// another renderer) is not taken as exact: one line saying what diff
+/// needs, exit 2; `--method exact` takes it as exact when asked. Sizes
+/// that differ are one line naming both files.
+#[test]
+fn an_image_without_variance_is_not_taken_as_exact() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    render(d, "a", 1, 1.0);
+    let mut plain = read_exr(&d.join("a.exr")).unwrap();
+    plain.variance = None;
+    plain.skewness = None;
+    plain.metadata.spp = None;
+    plain.metadata.software = Some("Mitsuba 3".into());
+    write_exr(&d.join("plain.exr"), &plain).unwrap();
+    render(d, "b", 2, 1.0);
+    let o = diff(d, &["b.exr", "plain.exr", "--report", "r.html"]);
+    assert_eq!(o.code, Some(2), "{}{}", o.stdout, o.stderr);
+    assert_eq!(o.stderr.lines().count(), 1, "{}", o.stderr);
+    assert!(
+        o.stderr
+            .contains("`plain.exr` has no variance layer and no sample count")
+            && o.stderr.contains("--variance-b"),
+        "{}",
+        o.stderr
+    );
+    let o = diff(
+        d,
+        &[
+            "b.exr",
+            "plain.exr",
+            "--method",
+            "exact",
+            "--report",
+            "r.html",
+        ],
+    );
+    assert!(o.code == Some(0) || o.code == Some(1), "{}", o.stderr);
+    assert!(o.stdout.contains("taken as exact"), "{}", o.stdout);
+    let o = diff(
+        d,
+        &["a.exr", "b.exr", "--method", "exact", "--report", "r.html"],
+    );
+    assert_eq!(o.code, Some(2), "{}", o.stderr);
+    assert!(
+        o.stderr.contains("both `a.exr` and `b.exr` have one"),
+        "{}",
+        o.stderr
+    );
+    let mut small = read_exr(&d.join("a.exr")).unwrap();
+    small.width = 16;
+    small.height = 6;
+    small.mean.truncate(96);
+    small.variance.as_mut().unwrap().truncate(96);
+    small.skewness.as_mut().unwrap().truncate(96);
+    write_exr(&d.join("small.exr"), &small).unwrap();
+    let o = diff(d, &["small.exr", "b.exr", "--report", "r.html"]);
+    assert_eq!(o.code, Some(2), "{}", o.stderr);
+    assert_eq!(o.stderr.lines().count(), 1, "{}", o.stderr);
+    assert!(
+        o.stderr
+            .contains("`small.exr` is 16x6 but `b.exr` is 32x12"),
+        "{}",
+        o.stderr
+    );
 }

@@ -356,14 +356,14 @@ fn a_baseline_of_several_runs_judges_by_the_spread_between_them() {
 }
 
 /// A run or baseline whose figures are not measurements (no time, a
-/// negative or zero time) is refused with exit
+/// negative or zero time, a relMSE of -1 or 0) is refused with exit
 /// status 2 naming the rows, never judged "no regression" over what it
 /// could not compare; a sound pair is still judged.
 #[test]
 fn figures_that_are_not_measurements_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("perf");
-    cpu_run(&out, &["--only", "rays"]);
+    cpu_run(&out, &["--only", "rays", "--only", "gltf-mesh"]);
     let good: PerfRun =
         serde_json::from_str(&std::fs::read_to_string(the_json(&out)).unwrap()).unwrap();
     let write = |name: &str, r: &PerfRun| {
@@ -379,11 +379,19 @@ fn figures_that_are_not_measurements_are_refused() {
         String::from_utf8_lossy(&sound.stderr)
     );
     type Damage = fn(&mut PerfRun);
-    let broken: [(&str, Damage); 3] = [
+    let broken: [(&str, Damage); 5] = [
         ("no time measured", |r| r.throughput[0].wall_s.clear()),
         ("a time of -1 s", |r| r.throughput[0].wall_s = vec![-1.0]),
         // (JSON holds no infinity or NaN: a file with one is not a run.)
         ("a time of 0 s", |r| r.throughput[0].wall_s = vec![0.0]),
+        (
+            "gltf-mesh cpu/reference @ 64 spp efficiency (wall): relMSE at 64 spp is -1.00e0",
+            |r| r.curves[0].points.last_mut().unwrap().relmse = -1.0,
+        ),
+        (
+            "relMSE at 64 spp is 0.00e0, not above the reference's own noise",
+            |r| r.curves[0].points.last_mut().unwrap().relmse = 0.0,
+        ),
     ];
     for (why, damage) in broken {
         let mut r = good.clone();

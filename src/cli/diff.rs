@@ -6,25 +6,33 @@
 //! the metrics, and writes a self-contained HTML report.
 //!
 //! The test follows from what the files carry (`--method auto`): Welch's
-//! t-test when both have a variance; with one variance, Mitsuba 3's
-//! z-test (that image's per-sample variance predicts both images' noise)
-//! when both sample counts are known, else a z-test that takes the image
-//! without variance as exact. `--method reference` treats B as the
-//! high-spp reference whatever A carries. Sample counts come from the
-//! `spp` attribute, or `--spp-a/-b`.
+//! t-test when both have a variance (or the z-test against the side with
+//! 4x the other's samples, same estimator); with one variance, Mitsuba
+//! 3's z-test (that image's per-sample variance predicts both images'
+//! noise) when both sample counts are known and the renderers agree.
+//! An image without a variance is never taken as exact by default: that
+//! is `--method exact`, for an analytic answer or a converged image.
+//! `--method reference` treats B as the high-spp reference whatever A
+//! carries. Sample counts come from the `spp` attribute, or `--spp-a/-b`.
+//!
+//! `--json` prints the verdict, each test family's statistics, the
+//! metrics and the report's path as one JSON object instead of the text.
 //!
 //! Exit status, as diff(1) and cmp(1): 0 when no difference is detected,
 //! 1 when the images differ, 2 when they cannot be compared (unreadable
-//! file, size mismatch, no variance on either side) or the report would
-//! overwrite one of the images.
+//! file, sizes that differ, 0 samples a pixel, no variance to test with)
+//! or the report would overwrite one of the images; each refusal is one
+//! `error:` line naming the file and the argument.
 
 use super::{one_line, outputs};
 use anyhow::{anyhow, bail, Result};
 use clap::{Args, ValueEnum};
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
-use twintrace::compare::image::{compare, Method, NoisyImage, Side, TestSettings};
-use twintrace::compare::metrics::metrics;
+use twintrace::compare::image::{
+    compare, Family, Method, NoisyImage, RegionTest, Side, TestSettings, Verdict,
+};
+use twintrace::compare::metrics::{metrics, Metrics};
 use twintrace::image_io::read_exr;
 use twintrace::report::{self, Report};
 
@@ -41,10 +49,10 @@ pub struct DiffArgs {
     #[arg(long, value_name = "FILE")]
     pub variance_b: Option<PathBuf>,
     /// Samples per pixel of A (overrides its `spp` attribute).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = twintrace::partial::parse_count)]
     pub spp_a: Option<u32>,
     /// Samples per pixel of B (overrides its `spp` attribute).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = twintrace::partial::parse_count)]
     pub spp_b: Option<u32>,
     /// Which test to run.
     #[arg(long, value_enum, default_value_t = DiffMethod::Auto)]
@@ -53,6 +61,10 @@ pub struct DiffArgs {
     /// system's temporary folder, so that no stray file lands where diff runs).
     #[arg(long, value_name = "FILE")]
     pub report: Option<PathBuf>,
+    /// Print the outcome as one JSON object (verdict, statistics per test
+    /// family, metrics, the report's path) instead of text.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `--method`.
@@ -65,6 +77,9 @@ pub enum DiffMethod {
     Welch,
     /// Mitsuba 3's z-test of A against the high-spp reference B.
     Reference,
+    /// A z-test with the variance of the one image that has it, the other
+    /// taken as exact (an analytic answer, a converged image).
+    Exact,
 }
 
 /// What `twintrace diff` found.
@@ -75,9 +90,35 @@ pub struct DiffOutcome {
     /// `Some(true)`: no difference detected; `Some(false)`: different;
     /// `None`: no test could run (no variance).
     pub passed: Option<bool>,
+    /// What `--json` prints.
+    pub json: serde_json::Value,
 }
 
-fn load(path: &Path, variance: Option<&Path>, spp: Option<u32>) -> Result<NoisyImage> {
+/// What a side lacks for `--method auto` to test it: one line, naming the
+/// file and the arguments that would supply it.
+fn needs(path: &Path, side: &str, img: &NoisyImage) -> String {
+    let mut lacks = Vec::new();
+    if img.variance.is_none() {
+        lacks.push("no variance layer");
+    }
+    if img.spp.is_none() {
+        lacks.push("no sample count");
+    }
+    format!(
+        "`{}` has {}: diff takes no image as exact by default; give its variance (--variance-{side} FILE, \
+         or render it with twintrace, which writes one), or --method exact if it is an analytic answer \
+         or a converged image",
+        path.display(),
+        lacks.join(" and ")
+    )
+}
+
+fn load(
+    path: &Path,
+    variance: Option<&Path>,
+    spp: Option<u32>,
+    spp_arg: &str,
+) -> Result<NoisyImage> {
     let mut image = NoisyImage::from_render_image(&read_exr(path)?);
     if let Some(v) = variance {
         let var = read_exr(v)?;
@@ -102,9 +143,9 @@ fn load(path: &Path, variance: Option<&Path>, spp: Option<u32>) -> Result<NoisyI
             "`{}`: a render of 0 samples a pixel cannot be judged{}",
             path.display(),
             if spp.is_some() {
-                " (--spp-a/--spp-b 0)"
+                format!(" ({spp_arg} 0)")
             } else {
-                " (its spp attribute is 0)"
+                " (its spp attribute is 0)".to_string()
             }
         ))
         .into());
@@ -138,8 +179,8 @@ pub fn execute(args: &DiffArgs) -> Result<DiffOutcome> {
         None => "the report".to_string(),
     };
     outputs::check(&inputs, &[outputs::output(report_arg, &report_path)])?;
-    let a = load(&args.a, args.variance_a.as_deref(), args.spp_a)?;
-    let b = load(&args.b, args.variance_b.as_deref(), args.spp_b)?;
+    let a = load(&args.a, args.variance_a.as_deref(), args.spp_a, "--spp-a")?;
+    let b = load(&args.b, args.variance_b.as_deref(), args.spp_b, "--spp-b")?;
     if (a.width, a.height) != (b.width, b.height) {
         bail!(
             "`{}` is {}x{} but `{}` is {}x{}",
@@ -151,10 +192,60 @@ pub fn execute(args: &DiffArgs) -> Result<DiffOutcome> {
             b.height
         );
     }
+    let differ = Method::same_estimator(&a, &b) == Some(false);
     let method = match args.method {
-        DiffMethod::Auto => Method::for_images(&a, &b),
+        DiffMethod::Auto => match Method::for_images(&a, &b) {
+            Some(Method::KnownVariance(side)) => {
+                let (path, name, img) = match side {
+                    Side::A => (&args.b, "b", &b),
+                    Side::B => (&args.a, "a", &a),
+                };
+                return Err(super::Refused(needs(path, name, img)).into());
+            }
+            // One variance predicting both images' noise: only for one
+            // estimator (another samples otherwise).
+            Some(Method::Reference(side))
+                if differ && (a.variance.is_none() || b.variance.is_none()) =>
+            {
+                let (path, name) = match side {
+                    Side::A => (&args.b, "b"),
+                    Side::B => (&args.a, "a"),
+                };
+                return Err(super::Refused(format!(
+                    "`{}` has no variance layer and comes from another estimator ({} and {}), whose noise the other image's variance does not predict; give its variance (--variance-{name} FILE)",
+                    path.display(),
+                    a.renderer.as_deref().unwrap_or("?"),
+                    b.renderer.as_deref().unwrap_or("?"),
+                ))
+                .into());
+            }
+            Some(m) => Some(m),
+            None => {
+                return Err(super::Refused(format!(
+                    "cannot test `{}` against `{}`: neither has a variance layer (give --variance-a or --variance-b FILE)",
+                    args.a.display(),
+                    args.b.display()
+                ))
+                .into())
+            }
+        },
         DiffMethod::Welch => Some(Method::Welch),
         DiffMethod::Reference => Some(Method::Reference(Side::B)),
+        DiffMethod::Exact => match (a.variance.is_some(), b.variance.is_some()) {
+            (true, false) => Some(Method::KnownVariance(Side::A)),
+            (false, true) => Some(Method::KnownVariance(Side::B)),
+            _ => {
+                return Err(super::Refused(format!(
+                    "--method exact takes the image without a variance layer as exact, but {}",
+                    if a.variance.is_some() {
+                        format!("both `{}` and `{}` have one", args.a.display(), args.b.display())
+                    } else {
+                        format!("neither `{}` nor `{}` has one", args.a.display(), args.b.display())
+                    }
+                ))
+                .into())
+            }
+        },
     };
     let verdict = method
         .map(|m| compare(&a, &b, m, &TestSettings::default()))
@@ -190,9 +281,9 @@ pub fn execute(args: &DiffArgs) -> Result<DiffOutcome> {
         if img.spp.is_none() && img.variance.is_some() {
             text += &format!(
                 "assumed: {name} has no sample count (spp attribute or --spp-{0}), so its variance \
-                 of the mean is used as given (floored only at f32 resolution) with unlimited \
-                 degrees of freedom; if {name} is a high-spp reference, give --spp-{0} N for the \
-                 z-test against it\n",
+                 of the mean is used as given (floored only at f32 resolution), with the degrees \
+                 of freedom its effective samples allow at most; if {name} is a high-spp reference, \
+                 give --spp-{0} N for the z-test against it\n",
                 name.to_lowercase()
             );
         }
@@ -211,9 +302,103 @@ pub fn execute(args: &DiffArgs) -> Result<DiffOutcome> {
     }
     text += &m.summary();
     text += &format!("report: {}\n", report_path.display());
+    let json = json_outcome(args, &a, &b, verdict.as_ref(), &m, &report_path);
     Ok(DiffOutcome {
         text,
         passed: verdict.map(|v| v.passes()),
+        json,
+    })
+}
+
+/// The outcome for `--json`: what a CI system reads. Non-finite numbers
+/// are `null`.
+fn json_outcome(
+    args: &DiffArgs,
+    a: &NoisyImage,
+    b: &NoisyImage,
+    verdict: Option<&Verdict>,
+    m: &Metrics,
+    report: &Path,
+) -> serde_json::Value {
+    use serde_json::json;
+    const CHANNELS: [&str; 3] = ["R", "G", "B"];
+    let region = |t: &RegionTest| {
+        json!({
+            "x0": t.x0, "y0": t.y0, "x1": t.x1, "y1": t.y1,
+            "channel": CHANNELS[t.channel],
+            "statistic": t.statistic, "dof": t.dof, "p": t.p,
+        })
+    };
+    let families = verdict.map(|v| {
+        let px = &v.pixels;
+        let ag = &v.aggregate;
+        json!({
+            "pixels": {
+                "passes": px.passes(),
+                "tests": px.tests,
+                "passed": px.passed,
+                "pass_fraction": px.pass_fraction(),
+                "min_pass_fraction": px.min_pass_fraction,
+                "alpha": v.settings.family_alpha(Family::Pixels),
+                "alpha_per_test": px.alpha_per_test,
+                "left_to_sums": px.left_to_sums,
+                "left_heavy": px.left_heavy,
+                "left_few_samples": px.left_few_samples,
+                "estimators_differ": px.estimators_differ,
+                "min_p": px.min_p,
+                "min_p_at": { "x": px.min_p_at.0, "y": px.min_p_at.1, "channel": CHANNELS[px.min_p_at.2] },
+            },
+            "image_sum": {
+                "passes": ag.image_passes(),
+                "alpha": v.settings.family_alpha(Family::ImageSums),
+                "alpha_per_test": ag.image_alpha,
+                "channels": ag.image.iter().map(region).collect::<Vec<_>>(),
+            },
+            "tile_sums": {
+                "passes": ag.tiles_pass(),
+                "tile_size": ag.tile_size,
+                "tests": ag.tiles.len(),
+                "failing": ag.failing_tiles().count(),
+                "alpha": v.settings.family_alpha(Family::TileSums),
+                "alpha_per_test": ag.tile_alpha,
+                "worst": ag.worst_tile().map(region),
+                "failing_tiles": ag.failing_tiles().map(region).collect::<Vec<_>>(),
+            },
+        })
+    });
+    let side = |path: &Path, img: &NoisyImage| {
+        json!({
+            "path": path.display().to_string(),
+            "width": img.width,
+            "height": img.height,
+            "spp": img.spp,
+            "variance": img.variance.is_some(),
+            "renderer": img.renderer,
+        })
+    };
+    json!({
+        "verdict": match verdict.map(|v| v.passes()) {
+            Some(true) => "pass",
+            Some(false) => "fail",
+            None => "untested",
+        },
+        "exit_status": match verdict.map(|v| v.passes()) {
+            Some(true) => 0,
+            Some(false) => 1,
+            None => 2,
+        },
+        "method": verdict.map(|v| v.method.describe()),
+        "a": side(&args.a, a),
+        "b": side(&args.b, b),
+        "families": families,
+        "metrics": {
+            "rmse": m.rmse,
+            "relmse": m.relmse,
+            "flip_mean": m.flip_mean,
+            "nonfinite_values": m.nonfinite_values,
+            "nonfinite_samples": m.nonfinite_samples,
+        },
+        "outputs": { "report": report.display().to_string() },
     })
 }
 
@@ -223,8 +408,13 @@ pub fn run(args: &DiffArgs) -> Result<()> {
     let status = match execute(args) {
         Ok(out) => {
             let mut stdout = std::io::stdout().lock();
+            let printed = if args.json {
+                format!("{}\n", out.json)
+            } else {
+                out.text
+            };
             let _ = stdout
-                .write_all(out.text.as_bytes())
+                .write_all(printed.as_bytes())
                 .and_then(|_| stdout.flush());
             match out.passed {
                 Some(true) => return Ok(()),

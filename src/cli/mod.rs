@@ -114,22 +114,22 @@ pub struct RenderArgs {
     #[arg(long, value_enum, default_value_t = Backend::Auto)]
     pub backend: Backend,
     /// Samples per pixel (overrides the preset and the scene).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true, value_parser = twintrace::partial::parse_count)]
     pub spp: Option<u32>,
     /// Image size as WIDTHxHEIGHT, e.g. 1200x800 (overrides the scene).
-    #[arg(long, value_name = "WxH")]
+    #[arg(long, value_name = "WxH", allow_hyphen_values = true)]
     pub size: Option<String>,
     /// RNG seed (overrides the scene).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true, value_parser = twintrace::partial::parse_count)]
     pub seed: Option<u32>,
     /// Maximum number of ray segments per path (overrides the preset and the scene).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true, value_parser = twintrace::partial::parse_count)]
     pub max_depth: Option<u32>,
     /// Preset for spp and depth: low = 64/4, medium = 256/16, high = 2048/64.
     #[arg(long, value_enum)]
     pub quality: Option<Quality>,
     /// Worker threads for the CPU backend (default: one per core).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true, value_parser = twintrace::partial::parse_usize_count)]
     pub threads: Option<usize>,
     /// Render for this long (e.g. 90s, 2m, 1.5h, 500ms; plain seconds):
     /// samples are added until the next would end past it. --spp (or

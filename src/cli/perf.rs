@@ -148,7 +148,7 @@ pub fn run(args: &PerfArgs) -> Result<()> {
         PerfCommand::Compare(a) => {
             let new = read_run(&a.run)?;
             let base = read_runs(&a.baseline)?;
-            judge(&new, &base, &a.baseline)
+            judge(&new, &a.run.display().to_string(), &base, &a.baseline)
         }
         PerfCommand::Baseline(a) => {
             let inputs: Vec<outputs::Named> = a
@@ -256,11 +256,14 @@ pub fn read_run(path: &Path) -> Result<PerfRun> {
         .map_err(|e| anyhow!("`{}` is not a twintrace perf run: {e}", path.display()))
 }
 
-fn judge(new: &PerfRun, base: &[PerfRun], base_path: &Path) -> Result<()> {
+/// Compares `new` (named `new_name`: its file, or this run's JSON) with
+/// the baseline; a comparison that cannot stand is refused (exit 2),
+/// naming both files and the rows.
+fn judge(new: &PerfRun, new_name: &str, base: &[PerfRun], base_path: &Path) -> Result<()> {
     let cmp = regress::compare(new, base)?;
     if let Some(why) = cmp.refusal() {
         return Err(super::Refused(format!(
-            "perf: cannot judge against `{}`: {why}",
+            "perf: cannot judge `{new_name}` against `{}`: {why}",
             base_path.display()
         ))
         .into());
@@ -464,7 +467,7 @@ fn run_suite(a: &RunArgs) -> Result<()> {
         a.out.display()
     );
     if let (Some(base), Some(path)) = (&baseline, &a.baseline) {
-        judge(&result, base, path)?;
+        judge(&result, &json_path.display().to_string(), base, path)?;
     }
     Ok(())
 }

@@ -17,7 +17,17 @@
 //!    [`MAX_PIXEL_SKEWNESS`], from the images' `skewness` layers: an
 //!    estimate resting on a few rare samples, a caustic seen through
 //!    glass) is not judged alone but left to the sums below, where many
-//!    pixels make the sum normal again. The allowance absorbs the rest.
+//!    pixels make the sum normal again. Where a test uses a side's own
+//!    variance (Welch's test, a z-test with one side's variance), that
+//!    estimate counts only as far as the side's samples support it: with
+//!    `n_eff` effective samples ([`effective_samples`], Kish's
+//!    `(Σx)²/Σx²`) it has `n_eff − 1` degrees of freedom, and below
+//!    [`MIN_EFFECTIVE_SAMPLES`] (every sample 0: nothing that lights the
+//!    pixel drawn yet) the pixel is left to the sums too. Welch's test
+//!    between renders of different estimators (MIS against BSDF sampling,
+//!    another renderer) judges no pixel alone ([`ESTIMATORS_DIFFER`]: a
+//!    side's samples cannot show an event its estimator has not drawn).
+//!    The allowance absorbs the rest.
 //! 3. **Aggregate tests** ([`AggregateTests`]): the same test on sums over
 //!    regions, `Σd / √(Σv)` (pixels are independent, so variances add):
 //!    the whole image per channel (Šidák over the 3 channels) and every
@@ -352,6 +362,161 @@ pub struct Differences {
     /// The largest |skewness| of the two means at the test's budgets
     /// (see [`heavy_tail_measure`]); `None` when neither image says.
     pub skewness: Option<Vec<DVec3>>,
+    /// The fewest effective samples ([`effective_samples`]) among the
+    /// sides whose own variance enters `variance` (both under
+    /// [`Method::Welch`], the one under [`Method::KnownVariance`]); `None`
+    /// under [`Method::Reference`], whose variance is the reference's
+    /// per-sample variance, floored, not an estimate at the render's
+    /// budget.
+    pub effective_samples: Option<Vec<DVec3>>,
+    /// The sides whose own variance enters `variance`, as the region
+    /// tests pool them ([`SidePool`]); empty under [`Method::Reference`].
+    pub pools: Vec<SidePool>,
+    /// Welch's test between renders of different estimators
+    /// ([`Method::same_estimator`] says `Some(false)`): every pixel is left
+    /// to the sums ([`ESTIMATORS_DIFFER`]).
+    pub estimators_differ: bool,
+}
+
+/// Why Welch's test between two estimators (MIS against BSDF sampling,
+/// or another renderer) judges no pixel alone, only tile and image sums.
+/// Welch's `t` needs each side's sample variance to stand for its true
+/// variance. A pixel's variance often comes from a rare, large event (a
+/// BSDF-sampled path hitting a small lamp); a side that has not drawn it
+/// yet shows a small mean and a small variance, and nothing in its own
+/// samples (count, effective samples, skewness) reveals the event. With
+/// the same estimator on both sides the other side does not reveal it
+/// either, and the side that did draw it carries it in its own variance
+/// and skewness; across estimators the other side holds the event's
+/// expectation smoothly (light sampling), so `t` is unbounded. Measured
+/// (docs/gates.md, "Estimators that differ"): MIS against BSDF renders of
+/// the precision-contact fixture, 36x24 at 256 spp, failed 7 of 100
+/// correct pairs per pixel at pixels with 256 effective samples on each
+/// side and a BSDF sample variance 1000 times below the 16384-spp
+/// reference's, no bound from the other side's variance (27 times smaller
+/// there) closing the gap. A pixel's rare events are many in a tile's
+/// pooled samples, whose sums stay near normal and are tested
+/// ([`SidePool`] gives their degrees of freedom).
+pub const ESTIMATORS_DIFFER: &str = "renderers of different estimators: a side's sample variance cannot show an event its estimator has not drawn yet, so pixels are judged only in the sums";
+
+/// One side's pixels as a region test pools them: a region's sum is the
+/// mean of all its pixels' samples (times the pixel count), so its
+/// variance estimate rests on as many effective samples as that pool
+/// holds, `n·(Σm)² / Σ(m² + (n − 1)·v)` (Kish over the pooled samples;
+/// `(Σm)² / Σv` without a count). A tile whose light came from a few rare
+/// samples (a caustic seen by BSDF sampling through glass) has few of
+/// them however many pixels it spans, and its sum's variance estimate has
+/// about that many degrees of freedom.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SidePool {
+    pub spp: Option<u32>,
+    pub mean: Vec<DVec3>,
+    /// `m² + (n − 1)·v` per pixel (the mean squared sample), or `v`
+    /// without a count.
+    pub second: Vec<DVec3>,
+    /// The variance of the mean as the tests use it (floored).
+    pub variance: Vec<DVec3>,
+}
+
+impl SidePool {
+    fn new(img: &NoisyImage, raw_variance: &[DVec3], floored: Vec<DVec3>) -> Self {
+        let second = img
+            .mean
+            .iter()
+            .zip(raw_variance)
+            .map(|(m, v)| match img.spp {
+                Some(n) => *m * *m + (n as f64 - 1.0).max(0.0) * *v,
+                None => *v,
+            })
+            .collect();
+        Self {
+            spp: img.spp,
+            mean: img.mean.clone(),
+            second,
+            variance: floored,
+        }
+    }
+
+    /// Over the pixels `idx`, channel `c`: the summed variance and the
+    /// degrees of freedom of its estimate (pooled effective samples − 1,
+    /// at least 1).
+    fn region(&self, idx: impl Iterator<Item = usize>, c: usize) -> (f64, f64) {
+        let (mut sm, mut sq, mut sv) = (0.0f64, 0.0f64, 0.0f64);
+        for i in idx {
+            sm += self.mean[i][c];
+            sq += self.second[i][c];
+            sv += self.variance[i][c];
+        }
+        let n = self.spp.map_or(1.0, |n| n as f64);
+        let n_eff = if sq > 0.0 {
+            n * sm * sm / sq
+        } else if sm != 0.0 {
+            f64::INFINITY
+        } else {
+            0.0
+        };
+        (sv, (n_eff - 1.0).max(1.0))
+    }
+}
+
+/// The fewest effective samples ([`effective_samples`]) a side needs for
+/// its variance estimate to enter a per-pixel test: 4, the count
+/// [`MAX_PIXEL_SKEWNESS`] stands for (a mean of `k` equal rare samples has
+/// skewness `1/√k`), applied where the skewness cannot show it: a side
+/// that drew nothing (every sample 0, skewness 0, variance 0) or carries
+/// no skewness layer. Below it the variance estimate says nothing of the
+/// true variance and `t` is unbounded under the null hypothesis, so the
+/// test is left to the tile and image sums, unless the difference is
+/// exactly 0 (which no variance turns into an alarm). At or above it the
+/// side's variance counts with `n_eff − 1` degrees of freedom
+/// ([`side_dof`]).
+pub const MIN_EFFECTIVE_SAMPLES: f64 = 4.0;
+
+/// Kish's effective sample size of one side's pixel channel, `(Σx)² / Σx²`
+/// over its `n` samples, from the mean `m` and the variance of the mean
+/// `v` (`Σx² = n·m² + (n − 1)·n·v`): `n·m² / (m² + (n − 1)·v)`. For
+/// non-negative samples (radiance) it is about `k` when the mean rests on
+/// `k` rare samples of similar size, and `n` when every sample is alike;
+/// the variance estimate of a mean carried by `k` rare samples has about
+/// `2k` degrees of freedom (the samples' kurtosis is about `n/k`), so
+/// `n_eff − 1` is their conservative end. Without a sample count, the
+/// limit `n → ∞`, `m² / v`, which bounds it from above. 0 where every
+/// sample is 0.
+pub fn effective_samples(mean: f64, var_of_mean: f64, n: Option<u32>) -> f64 {
+    if mean.is_nan() || var_of_mean.is_nan() {
+        // Judged, so that the test fails (see `p_value`).
+        return f64::NAN;
+    }
+    let m2 = mean * mean;
+    match n {
+        Some(n) => {
+            let n = n as f64;
+            let second = m2 + (n - 1.0).max(0.0) * var_of_mean;
+            if second > 0.0 {
+                n * m2 / second
+            } else {
+                0.0
+            }
+        }
+        None if var_of_mean > 0.0 => m2 / var_of_mean,
+        None if m2 > 0.0 => f64::INFINITY,
+        None => 0.0,
+    }
+}
+
+/// The degrees of freedom of one side's variance estimate: `n − 1`, and
+/// at most `n_eff − 1` ([`effective_samples`]); infinite for a side
+/// without a sample count whose variance has no effective-sample limit.
+/// At least 1, so that a side left to the sums per pixel still gives the
+/// sums' Satterthwaite degrees of freedom a finite term.
+fn side_dof(n: Option<u32>, n_eff: f64) -> f64 {
+    let by_count = n.map_or(f64::INFINITY, |n| n as f64 - 1.0);
+    let dof = by_count.min(n_eff - 1.0);
+    if dof.is_nan() {
+        1.0
+    } else {
+        dof.max(1.0)
+    }
 }
 
 /// A side's variance of the mean with its floor. With a sample count the
@@ -406,6 +571,8 @@ pub fn differences(
     }
     let mut variance = Vec::with_capacity(n);
     let mut dof = Vec::with_capacity(n);
+    let mut effective = Vec::with_capacity(n);
+    let mut pools = Vec::new();
     match method {
         Method::Reference(side) => {
             let (reference, what) = if side == Side::B {
@@ -435,19 +602,30 @@ pub fn differences(
                 need_var(a, "first", method)?,
                 need_var(b, "second", method)?,
             );
-            // 1/(n − 1) per side; 0 where the count is unknown (infinite dof).
-            let inv_dof =
-                |n: Option<u32>| n.filter(|&n| n > 1).map_or(0.0, |n| 1.0 / (n - 1) as f64);
-            let (ia, ib) = (inv_dof(a.spp), inv_dof(b.spp));
+            let (mut fa, mut fb) = (Vec::with_capacity(n), Vec::with_capacity(n));
             for (i, (pa, pb)) in va.iter().zip(vb).enumerate() {
                 let mut v = DVec3::ZERO;
                 let mut nu = DVec3::ZERO;
+                let mut fewest = DVec3::ZERO;
+                let (mut xa, mut yb) = (DVec3::ZERO, DVec3::ZERO);
                 let m = a.mean[i].abs().max(b.mean[i].abs());
                 for c in 0..3 {
                     let x = floored(pa[c], a.spp, floor, m[c]);
                     let y = floored(pb[c], b.spp, floor, m[c]);
+                    (xa[c], yb[c]) = (x, y);
                     v[c] = x + y;
-                    let denom = x * x * ia + y * y * ib;
+                    let ea = effective_samples(a.mean[i][c], pa[c], a.spp);
+                    let eb = effective_samples(b.mean[i][c], pb[c], b.spp);
+                    // (A NaN stays NaN: its test is judged, and fails.)
+                    fewest[c] = if ea.is_nan() || eb.is_nan() {
+                        f64::NAN
+                    } else {
+                        ea.min(eb)
+                    };
+                    // Welch–Satterthwaite, each side with the degrees of
+                    // freedom its samples support (an infinite side adds 0).
+                    let term = |var: f64, dof: f64| var * var / dof;
+                    let denom = term(x, side_dof(a.spp, ea)) + term(y, side_dof(b.spp, eb));
                     nu[c] = if denom > 0.0 {
                         (x + y) * (x + y) / denom
                     } else {
@@ -456,7 +634,12 @@ pub fn differences(
                 }
                 variance.push(v);
                 dof.push(nu);
+                effective.push(fewest);
+                fa.push(xa);
+                fb.push(yb);
             }
+            pools.push(SidePool::new(a, va, fa));
+            pools.push(SidePool::new(b, vb, fb));
         }
         Method::KnownVariance(side) => {
             let img = if side == Side::A { a } else { b };
@@ -470,8 +653,15 @@ pub fn differences(
                 variance.push(DVec3::from_array(
                     [0, 1, 2].map(|c| floored(p[c], img.spp, floor, m[c])),
                 ));
-                dof.push(DVec3::INFINITY);
+                let e = DVec3::from_array(
+                    [0, 1, 2].map(|c| effective_samples(img.mean[i][c], p[c], img.spp)),
+                );
+                dof.push(DVec3::from_array(
+                    [0, 1, 2].map(|c| side_dof(img.spp, e[c])),
+                ));
+                effective.push(e);
             }
+            pools.push(SidePool::new(img, v, variance.clone()));
         }
     }
     let diff = a.mean.iter().zip(&b.mean).map(|(x, y)| *x - *y).collect();
@@ -483,6 +673,9 @@ pub fn differences(
         variance,
         dof,
         skewness: heavy_tail_measure(a, b, method),
+        effective_samples: (!matches!(method, Method::Reference(_))).then_some(effective),
+        pools,
+        estimators_differ: method == Method::Welch && Method::same_estimator(a, b) == Some(false),
     })
 }
 
@@ -562,10 +755,19 @@ pub struct PixelTests {
     /// Number of tests judged (3 per pixel, less those left to the sums).
     pub tests: usize,
     pub passed: usize,
-    /// Tests not judged because the mean's skewness exceeds
-    /// [`TestSettings::max_skewness`] (heavy-tailed at this budget); their
-    /// pixels are still in the tile and image sums.
+    /// Tests not judged: `left_heavy + left_few_samples`. Their pixels
+    /// are still in the tile and image sums.
     pub left_to_sums: usize,
+    /// Tests whose mean's skewness exceeds [`TestSettings::max_skewness`]
+    /// (heavy-tailed at this budget).
+    pub left_heavy: usize,
+    /// Tests where a side whose own variance is used has fewer than
+    /// [`MIN_EFFECTIVE_SAMPLES`] effective samples (its variance estimate
+    /// says nothing of its true variance), and the difference is not 0.
+    pub left_few_samples: usize,
+    /// Every test left to the sums: Welch's test across estimators
+    /// ([`ESTIMATORS_DIFFER`]).
+    pub estimators_differ: bool,
     /// Whether either image had a skewness layer (if not, no pixel can be
     /// recognized as heavy-tailed).
     pub skewness_known: bool,
@@ -580,8 +782,13 @@ pub struct PixelTests {
 }
 
 impl PixelTests {
+    /// The share of judged tests that pass; 1 when none was judged (every
+    /// pixel left to the sums, which then decide alone).
     pub fn pass_fraction(&self) -> f64 {
-        self.passed as f64 / self.tests.max(1) as f64
+        if self.tests == 0 {
+            return 1.0;
+        }
+        self.passed as f64 / self.tests as f64
     }
 
     pub fn passes(&self) -> bool {
@@ -597,17 +804,29 @@ impl PixelTests {
     /// One line: how many tests pass, at what level, the worst one, and
     /// how many were left to the sums and why.
     pub fn describe(&self, family_alpha: f64, max_skewness: f64) -> String {
-        let heavy = if !self.skewness_known {
+        if self.estimators_differ {
+            return format!(
+                "none judged alone, {} tests left to the sums ({ESTIMATORS_DIFFER})",
+                self.left_to_sums
+            );
+        }
+        let mut heavy = if !self.skewness_known {
             "; no skewness layer on either side, so no pixel is recognized as heavy-tailed"
                 .to_string()
-        } else if self.left_to_sums > 0 {
+        } else if self.left_heavy > 0 {
             format!(
                 "; {} tests left to the sums (mean's skewness above {max_skewness}: heavy-tailed at this budget)",
-                self.left_to_sums
+                self.left_heavy
             )
         } else {
             String::new()
         };
+        if self.left_few_samples > 0 {
+            heavy += &format!(
+                "; {} tests left to the sums (fewer than {MIN_EFFECTIVE_SAMPLES} effective samples on a side whose own variance is used: its variance is not yet estimated)",
+                self.left_few_samples
+            );
+        }
         format!(
             "{}/{} tests pass ({:.3} %, need {:.2} %) at Šidák level {:.3e} (family α = {}); smallest p {:.3e} at pixel ({}, {}) channel {}{heavy}",
             self.passed,
@@ -785,11 +1004,26 @@ fn region_test(
             }
         }
     }
-    let dof = if sv2_over_dof > 0.0 {
+    let by_pixels = if sv2_over_dof > 0.0 {
         sv * sv / sv2_over_dof
     } else {
         f64::INFINITY
     };
+    // Welch–Satterthwaite over the pooled sides ([`SidePool`]); the
+    // smaller of the two approximations is kept.
+    let indices = || (y0..y1).flat_map(move |y| (x0..x1).map(move |x| (y * d.width + x) as usize));
+    let (mut pv, mut pv2_over_dof) = (0.0f64, 0.0f64);
+    for pool in &d.pools {
+        let (v, nu) = pool.region(indices(), channel);
+        pv += v;
+        pv2_over_dof += v * v / nu;
+    }
+    let pooled = if pv2_over_dof > 0.0 {
+        pv * pv / pv2_over_dof
+    } else {
+        f64::INFINITY
+    };
+    let dof = by_pixels.min(pooled);
     let (statistic, p) = p_value(sd, sv, dof);
     RegionTest {
         x0,
@@ -808,13 +1042,38 @@ fn region_test(
 /// Runs the per-pixel and aggregate tests on precomputed differences.
 pub fn test_differences(d: &Differences, settings: &TestSettings) -> Verdict {
     let n = d.diff.len();
-    let judged: Vec<[bool; 3]> = match &d.skewness {
-        Some(s) => s
-            .iter()
-            .map(|v| [0, 1, 2].map(|c| v[c] <= settings.max_skewness))
-            .collect(),
-        None => vec![[true; 3]; n],
+    let normal_enough = |i: usize, c: usize| {
+        d.skewness
+            .as_ref()
+            .is_none_or(|s| s[i][c] <= settings.max_skewness)
     };
+    // A difference of exactly 0 passes whatever its variance, so a pixel
+    // with too few effective samples is judged there (black on both sides).
+    let variance_known = |i: usize, c: usize| {
+        d.diff[i][c] == 0.0
+            || d.effective_samples
+                .as_ref()
+                .is_none_or(|e| e[i][c].is_nan() || e[i][c] >= MIN_EFFECTIVE_SAMPLES)
+    };
+    let mut left_heavy = 0;
+    let mut left_few_samples = 0;
+    let judged: Vec<[bool; 3]> = (0..n)
+        .map(|i| {
+            [0, 1, 2].map(|c| {
+                if d.estimators_differ {
+                    false
+                } else if !normal_enough(i, c) {
+                    left_heavy += 1;
+                    false
+                } else if !variance_known(i, c) {
+                    left_few_samples += 1;
+                    false
+                } else {
+                    true
+                }
+            })
+        })
+        .collect();
     let tests = judged.iter().flatten().filter(|&&j| j).count();
     let alpha_per_test = stats::sidak(settings.family_alpha(Family::Pixels), tests.max(1));
     let mut statistic = Vec::with_capacity(n);
@@ -844,6 +1103,9 @@ pub fn test_differences(d: &Differences, settings: &TestSettings) -> Verdict {
         tests,
         passed,
         left_to_sums: 3 * n - tests,
+        left_heavy,
+        left_few_samples,
+        estimators_differ: d.estimators_differ,
         skewness_known: d.skewness.is_some(),
         judged,
         alpha_per_test,
@@ -969,7 +1231,12 @@ mod tests {
         )
         .unwrap();
         let (va, vb) = (0.004f64, 0.01 / 30.0);
-        let expect = (va + vb).powi(2) / (va * va / 9.0 + vb * vb / 29.0);
+        // Each side's n_eff − 1, below its n − 1 (a: 9.65 effective
+        // samples of its 10, mean 1 and per-sample variance 0.04).
+        let dof_a = 10.0 / (1.0 + 9.0 * va) - 1.0;
+        let dof_b = 30.0 / (1.0 + 29.0 * vb) - 1.0;
+        assert!(dof_a < 9.0 && dof_b < 29.0);
+        let expect = (va + vb).powi(2) / (va * va / dof_a + vb * vb / dof_b);
         assert!((d.dof[0].x - expect).abs() < 1e-9 * expect);
     }
 
@@ -1053,6 +1320,117 @@ mod tests {
         )
         .unwrap();
         assert!((d.variance[0].x - 1e-4 * (1.0 / 64.0 + 1.0 / 1024.0)).abs() < 1e-18);
+    }
+
+    #[test]
+    fn effective_samples_follow_kish() {
+        // Every sample alike: n; every sample 0: none.
+        assert_eq!(effective_samples(0.5, 0.0, Some(100)), 100.0);
+        assert_eq!(effective_samples(0.0, 0.0, Some(100)), 0.0);
+        assert_eq!(effective_samples(0.0, 0.0, None), 0.0);
+        assert_eq!(effective_samples(0.5, 0.0, None), f64::INFINITY);
+        // k hits of value L in n samples: (kL)² / (k L²) = k.
+        let (n, k, l) = (1024.0f64, 5.0f64, 3.0f64);
+        let mean = k * l / n;
+        let m2 = k * l * l - n * mean * mean;
+        let var_of_mean = m2 / (n - 1.0) / n;
+        let e = effective_samples(mean, var_of_mean, Some(n as u32));
+        assert!((e - k).abs() < 1e-9, "{e}");
+        // Without a count, m²/v bounds it from above.
+        assert!(effective_samples(mean, var_of_mean, None) >= e);
+        assert_eq!(side_dof(Some(1024), e), k - 1.0);
+        assert_eq!(side_dof(Some(1024), 0.0), 1.0);
+        assert_eq!(side_dof(Some(3), 100.0), 2.0);
+        assert_eq!(side_dof(None, f64::INFINITY), f64::INFINITY);
+    }
+
+    /// The MIS-against-BSDF false alarm in miniature: where the BSDF side
+    /// drew no light (every sample 0) or a few rare samples, and the MIS
+    /// side did, Welch's `t` was unbounded; such a pixel is now left to
+    /// the sums, and its variance counts with few degrees of freedom there.
+    /// A pixel whose sides both have many samples is judged as before, so
+    /// a real per-pixel bias still fails.
+    #[test]
+    fn a_side_with_too_few_effective_samples_is_left_to_the_sums() {
+        let n = 1024;
+        // Well-sampled pixels: MIS's per-sample variance 0.05, BSDF's 0.3.
+        let mut mis = image(8, 8, |_| 0.5, 0.05 / n as f64, n);
+        let mut bsdf = image(8, 8, |_| 0.5, 0.3 / n as f64, n);
+        for i in [0, 1] {
+            mis.mean[i] = DVec3::splat(0.01);
+            mis.variance.as_mut().unwrap()[i] = DVec3::splat(1.5e-3 / n as f64);
+        }
+        // Pixel 0: BSDF saw no light at all. Pixel 1: 3 hits of a light
+        // that gives 20 on average (mean 0.0015 where 0.01 is right).
+        bsdf.mean[0] = DVec3::ZERO;
+        bsdf.variance.as_mut().unwrap()[0] = DVec3::ZERO;
+        let (k, l, nf) = (3.0, 0.01 * n as f64 / 20.0, n as f64);
+        let few = k * l / nf;
+        bsdf.mean[1] = DVec3::splat(few);
+        bsdf.variance.as_mut().unwrap()[1] =
+            DVec3::splat((k * l * l - nf * few * few) / (nf - 1.0) / nf);
+        // Pixel 2: both sides black: judged, and equal.
+        mis.mean[2] = DVec3::ZERO;
+        mis.variance.as_mut().unwrap()[2] = DVec3::ZERO;
+        bsdf.mean[2] = DVec3::ZERO;
+        bsdf.variance.as_mut().unwrap()[2] = DVec3::ZERO;
+        let settings = TestSettings::default();
+        let d = differences(&mis, &bsdf, Method::Welch, &settings).unwrap();
+        let e = d.effective_samples.as_ref().unwrap();
+        assert!(
+            (e[1].x - 3.0).abs() < 1e-9 && e[0].x == 0.0,
+            "{:?}",
+            &e[..2]
+        );
+        // Satterthwaite with the BSDF side's 2 degrees of freedom.
+        assert!(d.dof[1].x < 20.0, "{}", d.dof[1].x);
+        let v = test_differences(&d, &settings);
+        assert_eq!(v.pixels.left_few_samples, 6, "{}", v.summary());
+        assert_eq!(v.pixels.judged[0], [false; 3]);
+        assert_eq!(v.pixels.judged[1], [false; 3]);
+        assert_eq!(v.pixels.judged[2], [true; 3]);
+        assert!(v
+            .summary()
+            .contains("6 tests left to the sums (fewer than 4"));
+        assert!(v.pixels.passes(), "{}", v.summary());
+        // The old rule (each side n − 1 degrees of freedom, every pixel
+        // judged): t = 8.0 at pixel 0, p 1.6e-15 at pixel 1 (t = 5.7).
+        let old = |i: usize| {
+            let va = 1.5e-3 / nf;
+            let vb = (bsdf.variance.as_ref().unwrap()[i].x * nf).max(1e-4) / nf;
+            (mis.mean[i].x - bsdf.mean[i].x) / (va + vb).sqrt()
+        };
+        assert!(old(0) > 7.5 && old(1) > 5.5, "{} {}", old(0), old(1));
+        assert!(stats::student_t_two_sided_p(old(1), 1000.0) < v.pixels.alpha_per_test);
+        assert!(v.pixels.p[1].x > 1e3 * stats::student_t_two_sided_p(old(1), 1000.0));
+        // A real local bias on pixels both sides sampled well still fails
+        // the per-pixel family.
+        let mut biased = mis.clone();
+        for i in 8..16 {
+            biased.mean[i] *= 1.5;
+        }
+        let v = compare(&biased, &bsdf, Method::Welch, &settings).unwrap();
+        assert!(!v.pixels.passes(), "{}", v.summary());
+        // Renders that name different estimators: no pixel is judged
+        // alone; the sums still see the local bias.
+        let (mut mis_named, mut biased_named, mut bsdf_named) =
+            (mis.clone(), biased.clone(), bsdf.clone());
+        mis_named.renderer = Some("twintrace/mis".into());
+        biased_named.renderer = Some("twintrace/mis".into());
+        bsdf_named.renderer = Some("twintrace".into());
+        let v = compare(&mis_named, &bsdf_named, Method::Welch, &settings).unwrap();
+        assert_eq!((v.pixels.tests, v.pixels.left_to_sums), (0, 192));
+        assert!(
+            v.passes() && v.summary().contains("none judged alone"),
+            "{}",
+            v.summary()
+        );
+        let v = compare(&biased_named, &bsdf_named, Method::Welch, &settings).unwrap();
+        assert!(!v.aggregate.passes(), "{}", v.summary());
+        // Under the z-test against a reference, the reference's floored
+        // per-sample variance is used and no pixel is left for this.
+        let v = compare(&mis, &bsdf, Method::Reference(Side::B), &settings).unwrap();
+        assert_eq!(v.pixels.left_few_samples, 0);
     }
 
     #[test]

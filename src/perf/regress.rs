@@ -59,14 +59,13 @@ pub const K: f64 = 4.0;
 /// rule", gives the rate measured on repeated runs of one build.
 pub const FAMILY_ALPHA: f64 = 0.01;
 
-/// Why a row gives no figure: a measurement that says nothing to
-/// compare (skipped, with a note), or a figure that is not a measurement
-/// (the comparison is refused).
+/// Why a row held by both runs gives no figure: a figure that is not a
+/// measurement (no time, a time not finite and positive, a relMSE not
+/// finite and positive). Either way the row cannot be compared, and the
+/// comparison is refused: a verdict over the rows left would pass a run
+/// whose broken rows hide a regression.
 #[derive(Clone, Debug, PartialEq)]
-enum Unusable {
-    Skip(String),
-    Bad(String),
-}
+struct Unusable(String);
 
 /// One compared row.
 #[derive(Clone, Debug, PartialEq)]
@@ -302,10 +301,10 @@ fn figures(run: &PerfRun) -> Vec<(String, String, Result<Vec<f64>, Unusable>)> {
     // Times that give no figure: none, or one not finite and positive.
     let times_ok = |times: &[f64]| -> Result<(), Unusable> {
         if times.is_empty() {
-            return Err(Unusable::Bad("no time measured".into()));
+            return Err(Unusable("no time measured".into()));
         }
         match times.iter().find(|t| !(t.is_finite() && **t > 0.0)) {
-            Some(t) => Err(Unusable::Bad(format!("a time of {t} s"))),
+            Some(t) => Err(Unusable(format!("a time of {t} s"))),
             None => Ok(()),
         }
     };
@@ -314,14 +313,18 @@ fn figures(run: &PerfRun) -> Vec<(String, String, Result<Vec<f64>, Unusable>)> {
         let Some(top) = c.top() else { continue };
         let eff = |times: &[f64]| -> Result<Vec<f64>, Unusable> {
             if !top.relmse.is_finite() {
-                return Err(Unusable::Bad(format!(
+                return Err(Unusable(format!(
                     "relMSE at {} spp is {}",
                     top.spp, top.relmse
                 )));
             }
+            // relMSE has the reference's variance taken out, so a value
+            // at or below 0 is either a render whose error the reference
+            // cannot resolve (a reference with more samples is needed) or
+            // not a measurement (relMSE -1): no efficiency either way.
             if top.relmse <= 0.0 {
-                return Err(Unusable::Skip(format!(
-                    "relMSE at {} spp is {:.2e}, below the reference's own noise",
+                return Err(Unusable(format!(
+                    "relMSE at {} spp is {:.2e}, not above the reference's own noise",
                     top.spp, top.relmse
                 )));
             }
@@ -430,11 +433,7 @@ pub fn compare(new: &PerfRun, base: &[PerfRun]) -> Result<Comparison> {
         }
         let samples = match samples {
             Ok(s) => s,
-            Err(Unusable::Skip(e)) => {
-                skipped.push(format!("{key} {measure}: {e}"));
-                continue;
-            }
-            Err(Unusable::Bad(e)) => {
+            Err(Unusable(e)) => {
                 unjudgeable.push(format!("{key} {measure}: {e}"));
                 continue;
             }
@@ -443,11 +442,7 @@ pub fn compare(new: &PerfRun, base: &[PerfRun]) -> Result<Comparison> {
             matching.iter().map(|r| r.as_ref()).collect();
         let base_ok = match base_ok {
             Ok(b) => b,
-            Err(Unusable::Skip(e)) => {
-                skipped.push(format!("{key} {measure}: {e} (baseline)"));
-                continue;
-            }
-            Err(Unusable::Bad(e)) => {
+            Err(Unusable(e)) => {
                 unjudgeable.push(format!("{key} {measure}: {e} (baseline)"));
                 continue;
             }
