@@ -236,7 +236,7 @@ pub fn resolve_settings(
 
 /// `--size WIDTHxHEIGHT`, with the flag named in the error.
 fn size_arg(size: &str) -> Result<(u32, u32)> {
-    parse_size(size).map_err(|e| anyhow!("--size {e}"))
+    parse_size(size).map_err(|e| Refused(format!("--size {e}")).into())
 }
 
 /// Loads a scene; an error without a file name gets the scene's name.

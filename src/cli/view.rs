@@ -17,13 +17,13 @@ pub struct ViewArgs {
     /// A scene file (.json, .gltf, .glb) or a built-in scene name.
     pub scene: String,
     /// The film's size as WIDTHxHEIGHT (default: the scene's).
-    #[arg(long, value_name = "WxH")]
+    #[arg(long, value_name = "WxH", allow_hyphen_values = true)]
     pub size: Option<String>,
     /// Maximum number of ray segments per path (default: the scene's).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true, value_parser = twintrace::partial::parse_count)]
     pub max_depth: Option<u32>,
     /// RNG seed (default: the scene's).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true, value_parser = twintrace::partial::parse_count)]
     pub seed: Option<u32>,
     /// Where the frames run. A window needs a GPU (`auto` and `gpu` take
     /// the adapter that can draw to it); `--headless` runs on any
@@ -37,11 +37,11 @@ pub struct ViewArgs {
     pub headless: bool,
     /// Frames to run (headless: for each camera; in a window: close after
     /// them and write --out, if given).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_u64_count)]
     pub frames: Option<u64>,
     /// Samples a pixel each frame adds (headless; default 1). The window
     /// paces frames to --fps instead.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true, value_parser = twintrace::partial::parse_count)]
     pub spp_per_frame: Option<u32>,
     /// The frame rate the window holds by adding as many samples a frame
     /// as fit.
@@ -75,6 +75,15 @@ pub struct ViewArgs {
     pub look: spec::LookArgs,
     #[command(flatten)]
     pub variant: spec::VariantArgs,
+}
+
+/// A frame count, digits only (`twintrace::partial::parse_count`'s rule).
+fn parse_u64_count(s: &str) -> std::result::Result<u64, String> {
+    if s.is_empty() || !s.bytes().all(|c| c.is_ascii_digit()) {
+        return Err("expected a whole number written in digits, as in 64".into());
+    }
+    s.parse()
+        .map_err(|_| format!("{s} is more than the most this takes ({})", u64::MAX))
 }
 
 pub fn view(args: &ViewArgs) -> Result<()> {
