@@ -95,6 +95,7 @@ const FEATURE_ENVMAP_BACKGROUND: u32 = 2048u;
 const FEATURE_NORMAL_MAPS: u32 = 4096u;
 const FEATURE_ALPHA: u32 = 8192u;
 const FEATURE_CLEARCOAT: u32 = 16384u;
+const FEATURE_EMISSIVE_BSDFS: u32 = 32768u;
 const INTEGRATOR_BSDF: u32 = 0u;
 const INTEGRATOR_MIS: u32 = 1u;
 const SMALL_CONE_SIN2: f32 = 6.8523e-4;
@@ -200,6 +201,10 @@ struct GpuMaterial {
     coat_texture: u32,
     coat_roughness: f32,
     coat_roughness_texture: u32,
+    emission: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 struct GpuTexture {
     tag: u32,

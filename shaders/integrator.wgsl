@@ -68,7 +68,7 @@ fn trace_path(ray_in: Ray, pixel: u32, sample: u32) -> vec3<f32> {
         let m = materials[si.material];
         throughput *= transmittance(m, si, hit.t);
         let tx = material_textures(m, si);
-        radiance += throughput * emitted(m, si, tx);
+        radiance += throughput * emitted(si, tx);
         let u = vertex_randoms(params.seed, pixel, sample, segment + 1u);
         let s = scatter(m, ray.direction, si, tx, u);
         if !s.ok {
@@ -162,7 +162,7 @@ fn next_event_finish(q: ShadowQuery, hit: Hit) -> vec3<f32> {
     }
     let sl = surface_interaction(q.ray, hit);
     let lm = materials[sl.material];
-    let le = emitted(lm, sl, light_textures(lm, sl));
+    let le = emitted(sl, light_textures(lm, sl));
     let pdf_light = light_set_pdf(q.prim, q.p, sl.p, sl.geometric_normal);
     if all(le == none) || !(pdf_light > 0.0 && pdf_light <= F32_MAX) {
         return none;
@@ -210,7 +210,7 @@ fn trace_path_mis(ray_in: Ray, pixel: u32, sample: u32) -> vec3<f32> {
         let m = materials[si.material];
         throughput *= transmittance(m, si, hit.t);
         let tx = material_textures(m, si);
-        let le = emitted(m, si, tx);
+        let le = emitted(si, tx);
         if any(le != vec3<f32>(0.0)) {
             var weight = 1.0;
             if from_pdf > 0.0 {

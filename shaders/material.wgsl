@@ -107,30 +107,56 @@ struct MaterialTextures {
     metal_rough: vec2<f32>,
     // GGX: the clear coat's weight and roughness (coat_parameters).
     coat: vec2<f32>,
+    // What the material emits (its `emission` texture; zero without one).
+    emission: vec3<f32>,
 }
 
 fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures {
-    var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0));
-    if m.tag == MATERIAL_DIELECTRIC {
-        return t;
+    var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(0.0));
+    if m.tag != MATERIAL_DIELECTRIC {
+        t.base = evaluate_texture(m.texture, si.p, si.uv, si.uv1);
     }
-    t.base = evaluate_texture(m.texture, si.p, si.uv, si.uv1);
     if m.tag == MATERIAL_GGX {
         t.base *= si.color;
         t.metal_rough = ggx_parameters(m, si);
         t.coat = coat_parameters(m, si);
     }
+    if m.tag == MATERIAL_DIFFUSE_LIGHT {
+        // Its emission is its texture, already read.
+        t.emission = t.base;
+    } else {
+        t.emission = added_emission(m, si);
+    }
     return t;
 }
 
-// What emitted reads at a light's sampled point (no GGX parameters).
-fn light_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures {
-    return MaterialTextures(evaluate_texture(m.texture, si.p, si.uv, si.uv1), vec2<f32>(0.0), vec2<f32>(0.0));
+// The emission added to a BSDF (reference::Scene::added_emission), read
+// where the material has one: zero without.
+fn added_emission(m: GpuMaterial, si: SurfaceInteraction) -> vec3<f32> {
+    if m.emission == NO_TEXTURE {
+        return vec3<f32>(0.0);
+    }
+    if !uses(FEATURE_EMISSIVE_BSDFS) {
+        poison();
+        return vec3<f32>(0.0);
+    }
+    return evaluate_texture(m.emission, si.p, si.uv, si.uv1);
 }
 
-fn emitted(m: GpuMaterial, si: SurfaceInteraction, tx: MaterialTextures) -> vec3<f32> {
-    if m.tag == MATERIAL_DIFFUSE_LIGHT && si.front_face {
-        return tx.base;
+// What emitted reads at a light's sampled point (no BSDF parameters).
+fn light_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures {
+    var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(0.0));
+    if m.emission != NO_TEXTURE {
+        t.emission = evaluate_texture(m.emission, si.p, si.uv, si.uv1);
+    }
+    return t;
+}
+
+// reference::material::emitted: the material's emission, front face only
+// (added to what its BSDF reflects; zero where it emits nothing).
+fn emitted(si: SurfaceInteraction, tx: MaterialTextures) -> vec3<f32> {
+    if si.front_face {
+        return tx.emission;
     }
     return vec3<f32>(0.0);
 }

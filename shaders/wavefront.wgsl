@@ -265,7 +265,7 @@ fn shade_bsdf(v: ptr<function, Vertex>, hit: Hit, pixel: u32, sample: u32) {
     let m = materials[si.material];
     (*v).throughput *= transmittance(m, si, hit.t);
     let tx = material_textures(m, si);
-    (*v).radiance += (*v).throughput * emitted(m, si, tx);
+    (*v).radiance += (*v).throughput * emitted(si, tx);
     let segment = (*v).segment;
     let u = vertex_randoms(params.seed, pixel, sample, segment + 1u);
     let s = scatter(m, ray.direction, si, tx, u);
@@ -301,7 +301,7 @@ fn shade_mis(v: ptr<function, Vertex>, hit: Hit, pixel: u32, sample: u32) {
     let m = materials[si.material];
     (*v).throughput *= transmittance(m, si, hit.t);
     let tx = material_textures(m, si);
-    let le = emitted(m, si, tx);
+    let le = emitted(si, tx);
     if any(le != vec3<f32>(0.0)) {
         var weight = 1.0;
         if (*v).from_pdf > 0.0 {

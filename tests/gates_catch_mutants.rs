@@ -157,7 +157,7 @@ fn trace_path(
                 throughput *= (-*absorption * hit.t).exp();
             }
         }
-        radiance += throughput * emitted(material, ctx, &si);
+        radiance += throughput * emitted(scene.emission(si.material), ctx, &si);
         let u = vertex_randoms(settings.seed, key(pixel, mutation), sample, segment + 1);
         let Some(s) = scatter_mutated(material, ctx, ray.direction, &si, &u, mutation) else {
             break;

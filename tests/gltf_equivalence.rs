@@ -12,8 +12,11 @@
 //!   `mesh` object's material) of that index and absorption;
 //! - `alphaMode` MASK with a texture's alpha 0 over a quarter of a plane
 //!   renders as the plane without that quarter (its look and its shadow);
-//! - an emissive material (`emissiveFactor` × `KHR_materials_emissive_strength`)
-//!   renders as the scene file's `diffuse_light` of that radiance;
+//! - an emissive, textured, normal-mapped material (`emissiveFactor` ×
+//!   `KHR_materials_emissive_strength` × `emissiveTexture`) renders as its
+//!   emission alone plus its reflection alone, its panel as the
+//!   `diffuse_light` of its emission, MIS as BSDF sampling (the emissive
+//!   gate; a mutant dropping either part fails it on each backend);
 //! - `KHR_materials_clearcoat` with textures renders as the coat of the
 //!   weight and roughness their channels (red, green) scale the factors to.
 //!
@@ -81,10 +84,11 @@ impl Glb {
         self.accessors.len() - 1
     }
 
-    /// A 1x1 PNG of `texel`, as a buffer view.
-    fn png(&mut self, texel: [u8; 3]) -> usize {
+    /// A PNG `width` texels wide of `texels` (row-major), as a buffer view.
+    fn png_image(&mut self, width: u32, texels: &[[u8; 3]]) -> usize {
         let mut png = Vec::new();
-        image::RgbImage::from_raw(1, 1, texel.to_vec())
+        let height = texels.len() as u32 / width;
+        image::RgbImage::from_raw(width, height, texels.concat())
             .unwrap()
             .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
             .unwrap();
@@ -113,6 +117,19 @@ fn plane(
     material: Value,
     image: Option<[u8; 3]>,
 ) -> Vec<u8> {
+    let images: Vec<(u32, Vec<[u8; 3]>)> = image.map(|t| (1, vec![t])).into_iter().collect();
+    textured_plane(normal, extra, material, &images, &[])
+}
+
+/// [`plane`] with textures 0, 1, … of `images` (each a width and its
+/// texels, row-major), its document declaring the extensions `used`.
+fn textured_plane(
+    normal: Vec3,
+    extra: &[(&str, Vec<f32>, &str, usize)],
+    material: Value,
+    images: &[(u32, Vec<[u8; 3]>)],
+    used: &[&str],
+) -> Vec<u8> {
     let mut glb = Glb::default();
     let positions = [-1., 0., -1., -1., 0., 1., 1., 0., 1., 1., 0., -1.];
     let mut attributes = json!({
@@ -129,11 +146,19 @@ fn plane(
         "nodes": [{ "mesh": 0 }],
         "meshes": [{ "primitives": [{ "attributes": attributes, "indices": indices, "material": 0 }] }],
         "materials": [material],
+        "extensionsUsed": used,
     });
-    if let Some(texel) = image {
-        let view = glb.png(texel);
-        document["images"] = json!([{ "bufferView": view, "mimeType": "image/png" }]);
-        document["textures"] = json!([{ "source": 0 }]);
+    if !images.is_empty() {
+        let views: Vec<usize> = (images.iter())
+            .map(|(width, texels)| glb.png_image(*width, texels))
+            .collect();
+        document["images"] = json!(views
+            .iter()
+            .map(|v| json!({ "bufferView": v, "mimeType": "image/png" }))
+            .collect::<Vec<_>>());
+        document["textures"] = json!((0..images.len())
+            .map(|i| json!({ "source": i }))
+            .collect::<Vec<_>>());
     }
     glb.finish(document)
 }
@@ -171,17 +196,36 @@ fn sphere(material: Option<Value>, used: &[&str]) -> Vec<u8> {
 }
 
 /// A GLB added with its own materials (the scene file's `gltf` object),
-/// as a mesh with the given material (the `mesh` object), or as a mesh
-/// emitting the given radiance (a `diffuse_light` material).
+/// or as a mesh with the given material (the `mesh` object).
 enum Part<'a> {
     Gltf(&'a [u8]),
     Mesh(&'a [u8], Material),
-    Light(&'a [u8], Vec3),
+}
+
+/// How a scene is lit.
+#[derive(Clone, Copy, PartialEq)]
+enum Lighting {
+    /// A grazing emitter, on a black background.
+    Grazing,
+    /// A sky.
+    Sky,
+    /// Nothing: black, but for what the parts emit.
+    Dark,
 }
 
 /// A scene of `parts` seen from above, lit by a grazing emitter or by a
 /// sky.
 fn scene(parts: &[Part], grazing_light: bool) -> Scene {
+    let lighting = if grazing_light {
+        Lighting::Grazing
+    } else {
+        Lighting::Sky
+    };
+    scene_lit(parts, lighting)
+}
+
+/// A scene of `parts` seen from above, lit as `lighting` says.
+fn scene_lit(parts: &[Part], lighting: Lighting) -> Scene {
     let dir = tempfile::tempdir().unwrap();
     let mut b = SceneBuilder::new();
     b.camera = CameraSettings {
@@ -194,7 +238,7 @@ fn scene(parts: &[Part], grazing_light: bool) -> Scene {
     for (i, part) in parts.iter().enumerate() {
         let path = dir.path().join(format!("part{i}.glb"));
         let bytes = match part {
-            Part::Gltf(bytes) | Part::Mesh(bytes, _) | Part::Light(bytes, _) => bytes,
+            Part::Gltf(bytes) | Part::Mesh(bytes, _) => bytes,
         };
         std::fs::write(&path, bytes).unwrap();
         let material = match part {
@@ -203,15 +247,14 @@ fn scene(parts: &[Part], grazing_light: bool) -> Scene {
                 continue;
             }
             Part::Mesh(_, material) => *material,
-            Part::Light(_, radiance) => Material::DiffuseLight {
-                emission: b.constant(*radiance).unwrap(),
-            },
         };
         let id = b.add_material(material).unwrap();
         let mesh = load_gltf_mesh(&path).unwrap();
         b.add_mesh(&mesh, id, &Transform::default()).unwrap();
     }
-    if grazing_light {
+    if lighting == Lighting::Dark {
+        b.background = Some(Background::Solid(Vec3::ZERO));
+    } else if lighting == Lighting::Grazing {
         // A 0.7 x 0.5 emitter standing on the plane's diagonal, 0.1 above
         // it and 2.8 away, facing the centre: light at about 10 degrees of
         // elevation; nothing else lights the scene.
@@ -243,10 +286,15 @@ fn settings(seed: u32) -> RenderSettings {
 }
 
 fn render(backend: &str, scene: &Scene, seed: u32) -> NoisyImage {
+    render_by(backend, Integrator::Mis, scene, seed)
+}
+
+/// The render of `scene` with `integrator` on `backend` (`cpu`, `gpu`).
+fn render_by(backend: &str, integrator: Integrator, scene: &Scene, seed: u32) -> NoisyImage {
     let film: Film = match backend {
-        "cpu" => render_with(scene, &settings(seed), Integrator::Mis, &|_| {}),
+        "cpu" => render_with(scene, &settings(seed), integrator, &|_| {}),
         _ => {
-            gpu::GpuRenderer::with_integrator(common::gpu(), scene, Integrator::Mis)
+            gpu::GpuRenderer::with_integrator(common::gpu(), scene, integrator)
                 .unwrap()
                 .render(&settings(seed), &|_, _| {})
                 .unwrap()
@@ -444,29 +492,257 @@ fn an_alpha_mask_cuts_the_hole_the_geometry_has() {
     );
 }
 
-#[test]
-fn an_emissive_material_renders_as_the_json_diffuse_light() {
-    // emissiveFactor × KHR_materials_emissive_strength: the sphere is a
-    // light (sampled as one by MIS) of that radiance, on both backends.
-    let emissive = sphere(
-        Some(json!({
-            "emissiveFactor": [1.0, 0.8, 0.5],
-            "extensions": { "KHR_materials_emissive_strength": { "emissiveStrength": 3.0 } },
-        })),
-        &["KHR_materials_emissive_strength"],
-    );
-    let bare = sphere(None, &[]);
-    let ground = plane(Vec3::Y, &[], ggx(), None);
-    let radiance = Vec3::new(3.0, 2.4, 1.5);
-    assert_means(
-        "an emissive glTF sphere vs the scene file's diffuse light",
-        &scene(&[Part::Gltf(&ground), Part::Gltf(&emissive)], true),
-        &scene(&[Part::Gltf(&ground), Part::Light(&bare, radiance)], true),
-        &scene(
-            &[Part::Gltf(&ground), Part::Light(&bare, radiance * 1.1)],
-            true,
+/// The emissive gate's scenes ([`emissive_scenes`]).
+struct EmissiveScenes {
+    /// The textured, normal-mapped, emissive panel and a grey sphere on
+    /// it, under the grazing light.
+    whole: Scene,
+    /// The same in the dark: emission alone.
+    emission: Scene,
+    /// The panel without its emission, under the grazing light:
+    /// reflection alone.
+    reflection: Scene,
+    /// The emissive panel alone in the dark, and the same panel as a pure
+    /// emitter of the same texture (`diffuse_light`): nothing in these
+    /// reflects the panel's light back to it, so the two mean the same.
+    panel: Scene,
+    panel_light: Scene,
+}
+
+/// A 4x4 panel pattern: texel `i` of a 16-colour ramp, with dark texels
+/// among them, so that the textures vary over the panel.
+fn pattern(f: impl Fn(usize) -> [u8; 3]) -> Vec<[u8; 3]> {
+    (0..16).map(f).collect()
+}
+
+fn emissive_scenes() -> EmissiveScenes {
+    // Textures: 0 base colour and 1 emission (4x4, sRGB), 2 the normal map
+    // (one texel tilted toward the tangent, as in the normal-map test),
+    // 3 metallic (blue) and roughness (green), linear data.
+    let base = pattern(|i| [60 + 12 * i as u8, 200 - 9 * i as u8, 90 + 5 * (i % 4) as u8]);
+    let glow = pattern(|i| {
+        if i % 3 == 0 {
+            [0, 0, 0]
+        } else {
+            [255, 180 - 8 * i as u8, 40 + 10 * i as u8]
+        }
+    });
+    let images = vec![
+        (4, base),
+        (4, glow),
+        (1, vec![[170, 100, 220]]),
+        (1, vec![[0, 140, 120]]),
+    ];
+    let panel_material = |emissive: bool| {
+        let mut m = json!({
+            "pbrMetallicRoughness": {
+                "baseColorTexture": { "index": 0 },
+                "metallicFactor": 0.7,
+                "roughnessFactor": 0.8,
+                "metallicRoughnessTexture": { "index": 3 },
+            },
+            "normalTexture": { "index": 2 },
+        });
+        if emissive {
+            m["emissiveTexture"] = json!({ "index": 1 });
+            m["emissiveFactor"] = json!([1.0, 0.8, 0.6]);
+            m["extensions"] =
+                json!({ "KHR_materials_emissive_strength": { "emissiveStrength": 2.5 } });
+        }
+        m
+    };
+    let strength = ["KHR_materials_emissive_strength"];
+    let emissive = textured_plane(Vec3::Y, &[], panel_material(true), &images, &strength);
+    let plain = textured_plane(Vec3::Y, &[], panel_material(false), &images, &[]);
+    let ball = sphere(Some(ggx()), &[]);
+    let with_ball =
+        |panel: &[u8], lighting| scene_lit(&[Part::Gltf(panel), Part::Gltf(&ball)], lighting);
+    let panel = scene_lit(&[Part::Gltf(&emissive)], Lighting::Dark);
+    let glow = panel.added_emission(0).expect("the panel's emission");
+    let panel_light = (panel.clone())
+        .edited(|look| look.materials[0] = Material::DiffuseLight { emission: glow })
+        .unwrap();
+    EmissiveScenes {
+        whole: with_ball(&emissive, Lighting::Grazing),
+        emission: with_ball(&emissive, Lighting::Dark),
+        reflection: with_ball(&plain, Lighting::Grazing),
+        panel,
+        panel_light,
+    }
+}
+
+/// `a + b` as one noisy image: means and variances of the mean added (the
+/// two renders are independent: different seeds).
+fn sum(a: &NoisyImage, b: &NoisyImage) -> NoisyImage {
+    let add = |x: &Option<Vec<glam::DVec3>>, y: &Option<Vec<glam::DVec3>>| {
+        Some(
+            x.as_ref()?
+                .iter()
+                .zip(y.as_ref()?)
+                .map(|(p, q)| *p + *q)
+                .collect(),
+        )
+    };
+    NoisyImage {
+        mean: a.mean.iter().zip(&b.mean).map(|(p, q)| *p + *q).collect(),
+        variance: add(&a.variance, &b.variance),
+        // The sum's skewness is not the sides'; the per-pixel normal test
+        // judges every pixel (the tile and image sums are near normal).
+        skewness: None,
+        ..a.clone()
+    }
+}
+
+/// The emissive gate's verdicts on one backend, each `(what, passes,
+/// summary)`: the whole against emission plus reflection (MIS), emission
+/// alone by MIS against BSDF sampling (the panel's triangles sampled as
+/// lights from the sphere), and the emissive panel against the pure
+/// emitter of its texture. `render` renders a
+/// scene with an estimator and a seed.
+fn emissive_verdicts(
+    s: &EmissiveScenes,
+    seed: u32,
+    render: &dyn Fn(&Scene, Integrator, u32) -> NoisyImage,
+) -> Vec<(String, bool, String)> {
+    let settings = TestSettings::default();
+    let judge = |what: &str, a: &NoisyImage, b: &NoisyImage| {
+        let v = compare(a, b, Method::Welch, &settings).unwrap();
+        (what.to_string(), v.passes(), v.summary())
+    };
+    let whole = render(&s.whole, Integrator::Mis, seed);
+    let emission = render(&s.emission, Integrator::Mis, seed + 1);
+    let parts = sum(&emission, &render(&s.reflection, Integrator::Mis, seed + 2));
+    vec![
+        judge("whole vs emission + reflection", &whole, &parts),
+        // In the dark the panel is the only light, large enough for BSDF
+        // samples to find it at this budget (the grazing lamp is not: its
+        // rare hits leave pixel variances the per-pixel test cannot use).
+        judge(
+            "emission alone, MIS vs BSDF sampling",
+            &emission,
+            &render(&s.emission, Integrator::Bsdf, seed + 3),
         ),
-    );
+        judge(
+            "emissive panel vs the pure emitter of its texture",
+            &render(&s.panel, Integrator::Mis, seed + 4),
+            &render(&s.panel_light, Integrator::Mis, seed + 5),
+        ),
+    ]
+}
+
+/// The first of the six seeds of the emissive gate's renders.
+const EMISSIVE_SEED: u32 = 51;
+
+/// Panics unless every verdict passes.
+fn assert_all_pass(backend: &str, verdicts: &[(String, bool, String)]) {
+    for (what, passes, summary) in verdicts {
+        println!("{backend}: {what}:\n{summary}");
+        assert!(passes, "{backend}: {what}:\n{summary}");
+    }
+}
+
+#[test]
+fn emission_adds_to_a_textured_normal_mapped_bsdf() {
+    // glTF's emission (emissiveFactor × KHR_materials_emissive_strength ×
+    // emissiveTexture) is added to the surface's BSDF: the panel keeps its
+    // base colour, metal-roughness and normal map. Light is linear in the
+    // emitters, so the whole scene is the sum of the two renders that each
+    // light only one set of them; the panel's emission also lights the
+    // sphere, sampled as a light (MIS) or found by BSDF samples.
+    let s = emissive_scenes();
+    assert!(s.whole.warnings().is_empty(), "{:?}", s.whole.warnings());
+    assert!(matches!(
+        s.whole.materials()[0],
+        Material::Ggx {
+            normal_map: Some(_),
+            metallic_roughness: Some(_),
+            ..
+        }
+    ));
+    // The AOV albedo of the emissive panel is its base colour (what it
+    // reflects, the panel's without emission), not an emitter's black: the
+    // first hit of a ray from the camera to a point beside the sphere.
+    let world = |p: Vec3| (p.as_dvec3() - s.whole.render_origin()).as_vec3();
+    let eye = world(Vec3::new(0.0, 2.5, 2.0));
+    let ray =
+        reference::geometry::Ray::new(eye, (world(Vec3::new(0.7, 0.0, 0.7)) - eye).normalize());
+    let albedo = |scene: &Scene| {
+        reference::aov::first_hit(scene, &ray)
+            .expect("the panel")
+            .albedo
+    };
+    assert!(albedo(&s.whole).max_element() > 0.0);
+    assert_eq!(albedo(&s.whole), albedo(&s.reflection));
+    for backend in ["cpu", "gpu"] {
+        let verdicts = emissive_verdicts(&s, EMISSIVE_SEED, &|scene, integrator, seed| {
+            render_by(backend, integrator, scene, seed)
+        });
+        assert_all_pass(backend, &verdicts);
+    }
+}
+
+/// Which verdicts of [`emissive_verdicts`] fail.
+fn failing(verdicts: &[(String, bool, String)]) -> Vec<&str> {
+    verdicts
+        .iter()
+        .filter(|v| !v.1)
+        .map(|v| v.0.as_str())
+        .collect()
+}
+
+#[test]
+fn the_emissive_gate_fails_when_either_part_is_dropped_on_the_cpu() {
+    use reference::mutants::{pool, Mutant};
+    let s = emissive_scenes();
+    for mutant in [Mutant::AddedEmissionDropped, Mutant::EmissiveBsdfDropped] {
+        let verdicts = emissive_verdicts(&s, EMISSIVE_SEED, &|scene, integrator, seed| {
+            pool(mutant).install(|| render_by("cpu", integrator, scene, seed))
+        });
+        let failed = failing(&verdicts);
+        println!("{mutant:?}: fails {failed:?}");
+        assert!(!failed.is_empty(), "{mutant:?} passed the emissive gate");
+    }
+}
+
+#[test]
+fn the_emissive_gate_fails_when_either_part_is_dropped_on_the_gpu() {
+    let production = gpu::shader::render_source();
+    // The added emission read as black at every hit (light samples still
+    // see it), and the emissive material turned into the pure emitter of
+    // its emission (what glTF import made of it before).
+    let fetch = "let m = materials[si.material];";
+    let mutants = [
+        (
+            "emission dropped",
+            production.replace(
+                "t.emission = added_emission(m, si);",
+                "t.emission = vec3<f32>(0.0);",
+            ),
+        ),
+        (
+            "BSDF dropped",
+            production.replace(
+                fetch,
+                "var m = materials[si.material]; if m.emission != NO_TEXTURE && m.tag != MATERIAL_DIFFUSE_LIGHT { m.tag = MATERIAL_DIFFUSE_LIGHT; m.texture = m.emission; }",
+            ),
+        ),
+    ];
+    let s = emissive_scenes();
+    for (name, program) in &mutants {
+        assert_ne!(program, &production, "{name}: the edit missed");
+        let verdicts = emissive_verdicts(&s, EMISSIVE_SEED, &|scene, integrator, seed| {
+            let packed = gpu::scene_buffers::PackedScene::new(scene);
+            let film =
+                gpu::GpuRenderer::with_program(common::gpu(), &packed, scene, program, integrator)
+                    .and_then(|r| r.render(&settings(seed), &|_, _| {}))
+                    .unwrap_or_else(|e| panic!("{e}"))
+                    .film;
+            NoisyImage::from_film(&film)
+        });
+        let failed = failing(&verdicts);
+        println!("{name}: fails {failed:?}");
+        assert!(!failed.is_empty(), "{name} passed the emissive gate");
+    }
 }
 
 #[test]

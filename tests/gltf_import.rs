@@ -135,10 +135,12 @@ fn gltf_materials_emission_and_camera_come_through() {
     let scene = reference::load_scene(path.to_str().unwrap()).unwrap();
     assert_eq!(scene.triangles().len(), 2);
     let texture = |id: u32| scene.textures()[id as usize];
+    let (ggx_id, light_id) = (scene.triangles()[0].material, scene.triangles()[1].material);
     let (ggx, light) = (
-        scene.materials()[scene.triangles()[0].material as usize],
-        scene.materials()[scene.triangles()[1].material as usize],
+        scene.materials()[ggx_id as usize],
+        scene.materials()[light_id as usize],
     );
+    assert_eq!(scene.emission(ggx_id), None);
     match ggx {
         Material::Ggx {
             base_color,
@@ -157,13 +159,25 @@ fn gltf_materials_emission_and_camera_come_through() {
         }
         other => panic!("expected GGX, got {other:?}"),
     }
-    match light {
-        Material::DiffuseLight { emission } => assert_eq!(
-            texture(emission),
-            Texture::Constant(Vec3::new(4.0, 2.0, 1.0))
+    // The emissive material keeps its BSDF (glTF's defaults: base colour
+    // 1, metallic 1, roughness 1), its emission added to it.
+    assert!(
+        matches!(
+            light,
+            Material::Ggx {
+                metallic: 1.0,
+                roughness: 1.0,
+                ..
+            }
         ),
-        other => panic!("expected a light, got {other:?}"),
-    }
+        "expected GGX with added emission, got {light:?}"
+    );
+    let emission = scene.added_emission(light_id).expect("added emission");
+    assert_eq!(scene.emission(light_id), Some(emission));
+    assert_eq!(
+        texture(emission),
+        Texture::Constant(Vec3::new(4.0, 2.0, 1.0))
+    );
     // The camera node sits under a translated parent and looks down -z.
     let c = scene.camera_settings();
     assert!(

@@ -51,7 +51,7 @@ fn sample_main(@builtin(global_invocation_id) gid: vec3<u32>) {
         case 3u: { d = sample_unit_ball(vec3<f32>(vr_get(u, DIM_BALL_X), vr_get(u, DIM_BALL_Y), vr_get(u, DIM_BALL_Z))); }
         case 4u: { d = ggx_sample_visible_normal(wo, bitcast<f32>(input[8]), dir_u); }
         default: {
-            let m = GpuMaterial(input[9], input[10], bitcast<f32>(input[11]), bitcast<f32>(input[12]), bitcast<f32>(input[13]), bitcast<f32>(input[14]), bitcast<f32>(input[15]), input[16], NO_TEXTURE, 0.0, NO_TEXTURE, 0.0, bitcast<f32>(input[21]), NO_TEXTURE, bitcast<f32>(input[23]), NO_TEXTURE);
+            let m = GpuMaterial(input[9], input[10], bitcast<f32>(input[11]), bitcast<f32>(input[12]), bitcast<f32>(input[13]), bitcast<f32>(input[14]), bitcast<f32>(input[15]), input[16], NO_TEXTURE, 0.0, NO_TEXTURE, 0.0, bitcast<f32>(input[21]), NO_TEXTURE, bitcast<f32>(input[23]), NO_TEXTURE, NO_TEXTURE, 0u, 0u, 0u);
             let front = input[3] != 0u;
             var ray_dir = -wo;
             if input[4] != 0u {
@@ -121,7 +121,7 @@ fn gpu_samples(job: &Job) -> Vec<Option<DVec3>> {
     let renderer = gpu::GpuRenderer::new(ctx, &scene).unwrap();
     let mat = job
         .material
-        .map(|m| pack_material(&m, None))
+        .map(|m| pack_material(&m, None, None))
         .unwrap_or_default();
     let mut input = vec![
         job.seed,

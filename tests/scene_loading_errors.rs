@@ -275,3 +275,59 @@ fn an_image_texture_no_material_uses_must_still_exist() {
         &["textures.wood.path", "no material uses", "no-such-wood.png"],
     );
 }
+
+/// `emission` on a material: its texture must exist and its colour be
+/// non-negative; a `diffuse_light` has its own and takes no other field.
+#[test]
+fn a_bad_added_emission_names_the_material_and_field() {
+    let with = |material: &str| {
+        format!(
+            r#"{{ "camera": {{ "look_from": [0, 0, 5], "look_at": [0, 0, 0] }},
+  "materials": {{ "m": {material} }},
+  "objects": [ {{ "type": "sphere", "center": [0,0,0], "radius": 1, "material": "m" }} ] }}"#
+        )
+    };
+    check(
+        &with(r#"{ "type": "ggx", "base_color": [0.5, 0.5, 0.5], "emission": "glow" }"#),
+        &["materials.m.emission", "unknown texture `glow`"],
+    );
+    check(
+        &with(r#"{ "type": "lambertian", "albedo": [0.5, 0.5, 0.5], "emission": [1, -1, 1] }"#),
+        &["materials.m.emission", "negative"],
+    );
+    check(
+        &with(r#"{ "type": "diffuse_light", "emission": [1, 1, 1], "albedo": [1, 1, 1] }"#),
+        &["albedo"],
+    );
+}
+
+/// Emission on any material is added to its BSDF, and its primitives are
+/// lights; black emission is none.
+#[test]
+fn an_added_emission_loads_and_makes_its_primitives_lights() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = r#"{ "camera": { "look_from": [0, 0, 5], "look_at": [0, 0, 0] },
+  "materials": {
+    "glow": { "type": "ggx", "base_color": [0.8, 0.1, 0.1], "emission": [2, 1.5, 1] },
+    "dark": { "type": "metal", "albedo": [0.5, 0.5, 0.5], "emission": [0, 0, 0] }
+  },
+  "objects": [
+    { "type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "glow" },
+    { "type": "sphere", "center": [3, 0, 0], "radius": 1, "material": "dark" } ] }"#;
+    let p = write_scene(dir.path(), "glow.json", text);
+    let scene = reference::load_scene(p.to_str().unwrap()).unwrap();
+    let m = |i: usize| scene.spheres()[i].material;
+    assert!(matches!(
+        scene.materials()[m(0) as usize],
+        reference::material::Material::Ggx { .. }
+    ));
+    let e = scene.emission(m(0)).expect("the ggx emits");
+    assert_eq!(
+        scene.textures()[e as usize],
+        reference::texture::Texture::Constant(glam::Vec3::new(2.0, 1.5, 1.0))
+    );
+    assert_eq!(scene.emission(m(1)), None);
+    let lights = reference::light::LightSet::new(&scene);
+    assert_eq!(lights.len(), 1);
+    assert!(lights.pmf(0) > 0.0 && lights.pmf(1) == 0.0);
+}

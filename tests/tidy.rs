@@ -110,6 +110,10 @@ const GPU_ONLY: &[(&str, &str)] = &[
         "light_textures",
         "emitted's TextureContext lookup at a light's sampled point",
     ),
+    (
+        "added_emission",
+        "reference::Scene::added_emission (scene/mod.rs: the scene's table by material, which the GPU record carries) read through a TextureContext lookup",
+    ),
     ("node_min", "reads a packed BvhNode record"),
     ("node_max", "reads a packed BvhNode record"),
     ("f32_infinity", "WGSL const-expressions may not be infinite"),

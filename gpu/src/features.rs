@@ -63,6 +63,7 @@ feature_bits! {
     NORMAL_MAPS = 12,
     ALPHA = 13,
     CLEARCOAT = 14,
+    EMISSIVE_BSDFS = 15,
 }
 
 impl Kernel {
@@ -121,6 +122,10 @@ impl Features {
         }
         if (0..scene.materials().len() as u32).any(|m| scene.alpha(m).is_some()) {
             bits |= feature::ALPHA;
+        }
+        // Emission added to a BSDF is one more texture read a vertex.
+        if (0..scene.materials().len() as u32).any(|m| scene.added_emission(m).is_some()) {
+            bits |= feature::EMISSIVE_BSDFS;
         }
         for t in scene.textures() {
             bits |= match t {

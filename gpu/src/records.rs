@@ -89,12 +89,17 @@ gpu_record! {
     /// negative, so a lower cutoff covers alike) or [`ALPHA_BLEND`].
     /// GGX's clear coat (`reference::material::ClearCoat`): `coat` = its
     /// weight (0: none), `coat_texture` its texture or `NO_TEXTURE`,
-    /// `coat_roughness`, `coat_roughness_texture`.
+    /// `coat_roughness`, `coat_roughness_texture`. Any tag: `emission` =
+    /// the texture of what it emits from its front face
+    /// (`reference::Scene::emission`: DIFFUSE_LIGHT's own, which is also
+    /// its `texture`, or the emission added to another BSDF) or
+    /// `NO_TEXTURE`.
     GpuMaterial {
         tag: u32, texture: u32, p0: f32, p1: f32,
         absorption_r: f32, absorption_g: f32, absorption_b: f32, texture2: u32,
         texture3: u32, p2: f32, alpha_texture: u32, alpha_cutoff: f32,
         coat: f32, coat_texture: u32, coat_roughness: f32, coat_roughness_texture: u32,
+        emission: u32, _pad0: u32, _pad1: u32, _pad2: u32,
     }
 }
 
@@ -322,7 +327,7 @@ mod tests {
         assert_eq!(std::mem::size_of::<GpuVertex>(), 32);
         assert_eq!(std::mem::size_of::<GpuPrimitive>(), 32);
         assert_eq!(std::mem::size_of::<GpuVertexExtra>(), 48);
-        assert_eq!(std::mem::size_of::<GpuMaterial>(), 64);
+        assert_eq!(std::mem::size_of::<GpuMaterial>(), 80);
         assert_eq!(std::mem::size_of::<GpuTexture>(), 64);
         assert_eq!(std::mem::size_of::<GpuEmitter>(), 8);
         assert_eq!(std::mem::size_of::<GpuLightDensity>(), 8);

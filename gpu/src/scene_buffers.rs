@@ -55,8 +55,9 @@ pub struct PackedScene {
     pub env_table: u32,
 }
 
-/// A material's record with its coverage (`alpha`), if it has one.
-pub fn pack_material(m: &Material, alpha: Option<Alpha>) -> GpuMaterial {
+/// A material's record with its coverage (`alpha`) and the texture of its
+/// emission (`emission`, `reference::Scene::emission`), where it has them.
+pub fn pack_material(m: &Material, alpha: Option<Alpha>, emission: Option<u32>) -> GpuMaterial {
     let (alpha_texture, alpha_cutoff) = match alpha {
         None => (NO_TEXTURE, 0.0),
         Some(Alpha {
@@ -71,6 +72,7 @@ pub fn pack_material(m: &Material, alpha: Option<Alpha>) -> GpuMaterial {
     GpuMaterial {
         alpha_texture,
         alpha_cutoff,
+        emission: emission.unwrap_or(NO_TEXTURE),
         ..pack_bsdf(m)
     }
 }
@@ -411,7 +413,7 @@ impl PackedScene {
                 .collect(),
             vertex_extras: vertex_extras(m),
             materials: (scene.materials().iter().enumerate())
-                .map(|(i, m)| pack_material(m, scene.alpha(i as u32)))
+                .map(|(i, m)| pack_material(m, scene.alpha(i as u32), scene.emission(i as u32)))
                 .collect(),
             textures: scene.textures().iter().map(pack_texture).collect(),
             images,

@@ -62,7 +62,9 @@ pub struct FirstHit {
 /// The reflectance colour a denoiser's albedo guide means: a diffuse or
 /// metal surface's colour (its texture), a glTF material's base colour
 /// (texture times vertex colour), white for glass (it reflects and
-/// transmits everything), black for an emitter (it reflects nothing).
+/// transmits everything), black for a `DiffuseLight` (it reflects
+/// nothing). Emission added to a BSDF does not change what it reflects:
+/// an emissive glTF material's albedo is its base colour.
 #[inline]
 pub fn albedo(material: &Material, ctx: TextureContext, si: &SurfaceInteraction) -> Vec3 {
     match *material {

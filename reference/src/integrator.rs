@@ -58,9 +58,9 @@ pub fn trace_path(
             break;
         };
         let si = scene.surface_interaction(&ray, &hit);
-        let material = &scene.materials()[si.material as usize];
+        let material = vertex_material(scene, si.material);
         throughput *= transmittance(material, &si, hit.t);
-        radiance += throughput * emitted(material, ctx, &si);
+        radiance += throughput * emitted(scene.emission(si.material), ctx, &si);
         let u = vertex_randoms(settings.seed, pixel, sample, segment + 1);
         let Some(s) = scatter(material, ctx, ray.direction, &si, &u) else {
             break;
@@ -72,6 +72,19 @@ pub fn trace_path(
         ray = Ray::new(spawn_toward(&si, s.direction), s.direction);
     }
     radiance
+}
+
+/// The BSDF of material `id` at a path vertex: the scene's (emission,
+/// [`Scene::emission`], is read apart from it and adds to it).
+#[inline]
+fn vertex_material(scene: &Scene, id: u32) -> &Material {
+    /// What [`Mutant::EmissiveBsdfDropped`] leaves of an emissive
+    /// material's BSDF: none (it absorbs; its emission is still read).
+    const ABSORBER: Material = Material::DiffuseLight { emission: 0 };
+    if mutants::is(Mutant::EmissiveBsdfDropped) && scene.added_emission(id).is_some() {
+        return &ABSORBER;
+    }
+    &scene.materials()[id as usize]
 }
 
 /// Beer-Lambert transmittance over a segment of length `t` that ended on
@@ -196,9 +209,9 @@ pub fn trace_path_mis(
             break;
         };
         let si = scene.surface_interaction(&ray, &hit);
-        let material = &scene.materials()[si.material as usize];
+        let material = vertex_material(scene, si.material);
         throughput *= transmittance(material, &si, hit.t);
-        let le = emitted(material, ctx, &si);
+        let le = emitted(scene.emission(si.material), ctx, &si);
         if le != Vec3::ZERO {
             let weight = bsdf_sample_weight(came_from, |from| {
                 lights.pdf(scene, hit.prim, from, si.p, si.geometric_normal)
@@ -303,7 +316,7 @@ fn next_event(
         return Vec3::ZERO;
     }
     let sl = scene.surface_interaction(&shadow, &hit);
-    let le = emitted(&scene.materials()[sl.material as usize], ctx, &sl);
+    let le = emitted(scene.emission(sl.material), ctx, &sl);
     let pdf_light = lights.pdf(scene, ls.prim, si.p, sl.p, sl.geometric_normal);
     if le == Vec3::ZERO || !(pdf_light > 0.0 && pdf_light.is_finite()) {
         return Vec3::ZERO;

@@ -2,8 +2,10 @@
 //! a point on it with its density in solid angle, for next-event
 //! estimation ([`crate::integrator`]'s MIS path tracer).
 //!
-//! - Emitters are the primitives whose material is `DiffuseLight`
-//!   (quads, spheres, triangles); they emit from the front face only.
+//! - Emitters are the primitives whose material emits
+//!   ([`Scene::emission`]: a `DiffuseLight`, or any material with emission
+//!   added to its BSDF), quads, spheres and triangles alike; they emit
+//!   from the front face only.
 //! - One emitter is picked with probability proportional to an estimate of
 //!   its power, `area × mean luminance of its emission` over a 4x4 grid of
 //!   its surface parameters, floored at 1 % of the mean weight so that no
@@ -35,7 +37,7 @@
 
 use crate::background::{equirect_uv, Background};
 use crate::geometry::{Hit, Onb, Ray};
-use crate::material::{Material, TextureContext, LUMINANCE_WEIGHTS};
+use crate::material::{TextureContext, LUMINANCE_WEIGHTS};
 use crate::mutants::{self, Mutant};
 use crate::scene::{primitive_tag, Scene};
 use glam::{DVec3, Vec2, Vec3};
@@ -130,7 +132,7 @@ impl LightSet {
                 primitive_tag::QUAD => scene.quads()[p.index as usize].material,
                 _ => scene.triangles()[p.index as usize].material,
             };
-            let Material::DiffuseLight { emission } = scene.materials()[material as usize] else {
+            let Some(emission) = scene.emission(material) else {
                 continue;
             };
             let area = primitive_area(scene, id as u32);

@@ -182,11 +182,16 @@ pub struct Scatter {
     pub weight: Vec3,
 }
 
-/// Light emitted toward `wo`.
+/// Light emitted toward `wo` by a material whose emission is the texture
+/// `emission` ([`crate::scene::Scene::emission`]: a `DiffuseLight`'s, or
+/// the emission added to another material's BSDF; `None`: it emits
+/// nothing), from the front face only. Emission adds to what the surface
+/// reflects (glTF's `emissive`): the BSDF is [`scatter`]'s and
+/// [`bsdf_eval`]'s, unchanged.
 #[inline]
-pub fn emitted(material: &Material, ctx: TextureContext, si: &SurfaceInteraction) -> Vec3 {
-    match material {
-        Material::DiffuseLight { emission } if si.front_face => ctx.eval(*emission, si),
+pub fn emitted(emission: Option<u32>, ctx: TextureContext, si: &SurfaceInteraction) -> Vec3 {
+    match emission {
+        Some(e) if si.front_face => ctx.eval(e, si),
         _ => Vec3::ZERO,
     }
 }
@@ -667,8 +672,9 @@ mod tests {
     fn light_emits_from_front_only_and_absorbs() {
         let tex = [Texture::Constant(Vec3::splat(4.0))];
         let m = Material::DiffuseLight { emission: 0 };
-        assert_eq!(emitted(&m, ctx(&tex), &si(true)), Vec3::splat(4.0));
-        assert_eq!(emitted(&m, ctx(&tex), &si(false)), Vec3::ZERO);
+        assert_eq!(emitted(Some(0), ctx(&tex), &si(true)), Vec3::splat(4.0));
+        assert_eq!(emitted(Some(0), ctx(&tex), &si(false)), Vec3::ZERO);
+        assert_eq!(emitted(None, ctx(&tex), &si(true)), Vec3::ZERO);
         assert!(scatter(&m, ctx(&tex), -Vec3::Y, &si(true), &randoms(0)).is_none());
     }
 

@@ -41,6 +41,14 @@ pub enum Mutant {
     /// to f32 where its file puts it (`SceneBuilder::build`; active on
     /// the thread that builds the scene: [`with`]).
     NoRenderSpace,
+    /// The emission added to a material's BSDF dropped: such a material
+    /// reflects only (`Scene::emission`, read by the integrators and the
+    /// light set alike).
+    AddedEmissionDropped,
+    /// A material with added emission loses its BSDF and only emits, as
+    /// glTF's emissive materials did before emission was added to the
+    /// BSDF (`integrator`'s `vertex_material`).
+    EmissiveBsdfDropped,
 }
 
 #[cfg(feature = "mutants")]

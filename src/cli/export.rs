@@ -192,6 +192,9 @@ impl<'s> MitsubaScene<'s> {
             .enumerate()
             .map(|(i, m)| {
                 let what = format!("material {i}");
+                if scene.added_emission(i as u32).is_some() {
+                    bail!("{what} emits as well as reflects (emission added to its BSDF is not exported)");
+                }
                 Ok(match *m {
                     Material::Lambertian { albedo } => {
                         Surface::Diffuse(constant(scene, albedo, &what)?)

@@ -37,11 +37,12 @@
 //!
 //! Materials (metallic-roughness): `baseColorFactor` and
 //! `baseColorTexture` (their RGB) become the base colour of a
-//! [`Material::Ggx`] with `metallicFactor` and `roughnessFactor`. A material
-//! whose emission (`emissiveFactor` × `KHR_materials_emissive_strength`,
-//! optionally times `emissiveTexture`) is non-zero becomes a
-//! [`Material::DiffuseLight`] instead: the reference has no material that
-//! both reflects and emits, and such surfaces are lights in practice. A
+//! [`Material::Ggx`] with `metallicFactor` and `roughnessFactor`. A
+//! material's emission (`emissiveFactor` × `KHR_materials_emissive_strength`,
+//! times `emissiveTexture` where it has one), where it is non-zero, is
+//! added to its BSDF ([`SceneBuilder::set_emission`]), as glTF defines it:
+//! the surface keeps its base colour, metal-roughness and normal map, and
+//! emits from its front face (glTF's `doubleSided` is not read). A
 //! material that transmits (`KHR_materials_transmission`, with
 //! `KHR_materials_ior` and `KHR_materials_volume`) becomes a
 //! [`Material::Dielectric`] (`Importer::dielectric` says how, and what is
@@ -1235,17 +1236,20 @@ impl Importer<'_> {
                 .within(&context)
                 .in_file(&file.path)
         })?;
-        let converted = if emission != Vec3::ZERO {
-            let texture = match material.emissive_texture() {
+        // Added to the BSDF below: the surface keeps what it reflects.
+        let emission = if emission != Vec3::ZERO {
+            Some(match material.emissive_texture() {
                 Some(info) => {
                     self.image_texture(builder, &TextureRef::of(&info), emission, &context)?
                 }
                 None => builder
                     .constant(emission)
-                    .map_err(|e| in_context(e.within("emissive")))?,
-            };
-            Material::DiffuseLight { emission: texture }
-        } else if let Some(glass) = glass {
+                    .map_err(|e| in_context(e.within("emissiveFactor")))?,
+            })
+        } else {
+            None
+        };
+        let converted = if let Some(glass) = glass {
             glass
         } else {
             let [r, g, b, _alpha] = pbr.base_color_factor();
@@ -1305,10 +1309,7 @@ impl Importer<'_> {
             None => None,
         };
         if !matches!(converted, Material::Ggx { .. }) {
-            let kind = match converted {
-                Material::DiffuseLight { .. } => "an emitter",
-                _ => "the dielectric",
-            };
+            let kind = "the dielectric";
             let ignored = [
                 ("normalTexture", material.normal_texture().is_some()),
                 (CLEARCOAT, material.extension_value(CLEARCOAT).is_some()),
@@ -1321,6 +1322,11 @@ impl Importer<'_> {
             self.warn(builder, &context, &lost);
         }
         let id = builder.add_material(converted).map_err(in_context)?;
+        if let Some(emission) = emission {
+            builder
+                .set_emission(id, emission)
+                .map_err(|e| in_context(e.within("emissiveFactor")))?;
+        }
         if let Some(alpha) = alpha {
             builder
                 .set_alpha(id, alpha)

@@ -246,6 +246,10 @@ pub struct ImageTextureJson {
 #[serde(deny_unknown_fields)]
 pub struct LambertianMaterialJson {
     pub albedo: ColorRef,
+    /// Radiance emitted from the front face, added to what the material
+    /// reflects (`reference::Scene::emission`); absent or black: none.
+    #[serde(default)]
+    pub emission: Option<ColorRef>,
 }
 
 #[derive(Clone, Debug, PartialEq, Deserialize)]
@@ -254,6 +258,10 @@ pub struct MetalMaterialJson {
     pub albedo: ColorRef,
     #[serde(default)]
     pub fuzz: f32,
+    /// Radiance emitted from the front face, added to what the material
+    /// reflects (`reference::Scene::emission`); absent or black: none.
+    #[serde(default)]
+    pub emission: Option<ColorRef>,
 }
 
 #[derive(Clone, Debug, PartialEq, Deserialize)]
@@ -262,6 +270,10 @@ pub struct DielectricMaterialJson {
     pub ior: f32,
     #[serde(default)]
     pub absorption: [f32; 3],
+    /// Radiance emitted from the front face, added to what the material
+    /// reflects (`reference::Scene::emission`); absent or black: none.
+    #[serde(default)]
+    pub emission: Option<ColorRef>,
 }
 
 #[derive(Clone, Debug, PartialEq, Deserialize)]
@@ -284,6 +296,10 @@ pub struct GgxMaterialJson {
     pub clearcoat: f32,
     #[serde(default)]
     pub clearcoat_roughness: f32,
+    /// Radiance emitted from the front face, added to what the material
+    /// reflects (`reference::Scene::emission`); absent or black: none.
+    #[serde(default)]
+    pub emission: Option<ColorRef>,
 }
 
 #[derive(Clone, Debug, PartialEq, Deserialize)]
@@ -638,19 +654,21 @@ impl Resolver<'_> {
         let field =
             |f: &'static str| move |e: SceneError| e.within(&format!("materials.{name}.{f}"));
         let material = match m {
-            MaterialJson::Lambertian(LambertianMaterialJson { albedo }) => Material::Lambertian {
-                albedo: self.colour(albedo, 0).map_err(field("albedo"))?,
-            },
-            MaterialJson::Metal(MetalMaterialJson { albedo, fuzz }) => Material::Metal {
+            MaterialJson::Lambertian(LambertianMaterialJson { albedo, .. }) => {
+                Material::Lambertian {
+                    albedo: self.colour(albedo, 0).map_err(field("albedo"))?,
+                }
+            }
+            MaterialJson::Metal(MetalMaterialJson { albedo, fuzz, .. }) => Material::Metal {
                 albedo: self.colour(albedo, 0).map_err(field("albedo"))?,
                 fuzz: *fuzz,
             },
-            MaterialJson::Dielectric(DielectricMaterialJson { ior, absorption }) => {
-                Material::Dielectric {
-                    ior: *ior,
-                    absorption: Vec3::from(*absorption),
-                }
-            }
+            MaterialJson::Dielectric(DielectricMaterialJson {
+                ior, absorption, ..
+            }) => Material::Dielectric {
+                ior: *ior,
+                absorption: Vec3::from(*absorption),
+            },
             MaterialJson::DiffuseLight(DiffuseLightMaterialJson { emission }) => {
                 Material::DiffuseLight {
                     emission: self.colour(emission, 0).map_err(field("emission"))?,
@@ -662,6 +680,7 @@ impl Resolver<'_> {
                 roughness,
                 clearcoat,
                 clearcoat_roughness,
+                ..
             }) => Material::Ggx {
                 base_color: self.colour(base_color, 0).map_err(field("base_color"))?,
                 metallic: *metallic,
@@ -683,6 +702,24 @@ impl Resolver<'_> {
             .builder
             .add_material(material)
             .map_err(|e| e.within(&format!("materials.{name}")))?;
+        let emission = match m {
+            MaterialJson::Lambertian(LambertianMaterialJson { emission, .. })
+            | MaterialJson::Metal(MetalMaterialJson { emission, .. })
+            | MaterialJson::Dielectric(DielectricMaterialJson { emission, .. })
+            | MaterialJson::Ggx(GgxMaterialJson { emission, .. }) => emission.as_ref(),
+            MaterialJson::DiffuseLight(_) => None,
+        };
+        match emission {
+            None => {}
+            // Black: no emission (and no emitter for light sampling).
+            Some(ColorRef::Rgb(c)) if *c == Vec3::ZERO => {}
+            Some(c) => {
+                let texture = self.colour(c, 0).map_err(field("emission"))?;
+                self.builder
+                    .set_emission(id, texture)
+                    .map_err(|e| e.within(&format!("materials.{name}")))?;
+            }
+        }
         self.materials.insert(name.to_string(), id);
         Ok(id)
     }

@@ -72,6 +72,10 @@ pub struct SceneBuilder {
     /// By material: its coverage ([`SceneBuilder::set_alpha`]); shorter
     /// than `materials` until the build.
     alphas: Vec<Option<Alpha>>,
+    /// By material: the emission added to its BSDF
+    /// ([`SceneBuilder::set_emission`]); shorter than `materials` until
+    /// the build.
+    emissions: Vec<Option<u32>>,
     textures: Vec<Texture>,
     images: Vec<ImageData>,
     primitives: Vec<Primitive>,
@@ -196,6 +200,27 @@ pub(super) fn check_alpha(alpha: &Alpha, textures: usize) -> Result<(), SceneErr
                 format!("{cutoff} is not finite"),
             ));
         }
+    }
+    Ok(())
+}
+
+/// Emission `emission` (a texture index) added to `material`'s BSDF.
+pub(super) fn check_added_emission(
+    material: &Material,
+    emission: u32,
+    textures: usize,
+) -> Result<(), SceneError> {
+    if emission as usize >= textures {
+        return Err(SceneError::invalid(
+            "emission",
+            format!("texture index {emission} does not exist"),
+        ));
+    }
+    if let Material::DiffuseLight { .. } = material {
+        return Err(SceneError::invalid(
+            "emission",
+            "a diffuse_light emits its own emission; only other materials take an added one".into(),
+        ));
     }
     Ok(())
 }
@@ -368,6 +393,25 @@ impl SceneBuilder {
             self.alphas.resize(m + 1, None);
         }
         self.alphas[m] = Some(alpha);
+        Ok(())
+    }
+
+    /// Adds emission to material `material`'s BSDF: it reflects as it
+    /// did and emits texture `emission` (radiance, linear RGB) from its
+    /// front face, as a `DiffuseLight` does ([`Scene::emission`]). A
+    /// `DiffuseLight` already emits: it cannot have more.
+    pub fn set_emission(&mut self, material: u32, emission: u32) -> Result<(), SceneError> {
+        self.check_material(material)?;
+        check_added_emission(
+            &self.materials[material as usize],
+            emission,
+            self.textures.len(),
+        )?;
+        let m = material as usize;
+        if self.emissions.len() <= m {
+            self.emissions.resize(m + 1, None);
+        }
+        self.emissions[m] = Some(emission);
         Ok(())
     }
 
@@ -720,6 +764,8 @@ impl SceneBuilder {
         check_view(&self.camera, &self.render, &background, self.images.len())?;
         let mut alphas = self.alphas;
         alphas.resize(self.materials.len(), None);
+        let mut emissions = self.emissions;
+        emissions.resize(self.materials.len(), None);
         let has_alpha = |m: u32| alphas[m as usize].is_some();
         if let Some(m) = (self.spheres.iter().map(|s| s.material))
             .chain(self.quads.iter().map(|q| q.material))
@@ -795,6 +841,7 @@ impl SceneBuilder {
             mesh,
             materials: self.materials,
             alphas,
+            emissions,
             textures,
             images: self.images,
             primitives: self.primitives,
@@ -888,6 +935,16 @@ impl Scene {
         }
         for alpha in self.alphas.iter().flatten() {
             check_alpha(alpha, look.textures.len()).map_err(|e| e.within("alphas"))?;
+        }
+        // An edit may make an emissive material a light, whose own
+        // emission is then the one read (`Scene::added_emission`).
+        for (i, emission) in self.emissions.iter().enumerate() {
+            if let Some(e) = emission.filter(|&e| e as usize >= look.textures.len()) {
+                return Err(SceneError::invalid(
+                    &format!("materials[{i}].emission"),
+                    format!("texture index {e} does not exist"),
+                ));
+            }
         }
         let used = (self.spheres.iter().map(|s| s.material))
             .chain(self.quads.iter().map(|q| q.material))

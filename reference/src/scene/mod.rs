@@ -86,6 +86,9 @@ pub struct Scene {
     materials: Vec<Material>,
     /// By material: its coverage, if it has one ([`Scene::alpha_covers`]).
     alphas: Vec<Option<Alpha>>,
+    /// By material: the texture of the emission added to its BSDF
+    /// ([`SceneBuilder::set_emission`]), if it has one.
+    emissions: Vec<Option<u32>>,
     textures: Vec<Texture>,
     images: Vec<ImageData>,
     /// All primitives in scene order; the index is the primitive id.
@@ -155,12 +158,13 @@ impl Scene {
         let mut h = Fingerprint(0xcbf2_9ce4_8422_2325);
         let _ = write!(
             h,
-            "{:?}{:?}{:?}{:?}{:?}{:?}",
+            "{:?}{:?}{:?}{:?}{:?}{:?}{:?}",
             self.camera_settings,
             self.render_camera,
             self.background,
             self.materials,
             self.alphas,
+            self.emissions,
             self.textures
         );
         for c in self.render_space.origin().to_array() {
@@ -306,6 +310,29 @@ impl Scene {
     /// Material `material`'s coverage, if it has one.
     pub fn alpha(&self, material: u32) -> Option<Alpha> {
         self.alphas.get(material as usize).copied().flatten()
+    }
+
+    /// The texture of what material `material` emits from its front
+    /// face, if it emits: a `DiffuseLight`'s emission, or the emission
+    /// added to another material's BSDF ([`Scene::added_emission`]).
+    pub fn emission(&self, material: u32) -> Option<u32> {
+        match self.materials.get(material as usize)? {
+            Material::DiffuseLight { emission } => Some(*emission),
+            _ if mutants::is(Mutant::AddedEmissionDropped) => None,
+            _ => self.added_emission(material),
+        }
+    }
+
+    /// The texture of the emission added to material `material`'s BSDF
+    /// (glTF's emission on a metallic-roughness material, the JSON's
+    /// `emission` on any material but `diffuse_light`), if it has one. A
+    /// `DiffuseLight` has none: what it emits is its own (a material
+    /// that [`Scene::edited`] made one emits only that).
+    pub fn added_emission(&self, material: u32) -> Option<u32> {
+        match self.materials.get(material as usize)? {
+            Material::DiffuseLight { .. } => None,
+            _ => self.emissions.get(material as usize).copied().flatten(),
+        }
     }
 
     pub fn textures(&self) -> &[Texture] {
