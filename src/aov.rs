@@ -116,6 +116,12 @@ pub fn float_channels(layers: &[AovLayer], aovs: &AovLayers, origin: glam::DVec3
     out
 }
 
+/// The `samples` layer's channel of `pixels` pixels that each hold all
+/// `spp` samples (a film with no sample rejected).
+pub fn samples_channel_uniform(pixels: usize, spp: u32) -> (String, Vec<u32>) {
+    ("samples.count".into(), vec![spp; pixels])
+}
+
 /// The `samples` layer's channel: each pixel's accepted samples.
 pub fn samples_channel(sums: &FilmSums) -> (String, Vec<u32>) {
     (

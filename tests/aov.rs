@@ -242,3 +242,23 @@ fn bad_aov_arguments_are_refused_in_one_line() {
         );
     }
 }
+
+#[test]
+fn a_film_with_no_sample_rejected_counts_every_sample_in_every_pixel() {
+    // What lets `render --aov samples` skip reading the film back.
+    use twintrace::render::{CpuProgressive, Progressive, RenderSpec};
+    let scene = reference::load_scene("cornell").unwrap();
+    let settings = RenderSettings {
+        width: 6,
+        height: 5,
+        ..scene.render_settings()
+    };
+    let mut p = CpuProgressive::new(&scene, &RenderSpec::DEFAULT, settings, None).unwrap();
+    p.add(0..3, &|_| {}).unwrap();
+    p.add(3..7, &|_| {}).unwrap();
+    assert_eq!(p.layers().unwrap().rejected, 0);
+    assert_eq!(
+        twintrace::aov::samples_channel(&p.sums().unwrap()),
+        twintrace::aov::samples_channel_uniform(30, 7)
+    );
+}

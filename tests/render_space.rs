@@ -2,7 +2,7 @@
 //! coordinates, its file's numbers applied in f64 and rounded to f32 only
 //! there (`reference::scene::RenderSpace`), so a scene far from the
 //! world's origin renders as it does at the origin:
-//! - a one-unit Cornell box written 3·10^4 out (fixtures/scenes/cornell-far.json)
+//! - a one-unit Cornell box written 3·10^4 out (fixtures/render-space/cornell-far.json)
 //!   against the same box at the origin, both estimators, by `twintrace
 //!   diff`'s default gate; with render space switched off
 //!   (`Mutant::NoRenderSpace`) the same comparison fails;
@@ -28,11 +28,11 @@ use reference::scene::{RenderOrigin, Transform};
 use reference::{RenderSettings, Scene, SceneBuilder};
 use serde_json::Value;
 use twintrace::compare::gate::{
-    fixture_scene, load_reference_in, read_manifest, refs_for, run_gate, workspace_root,
+    load_reference_in, read_manifest, refs_for, run_gate, workspace_root,
 };
 use twintrace::compare::image::{compare, Method, NoisyImage, TestSettings, Verdict};
 
-/// Where fixtures/scenes/cornell-far.json puts its box.
+/// Where fixtures/render-space/cornell-far.json puts its box.
 const CORNELL_FAR: [f64; 3] = [33123.37, 32871.61, -33087.29];
 
 /// A scene document with every position moved by `offset`: the camera's
@@ -122,7 +122,8 @@ fn diff_gate(a: &NoisyImage, b: &NoisyImage) -> Verdict {
 
 #[test]
 fn a_cornell_box_far_from_the_origin_renders_as_it_does_at_the_origin() {
-    let path = std::path::PathBuf::from(fixture_scene("cornell-far.json"));
+    let path =
+        twintrace::compare::gate::workspace_root().join("fixtures/render-space/cornell-far.json");
     let far_doc = read_doc(&path);
     let far = load_doc(&far_doc, &path);
     // Render space: the file's camera at the origin, the box beside it.

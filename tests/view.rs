@@ -678,8 +678,13 @@ fn a_saved_view_renders_as_the_film_beside_it() {
 fn focus_picks_the_surface_in_world_coordinates_far_from_the_origin() {
     // A one-unit box 3.3·10^4 out: traced in render space, picked and
     // focused in the world's coordinates.
-    let scene = reference::load_scene(&twintrace::compare::gate::fixture_scene("cornell-far.json"))
-        .unwrap();
+    let scene = reference::load_scene(
+        &twintrace::compare::gate::workspace_root()
+            .join("fixtures/render-space/cornell-far.json")
+            .display()
+            .to_string(),
+    )
+    .unwrap();
     assert!(scene.render_origin().length() > 3e4);
     let mut view = View::open(
         Devices::Cpu(None),

@@ -418,7 +418,7 @@ fn aov_extras(
     progressive: &mut dyn twintrace::render::Progressive,
     layers: &[twintrace::aov::AovLayer],
     scene: &reference::Scene,
-    spp: u32,
+    (spp, rejected): (u32, u64),
 ) -> Result<image_io::ExrExtras> {
     let mut extras = image_io::ExrExtras::default();
     if layers.iter().any(|l| l.traced()) {
@@ -426,9 +426,14 @@ fn aov_extras(
         extras.f32_channels = twintrace::aov::float_channels(layers, &aovs, scene.render_origin());
     }
     if layers.contains(&twintrace::aov::AovLayer::Samples) {
-        extras
-            .u32_channels
-            .push(twintrace::aov::samples_channel(&progressive.sums()?));
+        // With no sample rejected, every pixel holds all `spp`; else the
+        // counts come from the film's sums (the whole film read back).
+        let (w, h) = (progressive.settings().width, progressive.settings().height);
+        extras.u32_channels.push(if rejected == 0 {
+            twintrace::aov::samples_channel_uniform(w as usize * h as usize, spp)
+        } else {
+            twintrace::aov::samples_channel(&progressive.sums()?)
+        });
     }
     Ok(extras)
 }
@@ -605,7 +610,12 @@ fn render(args: &RenderArgs) -> Result<()> {
             phases.end("image read");
             let nonfinite = layers.rejected;
             let image = RenderImage::from_layers(layers, metadata);
-            let extras = aov_extras(progressive.as_mut(), &aovs, &scene, settings.spp)?;
+            let extras = aov_extras(
+                progressive.as_mut(),
+                &aovs,
+                &scene,
+                (settings.spp, nonfinite),
+            )?;
             if !aovs.is_empty() {
                 phases.end("AOVs");
             }
