@@ -172,3 +172,122 @@ fn sphere_normals_are_radial() {
         "a sphere normal is {worst:.2}x its bound off radial"
     );
 }
+
+/// Schlick's Fresnel, the dielectric's probability of reflecting, against
+/// its formula written here in f64, apart from the code under test
+/// (`R0 + (1 − R0)(1 − cos)^5`, `R0 = ((1 − η)/(1 + η))²`), at several
+/// angles; and the dielectric's sampling reflecting with that probability
+/// from either side, or always past the critical angle. (An audit planted
+/// `(1 − cos)^4` in both twins: it passed every gate but one stored
+/// reference; the chi-square tests compare the sampling with the
+/// evaluation, both mutated.)
+fn dielectric_known_answers() -> Result<String, String> {
+    use reference::geometry::SurfaceInteraction;
+    use reference::material::{scatter, schlick_reflectance, TextureContext};
+    use reference::rng::{dims, random_f32};
+    let schlick = |cos: f64, eta: f64| {
+        let r0 = ((1.0 - eta) / (1.0 + eta)).powi(2);
+        r0 + (1.0 - r0) * (1.0 - cos).powi(5)
+    };
+    let mut said = Vec::new();
+    for eta in [1.0 / 1.5, 1.5, 1.0 / 1.33] {
+        for cos in [1.0, 0.9, 0.7, 0.5, 0.3, 0.1, 0.02] {
+            let got = schlick_reflectance(cos as f32, eta as f32) as f64;
+            let want = schlick(cos, eta);
+            // A few f32 roundings of numbers at most 1.
+            if (got - want).abs() > 1e-6 {
+                return Err(format!(
+                    "Schlick at cos {cos}, η {eta:.4}: {got:.6}, the formula {want:.6}"
+                ));
+            }
+        }
+    }
+    let material = Material::Dielectric {
+        ior: 1.5,
+        absorption: Vec3::ZERO,
+    };
+    let ctx = TextureContext {
+        textures: &[],
+        images: &[],
+    };
+    let n = Vec3::Z;
+    // Samples a case: 200,000 draws (the binomial's standard error is at
+    // most 0.0011; the mutant moves the fraction by 0.02 to 0.09 at these
+    // angles).
+    const DRAWS: u32 = 200_000;
+    for (case, (front, cos)) in [
+        (true, 0.9),
+        (true, 0.5),
+        (true, 0.2),
+        (false, 0.9),
+        (false, 0.8),
+        (false, 0.5),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let case = case as u32;
+        let sin = (1.0f64 - cos * cos).sqrt();
+        let ray_dir = Vec3::new(sin as f32, 0.0, -(cos as f32));
+        let si = SurfaceInteraction {
+            p: Vec3::ZERO,
+            geometric_normal: if front { n } else { -n },
+            shading_normal: if front { n } else { -n },
+            uv: glam::Vec2::ZERO,
+            uv1: glam::Vec2::ZERO,
+            color: Vec3::ONE,
+            p_error: 0.0,
+            front_face: front,
+            material: 0,
+        };
+        let eta = if front { 1.0 / 1.5 } else { 1.5 };
+        // Past the critical angle glass reflects everything.
+        let p = if eta * sin > 1.0 {
+            1.0
+        } else {
+            schlick(cos, eta)
+        };
+        let mut reflected = 0u32;
+        for i in 0..DRAWS {
+            let mut u = [0.5f32; 8];
+            u[dims::LOBE] = random_f32(0x5c41 + case, i, 0, 0, 0);
+            let s = scatter(&material, ctx, ray_dir, &si, &u).ok_or("glass absorbed a ray")?;
+            if s.direction.z > 0.0 {
+                reflected += 1;
+            }
+        }
+        let k = reflected as f64;
+        let sd = (DRAWS as f64 * p * (1.0 - p)).sqrt().max(1e-9);
+        let z = (k - DRAWS as f64 * p) / sd;
+        said.push(format!(
+            "{}, cos {cos}: z {z:+.2}",
+            if front { "outside" } else { "inside" }
+        ));
+        // |z| < 4: about 6e-5 a case of failing correct code.
+        let all_reflected = p == 1.0 && reflected == DRAWS;
+        if !all_reflected && (z.is_nan() || z.abs() >= 4.0) {
+            return Err(format!(
+                "glass {} at cos {cos} reflects {:.4} of rays, Schlick {p:.4} (z {z:.1})",
+                if front { "from outside" } else { "from inside" },
+                k / DRAWS as f64
+            ));
+        }
+    }
+    Ok(said.join("; "))
+}
+
+#[test]
+fn glass_reflects_with_schlicks_probability_at_every_angle() {
+    match dielectric_known_answers() {
+        Ok(s) => println!("{s}"),
+        Err(e) => panic!("{e}"),
+    }
+}
+
+#[test]
+fn a_fourth_power_schlick_fails_the_glass_known_answers() {
+    use reference::mutants::{self, Mutant};
+    let e = mutants::with(Mutant::SchlickFourthPower, dielectric_known_answers)
+        .expect_err("(1 − cos)^4 passed the glass known answers");
+    println!("caught: {e}");
+}

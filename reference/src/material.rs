@@ -437,6 +437,9 @@ pub fn normal_mapped(n: Vec3, side: f32, ng: Vec3, tangent: Vec4, texel: Vec3, s
 #[inline]
 pub fn schlick_reflectance(cos_i: f32, eta: f32) -> f32 {
     let r0 = ((1.0 - eta) / (1.0 + eta)).powi(2);
+    if mutants::is(Mutant::SchlickFourthPower) {
+        return r0 + (1.0 - r0) * (1.0 - cos_i).powi(4);
+    }
     r0 + (1.0 - r0) * (1.0 - cos_i).powi(5)
 }
 

@@ -45,6 +45,10 @@ pub enum Mutant {
     /// reflects only (`Scene::emission`, read by the integrators and the
     /// light set alike).
     AddedEmissionDropped,
+    /// Schlick's Fresnel with `(1 − cos)⁴` for `(1 − cos)⁵`
+    /// (`material::schlick_reflectance`, read by both estimators and the
+    /// dielectric's sampling alike).
+    SchlickFourthPower,
     /// A material with added emission loses its BSDF and only emits, as
     /// glTF's emissive materials did before emission was added to the
     /// BSDF (`integrator`'s `vertex_material`).
