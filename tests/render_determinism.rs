@@ -101,3 +101,48 @@ fn the_same_render_writes_the_same_bytes() {
     assert!(a.0 == b.0, "two runs wrote different EXR bytes");
     assert!(a.1 == b.1, "two runs wrote different PNG bytes");
 }
+
+#[test]
+fn render_json_is_one_object_naming_what_it_wrote() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |out: &str, extra: &[&str]| {
+        let o = std::process::Command::new(crate::common::twintrace_bin())
+            .args([
+                "render",
+                "cornell",
+                "--backend",
+                "cpu",
+                "--size",
+                "8x6",
+                "--json",
+            ])
+            .args(["-o", dir.path().join(out).to_str().unwrap()])
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let stdout = String::from_utf8(o.stdout).unwrap();
+        assert_eq!(stdout.lines().count(), 1, "{stdout}");
+        serde_json::from_str::<serde_json::Value>(&stdout).unwrap()
+    };
+    let j = run("a", &["--spp", "3", "--aov", "depth"]);
+    assert_eq!(
+        (j["width"].as_u64(), j["height"].as_u64(), j["spp"].as_u64()),
+        (Some(8), Some(6), Some(3))
+    );
+    assert_eq!(j["integrator"], "mis");
+    assert_eq!(j["nonfinite_samples"], 0);
+    assert_eq!(j["aovs"], serde_json::json!(["depth"]));
+    assert!(j["stopped_by"].is_null() && j["samples"].is_null());
+    for file in ["exr", "png"] {
+        let path = j["outputs"][file].as_str().unwrap();
+        assert!(std::path::Path::new(path).is_file(), "{path}");
+    }
+    assert!(j["phases_s"]["rendering"].as_f64().unwrap() >= 0.0, "{j}");
+    assert!(j["samples_per_second"].as_f64().unwrap() > 0.0);
+    // A budgeted render says what stopped it; a partial film its range.
+    let j = run("b", &["--spp", "4", "--time", "10s"]);
+    assert!(j["stopped_by"].is_string(), "{j}");
+    let j = run("c", &["--samples", "2..5"]);
+    assert_eq!(j["samples"], serde_json::json!([2, 5]));
+}

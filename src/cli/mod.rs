@@ -166,6 +166,12 @@ pub struct RenderArgs {
     /// position, samples (e.g. albedo,normal for a denoiser).
     #[arg(long, value_name = "all|LIST")]
     pub aov: Option<String>,
+    /// Print the summary as one JSON object on stdout (scene, settings,
+    /// device, times, samples/s, non-finite samples, the files written,
+    /// the phases' wall times) in place of the summary line, for CI
+    /// systems and scripts.
+    #[arg(long)]
+    pub json: bool,
     #[command(flatten)]
     pub variant: spec::VariantArgs,
 }
@@ -532,6 +538,7 @@ fn render(args: &RenderArgs) -> Result<()> {
 
     let pixels = settings.width as u64 * settings.height as u64;
     let start = Instant::now();
+    let mut stopped_by: Option<(&'static str, Option<f64>)> = None;
     let (gpu_time, stopped) = match &budget {
         None => {
             let bar = progress_bar(pixels * settings.spp as u64);
@@ -565,6 +572,7 @@ fn render(args: &RenderArgs) -> Result<()> {
                 twintrace::render::run_budget(progressive.as_mut(), budget, &mut status, &|_| {})?;
             bar.finish_and_clear();
             settings.spp = out.samples;
+            stopped_by = Some((out.stopped, out.relmse));
             let relmse = out
                 .relmse
                 .map(|e| format!(", predicted relMSE {e:.2e}"))
@@ -683,6 +691,33 @@ fn render(args: &RenderArgs) -> Result<()> {
         Some(r) => format!(" (samples {}..{}, a partial film)", r.start, r.end),
         None => String::new(),
     };
+    if args.json {
+        let json = serde_json::json!({
+            "scene": args.scene,
+            "width": settings.width,
+            "height": settings.height,
+            "spp": settings.spp,
+            "max_depth": settings.max_depth,
+            "seed": settings.seed,
+            "integrator": spec.integrator().name(),
+            "device": device_name,
+            "samples": samples.as_ref().map(|r| [r.start, r.end]),
+            "stopped_by": stopped_by.map(|(why, _)| why),
+            "predicted_relmse": stopped_by.and_then(|(_, e)| e),
+            "render_s": seconds,
+            "gpu_time_s": gpu_time.map(|t| t.as_secs_f64()),
+            "samples_per_second": traced / seconds.max(1e-9),
+            "nonfinite_samples": nonfinite,
+            "aovs": aovs.iter().map(|l| l.name()).collect::<Vec<_>>(),
+            "outputs": { "exr": paths.exr, "png": paths.png },
+            "phases_s": phases
+                .done
+                .iter()
+                .map(|(name, t)| (name.to_string(), serde_json::json!(t)))
+                .collect::<serde_json::Map<_, _>>(),
+        });
+        return print_stdout(&format!("{json}\n"));
+    }
     print_stdout(&format!(
         "rendered {} {}x{}, {} spp{range_note}{stopped}, depth {} on {device_name} in {:.2} s{gpu_note}: {:.2e} samples/s, {} NaN/Inf samples -> {}, {} (image read in {read:.2} s, written in {:.2} s)\n",
         args.scene,
