@@ -36,6 +36,7 @@ mod tidy;
 
 mod gpu_aov;
 mod gpu_buffer_layout;
+mod gpu_coverage;
 mod gpu_display;
 mod gpu_errors;
 mod gpu_furnace;

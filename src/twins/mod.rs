@@ -17,6 +17,7 @@
 //! - [`hits`]: hit records of the BVH walk (flag, primitive, t, uv).
 //! - [`surface`]: surface interactions and spawn points.
 //! - [`light`]: light samples (emitter, direction) and their densities.
+//! - [`coverage`]: glTF alpha coverage (MASK, BLEND, vertex alpha).
 //! - [`aov`]: the first-hit quantities (albedo, normal, depth, position)
 //!   of camera samples, summed per pixel.
 //! - [`dispatch`]: the kernel selecting code by chains of tag tests
@@ -34,6 +35,7 @@
 //! or the first disagreement (or the GPU error that stopped it).
 
 pub mod aov;
+pub mod coverage;
 pub mod dispatch;
 pub mod display;
 pub mod film;
@@ -267,6 +269,11 @@ pub const CHECKS: &[Check] = &[
     Check {
         name: "twin: light samples and densities",
         run: light::all_scenes,
+        variant: false,
+    },
+    Check {
+        name: "twin: alpha coverage (MASK, BLEND, vertex alpha)",
+        run: coverage::all,
         variant: false,
     },
     Check {
