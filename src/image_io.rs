@@ -78,6 +78,31 @@ pub struct RenderMetadata {
     pub software: Option<String>,
 }
 
+impl RenderMetadata {
+    /// What a render of `spp` samples a pixel of `scene` (as the user
+    /// named it) with `settings` on `device` records: `render`'s, the
+    /// viewer's headless films and its saves alike.
+    pub fn for_render(
+        scene: &str,
+        settings: &reference::RenderSettings,
+        spp: u32,
+        device: &str,
+        integrator: reference::integrator::Integrator,
+    ) -> Self {
+        RenderMetadata {
+            spp: Some(spp),
+            max_depth: Some(settings.max_depth),
+            seed: Some(settings.seed),
+            scene: Some(scene.to_string()),
+            software: Some(format!(
+                "twintrace {} ({device}, {} integrator)",
+                env!("CARGO_PKG_VERSION"),
+                integrator.name()
+            )),
+        }
+    }
+}
+
 /// A linear render: per-pixel mean radiance and, optionally, the variance
 /// of each pixel's mean. Row-major, top row first.
 #[derive(Clone, Debug, Default, PartialEq)]

@@ -6,7 +6,9 @@
 
 use crate::error::GpuError;
 use crate::readback::read_buffer;
-use crate::renderer::{software_samples_per_invocation, GpuRenderer, PATHS_PER_DISPATCH_GPU};
+use crate::renderer::{
+    range_settings, software_samples_per_invocation, GpuRenderer, PATHS_PER_DISPATCH_GPU,
+};
 use crate::schedule::{self, Plan, Target};
 use crate::shader;
 use reference::aov::{word, AovSums, WORDS};
@@ -59,19 +61,7 @@ impl GpuRenderer<'_> {
         settings: &RenderSettings,
         samples: Range<u32>,
     ) -> Result<AovSums, GpuError> {
-        if samples.start >= samples.end {
-            return Err(GpuError::Validation(format!(
-                "the sample range {}..{} is empty",
-                samples.start, samples.end
-            )));
-        }
-        let settings = &RenderSettings {
-            spp: samples.end - samples.start,
-            ..*settings
-        };
-        settings
-            .validate()
-            .map_err(|e| GpuError::Validation(e.to_string()))?;
+        let settings = &range_settings(settings, &samples)?;
         let ctx = self.context();
         let pipeline = match self.aov_pipeline.get() {
             Some(p) => p,

@@ -184,6 +184,29 @@ fn shared_constants(
     ]
 }
 
+/// `settings` for the sample indices `samples` (their count as `spp`),
+/// checked: what a range of dispatches (the film's, the AOVs') runs with.
+/// An empty range is refused.
+pub(crate) fn range_settings(
+    settings: &RenderSettings,
+    samples: &std::ops::Range<u32>,
+) -> Result<RenderSettings, GpuError> {
+    if samples.start >= samples.end {
+        return Err(GpuError::Validation(format!(
+            "the sample range {}..{} is empty",
+            samples.start, samples.end
+        )));
+    }
+    let settings = RenderSettings {
+        spp: samples.end - samples.start,
+        ..*settings
+    };
+    settings
+        .validate()
+        .map_err(|e| GpuError::Validation(e.to_string()))?;
+    Ok(settings)
+}
+
 /// The bind group layout shared by the render kernel and the test kernels
 /// ([`bindings::scene_group`]; one per device, [`crate::pipeline::scene_layout`]).
 pub fn bind_group_layout(ctx: &GpuContext) -> wgpu::BindGroupLayout {
@@ -561,19 +584,7 @@ impl<'a> GpuRenderer<'a> {
         progress: &dyn Fn(u64, u64),
         clear: bool,
     ) -> Result<Accumulated, GpuError> {
-        if samples.start >= samples.end {
-            return Err(GpuError::Validation(format!(
-                "the sample range {}..{} is empty",
-                samples.start, samples.end
-            )));
-        }
-        let settings = &RenderSettings {
-            spp: samples.end - samples.start,
-            ..*settings
-        };
-        settings
-            .validate()
-            .map_err(|e| GpuError::Validation(e.to_string()))?;
+        let settings = &range_settings(settings, &samples)?;
         let ctx = self.ctx;
         if self.traversal.0 == Traversal::BruteForce {
             let prims = self.scene.primitives().len();

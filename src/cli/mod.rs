@@ -587,17 +587,13 @@ fn render(args: &RenderArgs) -> Result<()> {
     phases.end("rendering");
     let mut file_times = String::new();
 
-    let metadata = RenderMetadata {
-        spp: Some(settings.spp),
-        max_depth: Some(settings.max_depth),
-        seed: Some(settings.seed),
-        scene: Some(args.scene.clone()),
-        software: Some(format!(
-            "twintrace {} ({device_name}, {} integrator)",
-            env!("CARGO_PKG_VERSION"),
-            spec.integrator().name()
-        )),
-    };
+    let metadata = RenderMetadata::for_render(
+        &args.scene,
+        &settings,
+        settings.spp,
+        &device_name,
+        spec.integrator(),
+    );
     let nonfinite = match samples.clone() {
         Some(range) => {
             let sums = progressive.sums()?;

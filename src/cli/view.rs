@@ -320,17 +320,7 @@ fn write(
     device: &str,
     scene: &str,
 ) -> Result<()> {
-    let metadata = RenderMetadata {
-        spp: Some(spp),
-        max_depth: Some(settings.max_depth),
-        seed: Some(settings.seed),
-        scene: Some(scene.to_string()),
-        software: Some(format!(
-            "twintrace {} ({device}, {} integrator)",
-            env!("CARGO_PKG_VERSION"),
-            spec.integrator().name()
-        )),
-    };
+    let metadata = RenderMetadata::for_render(scene, settings, spp, device, spec.integrator());
     let paths = image_io::output_paths(&dir.join(name))?;
     let image = RenderImage::from_layers(layers.clone(), metadata);
     image_io::write_render_outputs(&paths, &image, spec.tonemap)?;

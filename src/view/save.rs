@@ -48,17 +48,7 @@ pub fn save(
     let spp = view.spp();
     let device = view.render().device();
     let layers = view.layers()?;
-    let metadata = RenderMetadata {
-        spp: Some(spp),
-        max_depth: Some(settings.max_depth),
-        seed: Some(settings.seed),
-        scene: Some(scene.to_string()),
-        software: Some(format!(
-            "twintrace {} ({device}, {} integrator)",
-            env!("CARGO_PKG_VERSION"),
-            spec.integrator().name()
-        )),
-    };
+    let metadata = RenderMetadata::for_render(scene, &settings, spp, &device, spec.integrator());
     let base = dir.join(&name);
     let paths = image_io::output_paths(&base)?;
     let mean = layers.mean.clone();
