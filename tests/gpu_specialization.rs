@@ -95,3 +95,39 @@ fn branch_dispatch_mutants_are_caught() {
         println!("{slip}: {e}");
     }
 }
+
+/// The trusted kernels (wgpu's loop bounding left out, the default) render
+/// word for word as the checked ones (`twintrace::twins::checks`) on scenes
+/// that run every loop of the kernel: the walk and the path (all), the
+/// light table's bisection (cornell's lamp, MIS), the environment's CDF
+/// bisections (skybox). Every scene is compared by `selftest` and the
+/// twin checks (`checks::all_scenes`: 142 s on lavapipe, too long for CI).
+#[test]
+fn trusted_kernel_renders_as_the_checked() {
+    let skybox = twintrace::compare::gate::fixture_scene("skybox.json");
+    let specs = ["cornell", "rtow-final", &skybox];
+    match twintrace::twins::checks::some_scenes(common::gpu(), &specs) {
+        Ok(summary) => println!("{summary}"),
+        Err(e) => panic!("{e}"),
+    }
+}
+
+/// The trusted twin sees a walk that ends early: the binary walk dropping
+/// the far child it should stack.
+#[test]
+fn trusted_kernel_mutant_is_caught() {
+    let ctx = common::gpu();
+    let program = gpu::shader::render_source();
+    let from = "                stack[sp] = far;\n                sp += 1u;\n";
+    assert_eq!(program.matches(from).count(), 1, "`{from}` not found once");
+    let mutant = program.replace(from, "");
+    let scene = reference::load_scene("cornell").unwrap();
+    let e =
+        twintrace::twins::checks::compare_scene(ctx, "cornell", &scene, Integrator::Bsdf, &mutant)
+            .expect_err("the walk without its far children rendered as the checked kernel");
+    assert!(
+        e.contains("differs from the checked"),
+        "not a film difference: {e}"
+    );
+    println!("{e}");
+}

@@ -313,6 +313,7 @@ fn renderers_report_the_walk_they_run() {
                     nodes,
                     leaves,
                     dispatch: gpu::Dispatch::Switch,
+                    checks: gpu::Checks::Trusted,
                 };
                 let r = gpu::GpuRenderer::with_variant(ctx, &scene, variant).unwrap();
                 assert_eq!(r.traversal(), (traversal, None));
@@ -354,6 +355,7 @@ fn brute_force_is_refused_beyond_tiny_scenes_and_llvmpipes_loop_limit() {
         nodes: NodeLayout::Aos,
         leaves: LeafLayout::Indexed,
         dispatch: gpu::Dispatch::Switch,
+        checks: gpu::Checks::Trusted,
     };
     let r = gpu::GpuRenderer::with_variant(ctx, &scene, variant).unwrap();
     let settings = reference::RenderSettings {
@@ -398,6 +400,7 @@ fn many_samples_of_a_tiny_image_are_all_traced() {
             nodes: NodeLayout::Aos,
             leaves: LeafLayout::Indexed,
             dispatch: gpu::Dispatch::Switch,
+            checks: gpu::Checks::Trusted,
         };
         let r = gpu::GpuRenderer::with_variant(ctx, &scene, variant).unwrap();
         twintrace::twins::specialization::film_words(&r.render(&settings, &|_, _| {}).unwrap().film)

@@ -35,5 +35,5 @@ pub use error::GpuError;
 pub use features::Features;
 pub use renderer::{Accumulated, GpuRender, GpuRenderer, GpuSums, KernelSpec};
 pub use variants::{
-    Dispatch, Kernel, LeafLayout, NodeLayout, PathLayout, Schedule, Traversal, Variant,
+    Checks, Dispatch, Kernel, LeafLayout, NodeLayout, PathLayout, Schedule, Traversal, Variant,
 };

@@ -9,15 +9,15 @@ use crate::context::GpuContext;
 use crate::error::GpuError;
 use crate::features::{Features, FEATURES_CONSTANT};
 use crate::film::{self, film_bytes, layers_source, FilmLayers, FilmSlot};
-use crate::pipeline::compile_with;
+use crate::pipeline::compile_checked;
 use crate::readback::read_timestamps;
 use crate::records::GpuParams;
 use crate::scene_buffers::{pack_background, PackedScene};
 use crate::schedule::{self, Plan};
 use crate::shader;
 use crate::variants::{
-    Dispatch, Kernel, LeafLayout, NodeLayout, Schedule, Traversal, Variant, DISPATCH_CONSTANT,
-    LEAVES_CONSTANT, NODE_LAYOUT_CONSTANT, TRAVERSAL_CONSTANT,
+    Checks, Dispatch, Kernel, LeafLayout, NodeLayout, Schedule, Traversal, Variant,
+    DISPATCH_CONSTANT, LEAVES_CONSTANT, NODE_LAYOUT_CONSTANT, TRAVERSAL_CONSTANT,
 };
 use crate::wavefront;
 use reference::film::{Film, FilmSums};
@@ -119,6 +119,9 @@ pub struct KernelSpec {
     pub features: Features,
     pub schedule: Schedule,
     pub dispatch: Dispatch,
+    /// What wgpu checks at run time; [`Checks::Trusted`] needs the walk's
+    /// records in order (`crate::traversal::check_walk_order`).
+    pub checks: Checks,
 }
 
 /// The compiled kernels of a schedule.
@@ -267,6 +270,7 @@ impl<'a> GpuRenderer<'a> {
             nodes,
             leaves,
             dispatch,
+            checks,
         } = variant;
         let packed = PackedScene::for_walk(scene, traversal, leaves).with_node_layout(nodes);
         let program = match schedule {
@@ -278,6 +282,7 @@ impl<'a> GpuRenderer<'a> {
             features: kernel.features(scene),
             schedule,
             dispatch,
+            checks,
         };
         Self::build_scheduled(ctx, &packed, scene, &program, spec)
     }
@@ -316,7 +321,8 @@ impl<'a> GpuRenderer<'a> {
     }
 
     /// Uploads `packed` and compiles `program` (the megakernel's) with the
-    /// constants `INTEGRATOR` and `FEATURES`.
+    /// constants `INTEGRATOR` and `FEATURES`, checked by wgpu at run time
+    /// (the records or the program may be a test's edit).
     pub fn build(
         ctx: &'a GpuContext,
         packed: &PackedScene,
@@ -330,6 +336,7 @@ impl<'a> GpuRenderer<'a> {
             features,
             schedule: Schedule::Megakernel,
             dispatch: Dispatch::Switch,
+            checks: Checks::Checked,
         };
         Self::build_scheduled(ctx, packed, scene, program, spec)
     }
@@ -349,7 +356,12 @@ impl<'a> GpuRenderer<'a> {
             features,
             schedule,
             dispatch,
+            checks,
         } = spec;
+        if checks == Checks::Trusted {
+            crate::traversal::check_walk_order(&packed.nodes, packed.traversal)
+                .map_err(|e| GpuError::Validation(format!("trusted kernels refused: {e}")))?;
+        }
         let device = &ctx.device;
         let arrays = packed.arrays();
         let mut scene_buffers = Vec::with_capacity(arrays.len());
@@ -388,15 +400,16 @@ impl<'a> GpuRenderer<'a> {
             dispatching,
         ];
         let kernels = match schedule {
-            Schedule::Megakernel => Kernels::Megakernel(compile_with(
+            Schedule::Megakernel => Kernels::Megakernel(compile_checked(
                 ctx,
+                checks,
                 program,
                 "render_main",
                 &[&layout],
                 &constants,
             )?),
             Schedule::Wavefront(_) | Schedule::PathMegakernel => Kernels::Wavefront(Box::new(
-                wavefront::Pipelines::new(ctx, &layout, program, &constants, schedule)?,
+                wavefront::Pipelines::new(ctx, &layout, program, &constants, schedule, checks)?,
             )),
         };
         Ok(Self {

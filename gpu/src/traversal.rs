@@ -137,6 +137,50 @@ pub fn arrays(scene: &Scene, traversal: Traversal) -> (Vec<BvhNode>, Vec<u32>, R
     }
 }
 
+/// Whether the walk over `nodes` ends whatever the rays: every interior
+/// record's children come after it and lie inside the array, so each step
+/// down goes to a later record and the walk visits finitely many (the
+/// trusted kernels, [`crate::Checks::Trusted`], have no loop bounding to
+/// stop a walk that cycles). The binary walk (brute force's one leaf
+/// too): interior `i` has children `i + 1` and `index`, with
+/// `i < index < len`. The four-wide walk: wide node `w`'s interior lanes
+/// name wide nodes `c` with `w < c` whose records `1 + 4c ..= 4 + 4c`
+/// exist. The error names the first record out of order.
+pub fn check_walk_order(nodes: &[BvhNode], traversal: Traversal) -> Result<(), String> {
+    let len = nodes.len();
+    match traversal {
+        Traversal::Binary | Traversal::BruteForce => {
+            for (i, n) in nodes.iter().enumerate() {
+                let child = n.index as usize;
+                if n.meta & 3 != BvhNode::LEAF && (i + 1 >= len || child <= i || child >= len) {
+                    return Err(format!(
+                        "BVH node {i} of {len} has children {} and {child}: not after it, or past the end",
+                        i + 1
+                    ));
+                }
+            }
+        }
+        Traversal::Wide => {
+            if len < 1 + WIDE_LANES || (len - 1) % WIDE_LANES != 0 {
+                return Err(format!(
+                    "{len} wide records: not the root and whole wide nodes"
+                ));
+            }
+            for (r, n) in nodes.iter().enumerate().skip(1) {
+                let w = (r - 1) / WIDE_LANES;
+                let child = n.index as usize;
+                let interior = n.meta != WIDE_EMPTY && n.meta & 3 != BvhNode::LEAF;
+                if interior && (child <= w || 1 + WIDE_LANES * child + WIDE_LANES > len) {
+                    return Err(format!(
+                        "wide node {w}'s lane (record {r} of {len}) names wide node {child}: not after it, or past the end"
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 /// The four-wide records of the binary tree `nodes` (module docs), or why
 /// not: the walk defers up to all but one lane of each wide node it
 /// enters, and the records are refused where some chain of wide nodes
@@ -263,6 +307,41 @@ mod tests {
             .collect();
         out.sort();
         out
+    }
+
+    #[test]
+    fn real_trees_walk_in_order_and_cycles_are_refused() {
+        // Every built-in scene's records, each walk: in order.
+        for name in reference::builtin::NAMES {
+            let scene = reference::load_scene(name).unwrap();
+            for t in Traversal::ALL {
+                let (nodes, _, _) = arrays(&scene, t);
+                check_walk_order(&nodes, t).unwrap_or_else(|e| panic!("{name} {t:?}: {e}"));
+            }
+        }
+        // A right child pointing back at its parent: a walk that cycles.
+        let tree = [interior(2, 0.0, 2.0), leaf(0, 1, 0.0), leaf(1, 1, 1.0)];
+        check_walk_order(&tree, Traversal::Binary).unwrap();
+        let mut cyclic = tree;
+        cyclic[0].index = 0;
+        assert!(check_walk_order(&cyclic, Traversal::Binary).is_err());
+        let mut past = tree;
+        past[0].index = 3;
+        assert!(check_walk_order(&past, Traversal::Binary).is_err());
+        // An interior last record: its left child would be past the end.
+        assert!(check_walk_order(&[interior(1, 0.0, 1.0)], Traversal::Binary).is_err());
+        // Wide: an interior lane naming its own wide node, or one past the end.
+        let scene = reference::load_scene("rtow-final").unwrap();
+        let wide = wide_records(scene.bvh().nodes()).unwrap();
+        let lane = (1..wide.len())
+            .find(|&r| wide[r].meta != WIDE_EMPTY && !wide[r].is_leaf())
+            .expect("rtow-final has interior lanes");
+        let mut own = wide.clone();
+        own[lane].index = ((lane - 1) / WIDE_LANES) as u32;
+        assert!(check_walk_order(&own, Traversal::Wide).is_err());
+        let mut beyond = wide;
+        beyond[lane].index = u32::MAX >> 1;
+        assert!(check_walk_order(&beyond, Traversal::Wide).is_err());
     }
 
     #[test]

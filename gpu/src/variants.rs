@@ -2,7 +2,8 @@
 //! ([`Traversal`]), how the nodes and the leaves are laid out
 //! ([`NodeLayout`], [`LeafLayout`]), how a tag selects its code
 //! ([`Dispatch`]), the kernel's specialization ([`Kernel`]), how the paths
-//! are scheduled ([`Schedule`], [`PathLayout`]), and the [`Variant`] that
+//! are scheduled ([`Schedule`], [`PathLayout`]), what wgpu checks at run
+//! time ([`Checks`]), and the [`Variant`] that
 //! names one point of them all, with the pipeline-overridable constants
 //! that carry each axis to the kernels. Only the axes are here: what each
 //! builds lives with it (the walks' records in `traversal`, the feature
@@ -274,6 +275,48 @@ impl Schedule {
     }
 }
 
+/// What wgpu adds to the render kernels at run time
+/// (`wgpu::ShaderRuntimeChecks`). Both keep the bounds checks (without them
+/// the H200 measured nothing more, docs/benchmarks.md); they differ in the
+/// loop bounding wgpu writes into every loop so that a driver may not
+/// assume the loop ends. The kernel's results are the same bits either
+/// way (`twintrace::twins::checks` holds the trusted films to the checked
+/// ones); trusted needs every loop of the program to end, which
+/// ARCHITECTURE.md ("Trusted kernels") argues and
+/// `traversal::check_walk_order` checks of the records the walk follows.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Checks {
+    /// Bounds checks on, loops bounded by wgpu (wgpu's default).
+    Checked,
+    /// Bounds checks and integer division guards on, no loop bounding.
+    #[default]
+    Trusted,
+}
+
+impl Checks {
+    pub const ALL: [Checks; 2] = [Checks::Trusted, Checks::Checked];
+
+    /// The CLI's and perf's name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Checks::Checked => "checked",
+            Checks::Trusted => "trusted",
+        }
+    }
+
+    /// What wgpu is told to add.
+    pub fn runtime_checks(self) -> wgpu::ShaderRuntimeChecks {
+        match self {
+            Checks::Checked => wgpu::ShaderRuntimeChecks::checked(),
+            Checks::Trusted => wgpu::ShaderRuntimeChecks {
+                bounds_checks: true,
+                force_loop_bounding: false,
+                ..wgpu::ShaderRuntimeChecks::checked()
+            },
+        }
+    }
+}
+
 /// A GPU renderer variant: estimator, kernel specialization, schedule and
 /// walk, named for the perf tables (`megakernel`,
 /// `wavefront-soa-mis-general`, `megakernel-paths-bvh4`).
@@ -286,6 +329,7 @@ pub struct Variant {
     pub nodes: NodeLayout,
     pub leaves: LeafLayout,
     pub dispatch: Dispatch,
+    pub checks: Checks,
 }
 
 impl Default for Variant {
@@ -309,6 +353,7 @@ impl Variant {
         nodes: NodeLayout::Aos,
         leaves: LeafLayout::Inline,
         dispatch: Dispatch::Switch,
+        checks: Checks::Trusted,
     };
 
     /// `schedule` running `integrator` in its plain form: the kernel
@@ -323,12 +368,13 @@ impl Variant {
             nodes: NodeLayout::Aos,
             leaves: LeafLayout::Indexed,
             dispatch: Dispatch::Switch,
+            checks: Checks::Trusted,
         }
     }
 
-    /// `<schedule>[-mis][-general][-<walk>][-nodes-soa][-inline[-soa]][-branches]`,
-    /// the binary walk, array-of-structs nodes, indexed leaves and switch
-    /// dispatch unnamed.
+    /// `<schedule>[-mis][-general][-<walk>][-nodes-soa][-inline[-soa]][-branches][-checked]`,
+    /// the binary walk, array-of-structs nodes, indexed leaves, switch
+    /// dispatch and trusted kernels unnamed.
     pub fn name(self) -> String {
         let mut s = self.schedule.name().to_string();
         if self.integrator == reference::integrator::Integrator::Mis {
@@ -354,28 +400,35 @@ impl Variant {
             s += "-";
             s += self.dispatch.name();
         }
+        if self.checks != Checks::Trusted {
+            s += "-";
+            s += self.checks.name();
+        }
         s
     }
 
     /// Every variant, the megakernel's first.
     pub fn all() -> Vec<Variant> {
         let mut out = Vec::new();
-        for dispatch in Dispatch::ALL {
-            for leaves in LeafLayout::ALL {
-                for nodes in NodeLayout::ALL {
-                    for traversal in Traversal::ALL {
-                        for schedule in Schedule::ALL {
-                            for kernel in [Kernel::Specialized, Kernel::General] {
-                                for integrator in reference::integrator::Integrator::ALL {
-                                    out.push(Variant {
-                                        integrator,
-                                        kernel,
-                                        schedule,
-                                        traversal,
-                                        nodes,
-                                        leaves,
-                                        dispatch,
-                                    });
+        for checks in Checks::ALL {
+            for dispatch in Dispatch::ALL {
+                for leaves in LeafLayout::ALL {
+                    for nodes in NodeLayout::ALL {
+                        for traversal in Traversal::ALL {
+                            for schedule in Schedule::ALL {
+                                for kernel in [Kernel::Specialized, Kernel::General] {
+                                    for integrator in reference::integrator::Integrator::ALL {
+                                        out.push(Variant {
+                                            integrator,
+                                            kernel,
+                                            schedule,
+                                            traversal,
+                                            nodes,
+                                            leaves,
+                                            dispatch,
+                                            checks,
+                                        });
+                                    }
                                 }
                             }
                         }
@@ -410,8 +463,9 @@ mod tests {
         assert!(names.contains(&"megakernel-paths-mis-inline-branches".to_string()));
         assert!(names.contains(&"megakernel-paths-inline-soa".to_string()));
         // 4 schedules, 2 kernels, 2 estimators, 3 walks, 2 node layouts,
-        // 3 leaf layouts, 2 dispatches.
-        assert_eq!(n, 576);
+        // 3 leaf layouts, 2 dispatches, 2 runtime checks.
+        assert_eq!(n, 1152);
+        assert!(names.contains(&"megakernel-paths-mis-inline-checked".to_string()));
     }
 
     #[test]

@@ -94,6 +94,7 @@ impl Pipelines {
         program: &str,
         constants: &[(&str, f64)],
         schedule: Schedule,
+        checks: crate::Checks,
     ) -> Result<Self, GpuError> {
         let have = ctx.device.limits().max_storage_buffers_per_shader_stage;
         let need = if schedule == Schedule::PathMegakernel {
@@ -133,7 +134,7 @@ impl Pipelines {
                     ("wf_accumulate", &main),
                 ]
             };
-        let mut p = compile_entries(ctx, program, &entries, &constants)?.into_iter();
+        let mut p = compile_entries(ctx, checks, program, &entries, &constants)?.into_iter();
         let mut next = || p.next().expect("one pipeline per entry");
         let stages = if schedule == Schedule::PathMegakernel {
             Stages::Paths(next())

@@ -81,7 +81,8 @@ pub struct RunArgs {
     /// of arrays, -inline leaf entries holding what
     /// their test reads instead of primitive ids (-inline-soa the same as a
     /// structure of arrays), -branches tag tests in a
-    /// chain instead of a switch).
+    /// chain instead of a switch, -checked wgpu's loop bounding kept in
+    /// the kernels).
     #[arg(long)]
     pub variant: Vec<String>,
     /// Only the cases and workloads whose name contains this.

@@ -157,6 +157,21 @@ impl Axis for gpu::Dispatch {
     }
 }
 
+impl Axis for gpu::Checks {
+    fn values() -> &'static [Self] {
+        &gpu::Checks::ALL
+    }
+    fn name(self) -> &'static str {
+        gpu::Checks::name(self)
+    }
+    fn help(self) -> &'static str {
+        match self {
+            gpu::Checks::Trusted => "bounds checks, no loop bounding (every loop ends)",
+            gpu::Checks::Checked => "wgpu's default: bounds checks and bounded loops",
+        }
+    }
+}
+
 const DEFAULT: RenderSpec = RenderSpec::DEFAULT;
 
 /// The estimator and the display transform: what a user sets.
@@ -194,6 +209,9 @@ pub struct VariantArgs {
     /// How the GPU kernel picks a primitive's and a material's code from their tags.
     #[arg(long, value_parser = axis::<gpu::Dispatch>(), default_value = DEFAULT.variant.dispatch.name())]
     pub dispatch: gpu::Dispatch,
+    /// What wgpu checks while the GPU's render kernel runs.
+    #[arg(long, value_parser = axis::<gpu::Checks>(), default_value = DEFAULT.variant.checks.name())]
+    pub checks: gpu::Checks,
 }
 
 /// The spec these options give.
@@ -207,6 +225,7 @@ pub fn spec(look: &LookArgs, variant: &VariantArgs) -> RenderSpec {
             nodes: variant.nodes,
             leaves: variant.leaves,
             dispatch: variant.dispatch,
+            checks: variant.checks,
         },
         tonemap: look.tonemap,
     }
@@ -247,5 +266,6 @@ mod tests {
         each("--leaves", |s| s.variant.leaves);
         each("--nodes", |s| s.variant.nodes);
         each("--dispatch", |s| s.variant.dispatch);
+        each("--checks", |s| s.variant.checks);
     }
 }

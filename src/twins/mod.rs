@@ -20,6 +20,8 @@
 //! - [`coverage`]: glTF alpha coverage (MASK, BLEND, vertex alpha).
 //! - [`aov`]: the first-hit quantities (albedo, normal, depth, position)
 //!   of camera samples, summed per pixel.
+//! - [`checks`]: the trusted kernels (no loop bounding by wgpu) against
+//!   the checked ones, word for word (GPU against GPU).
 //! - [`dispatch`]: the kernel selecting code by chains of tag tests
 //!   against the one switching on tags (GPU against GPU).
 //! - [`specialization`]: the render kernel built for each scene's features
@@ -35,6 +37,7 @@
 //! or the first disagreement (or the GPU error that stopped it).
 
 pub mod aov;
+pub mod checks;
 pub mod coverage;
 pub mod dispatch;
 pub mod display;
@@ -289,6 +292,11 @@ pub const CHECKS: &[Check] = &[
     Check {
         name: "wavefront and path megakernel == megakernel (every scene, both estimators)",
         run: wavefront::all_scenes,
+        variant: true,
+    },
+    Check {
+        name: "trusted kernel == checked kernel (every scene, both estimators)",
+        run: checks::all_scenes,
         variant: true,
     },
     Check {

@@ -124,11 +124,12 @@ pub struct Build<'a> {
     pub nodes: NodeLayout,
     pub leaves: LeafLayout,
     pub dispatch: Dispatch,
+    pub checks: gpu::Checks,
 }
 
 impl<'a> Build<'a> {
-    /// The megakernel with the binary walk and indexed leaves (the oracle
-    /// of the others).
+    /// The megakernel with the binary walk and indexed leaves, checked by
+    /// wgpu at run time (the oracle of the others).
     pub fn megakernel(program: &'a str, integrator: Integrator, features: Features) -> Self {
         Build {
             program,
@@ -139,6 +140,7 @@ impl<'a> Build<'a> {
             nodes: NodeLayout::Aos,
             leaves: LeafLayout::Indexed,
             dispatch: Dispatch::Switch,
+            checks: gpu::Checks::Checked,
         }
     }
 }
@@ -162,6 +164,7 @@ pub fn variant_film_bits(
         features: build.features,
         schedule: build.schedule,
         dispatch: build.dispatch,
+        checks: build.checks,
     };
     let mut renderer = gpu::GpuRenderer::build_scheduled(ctx, &packed, scene, build.program, spec)
         .map_err(|e| e.to_string())?;

@@ -90,7 +90,8 @@ pub(super) type ModuleCell = std::sync::Arc<std::sync::OnceLock<wgpu::ShaderModu
 
 /// The per-device caches of modules, layouts and pipelines.
 pub(crate) struct Caches {
-    pub(super) modules: Mutex<Lru<String, ModuleCell>>,
+    /// Keyed by the runtime checks and the program's text.
+    pub(super) modules: Mutex<Lru<(crate::Checks, String), ModuleCell>>,
     pub(super) layouts: Mutex<HashMap<&'static str, wgpu::BindGroupLayout>>,
     pub(super) pipelines: Mutex<Lru<PipelineKey, wgpu::ComputePipeline>>,
     /// Time spent building modules and pipelines, summed over threads.
@@ -143,10 +144,12 @@ impl Caches {
     }
 }
 
-/// What a pipeline is built from: the program (by its text), the entry
+/// What a pipeline is built from: the module's runtime checks, the
+/// program (by its text), the entry
 /// point, the constants (by their bits) and the layouts (by identity).
 #[derive(Clone, PartialEq, Eq, Hash)]
 pub(super) struct PipelineKey {
+    pub(super) checks: crate::Checks,
     pub(super) source: String,
     pub(super) entry: String,
     pub(super) constants: Vec<(String, u64)>,

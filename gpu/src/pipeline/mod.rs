@@ -26,6 +26,7 @@
 use crate::bindings::Binding;
 use crate::context::GpuContext;
 use crate::error::GpuError;
+use crate::variants::Checks;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
@@ -77,14 +78,29 @@ pub fn compile_with(
     layouts: &[&wgpu::BindGroupLayout],
     constants: &[(&str, f64)],
 ) -> Result<wgpu::ComputePipeline, GpuError> {
-    let mut p = compile_entries(ctx, source, &[(entry, layouts)], constants)?;
+    compile_checked(ctx, Checks::Checked, source, entry, layouts, constants)
+}
+
+/// [`compile_with`] under the given runtime checks (the render kernels'
+/// variant axis, [`Checks`]).
+pub fn compile_checked(
+    ctx: &GpuContext,
+    checks: Checks,
+    source: &str,
+    entry: &str,
+    layouts: &[&wgpu::BindGroupLayout],
+    constants: &[(&str, f64)],
+) -> Result<wgpu::ComputePipeline, GpuError> {
+    let mut p = compile_entries(ctx, checks, source, &[(entry, layouts)], constants)?;
     Ok(p.remove(0))
 }
 
-/// One shader module, a pipeline for each entry point with its bind group
-/// layouts; each found in the device's caches where it was built before.
+/// One shader module under `checks`, a pipeline for each entry point with
+/// its bind group layouts; each found in the device's caches where it was
+/// built before.
 pub fn compile_entries(
     ctx: &GpuContext,
+    checks: Checks,
     source: &str,
     entries: &[(&str, &[&wgpu::BindGroupLayout])],
     constants: &[(&str, f64)],
@@ -92,6 +108,7 @@ pub fn compile_entries(
     let keys: Vec<PipelineKey> = entries
         .iter()
         .map(|(entry, layouts)| PipelineKey {
+            checks,
             source: source.to_string(),
             entry: entry.to_string(),
             constants: constants
@@ -119,11 +136,12 @@ pub fn compile_entries(
     let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
     let cell = {
         let mut modules = ctx.caches.modules.lock().unwrap_or_else(|p| p.into_inner());
-        match modules.get(source) {
+        let key = (checks, source.to_string());
+        match modules.get(&key) {
             Some(cell) => cell,
             None => {
                 let cell = ModuleCell::default();
-                modules.insert(source.to_string(), cell.clone());
+                modules.insert(key, cell.clone());
                 cell
             }
         }
@@ -133,10 +151,22 @@ pub fn compile_entries(
     let module = cell
         .get_or_init(|| {
             let start = Instant::now();
-            let m = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            let descriptor = wgpu::ShaderModuleDescriptor {
                 label: entries.first().map(|e| e.0),
                 source: wgpu::ShaderSource::Wgsl(source.into()),
-            });
+            };
+            let m = match checks {
+                Checks::Checked => device.create_shader_module(descriptor),
+                // SAFETY: wgpu's contract for these checks off is that no
+                // loop of the program runs forever. Every loop of the
+                // render kernels is bounded (ARCHITECTURE.md, "Trusted
+                // kernels": counted loops, bisections, the BVH walk over a
+                // tree the host checks, `crate::traversal::check_walk_order`), and
+                // bounds checks stay on.
+                Checks::Trusted => unsafe {
+                    device.create_shader_module_trusted(descriptor, checks.runtime_checks())
+                },
+            };
             add_nanos(&ctx.caches.module_nanos, start);
             m
         })
@@ -172,7 +202,7 @@ pub fn compile_entries(
             .modules
             .lock()
             .unwrap_or_else(|p| p.into_inner())
-            .remove(source);
+            .remove(&(checks, source.to_string()));
         return Err(GpuError::Shader(e.to_string()));
     }
     ctx.check()?;
