@@ -627,3 +627,143 @@ fn an_image_without_variance_is_not_taken_as_exact() {
         o.stderr
     );
 }
+
+/// `render_spp`'s image with its variance, sample count and twintrace
+/// identity taken away: what another renderer's plain EXR holds.
+fn strip_to_plain(dir: &Path, name: &str, scale: f32) {
+    let path = dir.join(format!("{name}.exr"));
+    let mut plain = read_exr(&path).unwrap();
+    plain.variance = None;
+    plain.skewness = None;
+    plain.metadata.spp = None;
+    plain.metadata.seed = None;
+    plain.metadata.software = Some("Mitsuba 3".into());
+    for m in &mut plain.mean {
+        *m *= scale;
+    }
+    write_exr(&path, &plain).unwrap();
+}
+
+/// Plain EXRs (no variance, no count) are judged from several independent
+/// runs (`--runs-b`): a correct set passes, the same set 3 % darker fails;
+/// runs of one seed, of other sizes, and runs with --spp-b are refused in
+/// one line.
+#[test]
+fn plain_renders_are_judged_by_their_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    render(d, "a", 1, 1.0);
+    let runs: Vec<String> = (0..4).map(|k| format!("run{k}.exr")).collect();
+    for (k, name) in runs.iter().enumerate() {
+        render(d, name.trim_end_matches(".exr"), 10 + k as u32, 1.0);
+        strip_to_plain(d, name.trim_end_matches(".exr"), 1.0);
+    }
+    let with_runs = |b: &str, rest: &[String]| {
+        let mut args = vec!["a.exr", b, "--report", "r.html", "--json", "--runs-b"];
+        args.extend(rest.iter().map(String::as_str));
+        diff(d, &args)
+    };
+    let o = with_runs("run0.exr", &runs[1..]);
+    let v: serde_json::Value =
+        serde_json::from_str(&o.stdout).unwrap_or_else(|e| panic!("{e}: {}{}", o.stdout, o.stderr));
+    assert_eq!(o.code, Some(0), "{v:#}");
+    let method = v["method"].as_str().unwrap_or_default().to_lowercase();
+    assert!(method.contains("welch"), "{v:#}");
+    // The same runs 3 % darker: the sums see it.
+    for name in &runs {
+        render(
+            d,
+            name.trim_end_matches(".exr"),
+            10 + runs.iter().position(|r| r == name).unwrap() as u32,
+            1.0,
+        );
+        strip_to_plain(d, name.trim_end_matches(".exr"), 0.97);
+    }
+    let o = with_runs("run0.exr", &runs[1..]);
+    assert_eq!(o.code, Some(1), "{}{}", o.stdout, o.stderr);
+    // Misuse: one line, exit 2.
+    let refused = |o: Outcome, what: &str| {
+        assert_eq!(o.code, Some(2), "{what}: {}{}", o.stdout, o.stderr);
+        assert_eq!(o.stderr.lines().count(), 1, "{what}: {}", o.stderr);
+        assert!(o.stderr.contains(what), "{what}: {}", o.stderr);
+    };
+    std::fs::copy(d.join("run1.exr"), d.join("copy.exr")).unwrap();
+    refused(with_runs("run1.exr", &["copy.exr".into()]), "are identical");
+    render(d, "seeded", 1, 1.0);
+    refused(
+        with_runs("a.exr", &["seeded.exr".into()]),
+        "are of one seed",
+    );
+    render_spp(d, "fewer", 20, 1.0, 64);
+    refused(
+        with_runs("a.exr", &["fewer.exr".into()]),
+        "runs of one side take one sample count",
+    );
+    refused(
+        diff(
+            d,
+            &[
+                "a.exr", "run0.exr", "--runs-b", "run1.exr", "--spp-b", "64", "--report", "r.html",
+            ],
+        ),
+        "--spp-b does not go with it",
+    );
+    refused(
+        diff(
+            d,
+            &[
+                "a.exr", "run0.exr", "--runs-b", "run1.exr", "--method", "exact", "--report",
+                "r.html",
+            ],
+        ),
+        "take Welch's test",
+    );
+}
+
+/// False alarms of runs against a render's own variance: 100 pairs of
+/// correct renders (the GGX fixture, 16x8 at 64 spp; side A one render
+/// with its variance, side B 4 plain runs of other seeds), in process
+/// through `NoisyImage::from_runs` and Welch's test as `diff --runs-b`
+/// runs them. The family level is α = 0.01 (TestSettings), so about 1 of
+/// 100 correct pairs may fail; more than 6 has probability below 1e-4
+/// (binomial), and the measured count is printed.
+#[test]
+fn runs_false_alarm_rate() {
+    use twintrace::compare::image::{compare, Method, NoisyImage, TestSettings};
+    let scene = reference::load_scene(&fixture_scene("ggx-roughness.json")).unwrap();
+    let image = |seed: u32| {
+        let settings = RenderSettings {
+            width: 16,
+            height: 8,
+            spp: 64,
+            max_depth: 12,
+            seed,
+            ..scene.render_settings()
+        };
+        let film = reference::render(&scene, &settings, &|_| {});
+        let meta = RenderMetadata {
+            spp: Some(64),
+            seed: Some(seed),
+            ..Default::default()
+        };
+        RenderImage::from_film(&film, meta)
+    };
+    let (mut alarms, pairs) = (0, 100u32);
+    for p in 0..pairs {
+        let a = NoisyImage::from_render_image(&image(1_000 + p));
+        let runs: Vec<RenderImage> = (0..4).map(|k| image(10_000 + 4 * p + k)).collect();
+        let labels: Vec<String> = (0..4).map(|k| format!("run {k}")).collect();
+        let b = NoisyImage::from_runs(&runs, &labels).unwrap();
+        if !compare(&a, &b, Method::Welch, &TestSettings::default())
+            .unwrap()
+            .passes()
+        {
+            alarms += 1;
+        }
+    }
+    println!("runs against a render's variance: {alarms} false alarms in {pairs} pairs");
+    assert!(
+        alarms <= 6,
+        "{alarms} false alarms in {pairs} correct pairs"
+    );
+}

@@ -54,6 +54,15 @@ pub struct DiffArgs {
     /// Samples per pixel of B (overrides its `spp` attribute).
     #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = twintrace::partial::parse_count)]
     pub spp_b: Option<u32>,
+    /// Further independent renders of A's image (other seeds, the same
+    /// sample count): A is then their average with A, its variance the
+    /// spread of these runs (for EXRs that carry no variance, e.g.
+    /// Mitsuba's), and the test is Welch's.
+    #[arg(long, value_name = "FILE", num_args = 1..)]
+    pub runs_a: Vec<PathBuf>,
+    /// Further independent renders of B's image, as --runs-a.
+    #[arg(long, value_name = "FILE", num_args = 1..)]
+    pub runs_b: Vec<PathBuf>,
     /// Which test to run.
     #[arg(long, value_enum, default_value_t = DiffMethod::Auto)]
     pub method: DiffMethod,
@@ -106,11 +115,47 @@ fn needs(path: &Path, side: &str, img: &NoisyImage) -> String {
     }
     format!(
         "`{}` has {}: diff takes no image as exact by default; give its variance (--variance-{side} FILE, \
-         or render it with twintrace, which writes one), or --method exact if it is an analytic answer \
-         or a converged image",
+         or render it with twintrace, which writes one), independent renders of it (--runs-{side} FILE...), \
+         or --method exact if it is an analytic answer or a converged image",
         path.display(),
         lacks.join(" and ")
     )
+}
+
+/// One side: the image at `path`, or with `runs` its average with them
+/// ([`NoisyImage::from_runs`]); `--variance-x` and `--spp-x` do not go
+/// with runs (the runs give both).
+fn load_side(
+    path: &Path,
+    runs: &[PathBuf],
+    variance: Option<&Path>,
+    spp: Option<u32>,
+    side: &str,
+) -> Result<NoisyImage> {
+    if runs.is_empty() {
+        return load(path, variance, spp, &format!("--spp-{side}"));
+    }
+    if variance.is_some() || spp.is_some() {
+        let arg = if variance.is_some() {
+            "variance"
+        } else {
+            "spp"
+        };
+        return Err(super::Refused(format!(
+            "--runs-{side} gives {side}'s variance and count from the runs' spread: --{arg}-{side} does not go with it"
+        ))
+        .into());
+    }
+    let paths: Vec<&Path> = std::iter::once(path)
+        .chain(runs.iter().map(PathBuf::as_path))
+        .collect();
+    let images = paths
+        .iter()
+        .map(|p| read_exr(p))
+        .collect::<Result<Vec<_>>>()?;
+    let labels: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
+    NoisyImage::from_runs(&images, &labels)
+        .map_err(|e| super::Refused(format!("--runs-{side}: {e}")).into())
 }
 
 fn load(
@@ -174,13 +219,29 @@ pub fn execute(args: &DiffArgs) -> Result<DiffOutcome> {
     for v in [&args.variance_a, &args.variance_b].into_iter().flatten() {
         inputs.push(outputs::input_file("variance image", v));
     }
+    for r in args.runs_a.iter().chain(&args.runs_b) {
+        inputs.push(outputs::input_file("run", r));
+    }
     let report_arg = match &args.report {
         Some(r) => format!("--report {}", r.display()),
         None => "the report".to_string(),
     };
     outputs::check(&inputs, &[outputs::output(report_arg, &report_path)])?;
-    let a = load(&args.a, args.variance_a.as_deref(), args.spp_a, "--spp-a")?;
-    let b = load(&args.b, args.variance_b.as_deref(), args.spp_b, "--spp-b")?;
+    let a = load_side(
+        &args.a,
+        &args.runs_a,
+        args.variance_a.as_deref(),
+        args.spp_a,
+        "a",
+    )?;
+    let b = load_side(
+        &args.b,
+        &args.runs_b,
+        args.variance_b.as_deref(),
+        args.spp_b,
+        "b",
+    )?;
+    let runs = !args.runs_a.is_empty() || !args.runs_b.is_empty();
     if (a.width, a.height) != (b.width, b.height) {
         bail!(
             "`{}` is {}x{} but `{}` is {}x{}",
@@ -194,6 +255,17 @@ pub fn execute(args: &DiffArgs) -> Result<DiffOutcome> {
     }
     let differ = Method::same_estimator(&a, &b) == Some(false);
     let method = match args.method {
+        // A side of runs counts runs, not samples: only Welch's test,
+        // each side with its own variance, reads that right.
+        DiffMethod::Auto if runs && a.variance.is_some() && b.variance.is_some() => {
+            Some(Method::Welch)
+        }
+        DiffMethod::Reference | DiffMethod::Exact if runs => {
+            return Err(super::Refused(
+                "--runs-a/--runs-b take Welch's test (--method auto or welch): a side of runs counts runs, not samples".to_string(),
+            )
+            .into())
+        }
         DiffMethod::Auto => match Method::for_images(&a, &b) {
             Some(Method::KnownVariance(side)) => {
                 let (path, name, img) = match side {
@@ -252,11 +324,12 @@ pub fn execute(args: &DiffArgs) -> Result<DiffOutcome> {
         .transpose()?;
     let m = metrics(&a, &b);
     let labels = [args.a.display().to_string(), args.b.display().to_string()];
-    let spp = |s: Option<u32>| s.map_or("unknown".to_string(), |s| s.to_string());
-    let notes = vec![(
-        "spp (A, B)".to_string(),
-        format!("{}, {}", spp(a.spp), spp(b.spp)),
-    )];
+    let spp_of = |s: Option<u32>, runs: &[PathBuf]| match (s, runs.is_empty()) {
+        (Some(k), false) => format!("{k} runs"),
+        (s, _) => s.map_or("unknown".to_string(), |s| s.to_string()),
+    };
+    let (spp_a, spp_b) = (spp_of(a.spp, &args.runs_a), spp_of(b.spp, &args.runs_b));
+    let notes = vec![("spp (A, B)".to_string(), format!("{spp_a}, {spp_b}"))];
     let title = format!("twintrace diff: {} vs {}", labels[0], labels[1]);
     report::write_html(
         &report_path,
@@ -271,11 +344,8 @@ pub fn execute(args: &DiffArgs) -> Result<DiffOutcome> {
         },
     )?;
     let mut text = format!(
-        "{title} ({}x{}, spp {} and {})\n",
-        a.width,
-        a.height,
-        spp(a.spp),
-        spp(b.spp)
+        "{title} ({}x{}, spp {spp_a} and {spp_b})\n",
+        a.width, a.height
     );
     for (name, img) in [("A", &a), ("B", &b)] {
         if img.spp.is_none() && img.variance.is_some() {

@@ -130,6 +130,92 @@ impl NoisyImage {
         }
     }
 
+    /// One side made of `runs`, independent renders of one image (the same
+    /// scene, size and sample count, other seeds): their average, with the
+    /// variance of that average estimated from the runs' spread,
+    /// `s² / k` (`s²` the runs' sample variance per pixel and channel), and
+    /// `spp` the number of runs. Each run's mean is one sample of the
+    /// pixel's estimator, so the tests count runs as they count samples:
+    /// Welch's degrees of freedom at most `k − 1`, Kish's effective count
+    /// over the runs, the variance floor per run (conservative: a run's
+    /// mean varies less than one sample). For images that carry no
+    /// variance of their own (another renderer's EXR): `twintrace diff
+    /// --runs-a/--runs-b`. `labels` name the runs in errors.
+    pub fn from_runs(runs: &[RenderImage], labels: &[String]) -> Result<Self> {
+        let label = |i: usize| labels.get(i).map_or("?", String::as_str);
+        let [first, ..] = runs else {
+            bail!("no runs");
+        };
+        let k = runs.len();
+        if k < 2 {
+            bail!(
+                "one run (`{}`) gives no spread: give at least two independent renders",
+                label(0)
+            );
+        }
+        for (i, r) in runs.iter().enumerate().skip(1) {
+            if (r.width, r.height) != (first.width, first.height) {
+                bail!(
+                    "run `{}` is {}x{} but `{}` is {}x{}",
+                    label(i),
+                    r.width,
+                    r.height,
+                    label(0),
+                    first.width,
+                    first.height
+                );
+            }
+            if r.metadata.spp != first.metadata.spp {
+                bail!(
+                    "run `{}` has {} spp but `{}` has {}: runs of one side take one sample count",
+                    label(i),
+                    r.metadata.spp.map_or("unknown".into(), |n| n.to_string()),
+                    label(0),
+                    first
+                        .metadata
+                        .spp
+                        .map_or("unknown".into(), |n| n.to_string()),
+                );
+            }
+            for (j, q) in runs[..i].iter().enumerate() {
+                let same_seed = r.metadata.seed.is_some() && r.metadata.seed == q.metadata.seed;
+                if same_seed || r.mean == q.mean {
+                    bail!(
+                        "runs `{}` and `{}` are {}: runs must be independent (render each with its own --seed)",
+                        label(j),
+                        label(i),
+                        if same_seed { "of one seed" } else { "identical" }
+                    );
+                }
+            }
+        }
+        let n = first.width as usize * first.height as usize;
+        let kf = k as f64;
+        let mut mean = vec![DVec3::ZERO; n];
+        for r in runs {
+            for (m, x) in mean.iter_mut().zip(&r.mean) {
+                *m += x.as_dvec3() / kf;
+            }
+        }
+        let mut variance = vec![DVec3::ZERO; n];
+        for r in runs {
+            for ((v, x), m) in variance.iter_mut().zip(&r.mean).zip(&mean) {
+                let d = x.as_dvec3() - *m;
+                *v += d * d / ((kf - 1.0) * kf);
+            }
+        }
+        Ok(Self {
+            width: first.width,
+            height: first.height,
+            mean,
+            variance: Some(variance),
+            skewness: None,
+            spp: u32::try_from(k).ok(),
+            nonfinite_samples: 0,
+            renderer: first.metadata.software.as_deref().and_then(renderer_of),
+        })
+    }
+
     pub fn pixel_count(&self) -> usize {
         self.width as usize * self.height as usize
     }
