@@ -443,6 +443,32 @@ fn usage_errors_are_one_line_with_status_2() {
             ],
             "'-1' for '--spp-a",
         ),
+        (
+            ["perf", "run", "--repeats", "-1"]
+                .map(String::from)
+                .to_vec(),
+            "'-1' for '--repeats",
+        ),
+        (
+            ["perf", "run", "--threads", "+2"]
+                .map(String::from)
+                .to_vec(),
+            "'+2' for '--threads",
+        ),
+        (
+            [
+                "perf",
+                "noise",
+                "a.json",
+                "--injected",
+                "b.json",
+                "--window",
+                "-5",
+            ]
+            .map(String::from)
+            .to_vec(),
+            "'-5' for '--window",
+        ),
     ];
     for (args, names) in cases {
         let args: Vec<&str> = args.iter().map(String::as_str).collect();

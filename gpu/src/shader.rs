@@ -304,7 +304,11 @@ mod tests {
             let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
                 .join("..")
                 .join(GENERATED_PATH);
-            std::fs::write(&path, fresh).unwrap();
+            // Written beside it and renamed into place: an interrupted
+            // codegen leaves the previous file whole.
+            let tmp = path.with_extension("wgsl.tmp");
+            std::fs::write(&tmp, fresh).unwrap();
+            std::fs::rename(&tmp, &path).unwrap();
             eprintln!("rewrote {}", path.display());
         } else {
             panic!("{GENERATED_PATH} is stale: run `cargo xtask codegen`");

@@ -89,10 +89,10 @@ pub struct RunArgs {
     #[arg(long)]
     pub only: Vec<String>,
     /// Timed repetitions of every measurement (medians and spreads come from them).
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, default_value_t = 5, allow_hyphen_values = true, value_parser = twintrace::partial::parse_count)]
     pub repeats: u32,
     /// CPU worker threads (default: one per core).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true, value_parser = twintrace::partial::parse_usize_count)]
     pub threads: Option<usize>,
     /// Folder of the JSON, markdown and SVG outputs.
     #[arg(long, default_value = "target/perf")]
@@ -139,7 +139,7 @@ pub struct NoiseArgs {
     #[arg(long, num_args = 1..)]
     pub injected: Vec<PathBuf>,
     /// Runs per baseline.
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, default_value_t = 5, allow_hyphen_values = true, value_parser = twintrace::partial::parse_usize_count)]
     pub window: usize,
 }
 

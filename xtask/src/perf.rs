@@ -16,7 +16,7 @@
 use crate::bless::capture;
 use crate::gpu_suite::{copy, copy_tree, make_executable};
 use crate::util::{check_out_dir, refused, replace_dir, resolve, run as sh};
-use std::io::{BufRead, BufReader, Write};
+use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
@@ -101,11 +101,10 @@ fn measure(args: &[String]) -> Result<(), String> {
         .map_err(|e| format!("cannot run {}: {e}", bin.display()))?;
     let log_path = Path::new("target/perf/metrics.log");
     std::fs::create_dir_all("target/perf").map_err(|e| format!("target/perf: {e}"))?;
-    let mut log = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(log_path)
-        .map_err(|e| format!("{}: {e}", log_path.display()))?;
+    // The log gains this run's lines whole or not at all: they are kept
+    // here and the log replaced once the run has ended (an interrupted
+    // run leaves the previous log as it was, never half a line).
+    let mut lines = String::new();
     let mut metrics = 0;
     let stdout = child.stdout.take().ok_or("no stdout from twintrace")?;
     for line in BufReader::new(stdout).lines() {
@@ -113,10 +112,17 @@ fn measure(args: &[String]) -> Result<(), String> {
         println!("{line}");
         if line.starts_with("METRIC ") {
             metrics += 1;
-            writeln!(log, "{rev} {line}").map_err(|e| format!("{}: {e}", log_path.display()))?;
+            lines += &format!("{rev} {line}\n");
         }
     }
     let status = child.wait().map_err(|e| e.to_string())?;
+    let mut log = match std::fs::read_to_string(log_path) {
+        Ok(old) => old,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => String::new(),
+        Err(e) => return Err(format!("{}: {e}", log_path.display())),
+    };
+    log += &lines;
+    crate::util::write_atomic(log_path, log.as_bytes())?;
     eprintln!(
         "xtask: {metrics} METRIC lines appended to {}",
         log_path.display()
