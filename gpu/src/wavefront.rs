@@ -170,65 +170,70 @@ pub struct Wave {
     pub sample_count: u32,
 }
 
+/// Samples of a pixel a wave holds at least, where the render has them
+/// and the slots allow: the fold adds a wave's samples to the film, a read
+/// and a write of the pixel's 224-byte sums whatever their number, so a
+/// wave of one sample a pixel pays that traffic for every sample. On the
+/// H100 (rtow-final, the path megakernel, GPU time) one sample a wave
+/// (3840x2160 in 2^23 slots) ran at 1.98e9 paths/s, two (2560x1440) at
+/// 2.29e9, eight (1200x800) at 2.53e9: a fold cost of about 0.13 ns a
+/// pixel and wave, the film's bandwidth (docs/benchmarks.md, "Throughput
+/// against image size").
+pub const MIN_WAVE_SAMPLES: u32 = 8;
+
 /// The waves of a render of `pixels` pixels and `spp` samples with `slots`
 /// path slots, in an order that gives every pixel its samples in sample
-/// order: when the image fits, every pixel and as many samples as fit;
-/// otherwise runs of pixels, one sample at a time. Indexed ([`Waves::at`])
-/// rather than listed: a large image on a small adapter can take billions.
+/// order: blocks of samples, each over runs of pixels. A wave holds as
+/// many samples a pixel as the slots give every pixel, and at least
+/// [`MIN_WAVE_SAMPLES`] (fewer only where the render or the slots have
+/// fewer), over as many pixels as then fit. Indexed ([`Waves::at`]) rather
+/// than listed: a large image on a small adapter can take billions.
 #[derive(Clone, Copy, Debug)]
 pub struct Waves {
     pixels: u32,
     spp: u32,
-    slots: u32,
+    /// Samples a pixel a wave holds (the last block may hold fewer).
+    per: u32,
+    /// Pixels a wave holds (the last run may hold fewer).
+    run: u32,
 }
 
 impl Waves {
     pub fn new(pixels: u32, spp: u32, slots: u32) -> Self {
+        let (pixels, spp, slots) = (pixels.max(1), spp.max(1), slots.max(1));
+        let per = (slots / pixels)
+            .max(MIN_WAVE_SAMPLES)
+            .min(spp)
+            .min(slots)
+            .max(1);
+        let run = (slots / per).clamp(1, pixels);
         Waves {
-            pixels: pixels.max(1),
+            pixels,
             spp,
-            slots: slots.max(1),
+            per,
+            run,
         }
     }
 
-    /// Samples a wave holds when the image fits its slots.
-    fn per_wave(&self) -> u32 {
-        (self.slots / self.pixels).clamp(1, self.spp.max(1))
-    }
-
-    /// Runs of pixels a sample takes when it does not.
+    /// Runs of pixels a block of samples takes.
     fn runs(&self) -> u64 {
-        (self.pixels as u64).div_ceil(self.slots as u64)
+        (self.pixels as u64).div_ceil(self.run as u64)
     }
 
     pub fn count(&self) -> u64 {
-        if self.pixels <= self.slots {
-            (self.spp as u64).div_ceil(self.per_wave() as u64)
-        } else {
-            self.spp as u64 * self.runs()
-        }
+        (self.spp as u64).div_ceil(self.per as u64) * self.runs()
     }
 
     /// Wave `i` of [`Self::count`].
     pub fn at(&self, i: u64) -> Wave {
-        if self.pixels <= self.slots {
-            let per = self.per_wave();
-            let start = (i * per as u64) as u32;
-            Wave {
-                pixel_start: 0,
-                pixel_count: self.pixels,
-                sample_start: start,
-                sample_count: per.min(self.spp - start),
-            }
-        } else {
-            let (sample, run) = (i / self.runs(), i % self.runs());
-            let start = (run * self.slots as u64) as u32;
-            Wave {
-                pixel_start: start,
-                pixel_count: self.slots.min(self.pixels - start),
-                sample_start: sample as u32,
-                sample_count: 1,
-            }
+        let (block, run) = (i / self.runs(), i % self.runs());
+        let sample_start = (block * self.per as u64) as u32;
+        let pixel_start = (run * self.run as u64) as u32;
+        Wave {
+            pixel_start,
+            pixel_count: self.run.min(self.pixels - pixel_start),
+            sample_start,
+            sample_count: self.per.min(self.spp - sample_start),
         }
     }
 }
@@ -443,6 +448,23 @@ mod tests {
             }
             assert!(next.iter().all(|&n| n == spp), "{pixels} {spp} {slots}");
         }
+    }
+
+    /// A wave folds at least MIN_WAVE_SAMPLES samples a pixel where the
+    /// render and the slots have them: a 4K image in 2^23 slots takes runs
+    /// of a million pixels, eight samples each.
+    #[test]
+    fn large_images_fold_several_samples_a_wave() {
+        let w = Waves::new(3840 * 2160, 30, 1 << 23);
+        let first = w.at(0);
+        assert_eq!((first.sample_count, first.pixel_count), (8, 1 << 20));
+        assert_eq!(w.count(), 4 * 8);
+        // Small images: every pixel, as many samples as fit.
+        let w = Waves::new(640 * 400, 100, 1 << 23);
+        assert_eq!((w.at(0).pixel_count, w.at(0).sample_count), (640 * 400, 32));
+        // Fewer slots than the floor: as many samples as slots.
+        let w = Waves::new(7, 5, 3);
+        assert_eq!((w.at(0).pixel_count, w.at(0).sample_count), (1, 3));
     }
 
     /// The grid covers n invocations, within 65,535 workgroups a side.
