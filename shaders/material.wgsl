@@ -59,7 +59,9 @@ fn ggx_lobes_eval(l: GgxLobes, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
     let h = normalize(wo + wi);
     let f = fresnel_schlick(l.f0, dot(wi, h));
     let spec = f * (ggx_d(h, l.alpha) * ggx_g2(wo, wi, l.alpha) / (4.0 * wo.z * wi.z));
-    let diffuse = (vec3<f32>(1.0) - f) * (1.0 - l.metallic) * l.base_color * FRAC_1_PI;
+    // glTF's mix: the dielectric part's diffuse under its own F0 of 0.04.
+    let f_dielectric = fresnel_schlick(vec3<f32>(DIELECTRIC_F0), dot(wi, h));
+    let diffuse = (vec3<f32>(1.0) - f_dielectric) * (1.0 - l.metallic) * l.base_color * FRAC_1_PI;
     let base = spec + diffuse;
     if l.coat <= 0.0 {
         return base;

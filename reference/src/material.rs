@@ -25,9 +25,12 @@ pub enum Material {
     Dielectric { ior: f32, absorption: Vec3 },
     /// Emits `emission` from the front face only; scatters nothing.
     DiffuseLight { emission: u32 },
-    /// glTF metallic-roughness: Lambertian base weighted by `1 - F` and
-    /// `1 - metallic`, plus GGX specular (height-correlated Smith G2,
-    /// Schlick F with `F0 = lerp(0.04, base, metallic)`), `alpha = roughness²`.
+    /// glTF metallic-roughness, `mix(dielectric, metal, metallic)` as the
+    /// glTF specification's appendix B writes it: GGX specular
+    /// (height-correlated Smith G2, Schlick F with
+    /// `F0 = lerp(0.04, base, metallic)`, `alpha = roughness²`) plus a
+    /// Lambertian base weighted by `1 - metallic` and `1 - F` of the
+    /// dielectric's F0 0.04.
     /// `metallic_roughness`: a texture (linear data) whose blue channel
     /// scales `metallic` and green `roughness` at each point, as glTF's
     /// `metallicRoughnessTexture` ([`ggx_parameters`]).
@@ -524,7 +527,12 @@ impl GgxLobes {
         let h = (wo + wi).normalize();
         let f = fresnel_schlick(self.f0, wi.dot(h));
         let spec = f * (ggx::d(h, self.alpha) * ggx::g2(wo, wi, self.alpha) / (4.0 * wo.z * wi.z));
-        let diffuse = (Vec3::ONE - f) * (1.0 - self.metallic) * self.base_color * FRAC_1_PI;
+        // glTF's `mix(dielectric_brdf, metal_brdf, metallic)`: the diffuse
+        // belongs to the dielectric part, weighted by that part's own
+        // Fresnel (F0 0.04), not by the blended F0 of the specular.
+        let f_dielectric = fresnel_schlick(Vec3::splat(DIELECTRIC_F0), wi.dot(h));
+        let diffuse =
+            (Vec3::ONE - f_dielectric) * (1.0 - self.metallic) * self.base_color * FRAC_1_PI;
         let base = spec + diffuse;
         if self.coat <= 0.0 {
             return base;
