@@ -56,7 +56,7 @@ fn a_device_lost_mid_render_takes_its_film_with_it() {
     let mut c = Chunking::new(Duration::ZERO, &never, &mut lose);
     let e = add_chunked(&mut p, 0..16, Some(&mut c), &|_| {}).unwrap_err();
     // Two one-sample chunks were done before the device went.
-    assert_eq!(p.ranges(), &[0..2], "{e}");
+    assert_eq!(p.ranges(), std::slice::from_ref(&(0..2)), "{e}");
     let lost = held_film(&mut p, 0).unwrap_err();
     assert!(!lost.to_string().is_empty());
 }

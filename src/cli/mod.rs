@@ -797,7 +797,6 @@ fn render(args: &RenderArgs) -> Result<()> {
         }
     };
     bar.finish_and_clear();
-    drop(chunking);
     let (end, interrupted, gpu_time, stopped) = match rendered {
         Ok(r) => r,
         Err(e) => {
