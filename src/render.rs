@@ -114,6 +114,20 @@ pub trait Progressive {
     /// refused: the film would count those samples twice.
     fn add(&mut self, samples: Range<u32>, progress: &(dyn Fn(u64) + Sync)) -> Result<Added>;
 
+    /// [`Progressive::add`], abandoned where `stop()` turns true before the
+    /// range is done: `Ok(None)`, and the film as it was. The CPU
+    /// reference looks between tiles; a GPU finishes the range (a chunk
+    /// of [`CHUNK_TIME`]).
+    fn add_until(
+        &mut self,
+        samples: Range<u32>,
+        progress: &(dyn Fn(u64) + Sync),
+        stop: &(dyn Fn() -> bool + Sync),
+    ) -> Result<Option<Added>> {
+        let _ = stop;
+        self.add(samples, progress).map(Some)
+    }
+
     /// The film's exact sums.
     fn sums(&mut self) -> Result<FilmSums>;
 
@@ -269,6 +283,16 @@ impl Progressive for CpuProgressive<'_> {
     }
 
     fn add(&mut self, samples: Range<u32>, progress: &(dyn Fn(u64) + Sync)) -> Result<Added> {
+        self.add_until(samples, progress, &|| false)?
+            .ok_or_else(|| anyhow!("a range that is never stopped was stopped"))
+    }
+
+    fn add_until(
+        &mut self,
+        samples: Range<u32>,
+        progress: &(dyn Fn(u64) + Sync),
+        stop: &(dyn Fn() -> bool + Sync),
+    ) -> Result<Option<Added>> {
         let mut ranges = self.ranges.clone();
         ranges.insert(samples.clone())?;
         let n = (samples.end - samples.start) as u64;
@@ -280,21 +304,25 @@ impl Progressive for CpuProgressive<'_> {
         let (scene, integrator) = (self.scene, self.integrator);
         let pixel_progress = |pixels: u64| progress(pixels * n);
         let render = || {
-            reference::integrator::render_samples(
+            reference::integrator::render_samples_until(
                 scene,
                 &settings,
                 integrator,
                 samples.clone(),
                 &pixel_progress,
+                stop,
             )
         };
         let sums = match self.pool {
             Some(pool) => pool.install(render),
             None => render(),
         };
+        let Some(sums) = sums else {
+            return Ok(None);
+        };
         self.film.merge(&sums).map_err(|e| anyhow!(e))?;
         self.ranges = ranges;
-        Ok(Added::default())
+        Ok(Some(Added::default()))
     }
 
     fn sums(&mut self) -> Result<FilmSums> {
@@ -628,8 +656,10 @@ pub struct Chunking<'a> {
     /// The wall time a chunk aims at (the first chunk is one sample a
     /// pixel; then each is sized from the rate the one before measured).
     pub chunk_time: Duration,
-    /// Asked before each chunk: `true` stops the render there.
-    pub stop: &'a dyn Fn() -> bool,
+    /// Asked before each chunk, and by the CPU reference between the
+    /// tiles of one ([`Progressive::add_until`]): `true` stops the render,
+    /// the chunk in flight abandoned or finished.
+    pub stop: &'a (dyn Fn() -> bool + Sync),
     /// Run after each chunk, with the render (a checkpoint's write).
     pub after_chunk: &'a mut dyn FnMut(&mut dyn Progressive) -> Result<()>,
     /// Seconds a sample a pixel took in the last chunk.
@@ -641,7 +671,7 @@ pub struct Chunking<'a> {
 impl<'a> Chunking<'a> {
     pub fn new(
         chunk_time: Duration,
-        stop: &'a dyn Fn() -> bool,
+        stop: &'a (dyn Fn() -> bool + Sync),
         after_chunk: &'a mut dyn FnMut(&mut dyn Progressive) -> Result<()>,
     ) -> Self {
         Chunking {
@@ -714,7 +744,10 @@ pub fn add_chunked(
         }
         let count = c.next(range.end - out.end);
         let t = Instant::now();
-        let added = render.add(out.end..out.end + count, progress)?;
+        let Some(added) = render.add_until(out.end..out.end + count, progress, c.stop)? else {
+            out.stopped = true;
+            break;
+        };
         c.per_sample = Some(t.elapsed().as_secs_f64() / count as f64);
         c.last = count;
         out.end += count;

@@ -7,8 +7,9 @@
 //! SIGKILL. `--resume` refuses, in one line with exit status 2, a part of
 //! another render (each field of its key, and its sample range) and an
 //! output that would overwrite the part; the comparison catches a forged
-//! part. The chunked render holds the whole render's film, and a chunk
-//! that fails leaves the chunks before it to be saved.
+//! part. The chunked render holds the whole render's film, a chunk
+//! that fails leaves the chunks before it to be saved, and the CPU
+//! reference drops a chunk in flight when stopped between its tiles.
 //!
 //! The GPU's runs are in tests/gpu_resume.rs, through the helpers here.
 
@@ -17,6 +18,7 @@ use reference::RenderSettings;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitStatus, Stdio};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 use twintrace::partial::Part;
 use twintrace::render::{
@@ -724,10 +726,10 @@ fn chunks_add_up_and_a_failed_chunk_leaves_the_ones_before() {
     assert_eq!(p.sums().unwrap(), whole);
     assert_eq!(layer_bits(&p.sums().unwrap()), layer_bits(&whole));
 
-    let chunks = std::cell::Cell::new(0);
-    let stop = || chunks.get() == 3;
+    let chunks = AtomicUsize::new(0);
+    let stop = || chunks.load(Ordering::SeqCst) == 3;
     let mut count = |_: &mut dyn Progressive| {
-        chunks.set(chunks.get() + 1);
+        chunks.fetch_add(1, Ordering::SeqCst);
         Ok(())
     };
     let mut c = Chunking::new(Duration::ZERO, &stop, &mut count);
@@ -752,4 +754,47 @@ fn chunks_add_up_and_a_failed_chunk_leaves_the_ones_before() {
     fresh.add(5..6, &|_| {}).unwrap();
     let e = held_film(&mut fresh, 0).unwrap_err().to_string();
     assert!(e.contains("not one range from 0"), "{e}");
+}
+
+/// The CPU reference abandons a range in flight between its tiles: a stop
+/// that turns true once the first tile is done leaves the film as it was
+/// (no range, no sums), and [`add_chunked`] says it stopped where it was.
+#[test]
+fn the_cpu_reference_abandons_the_chunk_in_flight() {
+    let scene = reference::load_scene("cornell").unwrap();
+    let spec = RenderSpec::DEFAULT;
+    // 64x48: 12 tiles of 16x16 (reference::integrator::TILE_SIZE); one
+    // thread, so the tiles after the first see the stop.
+    let settings = RenderSettings {
+        width: 64,
+        height: 48,
+        ..tiny()
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let mut p = CpuProgressive::new(&scene, &spec, settings, Some(&pool)).unwrap();
+    p.add(0..2, &|_| {}).unwrap();
+    let before = p.sums().unwrap();
+    let tile_done = AtomicBool::new(false);
+    let stop = || tile_done.load(Ordering::SeqCst);
+    let progress = |_| tile_done.store(true, Ordering::SeqCst);
+    let out = p.add_until(2..40, &progress, &stop).unwrap();
+    assert!(out.is_none(), "the range was not abandoned");
+    assert_eq!(p.ranges(), std::slice::from_ref(&(0..2)));
+    assert_eq!(p.sums().unwrap(), before);
+
+    tile_done.store(false, Ordering::SeqCst);
+    let mut nothing = |_: &mut dyn Progressive| Ok(());
+    let mut c = Chunking::new(Duration::from_secs(3600), &stop, &mut nothing);
+    // The first chunk (one sample) is abandoned too: the stop is seen
+    // after its first tile.
+    let added = add_chunked(&mut p, 2..40, Some(&mut c), &progress).unwrap();
+    assert_eq!((added.end, added.stopped), (2, true));
+    assert_eq!(p.sums().unwrap(), before);
+    // Never stopped, the same range is whole.
+    let never = || false;
+    assert!(p.add_until(2..40, &|_| {}, &never).unwrap().is_some());
+    assert_eq!(p.ranges(), std::slice::from_ref(&(0..40)));
 }
