@@ -4,7 +4,7 @@
 //! as a partial film and one line with the command that continues it;
 //! that command, itself interrupted once, ends with the EXR an
 //! uninterrupted render writes, bit for bit. A checkpoint survives
-//! SIGKILL. `--resume` refuses, in one line with exit status 2, a part of
+//! SIGKILL; a second SIGINT exits at once and leaves the files whole. `--resume` refuses, in one line with exit status 2, a part of
 //! another render (each field of its key, and its sample range) and an
 //! output that would overwrite the part; the comparison catches a forged
 //! part. The chunked render holds the whole render's film, a chunk
@@ -797,4 +797,84 @@ fn the_cpu_reference_abandons_the_chunk_in_flight() {
     let never = || false;
     assert!(p.add_until(2..40, &|_| {}, &never).unwrap().is_some());
     assert_eq!(p.ranges(), std::slice::from_ref(&(0..40)));
+}
+
+/// A second signal ends the render at once, with 130, while its chunk is
+/// in flight: the files written before stay as they were (here the
+/// output of an earlier run and a partial film), and nothing new appears
+/// but, at most, a hidden temporary file.
+#[test]
+fn a_second_interrupt_exits_at_once_leaving_the_files_whole() {
+    let dir = tempfile::tempdir().unwrap();
+    let dir = dir.path();
+    // One 16x16 tile: the CPU reference finishes its chunk (up to
+    // CHUNK_TIME), in which the second signal comes.
+    let render = strings(&[
+        "render",
+        "cornell",
+        "--backend",
+        "cpu",
+        "--size",
+        "16x16",
+        "--spp",
+        "2048",
+        "-o",
+        "out",
+    ]);
+    let mut json = render.clone();
+    json.push("--json".into());
+    let o = twintrace(dir, &json, None);
+    assert_eq!(o.code(), 0, "{}", o.stderr);
+    let j: serde_json::Value = serde_json::from_str(&o.stdout).unwrap();
+    let tracing = Duration::from_secs_f64(j["phases_s"]["rendering"].as_f64().unwrap());
+    std::fs::write(dir.join("out.partial.exr"), b"an earlier part").unwrap();
+    let before: Vec<(String, Vec<u8>)> = files(dir)
+        .into_iter()
+        .map(|f| (f.clone(), std::fs::read(dir.join(&f)).unwrap()))
+        .collect();
+    let mut twice = 0;
+    let mut log = String::new();
+    for at in [0.3, 0.5, 0.7] {
+        let mut child = start(dir, &common_bin(), &render);
+        std::thread::sleep(tracing.mul_f64(at));
+        for _ in 0..2 {
+            if child.try_wait().unwrap().is_none() {
+                // SAFETY: kill(2) on the running (unreaped) child's pid.
+                unsafe {
+                    libc::kill(child.id() as libc::pid_t, libc::SIGINT);
+                }
+            }
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        let o = finish(child);
+        log += &format!("\n{at}: exit {}, {}", o.code(), o.stderr.trim());
+        if o.code() == 0 {
+            // Done before the signals: it wrote its output again.
+            continue;
+        }
+        assert_eq!(o.code(), 130, "{log}");
+        if !o.stderr.contains("interrupted again: exiting at once") {
+            continue;
+        }
+        twice += 1;
+        let now: Vec<String> = files(dir)
+            .into_iter()
+            .filter(|f| !(f.starts_with('.') && f.ends_with(".tmp")))
+            .collect();
+        assert_eq!(
+            now,
+            before.iter().map(|(f, _)| f.clone()).collect::<Vec<_>>(),
+            "{log}"
+        );
+        for (f, bytes) in &before {
+            assert!(
+                &std::fs::read(dir.join(f)).unwrap() == bytes,
+                "{f} changed: {log}"
+            );
+        }
+    }
+    assert!(
+        twice >= 1,
+        "no second signal came while the render ran: {log}"
+    );
 }
