@@ -38,6 +38,11 @@ fn main() -> ExitCode {
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
+            if let Some(i) = e.downcast_ref::<cli::Interrupted>() {
+                // Not an error: what was saved, and how to continue.
+                let _ = writeln!(std::io::stderr(), "{}", i.line);
+                return ExitCode::from(i.code);
+            }
             let _ = writeln!(
                 std::io::stderr(),
                 "error: {}",

@@ -16,7 +16,10 @@
 //! `twintrace.samples` (`A..B`), `twintrace.scene` (the scene's
 //! fingerprint, [`reference::Scene::fingerprint`]), `twintrace.settings`
 //! (size, seed, depth limits, estimator), `twintrace.version` and
-//! `twintrace.devices`.
+//! `twintrace.devices`; a part that `render` wrote also names the range
+//! the command was asked for, `twintrace.target` (an interrupted render's
+//! part holds its prefix; `render --resume PART` renders the rest,
+//! [`Part::resume_check`]).
 //!
 //! `twintrace merge PART… -o OUT` ([`merge`]) checks that the parts are of
 //! one render (the same key) and that their ranges tile one range without
@@ -42,6 +45,7 @@ const SCENE: &str = "twintrace.scene";
 const SETTINGS: &str = "twintrace.settings";
 const VERSION: &str = "twintrace.version";
 const DEVICES: &str = "twintrace.devices";
+const TARGET: &str = "twintrace.target";
 const COUNT: &str = "sums.count";
 const REJECTED: &str = "sums.rejected";
 
@@ -75,6 +79,64 @@ impl RenderKey {
     }
 }
 
+impl RenderKey {
+    /// Why a film keyed `self` (the part `part`) is not a part of the
+    /// render keyed `ours` (the command's), naming the first field that
+    /// differs and the option that sets it; `None` where they match.
+    pub fn mismatch(&self, ours: &RenderKey) -> Option<String> {
+        if self.version != ours.version {
+            return Some(format!(
+                "it was rendered by twintrace {}, this is twintrace {} (the samples of another version may differ)",
+                self.version, ours.version
+            ));
+        }
+        if self.scene != ours.scene {
+            return Some(format!(
+                "its scene's fingerprint is {}, this command's scene has {} (another scene, or the scene file changed)",
+                self.scene, ours.scene
+            ));
+        }
+        // `WxH seed S maxDepth D rouletteDepth R integrator I`: the size,
+        // then name-value pairs.
+        let fields = |s: &str| -> Vec<(String, String)> {
+            let mut words = s.split_whitespace();
+            let mut out = vec![("size".to_string(), words.next().unwrap_or("").to_string())];
+            while let Some(name) = words.next() {
+                out.push((name.to_string(), words.next().unwrap_or("").to_string()));
+            }
+            out
+        };
+        let (theirs, mine) = (fields(&self.settings), fields(&ours.settings));
+        for (name, value) in &mine {
+            let other = theirs
+                .iter()
+                .find(|(n, _)| n == name)
+                .map(|(_, v)| v.as_str());
+            if other != Some(value.as_str()) {
+                let option = match name.as_str() {
+                    "size" => "--size",
+                    "seed" => "--seed",
+                    "maxDepth" => "--max-depth or --quality",
+                    "rouletteDepth" => "the scene's render.rouletteDepth",
+                    "integrator" => "--integrator",
+                    _ => "the settings",
+                };
+                return Some(format!(
+                    "its {name} is {}, this command's is {value} ({option})",
+                    other.unwrap_or("missing")
+                ));
+            }
+        }
+        if theirs.len() != mine.len() {
+            return Some(format!(
+                "its settings are `{}`, this command's are `{}`",
+                self.settings, ours.settings
+            ));
+        }
+        None
+    }
+}
+
 /// A partial film: the exact sums of sample range `samples` of a render.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Part {
@@ -85,6 +147,9 @@ pub struct Part {
     pub sums: FilmSums,
     /// The render image's metadata (its `spp` is the range's length).
     pub metadata: RenderMetadata,
+    /// The range the render that wrote it was asked for, where `render`
+    /// wrote it (an interrupted render's part holds a prefix of it).
+    pub target: Option<Range<u32>>,
 }
 
 /// A whole number as the command line takes one: ASCII digits only (no
@@ -164,8 +229,53 @@ impl Part {
                 (SETTINGS.into(), self.key.settings.clone()),
                 (VERSION.into(), self.key.version.clone()),
                 (DEVICES.into(), self.devices.clone()),
-            ],
+            ]
+            .into_iter()
+            .chain(
+                self.target
+                    .as_ref()
+                    .map(|t| (TARGET.into(), format!("{}..{}", t.start, t.end))),
+            )
+            .collect(),
         }
+    }
+
+    /// Checks that the part can be resumed by a command rendering `range`
+    /// of the render keyed `key`: the same render, and a range starting
+    /// where the part starts, ending where the part's own target ends (a
+    /// part `render` did not write, as a merge's, has none: any end at or
+    /// past the part's). The error names the file and what differs.
+    pub fn resume_check(&self, path: &Path, key: &RenderKey, range: &Range<u32>) -> Result<()> {
+        let name = path.display();
+        if let Some(why) = self.key.mismatch(key) {
+            bail!("--resume `{name}` is a part of another render: {why}");
+        }
+        let (s, t) = (&self.samples, self.target.as_ref().unwrap_or(&self.samples));
+        if s.start != range.start {
+            bail!(
+                "--resume `{name}` holds samples {}..{}, this command renders {}..{} (--samples or --spp): a resumed render continues a part from its first sample",
+                s.start,
+                s.end,
+                range.start,
+                range.end
+            );
+        }
+        let fits = match &self.target {
+            Some(t) => t.end == range.end,
+            None => s.end <= range.end,
+        };
+        if !fits {
+            bail!(
+                "--resume `{name}` is a part of a render of samples {}..{} (spp {}), this command renders {}..{} (spp {}; --spp, --quality or --samples)",
+                t.start,
+                t.end,
+                t.end - t.start,
+                range.start,
+                range.end,
+                range.end - range.start
+            );
+        }
+        Ok(())
     }
 
     /// Writes the partial film as OUT.exr and OUT.png (nothing is written
@@ -198,6 +308,21 @@ impl Part {
             version: text(VERSION)?,
         };
         let devices = text(DEVICES)?;
+        let target = extras
+            .text(TARGET)
+            .map(|t| parse_samples(t).with_context(|| format!("`{name}`: {TARGET}")))
+            .transpose()?;
+        if let Some(t) = &target {
+            if samples.start < t.start || samples.end > t.end {
+                bail!(
+                    "`{name}` is corrupt: its samples {}..{} are not within its render's {}..{}",
+                    samples.start,
+                    samples.end,
+                    t.start,
+                    t.end
+                );
+            }
+        }
         let n = image.width as usize * image.height as usize;
         let channel = |c: &str| {
             extras
@@ -217,16 +342,12 @@ impl Part {
             pixels: words.iter().map(PixelSums::from_words).collect(),
         };
         let expected = samples.end - samples.start;
-        for (i, p) in sums.pixels.iter().enumerate() {
-            if p.count as u64 + p.rejected as u64 != expected as u64 {
-                let (x, y) = (i as u32 % image.width, i as u32 / image.width);
-                bail!(
-                    "`{name}` is corrupt: pixel ({x}, {y}) holds {} samples, its range {}..{} has {expected}",
-                    p.count as u64 + p.rejected as u64,
-                    samples.start,
-                    samples.end
-                );
-            }
+        if let Some((x, y, held)) = short_pixel(&sums, expected) {
+            bail!(
+                "`{name}` is corrupt: pixel ({x}, {y}) holds {held} samples, its range {}..{} has {expected}",
+                samples.start,
+                samples.end
+            );
         }
         let part = Part {
             key,
@@ -234,6 +355,7 @@ impl Part {
             devices,
             sums,
             metadata: image.metadata.clone(),
+            target,
         };
         let own = part.image();
         // Bits, not values: NaN layers compare too. A missing layer is
@@ -258,6 +380,16 @@ impl Part {
         }
         Ok(part)
     }
+}
+
+/// The first pixel of `sums` that does not hold `expected` samples
+/// (accepted and rejected), as `(x, y, held)`: a film a failed range
+/// left half added to (a device lost mid-range) is no film of a range.
+pub fn short_pixel(sums: &FilmSums, expected: u32) -> Option<(u32, u32, u64)> {
+    sums.pixels.iter().enumerate().find_map(|(i, p)| {
+        let held = p.count as u64 + p.rejected as u64;
+        (held != expected as u64).then(|| (i as u32 % sums.width, i as u32 / sums.width, held))
+    })
 }
 
 /// Merges `parts` (each with the path it came from, for messages): they
@@ -321,6 +453,8 @@ pub fn merge(mut parts: Vec<(PathBuf, Part)>) -> Result<Part> {
         }
     }
     merged.devices = devices.join(", ");
+    // The merge's range is its own render's.
+    merged.target = None;
     merged.metadata.spp = Some(merged.samples.end - merged.samples.start);
     Ok(merged)
 }

@@ -114,6 +114,20 @@ pub trait Progressive {
     /// refused: the film would count those samples twice.
     fn add(&mut self, samples: Range<u32>, progress: &(dyn Fn(u64) + Sync)) -> Result<Added>;
 
+    /// [`Progressive::add`], abandoned where `stop()` turns true before the
+    /// range is done: `Ok(None)`, and the film as it was. The CPU
+    /// reference looks between tiles; a GPU finishes the range (a chunk
+    /// of [`CHUNK_TIME`]).
+    fn add_until(
+        &mut self,
+        samples: Range<u32>,
+        progress: &(dyn Fn(u64) + Sync),
+        stop: &(dyn Fn() -> bool + Sync),
+    ) -> Result<Option<Added>> {
+        let _ = stop;
+        self.add(samples, progress).map(Some)
+    }
+
     /// The film's exact sums.
     fn sums(&mut self) -> Result<FilmSums>;
 
@@ -269,6 +283,16 @@ impl Progressive for CpuProgressive<'_> {
     }
 
     fn add(&mut self, samples: Range<u32>, progress: &(dyn Fn(u64) + Sync)) -> Result<Added> {
+        self.add_until(samples, progress, &|| false)?
+            .ok_or_else(|| anyhow!("a range that is never stopped was stopped"))
+    }
+
+    fn add_until(
+        &mut self,
+        samples: Range<u32>,
+        progress: &(dyn Fn(u64) + Sync),
+        stop: &(dyn Fn() -> bool + Sync),
+    ) -> Result<Option<Added>> {
         let mut ranges = self.ranges.clone();
         ranges.insert(samples.clone())?;
         let n = (samples.end - samples.start) as u64;
@@ -280,21 +304,25 @@ impl Progressive for CpuProgressive<'_> {
         let (scene, integrator) = (self.scene, self.integrator);
         let pixel_progress = |pixels: u64| progress(pixels * n);
         let render = || {
-            reference::integrator::render_samples(
+            reference::integrator::render_samples_until(
                 scene,
                 &settings,
                 integrator,
                 samples.clone(),
                 &pixel_progress,
+                stop,
             )
         };
         let sums = match self.pool {
             Some(pool) => pool.install(render),
             None => render(),
         };
+        let Some(sums) = sums else {
+            return Ok(None);
+        };
         self.film.merge(&sums).map_err(|e| anyhow!(e))?;
         self.ranges = ranges;
-        Ok(Added::default())
+        Ok(Some(Added::default()))
     }
 
     fn sums(&mut self) -> Result<FilmSums> {
@@ -614,25 +642,192 @@ pub struct BudgetOutcome {
     pub gpu_time: Option<Duration>,
 }
 
+/// The wall time a chunk of a render aims at: the render looks for an
+/// interrupt between chunks ([`Chunking`]), so Ctrl-C is answered within
+/// about this (and the partial film's write). A chunk ends the GPU's two
+/// batches in flight; at 0.25 s that drain is well under 1 % of a chunk.
+pub const CHUNK_TIME: Duration = Duration::from_millis(250);
+
+/// How a render's ranges are cut into chunks of bounded wall time, what
+/// stops it between them (an interrupt), and what runs after each (a
+/// checkpoint). The film's sums are integers, so the chunks of a range
+/// add up to the range's film bit for bit, however they are cut.
+pub struct Chunking<'a> {
+    /// The wall time a chunk aims at (the first chunk is one sample a
+    /// pixel; then each is sized from the rate the one before measured).
+    pub chunk_time: Duration,
+    /// Asked before each chunk, and by the CPU reference between the
+    /// tiles of one ([`Progressive::add_until`]): `true` stops the render,
+    /// the chunk in flight abandoned or finished.
+    pub stop: &'a (dyn Fn() -> bool + Sync),
+    /// Run after each chunk, with the render (a checkpoint's write).
+    pub after_chunk: &'a mut dyn FnMut(&mut dyn Progressive) -> Result<()>,
+    /// Seconds a sample a pixel took in the last chunk.
+    per_sample: Option<f64>,
+    /// Samples of the last chunk.
+    last: u32,
+}
+
+impl<'a> Chunking<'a> {
+    pub fn new(
+        chunk_time: Duration,
+        stop: &'a (dyn Fn() -> bool + Sync),
+        after_chunk: &'a mut dyn FnMut(&mut dyn Progressive) -> Result<()>,
+    ) -> Self {
+        Chunking {
+            chunk_time,
+            stop,
+            after_chunk,
+            per_sample: None,
+            last: 0,
+        }
+    }
+
+    /// The samples of the next chunk, at most `left`: one at first, then
+    /// what the last chunk's rate says fills [`Chunking::chunk_time`],
+    /// growing at most fourfold a chunk (a first chunk's rate includes
+    /// the device's warm-up).
+    fn next(&self, left: u32) -> u32 {
+        let n = match self.per_sample {
+            None => 1,
+            Some(t) => {
+                let fits = (self.chunk_time.as_secs_f64() / t.max(1e-12)).floor();
+                (fits.min(self.last as f64 * 4.0) as u32).max(1)
+            }
+        };
+        n.min(left)
+    }
+}
+
+/// What [`add_chunked`] did.
+#[derive(Clone, Debug, Default)]
+pub struct Chunked {
+    /// The samples added: `range.start..end`.
+    pub end: u32,
+    /// Whether `stop` ended it before the range's end.
+    pub stopped: bool,
+    /// The chunks' GPU time, where the devices time them.
+    pub gpu_time: Option<Duration>,
+    /// Each device's share, summed over the chunks, where several
+    /// devices shared them.
+    pub shares: Vec<gpu::devices::DeviceShare>,
+}
+
+/// Adds `range` to `render`, whole (`chunking` `None`) or in chunks of
+/// bounded wall time from its start, asking `chunking.stop` before each
+/// chunk. Stopped, the film holds `range.start..end` of the range. On an
+/// error the film holds what [`Progressive::ranges`] says (the chunk that
+/// failed is not among them).
+pub fn add_chunked(
+    render: &mut dyn Progressive,
+    range: Range<u32>,
+    chunking: Option<&mut Chunking>,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<Chunked> {
+    let Some(c) = chunking else {
+        let added = render.add(range.clone(), progress)?;
+        return Ok(Chunked {
+            end: range.end,
+            stopped: false,
+            gpu_time: added.gpu_time,
+            shares: added.shares,
+        });
+    };
+    let mut out = Chunked {
+        end: range.start,
+        ..Chunked::default()
+    };
+    while out.end < range.end {
+        if (c.stop)() {
+            out.stopped = true;
+            break;
+        }
+        let count = c.next(range.end - out.end);
+        let t = Instant::now();
+        let Some(added) = render.add_until(out.end..out.end + count, progress, c.stop)? else {
+            out.stopped = true;
+            break;
+        };
+        c.per_sample = Some(t.elapsed().as_secs_f64() / count as f64);
+        c.last = count;
+        out.end += count;
+        if let Some(g) = added.gpu_time {
+            out.gpu_time = Some(out.gpu_time.unwrap_or_default() + g);
+        }
+        for (i, share) in added.shares.into_iter().enumerate() {
+            match out.shares.get_mut(i) {
+                Some(s) => s.samples += share.samples,
+                None => out.shares.push(share),
+            }
+        }
+        (c.after_chunk)(render)?;
+    }
+    Ok(out)
+}
+
+/// The film `render` holds of samples `start..end`, for a partial film:
+/// `end` and the sums (an empty film where it holds none). After a failed
+/// range (a device lost mid-render, [`add_chunked`]'s error) this is what
+/// can be saved: it fails where the film cannot be read (lost with its
+/// device), or holds anything but one range from `start`, or a pixel
+/// holds other than that range's samples (a range half added).
+pub fn held_film(render: &mut dyn Progressive, start: u32) -> Result<(u32, FilmSums)> {
+    let s = render.settings();
+    let (width, height) = (s.width, s.height);
+    let end = match render.ranges() {
+        [] => return Ok((start, FilmSums::new(width, height))),
+        [r] if r.start == start => r.end,
+        held => bail!("the film holds the samples {held:?}, not one range from {start}"),
+    };
+    let sums = render.sums()?;
+    if let Some((x, y, held)) = crate::partial::short_pixel(&sums, end - start) {
+        bail!(
+            "the film is not whole: pixel ({x}, {y}) holds {held} samples, not {}",
+            end - start
+        );
+    }
+    Ok((end, sums))
+}
+
 /// Adds samples `first..` to `render` in growing ranges until the budget
 /// says stop: `max_samples` reached, the next range predicted to end past
 /// `time` (from the rate measured so far), or the film's predicted relMSE
 /// at or under the target (read after each range; the reads are spaced
 /// so that they cost a small share of the time). `status(samples, relmse,
-/// eta)` after each range, for a progress line.
+/// eta)` after each range, for a progress line. `first` is the samples
+/// the film holds ([`Progressive::samples`]).
 pub fn run_budget(
     render: &mut dyn Progressive,
     budget: &Budget,
     status: &mut dyn FnMut(u32, Option<f64>, Option<Duration>),
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<BudgetOutcome> {
+    let first = render.samples().min(u32::MAX as u64) as u32;
+    run_budget_with(render, budget, first, None, None, status, progress)
+}
+
+/// [`run_budget`] from sample `first`, each range added in chunks
+/// ([`add_chunked`]; stopped by `chunking.stop`: `stopped` is
+/// [`INTERRUPTED`]), the predicted relMSE read from the film's sums added
+/// to `base` where given (a resumed render's partial film holds samples
+/// `..first`).
+pub fn run_budget_with(
+    render: &mut dyn Progressive,
+    budget: &Budget,
+    first: u32,
+    base: Option<&FilmSums>,
+    mut chunking: Option<&mut Chunking>,
+    status: &mut dyn FnMut(u32, Option<f64>, Option<Duration>),
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<BudgetOutcome> {
     let start = Instant::now();
-    let mut done: u32 = render.samples().min(u32::MAX as u64) as u32;
+    let mut done: u32 = first;
     let mut next: u32 = 1;
     let mut gpu_time: Option<Duration> = None;
     let mut relmse = None;
     // Time spent tracing (rate) and reading the film (relMSE checks).
     let mut traced = Duration::ZERO;
+    let per_sample = |traced: Duration, done: u32| traced.as_secs_f64() / (done - first) as f64;
     let stopped = loop {
         if done >= budget.max_samples {
             break "the sample count";
@@ -640,8 +835,8 @@ pub fn run_budget(
         let count = next.min(budget.max_samples - done);
         if let Some(limit) = budget.time {
             let elapsed = start.elapsed();
-            if done > 0 {
-                let per_sample = traced.as_secs_f64() / done as f64;
+            if done > first {
+                let per_sample = per_sample(traced, done);
                 let left = limit.saturating_sub(elapsed).as_secs_f64();
                 if per_sample * count as f64 > left {
                     // The largest range that fits, if any.
@@ -657,16 +852,32 @@ pub fn run_budget(
             }
         }
         let t = Instant::now();
-        let added = render.add(done..done + count, progress)?;
+        let added = add_chunked(
+            render,
+            done..done + count,
+            chunking.as_deref_mut(),
+            progress,
+        )?;
         traced += t.elapsed();
         if let Some(g) = added.gpu_time {
             gpu_time = Some(gpu_time.unwrap_or_default() + g);
         }
-        done += count;
+        done = added.end;
+        if added.stopped {
+            break INTERRUPTED;
+        }
         let eta = budget.time.map(|l| l.saturating_sub(start.elapsed()));
         if let Some(target) = budget.target_relmse {
             let check = Instant::now();
-            let e = predicted_relmse(&render.layers()?);
+            let layers = match base {
+                Some(base) => {
+                    let mut sums = render.sums()?;
+                    sums.merge(base).map_err(|e| anyhow!(e))?;
+                    Layers::from_sums(&sums)
+                }
+                None => render.layers()?,
+            };
+            let e = predicted_relmse(&layers);
             relmse = Some(e);
             let spent = check.elapsed();
             status(done, relmse, eta);
@@ -683,7 +894,7 @@ pub fn run_budget(
             } else {
                 done as u64
             };
-            let per_sample = traced.as_secs_f64() / done as f64;
+            let per_sample = per_sample(traced, done);
             let floor = (10.0 * spent.as_secs_f64() / per_sample.max(1e-12)).ceil() as u64;
             next = want.max(floor).clamp(1, done as u64).min(u32::MAX as u64) as u32;
         } else {
@@ -698,6 +909,9 @@ pub fn run_budget(
         gpu_time,
     })
 }
+
+/// [`BudgetOutcome::stopped`] of a render [`Chunking::stop`] stopped.
+pub const INTERRUPTED: &str = "an interrupt";
 
 #[cfg(test)]
 mod tests {

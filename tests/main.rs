@@ -27,6 +27,8 @@ mod progressive_render;
 mod reference_images;
 mod render_determinism;
 mod render_space;
+#[cfg(target_os = "linux")] // signals through libc
+mod resume;
 mod safe_outputs;
 mod sampling_chi2;
 mod scale_invariance;
@@ -48,6 +50,8 @@ mod gpu_pipeline_cache;
 mod gpu_progressive_render;
 mod gpu_render_space;
 mod gpu_renders_fixtures;
+#[cfg(target_os = "linux")]
+mod gpu_resume;
 mod gpu_rng_matches_cpu;
 mod gpu_sampling_chi2;
 mod gpu_specialization;

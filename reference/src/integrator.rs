@@ -372,6 +372,21 @@ pub fn render_samples(
     samples: Range<u32>,
     progress: &(dyn Fn(u64) + Sync),
 ) -> FilmSums {
+    render_samples_until(scene, settings, integrator, samples, progress, &|| false)
+        .expect("a render that is never stopped ends")
+}
+
+/// [`render_samples`], abandoned where `stop()` is true as a tile starts:
+/// `None`, and none of the range's sums (a render stopped by an interrupt
+/// drops the range in flight and keeps the film it had).
+pub fn render_samples_until(
+    scene: &Scene,
+    settings: &RenderSettings,
+    integrator: Integrator,
+    samples: Range<u32>,
+    progress: &(dyn Fn(u64) + Sync),
+    stop: &(dyn Fn() -> bool + Sync),
+) -> Option<FilmSums> {
     let lights = match integrator {
         Integrator::Mis => LightSet::new(scene),
         Integrator::Bsdf => LightSet::default(),
@@ -380,9 +395,12 @@ pub fn render_samples(
     let (w, h) = (settings.width, settings.height);
     let tiles_x = w.div_ceil(TILE_SIZE);
     let tiles_y = h.div_ceil(TILE_SIZE);
-    let tiles: Vec<(u32, Vec<PixelSums>)> = (0..tiles_x * tiles_y)
+    let tiles: Option<Vec<(u32, Vec<PixelSums>)>> = (0..tiles_x * tiles_y)
         .into_par_iter()
         .map(|tile| {
+            if stop() {
+                return None;
+            }
             let (x0, y0) = ((tile % tiles_x) * TILE_SIZE, (tile / tiles_x) * TILE_SIZE);
             let (x1, y1) = ((x0 + TILE_SIZE).min(w), (y0 + TILE_SIZE).min(h));
             let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
@@ -403,11 +421,11 @@ pub fn render_samples(
                 }
             }
             progress(out.len() as u64);
-            (tile, out)
+            Some((tile, out))
         })
         .collect();
     let mut film = FilmSums::new(w, h);
-    for (tile, pixels) in tiles {
+    for (tile, pixels) in tiles? {
         let (x0, y0) = ((tile % tiles_x) * TILE_SIZE, (tile / tiles_x) * TILE_SIZE);
         let x1 = (x0 + TILE_SIZE).min(w);
         let tw = (x1 - x0) as usize;
@@ -416,7 +434,7 @@ pub fn render_samples(
             film.pixels[(y * w + x) as usize] = p;
         }
     }
-    film
+    Some(film)
 }
 
 #[cfg(test)]

@@ -23,6 +23,7 @@
 
 pub mod diff;
 pub mod export;
+pub mod interrupt;
 pub mod outputs;
 pub mod perf;
 pub mod selftest;
@@ -172,6 +173,17 @@ pub struct RenderArgs {
     /// systems and scripts.
     #[arg(long)]
     pub json: bool,
+    /// Continue an interrupted render from its partial film (the
+    /// OUT.partial.exr it wrote), with the rest of the command as it was:
+    /// traces only the samples the part lacks, and writes the image an
+    /// uninterrupted render writes, bit for bit.
+    #[arg(long, value_name = "PART")]
+    pub resume: Option<PathBuf>,
+    /// Write the samples done so far as a partial film (OUT.partial.exr,
+    /// replaced whole each time) every DURATION (e.g. 10m, 600): a killed
+    /// job or a lost GPU loses at most that much (`--resume` it).
+    #[arg(long, value_name = "DURATION", allow_hyphen_values = true)]
+    pub checkpoint: Option<String>,
     #[command(flatten)]
     pub variant: spec::VariantArgs,
 }
@@ -328,6 +340,11 @@ pub(crate) fn print_warnings(ctx: &gpu::GpuContext) {
 
 /// `--time DURATION`: `90s`, `2m`, `1.5h`, `500ms` or plain seconds.
 pub fn parse_duration(text: &str) -> Result<std::time::Duration> {
+    parse_duration_for("--time", text)
+}
+
+/// A duration given to `flag`, as [`parse_duration`] reads it.
+pub fn parse_duration_for(flag: &str, text: &str) -> Result<std::time::Duration> {
     let t = text.trim();
     let (number, scale) = [("ms", 1e-3), ("s", 1.0), ("m", 60.0), ("h", 3600.0)]
         .iter()
@@ -337,7 +354,7 @@ pub fn parse_duration(text: &str) -> Result<std::time::Duration> {
         Ok(v) if v.is_finite() && v > 0.0 && v * scale < 1e9 => {
             Ok(std::time::Duration::from_secs_f64(v * scale))
         }
-        _ => bail!("--time `{text}`: expected a positive duration such as 90s, 2m, 1.5h or 500ms"),
+        _ => bail!("{flag} `{text}`: expected a positive duration such as 90s, 2m, 1.5h or 500ms"),
     }
 }
 
@@ -383,6 +400,76 @@ impl std::fmt::Display for Refused {
 
 impl std::error::Error for Refused {}
 
+/// A render stopped by a signal: `line` says what was saved and how to
+/// continue; the process exits with `code` (128 + the signal's number).
+#[derive(Debug)]
+pub struct Interrupted {
+    pub code: u8,
+    pub line: String,
+}
+
+impl std::fmt::Display for Interrupted {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.line)
+    }
+}
+
+impl std::error::Error for Interrupted {}
+
+/// Where a render writes the samples done when it stops early (a signal,
+/// a lost device, a checkpoint): `OUT.partial.exr` and `OUT.partial.png`.
+struct PartialPaths {
+    /// `OUT.partial`, as [`twintrace::partial::Part::write`] takes it.
+    base: PathBuf,
+    exr: PathBuf,
+    png: PathBuf,
+}
+
+fn partial_paths(paths: &image_io::OutputPaths) -> Result<PartialPaths> {
+    let mut base = paths.exr.with_extension("").into_os_string();
+    base.push(".partial");
+    let base = PathBuf::from(base);
+    let p = image_io::output_paths(&base)?;
+    Ok(PartialPaths {
+        base,
+        exr: p.exr,
+        png: p.png,
+    })
+}
+
+/// This process's command line with `--resume PART` in place of any
+/// `--resume` it had, quoted for a POSIX shell: the command that continues
+/// the render from `part`.
+fn continue_command(part: &std::path::Path) -> String {
+    let mut words: Vec<String> = Vec::new();
+    let mut args = std::env::args_os().map(|a| a.to_string_lossy().into_owned());
+    while let Some(a) = args.next() {
+        if a == "--resume" {
+            args.next();
+        } else if !a.starts_with("--resume=") {
+            words.push(a);
+        }
+    }
+    words.push("--resume".into());
+    words.push(part.display().to_string());
+    words
+        .iter()
+        .map(|w| shell_quote(w))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// `word` as a POSIX shell reads it back: as is where it holds only safe
+/// characters, else in single quotes.
+fn shell_quote(word: &str) -> String {
+    let safe = |c: char| c.is_ascii_alphanumeric() || "_-+=/.,:@%".contains(c);
+    if !word.is_empty() && word.chars().all(safe) {
+        word.to_string()
+    } else {
+        format!("'{}'", word.replace('\'', "'\\''"))
+    }
+}
+
 /// The wall time of a command's phases, each from the end of the one
 /// before (`render --timings`).
 struct Phases {
@@ -425,6 +512,7 @@ fn aov_extras(
     layers: &[twintrace::aov::AovLayer],
     scene: &reference::Scene,
     (spp, rejected): (u32, u64),
+    sums: Option<&reference::film::FilmSums>,
 ) -> Result<image_io::ExrExtras> {
     let mut extras = image_io::ExrExtras::default();
     if layers.iter().any(|l| l.traced()) {
@@ -438,26 +526,53 @@ fn aov_extras(
         extras.u32_channels.push(if rejected == 0 {
             twintrace::aov::samples_channel_uniform(w as usize * h as usize, spp)
         } else {
-            twintrace::aov::samples_channel(&progressive.sums()?)
+            match sums {
+                Some(sums) => twintrace::aov::samples_channel(sums),
+                None => twintrace::aov::samples_channel(&progressive.sums()?),
+            }
         });
     }
     Ok(extras)
 }
 
 fn render(args: &RenderArgs) -> Result<()> {
+    // First: a Ctrl-C from here on is answered with the samples done.
+    interrupt::install()?;
     let mut phases = Phases::new();
     if args.threads == Some(0) {
         bail!("--threads 0: at least one thread is needed");
     }
     // Fail on an unusable output path or option now, not after a long render.
     let paths = image_io::output_paths(&args.output)?;
+    let partial = partial_paths(&paths)?;
     let written = render_outputs("-o", &args.output, &paths);
+    let partial_written = {
+        let arg = format!("-o {} (its partial film)", args.output.display());
+        vec![
+            outputs::output(arg.clone(), &partial.exr),
+            outputs::output(arg, &partial.png),
+        ]
+    };
     let scene_file = std::path::Path::new(&args.scene);
     let mut read = Vec::new();
     if scene_file.exists() {
         read.push(outputs::input_file("scene", scene_file));
     }
-    outputs::check(&read, &written)?;
+    let resume_input = args
+        .resume
+        .as_ref()
+        .map(|p| outputs::input_file("resume part", p));
+    // The output never overwrites the resume part; the partial film may
+    // (it holds the part's samples and more, and replaces it whole).
+    let check_outputs = |read: &[outputs::Named]| -> Result<()> {
+        let mut inputs = read.to_vec();
+        inputs.extend(resume_input.clone());
+        outputs::check(&inputs, &written)?;
+        let all: Vec<outputs::Named> = written.iter().chain(&partial_written).cloned().collect();
+        outputs::check(read, &all)?;
+        Ok(())
+    };
+    check_outputs(&read)?;
     drop(AtomicFile::create(&paths.exr)?);
     if let Some(size) = &args.size {
         size_arg(size)?;
@@ -465,6 +580,12 @@ fn render(args: &RenderArgs) -> Result<()> {
     if let Some(t) = &args.time {
         parse_duration(t)?;
     }
+    let checkpoint = args
+        .checkpoint
+        .as_deref()
+        .map(|t| parse_duration_for("--checkpoint", t))
+        .transpose()
+        .map_err(|e| Refused(e.to_string()))?;
     let samples = args
         .samples
         .as_deref()
@@ -491,7 +612,7 @@ fn render(args: &RenderArgs) -> Result<()> {
             f.clone(),
         )
     }));
-    outputs::check(&read, &written)?;
+    check_outputs(&read)?;
     phases.end("scene");
     let mut settings = resolve_settings(scene.render_settings(), args)?;
     if let Some(range) = &samples {
@@ -507,6 +628,26 @@ fn render(args: &RenderArgs) -> Result<()> {
         settings.spp = range.end - range.start;
     }
     let budget = budget(args, &settings)?;
+    let spec = spec::spec(&args.look, &args.variant);
+    // The samples this command renders, whole: a budget's cap.
+    let range = match (&samples, &budget) {
+        (Some(r), _) => r.clone(),
+        (None, Some(b)) => 0..b.max_samples,
+        (None, None) => 0..settings.spp,
+    };
+    let key = twintrace::partial::RenderKey::new(&scene, &settings, spec.integrator());
+    let base = match &args.resume {
+        Some(path) => {
+            let part = twintrace::partial::Part::read(path)
+                .map_err(|e| Refused(format!("--resume: {}", one_line(&format!("{e:#}")))))?;
+            part.resume_check(path, &key, &range)
+                .map_err(|e| Refused(e.to_string()))?;
+            Some(part)
+        }
+        None => None,
+    };
+    // The samples left to trace.
+    let todo = base.as_ref().map_or(range.start, |p| p.samples.end)..range.end;
     let pool = match args.threads {
         Some(n) => Some(
             rayon::ThreadPoolBuilder::new()
@@ -516,7 +657,6 @@ fn render(args: &RenderArgs) -> Result<()> {
         ),
         None => None,
     };
-    let spec = spec::spec(&args.look, &args.variant);
     let (device, _, why) = open_device(args)?;
     phases.end("device");
     let devices = match &device {
@@ -539,24 +679,84 @@ fn render(args: &RenderArgs) -> Result<()> {
     let pixels = settings.width as u64 * settings.height as u64;
     let start = Instant::now();
     let mut stopped_by: Option<(&'static str, Option<f64>)> = None;
-    let (gpu_time, stopped) = match &budget {
-        None => {
-            let bar = progress_bar(pixels * settings.spp as u64);
-            let range = samples.clone().unwrap_or(0..settings.spp);
-            let added = progressive.add(range, &|n| bar.inc(n))?;
+    let film_settings = settings;
+    // The partial film of the samples `range.start..end` the render holds
+    // (the resume part's and the film's, added).
+    let make_part =
+        |mut sums: reference::film::FilmSums, end: u32| -> Result<twintrace::partial::Part> {
+            let mut devices = device_name.clone();
+            if let Some(base) = &base {
+                sums.merge(&base.sums).map_err(|e| anyhow!(e))?;
+                if !base.devices.split(", ").any(|d| d == device_name) {
+                    devices = format!("{}, {device_name}", base.devices);
+                }
+            }
+            Ok(twintrace::partial::Part {
+                key: key.clone(),
+                samples: range.start..end,
+                devices,
+                sums,
+                metadata: RenderMetadata::for_render(
+                    &args.scene,
+                    &film_settings,
+                    end - range.start,
+                    &device_name,
+                    spec.integrator(),
+                ),
+                target: Some(range.clone()),
+            })
+        };
+    // The partial film of the samples `range.start..` the render holds
+    // (the resume part's and the film's, added).
+    let part_of = |progressive: &mut dyn twintrace::render::Progressive| {
+        let (end, sums) = twintrace::render::held_film(progressive, todo.start)?;
+        make_part(sums, end)
+    };
+    // The end of the samples the last checkpoint wrote.
+    let checkpointed = std::cell::Cell::new(None::<u32>);
+    let mut last_checkpoint = Instant::now();
+    let mut after_chunk = |progressive: &mut dyn twintrace::render::Progressive| -> Result<()> {
+        let Some(every) = checkpoint else {
+            return Ok(());
+        };
+        if last_checkpoint.elapsed() < every {
+            return Ok(());
+        }
+        let part = part_of(progressive)?;
+        part.write(&partial.base, spec.tonemap)?;
+        checkpointed.set(Some(part.samples.end));
+        last_checkpoint = Instant::now();
+        Ok(())
+    };
+    let stop = || interrupt::received().is_some();
+    let mut chunking =
+        twintrace::render::Chunking::new(twintrace::render::CHUNK_TIME, &stop, &mut after_chunk);
+    let bar = match &budget {
+        None => progress_bar(pixels * (todo.end - todo.start) as u64),
+        Some(_) => indicatif::ProgressBar::new_spinner(),
+    };
+    // The samples done: `range.start..end`.
+    let rendered: Result<(u32, bool, Option<std::time::Duration>, String)> = match &budget {
+        _ if todo.is_empty() => Ok((todo.end, false, None, String::new())),
+        None => twintrace::render::add_chunked(
+            progressive.as_mut(),
+            todo.clone(),
+            Some(&mut chunking),
+            &|n| bar.inc(n),
+        )
+        .map(|added| {
             bar.finish_and_clear();
             for (i, share) in added.shares.iter().enumerate() {
                 eprintln!(
                     "device {i} `{}`: {} samples a pixel ({:.0} %)",
                     share.adapter,
                     share.samples,
-                    100.0 * share.samples as f64 / settings.spp as f64
+                    100.0 * share.samples as f64 / (todo.end - todo.start) as f64
                 );
             }
-            (added.gpu_time, String::new())
-        }
+            (added.end, added.stopped, added.gpu_time, String::new())
+        }),
         Some(budget) => {
-            let bar = indicatif::ProgressBar::new_spinner();
             let mut status = |spp: u32, relmse: Option<f64>, left: Option<std::time::Duration>| {
                 let mut m = format!("{spp} spp");
                 if let Some(e) = relmse {
@@ -568,21 +768,126 @@ fn render(args: &RenderArgs) -> Result<()> {
                 bar.set_message(m);
                 bar.tick();
             };
-            let out =
-                twintrace::render::run_budget(progressive.as_mut(), budget, &mut status, &|_| {})?;
-            bar.finish_and_clear();
-            settings.spp = out.samples;
-            stopped_by = Some((out.stopped, out.relmse));
-            let relmse = out
-                .relmse
-                .map(|e| format!(", predicted relMSE {e:.2e}"))
-                .unwrap_or_default();
-            (
-                out.gpu_time,
-                format!(" (stopped by {}{relmse})", out.stopped),
+            twintrace::render::run_budget_with(
+                progressive.as_mut(),
+                budget,
+                todo.start,
+                base.as_ref().map(|p| &p.sums),
+                Some(&mut chunking),
+                &mut status,
+                &|_| {},
             )
+            .map(|out| {
+                bar.finish_and_clear();
+                let interrupted = out.stopped == twintrace::render::INTERRUPTED;
+                if !interrupted {
+                    stopped_by = Some((out.stopped, out.relmse));
+                }
+                let relmse = out
+                    .relmse
+                    .map(|e| format!(", predicted relMSE {e:.2e}"))
+                    .unwrap_or_default();
+                (
+                    out.samples,
+                    interrupted,
+                    out.gpu_time,
+                    format!(" (stopped by {}{relmse})", out.stopped),
+                )
+            })
         }
     };
+    bar.finish_and_clear();
+    let (end, interrupted, gpu_time, stopped) = match rendered {
+        Ok(r) => r,
+        Err(e) => {
+            // A device lost (or any failure) mid-render: the chunks done
+            // are what the film holds, if it can still be read.
+            let held = twintrace::render::held_film(progressive.as_mut(), todo.start);
+            let saved = match held {
+                Ok((end, sums)) if end > todo.start => make_part(sums, end).and_then(|part| {
+                    part.write(&partial.base, spec.tonemap)?;
+                    Ok((partial.exr.clone(), end))
+                }),
+                Ok(_) => Err(anyhow!("no sample was done")),
+                Err(e) => Err(e),
+            };
+            let what = match (saved, checkpointed.get(), &args.resume) {
+                (Ok((p, end)), _, _) => format!(
+                    "samples {}..{end} of {}..{} are saved in `{}`: continue with: {}",
+                    range.start,
+                    range.start,
+                    range.end,
+                    p.display(),
+                    continue_command(&p)
+                ),
+                (Err(why), Some(c), _) => format!(
+                    "the film could not be read ({}); the last checkpoint `{}` holds samples {}..{c}: continue with: {}",
+                    one_line(&format!("{why:#}")),
+                    partial.exr.display(),
+                    range.start,
+                    continue_command(&partial.exr)
+                ),
+                (Err(why), None, Some(resume)) => format!(
+                    "nothing new was saved ({}); `{}` still holds samples {}..{}: continue with: {}",
+                    one_line(&format!("{why:#}")),
+                    resume.display(),
+                    range.start,
+                    todo.start,
+                    continue_command(resume)
+                ),
+                (Err(why), None, None) => format!(
+                    "nothing was saved ({}; --checkpoint DURATION saves the samples done as the render goes)",
+                    one_line(&format!("{why:#}"))
+                ),
+            };
+            return Err(anyhow!("{}; {what}", one_line(&format!("{e:#}"))));
+        }
+    };
+    if interrupted {
+        let signal = interrupt::received().expect("stopped by a signal");
+        let resume_from = if end > todo.start {
+            part_of(progressive.as_mut())?.write(&partial.base, spec.tonemap)?;
+            Some(partial.exr.clone())
+        } else {
+            args.resume.clone()
+        };
+        let line = match &resume_from {
+            Some(p) => format!(
+                "interrupted by {}: samples {}..{end} of {}..{} are saved in `{}`; continue with: {}",
+                signal.name(),
+                range.start,
+                range.start,
+                range.end,
+                p.display(),
+                continue_command(p)
+            ),
+            None => format!(
+                "interrupted by {} before the first samples were done; nothing was written",
+                signal.name()
+            ),
+        };
+        if args.json {
+            let json = serde_json::json!({
+                "scene": args.scene,
+                "interrupted": signal.name(),
+                "samples": [range.start, end],
+                "target_samples": [range.start, range.end],
+                "partial": resume_from,
+                "resume_command": resume_from.as_deref().map(continue_command),
+                "device": device_name,
+                "render_s": start.elapsed().as_secs_f64(),
+            });
+            print_stdout(&format!("{json}\n"))?;
+        }
+        return Err(Interrupted {
+            code: signal.exit_code(),
+            line,
+        }
+        .into());
+    }
+    if budget.is_some() {
+        settings.spp = end;
+    }
     let seconds = start.elapsed().as_secs_f64();
     phases.end("rendering");
     let mut file_times = String::new();
@@ -595,22 +900,28 @@ fn render(args: &RenderArgs) -> Result<()> {
         spec.integrator(),
     );
     let nonfinite = match samples.clone() {
-        Some(range) => {
-            let sums = progressive.sums()?;
+        Some(_) => {
+            let mut part = part_of(progressive.as_mut())?;
             phases.end("image read");
-            let nonfinite = sums.pixels.iter().map(|p| p.rejected as u64).sum();
-            let part = twintrace::partial::Part {
-                key: twintrace::partial::RenderKey::new(&scene, &settings, spec.integrator()),
-                samples: range,
-                devices: device_name.clone(),
-                sums,
-                metadata,
-            };
+            let nonfinite = part.sums.pixels.iter().map(|p| p.rejected as u64).sum();
+            part.metadata = metadata;
+            // Whole: a part of any render of its range or more.
+            part.target = None;
             part.write(&args.output, spec.tonemap)?;
             nonfinite
         }
         None => {
-            let layers = progressive.layers()?;
+            let (layers, merged) = match &base {
+                // A resumed render's layers, from its sums and the part's.
+                Some(_) => {
+                    let part = part_of(progressive.as_mut())?;
+                    (
+                        twintrace::render::Layers::from_sums(&part.sums),
+                        Some(part.sums),
+                    )
+                }
+                None => (progressive.layers()?, None),
+            };
             phases.end("image read");
             let nonfinite = layers.rejected;
             let image = RenderImage::from_layers(layers, metadata);
@@ -619,6 +930,7 @@ fn render(args: &RenderArgs) -> Result<()> {
                 &aovs,
                 &scene,
                 (settings.spp, nonfinite),
+                merged.as_ref(),
             )?;
             if !aovs.is_empty() {
                 phases.end("AOVs");
@@ -674,7 +986,8 @@ fn render(args: &RenderArgs) -> Result<()> {
             eprintln!("{line}");
         }
     }
-    let traced = (pixels * settings.spp as u64) as f64;
+    // The samples this run traced (a resumed render's part traced the rest).
+    let traced = (pixels * (end - todo.start) as u64) as f64;
     let gpu_note = match gpu_time {
         Some(t) => format!(
             " (GPU time {:.3} s: {:.2e} samples/s)",
@@ -683,10 +996,23 @@ fn render(args: &RenderArgs) -> Result<()> {
         ),
         None => String::new(),
     };
-    let range_note = match &samples {
+    let mut range_note = match &samples {
         Some(r) => format!(" (samples {}..{}, a partial film)", r.start, r.end),
         None => String::new(),
     };
+    if let Some(part) = &base {
+        let _ = write!(
+            range_note,
+            " (resumed: samples {}..{} from `{}`, {}..{end} traced now)",
+            part.samples.start,
+            part.samples.end,
+            args.resume
+                .as_deref()
+                .unwrap_or(std::path::Path::new(""))
+                .display(),
+            todo.start
+        );
+    }
     if args.json {
         let json = serde_json::json!({
             "scene": args.scene,
@@ -698,6 +1024,10 @@ fn render(args: &RenderArgs) -> Result<()> {
             "integrator": spec.integrator().name(),
             "device": device_name,
             "samples": samples.as_ref().map(|r| [r.start, r.end]),
+            "resumed": base.as_ref().map(|p| serde_json::json!({
+                "part": args.resume,
+                "samples": [p.samples.start, p.samples.end],
+            })),
             "stopped_by": stopped_by.map(|(why, _)| why),
             "predicted_relmse": stopped_by.and_then(|(_, e)| e),
             "render_s": seconds,

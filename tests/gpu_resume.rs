@@ -1,0 +1,62 @@
+//! Resumable renders on the GPU (lavapipe in CI): interrupted at seeded
+//! random points (before the first chunk: the device still opening; in
+//! the middle; near the end), resumed by each run's own continue command,
+//! the film equals the uninterrupted GPU render's bit for bit (the
+//! resumed film's layers are computed on the host from the part's sums
+//! and the device's, which equal the device's layers bit for bit,
+//! `twins::film::layers`). A device lost mid-render takes its film with
+//! it: the chunks done cannot be read, and [`held_film`] says so.
+
+use crate::resume::interrupt_and_resume;
+use std::time::Duration;
+use twintrace::render::{
+    add_chunked, held_film, Chunking, GpuProgressive, Progressive, RenderSpec,
+};
+
+/// 256 samples a pixel of a 16x16 Cornell box: about 1 s of lavapipe's
+/// tracing after about 1.2 s of opening the device and its kernels.
+#[test]
+fn interrupted_gpu_renders_resume_to_the_whole_render_bit_for_bit() {
+    let render = [
+        "render",
+        "cornell",
+        "--backend",
+        "gpu",
+        "--size",
+        "16x16",
+        "--spp",
+        "256",
+    ];
+    let (resumed, log) = interrupt_and_resume(&render, 0x5eed_6043, 1);
+    eprintln!("{log}");
+    assert!(resumed >= 1, "no run was resumed: {log}");
+}
+
+#[test]
+fn a_device_lost_mid_render_takes_its_film_with_it() {
+    let ctx = crate::common::own_gpu();
+    let scene = reference::load_scene("cornell").unwrap();
+    let settings = reference::RenderSettings {
+        width: 8,
+        height: 8,
+        spp: 16,
+        max_depth: 4,
+        ..scene.render_settings()
+    };
+    let mut p = GpuProgressive::new(&ctx, &scene, &RenderSpec::DEFAULT, settings).unwrap();
+    let never = || false;
+    let chunks = std::cell::Cell::new(0);
+    let mut lose = |_: &mut dyn Progressive| {
+        chunks.set(chunks.get() + 1);
+        if chunks.get() == 2 {
+            ctx.device.destroy();
+        }
+        Ok(())
+    };
+    let mut c = Chunking::new(Duration::ZERO, &never, &mut lose);
+    let e = add_chunked(&mut p, 0..16, Some(&mut c), &|_| {}).unwrap_err();
+    // Two one-sample chunks were done before the device went.
+    assert_eq!(p.ranges(), std::slice::from_ref(&(0..2)), "{e}");
+    let lost = held_film(&mut p, 0).unwrap_err();
+    assert!(!lost.to_string().is_empty());
+}
