@@ -1,7 +1,7 @@
 //! The command line's text arguments: whole numbers, sample ranges,
 //! image sizes and durations. Each takes the text as the user typed it.
 
-use anyhow::{anyhow, bail, Result};
+use anyhow::{anyhow, Result};
 use reference::scene::MAX_SPP;
 use std::ops::Range;
 
@@ -71,12 +71,17 @@ pub fn parse_duration(text: &str) -> Result<std::time::Duration> {
         .iter()
         .find_map(|(unit, scale)| t.strip_suffix(unit).map(|n| (n, *scale)))
         .unwrap_or((t, 1.0));
+    // A duration below a nanosecond (`1e-12s`) is zero as a `Duration`:
+    // not positive, so refused with the rest.
     match number.trim().parse::<f64>() {
         Ok(v) if v.is_finite() && v > 0.0 && v * scale < 1e9 => {
-            Ok(std::time::Duration::from_secs_f64(v * scale))
+            Some(std::time::Duration::from_secs_f64(v * scale)).filter(|d| !d.is_zero())
         }
-        _ => bail!("--time `{text}`: expected a positive duration such as 90s, 2m, 1.5h or 500ms"),
+        _ => None,
     }
+    .ok_or_else(|| {
+        anyhow!("--time `{text}`: expected a positive duration such as 90s, 2m, 1.5h or 500ms")
+    })
 }
 
 #[cfg(test)]
@@ -94,6 +99,29 @@ mod tests {
         for bad in ["0 .. 4", "-1..4", "+1..4", "4..2", "0..", "..4", "0...4"] {
             let e = parse_samples(bad).unwrap_err().to_string();
             assert!(e.starts_with(&format!("--samples `{bad}`")), "{e}");
+        }
+    }
+
+    #[test]
+    fn durations_are_positive() {
+        assert_eq!(parse_duration("1.5h").unwrap().as_secs(), 5400);
+        assert_eq!(parse_duration("500ms").unwrap().as_millis(), 500);
+        assert_eq!(parse_duration("1e-9").unwrap().as_nanos(), 1);
+        // Found by the fuzz target cli_text: positive numbers below a
+        // nanosecond were accepted as a zero duration.
+        for bad in [
+            "0",
+            "-1s",
+            "nan",
+            "inf",
+            "1e9",
+            "x",
+            ".00000000008000000",
+            "1e-12s",
+            "1e-300ms",
+        ] {
+            let e = parse_duration(bad).unwrap_err().to_string();
+            assert!(e.starts_with(&format!("--time `{bad}`")), "{bad}: {e}");
         }
     }
 }

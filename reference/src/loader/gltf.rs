@@ -406,8 +406,11 @@ impl GltfFile {
         if bytes.starts_with(b"glTF") {
             check_glb_header(bytes).map_err(|m| fail(format!("not a valid GLB file: {m}")))?;
         }
-        let gltf::Gltf { document, mut blob } =
-            gltf::Gltf::from_slice(bytes).map_err(|e| fail(format!("cannot read glTF: {e}")))?;
+        let gltf::Gltf { document, mut blob } = gltf::Gltf::from_slice_without_validation(bytes)
+            .map_err(|e| fail(format!("cannot read glTF: {e}")))?;
+        check_position_accessors(&document).map_err(&fail)?;
+        let document = Document::from_json(document.into_json())
+            .map_err(|e| fail(format!("cannot read glTF: {e}")))?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         let unsupported = |names: &mut dyn Iterator<Item = &str>| -> Vec<String> {
             names
@@ -492,6 +495,28 @@ fn check_glb_header(bytes: &[u8]) -> Result<(), String> {
             "the header states {length} bytes but the file has {} (at least 20 are needed)",
             bytes.len()
         ));
+    }
+    Ok(())
+}
+
+/// The `gltf` crate's validation indexes the accessor a primitive's
+/// `POSITION` names before it checks the index (it panicked on a file
+/// whose `accessors` were misspelled; found by the fuzz target `glb`).
+fn check_position_accessors(document: &Document) -> Result<(), String> {
+    let json = document.as_json();
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            let position = gltf::json::validation::Checked::Valid(Semantic::Positions);
+            if let Some(index) = primitive.attributes.get(&position) {
+                if index.value() >= json.accessors.len() {
+                    return Err(format!(
+                        "mesh {m} primitive {p}: POSITION names accessor {}, the file has {}",
+                        index.value(),
+                        json.accessors.len()
+                    ));
+                }
+            }
+        }
     }
     Ok(())
 }
