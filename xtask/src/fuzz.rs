@@ -2,7 +2,8 @@
 //! the libFuzzer targets of `fuzz/` with SanitizerCoverage on stable rustc
 //! and runs each for N seconds (docs/fuzzing.md).
 //!
-//! The build: `fuzz/` is its own workspace, built into
+//! The build: `fuzz/` is its own workspace (its lock file a copy of the
+//! workspace's, `build`), built into
 //! `<target dir>/fuzz` for the host triple named explicitly, so RUSTFLAGS
 //! reach the target crates and not the build scripts or proc macros, and
 //! the main build's artifacts are never touched. Each target starts from
@@ -116,13 +117,18 @@ fn host_triple() -> Result<String, String> {
 }
 
 /// Builds the instrumented targets; returns the folder of the binaries.
+///
+/// fuzz/Cargo.lock (not tracked) starts as a copy of the workspace's
+/// lock file, so `reference` and its dependencies build at the versions
+/// the workspace pins and a dependency added to `reference` needs no
+/// second lock file kept in step; cargo adds libFuzzer's crates to it.
 pub fn build(fuzz_dir: &Path) -> Result<PathBuf, String> {
+    crate::util::copy_atomic(Path::new("Cargo.lock"), Path::new("fuzz/Cargo.lock"))?;
     let triple = host_triple()?;
     let target_dir = fuzz_dir.display().to_string();
     let args = [
         "build",
         "--release",
-        "--locked",
         "--manifest-path",
         "fuzz/Cargo.toml",
         "--target",
@@ -210,7 +216,9 @@ fn fuzz_one(
         summary,
         failure: Some(failure),
     };
-    let seeds = PathBuf::from("fixtures/fuzz").join(target);
+    let seeds = crate::util::workspace_root()
+        .join("fixtures/fuzz")
+        .join(target);
     let corpus = fuzz_dir.join("corpus").join(target);
     let artifacts = fuzz_dir.join("artifacts").join(target);
     let logs = fuzz_dir.join("logs");
@@ -328,4 +336,90 @@ fn artifact_files(dir: &Path) -> Vec<PathBuf> {
     std::fs::read_dir(dir)
         .map(|d| d.filter_map(|e| e.ok().map(|e| e.path())).collect())
         .unwrap_or_default()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::os::unix::fs::PermissionsExt;
+
+    /// A stand-in for a target's binary: a shell script that prints
+    /// `report` as libFuzzer would, writes `artifact` (if any) where
+    /// -artifact_prefix says, and exits with `code`.
+    fn fake_target(bins: &Path, target: &str, report: &str, artifact: Option<&str>, code: i32) {
+        let write = artifact.map_or(String::new(), |name| {
+            format!(
+                "for a in \"$@\"; do case $a in -artifact_prefix=*) printf x > \"${{a#-artifact_prefix=}}{name}\";; esac; done\n"
+            )
+        });
+        let script = format!("#!/bin/sh\n{write}printf '%s\\n' '{report}' >&2\nexit {code}\n");
+        let path = bins.join(target);
+        std::fs::write(&path, script).unwrap();
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o755)).unwrap();
+    }
+
+    #[test]
+    fn a_crash_an_uninstrumented_build_or_a_clean_run() {
+        let dir = std::env::temp_dir().join(format!("xtask-fuzz-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let bins = dir.join("bins");
+        std::fs::create_dir_all(&bins).unwrap();
+        let loaded = "INFO: Loaded 1 modules   (1130 inline 8-bit counters): 1130 [0x1, 0x2),";
+        let done = "#100\tDONE   cov: 88 ft: 114 corp: 13/105b";
+
+        fake_target(&bins, "cli_text", &format!("{loaded}\n{done}"), None, 0);
+        let clean = fuzz_one(&bins, &dir, "cli_text", 1, None);
+        assert!(clean.failure.is_none(), "{:?}", clean.failure);
+        assert!(
+            clean.summary.starts_with("1130 coverage counters, #100"),
+            "{}",
+            clean.summary
+        );
+
+        // The input is named, and the command fails.
+        fake_target(
+            &bins,
+            "cli_text",
+            &format!("{loaded}\npanicked"),
+            Some("crash-1"),
+            77,
+        );
+        let crash = fuzz_one(&bins, &dir, "cli_text", 1, None);
+        let message = crash.failure.expect("a crash fails");
+        assert!(message.contains("artifacts/cli_text/crash-1"), "{message}");
+        assert!(message.contains("panicked"), "{message}");
+
+        // An input written though the process exited 0 fails too.
+        fake_target(&bins, "cli_text", loaded, Some("oom-2"), 0);
+        let oom = fuzz_one(&bins, &dir, "cli_text", 1, None);
+        assert!(oom.failure.expect("an artifact fails").contains("oom-2"));
+
+        // No coverage counters: not coverage guided, so not a pass.
+        fake_target(&bins, "cli_text", done, None, 0);
+        let blind = fuzz_one(&bins, &dir, "cli_text", 1, None);
+        assert!(blind
+            .failure
+            .expect("no counters fails")
+            .contains("no coverage counters"));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn arguments() {
+        let args = |a: &[&str]| parse(&a.iter().map(|s| s.to_string()).collect::<Vec<_>>());
+        let o = args(&["--seconds", "7", "glb", "--jobs", "3"]).unwrap();
+        assert_eq!(
+            (o.seconds, o.jobs, o.targets),
+            (7, 3, vec!["glb".to_string()])
+        );
+        assert_eq!(args(&[]).unwrap().targets.len(), TARGETS.len());
+        for bad in [
+            &["--seconds", "-1"][..],
+            &["--seconds"],
+            &["nope"],
+            &["--jobs", "x"],
+        ] {
+            assert!(args(bad).is_err(), "{bad:?}");
+        }
+    }
 }
