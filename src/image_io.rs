@@ -55,7 +55,6 @@
 
 use crate::tonemap::Tonemap;
 use anyhow::{anyhow, bail, Context, Result};
-use exr::prelude::{AttributeValue, FlatSamples, ReadChannels, ReadLayers, Text};
 use glam::Vec3;
 use reference::film::Film;
 use std::ffi::OsString;
@@ -63,10 +62,8 @@ use std::fs::File;
 use std::io::{BufWriter, Seek, Write};
 use std::path::{Path, PathBuf};
 
-/// Name of the variance layer (channel prefix) in the EXR.
-pub const VARIANCE_LAYER: &str = "variance";
-/// Name of the skewness layer (channel prefix) in the EXR.
-pub const SKEWNESS_LAYER: &str = "skewness";
+pub use readers::exr::{ExrExtras, SKEWNESS_LAYER, VARIANCE_LAYER};
+pub use readers::text::parse_size;
 
 /// Where a render and its settings came from; stored as EXR attributes.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -355,40 +352,6 @@ pub fn write_atomic(path: &Path, write: impl FnOnce(&mut File) -> Result<()>) ->
     Ok(())
 }
 
-/// What an EXR holds beyond the render image: 32-bit unsigned integer
-/// channels (lossless; a partial film's exact sums, [`crate::partial`])
-/// and text attributes, each by name.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct ExrExtras {
-    pub u32_channels: Vec<(String, Vec<u32>)>,
-    /// Float channels (a render's AOV layers, `crate::aov`).
-    pub f32_channels: Vec<(String, Vec<f32>)>,
-    pub text: Vec<(String, String)>,
-}
-
-impl ExrExtras {
-    pub fn channel(&self, name: &str) -> Option<&[u32]> {
-        self.u32_channels
-            .iter()
-            .find(|(n, _)| n == name)
-            .map(|(_, v)| v.as_slice())
-    }
-
-    pub fn f32_channel(&self, name: &str) -> Option<&[f32]> {
-        self.f32_channels
-            .iter()
-            .find(|(n, _)| n == name)
-            .map(|(_, v)| v.as_slice())
-    }
-
-    pub fn text(&self, name: &str) -> Option<&str> {
-        self.text
-            .iter()
-            .find(|(n, _)| n == name)
-            .map(|(_, v)| v.as_str())
-    }
-}
-
 /// Encodes an image as the EXR layout described in the module docs.
 pub fn write_exr_to(writer: impl Write + Seek + Send, image: &RenderImage) -> Result<()> {
     write_exr_with(writer, image, &ExrExtras::default())
@@ -628,14 +591,6 @@ impl Seek for WriteBehind<'_> {
     }
 }
 
-fn attribute_u32(value: &AttributeValue) -> Option<u32> {
-    match value {
-        AttributeValue::I32(v) => u32::try_from(*v).ok(),
-        AttributeValue::Text(t) => t.to_string().trim().parse().ok(),
-        _ => None,
-    }
-}
-
 /// Reads an EXR written by [`write_exr`] (or any EXR with `R`, `G`, `B`
 /// channels) back: the mean, the variance and skewness if the file has
 /// them, and the metadata attributes. 32-bit float channels come back bit-exactly.
@@ -647,138 +602,33 @@ pub fn read_exr(path: &Path) -> Result<RenderImage> {
 /// attributes ([`ExrExtras`]; attributes the render image reads are in
 /// it too).
 pub fn read_exr_with_extras(path: &Path) -> Result<(RenderImage, ExrExtras)> {
-    let what = || format!("cannot read EXR `{}`", path.display());
-    let image = exr::prelude::read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .all_layers()
-        .all_attributes()
-        .from_file(path)
-        .map_err(|e| anyhow!("{e}"))
-        .with_context(what)?;
-    let Some(first) = image.layer_data.first() else {
-        return Err(anyhow!("the file has no image part")).with_context(what);
+    let (layers, extras) = read_exr_layers(path)?;
+    let image = RenderImage {
+        width: layers.width,
+        height: layers.height,
+        mean: layers.mean,
+        variance: layers.variance,
+        skewness: layers.skewness,
+        metadata: layers.metadata.into(),
     };
-    let size = first.size;
-    let (width, height) = (
-        u32::try_from(size.0).with_context(what)?,
-        u32::try_from(size.1).with_context(what)?,
-    );
-    // Channel full names: a part named `variance` contributes `variance.X`
-    // (likewise `skewness`).
-    let mut channels: Vec<(String, &FlatSamples)> = Vec::new();
-    for (i, layer) in image.layer_data.iter().enumerate() {
-        let prefix = match &layer.attributes.layer_name {
-            Some(name) if i > 0 => format!("{name}."),
-            _ => String::new(),
-        };
-        if layer.size != size {
-            return Err(anyhow!(
-                "part {i} is {}x{}, the first part {}x{}",
-                layer.size.0,
-                layer.size.1,
-                size.0,
-                size.1
-            ))
-            .with_context(what);
-        }
-        for c in &layer.channel_data.list {
-            channels.push((format!("{prefix}{}", c.name), &c.sample_data));
-        }
-    }
-    let find = |name: &str| channels.iter().find(|(n, _)| n == name).map(|(_, s)| *s);
-    let read_rgb = |prefix: &str| -> Result<Option<Vec<Vec3>>> {
-        let names = ["R", "G", "B"].map(|c| format!("{prefix}{c}"));
-        let found = names.each_ref().map(|n| find(n));
-        if found.iter().all(Option::is_none) {
-            return Ok(None);
-        }
-        let mut planes = Vec::with_capacity(3);
-        for (name, samples) in names.iter().zip(found) {
-            let samples = samples.ok_or_else(|| anyhow!("channel `{name}` is missing"))?;
-            planes.push(samples.values_as_f32().collect::<Vec<f32>>());
-        }
-        Ok(Some(
-            (0..size.0 * size.1)
-                .map(|i| Vec3::new(planes[0][i], planes[1][i], planes[2][i]))
-                .collect(),
-        ))
-    };
-    let mean = read_rgb("")
-        .with_context(what)?
-        .ok_or_else(|| anyhow!("no `R`, `G`, `B` channels"))
-        .with_context(what)?;
-    let variance = read_rgb(&format!("{VARIANCE_LAYER}.")).with_context(what)?;
-    let skewness = read_rgb(&format!("{SKEWNESS_LAYER}.")).with_context(what)?;
-    let attrs = &first.attributes;
-    let get = |name: &str| {
-        attrs
-            .other
-            .get(&Text::from(name))
-            .or_else(|| image.attributes.other.get(&Text::from(name)))
-    };
-    let metadata = RenderMetadata {
-        spp: get("spp").and_then(attribute_u32),
-        max_depth: get("maxDepth").and_then(attribute_u32),
-        seed: get("seed").and_then(attribute_u32),
-        scene: get("scene").and_then(|v| {
-            if let AttributeValue::Text(t) = v {
-                Some(t.to_string())
-            } else {
-                None
-            }
-        }),
-        software: attrs.software_name.as_ref().map(|t| t.to_string()),
-    };
-    let mut extras = ExrExtras::default();
-    // The image's own channels are read above; the other float channels
-    // (a render's AOV layers) are extras.
-    let own = |name: &str| {
-        let (layer, channel) = name.rsplit_once('.').unwrap_or(("", name));
-        ["R", "G", "B"].contains(&channel) && ["", VARIANCE_LAYER, SKEWNESS_LAYER].contains(&layer)
-    };
-    for (name, samples) in &channels {
-        match samples {
-            FlatSamples::U32(values) => extras.u32_channels.push((name.clone(), values.clone())),
-            FlatSamples::F32(values) if !own(name) => {
-                extras.f32_channels.push((name.clone(), values.clone()))
-            }
-            _ => {}
-        }
-    }
-    for (name, value) in attrs.other.iter().chain(image.attributes.other.iter()) {
-        if let AttributeValue::Text(t) = value {
-            extras.text.push((name.to_string(), t.to_string()));
-        }
-    }
-    Ok((
-        RenderImage {
-            width,
-            height,
-            mean,
-            variance,
-            skewness,
-            metadata,
-        },
-        extras,
-    ))
+    Ok((image, extras))
 }
 
-/// Parses `WIDTHxHEIGHT` (`x` or `X`, no spaces inside): `1200x800`.
-/// Zero sizes parse; [`RenderSettings::validate`] rejects them.
-pub fn parse_size(s: &str) -> Result<(u32, u32)> {
-    let bad = || anyhow!("`{s}`: expected WIDTHxHEIGHT, as in 1200x800");
-    let (w, h) = s.trim().split_once(['x', 'X']).ok_or_else(bad)?;
-    let parse = |t: &str| {
-        if t.bytes().all(|b| b.is_ascii_digit()) {
-            t.parse::<u32>().ok()
-        } else {
-            None
+/// [`read_exr_with_extras`] as [`readers::exr::read`] returns it.
+pub fn read_exr_layers(path: &Path) -> Result<(readers::exr::Layers, ExrExtras)> {
+    let what = || format!("cannot read EXR `{}`", path.display());
+    let file = std::io::BufReader::new(File::open(path).with_context(what)?);
+    readers::exr::read(file).with_context(what)
+}
+
+impl From<readers::exr::Metadata> for RenderMetadata {
+    fn from(m: readers::exr::Metadata) -> Self {
+        RenderMetadata {
+            spp: m.spp,
+            max_depth: m.max_depth,
+            seed: m.seed,
+            scene: m.scene,
+            software: m.software,
         }
-    };
-    match (parse(w), parse(h)) {
-        (Some(w), Some(h)) => Ok((w, h)),
-        _ => Err(bad()),
     }
 }

@@ -32,22 +32,14 @@
 //! is corrupt and refused by name.
 
 use crate::image_io::{self, ExrExtras, RenderImage, RenderMetadata};
-use anyhow::{anyhow, bail, Context, Result};
-use reference::film::{FilmSums, PixelSums, PIXEL_WORDS, SUM_LIMBS};
+use anyhow::{anyhow, bail, Result};
+use reference::film::{FilmSums, PixelSums, PIXEL_WORDS};
 use reference::integrator::Integrator;
-use reference::scene::MAX_SPP;
 use reference::{RenderSettings, Scene};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-const SAMPLES: &str = "twintrace.samples";
-const SCENE: &str = "twintrace.scene";
-const SETTINGS: &str = "twintrace.settings";
-const VERSION: &str = "twintrace.version";
-const DEVICES: &str = "twintrace.devices";
-const TARGET: &str = "twintrace.target";
-const COUNT: &str = "sums.count";
-const REJECTED: &str = "sums.rejected";
+use readers::partial::{DEVICES, SAMPLES, SCENE, SETTINGS, TARGET, VERSION};
 
 /// What makes films parts of one render: the same scene, image, seed,
 /// path limits, estimator and renderer version.
@@ -152,56 +144,8 @@ pub struct Part {
     pub target: Option<Range<u32>>,
 }
 
-/// A whole number as the command line takes one: ASCII digits only (no
-/// sign, space or other form `str::parse` would take: `+4`, ` 4` and `-1`
-/// are refused), at most `u32::MAX`. The error says what was expected; clap
-/// names the argument and the value before it (`value_parser`, with
-/// `allow_hyphen_values` so that `-1` reaches it instead of being taken
-/// for an option).
-pub fn parse_count(s: &str) -> std::result::Result<u32, String> {
-    if s.is_empty() || !s.bytes().all(|c| c.is_ascii_digit()) {
-        return Err("expected a whole number written in digits, as in 64".into());
-    }
-    s.parse()
-        .map_err(|_| format!("expected a whole number at most {}", u32::MAX))
-}
-
-/// [`parse_count`] for a count that fits a `usize` (worker threads).
-pub fn parse_usize_count(s: &str) -> std::result::Result<usize, String> {
-    parse_count(s).map(|n| n as usize)
-}
-
-/// Parses `A..B` (sample indices `A` up to, not including, `B`), with
-/// `A < B ≤` [`MAX_SPP`].
-pub fn parse_samples(s: &str) -> Result<Range<u32>> {
-    let bad = || anyhow!("--samples `{s}`: expected A..B, as in 0..256 (A < B ≤ {MAX_SPP})");
-    let (a, b) = s.split_once("..").ok_or_else(bad)?;
-    let number = |t: &str| -> Result<u32> { parse_count(t).map_err(|_| bad()) };
-    let (a, b) = (number(a)?, number(b)?);
-    if a >= b || b > MAX_SPP {
-        return Err(bad());
-    }
-    Ok(a..b)
-}
-
-/// The EXR channel of word `i` of [`PixelSums::to_words`]: `sums.count`,
-/// `sums.rejected`, then `sums.<C>.s<k>.<word>`.
-fn word_channel(i: usize) -> String {
-    match i {
-        0 => COUNT.into(),
-        1 => REJECTED.into(),
-        _ => {
-            let per_channel = 2 * SUM_LIMBS.iter().sum::<usize>();
-            let (c, mut w) = ((i - 2) / per_channel, (i - 2) % per_channel);
-            let mut k = 0;
-            while w >= 2 * SUM_LIMBS[k] {
-                w -= 2 * SUM_LIMBS[k];
-                k += 1;
-            }
-            format!("sums.{}.s{}.{w}", ["R", "G", "B"][c], k + 1)
-        }
-    }
-}
+pub use readers::partial::word_channel;
+pub use readers::text::{parse_count, parse_samples, parse_usize_count};
 
 impl Part {
     /// The render image of this range (mean, variance, skewness from the
@@ -294,91 +238,20 @@ impl Part {
     /// channels are there, every pixel holds its range's samples, and its
     /// sums give its own mean, variance and skewness.
     pub fn read(path: &Path) -> Result<Part> {
-        let name = path.display();
-        let (image, extras) = image_io::read_exr_with_extras(path)?;
-        let text = |attr: &str| {
-            extras.text(attr).map(str::to_string).ok_or_else(|| {
-                anyhow!("`{name}` is not a partial film (no `{attr}` attribute; render parts with --samples A..B)")
-            })
-        };
-        let samples = parse_samples(&text(SAMPLES)?).with_context(|| format!("`{name}`"))?;
-        let key = RenderKey {
-            scene: text(SCENE)?,
-            settings: text(SETTINGS)?,
-            version: text(VERSION)?,
-        };
-        let devices = text(DEVICES)?;
-        let target = extras
-            .text(TARGET)
-            .map(|t| parse_samples(t).with_context(|| format!("`{name}`: {TARGET}")))
-            .transpose()?;
-        if let Some(t) = &target {
-            if samples.start < t.start || samples.end > t.end {
-                bail!(
-                    "`{name}` is corrupt: its samples {}..{} are not within its render's {}..{}",
-                    samples.start,
-                    samples.end,
-                    t.start,
-                    t.end
-                );
-            }
-        }
-        let n = image.width as usize * image.height as usize;
-        let channel = |c: &str| {
-            extras
-                .channel(c)
-                .filter(|v| v.len() == n)
-                .ok_or_else(|| anyhow!("`{name}` is corrupt: its channel `{c}` is missing"))
-        };
-        let mut words = vec![[0u32; PIXEL_WORDS]; n];
-        for i in 0..PIXEL_WORDS {
-            for (w, &v) in words.iter_mut().zip(channel(&word_channel(i))?) {
-                w[i] = v;
-            }
-        }
-        let sums = FilmSums {
-            width: image.width,
-            height: image.height,
-            pixels: words.iter().map(PixelSums::from_words).collect(),
-        };
-        let expected = samples.end - samples.start;
-        if let Some((x, y, held)) = short_pixel(&sums, expected) {
-            bail!(
-                "`{name}` is corrupt: pixel ({x}, {y}) holds {held} samples, its range {}..{} has {expected}",
-                samples.start,
-                samples.end
-            );
-        }
-        let part = Part {
-            key,
-            samples,
-            devices,
-            sums,
-            metadata: image.metadata.clone(),
-            target,
-        };
-        let own = part.image();
-        // Bits, not values: NaN layers compare too. A missing layer is
-        // a layer that differs.
-        let bits = |image: &RenderImage| -> Vec<Option<Vec<u32>>> {
-            [
-                Some(&image.mean),
-                image.variance.as_ref(),
-                image.skewness.as_ref(),
-            ]
-            .map(|layer| {
-                layer.map(|v| {
-                    v.iter()
-                        .flat_map(|p| p.to_array().map(f32::to_bits))
-                        .collect()
-                })
-            })
-            .into()
-        };
-        if bits(&own) != bits(&image) {
-            bail!("`{name}` is corrupt: its sums do not give its mean, variance and skewness");
-        }
-        Ok(part)
+        let (image, extras) = image_io::read_exr_layers(path)?;
+        let part = readers::partial::decode(&path.display().to_string(), &image, &extras)?;
+        Ok(Part {
+            key: RenderKey {
+                scene: part.scene,
+                settings: part.settings,
+                version: part.version,
+            },
+            samples: part.samples,
+            devices: part.devices,
+            sums: part.sums,
+            metadata: image.metadata.into(),
+            target: part.target,
+        })
     }
 }
 
@@ -457,23 +330,4 @@ pub fn merge(mut parts: Vec<(PathBuf, Part)>) -> Result<Part> {
     merged.target = None;
     merged.metadata.spp = Some(merged.samples.end - merged.samples.start);
     Ok(merged)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn counts_and_ranges_are_digits_only() {
-        assert_eq!(parse_count("64"), Ok(64));
-        assert_eq!(parse_count("4294967295"), Ok(u32::MAX));
-        for bad in ["", "+4", " 4", "4 ", "-1", "1e3", "0x10", "4294967296"] {
-            assert!(parse_count(bad).is_err(), "`{bad}` accepted");
-        }
-        assert_eq!(parse_samples("0..4").unwrap(), 0..4);
-        for bad in ["0 .. 4", "-1..4", "+1..4", "4..2", "0..", "..4", "0...4"] {
-            let e = parse_samples(bad).unwrap_err().to_string();
-            assert!(e.starts_with(&format!("--samples `{bad}`")), "{e}");
-        }
-    }
 }

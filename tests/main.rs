@@ -22,6 +22,7 @@ mod khronos_assets;
 mod known_answers;
 mod light_sampling;
 mod mis_matches_bsdf;
+mod partial_film_roundtrip;
 mod perf_regression;
 mod progressive_render;
 mod reference_images;

@@ -591,6 +591,8 @@ fn text_files() -> Vec<PathBuf> {
         "src",
         "tests",
         "reference",
+        "readers",
+        "fuzz",
         "gpu",
         "shaders",
         "docs",
@@ -611,8 +613,10 @@ fn text_files() -> Vec<PathBuf> {
 /// that names them; placeholders in capitals or with `<`, `*` or `{` are
 /// skipped).
 fn dangling_paths(text: &str, root: &Path, base: &Path) -> Vec<String> {
-    const TOPS: [&str; 9] = [
+    const TOPS: [&str; 11] = [
         "reference/",
+        "readers/",
+        "fuzz/",
         "gpu/",
         "src/",
         "tests/",

@@ -7,4 +7,5 @@ mod common;
 mod bvh_property;
 #[cfg(feature = "embree")]
 mod embree_agreement;
+mod fuzz_regressions;
 mod numerical_stability;

@@ -338,25 +338,7 @@ pub(crate) fn print_warnings(ctx: &gpu::GpuContext) {
     }
 }
 
-/// `--time DURATION`: `90s`, `2m`, `1.5h`, `500ms` or plain seconds.
-pub fn parse_duration(text: &str) -> Result<std::time::Duration> {
-    parse_duration_for("--time", text)
-}
-
-/// A duration given to `flag`, as [`parse_duration`] reads it.
-pub fn parse_duration_for(flag: &str, text: &str) -> Result<std::time::Duration> {
-    let t = text.trim();
-    let (number, scale) = [("ms", 1e-3), ("s", 1.0), ("m", 60.0), ("h", 3600.0)]
-        .iter()
-        .find_map(|(unit, scale)| t.strip_suffix(unit).map(|n| (n, *scale)))
-        .unwrap_or((t, 1.0));
-    match number.trim().parse::<f64>() {
-        Ok(v) if v.is_finite() && v > 0.0 && v * scale < 1e9 => {
-            Ok(std::time::Duration::from_secs_f64(v * scale))
-        }
-        _ => bail!("{flag} `{text}`: expected a positive duration such as 90s, 2m, 1.5h or 500ms"),
-    }
-}
+pub use readers::text::{parse_duration, parse_duration_for};
 
 /// The budget of `--time` and `--target-relmse`, if either is given.
 fn budget(

@@ -37,7 +37,7 @@ pub struct ViewArgs {
     pub headless: bool,
     /// Frames to run (headless: for each camera; in a window: close after
     /// them and write --out, if given).
-    #[arg(long, allow_hyphen_values = true, value_parser = parse_u64_count)]
+    #[arg(long, allow_hyphen_values = true, value_parser = readers::text::parse_u64_count)]
     pub frames: Option<u64>,
     /// Samples a pixel each frame adds (headless; default 1). The window
     /// paces frames to --fps instead.
@@ -75,15 +75,6 @@ pub struct ViewArgs {
     pub look: spec::LookArgs,
     #[command(flatten)]
     pub variant: spec::VariantArgs,
-}
-
-/// A frame count, digits only (`twintrace::partial::parse_count`'s rule).
-fn parse_u64_count(s: &str) -> std::result::Result<u64, String> {
-    if s.is_empty() || !s.bytes().all(|c| c.is_ascii_digit()) {
-        return Err("expected a whole number written in digits, as in 64".into());
-    }
-    s.parse()
-        .map_err(|_| format!("{s} is more than the most this takes ({})", u64::MAX))
 }
 
 pub fn view(args: &ViewArgs) -> Result<()> {

@@ -5,6 +5,7 @@
 mod bless;
 mod codegen;
 mod fixtures;
+mod fuzz;
 mod gpu_suite;
 mod install;
 mod mitsuba;
@@ -21,7 +22,14 @@ Commands:
   test       install what the tests need (Mesa lavapipe when no Vulkan driver
              is present, Valgrind for the perf self-test), then run the whole suite:
              cargo fmt --check, cargo clippy -D warnings, cargo test --workspace
-             (extra arguments go to cargo test)
+             (extra arguments go to cargo test), then `fuzz` for 40 s a target
+  fuzz [--seconds N] [--jobs J] [--seed S] [TARGET]...
+             build the libFuzzer targets of fuzz/ (SanitizerCoverage on stable
+             rustc) and run each N seconds (default 40), J at a time (default:
+             the cores), from the seeds in fixtures/fuzz/TARGET; a crashing,
+             hanging or exhausting input goes to target/fuzz/artifacts/TARGET/
+             and fails the command (docs/fuzzing.md). Targets: scene_json,
+             gltf_json, glb, exr_image, partial_film, cli_text
   gpu-suite [--out DIR]
              pack the GPU gates (test binary, fixtures, run.sh) into DIR
              (default target/gpu-suite) to run on a machine with a real GPU
@@ -71,6 +79,7 @@ fn main() -> ExitCode {
         Some("gpu-suite") => gpu_suite::run(&args[1..]),
         Some("codegen") => codegen::run_codegen(),
         Some("fixtures") => fixtures::run(),
+        Some("fuzz") => fuzz::run(&args[1..]),
         Some("bless") => bless::run(&args[1..]),
         Some("mitsuba") => mitsuba::run(&args[1..]),
         Some("perf") => perf::run(&args[1..]),

@@ -13,6 +13,9 @@
 //! set only for the cargo commands run here. `embree4-sys` generates its
 //! bindings with bindgen, which needs libclang (`libclang-dev`).
 //!
+//! Last, the fuzz targets run for `fuzz::CI_SECONDS` each (`cargo xtask
+//! fuzz`, docs/fuzzing.md).
+//!
 //! Nothing is skipped: a piece that cannot be installed is an error.
 
 use crate::util::{apt_install, run as sh};
@@ -47,11 +50,13 @@ pub fn run(extra: &[String]) -> Result<(), String> {
     )?;
     let mut args = vec!["test", "--workspace", "--features", "reference/embree"];
     args.extend(extra.iter().map(String::as_str));
-    sh_env("cargo", &args, &env)
+    sh_env("cargo", &args, &env)?;
+    // The readers' fuzz targets, each for a fixed budget (docs/fuzzing.md).
+    crate::fuzz::run(&["--seconds".into(), crate::fuzz::CI_SECONDS.to_string()])
 }
 
 /// The cargo target directory (`CARGO_TARGET_DIR` or `./target`).
-fn target_dir() -> PathBuf {
+pub(crate) fn target_dir() -> PathBuf {
     std::env::var_os("CARGO_TARGET_DIR")
         .map(PathBuf::from)
         .unwrap_or_else(|| PathBuf::from("target"))

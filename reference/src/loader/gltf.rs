@@ -171,13 +171,25 @@ pub fn add_gltf_scene(
 /// (vertical field of view [`DEFAULT_VFOV`]). The background is the Ray
 /// Tracing in One Weekend sky (white horizon, light blue zenith).
 pub fn load_gltf_document(path: &Path) -> Result<Scene, SceneError> {
+    load_gltf_document_from(path, None)
+}
+
+/// [`load_gltf_document`] of a document already in memory (`bytes`, a
+/// `.gltf` or a `.glb`, named `path`): nothing is read from disk but what
+/// it refers to, relative to `path`'s folder (the fuzz targets' entry).
+pub fn load_gltf_document_bytes(path: &Path, bytes: &[u8]) -> Result<Scene, SceneError> {
+    load_gltf_document_from(path, Some(bytes))
+}
+
+fn load_gltf_document_from(path: &Path, bytes: Option<&[u8]>) -> Result<Scene, SceneError> {
     let mut builder = SceneBuilder::new();
     builder.render_origin = RenderOrigin::Camera;
     builder.background = Some(Background::Sky {
         horizon: Vec3::ONE,
         zenith: Vec3::new(0.5, 0.7, 1.0),
     });
-    let summary = import_scene(&mut builder, path, &Transform::default(), true)?;
+    let file = GltfFile::open_from(path, bytes)?;
+    let summary = import_file(&mut builder, file, &Transform::default(), true)?;
     if !summary.camera_taken {
         let aspect = builder.render.width as f32 / builder.render.height as f32;
         builder.camera = framing_camera(summary.bounds_min, summary.bounds_max, aspect);
@@ -221,7 +233,16 @@ fn import_scene(
     transform: &Transform,
     take_camera: bool,
 ) -> Result<ImportSummary, SceneError> {
-    let file = GltfFile::open(path)?;
+    import_file(builder, GltfFile::open(path)?, transform, take_camera)
+}
+
+fn import_file(
+    builder: &mut SceneBuilder,
+    file: GltfFile,
+    transform: &Transform,
+    take_camera: bool,
+) -> Result<ImportSummary, SceneError> {
+    let path = file.path.as_path();
     builder.sources.extend(file.files.iter().cloned());
     if !file.ignored_extensions.is_empty() {
         builder.warnings.push(format!(
@@ -364,16 +385,32 @@ struct GltfFile {
 
 impl GltfFile {
     fn open(path: &Path) -> Result<Self, SceneError> {
+        Self::open_from(path, None)
+    }
+
+    /// The document `path`, or `bytes` if given (named `path`).
+    fn open_from(path: &Path, bytes: Option<&[u8]>) -> Result<Self, SceneError> {
         let fail = |message: String| SceneError::Io {
             path: path.to_path_buf(),
             message,
         };
-        let bytes = std::fs::read(path).map_err(|e| fail(format!("cannot read glTF file: {e}")))?;
+        let read;
+        let bytes = match bytes {
+            Some(bytes) => bytes,
+            None => {
+                read =
+                    std::fs::read(path).map_err(|e| fail(format!("cannot read glTF file: {e}")))?;
+                &read
+            }
+        };
         if bytes.starts_with(b"glTF") {
-            check_glb_header(&bytes).map_err(|m| fail(format!("not a valid GLB file: {m}")))?;
+            check_glb_header(bytes).map_err(|m| fail(format!("not a valid GLB file: {m}")))?;
         }
-        let gltf::Gltf { document, mut blob } =
-            gltf::Gltf::from_slice(&bytes).map_err(|e| fail(format!("cannot read glTF: {e}")))?;
+        let gltf::Gltf { document, mut blob } = gltf::Gltf::from_slice_without_validation(bytes)
+            .map_err(|e| fail(format!("cannot read glTF: {e}")))?;
+        check_position_accessors(&document).map_err(&fail)?;
+        let document = Document::from_json(document.into_json())
+            .map_err(|e| fail(format!("cannot read glTF: {e}")))?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         let unsupported = |names: &mut dyn Iterator<Item = &str>| -> Vec<String> {
             names
@@ -458,6 +495,28 @@ fn check_glb_header(bytes: &[u8]) -> Result<(), String> {
             "the header states {length} bytes but the file has {} (at least 20 are needed)",
             bytes.len()
         ));
+    }
+    Ok(())
+}
+
+/// The `gltf` crate's validation indexes the accessor a primitive's
+/// `POSITION` names before it checks the index (it panicked on a file
+/// whose `accessors` were misspelled; found by the fuzz target `glb`).
+fn check_position_accessors(document: &Document) -> Result<(), String> {
+    let json = document.as_json();
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            let position = gltf::json::validation::Checked::Valid(Semantic::Positions);
+            if let Some(index) = primitive.attributes.get(&position) {
+                if index.value() >= json.accessors.len() {
+                    return Err(format!(
+                        "mesh {m} primitive {p}: POSITION names accessor {}, the file has {}",
+                        index.value(),
+                        json.accessors.len()
+                    ));
+                }
+            }
+        }
     }
     Ok(())
 }

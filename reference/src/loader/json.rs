@@ -479,10 +479,17 @@ pub fn load_json_scene(path: &Path) -> Result<Scene, SceneError> {
         path: path.to_path_buf(),
         message: format!("cannot read scene: {e}"),
     })?;
-    if serde_json::from_str::<serde_json::Value>(&text).is_ok_and(|d| super::view::is_view(&d)) {
-        return super::view::load_view(path, &text);
+    load_json_scene_text(path, &text)
+}
+
+/// [`load_json_scene`] of a scene file already in memory (`text`, named
+/// `path`): nothing is read from disk but the files it refers to,
+/// relative to `path`'s folder (the fuzz targets' entry).
+pub fn load_json_scene_text(path: &Path, text: &str) -> Result<Scene, SceneError> {
+    if serde_json::from_str::<serde_json::Value>(text).is_ok_and(|d| super::view::is_view(&d)) {
+        return super::view::load_view(path, text);
     }
-    let doc = parse_scene_json(&text, path)?;
+    let doc = parse_scene_json(text, path)?;
     let base = path.parent().unwrap_or(Path::new("."));
     build(&doc, base, vec![path.to_path_buf()]).map_err(|e| e.in_file(path))
 }

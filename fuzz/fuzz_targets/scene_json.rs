@@ -1,0 +1,17 @@
+//! The JSON scene loader (`reference::loader::json`) on any text: a
+//! scene, an error naming the field, never a panic or a hang. The scene
+//! is named as if in a folder that does not exist, so the files it
+//! refers to (meshes, textures, another scene of a view file) are
+//! missing files, never read.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use std::path::Path;
+
+fuzz_target!(|data: &[u8]| {
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
+    let path = Path::new("/nonexistent-twintrace-fuzz/scene.json");
+    let _ = reference::loader::json::load_json_scene_text(path, text);
+});
