@@ -23,6 +23,7 @@ mod known_answers;
 mod light_sampling;
 mod mis_matches_bsdf;
 mod perf_regression;
+mod punctual_lights;
 mod progressive_render;
 mod reference_images;
 mod render_determinism;

@@ -3,6 +3,7 @@
 //! lavapipe) and the panicking gate helpers ([`gates`]).
 
 pub mod gates;
+pub mod punctual;
 
 /// Every stored reference of fixtures/refs/manifest.txt, once, with the
 /// budgets of its two image gates: `test_name: "manifest-name", cpu_spp,
