@@ -295,3 +295,71 @@ fn bad_gltf_lights_are_one_error_naming_the_file_and_field() {
         );
     }
 }
+
+fn cli(dir: &Path, args: &[&str]) -> (Option<i32>, String, String) {
+    let out = std::process::Command::new(crate::common::twintrace_bin())
+        .args(args)
+        .current_dir(dir)
+        .stdin(std::process::Stdio::null())
+        .output()
+        .expect("the binary runs");
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// `info` counts the lights by kind; `export-mitsuba` writes Mitsuba's
+/// point, spot and directional emitters (render-space positions, the
+/// spot's cones in degrees) and refuses a spot whose falloff zone reaches
+/// the scene, in one line, writing nothing.
+#[test]
+fn info_lists_the_lights_and_the_export_writes_their_emitters() {
+    let scene = twintrace::compare::gate::fixture_scene("punctual-lights.json");
+    let dir = tempfile::tempdir().unwrap();
+    let (code, out, err) = cli(dir.path(), &["info", &scene]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        out.contains("punctual lights: 3 (1 point, 1 spot, 1 directional)"),
+        "{out}"
+    );
+    let (code, _, err) = cli(dir.path(), &["export-mitsuba", &scene, "-o", "out"]);
+    assert_eq!(code, Some(0), "{err}");
+    let xml = std::fs::read_to_string(dir.path().join("out/scene.xml")).unwrap();
+    let loaded = reference::load_scene(&scene).unwrap();
+    let point = loaded.punctual_lights()[0].position;
+    for want in [
+        format!(
+            r#"<emitter type="point"><point name="position" value="{:?}, {:?}, {:?}"/><rgb name="intensity" value="4.0, 3.0, 2.0"/></emitter>"#,
+            point.x, point.y, point.z
+        ),
+        r#"<emitter type="spot">"#.to_string(),
+        r#"<float name="cutoff_angle" value="60.0"#.to_string(),
+        r#"<float name="beam_width" value="45.0"#.to_string(),
+        {
+            let d = loaded.punctual_lights()[2].direction;
+            format!(
+                r#"<emitter type="directional"><vector name="direction" value="{:?}, {:?}, {:?}"/><rgb name="irradiance" value="0.4, 0.4, 0.5"/></emitter>"#,
+                d.x, d.y, d.z
+            )
+        },
+    ] {
+        assert!(xml.contains(&want), "`{want}` missing from\n{xml}");
+    }
+    // A spot whose inner cone (10°) leaves the floor's corners outside.
+    let text = std::fs::read_to_string(&scene)
+        .unwrap()
+        .replace(r#""inner_cone_angle": 45"#, r#""inner_cone_angle": 10"#);
+    let narrow = write(dir.path(), "narrow.json", &text);
+    let (code, _, err) = cli(
+        dir.path(),
+        &["export-mitsuba", narrow.to_str().unwrap(), "-o", "refused"],
+    );
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains("spot light 1") && err.contains("inner cone") && err.lines().count() == 1,
+        "{err}"
+    );
+    assert!(!dir.path().join("refused").exists());
+}
