@@ -96,11 +96,17 @@ const FEATURE_NORMAL_MAPS: u32 = 4096u;
 const FEATURE_ALPHA: u32 = 8192u;
 const FEATURE_CLEARCOAT: u32 = 16384u;
 const FEATURE_EMISSIVE_BSDFS: u32 = 32768u;
+const FEATURE_PUNCTUAL_LIGHTS: u32 = 65536u;
 const INTEGRATOR_BSDF: u32 = 0u;
 const INTEGRATOR_MIS: u32 = 1u;
 const SMALL_CONE_SIN2: f32 = 6.8523e-4;
 const ONE_MINUS_EPSILON: f32 = 9.9999994e-1;
 const ENV_PRIM: u32 = 4294967295u;
+const PUNCTUAL_PRIM: u32 = 2147483648u;
+const PUNCTUAL_POINT: u32 = 0u;
+const PUNCTUAL_SPOT: u32 = 1u;
+const PUNCTUAL_DIRECTIONAL: u32 = 2u;
+const PUNCTUAL_LIGHT_WORDS: u32 = 16u;
 const WORKGROUP_X: u32 = 8u;
 const WORKGROUP_Y: u32 = 8u;
 const PI: f32 = 3.1415927e0;
@@ -238,6 +244,24 @@ struct GpuLightDensity {
     pmf: f32,
     area: f32,
 }
+struct GpuPunctualLight {
+    tag: f32,
+    position_x: f32,
+    position_y: f32,
+    position_z: f32,
+    direction_x: f32,
+    direction_y: f32,
+    direction_z: f32,
+    intensity_r: f32,
+    intensity_g: f32,
+    intensity_b: f32,
+    cos_outer: f32,
+    angle_scale: f32,
+    pmf_mis: f32,
+    pmf_bsdf: f32,
+    pad_a: f32,
+    pad_b: f32,
+}
 struct GpuParams {
     width: u32,
     height: u32,
@@ -280,6 +304,10 @@ struct GpuParams {
     emitter_count: u32,
     env_pmf: f32,
     env_table: u32,
+    punctual_table: u32,
+    punctual_count: u32,
+    params_pad_a: u32,
+    params_pad_b: u32,
     wave_pixel_start: u32,
     wave_pixel_count: u32,
     wave_capacity: u32,

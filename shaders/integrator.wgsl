@@ -55,6 +55,11 @@ fn survives_roulette(throughput: ptr<function, vec3<f32>>, u: f32, segment: u32)
 
 fn trace_path(ray_in: Ray, pixel: u32, sample: u32) -> vec3<f32> {
     poisoned = false;
+    // Punctual lights reach this loop only in a kernel specialized
+    // without them (bsdf_samples_lights): it would lose their light.
+    if params.punctual_count > 0u {
+        poison();
+    }
     var ray = ray_in;
     var radiance = vec3<f32>(0.0);
     var throughput = vec3<f32>(1.0);
@@ -113,17 +118,63 @@ struct ShadowQuery {
     weight: vec3<f32>,
     bsdf_pdf: f32,
     p: vec3<f32>,
+    // Where the shadow ray stops: a point or spot light's distance,
+    // infinity for other lights.
+    t_max: f32,
 }
 
 fn no_shadow_query() -> ShadowQuery {
-    return ShadowQuery(false, Ray(vec3<f32>(0.0), vec3<f32>(0.0)), 0u, vec3<f32>(0.0), 0.0, vec3<f32>(0.0));
+    return ShadowQuery(false, Ray(vec3<f32>(0.0), vec3<f32>(0.0)), 0u, vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0.0);
+}
+
+// The estimator's light set in `emitters` (first, count): the MIS one, or
+// the BSDF estimator's punctual lights alone (reference: render_samples's
+// LightSet::new or LightSet::punctual_only).
+fn light_table() -> vec2<u32> {
+    if INTEGRATOR == INTEGRATOR_MIS {
+        return vec2<u32>(0u, params.emitter_count);
+    }
+    return vec2<u32>(params.emitter_count, params.punctual_count);
+}
+
+// Whether the BSDF estimator samples delta lights (a scene with punctual
+// lights): its paths then run trace_path_mis's loop, which traces the
+// shadow rays, without MIS weights.
+fn bsdf_samples_lights() -> bool {
+    return uses(FEATURE_PUNCTUAL_LIGHTS) && params.punctual_count > 0u;
+}
+
+// A punctual light's sample (the reference's punctual_contribution before
+// its shadow ray): f·|cos θ|·incident / p_select, weight 1, the shadow ray
+// stopping at a point or spot light.
+fn punctual_contribution(ls: LightSample, f_cos: vec3<f32>, pdf_bsdf: f32, origin: vec3<f32>, si: SurfaceInteraction, throughput: vec3<f32>) -> ShadowQuery {
+    let l = punctual_light_at(ls.prim & ~PUNCTUAL_PRIM);
+    var pmf = l.pmf_bsdf;
+    if INTEGRATOR == INTEGRATOR_MIS {
+        pmf = l.pmf_mis;
+    }
+    if !(pmf > 0.0) || all(ls.incident == vec3<f32>(0.0)) {
+        return no_shadow_query();
+    }
+    var dir = ls.direction;
+    var t_max = f32_infinity();
+    if u32(l.tag) != PUNCTUAL_DIRECTIONAL {
+        let aim = ls.offset - (origin - si.p);
+        t_max = length(aim);
+        dir = aim / t_max;
+        if !is_finite3(dir) {
+            return no_shadow_query();
+        }
+    }
+    return ShadowQuery(true, Ray(origin, dir), ls.prim, throughput * (f_cos * ls.incident / pmf), pdf_bsdf, si.p, t_max);
 }
 
 // The first half of next_event: the light sample, the BSDF's value and
 // density toward it, and the shadow ray (aimed from the spawn point at
 // the sampled point itself; along the direction for the environment).
 fn next_event_ray(m: GpuMaterial, ray: Ray, si: SurfaceInteraction, tx: MaterialTextures, ul: vec4<f32>, throughput: vec3<f32>) -> ShadowQuery {
-    let ls = light_set_sample(si.p, ul[LIGHT_DIM_SELECT], vec2<f32>(ul[LIGHT_DIM_POINT_U], ul[LIGHT_DIM_POINT_V]));
+    let table = light_table();
+    let ls = light_set_sample(si.p, ul[LIGHT_DIM_SELECT], vec2<f32>(ul[LIGHT_DIM_POINT_U], ul[LIGHT_DIM_POINT_V]), table.x, table.y);
     if !ls.ok {
         return no_shadow_query();
     }
@@ -132,6 +183,9 @@ fn next_event_ray(m: GpuMaterial, ray: Ray, si: SurfaceInteraction, tx: Material
         return no_shadow_query();
     }
     let origin = spawn_toward(si, ls.direction);
+    if is_punctual(ls.prim) {
+        return punctual_contribution(ls, b.f_cos, b.pdf, origin, si, throughput);
+    }
     var dir = ls.direction;
     if ls.prim != ENV_PRIM {
         let aim = ls.offset - (origin - si.p);
@@ -140,13 +194,19 @@ fn next_event_ray(m: GpuMaterial, ray: Ray, si: SurfaceInteraction, tx: Material
             return no_shadow_query();
         }
     }
-    return ShadowQuery(true, Ray(origin, dir), ls.prim, throughput * b.f_cos, b.pdf, si.p);
+    return ShadowQuery(true, Ray(origin, dir), ls.prim, throughput * b.f_cos, b.pdf, si.p, f32_infinity());
 }
 
 // The second half of next_event: Le·w / p_light for the traced shadow ray
 // (times the query's weight), zero when it is blocked.
 fn next_event_finish(q: ShadowQuery, hit: Hit) -> vec3<f32> {
     let none = vec3<f32>(0.0);
+    if is_punctual(q.prim) {
+        if hit.hit {
+            return none;
+        }
+        return q.weight;
+    }
     if q.prim == ENV_PRIM {
         if hit.hit {
             return none;
@@ -187,7 +247,11 @@ fn trace_path_mis(ray_in: Ray, pixel: u32, sample: u32) -> vec3<f32> {
     var alive = true;
     var segment = 0u;
     loop {
-        let hit = bvh_intersect(ray, 0.0, f32_infinity());
+        var t_max = f32_infinity();
+        if shadow.ok {
+            t_max = shadow.t_max;
+        }
+        let hit = bvh_intersect(ray, 0.0, t_max);
         if shadow.ok {
             radiance += next_event_finish(shadow, hit);
             shadow.ok = false;
@@ -221,7 +285,7 @@ fn trace_path_mis(ray_in: Ray, pixel: u32, sample: u32) -> vec3<f32> {
         let u = vertex_randoms(params.seed, pixel, sample, segment + 1u);
         let density = has_density(m);
         // The shadow ray is the path's next segment: none after the last.
-        if density && params.emitter_count > 0u && segment + 1u < params.max_depth {
+        if density && light_table().y > 0u && segment + 1u < params.max_depth {
             let ul = light_randoms(params.seed, pixel, sample, segment + 1u);
             shadow = next_event_ray(m, ray, si, tx, ul, throughput);
         }
@@ -229,7 +293,7 @@ fn trace_path_mis(ray_in: Ray, pixel: u32, sample: u32) -> vec3<f32> {
         alive = s.ok;
         if alive {
             from_pdf = 0.0;
-            if density {
+            if density && INTEGRATOR == INTEGRATOR_MIS {
                 let b = bsdf_eval(m, ray.direction, si, tx, s.direction);
                 if b.ok && b.pdf > 0.0 {
                     from_p = si.p;
@@ -259,7 +323,7 @@ fn trace_path_mis(ray_in: Ray, pixel: u32, sample: u32) -> vec3<f32> {
 override INTEGRATOR: u32 = INTEGRATOR_BSDF;
 
 fn trace(ray: Ray, pixel: u32, sample: u32) -> vec3<f32> {
-    if INTEGRATOR == INTEGRATOR_MIS {
+    if INTEGRATOR == INTEGRATOR_MIS || bsdf_samples_lights() {
         return trace_path_mis(ray, pixel, sample);
     }
     return trace_path(ray, pixel, sample);

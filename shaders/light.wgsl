@@ -7,12 +7,66 @@
 // environment light's tables (EnvLight: row CDF, column CDFs, cell
 // densities) follow the images in `texels`, from `params.env_table`; its
 // selection probability is `params.env_pmf` (0: no environment light).
+// Punctual lights (PunctualLight) are GpuPunctualLight records in
+// `texels` from `params.punctual_table`. `emitters` holds two light sets:
+// the MIS estimator's (`params.emitter_count` entries) and, after it, the
+// BSDF estimator's punctual lights alone (`params.punctual_count`);
+// light_set_sample searches the one it is given.
 
 struct LightSample {
     ok: bool,
     prim: u32,
     direction: vec3<f32>,
     offset: vec3<f32>,
+    // A punctual light's I·falloff/d² or E (PunctualLight::toward).
+    incident: vec3<f32>,
+}
+
+fn is_punctual(prim: u32) -> bool {
+    return prim != ENV_PRIM && (prim & PUNCTUAL_PRIM) != 0u;
+}
+
+fn punctual_light_at(index: u32) -> GpuPunctualLight {
+    let o = params.punctual_table + index * PUNCTUAL_LIGHT_WORDS;
+    return GpuPunctualLight(texels[o], texels[o + 1u], texels[o + 2u], texels[o + 3u],
+        texels[o + 4u], texels[o + 5u], texels[o + 6u], texels[o + 7u],
+        texels[o + 8u], texels[o + 9u], texels[o + 10u], texels[o + 11u],
+        texels[o + 12u], texels[o + 13u], texels[o + 14u], texels[o + 15u]);
+}
+
+// The spot's falloff t², t = clamp((cos − cos θ_o) · scale, 0, 1); 1 for
+// the other kinds.
+fn punctual_light_falloff(l: GpuPunctualLight, cos_axis: f32) -> f32 {
+    if u32(l.tag) != PUNCTUAL_SPOT {
+        return 1.0;
+    }
+    let t = clamp((cos_axis - l.cos_outer) * l.angle_scale, 0.0, 1.0);
+    return t * t;
+}
+
+struct PunctualToward {
+    ok: bool,
+    direction: vec3<f32>,
+    offset: vec3<f32>,
+    incident: vec3<f32>,
+}
+
+// The direction from p to the light, the offset x − p (the direction for
+// a directional light) and the incident term I·falloff/d² or E.
+fn punctual_light_toward(l: GpuPunctualLight, p: vec3<f32>) -> PunctualToward {
+    let axis = vec3<f32>(l.direction_x, l.direction_y, l.direction_z);
+    let intensity = vec3<f32>(l.intensity_r, l.intensity_g, l.intensity_b);
+    if u32(l.tag) == PUNCTUAL_DIRECTIONAL {
+        return PunctualToward(true, -axis, -axis, intensity);
+    }
+    let offset = vec3<f32>(l.position_x, l.position_y, l.position_z) - p;
+    let d2 = dot(offset, offset);
+    let direction = offset / sqrt(d2);
+    if !(d2 > 0.0 && is_finite3(direction)) {
+        return PunctualToward(false, vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    }
+    let falloff = punctual_light_falloff(l, dot(axis, -direction));
+    return PunctualToward(true, direction, offset, intensity * (falloff / d2));
 }
 
 struct SphereOf {
@@ -173,9 +227,9 @@ fn light_set_env_pdf(d: vec3<f32>) -> f32 {
     return 0.0;
 }
 
-fn light_set_sample(p: vec3<f32>, u_select: f32, u: vec2<f32>) -> LightSample {
-    let none = LightSample(false, 0u, vec3<f32>(0.0), vec3<f32>(0.0));
-    let n = params.emitter_count;
+// Samples the light set of `n` emitters from emitters[first].
+fn light_set_sample(p: vec3<f32>, u_select: f32, u: vec2<f32>, first: u32, n: u32) -> LightSample {
+    let none = LightSample(false, 0u, vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
     if n == 0u {
         return none;
     }
@@ -185,13 +239,13 @@ fn light_set_sample(p: vec3<f32>, u_select: f32, u: vec2<f32>) -> LightSample {
     var hi = n;
     while lo < hi {
         let mid = (lo + hi) / 2u;
-        if emitters[mid].cdf <= u_select {
+        if emitters[first + mid].cdf <= u_select {
             lo = mid + 1u;
         } else {
             hi = mid;
         }
     }
-    let prim = emitters[min(lo, n - 1u)].prim;
+    let prim = emitters[first + min(lo, n - 1u)].prim;
     if prim == ENV_PRIM {
         if !uses(FEATURE_ENVMAP_BACKGROUND) {
             poison();
@@ -201,7 +255,18 @@ fn light_set_sample(p: vec3<f32>, u_select: f32, u: vec2<f32>) -> LightSample {
         if !is_finite3(d) {
             return none;
         }
-        return LightSample(true, prim, d, d);
+        return LightSample(true, prim, d, d, vec3<f32>(0.0));
+    }
+    if is_punctual(prim) {
+        if !uses(FEATURE_PUNCTUAL_LIGHTS) {
+            poison();
+            return none;
+        }
+        let t = punctual_light_toward(punctual_light_at(prim & ~PUNCTUAL_PRIM), p);
+        if !t.ok {
+            return none;
+        }
+        return LightSample(true, prim, t.direction, t.offset, t.incident);
     }
     let sp = sphere_of(prim);
     var offset: vec3<f32>;
@@ -215,7 +280,7 @@ fn light_set_sample(p: vec3<f32>, u_select: f32, u: vec2<f32>) -> LightSample {
     if !is_finite3(direction) {
         return none;
     }
-    return LightSample(true, prim, direction, offset);
+    return LightSample(true, prim, direction, offset, vec3<f32>(0.0));
 }
 
 fn light_set_pdf(prim: u32, p: vec3<f32>, x: vec3<f32>, n: vec3<f32>) -> f32 {

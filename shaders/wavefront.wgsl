@@ -44,7 +44,8 @@ const PF_SHADOW_PRIM: u32 = 34u;
 const PF_SHADOW_WEIGHT: u32 = 35u;  // vec3
 const PF_SHADOW_BSDF_PDF: u32 = 38u;
 const PF_SHADOW_P: u32 = 39u;       // vec3
-const_assert PF_SHADOW_P + 3u == PATH_WORDS;
+const PF_SHADOW_T_MAX: u32 = 42u;
+const_assert PF_SHADOW_T_MAX + 1u == PATH_WORDS;
 const_assert PF_FLAGS + 1u == PATH_MEGAKERNEL_WORDS;
 
 // PF_FLAGS bits.
@@ -140,11 +141,12 @@ fn store_shadow(slot: u32, q: ShadowQuery) {
     set_path_v(slot, PF_SHADOW_WEIGHT, q.weight);
     set_path_f(slot, PF_SHADOW_BSDF_PDF, q.bsdf_pdf);
     set_path_v(slot, PF_SHADOW_P, q.p);
+    set_path_f(slot, PF_SHADOW_T_MAX, q.t_max);
 }
 
 fn load_shadow(slot: u32) -> ShadowQuery {
     let ray = Ray(path_v(slot, PF_SHADOW_ORIGIN), path_v(slot, PF_SHADOW_DIRECTION));
-    return ShadowQuery(true, ray, path_u(slot, PF_SHADOW_PRIM), path_v(slot, PF_SHADOW_WEIGHT), path_f(slot, PF_SHADOW_BSDF_PDF), path_v(slot, PF_SHADOW_P));
+    return ShadowQuery(true, ray, path_u(slot, PF_SHADOW_PRIM), path_v(slot, PF_SHADOW_WEIGHT), path_f(slot, PF_SHADOW_BSDF_PDF), path_v(slot, PF_SHADOW_P), path_f(slot, PF_SHADOW_T_MAX));
 }
 
 // The pixel and sample of a slot: slots run over the wave's pixels, one
@@ -237,7 +239,7 @@ fn wf_extend(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
         store_hit(slot, PF_HIT, bvh_intersect(ray, 0.0, f32_infinity()));
     } else {
         let ray = Ray(path_v(slot, PF_SHADOW_ORIGIN), path_v(slot, PF_SHADOW_DIRECTION));
-        store_hit(slot, PF_SHADOW_HIT, bvh_intersect(ray, 0.0, f32_infinity()));
+        store_hit(slot, PF_SHADOW_HIT, bvh_intersect(ray, 0.0, path_f(slot, PF_SHADOW_T_MAX)));
     }
 }
 
@@ -257,6 +259,10 @@ struct Vertex {
 // One pass of trace_path's loop body, from the traced hit.
 fn shade_bsdf(v: ptr<function, Vertex>, hit: Hit, pixel: u32, sample: u32) {
     let ray = (*v).ray;
+    // As trace_path: punctual lights here mean a kernel built without them.
+    if params.punctual_count > 0u {
+        poison();
+    }
     if !hit.hit {
         (*v).radiance += (*v).throughput * evaluate_background(ray.direction);
         return;
@@ -286,7 +292,8 @@ fn shade_bsdf(v: ptr<function, Vertex>, hit: Hit, pixel: u32, sample: u32) {
 }
 
 // One pass of trace_path_mis's loop body for an extension hit (its shadow
-// ray's light was added before).
+// ray's light was added before). The BSDF estimator runs it too where it
+// samples punctual lights (bsdf_samples_lights), without MIS weights.
 fn shade_mis(v: ptr<function, Vertex>, hit: Hit, pixel: u32, sample: u32) {
     let ray = (*v).ray;
     if !hit.hit {
@@ -312,7 +319,7 @@ fn shade_mis(v: ptr<function, Vertex>, hit: Hit, pixel: u32, sample: u32) {
     let segment = (*v).segment;
     let u = vertex_randoms(params.seed, pixel, sample, segment + 1u);
     let density = has_density(m);
-    if density && params.emitter_count > 0u && segment + 1u < params.max_depth {
+    if density && light_table().y > 0u && segment + 1u < params.max_depth {
         let ul = light_randoms(params.seed, pixel, sample, segment + 1u);
         (*v).shadow = next_event_ray(m, ray, si, tx, ul, (*v).throughput);
         if (*v).shadow.ok {
@@ -323,7 +330,7 @@ fn shade_mis(v: ptr<function, Vertex>, hit: Hit, pixel: u32, sample: u32) {
     var alive = s.ok;
     if alive {
         (*v).from_pdf = 0.0;
-        if density {
+        if density && INTEGRATOR == INTEGRATOR_MIS {
             let b = bsdf_eval(m, ray.direction, si, tx, s.direction);
             if b.ok && b.pdf > 0.0 {
                 (*v).from_p = si.p;
@@ -365,7 +372,7 @@ fn wf_shade(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
         var v: Vertex;
         v.radiance = path_v(slot, PF_RADIANCE);
         v.next = 0u;
-        if INTEGRATOR == INTEGRATOR_MIS && (flags & PATH_SHADOW) != 0u {
+        if (flags & PATH_SHADOW) != 0u {
             let shadow_hit = load_hit(slot, PF_SHADOW_HIT);
             v.radiance += next_event_finish(load_shadow(slot), shadow_hit);
         }
@@ -376,7 +383,7 @@ fn wf_shade(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
             let hit = load_hit(slot, PF_HIT);
             let pixel = slot_pixel(slot);
             let sample = slot_sample(slot);
-            if INTEGRATOR == INTEGRATOR_MIS {
+            if INTEGRATOR == INTEGRATOR_MIS || bsdf_samples_lights() {
                 v.from_p = path_v(slot, PF_FROM_P);
                 v.from_pdf = path_f(slot, PF_FROM_PDF);
                 shade_mis(&v, hit, pixel, sample);

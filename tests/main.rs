@@ -25,6 +25,7 @@ mod mis_matches_bsdf;
 mod partial_film_roundtrip;
 mod perf_regression;
 mod progressive_render;
+mod punctual_lights;
 mod reference_images;
 mod render_determinism;
 mod render_space;
@@ -49,6 +50,7 @@ mod gpu_matches_reference;
 mod gpu_numerics_match_reference;
 mod gpu_pipeline_cache;
 mod gpu_progressive_render;
+mod gpu_punctual_lights;
 mod gpu_render_space;
 mod gpu_renders_fixtures;
 #[cfg(target_os = "linux")]

@@ -63,6 +63,15 @@ pub(crate) fn moved(doc: &Value, offset: DVec3) -> Value {
             .or_insert_with(|| serde_json::json!([0.0, 0.0, 0.0]));
         shift(t);
     }
+    // Point and spot lights are placed in world coordinates (directional
+    // lights have no position).
+    if let Some(lights) = doc.get_mut("lights").and_then(Value::as_array_mut) {
+        for light in lights {
+            if let Some(p) = light.get_mut("position") {
+                shift(p);
+            }
+        }
+    }
     doc
 }
 

@@ -158,6 +158,18 @@ const GPU_ONLY: &[(&str, &str)] = &[
         "integrator::next_event after its shadow ray",
     ),
     ("no_shadow_query", "the reference's early returns from next_event"),
+    (
+        "light_table",
+        "render_samples's LightSet::new or LightSet::punctual_only, by estimator (both sets are in `emitters`)",
+    ),
+    (
+        "bsdf_samples_lights",
+        "trace_path's next-event estimation of punctual lights: the GPU runs trace_path_mis's loop (one traversal call) without MIS weights",
+    ),
+    (
+        "punctual_light_at",
+        "reads a GpuPunctualLight record from `texels` (Scene::punctual_lights on the host)",
+    ),
     ("to_unit4", "u32_to_unit_f32 on four words"),
     ("vr_get", "indexes VertexRandoms (a Rust array)"),
     (

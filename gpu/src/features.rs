@@ -64,6 +64,7 @@ feature_bits! {
     ALPHA = 13,
     CLEARCOAT = 14,
     EMISSIVE_BSDFS = 15,
+    PUNCTUAL_LIGHTS = 16,
 }
 
 impl Kernel {
@@ -126,6 +127,10 @@ impl Features {
         // Emission added to a BSDF is one more texture read a vertex.
         if (0..scene.materials().len() as u32).any(|m| scene.added_emission(m).is_some()) {
             bits |= feature::EMISSIVE_BSDFS;
+        }
+        // Delta lights: a shadow ray even in the BSDF estimator.
+        if !scene.punctual_lights().is_empty() {
+            bits |= feature::PUNCTUAL_LIGHTS;
         }
         for t in scene.textures() {
             bits |= match t {

@@ -160,6 +160,26 @@ gpu_record! {
     GpuLightDensity { pmf: f32, area: f32 }
 }
 
+gpu_record! {
+    /// A punctual light (`reference::light::PunctualLight`), in `texels`
+    /// from `GpuParams::punctual_table`, [`PUNCTUAL_LIGHT_WORDS`] floats
+    /// each (`punctual_light_at` reads one): its tag as a float (0, 1, 2:
+    /// exact), position, direction, intensity, the spot's `cos θ_o` and
+    /// `PunctualLight::angle_scale`, and its selection probability in the
+    /// MIS estimator's light set and in the BSDF estimator's
+    /// (`LightSet::punctual_pmf` of `LightSet::new` and of
+    /// `LightSet::punctual_only`).
+    GpuPunctualLight {
+        tag: f32, position_x: f32, position_y: f32, position_z: f32,
+        direction_x: f32, direction_y: f32, direction_z: f32, intensity_r: f32,
+        intensity_g: f32, intensity_b: f32, cos_outer: f32, angle_scale: f32,
+        pmf_mis: f32, pmf_bsdf: f32, pad_a: f32, pad_b: f32,
+    }
+}
+
+/// Floats of a [`GpuPunctualLight`] in `texels`.
+pub const PUNCTUAL_LIGHT_WORDS: u32 = (std::mem::size_of::<GpuPunctualLight>() / 4) as u32;
+
 /// Channels of a film pixel (R, G, B): the wave schedules' fold runs one
 /// invocation per pixel and channel.
 pub const FILM_CHANNELS: usize = 3;
@@ -264,6 +284,10 @@ gpu_record! {
         cam_u_x: f32, cam_u_y: f32, cam_u_z: f32,
         cam_v_x: f32, cam_v_y: f32, cam_v_z: f32,
         emitter_count: u32, env_pmf: f32, env_table: u32,
+        // The punctual lights' records in `texels`, and the BSDF
+        // estimator's light set (`LightSet::punctual_only`): its
+        // `punctual_count` emitters follow the MIS set's in `emitters`.
+        punctual_table: u32, punctual_count: u32, params_pad_a: u32, params_pad_b: u32,
         // The wavefront's wave (gpu::wavefront): its first pixel, its
         // pixel count, and the path slots its buffers hold.
         wave_pixel_start: u32, wave_pixel_count: u32, wave_capacity: u32,
@@ -288,6 +312,7 @@ pub fn wgsl_records() -> String {
         GpuImage::WGSL,
         GpuEmitter::WGSL,
         GpuLightDensity::WGSL,
+        GpuPunctualLight::WGSL,
         GpuParams::WGSL,
         BVH_NODE_WGSL,
     ]
@@ -331,6 +356,7 @@ mod tests {
         assert_eq!(std::mem::size_of::<GpuTexture>(), 64);
         assert_eq!(std::mem::size_of::<GpuEmitter>(), 8);
         assert_eq!(std::mem::size_of::<GpuLightDensity>(), 8);
+        assert_eq!(std::mem::size_of::<GpuPunctualLight>(), 64);
         assert_eq!(std::mem::size_of::<GpuPixel>(), 224);
         assert_eq!(FILM_PIXEL_WORDS, reference::film::PIXEL_WORDS);
         // Uniform buffers need a size that is a multiple of 16.

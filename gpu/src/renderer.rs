@@ -136,8 +136,8 @@ pub struct GpuRenderer<'a> {
     ctx: &'a GpuContext,
     kernels: Kernels,
     /// The light set's parameters (`GpuParams::emitter_count`, `env_pmf`,
-    /// `env_table`).
-    lights: (u32, f32, u32),
+    /// `env_table`, `punctual_table`, `punctual_count`).
+    lights: (u32, f32, u32, u32, u32),
     layout: wgpu::BindGroupLayout,
     /// Each scene array with the binding it is bound to.
     scene_buffers: Vec<(Binding, wgpu::Buffer)>,
@@ -416,9 +416,11 @@ impl<'a> GpuRenderer<'a> {
             ctx,
             kernels,
             lights: (
-                packed.emitters.len() as u32,
+                packed.emitter_count,
                 packed.env_pmf,
                 packed.env_table,
+                packed.punctual_table,
+                packed.punctual_count,
             ),
             layout,
             scene_buffers,
@@ -499,6 +501,8 @@ impl<'a> GpuRenderer<'a> {
             emitter_count: self.lights.0,
             env_pmf: self.lights.1,
             env_table: self.lights.2,
+            punctual_table: self.lights.3,
+            punctual_count: self.lights.4,
             ..Default::default()
         };
         [p.cam_origin_x, p.cam_origin_y, p.cam_origin_z] = cam.origin.to_array();

@@ -53,6 +53,14 @@ pub struct PackedScene {
     /// CDFs, cell densities, as `reference::light::EnvLight` holds them).
     pub env_pmf: f32,
     pub env_table: u32,
+    /// Of `emitters`: the MIS estimator's light set (`LightSet::new`),
+    /// the first `emitter_count`; then the BSDF estimator's
+    /// (`LightSet::punctual_only`), `punctual_count` of them.
+    pub emitter_count: u32,
+    pub punctual_count: u32,
+    /// Where the punctual lights' records (`GpuPunctualLight`) start in
+    /// `texels`.
+    pub punctual_table: u32,
 }
 
 /// A material's record with its coverage (`alpha`) and the texture of its
@@ -322,6 +330,7 @@ impl PackedScene {
         let mut texels = texels;
         let m = &scene.mesh();
         let lights = LightSet::new(scene);
+        let punctual = LightSet::punctual_only(scene);
         let (mut env_pmf, mut env_table) = (0.0, 0);
         if let Some((env, pmf)) = lights.env() {
             env_pmf = pmf;
@@ -329,6 +338,27 @@ impl PackedScene {
             texels.extend_from_slice(&env.row_cdf);
             texels.extend_from_slice(&env.col_cdf);
             texels.extend_from_slice(&env.cell_pdf);
+        }
+        let punctual_table = texels.len() as u32;
+        for (i, l) in scene.punctual_lights().iter().enumerate() {
+            let record = GpuPunctualLight {
+                tag: l.tag as f32,
+                position_x: l.position.x,
+                position_y: l.position.y,
+                position_z: l.position.z,
+                direction_x: l.direction.x,
+                direction_y: l.direction.y,
+                direction_z: l.direction.z,
+                intensity_r: l.intensity.x,
+                intensity_g: l.intensity.y,
+                intensity_b: l.intensity.z,
+                cos_outer: l.cos_outer,
+                angle_scale: l.angle_scale(),
+                pmf_mis: lights.punctual_pmf(i as u32),
+                pmf_bsdf: punctual.punctual_pmf(i as u32),
+                ..Default::default()
+            };
+            texels.extend_from_slice(bytemuck::cast_slice(&[record]));
         }
         let mut packed = PackedScene {
             traversal,
@@ -418,8 +448,10 @@ impl PackedScene {
             textures: scene.textures().iter().map(pack_texture).collect(),
             images,
             texels,
-            emitters: lights
-                .emitters()
+            emitter_count: lights.len() as u32,
+            punctual_table,
+            punctual_count: punctual.len() as u32,
+            emitters: (lights.emitters().chain(punctual.emitters()))
                 .map(|(prim, cdf)| GpuEmitter { prim, cdf })
                 .collect(),
             light_densities: (0..scene.primitives().len() as u32)

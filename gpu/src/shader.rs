@@ -207,6 +207,14 @@ pub fn generate() -> String {
     s += &f("SMALL_CONE_SIN2", SMALL_CONE_SIN2);
     s += &f("ONE_MINUS_EPSILON", ONE_MINUS_EPSILON);
     s += &u("ENV_PRIM", ENV_PRIM);
+    s += &u("PUNCTUAL_PRIM", reference::light::PUNCTUAL_PRIM);
+    s += &u("PUNCTUAL_POINT", reference::light::punctual_tag::POINT);
+    s += &u("PUNCTUAL_SPOT", reference::light::punctual_tag::SPOT);
+    s += &u(
+        "PUNCTUAL_DIRECTIONAL",
+        reference::light::punctual_tag::DIRECTIONAL,
+    );
+    s += &u("PUNCTUAL_LIGHT_WORDS", crate::records::PUNCTUAL_LIGHT_WORDS);
     s += &u("WORKGROUP_X", WORKGROUP.0);
     s += &u("WORKGROUP_Y", WORKGROUP.1);
     s += &f("PI", std::f32::consts::PI);

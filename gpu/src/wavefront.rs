@@ -31,7 +31,7 @@ pub use crate::variants::{PathLayout, Schedule, Variant};
 
 /// Words of one path's state (the `PF_…` fields of shaders/wavefront.wgsl,
 /// which asserts the sum).
-pub const PATH_WORDS: u32 = 42;
+pub const PATH_WORDS: u32 = 43;
 
 /// Words of a path slot in the path megakernel: its light and flags (the
 /// first fields, so that with the structure-of-arrays layout only these

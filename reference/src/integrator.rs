@@ -10,6 +10,13 @@
 //!   emission reached through delta or density-less vertices (glass,
 //!   metal) and from the camera counts in full ([`trace_path_mis`]).
 //!
+//! Punctual lights (point, spot, directional) are delta lights, which no
+//! BSDF sample can find: both estimators sample them by next-event
+//! estimation at every vertex with a density, with weight 1 — `mis` from
+//! its whole light set, `bsdf` from the set of the punctual lights alone
+//! ([`LightSet::punctual_only`]; it has no other light sample). Area
+//! emitters and the environment keep each estimator's own treatment.
+//!
 //! Both read the same vertex randoms in the same slots; the light sample
 //! reads its own block ([`crate::rng::light_randoms`]). `max_depth`
 //! counts ray segments: a path traces at most `max_depth` rays and gets
@@ -20,7 +27,7 @@
 use crate::background::evaluate_background;
 use crate::film::{Film, FilmSums, PixelSums};
 use crate::geometry::{spawn_origin, Ray, SurfaceInteraction};
-use crate::light::{LightSet, ENV_PRIM};
+use crate::light::{is_punctual, punctual_tag, LightSet, ENV_PRIM, PUNCTUAL_PRIM};
 use crate::material::{bsdf_eval, emitted, has_density, scatter, Material, TextureContext};
 use crate::mutants::{self, Mutant};
 use crate::rng::{dims, light_dims, light_randoms, vertex_randoms};
@@ -37,9 +44,12 @@ pub const ROULETTE_MAX_SURVIVAL: f32 = 0.95;
 /// Tile side in pixels for the parallel loop (order never changes results).
 pub const TILE_SIZE: u32 = 16;
 
-/// Traces one path and returns its radiance estimate.
+/// Traces one path with BSDF sampling (and next-event estimation of the
+/// punctual lights of `lights`, [`LightSet::punctual_only`]) and returns
+/// its radiance estimate.
 pub fn trace_path(
     scene: &Scene,
+    lights: &LightSet,
     mut ray: Ray,
     settings: &RenderSettings,
     pixel: u32,
@@ -62,6 +72,11 @@ pub fn trace_path(
         throughput *= transmittance(material, &si, hit.t);
         radiance += throughput * emitted(scene.emission(si.material), ctx, &si);
         let u = vertex_randoms(settings.seed, pixel, sample, segment + 1);
+        // Delta lights, by next-event estimation as in `trace_path_mis`.
+        if has_density(material) && !lights.is_empty() && segment + 1 < settings.max_depth {
+            let ul = light_randoms(settings.seed, pixel, sample, segment + 1);
+            radiance += throughput * next_event(scene, lights, ctx, material, &ray, &si, &ul);
+        }
         let Some(s) = scatter(material, ctx, ray.direction, &si, &u) else {
             break;
         };
@@ -291,6 +306,9 @@ fn next_event(
     // the origin's offset (10^-2 on the far-from-origin fixture's ground)
     // would carry rays near an emitter's edge past it, losing light.
     let origin = spawn_toward(si, wi);
+    if is_punctual(ls.prim) {
+        return punctual_contribution(scene, lights, si, &ls, origin, f_cos);
+    }
     if ls.prim == ENV_PRIM {
         // The environment: lit if the ray leaves the scene.
         let shadow = Ray::new(origin, wi);
@@ -322,6 +340,46 @@ fn next_event(
         return Vec3::ZERO;
     }
     f_cos * le * (power_heuristic(pdf_light, pdf_bsdf) / pdf_light)
+}
+
+/// A punctual light's sample: `f · |cos θ| · incident / p_select`
+/// (weight 1: a delta light is found by no other strategy), zero when the
+/// shadow ray from `origin` meets anything before the light — a point or
+/// spot at its distance, a directional light anywhere along the ray.
+fn punctual_contribution(
+    scene: &Scene,
+    lights: &LightSet,
+    si: &SurfaceInteraction,
+    ls: &crate::light::LightSample,
+    origin: Vec3,
+    f_cos: Vec3,
+) -> Vec3 {
+    let index = ls.prim & !PUNCTUAL_PRIM;
+    let pmf = lights.punctual_pmf(index);
+    if pmf.is_nan() || pmf <= 0.0 || ls.incident == Vec3::ZERO {
+        return Vec3::ZERO;
+    }
+    let light = &scene.punctual_lights()[index as usize];
+    let (dir, t_max) = if light.tag == punctual_tag::DIRECTIONAL {
+        (ls.direction, f32::INFINITY)
+    } else {
+        let aim = ls.offset - (origin.as_dvec3() - si.p.as_dvec3());
+        let Some(dir) = aim.try_normalize() else {
+            return Vec3::ZERO;
+        };
+        (dir.as_vec3(), aim.length() as f32)
+    };
+    if scene
+        .intersect(&Ray::new(origin, dir), 0.0, t_max)
+        .is_some()
+    {
+        return Vec3::ZERO;
+    }
+    let f_cos = match mutants::active() {
+        Mutant::PunctualNoCosine => f_cos / si.shading_normal.dot(ls.direction).abs(),
+        _ => f_cos,
+    };
+    f_cos * ls.incident / pmf
 }
 
 /// The camera ray of one sample.
@@ -389,7 +447,7 @@ pub fn render_samples_until(
 ) -> Option<FilmSums> {
     let lights = match integrator {
         Integrator::Mis => LightSet::new(scene),
-        Integrator::Bsdf => LightSet::default(),
+        Integrator::Bsdf => LightSet::punctual_only(scene),
     };
     let camera = settings.camera(scene);
     let (w, h) = (settings.width, settings.height);
@@ -411,7 +469,9 @@ pub fn render_samples_until(
                     for sample in samples.clone() {
                         let ray = camera_ray(&camera, settings, x, y, sample);
                         sums.add(match integrator {
-                            Integrator::Bsdf => trace_path(scene, ray, settings, pixel, sample),
+                            Integrator::Bsdf => {
+                                trace_path(scene, &lights, ray, settings, pixel, sample)
+                            }
                             Integrator::Mis => {
                                 trace_path_mis(scene, &lights, ray, settings, pixel, sample)
                             }

@@ -34,6 +34,17 @@
 //!   light to BSDF sampling under MIS: a cosine-sampled Lambertian already
 //!   estimates a constant sky's unoccluded light exactly, so light samples
 //!   would only add shadow rays.
+//! - Punctual lights ([`PunctualLight`]: point, spot, directional, as
+//!   glTF's `KHR_lights_punctual` defines them) are delta lights: no BSDF
+//!   sample ever finds one, so both estimators reach them by next-event
+//!   estimation alone, with weight 1 (no MIS). They join the selection by
+//!   power in the same units (power / π): a point `4 I`, a spot
+//!   `2 I ((1 − cos θ_i) + (cos θ_i − cos θ_o) / 3)` (its falloff
+//!   integrated over the cone), a directional light `E R²` (its power
+//!   through the scene's bounding disk), `I` and `E` by their luminance.
+//!   The BSDF estimator samples them from a set of them alone
+//!   ([`LightSet::punctual_only`]): it finds area emitters and the
+//!   environment by BSDF sampling as before.
 
 use crate::background::{equirect_uv, Background};
 use crate::geometry::{Hit, Onb, Ray};
@@ -55,6 +66,114 @@ pub const MIN_WEIGHT_SHARE: f32 = 0.01;
 /// [`LightSample::prim`].
 pub const ENV_PRIM: u32 = u32::MAX;
 
+/// The "primitive id" of punctual light `i` in the emitter list and in
+/// [`LightSample::prim`]: `PUNCTUAL_PRIM | i` (primitive ids stay below
+/// 2^31; [`ENV_PRIM`], all ones, is not one).
+pub const PUNCTUAL_PRIM: u32 = 1 << 31;
+
+/// Whether an emitter id names a punctual light ([`PUNCTUAL_PRIM`]).
+#[inline]
+pub fn is_punctual(prim: u32) -> bool {
+    prim != ENV_PRIM && prim & PUNCTUAL_PRIM != 0
+}
+
+/// Numeric tags of the punctual light kinds, shared with the GPU.
+pub mod punctual_tag {
+    pub const POINT: u32 = 0;
+    pub const SPOT: u32 = 1;
+    pub const DIRECTIONAL: u32 = 2;
+}
+
+/// Below this `cos θ_i − cos θ_o` a spot's falloff scale is capped, as
+/// the `KHR_lights_punctual` reference formula caps it (`max(0.001, …)`).
+pub const SPOT_MIN_COS_SPAN: f32 = 0.001;
+
+/// A punctual light, glTF's `KHR_lights_punctual` (the JSON's `lights`).
+/// Quantities are radiometric, per channel: a point's or spot's
+/// `intensity` is radiant intensity (W/sr), a directional light's its
+/// irradiance on a surface facing it (W/m²). Neither falls off with
+/// anything but the inverse square law (glTF's `range` is not kept).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PunctualLight {
+    /// [`punctual_tag`].
+    pub tag: u32,
+    /// Point and spot: where the light is (render space in a built
+    /// scene); unused by a directional light.
+    pub position: Vec3,
+    /// Spot and directional: the unit direction the light travels (its
+    /// glTF node's −Z); unused by a point light.
+    pub direction: Vec3,
+    /// Radiant intensity (point, spot) or irradiance (directional).
+    pub intensity: Vec3,
+    /// Spot: the cosines of the inner and outer cone angles (full
+    /// intensity inside the inner cone, none outside the outer); others 1.
+    pub cos_inner: f32,
+    pub cos_outer: f32,
+}
+
+impl PunctualLight {
+    /// The spot's falloff at `cos_axis`, the cosine between its axis and
+    /// the direction from the light to the lit point: the
+    /// `KHR_lights_punctual` reference formula, `t²` with
+    /// `t = clamp((cos − cos θ_o) / max(0.001, cos θ_i − cos θ_o), 0, 1)`.
+    /// 1 for the other kinds.
+    pub fn falloff(&self, cos_axis: f32) -> f32 {
+        if self.tag != punctual_tag::SPOT {
+            return 1.0;
+        }
+        let t = ((cos_axis - self.cos_outer) * self.angle_scale()).clamp(0.0, 1.0);
+        match mutants::active() {
+            Mutant::SpotFalloffLinear => t,
+            _ => t * t,
+        }
+    }
+
+    /// `1 / max(0.001, cos θ_i − cos θ_o)` (what the GPU uploads).
+    pub fn angle_scale(&self) -> f32 {
+        1.0 / (self.cos_inner - self.cos_outer).max(SPOT_MIN_COS_SPAN)
+    }
+
+    /// The selection weight (power / π, as an area light's `area × L`):
+    /// see the module documentation. `radius` is the scene's bounding
+    /// sphere's.
+    pub fn weight(&self, radius: f32) -> f32 {
+        let i = luminance(self.intensity).max(0.0);
+        match self.tag {
+            punctual_tag::POINT => 4.0 * i,
+            punctual_tag::SPOT => {
+                let (ci, co) = (self.cos_inner, self.cos_outer);
+                2.0 * i * ((1.0 - ci) + (ci - co).max(0.0) / 3.0)
+            }
+            _ => i * radius * radius,
+        }
+    }
+
+    /// What the light sends toward `p`: the unit direction from `p` to the
+    /// light, the offset `x − p` in f64 (the direction itself for a
+    /// directional light), and the incident term — `I · falloff / d²` for
+    /// a point or spot, `E` for a directional light — that `f · |cos θ|`
+    /// multiplies. `None` where `p` is at the light.
+    pub fn toward(&self, p: Vec3) -> Option<(Vec3, DVec3, Vec3)> {
+        if self.tag == punctual_tag::DIRECTIONAL {
+            let d = -self.direction;
+            return Some((d, d.as_dvec3(), self.intensity));
+        }
+        let offset = self.position.as_dvec3() - p.as_dvec3();
+        let d2 = offset.length_squared();
+        let direction = (offset / d2.sqrt()).as_vec3();
+        if !(d2 > 0.0 && direction.is_finite()) {
+            return None;
+        }
+        let falloff = self.falloff(self.direction.dot(-direction));
+        let d2 = d2 as f32;
+        let spread = match mutants::active() {
+            Mutant::PunctualInverseDistance => d2.sqrt(),
+            _ => d2,
+        };
+        Some((direction, offset, self.intensity * (falloff / spread)))
+    }
+}
+
 /// One emitter: a primitive id and the cumulative selection weight up to
 /// and including it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -73,6 +192,8 @@ pub struct LightSet {
     area_by_prim: Vec<f32>,
     /// The environment map as a light, with its selection probability.
     env: Option<(EnvLight, f32)>,
+    /// Selection probability by punctual light index (0 for one left out).
+    punctual_pmf: Vec<f32>,
 }
 
 /// An environment map's sampling distribution: piecewise constant over
@@ -109,6 +230,10 @@ pub struct LightSample {
     /// than from a point rounded to f32 (an ulp of its coordinates, 10^-3
     /// at 2·10^4, is a sizeable part of a small emitter seen from nearby).
     pub direction: Vec3,
+    /// A punctual light's incident term ([`PunctualLight::toward`]); zero
+    /// for other emitters, whose emission is read where the shadow ray
+    /// hits.
+    pub incident: Vec3,
     /// `x − p` in f64: a shadow ray from a spawn point `o` near `p` aims at
     /// `x` itself along `offset − (o − p)`, so that the origin's offset
     /// does not move it off a small or distant emitter's edge. For the
@@ -123,10 +248,24 @@ fn luminance(c: Vec3) -> f32 {
 }
 
 impl LightSet {
-    /// The emitters of `scene` (none: an empty set, which samples nothing).
+    /// The emitters of `scene` (none: an empty set, which samples
+    /// nothing): its emissive primitives, its environment map and its
+    /// punctual lights (the MIS estimator's light set).
     pub fn new(scene: &Scene) -> Self {
+        Self::build(scene, true)
+    }
+
+    /// The punctual lights of `scene` alone, picked by power among
+    /// themselves: the BSDF estimator's light set (it reaches every other
+    /// light by BSDF sampling).
+    pub fn punctual_only(scene: &Scene) -> Self {
+        Self::build(scene, false)
+    }
+
+    fn build(scene: &Scene, with_area: bool) -> Self {
         let mut raw = Vec::new();
-        for (id, p) in scene.primitives().iter().enumerate() {
+        let primitives = if with_area { scene.primitives() } else { &[] };
+        for (id, p) in primitives.iter().enumerate() {
             let material = match p.tag {
                 primitive_tag::SPHERE => scene.spheres()[p.index as usize].material,
                 primitive_tag::QUAD => scene.quads()[p.index as usize].material,
@@ -161,9 +300,13 @@ impl LightSet {
             }
             raw.push((id as u32, area, area * sum / 16.0));
         }
-        let env = EnvLight::new(scene);
+        let env = EnvLight::new(scene).filter(|_| with_area);
         if let Some(e) = &env {
             raw.push((ENV_PRIM, 0.0, e.weight));
+        }
+        let radius = bounding_radius(scene);
+        for (i, light) in scene.punctual_lights().iter().enumerate() {
+            raw.push((PUNCTUAL_PRIM | i as u32, 0.0, light.weight(radius)));
         }
         let n = raw.len().max(1) as f32;
         let mean = raw.iter().map(|r| r.2).sum::<f32>() / n;
@@ -178,17 +321,20 @@ impl LightSet {
         for (prim, area, w) in raw {
             total += w.max(floor);
             emitters.push(Emitter { prim, cdf: total });
-            if prim != ENV_PRIM {
+            if prim != ENV_PRIM && !is_punctual(prim) {
                 area_by_prim[prim as usize] = area;
             }
         }
         let mut pmf_by_prim = vec![0.0; scene.primitives().len()];
         let mut previous = 0.0;
         let mut env_pmf = 0.0;
+        let mut punctual_pmf = vec![0.0; scene.punctual_lights().len()];
         for e in &mut emitters {
             let pmf = (e.cdf - previous) / total;
             if e.prim == ENV_PRIM {
                 env_pmf = pmf;
+            } else if is_punctual(e.prim) {
+                punctual_pmf[(e.prim & !PUNCTUAL_PRIM) as usize] = pmf;
             } else {
                 pmf_by_prim[e.prim as usize] = pmf;
             }
@@ -200,6 +346,22 @@ impl LightSet {
             pmf_by_prim,
             area_by_prim,
             env: env.map(|e| (e, env_pmf)),
+            punctual_pmf,
+        }
+    }
+
+    /// The probability of picking punctual light `index` (0 if the set
+    /// does not hold it).
+    pub fn punctual_pmf(&self, index: u32) -> f32 {
+        let pmf = self
+            .punctual_pmf
+            .get(index as usize)
+            .copied()
+            .unwrap_or(0.0);
+        match mutants::active() {
+            // Selection taken as uniform though it is by power.
+            Mutant::PunctualPmfUniform if pmf > 0.0 => 1.0 / self.emitters.len() as f32,
+            _ => pmf,
         }
     }
 
@@ -258,7 +420,18 @@ impl LightSet {
             return direction.is_finite().then_some(LightSample {
                 prim,
                 direction,
+                incident: Vec3::ZERO,
                 offset: direction.as_dvec3(),
+            });
+        }
+        if is_punctual(prim) {
+            let light = scene.punctual_lights()[(prim & !PUNCTUAL_PRIM) as usize];
+            let (direction, offset, incident) = light.toward(p)?;
+            return Some(LightSample {
+                prim,
+                direction,
+                incident,
+                offset,
             });
         }
         let offset = match sphere_of(scene, prim) {
@@ -271,6 +444,7 @@ impl LightSet {
         direction.is_finite().then_some(LightSample {
             prim,
             direction,
+            incident: Vec3::ZERO,
             offset,
         })
     }
@@ -360,8 +534,7 @@ impl EnvLight {
             .iter()
             .map(|&x| (x as f64 * cells / total) as f32)
             .collect();
-        let b = scene.bounds();
-        let radius: f32 = 0.5 * (b.max - b.min).length();
+        let radius = bounding_radius(scene);
         let mean = (solid_angle_mean / sin_sum) as f32;
         let (rot_sin, rot_cos) = (-rotate_y.to_radians()).sin_cos();
         Some(Self {
@@ -411,6 +584,12 @@ impl EnvLight {
             _ => p_uv / (2.0 * PI * PI * sin_theta),
         }
     }
+}
+
+/// The radius of the scene's bounding sphere (half its box's diagonal).
+fn bounding_radius(scene: &Scene) -> f32 {
+    let b = scene.bounds();
+    0.5 * (b.max - b.min).length()
 }
 
 /// Appends the CDF of `weights` (`n + 1` values from 0 to exactly 1,

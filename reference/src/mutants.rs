@@ -53,6 +53,19 @@ pub enum Mutant {
     /// glTF's emissive materials did before emission was added to the
     /// BSDF (`integrator`'s `vertex_material`).
     EmissiveBsdfDropped,
+    /// A punctual light's contribution without the receiver's `|cos θ|`
+    /// (`integrator`'s `next_event`).
+    PunctualNoCosine,
+    /// A point or spot light falling off as `1/d` for `1/d²`
+    /// (`light::PunctualLight::toward`).
+    PunctualInverseDistance,
+    /// A spot's falloff linear in its ramp, `t` for the glTF formula's
+    /// `t²` (`light::PunctualLight::falloff`).
+    SpotFalloffLinear,
+    /// A punctual light's selection probability taken as uniform over the
+    /// light set while lights are picked by power
+    /// (`light::LightSet::punctual_pmf`).
+    PunctualPmfUniform,
 }
 
 #[cfg(feature = "mutants")]

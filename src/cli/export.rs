@@ -18,6 +18,16 @@
 //! | thin-lens camera | `perspective` (`aperture` 0) or `thinlens` (radius = aperture / 2), `fov_axis="y"` |
 //! | box pixel filter, `max_depth` ray segments | `box` rfilter, `path` integrator's `max_depth` (1 = emitters seen directly in both) |
 //! | Russian roulette from hit `roulette_depth` on | `rr_depth` = `roulette_depth − 1` (Mitsuba rolls after hit `rr_depth`) |
+//! | point light (radiant intensity) | `point` emitter, `intensity` |
+//! | directional light (irradiance) | `directional` emitter, `irradiance` |
+//! | spot light whose inner cone holds the scene's bounds | `spot` emitter, `cutoff_angle` = outer, `beam_width` = inner (degrees), pointed by `lookat` |
+//!
+//! A spot's falloff between its cones differs: glTF's `t²` of a ramp in
+//! the cosine (`reference::light::PunctualLight::falloff`), Mitsuba's
+//! linear in the angle. The two agree only where both are 1 (inside the
+//! inner cone) or 0 (outside the outer), so a spot is exported only when
+//! its inner cone holds every corner of the scene's bounding box (then,
+//! the cone being convex, all the geometry it lights): else it is refused.
 //!
 //! Not exported: fuzzy metal (Ray Tracing in One Weekend's ball
 //! perturbation has no Mitsuba counterpart), dielectrics (Schlick's
@@ -221,6 +231,31 @@ impl<'s> MitsubaScene<'s> {
         if let Background::Envmap { .. } = scene.background() {
             bail!("the background is an environment map (not exported)");
         }
+        let b = scene.bounds();
+        for (i, l) in scene.punctual_lights().iter().enumerate() {
+            if l.tag != reference::light::punctual_tag::SPOT {
+                continue;
+            }
+            let corners = (0..8).map(|k| {
+                Vec3::new(
+                    if k & 1 == 0 { b.min.x } else { b.max.x },
+                    if k & 2 == 0 { b.min.y } else { b.max.y },
+                    if k & 4 == 0 { b.min.z } else { b.max.z },
+                )
+            });
+            let outside = corners
+                .filter(|&c| {
+                    let to = (c - l.position).as_dvec3();
+                    let cos = to.dot(l.direction.as_dvec3()) / to.length();
+                    cos.is_nan() || cos <= l.cos_inner as f64
+                })
+                .count();
+            if outside > 0 {
+                bail!(
+                    "spot light {i}: {outside} of the 8 corners of the scene's bounds lie outside its inner cone, where glTF's falloff (t² of a ramp in the cosine) and Mitsuba's spot (linear in the angle) differ"
+                );
+            }
+        }
         let mut meshes: Vec<(u32, Vec<Vec3>)> = Vec::new();
         let mut add =
             |material: u32, tri: [Vec3; 3]| match meshes.iter_mut().find(|(m, _)| *m == material) {
@@ -351,6 +386,42 @@ impl<'s> MitsubaScene<'s> {
                 *radius < 0.0,
                 self.surfaces[*material as usize].xml()
             )?;
+        }
+        for l in self.scene.punctual_lights() {
+            use reference::light::punctual_tag;
+            let rgb =
+                |name: &str, c: Vec3| format!(r#"<rgb name="{name}" value="{}"/>"#, triple(c));
+            match l.tag {
+                punctual_tag::POINT => writeln!(
+                    x,
+                    r#"  <emitter type="point"><point name="position" value="{}"/>{}</emitter>"#,
+                    triple(l.position),
+                    rgb("intensity", l.intensity)
+                )?,
+                punctual_tag::SPOT => {
+                    let up = if l.direction.y.abs() < 0.9 {
+                        Vec3::Y
+                    } else {
+                        Vec3::Z
+                    };
+                    writeln!(
+                        x,
+                        r#"  <emitter type="spot"><transform name="to_world"><lookat origin="{}" target="{}" up="{}"/></transform>{}<float name="cutoff_angle" value="{:?}"/><float name="beam_width" value="{:?}"/></emitter>"#,
+                        triple(l.position),
+                        triple(l.position + l.direction),
+                        triple(up),
+                        rgb("intensity", l.intensity),
+                        (l.cos_outer as f64).acos().to_degrees(),
+                        (l.cos_inner as f64).acos().to_degrees()
+                    )?
+                }
+                _ => writeln!(
+                    x,
+                    r#"  <emitter type="directional"><vector name="direction" value="{}"/>{}</emitter>"#,
+                    triple(l.direction),
+                    rgb("irradiance", l.intensity)
+                )?,
+            }
         }
         match self.scene.background() {
             Background::Solid(c) if c == Vec3::ZERO => {}

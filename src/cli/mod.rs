@@ -1221,6 +1221,19 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
     } else {
         say!("images: {} ({})", sizes.len(), sizes.join(", "));
     }
+    let light_kind = |i: usize| match scene.punctual_lights()[i].tag {
+        reference::light::punctual_tag::POINT => "point",
+        reference::light::punctual_tag::SPOT => "spot",
+        _ => "directional",
+    };
+    say!(
+        "punctual lights: {}",
+        count(
+            &["point", "spot", "directional"],
+            &light_kind,
+            scene.punctual_lights().len()
+        )
+    );
     match scene.background() {
         Background::Solid(c) => say!("background: solid {c}"),
         Background::Sky { horizon, zenith } => {

@@ -184,6 +184,7 @@ impl<'a> Prepared<'a> {
 /// slowdown), discarding the radiance.
 fn retrace_share(scene: &Scene, settings: &RenderSettings) {
     let camera = settings.camera(scene);
+    let lights = reference::light::LightSet::punctual_only(scene);
     let spp = settings.spp as u64;
     (0..settings.width * settings.height)
         .into_par_iter()
@@ -192,7 +193,7 @@ fn retrace_share(scene: &Scene, settings: &RenderSettings) {
                 if (pixel as u64 * spp + sample as u64) % INJECTED_STRIDE == 0 {
                     let (x, y) = (pixel % settings.width, pixel / settings.width);
                     let ray = camera_ray(&camera, settings, x, y, sample);
-                    black_box(trace_path(scene, ray, settings, pixel, sample));
+                    black_box(trace_path(scene, &lights, ray, settings, pixel, sample));
                 }
             }
         });

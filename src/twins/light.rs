@@ -50,7 +50,7 @@ fn light_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let w = 13u * i;
     let p = vec3<f32>(bitcast<f32>(input[w]), bitcast<f32>(input[w + 1u]), bitcast<f32>(input[w + 2u]));
     let u = vec2<f32>(bitcast<f32>(input[w + 4u]), bitcast<f32>(input[w + 5u]));
-    let ls = light_set_sample(p, bitcast<f32>(input[w + 3u]), u);
+    let ls = light_set_sample(p, bitcast<f32>(input[w + 3u]), u, 0u, params.emitter_count);
     let x = vec3<f32>(bitcast<f32>(input[w + 6u]), bitcast<f32>(input[w + 7u]), bitcast<f32>(input[w + 8u]));
     let n = vec3<f32>(bitcast<f32>(input[w + 9u]), bitcast<f32>(input[w + 10u]), bitcast<f32>(input[w + 11u]));
     let r = 6u * i;
@@ -411,4 +411,189 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
         )?,
     ];
     Ok(lines.join("\n"))
+}
+
+const PUNCTUAL_SNIPPET: &str = "
+@compute @workgroup_size(64)
+fn punctual_main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if i >= arrayLength(&input) / 6u {
+        return;
+    }
+    let w = 6u * i;
+    let p = vec3<f32>(bitcast<f32>(input[w]), bitcast<f32>(input[w + 1u]), bitcast<f32>(input[w + 2u]));
+    var first = 0u;
+    var n = params.emitter_count;
+    if input[w + 4u] == 1u {
+        first = params.emitter_count;
+        n = params.punctual_count;
+    }
+    let ls = light_set_sample(p, bitcast<f32>(input[w + 3u]), vec2<f32>(0.5, 0.5), first, n);
+    let r = 8u * i;
+    output[r] = select(0u, 1u, ls.ok);
+    output[r + 1u] = ls.prim;
+    output[r + 2u] = bitcast<u32>(ls.direction.x);
+    output[r + 3u] = bitcast<u32>(ls.direction.y);
+    output[r + 4u] = bitcast<u32>(ls.direction.z);
+    output[r + 5u] = bitcast<u32>(ls.incident.x);
+    output[r + 6u] = bitcast<u32>(ls.incident.y);
+    output[r + 7u] = bitcast<u32>(ls.incident.z);
+}
+";
+
+/// Point, spot (one with a cone span under the 0.001 cap) and directional
+/// lights over the light test scene's emitters: the punctual light
+/// sampling test scene.
+pub fn punctual_test_scene() -> Scene {
+    use reference::scene::LightInput;
+    let mut b = SceneBuilder::new();
+    add_three_lights(&mut b, (Vec3::new(-0.5, -1.2, 0.5), 0.5));
+    for light in [
+        LightInput::Point {
+            position: DVec3::new(0.3, 2.0, -0.4),
+            intensity: Vec3::new(3.0, 2.0, 1.0),
+        },
+        LightInput::Spot {
+            position: DVec3::new(-0.5, 2.5, 0.2),
+            direction: Vec3::new(0.1, -1.0, 0.2),
+            intensity: Vec3::new(9.0, 9.0, 6.0),
+            inner_cone_angle: 0.3,
+            outer_cone_angle: 0.7,
+        },
+        LightInput::Spot {
+            position: DVec3::new(0.5, 2.2, 0.0),
+            direction: Vec3::new(0.0, -1.0, 0.0),
+            intensity: Vec3::new(5.0, 5.0, 5.0),
+            inner_cone_angle: 0.40,
+            outer_cone_angle: 0.4005,
+        },
+        LightInput::Directional {
+            direction: Vec3::new(0.3, -1.0, 0.1),
+            irradiance: Vec3::new(0.2, 0.3, 0.4),
+        },
+    ] {
+        b.add_light(light).unwrap();
+    }
+    b.build().unwrap()
+}
+
+/// Punctual light samples, GPU vs reference: from points of the test
+/// scene, each light set (the MIS estimator's, where area emitters
+/// compete, and the BSDF estimator's punctual lights alone) picks the same
+/// emitter (exact: the same CDF and comparisons); where it is a punctual
+/// light, the direction agrees within [`ROUNDINGS`] ulps and the incident
+/// term `I · falloff / d²` within ROUNDINGS ulps of its size plus the
+/// falloff's slope (`2 · scale`, the spot's ramp) times ROUNDINGS ulps of
+/// the cosine, where `t²` amplifies the cosine's rounding.
+pub fn punctual_samples_with_library(ctx: &GpuContext, library: &str) -> Outcome {
+    let scene = punctual_test_scene();
+    let sets = [LightSet::new(&scene), LightSet::punctual_only(&scene)];
+    let region = (Vec3::new(-1.5, -1.5, -1.5), Vec3::new(1.5, 1.0, 1.5));
+    let mut cases = Vec::new();
+    for i in 0..4096u32 {
+        let r = |k| random_f32(23, i, 0, 0, k);
+        let p = region.0 + (region.1 - region.0) * Vec3::new(r(0), r(1), r(2));
+        cases.push((p, r(3), i % 2));
+    }
+    let input: Vec<u32> = cases
+        .iter()
+        .flat_map(|&(p, u, set)| {
+            [
+                p.x.to_bits(),
+                p.y.to_bits(),
+                p.z.to_bits(),
+                u.to_bits(),
+                set,
+                0,
+            ]
+        })
+        .collect();
+    let out = run_kernel_with_library(
+        ctx,
+        &scene,
+        (PUNCTUAL_SNIPPET, "punctual_main"),
+        &input,
+        (cases.len(), 8 * cases.len()),
+        library,
+    )?;
+    let mut failures = Vec::new();
+    let (mut punctual, mut worst) = ([0usize; 3], [0.0f64; 2]);
+    for (i, &(p, u, set)) in cases.iter().enumerate() {
+        let w = &out[8 * i..8 * (i + 1)];
+        let at = format!("case {i} (p {p}, set {set})");
+        let want = sets[set as usize].sample(&scene, p, u, Vec2::splat(0.5));
+        let Some(ls) = want else {
+            if w[0] != 0 {
+                failures.push(format!("{at}: the GPU sampled where the reference did not"));
+            }
+            continue;
+        };
+        if w[0] != 1 || w[1] != ls.prim {
+            failures.push(format!(
+                "{at}: GPU ok {} prim {}, reference prim {}",
+                w[0], w[1], ls.prim
+            ));
+            continue;
+        }
+        if !reference::light::is_punctual(ls.prim) {
+            continue;
+        }
+        let light = scene.punctual_lights()[(ls.prim & !reference::light::PUNCTUAL_PRIM) as usize];
+        punctual[light.tag as usize] += 1;
+        let f = |k: usize| f32::from_bits(w[k]);
+        let (dir, incident) = (Vec3::new(f(2), f(3), f(4)), Vec3::new(f(5), f(6), f(7)));
+        let d_dir = (dir - ls.direction).abs().max_element() as f64;
+        let dir_tol = ROUNDINGS * EPS;
+        let d2 = ls.offset.length_squared();
+        let size = light.intensity.max_element() as f64 / d2.max(1e-30);
+        let slope = if light.tag == reference::light::punctual_tag::SPOT {
+            2.0 * light.angle_scale() as f64
+        } else {
+            0.0
+        };
+        let inc_tol = if light.tag == reference::light::punctual_tag::DIRECTIONAL {
+            0.0
+        } else {
+            size * ROUNDINGS * EPS * (1.0 + slope)
+        };
+        let d_inc = (incident - ls.incident).abs().max_element() as f64;
+        worst[0] = worst[0].max(d_dir / dir_tol);
+        if inc_tol > 0.0 {
+            worst[1] = worst[1].max(d_inc / inc_tol);
+        }
+        if d_dir.is_nan() || d_dir > dir_tol {
+            failures.push(format!("{at}: direction {dir} vs {}", ls.direction));
+        }
+        if d_inc.is_nan() || d_inc > inc_tol {
+            failures.push(format!(
+                "{at}: incident {incident} vs {} (bound {inc_tol:.2e})",
+                ls.incident
+            ));
+        }
+    }
+    ensure!(
+        failures.is_empty(),
+        "{} of {} punctual light samples disagree; the first: {:#?}",
+        failures.len(),
+        cases.len(),
+        &failures[..failures.len().min(5)]
+    );
+    ensure!(
+        punctual.iter().all(|&n| n > 100),
+        "too few punctual samples of some kind (point, spot, directional): {punctual:?}"
+    );
+    Ok(format!(
+        "{} samples from both light sets, emitter exact; punctual: {} point, {} spot, {} directional; largest |Δdirection| {:.3}, |Δincident| {:.3} of their bounds",
+        cases.len(),
+        punctual[0],
+        punctual[1],
+        punctual[2],
+        worst[0],
+        worst[1]
+    ))
+}
+
+/// [`punctual_samples_with_library`] with the production WGSL.
+pub fn punctual_samples(ctx: &GpuContext) -> Outcome {
+    punctual_samples_with_library(ctx, &gpu::shader::library_source())
 }

@@ -16,7 +16,8 @@
 //!   root choice at their limits, the cube root (1 ulp).
 //! - [`hits`]: hit records of the BVH walk (flag, primitive, t, uv).
 //! - [`surface`]: surface interactions and spawn points.
-//! - [`light`]: light samples (emitter, direction) and their densities.
+//! - [`light`]: light samples (emitter, direction) and their densities;
+//!   punctual lights' samples (emitter, direction, incident term).
 //! - [`coverage`]: glTF alpha coverage (MASK, BLEND, vertex alpha).
 //! - [`aov`]: the first-hit quantities (albedo, normal, depth, position)
 //!   of camera samples, summed per pixel.
@@ -272,6 +273,11 @@ pub const CHECKS: &[Check] = &[
     Check {
         name: "twin: light samples and densities",
         run: light::all_scenes,
+        variant: false,
+    },
+    Check {
+        name: "twin: punctual light samples (point, spot, directional; both estimators' light sets)",
+        run: light::punctual_samples,
         variant: false,
     },
     Check {

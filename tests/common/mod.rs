@@ -3,6 +3,7 @@
 //! lavapipe) and the panicking gate helpers ([`gates`]).
 
 pub mod gates;
+pub mod punctual;
 
 /// Every stored reference of fixtures/refs/manifest.txt, once, with the
 /// budgets of its two image gates: `test_name: "manifest-name", cpu_spp,
@@ -29,6 +30,7 @@ macro_rules! for_each_reference {
             precision_far: "precision-far", 1024, 1024;
             precision_grazing: "precision-grazing", 1024, 1024;
             gltf_materials: "gltf-materials", 1024, 1024;
+            punctual_lights: "punctual-lights", 1024, 1024;
         }
     };
 }

@@ -69,6 +69,17 @@
 //! colour 1, metallic 1, roughness 1. Each glTF material, texture/factor
 //! pair and image is added to the builder once.
 //!
+//! Lights (`KHR_lights_punctual`): each node holding a light adds it
+//! ([`SceneBuilder::add_light`]) at the node's world position, pointing
+//! along the node's −Z. `color` × `intensity` is read as radiometric per
+//! channel: radiant intensity (W/sr) for point and spot lights (glTF's
+//! candela), irradiance (W/m²) for directional lights (glTF's lux). A
+//! spot's `innerConeAngle` and `outerConeAngle` (defaults 0 and π/4)
+//! shape its falloff as the extension's reference formula does
+//! ([`crate::light::PunctualLight::falloff`]). `range` is not honoured:
+//! a light that states one falls off by the inverse square law alone, and
+//! the importer says so in one warning line per light.
+//!
 //! Textures keep their sampler (wrap modes per axis: repeat, clamp to
 //! edge, mirrored repeat; a NEAREST magnification filter) and their
 //! `KHR_texture_transform` (offset, rotation, scale), rewritten for the
@@ -93,7 +104,9 @@ use crate::background::Background;
 use crate::camera::CameraSettings;
 use crate::error::SceneError;
 use crate::material::{Alpha, AlphaMode, ClearCoat, Material, NormalMap};
-use crate::scene::{MeshInput, RenderOrigin, Scene, SceneBuilder, Transform, MAX_IMAGE_SIDE};
+use crate::scene::{
+    LightInput, MeshInput, RenderOrigin, Scene, SceneBuilder, Transform, MAX_IMAGE_SIDE,
+};
 use crate::texture::{decode_8bit, srgb_to_linear, ImageData, Texture};
 use glam::{DAffine3, DMat3, DMat4, DQuat, DVec3, Vec2, Vec3, Vec4};
 use gltf::accessor::{DataType, Dimensions};
@@ -263,11 +276,24 @@ fn import_file(
         bounds_min: Vec3::INFINITY,
         bounds_max: Vec3::NEG_INFINITY,
     };
+    let lights = read_lights(&file, builder)?;
     let mut triangles = 0usize;
     for instance in instances(&file.document).map_err(|m| file.error(m))? {
         let world = Transform {
             matrix: transform.matrix * instance.world,
         };
+        if let Some(index) = instance.light {
+            let light = lights.get(index).ok_or_else(|| {
+                file.error(format!(
+                    "nodes[{}].extensions.{LIGHTS}.light: light {index} does not exist ({} defined)",
+                    instance.node,
+                    lights.len()
+                ))
+            })?;
+            builder
+                .add_light(light.placed(&world.matrix))
+                .map_err(|e| light.rename(e).in_file(path))?;
+        }
         if take_camera && !summary.camera_taken {
             if let Some(camera) = instance.camera {
                 summary.camera_taken = apply_camera(builder, &file.document, camera, &world.matrix);
@@ -360,9 +386,158 @@ fn apply_camera(
     true
 }
 
+/// The punctual lights extension.
+const LIGHTS: &str = "KHR_lights_punctual";
+
+/// A `KHR_lights_punctual` light as the document defines it, in the
+/// light's own frame (at the origin, pointing down −Z).
+#[derive(Clone, Copy, Debug)]
+struct GltfLight {
+    index: usize,
+    kind: LightKind,
+    /// `color` × `intensity`.
+    value: Vec3,
+    inner: f32,
+    outer: f32,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum LightKind {
+    Point,
+    Spot,
+    Directional,
+}
+
+impl GltfLight {
+    /// The light placed by its node's world matrix.
+    fn placed(&self, world: &DAffine3) -> LightInput {
+        let position = world.transform_point3(DVec3::ZERO);
+        let direction = world.transform_vector3(DVec3::NEG_Z).as_vec3();
+        match self.kind {
+            LightKind::Point => LightInput::Point {
+                position,
+                intensity: self.value,
+            },
+            LightKind::Spot => LightInput::Spot {
+                position,
+                direction,
+                intensity: self.value,
+                inner_cone_angle: self.inner,
+                outer_cone_angle: self.outer,
+            },
+            LightKind::Directional => LightInput::Directional {
+                direction,
+                irradiance: self.value,
+            },
+        }
+    }
+
+    /// A builder error with the document's names for its fields.
+    fn rename(&self, e: SceneError) -> SceneError {
+        let at = format!("{LIGHTS}.lights[{}]", self.index);
+        match e {
+            SceneError::Invalid { field, message } => {
+                let field = match field.as_str() {
+                    "intensity" | "irradiance" => "color × intensity",
+                    "inner_cone_angle" => "spot.innerConeAngle",
+                    "outer_cone_angle" => "spot.outerConeAngle",
+                    "direction" => "(its node's −Z)",
+                    "position" => "(its node's position)",
+                    other => other,
+                };
+                SceneError::invalid(&format!("{at}.{field}"), message)
+            }
+            other => other,
+        }
+    }
+}
+
+/// The document's `KHR_lights_punctual` lights (none without the
+/// extension); a `range` is one warning line each.
+fn read_lights(file: &GltfFile, builder: &mut SceneBuilder) -> Result<Vec<GltfLight>, SceneError> {
+    let Some(ext) = file.document.extension_value(LIGHTS) else {
+        return Ok(Vec::new());
+    };
+    let error = |m: String| file.error(format!("{LIGHTS}{m}"));
+    let Some(list) = ext.get("lights").and_then(|l| l.as_array()) else {
+        return Err(error(".lights is missing or not an array".into()));
+    };
+    let mut out = Vec::with_capacity(list.len());
+    for (i, light) in list.iter().enumerate() {
+        let at = format!(".lights[{i}]");
+        let object = light
+            .as_object()
+            .ok_or_else(|| error(format!("{at} is not an object")))?;
+        let number =
+            |o: &serde_json::Map<String, serde_json::Value>, name: &str, default: f64| match o
+                .get(name)
+            {
+                None => Ok(default),
+                Some(v) => v
+                    .as_f64()
+                    .filter(|x| x.is_finite())
+                    .ok_or_else(|| error(format!("{at}.{name} {v} is not a number"))),
+            };
+        let kind = match object.get("type").and_then(|t| t.as_str()) {
+            Some("point") => LightKind::Point,
+            Some("spot") => LightKind::Spot,
+            Some("directional") => LightKind::Directional,
+            other => {
+                return Err(error(format!(
+                    "{at}.type {} is not point, spot or directional",
+                    other.map_or("(missing)".to_string(), |t| format!("\"{t}\""))
+                )))
+            }
+        };
+        let color = match object.get("color") {
+            None => Vec3::ONE,
+            Some(v) => {
+                let c: Option<Vec<f32>> = v.as_array().map(|a| {
+                    a.iter()
+                        .filter_map(|x| x.as_f64())
+                        .map(|x| x as f32)
+                        .collect()
+                });
+                match c {
+                    Some(c) if c.len() == 3 && v.as_array().is_some_and(|a| a.len() == 3) => {
+                        Vec3::from_slice(&c)
+                    }
+                    _ => return Err(error(format!("{at}.color {v} is not [r, g, b]"))),
+                }
+            }
+        };
+        let intensity = number(object, "intensity", 1.0)? as f32;
+        let (mut inner, mut outer) = (0.0, std::f64::consts::FRAC_PI_4);
+        if kind == LightKind::Spot {
+            if let Some(spot) = object.get("spot") {
+                let spot = spot
+                    .as_object()
+                    .ok_or_else(|| error(format!("{at}.spot is not an object")))?;
+                inner = number(spot, "innerConeAngle", inner)?;
+                outer = number(spot, "outerConeAngle", outer)?;
+            }
+        }
+        if let Some(range) = object.get("range") {
+            builder.warnings.push(format!(
+                "{}: {LIGHTS}{at}.range {range} ignored: the light falls off by the inverse square law alone",
+                file.path.display()
+            ));
+        }
+        out.push(GltfLight {
+            index: i,
+            kind,
+            value: color * intensity,
+            inner: inner as f32,
+            outer: outer as f32,
+        });
+    }
+    Ok(out)
+}
+
 /// The glTF extensions the importer implements.
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     CLEARCOAT,
+    LIGHTS,
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_transmission",
@@ -607,8 +782,11 @@ fn check_views(document: &Document) -> Result<(), String> {
 
 /// A node (or, in a document without scenes, a bare mesh) to place.
 struct Instance<'a> {
+    node: usize,
     mesh: Option<gltf::Mesh<'a>>,
     camera: Option<usize>,
+    /// The `KHR_lights_punctual` light the node holds.
+    light: Option<usize>,
     world: DAffine3,
 }
 
@@ -621,8 +799,10 @@ fn instances(document: &Document) -> Result<Vec<Instance<'_>>, String> {
         return Ok(document
             .meshes()
             .map(|mesh| Instance {
+                node: 0,
                 mesh: Some(mesh),
                 camera: None,
+                light: None,
                 world: DAffine3::IDENTITY,
             })
             .collect());
@@ -654,9 +834,21 @@ fn instances(document: &Document) -> Result<Vec<Instance<'_>>, String> {
                 node.index()
             ));
         }
+        let light = match node.extension_value(LIGHTS) {
+            None => None,
+            Some(v) => Some(v.get("light").and_then(|l| l.as_u64()).ok_or_else(|| {
+                format!(
+                    "nodes[{}].extensions.{LIGHTS}.light {} is not a light index",
+                    node.index(),
+                    v.get("light").map_or("(missing)".into(), |l| l.to_string())
+                )
+            })? as usize),
+        };
         out.push(Instance {
+            node: node.index(),
             mesh: node.mesh(),
             camera: node.camera().map(|c| c.index()),
+            light,
             world,
         });
         let children: Vec<_> = node.children().collect();

@@ -9,7 +9,7 @@ use crate::camera::CameraSettings;
 use crate::error::SceneError;
 use crate::loader::image::load_image;
 use crate::material::{ClearCoat, Material};
-use crate::scene::{RenderOrigin, RenderSettings, Scene, SceneBuilder, Transform};
+use crate::scene::{LightInput, RenderOrigin, RenderSettings, Scene, SceneBuilder, Transform};
 use crate::texture::Texture;
 use glam::{DQuat, DVec3, Vec3};
 use serde::de::{self, Deserializer, SeqAccess, Visitor};
@@ -194,6 +194,74 @@ pub enum ObjectJson {
     Gltf(GltfJson),
 }
 
+/// A punctual light (docs/scene-format.md, "Lights"): positions in world
+/// coordinates, read in f64; directions are the way the light travels.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum LightJson {
+    Point(PointLightJson),
+    Spot(SpotLightJson),
+    Directional(DirectionalLightJson),
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PointLightJson {
+    pub position: [f64; 3],
+    /// Radiant intensity, W/sr per channel.
+    pub intensity: [f32; 3],
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpotLightJson {
+    pub position: [f64; 3],
+    pub direction: [f32; 3],
+    /// Radiant intensity on the axis, W/sr per channel.
+    pub intensity: [f32; 3],
+    /// Degrees from the axis (glTF's defaults: 0 and 45).
+    #[serde(default)]
+    pub inner_cone_angle: f32,
+    #[serde(default = "default_outer_cone_angle")]
+    pub outer_cone_angle: f32,
+}
+
+fn default_outer_cone_angle() -> f32 {
+    45.0
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DirectionalLightJson {
+    pub direction: [f32; 3],
+    /// Irradiance on a surface facing the light, W/m² per channel.
+    pub irradiance: [f32; 3],
+}
+
+impl LightJson {
+    /// What the builder checks ([`SceneBuilder::add_light`]): angles in
+    /// radians.
+    pub fn input(&self) -> LightInput {
+        match self {
+            LightJson::Point(l) => LightInput::Point {
+                position: DVec3::from(l.position),
+                intensity: Vec3::from(l.intensity),
+            },
+            LightJson::Spot(l) => LightInput::Spot {
+                position: DVec3::from(l.position),
+                direction: Vec3::from(l.direction),
+                intensity: Vec3::from(l.intensity),
+                inner_cone_angle: l.inner_cone_angle.to_radians(),
+                outer_cone_angle: l.outer_cone_angle.to_radians(),
+            },
+            LightJson::Directional(l) => LightInput::Directional {
+                direction: Vec3::from(l.direction),
+                irradiance: Vec3::from(l.irradiance),
+            },
+        }
+    }
+}
+
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SolidBackgroundJson {
@@ -366,6 +434,9 @@ pub struct SceneJson {
     #[serde(default)]
     pub materials: BTreeMap<String, MaterialJson>,
     pub objects: Vec<ObjectJson>,
+    /// Point, spot and directional lights.
+    #[serde(default)]
+    pub lights: Vec<LightJson>,
 }
 
 /// Parses a scene document; errors carry the path to the field and the
@@ -441,6 +512,12 @@ fn refine_tagged_error(text: &str, field: &str) -> Option<(String, String)> {
         ("materials", doc.get("materials")?.get(name)?)
     } else if let Some(name) = field.strip_prefix("textures.") {
         ("textures", doc.get("textures")?.get(name)?)
+    } else if let Some(rest) = field.strip_prefix("lights[") {
+        (
+            "lights",
+            doc.get("lights")?
+                .get(rest.strip_suffix(']')?.parse::<usize>().ok()?)?,
+        )
     } else if field == "background" {
         ("background", doc.get("background")?)
     } else {
@@ -463,6 +540,9 @@ fn refine_tagged_error(text: &str, field: &str) -> Option<(String, String)> {
         ("textures", "constant") => inner_error::<ConstantTextureJson>(v),
         ("textures", "checker") => inner_error::<CheckerTextureJson>(v),
         ("textures", "image") => inner_error::<ImageTextureJson>(v),
+        ("lights", "point") => inner_error::<PointLightJson>(v),
+        ("lights", "spot") => inner_error::<SpotLightJson>(v),
+        ("lights", "directional") => inner_error::<DirectionalLightJson>(v),
         ("background", "solid") => inner_error::<SolidBackgroundJson>(v),
         ("background", "sky") => inner_error::<SkyBackgroundJson>(v),
         ("background", "envmap") => inner_error::<EnvmapBackgroundJson>(v),
@@ -866,6 +946,11 @@ fn build(doc: &SceneJson, base: &Path, sources: Vec<PathBuf>) -> Result<Scene, S
     for (i, o) in doc.objects.iter().enumerate() {
         r.object(o)
             .map_err(|e| e.within(&format!("objects[{i}]")))?;
+    }
+    for (i, l) in doc.lights.iter().enumerate() {
+        r.builder
+            .add_light(l.input())
+            .map_err(|e| e.within(&format!("lights[{i}]")))?;
     }
     // Every file the document names is read, used or not: a typo in the
     // path of a texture no material uses yet must not go unnoticed.

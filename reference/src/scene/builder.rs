@@ -8,6 +8,7 @@ use crate::bvh::Bvh;
 use crate::camera::CameraSettings;
 use crate::error::SceneError;
 use crate::geometry::Aabb;
+use crate::light::{punctual_tag, PunctualLight};
 use crate::material::{Alpha, AlphaMode, Material};
 use crate::mutants::{self, Mutant};
 use crate::shapes::{
@@ -33,6 +34,34 @@ pub struct MeshInput {
     /// A second set of texture coordinates (v up, as `uvs`).
     pub uvs1: Option<Vec<Vec2>>,
 }
+
+/// A punctual light as a loader reads it, in world coordinates (f64
+/// positions); [`SceneBuilder::add_light`] checks it. Field names in its
+/// errors are the scene format's (`position`, `direction`, `intensity`,
+/// `irradiance`, `inner_cone_angle`, `outer_cone_angle`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LightInput {
+    /// Radiant intensity (W/sr) per channel, the same in every direction.
+    Point { position: DVec3, intensity: Vec3 },
+    /// Radiant intensity along `direction` (the way the light points),
+    /// full inside the inner cone, falling off to none at the outer
+    /// (angles in radians from the axis: `0 ≤ inner < outer ≤ π/2`).
+    Spot {
+        position: DVec3,
+        direction: Vec3,
+        intensity: Vec3,
+        inner_cone_angle: f32,
+        outer_cone_angle: f32,
+    },
+    /// Irradiance (W/m²) on a surface facing it, arriving along
+    /// `direction` (the way the light travels).
+    Directional { direction: Vec3, irradiance: Vec3 },
+}
+
+/// The most punctual lights a scene may hold (their ids share the emitter
+/// list's 31 bits with nothing else, `light::PUNCTUAL_PRIM`; this is a
+/// sanity bound far above any real scene's count).
+pub const MAX_PUNCTUAL_LIGHTS: usize = 1 << 16;
 
 /// Collects a scene, checks it, and builds its BVH. Positions are kept in
 /// world coordinates, in f64, until [`SceneBuilder::build`] translates them
@@ -79,6 +108,10 @@ pub struct SceneBuilder {
     textures: Vec<Texture>,
     images: Vec<ImageData>,
     primitives: Vec<Primitive>,
+    /// Punctual lights, and their positions in world coordinates (f64),
+    /// which `build` translates and rounds.
+    punctual_lights: Vec<PunctualLight>,
+    light_positions: Vec<DVec3>,
 }
 
 fn check_finite_vec(field: &str, v: Vec3) -> Result<(), SceneError> {
@@ -431,6 +464,111 @@ impl SceneBuilder {
             tag,
             index: index as u32,
         });
+    }
+
+    /// A punctual light (see [`LightInput`]), every value checked.
+    pub fn add_light(&mut self, light: LightInput) -> Result<(), SceneError> {
+        if self.punctual_lights.len() >= MAX_PUNCTUAL_LIGHTS {
+            return Err(SceneError::invalid(
+                "lights",
+                format!("more than {MAX_PUNCTUAL_LIGHTS} lights"),
+            ));
+        }
+        let position_of = |p: DVec3| {
+            if p.is_finite() && p.as_vec3().is_finite() {
+                Ok(p)
+            } else {
+                Err(SceneError::invalid(
+                    "position",
+                    format!("{p} is not finite in f32"),
+                ))
+            }
+        };
+        let direction_of = |d: Vec3| {
+            check_finite_vec("direction", d)?;
+            d.try_normalize().ok_or_else(|| {
+                SceneError::invalid("direction", format!("{d} has no direction (zero length)"))
+            })
+        };
+        let (light, position) = match light {
+            LightInput::Point {
+                position,
+                intensity,
+            } => {
+                check_colour("intensity", intensity)?;
+                let light = PunctualLight {
+                    tag: punctual_tag::POINT,
+                    position: Vec3::ZERO,
+                    direction: Vec3::NEG_Z,
+                    intensity,
+                    cos_inner: 1.0,
+                    cos_outer: 1.0,
+                };
+                (light, position_of(position)?)
+            }
+            LightInput::Spot {
+                position,
+                direction,
+                intensity,
+                inner_cone_angle: inner,
+                outer_cone_angle: outer,
+            } => {
+                check_colour("intensity", intensity)?;
+                let show = |a: f32| format!("{a} rad ({:.3}°)", a.to_degrees());
+                if !(outer.is_finite() && outer > 0.0 && outer <= std::f32::consts::FRAC_PI_2) {
+                    return Err(SceneError::invalid(
+                        "outer_cone_angle",
+                        format!("{} must be above 0 and at most π/2 (90°)", show(outer)),
+                    ));
+                }
+                if !(inner.is_finite() && inner >= 0.0 && inner < outer) {
+                    return Err(SceneError::invalid(
+                        "inner_cone_angle",
+                        format!(
+                            "{} must be at least 0 and below the outer cone angle {}",
+                            show(inner),
+                            show(outer)
+                        ),
+                    ));
+                }
+                let light = PunctualLight {
+                    tag: punctual_tag::SPOT,
+                    position: Vec3::ZERO,
+                    direction: direction_of(direction)?,
+                    intensity,
+                    cos_inner: inner.cos(),
+                    cos_outer: outer.cos(),
+                };
+                (light, position_of(position)?)
+            }
+            LightInput::Directional {
+                direction,
+                irradiance,
+            } => {
+                check_colour("irradiance", irradiance)?;
+                let light = PunctualLight {
+                    tag: punctual_tag::DIRECTIONAL,
+                    position: Vec3::ZERO,
+                    direction: direction_of(direction)?,
+                    intensity: irradiance,
+                    cos_inner: 1.0,
+                    cos_outer: 1.0,
+                };
+                (light, DVec3::ZERO)
+            }
+        };
+        self.punctual_lights.push(PunctualLight {
+            position: position.as_vec3(),
+            ..light
+        });
+        self.light_positions.push(position);
+        Ok(())
+    }
+
+    /// The punctual lights added so far (positions in world coordinates,
+    /// rounded to f32).
+    pub fn punctual_lights(&self) -> &[PunctualLight] {
+        &self.punctual_lights
     }
 
     /// A sphere, placed by `transform` (which must be a similarity: a
@@ -792,6 +930,7 @@ impl SceneBuilder {
         let mut spheres = self.spheres;
         let mut quads = self.quads;
         let mut mesh = self.mesh;
+        let mut punctual_lights = self.punctual_lights;
         if origin != DVec3::ZERO {
             let to_render = |field: &str, p: DVec3| {
                 let r = (p - origin).as_vec3();
@@ -812,6 +951,15 @@ impl SceneBuilder {
             }
             for (m, &p) in mesh.positions.iter_mut().zip(&self.positions) {
                 *m = to_render("objects.positions", p)?;
+            }
+            for (i, (l, &p)) in punctual_lights
+                .iter_mut()
+                .zip(&self.light_positions)
+                .enumerate()
+            {
+                if l.tag != punctual_tag::DIRECTIONAL {
+                    l.position = to_render(&format!("lights[{i}].position"), p)?;
+                }
             }
         }
         let render_camera = CameraSettings {
@@ -844,6 +992,7 @@ impl SceneBuilder {
             emissions,
             textures,
             images: self.images,
+            punctual_lights,
             primitives: self.primitives,
             bvh: Bvh::default(),
             bvh_stats,

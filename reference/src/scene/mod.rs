@@ -19,7 +19,7 @@ mod settings;
 mod tests;
 mod transform;
 
-pub use builder::{Appearance, MeshInput, SceneBuilder};
+pub use builder::{Appearance, LightInput, MeshInput, SceneBuilder};
 pub use render_space::{RenderOrigin, RenderSpace};
 pub use settings::{RenderSettings, MAX_DEPTH, MAX_IMAGE_SIDE, MAX_PIXELS, MAX_SPP};
 pub use transform::Transform;
@@ -28,6 +28,7 @@ use crate::background::Background;
 use crate::bvh::{box_pad, Bvh, BvhBuildStats};
 use crate::camera::{Camera, CameraSettings};
 use crate::geometry::{gamma, Aabb, Hit, Ray, SurfaceInteraction};
+use crate::light::PunctualLight;
 use crate::material::{alpha_hash, normal_mapped, Alpha, Material};
 use crate::mutants::{self, Mutant};
 use crate::shapes::{
@@ -91,6 +92,8 @@ pub struct Scene {
     emissions: Vec<Option<u32>>,
     textures: Vec<Texture>,
     images: Vec<ImageData>,
+    /// Point, spot and directional lights, positions in render space.
+    punctual_lights: Vec<PunctualLight>,
     /// All primitives in scene order; the index is the primitive id.
     primitives: Vec<Primitive>,
     /// `leaf_prims` and `leaf_blocks` are derived from it
@@ -158,14 +161,15 @@ impl Scene {
         let mut h = Fingerprint(0xcbf2_9ce4_8422_2325);
         let _ = write!(
             h,
-            "{:?}{:?}{:?}{:?}{:?}{:?}{:?}",
+            "{:?}{:?}{:?}{:?}{:?}{:?}{:?}{:?}",
             self.camera_settings,
             self.render_camera,
             self.background,
             self.materials,
             self.alphas,
             self.emissions,
-            self.textures
+            self.textures,
+            self.punctual_lights
         );
         for c in self.render_space.origin().to_array() {
             let bits = c.to_bits();
@@ -337,6 +341,11 @@ impl Scene {
 
     pub fn textures(&self) -> &[Texture] {
         &self.textures
+    }
+
+    /// The point, spot and directional lights (positions in render space).
+    pub fn punctual_lights(&self) -> &[PunctualLight] {
+        &self.punctual_lights
     }
 
     pub fn images(&self) -> &[ImageData] {
