@@ -33,10 +33,11 @@
 //! the reference's formulas in Dr.Jit; src/cli/export/materials.rs maps
 //! materials and textures onto them and Mitsuba's own plugins.
 //!
-//! Not exported: emission added to a BSDF and textured lights, metals
-//! under shading normals (their reflection is tested against the
-//! geometric normal), alpha on a dielectric or a light, a texture of the
-//! second uv set on a sphere.
+//! Not exported: emission added to a BSDF and textured lights, metals and
+//! lights under shading normals (the metals test their reflection against
+//! the geometric normal, the reference's light faces its geometric front,
+//! Mitsuba's its shading normal), alpha on a dielectric or a light, a
+//! texture of the second uv set on a sphere.
 //!
 //! Mitsuba's `path` integrator samples emitters with MIS, where twintrace
 //! samples the BSDF only: a different estimator of the same integral, so

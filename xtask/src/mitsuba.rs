@@ -318,6 +318,22 @@ fn json_field(text: &str, key: &str) -> String {
         .unwrap_or_else(|| "unknown".into())
 }
 
+/// References whose Mitsuba render is packed (to see whether Mitsuba
+/// still errs) but not imported from the GPU machine, with why
+/// (docs/gates.md): precision-far has no stored render (the test's
+/// `WITHOUT_MITSUBA` lists it), precision-contact keeps its `scalar_rgb`
+/// one.
+const NOT_IMPORTED: &[(&str, &str)] = &[
+    (
+        "precision-far",
+        "Mitsuba's own renders are wrong 2·10^4 from the origin",
+    ),
+    (
+        "precision-contact",
+        "cuda_ad_rgb renders the spheres' contact darker; the stored render is scalar_rgb's",
+    ),
+];
+
 fn import(dir: &Path) -> Result<(), String> {
     let root = crate::util::workspace_root();
     std::env::set_current_dir(&root)
@@ -347,6 +363,10 @@ fn import(dir: &Path) -> Result<(), String> {
             continue;
         }
         let name = path.file_stem().unwrap().to_string_lossy().to_string();
+        if let Some((_, why)) = NOT_IMPORTED.iter().find(|(n, _)| *n == name) {
+            eprintln!("xtask: not imported {name}: {why}");
+            continue;
+        }
         let info = std::fs::read_to_string(path.with_extension("json"))
             .map_err(|e| format!("{name}: no render.py report beside the EXR: {e}"))?;
         // Each file whole or not at all: an interrupted import leaves the

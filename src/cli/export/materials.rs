@@ -401,14 +401,14 @@ impl Surface {
 
     /// Why it cannot be on triangles with shading normals, if it cannot:
     /// the mirror and fuzzy metal test their reflection against the
-    /// geometric normal, which their Mitsuba forms do not see.
+    /// geometric normal, which their Mitsuba forms do not see; Mitsuba's
+    /// `area` light emits toward its shading normal's side, the
+    /// reference's toward the geometric front.
     pub(super) fn shading_normals_refused(&self) -> Option<&'static str> {
         match self {
-            Surface::Diffuse(_)
-            | Surface::Ggx { .. }
-            | Surface::Light(_)
-            | Surface::Dielectric { .. } => None,
+            Surface::Diffuse(_) | Surface::Ggx { .. } | Surface::Dielectric { .. } => None,
             Surface::Mirror(_) | Surface::FuzzyMetal { .. } => Some("a metal"),
+            Surface::Light(_) => Some("a light"),
         }
     }
 }
