@@ -10,7 +10,11 @@ skewness of the mean) and an `spp` attribute (PASSES * PASS_SPP); and
 OUT_DIR/NAME.json with the settings, versions and timings.
 
 Run on a machine with an NVIDIA GPU (variant cuda_ad_rgb) or, slower,
-with MITSUBA_VARIANT=llvm_ad_rgb where LLVM is installed.
+with MITSUBA_VARIANT=llvm_ad_rgb where LLVM 16 or newer is installed
+(DRJIT_LIBLLVM_PATH names it), or scalar_rgb (slowest: the plugins run in
+Python a ray at a time). twintrace's plugins (plugins/, beside this file:
+the reference's dielectric, fuzzy metal, GGX and 3-D checker) are
+registered before any scene loads.
 """
 import json
 import os
@@ -95,7 +99,8 @@ def render(scene_dir, out_dir):
         planes["variance." + ch] = variance[:, :, c]
         planes["skewness." + ch] = skewness[:, :, c]
     spp = PASSES * PASS_SPP
-    software = f"Mitsuba {mi.__version__} ({mi.variant()}, path integrator)"
+    integrator = scene.integrator().class_name().lower().replace("integrator", "")
+    software = f"Mitsuba {mi.__version__} ({mi.variant()}, {integrator or 'path'} integrator)"
     write_exr(os.path.join(out_dir, name + ".exr"), planes, {"spp": spp, "software": software})
     info = {
         "name": name,
@@ -118,6 +123,10 @@ def main():
     if len(sys.argv) < 3:
         sys.exit("usage: render.py OUT_DIR SCENE_DIR...")
     mi.set_variant(os.environ.get("MITSUBA_VARIANT", "cuda_ad_rgb"))
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "plugins"))
+    import twintrace_plugins
+
+    twintrace_plugins.register()
     out_dir = sys.argv[1]
     os.makedirs(out_dir, exist_ok=True)
     for scene_dir in sys.argv[2:]:

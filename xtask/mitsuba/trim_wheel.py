@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Copies a Mitsuba 3 wheel without what the cuda_ad_rgb renders of
 `cargo xtask mitsuba` never load (the other variants, headers, volume,
-curve and unused BSDF plugins), so that it and Dr.Jit fit in what travels
+curve and unused BSDF plugins; `volpath` stays, for the absorbing
+dielectrics' interior media), so that it and Dr.Jit fit in what travels
 to the GPU machine. Usage: trim_wheel.py IN.whl OUT.whl"""
 import re
 import sys
@@ -10,7 +11,7 @@ import zipfile
 DROP = re.compile(
     r"^mitsuba/("
     r"llvm_ad_.*|scalar_.*|cuda_ad_(mono|spectral).*|include/.*|data/sunsky/.*"
-    r"|plugins/(volpath|volpathmis|ellipsoids|ellipsoidsmesh|bsplinecurve|linearcurve"
+    r"|plugins/(volpathmis|ellipsoids|ellipsoidsmesh|bsplinecurve|linearcurve"
     r"|sunsky|timed_sunsky|sdfgrid|ptracer|principled|principledthin|cylinder|hair"
     r"|measured|measured_polarized|roughdielectric|roughplastic|plastic)\.so"
     r")$"

@@ -1,0 +1,584 @@
+//! The materials and textures of `export-mitsuba`: each as Mitsuba 3's own
+//! plugin where that computes the reference's formula (`diffuse`, the
+//! `conductor` mirror, `area`), else as one of twintrace's Python plugins
+//! (xtask/mitsuba/plugins/twintrace_plugins.py, registered by render.py
+//! and checked by chi2.py): `tt_dielectric` (Schlick's Fresnel),
+//! `tt_fuzzy_metal`, `tt_ggx` (glTF metallic-roughness with clear coat),
+//! `tt_checker` (the 3-D sine checker). What neither can express is
+//! refused with the feature named.
+
+use anyhow::{bail, Result};
+use glam::Vec3;
+use reference::material::{AlphaMode, Material};
+use reference::texture::{Sampler, Texture, Wrap};
+use reference::Scene;
+use std::path::Path;
+use twintrace::image_io::{self, RenderImage, RenderMetadata};
+
+/// How a shape's Mitsuba uv becomes the reference's: `uv_ref = (m0·u +
+/// m1·v + m2, m3·u + m4·v + m5)`.
+pub(super) type UvMap = [f64; 6];
+
+/// PLY meshes carry the reference's own uv.
+pub(super) const MESH_UV: UvMap = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+
+/// Spheres exported with [`sphere_to_world`]: Mitsuba's (φ, θ) in the
+/// frame whose z is the world's −y and whose y is the world's +z give
+/// v = acos(−y)/π, the reference's, and u = 0.5 − the reference's
+/// `(atan2(−z, x) + π) / 2π` (its parameterization has the other
+/// handedness, so no rotation gives it directly).
+pub(super) const SPHERE_UV: UvMap = [-1.0, 0.0, 0.5, 0.0, 1.0, 0.0];
+
+/// The `to_world` of a sphere whose uv is [`SPHERE_UV`]: local x → world
+/// x, local y → world z, local z → world −y, times the radius, at the
+/// centre (Mitsuba takes centre and radius from it, so it intersects the
+/// same sphere).
+pub(super) fn sphere_to_world(center: Vec3, radius: f32) -> String {
+    let r = radius;
+    let c = center;
+    format!(
+        r#"<transform name="to_world"><matrix value="{r:?} 0 0 {:?} 0 0 {:?} {:?} 0 {r:?} 0 {:?} 0 0 0 1"/></transform>"#,
+        c.x, -r, c.y, c.z
+    )
+}
+
+/// `a ∘ b`: first `b`, then `a`.
+fn compose(a: UvMap, b: UvMap) -> UvMap {
+    [
+        a[0] * b[0] + a[1] * b[3],
+        a[0] * b[1] + a[1] * b[4],
+        a[0] * b[2] + a[1] * b[5] + a[2],
+        a[3] * b[0] + a[4] * b[3],
+        a[3] * b[1] + a[4] * b[4],
+        a[3] * b[2] + a[4] * b[5] + a[5],
+    ]
+}
+
+/// The image file of texture `id` in the output folder.
+pub(super) fn texture_file(id: u32) -> String {
+    format!("texture_{id}.exr")
+}
+
+/// A texture Mitsuba evaluates as the reference does.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) enum Tex {
+    Constant(Vec3),
+    /// Mitsuba's `bitmap` of [`texture_file`]`(id)`: the reference's
+    /// linear texels times the factor, as a float EXR read raw; texel
+    /// centres at half-integers in both; one wrap mode for both axes.
+    Image {
+        id: u32,
+        /// The wrap modes along u and v.
+        wrap: (Wrap, Wrap),
+        /// The texture coordinate set it reads (glTF's texCoord, 0 or 1).
+        set: u32,
+        nearest: bool,
+        /// The reference's uv → the sampler's uv (KHR_texture_transform).
+        transform: Box<UvMap>,
+    },
+    /// `tt_checker`: the scene's (render-space) `even` and `odd`.
+    Checker {
+        scale: f32,
+        even: Box<Tex>,
+        odd: Box<Tex>,
+    },
+}
+
+impl Tex {
+    /// The texture as the XML child named `name`, on a shape whose uv
+    /// becomes the reference's by `uv`.
+    fn xml(&self, name: &str, uv: UvMap) -> String {
+        match self {
+            Tex::Constant(c) => format!(r#"<rgb name="{name}" value="{}"/>"#, triple(*c)),
+            Tex::Checker { scale, even, odd } => format!(
+                r#"<texture type="tt_checker" name="{name}"><float name="scale" value="{scale:?}"/>{}{}</texture>"#,
+                even.xml("even", uv),
+                odd.xml("odd", uv)
+            ),
+            Tex::Image {
+                id,
+                wrap,
+                set,
+                nearest,
+                transform,
+            } => {
+                // Mitsuba's bitmap has v = 0 at the top row, the
+                // reference v = 0 at the bottom; wrapping 1 − v is
+                // wrapping v, mirrored, for every mode.
+                let mode = |w: &Wrap| match w {
+                    Wrap::Repeat => "repeat",
+                    Wrap::ClampToEdge => "clamp",
+                    Wrap::MirroredRepeat => "mirror",
+                };
+                if wrap.0 != wrap.1 || *set == 1 {
+                    // `tt_image`: the reference's lookup itself, its uv
+                    // (not flipped) from the shape's by `m0`..`m5`, or
+                    // from the mesh's second set (`vertex_uv1`).
+                    let (uv, uv1) = if *set == 1 {
+                        (
+                            MESH_UV,
+                            r#"<texture type="mesh_attribute" name="uv1"><string name="name" value="vertex_uv1"/></texture>"#,
+                        )
+                    } else {
+                        (uv, "")
+                    };
+                    let m = compose(**transform, uv);
+                    let m: String = m
+                        .iter()
+                        .enumerate()
+                        .map(|(i, v)| format!(r#"<float name="m{i}" value="{v:?}"/>"#))
+                        .collect();
+                    return format!(
+                        r#"<texture type="tt_image" name="{name}"><string name="filename" value="{}"/><string name="wrap_u" value="{}"/><string name="wrap_v" value="{}"/><boolean name="nearest" value="{nearest}"/>{m}{uv1}</texture>"#,
+                        texture_file(*id),
+                        mode(&wrap.0),
+                        mode(&wrap.1)
+                    );
+                }
+                const FLIP: UvMap = [1.0, 0.0, 0.0, 0.0, -1.0, 1.0];
+                let m = compose(FLIP, compose(**transform, uv));
+                let wrap = mode(&wrap.0);
+                format!(
+                    r#"<texture type="bitmap" name="{name}"><string name="filename" value="{}"/><boolean name="raw" value="true"/><string name="filter_type" value="{}"/><string name="wrap_mode" value="{wrap}"/><transform name="to_uv"><matrix value="{:?} {:?} 0 {:?} {:?} {:?} 0 {:?} 0 0 1 0 0 0 0 1"/></transform></texture>"#,
+                    texture_file(*id),
+                    if *nearest { "nearest" } else { "bilinear" },
+                    m[0],
+                    m[1],
+                    m[2],
+                    m[3],
+                    m[4],
+                    m[5]
+                )
+            }
+        }
+    }
+
+    fn uses_plugins(&self) -> bool {
+        match self {
+            Tex::Constant(_) => false,
+            Tex::Checker { .. } => true,
+            Tex::Image { wrap, set, .. } => wrap.0 != wrap.1 || *set == 1,
+        }
+    }
+
+    /// Whether it reads the second texture coordinates.
+    fn uses_uv1(&self) -> bool {
+        match self {
+            Tex::Constant(_) => false,
+            Tex::Image { set, .. } => *set == 1,
+            Tex::Checker { even, odd, .. } => even.uses_uv1() || odd.uses_uv1(),
+        }
+    }
+
+    fn uses_uv(&self) -> bool {
+        match self {
+            Tex::Constant(_) => false,
+            Tex::Image { .. } => true,
+            Tex::Checker { even, odd, .. } => even.uses_uv() || odd.uses_uv(),
+        }
+    }
+
+    /// The image textures it reads, each once.
+    fn images(&self, out: &mut Vec<u32>) {
+        match self {
+            Tex::Constant(_) => {}
+            Tex::Image { id, .. } => {
+                if !out.contains(id) {
+                    out.push(*id)
+                }
+            }
+            Tex::Checker { even, odd, .. } => {
+                even.images(out);
+                odd.images(out);
+            }
+        }
+    }
+}
+
+/// A BSDF (and emitter) Mitsuba renders as twintrace does.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) enum Surface {
+    Diffuse(Tex),
+    /// A smooth metal: a perfect mirror times the albedo.
+    Mirror(Tex),
+    FuzzyMetal {
+        albedo: Tex,
+        fuzz: f32,
+    },
+    /// Schlick's glass; an absorbing one gets an interior medium.
+    Dielectric {
+        ior: f32,
+        absorption: Vec3,
+    },
+    Light(Vec3),
+    Ggx {
+        base_color: Tex,
+        metallic: f32,
+        roughness: f32,
+        /// glTF's metallicRoughnessTexture (blue: metallic, green: roughness).
+        metallic_roughness: Option<Tex>,
+        /// The clear coat's weight and roughness (weight 0: none), and
+        /// their textures (red, green).
+        coat: (f32, f32),
+        coat_textures: (Option<Tex>, Option<Tex>),
+        /// glTF's normalTexture and its scale: applied on triangles with
+        /// tangents (`tt_normalmap`), ignored elsewhere, as the reference.
+        normal_map: Option<(Tex, f32)>,
+    },
+}
+
+/// Where a shape's surface is: what its BSDF reads of the shape.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Placement {
+    /// The shape's uv → the reference's.
+    pub uv: UvMap,
+    /// Triangles with shading normals: the reference's facing (the
+    /// shading normal put on the geometric normal's side, then flipped
+    /// toward the ray as the geometric one is) by `tt_facing` instead of
+    /// Mitsuba's `twosided` (which flips by the shading normal alone).
+    pub shading_normals: bool,
+    /// The mesh carries vertex colours (`vertex_color`), which scale a
+    /// `ggx` base colour.
+    pub vertex_colors: bool,
+    /// The mesh carries tangents (`vertex_tangent`, and `vertex_tsign`
+    /// their w), which a `ggx` normal map reads.
+    pub tangents: bool,
+}
+
+impl Surface {
+    /// The BSDF (with its emitter or interior medium) as the children of
+    /// a `shape` placed at `at`.
+    pub(super) fn xml(&self, at: Placement) -> String {
+        let uv = at.uv;
+        let sided = |inner: String| {
+            if at.shading_normals {
+                format!(r#"<bsdf type="tt_facing">{inner}</bsdf>"#)
+            } else {
+                format!(r#"<bsdf type="twosided">{inner}</bsdf>"#)
+            }
+        };
+        match self {
+            // Mitsuba's `diffuse` scatters nothing where the view is below
+            // the shading normal; the reference's Lambertian does not look.
+            Surface::Diffuse(c) if at.shading_normals => sided(format!(
+                r#"<bsdf type="tt_diffuse">{}</bsdf>"#,
+                c.xml("reflectance", uv)
+            )),
+            Surface::Diffuse(c) => sided(format!(
+                r#"<bsdf type="diffuse">{}</bsdf>"#,
+                c.xml("reflectance", uv)
+            )),
+            Surface::Mirror(c) => sided(format!(
+                r#"<bsdf type="conductor"><string name="material" value="none"/>{}</bsdf>"#,
+                c.xml("specular_reflectance", uv)
+            )),
+            Surface::FuzzyMetal { albedo, fuzz } => sided(format!(
+                r#"<bsdf type="tt_fuzzy_metal">{}<float name="fuzz" value="{fuzz:?}"/></bsdf>"#,
+                albedo.xml("albedo", uv)
+            )),
+            Surface::Dielectric { ior, absorption } => {
+                // Under shading normals it picks its side by the geometric
+                // normal and refracts about the reference's facing normal.
+                let facing = if at.shading_normals {
+                    r#"<boolean name="facing" value="true"/>"#
+                } else {
+                    ""
+                };
+                let bsdf = format!(
+                    r#"<bsdf type="tt_dielectric"><float name="ior" value="{ior:?}"/>{facing}</bsdf>"#
+                );
+                if *absorption == Vec3::ZERO {
+                    bsdf
+                } else {
+                    // Beer-Lambert: a medium that only absorbs, sigma_t
+                    // the absorption per unit length (render space is the
+                    // world's scale), written as a colour in [0, 1] (all
+                    // Mitsuba reads as `rgb` there) times `scale`.
+                    let scale = absorption.max_element();
+                    format!(
+                        r#"{bsdf}<medium type="homogeneous" name="interior"><rgb name="sigma_t" value="{}"/><float name="scale" value="{scale:?}"/><rgb name="albedo" value="0, 0, 0"/></medium>"#,
+                        triple(*absorption / scale)
+                    )
+                }
+            }
+            Surface::Light(e) => format!(
+                r#"<bsdf type="diffuse"><rgb name="reflectance" value="0, 0, 0"/></bsdf><emitter type="area"><rgb name="radiance" value="{}"/></emitter>"#,
+                triple(*e)
+            ),
+            Surface::Ggx {
+                base_color,
+                metallic,
+                roughness,
+                metallic_roughness,
+                coat,
+                coat_textures,
+                normal_map,
+            } => {
+                let mut textures = String::new();
+                for (name, t) in [
+                    ("metallic_roughness", metallic_roughness),
+                    ("clearcoat_texture", &coat_textures.0),
+                    ("clearcoat_roughness_texture", &coat_textures.1),
+                ] {
+                    if let Some(t) = t {
+                        textures += &t.xml(name, uv);
+                    }
+                }
+                if at.vertex_colors {
+                    textures += r#"<texture type="mesh_attribute" name="vertex_color"><string name="name" value="vertex_color"/></texture>"#;
+                }
+                let ggx = format!(
+                    r#"<bsdf type="tt_ggx">{}<float name="metallic" value="{metallic:?}"/><float name="roughness" value="{roughness:?}"/><float name="clearcoat" value="{:?}"/><float name="clearcoat_roughness" value="{:?}"/>{textures}</bsdf>"#,
+                    base_color.xml("base_color", uv),
+                    coat.0,
+                    coat.1
+                );
+                match normal_map {
+                    Some((map, scale)) if at.tangents => format!(
+                        r#"<bsdf type="tt_normalmap">{}<float name="scale" value="{scale:?}"/><texture type="mesh_attribute" name="tangent"><string name="name" value="vertex_tangent"/></texture><texture type="mesh_attribute" name="tsign"><string name="name" value="vertex_tsign"/></texture>{ggx}</bsdf>"#,
+                        map.xml("normal_map", uv)
+                    ),
+                    _ => sided(ggx),
+                }
+            }
+        }
+    }
+
+    fn textures(&self) -> Vec<&Tex> {
+        match self {
+            Surface::Diffuse(t) | Surface::Mirror(t) => vec![t],
+            Surface::FuzzyMetal { albedo, .. } => vec![albedo],
+            Surface::Dielectric { .. } | Surface::Light(_) => vec![],
+            Surface::Ggx {
+                base_color,
+                metallic_roughness,
+                coat_textures,
+                normal_map,
+                ..
+            } => std::iter::once(base_color)
+                .chain(metallic_roughness)
+                .chain(&coat_textures.0)
+                .chain(&coat_textures.1)
+                .chain(normal_map.as_ref().map(|(t, _)| t))
+                .collect(),
+        }
+    }
+
+    /// Whether Mitsuba needs twintrace's Python plugins for it.
+    pub(super) fn uses_plugins(&self) -> bool {
+        match self {
+            Surface::Diffuse(t) | Surface::Mirror(t) => t.uses_plugins(),
+            Surface::Light(_) => false,
+            // (Shading normals, which need `tt_facing`, are `Placement`'s.)
+            Surface::FuzzyMetal { .. } | Surface::Dielectric { .. } | Surface::Ggx { .. } => true,
+        }
+    }
+
+    /// Whether it reads the second texture coordinates (a mesh then
+    /// carries them as `vertex_uv1`; elsewhere they are 0, as in the
+    /// reference).
+    pub(super) fn uses_uv1(&self) -> bool {
+        self.textures().iter().any(|t| t.uses_uv1())
+    }
+
+    /// Whether it reads the shape's uv (spheres then need
+    /// [`sphere_to_world`]).
+    pub(super) fn uses_uv(&self) -> bool {
+        self.textures().iter().any(|t| t.uses_uv())
+    }
+
+    /// The image textures it reads.
+    pub(super) fn images(&self, out: &mut Vec<u32>) {
+        for t in self.textures() {
+            t.images(out);
+        }
+    }
+
+    /// Whether it needs a volumetric path tracer (an absorbing interior).
+    pub(super) fn has_medium(&self) -> bool {
+        matches!(self, Surface::Dielectric { absorption, .. } if *absorption != Vec3::ZERO)
+    }
+
+    /// Why it cannot be on triangles with shading normals, if it cannot:
+    /// the mirror and fuzzy metal test their reflection against the
+    /// geometric normal, which their Mitsuba forms do not see; Mitsuba's
+    /// `area` light emits toward its shading normal's side, the
+    /// reference's toward the geometric front.
+    pub(super) fn shading_normals_refused(&self) -> Option<&'static str> {
+        match self {
+            Surface::Diffuse(_) | Surface::Ggx { .. } | Surface::Dielectric { .. } => None,
+            Surface::Mirror(_) | Surface::FuzzyMetal { .. } => Some("a metal"),
+            Surface::Light(_) => Some("a light"),
+        }
+    }
+}
+
+pub(super) fn triple(v: Vec3) -> String {
+    format!("{:?}, {:?}, {:?}", v.x, v.y, v.z)
+}
+
+/// Texture `id` of `scene` as Mitsuba evaluates it, or why it cannot be.
+fn texture(scene: &Scene, id: u32, what: &str) -> Result<Tex> {
+    Ok(match scene.textures().get(id as usize) {
+        Some(Texture::Constant(c)) => Tex::Constant(*c),
+        Some(Texture::Checker { scale, even, odd }) => Tex::Checker {
+            scale: *scale,
+            even: Box::new(texture(scene, *even, what)?),
+            odd: Box::new(texture(scene, *odd, what)?),
+        },
+        Some(Texture::Image { sampler, .. }) => image(id, sampler, what)?,
+        None => bail!("{what} names texture {id}, which the scene lacks"),
+    })
+}
+
+fn image(id: u32, sampler: &Sampler, what: &str) -> Result<Tex> {
+    if sampler.tex_coord > 1 {
+        bail!(
+            "{what} reads texture coordinates {} (not exported)",
+            sampler.tex_coord
+        );
+    }
+    let transform = Box::new(match sampler.transform {
+        None => MESH_UV,
+        Some(t) => t.map(f64::from),
+    });
+    Ok(Tex::Image {
+        id,
+        wrap: (sampler.wrap_u, sampler.wrap_v),
+        set: sampler.tex_coord,
+        nearest: sampler.nearest,
+        transform,
+    })
+}
+
+/// Writes texture `id` (an image) as [`texture_file`] in `dir`: its
+/// linear texels times its factor, rows from the top, as f32.
+pub(super) fn write_texture(scene: &Scene, id: u32, dir: &Path) -> Result<()> {
+    let Some(Texture::Image { image, factor, .. }) = scene.textures().get(id as usize) else {
+        bail!("texture {id} is not an image");
+    };
+    let data = &scene.images()[*image as usize];
+    let image = RenderImage {
+        width: data.width,
+        height: data.height,
+        mean: data.texels.iter().map(|t| *factor * *t).collect(),
+        variance: None,
+        skewness: None,
+        metadata: RenderMetadata {
+            software: Some(format!(
+                "twintrace {} export-mitsuba",
+                env!("CARGO_PKG_VERSION")
+            )),
+            ..RenderMetadata::default()
+        },
+    };
+    image_io::write_exr(&dir.join(texture_file(id)), &image)
+}
+
+/// Material `i` of `scene` as a Mitsuba surface, or why it cannot be.
+pub(super) fn surface(scene: &Scene, i: usize) -> Result<Surface> {
+    let what = format!("material {i}");
+    if scene.added_emission(i as u32).is_some() {
+        bail!("{what} emits as well as reflects (emission added to its BSDF is not exported)");
+    }
+    let optional = |t: Option<u32>| t.map(|t| texture(scene, t, &what)).transpose();
+    Ok(match scene.materials()[i] {
+        Material::Lambertian { albedo } => Surface::Diffuse(texture(scene, albedo, &what)?),
+        Material::Metal { albedo, fuzz: 0.0 } => Surface::Mirror(texture(scene, albedo, &what)?),
+        Material::Metal { albedo, fuzz } => Surface::FuzzyMetal {
+            albedo: texture(scene, albedo, &what)?,
+            fuzz,
+        },
+        Material::DiffuseLight { emission } => match texture(scene, emission, &what)? {
+            Tex::Constant(e) => Surface::Light(e),
+            _ => bail!("{what} is a textured light (not exported)"),
+        },
+        Material::Dielectric { ior, absorption } => Surface::Dielectric { ior, absorption },
+        Material::Ggx {
+            base_color,
+            metallic,
+            roughness,
+            metallic_roughness,
+            normal_map,
+            clearcoat,
+        } => {
+            let (coat, coat_textures) = match clearcoat {
+                None => ((0.0, 0.0), (None, None)),
+                Some(c) => (
+                    (c.factor, c.roughness),
+                    (optional(c.texture)?, optional(c.roughness_texture)?),
+                ),
+            };
+            Surface::Ggx {
+                base_color: texture(scene, base_color, &what)?,
+                metallic,
+                roughness,
+                metallic_roughness: optional(metallic_roughness)?,
+                coat,
+                coat_textures,
+                normal_map: match normal_map {
+                    Some(m) => Some((texture(scene, m.texture, &what)?, m.scale)),
+                    None => None,
+                },
+            }
+        }
+    })
+}
+
+/// A material's coverage (glTF's alpha) as the opacity of Mitsuba's `mask`.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct Coverage {
+    texture: Tex,
+    /// MASK's cutoff; `None`: BLEND.
+    cutoff: Option<f32>,
+}
+
+impl Coverage {
+    /// `bsdf` (a BSDF element) under this coverage, on a shape placed at
+    /// `uv` whose mesh carries `vertex_alpha` or not.
+    pub(super) fn wrap(&self, bsdf: &str, uv: UvMap, vertex_alpha: bool) -> String {
+        let cutoff = match self.cutoff {
+            Some(c) => format!(r#"<float name="cutoff" value="{c:?}"/>"#),
+            None => String::new(),
+        };
+        let vertex = if vertex_alpha {
+            r#"<texture type="mesh_attribute" name="vertex_alpha"><string name="name" value="vertex_alpha"/></texture>"#
+        } else {
+            ""
+        };
+        format!(
+            r#"<bsdf type="mask"><texture type="tt_alpha" name="opacity">{}{vertex}{cutoff}</texture>{bsdf}</bsdf>"#,
+            self.texture.xml("alpha", uv)
+        )
+    }
+
+    pub(super) fn images(&self, out: &mut Vec<u32>) {
+        self.texture.images(out);
+    }
+
+    pub(super) fn uses_uv1(&self) -> bool {
+        self.texture.uses_uv1()
+    }
+}
+
+/// Material `i`'s coverage, if it has one (it applies to the triangles
+/// that carry alpha).
+pub(super) fn coverage(scene: &Scene, i: usize) -> Result<Option<Coverage>> {
+    let Some(alpha) = scene.alpha(i as u32) else {
+        return Ok(None);
+    };
+    let what = format!("material {i}");
+    if matches!(
+        scene.materials()[i],
+        Material::Dielectric { .. } | Material::DiffuseLight { .. }
+    ) {
+        bail!("{what} has an alpha coverage on a dielectric or a light (not exported)");
+    }
+    Ok(Some(Coverage {
+        texture: texture(scene, alpha.texture, &what)?,
+        cutoff: match alpha.mode {
+            AlphaMode::Mask { cutoff } => Some(cutoff),
+            AlphaMode::Blend => None,
+        },
+    }))
+}
