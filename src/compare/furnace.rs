@@ -322,7 +322,9 @@ pub fn concentric_spheres(albedo: f32, roulette: bool, spp: u32, seed: u32) -> R
 /// et al.'s GGX `D`, Heitz's height-correlated Smith `G2` with
 /// `Λ = (√(1 + α² tan²θ) − 1) / 2`, Schlick's Fresnel at `wi·h` with
 /// `F0 = lerp(DIELECTRIC_F0, 1, metallic)`, and the Lambertian base
-/// weighted by `(1 − F)(1 − metallic)`. `α = max(roughness², GGX_MIN_ALPHA)`.
+/// weighted by `(1 − F_d)(1 − metallic)`, `F_d` the dielectric part's
+/// Fresnel (F0 `DIELECTRIC_F0`), as glTF's `mix(dielectric_brdf,
+/// metal_brdf, metallic)`. `α = max(roughness², GGX_MIN_ALPHA)`.
 pub fn ggx_brdf_f64(metallic: f64, roughness: f64, wo: DVec3, wi: DVec3) -> f64 {
     use reference::material::{DIELECTRIC_F0, GGX_MIN_ALPHA};
     use std::f64::consts::PI;
@@ -332,14 +334,16 @@ pub fn ggx_brdf_f64(metallic: f64, roughness: f64, wo: DVec3, wi: DVec3) -> f64 
     let a2 = (roughness * roughness).max(GGX_MIN_ALPHA as f64).powi(2);
     let h = (wo + wi).normalize();
     let f0 = DIELECTRIC_F0 as f64 * (1.0 - metallic) + metallic;
-    let f = f0 + (1.0 - f0) * (1.0 - wi.dot(h).clamp(0.0, 1.0)).powi(5);
+    let k = (1.0 - wi.dot(h).clamp(0.0, 1.0)).powi(5);
+    let f = f0 + (1.0 - f0) * k;
+    let f_dielectric = DIELECTRIC_F0 as f64 + (1.0 - DIELECTRIC_F0 as f64) * k;
     let d = a2 / (PI * (h.z * h.z * (a2 - 1.0) + 1.0).powi(2));
     let lambda = |w: DVec3| {
         let tan2 = (w.x * w.x + w.y * w.y) / (w.z * w.z);
         0.5 * ((1.0 + a2 * tan2).sqrt() - 1.0)
     };
     let g2 = 1.0 / (1.0 + lambda(wo) + lambda(wi));
-    f * d * g2 / (4.0 * wo.z * wi.z) + (1.0 - f) * (1.0 - metallic) / PI
+    f * d * g2 / (4.0 * wo.z * wi.z) + (1.0 - f_dielectric) * (1.0 - metallic) / PI
 }
 
 /// Directional albedo `E(θ_o) = ∫ f cos θ_i dω_i` of the GGX material
