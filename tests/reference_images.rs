@@ -117,18 +117,16 @@ fn a_sample_of_the_calibration_stays_within_its_false_alarm_rate() {
 /// precision-far: Mitsuba's own renders are wrong 2·10^4 from the origin
 /// (docs/gates.md, "Independent check: Mitsuba 3").
 const WITHOUT_MITSUBA: &[(&str, &str)] = &[
-    ("cornell-spheres", "awaits its GPU render"),
-    ("depth-of-field", "awaits its GPU render"),
-    ("four-materials", "awaits its GPU render"),
-    ("ggx-roughness", "awaits its GPU render"),
-    ("gltf-materials", "awaits its GPU render"),
-    ("gltf-mesh", "awaits its GPU render"),
+    (
+        "gltf-materials",
+        "the H100's Mitsuba render (262,144 spp, 2026-11-27) disagrees at the image sum: \
+         t = -0.76, -2.87, -3.40 against a bound of 3.21 (relMSE 1.8e-5); not stored until \
+         the difference is found",
+    ),
     (
         "precision-far",
         "Mitsuba's own renders are wrong 2·10^4 from the origin",
     ),
-    ("skybox", "awaits its GPU render"),
-    ("textures", "awaits its GPU render"),
 ];
 
 /// The stored references checked by an independent renderer: every
@@ -182,8 +180,13 @@ fn the_references_agree_with_mitsuba_3() {
                 !judge(&darker).passes(),
                 "{name}: the reference ×0.98 passed"
             );
+            // The darkest quarter of the lit pixels (an unlit pixel, 0 in
+            // every render, would make the mutant no change at all: the
+            // punctual lights' shadows are black).
             let mut shadows = reference.clone();
-            let mut order: Vec<usize> = (0..shadows.mean.len()).collect();
+            let mut order: Vec<usize> = (0..shadows.mean.len())
+                .filter(|&i| shadows.mean[i].element_sum() > 0.0)
+                .collect();
             order.sort_by(|&i, &j| {
                 shadows.mean[i]
                     .element_sum()
@@ -194,7 +197,7 @@ fn the_references_agree_with_mitsuba_3() {
             }
             assert!(
                 !judge(&shadows).passes(),
-                "{name}: the darkest quarter ×0.9 passed"
+                "{name}: the darkest quarter of the lit pixels ×0.9 passed"
             );
             if name == "cornell-boxes" {
                 let as_reference = compare(

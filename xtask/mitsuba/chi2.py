@@ -248,7 +248,7 @@ def image_cases(n=20_000):
 
     for mode in ("repeat", "clamp", "mirror"):
         for nearest in (False, True):
-            theirs = mi.load_dict({"type": "bitmap", "filename": path, "raw": True,
+            theirs = mi.load_dict({"type": "bitmap", "filename": path, "raw": True, "accel": False,
                                    "wrap_mode": mode, "to_uv": flip,
                                    "filter_type": "nearest" if nearest else "bilinear"}).eval(si)
             err = scalar(dr.max(dr.max(dr.abs(ours(mode, mode, nearest) - theirs))))
