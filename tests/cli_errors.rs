@@ -368,7 +368,7 @@ fn export_mitsuba_writes_textures_and_environment_maps() {
     let xml = std::fs::read_to_string(dir.path().join("tex/scene.xml")).unwrap();
     for needle in [
         // The quad's uv, v flipped.
-        r#".exr"/><boolean name="raw" value="true"/><string name="filter_type" value="bilinear"/><string name="wrap_mode" value="repeat"/><transform name="to_uv"><matrix value="1.0 0.0 0 0.0 0.0 -1.0 0 1.0 0 0 1 0 0 0 0 1"/>"#,
+        r#".exr"/><boolean name="raw" value="true"/><boolean name="accel" value="false"/><string name="filter_type" value="bilinear"/><string name="wrap_mode" value="repeat"/><transform name="to_uv"><matrix value="1.0 0.0 0 0.0 0.0 -1.0 0 1.0 0 0 1 0 0 0 0 1"/>"#,
         // The globe's: u = 0.5 − Mitsuba's, v flipped.
         r#"<matrix value="-1.0 0.0 0 0.5 -0.0 -1.0 0 1.0 0 0 1 0 0 0 0 1"/>"#,
         r#"<shape type="sphere"><transform name="to_world"><matrix value="0.9 0 0 "#,
