@@ -64,7 +64,7 @@ fn gpu_a_lamp_lit_plane_far_from_the_origin_gives_its_integral_with_either_estim
         let (scene, x) = plane_under_lamp_at(offset);
         let expected = plane_under_lamp_answer(x);
         for integrator in Integrator::ALL {
-            let seed = 400 + 2 * i as u32 + (integrator == Integrator::Mis) as u32;
+            let seed = common::seed(400 + 2 * i as u32 + (integrator == Integrator::Mis) as u32);
             let (mean, se) = gpu_estimate(&scene, integrator, spp, seed);
             let z = (mean - expected) / se;
             println!(

@@ -48,6 +48,30 @@ pub fn gpu() -> &'static gpu::GpuContext {
     })
 }
 
+/// A statistical gate's seed: `base`, moved by the run's seed shift
+/// (`TWINTRACE_SEED_SHIFT`, a whole number, default 0). CI runs shift 0;
+/// `false-alarms.sh` in the GPU suite package runs the same gates,
+/// unchanged, at shifts 1..N and counts how often correct code fails them.
+/// A shift moves every seed by a multiple of 10,007 (a prime above the
+/// span of seeds any one test takes from its base, so the renders of two
+/// shifts never share a seed).
+pub fn seed(base: u32) -> u32 {
+    base.wrapping_add(seed_shift().wrapping_mul(10_007))
+}
+
+/// `TWINTRACE_SEED_SHIFT` (0 when unset), read once; anything but a whole
+/// number is a mistake in the run, not a shift of 0.
+pub fn seed_shift() -> u32 {
+    static SHIFT: OnceLock<u32> = OnceLock::new();
+    *SHIFT.get_or_init(|| match std::env::var("TWINTRACE_SEED_SHIFT") {
+        Ok(v) => v
+            .trim()
+            .parse()
+            .unwrap_or_else(|_| panic!("TWINTRACE_SEED_SHIFT={v:?}: not a whole number")),
+        Err(_) => 0,
+    })
+}
+
 /// A device of its own on the test adapter (no pipeline cache on disk),
 /// for tests that count what is built on it while other tests share
 /// [`gpu`].

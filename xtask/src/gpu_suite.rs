@@ -15,7 +15,10 @@
 //! - `run.sh`: runs every GPU test (names containing `gpu_`, and the modules
 //!   that render each case on both backends: `gltf_equivalence`,
 //!   `khronos_assets`), prints one line per
-//!   test and the closing count, and keeps the whole log in `gpu-suite.log`.
+//!   test and the closing count, and keeps the whole log in `gpu-suite.log`;
+//! - `false-alarms.sh`: runs chosen statistical gates, unchanged, at many
+//!   seeds (`TWINTRACE_SEED_SHIFT`, which tests/common's `seed` adds to
+//!   each gate's seeds) and counts how often correct code fails them.
 //!
 //! docs/gates.md says how to run it on the GPU machine and records results.
 
@@ -57,6 +60,58 @@ grep -E '^test |^test result' "$log"
 [ $status -eq 0 ] || sed -n '/^failures:$/,/^test result/p' "$log" | grep -v '^ *[0-9]*: \|^ *at '
 echo "gpu-suite: exit status $status; full log: $log"
 exit $status
+"#;
+
+const FALSE_ALARMS: &str = r#"#!/bin/sh
+# Measures statistical gates' false alarms: runs the tests that match the
+# filters RUNS times, at seed shifts 1..RUNS (TWINTRACE_SEED_SHIFT; every
+# statistical gate takes its seeds through tests/common's `seed`, so shift
+# k renders with seeds no other shift uses), JOBS runs at once, and prints
+# per test its runs, its failures and the shifts that failed. Each run's
+# log is kept in false-alarms/SHIFT.log. Usage:
+#   sh false-alarms.sh RUNS JOBS FILTER...
+# Exit status: 2 for a usage error, 1 when some run reported no result
+# (a crash: its log says why), else 0 (failures of the gates are what is
+# counted, not an error of the run).
+here=$(cd "$(dirname "$0")" && pwd)
+if [ $# -lt 3 ]; then
+    echo "usage: sh false-alarms.sh RUNS JOBS FILTER..." >&2
+    exit 2
+fi
+runs=$1
+jobs=$2
+shift 2
+case "$runs.$jobs" in
+    *[!0-9.]* | .* | *.) echo "false-alarms.sh: RUNS and JOBS must be whole numbers, not '$runs' and '$jobs'" >&2; exit 2 ;;
+esac
+export TWINTRACE_ROOT="$here"
+export TWINTRACE_BIN="$here/twintrace"
+export LD_LIBRARY_PATH="$here/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
+export FA_BIN="$here/integration" FA_LOGS="$here/false-alarms" FA_FILTERS="$*"
+rm -rf "$FA_LOGS"
+mkdir -p "$FA_LOGS"
+# shellcheck disable=SC2016,SC2086
+seq 1 "$runs" | xargs -P "$jobs" -I {} sh -c \
+    'TWINTRACE_SEED_SHIFT={} "$FA_BIN" --test-threads=1 $FA_FILTERS >"$FA_LOGS/{}.log" 2>&1; true'
+awk '
+    FNR == 1 { file = FILENAME; sub(/.*\//, "", file); sub(/\.log$/, "", file) }
+    /^test .* \.\.\. (ok|FAILED)$/ {
+        runs[$2]++
+        if ($NF == "FAILED") { failed[$2]++; shifts[$2] = shifts[$2] " " file }
+    }
+    /^test result:/ { done[file] = 1 }
+    END {
+        for (t in runs) printf "%s: %d runs, %d failed%s\n", t, runs[t], failed[t], (t in shifts) ? " (shifts" shifts[t] ")" : ""
+    }' "$FA_LOGS"/*.log | sort
+missing=0
+for log in "$FA_LOGS"/*.log; do
+    if ! grep -q '^test result:' "$log"; then
+        echo "no result: $log"
+        missing=1
+    fi
+done
+exit $missing
 "#;
 
 pub fn run(args: &[String]) -> Result<(), String> {
@@ -127,7 +182,10 @@ pub fn run(args: &[String]) -> Result<(), String> {
         }
         let runner = dir.join("run.sh");
         std::fs::write(&runner, RUNNER).map_err(|e| format!("{}: {e}", runner.display()))?;
-        make_executable(&runner)
+        make_executable(&runner)?;
+        let alarms = dir.join("false-alarms.sh");
+        std::fs::write(&alarms, FALSE_ALARMS).map_err(|e| format!("{}: {e}", alarms.display()))?;
+        make_executable(&alarms)
     })?;
     eprintln!(
         "xtask: GPU suite in {} (run it there as `sh {}/run.sh`)",
@@ -196,7 +254,7 @@ pub(crate) fn make_executable(path: &Path) -> Result<(), String> {
 
 #[cfg(test)]
 mod tests {
-    use super::{artifact_executable, RUNNER};
+    use super::{artifact_executable, FALSE_ALARMS, RUNNER};
 
     /// The runner against a stand-in test binary that prints its
     /// arguments: the suite's filters by default, a given filter instead
@@ -230,6 +288,51 @@ mod tests {
             args(&["gpu_split_render", "--nocapture"]),
             "test args: --test-threads=1 gpu_split_render --nocapture"
         );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// The false-alarm runner against a stand-in test binary whose one
+    /// test fails at shifts divisible by three and which crashes at shift
+    /// 5: the counts, the failing shifts, and the run without a result.
+    #[test]
+    fn the_false_alarm_runner_counts_failures_by_shift() {
+        let dir = std::env::temp_dir().join(format!("gpu-suite-alarms-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("false-alarms.sh"), FALSE_ALARMS).unwrap();
+        let stand_in = dir.join("integration");
+        std::fs::write(
+            &stand_in,
+            concat!(
+                "#!/bin/sh\n",
+                "s=$TWINTRACE_SEED_SHIFT\n",
+                "[ \"$s\" = 5 ] && exit 101\n",
+                "echo \"test a::steady ... ok\"\n",
+                "if [ $((s % 3)) = 0 ]; then echo \"test a::gate ... FAILED\"; else echo \"test a::gate ... ok\"; fi\n",
+                "echo \"test result: filters $*\"\n",
+            ),
+        )
+        .unwrap();
+        super::make_executable(&stand_in).unwrap();
+        let run = |args: &[&str]| {
+            std::process::Command::new("sh")
+                .arg(dir.join("false-alarms.sh"))
+                .args(args)
+                .output()
+                .unwrap()
+        };
+        let out = run(&["7", "3", "a::", "--exact"]);
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert_eq!(out.status.code(), Some(1), "{text}");
+        assert!(
+            text.contains("a::gate: 6 runs, 2 failed (shifts 3 6)"),
+            "{text}"
+        );
+        assert!(text.contains("a::steady: 6 runs, 0 failed\n"), "{text}");
+        assert!(text.contains("no result: ") && text.contains("/5.log"), "{text}");
+        let log = std::fs::read_to_string(dir.join("false-alarms/2.log")).unwrap();
+        assert!(log.contains("filters --test-threads=1 a:: --exact"), "{log}");
+        assert_eq!(run(&["x", "3", "a::"]).status.code(), Some(2));
+        assert_eq!(run(&["4", "2"]).status.code(), Some(2));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
