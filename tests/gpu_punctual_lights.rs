@@ -6,9 +6,8 @@
 use crate::common;
 use crate::common::punctual::{self, Case};
 use reference::film::Film;
-use reference::integrator::{render_with, Integrator};
+use reference::integrator::Integrator;
 use reference::RenderSettings;
-use twintrace::compare::image::{compare, Method, NoisyImage, TestSettings};
 use twintrace::twins::light;
 
 const SEED: u32 = 41;
@@ -163,40 +162,6 @@ fn the_gltf_fixture_renders_alike_on_both_backends() {
         ..RenderSettings::default()
     };
     for integrator in Integrator::ALL {
-        let cpu = render_with(
-            &scene,
-            &RenderSettings {
-                seed: 5,
-                ..settings
-            },
-            integrator,
-            &|_| {},
-        );
-        let gpu = gpu::GpuRenderer::with_integrator(common::gpu(), &scene, integrator)
-            .and_then(|r| {
-                r.render(
-                    &RenderSettings {
-                        seed: 6,
-                        ..settings
-                    },
-                    &|_, _| {},
-                )
-            })
-            .unwrap_or_else(|e| panic!("{e}"))
-            .film;
-        let v = compare(
-            &NoisyImage::from_film(&gpu),
-            &NoisyImage::from_film(&cpu),
-            Method::Welch,
-            &TestSettings::default(),
-        )
-        .unwrap();
-        println!("{}: GPU vs CPU\n{}", integrator.name(), v.summary());
-        assert!(
-            v.passes(),
-            "{}: GPU vs CPU\n{}",
-            integrator.name(),
-            v.summary()
-        );
+        common::assert_backends_agree(integrator.name(), &scene, settings, integrator);
     }
 }

@@ -11,12 +11,11 @@
 
 use crate::common;
 use reference::geometry::Ray;
-use reference::integrator::{render_with, Integrator};
+use reference::integrator::Integrator;
 use reference::loader::gltf::load_gltf_document;
 use reference::{RenderSettings, Scene};
 use std::path::{Path, PathBuf};
 use twintrace::compare::gate::workspace_root;
-use twintrace::compare::image::{compare, Method, NoisyImage, TestSettings};
 
 /// The assets, and the warnings each gives (substrings, one a line).
 const ASSETS: &[(&str, &[&str])] = &[
@@ -66,36 +65,7 @@ fn the_assets_load_with_the_warnings_listed_and_render_alike_on_both_backends() 
         for (line, says) in warnings.iter().zip(expected.iter()) {
             assert!(line.contains(says), "{file}: `{line}` lacks `{says}`");
         }
-        let cpu = render_with(
-            &scene,
-            &RenderSettings {
-                seed: 5,
-                ..settings
-            },
-            Integrator::Mis,
-            &|_| {},
-        );
-        let gpu = gpu::GpuRenderer::with_integrator(common::gpu(), &scene, Integrator::Mis)
-            .and_then(|r| {
-                r.render(
-                    &RenderSettings {
-                        seed: 6,
-                        ..settings
-                    },
-                    &|_, _| {},
-                )
-            })
-            .unwrap_or_else(|e| panic!("{file}: {e}"))
-            .film;
-        let v = compare(
-            &NoisyImage::from_film(&gpu),
-            &NoisyImage::from_film(&cpu),
-            Method::Welch,
-            &TestSettings::default(),
-        )
-        .unwrap();
-        println!("{file}: GPU vs CPU\n{}", v.summary());
-        assert!(v.passes(), "{file}: GPU vs CPU\n{}", v.summary());
+        common::assert_backends_agree(file, &scene, settings, Integrator::Mis);
     }
 }
 

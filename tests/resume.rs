@@ -191,22 +191,22 @@ fn continue_command(line: &str) -> &str {
 /// first middle one's interrupted again a quarter into what it has left,
 /// and continued again),
 /// and the EXR it ends with must be the whole render's, bit for bit.
-/// Returns how many runs were resumed from a part, and what each point
-/// did (the caller asks for some resumed).
-pub(crate) fn interrupt_and_resume(render: &[&str], seed: u64, middle: usize) -> (usize, String) {
+/// At least one run must be resumed from a part; what each point did is
+/// printed.
+pub(crate) fn interrupt_and_resume(render: &[String], seed: u64, middle: usize) {
     let dir = tempfile::tempdir().unwrap();
     let dir = dir.path();
     let with_output = |out: &str| {
-        let mut a = strings(render);
+        let mut a = render.to_vec();
         a.extend(strings(&["-o", out]));
         a
     };
     let mut args = with_output("whole");
-    let json_summary = render.contains(&"--json");
+    let json_summary = render.iter().any(|a| a == "--json");
     if !json_summary {
         args.push("--json".into());
     }
-    if render.contains(&"gpu") {
+    if render.iter().any(|a| a == "gpu") {
         // The first GPU run fills the pipeline cache; the runs timed are
         // the ones after it.
         let o = twintrace(dir, &args, None);
@@ -365,7 +365,25 @@ pub(crate) fn interrupt_and_resume(render: &[&str], seed: u64, middle: usize) ->
         same_film(&exr, &dir.join("whole.exr")).unwrap_or_else(|e| panic!("{what}, resumed: {e}"));
         resumed += 1;
     }
-    (resumed, log)
+    eprintln!("{log}");
+    assert!(resumed >= 1, "no run was resumed: {log}");
+}
+
+/// `twintrace render cornell --backend BACKEND --size SIZE --spp SPP`,
+/// then `extra`.
+pub(crate) fn cornell(backend: &str, size: &str, spp: &str, extra: &[&str]) -> Vec<String> {
+    let mut args = strings(&[
+        "render",
+        "cornell",
+        "--backend",
+        backend,
+        "--size",
+        size,
+        "--spp",
+        spp,
+    ]);
+    args.extend(strings(extra));
+    args
 }
 
 /// Seeded interrupt points on the CPU reference: 2048 samples a pixel of
@@ -373,21 +391,8 @@ pub(crate) fn interrupt_and_resume(render: &[&str], seed: u64, middle: usize) ->
 /// one sample up to [`twintrace::render::CHUNK_TIME`].
 #[test]
 fn interrupted_cpu_renders_resume_to_the_whole_render_bit_for_bit() {
-    let render = [
-        "render",
-        "cornell",
-        "--backend",
-        "cpu",
-        "--size",
-        "16x16",
-        "--spp",
-        "2048",
-        "--seed",
-        "3",
-    ];
-    let (resumed, log) = interrupt_and_resume(&render, 0x5eed_0043, 2);
-    eprintln!("{log}");
-    assert!(resumed >= 1, "no run was resumed: {log}");
+    let render = cornell("cpu", "16x16", "2048", &["--seed", "3"]);
+    interrupt_and_resume(&render, 0x5eed_0043, 2);
 }
 
 /// A budgeted render (`--time` with an `--spp` cap) interrupted and
@@ -396,22 +401,8 @@ fn interrupted_cpu_renders_resume_to_the_whole_render_bit_for_bit() {
 /// the command.
 #[test]
 fn an_interrupted_budgeted_render_resumes_to_its_cap() {
-    let render = [
-        "render",
-        "cornell",
-        "--backend",
-        "cpu",
-        "--size",
-        "16x16",
-        "--spp",
-        "2048",
-        "--time",
-        "1h",
-        "--json",
-    ];
-    let (resumed, log) = interrupt_and_resume(&render, 0x5eed_0044, 1);
-    eprintln!("{log}");
-    assert!(resumed >= 1, "no run was resumed: {log}");
+    let render = cornell("cpu", "16x16", "2048", &["--time", "1h", "--json"]);
+    interrupt_and_resume(&render, 0x5eed_0044, 1);
 }
 
 /// SIGKILL cannot be answered: `--checkpoint` has written the samples
@@ -420,21 +411,7 @@ fn an_interrupted_budgeted_render_resumes_to_its_cap() {
 fn a_killed_render_resumes_from_its_checkpoint() {
     let dir = tempfile::tempdir().unwrap();
     let dir = dir.path();
-    let render = strings(&[
-        "render",
-        "cornell",
-        "--backend",
-        "cpu",
-        "--size",
-        "16x16",
-        "--spp",
-        "2048",
-    ]);
-    let with = |extra: &[&str]| {
-        let mut a = render.clone();
-        a.extend(strings(extra));
-        a
-    };
+    let with = |extra: &[&str]| cornell("cpu", "16x16", "2048", extra);
     let whole = twintrace(dir, &with(&["-o", "whole"]), None);
     assert_eq!(whole.code(), 0, "{}", whole.stderr);
     let part = dir.join("k.partial.exr");
@@ -462,20 +439,7 @@ fn a_killed_render_resumes_from_its_checkpoint() {
 fn small_part(dir: &Path) -> PathBuf {
     let o = twintrace(
         dir,
-        &strings(&[
-            "render",
-            "cornell",
-            "--backend",
-            "cpu",
-            "--size",
-            "8x6",
-            "--spp",
-            "4",
-            "--samples",
-            "0..2",
-            "-o",
-            "p",
-        ]),
+        &cornell("cpu", "8x6", "4", &["--samples", "0..2", "-o", "p"]),
         None,
     );
     assert_eq!(o.code(), 0, "{}", o.stderr);
@@ -604,18 +568,7 @@ fn the_comparison_catches_a_forged_part() {
     let dir = tempfile::tempdir().unwrap();
     let dir = dir.path();
     let render = |extra: &[&str]| {
-        let mut a = strings(&[
-            "render",
-            "cornell",
-            "--backend",
-            "cpu",
-            "--size",
-            "8x6",
-            "--spp",
-            "4",
-        ]);
-        a.extend(strings(extra));
-        let o = twintrace(dir, &a, None);
+        let o = twintrace(dir, &cornell("cpu", "8x6", "4", extra), None);
         assert_eq!(o.code(), 0, "{extra:?}: {}", o.stderr);
     };
     render(&["-o", "whole"]);
@@ -809,18 +762,7 @@ fn a_second_interrupt_exits_at_once_leaving_the_files_whole() {
     let dir = dir.path();
     // One 16x16 tile: the CPU reference finishes its chunk (up to
     // CHUNK_TIME), in which the second signal comes.
-    let render = strings(&[
-        "render",
-        "cornell",
-        "--backend",
-        "cpu",
-        "--size",
-        "16x16",
-        "--spp",
-        "2048",
-        "-o",
-        "out",
-    ]);
+    let render = cornell("cpu", "16x16", "2048", &["-o", "out"]);
     let mut json = render.clone();
     json.push("--json".into());
     let o = twintrace(dir, &json, None);

@@ -663,21 +663,12 @@ fn write_ply(path: &Path, mesh: &Mesh) -> Result<()> {
     })
 }
 
-/// The sky as a lat-long map in Mitsuba's convention: row `j` holds the
-/// direction at polar angle `θ = π j / (rows − 1)` from +y (Mitsuba's
-/// `envmap` puts its first and last rows at the poles; measured with its
-/// `eval` against the lookup formulas in `write_envmap`'s note).
-fn write_sky(path: &Path, horizon: Vec3, zenith: Vec3) -> Result<()> {
-    const COLUMNS: usize = 8;
-    let mut mean = Vec::with_capacity(SKY_ROWS * COLUMNS);
-    for j in 0..SKY_ROWS {
-        let theta = std::f64::consts::PI * j as f64 / (SKY_ROWS - 1) as f64;
-        let t = (0.5 * (theta.cos() + 1.0)) as f32;
-        mean.extend(std::iter::repeat_n(horizon.lerp(zenith, t), COLUMNS));
-    }
+/// An EXR of `mean` alone (`width` x `height`, rows from the top) for
+/// Mitsuba's `envmap` or `bitmap` to read, signed by export-mitsuba.
+fn write_map(path: &Path, width: u32, height: u32, mean: Vec<Vec3>) -> Result<()> {
     let image = RenderImage {
-        width: COLUMNS as u32,
-        height: SKY_ROWS as u32,
+        width,
+        height,
         mean,
         variance: None,
         skewness: None,
@@ -690,6 +681,21 @@ fn write_sky(path: &Path, horizon: Vec3, zenith: Vec3) -> Result<()> {
         },
     };
     image_io::write_exr(path, &image)
+}
+
+/// The sky as a lat-long map in Mitsuba's convention: row `j` holds the
+/// direction at polar angle `θ = π j / (rows − 1)` from +y (Mitsuba's
+/// `envmap` puts its first and last rows at the poles; measured with its
+/// `eval` against the lookup formulas in `write_envmap`'s note).
+fn write_sky(path: &Path, horizon: Vec3, zenith: Vec3) -> Result<()> {
+    const COLUMNS: usize = 8;
+    let mut mean = Vec::with_capacity(SKY_ROWS * COLUMNS);
+    for j in 0..SKY_ROWS {
+        let theta = std::f64::consts::PI * j as f64 / (SKY_ROWS - 1) as f64;
+        let t = (0.5 * (theta.cos() + 1.0)) as f32;
+        mean.extend(std::iter::repeat_n(horizon.lerp(zenith, t), COLUMNS));
+    }
+    write_map(path, COLUMNS as u32, SKY_ROWS as u32, mean)
 }
 
 /// The reference's environment map (`evaluate_background`) as a map
@@ -723,19 +729,5 @@ fn write_envmap(path: &Path, data: &reference::texture::ImageData) -> Result<()>
             mean.extend(a.iter().zip(b).map(|(a, b)| 0.5 * (*a + *b)));
         }
     }
-    let image = RenderImage {
-        width: w as u32,
-        height: (2 * h + 1) as u32,
-        mean,
-        variance: None,
-        skewness: None,
-        metadata: RenderMetadata {
-            software: Some(format!(
-                "twintrace {} export-mitsuba",
-                env!("CARGO_PKG_VERSION")
-            )),
-            ..RenderMetadata::default()
-        },
-    };
-    image_io::write_exr(path, &image)
+    write_map(path, w as u32, (2 * h + 1) as u32, mean)
 }

@@ -1,6 +1,7 @@
 //! Shared by the test modules: the GPU device (one per test binary; no
 //! adapter is a failure, never a skip: `cargo xtask test` installs Mesa
-//! lavapipe) and the panicking gate helpers ([`gates`]).
+//! lavapipe), the CPU-against-GPU render check of a scene
+//! ([`assert_backends_agree`]) and the panicking gate helpers ([`gates`]).
 
 pub mod gates;
 pub mod punctual;
@@ -97,4 +98,48 @@ pub fn twintrace_bin() -> std::path::PathBuf {
         Some(bin) if !bin.is_empty() => bin.into(),
         _ => env!("CARGO_BIN_EXE_twintrace").into(),
     }
+}
+
+/// `scene` rendered at `settings` with `integrator` by the CPU reference
+/// (seed 5) and by the GPU (seed 6: independent samples) agrees: Welch's
+/// test at equal budgets, at the default test settings. `what` names the
+/// case in the summary printed and in a failure.
+pub fn assert_backends_agree(
+    what: &str,
+    scene: &reference::Scene,
+    settings: reference::RenderSettings,
+    integrator: reference::integrator::Integrator,
+) {
+    use reference::RenderSettings;
+    use twintrace::compare::image::{compare, Method, NoisyImage, TestSettings};
+    let cpu = reference::integrator::render_with(
+        scene,
+        &RenderSettings {
+            seed: 5,
+            ..settings
+        },
+        integrator,
+        &|_| {},
+    );
+    let gpu = gpu::GpuRenderer::with_integrator(gpu(), scene, integrator)
+        .and_then(|r| {
+            r.render(
+                &RenderSettings {
+                    seed: 6,
+                    ..settings
+                },
+                &|_, _| {},
+            )
+        })
+        .unwrap_or_else(|e| panic!("{what}: {e}"))
+        .film;
+    let v = compare(
+        &NoisyImage::from_film(&gpu),
+        &NoisyImage::from_film(&cpu),
+        Method::Welch,
+        &TestSettings::default(),
+    )
+    .unwrap();
+    println!("{what}: GPU vs CPU\n{}", v.summary());
+    assert!(v.passes(), "{what}: GPU vs CPU\n{}", v.summary());
 }

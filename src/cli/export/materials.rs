@@ -13,7 +13,6 @@ use reference::material::{AlphaMode, Material};
 use reference::texture::{Sampler, Texture, Wrap};
 use reference::Scene;
 use std::path::Path;
-use twintrace::image_io::{self, RenderImage, RenderMetadata};
 
 /// How a shape's Mitsuba uv becomes the reference's: `uv_ref = (m0·u +
 /// m1·v + m2, m3·u + m4·v + m5)`.
@@ -461,21 +460,12 @@ pub(super) fn write_texture(scene: &Scene, id: u32, dir: &Path) -> Result<()> {
         bail!("texture {id} is not an image");
     };
     let data = &scene.images()[*image as usize];
-    let image = RenderImage {
-        width: data.width,
-        height: data.height,
-        mean: data.texels.iter().map(|t| *factor * *t).collect(),
-        variance: None,
-        skewness: None,
-        metadata: RenderMetadata {
-            software: Some(format!(
-                "twintrace {} export-mitsuba",
-                env!("CARGO_PKG_VERSION")
-            )),
-            ..RenderMetadata::default()
-        },
-    };
-    image_io::write_exr(&dir.join(texture_file(id)), &image)
+    super::write_map(
+        &dir.join(texture_file(id)),
+        data.width,
+        data.height,
+        data.texels.iter().map(|t| *factor * *t).collect(),
+    )
 }
 
 /// Material `i` of `scene` as a Mitsuba surface, or why it cannot be.

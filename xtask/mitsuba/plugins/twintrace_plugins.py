@@ -118,6 +118,24 @@ def reflect_about(w, m):
     return 2.0 * dr.dot(w, m) * m - w
 
 
+def _bsdf_sample(wo, pdf, sampled_type):
+    """A one-component sample of direction `wo` (local frame) and density
+    `pdf`, of lobe type `sampled_type` (a `mi.BSDFFlags`), no index change."""
+    bs = dr.zeros(mi.BSDFSample3f)
+    bs.wo = wo
+    bs.pdf = pdf
+    bs.eta = 1.0
+    bs.sampled_type = mi.UInt32(+sampled_type)
+    bs.sampled_component = mi.UInt32(0)
+    return bs
+
+
+def _set_flags(bsdf, flags):
+    """One component of lobe `flags`, which are the BSDF's too."""
+    bsdf.m_components = [flags]
+    bsdf.m_flags = flags
+
+
 def sample_cosine_hemisphere(u):
     # reference/src/sampling.rs: Shirley-Chiu concentric disk, lifted.
     o = 2.0 * u - 1.0
@@ -206,9 +224,8 @@ class TTGgx(mi.BSDF):
         self.coat_roughness = props.get("clearcoat_roughness", 0.0)
         self.coat_roughness_texture = props.get_texture("clearcoat_roughness_texture", 1.0) \
             if props.has_property("clearcoat_roughness_texture") else None
-        flags = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.FrontSide
-        self.m_components = [flags]
-        self.m_flags = flags
+        _set_flags(self, mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.DiffuseReflection
+                   | mi.BSDFFlags.FrontSide)
 
     def lobes(self, si):
         wo = si.wi
@@ -232,12 +249,7 @@ class TTGgx(mi.BSDF):
         wi = lobes.sample(wo, sample1, sample2)
         pdf = lobes.pdf(wo, wi)
         ok = active & (wo.z > 0.0) & (wi.z > 0.0) & (pdf > 0.0)
-        bs = dr.zeros(mi.BSDFSample3f)
-        bs.wo = wi
-        bs.pdf = dr.select(ok, pdf, 0.0)
-        bs.eta = 1.0
-        bs.sampled_type = mi.UInt32(+mi.BSDFFlags.GlossyReflection)
-        bs.sampled_component = mi.UInt32(0)
+        bs = _bsdf_sample(wi, dr.select(ok, pdf, 0.0), mi.BSDFFlags.GlossyReflection)
         weight = dr.select(ok, lobes.eval(wo, wi) * wi.z / pdf, 0.0)
         return bs, mi.Color3f(weight)
 
@@ -276,9 +288,7 @@ class TTFuzzyMetal(mi.BSDF):
         mi.BSDF.__init__(self, props)
         self.albedo = props.get_texture("albedo", 1.0)
         self.fuzz = props.get("fuzz", 0.1)
-        flags = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide
-        self.m_components = [flags]
-        self.m_flags = flags
+        _set_flags(self, mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide)
 
     def sample(self, ctx, si, sample1, sample2, active=True):
         wi = si.wi
@@ -293,12 +303,7 @@ class TTFuzzyMetal(mi.BSDF):
         wo = dr.normalize(d)
         pdf = fuzzy_pdf(wo, r, self.fuzz)
         ok = active & (wi.z > 0.0) & (d.z > 0.0) & (pdf > 0.0)
-        bs = dr.zeros(mi.BSDFSample3f)
-        bs.wo = wo
-        bs.pdf = dr.select(ok, pdf, 0.0)
-        bs.eta = 1.0
-        bs.sampled_type = mi.UInt32(+mi.BSDFFlags.GlossyReflection)
-        bs.sampled_component = mi.UInt32(0)
+        bs = _bsdf_sample(wo, dr.select(ok, pdf, 0.0), mi.BSDFFlags.GlossyReflection)
         weight = dr.select(ok, mi.Color3f(self.albedo.eval(si)), 0.0)
         return bs, weight
 
@@ -423,8 +428,13 @@ def facing_sign(si):
     return dr.select(front == side, 1.0, -1.0)
 
 
-class TTFacing(mi.BSDF):
-    def __init__(self, props):
+class _Wrapper(mi.BSDF):
+    """A nested BSDF evaluated in another local frame: a subclass's
+    `_turned(si)` gives (`inward`, `outward`, si2): the nested BSDF sees
+    the interaction si2, and a direction `w` of the outer local frame as
+    `inward(w)`; its sampled directions come back through `outward`."""
+
+    def __init__(self, props, plugin):
         mi.BSDF.__init__(self, props)
         self.nested = None
         for name in props.property_names():
@@ -432,43 +442,47 @@ class TTFacing(mi.BSDF):
             if isinstance(v, mi.BSDF):
                 self.nested = v
         if self.nested is None:
-            raise RuntimeError("tt_facing: needs a nested BSDF")
-        flags = self.nested.flags() | mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide
-        self.m_components = [flags]
-        self.m_flags = flags
-
-    def _turned(self, si):
-        s = facing_sign(si)
-        si2 = mi.SurfaceInteraction3f(si)
-        si2.wi = _flip(si.wi, s)
-        return s, si2
+            raise RuntimeError(f"{plugin}: needs a nested BSDF")
+        _set_flags(self, self.nested.flags() | mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide)
 
     def sample(self, ctx, si, sample1, sample2, active=True):
-        s, si2 = self._turned(si)
+        _, outward, si2 = self._turned(si)
         bs, weight = self.nested.sample(ctx, si2, sample1, sample2, active)
-        bs.wo = _flip(bs.wo, s)
+        bs.wo = outward(bs.wo)
         return bs, weight
 
     def eval(self, ctx, si, wo, active=True):
-        s, si2 = self._turned(si)
-        return self.nested.eval(ctx, si2, _flip(wo, s), active)
+        inward, _, si2 = self._turned(si)
+        return self.nested.eval(ctx, si2, inward(wo), active)
 
     def pdf(self, ctx, si, wo, active=True):
-        s, si2 = self._turned(si)
-        return self.nested.pdf(ctx, si2, _flip(wo, s), active)
+        inward, _, si2 = self._turned(si)
+        return self.nested.pdf(ctx, si2, inward(wo), active)
 
     def eval_pdf(self, ctx, si, wo, active=True):
-        s, si2 = self._turned(si)
-        return self.nested.eval_pdf(ctx, si2, _flip(wo, s), active)
+        inward, _, si2 = self._turned(si)
+        return self.nested.eval_pdf(ctx, si2, inward(wo), active)
 
     def traverse(self, callback):
         pass
+
+
+class TTFacing(_Wrapper):
+    def __init__(self, props):
+        _Wrapper.__init__(self, props, "tt_facing")
+
+    def _turned(self, si):
+        s = facing_sign(si)
+        flip = lambda v: _flip(v, s)  # noqa: E731
+        si2 = mi.SurfaceInteraction3f(si)
+        si2.wi = flip(si.wi)
+        return flip, flip, si2
 
     def to_string(self):
         return "TTFacing[]"
 
 
-class TTNormalMap(mi.BSDF):
+class TTNormalMap(_Wrapper):
     """The reference's normal map (`normal_mapped`, glTF's normalTexture)
     and facing around a nested BSDF: the tangent (`vertex_tangent`) made
     orthogonal to the interpolated normal n, the bitangent sign(w) n x t
@@ -479,21 +493,11 @@ class TTNormalMap(mi.BSDF):
     side the ray arrived on. The nested BSDF is evaluated in that frame."""
 
     def __init__(self, props):
-        mi.BSDF.__init__(self, props)
-        self.nested = None
-        for name in props.property_names():
-            v = props.get(name)
-            if isinstance(v, mi.BSDF):
-                self.nested = v
-        if self.nested is None:
-            raise RuntimeError("tt_normalmap: needs a nested BSDF")
+        _Wrapper.__init__(self, props, "tt_normalmap")
         self.normal_map = props.get_texture("normal_map", 0.5)
         self.scale = props.get("scale", 1.0)
         self.tangent = props.get_texture("tangent", 0.0)
         self.tsign = props.get_texture("tsign", 1.0)
-        flags = self.nested.flags() | mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide
-        self.m_components = [flags]
-        self.m_flags = flags
 
     def frame(self, si):
         n = si.sh_frame.n
@@ -520,31 +524,12 @@ class TTNormalMap(mi.BSDF):
 
     def _turned(self, si):
         f = self.frame(si)
+        inward = lambda w: f.to_local(si.to_world(w))  # noqa: E731
+        outward = lambda w: si.to_local(f.to_world(w))  # noqa: E731
         si2 = mi.SurfaceInteraction3f(si)
         si2.sh_frame = f
-        si2.wi = f.to_local(si.to_world(si.wi))
-        return f, si2
-
-    def sample(self, ctx, si, sample1, sample2, active=True):
-        f, si2 = self._turned(si)
-        bs, weight = self.nested.sample(ctx, si2, sample1, sample2, active)
-        bs.wo = si.to_local(f.to_world(bs.wo))
-        return bs, weight
-
-    def eval(self, ctx, si, wo, active=True):
-        f, si2 = self._turned(si)
-        return self.nested.eval(ctx, si2, f.to_local(si.to_world(wo)), active)
-
-    def pdf(self, ctx, si, wo, active=True):
-        f, si2 = self._turned(si)
-        return self.nested.pdf(ctx, si2, f.to_local(si.to_world(wo)), active)
-
-    def eval_pdf(self, ctx, si, wo, active=True):
-        f, si2 = self._turned(si)
-        return self.nested.eval_pdf(ctx, si2, f.to_local(si.to_world(wo)), active)
-
-    def traverse(self, callback):
-        pass
+        si2.wi = inward(si.wi)
+        return inward, outward, si2
 
     def to_string(self):
         return "TTNormalMap[]"
@@ -554,18 +539,11 @@ class TTDiffuse(mi.BSDF):
     def __init__(self, props):
         mi.BSDF.__init__(self, props)
         self.reflectance = props.get_texture("reflectance", 0.5)
-        flags = mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.FrontSide
-        self.m_components = [flags]
-        self.m_flags = flags
+        _set_flags(self, mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.FrontSide)
 
     def sample(self, ctx, si, sample1, sample2, active=True):
         wo = sample_cosine_hemisphere(sample2)
-        bs = dr.zeros(mi.BSDFSample3f)
-        bs.wo = wo
-        bs.pdf = wo.z * (1.0 / PI)
-        bs.eta = 1.0
-        bs.sampled_type = mi.UInt32(+mi.BSDFFlags.DiffuseReflection)
-        bs.sampled_component = mi.UInt32(0)
+        bs = _bsdf_sample(wo, wo.z * (1.0 / PI), mi.BSDFFlags.DiffuseReflection)
         ok = active & (bs.pdf > 0.0)
         return bs, dr.select(ok, mi.Color3f(self.reflectance.eval(si)), 0.0)
 
