@@ -130,6 +130,10 @@ fn diff_gate(a: &NoisyImage, b: &NoisyImage) -> Verdict {
     compare(a, b, method, &TestSettings::default()).unwrap()
 }
 
+/// The far box's budget in the render-space gate (its reference's is 16
+/// times this).
+const CORNELL_SPP: u32 = 256;
+
 #[test]
 fn a_cornell_box_far_from_the_origin_renders_as_it_does_at_the_origin() {
     let path =
@@ -151,14 +155,19 @@ fn a_cornell_box_far_from_the_origin_renders_as_it_does_at_the_origin() {
     assert_eq!(world.render_origin(), DVec3::ZERO);
     for (integrator, seed) in [(Integrator::Bsdf, 11), (Integrator::Mis, 21)] {
         let seed = common::seed(seed);
-        let reference = render_image(&near, integrator, 1024, seed);
-        let image = render_image(&far, integrator, 256, seed + 1);
+        // The reference at 16x the image's budget, the ratio the stored
+        // references' gate is calibrated at: at 4x (1024 against 256) the
+        // BSDF-sampled box failed correct code in 5 of 132 seed shifts on
+        // the H100 (per-pixel tests just past their allowance, one tile,
+        // one image sum: the 256-sample side's rare lamp hits), MIS in 0.
+        let reference = render_image(&near, integrator, 16 * CORNELL_SPP, seed);
+        let image = render_image(&far, integrator, CORNELL_SPP, seed + 1);
         let v = diff_gate(&image, &reference);
         println!("{integrator:?}: far vs origin\n{}", v.summary());
         assert!(v.passes(), "{integrator:?}: far vs origin\n{}", v.summary());
         // Without render space the f32 numbers are 3·10^4 out (an ulp is
         // 1/512 of the box) and the same gate fails.
-        let image = render_image(&world, integrator, 256, seed + 1);
+        let image = render_image(&world, integrator, CORNELL_SPP, seed + 1);
         let v = diff_gate(&image, &reference);
         println!(
             "{integrator:?}: far in world coordinates vs origin\n{}",
@@ -379,8 +388,14 @@ fn every_fixture_moved_up_to_1e5_passes_its_stored_reference_gate() {
             load_reference_in(refs_for(integrator), spec).unwrap_or_else(|e| panic!("{e:#}"));
         let render =
             move |s: &Scene, st: &RenderSettings| Ok(render_with(s, st, integrator, &|_| {}));
-        let run = run_gate(&reference, &scene, MOVED_SPP, common::seed(41 + i as u32), &render)
-            .unwrap_or_else(|e| panic!("{e:#}"));
+        let run = run_gate(
+            &reference,
+            &scene,
+            MOVED_SPP,
+            common::seed(41 + i as u32),
+            &render,
+        )
+        .unwrap_or_else(|e| panic!("{e:#}"));
         println!(
             "{} moved by {offset:.3} ({integrator:?}): {}",
             spec.name,

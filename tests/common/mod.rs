@@ -115,7 +115,7 @@ pub fn assert_backends_agree(
     let cpu = reference::integrator::render_with(
         scene,
         &RenderSettings {
-            seed: 5,
+            seed: seed(5),
             ..settings
         },
         integrator,
@@ -125,7 +125,7 @@ pub fn assert_backends_agree(
         .and_then(|r| {
             r.render(
                 &RenderSettings {
-                    seed: 6,
+                    seed: seed(6),
                     ..settings
                 },
                 &|_, _| {},
