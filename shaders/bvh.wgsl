@@ -2,7 +2,8 @@
 // walk the reference runs on its 8-wide collapse of the same nodes) and
 // reference::Scene::intersect. The binary walk reads the node array as
 // the reference built it; the four-wide walk reads gpu::traversal's
-// records of the same tree (brute force is the binary walk over one leaf).
+// records of the same tree, the compressed eight-wide walk
+// gpu::compressed's nodes (brute force is the binary walk over one leaf).
 
 // Which walk `nodes` holds records for (gpu::traversal::Traversal::tag).
 override TRAVERSAL: u32 = TRAVERSAL_BINARY;
@@ -77,6 +78,9 @@ fn node_max(n: BvhNode) -> vec3<f32> {
 fn bvh_intersect(ray: Ray, t_min: f32, t_max: f32) -> Hit {
     if TRAVERSAL == TRAVERSAL_WIDE {
         return bvh_intersect_wide(ray, t_min, t_max);
+    }
+    if TRAVERSAL == TRAVERSAL_COMPRESSED {
+        return bvh_intersect_compressed(ray, t_min, t_max);
     }
     return bvh_intersect_binary(ray, t_min, t_max);
 }
@@ -246,6 +250,137 @@ fn bvh_intersect_wide(ray: Ray, t_min: f32, t_max: f32) -> Hit {
         }
         sp -= 1u;
         entry = stack[sp];
+    }
+    return best;
+}
+
+// Word k of compressed node i (gpu::traversal::compressed_words): after
+// the root's two words, five words a node side by side, or word k of
+// every node in the k-th fifth.
+fn cw_word(i: u32, k: u32) -> vec4<u32> {
+    if NODE_LAYOUT == NODE_LAYOUT_SOA {
+        let n = (arrayLength(&nodes) - CW_HEADER_WORDS) / CW_NODE_WORDS;
+        return nodes[CW_HEADER_WORDS + k * n + i];
+    }
+    return nodes[CW_HEADER_WORDS + CW_NODE_WORDS * i + k];
+}
+
+// A compressed node (gpu::compressed::CompressedNode::words), its grid
+// decoded: the origin p and the step 2^e of each axis, built from the
+// exponent's bits as gpu::compressed::scale builds it.
+struct CwNode {
+    p: vec3<f32>,
+    step: vec3<f32>,
+    imask: u32,
+    child_base: u32,
+    leaf_base: u32,
+    meta_bits: vec2<u32>,
+    q0: vec4<u32>,
+    q1: vec4<u32>,
+    q2: vec4<u32>,
+}
+
+fn cw_node(i: u32) -> CwNode {
+    let w0 = cw_word(i, 0u);
+    let w1 = cw_word(i, 1u);
+    let e = vec3<i32>(extractBits(i32(w0.w), 0u, 8u), extractBits(i32(w0.w), 8u, 8u), extractBits(i32(w0.w), 16u, 8u));
+    let step = bitcast<vec3<f32>>(vec3<u32>(e + vec3<i32>(127)) << vec3<u32>(23u));
+    return CwNode(bitcast<vec3<f32>>(w0.xyz), step, w0.w >> 24u, w1.x, w1.y, w1.zw, cw_word(i, 2u), cw_word(i, 3u), cw_word(i, 4u));
+}
+
+// Byte s of the eight held in two words (slots 0-3 in a, 4-7 in b).
+fn cw_byte(a: u32, b: u32, s: u32) -> u32 {
+    return extractBits(select(a, b, s >= 4u), 8u * (s & 3u), 8u);
+}
+
+// Slot s's box minimum and maximum: p + q · 2^e, computed as
+// gpu::compressed::dequantize computes it (the host checked that the box
+// contains the child's exact box).
+fn cw_box_min(n: CwNode, s: u32) -> vec3<f32> {
+    let q = vec3<u32>(cw_byte(n.q0.x, n.q0.y, s), cw_byte(n.q0.z, n.q0.w, s), cw_byte(n.q1.x, n.q1.y, s));
+    return n.p + vec3<f32>(q) * n.step;
+}
+
+fn cw_box_max(n: CwNode, s: u32) -> vec3<f32> {
+    let q = vec3<u32>(cw_byte(n.q1.z, n.q1.w, s), cw_byte(n.q2.x, n.q2.y, s), cw_byte(n.q2.z, n.q2.w, s));
+    return n.p + vec3<f32>(q) * n.step;
+}
+
+// Slot s of a compressed node tested: its bit in the walk's masks where
+// the ray's box test passes (an interior child's at CW_HIT_SHIFT + (s ^
+// oct), a leaf's at s ^ oct), else 0.
+fn cw_slot(n: CwNode, s: u32, oct: u32, origin: vec3<f32>, inv_dir: vec3<f32>, pad: f32, t_max: f32) -> u32 {
+    let interior = (n.imask >> s) & 1u;
+    if interior == 0u && cw_byte(n.meta_bits.x, n.meta_bits.y, s) == 0u {
+        return 0u;
+    }
+    if intersect_aabb(cw_box_min(n, s), cw_box_max(n, s), origin, inv_dir, pad, t_max) < 0.0 {
+        return 0u;
+    }
+    return 1u << ((s ^ oct) + interior * CW_HIT_SHIFT);
+}
+
+// The compressed eight-wide walk (gpu::compressed): the nodes' words
+// follow the binary root's record, whose exact box is tested first (and
+// gives the pad, as in every walk). The walk holds a group: the first
+// interior child's node of a node, its interior mask (bits 0-7) and the
+// interior children the ray hit, not yet entered (bit CW_HIT_SHIFT + (s ^
+// oct) for slot s, oct the ray direction's octant), as Ylitie, Karras and
+// Laine's walk does. It enters the group's highest bit (slot !oct & 7
+// first: the children on the side the ray comes from, as
+// gpu::compressed::assign_slots placed them), stacking what is left of
+// the group (one entry a level: gpu::compressed::stack_need bounds them);
+// a node's hit leaf children are tested at once, in the same order,
+// before its interior children are entered.
+fn bvh_intersect_compressed(ray: Ray, t_min: f32, t_max: f32) -> Hit {
+    var best = Hit(false, t_max, 0u, vec2<f32>(0.0));
+    let inv_dir = safe_inv_dir(ray.direction);
+    let root_min = bitcast<vec3<f32>>(nodes[0].xyz);
+    let root_max = bitcast<vec3<f32>>(nodes[1].xyz);
+    let pad = box_pad(root_min, root_max, ray.origin, ray.direction);
+    if intersect_aabb(root_min, root_max, ray.origin, inv_dir, pad, best.t) < 0.0 {
+        return best;
+    }
+    let negative = vec3<u32>(ray.direction < vec3<f32>(0.0));
+    let oct = negative.x | (negative.y << 1u) | (negative.z << 2u);
+    var stack: array<vec2<u32>, BVH_STACK_SIZE>;
+    var sp = 0u;
+    // The root: the one interior child, slot 0, of a group at node 0.
+    var group = vec2<u32>(0u, (1u << (CW_HIT_SHIFT + oct)) | 1u);
+    loop {
+        if (group.y >> CW_HIT_SHIFT) == 0u {
+            if sp == 0u {
+                break;
+            }
+            sp -= 1u;
+            group = stack[sp];
+        }
+        let bit = firstLeadingBit(group.y);
+        group.y ^= 1u << bit;
+        let slot = (bit - CW_HIT_SHIFT) ^ oct;
+        let node = group.x + countOneBits(group.y & ((1u << slot) - 1u));
+        if (group.y >> CW_HIT_SHIFT) != 0u {
+            stack[sp] = group;
+            sp += 1u;
+        }
+        let n = cw_node(node);
+        let hits = cw_slot(n, 0u, oct, ray.origin, inv_dir, pad, best.t)
+            | cw_slot(n, 1u, oct, ray.origin, inv_dir, pad, best.t)
+            | cw_slot(n, 2u, oct, ray.origin, inv_dir, pad, best.t)
+            | cw_slot(n, 3u, oct, ray.origin, inv_dir, pad, best.t)
+            | cw_slot(n, 4u, oct, ray.origin, inv_dir, pad, best.t)
+            | cw_slot(n, 5u, oct, ray.origin, inv_dir, pad, best.t)
+            | cw_slot(n, 6u, oct, ray.origin, inv_dir, pad, best.t)
+            | cw_slot(n, 7u, oct, ray.origin, inv_dir, pad, best.t);
+        group = vec2<u32>(n.child_base, (hits & ~((1u << CW_HIT_SHIFT) - 1u)) | n.imask);
+        var leaves = hits & ((1u << CW_HIT_SHIFT) - 1u);
+        while leaves != 0u {
+            let b = firstLeadingBit(leaves);
+            leaves ^= 1u << b;
+            let m = cw_byte(n.meta_bits.x, n.meta_bits.y, b ^ oct);
+            let first = n.leaf_base + (m & ((1u << CW_LEAF_COUNT_SHIFT) - 1u));
+            best = intersect_leaf(first, m >> CW_LEAF_COUNT_SHIFT, ray, inv_dir, pad, t_min, best);
+        }
     }
     return best;
 }

@@ -1,16 +1,19 @@
-//! The GPU's walks (`gpu::traversal`): the four-wide BVH walk, brute
-//! force and the node and leaf layouts return the binary walk's hit
-//! records bit for bit and render the
+//! The GPU's walks (`gpu::traversal`): the four-wide BVH walk, the
+//! compressed eight-wide walk, brute force and the node and leaf layouts
+//! return the binary walk's hit records bit for bit and render the
 //! same films (`twintrace::twins::traversal`, also run by `twintrace
-//! selftest`). Mutants of the wide walk's WGSL and of the records the host
-//! packs prove the comparisons can fail.
+//! selftest`). Mutants of the wide and compressed walks' WGSL and of the
+//! records the host packs prove the comparisons can fail.
 
 use crate::common;
 use gpu::scene_buffers::PackedScene;
 use gpu::traversal::WIDE_EMPTY;
 use gpu::{LeafLayout, NodeLayout, Traversal};
 use reference::integrator::Integrator;
-use twintrace::twins::traversal::{all_scenes, compare_films, compare_hits, packed};
+use twintrace::twins::traversal::{
+    all_scenes, compare_compressed_boxes, compare_films, compare_hits, compare_packed_films_with,
+    packed,
+};
 
 #[test]
 fn every_walk_finds_the_binary_walks_hits_and_renders_its_films() {
@@ -74,6 +77,138 @@ fn wide_walk_mutants_fail_the_hit_records() {
         let e = compare_hits(ctx, "rtow-final", &scene, &wide, &mutant).expect_err(slip);
         assert!(e.contains(", ray "), "{slip}: not a hit difference: {e}");
         println!("{slip}: {e}");
+    }
+}
+
+/// (what the slip is, WGSL replaced, its replacement). Each keeps the
+/// walk finite: a wrong child's index is still a later node, clamped to
+/// the last (which has no interior children) where it runs past the end.
+const COMPRESSED_MUTANTS: &[(&str, &str, &str)] = &[
+    (
+        "the eighth slot of every compressed node is never tested",
+        "\n            | cw_slot(n, 7u, oct, ray.origin, inv_dir, pad, best.t);",
+        ";",
+    ),
+    (
+        "what is left of a group is never stacked (overwritten by the next)",
+        "            sp += 1u;\n        }\n        let n = cw_node(node);",
+        "        }\n        let n = cw_node(node);",
+    ),
+    (
+        "a leaf child's entries read from one past their start",
+        "let first = n.leaf_base + (m & ((1u << CW_LEAF_COUNT_SHIFT) - 1u));",
+        "let first = n.leaf_base + (m & ((1u << CW_LEAF_COUNT_SHIFT) - 1u)) + 1u;",
+    ),
+    (
+        "an interior child's node counts its own slot among those before it",
+        "countOneBits(group.y & ((1u << slot) - 1u))",
+        "countOneBits(group.y & ((2u << slot) - 1u))",
+    ),
+    (
+        "a box maximum dequantized one grid step low",
+        "let q = vec3<u32>(cw_byte(n.q1.z, n.q1.w, s), cw_byte(n.q2.x, n.q2.y, s), cw_byte(n.q2.z, n.q2.w, s));",
+        "let q = max(vec3<u32>(cw_byte(n.q1.z, n.q1.w, s), cw_byte(n.q2.x, n.q2.y, s), cw_byte(n.q2.z, n.q2.w, s)), vec3<u32>(1u)) - vec3<u32>(1u);",
+    ),
+];
+
+fn compressed(scene: &reference::Scene) -> PackedScene {
+    packed(
+        scene,
+        (Traversal::Compressed, NodeLayout::Aos, LeafLayout::Indexed),
+    )
+    .unwrap()
+}
+
+#[test]
+fn compressed_walk_mutants_fail_the_hit_records() {
+    let ctx = common::gpu();
+    let library = gpu::shader::library_source();
+    let scene = rtow();
+    let cw = compressed(&scene);
+    let hits = compare_hits(ctx, "rtow-final", &scene, &cw, &library).unwrap();
+    assert!(hits > 4096, "only {hits} rays hit: a weak comparison");
+    for &(slip, from, to) in COMPRESSED_MUTANTS {
+        assert_eq!(
+            library.matches(from).count(),
+            1,
+            "{slip}: `{from}` not found once"
+        );
+        let mutant = library.replace(from, to);
+        let e = compare_hits(ctx, "rtow-final", &scene, &cw, &mutant).expect_err(slip);
+        assert!(e.contains(", ray "), "{slip}: not a hit difference: {e}");
+        println!("{slip}: {e}");
+    }
+}
+
+/// The kernel's dequantized boxes are the host's, bit for bit, in both
+/// node layouts; a grid step built from the wrong exponent bias (half
+/// the step) is caught.
+#[test]
+fn compressed_boxes_are_the_hosts_and_a_wrong_step_is_caught() {
+    let ctx = common::gpu();
+    let library = gpu::shader::library_source();
+    let scene = rtow();
+    for nodes in NodeLayout::ALL {
+        let p = packed(&scene, (Traversal::Compressed, nodes, LeafLayout::Inline)).unwrap();
+        let n = compare_compressed_boxes(ctx, "rtow-final", &scene, &p, &library).unwrap();
+        assert!(n >= 5 * p.compressed.len(), "{n} boxes");
+    }
+    let (from, to) = ("vec3<i32>(127)", "vec3<i32>(126)");
+    assert_eq!(library.matches(from).count(), 1, "`{from}` not found once");
+    let e = compare_compressed_boxes(
+        ctx,
+        "rtow-final",
+        &scene,
+        &compressed(&scene),
+        &library.replace(from, to),
+    )
+    .expect_err("boxes on half the grid step passed");
+    assert!(e.contains("is not the host's"), "{e}");
+    println!("half the grid step: {e}");
+}
+
+/// Boxes quantized inward (a minimum rounded up, a maximum down: floor
+/// and ceil swapped) no longer contain their children: the equality
+/// gates fail, as hit records and as films.
+#[test]
+fn boxes_quantized_inward_fail_the_hit_records_and_the_films() {
+    use gpu::compressed::{compress, Rounding};
+    let ctx = common::gpu();
+    let library = gpu::shader::library_source();
+    let program = gpu::shader::render_source();
+    for spec in ["rtow-final", "cornell"] {
+        let scene = reference::load_scene(spec).unwrap();
+        let cw = compressed(&scene);
+        let bvh = scene.bvh();
+        let inward = compress(bvh.nodes(), bvh.prim_order(), Rounding::Inward).unwrap();
+        // Only the boxes differ from the production records.
+        let outward = compress(bvh.nodes(), bvh.prim_order(), Rounding::Outward).unwrap();
+        assert_eq!(cw.compressed, outward.nodes);
+        assert_eq!(inward.order, outward.order);
+        assert_ne!(inward.nodes, outward.nodes);
+        let mutant = PackedScene {
+            compressed: inward.nodes,
+            ..cw.clone()
+        };
+        let e = compare_hits(ctx, spec, &scene, &mutant, &library)
+            .expect_err("inward boxes passed the hit records");
+        assert!(e.contains(", ray "), "not a hit difference: {e}");
+        println!("inward boxes, hit records: {e}");
+        let integrator = Integrator::Mis;
+        let binary = twintrace::twins::specialization::oracle_film(
+            ctx,
+            spec,
+            &scene,
+            integrator,
+            "the binary walk",
+        )
+        .unwrap();
+        compare_packed_films_with(ctx, spec, &scene, &binary, (&cw, integrator), &program).unwrap();
+        let e =
+            compare_packed_films_with(ctx, spec, &scene, &binary, (&mutant, integrator), &program)
+                .expect_err("inward boxes passed the film comparison");
+        assert!(e.contains(": pixel "), "not a film difference: {e}");
+        println!("inward boxes, films: {e}");
     }
 }
 
@@ -205,6 +340,33 @@ fn inline_soa_entries_are_regrouped_and_a_wrong_stride_is_caught() {
         .expect_err("SoA inline entries read with a stride one too long passed");
     assert!(e.contains(", ray "), "not a hit difference: {e}");
     println!("SoA inline entries, stride one too long: {e}");
+}
+
+#[test]
+fn compressed_soa_words_are_the_aos_words_regrouped() {
+    use gpu::compressed::{CompressedNode, HEADER_WORDS, NODE_WORDS};
+    use gpu::traversal::compressed_words;
+    let scene = rtow();
+    let p = compressed(&scene);
+    let (root, nodes) = (&p.nodes[0], &p.compressed);
+    let (aos, soa) = (
+        compressed_words(root, nodes, NodeLayout::Aos),
+        compressed_words(root, nodes, NodeLayout::Soa),
+    );
+    let n = nodes.len();
+    assert_eq!(aos.len(), HEADER_WORDS + NODE_WORDS * n);
+    assert_eq!(soa.len(), aos.len());
+    assert_eq!(&aos[..HEADER_WORDS], &soa[..HEADER_WORDS]);
+    assert_eq!(aos[0][..3], root.min.map(f32::to_bits));
+    assert_eq!(aos[1][..3], root.max.map(f32::to_bits));
+    for (i, node) in nodes.iter().enumerate() {
+        let words: [[u32; 4]; NODE_WORDS] =
+            std::array::from_fn(|k| aos[HEADER_WORDS + NODE_WORDS * i + k]);
+        assert_eq!(CompressedNode::from_words(&words), *node, "node {i}");
+        for (k, w) in words.iter().enumerate() {
+            assert_eq!(soa[HEADER_WORDS + k * n + i], *w, "node {i} word {k}");
+        }
+    }
 }
 
 #[test]

@@ -95,6 +95,34 @@ const GPU_ONLY: &[(&str, &str)] = &[
         "one lane's box test of the GPU's four-wide walk",
     ),
     (
+        "bvh_intersect_compressed",
+        "the GPU's compressed eight-wide walk (gpu::compressed; the reference's collapse keeps exact boxes, Bvh::intersect)",
+    ),
+    (
+        "cw_word",
+        "reads a word of a compressed node from the nodes binding (gpu::traversal::compressed_words)",
+    ),
+    (
+        "cw_node",
+        "decodes a compressed node's words (gpu::compressed::CompressedNode::from_words, scale)",
+    ),
+    (
+        "cw_byte",
+        "one byte of a compressed node's eight (gpu::compressed::CompressedNode::words packs them)",
+    ),
+    (
+        "cw_box_min",
+        "a compressed node's slot's box minimum (gpu::compressed::CompressedNode::child_box)",
+    ),
+    (
+        "cw_box_max",
+        "a compressed node's slot's box maximum (gpu::compressed::CompressedNode::child_box)",
+    ),
+    (
+        "cw_slot",
+        "one slot's box test of the compressed walk",
+    ),
+    (
         "bvh_node",
         "reads a BvhNode record from the nodes binding's words (gpu::traversal::NodeLayout)",
     ),

@@ -11,6 +11,7 @@
 
 pub mod aov;
 pub mod bindings;
+pub mod compressed;
 pub mod context;
 pub mod devices;
 pub mod display;

@@ -359,7 +359,8 @@ impl<'a> GpuRenderer<'a> {
             checks,
         } = spec;
         if checks == Checks::Trusted {
-            crate::traversal::check_walk_order(&packed.nodes, packed.traversal)
+            packed
+                .check_walk_order()
                 .map_err(|e| GpuError::Validation(format!("trusted kernels refused: {e}")))?;
         }
         let device = &ctx.device;
@@ -429,7 +430,7 @@ impl<'a> GpuRenderer<'a> {
             node_layout: packed.node_layout,
             leaves: packed.leaves,
             dispatch,
-            walk_size: (packed.nodes.len() as u64, scene.primitives().len() as u64),
+            walk_size: (packed.walk_records(), scene.primitives().len() as u64),
             wave_slots: None,
             wave_cache: std::sync::Mutex::new(None),
             film_cache: std::sync::Mutex::new(None),

@@ -27,8 +27,12 @@ pub struct PackedScene {
     /// primitives).
     pub traversal_note: Option<String>,
     /// The walk's records ([`crate::traversal::arrays`]), uploaded as
-    /// `node_layout` says.
+    /// `node_layout` says; for the compressed walk, the binary root's
+    /// record alone, before [`Self::compressed`].
     pub nodes: Vec<reference::bvh::BvhNode>,
+    /// The compressed walk's nodes (`crate::compressed`); empty for the
+    /// other walks.
+    pub compressed: Vec<crate::compressed::CompressedNode>,
     pub node_layout: NodeLayout,
     /// The leaves' entries in the tree's primitive order, as `leaves`
     /// says ([`crate::traversal::indexed_entries`],
@@ -284,9 +288,24 @@ impl PackedScene {
             Cow::Borrowed(cast_slice(v))
         }
         // The array-of-structures words are the records' own bytes.
-        let nodes = match self.node_layout {
-            NodeLayout::Aos => bytes(&self.nodes),
-            NodeLayout::Soa => Cow::Owned(
+        let nodes = match (self.traversal, self.node_layout) {
+            (Traversal::Compressed, layout) => {
+                let root = self
+                    .nodes
+                    .first()
+                    .copied()
+                    .unwrap_or(bytemuck::Zeroable::zeroed());
+                Cow::Owned(
+                    cast_slice(&crate::traversal::compressed_words(
+                        &root,
+                        &self.compressed,
+                        layout,
+                    ))
+                    .to_vec(),
+                )
+            }
+            (_, NodeLayout::Aos) => bytes(&self.nodes),
+            (_, NodeLayout::Soa) => Cow::Owned(
                 cast_slice(&crate::traversal::node_words(&self.nodes, self.node_layout)).to_vec(),
             ),
         };
@@ -318,7 +337,12 @@ impl PackedScene {
     /// walk or indexed leaves where the others are refused
     /// ([`Self::traversal_note`] says why).
     pub fn for_walk(scene: &Scene, traversal: Traversal, leaves: LeafLayout) -> Self {
-        let (nodes, order, refused) = crate::traversal::arrays(scene, traversal);
+        let (walk, refused) = crate::traversal::arrays(scene, traversal);
+        let crate::traversal::WalkArrays {
+            nodes,
+            compressed,
+            order,
+        } = walk;
         let (traversal, traversal_note) = match refused {
             Ok(()) => (traversal, None),
             Err(why) => (
@@ -365,6 +389,7 @@ impl PackedScene {
             leaves: LeafLayout::Indexed,
             traversal_note,
             nodes,
+            compressed,
             node_layout: NodeLayout::Aos,
             leaf_entries: crate::traversal::indexed_entries(&order),
             primitives: scene
@@ -482,6 +507,30 @@ impl PackedScene {
             }
         }
         packed
+    }
+
+    /// Whether the walk over the records ends whatever the rays
+    /// ([`crate::traversal::check_walk_order`]): what trusted kernels
+    /// need.
+    pub fn check_walk_order(&self) -> Result<(), String> {
+        crate::traversal::check_walk_order(&self.nodes, &self.compressed, self.traversal)
+    }
+
+    /// A bound on the records one ray's walk visits (loop iterations):
+    /// every record of the node walks; the compressed walk's root, its
+    /// nodes and its leaf children.
+    pub fn walk_records(&self) -> u64 {
+        let leaves = |n: &crate::compressed::CompressedNode| {
+            (0..crate::compressed::WIDTH)
+                .filter(|&s| n.leaf(s).is_some())
+                .count() as u64
+        };
+        match self.traversal {
+            Traversal::Compressed => {
+                self.nodes.len() as u64 + self.compressed.iter().map(|n| 1 + leaves(n)).sum::<u64>()
+            }
+            _ => self.nodes.len() as u64,
+        }
     }
 
     /// The same records, uploaded in `layout`.

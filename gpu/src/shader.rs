@@ -156,6 +156,14 @@ pub fn generate() -> String {
     s += &u("BVH_STACK_SIZE", reference::bvh::BVH_STACK_SIZE as u32);
     s += &u("TRAVERSAL_BINARY", crate::variants::TRAVERSAL_BINARY);
     s += &u("TRAVERSAL_WIDE", crate::variants::TRAVERSAL_WIDE);
+    s += &u(
+        "TRAVERSAL_COMPRESSED",
+        crate::variants::TRAVERSAL_COMPRESSED,
+    );
+    s += &u("CW_NODE_WORDS", crate::compressed::NODE_WORDS as u32);
+    s += &u("CW_HEADER_WORDS", crate::compressed::HEADER_WORDS as u32);
+    s += &u("CW_HIT_SHIFT", crate::compressed::HIT_SHIFT);
+    s += &u("CW_LEAF_COUNT_SHIFT", crate::compressed::LEAF_COUNT_SHIFT);
     s += &u("WIDE_LANES", crate::traversal::WIDE_LANES as u32);
     s += &u("WIDE_EMPTY", crate::traversal::WIDE_EMPTY);
     s += &u("WIDE_LEAF_ENTRY", crate::traversal::WIDE_LEAF_ENTRY);

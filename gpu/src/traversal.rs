@@ -1,7 +1,8 @@
 //! How the GPU walks the scene's primitives (issue: GPU variants,
 //! traversal): the binary BVH as the reference builds it (the baseline),
-//! a four-wide view of the same tree, or one leaf holding every primitive
-//! (brute force). All three test the same primitives with the same
+//! a four-wide view of the same tree, a compressed eight-wide one
+//! (`crate::compressed`), or one leaf holding every primitive (brute
+//! force). All four test the same primitives with the same
 //! admits rule and keep the closest hit, ties in t to the smaller
 //! primitive id, so a box only decides what is skipped: the hit records
 //! are the same bits whatever the walk (`twintrace::twins::traversal`
@@ -21,19 +22,23 @@
 //! while lanes remain (the CPU reference's 8-wide view is planned by a
 //! cost model instead; the GPU's lanes need no such plan to be exact).
 //!
+//! The compressed records follow the binary root's record (its exact
+//! box) in the same binding, five words a node ([`compressed_words`]).
+//!
 //! The walk and the layouts themselves ([`Traversal`], [`NodeLayout`],
 //! [`LeafLayout`]) and the constants that pass them to the kernels are
 //! variant axes, defined in `crate::variants` and re-exported here; the
 //! inline entries are made from the packed records by
 //! `scene_buffers::inline_entries`.
 
+use crate::compressed::{CompressedNode, Rounding};
 use reference::bvh::{BvhNode, BVH_STACK_SIZE};
 use reference::Scene;
 
 pub use crate::variants::{
     LeafLayout, NodeLayout, Traversal, LEAVES_CONSTANT, LEAVES_INDEXED, LEAVES_INLINE,
     LEAVES_INLINE_SOA, NODE_LAYOUT_AOS, NODE_LAYOUT_CONSTANT, NODE_LAYOUT_SOA, TRAVERSAL_BINARY,
-    TRAVERSAL_CONSTANT, TRAVERSAL_WIDE,
+    TRAVERSAL_COMPRESSED, TRAVERSAL_CONSTANT, TRAVERSAL_WIDE,
 };
 
 /// Lanes of a wide node.
@@ -76,6 +81,28 @@ pub fn node_words(records: &[BvhNode], layout: NodeLayout) -> Vec<[u32; 4]> {
     }
 }
 
+/// The `nodes` binding's words of the compressed walk: `root`'s record
+/// (the binary root: its exact box), then the nodes' five words each
+/// ([`CompressedNode::words`]), side by side ([`NodeLayout::Aos`]) or
+/// word `k` of node `i` at `k · n + i` after the root ([`NodeLayout::Soa`]).
+pub fn compressed_words(
+    root: &BvhNode,
+    nodes: &[CompressedNode],
+    layout: NodeLayout,
+) -> Vec<[u32; 4]> {
+    let mut out = node_words(std::slice::from_ref(root), NodeLayout::Aos);
+    let words: Vec<_> = nodes.iter().map(CompressedNode::words).collect();
+    match layout {
+        NodeLayout::Aos => out.extend(words.iter().flatten()),
+        NodeLayout::Soa => {
+            for k in 0..crate::compressed::NODE_WORDS {
+                out.extend(words.iter().map(|w| w[k]));
+            }
+        }
+    }
+    out
+}
+
 /// `vec4<u32>` words of an inline leaf entry.
 pub const INLINE_WORDS: usize = 4;
 
@@ -107,18 +134,55 @@ pub fn soa_entries(inline: &[[u32; 4]]) -> Vec<[u32; 4]> {
         .collect()
 }
 
-/// The `nodes` and `prim_order` arrays a walk reads for `scene`, and the
-/// walk they are for: `Err` with the reason where the wide records would
-/// need a deeper stack than the kernels hold (the binary tree's arrays
-/// come back with it, so a caller can go on with [`Traversal::Binary`]).
-pub fn arrays(scene: &Scene, traversal: Traversal) -> (Vec<BvhNode>, Vec<u32>, Result<(), String>) {
+/// The records a walk reads.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct WalkArrays {
+    /// The binary, four-wide or brute-force records; for the compressed
+    /// walk, the binary root's record alone (its exact box).
+    pub nodes: Vec<BvhNode>,
+    /// The compressed walk's nodes (empty for the others).
+    pub compressed: Vec<CompressedNode>,
+    /// The primitive order the leaves index.
+    pub order: Vec<u32>,
+}
+
+/// The arrays a walk reads for `scene`, and whether they are the walk's:
+/// `Err` with the reason where its records would need a deeper stack than
+/// the kernels hold, or the compressed records cannot be made (the binary
+/// tree's arrays come back with it, so a caller can go on with
+/// [`Traversal::Binary`]).
+pub fn arrays(scene: &Scene, traversal: Traversal) -> (WalkArrays, Result<(), String>) {
     let bvh = scene.bvh();
+    let binary = || WalkArrays {
+        nodes: bvh.nodes().to_vec(),
+        compressed: Vec::new(),
+        order: bvh.prim_order().to_vec(),
+    };
     match traversal {
-        Traversal::Binary => (bvh.nodes().to_vec(), bvh.prim_order().to_vec(), Ok(())),
+        Traversal::Binary => (binary(), Ok(())),
         Traversal::Wide => match wide_records(bvh.nodes()) {
-            Ok(records) => (records, bvh.prim_order().to_vec(), Ok(())),
-            Err(e) => (bvh.nodes().to_vec(), bvh.prim_order().to_vec(), Err(e)),
+            Ok(records) => (
+                WalkArrays {
+                    nodes: records,
+                    ..binary()
+                },
+                Ok(()),
+            ),
+            Err(e) => (binary(), Err(e)),
         },
+        Traversal::Compressed => {
+            match crate::compressed::compress(bvh.nodes(), bvh.prim_order(), Rounding::Outward) {
+                Ok(c) => (
+                    WalkArrays {
+                        nodes: bvh.nodes()[..1].to_vec(),
+                        compressed: c.nodes,
+                        order: c.order,
+                    },
+                    Ok(()),
+                ),
+                Err(e) => (binary(), Err(e)),
+            }
+        }
         Traversal::BruteForce => {
             let prims = scene.primitives().len() as u32;
             let root = bvh.nodes().first().copied().unwrap_or(BvhNode {
@@ -132,7 +196,14 @@ pub fn arrays(scene: &Scene, traversal: Traversal) -> (Vec<BvhNode>, Vec<u32>, R
                 meta: (prims << 2) | BvhNode::LEAF,
                 ..root
             };
-            (vec![leaf], (0..prims).collect(), Ok(()))
+            (
+                WalkArrays {
+                    nodes: vec![leaf],
+                    compressed: Vec::new(),
+                    order: (0..prims).collect(),
+                },
+                Ok(()),
+            )
         }
     }
 }
@@ -145,10 +216,25 @@ pub fn arrays(scene: &Scene, traversal: Traversal) -> (Vec<BvhNode>, Vec<u32>, R
 /// too): interior `i` has children `i + 1` and `index`, with
 /// `i < index < len`. The four-wide walk: wide node `w`'s interior lanes
 /// name wide nodes `c` with `w < c` whose records `1 + 4c ..= 4 + 4c`
-/// exist. The error names the first record out of order.
-pub fn check_walk_order(nodes: &[BvhNode], traversal: Traversal) -> Result<(), String> {
+/// exist. The compressed walk: `nodes` is the root's record alone, and
+/// every interior child of a compressed node is a later node inside
+/// `compressed` (`crate::compressed::check_order`). The error names the
+/// first record out of order.
+pub fn check_walk_order(
+    nodes: &[BvhNode],
+    compressed: &[CompressedNode],
+    traversal: Traversal,
+) -> Result<(), String> {
     let len = nodes.len();
     match traversal {
+        Traversal::Compressed => {
+            if len != 1 {
+                return Err(format!(
+                    "{len} records before the compressed nodes: the walk reads the root's alone"
+                ));
+            }
+            crate::compressed::check_order(compressed)?;
+        }
         Traversal::Binary | Traversal::BruteForce => {
             for (i, n) in nodes.iter().enumerate() {
                 let child = n.index as usize;
@@ -315,21 +401,25 @@ mod tests {
         for name in reference::builtin::NAMES {
             let scene = reference::load_scene(name).unwrap();
             for t in Traversal::ALL {
-                let (nodes, _, _) = arrays(&scene, t);
-                check_walk_order(&nodes, t).unwrap_or_else(|e| panic!("{name} {t:?}: {e}"));
+                let (walk, refused) = arrays(&scene, t);
+                if t == Traversal::Compressed {
+                    refused.unwrap_or_else(|e| panic!("{name}: {e}"));
+                }
+                check_walk_order(&walk.nodes, &walk.compressed, t)
+                    .unwrap_or_else(|e| panic!("{name} {t:?}: {e}"));
             }
         }
         // A right child pointing back at its parent: a walk that cycles.
         let tree = [interior(2, 0.0, 2.0), leaf(0, 1, 0.0), leaf(1, 1, 1.0)];
-        check_walk_order(&tree, Traversal::Binary).unwrap();
+        check_walk_order(&tree, &[], Traversal::Binary).unwrap();
         let mut cyclic = tree;
         cyclic[0].index = 0;
-        assert!(check_walk_order(&cyclic, Traversal::Binary).is_err());
+        assert!(check_walk_order(&cyclic, &[], Traversal::Binary).is_err());
         let mut past = tree;
         past[0].index = 3;
-        assert!(check_walk_order(&past, Traversal::Binary).is_err());
+        assert!(check_walk_order(&past, &[], Traversal::Binary).is_err());
         // An interior last record: its left child would be past the end.
-        assert!(check_walk_order(&[interior(1, 0.0, 1.0)], Traversal::Binary).is_err());
+        assert!(check_walk_order(&[interior(1, 0.0, 1.0)], &[], Traversal::Binary).is_err());
         // Wide: an interior lane naming its own wide node, or one past the end.
         let scene = reference::load_scene("rtow-final").unwrap();
         let wide = wide_records(scene.bvh().nodes()).unwrap();
@@ -338,10 +428,42 @@ mod tests {
             .expect("rtow-final has interior lanes");
         let mut own = wide.clone();
         own[lane].index = ((lane - 1) / WIDE_LANES) as u32;
-        assert!(check_walk_order(&own, Traversal::Wide).is_err());
+        assert!(check_walk_order(&own, &[], Traversal::Wide).is_err());
         let mut beyond = wide;
         beyond[lane].index = u32::MAX >> 1;
-        assert!(check_walk_order(&beyond, Traversal::Wide).is_err());
+        assert!(check_walk_order(&beyond, &[], Traversal::Wide).is_err());
+        // Compressed: a node naming itself, one before it, or nodes past
+        // the end; no nodes; records other than the root's before them.
+        let (walk, refused) = arrays(&scene, Traversal::Compressed);
+        refused.unwrap();
+        let root = &walk.nodes;
+        let c = &walk.compressed;
+        check_walk_order(root, c, Traversal::Compressed).unwrap();
+        let w = (1..c.len())
+            .find(|&w| c[w].imask != 0)
+            .expect("rtow-final has compressed nodes below the root with interior children");
+        for (what, base) in [
+            ("itself", w as u32),
+            ("a node before it", w as u32 - 1),
+            (
+                "nodes past the end",
+                (c.len() - c[w].imask.count_ones() as usize + 1) as u32,
+            ),
+        ] {
+            let mut bad = c.clone();
+            bad[w].child_base = base;
+            let e = check_walk_order(root, &bad, Traversal::Compressed).expect_err(what);
+            assert!(
+                e.contains(&format!("compressed node {w} of")),
+                "{what}: {e}"
+            );
+        }
+        // The last valid base: its children end at the last node.
+        let mut last = c.clone();
+        last[w].child_base = (c.len() - c[w].imask.count_ones() as usize) as u32;
+        check_walk_order(root, &last, Traversal::Compressed).unwrap();
+        assert!(check_walk_order(root, &[], Traversal::Compressed).is_err());
+        assert!(check_walk_order(&[root[0], root[0]], c, Traversal::Compressed).is_err());
     }
 
     #[test]

@@ -21,6 +21,9 @@ pub const TRAVERSAL_BINARY: u32 = 0;
 /// [`TRAVERSAL_CONSTANT`] of the four-wide walk.
 pub const TRAVERSAL_WIDE: u32 = 1;
 
+/// [`TRAVERSAL_CONSTANT`] of the compressed eight-wide walk.
+pub const TRAVERSAL_COMPRESSED: u32 = 2;
+
 /// How a render walks the scene.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Traversal {
@@ -31,6 +34,10 @@ pub enum Traversal {
     /// The same tree collapsed four children to a node
     /// (`traversal::wide_records`).
     Wide,
+    /// The same tree collapsed eight children to a node, the children's
+    /// boxes quantized to 8 bits a bound relative to the node and rounded
+    /// outward (`compressed::compress`; Ylitie, Karras and Laine 2017).
+    Compressed,
     /// Every primitive tested, in id order: the binary walk over one leaf
     /// that holds them all (for tiny scenes, and as the plainest oracle).
     BruteForce,
@@ -38,13 +45,19 @@ pub enum Traversal {
 
 impl Traversal {
     /// Every walk, the baseline first.
-    pub const ALL: [Traversal; 3] = [Traversal::Binary, Traversal::Wide, Traversal::BruteForce];
+    pub const ALL: [Traversal; 4] = [
+        Traversal::Binary,
+        Traversal::Wide,
+        Traversal::Compressed,
+        Traversal::BruteForce,
+    ];
 
     /// The CLI's and perf's name.
     pub fn name(self) -> &'static str {
         match self {
             Traversal::Binary => "bvh2",
             Traversal::Wide => "bvh4",
+            Traversal::Compressed => "cwbvh8",
             Traversal::BruteForce => "brute",
         }
     }
@@ -54,6 +67,7 @@ impl Traversal {
         match self {
             Traversal::Binary | Traversal::BruteForce => TRAVERSAL_BINARY,
             Traversal::Wide => TRAVERSAL_WIDE,
+            Traversal::Compressed => TRAVERSAL_COMPRESSED,
         }
     }
 }
@@ -462,9 +476,10 @@ mod tests {
         assert!(names.contains(&"wavefront-soa-bvh4-nodes-soa-inline".to_string()));
         assert!(names.contains(&"megakernel-paths-mis-inline-branches".to_string()));
         assert!(names.contains(&"megakernel-paths-inline-soa".to_string()));
-        // 4 schedules, 2 kernels, 2 estimators, 3 walks, 2 node layouts,
+        assert!(names.contains(&"megakernel-paths-mis-cwbvh8-inline".to_string()));
+        // 4 schedules, 2 kernels, 2 estimators, 4 walks, 2 node layouts,
         // 3 leaf layouts, 2 dispatches, 2 runtime checks.
-        assert_eq!(n, 1152);
+        assert_eq!(n, 1536);
         assert!(names.contains(&"megakernel-paths-mis-inline-checked".to_string()));
     }
 

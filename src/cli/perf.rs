@@ -76,7 +76,8 @@ pub struct RunArgs {
     /// state as an array of structs), wavefront-soa (structure of arrays)
     /// or megakernel-paths (one invocation per path of a wave), -mis light sampling with MIS, -general the general kernel
     /// (every feature's code) instead of the one specialized to the scene,
-    /// -bvh4 the four-wide BVH walk or -brute every primitive tested,
+    /// -bvh4 the four-wide BVH walk, -cwbvh8 the compressed eight-wide
+    /// walk (8-bit child boxes) or -brute every primitive tested,
     /// instead of the binary BVH walk, -nodes-soa node records as a structure
     /// of arrays, -inline leaf entries holding what
     /// their test reads instead of primitive ids (-inline-soa the same as a

@@ -106,6 +106,9 @@ impl Axis for gpu::Traversal {
         match self {
             gpu::Traversal::Binary => "the reference's binary BVH",
             gpu::Traversal::Wide => "the same tree, four children a node",
+            gpu::Traversal::Compressed => {
+                "the same tree, eight children a node, their boxes quantized to 8 bits"
+            }
             gpu::Traversal::BruteForce => "every primitive tested (tiny scenes)",
         }
     }

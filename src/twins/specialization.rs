@@ -159,6 +159,18 @@ pub fn variant_film_bits(
     if let Some(why) = &packed.traversal_note {
         return Err(why.clone());
     }
+    packed_film_bits(ctx, scene, &packed, build, wave_slots)
+}
+
+/// [`variant_film_bits`] of records already packed (a walk's, or a
+/// test's edit of them): `build`'s walk and layouts are `packed`'s.
+pub fn packed_film_bits(
+    ctx: &GpuContext,
+    scene: &Scene,
+    packed: &gpu::scene_buffers::PackedScene,
+    build: Build,
+    wave_slots: &[Option<u32>],
+) -> Result<Vec<Vec<u64>>, String> {
     let spec = gpu::KernelSpec {
         integrator: build.integrator,
         features: build.features,
@@ -166,7 +178,7 @@ pub fn variant_film_bits(
         dispatch: build.dispatch,
         checks: build.checks,
     };
-    let mut renderer = gpu::GpuRenderer::build_scheduled(ctx, &packed, scene, build.program, spec)
+    let mut renderer = gpu::GpuRenderer::build_scheduled(ctx, packed, scene, build.program, spec)
         .map_err(|e| e.to_string())?;
     let (width, height, spp) = SIZE;
     let settings = RenderSettings {

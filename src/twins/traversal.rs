@@ -1,5 +1,7 @@
 //! The GPU's walks against each other (`gpu::traversal`): the four-wide
-//! walk, brute force, the structure-of-arrays node layout and the inline
+//! walk, the compressed eight-wide walk (`gpu::compressed`: quantized
+//! boxes that contain the exact ones), brute force, the
+//! structure-of-arrays node layout and the inline
 //! leaf layouts (AoS and SoA) must return the binary walk's hit records (over
 //! array-of-structs nodes and indexed leaves) bit for bit (flag, primitive,
 //! t, uv) on the rays of [`super::hits`], on every scene, and render every
@@ -20,7 +22,9 @@
 //! bit for bit.
 
 use super::hits::{ray_words, scenes, SNIPPET};
-use super::specialization::{oracle_film, scene_specs, variant_film_bits, Build, SIZE};
+use super::specialization::{
+    oracle_film, packed_film_bits, scene_specs, variant_film_bits, Build, SIZE,
+};
 use super::wavefront::{compare_words, Inexact};
 use super::{camera_and_random_rays, run_kernel_walking, Outcome};
 use gpu::features::Kernel;
@@ -34,8 +38,10 @@ pub type Walk = (Traversal, NodeLayout, LeafLayout);
 
 /// The walks compared with the binary one over array-of-structs nodes
 /// and indexed leaves.
-pub const VARIANTS: [Walk; 7] = [
+pub const VARIANTS: [Walk; 9] = [
     (Traversal::Wide, NodeLayout::Aos, LeafLayout::Indexed),
+    (Traversal::Compressed, NodeLayout::Aos, LeafLayout::Indexed),
+    (Traversal::Compressed, NodeLayout::Soa, LeafLayout::Inline),
     (Traversal::BruteForce, NodeLayout::Aos, LeafLayout::Indexed),
     (Traversal::Binary, NodeLayout::Soa, LeafLayout::Indexed),
     (Traversal::Binary, NodeLayout::Aos, LeafLayout::Inline),
@@ -47,11 +53,16 @@ pub const VARIANTS: [Walk; 7] = [
 /// The estimators a walk's films are compared under: both for the walks,
 /// MIS only (its paths trace both kinds of ray, closest hit and shadow)
 /// for a layout of the same records under the binary walk, which changes
-/// only where `bvh_node` and the inline test read their words (the hit
-/// records check every read; this keeps CI's lavapipe time in bounds).
+/// only where `bvh_node` and the inline test read their words, and for
+/// the compressed walk's records in other layouts than array-of-structs
+/// nodes and indexed leaves (the hit records check every read; this
+/// keeps CI's lavapipe time in bounds).
 pub fn film_estimators((traversal, nodes, leaves): Walk) -> &'static [Integrator] {
-    let layout_only = traversal == Traversal::Binary
-        && (nodes == NodeLayout::Soa || leaves == LeafLayout::InlineSoa);
+    let layout_only = match traversal {
+        Traversal::Binary => nodes == NodeLayout::Soa || leaves == LeafLayout::InlineSoa,
+        Traversal::Compressed => nodes == NodeLayout::Soa || leaves != LeafLayout::Indexed,
+        _ => false,
+    };
     if layout_only {
         &[Integrator::Mis]
     } else {
@@ -197,6 +208,106 @@ pub fn compare_films_with(
     })
 }
 
+/// [`compare_films_with`] for records already packed (a test's edit of a
+/// walk's records): their film against the binary walk's `binary`.
+pub fn compare_packed_films_with(
+    ctx: &GpuContext,
+    spec: &str,
+    scene: &Scene,
+    binary: &[u64],
+    (packed, integrator): (&PackedScene, Integrator),
+    program: &str,
+) -> Result<(usize, u64), String> {
+    let walk = (packed.traversal, packed.node_layout, packed.leaves);
+    let build = Build {
+        traversal: walk.0,
+        nodes: walk.1,
+        leaves: walk.2,
+        ..Build::megakernel(program, integrator, Kernel::Specialized.features(scene))
+    };
+    let film = packed_film_bits(ctx, scene, packed, build, &[None])?.remove(0);
+    compare_words(binary, &film).map_err(|e| {
+        format!(
+            "{spec} ({}, {} walk): {e}",
+            integrator.name(),
+            walk_name(walk)
+        )
+    })
+}
+
+/// The compressed nodes' boxes as the kernel dequantizes them
+/// (`cw_box_min`, `cw_box_max`): six words (minimum, maximum) for each
+/// `(node << 3) | slot` of the input.
+const BOXES_SNIPPET: &str = "
+@compute @workgroup_size(64)
+fn cw_boxes_main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if i >= arrayLength(&input) {
+        return;
+    }
+    let n = cw_node(input[i] >> 3u);
+    let lo = cw_box_min(n, input[i] & 7u);
+    let hi = cw_box_max(n, input[i] & 7u);
+    output[6u * i] = bitcast<u32>(lo.x);
+    output[6u * i + 1u] = bitcast<u32>(lo.y);
+    output[6u * i + 2u] = bitcast<u32>(lo.z);
+    output[6u * i + 3u] = bitcast<u32>(hi.x);
+    output[6u * i + 4u] = bitcast<u32>(hi.y);
+    output[6u * i + 5u] = bitcast<u32>(hi.z);
+}
+";
+
+/// Every occupied slot's box of `packed`'s compressed nodes as the kernel
+/// dequantizes it (over `library`) against the host's
+/// (`gpu::compressed::CompressedNode::child_box`, the boxes the host
+/// checked contain the exact ones), bit for bit: the boxes compared, or
+/// the first that differs.
+pub fn compare_compressed_boxes(
+    ctx: &GpuContext,
+    name: &str,
+    scene: &Scene,
+    packed: &PackedScene,
+    library: &str,
+) -> Result<usize, String> {
+    let slots: Vec<(usize, usize)> = (packed.compressed.iter().enumerate())
+        .flat_map(|(w, n)| {
+            (0..gpu::compressed::WIDTH)
+                .filter(|&s| n.is_live(s))
+                .map(move |s| (w, s))
+        })
+        .collect();
+    if slots.is_empty() {
+        return Err(format!("{name}: no compressed boxes to compare"));
+    }
+    let input: Vec<u32> = slots.iter().map(|&(w, s)| ((w << 3) | s) as u32).collect();
+    let out = run_kernel_walking(
+        ctx,
+        (scene, packed),
+        (BOXES_SNIPPET, "cw_boxes_main"),
+        &input,
+        (slots.len(), slots.len() * 6),
+        library,
+    )?;
+    for (&(w, s), g) in slots.iter().zip(out.chunks(6)) {
+        let (lo, hi) = packed.compressed[w].child_box(s);
+        let host: Vec<u32> = lo.iter().chain(&hi).map(|x| x.to_bits()).collect();
+        if host != g {
+            let show = |v: &[u32]| {
+                format!(
+                    "{:?}",
+                    v.iter().map(|&b| f32::from_bits(b)).collect::<Vec<_>>()
+                )
+            };
+            return Err(format!(
+                "{name}: compressed node {w} slot {s}: the kernel's box {} is not the host's {}",
+                show(g),
+                show(&host)
+            ));
+        }
+    }
+    Ok(slots.len())
+}
+
 /// Whether [`all_scenes`] runs `walk` on `scene`: brute force takes tiny
 /// scenes only (the renderer refuses more; its hit records on a mesh of
 /// thousands of triangles took most of the gate's time on lavapipe).
@@ -248,6 +359,19 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
             hit_lines.push(format!("{name} {n}"));
         }
     }
+    // The compressed walk's boxes as the kernel computes them are the
+    // ones the host checked to contain the exact boxes.
+    let boxes = super::par_map(&hit_scenes, |(name, scene)| {
+        let walk = (Traversal::Compressed, NodeLayout::Aos, LeafLayout::Indexed);
+        packed(scene, walk).and_then(|p| compare_compressed_boxes(ctx, name, scene, &p, &library))
+    });
+    let mut compressed_boxes = 0;
+    for outcome in boxes {
+        match outcome {
+            Ok(n) => compressed_boxes += n,
+            Err(e) => failures.push(e),
+        }
+    }
     let specs = scene_specs()?;
     let (mut inexact, mut films) = (Inexact::default(), 0usize);
     // Every (scene, estimator) in parallel: its binary walk's film, then
@@ -284,8 +408,9 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let compared = films * (width * height) as usize;
     let exactness = inexact.exactness(compared);
     Ok(format!(
-        "bvh4, brute force (scenes of at most {} primitives), SoA nodes (bvh2, bvh4) and inline leaves (bvh2, bvh4; SoA on bvh2): hit records equal the binary walk's bit for bit (rays that hit: {}); \
-         {} scenes × 2 estimators ({films} films: brute force on the scenes of at most {} primitives, the layouts under the binary walk with MIS only, the others on every scene): films equal the binary walk's {exactness}",
+        "bvh4, cwbvh8, brute force (scenes of at most {} primitives), SoA nodes (bvh2, bvh4, cwbvh8) and inline leaves (bvh2, bvh4, cwbvh8; SoA on bvh2): hit records equal the binary walk's bit for bit (rays that hit: {}); \
+         cwbvh8's {compressed_boxes} dequantized boxes on those scenes equal the host's bit for bit; \
+         {} scenes × 2 estimators ({films} films: brute force on the scenes of at most {} primitives, the layouts under the binary and cwbvh8 walks with MIS only, the others on every scene): films equal the binary walk's {exactness}",
         gpu::renderer::BRUTE_FORCE_MAX_PRIMITIVES,
         hit_lines.join(", "),
         specs.len(),
