@@ -674,9 +674,11 @@ fn emission_adds_to_a_textured_normal_mapped_bsdf() {
     assert!(albedo(&s.whole).max_element() > 0.0);
     assert_eq!(albedo(&s.whole), albedo(&s.reflection));
     for backend in ["cpu", "gpu"] {
-        let verdicts = emissive_verdicts(&s, common::seed(EMISSIVE_SEED), &|scene, integrator, seed| {
-            render_by(backend, integrator, scene, seed)
-        });
+        let verdicts = emissive_verdicts(
+            &s,
+            common::seed(EMISSIVE_SEED),
+            &|scene, integrator, seed| render_by(backend, integrator, scene, seed),
+        );
         assert_all_pass(backend, &verdicts);
     }
 }

@@ -16,7 +16,12 @@ fn gpu_film(case: &Case, integrator: Integrator, program: &str) -> Film {
     let scene = punctual::scene(case);
     let packed = gpu::scene_buffers::PackedScene::new(&scene);
     gpu::GpuRenderer::with_program(common::gpu(), &packed, &scene, program, integrator)
-        .and_then(|r| r.render(&punctual::settings(case, common::seed(SEED + 1)), &|_, _| {}))
+        .and_then(|r| {
+            r.render(
+                &punctual::settings(case, common::seed(SEED + 1)),
+                &|_, _| {},
+            )
+        })
         .unwrap_or_else(|e| panic!("{}: {e}", case.name))
         .film
 }

@@ -379,8 +379,14 @@ fn every_fixture_moved_up_to_1e5_passes_its_stored_reference_gate() {
             load_reference_in(refs_for(integrator), spec).unwrap_or_else(|e| panic!("{e:#}"));
         let render =
             move |s: &Scene, st: &RenderSettings| Ok(render_with(s, st, integrator, &|_| {}));
-        let run = run_gate(&reference, &scene, MOVED_SPP, common::seed(41 + i as u32), &render)
-            .unwrap_or_else(|e| panic!("{e:#}"));
+        let run = run_gate(
+            &reference,
+            &scene,
+            MOVED_SPP,
+            common::seed(41 + i as u32),
+            &render,
+        )
+        .unwrap_or_else(|e| panic!("{e:#}"));
         println!(
             "{} moved by {offset:.3} ({integrator:?}): {}",
             spec.name,
