@@ -328,9 +328,15 @@ mod tests {
             "{text}"
         );
         assert!(text.contains("a::steady: 6 runs, 0 failed\n"), "{text}");
-        assert!(text.contains("no result: ") && text.contains("/5.log"), "{text}");
+        assert!(
+            text.contains("no result: ") && text.contains("/5.log"),
+            "{text}"
+        );
         let log = std::fs::read_to_string(dir.join("false-alarms/2.log")).unwrap();
-        assert!(log.contains("filters --test-threads=1 a:: --exact"), "{log}");
+        assert!(
+            log.contains("filters --test-threads=1 a:: --exact"),
+            "{log}"
+        );
         assert_eq!(run(&["x", "3", "a::"]).status.code(), Some(2));
         assert_eq!(run(&["4", "2"]).status.code(), Some(2));
         std::fs::remove_dir_all(&dir).unwrap();
