@@ -3,7 +3,7 @@
 //! tests do) is rendered band after band of whole rows, each band's
 //! pixels keyed by their place in the image, and its sums equal the film
 //! of one band bit for bit: rendered in ranges, read as sums and as
-//! layers, loaded back, drawn, on two devices. Mutants
+//! layers, loaded back, drawn, on two devices, through the CLI. Mutants
 //! that key a band's randoms or camera by the pixel's place in the band
 //! fail the same comparison.
 
@@ -12,6 +12,7 @@ use gpu::{GpuRenderer, Schedule, Variant};
 use reference::film::FilmSums;
 use reference::integrator::Integrator;
 use reference::{RenderSettings, Scene};
+use std::process::{Command, Stdio};
 use twintrace::render::{GroupProgressive, Layers, Progressive, RenderSpec};
 
 /// An odd size: bands of whole rows of a width that no limit divides.
@@ -249,4 +250,163 @@ fn test_adapter_index() -> usize {
         .iter()
         .position(|a| &a.name == name)
         .expect("the test adapter is listed")
+}
+
+/// `twintrace render cornell` at the test size on the GPU with `extra`,
+/// the film in bands of `band` pixels where given: (success, stderr,
+/// exit code).
+fn cli(band: Option<&str>, extra: &[&str]) -> (bool, String, Option<i32>) {
+    let size = format!("{WIDTH}x{HEIGHT}");
+    let spp = SPP.to_string();
+    let mut cmd = Command::new(common::twintrace_bin());
+    cmd.args([
+        "render",
+        "cornell",
+        "--backend",
+        "gpu",
+        "--size",
+        &size,
+        "--spp",
+        &spp,
+        "--max-depth",
+        "4",
+    ])
+    .args(extra)
+    .env_remove(gpu::film::BAND_PIXELS_VAR)
+    .stdin(Stdio::null());
+    if let Some(band) = band {
+        cmd.env(gpu::film::BAND_PIXELS_VAR, band);
+    }
+    let out = cmd.output().expect("the binary runs");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+        out.status.code(),
+    )
+}
+
+#[test]
+fn the_cli_renders_a_film_larger_than_a_band_as_one_band() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = |name: &str| dir.path().join(name).display().to_string();
+    let all = format!("0..{SPP}");
+    let (ok, err, _) = cli(None, &["--samples", &all, "-o", &d("whole")]);
+    assert!(ok, "{err}");
+    // 851 pixels in bands of at most 100 (9 bands of two rows, one of
+    // one) on two devices, and of 40 (23 bands of a row) on one, merged.
+    let pair = format!("{0},{0}", test_adapter_index());
+    let (ok, err, _) = cli(
+        Some("100"),
+        &["--devices", &pair, "--samples", "0..1", "-o", &d("a")],
+    );
+    assert!(ok, "{err}");
+    let (ok, err, _) = cli(
+        Some("40"),
+        &["--samples", &format!("1..{SPP}"), "-o", &d("b")],
+    );
+    assert!(ok, "{err}");
+    let merged = Command::new(common::twintrace_bin())
+        .args(["merge", &d("a.exr"), &d("b.exr"), "-o", &d("ab")])
+        .output()
+        .unwrap();
+    let merge_err = String::from_utf8_lossy(&merged.stderr);
+    assert!(merged.status.success(), "{merge_err}");
+    let part = |n: &str| twintrace::partial::Part::read(&dir.path().join(n)).unwrap();
+    let whole = part("whole.exr");
+    assert_eq!(first_difference(&part("ab.exr").sums, &whole.sums), None);
+    // A whole render's image, its layers computed band by band on the
+    // device: the layers of the one-band film's sums.
+    let (ok, err, _) = cli(Some("100"), &["-o", &d("banded")]);
+    assert!(ok, "{err}");
+    let bits = |img: &twintrace::RenderImage| -> Vec<u32> {
+        img.mean
+            .iter()
+            .chain(img.variance.iter().flatten())
+            .chain(img.skewness.iter().flatten())
+            .flat_map(|p| p.to_array().map(f32::to_bits))
+            .collect()
+    };
+    let banded = twintrace::read_exr(&dir.path().join("banded.exr")).unwrap();
+    assert_eq!(bits(&banded), bits(&whole.image()));
+    // A malformed limit: one line naming the variable, exit 2, no output.
+    for bad in ["0", "many", "-5"] {
+        let (ok, err, code) = cli(Some(bad), &["-o", &d("bad")]);
+        assert!(
+            !ok && err.contains(gpu::film::BAND_PIXELS_VAR),
+            "{bad}: {err}"
+        );
+        assert_eq!(
+            (code, err.trim().lines().count()),
+            (Some(2), 1),
+            "{bad}: {err}"
+        );
+        assert!(!dir.path().join("bad.exr").exists());
+    }
+}
+
+/// An image whose film exceeds the adapter's storage binding (lavapipe:
+/// 128 MiB, 599,186 pixels; the smallest such image 1,000 pixels wide)
+/// renders, every pixel holding its sample (the layers' read checks each
+/// pixel's count), where it used to be refused.
+#[test]
+fn the_cli_renders_a_film_past_the_adapters_binding() {
+    let ctx = common::gpu();
+    let limit = ctx.device.limits().max_storage_buffer_binding_size;
+    let width = 1000u32;
+    let pixels = limit / std::mem::size_of::<gpu::records::GpuPixel>() as u64 + 1;
+    let height = pixels.div_ceil(width as u64) as u32;
+    let scene = load("cornell");
+    let s = RenderSettings {
+        width,
+        height,
+        spp: 1,
+        max_depth: 1,
+        ..scene.render_settings()
+    };
+    let mut r = GpuRenderer::with_variant(ctx, &scene, Variant::DEFAULT).unwrap();
+    r.set_film_band_pixels(None);
+    assert!(r.film_bands(&s).len() > 1, "{width}x{height}: one band");
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("big");
+    let size = format!("{width}x{height}");
+    let run = Command::new(common::twintrace_bin())
+        .args(["render", "cornell", "--backend", "gpu", "--size", &size])
+        .args(["--spp", "1", "--max-depth", "1", "-o"])
+        .arg(&out)
+        .env_remove(gpu::film::BAND_PIXELS_VAR)
+        .stdin(Stdio::null())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{size}: {err}");
+    let image = twintrace::read_exr(&out.with_extension("exr")).unwrap();
+    assert_eq!((image.width, image.height), (width, height));
+}
+
+/// AOVs are one buffer: past one binding (48 bytes a pixel; lavapipe:
+/// 2,796,203 pixels) `--aov` is refused before the render, in one line
+/// naming the size, exit 2, nothing written.
+#[test]
+fn aovs_past_the_adapters_binding_are_refused_by_size() {
+    let limit = common::gpu()
+        .device
+        .limits()
+        .max_storage_buffer_binding_size;
+    let width = 2000u32;
+    let height = (limit / (reference::aov::WORDS as u64 * 4) + 1).div_ceil(width as u64) as u32;
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("aov");
+    let size = format!("{width}x{height}");
+    let run = Command::new(common::twintrace_bin())
+        .args(["render", "cornell", "--backend", "gpu", "--size", &size])
+        .args(["--spp", "1", "--aov", "albedo", "-o"])
+        .arg(&out)
+        .stdin(Stdio::null())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(2), "{err}");
+    assert!(err.contains("--aov") && err.contains(&size), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(!out.with_extension("exr").exists());
 }
