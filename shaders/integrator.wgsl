@@ -6,10 +6,11 @@ fn v3(x: f32, y: f32, z: f32) -> vec3<f32> {
     return vec3<f32>(x, y, z);
 }
 
+// Pixel (x, y) of the image (not of the film's band: params.band_row).
 fn camera_ray(x: u32, y: u32, sample: u32) -> Ray {
     let pixel = y * params.width + x;
     let u = vertex_randoms(params.seed, pixel, sample, 0u);
-    let film_pos = vec2<f32>((f32(x) + vr_get(u, DIM_PIXEL_X)) / f32(params.width), (f32(y) + vr_get(u, DIM_PIXEL_Y)) / f32(params.height));
+    let film_pos = vec2<f32>((f32(x) + vr_get(u, DIM_PIXEL_X)) / f32(params.width), (f32(y) + vr_get(u, DIM_PIXEL_Y)) / f32(params.image_height));
     let rd = params.lens_radius * sample_unit_disk(vec2<f32>(vr_get(u, DIM_LENS_U), vr_get(u, DIM_LENS_V)));
     let offset = v3(params.cam_u_x, params.cam_u_y, params.cam_u_z) * rd.x + v3(params.cam_v_x, params.cam_v_y, params.cam_v_z) * rd.y;
     let upper_left = v3(params.cam_upper_left_x, params.cam_upper_left_y, params.cam_upper_left_z);
@@ -334,11 +335,14 @@ fn render_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if gid.x >= params.width || gid.y >= params.height {
         return;
     }
+    // The film's pixel (in its band) and the image's, which keys the randoms.
     let pixel = gid.y * params.width + gid.x;
+    let y = params.band_row + gid.y;
+    let image_pixel = y * params.width + gid.x;
     var acc = pixel_sums_load(pixel);
     for (var i = 0u; i < params.sample_count; i++) {
         let sample = params.sample_start + i;
-        let l = trace(camera_ray(gid.x, gid.y, sample), pixel, sample);
+        let l = trace(camera_ray(gid.x, y, sample), image_pixel, sample);
         pixel_sums_add(&acc, l, poisoned);
     }
     pixel_sums_store(pixel, acc);

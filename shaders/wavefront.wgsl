@@ -150,9 +150,11 @@ fn load_shadow(slot: u32) -> ShadowQuery {
 }
 
 // The pixel and sample of a slot: slots run over the wave's pixels, one
-// sample after another.
+// sample after another. The pixel is the image's (it keys the camera and
+// the randoms): the wave's pixels are the film's band's, which starts at
+// row params.band_row (wf_accumulate folds into the band's pixels).
 fn slot_pixel(slot: u32) -> u32 {
-    return params.wave_pixel_start + slot % params.wave_pixel_count;
+    return params.band_row * params.width + params.wave_pixel_start + slot % params.wave_pixel_count;
 }
 
 fn slot_sample(slot: u32) -> u32 {

@@ -528,6 +528,13 @@ impl<'a> GroupProgressive<'a> {
     pub fn set_merge_band(&mut self, band: Option<u32>) {
         self.group.set_merge_band(band);
     }
+
+    /// Sets the most pixels a band of each device's film holds
+    /// (`gpu::devices::DeviceGroup::set_film_band_pixels`; tests force
+    /// small bands). Before the first range.
+    pub fn set_film_band_pixels(&mut self, pixels: Option<u64>) {
+        self.group.set_film_band_pixels(pixels);
+    }
 }
 
 impl Progressive for GroupProgressive<'_> {

@@ -1,5 +1,5 @@
 //! GPU failures are errors, never panics: a shader that does not compile,
-//! a film beyond the adapter's buffer limits, a destroyed (lost) device.
+//! AOVs beyond the adapter's buffer limits, a destroyed (lost) device.
 
 use crate::common;
 use gpu::GpuError;
@@ -19,29 +19,35 @@ fn a_broken_shader_is_a_shader_error() {
 }
 
 #[test]
-fn a_film_beyond_the_buffer_limit_is_refused() {
+fn aovs_beyond_the_buffer_limit_are_refused_and_the_film_is_banded() {
     let ctx = common::gpu();
     let limit = ctx.device.limits().max_storage_buffer_binding_size;
     // The largest image the settings allow: 8192² pixels of 224 bytes (14 GiB)
-    // exceeds the binding limits wgpu reports (lavapipe: 128 MiB, the H100:
-    // 2047 MiB).
+    // and of 48 bytes of AOV sums (3 GiB) exceed the binding limits wgpu
+    // reports (lavapipe: 128 MiB, the H100: 2047 MiB).
     let settings = RenderSettings {
         width: 8192,
         height: 8192,
         spp: 1,
         ..RenderSettings::default()
     };
-    let needed = 8192u64 * 8192 * std::mem::size_of::<gpu::records::GpuPixel>() as u64;
+    let pixels = 8192u64 * 8192;
+    let aov_bytes = pixels * reference::aov::WORDS as u64 * 4;
     assert!(
-        needed > limit,
-        "this adapter allows {limit} bytes: pick a larger film for the test"
+        aov_bytes > limit,
+        "this adapter allows {limit} bytes: pick a larger image for the test"
     );
     let scene = reference::load_scene("cornell").unwrap();
     let r = gpu::GpuRenderer::new(ctx, &scene).unwrap();
-    match r.render(&settings, &|_, _| {}) {
-        Err(GpuError::TooLarge { needed: n, .. }) => assert_eq!(n, needed),
+    // The film is held in bands (tests/gpu_film_bands.rs renders such films).
+    let film_bytes = pixels * std::mem::size_of::<gpu::records::GpuPixel>() as u64;
+    let bands = r.film_bands(&settings).len() as u64;
+    assert!(bands >= film_bytes.div_ceil(limit), "{bands} bands");
+    // The AOVs are one buffer: refused, naming the size.
+    match r.render_aovs(&settings, 0..1) {
+        Err(GpuError::Validation(e)) => assert!(e.contains("8192x8192"), "{e}"),
         Err(e) => panic!("wrong error: {e}"),
-        Ok(_) => panic!("a {needed}-byte film was accepted"),
+        Ok(_) => panic!("{aov_bytes} bytes of AOV sums were accepted"),
     }
 }
 

@@ -39,8 +39,8 @@ const MUTANTS: &[(&str, &str, &str, &str, Integrator)] = &[
     ),
     (
         "a run of pixels forgets where it starts (only a split render shows it)",
-        "return params.wave_pixel_start + slot % params.wave_pixel_count;",
-        "return slot % params.wave_pixel_count;",
+        "return params.band_row * params.width + params.wave_pixel_start + slot % params.wave_pixel_count;",
+        "return params.band_row * params.width + slot % params.wave_pixel_count;",
         "cornell",
         Integrator::Bsdf,
     ),

@@ -43,6 +43,7 @@ mod gpu_buffer_layout;
 mod gpu_coverage;
 mod gpu_display;
 mod gpu_errors;
+mod gpu_film_bands;
 mod gpu_furnace;
 mod gpu_hits_match_reference;
 mod gpu_light_sampling;

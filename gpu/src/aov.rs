@@ -4,6 +4,7 @@
 //! first hits to sums in the layout of `reference::aov` (its twin, held to
 //! it by `twintrace::twins::aov`).
 
+use crate::context::GpuContext;
 use crate::error::GpuError;
 use crate::readback::read_buffer;
 use crate::renderer::{
@@ -63,6 +64,9 @@ impl GpuRenderer<'_> {
     ) -> Result<AovSums, GpuError> {
         let settings = &range_settings(settings, &samples)?;
         let ctx = self.context();
+        if let Some(why) = aov_size_refusal(ctx, settings) {
+            return Err(GpuError::Validation(why));
+        }
         let pipeline = match self.aov_pipeline.get() {
             Some(p) => p,
             None => {
@@ -78,7 +82,6 @@ impl GpuRenderer<'_> {
         };
         let pixels = settings.width as u64 * settings.height as u64;
         let bytes = pixels * WORDS as u64 * 4;
-        ctx.check_binding_size("the AOV sums", bytes)?;
         let device = &ctx.device;
         let sums = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("aov sums"),
@@ -123,4 +126,19 @@ impl GpuRenderer<'_> {
         AovSums::from_words(settings.width, settings.height, words)
             .ok_or_else(|| GpuError::Readback("the AOV sums came back short".into()))
     }
+}
+
+/// Why AOVs of `settings`' size are refused on `ctx`, if they are: their
+/// sums are one buffer (the film is in bands, `crate::film`), so no more
+/// than one storage binding holds (48 bytes a pixel; H100: about 44
+/// million pixels).
+pub fn aov_size_refusal(ctx: &GpuContext, settings: &RenderSettings) -> Option<String> {
+    let bytes = settings.width as u64 * settings.height as u64 * WORDS as u64 * 4;
+    let limit = ctx.device.limits().max_storage_buffer_binding_size;
+    (bytes > limit).then(|| {
+        format!(
+            "AOVs of a {}x{} image take {bytes} bytes, past the {limit} bytes one binding of `{}` holds: AOVs are not rendered in bands (ask for them at a smaller size)",
+            settings.width, settings.height, ctx.adapter.name
+        )
+    })
 }

@@ -145,11 +145,36 @@ impl<'a> DeviceGroup<'a> {
         });
         let renderers = built.into_iter().collect::<Result<Vec<_>, _>>()?;
         let held = vec![0; renderers.len()];
-        Ok(Self {
+        let mut group = Self {
             renderers,
             held,
             band: None,
-        })
+        };
+        // Films in the same bands on every device (they are added band by
+        // band): the smallest band any of them binds.
+        group.set_film_band_pixels(group.renderers.iter().map(|r| r.band_pixels()).min());
+        Ok(group)
+    }
+
+    /// Sets the most pixels a band of every device's film holds
+    /// (`GpuRenderer::set_film_band_pixels`; `None`: what the device
+    /// that binds least binds).
+    pub fn set_film_band_pixels(&mut self, pixels: Option<u64>) {
+        let fits = self
+            .renderers
+            .iter_mut()
+            .map(|r| {
+                r.set_film_band_pixels(None);
+                r.band_pixels()
+            })
+            .min();
+        let common = match (pixels, fits) {
+            (Some(p), Some(f)) => Some(p.min(f)),
+            (p, f) => p.or(f),
+        };
+        for r in &mut self.renderers {
+            r.set_film_band_pixels(common);
+        }
     }
 
     /// The group's renderers, one a device.

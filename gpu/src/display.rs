@@ -317,9 +317,10 @@ fn display_main(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= params.width || id.y >= params.height {
         return;
     }
+    // The film's band holds the image's rows params.band_row ...
     let l = pixel_layers(pixel_sums_load(id.y * params.width + id.x));
     let code = vec3<u32>(display_channel(l[0]), display_channel(l[1]), display_channel(l[2]));
-    textureStore(display_target, id.xy, vec4<f32>(vec3<f32>(code) * DISPLAY_UNIT, 1.0));
+    textureStore(display_target, vec2<u32>(id.x, params.band_row + id.y), vec4<f32>(vec3<f32>(code) * DISPLAY_UNIT, 1.0));
 }
 "#;
 
@@ -426,19 +427,29 @@ impl Display {
         renderer.with_device_film(settings, |ctx, film, scene_group| {
             let device = &ctx.device;
             let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-            let params = GpuParams {
-                width: settings.width,
-                height: settings.height,
-                ..Default::default()
-            };
-            let params_buf = wgpu::util::DeviceExt::create_buffer_init(
-                device,
-                &wgpu::util::BufferInitDescriptor {
-                    label: Some("display params"),
-                    contents: bytemuck::bytes_of(&params),
-                    usage: wgpu::BufferUsages::UNIFORM,
-                },
-            );
+            // A bind group over each band of the film with its params
+            // (its rows, and the first one's place in the target).
+            let scene_groups: Vec<(u32, wgpu::BindGroup)> = film
+                .bands()
+                .iter()
+                .map(|band| {
+                    let params = GpuParams {
+                        width: settings.width,
+                        height: band.rows,
+                        band_row: band.first_row,
+                        ..Default::default()
+                    };
+                    let params_buf = wgpu::util::DeviceExt::create_buffer_init(
+                        device,
+                        &wgpu::util::BufferInitDescriptor {
+                            label: Some("display params"),
+                            contents: bytemuck::bytes_of(&params),
+                            usage: wgpu::BufferUsages::UNIFORM,
+                        },
+                    );
+                    (band.rows, scene_group(&params_buf, &band.buffer))
+                })
+                .collect();
             let look_buf = wgpu::util::DeviceExt::create_buffer_init(
                 device,
                 &wgpu::util::BufferInitDescriptor {
@@ -448,7 +459,6 @@ impl Display {
                 },
             );
             let view = target.create_view(&wgpu::TextureViewDescriptor::default());
-            let scene_group = scene_group(&params_buf, film);
             let out_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("display"),
                 layout: &self.layout,
@@ -472,13 +482,15 @@ impl Display {
                     timestamp_writes: None,
                 });
                 pass.set_pipeline(&self.pipeline);
-                pass.set_bind_group(0, &scene_group, &[]);
                 pass.set_bind_group(1, &out_group, &[]);
-                pass.dispatch_workgroups(
-                    settings.width.div_ceil(DISPLAY_WORKGROUP),
-                    settings.height.div_ceil(DISPLAY_WORKGROUP),
-                    1,
-                );
+                for (rows, scene_group) in &scene_groups {
+                    pass.set_bind_group(0, scene_group, &[]);
+                    pass.dispatch_workgroups(
+                        settings.width.div_ceil(DISPLAY_WORKGROUP),
+                        rows.div_ceil(DISPLAY_WORKGROUP),
+                        1,
+                    );
+                }
             }
             ctx.queue.submit([encoder.finish()]);
             // Validation happens as the calls are made: popping the scope

@@ -1,7 +1,10 @@
-//! The device film: a render's exact sums in the device's memory
-//! (`shaders/film.wgsl`: word `w` of pixel `p` at `w · pixels + p`),
-//! added to by every range of a progressive render and read in one of
-//! two ways:
+//! The device film: a render's exact sums in the device's memory, in
+//! bands of whole rows ([`DeviceFilm`], [`film_bands`]), each a buffer
+//! the kernels bind whole (`shaders/film.wgsl`: word `w` of the band's
+//! pixel `p` at `w · pixels + p`), so an image larger than one binding
+//! (H100: 2047 MiB, about 9.5 million pixels) is held in several; added to
+//! by every range of a progressive render and read in one of two ways,
+//! band by band into the whole image:
 //!
 //! - `GpuRenderer::read_film`: the sums themselves (224 bytes a pixel),
 //!   for a partial film, a merge, or a group of devices adding films;
@@ -18,16 +21,161 @@
 
 use crate::context::GpuContext;
 use crate::error::GpuError;
-use crate::readback::{read_buffer, read_buffer_with};
+use crate::readback::read_buffer_with;
 use crate::records::{GpuParams, GpuPixel};
 use glam::Vec3;
 use reference::film::FilmSums;
 use reference::RenderSettings;
 
 /// Bytes of the device film of a render: 56 words a pixel
-/// ([`crate::records::film_words`]).
+/// ([`crate::records::film_words`]), over all its bands.
 pub fn film_bytes(settings: &RenderSettings) -> u64 {
-    settings.width as u64 * settings.height as u64 * std::mem::size_of::<GpuPixel>() as u64
+    settings.width as u64 * settings.height as u64 * PIXEL_BYTES
+}
+
+/// Bytes of a pixel of the device film.
+const PIXEL_BYTES: u64 = std::mem::size_of::<GpuPixel>() as u64;
+
+/// The environment variable that sets the most pixels a band of the
+/// device film holds (`GpuRenderer::set_film_band_pixels`; the tests
+/// force small bands with it, through the CLI too). Unset: as many as the
+/// device binds.
+pub const BAND_PIXELS_VAR: &str = "TWINTRACE_FILM_BAND_PIXELS";
+
+/// The band limit [`BAND_PIXELS_VAR`] sets, if it is set: a whole number
+/// of pixels above 0, or an error naming the variable and its value.
+pub fn band_pixels_from_env() -> Result<Option<u64>, String> {
+    match std::env::var(BAND_PIXELS_VAR) {
+        Err(std::env::VarError::NotPresent) => Ok(None),
+        Err(std::env::VarError::NotUnicode(v)) => Err(format!(
+            "{BAND_PIXELS_VAR}={v:?}: not a whole number of pixels above 0"
+        )),
+        Ok(v) => match v.trim().parse::<u64>() {
+            Ok(n) if n > 0 => Ok(Some(n)),
+            _ => Err(format!(
+                "{BAND_PIXELS_VAR}=`{v}`: not a whole number of pixels above 0"
+            )),
+        },
+    }
+}
+
+/// The most pixels a band of the device film holds on `ctx`: what one
+/// storage binding and one buffer hold, or `limit` where that is less.
+pub fn band_pixels(ctx: &GpuContext, limit: Option<u64>) -> u64 {
+    let limits = ctx.device.limits();
+    let fits = limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size)
+        / PIXEL_BYTES;
+    limit.map_or(fits, |l| l.min(fits)).max(1)
+}
+
+/// The bands of a `width` x `height` film of at most `band_pixels` pixels
+/// each (but at least a row): `(first row, rows)`, top to bottom, every
+/// row in one band, all but the last of equal rows.
+pub fn film_bands(width: u32, height: u32, band_pixels: u64) -> Vec<(u32, u32)> {
+    let rows = (band_pixels / width.max(1) as u64).clamp(1, height.max(1) as u64) as u32;
+    (0..height)
+        .step_by(rows as usize)
+        .map(|first| (first, rows.min(height - first)))
+        .collect()
+}
+
+/// A band of a device film: rows `first_row .. first_row + rows` of the
+/// image, in a buffer of their own.
+pub(crate) struct FilmBand {
+    pub(crate) first_row: u32,
+    pub(crate) rows: u32,
+    pub(crate) buffer: wgpu::Buffer,
+}
+
+impl FilmBand {
+    /// `settings` cut to the band: its rows as the height (what the
+    /// layers, merge and display kernels and the readback take a film's
+    /// size from; the render kernels also take `band_row` and
+    /// `image_height`, `GpuRenderer::accumulate`).
+    pub(crate) fn settings(&self, settings: &RenderSettings) -> RenderSettings {
+        RenderSettings {
+            height: self.rows,
+            ..*settings
+        }
+    }
+
+    /// The band's first pixel in the image.
+    fn first_pixel(&self, width: u32) -> usize {
+        self.first_row as usize * width as usize
+    }
+}
+
+/// A render's film on the device: its rows in bands ([`film_bands`]).
+pub(crate) struct DeviceFilm {
+    width: u32,
+    height: u32,
+    bands: Vec<FilmBand>,
+}
+
+impl DeviceFilm {
+    /// A film of `settings`' size in bands of at most `band_pixels`
+    /// pixels (`contents`: each band's words, else zero, or cleared by
+    /// the render's first batch).
+    pub(crate) fn new(
+        ctx: &GpuContext,
+        settings: &RenderSettings,
+        band_pixels: u64,
+        contents: Option<&dyn Fn(u32, u32) -> Vec<u32>>,
+    ) -> Result<Self, GpuError> {
+        let layout = film_bands(settings.width, settings.height, band_pixels);
+        let usage = wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST;
+        let mut bands = Vec::with_capacity(layout.len());
+        for (first_row, rows) in layout {
+            let bytes = settings.width as u64 * rows as u64 * PIXEL_BYTES;
+            // Only a row wider than a binding can fail here.
+            ctx.check_binding_size("film band", bytes)?;
+            let buffer = match contents {
+                Some(words) => wgpu::util::DeviceExt::create_buffer_init(
+                    &ctx.device,
+                    &wgpu::util::BufferInitDescriptor {
+                        label: Some("film"),
+                        contents: bytemuck::cast_slice(&words(first_row, rows)),
+                        usage,
+                    },
+                ),
+                None => ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("film"),
+                    size: bytes,
+                    usage,
+                    mapped_at_creation: false,
+                }),
+            };
+            bands.push(FilmBand {
+                first_row,
+                rows,
+                buffer,
+            });
+        }
+        Ok(DeviceFilm {
+            width: settings.width,
+            height: settings.height,
+            bands,
+        })
+    }
+
+    /// Whether this is the film a render of `settings` in bands of at
+    /// most `band_pixels` pixels would make.
+    pub(crate) fn is_layout(&self, settings: &RenderSettings, band_pixels: u64) -> bool {
+        (self.width, self.height) == (settings.width, settings.height)
+            && self
+                .bands
+                .iter()
+                .map(|b| (b.first_row, b.rows))
+                .eq(film_bands(settings.width, settings.height, band_pixels))
+    }
+
+    pub(crate) fn bands(&self) -> &[FilmBand] {
+        &self.bands
+    }
 }
 
 /// Words a pixel of the layers buffer: count, rejected, then mean,
@@ -146,6 +294,32 @@ pub struct FilmLayers {
 }
 
 impl FilmLayers {
+    /// No rows yet of an image of `settings`' width, with room for its
+    /// pixels ([`Self::append`] adds the rows).
+    fn empty(settings: &RenderSettings) -> Self {
+        let n = settings.width as usize * settings.height as usize;
+        FilmLayers {
+            width: settings.width,
+            height: 0,
+            mean: Vec::with_capacity(n),
+            variance: Vec::with_capacity(n),
+            skewness: Vec::with_capacity(n),
+            samples: 0,
+            rejected: 0,
+        }
+    }
+
+    /// `rows`, the layers of the rows below these, added below them.
+    fn append(&mut self, rows: FilmLayers) {
+        debug_assert_eq!(rows.width, self.width);
+        self.height += rows.height;
+        self.mean.extend(rows.mean);
+        self.variance.extend(rows.variance);
+        self.skewness.extend(rows.skewness);
+        self.samples += rows.samples;
+        self.rejected += rows.rejected;
+    }
+
     /// The layers of `sums`, computed on the host from each pixel's
     /// statistics (`PixelSums::stats`), in parallel, without keeping them.
     pub fn from_sums(sums: &FilmSums) -> Self {
@@ -188,7 +362,7 @@ impl FilmLayers {
 /// Where a renderer keeps its device film between calls (`None`: none
 /// yet): `GpuRenderer::accumulate` leaves its film there, and the readers
 /// below take it out and put it back.
-pub(crate) type FilmSlot = std::sync::Mutex<Option<wgpu::Buffer>>;
+pub(crate) type FilmSlot = std::sync::Mutex<Option<DeviceFilm>>;
 
 /// A renderer's bind group over its scene with the given params and film
 /// buffers (`GpuRenderer::bind_group`): group 0 of the layers kernel.
@@ -196,16 +370,15 @@ pub(crate) type SceneGroup<'r> = dyn Fn(&wgpu::Buffer, &wgpu::Buffer) -> wgpu::B
 
 /// The film `GpuRenderer::accumulate` left on the device (taken out of
 /// the renderer's `slot`; [`put_film`] puts it back).
-fn take_film(slot: &FilmSlot, settings: &RenderSettings) -> Result<wgpu::Buffer, GpuError> {
-    let film_bytes = film_bytes(settings);
+fn take_film(slot: &FilmSlot, settings: &RenderSettings) -> Result<DeviceFilm, GpuError> {
     slot.lock()
         .ok()
         .and_then(|mut c| c.take())
-        .filter(|f| f.size() == film_bytes)
+        .filter(|f| (f.width, f.height) == (settings.width, settings.height))
         .ok_or_else(|| GpuError::Readback("no film of this size on the device".into()))
 }
 
-fn put_film(slot: &FilmSlot, film: wgpu::Buffer) {
+fn put_film(slot: &FilmSlot, film: DeviceFilm) {
     if let Ok(mut c) = slot.lock() {
         *c = Some(film);
     }
@@ -216,7 +389,7 @@ fn put_film(slot: &FilmSlot, film: wgpu::Buffer) {
 pub(crate) fn with_film<R>(
     slot: &FilmSlot,
     settings: &RenderSettings,
-    use_film: impl FnOnce(&wgpu::Buffer) -> R,
+    use_film: impl FnOnce(&DeviceFilm) -> R,
 ) -> Result<R, GpuError> {
     let film = take_film(slot, settings)?;
     let out = use_film(&film);
@@ -233,25 +406,39 @@ pub(crate) fn read_film(
     expected: Option<u32>,
 ) -> Result<FilmSums, GpuError> {
     let film = take_film(slot, settings)?;
-    let words = read_buffer::<u32>(ctx, &film, film_bytes(settings));
-    put_film(slot, film);
-    let gpu_pixels = crate::records::film_pixels(&words?);
     let mut sums = FilmSums::new(settings.width, settings.height);
-    for (dst, src) in sums.pixels.iter_mut().zip(&gpu_pixels) {
-        if let Some(expected) = expected {
-            check_count(src.count as u64 + src.rejected as u64, expected)?;
-        }
-        *dst = src.to_sums();
-    }
-    Ok(sums)
+    // Band by band, each straight from the mapped memory into its rows:
+    // the host holds the whole film once, and one band's pixels.
+    let read = film.bands.iter().try_for_each(|band| {
+        let first = band.first_pixel(settings.width);
+        let pixels = &mut sums.pixels[first..first + band.rows as usize * settings.width as usize];
+        read_buffer_with(
+            ctx,
+            &band.buffer,
+            film_bytes(&band.settings(settings)),
+            |b| {
+                let gpu_pixels = crate::records::film_pixels(bytemuck::cast_slice(b));
+                for (dst, src) in pixels.iter_mut().zip(&gpu_pixels) {
+                    if let Some(expected) = expected {
+                        check_count(src.count as u64 + src.rejected as u64, expected)?;
+                    }
+                    *dst = src.to_sums();
+                }
+                Ok(())
+            },
+        )?
+    });
+    put_film(slot, film);
+    read.map(|()| sums)
 }
 
 /// `GpuRenderer::load_film`: `sums` put in `slot` as the film of
-/// `settings`' size.
+/// `settings`' size, in bands of at most `band_pixels` pixels.
 pub(crate) fn load_film(
     ctx: &GpuContext,
     slot: &FilmSlot,
     settings: &RenderSettings,
+    band_pixels: u64,
     sums: &FilmSums,
 ) -> Result<(), GpuError> {
     if (sums.width, sums.height) != (settings.width, settings.height) {
@@ -260,25 +447,26 @@ pub(crate) fn load_film(
             sums.width, sums.height, settings.width, settings.height
         )));
     }
-    let pixels: Vec<GpuPixel> = sums.pixels.iter().map(GpuPixel::from_sums).collect();
-    let words = crate::records::film_words(&pixels);
-    let film = wgpu::util::DeviceExt::create_buffer_init(
-        &ctx.device,
-        &wgpu::util::BufferInitDescriptor {
-            label: Some("film"),
-            contents: bytemuck::cast_slice(&words),
-            usage: wgpu::BufferUsages::STORAGE
-                | wgpu::BufferUsages::COPY_SRC
-                | wgpu::BufferUsages::COPY_DST,
-        },
-    );
+    let width = settings.width as usize;
+    let words = |first_row: u32, rows: u32| {
+        let first = first_row as usize * width;
+        let pixels: Vec<GpuPixel> = sums.pixels[first..first + rows as usize * width]
+            .iter()
+            .map(GpuPixel::from_sums)
+            .collect();
+        crate::records::film_words(&pixels)
+    };
+    // The film held before goes first (a 16K film is 30 GB).
+    drop(slot.lock().ok().and_then(|mut c| c.take()));
+    let film = DeviceFilm::new(ctx, settings, band_pixels, Some(&words))?;
     put_film(slot, film);
     Ok(())
 }
 
 /// `GpuRenderer::merge_film_from`: adds the film in `from_slot` (on
 /// `from`) to the one in `into_slot` (on `into`), on `into`'s device,
-/// with `program`'s merge kernel. The sums travel in bands of
+/// with `program`'s merge kernel, film band by film band (both films
+/// must be in the same bands). The sums travel in bands of
 /// `band` pixels (`MERGE_BAND_PIXELS` unless given): a band is copied
 /// into a mappable buffer on `from` (two in turn, so that the next band
 /// is copied while this one is added), written to `into` and added there,
@@ -302,16 +490,34 @@ pub(crate) fn merge_film(
             return Err(e);
         }
     };
-    let out = merge_buffers(
-        from,
-        &source,
-        into,
-        &target,
-        scene_group,
-        settings,
-        band,
-        program,
-    );
+    let layout = |f: &DeviceFilm| -> Vec<(u32, u32)> {
+        f.bands.iter().map(|b| (b.first_row, b.rows)).collect()
+    };
+    let out = if layout(&source) != layout(&target) {
+        Err(GpuError::Validation(format!(
+            "films in different bands cannot be added: {} bands and {}",
+            source.bands.len(),
+            target.bands.len()
+        )))
+    } else {
+        // Band by band: a band is a film of its rows.
+        source
+            .bands
+            .iter()
+            .zip(&target.bands)
+            .try_for_each(|(s, t)| {
+                merge_buffers(
+                    from,
+                    &s.buffer,
+                    into,
+                    &t.buffer,
+                    scene_group,
+                    &s.settings(settings),
+                    band,
+                    program,
+                )
+            })
+    };
     put_film(from_slot, source);
     put_film(into_slot, target);
     out
@@ -502,9 +708,9 @@ pub(crate) fn read_layers_with(
     program: &str,
 ) -> Result<FilmLayers, GpuError> {
     use rayon::prelude::*;
-    let pixels = settings.width as usize * settings.height as usize;
-    let (layers, wrong) = read_layers_then(ctx, slot, scene_group, settings, program, |words| {
-        let layers = layers_of_words(settings, words);
+    let bands = read_layers_then(ctx, slot, scene_group, settings, program, |band, words| {
+        let pixels = band.width as usize * band.height as usize;
+        let layers = layers_of_words(band, words);
         // The first pixel (in any order) whose samples are not `expected`.
         let wrong = (0..pixels).into_par_iter().find_map_any(|p| {
             let held = words[p] as u64 + words[pixels + p] as u64;
@@ -512,8 +718,12 @@ pub(crate) fn read_layers_with(
         });
         (layers, wrong)
     })?;
-    if let Some(held) = wrong {
-        check_count(held, expected)?;
+    let mut layers = FilmLayers::empty(settings);
+    for (band, wrong) in bands {
+        if let Some(held) = wrong {
+            check_count(held, expected)?;
+        }
+        layers.append(band);
     }
     Ok(layers)
 }
@@ -527,27 +737,49 @@ pub(crate) fn read_layers_unchecked(
     settings: &RenderSettings,
     program: &str,
 ) -> Result<(FilmLayers, Vec<u64>), GpuError> {
-    let pixels = settings.width as usize * settings.height as usize;
-    read_layers_then(ctx, slot, scene_group, settings, program, |words| {
-        let held = (0..pixels)
+    let bands = read_layers_then(ctx, slot, scene_group, settings, program, |band, words| {
+        let pixels = band.width as usize * band.height as usize;
+        let held: Vec<u64> = (0..pixels)
             .map(|p| words[p] as u64 + words[pixels + p] as u64)
             .collect();
-        (layers_of_words(settings, words), held)
-    })
+        (layers_of_words(band, words), held)
+    })?;
+    let mut layers = FilmLayers::empty(settings);
+    let mut all_held = Vec::with_capacity(settings.width as usize * settings.height as usize);
+    for (band, held) in bands {
+        layers.append(band);
+        all_held.extend(held);
+    }
+    Ok((layers, all_held))
 }
 
-/// Runs the layers kernel over the film and hands its words, as the
-/// device's mapped memory holds them, to `read` (no copy in between).
+/// Runs the layers kernel over each band of the film, top to bottom, and
+/// hands its words, as the device's mapped memory holds them, to `read`
+/// with the band's size (no copy in between).
 fn read_layers_then<R>(
     ctx: &GpuContext,
     slot: &FilmSlot,
     scene_group: &SceneGroup<'_>,
     settings: &RenderSettings,
     program: &str,
-    read: impl FnOnce(&[u32]) -> R,
-) -> Result<R, GpuError> {
+    mut read: impl FnMut(&RenderSettings, &[u32]) -> R,
+) -> Result<Vec<R>, GpuError> {
     let film = take_film(slot, settings)?;
-    let out = layers_of(ctx, scene_group, settings, &film, program, read);
+    let out = film
+        .bands
+        .iter()
+        .map(|band| {
+            let band_settings = band.settings(settings);
+            layers_of(
+                ctx,
+                scene_group,
+                &band_settings,
+                &band.buffer,
+                program,
+                |words| read(&band_settings, words),
+            )
+        })
+        .collect();
     put_film(slot, film);
     out
 }
@@ -666,4 +898,35 @@ fn check_count(held: u64, expected: u32) -> Result<(), GpuError> {
         )));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::film_bands;
+
+    #[test]
+    fn bands_are_whole_rows_that_cover_the_image_once() {
+        // (width, height, band pixels, rows a band expected).
+        for (w, h, band, rows) in [
+            (37, 23, 100, 2),
+            (37, 23, 74, 2),
+            (37, 23, 10, 1),
+            (37, 23, 1 << 40, 23),
+            (15360, 8640, 9_582_299, 623),
+        ] {
+            let bands = film_bands(w, h, band);
+            let mut next = 0;
+            for &(first, n) in &bands {
+                assert_eq!(first, next, "{w}x{h} in {band}");
+                assert!(
+                    n == rows || (n < rows && first + n == h),
+                    "{w}x{h}: {n} rows"
+                );
+                next = first + n;
+            }
+            assert_eq!(next, h, "{w}x{h} in {band}");
+        }
+        assert_eq!(film_bands(15360, 8640, 9_582_299).len(), 14);
+        assert_eq!(film_bands(7680, 4320, 9_582_299).len(), 4);
+    }
 }

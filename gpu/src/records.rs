@@ -287,7 +287,12 @@ gpu_record! {
         // The punctual lights' records in `texels`, and the BSDF
         // estimator's light set (`LightSet::punctual_only`): its
         // `punctual_count` emitters follow the MIS set's in `emitters`.
-        punctual_table: u32, punctual_count: u32, params_pad_a: u32, params_pad_b: u32,
+        punctual_table: u32, punctual_count: u32,
+        // A film band (gpu::film::film_bands): the film holds rows
+        // `band_row .. band_row + height` of an image of `image_height`
+        // rows; the camera and the randoms take a pixel's place in the
+        // image, the film its place in the band.
+        band_row: u32, image_height: u32,
         // The wavefront's wave (gpu::wavefront): its first pixel, its
         // pixel count, and the path slots its buffers hold.
         wave_pixel_start: u32, wave_pixel_count: u32, wave_capacity: u32,

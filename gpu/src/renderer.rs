@@ -8,7 +8,7 @@ use crate::bindings::{self, Binding};
 use crate::context::GpuContext;
 use crate::error::GpuError;
 use crate::features::{Features, FEATURES_CONSTANT};
-use crate::film::{self, film_bytes, layers_source, FilmLayers, FilmSlot};
+use crate::film::{self, layers_source, DeviceFilm, FilmLayers, FilmSlot};
 use crate::pipeline::compile_checked;
 use crate::readback::read_timestamps;
 use crate::records::GpuParams;
@@ -161,9 +161,11 @@ pub struct GpuRenderer<'a> {
     /// render made repeated short renders several times slower on the
     /// H100).
     wave_cache: std::sync::Mutex<Option<wavefront::WaveBuffers>>,
-    /// The last render's film buffer, kept for the next render of that
-    /// size.
+    /// The last render's film, kept for the next render of that size.
     film_cache: FilmSlot,
+    /// The most pixels a band of the film holds where a caller sets it
+    /// (`None`: what the device binds; [`Self::set_film_band_pixels`]).
+    film_band_pixels: Option<u64>,
     /// The pipeline constants the kernels were compiled with (the AOV
     /// kernel, `crate::aov`, is compiled with the same).
     pub(crate) constants: [(&'static str, f64); 6],
@@ -434,6 +436,7 @@ impl<'a> GpuRenderer<'a> {
             wave_slots: None,
             wave_cache: std::sync::Mutex::new(None),
             film_cache: std::sync::Mutex::new(None),
+            film_band_pixels: film::band_pixels_from_env().map_err(GpuError::Validation)?,
             constants,
             aov_pipeline: std::sync::OnceLock::new(),
         })
@@ -484,6 +487,25 @@ impl<'a> GpuRenderer<'a> {
         self.wave_slots = slots.map(|s| s.max(1));
     }
 
+    /// Sets the most pixels a band of the film holds (`None`: as many as
+    /// the device binds; the default is [`film::BAND_PIXELS_VAR`]'s): a
+    /// film larger than a band is rendered, read and loaded in bands of
+    /// whole rows, at least one a band (`gpu::film::film_bands`), bit for
+    /// bit the film of one band. Tests force small bands with it.
+    pub fn set_film_band_pixels(&mut self, pixels: Option<u64>) {
+        self.film_band_pixels = pixels.map(|p| p.max(1));
+    }
+
+    /// The rows of each band of this renderer's film of `settings`' size:
+    /// `(first row, rows)`, top to bottom.
+    pub fn film_bands(&self, settings: &RenderSettings) -> Vec<(u32, u32)> {
+        film::film_bands(settings.width, settings.height, self.band_pixels())
+    }
+
+    pub(crate) fn band_pixels(&self) -> u64 {
+        film::band_pixels(self.ctx, self.film_band_pixels)
+    }
+
     pub fn layout(&self) -> &wgpu::BindGroupLayout {
         &self.layout
     }
@@ -504,6 +526,9 @@ impl<'a> GpuRenderer<'a> {
             env_table: self.lights.2,
             punctual_table: self.lights.3,
             punctual_count: self.lights.4,
+            // The whole image: `accumulate` cuts it into the film's bands.
+            band_row: 0,
+            image_height: settings.height,
             ..Default::default()
         };
         [p.cam_origin_x, p.cam_origin_y, p.cam_origin_z] = cam.origin.to_array();
@@ -612,28 +637,23 @@ impl<'a> GpuRenderer<'a> {
         }
         let device = &ctx.device;
         let pixels = settings.width as u64 * settings.height as u64;
-        let film_bytes = film_bytes(settings);
-        ctx.check_binding_size("the film", film_bytes)?;
-        // The film buffer of the last render of this size is reused (and
-        // cleared by the first submit), as the wave buffers are: taken out
-        // of the cache for the render (a concurrent render on this
-        // renderer makes its own) and put back after.
+        let band_pixels = self.band_pixels();
+        // The film of the last render of this size is reused (and each
+        // band cleared by its first submit), as the wave buffers are:
+        // taken out of the cache for the render (a concurrent render on
+        // this renderer makes its own) and put back after.
         let cached = self.film_cache.lock().ok().and_then(|mut c| c.take());
         let film = match cached {
-            Some(f) if f.size() == film_bytes => f,
+            Some(f) if f.is_layout(settings, band_pixels) => f,
             _ if !clear => {
                 return Err(GpuError::Readback(
                     "no film of this size to add the samples to".into(),
                 ))
             }
-            _ => device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("film"),
-                size: film_bytes,
-                usage: wgpu::BufferUsages::STORAGE
-                    | wgpu::BufferUsages::COPY_SRC
-                    | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            }),
+            cached => {
+                drop(cached);
+                DeviceFilm::new(ctx, settings, band_pixels, None)?
+            }
         };
         let params_buf = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("params"),
@@ -641,67 +661,84 @@ impl<'a> GpuRenderer<'a> {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let bind_group = self.bind_group(&params_buf, &film);
-        let base = self.params(settings);
-        // One submit per batch (a dispatch of the megakernel, a wave of a
-        // wave schedule), each with its own params; batches are made one
-        // at a time (a large render on a small adapter has billions).
-        let plan = match &self.kernels {
-            Kernels::Megakernel(pipeline) => {
-                // On a software adapter, no more samples an invocation than
-                // llvmpipe's loop limit allows (SOFTWARE_LOOP_LIMIT).
-                let most = if ctx.is_software {
-                    let (records, entries) = self.walk_size;
-                    software_samples_per_invocation(records, entries, settings.max_depth)
-                } else {
-                    (PATHS_PER_DISPATCH_GPU / pixels.max(1)).max(1)
-                };
-                let per = most.clamp(1, settings.spp as u64) as u32;
-                Plan::Dispatches { pipeline, per }
-            }
-            Kernels::Wavefront(w) => {
-                let slots = self
-                    .wave_slots
-                    .unwrap_or_else(|| w.slots(ctx, pixels, settings.spp));
-                let cached = self.wave_cache.lock().ok().and_then(|mut c| c.take());
-                let buffers = match cached {
-                    Some(b) if b.slots >= slots => b,
-                    cached => {
-                        // The old buffers go before the new ones are made.
-                        drop(cached);
-                        w.buffers(ctx, slots)?
-                    }
-                };
-                Plan::Waves {
-                    pipelines: w,
-                    waves: wavefront::Waves::new(pixels as u32, settings.spp, slots),
-                    buffers,
+        let whole = self.params(settings);
+        let total = settings.spp as u64 * pixels;
+        let mut wave_buffers = self.wave_cache.lock().ok().and_then(|mut c| c.take());
+        let (mut batches, mut gpu_time) = (0u64, None::<Duration>);
+        // Band after band, each the image's rows `band_row ..` (the
+        // kernels key the camera and the randoms by the image's pixel).
+        for band in film.bands() {
+            let band_settings = &band.settings(settings);
+            let band_pixels = settings.width as u64 * band.rows as u64;
+            let base = GpuParams {
+                height: band.rows,
+                band_row: band.first_row,
+                ..whole
+            };
+            let bind_group = self.bind_group(&params_buf, &band.buffer);
+            // One submit per batch (a dispatch of the megakernel, a wave
+            // of a wave schedule), each with its own params; batches are
+            // made one at a time (a large render on a small adapter has
+            // billions).
+            let plan = match &self.kernels {
+                Kernels::Megakernel(pipeline) => {
+                    // On a software adapter, no more samples an invocation
+                    // than llvmpipe's loop limit allows (SOFTWARE_LOOP_LIMIT).
+                    let most = if ctx.is_software {
+                        let (records, entries) = self.walk_size;
+                        software_samples_per_invocation(records, entries, settings.max_depth)
+                    } else {
+                        (PATHS_PER_DISPATCH_GPU / band_pixels.max(1)).max(1)
+                    };
+                    let per = most.clamp(1, settings.spp as u64) as u32;
+                    Plan::Dispatches { pipeline, per }
                 }
+                Kernels::Wavefront(w) => {
+                    let slots = self
+                        .wave_slots
+                        .unwrap_or_else(|| w.slots(ctx, band_pixels, settings.spp));
+                    let buffers = match wave_buffers.take() {
+                        Some(b) if b.slots >= slots => b,
+                        cached => {
+                            // The old buffers go before the new ones are made.
+                            drop(cached);
+                            w.buffers(ctx, slots)?
+                        }
+                    };
+                    Plan::Waves {
+                        pipelines: w,
+                        waves: wavefront::Waves::new(band_pixels as u32, settings.spp, slots),
+                        buffers,
+                    }
+                }
+            };
+            let before = (band.first_row as u64 * settings.width as u64) * settings.spp as u64;
+            let (band_batches, query_set) = schedule::submit(
+                ctx,
+                &plan,
+                band_settings,
+                &base,
+                samples.start,
+                &schedule::Target {
+                    params: &params_buf,
+                    film: &band.buffer,
+                    bind_group: &bind_group,
+                    clear,
+                },
+                &|done, _| progress(before + done, total),
+            )?;
+            if let Plan::Waves { buffers, .. } = plan {
+                wave_buffers = Some(buffers);
             }
-        };
-        let (batches, query_set) = schedule::submit(
-            ctx,
-            &plan,
-            settings,
-            &base,
-            samples.start,
-            &schedule::Target {
-                params: &params_buf,
-                film: &film,
-                bind_group: &bind_group,
-                clear,
-            },
-            progress,
-        )?;
-        if let Plan::Waves { buffers, .. } = plan {
-            if let Ok(mut c) = self.wave_cache.lock() {
-                *c = Some(buffers);
+            if let Some(qs) = &query_set {
+                let t = read_timestamps(ctx, qs, band_batches as u32)?;
+                gpu_time = Some(gpu_time.unwrap_or_default() + t);
             }
+            batches += band_batches;
         }
-        let gpu_time = match &query_set {
-            Some(qs) => Some(read_timestamps(ctx, qs, batches as u32)?),
-            None => None,
-        };
+        if let (Some(b), Ok(mut c)) = (wave_buffers, self.wave_cache.lock()) {
+            *c = Some(b);
+        }
         // Kept on the device for the next range and the readback.
         if let Ok(mut c) = self.film_cache.lock() {
             *c = Some(film);
@@ -738,7 +775,13 @@ impl GpuRenderer<'_> {
     /// to them (a render resumed from a partial film; the twin checks'
     /// films of chosen sums).
     pub fn load_film(&self, settings: &RenderSettings, sums: &FilmSums) -> Result<(), GpuError> {
-        film::load_film(self.ctx, &self.film_cache, settings, sums)
+        film::load_film(
+            self.ctx,
+            &self.film_cache,
+            settings,
+            self.band_pixels(),
+            sums,
+        )
     }
 
     /// Adds the film `other` holds (of `settings`' size, on its device,
@@ -818,7 +861,7 @@ impl GpuRenderer<'_> {
     pub(crate) fn with_device_film<R>(
         &self,
         settings: &RenderSettings,
-        use_film: impl FnOnce(&GpuContext, &wgpu::Buffer, &film::SceneGroup<'_>) -> Result<R, GpuError>,
+        use_film: impl FnOnce(&GpuContext, &DeviceFilm, &film::SceneGroup<'_>) -> Result<R, GpuError>,
     ) -> Result<R, GpuError> {
         let scene_group =
             |params: &wgpu::Buffer, film: &wgpu::Buffer| self.bind_group(params, film);

@@ -568,6 +568,8 @@ fn render(args: &RenderArgs) -> Result<()> {
         .map(|t| parse_duration_for("--checkpoint", t))
         .transpose()
         .map_err(|e| Refused(e.to_string()))?;
+    // The film's band limit (tests force small bands): refused now, by name.
+    gpu::film::band_pixels_from_env().map_err(Refused)?;
     let samples = args
         .samples
         .as_deref()
@@ -641,6 +643,17 @@ fn render(args: &RenderArgs) -> Result<()> {
     };
     let (device, _, why) = open_device(args)?;
     phases.end("device");
+    // AOVs are one buffer on a GPU: refused now, not after the render.
+    let aov_device = match &device {
+        Device::Gpu(ctx) => Some(&**ctx),
+        Device::Gpus(contexts) => contexts.first(),
+        Device::Cpu => None,
+    };
+    if let (false, Some(ctx)) = (aovs.is_empty(), aov_device) {
+        if let Some(why) = gpu::aov::aov_size_refusal(ctx, &settings) {
+            return Err(Refused(format!("--aov: {why}")).into());
+        }
+    }
     let devices = match &device {
         Device::Cpu => twintrace::render::Devices::Cpu(pool.as_ref()),
         Device::Gpu(ctx) => twintrace::render::Devices::Gpu(ctx),
