@@ -15,6 +15,7 @@ mod diff_command;
 mod fixtures_render;
 mod furnace;
 mod gates_catch_mutants;
+mod gltf_bounds;
 mod gltf_equivalence;
 mod gltf_import;
 mod image_io;

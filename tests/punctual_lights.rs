@@ -250,7 +250,8 @@ fn gltf_lights_load_placed_by_their_nodes() {
     assert!((l[1].cos_outer - 0.9f32.cos()).abs() < 1e-7);
     assert_eq!(scene.warnings().len(), 1, "{:?}", scene.warnings());
     assert!(
-        scene.warnings()[0].contains("lights[0].range"),
+        scene.warnings()[0]
+            .contains("light \"point\", extensions.KHR_lights_punctual.lights[0]: range 5 ignored"),
         "{:?}",
         scene.warnings()
     );
@@ -265,16 +266,16 @@ fn bad_gltf_lights_are_one_error_naming_the_file_and_field() {
     for (edit, want) in [
         (
             r#"{"op": "light_type", "v": "area"}"#,
-            "KHR_lights_punctual.lights[1].type",
+            "light \"spot\", extensions.KHR_lights_punctual.lights[1]: type \"area\"",
         ),
         (
             r#"{"op": "inner", "v": 1.0}"#,
-            "KHR_lights_punctual.lights[1].spot.innerConeAngle",
+            "light \"spot\", extensions.KHR_lights_punctual.lights[1]: spot.innerConeAngle 1 must be below spot.outerConeAngle 0.9",
         ),
         (r#"{"op": "node_light", "v": 9}"#, "light 9 does not exist"),
         (
             r#"{"op": "intensity", "v": -1}"#,
-            "lights[1].color × intensity",
+            "light \"spot\", extensions.KHR_lights_punctual.lights[1]: intensity -1 is negative",
         ),
     ] {
         let edit: serde_json::Value = serde_json::from_str(edit).unwrap();

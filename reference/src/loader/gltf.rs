@@ -96,9 +96,14 @@
 //!
 //! Every problem in the file (unreadable, not glTF, a buffer that is
 //! missing or too short, an accessor that reaches past its buffer, an
-//! index out of range, ...) is an error that names the file and what is
-//! wrong; the `gltf` crate's code paths that would panic on such input are
-//! checked for beforehand or not used.
+//! index out of range, a value of the wrong type, a number outside the
+//! bounds the specification gives it or an attribute of an accessor type
+//! it does not allow ([`bounds`]), ...) is an error that names the file,
+//! the element (by name and index) and the field; the `gltf` crate's code
+//! paths that would panic on such input are checked for beforehand or not
+//! used.
+
+mod bounds;
 
 use crate::background::Background;
 use crate::camera::CameraSettings;
@@ -292,11 +297,12 @@ fn import_file(
             })?;
             builder
                 .add_light(light.placed(&world.matrix))
-                .map_err(|e| light.rename(e).in_file(path))?;
+                .map_err(|e| light.rename(e, instance.node).in_file(path))?;
         }
         if take_camera && !summary.camera_taken {
             if let Some(camera) = instance.camera {
-                summary.camera_taken = apply_camera(builder, &file.document, camera, &world.matrix);
+                summary.camera_taken = apply_camera(builder, &file.document, camera, &world.matrix)
+                    .map_err(|m| file.error(m))?;
             }
         }
         let Some(mesh) = &instance.mesh else { continue };
@@ -305,19 +311,17 @@ fn import_file(
                 continue;
             };
             let material = importer.material(builder, primitive.material())?;
+            let context = format!("{}: primitives[{}]", mesh_named(mesh), primitive.index());
             if local.uvs1.is_none() && texture_sets(&primitive.material()).contains(&1) {
                 builder.warnings.push(format!(
-                    "{}: meshes[{}].primitives[{}]: its material reads TEXCOORD_1, which the primitive lacks: (0, 0) is read",
+                    "{}: {context}: its material reads TEXCOORD_1, which the primitive lacks: (0, 0) is read",
                     path.display(),
-                    mesh.index(),
-                    primitive.index()
                 ));
             }
             let mut input = local.clone();
             if world.mirrors() {
                 flip_winding(&mut input.indices);
             }
-            let context = format!("meshes[{}].primitives[{}]", mesh.index(), primitive.index());
             builder
                 .add_mesh(&input, material, &world)
                 .map_err(|e| e.within(&context).in_file(path))?;
@@ -336,30 +340,39 @@ fn import_file(
 }
 
 /// Sets the builder's camera from glTF camera `index` placed by `world`;
-/// false when it is not a usable perspective camera.
+/// false when it is not a usable perspective camera (orthographic, or
+/// placed by a matrix that leaves it no direction); an error where its
+/// numbers are out of the specification's bounds ([`bounds::perspective`]).
 fn apply_camera(
     builder: &mut SceneBuilder,
     document: &Document,
     index: usize,
     world: &DAffine3,
-) -> bool {
+) -> Result<bool, String> {
     use gltf::json::camera::Type;
     use gltf::json::validation::Checked;
     // Read the JSON directly: `Camera::projection` unwraps the projection
     // object that the `type` names, which validation does not guarantee.
     let Some(camera) = document.as_json().cameras.get(index) else {
-        return false;
+        return Ok(false);
     };
     let (Checked::Valid(Type::Perspective), Some(perspective)) =
         (&camera.type_, &camera.perspective)
     else {
-        return false;
+        return Ok(false);
     };
+    bounds::perspective(perspective).map_err(|m| {
+        let at = format!("cameras[{index}]");
+        format!(
+            "{}: {m}",
+            bounds::named("camera", &at, camera.name.as_deref())
+        )
+    })?;
     let from = world.transform_point3(DVec3::ZERO);
     let dir = world.transform_vector3(DVec3::NEG_Z).normalize_or_zero();
     let up = world.transform_vector3(DVec3::Y).normalize_or_zero();
     if !from.as_vec3().is_finite() || dir == DVec3::ZERO || up.as_vec3() == Vec3::ZERO {
-        return false;
+        return Ok(false);
     }
     // The look-at point and focus plane sit at a distance that f32 can
     // still resolve next to `from` in world coordinates, as the camera is
@@ -376,14 +389,11 @@ fn apply_camera(
             ..CameraSettings::default()
         },
     );
-    if let Some(aspect) = perspective
-        .aspect_ratio
-        .filter(|a| a.is_finite() && *a > 0.0)
-    {
+    if let Some(aspect) = perspective.aspect_ratio {
         let width = (builder.render.height as f32 * aspect).round();
         builder.render.width = width.clamp(1.0, MAX_IMAGE_SIDE as f32) as u32;
     }
-    true
+    Ok(true)
 }
 
 /// The punctual lights extension.
@@ -391,9 +401,10 @@ const LIGHTS: &str = "KHR_lights_punctual";
 
 /// A `KHR_lights_punctual` light as the document defines it, in the
 /// light's own frame (at the origin, pointing down −Z).
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 struct GltfLight {
-    index: usize,
+    /// How errors name it ([`bounds::named`]).
+    at: String,
     kind: LightKind,
     /// `color` × `intensity`.
     value: Vec3,
@@ -432,20 +443,21 @@ impl GltfLight {
         }
     }
 
-    /// A builder error with the document's names for its fields.
-    fn rename(&self, e: SceneError) -> SceneError {
-        let at = format!("{LIGHTS}.lights[{}]", self.index);
+    /// A builder error with the document's names for its fields (the
+    /// values the document gives are checked by [`read_lights`]; what the
+    /// builder can still refuse is where its node puts it).
+    fn rename(&self, e: SceneError, node: usize) -> SceneError {
         match e {
             SceneError::Invalid { field, message } => {
                 let field = match field.as_str() {
-                    "intensity" | "irradiance" => "color × intensity",
-                    "inner_cone_angle" => "spot.innerConeAngle",
-                    "outer_cone_angle" => "spot.outerConeAngle",
-                    "direction" => "(its node's −Z)",
-                    "position" => "(its node's position)",
-                    other => other,
+                    "intensity" | "irradiance" => "color × intensity".to_string(),
+                    "inner_cone_angle" => "spot.innerConeAngle".to_string(),
+                    "outer_cone_angle" => "spot.outerConeAngle".to_string(),
+                    "direction" => format!("direction (nodes[{node}]'s −Z)"),
+                    "position" => format!("position (nodes[{node}]'s)"),
+                    other => other.to_string(),
                 };
-                SceneError::invalid(&format!("{at}.{field}"), message)
+                SceneError::invalid(&format!("{}: {field}", self.at), message)
             }
             other => other,
         }
@@ -453,38 +465,56 @@ impl GltfLight {
 }
 
 /// The document's `KHR_lights_punctual` lights (none without the
-/// extension); a `range` is one warning line each.
+/// extension); a `range` is one warning line each. Every number is
+/// checked against the extension's bounds (its README and schema,
+/// light.schema.json and light.spot.schema.json): each `color` component
+/// in [0, 1], `intensity` at least 0, `range` above 0, a spot's
+/// `innerConeAngle` at least 0 and below `outerConeAngle`, which is at most
+/// π/2; all of them finite as f32. With the colour at most 1, `color` ×
+/// `intensity` is at most the intensity: finite.
 fn read_lights(file: &GltfFile, builder: &mut SceneBuilder) -> Result<Vec<GltfLight>, SceneError> {
     let Some(ext) = file.document.extension_value(LIGHTS) else {
         return Ok(Vec::new());
     };
-    let error = |m: String| file.error(format!("{LIGHTS}{m}"));
+    let lights_path = format!("extensions.{LIGHTS}.lights");
     let Some(list) = ext.get("lights").and_then(|l| l.as_array()) else {
-        return Err(error(".lights is missing or not an array".into()));
+        return Err(file.error(format!("{lights_path} is missing or not an array")));
     };
     let mut out = Vec::with_capacity(list.len());
     for (i, light) in list.iter().enumerate() {
-        let at = format!(".lights[{i}]");
+        let name = light.get("name").and_then(|n| n.as_str());
+        let at = bounds::named("light", &format!("{lights_path}[{i}]"), name);
+        let error = |m: String| file.error(format!("{at}: {m}"));
         let object = light
             .as_object()
-            .ok_or_else(|| error(format!("{at} is not an object")))?;
-        let number =
-            |o: &serde_json::Map<String, serde_json::Value>, name: &str, default: f64| match o
-                .get(name)
-            {
-                None => Ok(default),
-                Some(v) => v
+            .ok_or_else(|| file.error(format!("{lights_path}[{i}] is not an object")))?;
+        // Member `field` of `o` (the last name of its path: `spot` holds
+        // `spot.innerConeAngle`'s `innerConeAngle`), a number (read as
+        // f32, as the `gltf` crate reads numbers) in `range`; `default`
+        // where absent.
+        let number = |o: &serde_json::Map<String, serde_json::Value>,
+                      field: &str,
+                      default: f32,
+                      range: bounds::Range| match o
+            .get(field.rsplit('.').next().unwrap_or(field))
+        {
+            None => Ok(default),
+            Some(v) => {
+                let x = v
                     .as_f64()
-                    .filter(|x| x.is_finite())
-                    .ok_or_else(|| error(format!("{at}.{name} {v} is not a number"))),
-            };
+                    .ok_or_else(|| error(format!("{field} {v} is not a number")))?
+                    as f32;
+                bounds::number(field, x, range).map_err(&error)?;
+                Ok(x)
+            }
+        };
         let kind = match object.get("type").and_then(|t| t.as_str()) {
             Some("point") => LightKind::Point,
             Some("spot") => LightKind::Spot,
             Some("directional") => LightKind::Directional,
             other => {
                 return Err(error(format!(
-                    "{at}.type {} is not point, spot or directional",
+                    "type {} is not point, spot or directional",
                     other.map_or("(missing)".to_string(), |t| format!("\"{t}\""))
                 )))
             }
@@ -492,43 +522,64 @@ fn read_lights(file: &GltfFile, builder: &mut SceneBuilder) -> Result<Vec<GltfLi
         let color = match object.get("color") {
             None => Vec3::ONE,
             Some(v) => {
-                let c: Option<Vec<f32>> = v.as_array().map(|a| {
-                    a.iter()
-                        .filter_map(|x| x.as_f64())
-                        .map(|x| x as f32)
-                        .collect()
-                });
-                match c {
-                    Some(c) if c.len() == 3 && v.as_array().is_some_and(|a| a.len() == 3) => {
-                        Vec3::from_slice(&c)
-                    }
-                    _ => return Err(error(format!("{at}.color {v} is not [r, g, b]"))),
+                let c: Option<Vec<f64>> = v
+                    .as_array()
+                    .filter(|a| a.len() == 3)
+                    .and_then(|a| a.iter().map(|x| x.as_f64()).collect());
+                let Some(c) = c else {
+                    return Err(error(format!("color {v} is not [r, g, b]")));
+                };
+                let c = Vec3::from_array([c[0], c[1], c[2]].map(|x| x as f32));
+                for (k, x) in c.to_array().into_iter().enumerate() {
+                    bounds::number(&format!("color[{k}]"), x, bounds::Range::Unit)
+                        .map_err(&error)?;
                 }
+                c
             }
         };
-        let intensity = number(object, "intensity", 1.0)? as f32;
-        let (mut inner, mut outer) = (0.0, std::f64::consts::FRAC_PI_4);
+        let intensity = number(object, "intensity", 1.0, bounds::Range::NonNegative)?;
+        let (mut inner, mut outer) = (0.0, std::f32::consts::FRAC_PI_4);
         if kind == LightKind::Spot {
             if let Some(spot) = object.get("spot") {
                 let spot = spot
                     .as_object()
-                    .ok_or_else(|| error(format!("{at}.spot is not an object")))?;
-                inner = number(spot, "innerConeAngle", inner)?;
-                outer = number(spot, "outerConeAngle", outer)?;
+                    .ok_or_else(|| error("spot is not an object".into()))?;
+                inner = number(
+                    spot,
+                    "spot.innerConeAngle",
+                    inner,
+                    bounds::Range::NonNegative,
+                )?;
+                outer = number(spot, "spot.outerConeAngle", outer, bounds::Range::Positive)?;
+            }
+            if outer > std::f32::consts::FRAC_PI_2 {
+                return Err(error(format!(
+                    "spot.outerConeAngle {} is above π/2",
+                    bounds::show(outer)
+                )));
+            }
+            if inner >= outer {
+                return Err(error(format!(
+                    "spot.innerConeAngle {} must be below spot.outerConeAngle {}",
+                    bounds::show(inner),
+                    bounds::show(outer)
+                )));
             }
         }
-        if let Some(range) = object.get("range") {
+        if object.contains_key("range") {
+            let range = number(object, "range", 0.0, bounds::Range::Positive)?;
             builder.warnings.push(format!(
-                "{}: {LIGHTS}{at}.range {range} ignored: the light falls off by the inverse square law alone",
-                file.path.display()
+                "{}: {at}: range {} ignored: the light falls off by the inverse square law alone",
+                file.path.display(),
+                bounds::show(range)
             ));
         }
         out.push(GltfLight {
-            index: i,
+            at,
             kind,
             value: color * intensity,
-            inner: inner as f32,
-            outer: outer as f32,
+            inner,
+            outer,
         });
     }
     Ok(out)
@@ -581,8 +632,8 @@ impl GltfFile {
         if bytes.starts_with(b"glTF") {
             check_glb_header(bytes).map_err(|m| fail(format!("not a valid GLB file: {m}")))?;
         }
-        let gltf::Gltf { document, mut blob } = gltf::Gltf::from_slice_without_validation(bytes)
-            .map_err(|e| fail(format!("cannot read glTF: {e}")))?;
+        let (document, mut blob) =
+            parse(bytes).map_err(|m| fail(format!("cannot read glTF: {m}")))?;
         check_position_accessors(&document).map_err(&fail)?;
         let document = Document::from_json(document.into_json())
             .map_err(|e| fail(format!("cannot read glTF: {e}")))?;
@@ -650,6 +701,115 @@ impl GltfFile {
             message,
         }
     }
+}
+
+/// The document's JSON (a `.gltf`, or a `.glb`'s JSON chunk) as the
+/// `gltf` crate's types, unvalidated, and the `.glb`'s binary chunk. It is
+/// deserialized as the crate does, through `serde_path_to_error`, so that
+/// a value of the wrong type is named by its path in the file.
+fn parse(bytes: &[u8]) -> Result<(Document, Option<Vec<u8>>), String> {
+    let glb;
+    let (json, blob) = if bytes.starts_with(b"glTF") {
+        glb = gltf::Glb::from_slice(bytes).map_err(|e| e.to_string())?;
+        (&*glb.json, glb.bin.as_deref().map(<[u8]>::to_vec))
+    } else {
+        (bytes, None)
+    };
+    let de = &mut serde_json::Deserializer::from_slice(json);
+    let root: gltf::json::Root =
+        serde_path_to_error::deserialize(&mut *de).map_err(|e| match e.path().iter().next() {
+            // Not in a value (a syntax error before the first member).
+            None => e.inner().to_string(),
+            Some(_) => format!("{}: {}", path_named(e.path(), json), e.inner()),
+        })?;
+    de.end().map_err(|e| e.to_string())?;
+    Ok((Document::from_json_without_validation(root), blob))
+}
+
+/// A path in the document (`materials[0].pbrMetallicRoughness...`), the
+/// element of the top-level array it starts in [`bounds::named`] as the
+/// importer's other errors name it (`material "Brass", materials[0]:
+/// pbrMetallicRoughness...`) where the element has a name.
+fn path_named(path: &serde_path_to_error::Path, json: &[u8]) -> String {
+    use serde_path_to_error::Segment;
+    let segments: Vec<&Segment> = path.iter().collect();
+    let [Segment::Map { key }, Segment::Seq { index }, rest @ ..] = segments.as_slice() else {
+        return path.to_string();
+    };
+    let what = match key.as_str() {
+        "accessors" => "accessor",
+        "bufferViews" => "bufferView",
+        "buffers" => "buffer",
+        "cameras" => "camera",
+        "images" => "image",
+        "materials" => "material",
+        "meshes" => "mesh",
+        "nodes" => "node",
+        "samplers" => "sampler",
+        "scenes" => "scene",
+        "textures" => "texture",
+        _ => return path.to_string(),
+    };
+    let name = element_name(json, key, *index);
+    let mut inside = String::new();
+    for segment in rest {
+        match segment {
+            Segment::Seq { index } => inside += &format!("[{index}]"),
+            Segment::Map { key } if inside.is_empty() => inside += key,
+            Segment::Map { key } => inside += &format!(".{key}"),
+            Segment::Enum { variant } if inside.is_empty() => inside += variant,
+            Segment::Enum { variant } => inside += &format!(".{variant}"),
+            Segment::Unknown => inside += "?",
+        }
+    }
+    let element = bounds::named(what, &format!("{key}[{index}]"), name.as_deref());
+    if inside.is_empty() {
+        element
+    } else {
+        format!("{element}: {inside}")
+    }
+}
+
+/// The `name` of element `index` of the document's top-level array `key`,
+/// read from a document that did not deserialize: everything but the
+/// names is skipped unparsed (serde_json skips a number without reading
+/// its value, so one beyond f64's range does not stop it).
+fn element_name(json: &[u8], key: &str, index: usize) -> Option<String> {
+    #[derive(serde::Deserialize)]
+    struct Element {
+        name: Option<String>,
+    }
+    #[derive(Default, serde::Deserialize)]
+    #[serde(default, rename_all = "camelCase")]
+    struct Arrays {
+        accessors: Vec<Element>,
+        buffer_views: Vec<Element>,
+        buffers: Vec<Element>,
+        cameras: Vec<Element>,
+        images: Vec<Element>,
+        materials: Vec<Element>,
+        meshes: Vec<Element>,
+        nodes: Vec<Element>,
+        samplers: Vec<Element>,
+        scenes: Vec<Element>,
+        textures: Vec<Element>,
+    }
+    let arrays: Arrays = serde_json::from_slice(json).ok()?;
+    let elements = match key {
+        "accessors" => arrays.accessors,
+        "bufferViews" => arrays.buffer_views,
+        "buffers" => arrays.buffers,
+        "cameras" => arrays.cameras,
+        "images" => arrays.images,
+        "materials" => arrays.materials,
+        "meshes" => arrays.meshes,
+        "nodes" => arrays.nodes,
+        "samplers" => arrays.samplers,
+        "scenes" => arrays.scenes,
+        "textures" => arrays.textures,
+        _ => return None,
+    };
+    elements.into_iter().nth(index)?.name
 }
 
 /// Checks what the `gltf` crate's GLB parser takes on trust.
@@ -896,13 +1056,23 @@ impl MeshCache {
             std::collections::hash_map::Entry::Occupied(slot) => slot.into_mut(),
             std::collections::hash_map::Entry::Vacant(slot) => {
                 let read = read_primitive(primitive, &file.buffers).map_err(|m| {
-                    file.error(format!("mesh {mesh} primitive {}: {m}", primitive.index()))
+                    let at = file
+                        .document
+                        .meshes()
+                        .nth(mesh)
+                        .map_or_else(|| format!("meshes[{mesh}]"), |mesh| mesh_named(&mesh));
+                    file.error(format!("{at}: primitives[{}]: {m}", primitive.index()))
                 })?;
                 slot.insert(read.filter(|m| !m.indices.is_empty()))
             }
         };
         Ok(slot.as_ref())
     }
+}
+
+/// How errors and warnings name a mesh ([`bounds::named`]).
+fn mesh_named(mesh: &gltf::Mesh) -> String {
+    bounds::named("mesh", &format!("meshes[{}]", mesh.index()), mesh.name())
 }
 
 /// Reads one primitive as indexed triangles in the mesh's own space.
@@ -916,6 +1086,9 @@ fn read_primitive(
         Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
     ) {
         return Ok(None);
+    }
+    for (semantic, accessor) in primitive.attributes() {
+        bounds::attribute(&semantic, &accessor)?;
     }
     let positions_accessor = primitive
         .get(&Semantic::Positions)
@@ -1060,15 +1233,23 @@ fn texture_sets(material: &gltf::Material) -> Vec<u32> {
 }
 
 /// The texture coordinate set the material's normal map reads (`None`:
-/// the material has no normal map).
+/// the material has no normal map); an error names the material.
 fn normal_map_set(material: &gltf::Material) -> Result<Option<u32>, String> {
     match material.normal_texture() {
         Some(normal) => Ok(Some(
             TextureRef::of_normal(&normal)
-                .map_err(|m| format!("normalTexture: {m}"))?
+                .map_err(|m| format!("{}: normalTexture.{m}", material_named(material)))?
                 .set(),
         )),
         None => Ok(None),
+    }
+}
+
+/// How errors and warnings name a material ([`bounds::named`]).
+fn material_named(material: &gltf::Material) -> String {
+    match material.index() {
+        Some(i) => bounds::named("material", &format!("materials[{i}]"), material.name()),
+        None => "default material".to_string(),
     }
 }
 
@@ -1473,26 +1654,29 @@ impl Importer<'_> {
         if let Some(&id) = self.materials.get(&key) {
             return Ok(id);
         }
-        let context = match key {
-            Some(i) => format!("materials[{i}]"),
-            None => "default material".to_string(),
-        };
+        let context = material_named(&material);
         let file = self.file;
         let in_context = |e: SceneError| e.within(&context).in_file(&file.path);
+        let fail = |m: String| file.error(format!("{context}: {m}"));
+        // Every number the specification bounds, before anything is made
+        // of them: an error names the field, not what it became.
+        bounds::material(&material).map_err(fail)?;
         let pbr = material.pbr_metallic_roughness();
         let emission =
             Vec3::from(material.emissive_factor()) * material.emissive_strength().unwrap_or(1.0);
-        let glass = self.dielectric(builder, &material, &context).map_err(|m| {
-            SceneError::invalid("KHR_materials_ior", m)
-                .within(&context)
-                .in_file(&file.path)
-        })?;
+        let glass = self
+            .dielectric(builder, &material, &context)
+            .map_err(fail)?;
         // Added to the BSDF below: the surface keeps what it reflects.
         let emission = if emission != Vec3::ZERO {
             Some(match material.emissive_texture() {
-                Some(info) => {
-                    self.image_texture(builder, &TextureRef::of(&info), emission, &context)?
-                }
+                Some(info) => self.image_texture(
+                    builder,
+                    &TextureRef::of(&info),
+                    emission,
+                    &context,
+                    "emissiveTexture",
+                )?,
                 None => builder
                     .constant(emission)
                     .map_err(|e| in_context(e.within("emissiveFactor")))?,
@@ -1506,23 +1690,32 @@ impl Importer<'_> {
             let [r, g, b, _alpha] = pbr.base_color_factor();
             let factor = Vec3::new(r, g, b);
             let texture = match pbr.base_color_texture() {
-                Some(info) => {
-                    self.image_texture(builder, &TextureRef::of(&info), factor, &context)?
-                }
+                Some(info) => self.image_texture(
+                    builder,
+                    &TextureRef::of(&info),
+                    factor,
+                    &context,
+                    "pbrMetallicRoughness.baseColorTexture",
+                )?,
                 None => builder
                     .constant(factor)
                     .map_err(|e| in_context(e.within("baseColorFactor")))?,
             };
             let metallic_roughness = match pbr.metallic_roughness_texture() {
-                Some(info) => Some(self.data_texture(builder, &TextureRef::of(&info), &context)?),
+                Some(info) => Some(self.data_texture(
+                    builder,
+                    &TextureRef::of(&info),
+                    &context,
+                    "pbrMetallicRoughness.metallicRoughnessTexture",
+                )?),
                 None => None,
             };
             let normal_map = match material.normal_texture() {
                 Some(normal) => {
                     let texture = TextureRef::of_normal(&normal)
-                        .map_err(|m| file.error(format!("{context}: normalTexture: {m}")))?;
+                        .map_err(|m| file.error(format!("{context}: normalTexture.{m}")))?;
                     Some(NormalMap {
-                        texture: self.data_texture(builder, &texture, &context)?,
+                        texture: self.data_texture(builder, &texture, &context, "normalTexture")?,
                         scale: normal.scale(),
                     })
                 }
@@ -1540,16 +1733,10 @@ impl Importer<'_> {
         use gltf::material::AlphaMode as Mode;
         let mode = match material.alpha_mode() {
             Mode::Opaque => None,
-            Mode::Mask => {
-                let cutoff = material.alpha_cutoff().unwrap_or(0.5);
-                // The schema's minimum; a NaN or infinity is malformed too.
-                if !(cutoff >= 0.0 && cutoff.is_finite()) {
-                    return Err(file.error(format!(
-                        "{context}: alphaCutoff {cutoff} must be a finite number ≥ 0"
-                    )));
-                }
-                Some(AlphaMode::Mask { cutoff })
-            }
+            // The cutoff is checked with the other numbers above.
+            Mode::Mask => Some(AlphaMode::Mask {
+                cutoff: material.alpha_cutoff().unwrap_or(0.5),
+            }),
             Mode::Blend => Some(AlphaMode::Blend),
         };
         let alpha = match mode {
@@ -1607,6 +1794,7 @@ impl Importer<'_> {
                 factor,
                 Decoding::Alpha,
                 context,
+                "pbrMetallicRoughness.baseColorTexture",
             ),
             None => builder.constant(factor).map_err(|e| {
                 e.within("baseColorFactor")
@@ -1632,23 +1820,33 @@ impl Importer<'_> {
             return Ok(None);
         };
         let file = self.file;
-        let error = |m: String| file.error(format!("{context}: {CLEARCOAT}{m}"));
+        let error = |m: String| file.error(format!("{context}: extensions.{CLEARCOAT}{m}"));
         let object = value
             .as_object()
             .ok_or_else(|| error(" is not an object".into()))?;
+        // Both factors in [0, 1] (the extension's schema).
         let factor = |name: &str| match object.get(name) {
             None => Ok(0.0),
-            Some(v) => v
-                .as_f64()
-                .map(|x| x as f32)
-                .filter(|x| (0.0..=1.0).contains(x))
-                .ok_or_else(|| error(format!(".{name} {v} is not a number in [0, 1]"))),
+            Some(v) => {
+                let x = v
+                    .as_f64()
+                    .ok_or_else(|| error(format!(".{name} {v} is not a number")))?
+                    as f32;
+                bounds::number(name, x, bounds::Range::Unit).map_err(|m| error(format!(".{m}")))?;
+                Ok(x)
+            }
         };
         let weight = factor("clearcoatFactor")?;
         let roughness = factor("clearcoatRoughnessFactor")?;
-        let texture = self.extension_texture(builder, object, "clearcoatTexture", context)?;
-        let roughness_texture =
-            self.extension_texture(builder, object, "clearcoatRoughnessTexture", context)?;
+        let texture =
+            self.extension_texture(builder, object, CLEARCOAT, "clearcoatTexture", context)?;
+        let roughness_texture = self.extension_texture(
+            builder,
+            object,
+            CLEARCOAT,
+            "clearcoatRoughnessTexture",
+            context,
+        )?;
         if object.contains_key("clearcoatNormalTexture") {
             self.warn(
                 builder,
@@ -1669,13 +1867,15 @@ impl Importer<'_> {
         }))
     }
 
-    /// A data texture an extension names by a glTF `textureInfo` object
-    /// (`index`, `texCoord`, its own `KHR_texture_transform`) in member
-    /// `name` of `object`, read as JSON; `None` where the member is absent.
+    /// A data texture extension `extension` names by a glTF `textureInfo`
+    /// object (`index`, `texCoord`, its own `KHR_texture_transform`) in
+    /// member `name` of its `object`, read as JSON; `None` where the member
+    /// is absent.
     fn extension_texture(
         &mut self,
         builder: &mut SceneBuilder,
         object: &serde_json::Map<String, serde_json::Value>,
+        extension: &str,
         name: &str,
         context: &str,
     ) -> Result<Option<u32>, SceneError> {
@@ -1683,7 +1883,8 @@ impl Importer<'_> {
             return Ok(None);
         };
         let file = self.file;
-        let error = |m: String| file.error(format!("{context}: {name}: {m}"));
+        let slot = format!("extensions.{extension}.{name}");
+        let error = |m: String| file.error(format!("{context}: {slot}{m}"));
         let index = |key: &str| -> Result<Option<u32>, SceneError> {
             match info.get(key) {
                 None => Ok(None),
@@ -1691,31 +1892,33 @@ impl Importer<'_> {
                     .as_u64()
                     .and_then(|i| u32::try_from(i).ok())
                     .map(Some)
-                    .ok_or_else(|| error(format!("{key} {v} is not an index"))),
+                    .ok_or_else(|| error(format!(".{key} {v} is not an index"))),
             }
         };
         if !info.is_object() {
-            return Err(error(format!("{info} is not a textureInfo object")));
+            return Err(error(format!(" {info} is not a textureInfo object")));
         }
         let Some(i) = index("index")? else {
-            return Err(error("has no index".into()));
+            return Err(error(" has no index".into()));
         };
         let texture = file
             .document
             .textures()
             .nth(i as usize)
-            .ok_or_else(|| error(format!("texture {i} does not exist")))?;
+            .ok_or_else(|| error(format!(".index {i}: texture {i} does not exist")))?;
         let transform = UvTransform::of_extension(
             info.get("extensions")
                 .and_then(|e| e.get(TEXTURE_TRANSFORM)),
         )
-        .map_err(error)?;
+        .map_err(|m| error(format!(".{m}")))?;
         let reference = TextureRef {
             texture,
             tex_coord: index("texCoord")?.unwrap_or(0),
             transform,
         };
-        Ok(Some(self.data_texture(builder, &reference, context)?))
+        Ok(Some(
+            self.data_texture(builder, &reference, context, &slot)?,
+        ))
     }
 
     /// `KHR_materials_transmission` as the reference's smooth dielectric,
@@ -1735,14 +1938,8 @@ impl Importer<'_> {
         context: &str,
     ) -> Result<Option<Material>, String> {
         let pbr = material.pbr_metallic_roughness();
+        // In range ([`bounds::material`]): 1 and above, or 0.
         let ior = material.ior();
-        // The extension allows 1 and above, and 0 (a legacy value for an
-        // infinite index, which no dielectric can be).
-        if let Some(i) = ior {
-            if !(i.is_finite() && (i >= 1.0 || i == 0.0)) {
-                return Err(format!("ior {i} must be at least 1 (or 0)"));
-            }
-        }
         let transmission = material
             .transmission()
             .filter(|t| t.transmission_factor() > 0.0 && pbr.metallic_factor() < 1.0);
@@ -1757,19 +1954,33 @@ impl Importer<'_> {
             return Ok(None);
         };
         if ior == Some(0.0) {
-            return Err("ior 0 (an infinite index) cannot be a transmissive material's".into());
+            return Err(
+                "extensions.KHR_materials_ior.ior 0 (an infinite index) cannot be a transmissive material's"
+                    .into(),
+            );
         }
         let mut absorption = Vec3::ZERO;
         match material.volume() {
             Some(v) if v.thickness_factor() > 0.0 => {
+                // Above 0, or infinite (no absorption): [`bounds::material`].
                 let distance = v.attenuation_distance();
-                if distance.is_finite() && distance > 0.0 {
+                if distance.is_finite() {
                     // A channel that keeps nothing (colour 0) is given
                     // 1e-6 of its light per attenuationDistance: opaque
                     // in practice, and a finite coefficient.
                     let colour =
                         Vec3::from(v.attenuation_color()).clamp(Vec3::splat(1e-6), Vec3::ONE);
                     absorption = -Vec3::from(colour.to_array().map(f32::ln)) / distance;
+                    // Each term is at most ln(1e6) ≈ 13.8 over the
+                    // distance: a distance below about 4e-38 (in range,
+                    // above 0) overflows it.
+                    if !absorption.is_finite() {
+                        return Err(format!(
+                            "extensions.KHR_materials_volume.attenuationDistance {} is too small: with attenuationColor {} the absorption −ln(colour) / distance is beyond the range of a 32-bit float",
+                            bounds::show(distance),
+                            bounds::show_all(&v.attenuation_color())
+                        ));
+                    }
                 }
             }
             _ => lost.push(
@@ -1823,8 +2034,9 @@ impl Importer<'_> {
         texture: &TextureRef,
         factor: Vec3,
         context: &str,
+        slot: &str,
     ) -> Result<u32, SceneError> {
-        self.texture(builder, texture, factor, Decoding::Srgb, context)
+        self.texture(builder, texture, factor, Decoding::Srgb, context, slot)
     }
 
     /// A data texture (linear texels: metallic-roughness, normals),
@@ -1834,13 +2046,15 @@ impl Importer<'_> {
         builder: &mut SceneBuilder,
         texture: &TextureRef,
         context: &str,
+        slot: &str,
     ) -> Result<u32, SceneError> {
-        self.texture(builder, texture, Vec3::ONE, Decoding::Linear, context)
+        self.texture(builder, texture, Vec3::ONE, Decoding::Linear, context, slot)
     }
 
     /// The texture `texture` names with its sampler, transform and
     /// coordinate set: a set other than 0 and 1 is a warning (TEXCOORD_0
-    /// is read).
+    /// is read). `slot` is the material's member that refers to it
+    /// (`normalTexture`), for errors in its transform.
     fn texture(
         &mut self,
         builder: &mut SceneBuilder,
@@ -1848,7 +2062,11 @@ impl Importer<'_> {
         factor: Vec3,
         decoding: Decoding,
         context: &str,
+        slot: &str,
     ) -> Result<u32, SceneError> {
+        if let Some(t) = &reference.transform {
+            bounds::transform(slot, t).map_err(|m| self.file.error(format!("{context}: {m}")))?;
+        }
         let texture = &reference.texture;
         let mut set = reference.set();
         if set > 1 {
@@ -1969,26 +2187,29 @@ fn sampler(texture: &gltf::Texture, transform: Option<&UvTransform>) -> crate::t
         WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
     };
     let s = texture.sampler();
-    let transform = transform.map(|t| {
-        let ([ox, oy], [sx, sy]) = (t.offset.map(f64::from), t.scale.map(f64::from));
-        let (sin, cos) = f64::from(t.rotation).sin_cos();
-        [
-            cos * sx,
-            -sin * sy,
-            ox + sin * sy,
-            sin * sx,
-            cos * sy,
-            1.0 - cos * sy - oy,
-        ]
-        .map(|v| v as f32)
-    });
     Sampler {
         wrap_u: wrap(s.wrap_s()),
         wrap_v: wrap(s.wrap_t()),
         nearest: s.mag_filter() == Some(MagFilter::Nearest),
-        transform,
+        transform: transform.map(uv_matrix),
         tex_coord: 0,
     }
+}
+
+/// `KHR_texture_transform` as the renderer's uv map (see [`sampler`]),
+/// composed in f64 and rounded to f32.
+fn uv_matrix(t: &UvTransform) -> [f32; 6] {
+    let ([ox, oy], [sx, sy]) = (t.offset.map(f64::from), t.scale.map(f64::from));
+    let (sin, cos) = f64::from(t.rotation).sin_cos();
+    [
+        cos * sx,
+        -sin * sy,
+        ox + sin * sy,
+        sin * sx,
+        cos * sy,
+        1.0 - cos * sy - oy,
+    ]
+    .map(|v| v as f32)
 }
 
 /// The name of the texture transform extension.
@@ -2021,14 +2242,16 @@ impl UvTransform {
     /// of the extension's type and finite.
     fn of_extension(value: Option<&serde_json::Value>) -> Result<Option<Self>, String> {
         let Some(value) = value else { return Ok(None) };
+        let at = format!("extensions.{TEXTURE_TRANSFORM}");
         let object = value
             .as_object()
-            .ok_or_else(|| format!("{TEXTURE_TRANSFORM} is not an object"))?;
+            .ok_or_else(|| format!("{at} is not an object"))?;
+        // Numbers, read as f32 as the `gltf` crate reads them; their
+        // range is checked with the typed transforms' (`bounds::transform`).
         let number = |v: &serde_json::Value, name: &str| -> Result<f32, String> {
             v.as_f64()
                 .map(|x| x as f32)
-                .filter(|x| x.is_finite())
-                .ok_or_else(|| format!("{TEXTURE_TRANSFORM}.{name} {v} is not a finite number"))
+                .ok_or_else(|| format!("{at}.{name} {v} is not a number"))
         };
         let pair = |name: &str, default: [f32; 2]| -> Result<[f32; 2], String> {
             match object.get(name) {
@@ -2036,16 +2259,17 @@ impl UvTransform {
                 Some(serde_json::Value::Array(a)) if a.len() == 2 => {
                     Ok([number(&a[0], name)?, number(&a[1], name)?])
                 }
-                Some(v) => Err(format!("{TEXTURE_TRANSFORM}.{name} {v} is not two numbers")),
+                Some(v) => Err(format!("{at}.{name} {v} is not two numbers")),
             }
         };
-        let tex_coord =
-            match object.get("texCoord") {
-                None => None,
-                Some(v) => Some(v.as_u64().and_then(|c| u32::try_from(c).ok()).ok_or_else(
-                    || format!("{TEXTURE_TRANSFORM}.texCoord {v} is not a set index"),
-                )?),
-            };
+        let tex_coord = match object.get("texCoord") {
+            None => None,
+            Some(v) => Some(
+                v.as_u64()
+                    .and_then(|c| u32::try_from(c).ok())
+                    .ok_or_else(|| format!("{at}.texCoord {v} is not a set index"))?,
+            ),
+        };
         Ok(Some(UvTransform {
             offset: pair("offset", [0.0, 0.0])?,
             rotation: object
@@ -2458,7 +2682,7 @@ mod tests {
                     serde_json::json!({ "mesh": 0 }),
                     serde_json::json!({ "type": "VEC2" }),
                 ),
-                "expected Vec3",
+                "meshes[0]: primitives[0]: attributes.POSITION: accessor 0 is VEC2 of FLOAT; glTF 2.0 allows VEC3 of FLOAT",
             ),
             (
                 "nan.gltf",
@@ -3203,13 +3427,13 @@ mod tests {
                 "colour as scalars",
                 vec![("COLOR_0", "SCALAR", 5126, false, f(&[1.0; 4]))],
                 serde_json::json!({}),
-                "COLOR_0 accessor",
+                "attributes.COLOR_0: accessor 4 is SCALAR of FLOAT",
             ),
             (
                 "tangent as VEC3",
                 vec![("TANGENT", "VEC3", 5126, false, f(&[1.0; 12]))],
                 serde_json::json!({}),
-                "TANGENT accessor",
+                "attributes.TANGENT: accessor 4 is VEC3 of FLOAT",
             ),
             (
                 "too few colours",
@@ -3227,7 +3451,7 @@ mod tests {
                 "transform scale not numbers",
                 vec![],
                 serde_json::json!({ "normalTexture": { "index": 0, "extensions": { "KHR_texture_transform": { "scale": ["big", 1] } } } }),
-                "normalTexture: KHR_texture_transform.scale",
+                "materials[0]: normalTexture.extensions.KHR_texture_transform.scale",
             ),
             (
                 "transform rotation not finite",
@@ -3351,7 +3575,7 @@ mod tests {
             (
                 "texture without index",
                 serde_json::json!({ "clearcoatFactor": 1, "clearcoatRoughnessTexture": { "texCoord": 0 } }),
-                "clearcoatRoughnessTexture: has no index",
+                "clearcoatRoughnessTexture has no index",
             ),
             (
                 "texture not an object",
