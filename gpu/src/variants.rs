@@ -135,14 +135,15 @@ pub const LEAVES_INLINE_SOA: u32 = 2;
 
 /// How the `nodes` binding holds the walk's records: each
 /// [`BvhNode`](reference::bvh::BvhNode) is two `vec4<u32>` words (box
-/// minimum and `index`; box maximum and `meta`).
+/// minimum and `index`; box maximum and `meta`), each compressed node
+/// of [`Traversal::Compressed`] five (`gpu::compressed`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum NodeLayout {
-    /// A record's two words side by side (array of structs).
+    /// A record's words side by side (array of structs).
     #[default]
     Aos,
-    /// Every record's first word, then every record's second (structure
-    /// of arrays).
+    /// Every record's first word, then every record's second, and so on
+    /// (structure of arrays).
     Soa,
 }
 
