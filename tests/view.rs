@@ -343,8 +343,22 @@ impl Xvfb {
         static ONE: std::sync::Mutex<()> = std::sync::Mutex::new(());
         let guard = ONE.lock().unwrap_or_else(|p| p.into_inner());
         for n in 90..140 {
-            if Path::new(&format!("/tmp/.X11-unix/X{n}")).exists() {
-                continue;
+            let socket = format!("/tmp/.X11-unix/X{n}");
+            if Path::new(&socket).exists() {
+                // A display whose lock names a process that is gone (a
+                // killed test's Xvfb) is free: its files are removed, or
+                // the wait below would take the old socket for the new.
+                let lock = format!("/tmp/.X{n}-lock");
+                let owner = std::fs::read_to_string(&lock)
+                    .ok()
+                    .and_then(|t| t.trim().parse::<u32>().ok());
+                match owner {
+                    Some(pid) if !Path::new(&format!("/proc/{pid}")).exists() => {
+                        let _ = std::fs::remove_file(&socket);
+                        let _ = std::fs::remove_file(&lock);
+                    }
+                    _ => continue,
+                }
             }
             let display = format!(":{n}");
             let mut child = Command::new("Xvfb")
