@@ -11,7 +11,8 @@ use reference::texture::Texture;
 use reference::RenderSettings;
 use std::path::{Path, PathBuf};
 
-fn base64(data: &[u8]) -> String {
+/// Standard base64 (the test documents embed their buffers and images).
+pub(crate) fn base64(data: &[u8]) -> String {
     const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     let mut out = String::new();
     for chunk in data.chunks(3) {

@@ -318,14 +318,7 @@ fn the_cli_renders_a_film_larger_than_a_band_as_one_band() {
     // device: the layers of the one-band film's sums.
     let (ok, err, _) = cli(Some("100"), &["-o", &d("banded")]);
     assert!(ok, "{err}");
-    let bits = |img: &twintrace::RenderImage| -> Vec<u32> {
-        img.mean
-            .iter()
-            .chain(img.variance.iter().flatten())
-            .chain(img.skewness.iter().flatten())
-            .flat_map(|p| p.to_array().map(f32::to_bits))
-            .collect()
-    };
+    let bits = common::image_bits;
     let banded = twintrace::read_exr(&dir.path().join("banded.exr")).unwrap();
     assert_eq!(bits(&banded), bits(&whole.image()));
     // A malformed limit: one line naming the variable, exit 2, no output.

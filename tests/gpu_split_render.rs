@@ -305,14 +305,7 @@ fn the_cli_renders_on_two_devices_as_on_one_and_refuses_bad_selections() {
     assert!(ok, "{err}");
     assert!(err.contains("device 1"), "{err}");
     let read = |n: &str| twintrace::read_exr(&dir.path().join(n)).unwrap();
-    let bits = |img: &twintrace::RenderImage| -> Vec<u32> {
-        img.mean
-            .iter()
-            .chain(img.variance.iter().flatten())
-            .chain(img.skewness.iter().flatten())
-            .flat_map(|p| p.to_array().map(f32::to_bits))
-            .collect()
-    };
+    let bits = common::image_bits;
     assert_eq!(bits(&read("two.exr")), bits(&read("one.exr")));
     // A two-device partial film merges like any other.
     let (ok, err) = run(&["--devices", &pair, "--samples", "0..7", "-o", &d("a")]);

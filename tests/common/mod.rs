@@ -73,6 +73,17 @@ pub fn seed_shift() -> u32 {
     })
 }
 
+/// Every layer of an image (mean, variance, skewness) as f32 bits, for
+/// bit-for-bit comparisons of renders.
+pub fn image_bits(img: &twintrace::RenderImage) -> Vec<u32> {
+    img.mean
+        .iter()
+        .chain(img.variance.iter().flatten())
+        .chain(img.skewness.iter().flatten())
+        .flat_map(|p| p.to_array().map(f32::to_bits))
+        .collect()
+}
+
 /// A device of its own on the test adapter (no pipeline cache on disk),
 /// for tests that count what is built on it while other tests share
 /// [`gpu`].
