@@ -1,7 +1,7 @@
 //! The GPU renders the same images as the reference, statistically:
 //! - every fixture, GPU vs its stored reference (`fixtures/refs/`, made by
 //!   the CPU reference at 16384 spp): per-pixel z-test (Šidák,
-//!   ≥ 99.75 %) plus image-sum and 8x8 tile-sum tests (sharing α = 0.01), as in
+//!   failing pixels ≤ 0.25 % of the tests) plus image-sum and 8x8 tile-sum tests (sharing α = 0.01), as in
 //!   tests/reference_images.rs but with the GPU as the renderer;
 //! - GPU vs CPU at equal budgets: Welch's t-test (Jung et al. 2020);
 //! - and the gate can fail: a GPU render of a scene with albedo ×1.02 is

@@ -6,7 +6,7 @@
 //!   variance: the estimators differ);
 //! - every fixture rendered with the MIS path tracer, on the CPU reference
 //!   and on the GPU, passes the stored-reference gate of its MIS reference:
-//!   per-pixel z-tests (Šidák, ≥ 99.75 %) plus image-sum and 8x8 tile-sum
+//!   per-pixel z-tests (Šidák, failing pixels ≤ 0.25 % of the tests) plus image-sum and 8x8 tile-sum
 //!   tests, as tests/reference_images.rs holds BSDF renders to the BSDF
 //!   references (the reference's per-sample variance predicts the render's
 //!   noise, so each estimator meets its own set);

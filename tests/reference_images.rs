@@ -2,7 +2,7 @@
 //! seed other than the reference's, matches its stored reference
 //! (`fixtures/refs/`, made by `cargo xtask bless`): the per-pixel z-test
 //! against the reference (Mitsuba 3's scheme, Šidák over the pixel
-//! channels judged, 99.75 % must pass; heavy-tailed pixels are left to the
+//! channels judged, failing pixels at most 0.25 % of the tests; heavy-tailed pixels are left to the
 //! sums) and the z-tests on the image sum and 8x8 tile sums all pass, the
 //! three families sharing α = 0.01. A failure writes the render, the
 //! reference and an HTML report under `target/diff/reference_images_<scene>/`.

@@ -127,7 +127,16 @@ fn render_image(scene: &Scene, integrator: Integrator, spp: u32, seed: u32) -> N
 /// the samples, per pixel, tiles and image sum.
 fn diff_gate(a: &NoisyImage, b: &NoisyImage) -> Verdict {
     let method = Method::for_images(a, b).unwrap();
-    compare(a, b, method, &TestSettings::default()).unwrap()
+    // The Cornell gate makes two comparisons (one an estimator); each at
+    // half of diff's α = 0.01 keeps the test's false alarms at 1 %
+    // (Bonferroni): at the full level each, it failed correct code in 2
+    // of 52 seed shifts on the H100 (one per-pixel family, one image sum
+    // at z −3.8), about the 2 % two comparisons at 1 % give.
+    let settings = TestSettings {
+        alpha: TestSettings::default().alpha / 2.0,
+        ..TestSettings::default()
+    };
+    compare(a, b, method, &settings).unwrap()
 }
 
 /// The far box's budget in the render-space gate (its reference's is 16

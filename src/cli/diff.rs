@@ -407,6 +407,8 @@ fn json_outcome(
                 "passes": px.passes(),
                 "tests": px.tests,
                 "passed": px.passed,
+                "failed_pixels": px.failed_pixels,
+                "allowance": px.allowance(),
                 "pass_fraction": px.pass_fraction(),
                 "min_pass_fraction": px.min_pass_fraction,
                 "alpha": v.settings.family_alpha(Family::Pixels),

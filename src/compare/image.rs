@@ -9,9 +9,16 @@
 //! 2. **Per-pixel tests** ([`PixelTests`]): the statistic `d / √v`, its
 //!    two-sided p-value (normal when `ν = ∞`, Student's t otherwise), and
 //!    Šidák's per-test level `α₁ = 1 − (1 − α_px)^{1/m}` over the `m`
-//!    tests judged. A test passes when `p > α₁`; the image passes when at
-//!    least 99.75 % of its tests pass (Mitsuba 3's render test,
-//!    src/render/tests/test_renders.py). A normal p-value is only valid
+//!    tests judged. A test passes when `p > α₁`; the image passes when the
+//!    pixels with a failing test are at most 0.25 % of the tests judged
+//!    (Mitsuba 3's render test, src/render/tests/test_renders.py, asks
+//!    99.75 % of the tests to pass). A pixel counts once however many of
+//!    its channels fail: one bright sample (a rare lamp hit) moves a
+//!    pixel's three channels together, and counted per channel that one
+//!    event alone used up a 32x32 image's allowance of 2.9 (the
+//!    render-space Cornell gate failed correct code in 2 of 52 seed
+//!    shifts on the H100 that way, docs/gates.md). Failures in distinct
+//!    pixels count as before. A normal p-value is only valid
 //!    where the pixel's mean is close to normal, so a pixel whose mean is
 //!    heavy-tailed at this budget (skewness of the mean above
 //!    [`MAX_PIXEL_SKEWNESS`], from the images' `skewness` layers: an
@@ -841,6 +848,9 @@ pub struct PixelTests {
     /// Number of tests judged (3 per pixel, less those left to the sums).
     pub tests: usize,
     pub passed: usize,
+    /// Pixels with at least one judged test that fails: what the
+    /// allowance counts (see [`PixelTests::allowance`]).
+    pub failed_pixels: usize,
     /// Tests not judged: `left_heavy + left_few_samples`. Their pixels
     /// are still in the tile and image sums.
     pub left_to_sums: usize,
@@ -877,8 +887,20 @@ impl PixelTests {
         self.passed as f64 / self.tests as f64
     }
 
+    /// How many failing pixels the family tolerates: `1 − min_pass_fraction`
+    /// (0.25 %) of the tests judged. A pixel whose channels fail together
+    /// is one event, so it counts once; failures in distinct pixels use
+    /// the allowance as failing tests did in Mitsuba 3's rule.
+    pub fn allowance(&self) -> f64 {
+        (1.0 - self.min_pass_fraction) * self.tests as f64
+    }
+
+    /// At most [`PixelTests::allowance`] failing pixels: in the form of
+    /// Mitsuba 3's rule, `(tests − failing pixels) / tests ≥ 99.75 %`.
     pub fn passes(&self) -> bool {
-        self.pass_fraction() >= self.min_pass_fraction
+        self.tests == 0
+            || (self.tests - self.failed_pixels) as f64 / self.tests as f64
+                >= self.min_pass_fraction
     }
 
     /// Whether pixel `i`'s channel `c` passed (a test left to the sums
@@ -914,13 +936,15 @@ impl PixelTests {
             );
         }
         format!(
-            "{}/{} tests pass ({:.3} %, need {:.2} %) at Šidák level {:.3e} (family α = {}); smallest p {:.3e} at pixel ({}, {}) channel {}{heavy}",
+            "{}/{} tests pass ({:.3} %) at Šidák level {:.3e} (family α = {}); {} pixels fail, {:.1} allowed ({:.2} % of the tests); smallest p {:.3e} at pixel ({}, {}) channel {}{heavy}",
             self.passed,
             self.tests,
             100.0 * self.pass_fraction(),
-            100.0 * self.min_pass_fraction,
             self.alpha_per_test,
             family_alpha,
+            self.failed_pixels,
+            self.allowance(),
+            100.0 * (1.0 - self.min_pass_fraction),
             self.min_p,
             self.min_p_at.0,
             self.min_p_at.1,
@@ -1165,21 +1189,26 @@ pub fn test_differences(d: &Differences, settings: &TestSettings) -> Verdict {
     let mut statistic = Vec::with_capacity(n);
     let mut p = Vec::with_capacity(n);
     let mut passed = 0;
+    let mut failed_pixels = 0;
     let (mut min_p, mut min_p_at) = (f64::INFINITY, (0, 0, 0));
     for (i, judged_here) in judged.iter().enumerate() {
         let mut s = DVec3::ZERO;
         let mut q = DVec3::ZERO;
+        let mut pixel_fails = false;
         for c in 0..3 {
             (s[c], q[c]) = p_value(d.diff[i][c], d.variance[i][c], d.dof[i][c]);
             if !judged_here[c] {
                 continue;
             }
-            passed += (q[c] > alpha_per_test) as usize;
+            let passes = q[c] > alpha_per_test;
+            passed += passes as usize;
+            pixel_fails |= !passes;
             if q[c] < min_p {
                 min_p = q[c];
                 min_p_at = ((i as u32) % d.width, (i as u32) / d.width, c);
             }
         }
+        failed_pixels += pixel_fails as usize;
         statistic.push(s);
         p.push(q);
     }
@@ -1188,6 +1217,7 @@ pub fn test_differences(d: &Differences, settings: &TestSettings) -> Verdict {
         p,
         tests,
         passed,
+        failed_pixels,
         left_to_sums: 3 * n - tests,
         left_heavy,
         left_few_samples,
@@ -1517,6 +1547,40 @@ mod tests {
         // per-sample variance is used and no pixel is left for this.
         let v = compare(&mis, &bsdf, Method::Reference(Side::B), &settings).unwrap();
         assert_eq!(v.pixels.left_few_samples, 0);
+    }
+
+    /// The allowance counts pixels, not channels: a pixel whose three
+    /// channels fail together (one bright sample) is one event. 20x20
+    /// pixels judge 1,200 tests, an allowance of 3 pixels: three pixels
+    /// failing in all channels pass (9 failing tests, which the count per
+    /// test failed), a fourth failing pixel in one channel fails.
+    #[test]
+    fn the_allowance_counts_a_pixel_whose_channels_fail_together_once() {
+        let reference = image(20, 20, |_| 0.5, 1e-6, 16384);
+        let fireflies = |pixels: &[usize], channels: &[usize]| {
+            let mut a = image(20, 20, |_| 0.5, 1e-4, 1024);
+            for &i in pixels {
+                for &c in channels {
+                    a.mean[i][c] = 5.0;
+                }
+            }
+            compare(
+                &a,
+                &reference,
+                Method::Reference(Side::B),
+                &TestSettings::default(),
+            )
+            .unwrap()
+        };
+        let v = fireflies(&[3, 150, 377], &[0, 1, 2]);
+        assert_eq!(
+            (v.pixels.tests, v.pixels.passed, v.pixels.failed_pixels),
+            (1200, 1191, 3)
+        );
+        assert!(v.pixels.passes(), "{}", v.pixels.describe(0.002, 0.5));
+        let v = fireflies(&[3, 150, 377, 390], &[1]);
+        assert_eq!((v.pixels.passed, v.pixels.failed_pixels), (1196, 4));
+        assert!(!v.pixels.passes(), "{}", v.pixels.describe(0.002, 0.5));
     }
 
     #[test]

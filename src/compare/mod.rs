@@ -5,8 +5,8 @@
 //!
 //! - [`image`]: two images with variances — per-pixel z-test against a
 //!   reference (Mitsuba 3's scheme) or Welch's t-test between two noisy
-//!   renders (Jung et al. 2020), Šidák-corrected with 99.75 % of tests
-//!   required to pass (heavy-tailed pixels left to the sums), plus z-tests
+//!   renders (Jung et al. 2020), Šidák-corrected, the pixels with a failing
+//!   test at most 0.25 % of the tests (heavy-tailed pixels left to the sums), plus z-tests
 //!   on the image sum and on tile sums, which catch small global biases and
 //!   correlated pixels; the three families share α = 0.01;
 //! - [`metrics`]: RMSE, relMSE, FLIP and NaN/Inf counts (reported, not gated);
