@@ -245,6 +245,22 @@ fn each_value_out_of_its_bounds_is_one_error_naming_file_element_and_field() {
             format!("{EYE}perspective.yfov 3.1415925 must be below π (it is 180° as a 32-bit float")),
         (vec![("/cameras/0/perspective/aspectRatio".into(), json!(-1))],
             format!("{EYE}perspective.aspectRatio -1 must be above 0")),
+        // glTF 2.0 "Transformations": a unit quaternion (within 10^-3 of
+        // unit length), finite numbers, an affine matrix.
+        (vec![("/nodes/0/rotation".into(), json!([0, 0, 0, 2]))],
+            "nodes[0].rotation [0, 0, 0, 2] is not a unit quaternion (its length is 2.000000)".into()),
+        (vec![("/nodes/0/rotation".into(), json!([0, 0, 0.7, 0.7]))],
+            "nodes[0].rotation [0, 0, 0.7, 0.7] is not a unit quaternion (its length is 0.989949)".into()),
+        (vec![("/nodes/0/name".into(), json!("Arm")), ("/nodes/0/rotation".into(), json!([0, 0, 0, 0]))],
+            "node \"Arm\", nodes[0].rotation [0, 0, 0, 0] is not a unit quaternion".into()),
+        (vec![("/nodes/0/translation".into(), json!([0, 1e39, 0]))],
+            "nodes[0].translation[1] is beyond the range of a 32-bit float".into()),
+        (vec![("/nodes/0/scale".into(), json!([1, 1, -1e39]))],
+            "nodes[0].scale[2] is beyond the range of a 32-bit float".into()),
+        (vec![("/nodes/0/matrix".into(), json!([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 2]))],
+            "nodes[0].matrix has the last row [0, 0, 0, 2]".into()),
+        (vec![("/nodes/0/matrix".into(), json!([1, 0, 0, 0.5, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]))],
+            "nodes[0].matrix has the last row [0.5, 0, 0, 1]".into()),
     ];
     for (edits, says) in cases {
         let edits: Vec<(&str, Value)> =
@@ -452,6 +468,18 @@ fn values_at_the_bounds_load() {
         ("/cameras/0/perspective/aspectRatio".into(), json!(0.01)),
     ]);
     assert!((scene.camera_settings().vfov - (yfov as f32).to_degrees()).abs() < 1e-3);
+    // A rotation of a quarter turn about z written with four decimals
+    // (length 0.99998) loads, normalized: the triangle's corner (1, 0, 0)
+    // lands on (0, 1, 0), not 2·10^-5 short of it.
+    // √½ as an exporter writes it, not the constant.
+    #[allow(clippy::approx_constant)]
+    let four_decimals = 0.7071;
+    let scene = loads(vec![(
+        "/nodes/0/rotation".into(),
+        json!([0, 0, four_decimals, four_decimals]),
+    )]);
+    let top = f64::from(scene.bounds().max.y) + scene.render_origin().y;
+    assert!((top - 1.0).abs() < 1e-6, "top {top}");
 }
 
 /// The command line prints the error as one line naming the file, the

@@ -257,6 +257,55 @@ fn gltf_lights_load_placed_by_their_nodes() {
     );
 }
 
+/// A JSON `mesh` object takes only a glTF file's triangles: the file's
+/// lights are not added, and the scene says so in one warning; a `gltf`
+/// object of the same file adds them, with no such warning.
+#[test]
+fn a_mesh_object_warns_of_the_lights_it_does_not_add() {
+    let root = twintrace::compare::gate::workspace_root();
+    let gltf = root.join("fixtures/scenes/punctual-lights.gltf");
+    let dir = tempfile::tempdir().unwrap();
+    let scene_of = |object: &str| {
+        let text = format!(
+            r#"{{ "camera": {{ "look_from": [0, 4, 0.5], "look_at": [0, 0, 0] }},
+  "materials": {{ "m": {{ "type": "lambertian", "albedo": [0.5, 0.5, 0.5] }} }},
+  "objects": [ {{ "type": "{object}", "path": {:?}{} }} ] }}"#,
+            gltf.to_str().unwrap(),
+            if object == "mesh" {
+                r#", "material": "m""#
+            } else {
+                ""
+            }
+        );
+        let p = write(dir.path(), "mesh.json", &text);
+        reference::load_scene(p.to_str().unwrap()).unwrap()
+    };
+    let mesh = scene_of("mesh");
+    assert!(mesh.punctual_lights().is_empty());
+    let said: Vec<_> = mesh
+        .warnings()
+        .iter()
+        .filter(|w| w.contains("a mesh takes only the file's triangles"))
+        .collect();
+    assert_eq!(said.len(), 1, "{:?}", mesh.warnings());
+    assert!(
+        said[0].contains("punctual-lights.gltf")
+            && said[0].contains("3 punctual light(s) (KHR_lights_punctual)"),
+        "{}",
+        said[0]
+    );
+    let whole = scene_of("gltf");
+    assert_eq!(whole.punctual_lights().len(), 3);
+    assert!(
+        !whole
+            .warnings()
+            .iter()
+            .any(|w| w.contains("a mesh takes only")),
+        "{:?}",
+        whole.warnings()
+    );
+}
+
 #[test]
 fn bad_gltf_lights_are_one_error_naming_the_file_and_field() {
     let root = twintrace::compare::gate::workspace_root();

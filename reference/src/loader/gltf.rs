@@ -140,22 +140,34 @@ const MAX_VIEWLESS_ACCESSOR_BYTES: usize = 1 << 30;
 /// Texture coordinates: kept when any primitive has TEXCOORD_0; primitives
 /// without them get `(0, 0)`.
 pub fn load_gltf_mesh(path: &Path) -> Result<MeshInput, SceneError> {
-    load_gltf_mesh_reading(path, &mut Vec::new())
+    load_gltf_mesh_reading(path, &mut Vec::new(), &mut Vec::new())
 }
 
 /// [`load_gltf_mesh`], adding the files it reads (the document and its
-/// external buffers) to `sources` ([`SceneBuilder::sources`]).
+/// external buffers) to `sources` ([`SceneBuilder::sources`]), and to
+/// `warnings` ([`SceneBuilder::warnings`]) one line when the scene has
+/// light that a mesh does not carry: `KHR_lights_punctual` lights on its
+/// nodes, or materials with emission on the triangles read (the mesh
+/// takes the caller's material).
 pub fn load_gltf_mesh_reading(
     path: &Path,
     sources: &mut Vec<PathBuf>,
+    warnings: &mut Vec<String>,
 ) -> Result<MeshInput, SceneError> {
     let file = GltfFile::open(path)?;
     sources.extend(file.files.iter().cloned());
     let mut parts: Vec<MeshInput> = Vec::new();
     let mut cache = MeshCache::default();
+    let mut lights = 0;
+    let mut emissive = std::collections::BTreeSet::new();
     for instance in instances(&file.document).map_err(|m| file.error(m))? {
+        lights += instance.light.is_some() as usize;
         let Some(mesh) = &instance.mesh else { continue };
         for primitive in mesh.primitives() {
+            let material = primitive.material();
+            if material.emissive_factor() != [0.0; 3] {
+                emissive.insert(material.index());
+            }
             let Some(local) = cache.get(&file, mesh.index(), &primitive)? else {
                 continue;
             };
@@ -164,6 +176,20 @@ pub fn load_gltf_mesh_reading(
     }
     if parts.is_empty() {
         return Err(file.error("the document's scene contains no triangles".into()));
+    }
+    let mut dropped = Vec::new();
+    if lights > 0 {
+        dropped.push(format!("{lights} punctual light(s) (KHR_lights_punctual)"));
+    }
+    if !emissive.is_empty() {
+        dropped.push(format!("the emission of {} material(s)", emissive.len()));
+    }
+    if !dropped.is_empty() {
+        warnings.push(format!(
+            "{}: a mesh takes only the file's triangles, so its {} add no light (a `gltf` object adds the file's lights and materials)",
+            path.display(),
+            dropped.join(" and ")
+        ));
     }
     merge(parts).map_err(|m| file.error(m))
 }
@@ -983,7 +1009,7 @@ fn instances(document: &Document) -> Result<Vec<Instance<'_>>, String> {
                 scene.index()
             ));
         }
-        let local = node_matrix(&node);
+        let local = node_matrix(&node)?;
         if !local.is_finite() {
             return Err(format!("node {} has a non-finite transform", node.index()));
         }
@@ -1019,9 +1045,19 @@ fn instances(document: &Document) -> Result<Vec<Instance<'_>>, String> {
 
 /// A node's local transform in f64: its matrix, or its translation,
 /// rotation and scale composed in f64 (the hierarchy is composed in f64
-/// too, and rounded to f32 only in render space).
-fn node_matrix(node: &gltf::Node) -> DMat4 {
-    match node.transform() {
+/// too, and rounded to f32 only in render space). What glTF 2.0 requires
+/// of them ([`bounds::node_transform`]) is checked first; a rotation
+/// within that check's tolerance of unit length is normalized, so that
+/// the digits a writer rounded to do not scale the mesh.
+fn node_matrix(node: &gltf::Node) -> Result<DMat4, String> {
+    let transform = node.transform();
+    bounds::node_transform(&transform).map_err(|m| {
+        format!(
+            "{}.{m}",
+            bounds::named("node", &format!("nodes[{}]", node.index()), node.name())
+        )
+    })?;
+    Ok(match transform {
         gltf::scene::Transform::Matrix { matrix } => {
             DMat4::from_cols_array_2d(&matrix.map(|c| c.map(|x| x as f64)))
         }
@@ -1031,10 +1067,10 @@ fn node_matrix(node: &gltf::Node) -> DMat4 {
             scale,
         } => DMat4::from_scale_rotation_translation(
             Vec3::from(scale).as_dvec3(),
-            DQuat::from_array(rotation.map(|x| x as f64)),
+            DQuat::from_array(rotation.map(|x| x as f64)).normalize(),
             Vec3::from(translation).as_dvec3(),
         ),
-    }
+    })
 }
 
 /// Primitives read once, in their own space, however many nodes use them.
@@ -3705,7 +3741,7 @@ mod tests {
             [gltf.clone(), d.join("tri angle.bin"), d.join("albedo.png")]
         );
         let mut read = Vec::new();
-        load_gltf_mesh_reading(&gltf, &mut read).unwrap();
+        load_gltf_mesh_reading(&gltf, &mut read, &mut Vec::new()).unwrap();
         assert_eq!(read, [gltf.clone(), d.join("tri angle.bin")]);
         // A glTF of data: URIs reads only itself.
         let inline = write(

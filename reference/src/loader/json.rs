@@ -859,6 +859,7 @@ impl Resolver<'_> {
                 let mesh = crate::loader::gltf::load_gltf_mesh_reading(
                     &self.base.join(path),
                     &mut self.builder.sources,
+                    &mut self.builder.warnings,
                 )?;
                 self.builder.add_mesh(&mesh, m, &transform(t)?)
             }

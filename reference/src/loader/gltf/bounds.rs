@@ -284,6 +284,58 @@ fn component_name(component: DataType) -> &'static str {
     }
 }
 
+/// How far from 1 a node's rotation may be in length: 10^-3. A unit
+/// quaternion written with four decimals (0.7071) is off by at most
+/// 2·10^-4 and one rounded to f32 by about 10^-7; such a rotation is
+/// normalized. One further off is not a rounded unit quaternion, and read
+/// as it is it would scale the mesh by its squared length.
+pub(super) const ROTATION_UNIT_TOLERANCE: f64 = 1e-3;
+
+/// A node's transform as glTF 2.0 requires it (the specification's
+/// "Transformations" section and node.schema.json): `rotation` a unit
+/// quaternion (within [`ROTATION_UNIT_TOLERANCE`]), every number finite,
+/// and `matrix` affine (its last row 0, 0, 0, 1: the specification asks
+/// for a matrix that decomposes into translation, rotation and scale, and
+/// the importer keeps only the affine part). The message starts with the
+/// field as the file spells it; the caller puts the node in front.
+pub(super) fn node_transform(t: &gltf::scene::Transform) -> Result<(), String> {
+    match t {
+        gltf::scene::Transform::Matrix { matrix } => {
+            let flat: Vec<f32> = matrix.iter().flatten().copied().collect();
+            numbers("matrix", &flat, Range::Any)?;
+            // Column-major: the last row is elements 3, 7, 11 and 15.
+            let last_row = [matrix[0][3], matrix[1][3], matrix[2][3], matrix[3][3]];
+            if last_row != [0.0, 0.0, 0.0, 1.0] {
+                return Err(format!(
+                    "matrix has the last row {} (elements 3, 7, 11 and 15); glTF 2.0 allows only an affine matrix, whose last row is [0, 0, 0, 1]",
+                    show_all(&last_row)
+                ));
+            }
+        }
+        gltf::scene::Transform::Decomposed {
+            translation,
+            rotation,
+            scale,
+        } => {
+            numbers("translation", translation, Range::Any)?;
+            numbers("rotation", rotation, Range::Any)?;
+            numbers("scale", scale, Range::Any)?;
+            let length = rotation
+                .iter()
+                .map(|&x| f64::from(x) * f64::from(x))
+                .sum::<f64>()
+                .sqrt();
+            if (length - 1.0).abs() > ROTATION_UNIT_TOLERANCE {
+                return Err(format!(
+                    "rotation {} is not a unit quaternion (its length is {length:.6}); glTF 2.0 requires unit length",
+                    show_all(rotation)
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// A perspective camera's numbers that the importer reads (the glTF 2.0
 /// schema, camera.perspective.schema.json): `yfov` above 0 (exclusive
 /// minimum) and, as the specification says it should be, below π (no
