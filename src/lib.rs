@@ -9,6 +9,8 @@
 //! - [`image_io`]: the render EXR (linear mean, variance and skewness of the mean, its
 //!   exact layout documented there), the tone-mapped PNG, reading an EXR
 //!   back, and all-or-nothing file writes;
+//! - [`host_memory`]: the host memory a render needs against what the
+//!   machine has;
 //! - [`tonemap`]: ACES filmic (Narkowicz's fit) and the sRGB OETF;
 //! - [`compare`]: the statistical and exact gates (z/Welch image tests with
 //!   aggregate tests, chi-square for sampling, bitwise comparison, stored
@@ -27,6 +29,7 @@
 pub mod aov;
 pub mod compare;
 pub mod exr_write;
+pub mod host_memory;
 pub mod image_io;
 pub mod partial;
 pub mod perf;

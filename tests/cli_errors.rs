@@ -99,12 +99,59 @@ fn bad_sizes() {
     let e = fails(&[], &["render", "cornell", "--size", "0x0", "-o", "out"]);
     assert!(e.contains("0x0"), "{e}");
     // Malformed sizes are usage errors (exit 2): the strict-number test.
-    // Absurd: 16384² is within the per-side limit but 2^28 pixels.
     let e = fails(
         &[],
-        &["render", "cornell", "--size", "16384x16384", "-o", "out"],
+        &["render", "cornell", "--size", "16385x16", "-o", "out"],
     );
-    assert!(e.contains("16384x16384") && e.contains("pixels"), "{e}");
+    assert!(e.contains("16385x16") && e.contains("16384x16384"), "{e}");
+    // Within the side limit, but more than the memory the render may
+    // count on (here capped at 1 GB): one line, before the render.
+    for backend in ["cpu", "gpu"] {
+        let e = fails_env(
+            &[],
+            &[
+                "render",
+                "cornell",
+                "--backend",
+                backend,
+                "--size",
+                "16384x16384",
+                "-o",
+                "out",
+            ],
+            &[("TWINTRACE_MEMORY_LIMIT", "1000000000")],
+        );
+        assert!(
+            e.contains(&format!(
+                "a 16384x16384 render on the {backend} needs about"
+            )) && e.contains("and this machine has 1.0 GB available"),
+            "{e}"
+        );
+    }
+    // A cap that is not a number of bytes: a usage error, nothing written.
+    let dir = tempfile::tempdir().unwrap();
+    let o = twintrace_env(
+        dir.path(),
+        &[
+            "render",
+            "cornell",
+            "--backend",
+            "cpu",
+            "--size",
+            "8x8",
+            "-o",
+            "out",
+        ],
+        &[("TWINTRACE_MEMORY_LIMIT", "lots")],
+    );
+    assert_eq!(o.code, Some(2), "{}", o.stderr);
+    assert!(
+        o.stderr.contains("TWINTRACE_MEMORY_LIMIT=\"lots\"")
+            && o.stderr.trim().lines().count() == 1,
+        "{}",
+        o.stderr
+    );
+    assert!(files_in(dir.path()).is_empty());
 }
 
 #[test]

@@ -377,16 +377,23 @@ fn the_cli_renders_a_film_past_the_adapters_binding() {
 }
 
 /// AOVs are one buffer: past one binding (48 bytes a pixel; lavapipe:
-/// 2,796,203 pixels) `--aov` is refused before the render, in one line
-/// naming the size, exit 2, nothing written.
+/// 2,796,203 pixels; the H100: 44.7 million) `--aov` is refused before the
+/// render, in one line naming the size, exit 2, nothing written. The
+/// image is as wide as a render may be (16384), so that its height stays
+/// within the size limit on any adapter whose binding holds fewer than
+/// 16384² AOV pixels (12 GiB).
 #[test]
 fn aovs_past_the_adapters_binding_are_refused_by_size() {
     let limit = common::gpu()
         .device
         .limits()
         .max_storage_buffer_binding_size;
-    let width = 2000u32;
+    let width = reference::scene::MAX_IMAGE_SIDE;
     let height = (limit / (reference::aov::WORDS as u64 * 4) + 1).div_ceil(width as u64) as u32;
+    assert!(
+        height <= reference::scene::MAX_IMAGE_SIDE,
+        "a binding of {limit} bytes holds every image's AOVs: nothing to refuse"
+    );
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("aov");
     let size = format!("{width}x{height}");

@@ -654,6 +654,36 @@ fn render(args: &RenderArgs) -> Result<()> {
             return Err(Refused(format!("--aov: {why}")).into());
         }
     }
+    // An image this machine cannot hold: refused now, in one line.
+    {
+        use twintrace::host_memory as mem;
+        // A software adapter's film (lavapipe's) is in host memory too.
+        let film = |ctxs: &[&gpu::GpuContext]| {
+            ctxs.iter().filter(|c| c.is_software).count() as u64 * mem::DEVICE_FILM_BYTES_PER_PIXEL
+        };
+        let (backend, base) = match &device {
+            Device::Cpu => ("cpu", mem::CPU_BYTES_PER_PIXEL),
+            Device::Gpu(ctx) => ("gpu", mem::GPU_BYTES_PER_PIXEL + film(&[&**ctx])),
+            Device::Gpus(ctxs) => (
+                "gpu",
+                mem::GPU_BYTES_PER_PIXEL + film(&ctxs.iter().collect::<Vec<_>>()),
+            ),
+        };
+        let sums = samples.is_some() || checkpoint.is_some() || args.resume.is_some();
+        let per_pixel =
+            base + if aovs.is_empty() {
+                0
+            } else {
+                mem::AOV_BYTES_PER_PIXEL
+            } + if sums { mem::SUMS_BYTES_PER_PIXEL } else { 0 };
+        let what = format!(
+            "a {}x{} render on the {backend}",
+            settings.width, settings.height
+        );
+        let pixels = settings.width as u64 * settings.height as u64;
+        let available = mem::available().map_err(Refused)?;
+        mem::check(&what, pixels, per_pixel, available).map_err(|e| anyhow!(e))?;
+    }
     let devices = match &device {
         Device::Cpu => twintrace::render::Devices::Cpu(pool.as_ref()),
         Device::Gpu(ctx) => twintrace::render::Devices::Gpu(ctx),

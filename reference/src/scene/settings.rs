@@ -37,9 +37,13 @@ impl Default for RenderSettings {
 /// request (16384² RGB f64 mean+variance accumulators are ~12 GiB).
 pub const MAX_IMAGE_SIDE: u32 = 16_384;
 
-/// At most 2^26 pixels (8192²): the film alone is 64 bytes a pixel on the
-/// CPU (4 GiB here), so larger images fail up front instead of in the allocator.
-pub const MAX_PIXELS: u64 = 1 << 26;
+/// At most [`MAX_IMAGE_SIDE`]² pixels (2^28): every image the side limit
+/// allows. Whether this machine can hold a render of that size is checked
+/// against its memory where the render starts (the CLI's
+/// `twintrace::host_memory`), so a 15360x8640 frame renders where the
+/// memory is there (a GPU film in bands) and is refused in one line where
+/// it is not.
+pub const MAX_PIXELS: u64 = (MAX_IMAGE_SIDE as u64) * (MAX_IMAGE_SIDE as u64);
 
 pub const MAX_SPP: u32 = 1 << 24;
 
@@ -78,15 +82,6 @@ impl RenderSettings {
                 "render.width/height",
                 format!(
                     "image size {}x{} must be between 1x1 and {MAX_IMAGE_SIDE}x{MAX_IMAGE_SIDE}",
-                    self.width, self.height
-                ),
-            );
-        }
-        if self.width as u64 * self.height as u64 > MAX_PIXELS {
-            return bad(
-                "render.width/height",
-                format!(
-                    "image size {}x{} has more than {MAX_PIXELS} pixels",
                     self.width, self.height
                 ),
             );
