@@ -604,33 +604,60 @@ fn emissive_verdicts(
     seed: u32,
     render: &dyn Fn(&Scene, Integrator, u32) -> NoisyImage,
 ) -> Vec<(String, bool, String)> {
+    emissive_checks(s, seed, render, false)
+}
+
+/// The emissive gate's three checks in order (see [`emissive_verdicts`]);
+/// with `first_failure`, only up to the first that fails (a mutant is
+/// caught by one: its test renders no more than that takes).
+fn emissive_checks(
+    s: &EmissiveScenes,
+    seed: u32,
+    render: &dyn Fn(&Scene, Integrator, u32) -> NoisyImage,
+    first_failure: bool,
+) -> Vec<(String, bool, String)> {
     let settings = TestSettings::default();
     let judge = |what: &str, a: &NoisyImage, b: &NoisyImage| {
         let v = compare(a, b, Method::Welch, &settings).unwrap();
         (what.to_string(), v.passes(), v.summary())
     };
-    let whole = render(&s.whole, Integrator::Mis, seed);
     let emission = render(&s.emission, Integrator::Mis, seed + 1);
-    let parts = sum(&emission, &render(&s.reflection, Integrator::Mis, seed + 2));
-    vec![
-        judge("whole vs emission + reflection", &whole, &parts),
+    let checks: [&dyn Fn() -> (String, bool, String); 3] = [
+        &|| {
+            let whole = render(&s.whole, Integrator::Mis, seed);
+            let parts = sum(&emission, &render(&s.reflection, Integrator::Mis, seed + 2));
+            judge("whole vs emission + reflection", &whole, &parts)
+        },
         // In the dark the panel is the only light, large enough for BSDF
         // samples to find it at this budget (the grazing lamp is not: its
         // rare hits leave pixel variances the per-pixel test cannot use).
-        judge(
-            "emission alone, MIS vs BSDF sampling",
-            &emission,
-            &render(&s.emission, Integrator::Bsdf, seed + 3),
-        ),
-        judge(
-            "emissive panel vs the pure emitter of its texture",
-            &render(&s.panel, Integrator::Mis, seed + 4),
-            &render(&s.panel_light, Integrator::Mis, seed + 5),
-        ),
-    ]
+        &|| {
+            judge(
+                "emission alone, MIS vs BSDF sampling",
+                &emission,
+                &render(&s.emission, Integrator::Bsdf, seed + 3),
+            )
+        },
+        &|| {
+            judge(
+                "emissive panel vs the pure emitter of its texture",
+                &render(&s.panel, Integrator::Mis, seed + 4),
+                &render(&s.panel_light, Integrator::Mis, seed + 5),
+            )
+        },
+    ];
+    let mut verdicts = Vec::new();
+    for check in checks {
+        let verdict = check();
+        let failed = !verdict.1;
+        verdicts.push(verdict);
+        if failed && first_failure {
+            break;
+        }
+    }
+    verdicts
 }
 
-/// The first of the six seeds of the emissive gate's renders.
 const EMISSIVE_SEED: u32 = 51;
 
 /// Panics unless every verdict passes.
@@ -697,9 +724,14 @@ fn the_emissive_gate_fails_when_either_part_is_dropped_on_the_cpu() {
     use reference::mutants::{pool, Mutant};
     let s = emissive_scenes();
     for mutant in [Mutant::AddedEmissionDropped, Mutant::EmissiveBsdfDropped] {
-        let verdicts = emissive_verdicts(&s, EMISSIVE_SEED, &|scene, integrator, seed| {
-            pool(mutant).install(|| render_by("cpu", integrator, scene, seed))
-        });
+        let verdicts = emissive_checks(
+            &s,
+            EMISSIVE_SEED,
+            &|scene, integrator, seed| {
+                pool(mutant).install(|| render_by("cpu", integrator, scene, seed))
+            },
+            true,
+        );
         let failed = failing(&verdicts);
         println!("{mutant:?}: fails {failed:?}");
         assert!(!failed.is_empty(), "{mutant:?} passed the emissive gate");
@@ -732,15 +764,25 @@ fn the_emissive_gate_fails_when_either_part_is_dropped_on_the_gpu() {
     let s = emissive_scenes();
     for (name, program) in &mutants {
         assert_ne!(program, &production, "{name}: the edit missed");
-        let verdicts = emissive_verdicts(&s, EMISSIVE_SEED, &|scene, integrator, seed| {
-            let packed = gpu::scene_buffers::PackedScene::new(scene);
-            let film =
-                gpu::GpuRenderer::with_program(common::gpu(), &packed, scene, program, integrator)
-                    .and_then(|r| r.render(&settings(seed), &|_, _| {}))
-                    .unwrap_or_else(|e| panic!("{e}"))
-                    .film;
-            NoisyImage::from_film(&film)
-        });
+        let verdicts = emissive_checks(
+            &s,
+            EMISSIVE_SEED,
+            &|scene, integrator, seed| {
+                let packed = gpu::scene_buffers::PackedScene::new(scene);
+                let film = gpu::GpuRenderer::with_program(
+                    common::gpu(),
+                    &packed,
+                    scene,
+                    program,
+                    integrator,
+                )
+                .and_then(|r| r.render(&settings(seed), &|_, _| {}))
+                .unwrap_or_else(|e| panic!("{e}"))
+                .film;
+                NoisyImage::from_film(&film)
+            },
+            true,
+        );
         let failed = failing(&verdicts);
         println!("{name}: fails {failed:?}");
         assert!(!failed.is_empty(), "{name} passed the emissive gate");
