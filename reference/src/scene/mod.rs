@@ -21,7 +21,7 @@ mod transform;
 
 pub use builder::{Appearance, LightInput, MeshInput, SceneBuilder};
 pub use render_space::{RenderOrigin, RenderSpace};
-pub use settings::{RenderSettings, MAX_DEPTH, MAX_IMAGE_SIDE, MAX_PIXELS, MAX_SPP};
+pub use settings::{RenderSettings, MAX_DEPTH, MAX_IMAGE_SIDE, MAX_SPP};
 pub use transform::Transform;
 
 use crate::background::Background;

@@ -34,16 +34,12 @@ impl Default for RenderSettings {
 }
 
 /// Limits on render parameters: beyond them an image is a mistake, not a
-/// request (16384² RGB f64 mean+variance accumulators are ~12 GiB).
-pub const MAX_IMAGE_SIDE: u32 = 16_384;
-
-/// At most [`MAX_IMAGE_SIDE`]² pixels (2^28): every image the side limit
-/// allows. Whether this machine can hold a render of that size is checked
-/// against its memory where the render starts (the CLI's
+/// request. Whether this machine can hold a render of a size within them
+/// is checked against its memory where the render starts (the CLI's
 /// `twintrace::host_memory`), so a 15360x8640 frame renders where the
 /// memory is there (a GPU film in bands) and is refused in one line where
 /// it is not.
-pub const MAX_PIXELS: u64 = (MAX_IMAGE_SIDE as u64) * (MAX_IMAGE_SIDE as u64);
+pub const MAX_IMAGE_SIDE: u32 = 16_384;
 
 pub const MAX_SPP: u32 = 1 << 24;
 
