@@ -374,7 +374,11 @@ impl Xvfb {
                 .stderr(Stdio::null())
                 .spawn()
                 .expect("Xvfb runs (`cargo xtask test` installs it: apt package xvfb)");
-            for _ in 0..100 {
+            // Up to 30 s: on CI's two busy cores the server took more than
+            // the 5 s this waited before (one window test failed so). An
+            // Xvfb that exits instead found the number taken (a display
+            // this test cannot see): the next number is tried.
+            for _ in 0..600 {
                 if Path::new(&format!("/tmp/.X11-unix/X{n}")).exists() {
                     return Xvfb {
                         child,
@@ -382,18 +386,34 @@ impl Xvfb {
                         _one_at_a_time: guard,
                     };
                 }
+                if let Ok(Some(_)) = child.try_wait() {
+                    break;
+                }
                 std::thread::sleep(std::time::Duration::from_millis(50));
             }
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("Xvfb did not start on {display}");
+            if let Ok(None) = child.try_wait() {
+                let _ = child.kill();
+                let _ = child.wait();
+                panic!("Xvfb did not start on {display} in 30 s");
+            }
         }
         panic!("no free X display number in 90..140");
     }
 }
 
 impl Drop for Xvfb {
+    /// SIGTERM first, so that the server removes its socket and lock (a
+    /// SIGKILL leaves both for the next test to clear); SIGKILL after 5 s.
     fn drop(&mut self) {
+        let _ = Command::new("kill")
+            .args(["-TERM", &self.child.id().to_string()])
+            .status();
+        for _ in 0..100 {
+            if let Ok(Some(_)) = self.child.try_wait() {
+                return;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        }
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
