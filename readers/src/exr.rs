@@ -88,9 +88,9 @@ fn attribute_u32(value: &AttributeValue) -> Option<u32> {
     }
 }
 
-/// Refuses a file whose parts are larger than any render or whose
-/// channels are too many, from its header alone; leaves `reader` where
-/// it was.
+/// Refuses a file whose parts are larger than any render, are compressed
+/// with a lossy method, or whose channels are too many, from its header
+/// alone; leaves `reader` where it was.
 fn check_header(reader: &mut (impl Read + Seek)) -> Result<()> {
     let start = reader.stream_position()?;
     let meta =
@@ -104,6 +104,20 @@ fn check_header(reader: &mut (impl Read + Seek)) -> Result<()> {
                 "part {i} is {}x{}, larger than any render ({MAX_IMAGE_SIDE} a side)",
                 size.0,
                 size.1
+            );
+        }
+        // Lossy compressions change the values a comparison judges (B44
+        // keeps 16-bit floats to within its blocks' ranges, DWA is a
+        // transform codec); renders are read bit for bit or not at all.
+        // The `exr` crate's B44 decoder also panics on some damaged
+        // blocks (fuzzing found one: an overflow in its bit unpacking).
+        use exr::compression::Compression as C;
+        if let C::B44 | C::B44A | C::DWAA(_) | C::DWAB(_) | C::HTJ2K32 | C::HTJ2K256 =
+            header.compression
+        {
+            bail!(
+                "part {i} is compressed with {:?}, a lossy method: renders are compared bit for bit, so write the EXR without loss (none, RLE, ZIP or PIZ)",
+                header.compression
             );
         }
         channels += header.channels.list.len();
@@ -333,5 +347,27 @@ pub(crate) mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("257 channels"), "{e}");
+    }
+
+    /// A 3x2 file of B44 blocks, damaged, on which the `exr` crate's
+    /// decoder panicked (fuzzing, exr_image): refused from its header,
+    /// as every lossy compression is.
+    #[test]
+    fn lossy_compressions_are_refused_from_the_header() {
+        let mut bytes = raw_exr(3, 2, &["R", "G", "B"], 1.0, 0);
+        let at = bytes
+            .windows(b"compression\0compression\0".len())
+            .position(|w| w == b"compression\0compression\0")
+            .unwrap()
+            + b"compression\0compression\0".len()
+            + 4;
+        for (code, name) in [(6u8, "B44"), (7, "B44A"), (8, "DWAA"), (9, "DWAB")] {
+            bytes[at] = code;
+            let e = read(Cursor::new(bytes.clone())).unwrap_err().to_string();
+            assert!(
+                e.contains(&format!("compressed with {name}")) && e.contains("lossy"),
+                "{name}: {e}"
+            );
+        }
     }
 }
