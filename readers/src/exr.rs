@@ -349,9 +349,22 @@ pub(crate) mod tests {
         assert!(e.contains("257 channels"), "{e}");
     }
 
-    /// A 3x2 file of B44 blocks, damaged, on which the `exr` crate's
-    /// decoder panicked (fuzzing, exr_image): refused from its header,
-    /// as every lossy compression is.
+    /// The input fuzzing found (exr_image, this reader's CI run): a 3x2
+    /// file of damaged B44A blocks, on which the `exr` crate's decoder
+    /// panicked in its worker thread (a subtraction overflowing in its bit
+    /// unpacking), which aborts the process. Refused from its header now.
+    /// It is also a seed of the target (fixtures/fuzz/exr_image/).
+    #[test]
+    fn the_damaged_b44a_file_fuzzing_found_is_an_error() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../fixtures/fuzz/exr_image/regression-b44a-overflow.exr");
+        let bytes = std::fs::read(&path).unwrap();
+        let e = read(Cursor::new(bytes)).unwrap_err().to_string();
+        assert!(e.contains("compressed with B44A, a lossy method"), "{e}");
+    }
+
+    /// Every lossy compression is refused from the header, before a block
+    /// is decoded.
     #[test]
     fn lossy_compressions_are_refused_from_the_header() {
         let mut bytes = raw_exr(3, 2, &["R", "G", "B"], 1.0, 0);
