@@ -594,23 +594,14 @@ fn sum(a: &NoisyImage, b: &NoisyImage) -> NoisyImage {
 }
 
 /// The emissive gate's verdicts on one backend, each `(what, passes,
-/// summary)`: the whole against emission plus reflection (MIS), emission
-/// alone by MIS against BSDF sampling (the panel's triangles sampled as
-/// lights from the sphere), and the emissive panel against the pure
-/// emitter of its texture. `render` renders a
-/// scene with an estimator and a seed.
+/// summary)`, in order: the whole against emission plus reflection (MIS),
+/// emission alone by MIS against BSDF sampling (the panel's triangles
+/// sampled as lights from the sphere), and the emissive panel against the
+/// pure emitter of its texture. `render` renders a scene with an
+/// estimator and a seed. With `first_failure`, only up to the first
+/// check that fails (a mutant is caught by one: its test renders no more
+/// than that takes).
 fn emissive_verdicts(
-    s: &EmissiveScenes,
-    seed: u32,
-    render: &dyn Fn(&Scene, Integrator, u32) -> NoisyImage,
-) -> Vec<(String, bool, String)> {
-    emissive_checks(s, seed, render, false)
-}
-
-/// The emissive gate's three checks in order (see [`emissive_verdicts`]);
-/// with `first_failure`, only up to the first that fails (a mutant is
-/// caught by one: its test renders no more than that takes).
-fn emissive_checks(
     s: &EmissiveScenes,
     seed: u32,
     render: &dyn Fn(&Scene, Integrator, u32) -> NoisyImage,
@@ -705,6 +696,7 @@ fn emission_adds_to_a_textured_normal_mapped_bsdf() {
             &s,
             common::seed(EMISSIVE_SEED),
             &|scene, integrator, seed| render_by(backend, integrator, scene, seed),
+            false,
         );
         assert_all_pass(backend, &verdicts);
     }
@@ -724,7 +716,7 @@ fn the_emissive_gate_fails_when_either_part_is_dropped_on_the_cpu() {
     use reference::mutants::{pool, Mutant};
     let s = emissive_scenes();
     for mutant in [Mutant::AddedEmissionDropped, Mutant::EmissiveBsdfDropped] {
-        let verdicts = emissive_checks(
+        let verdicts = emissive_verdicts(
             &s,
             EMISSIVE_SEED,
             &|scene, integrator, seed| {
@@ -764,7 +756,7 @@ fn the_emissive_gate_fails_when_either_part_is_dropped_on_the_gpu() {
     let s = emissive_scenes();
     for (name, program) in &mutants {
         assert_ne!(program, &production, "{name}: the edit missed");
-        let verdicts = emissive_checks(
+        let verdicts = emissive_verdicts(
             &s,
             EMISSIVE_SEED,
             &|scene, integrator, seed| {
