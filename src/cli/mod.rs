@@ -658,15 +658,16 @@ fn render(args: &RenderArgs) -> Result<()> {
     {
         use twintrace::host_memory as mem;
         // A software adapter's film (lavapipe's) is in host memory too.
-        let film = |ctxs: &[&gpu::GpuContext]| {
-            ctxs.iter().filter(|c| c.is_software).count() as u64 * mem::DEVICE_FILM_BYTES_PER_PIXEL
+        let software = match &device {
+            Device::Cpu => 0,
+            Device::Gpu(ctx) => ctx.is_software as u64,
+            Device::Gpus(ctxs) => ctxs.iter().filter(|c| c.is_software).count() as u64,
         };
         let (backend, base) = match &device {
             Device::Cpu => ("cpu", mem::CPU_BYTES_PER_PIXEL),
-            Device::Gpu(ctx) => ("gpu", mem::GPU_BYTES_PER_PIXEL + film(&[&**ctx])),
-            Device::Gpus(ctxs) => (
+            Device::Gpu(_) | Device::Gpus(_) => (
                 "gpu",
-                mem::GPU_BYTES_PER_PIXEL + film(&ctxs.iter().collect::<Vec<_>>()),
+                mem::GPU_BYTES_PER_PIXEL + software * mem::DEVICE_FILM_BYTES_PER_PIXEL,
             ),
         };
         let sums = samples.is_some() || checkpoint.is_some() || args.resume.is_some();
