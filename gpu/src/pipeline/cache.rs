@@ -88,12 +88,20 @@ impl<K: std::hash::Hash + Eq + Clone, V: Clone> Lru<K, V> {
 /// wait for the one building it; other programs build meanwhile.
 pub(super) type ModuleCell = std::sync::Arc<std::sync::OnceLock<wgpu::ShaderModule>>;
 
+/// Held by the thread building a set of pipelines.
+pub(super) type BuildLock = std::sync::Arc<Mutex<()>>;
+
 /// The per-device caches of modules, layouts and pipelines.
 pub(crate) struct Caches {
     /// Keyed by the runtime checks and the program's text.
     pub(super) modules: Mutex<Lru<(crate::Checks, String), ModuleCell>>,
     pub(super) layouts: Mutex<HashMap<&'static str, wgpu::BindGroupLayout>>,
     pub(super) pipelines: Mutex<Lru<PipelineKey, wgpu::ComputePipeline>>,
+    /// The pipelines being built, by their keys: a thread that needs the
+    /// same ones waits for the thread building them and then finds them
+    /// in [`Caches::pipelines`] (the gates render many scenes with one
+    /// kernel at once; each would otherwise compile it).
+    pub(super) building: Mutex<HashMap<Vec<PipelineKey>, BuildLock>>,
     /// Time spent building modules and pipelines, summed over threads.
     pub(super) module_nanos: AtomicU64,
     pub(super) pipeline_nanos: AtomicU64,
@@ -121,6 +129,7 @@ impl Caches {
             modules: Mutex::new(Lru::new(MODULES_KEPT)),
             layouts: Mutex::new(HashMap::new()),
             pipelines: Mutex::new(Lru::new(pipelines)),
+            building: Mutex::new(HashMap::new()),
             module_nanos: AtomicU64::new(0),
             pipeline_nanos: AtomicU64::new(0),
         }

@@ -118,20 +118,55 @@ pub fn compile_entries(
             layouts: layouts.iter().map(|l| (*l).clone()).collect(),
         })
         .collect();
-    {
+    let cached = |keys: &[PipelineKey]| {
         let mut cached = ctx
             .caches
             .pipelines
             .lock()
             .unwrap_or_else(|p| p.into_inner());
-        if let Some(found) = keys
-            .iter()
+        keys.iter()
             .map(|k| cached.get(k))
             .collect::<Option<Vec<_>>>()
-        {
-            return Ok(found);
-        }
+    };
+    if let Some(found) = cached(&keys) {
+        return Ok(found);
     }
+    // One thread builds a set of pipelines; the others that need it wait
+    // and find it built (or, where its build failed, try their own).
+    let lock = ctx
+        .caches
+        .building
+        .lock()
+        .unwrap_or_else(|p| p.into_inner())
+        .entry(keys.clone())
+        .or_default()
+        .clone();
+    let _building = lock.lock().unwrap_or_else(|p| p.into_inner());
+    let built = match cached(&keys) {
+        Some(found) => Ok(found),
+        None => build_entries(ctx, checks, source, entries, constants, keys.clone()),
+    };
+    let mut building = ctx
+        .caches
+        .building
+        .lock()
+        .unwrap_or_else(|p| p.into_inner());
+    // The last thread out forgets the lock (this one and the map hold it).
+    if std::sync::Arc::strong_count(&lock) <= 2 {
+        building.remove(&keys);
+    }
+    built
+}
+
+/// [`compile_entries`]'s build of pipelines not in the cache, put there.
+fn build_entries(
+    ctx: &GpuContext,
+    checks: Checks,
+    source: &str,
+    entries: &[(&str, &[&wgpu::BindGroupLayout])],
+    constants: &[(&str, f64)],
+    keys: Vec<PipelineKey>,
+) -> Result<Vec<wgpu::ComputePipeline>, GpuError> {
     let device = &ctx.device;
     let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
     let cell = {
