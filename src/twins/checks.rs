@@ -8,9 +8,11 @@
 //! The default variant's path megakernel is held to the megakernel by
 //! `super::wavefront`, trusted on both sides of that rule.
 
-use super::specialization::{every_scene, oracle_film, variant_film_bits, Build, SIZE};
+use super::specialization::{
+    every_variant, gate_kernel, gate_kernel_words, gate_scenes, oracle_film, variant_film_bits,
+    Build, SIZE,
+};
 use super::Outcome;
-use gpu::features::Kernel;
 use gpu::{Checks, GpuContext};
 use reference::integrator::Integrator;
 use reference::Scene;
@@ -26,11 +28,22 @@ pub fn compare_scene(
     integrator: Integrator,
     program: &str,
 ) -> Result<(usize, u64), String> {
-    let features = Kernel::Specialized.features(scene);
     let oracle = oracle_film(ctx, spec, scene, integrator, "the checked kernel")?;
+    compare_with(ctx, spec, scene, &oracle, integrator, program)
+}
+
+/// [`compare_scene`] against the checked kernel's film already rendered.
+fn compare_with(
+    ctx: &GpuContext,
+    spec: &str,
+    scene: &Scene,
+    oracle: &[u64],
+    integrator: Integrator,
+    program: &str,
+) -> Result<(usize, u64), String> {
     let trusted = Build {
         checks: Checks::Trusted,
-        ..Build::megakernel(program, integrator, features)
+        ..Build::megakernel(program, integrator, gate_kernel(ctx).features(scene))
     };
     let film = variant_film_bits(ctx, scene, trusted, &[None])?.remove(0);
     let words = super::specialization::WORDS_PER_PIXEL;
@@ -74,12 +87,22 @@ pub fn some_scenes(ctx: &GpuContext, specs: &[&str]) -> Outcome {
 /// word for word. Every scene is compared; the error lists each failure.
 pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let program = gpu::shader::render_source();
-    let (scenes, _) = every_scene(|spec, scene, integrator| {
-        compare_scene(ctx, spec, scene, integrator, &program)
+    let scenes = gate_scenes(ctx, "the checked kernel")?;
+    every_variant(&scenes, &[()], |s, integrator, ()| {
+        Some(compare_with(
+            ctx,
+            &s.spec,
+            &s.scene,
+            s.oracle(integrator),
+            integrator,
+            &program,
+        ))
     })?;
     let (width, height, _) = SIZE;
     Ok(format!(
-        "{scenes} scenes × 2 estimators: the trusted kernel's films equal the checked kernel's word for word ({} pixels)",
-        scenes * 2 * (width * height) as usize
+        "{} scenes × 2 estimators: the trusted kernel's films equal the checked kernel's word for word ({} pixels; {})",
+        scenes.len(),
+        scenes.len() * 2 * (width * height) as usize,
+        gate_kernel_words(ctx)
     ))
 }

@@ -8,10 +8,12 @@
 //! differs, so any difference beyond the rule is a selection slip (a kind
 //! sent to another's code, or lost).
 
-use super::specialization::{every_scene, oracle_film, variant_film_bits, Build, SIZE};
+use super::specialization::{
+    every_variant, gate_kernel, gate_kernel_words, gate_scenes, oracle_film, variant_film_bits,
+    Build, SIZE,
+};
 use super::wavefront::compare_words;
 use super::Outcome;
-use gpu::features::Kernel;
 use gpu::{Dispatch, GpuContext};
 use reference::integrator::Integrator;
 use reference::Scene;
@@ -26,14 +28,25 @@ pub fn compare_scene(
     integrator: Integrator,
     program: &str,
 ) -> Result<(usize, u64), String> {
-    let features = Kernel::Specialized.features(scene);
     let oracle = oracle_film(ctx, spec, scene, integrator, "the switch kernel")?;
+    compare_with(ctx, spec, scene, &oracle, integrator, program)
+}
+
+/// [`compare_scene`] against the switch kernel's film already rendered.
+fn compare_with(
+    ctx: &GpuContext,
+    spec: &str,
+    scene: &Scene,
+    oracle: &[u64],
+    integrator: Integrator,
+    program: &str,
+) -> Result<(usize, u64), String> {
     let branches = Build {
         dispatch: Dispatch::Branches,
-        ..Build::megakernel(program, integrator, features)
+        ..Build::megakernel(program, integrator, gate_kernel(ctx).features(scene))
     };
     let film = variant_film_bits(ctx, scene, branches, &[None])?.remove(0);
-    compare_words(&oracle, &film)
+    compare_words(oracle, &film)
         .map_err(|e| format!("{spec} ({}, branch dispatch): {e}", integrator.name()))
 }
 
@@ -41,13 +54,22 @@ pub fn compare_scene(
 /// under the rule. Every scene is compared; the error lists each failure.
 pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let program = gpu::shader::render_source();
-    let (scenes, inexact) = every_scene(|spec, scene, integrator| {
-        compare_scene(ctx, spec, scene, integrator, &program)
+    let scenes = gate_scenes(ctx, "the switch kernel")?;
+    let (films, inexact) = every_variant(&scenes, &[()], |s, integrator, ()| {
+        Some(compare_with(
+            ctx,
+            &s.spec,
+            &s.scene,
+            s.oracle(integrator),
+            integrator,
+            &program,
+        ))
     })?;
     let (width, height, _) = SIZE;
-    let compared = scenes * 2 * (width * height) as usize;
     Ok(format!(
-        "{scenes} scenes × 2 estimators: the branch-dispatch kernel's films equal the switch kernel's {}",
-        inexact.exactness(compared)
+        "{} scenes × 2 estimators: the branch-dispatch kernel's films equal the switch kernel's {} ({})",
+        scenes.len(),
+        inexact.exactness(films * (width * height) as usize),
+        gate_kernel_words(ctx)
     ))
 }

@@ -54,8 +54,8 @@ pub fn film_bits(
 }
 
 /// The oracle's film of `scene` for the GPU-against-GPU gates (the
-/// megakernel, switch dispatch, binary walk over indexed leaves, kernel
-/// specialized to the scene), checked not to be vacuous: every sample
+/// megakernel, switch dispatch, binary walk over indexed leaves, with
+/// [`gate_kernel`]'s features), checked not to be vacuous: every sample
 /// counted, none rejected (a poisoned sample in both films would compare
 /// equal). `oracle` names it in the error.
 pub fn oracle_film(
@@ -65,7 +65,7 @@ pub fn oracle_film(
     integrator: Integrator,
     oracle: &str,
 ) -> Result<Vec<u64>, String> {
-    let features = Kernel::Specialized.features(scene);
+    let features = gate_kernel(ctx).features(scene);
     let film = film_bits(ctx, scene, integrator, features)?;
     let (width, height, spp) = SIZE;
     let (counted, rejected) = counts(&film);
@@ -78,37 +78,111 @@ pub fn oracle_film(
     Ok(film)
 }
 
-/// Runs `compare` on every scene of [`scene_specs`] with both estimators
-/// and gathers what was not bit for bit: the number of scenes, or every
-/// failure joined. Every scene is compared, so the error lists each one
-/// that fails.
-pub fn every_scene(
-    compare: impl Fn(&str, &Scene, Integrator) -> Result<(usize, u64), String> + Sync,
-) -> Result<(usize, super::wavefront::Inexact), String> {
+/// The kernel the GPU-against-GPU gates ([`super::checks`],
+/// [`super::dispatch`], [`super::traversal`]'s films,
+/// [`super::wavefront`]) build their oracle and variant films with on
+/// `ctx`. On hardware, the kernel specialized to each scene: the default
+/// variant's, a compile a scene. On a software adapter (lavapipe, CI),
+/// one general kernel a variant serves every scene: there a compile costs
+/// about a second of CPU and was most of what those gates cost. The
+/// specialized kernel is held to the general one on every scene by
+/// [`all_scenes`], so what those gates show on lavapipe of a variant with
+/// the general kernel holds for it specialized too, but for a slip that
+/// only specialization and the variant together make: the H100 suite and
+/// `selftest` on a GPU run the specialized kernels. `TWINTRACE_GATES=full`
+/// asks for them on a software adapter too.
+pub fn gate_kernel(ctx: &GpuContext) -> Kernel {
+    let full = std::env::var("TWINTRACE_GATES").is_ok_and(|v| v == "full");
+    if ctx.is_software && !full {
+        Kernel::General
+    } else {
+        Kernel::Specialized
+    }
+}
+
+/// What the gates' summary lines say of [`gate_kernel`].
+pub fn gate_kernel_words(ctx: &GpuContext) -> &'static str {
+    match gate_kernel(ctx) {
+        Kernel::General => "one general kernel a variant for every scene (a software adapter)",
+        Kernel::Specialized => "kernels specialized to each scene",
+    }
+}
+
+/// A scene of [`scene_specs`] and its oracle's films ([`oracle_film`]),
+/// one an estimator (in the order of `Integrator::ALL`).
+pub struct GateScene {
+    pub spec: String,
+    pub scene: Scene,
+    oracle: Vec<Vec<u64>>,
+}
+
+impl GateScene {
+    /// The oracle's film with `integrator`.
+    pub fn oracle(&self, integrator: Integrator) -> &[u64] {
+        let i = Integrator::ALL.iter().position(|&x| x == integrator);
+        &self.oracle[i.unwrap_or(0)]
+    }
+}
+
+/// Every scene of [`scene_specs`] with its oracle's films (`oracle` names
+/// the oracle in errors): an estimator at a time, the scenes in parallel
+/// ([`super::par_map`]), so that a general kernel ([`gate_kernel`]) is
+/// compiled once for all of them.
+pub fn gate_scenes(ctx: &GpuContext, oracle: &str) -> Result<Vec<GateScene>, String> {
     let specs = scene_specs()?;
+    let loaded = super::par_map(&specs, |spec| {
+        reference::load_scene(spec).map_err(|e| format!("{spec}: {e}"))
+    });
+    let mut scenes = Vec::with_capacity(specs.len());
+    for (spec, scene) in specs.into_iter().zip(loaded) {
+        scenes.push(GateScene {
+            spec,
+            scene: scene?,
+            oracle: Vec::new(),
+        });
+    }
+    for integrator in Integrator::ALL {
+        let films = super::par_map(&scenes, |s| {
+            oracle_film(ctx, &s.spec, &s.scene, integrator, oracle)
+        });
+        for (s, film) in scenes.iter_mut().zip(films) {
+            s.oracle.push(film?);
+        }
+    }
+    Ok(scenes)
+}
+
+/// Runs `compare(scene, estimator, variant)` for every variant of
+/// `variants`, both estimators and every scene of `scenes`, variant by
+/// variant and estimator by estimator with the scenes in parallel (one
+/// kernel a variant and estimator, where [`gate_kernel`] is general);
+/// `compare` returns `None` for a case it does not judge. Returns the
+/// cases compared and the pixels not bit for bit; every case is
+/// compared, and the error lists each one that fails.
+pub fn every_variant<V: Copy + Sync>(
+    scenes: &[GateScene],
+    variants: &[V],
+    compare: impl Fn(&GateScene, Integrator, V) -> Option<Result<(usize, u64), String>> + Sync,
+) -> Result<(usize, super::wavefront::Inexact), String> {
     let mut failures = Vec::new();
     let mut inexact = super::wavefront::Inexact::default();
-    // Scenes in parallel (super::par_map), each with both estimators.
-    let outcomes = super::par_map(&specs, |spec| {
-        let scene = reference::load_scene(spec).map_err(|e| format!("{spec}: {e}"))?;
-        Ok::<_, String>(
-            Integrator::ALL
-                .map(|integrator| compare(spec, &scene, integrator))
-                .to_vec(),
-        )
-    });
-    for outcome in outcomes {
-        for found in outcome? {
-            match found {
-                Ok(found) => inexact.add(found),
-                Err(e) => failures.push(e),
+    let mut cases = 0;
+    for &variant in variants {
+        for integrator in Integrator::ALL {
+            let outcomes = super::par_map(scenes, |s| compare(s, integrator, variant));
+            for found in outcomes.into_iter().flatten() {
+                cases += 1;
+                match found {
+                    Ok(found) => inexact.add(found),
+                    Err(e) => failures.push(e),
+                }
             }
         }
     }
     if !failures.is_empty() {
         return Err(failures.join("; "));
     }
-    Ok((specs.len(), inexact))
+    Ok((cases, inexact))
 }
 
 /// What a compared render is built with.

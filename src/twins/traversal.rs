@@ -23,11 +23,11 @@
 
 use super::hits::{ray_words, scenes, SNIPPET};
 use super::specialization::{
-    oracle_film, packed_film_bits, scene_specs, variant_film_bits, Build, SIZE,
+    every_variant, gate_kernel, gate_kernel_words, gate_scenes, oracle_film, packed_film_bits,
+    variant_film_bits, Build, SIZE,
 };
-use super::wavefront::{compare_words, Inexact};
+use super::wavefront::compare_words;
 use super::{camera_and_random_rays, run_kernel_walking, Outcome};
-use gpu::features::Kernel;
 use gpu::scene_buffers::PackedScene;
 use gpu::{GpuContext, LeafLayout, NodeLayout, Traversal};
 use reference::integrator::Integrator;
@@ -191,7 +191,7 @@ pub fn compare_films_with(
     (walk, integrator): (Walk, Integrator),
     program: &str,
 ) -> Result<(usize, u64), String> {
-    let features = Kernel::Specialized.features(scene);
+    let features = gate_kernel(ctx).features(scene);
     let build = Build {
         traversal: walk.0,
         nodes: walk.1,
@@ -223,7 +223,7 @@ pub fn compare_packed_films_with(
         traversal: walk.0,
         nodes: walk.1,
         leaves: walk.2,
-        ..Build::megakernel(program, integrator, Kernel::Specialized.features(scene))
+        ..Build::megakernel(program, integrator, gate_kernel(ctx).features(scene))
     };
     let film = packed_film_bits(ctx, scene, packed, build, &[None])?.remove(0);
     compare_words(binary, &film).map_err(|e| {
@@ -372,35 +372,22 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
             Err(e) => failures.push(e),
         }
     }
-    let specs = scene_specs()?;
-    let (mut inexact, mut films) = (Inexact::default(), 0usize);
-    // Every (scene, estimator) in parallel: its binary walk's film, then
-    // each walk's against it.
-    let film_items: Vec<(&String, Integrator)> = specs
-        .iter()
-        .flat_map(|spec| Integrator::ALL.map(|i| (spec, i)))
-        .collect();
-    let outcomes = super::par_map(&film_items, |&(spec, integrator)| {
-        let scene = reference::load_scene(spec).map_err(|e| format!("{spec}: {e}"))?;
-        let binary = oracle_film(ctx, spec, &scene, integrator, "the binary walk")?;
-        let found: Vec<_> = VARIANTS
-            .into_iter()
-            .filter(|&w| brute_force_takes(&scene, w) && film_estimators(w).contains(&integrator))
-            .map(|walk| {
-                compare_films_with(ctx, spec, &scene, &binary, (walk, integrator), &program)
-            })
-            .collect();
-        Ok::<_, String>(found)
+    let scenes = gate_scenes(ctx, "the binary walk")?;
+    let films = every_variant(&scenes, &VARIANTS, |s, integrator, walk| {
+        (brute_force_takes(&s.scene, walk) && film_estimators(walk).contains(&integrator)).then(
+            || {
+                let binary = s.oracle(integrator);
+                compare_films_with(ctx, &s.spec, &s.scene, binary, (walk, integrator), &program)
+            },
+        )
     });
-    for outcome in outcomes {
-        for found in outcome? {
-            films += 1;
-            match found {
-                Ok(found) => inexact.add(found),
-                Err(e) => failures.push(e),
-            }
+    let (films, inexact) = match films {
+        Ok(found) => found,
+        Err(e) => {
+            failures.push(e);
+            (0, Default::default())
         }
-    }
+    };
     if !failures.is_empty() {
         return Err(failures.join("; "));
     }
@@ -410,10 +397,11 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     Ok(format!(
         "bvh4, cwbvh8, brute force (scenes of at most {} primitives), SoA nodes (bvh2, bvh4, cwbvh8) and inline leaves (bvh2, bvh4, cwbvh8; SoA on bvh2): hit records equal the binary walk's bit for bit (rays that hit: {}); \
          cwbvh8's {compressed_boxes} dequantized boxes on those scenes equal the host's bit for bit; \
-         {} scenes × 2 estimators ({films} films: brute force on the scenes of at most {} primitives, the layouts under the binary and cwbvh8 walks with MIS only, the others on every scene): films equal the binary walk's {exactness}",
+         {} scenes × 2 estimators ({films} films: brute force on the scenes of at most {} primitives, the layouts under the binary and cwbvh8 walks with MIS only, the others on every scene; {}): films equal the binary walk's {exactness}",
         gpu::renderer::BRUTE_FORCE_MAX_PRIMITIVES,
         hit_lines.join(", "),
-        specs.len(),
-        gpu::renderer::BRUTE_FORCE_MAX_PRIMITIVES
+        scenes.len(),
+        gpu::renderer::BRUTE_FORCE_MAX_PRIMITIVES,
+        gate_kernel_words(ctx)
     ))
 }
