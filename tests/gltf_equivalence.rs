@@ -294,7 +294,7 @@ fn render_by(backend: &str, integrator: Integrator, scene: &Scene, seed: u32) ->
     let film: Film = match backend {
         "cpu" => render_with(scene, &settings(seed), integrator, &|_| {}),
         _ => {
-            gpu::GpuRenderer::with_integrator(common::gpu(), scene, integrator)
+            common::default_renderer(scene, integrator)
                 .unwrap()
                 .render(&settings(seed), &|_, _| {})
                 .unwrap()
@@ -732,7 +732,7 @@ fn the_emissive_gate_fails_when_either_part_is_dropped_on_the_cpu() {
 
 #[test]
 fn the_emissive_gate_fails_when_either_part_is_dropped_on_the_gpu() {
-    let production = gpu::shader::render_source();
+    let production = common::default_program();
     // The added emission read as black at every hit (light samples still
     // see it), and the emissive material turned into the pure emitter of
     // its emission (what glTF import made of it before).
@@ -760,17 +760,10 @@ fn the_emissive_gate_fails_when_either_part_is_dropped_on_the_gpu() {
             &s,
             EMISSIVE_SEED,
             &|scene, integrator, seed| {
-                let packed = gpu::scene_buffers::PackedScene::new(scene);
-                let film = gpu::GpuRenderer::with_program(
-                    common::gpu(),
-                    &packed,
-                    scene,
-                    program,
-                    integrator,
-                )
-                .and_then(|r| r.render(&settings(seed), &|_, _| {}))
-                .unwrap_or_else(|e| panic!("{e}"))
-                .film;
+                let film = common::default_renderer_from(scene, integrator, program)
+                    .and_then(|r| r.render(&settings(seed), &|_, _| {}))
+                    .unwrap_or_else(|e| panic!("{e}"))
+                    .film;
                 NoisyImage::from_film(&film)
             },
             true,

@@ -10,9 +10,11 @@ use twintrace::compare::furnace;
 const SEED: u32 = 13;
 
 fn gpu_render(scene: &Scene, settings: &RenderSettings) -> Result<Film> {
-    Ok(gpu::GpuRenderer::new(common::gpu(), scene)?
-        .render(settings, &|_, _| {})?
-        .film)
+    Ok(
+        common::default_renderer(scene, reference::integrator::Integrator::Bsdf)?
+            .render(settings, &|_, _| {})?
+            .film,
+    )
 }
 
 #[test]
@@ -31,13 +33,11 @@ fn white_furnaces_are_exact_or_unbiased_on_the_gpu() {
     assert_known_answer(
         &furnace::white_furnace(false, 64, SEED).unwrap(),
         &|scene: &Scene, settings: &RenderSettings| -> Result<Film> {
-            Ok(gpu::GpuRenderer::with_integrator(
-                common::gpu(),
-                scene,
-                reference::integrator::Integrator::Mis,
-            )?
-            .render(settings, &|_, _| {})?
-            .film)
+            Ok(
+                common::default_renderer(scene, reference::integrator::Integrator::Mis)?
+                    .render(settings, &|_, _| {})?
+                    .film,
+            )
         },
     );
 }

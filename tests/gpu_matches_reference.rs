@@ -20,10 +20,13 @@ use twintrace::compare::image::{compare, Method, NoisyImage, TestSettings};
 /// The seed of the GPU renders; the references use 1, the CPU gates 7.
 const GPU_SEED: u32 = 11;
 
+/// The default variant with BSDF sampling (the stored references' set).
 fn gpu_render(scene: &Scene, settings: &RenderSettings) -> Result<Film> {
-    Ok(gpu::GpuRenderer::new(common::gpu(), scene)?
-        .render(settings, &|_, _| {})?
-        .film)
+    Ok(
+        common::default_renderer(scene, reference::integrator::Integrator::Bsdf)?
+            .render(settings, &|_, _| {})?
+            .film,
+    )
 }
 
 /// One GPU gate per reference (the list and its budgets:
@@ -125,20 +128,15 @@ fn gltf_materials_gate_with(from: &str, to: &str) -> twintrace::compare::gate::G
     let spec = manifest_entry("gltf-materials").unwrap();
     let reference = load_reference(&spec).unwrap();
     let scene = load_scene(&spec).unwrap();
-    let program = gpu::shader::render_source();
+    let program = common::default_program();
     assert_eq!(program.matches(from).count(), 1, "`{from}` not found once");
     let mutant = program.replace(from, to);
     let render = |scene: &Scene, settings: &RenderSettings| -> Result<Film> {
-        let packed = gpu::scene_buffers::PackedScene::new(scene);
-        Ok(gpu::GpuRenderer::with_program(
-            common::gpu(),
-            &packed,
-            scene,
-            &mutant,
-            reference::integrator::Integrator::Bsdf,
-        )?
-        .render(settings, &|_, _| {})?
-        .film)
+        Ok(
+            common::default_renderer_from(scene, reference::integrator::Integrator::Bsdf, &mutant)?
+                .render(settings, &|_, _| {})?
+                .film,
+        )
     };
     // A quarter of the gate's budget (1024 spp): a mutant the gate fails
     // with less power it fails with more; a quarter of lavapipe's time.

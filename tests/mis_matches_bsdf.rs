@@ -35,11 +35,9 @@ fn render_cpu_mis(scene: &Scene, settings: &RenderSettings) -> Result<Film> {
 }
 
 fn render_gpu_mis(scene: &Scene, settings: &RenderSettings) -> Result<Film> {
-    Ok(
-        gpu::GpuRenderer::with_integrator(common::gpu(), scene, Integrator::Mis)?
-            .render(settings, &|_, _| {})?
-            .film,
-    )
+    Ok(common::default_renderer(scene, Integrator::Mis)?
+        .render(settings, &|_, _| {})?
+        .film)
 }
 
 /// The two stored references of every fixture agree (Welch).
@@ -162,7 +160,7 @@ fn gpu_and_cpu_mis_on_the_built_in_scenes() {
             let st = settings(64, 31);
             let cpu = |i| render_with(&scene, &st, i, &|_| {});
             let gpu = |i| {
-                gpu::GpuRenderer::with_integrator(common::gpu(), &scene, i)
+                common::default_renderer(&scene, i)
                     .and_then(|r| r.render(&st, &|_, _| {}))
                     .unwrap()
                     .film

@@ -264,6 +264,19 @@ impl<'a> GpuRenderer<'a> {
         scene: &'a Scene,
         variant: Variant,
     ) -> Result<Self, GpuError> {
+        let program = shader::schedule_source(variant.schedule);
+        Self::with_variant_program(ctx, scene, variant, &program)
+    }
+
+    /// [`Self::with_variant`] with the kernels compiled from `program`,
+    /// the schedule's WGSL (`shader::schedule_source`) or a test's edit
+    /// of it (the statistical gates' mutants of the default variant).
+    pub fn with_variant_program(
+        ctx: &'a GpuContext,
+        scene: &'a Scene,
+        variant: Variant,
+        program: &str,
+    ) -> Result<Self, GpuError> {
         let Variant {
             integrator,
             kernel,
@@ -275,10 +288,6 @@ impl<'a> GpuRenderer<'a> {
             checks,
         } = variant;
         let packed = PackedScene::for_walk(scene, traversal, leaves).with_node_layout(nodes);
-        let program = match schedule {
-            Schedule::Megakernel => shader::render_source(),
-            Schedule::Wavefront(_) | Schedule::PathMegakernel => shader::wavefront_source(),
-        };
         let spec = KernelSpec {
             integrator,
             features: kernel.features(scene),
@@ -286,7 +295,7 @@ impl<'a> GpuRenderer<'a> {
             dispatch,
             checks,
         };
-        Self::build_scheduled(ctx, &packed, scene, &program, spec)
+        Self::build_scheduled(ctx, &packed, scene, program, spec)
     }
 
     /// Uploads already packed records (tests overwrite some first); `scene`

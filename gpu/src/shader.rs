@@ -258,6 +258,16 @@ pub fn render_source() -> String {
     [library_source().as_str(), INTEGRATOR_WGSL].join("\n")
 }
 
+/// The program of `schedule`'s kernels: [`render_source`] for the
+/// megakernel, [`wavefront_source`] for the wave schedules and the path
+/// megakernel.
+pub fn schedule_source(schedule: crate::Schedule) -> String {
+    match schedule {
+        crate::Schedule::Megakernel => render_source(),
+        crate::Schedule::Wavefront(_) | crate::Schedule::PathMegakernel => wavefront_source(),
+    }
+}
+
 /// The wavefront program: the render program, the wavefront's bindings
 /// ([`bindings::WAVE_GROUP`], [`bindings::WAVE_ARGS`]) and the constants
 /// it shares with `gpu::wavefront` (slot sizes, workgroup size, grid

@@ -49,6 +49,40 @@ pub fn gpu() -> &'static gpu::GpuContext {
     })
 }
 
+/// The shipped GPU variant (`gpu::Variant::DEFAULT`: what `render`,
+/// `selftest` and `perf` run) with `integrator`, built for `scene`: what
+/// the statistical gates judge on the GPU. The other variants are held to
+/// it bit for bit (or a few ulp) by the GPU-against-GPU gates.
+pub fn default_renderer<'a>(
+    scene: &'a reference::Scene,
+    integrator: reference::integrator::Integrator,
+) -> Result<gpu::GpuRenderer<'a>, gpu::GpuError> {
+    gpu::GpuRenderer::with_variant(gpu(), scene, default_variant(integrator))
+}
+
+/// [`default_renderer`] compiled from `program`: [`default_program`] with
+/// a test's deliberate defect.
+pub fn default_renderer_from<'a>(
+    scene: &'a reference::Scene,
+    integrator: reference::integrator::Integrator,
+    program: &str,
+) -> Result<gpu::GpuRenderer<'a>, gpu::GpuError> {
+    gpu::GpuRenderer::with_variant_program(gpu(), scene, default_variant(integrator), program)
+}
+
+/// The default variant with `integrator`.
+pub fn default_variant(integrator: reference::integrator::Integrator) -> gpu::Variant {
+    gpu::Variant {
+        integrator,
+        ..gpu::Variant::DEFAULT
+    }
+}
+
+/// The WGSL of the default variant's kernels (its schedule's program).
+pub fn default_program() -> String {
+    gpu::shader::schedule_source(gpu::Variant::DEFAULT.schedule)
+}
+
 /// A statistical gate's seed: `base`, moved by the run's seed shift
 /// (`TWINTRACE_SEED_SHIFT`, a whole number, default 0). CI runs shift 0;
 /// `false-alarms.sh` in the GPU suite package runs the same gates,
@@ -132,7 +166,7 @@ pub fn assert_backends_agree(
         integrator,
         &|_| {},
     );
-    let gpu = gpu::GpuRenderer::with_integrator(gpu(), scene, integrator)
+    let gpu = default_renderer(scene, integrator)
         .and_then(|r| {
             r.render(
                 &RenderSettings {
