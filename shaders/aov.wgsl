@@ -97,10 +97,13 @@ fn aov_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if gid.x >= params.width || gid.y >= params.height {
         return;
     }
+    // The sums' pixel (in their band) and the image's row, which keys the
+    // camera ray (gpu::aov: the sums in bands, as the film).
     let pixel = gid.y * params.width + gid.x;
+    let y = params.band_row + gid.y;
     var s = aov_sums_load(pixel);
     for (var i = 0u; i < params.sample_count; i++) {
-        aov_sums_add(&s, first_hit(camera_ray(gid.x, gid.y, params.sample_start + i)));
+        aov_sums_add(&s, first_hit(camera_ray(gid.x, y, params.sample_start + i)));
     }
     aov_sums_store(pixel, s);
 }

@@ -40,8 +40,8 @@ fn an_aov_kernel_with_a_defect_fails_the_twin() {
         ),
         (
             "the range's first sample ignored",
-            "camera_ray(gid.x, gid.y, params.sample_start + i)",
-            "camera_ray(gid.x, gid.y, i)",
+            "camera_ray(gid.x, y, params.sample_start + i)",
+            "camera_ray(gid.x, y, i)",
             "cornell",
         ),
         (

@@ -19,7 +19,7 @@ fn a_broken_shader_is_a_shader_error() {
 }
 
 #[test]
-fn aovs_beyond_the_buffer_limit_are_refused_and_the_film_is_banded() {
+fn films_and_aovs_beyond_the_buffer_limit_are_banded() {
     let ctx = common::gpu();
     let limit = ctx.device.limits().max_storage_buffer_binding_size;
     // The largest image the settings allow: 8192² pixels of 224 bytes (14 GiB)
@@ -43,12 +43,12 @@ fn aovs_beyond_the_buffer_limit_are_refused_and_the_film_is_banded() {
     let film_bytes = pixels * std::mem::size_of::<gpu::records::GpuPixel>() as u64;
     let bands = r.film_bands(&settings).len() as u64;
     assert!(bands >= film_bytes.div_ceil(limit), "{bands} bands");
-    // The AOVs are one buffer: refused, naming the size.
-    match r.render_aovs(&settings, 0..1) {
-        Err(GpuError::Validation(e)) => assert!(e.contains("8192x8192"), "{e}"),
-        Err(e) => panic!("wrong error: {e}"),
-        Ok(_) => panic!("{aov_bytes} bytes of AOV sums were accepted"),
-    }
+    // So are the AOVs (tests/gpu_film_bands.rs renders them in bands).
+    let aov_bands = r.aov_bands(&settings).len() as u64;
+    assert!(
+        aov_bands >= aov_bytes.div_ceil(limit),
+        "{aov_bands} AOV bands"
+    );
 }
 
 #[test]

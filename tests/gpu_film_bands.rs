@@ -376,37 +376,73 @@ fn the_cli_renders_a_film_past_the_adapters_binding() {
     assert_eq!((image.width, image.height), (width, height));
 }
 
-/// AOVs are one buffer: past one binding (48 bytes a pixel; lavapipe:
-/// 2,796,203 pixels; the H100: 44.7 million) `--aov` is refused before the
-/// render, in one line naming the size, exit 2, nothing written. The
-/// image is as wide as a render may be (16384), so that its height stays
-/// within the size limit on any adapter whose binding holds fewer than
-/// 16384² AOV pixels (12 GiB).
+/// AOVs in bands (`GpuRenderer::aov_bands`, the film's bands or fewer
+/// pixels): each band's camera rays keyed by the pixel's row in the
+/// image, its sums read back before the next band. Their sums equal the
+/// one-band sums word for word; a kernel that keys a band's camera rays
+/// by the row in the band fails that.
 #[test]
-fn aovs_past_the_adapters_binding_are_refused_by_size() {
-    let limit = common::gpu()
-        .device
-        .limits()
-        .max_storage_buffer_binding_size;
-    let width = reference::scene::MAX_IMAGE_SIDE;
-    let height = (limit / (reference::aov::WORDS as u64 * 4) + 1).div_ceil(width as u64) as u32;
-    assert!(
-        height <= reference::scene::MAX_IMAGE_SIDE,
-        "a binding of {limit} bytes holds every image's AOVs: nothing to refuse"
-    );
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("aov");
-    let size = format!("{width}x{height}");
-    let run = Command::new(common::twintrace_bin())
-        .args(["render", "cornell", "--backend", "gpu", "--size", &size])
-        .args(["--spp", "1", "--aov", "albedo", "-o"])
-        .arg(&out)
-        .stdin(Stdio::null())
-        .output()
+fn aovs_in_bands_are_the_one_band_aovs_word_for_word() {
+    let ctx = common::gpu();
+    let scene = load("textures");
+    let s = settings(&scene);
+    let samples = 1..SPP + 1;
+    let whole = GpuRenderer::with_variant(ctx, &scene, Variant::DEFAULT)
+        .unwrap()
+        .render_aovs(&s, samples.clone())
         .unwrap();
-    let err = String::from_utf8_lossy(&run.stderr);
-    assert_eq!(run.status.code(), Some(2), "{err}");
-    assert!(err.contains("--aov") && err.contains(&size), "{err}");
-    assert_eq!(err.trim().lines().count(), 1, "{err}");
-    assert!(!out.with_extension("exr").exists());
+    let hits: u64 = (0..(s.width * s.height) as usize)
+        .map(|p| whole.words[p * reference::aov::WORDS + reference::aov::word::HITS] as u64)
+        .sum();
+    assert!(hits > 0, "no camera ray hit: a weak comparison");
+    let program = gpu::aov::aov_source();
+    let keyed = "camera_ray(gid.x, y, params.sample_start + i)";
+    assert_eq!(
+        program.matches(keyed).count(),
+        1,
+        "`{keyed}` not found once"
+    );
+    let by_band = program.replace(keyed, "camera_ray(gid.x, gid.y, params.sample_start + i)");
+    for (band, program, equal) in [
+        (100, &program, true),
+        (40, &program, true),
+        (100, &by_band, false),
+    ] {
+        let mut r = GpuRenderer::with_variant(ctx, &scene, Variant::DEFAULT).unwrap();
+        r.set_film_band_pixels(Some(band));
+        assert!(
+            r.aov_bands(&s).len() > 1,
+            "bands of {band} pixels: one band"
+        );
+        let banded = r.render_aovs_with(program, &s, samples.clone()).unwrap();
+        assert_eq!(
+            banded == whole,
+            equal,
+            "AOVs in bands of {band} pixels ({}): equal {}",
+            if equal {
+                "production"
+            } else {
+                "keyed by the band's row"
+            },
+            banded == whole
+        );
+    }
+}
+
+/// `render --aov all` with the film, and so the AOVs, in bands writes the
+/// EXR of the one-band render byte for byte (the writer is
+/// deterministic).
+#[test]
+fn the_cli_writes_aovs_in_bands_as_one_band() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = |name: &str| dir.path().join(name).display().to_string();
+    let (ok, err, _) = cli(None, &["--aov", "all", "-o", &d("whole")]);
+    assert!(ok, "{err}");
+    let (ok, err, _) = cli(Some("100"), &["--aov", "all", "-o", &d("banded")]);
+    assert!(ok, "{err}");
+    let read = |name: &str| std::fs::read(dir.path().join(name)).unwrap();
+    assert!(
+        read("whole.exr") == read("banded.exr"),
+        "the banded render's EXR differs from the one-band render's"
+    );
 }

@@ -4,9 +4,9 @@
 //! first hits to sums in the layout of `reference::aov` (its twin, held to
 //! it by `twintrace::twins::aov`).
 
-use crate::context::GpuContext;
 use crate::error::GpuError;
 use crate::readback::read_buffer;
+use crate::records::GpuParams;
 use crate::renderer::{
     range_settings, software_samples_per_invocation, GpuRenderer, PATHS_PER_DISPATCH_GPU,
 };
@@ -64,9 +64,6 @@ impl GpuRenderer<'_> {
     ) -> Result<AovSums, GpuError> {
         let settings = &range_settings(settings, &samples)?;
         let ctx = self.context();
-        if let Some(why) = aov_size_refusal(ctx, settings) {
-            return Err(GpuError::Validation(why));
-        }
         let pipeline = match self.aov_pipeline.get() {
             Some(p) => p,
             None => {
@@ -80,65 +77,83 @@ impl GpuRenderer<'_> {
                 self.aov_pipeline.get_or_init(|| p)
             }
         };
-        let pixels = settings.width as u64 * settings.height as u64;
-        let bytes = pixels * WORDS as u64 * 4;
         let device = &ctx.device;
-        let sums = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("aov sums"),
-            size: bytes,
-            usage: wgpu::BufferUsages::STORAGE
-                | wgpu::BufferUsages::COPY_SRC
-                | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
         let params = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("aov params"),
             size: std::mem::size_of::<crate::records::GpuParams>() as u64,
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let bind_group = self.bind_group(&params, &sums);
-        // One ray a sample: on a software adapter, within llvmpipe's loop
-        // limit as a one-segment path; on hardware, a dispatch of about
-        // as many rays as the megakernel's paths.
-        let most = if ctx.is_software {
-            let (records, entries) = self.walk_size;
-            software_samples_per_invocation(records, entries, 1)
-        } else {
-            (PATHS_PER_DISPATCH_GPU / pixels.max(1)).max(1)
-        };
-        let per = most.clamp(1, settings.spp as u64) as u32;
-        schedule::submit(
-            ctx,
-            &Plan::Dispatches { pipeline, per },
-            settings,
-            &self.params(settings),
-            samples.start,
-            &Target {
-                params: &params,
-                film: &sums,
-                bind_group: &bind_group,
-                clear: true,
-            },
-            &|_, _| {},
-        )?;
-        let words = read_buffer::<u32>(ctx, &sums, bytes)?;
+        let whole = self.params(settings);
+        let mut words = Vec::new();
+        // Band after band, as the film (`GpuRenderer::accumulate`): each
+        // the image's rows `band_row ..`, whose camera rays the kernel keys
+        // by the image's pixel; the sums of a band are read back before
+        // the next is traced, so no more than a band's are on the device.
+        for (first_row, rows) in self.aov_bands(settings) {
+            let band = RenderSettings {
+                height: rows,
+                ..*settings
+            };
+            let pixels = band.width as u64 * rows as u64;
+            let bytes = pixels * WORDS as u64 * 4;
+            let sums = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("aov sums"),
+                size: bytes,
+                usage: wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::COPY_SRC
+                    | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            let bind_group = self.bind_group(&params, &sums);
+            // One ray a sample: on a software adapter, within llvmpipe's
+            // loop limit as a one-segment path; on hardware, a dispatch of
+            // about as many rays as the megakernel's paths.
+            let most = if ctx.is_software {
+                let (records, entries) = self.walk_size;
+                software_samples_per_invocation(records, entries, 1)
+            } else {
+                (PATHS_PER_DISPATCH_GPU / pixels.max(1)).max(1)
+            };
+            let per = most.clamp(1, settings.spp as u64) as u32;
+            schedule::submit(
+                ctx,
+                &Plan::Dispatches { pipeline, per },
+                &band,
+                &GpuParams {
+                    height: rows,
+                    band_row: first_row,
+                    ..whole
+                },
+                samples.start,
+                &Target {
+                    params: &params,
+                    film: &sums,
+                    bind_group: &bind_group,
+                    clear: true,
+                },
+                &|_, _| {},
+            )?;
+            words.extend(read_buffer::<u32>(ctx, &sums, bytes)?);
+        }
         AovSums::from_words(settings.width, settings.height, words)
             .ok_or_else(|| GpuError::Readback("the AOV sums came back short".into()))
     }
-}
 
-/// Why AOVs of `settings`' size are refused on `ctx`, if they are: their
-/// sums are one buffer (the film is in bands, `crate::film`), so no more
-/// than one storage binding holds (48 bytes a pixel; H100: about 44
-/// million pixels).
-pub fn aov_size_refusal(ctx: &GpuContext, settings: &RenderSettings) -> Option<String> {
-    let bytes = settings.width as u64 * settings.height as u64 * WORDS as u64 * 4;
-    let limit = ctx.device.limits().max_storage_buffer_binding_size;
-    (bytes > limit).then(|| {
-        format!(
-            "AOVs of a {}x{} image take {bytes} bytes, past the {limit} bytes one binding of `{}` holds: AOVs are not rendered in bands (ask for them at a smaller size)",
-            settings.width, settings.height, ctx.adapter.name
+    /// The bands of AOV sums of `settings`' image: `(first row, rows)`,
+    /// top to bottom, each within one storage binding and within the
+    /// film's bands ([`GpuRenderer::film_bands`]: what
+    /// `set_film_band_pixels` cuts the film to cuts the AOVs too).
+    pub fn aov_bands(&self, settings: &RenderSettings) -> Vec<(u32, u32)> {
+        let limits = self.context().device.limits();
+        let binding = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size)
+            / (WORDS as u64 * 4);
+        crate::film::film_bands(
+            settings.width,
+            settings.height,
+            self.band_pixels().min(binding).max(1),
         )
-    })
+    }
 }

@@ -643,17 +643,6 @@ fn render(args: &RenderArgs) -> Result<()> {
     };
     let (device, _, why) = open_device(args)?;
     phases.end("device");
-    // AOVs are one buffer on a GPU: refused now, not after the render.
-    let aov_device = match &device {
-        Device::Gpu(ctx) => Some(&**ctx),
-        Device::Gpus(contexts) => contexts.first(),
-        Device::Cpu => None,
-    };
-    if let (false, Some(ctx)) = (aovs.is_empty(), aov_device) {
-        if let Some(why) = gpu::aov::aov_size_refusal(ctx, &settings) {
-            return Err(Refused(format!("--aov: {why}")).into());
-        }
-    }
     // An image this machine cannot hold: refused now, in one line.
     {
         use twintrace::host_memory as mem;
