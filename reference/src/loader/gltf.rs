@@ -1703,18 +1703,13 @@ impl Importer<'_> {
             .map_err(fail)?;
         // Added to the BSDF below: the surface keeps what it reflects.
         let emission = if emission != Vec3::ZERO {
-            Some(match material.emissive_texture() {
-                Some(info) => self.image_texture(
-                    builder,
-                    &TextureRef::of(&info),
-                    emission,
-                    &context,
-                    "emissiveTexture",
-                )?,
-                None => builder
-                    .constant(emission)
-                    .map_err(|e| in_context(e.within("emissiveFactor")))?,
-            })
+            Some(self.factored_texture(
+                builder,
+                material.emissive_texture(),
+                (emission, Decoding::Srgb),
+                &context,
+                ("emissiveTexture", "emissiveFactor"),
+            )?)
         } else {
             None
         };
@@ -1723,18 +1718,13 @@ impl Importer<'_> {
         } else {
             let [r, g, b, _alpha] = pbr.base_color_factor();
             let factor = Vec3::new(r, g, b);
-            let texture = match pbr.base_color_texture() {
-                Some(info) => self.image_texture(
-                    builder,
-                    &TextureRef::of(&info),
-                    factor,
-                    &context,
-                    "pbrMetallicRoughness.baseColorTexture",
-                )?,
-                None => builder
-                    .constant(factor)
-                    .map_err(|e| in_context(e.within("baseColorFactor")))?,
-            };
+            let texture = self.factored_texture(
+                builder,
+                pbr.base_color_texture(),
+                (factor, Decoding::Srgb),
+                &context,
+                ("pbrMetallicRoughness.baseColorTexture", "baseColorFactor"),
+            )?;
             let metallic_roughness = match pbr.metallic_roughness_texture() {
                 Some(info) => Some(self.data_texture(
                     builder,
@@ -1821,17 +1811,38 @@ impl Importer<'_> {
     ) -> Result<u32, SceneError> {
         let pbr = material.pbr_metallic_roughness();
         let factor = Vec3::splat(pbr.base_color_factor()[3]);
-        match pbr.base_color_texture() {
+        self.factored_texture(
+            builder,
+            pbr.base_color_texture(),
+            (factor, Decoding::Alpha),
+            context,
+            ("pbrMetallicRoughness.baseColorTexture", "baseColorFactor"),
+        )
+    }
+
+    /// glTF's "texture times factor": the texture `info` refers to,
+    /// decoded by `decoding`, times `factor`, or the constant `factor`
+    /// where the material has no texture there. An error names the
+    /// material's member (`fields`: the texture's, the factor's).
+    fn factored_texture(
+        &mut self,
+        builder: &mut SceneBuilder,
+        info: Option<gltf::texture::Info>,
+        (factor, decoding): (Vec3, Decoding),
+        context: &str,
+        (texture_field, factor_field): (&str, &str),
+    ) -> Result<u32, SceneError> {
+        match info {
             Some(info) => self.texture(
                 builder,
                 &TextureRef::of(&info),
                 factor,
-                Decoding::Alpha,
+                decoding,
                 context,
-                "pbrMetallicRoughness.baseColorTexture",
+                texture_field,
             ),
             None => builder.constant(factor).map_err(|e| {
-                e.within("baseColorFactor")
+                e.within(factor_field)
                     .within(context)
                     .in_file(&self.file.path)
             }),
@@ -2059,18 +2070,6 @@ impl Importer<'_> {
                 lost.join("; ")
             ));
         }
-    }
-
-    /// A colour texture (sRGB-encoded integer texels) times `factor`.
-    fn image_texture(
-        &mut self,
-        builder: &mut SceneBuilder,
-        texture: &TextureRef,
-        factor: Vec3,
-        context: &str,
-        slot: &str,
-    ) -> Result<u32, SceneError> {
-        self.texture(builder, texture, factor, Decoding::Srgb, context, slot)
     }
 
     /// A data texture (linear texels: metallic-roughness, normals),
