@@ -1,5 +1,6 @@
 //! Kernels are compiled once (`gpu::pipeline`): a second renderer of the
-//! same scene and spec on a device builds no pipeline; the driver's
+//! same scene and spec on a device builds no pipeline, nor do renderers
+//! made at once from several threads but one; the driver's
 //! pipeline cache is written to its file when a device closes and loaded
 //! by the next device opened on that folder, which renders the same film
 //! bit for bit; a damaged or foreign cache file is ignored with one
@@ -52,6 +53,32 @@ fn a_second_renderer_of_the_same_spec_builds_no_pipeline() {
     };
     gpu::GpuRenderer::with_variant(ctx, &scene, other).unwrap();
     assert!(ctx.pipelines_built() > built);
+}
+
+/// Renderers of one spec made at once from four threads build its
+/// kernels once (one thread builds; the others wait for it), as one
+/// renderer alone does.
+#[test]
+fn renderers_made_at_once_build_their_kernels_once() {
+    let scene = reference::load_scene("cornell").unwrap();
+    let v = gpu::Variant::DEFAULT;
+    let alone = {
+        let ctx = common::own_gpu();
+        gpu::GpuRenderer::with_variant(&ctx, &scene, v).unwrap();
+        ctx.pipelines_built()
+    };
+    assert!(alone > 0);
+    let ctx = common::own_gpu();
+    std::thread::scope(|s| {
+        for _ in 0..4 {
+            s.spawn(|| gpu::GpuRenderer::with_variant(&ctx, &scene, v).unwrap());
+        }
+    });
+    assert_eq!(
+        ctx.pipelines_built(),
+        alone,
+        "four renderers made at once built the kernels more than once"
+    );
 }
 
 #[test]
