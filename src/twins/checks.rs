@@ -9,8 +9,7 @@
 //! `super::wavefront`, trusted on both sides of that rule.
 
 use super::specialization::{
-    every_variant, gate_kernel, gate_kernel_words, gate_scenes, oracle_film, variant_film_bits,
-    Build, SIZE,
+    every_variant, gate_kernel_words, gate_scenes, oracle_film, variant_film, Build, SIZE,
 };
 use super::Outcome;
 use gpu::{Checks, GpuContext};
@@ -43,9 +42,9 @@ fn compare_with(
 ) -> Result<(usize, u64), String> {
     let trusted = Build {
         checks: Checks::Trusted,
-        ..Build::megakernel(program, integrator, gate_kernel(ctx).features(scene))
+        ..Build::gate(ctx, scene, program, integrator)
     };
-    let film = variant_film_bits(ctx, scene, trusted, &[None])?.remove(0);
+    let film = variant_film(ctx, scene, trusted)?;
     let words = super::specialization::WORDS_PER_PIXEL;
     let differ: Vec<usize> = (0..oracle.len() / words)
         .filter(|p| oracle[p * words..(p + 1) * words] != film[p * words..(p + 1) * words])

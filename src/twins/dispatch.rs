@@ -9,8 +9,7 @@
 //! sent to another's code, or lost).
 
 use super::specialization::{
-    every_variant, gate_kernel, gate_kernel_words, gate_scenes, oracle_film, variant_film_bits,
-    Build, SIZE,
+    every_variant, gate_kernel_words, gate_scenes, oracle_film, variant_film, Build, SIZE,
 };
 use super::wavefront::compare_words;
 use super::Outcome;
@@ -43,9 +42,9 @@ fn compare_with(
 ) -> Result<(usize, u64), String> {
     let branches = Build {
         dispatch: Dispatch::Branches,
-        ..Build::megakernel(program, integrator, gate_kernel(ctx).features(scene))
+        ..Build::gate(ctx, scene, program, integrator)
     };
-    let film = variant_film_bits(ctx, scene, branches, &[None])?.remove(0);
+    let film = variant_film(ctx, scene, branches)?;
     compare_words(oracle, &film)
         .map_err(|e| format!("{spec} ({}, branch dispatch): {e}", integrator.name()))
 }

@@ -217,6 +217,18 @@ impl<'a> Build<'a> {
             checks: gpu::Checks::Checked,
         }
     }
+
+    /// [`Build::megakernel`] with the features [`gate_kernel`] builds for
+    /// `scene` on `ctx`: what a GPU-against-GPU gate changes one axis of.
+    pub fn gate(ctx: &GpuContext, scene: &Scene, program: &'a str, integrator: Integrator) -> Self {
+        Self::megakernel(program, integrator, gate_kernel(ctx).features(scene))
+    }
+}
+
+/// [`variant_film_bits`] rendered once, at the adapter's default wave
+/// slots.
+pub fn variant_film(ctx: &GpuContext, scene: &Scene, build: Build) -> Result<Vec<u64>, String> {
+    Ok(variant_film_bits(ctx, scene, build, &[None])?.remove(0))
 }
 
 /// [`film_bits`] for any variant: rendered once for each of `wave_slots`

@@ -23,8 +23,8 @@
 
 use super::hits::{ray_words, scenes, SNIPPET};
 use super::specialization::{
-    every_variant, gate_kernel, gate_kernel_words, gate_scenes, oracle_film, packed_film_bits,
-    variant_film_bits, Build, SIZE,
+    every_variant, gate_kernel_words, gate_scenes, oracle_film, packed_film_bits, variant_film,
+    Build, SIZE,
 };
 use super::wavefront::compare_words;
 use super::{camera_and_random_rays, run_kernel_walking, Outcome};
@@ -191,14 +191,13 @@ pub fn compare_films_with(
     (walk, integrator): (Walk, Integrator),
     program: &str,
 ) -> Result<(usize, u64), String> {
-    let features = gate_kernel(ctx).features(scene);
     let build = Build {
         traversal: walk.0,
         nodes: walk.1,
         leaves: walk.2,
-        ..Build::megakernel(program, integrator, features)
+        ..Build::gate(ctx, scene, program, integrator)
     };
-    let film = variant_film_bits(ctx, scene, build, &[None])?.remove(0);
+    let film = variant_film(ctx, scene, build)?;
     compare_words(binary, &film).map_err(|e| {
         format!(
             "{spec} ({}, {} walk): {e}",
@@ -223,7 +222,7 @@ pub fn compare_packed_films_with(
         traversal: walk.0,
         nodes: walk.1,
         leaves: walk.2,
-        ..Build::megakernel(program, integrator, gate_kernel(ctx).features(scene))
+        ..Build::gate(ctx, scene, program, integrator)
     };
     let film = packed_film_bits(ctx, scene, packed, build, &[None])?.remove(0);
     compare_words(binary, &film).map_err(|e| {

@@ -22,7 +22,7 @@
 //! The summary line says how many pixels were not bit for bit.
 
 use super::specialization::{
-    counts, every_variant, film_bits, gate_kernel, gate_kernel_words, gate_scenes, oracle_film,
+    counts, every_variant, film_bits, gate_kernel_words, gate_scenes, oracle_film,
     variant_film_bits, Build, SIZE, WORDS_PER_PIXEL,
 };
 use super::Outcome;
@@ -73,7 +73,7 @@ fn compare_schedule(
 ) -> Result<(usize, u64), String> {
     let build = Build {
         schedule,
-        ..Build::megakernel(program, integrator, gate_kernel(ctx).features(scene))
+        ..Build::gate(ctx, scene, program, integrator)
     };
     let films = variant_film_bits(ctx, scene, build, &WAVE_SLOTS)?;
     let mut inexact = Inexact::default();
