@@ -145,15 +145,11 @@ impl GpuRenderer<'_> {
     /// film's bands ([`GpuRenderer::film_bands`]: what
     /// `set_film_band_pixels` cuts the film to cuts the AOVs too).
     pub fn aov_bands(&self, settings: &RenderSettings) -> Vec<(u32, u32)> {
-        let limits = self.context().device.limits();
-        let binding = limits
-            .max_storage_buffer_binding_size
-            .min(limits.max_buffer_size)
-            / (WORDS as u64 * 4);
+        let binding = crate::film::binding_pixels(self.context(), WORDS as u64 * 4);
         crate::film::film_bands(
             settings.width,
             settings.height,
-            self.band_pixels().min(binding).max(1),
+            self.band_pixels().min(binding),
         )
     }
 }

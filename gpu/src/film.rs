@@ -62,12 +62,19 @@ pub fn band_pixels_from_env() -> Result<Option<u64>, String> {
 /// The most pixels a band of the device film holds on `ctx`: what one
 /// storage binding and one buffer hold, or `limit` where that is less.
 pub fn band_pixels(ctx: &GpuContext, limit: Option<u64>) -> u64 {
+    let fits = binding_pixels(ctx, PIXEL_BYTES);
+    limit.map_or(fits, |l| l.min(fits)).max(1)
+}
+
+/// The pixels of `bytes_per_pixel` one storage binding and one buffer
+/// hold on `ctx` (at least 1).
+pub fn binding_pixels(ctx: &GpuContext, bytes_per_pixel: u64) -> u64 {
     let limits = ctx.device.limits();
-    let fits = limits
+    (limits
         .max_storage_buffer_binding_size
         .min(limits.max_buffer_size)
-        / PIXEL_BYTES;
-    limit.map_or(fits, |l| l.min(fits)).max(1)
+        / bytes_per_pixel)
+        .max(1)
 }
 
 /// The bands of a `width` x `height` film of at most `band_pixels` pixels
