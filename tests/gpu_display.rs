@@ -91,7 +91,9 @@ fn a_target_of_another_size_is_an_error() {
 /// of the host's means; drawing builds no pipeline after the first.
 #[test]
 fn a_rendered_film_is_drawn_as_the_host_shows_it_and_draws_build_no_pipeline() {
-    let ctx = common::gpu();
+    // Its own device: the shared one's build count moves with the tests
+    // beside this one.
+    let ctx = &common::own_gpu();
     let scene = reference::load_scene("cornell-spheres").unwrap();
     let renderer = gpu::GpuRenderer::new(ctx, &scene).unwrap();
     let settings = RenderSettings {
