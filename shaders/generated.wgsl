@@ -85,6 +85,11 @@ const DIM_ROULETTE: u32 = 6u;
 const LIGHT_DIM_SELECT: u32 = 0u;
 const LIGHT_DIM_POINT_U: u32 = 1u;
 const LIGHT_DIM_POINT_V: u32 = 2u;
+const SAMPLER_SOBOL: u32 = 1u;
+const PAIRS_CAMERA: u32 = 5u;
+const PAIRS_SURFACE: u32 = 2u;
+const PAIRS_LIGHT: u32 = 2u;
+const PAIRS_NONE: u32 = 0u;
 const FEATURE_SPHERES: u32 = 1u;
 const FEATURE_QUADS: u32 = 2u;
 const FEATURE_TRIANGLES: u32 = 4u;
@@ -316,6 +321,7 @@ struct GpuParams {
     wave_pixel_start: u32,
     wave_pixel_count: u32,
     wave_capacity: u32,
+    sampler: u32,
 }
 struct BvhNode {
     min_x: f32,

@@ -9,7 +9,7 @@ fn v3(x: f32, y: f32, z: f32) -> vec3<f32> {
 // Pixel (x, y) of the image (not of the film's band: params.band_row).
 fn camera_ray(x: u32, y: u32, sample: u32) -> Ray {
     let pixel = y * params.width + x;
-    let u = vertex_randoms(params.seed, pixel, sample, 0u);
+    let u = sampled_vertex_randoms(params.sampler, params.seed, pixel, sample, 0u);
     let film_pos = vec2<f32>((f32(x) + vr_get(u, DIM_PIXEL_X)) / f32(params.width), (f32(y) + vr_get(u, DIM_PIXEL_Y)) / f32(params.image_height));
     let rd = params.lens_radius * sample_unit_disk(vec2<f32>(vr_get(u, DIM_LENS_U), vr_get(u, DIM_LENS_V)));
     let offset = v3(params.cam_u_x, params.cam_u_y, params.cam_u_z) * rd.x + v3(params.cam_v_x, params.cam_v_y, params.cam_v_z) * rd.y;
@@ -75,7 +75,7 @@ fn trace_path(ray_in: Ray, pixel: u32, sample: u32) -> vec3<f32> {
         throughput *= transmittance(m, si, hit.t);
         let tx = material_textures(m, si);
         radiance += throughput * emitted(si, tx);
-        let u = vertex_randoms(params.seed, pixel, sample, segment + 1u);
+        let u = sampled_vertex_randoms(params.sampler, params.seed, pixel, sample, segment + 1u);
         let s = scatter(m, ray.direction, si, tx, u);
         if !s.ok {
             break;
@@ -283,11 +283,11 @@ fn trace_path_mis(ray_in: Ray, pixel: u32, sample: u32) -> vec3<f32> {
             }
             radiance += throughput * le * weight;
         }
-        let u = vertex_randoms(params.seed, pixel, sample, segment + 1u);
+        let u = sampled_vertex_randoms(params.sampler, params.seed, pixel, sample, segment + 1u);
         let density = has_density(m);
         // The shadow ray is the path's next segment: none after the last.
         if density && light_table().y > 0u && segment + 1u < params.max_depth {
-            let ul = light_randoms(params.seed, pixel, sample, segment + 1u);
+            let ul = sampled_light_randoms(params.sampler, params.seed, pixel, sample, segment + 1u);
             shadow = next_event_ray(m, ray, si, tx, ul, throughput);
         }
         let s = scatter(m, ray.direction, si, tx, u);

@@ -52,3 +52,82 @@ fn vr_get(r: VertexRandoms, i: u32) -> f32 {
 fn light_randoms(seed: u32, pixel: u32, sample: u32, bounce: u32) -> vec4<f32> {
     return to_unit4(random_block(seed, pixel, sample, bounce, 2u));
 }
+
+// The Sobol' sampler (reference::rng::Sampler::Sobol): padded,
+// Owen-scrambled Sobol' points; the reference's sobol_block word for word
+// (SAMPLER_SOBOL and the PAIRS_* masks are generated from Rust).
+
+fn laine_karras(x_in: u32, seed: u32) -> u32 {
+    var x = x_in;
+    x ^= x * 0x3d20adeau;
+    x += seed;
+    x *= (seed >> 16u) | 1u;
+    x ^= x * 0x05526c56u;
+    x ^= x * 0x53a22864u;
+    return x;
+}
+
+fn owen_scramble(x: u32, seed: u32) -> u32 {
+    return reverseBits(laine_karras(reverseBits(x), seed));
+}
+
+fn sobol_second_reversed(i: u32) -> u32 {
+    var z = i;
+    z ^= (z >> 1u) & 0x55555555u;
+    z ^= (z >> 2u) & 0x33333333u;
+    z ^= (z >> 4u) & 0x0f0f0f0fu;
+    z ^= (z >> 8u) & 0x00ff00ffu;
+    z ^= (z >> 16u) & 0x0000ffffu;
+    return z;
+}
+
+fn remix(x_in: u32) -> u32 {
+    var x = x_in;
+    x ^= x >> 16u;
+    x *= 0x7feb352du;
+    x ^= x >> 15u;
+    x *= 0x846ca68bu;
+    return x ^ (x >> 16u);
+}
+
+fn sobol_block(seed: u32, pixel: u32, sample: u32, bounce: u32, block: u32, pairs: u32) -> vec4<u32> {
+    let w = pcg4d(vec4<u32>(pixel, ~seed, (bounce << 16u) | 0x8000u | block, seed));
+    var out = vec4<u32>(0u);
+    var slot = 0u;
+    loop {
+        if slot >= 4u {
+            break;
+        }
+        let i = owen_scramble(sample, w[slot]);
+        out[slot] = reverseBits(laine_karras(i, remix(w[slot])));
+        if slot < 3u && (pairs & (1u << slot)) != 0u {
+            out[slot + 1u] = reverseBits(laine_karras(sobol_second_reversed(i), w[slot + 1u]));
+            slot += 2u;
+        } else {
+            slot += 1u;
+        }
+    }
+    return out;
+}
+
+// The eight floats of one path vertex from the render's sampler
+// (reference::rng::sampled_vertex_randoms).
+fn sampled_vertex_randoms(sampler: u32, seed: u32, pixel: u32, sample: u32, bounce: u32) -> VertexRandoms {
+    if sampler != SAMPLER_SOBOL {
+        return vertex_randoms(seed, pixel, sample, bounce);
+    }
+    var first = PAIRS_SURFACE;
+    if bounce == 0u {
+        first = PAIRS_CAMERA;
+    }
+    return VertexRandoms(to_unit4(sobol_block(seed, pixel, sample, bounce, 0u, first)), to_unit4(sobol_block(seed, pixel, sample, bounce, 1u, PAIRS_NONE)));
+}
+
+// The light sample's four floats from the render's sampler
+// (reference::rng::sampled_light_randoms).
+fn sampled_light_randoms(sampler: u32, seed: u32, pixel: u32, sample: u32, bounce: u32) -> vec4<f32> {
+    if sampler != SAMPLER_SOBOL {
+        return light_randoms(seed, pixel, sample, bounce);
+    }
+    return to_unit4(sobol_block(seed, pixel, sample, bounce, 2u, PAIRS_LIGHT));
+}

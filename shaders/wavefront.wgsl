@@ -275,7 +275,7 @@ fn shade_bsdf(v: ptr<function, Vertex>, hit: Hit, pixel: u32, sample: u32) {
     let tx = material_textures(m, si);
     (*v).radiance += (*v).throughput * emitted(si, tx);
     let segment = (*v).segment;
-    let u = vertex_randoms(params.seed, pixel, sample, segment + 1u);
+    let u = sampled_vertex_randoms(params.sampler, params.seed, pixel, sample, segment + 1u);
     let s = scatter(m, ray.direction, si, tx, u);
     if !s.ok {
         return;
@@ -319,10 +319,10 @@ fn shade_mis(v: ptr<function, Vertex>, hit: Hit, pixel: u32, sample: u32) {
         (*v).radiance += (*v).throughput * le * weight;
     }
     let segment = (*v).segment;
-    let u = vertex_randoms(params.seed, pixel, sample, segment + 1u);
+    let u = sampled_vertex_randoms(params.sampler, params.seed, pixel, sample, segment + 1u);
     let density = has_density(m);
     if density && light_table().y > 0u && segment + 1u < params.max_depth {
-        let ul = light_randoms(params.seed, pixel, sample, segment + 1u);
+        let ul = sampled_light_randoms(params.sampler, params.seed, pixel, sample, segment + 1u);
         (*v).shadow = next_event_ray(m, ray, si, tx, ul, (*v).throughput);
         if (*v).shadow.ok {
             (*v).next |= PATH_SHADOW;

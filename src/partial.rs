@@ -47,7 +47,7 @@ use readers::partial::{DEVICES, SAMPLES, SCENE, SETTINGS, TARGET, VERSION};
 pub struct RenderKey {
     /// [`reference::Scene::fingerprint`], in hexadecimal.
     pub scene: String,
-    /// `WxH seed S maxDepth D rouletteDepth R integrator I`.
+    /// `WxH seed S maxDepth D rouletteDepth R integrator I sampler Q`.
     pub settings: String,
     /// twintrace's version.
     pub version: String,
@@ -58,13 +58,14 @@ impl RenderKey {
         RenderKey {
             scene: format!("{:016x}", scene.fingerprint()),
             settings: format!(
-                "{}x{} seed {} maxDepth {} rouletteDepth {} integrator {}",
+                "{}x{} seed {} maxDepth {} rouletteDepth {} integrator {} sampler {}",
                 settings.width,
                 settings.height,
                 settings.seed,
                 settings.max_depth,
                 settings.roulette_depth,
-                integrator.name()
+                integrator.name(),
+                settings.sampler.name()
             ),
             version: env!("CARGO_PKG_VERSION").to_string(),
         }
@@ -88,7 +89,7 @@ impl RenderKey {
                 self.scene, ours.scene
             ));
         }
-        // `WxH seed S maxDepth D rouletteDepth R integrator I`: the size,
+        // `WxH seed S maxDepth D rouletteDepth R integrator I sampler Q`: the size,
         // then name-value pairs.
         let fields = |s: &str| -> Vec<(String, String)> {
             let mut words = s.split_whitespace();
@@ -111,6 +112,7 @@ impl RenderKey {
                     "maxDepth" => "--max-depth or --quality",
                     "rouletteDepth" => "the scene's render.rouletteDepth",
                     "integrator" => "--integrator",
+                    "sampler" => "--sampler or the scene's render.sampler",
                     _ => "the settings",
                 };
                 return Some(format!(

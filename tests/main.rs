@@ -36,6 +36,7 @@ mod safe_outputs;
 mod sampling_chi2;
 mod scale_invariance;
 mod scene_loading_errors;
+mod sobol_sampler;
 mod split_render;
 mod tidy;
 

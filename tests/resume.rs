@@ -489,7 +489,7 @@ fn resume_refuses_a_part_of_another_render_naming_the_field() {
         }
         args
     };
-    let cases: [(&[&str], &str, &str); 9] = [
+    let cases: [(&[&str], &str, &str); 10] = [
         (
             &["--size", "8x8"],
             "p.exr",
@@ -509,6 +509,11 @@ fn resume_refuses_a_part_of_another_render_naming_the_field() {
             &["--integrator", "bsdf"],
             "p.exr",
             "its integrator is mis, this command's is bsdf",
+        ),
+        (
+            &["--sampler", "sobol"],
+            "p.exr",
+            "its sampler is independent, this command's is sobol (--sampler",
         ),
         (
             &["--spp", "8"],

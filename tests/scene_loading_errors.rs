@@ -84,6 +84,10 @@ fn unknown_types_and_fields_are_named() {
         r#"{ "camera": { "look_from": [0,0,5], "look_at": [0,0,0], "fov": 30 }, "objects": [] }"#,
         &["camera", "unknown field `fov`"],
     );
+    check(
+        r#"{ "camera": { "look_from": [0,0,5], "look_at": [0,0,0] }, "render": { "sampler": "halton" }, "objects": [] }"#,
+        &["render.sampler", "unknown sampler \"halton\""],
+    );
 }
 
 #[test]

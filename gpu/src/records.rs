@@ -296,6 +296,8 @@ gpu_record! {
         // The wavefront's wave (gpu::wavefront): its first pixel, its
         // pixel count, and the path slots its buffers hold.
         wave_pixel_start: u32, wave_pixel_count: u32, wave_capacity: u32,
+        // The sequence of the paths' randoms (`reference::rng::Sampler::tag`).
+        sampler: u32,
     }
 }
 

@@ -528,6 +528,7 @@ impl<'a> GpuRenderer<'a> {
             seed: settings.seed,
             max_depth: settings.max_depth,
             roulette_depth: settings.roulette_depth,
+            sampler: settings.sampler.tag(),
             lens_radius: cam.lens_radius,
             primitive_count: self.scene.primitives().len() as u32,
             emitter_count: self.lights.0,

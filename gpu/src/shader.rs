@@ -207,6 +207,15 @@ pub fn generate() -> String {
     ] {
         s += &u(name, v as u32);
     }
+    s += &u("SAMPLER_SOBOL", reference::rng::Sampler::Sobol.tag());
+    for (name, v) in [
+        ("PAIRS_CAMERA", reference::rng::pairs::CAMERA),
+        ("PAIRS_SURFACE", reference::rng::pairs::SURFACE),
+        ("PAIRS_LIGHT", reference::rng::pairs::LIGHT),
+        ("PAIRS_NONE", reference::rng::pairs::NONE),
+    ] {
+        s += &u(name, v);
+    }
     for &(name, bit) in crate::features::feature::NAMED {
         s += &u(name, bit);
     }

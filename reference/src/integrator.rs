@@ -30,7 +30,7 @@ use crate::geometry::{spawn_origin, Ray, SurfaceInteraction};
 use crate::light::{is_punctual, punctual_tag, LightSet, ENV_PRIM, PUNCTUAL_PRIM};
 use crate::material::{bsdf_eval, emitted, has_density, scatter, Material, TextureContext};
 use crate::mutants::{self, Mutant};
-use crate::rng::{dims, light_dims, light_randoms, vertex_randoms};
+use crate::rng::{dims, light_dims, sampled_light_randoms, sampled_vertex_randoms};
 use crate::scene::{RenderSettings, Scene};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -71,10 +71,11 @@ pub fn trace_path(
         let material = vertex_material(scene, si.material);
         throughput *= transmittance(material, &si, hit.t);
         radiance += throughput * emitted(scene.emission(si.material), ctx, &si);
-        let u = vertex_randoms(settings.seed, pixel, sample, segment + 1);
+        let u = sampled_vertex_randoms(settings.sampler, settings.seed, pixel, sample, segment + 1);
         // Delta lights, by next-event estimation as in `trace_path_mis`.
         if has_density(material) && !lights.is_empty() && segment + 1 < settings.max_depth {
-            let ul = light_randoms(settings.seed, pixel, sample, segment + 1);
+            let ul =
+                sampled_light_randoms(settings.sampler, settings.seed, pixel, sample, segment + 1);
             radiance += throughput * next_event(scene, lights, ctx, material, &ray, &si, &ul);
         }
         let Some(s) = scatter(material, ctx, ray.direction, &si, &u) else {
@@ -233,11 +234,12 @@ pub fn trace_path_mis(
             });
             radiance += throughput * le * weight;
         }
-        let u = vertex_randoms(settings.seed, pixel, sample, segment + 1);
+        let u = sampled_vertex_randoms(settings.sampler, settings.seed, pixel, sample, segment + 1);
         let has_density = has_density(material);
         // The shadow ray is the path's next segment: none after the last.
         if has_density && !lights.is_empty() && segment + 1 < settings.max_depth {
-            let ul = light_randoms(settings.seed, pixel, sample, segment + 1);
+            let ul =
+                sampled_light_randoms(settings.sampler, settings.seed, pixel, sample, segment + 1);
             radiance += throughput * next_event(scene, lights, ctx, material, &ray, &si, &ul);
         }
         let Some(s) = scatter(material, ctx, ray.direction, &si, &u) else {
@@ -392,7 +394,7 @@ pub fn camera_ray(
     sample: u32,
 ) -> Ray {
     let pixel = y * settings.width + x;
-    let u = vertex_randoms(settings.seed, pixel, sample, 0);
+    let u = sampled_vertex_randoms(settings.sampler, settings.seed, pixel, sample, 0);
     let film = Vec2::new(
         (x as f32 + u[dims::PIXEL_X]) / settings.width as f32,
         (y as f32 + u[dims::PIXEL_Y]) / settings.height as f32,

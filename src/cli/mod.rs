@@ -72,6 +72,22 @@ pub enum Command {
 }
 
 /// Which renderer runs the paths.
+/// `--sampler`: [`reference::rng::Sampler`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum SamplerArg {
+    Sobol,
+    Independent,
+}
+
+impl From<SamplerArg> for reference::rng::Sampler {
+    fn from(s: SamplerArg) -> Self {
+        match s {
+            SamplerArg::Sobol => reference::rng::Sampler::Sobol,
+            SamplerArg::Independent => reference::rng::Sampler::Independent,
+        }
+    }
+}
+
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
 pub enum Backend {
     /// The scalar CPU reference (`reference::render`).
@@ -123,6 +139,13 @@ pub struct RenderArgs {
     /// RNG seed (overrides the scene).
     #[arg(long, allow_hyphen_values = true, value_parser = twintrace::partial::parse_count)]
     pub seed: Option<u32>,
+    /// Where the paths' random numbers come from (overrides the scene's
+    /// render.sampler, whose default is independent): independent = every
+    /// number hashed on its own; sobol = padded Owen-scrambled Sobol'
+    /// points, stratified over each pixel's samples (less error at equal
+    /// samples).
+    #[arg(long, value_enum)]
+    pub sampler: Option<SamplerArg>,
     /// Maximum number of ray segments per path (overrides the preset and the scene).
     #[arg(long, allow_hyphen_values = true, value_parser = twintrace::partial::parse_count)]
     pub max_depth: Option<u32>,
@@ -246,6 +269,9 @@ pub fn resolve_settings(
     }
     if let Some(seed) = args.seed {
         s.seed = seed;
+    }
+    if let Some(sampler) = args.sampler {
+        s.sampler = sampler.into();
     }
     s.validate()
         .map_err(|e| anyhow!("invalid render settings: {e}"))?;
@@ -1036,6 +1062,7 @@ fn render(args: &RenderArgs) -> Result<()> {
             "spp": settings.spp,
             "max_depth": settings.max_depth,
             "seed": settings.seed,
+            "sampler": settings.sampler.name(),
             "integrator": spec.integrator().name(),
             "device": device_name,
             "samples": samples.as_ref().map(|r| [r.start, r.end]),
@@ -1297,13 +1324,14 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
     );
     let r = &scene.render_settings();
     say!(
-        "render defaults: {}x{}, {} spp, max depth {}, seed {}, Russian roulette from depth {}",
+        "render defaults: {}x{}, {} spp, max depth {}, seed {}, Russian roulette from depth {}, {} sampler",
         r.width,
         r.height,
         r.spp,
         r.max_depth,
         r.seed,
-        r.roulette_depth
+        r.roulette_depth,
+        r.sampler.name()
     );
     let s = &scene.bvh_stats();
     say!(

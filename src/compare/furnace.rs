@@ -107,6 +107,9 @@ fn settings(
         max_depth,
         seed,
         roulette_depth: if roulette { 3 } else { max_depth + 1 },
+        // Independent samples: the known moments and the z-tests of the
+        // unbiased furnaces are those of independent draws.
+        sampler: reference::rng::Sampler::Independent,
         camera: None,
     }
 }

@@ -323,6 +323,7 @@ pub fn gate_settings(
         seed,
         max_depth: s.max_depth,
         roulette_depth: scene.render_settings().roulette_depth,
+        sampler: scene.render_settings().sampler,
         camera: None,
     }
 }

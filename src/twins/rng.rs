@@ -1,5 +1,7 @@
 //! The GPU's counter-based RNG is bit-identical to the CPU's over a large
-//! grid of keys: raw pcg4d words and the floats of `vertex_randoms`.
+//! grid of keys: raw pcg4d words, the floats of `vertex_randoms`, and the
+//! Sobol' sampler's vertex and light floats (`sampled_vertex_randoms`,
+//! `sampled_light_randoms` with `Sampler::Sobol`).
 
 use super::{ensure, run_kernel, Outcome};
 use gpu::GpuContext;
@@ -18,17 +20,24 @@ fn rng_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let a = random_block(seed, pixel, sample, bounce, 0u);
     let b = random_block(seed, pixel, sample, bounce, 1u);
     let r = vertex_randoms(seed, pixel, sample, bounce);
+    let q = sampled_vertex_randoms(SAMPLER_SOBOL, seed, pixel, sample, bounce);
+    let l = sampled_light_randoms(SAMPLER_SOBOL, seed, pixel, sample, bounce);
     for (var k = 0u; k < 4u; k++) {
-        output[16u * i + k] = a[k];
-        output[16u * i + 4u + k] = b[k];
-        output[16u * i + 8u + k] = bitcast<u32>(r.a[k]);
-        output[16u * i + 12u + k] = bitcast<u32>(r.b[k]);
+        output[28u * i + k] = a[k];
+        output[28u * i + 4u + k] = b[k];
+        output[28u * i + 8u + k] = bitcast<u32>(r.a[k]);
+        output[28u * i + 12u + k] = bitcast<u32>(r.b[k]);
+        output[28u * i + 16u + k] = bitcast<u32>(q.a[k]);
+        output[28u * i + 20u + k] = bitcast<u32>(q.b[k]);
+        output[28u * i + 24u + k] = bitcast<u32>(l[k]);
     }
 }
 ";
 
 /// 4 seeds x 4 samples x 4 bounces x 1024 pixels (including the extremes
-/// of every key component) = 65,536 keys, 16 words each, bit for bit.
+/// of every key component) = 65,536 keys, and per seed the first 64
+/// samples of three pixels at three vertices (2,304 keys), 28 words each,
+/// bit for bit.
 pub fn streams(ctx: &GpuContext) -> Outcome {
     let scene = reference::load_scene("cornell").map_err(|e| e.to_string())?;
     let mut keys = Vec::new();
@@ -37,6 +46,14 @@ pub fn streams(ctx: &GpuContext) -> Outcome {
             for bounce in [0u32, 1, 63, 0xFFFF] {
                 for p in 0..1024u32 {
                     let pixel = if p < 1000 { p * 7919 } else { u32::MAX - p };
+                    keys.push([seed, pixel, sample, bounce]);
+                }
+            }
+        }
+        // Every sample of a prefix, where the Sobol' sampler stratifies.
+        for pixel in [0u32, 5, u32::MAX] {
+            for bounce in [0u32, 1, 2] {
+                for sample in 0..64u32 {
                     keys.push([seed, pixel, sample, bounce]);
                 }
             }
@@ -50,19 +67,31 @@ pub fn streams(ctx: &GpuContext) -> Outcome {
         "rng_main",
         &input,
         keys.len(),
-        keys.len() * 16,
+        keys.len() * 28,
     )?;
     for (i, &[seed, pixel, sample, bounce]) in keys.iter().enumerate() {
         let a = reference::rng::random_block(seed, pixel, sample, bounce, 0);
         let b = reference::rng::random_block(seed, pixel, sample, bounce, 1);
         let f = reference::rng::vertex_randoms(seed, pixel, sample, bounce).map(f32::to_bits);
-        let expected: Vec<u32> = a.iter().chain(&b).chain(&f).copied().collect();
-        let got = &out[16 * i..16 * i + 16];
+        let sobol = reference::rng::Sampler::Sobol;
+        let q = reference::rng::sampled_vertex_randoms(sobol, seed, pixel, sample, bounce)
+            .map(f32::to_bits);
+        let l = reference::rng::sampled_light_randoms(sobol, seed, pixel, sample, bounce)
+            .map(f32::to_bits);
+        let expected: Vec<u32> = a
+            .iter()
+            .chain(&b)
+            .chain(&f)
+            .chain(&q)
+            .chain(&l)
+            .copied()
+            .collect();
+        let got = &out[28 * i..28 * i + 28];
         ensure!(
             got == &expected[..],
             "key {:?}: GPU {got:08x?}, reference {expected:08x?}",
             keys[i]
         );
     }
-    Ok(format!("{} keys, 16 words each, bit for bit", keys.len()))
+    Ok(format!("{} keys, 28 words each, bit for bit", keys.len()))
 }

@@ -96,6 +96,7 @@ pub fn save(
             "max_depth": settings.max_depth,
             "seed": settings.seed,
             "roulette_depth": settings.roulette_depth,
+            "sampler": settings.sampler.name(),
         },
         "comment": format!("saved by twintrace view; the film beside it is `{command}`"),
     });

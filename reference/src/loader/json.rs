@@ -138,6 +138,26 @@ pub struct RenderJson {
     pub max_depth: Option<u32>,
     pub seed: Option<u32>,
     pub roulette_depth: Option<u32>,
+    /// `independent` or `sobol` ([`crate::rng::Sampler`]).
+    pub sampler: Option<String>,
+}
+
+impl RenderJson {
+    /// The sampler `render.sampler` names, else `default`.
+    pub fn sampler_or(
+        &self,
+        default: crate::rng::Sampler,
+    ) -> Result<crate::rng::Sampler, SceneError> {
+        match self.sampler.as_deref() {
+            None => Ok(default),
+            Some(name) => crate::rng::Sampler::from_name(name).ok_or_else(|| {
+                SceneError::invalid(
+                    "render.sampler",
+                    format!("unknown sampler {name:?} (expected \"independent\" or \"sobol\")"),
+                )
+            }),
+        }
+    }
 }
 
 #[derive(Clone, Debug, PartialEq, Deserialize)]
@@ -904,6 +924,7 @@ fn build(doc: &SceneJson, base: &Path, sources: Vec<PathBuf>) -> Result<Scene, S
         max_depth: rj.max_depth.unwrap_or(defaults.max_depth),
         seed: rj.seed.unwrap_or(defaults.seed),
         roulette_depth: rj.roulette_depth.unwrap_or(defaults.roulette_depth),
+        sampler: rj.sampler_or(defaults.sampler)?,
         camera: None,
     };
     r.builder.render_origin = match doc.render_origin {

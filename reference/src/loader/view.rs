@@ -88,6 +88,10 @@ pub fn load_view(path: &Path, text: &str) -> Result<Scene, SceneError> {
         }
     }
     let scene = super::load_scene(&spec)?;
+    let sampler = view
+        .render
+        .sampler_or(scene.render_settings().sampler)
+        .map_err(|e| e.in_file(path))?;
     scene
         .edited(|look| {
             if let Some(c) = &view.camera {
@@ -101,6 +105,7 @@ pub fn load_view(path: &Path, text: &str) -> Result<Scene, SceneError> {
             s.max_depth = r.max_depth.unwrap_or(s.max_depth);
             s.seed = r.seed.unwrap_or(s.seed);
             s.roulette_depth = r.roulette_depth.unwrap_or(s.roulette_depth);
+            s.sampler = sampler;
         })
         .map_err(|e| e.in_file(path))
 }

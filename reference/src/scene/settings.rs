@@ -14,6 +14,8 @@ pub struct RenderSettings {
     pub seed: u32,
     /// Path vertex index from which Russian roulette may end paths.
     pub roulette_depth: u32,
+    /// The sequence the paths' random numbers come from.
+    pub sampler: crate::rng::Sampler,
     /// The camera, where it is not the scene's own (the viewer's moved
     /// camera, a saved view's).
     pub camera: Option<CameraSettings>,
@@ -28,6 +30,7 @@ impl Default for RenderSettings {
             max_depth: 16,
             seed: 0,
             roulette_depth: 3,
+            sampler: crate::rng::Sampler::default(),
             camera: None,
         }
     }
