@@ -455,3 +455,32 @@ fn bad_baselines_are_one_error_line() {
         );
     }
 }
+
+/// `--sampler sobol` renders every row with the Sobol' sampler and names
+/// it `VARIANT-sobol`, so that no row of the other sampler is judged
+/// against it: a comparison with the independent run as baseline finds no
+/// common row and refuses to pass.
+#[test]
+fn a_sobol_run_names_its_rows_apart() {
+    let dir = tempfile::tempdir().unwrap();
+    let (plain, sobol) = (dir.path().join("plain"), dir.path().join("sobol"));
+    cpu_run(&plain, &["--only", "gltf-mesh"]);
+    cpu_run(&sobol, &["--only", "gltf-mesh", "--sampler", "sobol"]);
+    let read = |out: &Path| -> PerfRun {
+        serde_json::from_str(&std::fs::read_to_string(the_json(out)).unwrap()).unwrap()
+    };
+    let (a, b) = (read(&plain), read(&sobol));
+    assert_eq!(a.curves[0].variant, "reference");
+    assert_eq!(b.curves[0].variant, "reference-sobol");
+    let md = std::fs::read_to_string(the_json(&sobol).with_extension("md")).unwrap();
+    assert!(md.contains("| gltf-mesh | cpu/reference-sobol |"), "{md}");
+    let compared = twintrace(&[
+        "perf",
+        "compare",
+        &the_json(&sobol).to_string_lossy(),
+        &the_json(&plain).to_string_lossy(),
+    ]);
+    let stderr = String::from_utf8_lossy(&compared.stderr);
+    assert!(!compared.status.success(), "{stderr}");
+    assert!(stderr.contains("no row could be compared"), "{stderr}");
+}

@@ -32,6 +32,7 @@ use gpu::{GpuContext, Variant};
 use rayon::prelude::*;
 use reference::geometry::Ray;
 use reference::integrator::{camera_ray, trace_path, Integrator};
+use reference::rng::Sampler;
 use reference::{Film, RenderSettings, Scene};
 use std::hint::black_box;
 use std::time::Instant;
@@ -59,6 +60,9 @@ pub struct Options<'a> {
     pub gpu: Option<&'a GpuContext>,
     /// The GPU's estimators to measure (each a variant).
     pub gpu_variants: Vec<Variant>,
+    /// The sampler of every render (`perf run --sampler`); a render with
+    /// the Sobol' sampler is its variant's row with `-sobol` appended.
+    pub sampler: Sampler,
     pub repeats: u32,
     pub inject_slowdown: bool,
     pub revision: String,
@@ -91,6 +95,15 @@ impl Backend<'_> {
             Backend::Cpu(_, Integrator::Bsdf) => "reference".into(),
             Backend::Cpu(_, Integrator::Mis) => "reference-mis".into(),
             Backend::Gpu(_, v) => v.name(),
+        }
+    }
+
+    /// [`Self::variant`] with the run's sampler: `-sobol` appended where
+    /// it is the Sobol' one (rows of two samplers are never compared).
+    fn row(self, sampler: Sampler) -> String {
+        match sampler {
+            Sampler::Independent => self.variant(),
+            Sampler::Sobol => format!("{}-sobol", self.variant()),
         }
     }
 }
@@ -319,6 +332,7 @@ fn measure_curve(
         spp: 1,
         max_depth: spec.max_depth,
         seed: PERF_SEED,
+        sampler: options.sampler,
         ..scene.render_settings()
     };
     let prepared = Prepared::new(backend, scene)?;
@@ -361,7 +375,7 @@ fn measure_curve(
             "METRIC curve {} {}/{} spp={spp} wall_s={} gpu_s={} relmse={:.6e} relmse_raw={:.6e} rmse={:.6e} flip={:.6e}",
             spec.name,
             backend.name(),
-            backend.variant(),
+            backend.row(options.sampler),
             seconds_field(Some(point.wall())),
             seconds_field(point.gpu()),
             point.relmse,
@@ -374,7 +388,7 @@ fn measure_curve(
     Ok(Curve {
         case: spec.name.clone(),
         backend: backend.name().into(),
-        variant: backend.variant(),
+        variant: backend.row(options.sampler),
         scene: spec.scene.clone(),
         width: spec.width,
         height: spec.height,
@@ -452,6 +466,7 @@ fn measure_workload(
                 spp,
                 max_depth,
                 seed: PERF_SEED,
+                sampler: options.sampler,
                 ..scene_data.render_settings()
             };
             let prepared = Prepared::new(backend, &scene_data)?;
@@ -547,7 +562,7 @@ fn measure_workload(
     let row = Throughput {
         workload: load.name().into(),
         backend: backend.name().into(),
-        variant: backend.variant(),
+        variant: backend.row(options.sampler),
         unit: unit.into(),
         count,
         wall_s: walls,

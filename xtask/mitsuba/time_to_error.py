@@ -36,6 +36,10 @@ def main():
     if len(sys.argv) != 3:
         sys.exit("usage: time_to_error.py SCENE_DIR OUT_DIR")
     mi.set_variant(os.environ.get("MITSUBA_VARIANT", "cuda_ad_rgb"))
+    # twintrace's plugins (plugins/ beside this file), as render.py does.
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "plugins"))
+    import twintrace_plugins
+    twintrace_plugins.register()
     scene_dir, out_dir = sys.argv[1:]
     os.makedirs(out_dir, exist_ok=True)
     scene = mi.load_file(os.path.join(scene_dir, "scene.xml"))

@@ -42,13 +42,18 @@ Commands:
              note) listed in fixtures/refs/manifest.txt with the CPU reference;
              --spp also updates the manifest; --perf: the performance suite's
              error references (fixtures/refs/perf/manifest.txt)
-  mitsuba [--out DIR] | mitsuba --import DIR | mitsuba --chi2
+  mitsuba [--out DIR] | mitsuba --race [--out DIR] | mitsuba --import DIR
+  | mitsuba --chi2
              pack the references Mitsuba 3 can render identically (scenes
              from `twintrace export-mitsuba`, twintrace's Mitsuba plugins and
              their checks, trimmed wheels, run.sh) into DIR (default
-             target/mitsuba-check) for the GPU machine; --import stores its
-             renders in fixtures/refs/mitsuba/ (docs/gates.md); --chi2 runs
-             the plugins' checks here (MITSUBA_PYTHON, MITSUBA_VARIANT)
+             target/mitsuba-check) for the GPU machine; --race: the
+             equal-error race on every exported fixture, 256 wide (default
+             target/mitsuba-race; its run.sh races Mitsuba's and twintrace's
+             ladders and prints the time to relMSE 1e-3 of each); --import
+             stores its renders in fixtures/refs/mitsuba/ (docs/gates.md);
+             --chi2 runs the plugins' checks here (MITSUBA_PYTHON,
+             MITSUBA_VARIANT)
   perf [ARGS] | perf compare RUN BASELINE | perf baseline N FILE [ARGS]
   | perf --pack [DIR]
              run time against error: builds the release CLI and runs

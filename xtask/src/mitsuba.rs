@@ -17,13 +17,21 @@
 //! spp, 262,144 spp per pixel, 16 times the references' budget.
 //! `cargo xtask mitsuba --chi2` runs the checks here.
 //!
-//! The second copies each `NAME.exr` that `run.sh` wrote into
+//! `cargo xtask mitsuba --race [--out DIR]` packs the equal-error race
+//! into DIR (default `target/mitsuba-race`): every reference it can
+//! export, 256 pixels wide ([`RACE_WIDTH`]), with `time_to_error.py`,
+//! `race_summary.py` and a run.sh ([`RACE_SH`]) that, in the checkout on
+//! the GPU machine, races Mitsuba's ladder against twintrace's (GPU, MIS,
+//! both samplers) scene by scene and prints each one's time to relMSE
+//! 1e-3 (docs/benchmarks.md, "Equal-error race with Mitsuba 3").
+//!
+//! `--import DIR` copies each `NAME.exr` that `run.sh` wrote into
 //! `fixtures/refs/mitsuba/` with a provenance note (renderer, versions,
 //! passes, timings, the GPU). tests/reference_images.rs then requires
 //! every stored reference to agree with its Mitsuba render under
 //! `twintrace diff`'s defaults.
 
-use crate::bless::{capture, parse, MANIFEST, PERF_MANIFEST, REFS};
+use crate::bless::{capture, parse, MANIFEST, REFS};
 use crate::util::{
     check_out_dir, copy_atomic, refused, replace_dir, resolve, run as sh, write_atomic,
 };
@@ -33,10 +41,6 @@ const WHEELS: &str = "target/mitsuba-wheels";
 const MITSUBA_WHEEL: &str = "mitsuba-3.9.1-cp312-cp312-manylinux_2_28_x86_64.whl";
 /// Samples per pixel per pass, the sampler count written into each scene.
 const PASS_SPP: &str = "4096";
-/// twintrace's converged image in the race: GPU, MIS, 65536 spp (at 256x256
-/// about 4·10^9 paths; its relMSE is then ~10^-6 by the MIS efficiency
-/// measured on the CPU, three decades under the 10^-3 the race is run to).
-const RACE_REF_SPP: u32 = 65536;
 
 fn usage() -> String {
     "usage: cargo xtask mitsuba [--out DIR] | cargo xtask mitsuba --race [--out DIR] | cargo xtask mitsuba --import DIR | cargo xtask mitsuba --chi2".into()
@@ -61,9 +65,9 @@ fn chi2() -> Result<(), String> {
 enum Pack {
     /// Mitsuba renders of the stored references (`fixtures/refs/mitsuba/`).
     References,
-    /// The equal-error race on the performance suite's Cornell box:
-    /// Mitsuba's time against error beside twintrace's (`twintrace perf`
-    /// from the perf suite, carried beside it), on the same GPU.
+    /// The equal-error race on every fixture Mitsuba can render, each
+    /// [`RACE_WIDTH`] wide: Mitsuba's time against error beside
+    /// twintrace's (`twintrace render --json`, GPU time), on the same GPU.
     Race,
 }
 
@@ -79,44 +83,91 @@ pub fn run(args: &[String]) -> Result<(), String> {
     }
 }
 
-/// The race's run.sh: Mitsuba's ladder (`time_to_error.py`) and its
-/// converged image; twintrace's converged image (GPU, MIS) and its ladders
-/// (`twintrace perf`, BSDF and MIS megakernels); the relMSE of every
-/// Mitsuba render against twintrace's converged image; and `diff` of the
-/// two converged images (which must agree before times are compared).
+/// The race's run.sh: for each packed scene (or those named), twintrace's
+/// converged image (GPU, MIS), Mitsuba's ladder (`time_to_error.py`) and
+/// converged image, `diff` of the two converged images (which must agree
+/// before times are compared), the relMSE of every Mitsuba render against
+/// twintrace's converged image, and twintrace's ladders (`twintrace render
+/// --json`, GPU time, MIS, each sampler); then `race_summary.py`, the time
+/// to relMSE 1e-3 of each renderer and scene.
 const RACE_SH: &str = r#"#!/bin/sh
 # Equal-error race on one GPU: Mitsuba 3 (cuda_ad_rgb) and twintrace on the
-# same Cornell box. Needs the perf suite (`cargo xtask perf --pack`) at
-# $PERF (default: ../perf-suite beside this folder). Writes into $OUT.
+# exported fixtures. `run.sh [NAME...]`: those scenes only (default: all in
+# scenes/). The pack lives in target/ of a twintrace checkout, whose
+# fixtures the scenes name ($TWINTRACE_ROOT, default: two folders up);
+# twintrace is $TT (default: target/release/twintrace there). Writes into
+# $OUT (default: out/ here). LADDER_MAX (1024), REPS (3) and REF_SPP
+# (16384) set the ladders and twintrace's converged image.
 set -eu
 here=$(cd "$(dirname "$0")" && pwd)
+root=${TWINTRACE_ROOT:-$(cd "$here/../.." && pwd)}
 out=${OUT:-$here/out}
-perf=${PERF:-$here/../perf-suite}
-tt="$perf/twintrace"
-export TWINTRACE_ROOT="$perf" XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
-py=$(mktemp -d)
-for w in "$here"/wheels/*.whl; do python3 -m zipfile -e "$w" "$py"; done
+tt=${TT:-$root/target/release/twintrace}
+ladder_max=${LADDER_MAX:-1024}
+reps=${REPS:-3}
+ref_spp=${REF_SPP:-16384}
+export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
+python=${MITSUBA_PYTHON:-python3}
+if [ -n "${MITSUBA_PYTHON:-}" ]; then
+  py=$here
+elif [ -n "${RACE_WHEELS:-}" ]; then
+  py=$RACE_WHEELS
+else
+  py=$(mktemp -d)
+  for w in "$here"/wheels/*.whl; do python3 -m zipfile -e "$w" "$py"; done
+  export RACE_WHEELS="$py"
+fi
 mkdir -p "$out"
-nvidia-smi --query-gpu=name,driver_version --format=csv,noheader > "$out/gpu.txt" 2>/dev/null || echo unknown > "$out/gpu.txt"
-scene=$(ls -d "$here"/scenes/* | head -n 1)
-name=$(basename "$scene")
-. "$here/settings.sh"
-echo "== twintrace converged image (GPU, MIS, $REF_SPP spp)"
-"$tt" render "$perf/$SCENE" --backend gpu --integrator mis --size "$SIZE" --max-depth "$DEPTH" --spp "$REF_SPP" --seed 1 -o "$out/twintrace-converged" 2>&1 | tail -n 1
-echo "== Mitsuba ladder"
-PYTHONPATH="$py:$here" python3 "$here/time_to_error.py" "$scene" "$out"
-echo "== Mitsuba converged image"
-PASSES=16 PASS_SPP=4096 PYTHONPATH="$py:$here" python3 "$here/render.py" "$out/mitsuba-converged" "$scene"
-echo "== the converged images agree"
-"$tt" diff "$out/mitsuba-converged/$name.exr" "$out/twintrace-converged.exr" --report "$out/converged.html" || true
-echo "== Mitsuba relMSE against twintrace's converged image"
-for f in $(ls "$out" | grep '^mitsuba-[0-9]*\.exr$' | sort -t- -k2 -n); do
-  printf '%s ' "$f"
-  "$tt" diff "$out/$f" "$out/twintrace-converged.exr" --method reference --report "$out/d.html" | grep relMSE || true
+[ "${1:-}" = "--scene" ] || nvidia-smi --query-gpu=name,driver_version --format=csv,noheader > "$out/gpu.txt" 2>/dev/null || echo unknown > "$out/gpu.txt"
+field() { sed -n "s/.*\"$1\":\([0-9.eE+-]*\).*/\1/p" "$2"; }
+relmse() { "$tt" diff "$1" "$2" --method reference --report "$3" 2>/dev/null | sed -n 's/.*relMSE \([0-9.eE+-]*\),.*/\1/p'; }
+if [ "${1:-}" = "--scene" ]; then
+  name=$2
+  scene="$here/scenes/$name"
+  . "$scene/race.env"
+  o="$out/$name"
+  mkdir -p "$o"
+  echo "== $name ($SIZE, depth $DEPTH): twintrace converged image (GPU, MIS, $ref_spp spp)"
+  "$tt" render "$root/$SCENE" --backend gpu --integrator mis --sampler sobol --size "$SIZE" --max-depth "$DEPTH" --spp "$ref_spp" --seed 1 -o "$o/twintrace-converged" --json > "$o/twintrace-converged.json"
+  echo "== $name: Mitsuba ladder"
+  PYTHONPATH="$py:$here" LADDER_MAX="$ladder_max" REPS="$reps" "$python" "$here/time_to_error.py" "$scene" "$o" > "$o/mitsuba-ladder.txt"
+  echo "== $name: Mitsuba converged image"
+  PASSES=${PASSES:-4} PASS_SPP=${PASS_SPP:-4096} PYTHONPATH="$py:$here" "$python" "$here/render.py" "$o/mitsuba-converged" "$scene" > /dev/null
+  "$tt" diff "$o/mitsuba-converged/$name.exr" "$o/twintrace-converged.exr" --report "$o/converged.html" > "$o/converged.txt" 2>&1 || true
+  grep '^verdict' "$o/converged.txt" || true
+  : > "$o/mitsuba-relmse.txt"
+  for f in $(ls "$o" | grep '^mitsuba-[0-9]*\.exr$' | sort -t- -k2 -n); do
+    spp=${f#mitsuba-}; spp=${spp%.exr}
+    echo "$spp $(relmse "$o/$f" "$o/twintrace-converged.exr" "$o/d.html")" >> "$o/mitsuba-relmse.txt"
+  done
+  for sampler in independent sobol; do
+    echo "== $name: twintrace ladder ($sampler)"
+    : > "$o/twintrace-$sampler.txt"
+    spp=1
+    while [ "$spp" -le "$ladder_max" ]; do
+      rep=0
+      while [ "$rep" -lt "$reps" ]; do
+        "$tt" render "$root/$SCENE" --backend gpu --integrator mis --sampler "$sampler" --size "$SIZE" --max-depth "$DEPTH" --spp "$spp" --seed $((1000 * spp + rep + 2)) -o "$o/t" --json > "$o/t.json"
+        echo "$spp $(field gpu_time_s "$o/t.json") $(relmse "$o/t.exr" "$o/twintrace-converged.exr" "$o/d.html")" >> "$o/twintrace-$sampler.txt"
+        rep=$((rep + 1))
+      done
+      spp=$((spp * 2))
+    done
+  done
+  rm -f "$o/t.exr" "$o/t.png" "$o/t.json" "$o/d.html" "$o"/mitsuba-[0-9]*.exr
+  exit 0
+fi
+# Each scene in a shell of its own: one that fails is named, the others run.
+for name in ${*:-$(ls "$here/scenes")}; do
+  sh "$0" --scene "$name" || echo "run.sh: $name failed (above); the others go on" >&2
 done
-echo "== twintrace ladders"
-"$tt" perf run --suite full --backend gpu --variant megakernel --variant megakernel-mis --only "$name" --revision "$(cat "$perf/REVISION")" --out "$out/perf" | grep -v '^METRIC' || true
+"$python" "$here/race_summary.py" "$out" | tee "$out/summary.txt"
 "#;
+
+/// The race's width: each fixture raced at this many columns (its
+/// reference's aspect ratio kept), large enough that a GPU's launch
+/// overheads do not decide it (the perf suite's box is 256x256 too).
+const RACE_WIDTH: u32 = 256;
 
 fn pack(out: &Path, what: Pack) -> Result<(), String> {
     let root = crate::util::workspace_root();
@@ -142,7 +193,7 @@ fn pack(out: &Path, what: Pack) -> Result<(), String> {
     })?;
     if what == Pack::Race {
         eprintln!(
-            "xtask: the race packed into {}; on the GPU machine, with the perf suite beside it, run `sh {}/run.sh`",
+            "xtask: the race packed into {}; on the GPU machine, in this checkout, run `sh {}/run.sh [NAME...]`",
             out.display(),
             out.display()
         );
@@ -162,23 +213,13 @@ fn fill(out: &Path, what: Pack, wheels: &Path) -> Result<usize, String> {
     let scenes = out.join("scenes");
     std::fs::create_dir_all(&scenes)
         .map_err(|e| format!("cannot create {}: {e}", scenes.display()))?;
-    let manifest = match what {
-        Pack::References => MANIFEST,
-        Pack::Race => PERF_MANIFEST,
-    };
+    let manifest = MANIFEST;
     let text =
         std::fs::read_to_string(manifest).map_err(|e| format!("cannot read {manifest}: {e}"))?;
     let mut exported = 0;
-    for (_, line) in parse(&text, manifest)? {
+    for (_, mut line) in parse(&text, manifest)? {
         if what == Pack::Race {
-            // The race's scene: the perf suite's reference of the same name
-            // (twintrace renders the same file at the same size and depth).
-            let settings = format!(
-                "SCENE={}\nSIZE={}\nDEPTH={}\nREF_SPP={RACE_REF_SPP}\n",
-                line.scene, line.size, line.depth
-            );
-            std::fs::write(out.join("settings.sh"), settings)
-                .map_err(|e| format!("cannot write settings.sh: {e}"))?;
+            line.size = race_size(&line.size)?;
         }
         let dir = scenes.join(&line.name);
         let dir_s = dir.display().to_string();
@@ -197,6 +238,15 @@ fn fill(out: &Path, what: Pack, wheels: &Path) -> Result<usize, String> {
         if output.status.success() {
             exported += 1;
             eprintln!("xtask: exported {}", line.name);
+            if what == Pack::Race {
+                // What twintrace renders: the same file, size and depth.
+                let env = format!(
+                    "SCENE={}\nSIZE={}\nDEPTH={}\n",
+                    line.scene, line.size, line.depth
+                );
+                std::fs::write(dir.join("race.env"), env)
+                    .map_err(|e| format!("cannot write race.env: {e}"))?;
+            }
         } else {
             let why = String::from_utf8_lossy(&output.stderr);
             eprintln!("xtask: not exported {}: {}", line.name, why.trim());
@@ -259,10 +309,9 @@ fn fill(out: &Path, what: Pack, wheels: &Path) -> Result<usize, String> {
         &out.join("offset_bias.py"),
     )?;
     if what == Pack::Race {
-        copy(
-            Path::new("xtask/mitsuba/time_to_error.py"),
-            &out.join("time_to_error.py"),
-        )?;
+        for script in ["time_to_error.py", "race_summary.py"] {
+            copy(&Path::new("xtask/mitsuba").join(script), &out.join(script))?;
+        }
         std::fs::write(out.join("run.sh"), RACE_SH)
             .map_err(|e| format!("cannot write run.sh: {e}"))?;
         return Ok(exported);
@@ -312,6 +361,18 @@ tail -n 1 "$out/chi2.txt"
 if [ "${1:-}" = "--chi2" ]; then exit 0; fi
 PYTHONPATH="$pypath" "$python" "$here/render.py" "$out" "$here"/scenes/*
 "#;
+
+/// A reference's size `WxH` scaled to [`RACE_WIDTH`] columns, its aspect
+/// ratio kept (rows rounded).
+fn race_size(size: &str) -> Result<String, String> {
+    let (w, h) = size
+        .split_once('x')
+        .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
+        .filter(|&(w, h)| w > 0 && h > 0)
+        .ok_or_else(|| format!("manifest size {size:?} is not WxH"))?;
+    let rows = (h as u64 * RACE_WIDTH as u64 + w as u64 / 2) / w as u64;
+    Ok(format!("{RACE_WIDTH}x{}", rows.max(1)))
+}
 
 fn copy(from: &Path, to: &Path) -> Result<(), String> {
     std::fs::copy(from, to)
