@@ -322,6 +322,9 @@ struct GpuParams {
     wave_pixel_count: u32,
     wave_capacity: u32,
     sampler: u32,
+    pad_a: u32,
+    pad_b: u32,
+    pad_c: u32,
 }
 struct BvhNode {
     min_x: f32,

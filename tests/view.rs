@@ -56,13 +56,19 @@ fn assert_same_film(a: &Path, b: &Path) {
 fn a_headless_view_writes_the_film_a_render_of_its_samples_writes() {
     let dir = tempfile::tempdir().unwrap();
     let d = |n: &str| dir.path().join(n).to_string_lossy().into_owned();
-    for backend in ["cpu", "gpu"] {
-        let out = d(&format!("view-{backend}"));
+    for (backend, sampler) in [
+        ("cpu", "independent"),
+        ("gpu", "independent"),
+        ("gpu", "sobol"),
+    ] {
+        let out = d(&format!("view-{backend}-{sampler}"));
         let (ok, stdout, stderr) = run(
             &[
                 "view",
                 "cornell",
                 "--headless",
+                "--sampler",
+                sampler,
                 "--backend",
                 backend,
                 "--size",
@@ -78,11 +84,13 @@ fn a_headless_view_writes_the_film_a_render_of_its_samples_writes() {
         );
         assert!(ok, "{backend}: {stderr}");
         assert!(stdout.contains("15 spp"), "{stdout}");
-        let render = d(&format!("render-{backend}"));
+        let render = d(&format!("render-{backend}-{sampler}"));
         let (ok, _, stderr) = run(
             &[
                 "render",
                 "cornell",
+                "--sampler",
+                sampler,
                 "--backend",
                 backend,
                 "--size",
@@ -625,6 +633,12 @@ fn a_saved_view_renders_as_the_film_beside_it() {
             height: 9,
             max_depth: 6,
             seed: 5,
+            // The view file carries the sampler: the GPU's view is saved
+            // with the Sobol' one, and its render must use it too.
+            sampler: match backend {
+                "cpu" => reference::rng::Sampler::Independent,
+                _ => reference::rng::Sampler::Sobol,
+            },
             ..scene.render_settings()
         };
         let devices = match backend {

@@ -296,8 +296,9 @@ gpu_record! {
         // The wavefront's wave (gpu::wavefront): its first pixel, its
         // pixel count, and the path slots its buffers hold.
         wave_pixel_start: u32, wave_pixel_count: u32, wave_capacity: u32,
-        // The sequence of the paths' randoms (`reference::rng::Sampler::tag`).
-        sampler: u32,
+        // The sequence of the paths' randoms (`reference::rng::Sampler::tag`),
+        // and the padding to a multiple of 16 bytes.
+        sampler: u32, pad_a: u32, pad_b: u32, pad_c: u32,
     }
 }
 

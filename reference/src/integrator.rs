@@ -38,7 +38,8 @@ use std::ops::Range;
 
 /// Russian roulette survival probability is the throughput's largest
 /// component, capped so that bright paths still end sometimes (0.95:
-/// pbrt-v4 uses the same cap).
+/// Mitsuba 3's path integrator caps at the same value; pbrt-v4 lets a
+/// path whose throughput is 1 or more survive always).
 pub const ROULETTE_MAX_SURVIVAL: f32 = 0.95;
 
 /// Tile side in pixels for the parallel loop (order never changes results).

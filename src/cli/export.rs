@@ -28,6 +28,7 @@
 //! | thin-lens camera | `perspective` (`aperture` 0) or `thinlens` (radius = aperture / 2), `fov_axis="y"` |
 //! | box pixel filter, `max_depth` ray segments | `box` rfilter, `path` (or `volpath`) integrator's `max_depth` (1 = emitters seen directly in both) |
 //! | Russian roulette from hit `roulette_depth` on | `rr_depth` = `roulette_depth − 1` (Mitsuba rolls after hit `rr_depth`) |
+//! | `render.sampler` (independent or Sobol') | the `independent` sampler: a converged image does not depend on the sequence |
 //! | point light (radiant intensity) | `point` emitter, `intensity` |
 //! | directional light (irradiance) | `directional` emitter, `irradiance` |
 //! | spot light whose inner cone holds the scene's bounds | `spot` emitter, `cutoff_angle` = outer, `beam_width` = inner (degrees), pointed by `lookat` |

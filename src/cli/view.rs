@@ -25,6 +25,10 @@ pub struct ViewArgs {
     /// RNG seed (default: the scene's).
     #[arg(long, allow_hyphen_values = true, value_parser = twintrace::partial::parse_count)]
     pub seed: Option<u32>,
+    /// Where the paths' random numbers come from (default: the scene's):
+    /// as `render --sampler`.
+    #[arg(long, value_enum)]
+    pub sampler: Option<super::SamplerArg>,
     /// Where the frames run. A window needs a GPU (`auto` and `gpu` take
     /// the adapter that can draw to it); `--headless` runs on any
     /// backend.
@@ -138,6 +142,9 @@ pub fn view(args: &ViewArgs) -> Result<()> {
     }
     if let Some(s) = args.seed {
         settings.seed = s;
+    }
+    if let Some(s) = args.sampler {
+        settings.sampler = s.into();
     }
     settings
         .validate()
