@@ -46,8 +46,8 @@ const MUTANTS: &[(&str, &str, &str, &str, Integrator)] = &[
     ),
     (
         "a shaded vertex draws the randoms of the vertex before it",
-        "let u = vertex_randoms(params.seed, pixel, sample, segment + 1u);\n    let s = scatter",
-        "let u = vertex_randoms(params.seed, pixel, sample, segment);\n    let s = scatter",
+        "let u = sampled_vertex_randoms(params.sampler, params.seed, pixel, sample, segment + 1u);\n    let s = scatter",
+        "let u = sampled_vertex_randoms(params.sampler, params.seed, pixel, sample, segment);\n    let s = scatter",
         "rtow-final",
         Integrator::Bsdf,
     ),

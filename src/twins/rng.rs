@@ -3,7 +3,7 @@
 //! Sobol' sampler's vertex and light floats (`sampled_vertex_randoms`,
 //! `sampled_light_randoms` with `Sampler::Sobol`).
 
-use super::{ensure, run_kernel, Outcome};
+use super::{ensure, run_kernel_with_library, Outcome};
 use gpu::GpuContext;
 
 const SNIPPET: &str = "
@@ -39,6 +39,12 @@ fn rng_main(@builtin(global_invocation_id) gid: vec3<u32>) {
 /// samples of three pixels at three vertices (2,304 keys), 28 words each,
 /// bit for bit.
 pub fn streams(ctx: &GpuContext) -> Outcome {
+    streams_with_library(ctx, &gpu::shader::library_source())
+}
+
+/// [`streams`] over the given library source (the production one, or one
+/// with a deliberate defect for a mutation test).
+pub fn streams_with_library(ctx: &GpuContext, library: &str) -> Outcome {
     let scene = reference::load_scene("cornell").map_err(|e| e.to_string())?;
     let mut keys = Vec::new();
     for seed in [0u32, 1, 0x9E37_79B9, u32::MAX] {
@@ -60,14 +66,13 @@ pub fn streams(ctx: &GpuContext) -> Outcome {
         }
     }
     let input: Vec<u32> = keys.iter().flatten().copied().collect();
-    let out = run_kernel(
+    let out = run_kernel_with_library(
         ctx,
         &scene,
-        SNIPPET,
-        "rng_main",
+        (SNIPPET, "rng_main"),
         &input,
-        keys.len(),
-        keys.len() * 28,
+        (keys.len(), keys.len() * 28),
+        library,
     )?;
     for (i, &[seed, pixel, sample, bounce]) in keys.iter().enumerate() {
         let a = reference::rng::random_block(seed, pixel, sample, bounce, 0);
