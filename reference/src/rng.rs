@@ -152,12 +152,6 @@ pub mod pairs {
     pub const NONE: u32 = 0;
 }
 
-/// Bits of `x` in reverse order.
-#[inline]
-fn reverse_bits(x: u32) -> u32 {
-    x.reverse_bits()
-}
-
 /// A hash whose output bit `k` depends on input bits `0..=k` only (each
 /// step adds, multiplies by an odd number, or XORs in a multiple by an
 /// even one), so that between reversals it permutes the digits of a
@@ -180,7 +174,7 @@ fn laine_karras(mut x: u32, seed: u32) -> u32 {
 /// `k` and above.
 #[inline]
 pub fn owen_scramble(x: u32, seed: u32) -> u32 {
-    reverse_bits(laine_karras(reverse_bits(x), seed))
+    laine_karras(x.reverse_bits(), seed).reverse_bits()
 }
 
 /// The second dimension of Sobol's sequence at index `i`, with its bits
@@ -235,9 +229,9 @@ fn sobol_block(
         // `reverse_bits(i)` scrambled, `owen_scramble(reverse_bits(i), s)`
         // being `reverse_bits(laine_karras(i, s))`; the second Sobol's.
         let i = owen_scramble(sample, w[slot]);
-        out[slot] = reverse_bits(laine_karras(i, remix(w[slot])));
+        out[slot] = laine_karras(i, remix(w[slot])).reverse_bits();
         if slot < 3 && pairs & (1 << slot) != 0 {
-            out[slot + 1] = reverse_bits(laine_karras(sobol_second_reversed(i), w[slot + 1]));
+            out[slot + 1] = laine_karras(sobol_second_reversed(i), w[slot + 1]).reverse_bits();
             slot += 2;
         } else {
             slot += 1;

@@ -71,23 +71,16 @@ pub enum Command {
     View(view::ViewArgs),
 }
 
+/// `--sampler NAME`: a [`reference::rng::Sampler`] by its name, the
+/// possible values listed from [`reference::rng::Sampler::ALL`].
+pub fn sampler_parser() -> impl clap::builder::TypedValueParser<Value = reference::rng::Sampler> {
+    use clap::builder::TypedValueParser as _;
+    use reference::rng::Sampler;
+    clap::builder::PossibleValuesParser::new(Sampler::ALL.map(Sampler::name))
+        .map(|name| Sampler::from_name(&name).expect("a possible value names a sampler"))
+}
+
 /// Which renderer runs the paths.
-/// `--sampler`: [`reference::rng::Sampler`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum SamplerArg {
-    Sobol,
-    Independent,
-}
-
-impl From<SamplerArg> for reference::rng::Sampler {
-    fn from(s: SamplerArg) -> Self {
-        match s {
-            SamplerArg::Sobol => reference::rng::Sampler::Sobol,
-            SamplerArg::Independent => reference::rng::Sampler::Independent,
-        }
-    }
-}
-
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
 pub enum Backend {
     /// The scalar CPU reference (`reference::render`).
@@ -144,8 +137,8 @@ pub struct RenderArgs {
     /// number hashed on its own; sobol = padded Owen-scrambled Sobol'
     /// points, stratified over each pixel's samples (less error at equal
     /// samples).
-    #[arg(long, value_enum)]
-    pub sampler: Option<SamplerArg>,
+    #[arg(long, value_parser = sampler_parser())]
+    pub sampler: Option<reference::rng::Sampler>,
     /// Maximum number of ray segments per path (overrides the preset and the scene).
     #[arg(long, allow_hyphen_values = true, value_parser = twintrace::partial::parse_count)]
     pub max_depth: Option<u32>,
@@ -271,7 +264,7 @@ pub fn resolve_settings(
         s.seed = seed;
     }
     if let Some(sampler) = args.sampler {
-        s.sampler = sampler.into();
+        s.sampler = sampler;
     }
     s.validate()
         .map_err(|e| anyhow!("invalid render settings: {e}"))?;

@@ -91,8 +91,8 @@ pub struct RunArgs {
     pub only: Vec<String>,
     /// The sampler of every render (independent when not given); rows
     /// rendered with sobol are named VARIANT-sobol.
-    #[arg(long, value_enum)]
-    pub sampler: Option<super::SamplerArg>,
+    #[arg(long, value_parser = super::sampler_parser())]
+    pub sampler: Option<reference::rng::Sampler>,
     /// Timed repetitions of every measurement (medians and spreads come from them).
     #[arg(long, default_value_t = 5, allow_hyphen_values = true, value_parser = twintrace::partial::parse_count)]
     pub repeats: u32,
@@ -420,9 +420,7 @@ fn run_suite(a: &RunArgs) -> Result<()> {
         cpu_integrators,
         gpu: ctx.as_ref(),
         gpu_variants,
-        sampler: a
-            .sampler
-            .map_or(reference::rng::Sampler::Independent, Into::into),
+        sampler: a.sampler.unwrap_or_default(),
         repeats: a.repeats,
         inject_slowdown: a.inject_slowdown,
         revision: a.revision.clone(),

@@ -27,8 +27,8 @@ pub struct ViewArgs {
     pub seed: Option<u32>,
     /// Where the paths' random numbers come from (default: the scene's):
     /// as `render --sampler`.
-    #[arg(long, value_enum)]
-    pub sampler: Option<super::SamplerArg>,
+    #[arg(long, value_parser = super::sampler_parser())]
+    pub sampler: Option<reference::rng::Sampler>,
     /// Where the frames run. A window needs a GPU (`auto` and `gpu` take
     /// the adapter that can draw to it); `--headless` runs on any
     /// backend.
@@ -144,7 +144,7 @@ pub fn view(args: &ViewArgs) -> Result<()> {
         settings.seed = s;
     }
     if let Some(s) = args.sampler {
-        settings.sampler = s.into();
+        settings.sampler = s;
     }
     settings
         .validate()
