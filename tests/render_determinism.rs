@@ -145,4 +145,22 @@ fn render_json_is_one_object_naming_what_it_wrote() {
     assert!(j["stopped_by"].is_string(), "{j}");
     let j = run("c", &["--samples", "2..5"]);
     assert_eq!(j["samples"], serde_json::json!([2, 5]));
+    // --roulette-depth overrides the scene's start of Russian roulette
+    // (default 3), and the paths follow it: with roulette from the first
+    // hit the image is another than with none before hit 50.
+    assert_eq!(j["roulette_depth"], 3);
+    let early = run("d", &["--spp", "4", "--roulette-depth", "1"]);
+    let late = run("e", &["--spp", "4", "--roulette-depth", "50"]);
+    assert_eq!(
+        (
+            early["roulette_depth"].as_u64(),
+            late["roulette_depth"].as_u64()
+        ),
+        (Some(1), Some(50))
+    );
+    let exr = |j: &serde_json::Value| std::fs::read(j["outputs"]["exr"].as_str().unwrap()).unwrap();
+    assert!(
+        exr(&early) != exr(&late),
+        "--roulette-depth did not change the paths"
+    );
 }

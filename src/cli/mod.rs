@@ -142,6 +142,11 @@ pub struct RenderArgs {
     /// Maximum number of ray segments per path (overrides the preset and the scene).
     #[arg(long, allow_hyphen_values = true, value_parser = twintrace::partial::parse_count)]
     pub max_depth: Option<u32>,
+    /// The surface hit from which Russian roulette may end a path
+    /// (overrides the scene's render.roulette_depth, default 3; Mitsuba's
+    /// rr_depth is this minus one).
+    #[arg(long, value_name = "HIT", allow_hyphen_values = true, value_parser = twintrace::partial::parse_count)]
+    pub roulette_depth: Option<u32>,
     /// Preset for spp and depth: low = 64/4, medium = 256/16, high = 2048/64.
     #[arg(long, value_enum)]
     pub quality: Option<Quality>,
@@ -256,6 +261,9 @@ pub fn resolve_settings(
     }
     if let Some(depth) = args.max_depth {
         s.max_depth = depth;
+    }
+    if let Some(hit) = args.roulette_depth {
+        s.roulette_depth = hit;
     }
     if let Some(size) = &args.size {
         (s.width, s.height) = size_arg(size)?;
@@ -1054,6 +1062,7 @@ fn render(args: &RenderArgs) -> Result<()> {
             "height": settings.height,
             "spp": settings.spp,
             "max_depth": settings.max_depth,
+            "roulette_depth": settings.roulette_depth,
             "seed": settings.seed,
             "sampler": settings.sampler.name(),
             "integrator": spec.integrator().name(),

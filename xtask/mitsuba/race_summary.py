@@ -6,7 +6,7 @@ Usage: race_summary.py OUT_DIR
 Reads what the race's run.sh wrote into OUT_DIR/NAME/: Mitsuba's ladder
 (mitsuba-times.json: render times per spp; mitsuba-relmse.txt: `spp
 relMSE` of the first render of each spp against twintrace's converged
-image), twintrace's ladders (twintrace-SAMPLER.txt: `spp gpu_seconds
+image), twintrace's ladders (twintrace-LADDER.txt, a sampler or SAMPLER-rrHIT: `spp gpu_seconds
 relMSE` per render) and the converged images' diff (converged.txt). For
 each renderer the time to relMSE 1e-3 is interpolated log-log between the
 two rungs of the ladder around it (median time, mean relMSE at each spp);
@@ -68,14 +68,22 @@ def read_rows(path, columns):
     return rows
 
 
+def ladders(d):
+    """twintrace's ladders in D (twintrace-NAME.txt: a sampler, or
+    SAMPLER-rrHIT with Russian roulette from that hit), independent first."""
+    names = [f[len("twintrace-"):-len(".txt")] for f in os.listdir(d)
+             if f.startswith("twintrace-") and f.endswith(".txt")]
+    return sorted(names, key=lambda n: (not n.startswith("independent"), n))
+
+
 def scene_row(d):
     times = json.load(open(os.path.join(d, "mitsuba-times.json")))["ladder"]
     errs = {int(s): e for s, e in read_rows(os.path.join(d, "mitsuba-relmse.txt"), 2)}
     mitsuba = [(r["spp"], r["median_s"], errs[r["spp"]]) for r in times if r["spp"] in errs]
     result = {"mitsuba": time_to(mitsuba)}
-    for sampler in ("independent", "sobol"):
-        rows = read_rows(os.path.join(d, f"twintrace-{sampler}.txt"), 3)
-        result[sampler] = time_to(ladder([(int(s), t, e) for s, t, e in rows]))
+    for name in ladders(d):
+        rows = read_rows(os.path.join(d, f"twintrace-{name}.txt"), 3)
+        result[name] = time_to(ladder([(int(s), t, e) for s, t, e in rows]))
     verdict = "missing"
     conv = os.path.join(d, "converged.txt")
     if os.path.exists(conv):
@@ -96,20 +104,25 @@ def main():
     if len(sys.argv) != 2:
         sys.exit("usage: race_summary.py OUT_DIR")
     out = sys.argv[1]
-    print("| scene | converged images | Mitsuba ms | twintrace independent ms | twintrace sobol ms | independent / Mitsuba | sobol / Mitsuba |")
-    print("|---|---|---|---|---|---|---|")
-    for name in sorted(os.listdir(out)):
-        d = os.path.join(out, name)
-        if not os.path.exists(os.path.join(d, "mitsuba-times.json")):
-            continue
-        r, verdict = scene_row(d)
+    scenes = [n for n in sorted(os.listdir(out))
+              if os.path.exists(os.path.join(out, n, "mitsuba-times.json"))]
+    names = []
+    for n in scenes:
+        names += [l for l in ladders(os.path.join(out, n)) if l not in names]
+    print("| scene | converged images | Mitsuba ms | "
+          + " | ".join(f"twintrace {l} ms" for l in names) + " | "
+          + " | ".join(f"{l} / Mitsuba" for l in names) + " |")
+    print("|---|---|---|" + "---|" * (2 * len(names)))
+    for name in scenes:
+        r, verdict = scene_row(os.path.join(out, name))
         mark = "" if verdict == "PASS" else "!"
         ratios = []
-        for sampler in ("independent", "sobol"):
-            a, b = r[sampler][0], r["mitsuba"][0]
+        for l in names:
+            a, b = r.get(l, (None, False))[0], r["mitsuba"][0]
             ratios.append(f"{a / b:.2f}{mark}" if a and b else "–")
-        print(f"| {name} | {verdict} | {ms(r['mitsuba'])} | {ms(r['independent'])} | {ms(r['sobol'])} | {ratios[0]} | {ratios[1]} |")
-
+        times = [ms(r.get(l, (None, False))) for l in names]
+        print(f"| {name} | {verdict} | {ms(r['mitsuba'])} | " + " | ".join(times)
+              + " | " + " | ".join(ratios) + " |")
 
 if __name__ == "__main__":
     main()

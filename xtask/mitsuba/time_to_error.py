@@ -3,7 +3,8 @@
 
 Usage: time_to_error.py SCENE_DIR OUT_DIR
 
-For each spp of the ladder 1, 2, 4, ... LADDER_MAX (default 1024) it
+For each spp of the ladder LADDER_MIN (default 1), twice that, ...
+LADDER_MAX (default 1024) it
 renders REPS (default 5) times with different seeds and writes the first
 render as OUT_DIR/mitsuba-SPP.exr (R, G, B; the `spp` attribute) and every
 render's time into OUT_DIR/mitsuba-times.json. The time of one render is
@@ -28,6 +29,7 @@ import mitsuba as mi
 
 from render import write_exr
 
+LADDER_MIN = int(os.environ.get("LADDER_MIN", "1"))
 LADDER_MAX = int(os.environ.get("LADDER_MAX", "1024"))
 REPS = int(os.environ.get("REPS", "5"))
 
@@ -45,7 +47,7 @@ def main():
     scene = mi.load_file(os.path.join(scene_dir, "scene.xml"))
     software = f"Mitsuba {mi.__version__} ({mi.variant()}, path integrator)"
     rows = []
-    spp = 1
+    spp = max(LADDER_MIN, 1)
     while spp <= LADDER_MAX:
         # Warm-up at this spp (seed outside the timed ones).
         mi.render(scene, spp=spp, seed=2**31 - spp)

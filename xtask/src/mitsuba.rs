@@ -96,13 +96,17 @@ const RACE_SH: &str = r#"#!/bin/sh
 # scenes/). The pack lives in target/ of a twintrace checkout, whose
 # fixtures the scenes name ($TWINTRACE_ROOT, default: two folders up);
 # twintrace is $TT (default: target/release/twintrace there). Writes into
-# $OUT (default: out/ here). LADDER_MAX (1024), REPS (3) and REF_SPP
-# (16384) set the ladders and twintrace's converged image.
+# $OUT (default: out/ here). LADDER_MIN (1), LADDER_MAX (1024), REPS (3)
+# and REF_SPP (16384) set the ladders and twintrace's converged image;
+# LADDERS ("independent sobol") twintrace's ladders, each a sampler or
+# SAMPLER/HIT (Russian roulette from that hit: --roulette-depth; Mitsuba's
+# side keeps the scene's).
 set -eu
 here=$(cd "$(dirname "$0")" && pwd)
 root=${TWINTRACE_ROOT:-$(cd "$here/../.." && pwd)}
 out=${OUT:-$here/out}
 tt=${TT:-$root/target/release/twintrace}
+ladder_min=${LADDER_MIN:-1}
 ladder_max=${LADDER_MAX:-1024}
 reps=${REPS:-3}
 ref_spp=${REF_SPP:-16384}
@@ -130,7 +134,7 @@ if [ "${1:-}" = "--scene" ]; then
   echo "== $name ($SIZE, depth $DEPTH): twintrace converged image (GPU, MIS, $ref_spp spp)"
   "$tt" render "$root/$SCENE" --backend gpu --integrator mis --sampler sobol --size "$SIZE" --max-depth "$DEPTH" --spp "$ref_spp" --seed 1 -o "$o/twintrace-converged" --json > "$o/twintrace-converged.json"
   echo "== $name: Mitsuba ladder"
-  PYTHONPATH="$py:$here" LADDER_MAX="$ladder_max" REPS="$reps" "$python" "$here/time_to_error.py" "$scene" "$o" > "$o/mitsuba-ladder.txt"
+  PYTHONPATH="$py:$here" LADDER_MIN="$ladder_min" LADDER_MAX="$ladder_max" REPS="$reps" "$python" "$here/time_to_error.py" "$scene" "$o" > "$o/mitsuba-ladder.txt"
   echo "== $name: Mitsuba converged image"
   PASSES=${PASSES:-4} PASS_SPP=${PASS_SPP:-4096} PYTHONPATH="$py:$here" "$python" "$here/render.py" "$o/mitsuba-converged" "$scene" > /dev/null
   "$tt" diff "$o/mitsuba-converged/$name.exr" "$o/twintrace-converged.exr" --report "$o/converged.html" > "$o/converged.txt" 2>&1 || true
@@ -140,15 +144,19 @@ if [ "${1:-}" = "--scene" ]; then
     spp=${f#mitsuba-}; spp=${spp%.exr}
     echo "$spp $(relmse "$o/$f" "$o/twintrace-converged.exr" "$o/d.html")" >> "$o/mitsuba-relmse.txt"
   done
-  for sampler in independent sobol; do
-    echo "== $name: twintrace ladder ($sampler)"
-    : > "$o/twintrace-$sampler.txt"
-    spp=1
+  for ladder in ${LADDERS:-independent sobol}; do
+    sampler=${ladder%%/*}
+    rr=
+    file=$sampler
+    case "$ladder" in */*) rr="--roulette-depth ${ladder#*/}"; file="$sampler-rr${ladder#*/}" ;; esac
+    echo "== $name: twintrace ladder ($ladder)"
+    : > "$o/twintrace-$file.txt"
+    spp=$ladder_min
     while [ "$spp" -le "$ladder_max" ]; do
       rep=0
       while [ "$rep" -lt "$reps" ]; do
-        "$tt" render "$root/$SCENE" --backend gpu --integrator mis --sampler "$sampler" --size "$SIZE" --max-depth "$DEPTH" --spp "$spp" --seed $((1000 * spp + rep + 2)) -o "$o/t" --json > "$o/t.json"
-        echo "$spp $(field gpu_time_s "$o/t.json") $(relmse "$o/t.exr" "$o/twintrace-converged.exr" "$o/d.html")" >> "$o/twintrace-$sampler.txt"
+        "$tt" render "$root/$SCENE" --backend gpu --integrator mis --sampler "$sampler" $rr --size "$SIZE" --max-depth "$DEPTH" --spp "$spp" --seed $((1000 * spp + rep + 2)) -o "$o/t" --json > "$o/t.json"
+        echo "$spp $(field gpu_time_s "$o/t.json") $(relmse "$o/t.exr" "$o/twintrace-converged.exr" "$o/d.html")" >> "$o/twintrace-$file.txt"
         rep=$((rep + 1))
       done
       spp=$((spp * 2))
