@@ -2,6 +2,11 @@
 //! status (0 same, 1 different, 2 cannot compare), prints the verdict and
 //! the metrics, and writes a self-contained HTML report; a failing image
 //! gate leaves the same evidence under `target/diff/<test>/`.
+//!
+//! Its tests read a render's per-pixel spread as the noise of its mean,
+//! which holds for independent samples: the renders here use the gates'
+//! sampler (`GATE_SAMPLER`). A Sobol' render's spread overstates its
+//! noise, and diff is conservative on it (README, "diff").
 
 use crate::common;
 use crate::common::gates::assert_passes;
@@ -64,6 +69,7 @@ fn render_spp(dir: &Path, name: &str, seed: u32, albedo: f32, spp: u32) {
         spp,
         max_depth: 12,
         seed,
+        sampler: twintrace::compare::gate::GATE_SAMPLER,
         ..scene.render_settings()
     };
     let film = reference::render(&scene, &settings, &|_| {});
@@ -288,6 +294,7 @@ fn render_cornell(dir: &Path, name: &str, seed: u32, dark_fraction: f64, dark_sc
         spp: 1024,
         max_depth: spec.max_depth,
         seed,
+        sampler: twintrace::compare::gate::GATE_SAMPLER,
         ..scene.render_settings()
     };
     let film = reference::render(&scene, &settings, &|_| {});
@@ -441,6 +448,7 @@ fn render_estimator(
         spp,
         max_depth: spec.max_depth,
         seed,
+        sampler: twintrace::compare::gate::GATE_SAMPLER,
         ..scene.render_settings()
     };
     let film = reference::integrator::render_with(&scene, &settings, integrator, &|_| {});
@@ -738,6 +746,7 @@ fn runs_false_alarm_rate() {
             spp: 64,
             max_depth: 12,
             seed,
+            sampler: twintrace::compare::gate::GATE_SAMPLER,
             ..scene.render_settings()
         };
         let film = reference::render(&scene, &settings, &|_| {});

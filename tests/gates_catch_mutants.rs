@@ -237,7 +237,7 @@ fn the_copied_tracer_is_the_reference_bit_for_bit_and_the_exact_gate_sees_a_drop
             max_depth: 12,
             seed: 5,
             roulette_depth: scene.render_settings().roulette_depth,
-            sampler: Default::default(),
+            sampler: twintrace::compare::gate::GATE_SAMPLER,
             camera: None,
         };
         let reference = reference::render(&scene, &settings, &|_| {});
@@ -370,7 +370,7 @@ fn welch_passes_two_seeds_and_fails_albedo_times_1_02() {
         max_depth: reference.spec.max_depth,
         seed: 21,
         roulette_depth: scene.render_settings().roulette_depth,
-        sampler: Default::default(),
+        sampler: twintrace::compare::gate::GATE_SAMPLER,
         camera: None,
     };
     let a = NoisyImage::from_film(&reference::render(&scene, &settings, &|_| {}));

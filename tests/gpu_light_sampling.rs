@@ -44,7 +44,7 @@ fn gpu_estimate(
         seed: 43,
         max_depth: 2,
         roulette_depth: 100,
-        sampler: Default::default(),
+        sampler: twintrace::compare::gate::GATE_SAMPLER,
         camera: None,
     };
     let packed = gpu::scene_buffers::PackedScene::new(scene);

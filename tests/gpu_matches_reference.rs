@@ -56,7 +56,7 @@ fn gpu_and_cpu_agree_by_welch_at_equal_budgets_and_a_biased_gpu_does_not() {
         max_depth: spec.max_depth,
         seed: 21,
         roulette_depth: scene.render_settings().roulette_depth,
-        sampler: Default::default(),
+        sampler: twintrace::compare::gate::GATE_SAMPLER,
         camera: None,
     };
     let cpu = NoisyImage::from_film(&cpu_reference(&scene, &settings).unwrap());

@@ -35,7 +35,7 @@ fn gpu_estimate(scene: &Scene, integrator: Integrator, spp: u32, seed: u32) -> (
         seed,
         max_depth: 2,
         roulette_depth: 100,
-        sampler: Default::default(),
+        sampler: twintrace::compare::gate::GATE_SAMPLER,
         camera: None,
     };
     let film = gpu::GpuRenderer::with_integrator(common::gpu(), scene, integrator)

@@ -33,7 +33,7 @@ fn centre_and_corner(
         max_depth: 64,
         roulette_depth: 1000,
         seed: 3,
-        sampler: Default::default(),
+        sampler: twintrace::compare::gate::GATE_SAMPLER,
         camera: None,
     };
     let film = reference::render(&scene, &settings, &|_| {});
@@ -111,7 +111,7 @@ fn russian_roulette_keeps_the_expectation() {
         max_depth: 64,
         roulette_depth: 1,
         seed: 1,
-        sampler: Default::default(),
+        sampler: twintrace::compare::gate::GATE_SAMPLER,
         camera: None,
     };
     let film = reference::render(&scene, &settings, &|_| {});

@@ -345,7 +345,7 @@ fn one_pixel_estimate(
         seed,
         max_depth: 2,
         roulette_depth: 100,
-        sampler: Default::default(),
+        sampler: twintrace::compare::gate::GATE_SAMPLER,
         camera: None,
     };
     let go = || render_with(scene, &st, integrator, &|_| {});

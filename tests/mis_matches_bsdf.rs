@@ -117,7 +117,7 @@ fn gpu_and_cpu_mis_agree_by_welch_at_equal_budgets() {
         max_depth: spec.max_depth,
         seed: 23,
         roulette_depth: scene.render_settings().roulette_depth,
-        sampler: Default::default(),
+        sampler: twintrace::compare::gate::GATE_SAMPLER,
         camera: None,
     };
     let cpu = NoisyImage::from_film(&render_cpu_mis(&scene, &settings).unwrap());

@@ -116,7 +116,7 @@ fn render_image(scene: &Scene, integrator: Integrator, spp: u32, seed: u32) -> N
         max_depth: 8,
         seed,
         roulette_depth: 3,
-        sampler: Default::default(),
+        sampler: twintrace::compare::gate::GATE_SAMPLER,
         camera: None,
     };
     let film = render_with(scene, &settings, integrator, &|_| {});
@@ -256,7 +256,7 @@ fn plane_estimate(scene: &Scene, integrator: Integrator, spp: u32, seed: u32) ->
         seed,
         max_depth: 2,
         roulette_depth: 100,
-        sampler: Default::default(),
+        sampler: twintrace::compare::gate::GATE_SAMPLER,
         camera: None,
     };
     let img = NoisyImage::from_film(&render_with(scene, &st, integrator, &|_| {}));

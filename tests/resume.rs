@@ -511,9 +511,9 @@ fn resume_refuses_a_part_of_another_render_naming_the_field() {
             "its integrator is mis, this command's is bsdf",
         ),
         (
-            &["--sampler", "sobol"],
+            &["--sampler", "independent"],
             "p.exr",
-            "its sampler is independent, this command's is sobol (--sampler",
+            "its sampler is sobol, this command's is independent (--sampler",
         ),
         (
             &["--spp", "8"],

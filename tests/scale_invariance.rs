@@ -147,7 +147,7 @@ fn render_scaled(scale: f32, albedo: f32, seed: u32) -> reference::Film {
         max_depth: 8,
         seed,
         roulette_depth: 3,
-        sampler: Default::default(),
+        sampler: twintrace::compare::gate::GATE_SAMPLER,
         camera: None,
     };
     let film = reference::render(&scene, &settings, &|_| {});
@@ -242,7 +242,7 @@ fn render_far(scene: &Scene, spp: u32, seed: u32) -> twintrace::compare::image::
         max_depth: 12,
         seed,
         roulette_depth: 3,
-        sampler: Default::default(),
+        sampler: twintrace::compare::gate::GATE_SAMPLER,
         camera: None,
     };
     let film = reference::render(scene, &settings, &|_| {});

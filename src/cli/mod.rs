@@ -133,10 +133,11 @@ pub struct RenderArgs {
     #[arg(long, allow_hyphen_values = true, value_parser = twintrace::partial::parse_count)]
     pub seed: Option<u32>,
     /// Where the paths' random numbers come from (overrides the scene's
-    /// render.sampler, whose default is independent): independent = every
-    /// number hashed on its own; sobol = padded Owen-scrambled Sobol'
-    /// points, stratified over each pixel's samples (less error at equal
-    /// samples).
+    /// render.sampler, whose default is sobol): sobol = padded
+    /// Owen-scrambled Sobol' points, stratified over each pixel's samples
+    /// (less error at equal samples); independent = every number hashed on
+    /// its own (a pixel's spread is then the noise of its mean, which
+    /// --target-relmse and diff read; with sobol they overstate it).
     #[arg(long, value_parser = sampler_parser())]
     pub sampler: Option<reference::rng::Sampler>,
     /// Maximum number of ray segments per path (overrides the preset and the scene).
@@ -160,8 +161,10 @@ pub struct RenderArgs {
     pub time: Option<String>,
     /// Render until the film's own estimate of the relative MSE of its
     /// mean reaches X (docs/gates.md: how it is estimated and how close
-    /// the true error lands). --spp (or --quality), if given, caps the
-    /// samples.
+    /// the true error lands). The estimate reads the samples' spread,
+    /// which overstates a Sobol' render's error (the default sampler):
+    /// such a render tends to stop later than it needs to.
+    /// --spp (or --quality), if given, caps the samples.
     #[arg(long, value_name = "X", allow_hyphen_values = true)]
     pub target_relmse: Option<f64>,
     /// Print where the wall time went, phase by phase (loading the scene,

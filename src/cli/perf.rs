@@ -89,7 +89,9 @@ pub struct RunArgs {
     /// Only the cases and workloads whose name contains this.
     #[arg(long)]
     pub only: Vec<String>,
-    /// The sampler of every render (independent when not given); rows
+    /// The sampler of every render: independent when not given (not
+    /// render's default), since the baseline's rows and the relMSE a
+    /// row's own variance predicts take the samples as independent; rows
     /// rendered with sobol are named VARIANT-sobol.
     #[arg(long, value_parser = super::sampler_parser())]
     pub sampler: Option<reference::rng::Sampler>,
@@ -420,7 +422,7 @@ fn run_suite(a: &RunArgs) -> Result<()> {
         cpu_integrators,
         gpu: ctx.as_ref(),
         gpu_variants,
-        sampler: a.sampler.unwrap_or_default(),
+        sampler: a.sampler.unwrap_or(reference::rng::Sampler::Independent),
         repeats: a.repeats,
         inject_slowdown: a.inject_slowdown,
         revision: a.revision.clone(),

@@ -307,8 +307,18 @@ impl GateRun {
     }
 }
 
+/// The sampler the statistical gates render with, whatever a scene or
+/// the default says: their tests take the spread of a pixel's samples as
+/// the variance of the mean, which holds exactly for independent samples
+/// only (stored references are rendered with it for the same reason). A
+/// stratified sequence's mean varies less than that spread says, so a gate
+/// on it would pass more and catch less; the Sobol' sampler has gates of
+/// its own (tests/sobol_sampler.rs) and its twin, and the two samplers
+/// share every other line of the estimator.
+pub const GATE_SAMPLER: reference::rng::Sampler = reference::rng::Sampler::Independent;
+
 /// The settings of a gate render: the reference's size and depth, the
-/// scene's roulette depth, the test's spp and seed.
+/// scene's roulette depth, the test's spp and seed, [`GATE_SAMPLER`].
 pub fn gate_settings(
     reference: &StoredReference,
     scene: &Scene,
@@ -323,7 +333,7 @@ pub fn gate_settings(
         seed,
         max_depth: s.max_depth,
         roulette_depth: scene.render_settings().roulette_depth,
-        sampler: scene.render_settings().sampler,
+        sampler: GATE_SAMPLER,
         camera: None,
     }
 }

@@ -135,7 +135,7 @@ pub fn settings(case: &Case, seed: u32) -> RenderSettings {
         max_depth: 2,
         roulette_depth: 100,
         seed,
-        sampler: Default::default(),
+        sampler: twintrace::compare::gate::GATE_SAMPLER,
         camera: None,
     }
 }

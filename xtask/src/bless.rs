@@ -242,6 +242,10 @@ pub fn run(args: &[String]) -> Result<(), String> {
             &l.depth,
             "--integrator",
             &integrator,
+            // Independent samples: the gates take a reference's per-pixel
+            // spread as its noise (twintrace::compare::gate::GATE_SAMPLER).
+            "--sampler",
+            "independent",
         ];
         let start = Instant::now();
         let mut cargo_args = vec!["run", "--release", "--quiet", "--bin", "twintrace", "--"];
