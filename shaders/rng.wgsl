@@ -90,23 +90,53 @@ fn remix(x_in: u32) -> u32 {
     return x ^ (x >> 16u);
 }
 
+// One slot alone: van der Corput's point of the shuffled index, scrambled.
+fn sobol_single(sample: u32, key: u32) -> u32 {
+    return reverseBits(laine_karras(owen_scramble(sample, key), remix(key)));
+}
+
+// A pair of slots: Sobol's first two dimensions of one shuffled index.
+fn sobol_pair(sample: u32, key: u32, second_key: u32) -> vec2<u32> {
+    let i = owen_scramble(sample, key);
+    return vec2<u32>(reverseBits(laine_karras(i, remix(key))), reverseBits(laine_karras(sobol_second_reversed(i), second_key)));
+}
+
+// The reference's loop over the slots, unrolled: every slot and key is
+// named by a fixed component (a component chosen at run time, as in
+// `out[slot]`, can send the vector to memory), the branches on `pairs`
+// are the loop's.
 fn sobol_block(seed: u32, pixel: u32, sample: u32, bounce: u32, block: u32, pairs: u32) -> vec4<u32> {
     let w = pcg4d(vec4<u32>(pixel, ~seed, (bounce << 16u) | 0x8000u | block, seed));
     var out = vec4<u32>(0u);
-    var slot = 0u;
-    loop {
-        if slot >= 4u {
-            break;
-        }
-        let i = owen_scramble(sample, w[slot]);
-        out[slot] = reverseBits(laine_karras(i, remix(w[slot])));
-        if slot < 3u && (pairs & (1u << slot)) != 0u {
-            out[slot + 1u] = reverseBits(laine_karras(sobol_second_reversed(i), w[slot + 1u]));
-            slot += 2u;
+    // Slots 0 and 1: a pair; or slot 0 alone, then the pair (1, 2) or
+    // slot 1 alone.
+    var third = true;
+    if (pairs & 1u) != 0u {
+        let p = sobol_pair(sample, w.x, w.y);
+        out.x = p.x;
+        out.y = p.y;
+    } else {
+        out.x = sobol_single(sample, w.x);
+        if (pairs & 2u) != 0u {
+            let p = sobol_pair(sample, w.y, w.z);
+            out.y = p.x;
+            out.z = p.y;
+            third = false;
         } else {
-            slot += 1u;
+            out.y = sobol_single(sample, w.y);
         }
     }
+    // Slot 2, where no pair took it: the pair (2, 3) or slot 2 alone.
+    if third {
+        if (pairs & 4u) != 0u {
+            let p = sobol_pair(sample, w.z, w.w);
+            out.z = p.x;
+            out.w = p.y;
+            return out;
+        }
+        out.z = sobol_single(sample, w.z);
+    }
+    out.w = sobol_single(sample, w.w);
     return out;
 }
 
