@@ -228,19 +228,32 @@ fn sobol_block(
     let mut out = [0u32; 4];
     let mut slot = 0;
     while slot < 4 {
-        // The shuffled index; the first coordinate is van der Corput's
-        // `reverse_bits(i)` scrambled, `owen_scramble(reverse_bits(i), s)`
-        // being `reverse_bits(laine_karras(i, s))`; the second Sobol's.
-        let i = owen_scramble(sample, w[slot]);
-        out[slot] = laine_karras(i, remix(w[slot])).reverse_bits();
         if slot < 3 && pairs & (1 << slot) != 0 {
-            out[slot + 1] = laine_karras(sobol_second_reversed(i), w[slot + 1]).reverse_bits();
+            [out[slot], out[slot + 1]] = sobol_pair(sample, w[slot], w[slot + 1]);
             slot += 2;
         } else {
+            out[slot] = sobol_single(sample, w[slot]);
             slot += 1;
         }
     }
     out
+}
+
+/// One slot alone, keyed by `key`: the shuffled index's van der Corput
+/// point `reverse_bits(i)`, scrambled (`owen_scramble(reverse_bits(i), s)`
+/// being `reverse_bits(laine_karras(i, s))`).
+fn sobol_single(sample: u32, key: u32) -> u32 {
+    laine_karras(owen_scramble(sample, key), remix(key)).reverse_bits()
+}
+
+/// A pair of slots, keyed by `key` and `second_key`: Sobol's first two
+/// dimensions of one shuffled index, each scrambled.
+fn sobol_pair(sample: u32, key: u32, second_key: u32) -> [u32; 2] {
+    let i = owen_scramble(sample, key);
+    [
+        laine_karras(i, remix(key)).reverse_bits(),
+        laine_karras(sobol_second_reversed(i), second_key).reverse_bits(),
+    ]
 }
 
 /// The eight uniform floats of vertex `bounce` of path `(seed, pixel,
