@@ -10,8 +10,9 @@
 
 use crate::common;
 use gpu::features::{feature, Features};
+use gpu::Schedule;
 use reference::integrator::Integrator;
-use twintrace::twins::wavefront::{all_scenes, compare_poisoned, compare_scene};
+use twintrace::twins::wavefront::{all_scenes, compare_poisoned, compare_schedules};
 
 #[test]
 fn wavefront_renders_every_scene_as_the_megakernel() {
@@ -21,14 +22,30 @@ fn wavefront_renders_every_scene_as_the_megakernel() {
     }
 }
 
-/// (what the slip is, WGSL replaced, its replacement, scene, estimator).
-const MUTANTS: &[(&str, &str, &str, &str, Integrator)] = &[
+/// (what the slip is, WGSL replaced, its replacement, scene, estimator,
+/// the schedules whose kernels run the code: a mutant is compiled for
+/// those only, each of its kernels a compile no shader cache holds).
+type Mutant = (
+    &'static str,
+    &'static str,
+    &'static str,
+    &'static str,
+    Integrator,
+    &'static [Schedule],
+);
+
+/// Every wave schedule, for a mutant of code their kernels share (the
+/// first schedule that fails ends the comparison).
+const ALL: &[Schedule] = &Schedule::WAVES;
+
+const MUTANTS: &[Mutant] = &[
     (
         "the accumulate kernel reads the slots pixel-major (they are sample-major)",
         "let slot = j * params.wave_pixel_count + p;",
         "let slot = p * params.sample_count + j;",
         "cornell",
         Integrator::Bsdf,
+        ALL,
     ),
     (
         "a shadow ray is queued as its path's extension ray",
@@ -36,6 +53,7 @@ const MUTANTS: &[(&str, &str, &str, &str, Integrator)] = &[
         "wave_queues.entries[r] = slot << 1u;",
         "cornell",
         Integrator::Mis,
+        ALL,
     ),
     (
         "a run of pixels forgets where it starts (only a split render shows it)",
@@ -43,6 +61,7 @@ const MUTANTS: &[(&str, &str, &str, &str, Integrator)] = &[
         "return params.band_row * params.width + slot % params.wave_pixel_count;",
         "cornell",
         Integrator::Bsdf,
+        ALL,
     ),
     (
         "a shaded vertex draws the randoms of the vertex before it",
@@ -50,6 +69,7 @@ const MUTANTS: &[(&str, &str, &str, &str, Integrator)] = &[
         "let u = sampled_vertex_randoms(params.sampler, params.seed, pixel, sample, segment);\n    let s = scatter",
         "rtow-final",
         Integrator::Bsdf,
+        ALL,
     ),
     (
         "the sky's light on a BSDF path 10^-6 too bright (8 ulp: beyond the ulp rule)",
@@ -57,6 +77,7 @@ const MUTANTS: &[(&str, &str, &str, &str, Integrator)] = &[
         "(*v).radiance += (*v).throughput * evaluate_background(ray.direction) * 1.000001;",
         "rtow-final",
         Integrator::Bsdf,
+        ALL,
     ),
     (
         "the path megakernel traces the next sample's camera ray",
@@ -64,6 +85,7 @@ const MUTANTS: &[(&str, &str, &str, &str, Integrator)] = &[
         "let l = trace(camera_ray(pixel % params.width, pixel / params.width, sample + 1u), pixel, sample);",
         "cornell",
         Integrator::Bsdf,
+        &[Schedule::PathMegakernel],
     ),
     (
         "the MIS weight of emission forgets the BSDF density of the ray that found it",
@@ -71,6 +93,7 @@ const MUTANTS: &[(&str, &str, &str, &str, Integrator)] = &[
         "v.from_pdf = 0.0;",
         "cornell",
         Integrator::Mis,
+        ALL,
     ),
 ];
 
@@ -84,7 +107,7 @@ fn caught(outcome: Result<(), String>) -> bool {
 fn wavefront_mutants_are_caught() {
     let ctx = common::gpu();
     let program = gpu::shader::wavefront_source();
-    for &(slip, from, to, spec, integrator) in MUTANTS {
+    for &(slip, from, to, spec, integrator, schedules) in MUTANTS {
         assert_eq!(
             program.matches(from).count(),
             1,
@@ -92,7 +115,8 @@ fn wavefront_mutants_are_caught() {
         );
         let mutant = program.replace(from, to);
         let scene = reference::load_scene(spec).unwrap();
-        let outcome = compare_scene(ctx, spec, &scene, integrator, &mutant).map(|_| ());
+        let outcome =
+            compare_schedules(ctx, (spec, &scene), integrator, &mutant, schedules).map(|_| ());
         assert!(
             caught(outcome.clone()),
             "{slip}: the wavefront gate passed it ({outcome:?})"

@@ -36,21 +36,24 @@ use reference::Scene;
 /// waves).
 pub const WAVE_SLOTS: [Option<u32>; 3] = [None, Some(200), Some(100)];
 
-/// The megakernel's film and the wavefront's (each path layout, each of
-/// [`WAVE_SLOTS`]) for one scene and estimator under the module's rule;
-/// `program` is the wavefront's WGSL (`gpu::shader::wavefront_source`, or
-/// a test's edit). Returns the pixels not bit for bit and their largest
-/// mean difference in ulp.
-pub fn compare_scene(
+/// The megakernel's film and those of the wave schedules `schedules`
+/// (`Schedule::WAVES`: each path layout and the path megakernel), each
+/// split as [`WAVE_SLOTS`] says, for one scene and estimator under the
+/// module's rule; `program` is the wavefront's WGSL
+/// (`gpu::shader::wavefront_source`, or a test's edit, compiled for the
+/// schedules that run it only: each kernel of a mutated program is a
+/// compile no shader cache holds). Returns the pixels not bit for bit and
+/// their largest mean difference in ulp.
+pub fn compare_schedules(
     ctx: &GpuContext,
-    spec: &str,
-    scene: &Scene,
+    (spec, scene): (&str, &Scene),
     integrator: Integrator,
     program: &str,
+    schedules: &[Schedule],
 ) -> Result<(usize, u64), String> {
     let mega = oracle_film(ctx, spec, scene, integrator, "the megakernel")?;
     let mut inexact = Inexact::default();
-    for schedule in Schedule::WAVES {
+    for &schedule in schedules {
         inexact.add(compare_schedule(
             ctx,
             (spec, scene),
@@ -62,7 +65,7 @@ pub fn compare_scene(
     Ok((inexact.pixels, inexact.mean_ulp))
 }
 
-/// [`compare_scene`] for one wave schedule, against the megakernel's film
+/// [`compare_schedules`] for one wave schedule, against the megakernel's film
 /// already rendered.
 fn compare_schedule(
     ctx: &GpuContext,
