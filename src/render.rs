@@ -128,6 +128,31 @@ pub trait Progressive {
         self.add(samples, progress).map(Some)
     }
 
+    /// [`Progressive::add_until`], where the render may stop part way
+    /// through the range: it adds a prefix `samples.start..end` of it and
+    /// returns `end` with what it did (`end == samples.start`: nothing
+    /// was added, the film is as it was). The default adds the whole
+    /// range or, stopped, nothing.
+    fn add_prefix(
+        &mut self,
+        samples: Range<u32>,
+        progress: &(dyn Fn(u64) + Sync),
+        stop: &(dyn Fn() -> bool + Sync),
+    ) -> Result<(u32, Added)> {
+        Ok(match self.add_until(samples.clone(), progress, stop)? {
+            Some(added) => (samples.end, added),
+            None => (samples.start, Added::default()),
+        })
+    }
+
+    /// Whether [`Progressive::add_prefix`] asks `stop` at least every
+    /// [`CHUNK_TIME`] or so however long the range (a group of devices:
+    /// before each device's unit), so that a caller need not cut a range
+    /// into chunks for an interrupt ([`add_chunked`]).
+    fn stops_within_range(&self) -> bool {
+        false
+    }
+
     /// The film's exact sums.
     fn sums(&mut self) -> Result<FilmSums>;
 
@@ -488,16 +513,17 @@ impl Progressive for GpuProgressive<'_> {
 }
 
 /// Several GPUs as one [`Progressive`] render ([`gpu::devices::DeviceGroup`]):
-/// each range is shared out in chunks from a common counter, each device
-/// adding its chunks to its own film; when the image or the sums are
-/// asked for, the films are added on one device and read from it once.
-/// On devices of one kind, the one-device film bit for bit.
+/// each range is dealt out in units from a common counter, each device
+/// adding its units to its own film, with no wait for the others but at
+/// the range's end; when the image or the sums are asked for, the films
+/// are added on one device and read from it once. On devices of one
+/// kind, the one-device film bit for bit.
 pub struct GroupProgressive<'a> {
     group: gpu::devices::DeviceGroup<'a>,
     settings: RenderSettings,
     ranges: Ranges,
-    /// Chunks a device's share of a range is cut into
-    /// ([`gpu::devices::chunk_samples`] unless set).
+    /// Samples a unit, where set; else guided units of about
+    /// [`CHUNK_TIME`] ([`gpu::devices::Dealing`]).
     chunk: Option<u32>,
 }
 
@@ -553,20 +579,50 @@ impl Progressive for GroupProgressive<'_> {
     }
 
     fn add(&mut self, samples: Range<u32>, progress: &(dyn Fn(u64) + Sync)) -> Result<Added> {
+        let (end, added) = self.add_prefix(samples.clone(), progress, &|| false)?;
+        if end != samples.end {
+            bail!("a range that is never stopped was stopped");
+        }
+        Ok(added)
+    }
+
+    fn add_prefix(
+        &mut self,
+        samples: Range<u32>,
+        progress: &(dyn Fn(u64) + Sync),
+        stop: &(dyn Fn() -> bool + Sync),
+    ) -> Result<(u32, Added)> {
         let mut ranges = self.ranges.clone();
         ranges.insert(samples.clone())?;
-        let devices = self.group.renderers().len();
-        let chunk = self
-            .chunk
-            .unwrap_or_else(|| gpu::devices::chunk_samples(samples.end - samples.start, devices));
-        let shares = self
-            .group
-            .add(&self.settings, samples, chunk, &increments(progress))?;
-        self.ranges = ranges;
-        Ok(Added {
-            gpu_time: None,
-            shares,
-        })
+        let dealing = match self.chunk {
+            Some(n) => gpu::devices::Dealing::Fixed(n),
+            None => gpu::devices::Dealing::Guided {
+                unit_time: CHUNK_TIME,
+            },
+        };
+        let added = self.group.add(
+            &self.settings,
+            samples.clone(),
+            dealing,
+            &increments(progress),
+            stop,
+        )?;
+        if added.end > samples.start {
+            let mut ranges = self.ranges.clone();
+            ranges.insert(samples.start..added.end)?;
+            self.ranges = ranges;
+        }
+        Ok((
+            added.end,
+            Added {
+                gpu_time: None,
+                shares: added.shares,
+            },
+        ))
+    }
+
+    fn stops_within_range(&self) -> bool {
+        true
     }
 
     fn sums(&mut self) -> Result<FilmSums> {
@@ -669,6 +725,11 @@ pub struct Chunking<'a> {
     pub stop: &'a (dyn Fn() -> bool + Sync),
     /// Run after each chunk, with the render (a checkpoint's write).
     pub after_chunk: &'a mut dyn FnMut(&mut dyn Progressive) -> Result<()>,
+    /// The longest wall time between two `after_chunk` calls for a
+    /// render that asks `stop` itself within a range
+    /// ([`Progressive::stops_within_range`]), which is otherwise given
+    /// the whole range at once (`None`; [`Chunking::with_span`]).
+    span: Option<Duration>,
     /// Seconds a sample a pixel took in the last chunk.
     per_sample: Option<f64>,
     /// Samples of the last chunk.
@@ -685,20 +746,36 @@ impl<'a> Chunking<'a> {
             chunk_time,
             stop,
             after_chunk,
+            span: None,
             per_sample: None,
             last: 0,
         }
     }
 
-    /// The samples of the next chunk, at most `left`: one at first, then
-    /// what the last chunk's rate says fills [`Chunking::chunk_time`],
+    /// Sets the longest wall time between two `after_chunk` calls (a
+    /// checkpoint's interval) for a render that asks `stop` itself
+    /// within a range; unset, such a render is given the whole range.
+    pub fn with_span(mut self, span: Option<Duration>) -> Self {
+        self.span = span;
+        self
+    }
+
+    /// The samples of the next chunk of `render`, at most `left`: one at
+    /// first, then what the last chunk's rate says fills
+    /// [`Chunking::chunk_time`] (or, for a render that asks `stop` itself
+    /// within a range, the span: all of `left` where none is set),
     /// growing at most fourfold a chunk (a first chunk's rate includes
     /// the device's warm-up).
-    fn next(&self, left: u32) -> u32 {
+    fn next(&self, render: &dyn Progressive, left: u32) -> u32 {
+        let time = match (render.stops_within_range(), self.span) {
+            (false, _) => self.chunk_time,
+            (true, Some(span)) => span,
+            (true, None) => return left,
+        };
         let n = match self.per_sample {
             None => 1,
             Some(t) => {
-                let fits = (self.chunk_time.as_secs_f64() / t.max(1e-12)).floor();
+                let fits = (time.as_secs_f64() / t.max(1e-12)).floor();
                 (fits.min(self.last as f64 * 4.0) as u32).max(1)
             }
         };
@@ -722,9 +799,11 @@ pub struct Chunked {
 
 /// Adds `range` to `render`, whole (`chunking` `None`) or in chunks of
 /// bounded wall time from its start, asking `chunking.stop` before each
-/// chunk. Stopped, the film holds `range.start..end` of the range. On an
-/// error the film holds what [`Progressive::ranges`] says (the chunk that
-/// failed is not among them).
+/// chunk (and a render that asks it within a range, a group of devices,
+/// given longer chunks: [`Chunking::next`]). Stopped, the film holds
+/// `range.start..end` of the range. On an error the film holds what
+/// [`Progressive::ranges`] says (the chunk that failed is not among
+/// them).
 pub fn add_chunked(
     render: &mut dyn Progressive,
     range: Range<u32>,
@@ -749,15 +828,13 @@ pub fn add_chunked(
             out.stopped = true;
             break;
         }
-        let count = c.next(range.end - out.end);
+        let count = c.next(render, range.end - out.end);
         let t = Instant::now();
-        let Some(added) = render.add_until(out.end..out.end + count, progress, c.stop)? else {
-            out.stopped = true;
-            break;
-        };
-        c.per_sample = Some(t.elapsed().as_secs_f64() / count as f64);
-        c.last = count;
-        out.end += count;
+        let (end, added) = render.add_prefix(out.end..out.end + count, progress, c.stop)?;
+        if end > out.end {
+            c.per_sample = Some(t.elapsed().as_secs_f64() / (end - out.end) as f64);
+            c.last = end - out.end;
+        }
         if let Some(g) = added.gpu_time {
             out.gpu_time = Some(out.gpu_time.unwrap_or_default() + g);
         }
@@ -766,6 +843,12 @@ pub fn add_chunked(
                 Some(s) => s.samples += share.samples,
                 None => out.shares.push(share),
             }
+        }
+        let whole = end == out.end + count;
+        out.end = end;
+        if !whole {
+            out.stopped = true;
+            break;
         }
         (c.after_chunk)(render)?;
     }

@@ -3,7 +3,8 @@
 //! in the device's memory, compiling no pipeline after it is opened, and
 //! holds the film of one thousand-sample render bit for bit; so does
 //! every schedule over uneven ranges, and a group of two devices opened
-//! on the test adapter, whose ranges are shared out in chunks. A reset
+//! on the test adapter, whose ranges are dealt out in units (and stopped
+//! part way, a prefix of the range held whole). A reset
 //! with new settings starts a new film on the same kernels.
 
 use crate::common;
@@ -141,4 +142,72 @@ fn a_group_of_three_devices_is_the_one_device_film_bit_for_bit() {
     assert_eq!(group.sums().unwrap(), one);
     assert_eq!(group.layers().unwrap(), Layers::from_sums(&one));
     assert!(group.device().starts_with("3 gpus"), "{}", group.device());
+}
+
+/// A group asks the stop before each device's unit, not only between
+/// ranges: a stop that turns true once a few units are done ends the
+/// range part way, every unit dealt finished, so the films hold a prefix
+/// of the range, which [`add_chunked`] says it added and whose sums are
+/// the one-device render of those samples bit for bit; the read is left
+/// to go on, and the rest of the range then makes the whole film. With
+/// no stop, the whole range is given to the group at once.
+#[test]
+fn a_group_stopped_mid_range_holds_the_prefix_its_devices_finished() {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    use twintrace::render::{add_chunked, held_film, Chunking};
+    let ctx = common::gpu();
+    let scene = reference::load_scene("cornell-spheres").unwrap();
+    let settings = RenderSettings { spp: 60, ..tiny() };
+    let spec = RenderSpec::DEFAULT;
+    let i = gpu::list_adapters()
+        .iter()
+        .position(|a| a.name == ctx.adapter.name)
+        .expect("the test adapter is listed");
+    let contexts = gpu::devices::DeviceSelection::Indices(vec![i, i])
+        .open()
+        .unwrap();
+    let mut group = GroupProgressive::new(&contexts, &scene, &spec, settings).unwrap();
+    group.set_chunk(Some(3));
+    let one = |samples: std::ops::Range<u32>| {
+        let mut p = GpuProgressive::new(ctx, &scene, &spec, settings).unwrap();
+        p.add(samples, &|_| {}).unwrap();
+        p.sums().unwrap()
+    };
+    let pixels = (settings.width * settings.height) as u64;
+    // Stops once five units (of 3 samples) are done.
+    let done = AtomicU64::new(0);
+    let progress = |n: u64| {
+        done.fetch_add(n, Ordering::SeqCst);
+    };
+    let stop = || done.load(Ordering::SeqCst) >= 5 * 3 * pixels;
+    let mut nothing = |_: &mut dyn Progressive| Ok(());
+    let mut c = Chunking::new(std::time::Duration::from_secs(3600), &stop, &mut nothing);
+    let added = add_chunked(&mut group, 0..60, Some(&mut c), &progress).unwrap();
+    assert!(added.stopped, "the stop was not seen within the range");
+    // Five units, and at most one more a device dealt before the stop.
+    assert!(
+        (15..=21).contains(&added.end) && added.end % 3 == 0,
+        "stopped at {}",
+        added.end
+    );
+    let shared: u64 = added.shares.iter().map(|s| s.samples).sum();
+    assert_eq!(shared, added.end as u64);
+    assert_eq!(group.ranges(), std::slice::from_ref(&(0..added.end)));
+    let (end, sums) = held_film(&mut group, 0).unwrap();
+    assert_eq!(end, added.end);
+    assert_eq!(sums, one(0..end));
+    assert_eq!(group.layers().unwrap(), Layers::from_sums(&sums));
+
+    // The rest, never stopped: one range given whole.
+    let never = || false;
+    let mut chunks = 0;
+    let mut count = |_: &mut dyn Progressive| {
+        chunks += 1;
+        Ok(())
+    };
+    let mut c = Chunking::new(std::time::Duration::ZERO, &never, &mut count);
+    let rest = add_chunked(&mut group, end..60, Some(&mut c), &|_| {}).unwrap();
+    assert_eq!((rest.end, rest.stopped), (60, false));
+    assert_eq!(chunks, 1, "the range was cut into chunks");
+    assert_eq!(group.sums().unwrap(), one(0..60));
 }

@@ -206,8 +206,8 @@ fn devices_of_different_kinds_render_the_reference_image_and_a_biased_device_fai
     let v = gpu::Variant::plain(Integrator::Bsdf, gpu::Schedule::Megakernel);
     let shares = std::sync::Mutex::new(Vec::new());
     let render = |scene: &Scene, settings: &RenderSettings| -> Result<Film> {
-        // About four chunks a device: each takes one as they start together.
-        let chunk = gpu::devices::chunk_samples(settings.spp, contexts.len()) * 2;
+        // About four units a device: each takes one as they start together.
+        let chunk = (settings.spp / (4 * contexts.len() as u32)).max(1);
         let r = gpu::devices::render_on_devices(
             &contexts,
             scene,

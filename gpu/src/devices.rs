@@ -1,9 +1,9 @@
-//! One render over several devices: each device takes sample chunks from
-//! a shared counter (work stealing: a slower device takes fewer), renders
-//! them into its own film of exact sums, and the films are added on one
-//! of the devices (a band at a time through the host). The
+//! One render over several devices: each device takes units of samples
+//! from a shared counter (work stealing: a slower device takes fewer),
+//! renders them into its own film of exact sums, and the films are added
+//! on the devices (a band at a time through the host). The
 //! sums are integers (`reference::film`), so the result does not depend
-//! on which device took which chunk: on devices that compute the same
+//! on which device took which unit: on devices that compute the same
 //! samples (one kind of adapter, or two devices opened on one adapter) it
 //! is the one-device render bit for bit; across different adapters it is
 //! a render whose samples come from several implementations of one
@@ -17,7 +17,7 @@ use crate::variants::Variant;
 use reference::film::FilmSums;
 use reference::{RenderSettings, Scene};
 use std::ops::Range;
-use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 /// What `--devices` names: every hardware adapter (or, where there is
@@ -106,11 +106,60 @@ pub struct MultiRender {
     pub wall: Duration,
 }
 
-/// Samples a chunk: about eight chunks a device, so that a slower device
-/// takes fewer; a chunk costs only its dispatches (the device's chunks add
-/// up in its own film, read back once); at least 1.
-pub fn chunk_samples(samples: u32, devices: usize) -> u32 {
-    (samples / (8 * devices.max(1) as u32)).max(1)
+/// How a group's sample range is dealt to its devices, unit by unit from
+/// a shared counter (work stealing: a slower device takes fewer units).
+/// Each device adds its units up in its own film, so a unit costs only
+/// its dispatches and the wait for them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Dealing {
+    /// Units of this many samples (at least 1; tests cut ranges finely).
+    Fixed(u32),
+    /// Guided: a device's first unit is one sample a pixel; each next
+    /// one what fills `unit_time` at the rate the device's last unit
+    /// measured, at most four times that unit, and never more than the
+    /// samples left over twice the devices, so that the last units are
+    /// small and the devices finish together, whatever their speeds.
+    Guided { unit_time: Duration },
+}
+
+impl Dealing {
+    /// The samples of a device's next unit, at most `left` and at least 1:
+    /// `last` the samples of its last unit and `per_sample` the seconds a
+    /// sample a pixel took in it (`None` before its first).
+    pub fn unit(&self, left: u32, devices: usize, last: u32, per_sample: Option<f64>) -> u32 {
+        let n = match *self {
+            Dealing::Fixed(n) => n,
+            Dealing::Guided { unit_time } => {
+                let fits = match per_sample {
+                    None => 1,
+                    Some(t) => {
+                        let fits = (unit_time.as_secs_f64() / t.max(1e-12)).floor();
+                        fits.min(last as f64 * 4.0) as u32
+                    }
+                };
+                let share = left.div_ceil(2 * devices.max(1) as u32);
+                fits.min(share)
+            }
+        };
+        n.clamp(1, left.max(1))
+    }
+}
+
+/// What [`DeviceGroup::add`] did: the samples added, `start..end` of the
+/// range (a prefix: all of it unless `stop` ended it), and each device's
+/// share of them.
+#[derive(Clone, Debug)]
+pub struct GroupAdded {
+    pub end: u32,
+    pub shares: Vec<DeviceShare>,
+}
+
+/// The shared counter units are dealt from.
+struct Dealer {
+    /// The first sample not yet dealt.
+    next: u32,
+    /// No more units are dealt (a stop, or a device's error).
+    halted: bool,
 }
 
 /// A scene uploaded to several devices, each with its kernels compiled
@@ -188,24 +237,52 @@ impl<'a> DeviceGroup<'a> {
     }
 
     /// Adds sample indices `samples` of every pixel to the devices' films:
-    /// each device (a thread each) takes chunks of `chunk` samples from a
-    /// shared counter until the range is done. `progress(samples done,
-    /// total)` after each chunk (pixels × samples). Returns each device's
-    /// share of this range.
+    /// each device (a thread each) takes units of samples, as `dealing`
+    /// sizes them, from a shared counter until the range is done or
+    /// `stop()` (asked before each unit is dealt) turns true. The units
+    /// are dealt in sample order and every unit dealt is finished, so the
+    /// films hold a prefix of the range: `samples.start..end`, which is
+    /// returned with each device's share. Nothing waits for every device
+    /// but the range's end (or the stop). `progress(samples done, total)`
+    /// after each unit (pixels × samples). On a device's error no more
+    /// units are dealt, the others finish theirs, and the error is
+    /// returned.
     pub fn add(
         &mut self,
         settings: &RenderSettings,
         samples: Range<u32>,
-        chunk: u32,
+        dealing: Dealing,
         progress: &(dyn Fn(u64, u64) + Sync),
-    ) -> Result<Vec<DeviceShare>, GpuError> {
-        if samples.start >= samples.end || chunk == 0 {
+        stop: &(dyn Fn() -> bool + Sync),
+    ) -> Result<GroupAdded, GpuError> {
+        if samples.start >= samples.end || dealing == Dealing::Fixed(0) {
             return Err(GpuError::Validation(format!(
-                "the sample range {}..{} is empty (or the chunk is 0)",
+                "the sample range {}..{} is empty (or the unit is 0)",
                 samples.start, samples.end
             )));
         }
-        let next = AtomicU32::new(samples.start);
+        let devices = self.renderers.len();
+        let dealer = std::sync::Mutex::new(Dealer {
+            next: samples.start,
+            halted: false,
+        });
+        // The next unit for a device whose last unit was `last` samples at
+        // `per_sample` seconds a sample; `None`: no more.
+        let deal = |last: u32, per_sample: Option<f64>| -> Option<Range<u32>> {
+            let mut d = dealer.lock().unwrap_or_else(|e| e.into_inner());
+            if d.halted || d.next >= samples.end {
+                return None;
+            }
+            if stop() {
+                d.halted = true;
+                return None;
+            }
+            let n = dealing.unit(samples.end - d.next, devices, last, per_sample);
+            let unit = d.next..d.next + n;
+            d.next = unit.end;
+            Some(unit)
+        };
+        let halt = || dealer.lock().unwrap_or_else(|e| e.into_inner()).halted = true;
         let pixels = settings.width as u64 * settings.height as u64;
         let total = (samples.end - samples.start) as u64 * pixels;
         let done = AtomicU64::new(0);
@@ -215,22 +292,24 @@ impl<'a> DeviceGroup<'a> {
                 .iter()
                 .zip(&self.held)
                 .map(|(renderer, &held)| {
-                    let (next, done) = (&next, &done);
-                    let samples = samples.clone();
+                    let (deal, halt, done) = (&deal, &halt, &done);
                     s.spawn(move || -> Result<(u32, DeviceShare), GpuError> {
                         let mut share = DeviceShare {
                             adapter: renderer.adapter_name().to_string(),
                             samples: 0,
                         };
                         let mut held = held;
-                        loop {
-                            let first = next.fetch_add(chunk, Ordering::Relaxed);
-                            if first >= samples.end {
-                                break;
+                        let (mut last, mut per_sample) = (0, None);
+                        while let Some(unit) = deal(last, per_sample) {
+                            let n = unit.end - unit.start;
+                            let t = Instant::now();
+                            if let Err(e) =
+                                renderer.accumulate(settings, unit, &|_, _| {}, held == 0)
+                            {
+                                halt();
+                                return Err(e);
                             }
-                            let range = first..first.saturating_add(chunk).min(samples.end);
-                            let n = range.end - range.start;
-                            renderer.accumulate(settings, range, &|_, _| {}, held == 0)?;
+                            (last, per_sample) = (n, Some(t.elapsed().as_secs_f64() / n as f64));
                             held += n;
                             share.samples += n as u64;
                             let d = done.fetch_add(n as u64 * pixels, Ordering::Relaxed)
@@ -244,12 +323,24 @@ impl<'a> DeviceGroup<'a> {
             join_all(handles, "render")
         });
         let mut shares = Vec::with_capacity(results.len());
+        let mut failed = None;
         for (held, r) in self.held.iter_mut().zip(results) {
-            let (h, share) = r?;
-            *held = h;
-            shares.push(share);
+            match r {
+                Ok((h, share)) => {
+                    *held = h;
+                    shares.push(share);
+                }
+                Err(e) => failed = failed.or(Some(e)),
+            }
         }
-        Ok(shares)
+        if let Some(e) = failed {
+            return Err(e);
+        }
+        let end = dealer.into_inner().unwrap_or_else(|e| e.into_inner()).next;
+        Ok(GroupAdded {
+            end: end.min(samples.end),
+            shares,
+        })
     }
 
     /// Adds every device's film to the first film that holds samples, on
@@ -347,21 +438,23 @@ fn join_all<T>(
 }
 
 /// Renders sample indices `samples` of `scene` with `variant` on every
-/// context of `contexts` (a [`DeviceGroup`]), in chunks of `chunk` samples
+/// context of `contexts` (a [`DeviceGroup`]), in units of `unit` samples
 /// taken from a shared counter. `progress(samples done, total)` after
-/// each chunk (pixels × samples).
+/// each unit (pixels × samples).
 pub fn render_on_devices(
     contexts: &[GpuContext],
     scene: &Scene,
     variant: Variant,
     settings: &RenderSettings,
     samples: Range<u32>,
-    chunk: u32,
+    unit: u32,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<MultiRender, GpuError> {
     let start = Instant::now();
     let mut group = DeviceGroup::new(contexts, scene, variant)?;
-    let shares = group.add(settings, samples, chunk, progress)?;
+    let shares = group
+        .add(settings, samples, Dealing::Fixed(unit), progress, &|| false)?
+        .shares;
     let sums = group.read_sums(settings)?;
     Ok(MultiRender {
         sums,

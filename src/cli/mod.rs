@@ -775,7 +775,8 @@ fn render(args: &RenderArgs) -> Result<()> {
     };
     let stop = || interrupt::received().is_some();
     let mut chunking =
-        twintrace::render::Chunking::new(twintrace::render::CHUNK_TIME, &stop, &mut after_chunk);
+        twintrace::render::Chunking::new(twintrace::render::CHUNK_TIME, &stop, &mut after_chunk)
+            .with_span(checkpoint);
     let bar = match &budget {
         None => progress_bar(pixels * (todo.end - todo.start) as u64),
         Some(_) => indicatif::ProgressBar::new_spinner(),
