@@ -5,8 +5,14 @@ use std::path::{Component, Path, PathBuf};
 use std::process::Command;
 use std::sync::atomic::{AtomicU64, Ordering};
 
+/// The checkout `cargo xtask` runs in: `cargo run` (the alias) sets
+/// `CARGO_MANIFEST_DIR` for the process, which names it even where the
+/// binary was built from another checkout sharing the target folder (the
+/// value compiled in would name that one).
 pub fn workspace_root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+    std::env::var_os("CARGO_MANIFEST_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")))
         .parent()
         .expect("xtask lives one level below the workspace root")
         .to_path_buf()
