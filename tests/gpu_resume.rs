@@ -4,7 +4,8 @@
 //! the film equals the uninterrupted GPU render's bit for bit (the
 //! resumed film's layers are computed on the host from the part's sums
 //! and the device's, which equal the device's layers bit for bit,
-//! `twins::film::layers`). A device lost mid-render takes its film with
+//! `twins::film::layers`); so does a group of two devices, interrupted
+//! within its one range. A device lost mid-render takes its film with
 //! it: the chunks done cannot be read, and [`held_film`] says so.
 
 use crate::resume::{cornell, interrupt_and_resume};
@@ -27,6 +28,28 @@ fn interrupted_gpu_renders_resume_to_the_whole_render_bit_for_bit() {
         "4194304"
     };
     interrupt_and_resume(&cornell("gpu", "16x16", spp, &[]), 0x5eed_6043, 1);
+}
+
+/// The same on two devices opened on the test adapter: a group is given
+/// its range whole and asks for the signal before each device's unit, so
+/// an interrupt in the middle saves the prefix of samples its devices
+/// finished, and the resumed film is the whole two-device render's (the
+/// one-device render's, tests/gpu_split_render.rs) bit for bit.
+#[test]
+fn interrupted_group_renders_resume_to_the_whole_render_bit_for_bit() {
+    let name = &crate::common::gpu().adapter.name;
+    let i = gpu::list_adapters()
+        .iter()
+        .position(|a| &a.name == name)
+        .expect("the test adapter is listed");
+    let pair = format!("{i},{i}");
+    let spp = if crate::common::gpu().is_software {
+        "256"
+    } else {
+        "4194304"
+    };
+    let render = cornell("gpu", "16x16", spp, &["--devices", &pair]);
+    interrupt_and_resume(&render, 0x5eed_6045, 1);
 }
 
 #[test]

@@ -792,7 +792,13 @@ fn render(args: &RenderArgs) -> Result<()> {
         )
         .map(|added| {
             bar.finish_and_clear();
-            for (i, share) in added.shares.iter().enumerate() {
+            // An interrupted render says one line (its samples saved).
+            let shares = if added.stopped {
+                &[][..]
+            } else {
+                &added.shares[..]
+            };
+            for (i, share) in shares.iter().enumerate() {
                 eprintln!(
                     "device {i} `{}`: {} samples a pixel ({:.0} %)",
                     share.adapter,
