@@ -307,6 +307,35 @@ fn the_cli_renders_on_two_devices_as_on_one_and_refuses_bad_selections() {
     let read = |n: &str| twintrace::read_exr(&dir.path().join(n)).unwrap();
     let bits = common::image_bits;
     assert_eq!(bits(&read("two.exr")), bits(&read("one.exr")));
+    // `--json` says each device's share (and nothing of shares on one).
+    let json = |extra: &[&str]| -> serde_json::Value {
+        let mut a: Vec<&str> = base.to_vec();
+        a.extend_from_slice(extra);
+        a.push("--json");
+        let out = Command::new(common::twintrace_bin())
+            .args(&a)
+            .stdin(Stdio::null())
+            .output()
+            .expect("the binary runs");
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    let two = json(&["--devices", &pair, "-o", &d("two-json")]);
+    let shares = two["device_shares"].as_array().expect("device_shares");
+    assert_eq!(shares.len(), 2, "{two}");
+    let name = &common::gpu().adapter.name;
+    assert!(
+        shares.iter().all(|s| s["adapter"] == name.as_str()),
+        "{two}"
+    );
+    let total: u64 = shares.iter().map(|s| s["samples"].as_u64().unwrap()).sum();
+    assert_eq!(total, 20, "{two}");
+    let one = json(&["-o", &d("one-json")]);
+    assert!(one["device_shares"].is_null(), "{one}");
     // A two-device partial film merges like any other.
     let (ok, err) = run(&["--devices", &pair, "--samples", "0..7", "-o", &d("a")]);
     assert!(ok, "{err}");

@@ -192,9 +192,9 @@ pub struct RenderArgs {
     #[arg(long, value_name = "all|LIST")]
     pub aov: Option<String>,
     /// Print the summary as one JSON object on stdout (scene, settings,
-    /// device, times, samples/s, non-finite samples, the files written,
-    /// the phases' wall times) in place of the summary line, for CI
-    /// systems and scripts.
+    /// device, each device's share with --devices, times, samples/s,
+    /// non-finite samples, the files written, the phases' wall times) in
+    /// place of the summary line, for CI systems and scripts.
     #[arg(long)]
     pub json: bool,
     /// Continue an interrupted render from its partial film (the
@@ -782,8 +782,17 @@ fn render(args: &RenderArgs) -> Result<()> {
         Some(_) => indicatif::ProgressBar::new_spinner(),
     };
     // The samples done: `range.start..end`.
-    let rendered: Result<(u32, bool, Option<std::time::Duration>, String)> = match &budget {
-        _ if todo.is_empty() => Ok((todo.end, false, None, String::new())),
+    // The samples done, whether a signal stopped them, the GPU time, why
+    // a budget stopped, and each device's share where several shared them.
+    type Rendered = (
+        u32,
+        bool,
+        Option<std::time::Duration>,
+        String,
+        Vec<gpu::devices::DeviceShare>,
+    );
+    let rendered: Result<Rendered> = match &budget {
+        _ if todo.is_empty() => Ok((todo.end, false, None, String::new(), Vec::new())),
         None => twintrace::render::add_chunked(
             progressive.as_mut(),
             todo.clone(),
@@ -806,7 +815,13 @@ fn render(args: &RenderArgs) -> Result<()> {
                     100.0 * share.samples as f64 / (todo.end - todo.start) as f64
                 );
             }
-            (added.end, added.stopped, added.gpu_time, String::new())
+            (
+                added.end,
+                added.stopped,
+                added.gpu_time,
+                String::new(),
+                added.shares,
+            )
         }),
         Some(budget) => {
             let mut status = |spp: u32, relmse: Option<f64>, left: Option<std::time::Duration>| {
@@ -844,12 +859,13 @@ fn render(args: &RenderArgs) -> Result<()> {
                     interrupted,
                     out.gpu_time,
                     format!(" (stopped by {}{relmse})", out.stopped),
+                    Vec::new(),
                 )
             })
         }
     };
     bar.finish_and_clear();
-    let (end, interrupted, gpu_time, stopped) = match rendered {
+    let (end, interrupted, gpu_time, stopped, shares) = match rendered {
         Ok(r) => r,
         Err(e) => {
             // A device lost (or any failure) mid-render: the chunks done
@@ -1077,6 +1093,12 @@ fn render(args: &RenderArgs) -> Result<()> {
             "sampler": settings.sampler.name(),
             "integrator": spec.integrator().name(),
             "device": device_name,
+            "device_shares": (!shares.is_empty()).then(|| {
+                shares
+                    .iter()
+                    .map(|s| serde_json::json!({ "adapter": s.adapter, "samples": s.samples }))
+                    .collect::<Vec<_>>()
+            }),
             "samples": samples.as_ref().map(|r| [r.start, r.end]),
             "resumed": base.as_ref().map(|p| serde_json::json!({
                 "part": args.resume,
