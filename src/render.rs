@@ -592,8 +592,8 @@ impl Progressive for GroupProgressive<'_> {
         progress: &(dyn Fn(u64) + Sync),
         stop: &(dyn Fn() -> bool + Sync),
     ) -> Result<(u32, Added)> {
-        let mut ranges = self.ranges.clone();
-        ranges.insert(samples.clone())?;
+        // Refused before any device renders: a range overlapping the film's.
+        self.ranges.clone().insert(samples.clone())?;
         let dealing = match self.chunk {
             Some(n) => gpu::devices::Dealing::Fixed(n),
             None => gpu::devices::Dealing::Guided {
@@ -608,9 +608,7 @@ impl Progressive for GroupProgressive<'_> {
             stop,
         )?;
         if added.end > samples.start {
-            let mut ranges = self.ranges.clone();
-            ranges.insert(samples.start..added.end)?;
-            self.ranges = ranges;
+            self.ranges.insert(samples.start..added.end)?;
         }
         Ok((
             added.end,
