@@ -197,7 +197,7 @@ fn bands_keyed_by_the_band_fail_the_band_gate() {
 
 #[test]
 fn two_devices_with_films_in_bands_render_the_one_band_film() {
-    let contexts = gpu::devices::DeviceSelection::Indices(vec![test_adapter_index(); 2])
+    let contexts = gpu::devices::DeviceSelection::Indices(vec![common::test_adapter_index(); 2])
         .open()
         .unwrap();
     let scene = load("cornell-spheres");
@@ -243,15 +243,6 @@ fn a_film_in_bands_is_drawn_as_the_one_band_film() {
     assert_eq!(draw(Some(100)), one);
 }
 
-/// The index of the adapter the tests run on, as `--devices` names it.
-fn test_adapter_index() -> usize {
-    let name = &common::gpu().adapter.name;
-    gpu::list_adapters()
-        .iter()
-        .position(|a| &a.name == name)
-        .expect("the test adapter is listed")
-}
-
 /// `twintrace render cornell` at the test size on the GPU with `extra`,
 /// the film in bands of `band` pixels where given: (success, stderr,
 /// exit code).
@@ -294,7 +285,7 @@ fn the_cli_renders_a_film_larger_than_a_band_as_one_band() {
     assert!(ok, "{err}");
     // 851 pixels in bands of at most 100 (9 bands of two rows, one of
     // one) on two devices, and of 40 (23 bands of a row) on one, merged.
-    let pair = format!("{0},{0}", test_adapter_index());
+    let pair = format!("{0},{0}", common::test_adapter_index());
     let (ok, err, _) = cli(
         Some("100"),
         &["--devices", &pair, "--samples", "0..1", "-o", &d("a")],

@@ -22,12 +22,7 @@ fn settings() -> RenderSettings {
 
 /// A new device on the test adapter with its pipeline cache in `dir`.
 fn open(dir: &std::path::Path) -> gpu::GpuContext {
-    let name = &common::gpu().adapter.name;
-    let index = gpu::list_adapters()
-        .iter()
-        .position(|a| &a.name == name)
-        .expect("the test adapter is listed");
-    gpu::context::open_adapter(index, Some(dir)).unwrap()
+    gpu::context::open_adapter(common::test_adapter_index(), Some(dir)).unwrap()
 }
 
 #[test]

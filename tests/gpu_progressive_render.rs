@@ -112,10 +112,7 @@ fn a_group_of_three_devices_is_the_one_device_film_bit_for_bit() {
         .render(&settings, &|_, _| {})
         .unwrap()
         .sums;
-    let i = gpu::list_adapters()
-        .iter()
-        .position(|a| a.name == ctx.adapter.name)
-        .expect("the test adapter is listed");
+    let i = common::test_adapter_index();
     // Three: the films are added as a tree, a pair and then the odd one.
     let contexts = gpu::devices::DeviceSelection::Indices(vec![i, i, i])
         .open()
@@ -159,10 +156,7 @@ fn a_group_stopped_mid_range_holds_the_prefix_its_devices_finished() {
     let scene = reference::load_scene("cornell-spheres").unwrap();
     let settings = RenderSettings { spp: 60, ..tiny() };
     let spec = RenderSpec::DEFAULT;
-    let i = gpu::list_adapters()
-        .iter()
-        .position(|a| a.name == ctx.adapter.name)
-        .expect("the test adapter is listed");
+    let i = common::test_adapter_index();
     let contexts = gpu::devices::DeviceSelection::Indices(vec![i, i])
         .open()
         .unwrap();

@@ -37,11 +37,7 @@ fn interrupted_gpu_renders_resume_to_the_whole_render_bit_for_bit() {
 /// one-device render's, tests/gpu_split_render.rs) bit for bit.
 #[test]
 fn interrupted_group_renders_resume_to_the_whole_render_bit_for_bit() {
-    let name = &crate::common::gpu().adapter.name;
-    let i = gpu::list_adapters()
-        .iter()
-        .position(|a| &a.name == name)
-        .expect("the test adapter is listed");
+    let i = crate::common::test_adapter_index();
     let pair = format!("{i},{i}");
     let spp = if crate::common::gpu().is_software {
         "256"

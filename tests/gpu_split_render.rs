@@ -76,15 +76,6 @@ fn variant(schedule: gpu::Schedule) -> gpu::Variant {
     gpu::Variant::plain(Integrator::Mis, schedule)
 }
 
-/// The index of the adapter the tests run on, as `--devices` names it.
-fn test_adapter_index() -> usize {
-    let name = &common::gpu().adapter.name;
-    gpu::list_adapters()
-        .iter()
-        .position(|a| &a.name == name)
-        .expect("the test adapter is listed")
-}
-
 #[test]
 fn two_devices_on_one_adapter_render_the_one_device_image_bit_for_bit() {
     let ctx = common::gpu();
@@ -103,7 +94,7 @@ fn two_devices_on_one_adapter_render_the_one_device_image_bit_for_bit() {
         .render(&settings, &|_, _| {})
         .unwrap()
         .sums;
-    let i = test_adapter_index();
+    let i = common::test_adapter_index();
     let contexts = gpu::devices::DeviceSelection::Indices(vec![i, i])
         .open()
         .unwrap();
@@ -278,7 +269,7 @@ fn cli(args: &[&str]) -> (bool, String) {
 fn the_cli_renders_on_two_devices_as_on_one_and_refuses_bad_selections() {
     let dir = tempfile::tempdir().unwrap();
     let d = |name: &str| dir.path().join(name).display().to_string();
-    let i = test_adapter_index().to_string();
+    let i = common::test_adapter_index().to_string();
     let pair = format!("{i},{i}");
     let base = [
         "render",

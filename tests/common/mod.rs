@@ -118,16 +118,21 @@ pub fn image_bits(img: &twintrace::RenderImage) -> Vec<u32> {
         .collect()
 }
 
+/// The index of the test adapter ([`gpu`]) among `gpu::list_adapters()`,
+/// as `--devices` and `gpu::devices::DeviceSelection` name it.
+pub fn test_adapter_index() -> usize {
+    let name = &gpu().adapter.name;
+    gpu::list_adapters()
+        .iter()
+        .position(|a| &a.name == name)
+        .expect("the test adapter is listed")
+}
+
 /// A device of its own on the test adapter (no pipeline cache on disk),
 /// for tests that count what is built on it while other tests share
 /// [`gpu`].
 pub fn own_gpu() -> gpu::GpuContext {
-    let name = &gpu().adapter.name;
-    let index = gpu::list_adapters()
-        .iter()
-        .position(|a| &a.name == name)
-        .expect("the test adapter is listed");
-    gpu::context::open_adapter(index, None).unwrap()
+    gpu::context::open_adapter(test_adapter_index(), None).unwrap()
 }
 
 /// Every fixture scene (its path) and built-in (its name), as
