@@ -218,7 +218,7 @@ struct GpuMaterial {
     coat_roughness: f32,
     coat_roughness_texture: u32,
     emission: u32,
-    _pad0: u32,
+    shade_bucket: u32,
     _pad1: u32,
     _pad2: u32,
 }

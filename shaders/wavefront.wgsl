@@ -7,6 +7,8 @@
 //     wf_prepare  one invocation: the queues' counts into the next two
 //                 dispatches' indirect arguments
 //     wf_extend   one closest-hit query per queued ray (extension or shadow)
+//     wf_sort_*   ShadeOrder::Material only: the live paths bucketed by the
+//                 material their ray hit (count, then scatter)
 //     wf_shade    one path vertex per queued path: the shadow ray's light,
 //                 then the hit's emission, light sample, BSDF sample and
 //                 roulette; the path re-enters the queue only if it lives
@@ -26,6 +28,10 @@
 // structs (PATH_WORDS consecutive words per path); true, structure of
 // arrays (field f of every slot in one run of wave_capacity words).
 override PATH_SOA: bool = false;
+
+// ShadeOrder::Material: wf_shade takes the live paths from the sorted
+// queue the wf_sort_* kernels make of them.
+override SHADE_SORTED: bool = false;
 
 // A path's state: word offsets of its fields.
 const PF_RADIANCE: u32 = 0u;        // vec3 (first: the path megakernel
@@ -59,7 +65,8 @@ const HIT_POISONED: u32 = 2u;
 
 // wave_queues.entries: the two queues of live paths (the one the next
 // wf_shade reads, the one it appends to), then the rays to trace (at most
-// two per path: slot << 1, | 1 for a shadow ray).
+// two per path: slot << 1, | 1 for a shadow ray), then (SHADE_SORTED) the
+// live paths sorted by bucket, the queue wf_shade reads.
 struct WaveQueues {
     // The live-path queue wf_shade reads (0 or 1).
     cur: u32,
@@ -68,8 +75,14 @@ struct WaveQueues {
     ray_total: u32,
     ray_count: atomic<u32>,
     active_count: array<atomic<u32>, 2>,
+    // SHADE_SORTED: the paths of each bucket this bounce (wf_prepare
+    // clears them, wf_sort_count adds them up).
+    bucket_count: array<atomic<u32>, SORT_BUCKETS>,
     entries: array<u32>,
 }
+
+const SORTED_QUEUE: u32 = 4u;
+const SORT_RANK_MASK: u32 = (1u << SORT_RANK_BITS) - 1u;
 
 // wf_extend's and wf_shade's indirect dispatch arguments, written by
 // wf_prepare (a buffer of its own: a buffer read as indirect arguments
@@ -225,6 +238,11 @@ fn wf_prepare() {
     wave_args.shade_x = grid_x(live);
     wave_args.shade_y = grid_y(live);
     wave_args.shade_z = 1u;
+    if SHADE_SORTED {
+        for (var b = 0u; b < SORT_BUCKETS; b++) {
+            atomicStore(&wave_queues.bucket_count[b], 0u);
+        }
+    }
 }
 
 @compute @workgroup_size(WAVE_GROUP, 1, 1)
@@ -243,6 +261,115 @@ fn wf_extend(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
         let ray = Ray(path_v(slot, PF_SHADOW_ORIGIN), path_v(slot, PF_SHADOW_DIRECTION));
         store_hit(slot, PF_SHADOW_HIT, bvh_intersect(ray, 0.0, path_f(slot, PF_SHADOW_T_MAX)));
     }
+}
+
+// The material a primitive's surface has.
+fn primitive_material(prim: u32) -> u32 {
+    let p = primitives[prim];
+    switch p.tag {
+        case PRIMITIVE_SPHERE: {
+            return spheres[p.index].material;
+        }
+        case PRIMITIVE_QUAD: {
+            return quads[p.index].material;
+        }
+        case PRIMITIVE_TRIANGLE: {
+            return triangles[p.index].material;
+        }
+        default: {
+            poison();
+            return 0u;
+        }
+    }
+}
+
+// The bucket a live path is shaded in: its hit's material's
+// (GpuMaterial::shade_bucket), the last for a miss or a path with only a
+// shadow ray to finish.
+fn shade_bucket(slot: u32) -> u32 {
+    let last = SORT_BUCKETS - 1u;
+    if (path_u(slot, PF_FLAGS) & PATH_EXTEND) == 0u || (path_u(slot, PF_HIT) & HIT_FOUND) == 0u {
+        return last;
+    }
+    return min(materials[primitive_material(path_u(slot, PF_HIT + 2u))].shade_bucket, last);
+}
+
+var<workgroup> wg_bucket_paths: array<atomic<u32>, SORT_BUCKETS>;
+var<workgroup> wg_bucket_base: array<u32, SORT_BUCKETS>;
+
+// A live path's bucket and its rank in it, into the queue wf_shade will
+// append to (empty until then): ranks taken in the workgroup, then one
+// global atomic per workgroup and bucket.
+@compute @workgroup_size(WAVE_GROUP, 1, 1)
+fn wf_sort_count(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    if lid < SORT_BUCKETS {
+        atomicStore(&wg_bucket_paths[lid], 0u);
+    }
+    workgroupBarrier();
+    let i = flat_index(gid, groups);
+    let cur = wave_queues.cur;
+    let cap = params.wave_capacity;
+    let live = i < wave_queues.active_total;
+    var bucket = 0u;
+    var rank = 0u;
+    if live {
+        bucket = shade_bucket(wave_queues.entries[cur * cap + i]);
+        rank = atomicAdd(&wg_bucket_paths[bucket], 1u);
+    }
+    workgroupBarrier();
+    if lid < SORT_BUCKETS {
+        let n = atomicLoad(&wg_bucket_paths[lid]);
+        if n > 0u {
+            wg_bucket_base[lid] = atomicAdd(&wave_queues.bucket_count[lid], n);
+        }
+    }
+    workgroupBarrier();
+    if live {
+        wave_queues.entries[(1u - cur) * cap + i] = (bucket << SORT_RANK_BITS) | (wg_bucket_base[bucket] + rank);
+    }
+}
+
+var<workgroup> wg_bucket_start: array<u32, SORT_BUCKETS>;
+
+// Each live path to its place in the sorted queue: its bucket's start (an
+// exclusive prefix sum of the counts, which every workgroup makes for
+// itself, one invocation a bucket: 64 words, where a kernel of its own
+// cost a dispatch a bounce) plus its rank.
+@compute @workgroup_size(WAVE_GROUP, 1, 1)
+fn wf_sort_scatter(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    var n = 0u;
+    if lid < SORT_BUCKETS {
+        n = atomicLoad(&wave_queues.bucket_count[lid]);
+        wg_bucket_start[lid] = n;
+    }
+    workgroupBarrier();
+    for (var d = 1u; d < SORT_BUCKETS; d <<= 1u) {
+        var x = 0u;
+        if lid < SORT_BUCKETS {
+            x = wg_bucket_start[lid];
+            if lid >= d {
+                x += wg_bucket_start[lid - d];
+            }
+        }
+        workgroupBarrier();
+        if lid < SORT_BUCKETS {
+            wg_bucket_start[lid] = x;
+        }
+        workgroupBarrier();
+    }
+    if lid < SORT_BUCKETS {
+        wg_bucket_start[lid] -= n;
+    }
+    workgroupBarrier();
+    let i = flat_index(gid, groups);
+    if i >= wave_queues.active_total {
+        return;
+    }
+    let cur = wave_queues.cur;
+    let cap = params.wave_capacity;
+    let key = wave_queues.entries[(1u - cur) * cap + i];
+    let at = wg_bucket_start[key >> SORT_RANK_BITS] + (key & SORT_RANK_MASK);
+    wave_queues.entries[SORTED_QUEUE * cap + at] = wave_queues.entries[cur * cap + i];
 }
 
 // What one wf_shade step leaves of a path.
@@ -368,7 +495,7 @@ fn wf_shade(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
     var slot = 0u;
     var next = 0u;
     if i < wave_queues.active_total {
-        slot = wave_queues.entries[cur * cap + i];
+        slot = wave_queues.entries[select(cur, SORTED_QUEUE, SHADE_SORTED) * cap + i];
         let flags = path_u(slot, PF_FLAGS);
         poisoned = (flags & PATH_POISONED) != 0u;
         var v: Vertex;

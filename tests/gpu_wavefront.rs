@@ -3,14 +3,14 @@
 //! fixture and built-in scene as the megakernel does (bit for bit, but
 //! for means a few ulp apart where a driver contracts the two programs'
 //! arithmetic differently: `twintrace::twins::wavefront`), with
-//! either estimator and either path layout, its renders split into waves
-//! three ways (`twintrace::twins::wavefront`, also run by `twintrace
+//! either estimator, either path layout and either shade order, its
+//! renders split into waves three ways (the sorted ones one way) (`twintrace::twins::wavefront`, also run by `twintrace
 //! selftest`). Mutants of the wavefront's WGSL prove the comparison can
 //! fail: each is a plausible bookkeeping slip of a wavefront renderer.
 
 use crate::common;
 use gpu::features::{feature, Features};
-use gpu::Schedule;
+use gpu::{PathLayout, Schedule, ShadeOrder};
 use reference::integrator::Integrator;
 use twintrace::twins::wavefront::{all_scenes, compare_poisoned, compare_schedules};
 
@@ -37,6 +37,10 @@ type Mutant = (
 /// Every wave schedule, for a mutant of code their kernels share (the
 /// first schedule that fails ends the comparison).
 const ALL: &[Schedule] = &Schedule::WAVES;
+
+/// A sorted wavefront ([`gpu::ShadeOrder::Material`]), for mutants of
+/// its sort (both path layouts run the same sort).
+const SORTED: &[Schedule] = &[Schedule::Wavefront(PathLayout::Aos, ShadeOrder::Material)];
 
 const MUTANTS: &[Mutant] = &[
     (
@@ -94,6 +98,30 @@ const MUTANTS: &[Mutant] = &[
         "cornell",
         Integrator::Mis,
         ALL,
+    ),
+    (
+        "the sort's bucket starts are inclusive sums (each run starts a bucket late)",
+        "wg_bucket_start[lid] -= n;",
+        "",
+        "rtow-final",
+        Integrator::Bsdf,
+        SORTED,
+    ),
+    (
+        "the sort's bucket counts are not cleared for the next bounce",
+        "atomicStore(&wave_queues.bucket_count[b], 0u);",
+        "",
+        "rtow-final",
+        Integrator::Bsdf,
+        SORTED,
+    ),
+    (
+        "a workgroup's paths in a bucket take one rank (each workgroup's atomic add forgotten)",
+        "rank = atomicAdd(&wg_bucket_paths[bucket], 1u);",
+        "rank = atomicLoad(&wg_bucket_paths[bucket]);\n        atomicAdd(&wg_bucket_paths[bucket], 1u);",
+        "cornell",
+        Integrator::Mis,
+        SORTED,
     ),
 ];
 
@@ -218,4 +246,114 @@ fn a_wave_dispatched_as_a_two_dimensional_grid_renders_as_the_megakernel() {
     if let Err(e) = twintrace::twins::wavefront::compare_words(&mega, &paths_film) {
         panic!("{e}");
     }
+}
+
+/// The buckets of the paths the sorted wavefront's last bounce shaded, in
+/// the order it shaded them: rtow-final (480 materials in 63 buckets, and
+/// the sky's misses in the last), BSDF paths (they queue no shadow ray, so
+/// every live path's bucket is its extension hit's, which its hit record
+/// still holds after the shade), three bounces, built from `program`.
+fn shaded_buckets(ctx: &gpu::GpuContext, program: &str) -> Vec<u32> {
+    let scene = reference::load_scene("rtow-final").unwrap();
+    let packed = gpu::scene_buffers::PackedScene::for_walk(
+        &scene,
+        gpu::Traversal::Binary,
+        gpu::LeafLayout::Indexed,
+    );
+    let spec = gpu::KernelSpec {
+        integrator: Integrator::Bsdf,
+        features: Features::of(&scene),
+        schedule: Schedule::Wavefront(PathLayout::Aos, ShadeOrder::Material),
+        dispatch: gpu::Dispatch::Switch,
+        checks: gpu::Checks::Trusted,
+    };
+    let r = gpu::GpuRenderer::build_scheduled(ctx, &packed, &scene, program, spec).unwrap();
+    let settings = reference::RenderSettings {
+        width: 48,
+        height: 32,
+        spp: 2,
+        max_depth: 3,
+        ..scene.render_settings()
+    };
+    r.render(&settings, &|_, _| {}).unwrap();
+    let state = r
+        .last_wave_state()
+        .unwrap()
+        .expect("a wave schedule rendered");
+    let last = gpu::wavefront::SORT_BUCKETS - 1;
+    // The hit record's words in a slot (PF_HIT of shaders/wavefront.wgsl:
+    // flags, t, primitive, u, v), array-of-structs path state.
+    const PF_HIT: usize = 18;
+    const HIT_FOUND: u32 = 1;
+    state
+        .sorted_queue()
+        .iter()
+        .map(|&slot| {
+            let hit = slot as usize * gpu::wavefront::PATH_WORDS as usize + PF_HIT;
+            if state.paths[hit] & HIT_FOUND == 0 {
+                return last;
+            }
+            let p = packed.primitives[state.paths[hit + 2] as usize];
+            let material = match p.tag {
+                reference::scene::primitive_tag::SPHERE => {
+                    packed.spheres[p.index as usize].material
+                }
+                reference::scene::primitive_tag::QUAD => packed.quads[p.index as usize].material,
+                reference::scene::primitive_tag::TRIANGLE => {
+                    packed.triangles[p.index as usize].material
+                }
+                tag => panic!("primitive tag {tag}"),
+            };
+            packed.materials[material as usize].shade_bucket
+        })
+        .collect()
+}
+
+/// Whether buckets never decrease and more than one is used.
+fn in_bucket_runs(buckets: &[u32]) -> Result<(), String> {
+    if let Some(i) = buckets.windows(2).position(|w| w[0] > w[1]) {
+        return Err(format!(
+            "path {} of {} shaded in bucket {} after bucket {}",
+            i + 1,
+            buckets.len(),
+            buckets[i + 1],
+            buckets[i]
+        ));
+    }
+    let mut used = buckets.to_vec();
+    used.dedup();
+    if used.len() < 2 {
+        return Err(format!("{} buckets used", used.len()));
+    }
+    Ok(())
+}
+
+/// The film gate cannot see the order the paths are shaded in (any order
+/// gives the same film): this reads it. The sorted wavefront shades a
+/// bounce's live paths in runs of one bucket, each path once; a scatter
+/// that leaves the queue's order (a sort in name only) fails.
+#[test]
+fn the_sorted_wavefront_shades_a_bounce_in_runs_of_one_bucket() {
+    let ctx = common::gpu();
+    let program = gpu::shader::wavefront_source();
+    let buckets = shaded_buckets(ctx, &program);
+    // Enough live paths after three bounces to be a test (rtow-final's
+    // ground and spheres keep most of 3,072 paths alive).
+    assert!(buckets.len() > 500, "{} live paths", buckets.len());
+    if let Err(e) = in_bucket_runs(&buckets) {
+        panic!("{e}");
+    }
+    let mut used = buckets.clone();
+    used.dedup();
+    assert!(used.len() > 10, "{} buckets", used.len());
+    let from = "wave_queues.entries[SORTED_QUEUE * cap + at] = wave_queues.entries[cur * cap + i];";
+    assert_eq!(program.matches(from).count(), 1);
+    let mutant = program.replace(
+        from,
+        "wave_queues.entries[SORTED_QUEUE * cap + i + 0u * at] = wave_queues.entries[cur * cap + i];",
+    );
+    assert!(
+        in_bucket_runs(&shaded_buckets(ctx, &mutant)).is_err(),
+        "a sort that keeps the queue's order passed"
+    );
 }

@@ -36,5 +36,6 @@ pub use error::GpuError;
 pub use features::Features;
 pub use renderer::{Accumulated, GpuRender, GpuRenderer, GpuSums, KernelSpec};
 pub use variants::{
-    Checks, Dispatch, Kernel, LeafLayout, NodeLayout, PathLayout, Schedule, Traversal, Variant,
+    Checks, Dispatch, Kernel, LeafLayout, NodeLayout, PathLayout, Schedule, ShadeOrder, Traversal,
+    Variant,
 };

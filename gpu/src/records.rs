@@ -93,13 +93,15 @@ gpu_record! {
     /// the texture of what it emits from its front face
     /// (`reference::Scene::emission`: DIFFUSE_LIGHT's own, which is also
     /// its `texture`, or the emission added to another BSDF) or
-    /// `NO_TEXTURE`.
+    /// `NO_TEXTURE`. Any tag: `shade_bucket` = where the sorted
+    /// wavefront shades the paths that hit it
+    /// (`scene_buffers::assign_shade_buckets`).
     GpuMaterial {
         tag: u32, texture: u32, p0: f32, p1: f32,
         absorption_r: f32, absorption_g: f32, absorption_b: f32, texture2: u32,
         texture3: u32, p2: f32, alpha_texture: u32, alpha_cutoff: f32,
         coat: f32, coat_texture: u32, coat_roughness: f32, coat_roughness_texture: u32,
-        emission: u32, _pad0: u32, _pad1: u32, _pad2: u32,
+        emission: u32, shade_bucket: u32, _pad1: u32, _pad2: u32,
     }
 }
 

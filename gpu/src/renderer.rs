@@ -420,7 +420,7 @@ impl<'a> GpuRenderer<'a> {
                 &[&layout],
                 &constants,
             )?),
-            Schedule::Wavefront(_) | Schedule::PathMegakernel => Kernels::Wavefront(Box::new(
+            Schedule::Wavefront(..) | Schedule::PathMegakernel => Kernels::Wavefront(Box::new(
                 wavefront::Pipelines::new(ctx, &layout, program, &constants, schedule, checks)?,
             )),
         };
@@ -494,6 +494,17 @@ impl<'a> GpuRenderer<'a> {
     /// many waves with it. No effect on the megakernel.
     pub fn set_wave_slots(&mut self, slots: Option<u32>) {
         self.wave_slots = slots.map(|s| s.max(1));
+    }
+
+    /// What the last render's last wave left in its buffers
+    /// (`wavefront::WaveState`), for the tests that look inside a wave
+    /// schedule; `None` where no wave schedule has rendered.
+    pub fn last_wave_state(&self) -> Result<Option<wavefront::WaveState>, GpuError> {
+        match self.wave_cache.lock() {
+            Ok(cache) => cache.as_ref().map(|b| b.read(self.ctx)).transpose(),
+            // A render panicked while it held the buffers: none to read.
+            Err(_) => Ok(None),
+        }
     }
 
     /// Sets the most pixels a band of the film holds (`None`: as many as

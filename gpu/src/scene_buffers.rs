@@ -89,6 +89,24 @@ pub fn pack_material(m: &Material, alpha: Option<Alpha>, emission: Option<u32>) 
     }
 }
 
+/// Sets each material's `shade_bucket`, the run of a bounce's paths the
+/// sorted wavefront (`ShadeOrder::Material`) shades it in: the materials
+/// ranked by kind (their tag), then by index, and the ranks spread evenly
+/// over the first `SORT_BUCKETS - 1` buckets (the last holds the paths that
+/// hit nothing or only finish a shadow ray). Up to 63 materials get a
+/// bucket each; more share buckets with their neighbours in rank, so that
+/// one bucket holds one kind but where two kinds meet.
+pub fn assign_shade_buckets(mut materials: Vec<GpuMaterial>) -> Vec<GpuMaterial> {
+    let buckets = crate::wavefront::SORT_BUCKETS as u64 - 1;
+    let mut ranked: Vec<usize> = (0..materials.len()).collect();
+    ranked.sort_by_key(|&i| (materials[i].tag, i));
+    let n = materials.len().max(1) as u64;
+    for (rank, i) in ranked.into_iter().enumerate() {
+        materials[i].shade_bucket = (rank as u64 * buckets / n) as u32;
+    }
+    materials
+}
+
 fn pack_bsdf(m: &Material) -> GpuMaterial {
     let tag = m.tag();
     match *m {
@@ -467,9 +485,11 @@ impl PackedScene {
                 })
                 .collect(),
             vertex_extras: vertex_extras(m),
-            materials: (scene.materials().iter().enumerate())
-                .map(|(i, m)| pack_material(m, scene.alpha(i as u32), scene.emission(i as u32)))
-                .collect(),
+            materials: assign_shade_buckets(
+                (scene.materials().iter().enumerate())
+                    .map(|(i, m)| pack_material(m, scene.alpha(i as u32), scene.emission(i as u32)))
+                    .collect(),
+            ),
             textures: scene.textures().iter().map(pack_texture).collect(),
             images,
             texels,
@@ -656,6 +676,44 @@ mod tests {
             height: 1,
             texels,
         }
+    }
+
+    /// Buckets hold one kind of material each where there are buckets
+    /// enough, follow the kinds' order, and never reach the last bucket
+    /// (the misses').
+    #[test]
+    fn shade_buckets_group_materials_by_kind_then_index() {
+        let with_tag = |tags: &[u32]| -> Vec<u32> {
+            let materials = tags
+                .iter()
+                .map(|&tag| GpuMaterial {
+                    tag,
+                    ..Default::default()
+                })
+                .collect();
+            assign_shade_buckets(materials)
+                .iter()
+                .map(|m| m.shade_bucket)
+                .collect()
+        };
+        // Three materials: ranks by tag (index 1 first, then 2, then 0).
+        let b = with_tag(&[2, 0, 1]);
+        assert!(b[1] < b[2] && b[2] < b[0], "{b:?}");
+        // 480 materials of three kinds (rtow-final's spheres): sorted by
+        // kind, buckets never decrease, and each of the 63 is used.
+        let tags: Vec<u32> = (0..480).map(|i| (i * 7 % 3) as u32).collect();
+        let b = with_tag(&tags);
+        let last = crate::wavefront::SORT_BUCKETS - 1;
+        assert!(b.iter().all(|&x| x < last));
+        let mut by_rank: Vec<(u32, usize)> = (0..480).map(|i| (tags[i], i)).collect();
+        by_rank.sort();
+        let in_rank: Vec<u32> = by_rank.iter().map(|&(_, i)| b[i]).collect();
+        assert!(in_rank.windows(2).all(|w| w[0] <= w[1]));
+        let mut used = in_rank.clone();
+        used.dedup();
+        assert_eq!(used.len(), last as usize);
+        // No materials: nothing to do.
+        assert!(with_tag(&[]).is_empty());
     }
 
     /// The scene-file image loader decodes 8-bit images to the same

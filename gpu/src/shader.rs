@@ -273,7 +273,7 @@ pub fn render_source() -> String {
 pub fn schedule_source(schedule: crate::Schedule) -> String {
     match schedule {
         crate::Schedule::Megakernel => render_source(),
-        crate::Schedule::Wavefront(_) | crate::Schedule::PathMegakernel => wavefront_source(),
+        crate::Schedule::Wavefront(..) | crate::Schedule::PathMegakernel => wavefront_source(),
     }
 }
 
@@ -291,6 +291,8 @@ pub fn wavefront_source() -> String {
             crate::wavefront::PATH_MEGAKERNEL_WORDS,
         ),
         ("WAVE_GROUP", crate::wavefront::WAVE_GROUP),
+        ("SORT_BUCKETS", crate::wavefront::SORT_BUCKETS),
+        ("SORT_RANK_BITS", crate::wavefront::SORT_RANK_BITS),
         (
             "MAX_GROUPS_PER_DIMENSION",
             crate::wavefront::MAX_GROUPS_PER_DIMENSION,

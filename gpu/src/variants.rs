@@ -241,6 +241,24 @@ pub enum PathLayout {
     Soa,
 }
 
+/// The order in which the wavefront's shade kernel takes a bounce's live
+/// paths.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum ShadeOrder {
+    /// As the queue holds them: the order the last shade appended them in
+    /// (the baseline).
+    #[default]
+    Queue,
+    /// Bucketed by the material their ray hit (`GpuMaterial::shade_bucket`:
+    /// materials of one kind together, then by index; misses and paths
+    /// with only a shadow ray last) by a counting sort before every shade,
+    /// so that a workgroup runs one material's code over one material's
+    /// textures. Each path computes what it computes in any order, and the
+    /// film folds its samples in sample order: the film is the unsorted
+    /// wavefront's, bit for bit.
+    Material,
+}
+
 /// How a render's paths are scheduled on the GPU.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Schedule {
@@ -249,7 +267,7 @@ pub enum Schedule {
     #[default]
     Megakernel,
     /// Kernels per stage over queues of live paths.
-    Wavefront(PathLayout),
+    Wavefront(PathLayout, ShadeOrder),
     /// One invocation per path of a wave (pixel × sample) traces it to the
     /// end, as the megakernel's loop body does, and the wavefront's
     /// accumulate kernel folds the paths' light into the film in sample
@@ -261,26 +279,32 @@ pub enum Schedule {
 
 impl Schedule {
     /// Every schedule, for the tests and the CLI.
-    pub const ALL: [Schedule; 4] = [
+    pub const ALL: [Schedule; 6] = [
         Schedule::Megakernel,
         Self::WAVES[0],
         Self::WAVES[1],
         Self::WAVES[2],
+        Self::WAVES[3],
+        Self::WAVES[4],
     ];
 
     /// The schedules other than the megakernel, which is their oracle.
-    pub const WAVES: [Schedule; 3] = [
-        Schedule::Wavefront(PathLayout::Aos),
-        Schedule::Wavefront(PathLayout::Soa),
+    pub const WAVES: [Schedule; 5] = [
+        Schedule::Wavefront(PathLayout::Aos, ShadeOrder::Queue),
+        Schedule::Wavefront(PathLayout::Soa, ShadeOrder::Queue),
         Schedule::PathMegakernel,
+        Schedule::Wavefront(PathLayout::Aos, ShadeOrder::Material),
+        Schedule::Wavefront(PathLayout::Soa, ShadeOrder::Material),
     ];
 
     /// The CLI's and perf's name.
     pub fn name(self) -> &'static str {
         match self {
             Schedule::Megakernel => "megakernel",
-            Schedule::Wavefront(PathLayout::Aos) => "wavefront",
-            Schedule::Wavefront(PathLayout::Soa) => "wavefront-soa",
+            Schedule::Wavefront(PathLayout::Aos, ShadeOrder::Queue) => "wavefront",
+            Schedule::Wavefront(PathLayout::Soa, ShadeOrder::Queue) => "wavefront-soa",
+            Schedule::Wavefront(PathLayout::Aos, ShadeOrder::Material) => "wavefront-sorted",
+            Schedule::Wavefront(PathLayout::Soa, ShadeOrder::Material) => "wavefront-soa-sorted",
             Schedule::PathMegakernel => "megakernel-paths",
         }
     }
@@ -478,9 +502,10 @@ mod tests {
         assert!(names.contains(&"megakernel-paths-mis-inline-branches".to_string()));
         assert!(names.contains(&"megakernel-paths-inline-soa".to_string()));
         assert!(names.contains(&"megakernel-paths-mis-cwbvh8-inline".to_string()));
-        // 4 schedules, 2 kernels, 2 estimators, 4 walks, 2 node layouts,
+        // 6 schedules, 2 kernels, 2 estimators, 4 walks, 2 node layouts,
         // 3 leaf layouts, 2 dispatches, 2 runtime checks.
-        assert_eq!(n, 1536);
+        assert_eq!(n, 2304);
+        assert!(names.contains(&"wavefront-soa-sorted-mis-inline".to_string()));
         assert!(names.contains(&"megakernel-paths-mis-inline-checked".to_string()));
     }
 

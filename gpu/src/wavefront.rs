@@ -27,7 +27,7 @@ pub use crate::bindings::{
     PATH_MEGAKERNEL_STORAGE_BUFFERS as STORAGE_BUFFERS_NEEDED_PATHS,
     WAVEFRONT_STORAGE_BUFFERS as STORAGE_BUFFERS_NEEDED,
 };
-pub use crate::variants::{PathLayout, Schedule, Variant};
+pub use crate::variants::{PathLayout, Schedule, ShadeOrder, Variant};
 
 /// Words of one path's state (the `PF_…` fields of shaders/wavefront.wgsl,
 /// which asserts the sum).
@@ -46,8 +46,22 @@ pub const WAVE_GROUP: u32 = 64;
 /// default `maxComputeWorkgroupsPerDimension`); more make a second row.
 pub const MAX_GROUPS_PER_DIMENSION: u32 = 65_535;
 
-/// Bytes of `WaveQueues` before its entries.
-const QUEUE_HEADER_BYTES: u64 = 24;
+/// Buckets of the sorted wavefront's counting sort ([`ShadeOrder::Material`]):
+/// one invocation of a `wf_sort_scatter` workgroup each (which sums the
+/// counts up to its own), so at most [`WAVE_GROUP`]; the last holds misses and shadow-only paths
+/// (`scene_buffers::assign_shade_buckets` gives the materials the others).
+pub const SORT_BUCKETS: u32 = 64;
+const _: () = assert!(SORT_BUCKETS <= WAVE_GROUP);
+
+/// `wf_sort_count` packs a path's bucket and its rank in the bucket into
+/// one word, the rank in the low `SORT_RANK_BITS` bits: a sorted wave
+/// holds at most `2^SORT_RANK_BITS` slots ([`Pipelines::slots`]).
+pub const SORT_RANK_BITS: u32 = 24;
+const _: () = assert!(SORT_BUCKETS <= 1 << (32 - SORT_RANK_BITS));
+
+/// Bytes of `WaveQueues` before its entries: six words, then each sort
+/// bucket's count.
+const QUEUE_HEADER_BYTES: u64 = 24 + 4 * SORT_BUCKETS as u64;
 
 /// Path slots of a wave on a discrete GPU: 2^23 (the wavefront's path
 /// state 1.4 GB at 168 bytes a path, the path megakernel's 134 MB). Every bounce of a wave costs a few dispatches
@@ -71,15 +85,25 @@ pub struct Pipelines {
 
 /// What runs before a wave's accumulate kernel.
 enum Stages {
-    /// The wavefront: generate, then per bounce prepare / extend / shade.
+    /// The wavefront: generate, then per bounce prepare / extend /
+    /// (sort) / shade.
     Bounces {
         generate: wgpu::ComputePipeline,
         prepare: wgpu::ComputePipeline,
         extend: wgpu::ComputePipeline,
+        sort: Option<Sort>,
         shade: wgpu::ComputePipeline,
     },
     /// [`Schedule::PathMegakernel`]: one kernel traces every path.
     Paths(wgpu::ComputePipeline),
+}
+
+/// The counting sort of [`ShadeOrder::Material`], between a bounce's
+/// extend and shade: each live path's bucket and rank in it, then the
+/// paths moved to their places in the sorted queue.
+struct Sort {
+    count: wgpu::ComputePipeline,
+    scatter: wgpu::ComputePipeline,
 }
 
 impl Pipelines {
@@ -114,25 +138,30 @@ impl Pipelines {
         let wave_layout = crate::pipeline::layout(ctx, "wavefront paths", &bindings::WAVE_GROUP);
         let args_layout =
             crate::pipeline::layout(ctx, "wavefront arguments", &[bindings::WAVE_ARGS]);
-        let path_layout = match schedule {
-            Schedule::Wavefront(l) => l,
-            _ => PathLayout::Soa,
+        let (path_layout, order) = match schedule {
+            Schedule::Wavefront(l, order) => (l, order),
+            _ => (PathLayout::Soa, ShadeOrder::Queue),
         };
+        let sorted = order == ShadeOrder::Material;
         let mut constants = constants.to_vec();
         constants.push(("PATH_SOA", (path_layout == PathLayout::Soa) as u32 as f64));
+        constants.push(("SHADE_SORTED", sorted as u32 as f64));
         let main = [scene_layout, &wave_layout];
         let with_args = [scene_layout, &wave_layout, &args_layout];
         let entries: Vec<(&str, &[&wgpu::BindGroupLayout])> =
             if schedule == Schedule::PathMegakernel {
                 vec![("wf_trace_paths", &main), ("wf_accumulate", &main)]
             } else {
-                vec![
+                let mut e: Vec<(&str, &[&wgpu::BindGroupLayout])> = vec![
                     ("wf_generate", &main),
                     ("wf_prepare", &with_args),
                     ("wf_extend", &main),
-                    ("wf_shade", &main),
-                    ("wf_accumulate", &main),
-                ]
+                ];
+                if sorted {
+                    e.extend([("wf_sort_count", &main[..]), ("wf_sort_scatter", &main)]);
+                }
+                e.extend([("wf_shade", &main[..]), ("wf_accumulate", &main)]);
+                e
             };
         let mut p = compile_entries(ctx, checks, program, &entries, &constants)?.into_iter();
         let mut next = || p.next().expect("one pipeline per entry");
@@ -143,6 +172,10 @@ impl Pipelines {
                 generate: next(),
                 prepare: next(),
                 extend: next(),
+                sort: sorted.then(|| Sort {
+                    count: next(),
+                    scatter: next(),
+                }),
                 shade: next(),
             }
         };
@@ -260,6 +293,9 @@ impl Pipelines {
         if queue_words > 0 {
             by_limit = by_limit.min(limit.saturating_sub(QUEUE_HEADER_BYTES) / (queue_words * 4));
         }
+        if matches!(self.stages, Stages::Bounces { sort: Some(_), .. }) {
+            by_limit = by_limit.min(1 << SORT_RANK_BITS);
+        }
         let need = pixels.saturating_mul(spp as u64).max(1);
         target
             .min(by_limit.min(u32::MAX as u64) as u32)
@@ -267,12 +303,14 @@ impl Pipelines {
             .max(1)
     }
 
-    /// Queue entries a slot needs: two live-path queues and up to two rays
-    /// (the path megakernel queues nothing).
+    /// Queue entries a slot needs: two live-path queues and up to two rays,
+    /// and the sorted queue where the paths are sorted (the path
+    /// megakernel queues nothing).
     fn queue_words_per_slot(&self) -> u64 {
         match self.stages {
             Stages::Paths(_) => 0,
-            Stages::Bounces { .. } => 4,
+            Stages::Bounces { sort: None, .. } => 4,
+            Stages::Bounces { sort: Some(_), .. } => 5,
         }
     }
 }
@@ -282,7 +320,43 @@ pub struct WaveBuffers {
     wave_group: wgpu::BindGroup,
     args_group: wgpu::BindGroup,
     args: wgpu::Buffer,
+    paths: wgpu::Buffer,
+    queues: wgpu::Buffer,
     pub slots: u32,
+}
+
+/// What a wave left in its buffers: its queues (`WaveQueues`: the header's
+/// words, then the entries) and its path state, as words.
+pub struct WaveState {
+    pub queues: Vec<u32>,
+    pub paths: Vec<u32>,
+    pub slots: u32,
+}
+
+impl WaveBuffers {
+    /// Reads the buffers back ([`WaveState`]), for the tests that look
+    /// inside a wave: what the sort left in its queue.
+    pub fn read(&self, ctx: &GpuContext) -> Result<WaveState, GpuError> {
+        Ok(WaveState {
+            queues: crate::readback::read_buffer(ctx, &self.queues, self.queues.size())?,
+            paths: crate::readback::read_buffer(ctx, &self.paths, self.paths.size())?,
+            slots: self.slots,
+        })
+    }
+}
+
+impl WaveState {
+    /// Words of the `WaveQueues` header before the entries.
+    pub const HEADER_WORDS: usize = QUEUE_HEADER_BYTES as usize / 4;
+
+    /// The live paths the last bounce shaded, from its sorted queue
+    /// ([`ShadeOrder::Material`]), in the order it shaded them.
+    pub fn sorted_queue(&self) -> &[u32] {
+        // Header words: cur, active_total, ...
+        let live = self.queues[1] as usize;
+        let at = Self::HEADER_WORDS + 4 * self.slots as usize;
+        &self.queues[at..at + live]
+    }
 }
 
 impl Pipelines {
@@ -315,8 +389,10 @@ impl Pipelines {
                 mapped_at_creation: false,
             })
         };
-        let paths = buffer("wavefront paths", path_bytes, wgpu::BufferUsages::STORAGE);
-        let queues = buffer("wavefront queues", queue_bytes, wgpu::BufferUsages::STORAGE);
+        // COPY_SRC: for WaveBuffers::read.
+        let readable = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+        let paths = buffer("wavefront paths", path_bytes, readable);
+        let queues = buffer("wavefront queues", queue_bytes, readable);
         let args = buffer(
             "wavefront arguments",
             24,
@@ -348,6 +424,8 @@ impl Pipelines {
             wave_group,
             args_group,
             args,
+            paths,
+            queues,
             slots,
         })
     }
@@ -376,6 +454,7 @@ impl Pipelines {
                 generate,
                 prepare,
                 extend,
+                sort,
                 shade,
             } => {
                 pass.set_pipeline(generate);
@@ -385,6 +464,13 @@ impl Pipelines {
                     pass.dispatch_workgroups(1, 1, 1);
                     pass.set_pipeline(extend);
                     pass.dispatch_workgroups_indirect(&buffers.args, 0);
+                    if let Some(sort) = sort {
+                        // Over the live paths, as the shade.
+                        pass.set_pipeline(&sort.count);
+                        pass.dispatch_workgroups_indirect(&buffers.args, 12);
+                        pass.set_pipeline(&sort.scatter);
+                        pass.dispatch_workgroups_indirect(&buffers.args, 12);
+                    }
                     pass.set_pipeline(shade);
                     pass.dispatch_workgroups_indirect(&buffers.args, 12);
                 }

@@ -82,11 +82,17 @@ impl Axis for gpu::Schedule {
     fn help(self) -> &'static str {
         match self {
             gpu::Schedule::Megakernel => "one invocation traces a pixel's paths to the end",
-            gpu::Schedule::Wavefront(gpu::PathLayout::Aos) => {
+            gpu::Schedule::Wavefront(gpu::PathLayout::Aos, gpu::ShadeOrder::Queue) => {
                 "kernels per stage over queues of live paths, path state as an array of structs"
             }
-            gpu::Schedule::Wavefront(gpu::PathLayout::Soa) => {
+            gpu::Schedule::Wavefront(gpu::PathLayout::Soa, gpu::ShadeOrder::Queue) => {
                 "the wavefront with path state as a structure of arrays"
+            }
+            gpu::Schedule::Wavefront(gpu::PathLayout::Aos, gpu::ShadeOrder::Material) => {
+                "the wavefront with each bounce's paths sorted by the material they hit"
+            }
+            gpu::Schedule::Wavefront(gpu::PathLayout::Soa, gpu::ShadeOrder::Material) => {
+                "the sorted wavefront with path state as a structure of arrays"
             }
             gpu::Schedule::PathMegakernel => {
                 "one invocation a path of a wave, the film folded after: fills the GPU at any size"

@@ -1,6 +1,7 @@
 //! The wave schedules against the megakernel: the same scene, estimator
 //! and kernel features rendered by the wavefront's kernels (either path
-//! layout) and by the path megakernel (`gpu::wavefront::Schedule`) must
+//! layout, the paths shaded in queue order or sorted by material) and by
+//! the path megakernel (`gpu::wavefront::Schedule`) must
 //! give the megakernel's film: each path
 //! takes the same keyed randoms through the same functions, and the film
 //! folds every pixel's samples in sample order. Run on every fixture and
@@ -36,9 +37,41 @@ use reference::Scene;
 /// waves).
 pub const WAVE_SLOTS: [Option<u32>; 3] = [None, Some(200), Some(100)];
 
+/// The splits of a sorted wavefront (`gpu::ShadeOrder::Material`): its
+/// waves are the unsorted wavefront's, whose three splits hold the wave
+/// bookkeeping; what the sort adds runs every bounce of every wave, and
+/// four waves of runs of pixels give it partial waves and a count carried
+/// from wave to wave (a third of the renders, where CI's time is short).
+pub const SORTED_WAVE_SLOTS: [Option<u32>; 1] = [Some(100)];
+
+/// The wave schedules the gates compare on `ctx`: every one of
+/// `Schedule::WAVES` on hardware (the H100 suite, `selftest`); on a
+/// software adapter (CI) all but the sorted wavefront over the
+/// structure-of-arrays path state, whose two parts each run there (the
+/// sort over the array-of-structs state, the path state's reads in
+/// `wavefront-soa`) and whose kernels cost CI's time a compile each.
+/// `TWINTRACE_GATES=full` asks for all of them on a software adapter too,
+/// as it does for [`super::specialization::gate_kernel`].
+pub fn gate_schedules(ctx: &GpuContext) -> Vec<Schedule> {
+    let full = std::env::var("TWINTRACE_GATES").is_ok_and(|v| v == "full");
+    let soa_sorted = Schedule::Wavefront(gpu::PathLayout::Soa, gpu::ShadeOrder::Material);
+    Schedule::WAVES
+        .into_iter()
+        .filter(|&s| !ctx.is_software || full || s != soa_sorted)
+        .collect()
+}
+
+/// The splits a schedule is compared in.
+pub fn wave_slots(schedule: Schedule) -> &'static [Option<u32>] {
+    match schedule {
+        Schedule::Wavefront(_, gpu::ShadeOrder::Material) => &SORTED_WAVE_SLOTS,
+        _ => &WAVE_SLOTS,
+    }
+}
+
 /// The megakernel's film and those of the wave schedules `schedules`
-/// (`Schedule::WAVES`: each path layout and the path megakernel), each
-/// split as [`WAVE_SLOTS`] says, for one scene and estimator under the
+/// (`Schedule::WAVES`: each path layout and shade order, and the path
+/// megakernel), each split as [`wave_slots`] says, for one scene and estimator under the
 /// module's rule; `program` is the wavefront's WGSL
 /// (`gpu::shader::wavefront_source`, or a test's edit, compiled for the
 /// schedules that run it only: each kernel of a mutated program is a
@@ -78,9 +111,9 @@ fn compare_schedule(
         schedule,
         ..Build::gate(ctx, scene, program, integrator)
     };
-    let films = variant_film_bits(ctx, scene, build, &WAVE_SLOTS)?;
+    let films = variant_film_bits(ctx, scene, build, wave_slots(schedule))?;
     let mut inexact = Inexact::default();
-    for (wave, slots) in films.iter().zip(WAVE_SLOTS) {
+    for (wave, &slots) in films.iter().zip(wave_slots(schedule)) {
         compare_films(mega, wave, &mut inexact).map_err(|e| {
             format!(
                 "{spec} ({}, {}, {} slots a wave): {e}",
@@ -93,7 +126,7 @@ fn compare_schedule(
     Ok((inexact.pixels, inexact.mean_ulp))
 }
 
-/// The megakernel's film and each wave schedule's for a kernel built for
+/// The megakernel's film and each wave schedule's ([`gate_schedules`]) for a kernel built for
 /// `features`, which lack one the scene uses, so that samples are
 /// poisoned: every schedule must count the poisoned samples as the
 /// megakernel does (the poison of a traversal or a shading step crosses
@@ -116,7 +149,7 @@ pub fn compare_poisoned(
         ));
     }
     let mut inexact = Inexact::default();
-    for schedule in Schedule::WAVES {
+    for schedule in gate_schedules(ctx) {
         let build = Build {
             schedule,
             ..Build::megakernel(program, integrator, features)
@@ -226,7 +259,8 @@ fn compare_films(mega: &[u64], wave: &[u64], inexact: &mut Inexact) -> Result<()
 pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let program = gpu::shader::wavefront_source();
     let scenes = gate_scenes(ctx, "the megakernel")?;
-    let (_, inexact) = every_variant(&scenes, &Schedule::WAVES, |s, integrator, schedule| {
+    let schedules = gate_schedules(ctx);
+    let (_, inexact) = every_variant(&scenes, &schedules, |s, integrator, schedule| {
         Some(compare_schedule(
             ctx,
             (&s.spec, &s.scene),
@@ -236,11 +270,16 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
         ))
     })?;
     let (width, height, _) = SIZE;
-    let schedules = Schedule::WAVES.len();
-    let compared = scenes.len() * 2 * schedules * WAVE_SLOTS.len() * (width * height) as usize;
+    let renders: usize = schedules.iter().map(|&s| wave_slots(s).len()).sum();
+    let compared = scenes.len() * 2 * renders * (width * height) as usize;
+    let names: Vec<String> = schedules
+        .iter()
+        .map(|&s| format!("{} ({} splits)", s.name(), wave_slots(s).len()))
+        .collect();
     Ok(format!(
-        "{} scenes × 2 estimators × {schedules} wave schedules (wavefront, wavefront-soa, megakernel-paths) × 3 wave splits: their films equal the megakernel's {} ({})",
+        "{} scenes × 2 estimators × the wave schedules {}: their films equal the megakernel's {} ({})",
         scenes.len(),
+        names.join(", "),
         inexact.exactness(compared),
         gate_kernel_words(ctx)
     ))
