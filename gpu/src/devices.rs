@@ -119,17 +119,26 @@ pub enum Dealing {
     /// measured, at most four times that unit, and at most half its
     /// share of the samples left by the devices' rates, so that the last
     /// units are small and devices of unequal speed finish together. A
-    /// device whose one sample would end after the others are done with
-    /// every sample left takes no more.
+    /// device whose one sample would end after the others still taking
+    /// units are done with every sample left takes no more.
     Guided { unit_time: Duration },
 }
 
 impl Dealing {
     /// The samples of device `d`'s next unit, at most `left`, or `None`:
     /// no more for it. `per_sample[e]` is the seconds a sample a pixel
-    /// took in device `e`'s last unit (`None` before its first) and
-    /// `last` the samples of `d`'s last unit.
-    pub fn unit(&self, left: u32, d: usize, per_sample: &[Option<f64>], last: u32) -> Option<u32> {
+    /// took in device `e`'s last unit (`None` before its first), `taking[e]`
+    /// whether device `e` still takes units (one refused takes no more),
+    /// and `last` the samples of `d`'s last unit. The fastest device still
+    /// taking units is never refused, so every sample is dealt.
+    pub fn unit(
+        &self,
+        left: u32,
+        d: usize,
+        per_sample: &[Option<f64>],
+        taking: &[bool],
+        last: u32,
+    ) -> Option<u32> {
         if left == 0 {
             return None;
         }
@@ -140,19 +149,21 @@ impl Dealing {
                     return Some(1);
                 };
                 let t = t.max(1e-12);
+                // The devices still taking units (`d` among them: it asks).
+                let still = |e: usize| e == d || taking.get(e).copied().unwrap_or(true);
+                let active: Vec<Option<f64>> = (per_sample.iter().enumerate())
+                    .filter(|&(e, _)| still(e))
+                    .map(|(_, p)| p.map(|t| t.max(1e-12)))
+                    .collect();
                 // Samples a second of the group: a device not yet measured
                 // counted at the measured devices' mean.
-                let rates: Vec<f64> = per_sample
-                    .iter()
-                    .flatten()
-                    .map(|t| 1.0 / t.max(1e-12))
-                    .collect();
+                let rates: Vec<f64> = active.iter().flatten().map(|t| 1.0 / t).collect();
                 let mean = rates.iter().sum::<f64>() / rates.len() as f64;
-                let group: f64 = per_sample
-                    .iter()
-                    .map(|p| p.map_or(mean, |t| 1.0 / t.max(1e-12)))
-                    .sum();
-                let fastest = per_sample.iter().flatten().fold(f64::MAX, |a, &t| a.min(t));
+                let group: f64 = active.iter().map(|p| p.map_or(mean, |t| 1.0 / t)).sum();
+                // Of the devices still taking units: one refused earlier
+                // (its rate measured then) does no more, and a device that
+                // has slowed since must not be refused for it.
+                let fastest = active.iter().flatten().fold(f64::MAX, |a, &t| a.min(t));
                 // The others would be done with what is left (and one more
                 // sample of the fastest) before this device's one sample:
                 // never true of the fastest, so every sample is dealt.
@@ -185,6 +196,8 @@ struct Dealer {
     halted: bool,
     /// Each device's seconds a sample in its last unit.
     per_sample: Vec<Option<f64>>,
+    /// Whether each device still takes units.
+    taking: Vec<bool>,
 }
 
 /// A scene uploaded to several devices, each with its kernels compiled
@@ -291,6 +304,7 @@ impl<'a> DeviceGroup<'a> {
             next: samples.start,
             halted: false,
             per_sample: vec![None; devices],
+            taking: vec![true; devices],
         });
         // The next unit for device `i`, whose last unit was `last` samples
         // at `per_sample` seconds a sample; `None`: no more for it.
@@ -304,7 +318,11 @@ impl<'a> DeviceGroup<'a> {
                 d.halted = true;
                 return None;
             }
-            let n = dealing.unit(samples.end - d.next, i, &d.per_sample, last)?;
+            let Some(n) = dealing.unit(samples.end - d.next, i, &d.per_sample, &d.taking, last)
+            else {
+                d.taking[i] = false;
+                return None;
+            };
             let unit = d.next..d.next + n;
             d.next = unit.end;
             Some(unit)
@@ -502,19 +520,34 @@ mod tests {
     #[test]
     fn a_guided_unit_starts_at_one_sample_and_grows_to_fill_its_time_at_most_fourfold() {
         let equal = |t: f64| [Some(t); 4];
-        assert_eq!(GUIDED.unit(1024, 0, &[None; 4], 0), Some(1));
+        assert_eq!(GUIDED.unit(1024, 0, &[None; 4], &[true; 4], 0), Some(1));
         // 1 ms a sample: 250 fill the unit's time, but at most 4x the last.
-        assert_eq!(GUIDED.unit(100_000, 0, &equal(1e-3), 1), Some(4));
-        assert_eq!(GUIDED.unit(100_000, 0, &equal(1e-3), 100), Some(250));
+        assert_eq!(
+            GUIDED.unit(100_000, 0, &equal(1e-3), &[true; 4], 1),
+            Some(4)
+        );
+        assert_eq!(
+            GUIDED.unit(100_000, 0, &equal(1e-3), &[true; 4], 100),
+            Some(250)
+        );
         // At most half the device's share of what is left: a quarter of
         // 1000 samples over two.
-        assert_eq!(GUIDED.unit(1000, 0, &equal(1e-6), 1000), Some(125));
+        assert_eq!(
+            GUIDED.unit(1000, 0, &equal(1e-6), &[true; 4], 1000),
+            Some(125)
+        );
         // At least one sample, at most what is left, none of nothing.
-        assert_eq!(GUIDED.unit(3, 0, &equal(10.0), 100), Some(1));
-        assert_eq!(GUIDED.unit(1, 0, &equal(1e-6), 100), Some(1));
-        assert_eq!(GUIDED.unit(0, 0, &equal(1e-6), 100), None);
-        assert_eq!(Dealing::Fixed(8).unit(5, 0, &[None; 2], 0), Some(5));
-        assert_eq!(Dealing::Fixed(8).unit(500, 0, &[None; 2], 0), Some(8));
+        assert_eq!(GUIDED.unit(3, 0, &equal(10.0), &[true; 4], 100), Some(1));
+        assert_eq!(GUIDED.unit(1, 0, &equal(1e-6), &[true; 4], 100), Some(1));
+        assert_eq!(GUIDED.unit(0, 0, &equal(1e-6), &[true; 4], 100), None);
+        assert_eq!(
+            Dealing::Fixed(8).unit(5, 0, &[None; 2], &[true; 2], 0),
+            Some(5)
+        );
+        assert_eq!(
+            Dealing::Fixed(8).unit(500, 0, &[None; 2], &[true; 2], 0),
+            Some(8)
+        );
     }
 
     #[test]
@@ -522,13 +555,29 @@ mod tests {
         // Device 1 is 50x slower: 1,020 samples a second in all.
         let rates = [Some(1e-3), Some(5e-2)];
         // 63 left: its share is 63 · 20/1020, a unit of one sample.
-        assert_eq!(GUIDED.unit(63, 1, &rates, 4), Some(1));
+        assert_eq!(GUIDED.unit(63, 1, &rates, &[true; 2], 4), Some(1));
         // 10 left: the fast device is done in 10 ms, before its one sample
         // (50 ms) would be; the fast device is never refused.
-        assert_eq!(GUIDED.unit(10, 1, &rates, 1), None);
-        assert_eq!(GUIDED.unit(1, 0, &rates, 1), Some(1));
+        assert_eq!(GUIDED.unit(10, 1, &rates, &[true; 2], 1), None);
+        assert_eq!(GUIDED.unit(1, 0, &rates, &[true; 2], 1), Some(1));
         // A device not measured yet counts as the measured ones' mean.
-        assert_eq!(GUIDED.unit(10, 0, &[Some(1e-3), None], 100), Some(3));
+        assert_eq!(
+            GUIDED.unit(10, 0, &[Some(1e-3), None], &[true; 2], 100),
+            Some(3)
+        );
+        // Device 1, refused while it was slow, measured 1 ms then; device
+        // 0 has slowed to 50 ms since: the one still taking units is the
+        // fastest of those, and is not refused (measured against the
+        // refused device's rate it was, and 10 samples were never dealt:
+        // a CI run's two-device render on one lavapipe adapter called
+        // itself interrupted).
+        assert!(GUIDED
+            .unit(10, 0, &[Some(5e-2), Some(1e-3)], &[true, false], 1)
+            .is_some());
+        assert_eq!(
+            GUIDED.unit(10, 0, &[Some(5e-2), Some(1e-3)], &[true, true], 1),
+            None
+        );
     }
 
     /// When each device of a group is done (seconds from the start):
@@ -537,24 +586,44 @@ mod tests {
     /// device's seconds a sample plus `drain` (the wait for its
     /// dispatches), the rate a device measures including it.
     fn finish_times(dealing: Dealing, per_sample: &[f64], samples: u32, drain: f64) -> Vec<f64> {
-        let n = per_sample.len();
+        finish_times_with(
+            dealing,
+            &|d, _| per_sample[d],
+            per_sample.len(),
+            samples,
+            drain,
+        )
+    }
+
+    /// [`finish_times`] of `n` devices whose seconds a sample in their
+    /// `k`th unit are `per_sample(d, k)`.
+    fn finish_times_with(
+        dealing: Dealing,
+        per_sample: &dyn Fn(usize, usize) -> f64,
+        n: usize,
+        samples: u32,
+        drain: f64,
+    ) -> Vec<f64> {
         let mut clock = vec![0.0f64; n];
         let mut last = vec![0u32; n];
         let mut rates: Vec<Option<f64>> = vec![None; n];
         let mut next = 0;
-        let mut done = vec![false; n];
+        let mut units = vec![0usize; n];
+        let mut taking = vec![true; n];
         while let Some(d) = (0..n)
-            .filter(|&d| !done[d])
+            .filter(|&d| taking[d])
             .min_by(|&a, &b| clock[a].total_cmp(&clock[b]))
         {
-            let Some(u) = dealing.unit(samples - next, d, &rates, last[d]) else {
-                done[d] = true;
+            let Some(u) = dealing.unit(samples - next, d, &rates, &taking, last[d]) else {
+                taking[d] = false;
                 continue;
             };
+            let t = per_sample(d, units[d]);
+            units[d] += 1;
             next += u;
-            clock[d] += u as f64 * per_sample[d] + drain;
+            clock[d] += u as f64 * t + drain;
             last[d] = u;
-            rates[d] = Some(per_sample[d] + drain / u as f64);
+            rates[d] = Some(t + drain / u as f64);
         }
         assert_eq!(next, samples, "every sample is dealt");
         clock
@@ -589,5 +658,34 @@ mod tests {
         assert!(fixed > 1.05, "fixed units: {fixed:.3}");
         let one = finish_times(GUIDED, &[h200], 1024, 1e-3);
         assert!((one[0] - 1024.0 * h200).abs() < 0.1, "{one:?}");
+    }
+
+    /// Every sample is dealt however the devices' speeds change from unit
+    /// to unit (finish_times_with asserts it): two devices on one busy
+    /// software adapter, each unit's time a seeded draw between 1 ms and
+    /// 100 ms a sample; and a device of 50 ms a sample refused near the
+    /// end while the other, 1 ms a sample for five units, slows to 100 ms
+    /// (the rule that weighed the refused device's old rate left the last
+    /// sample undealt here).
+    #[test]
+    fn every_sample_is_dealt_when_the_devices_change_speed() {
+        for seed in 0..200u64 {
+            let draw = |d: usize, k: usize| {
+                let mut x =
+                    seed ^ ((d as u64) << 32) ^ (k as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+                x ^= x >> 33;
+                x = x.wrapping_mul(0xff51_afd7_ed55_8ccd);
+                x ^= x >> 33;
+                1e-3 * 100f64.powf((x >> 11) as f64 / (1u64 << 53) as f64)
+            };
+            finish_times_with(GUIDED, &draw, 2, 20 + seed as u32, 1e-3);
+            finish_times_with(GUIDED, &draw, 4, 200, 1e-3);
+        }
+        let slows = |d: usize, k: usize| match (d, k) {
+            (1, _) => 5e-2,
+            (0, k) if k >= 5 => 1e-1,
+            _ => 1e-3,
+        };
+        finish_times_with(GUIDED, &slows, 2, 64, 1e-3);
     }
 }
