@@ -69,7 +69,7 @@ fn every_schedule_takes_uneven_ranges_into_one_render_and_resets() {
     let ctx = common::gpu();
     let scene = reference::load_scene("cornell-spheres").unwrap();
     let settings = RenderSettings { spp: 40, ..tiny() };
-    for schedule in gpu::Schedule::ALL {
+    for schedule in common::gate_schedules(ctx) {
         let spec = RenderSpec {
             variant: gpu::Variant {
                 schedule,

@@ -54,7 +54,7 @@ fn gpu_sample_ranges_merge_into_the_whole_gpu_render_bit_for_bit() {
         seed: 3,
         ..RenderSettings::default()
     };
-    for schedule in gpu::Schedule::ALL {
+    for schedule in common::gate_schedules(ctx) {
         let r = gpu::GpuRenderer::with_variant(ctx, &scene, variant(schedule)).unwrap();
         let whole = r.render(&settings, &|_, _| {}).unwrap().sums;
         for cuts in [

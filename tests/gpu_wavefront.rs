@@ -116,7 +116,7 @@ const MUTANTS: &[Mutant] = &[
         SORTED,
     ),
     (
-        "a workgroup's paths in a bucket take one rank (each workgroup's atomic add forgotten)",
+        "a workgroup's paths in a bucket may share a rank (read before the add, not returned by it)",
         "rank = atomicAdd(&wg_bucket_paths[bucket], 1u);",
         "rank = atomicLoad(&wg_bucket_paths[bucket]);\n        atomicAdd(&wg_bucket_paths[bucket], 1u);",
         "cornell",
@@ -254,6 +254,16 @@ fn a_wave_dispatched_as_a_two_dimensional_grid_renders_as_the_megakernel() {
 /// every live path's bucket is its extension hit's, which its hit record
 /// still holds after the shade), three bounces, built from `program`.
 fn shaded_buckets(ctx: &gpu::GpuContext, program: &str) -> Vec<u32> {
+    let (buckets, once) = shaded(ctx, program);
+    if let Err(e) = once {
+        panic!("{e}");
+    }
+    buckets
+}
+
+/// [`shaded_buckets`], and whether the sorted queue held each of the
+/// bounce's live paths once.
+fn shaded(ctx: &gpu::GpuContext, program: &str) -> (Vec<u32>, Result<(), String>) {
     let scene = reference::load_scene("rtow-final").unwrap();
     let packed = gpu::scene_buffers::PackedScene::for_walk(
         &scene,
@@ -285,7 +295,17 @@ fn shaded_buckets(ctx: &gpu::GpuContext, program: &str) -> Vec<u32> {
     // flags, t, primitive, u, v), array-of-structs path state.
     const PF_HIT: usize = 18;
     const HIT_FOUND: u32 = 1;
-    state
+    let (mut sorted, mut live) = (state.sorted_queue().to_vec(), state.live_queue().to_vec());
+    sorted.sort_unstable();
+    live.sort_unstable();
+    let once = if sorted != live {
+        Err("the sorted queue is not the live paths' queue reordered".to_string())
+    } else if sorted.windows(2).any(|w| w[0] == w[1]) {
+        Err("a live path queued twice".to_string())
+    } else {
+        Ok(())
+    };
+    let buckets = state
         .sorted_queue()
         .iter()
         .map(|&slot| {
@@ -306,7 +326,8 @@ fn shaded_buckets(ctx: &gpu::GpuContext, program: &str) -> Vec<u32> {
             };
             packed.materials[material as usize].shade_bucket
         })
-        .collect()
+        .collect();
+    (buckets, once)
 }
 
 /// Whether buckets never decrease and more than one is used.
@@ -331,7 +352,8 @@ fn in_bucket_runs(buckets: &[u32]) -> Result<(), String> {
 /// The film gate cannot see the order the paths are shaded in (any order
 /// gives the same film): this reads it. The sorted wavefront shades a
 /// bounce's live paths in runs of one bucket, each path once; a scatter
-/// that leaves the queue's order (a sort in name only) fails.
+/// that leaves the queue's order (a sort in name only) fails, and so do
+/// bucket starts that lose paths.
 #[test]
 fn the_sorted_wavefront_shades_a_bounce_in_runs_of_one_bucket() {
     let ctx = common::gpu();
@@ -355,5 +377,13 @@ fn the_sorted_wavefront_shades_a_bounce_in_runs_of_one_bucket() {
     assert!(
         in_bucket_runs(&shaded_buckets(ctx, &mutant)).is_err(),
         "a sort that keeps the queue's order passed"
+    );
+    // Runs a bucket late: the first bucket's places are left to the last
+    // bounce's stale entries, and the last bucket's paths fall off the end.
+    let from = "wg_bucket_start[lid] -= n;";
+    assert_eq!(program.matches(from).count(), 1);
+    assert!(
+        shaded(ctx, &program.replace(from, "")).1.is_err(),
+        "a sort that loses paths passed"
     );
 }

@@ -717,7 +717,8 @@ impl<'a> GpuRenderer<'a> {
                 Kernels::Wavefront(w) => {
                     let slots = self
                         .wave_slots
-                        .unwrap_or_else(|| w.slots(ctx, band_pixels, settings.spp));
+                        .unwrap_or_else(|| w.slots(ctx, band_pixels, settings.spp))
+                        .min(w.most_slots());
                     let buffers = match wave_buffers.take() {
                         Some(b) if b.slots >= slots => b,
                         cached => {

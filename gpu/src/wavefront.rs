@@ -293,14 +293,23 @@ impl Pipelines {
         if queue_words > 0 {
             by_limit = by_limit.min(limit.saturating_sub(QUEUE_HEADER_BYTES) / (queue_words * 4));
         }
-        if matches!(self.stages, Stages::Bounces { sort: Some(_), .. }) {
-            by_limit = by_limit.min(1 << SORT_RANK_BITS);
-        }
+        by_limit = by_limit.min(self.most_slots() as u64);
         let need = pixels.saturating_mul(spp as u64).max(1);
         target
             .min(by_limit.min(u32::MAX as u64) as u32)
             .min(need.min(u32::MAX as u64) as u32)
             .max(1)
+    }
+
+    /// The most slots a wave of these kernels holds: the sorted
+    /// wavefront's `wf_sort_count` packs a path's rank in
+    /// [`SORT_RANK_BITS`] bits (a test's `set_wave_slots` is held to it
+    /// too).
+    pub fn most_slots(&self) -> u32 {
+        match self.stages {
+            Stages::Bounces { sort: Some(_), .. } => 1 << SORT_RANK_BITS,
+            _ => u32::MAX,
+        }
     }
 
     /// Queue entries a slot needs: two live-path queues and up to two rays,
@@ -352,15 +361,27 @@ impl WaveState {
     /// The live paths the last bounce shaded, from its sorted queue
     /// ([`ShadeOrder::Material`]), in the order it shaded them.
     pub fn sorted_queue(&self) -> &[u32] {
-        // Header words: cur, active_total, ...
+        self.queue(4)
+    }
+
+    /// The live-path queue the last bounce's sort (or shade) read.
+    pub fn live_queue(&self) -> &[u32] {
+        self.queue(self.queues[0] as usize)
+    }
+
+    /// Queue `q` of the entries (0, 1: the live paths; 4: the sorted
+    /// ones), as long as the last bounce's live paths. Header words: cur,
+    /// active_total, ...
+    fn queue(&self, q: usize) -> &[u32] {
         let live = self.queues[1] as usize;
-        let at = Self::HEADER_WORDS + 4 * self.slots as usize;
+        let at = Self::HEADER_WORDS + q * self.slots as usize;
         &self.queues[at..at + live]
     }
 }
 
 impl Pipelines {
     pub fn buffers(&self, ctx: &GpuContext, slots: u32) -> Result<WaveBuffers, GpuError> {
+        let slots = slots.min(self.most_slots());
         let device = &ctx.device;
         let limit = device.limits().max_storage_buffer_binding_size;
         let path_bytes = slots as u64 * self.words as u64 * 4;

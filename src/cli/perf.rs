@@ -73,8 +73,10 @@ pub struct RunArgs {
     /// Only these renderer variants (reference: the CPU's BSDF sampling;
     /// reference-mis: the CPU's light sampling with MIS; the GPU's are
     /// SCHEDULE[-mis][-general]: SCHEDULE megakernel, wavefront (path
-    /// state as an array of structs), wavefront-soa (structure of arrays)
-    /// or megakernel-paths (one invocation per path of a wave), -mis light sampling with MIS, -general the general kernel
+    /// state as an array of structs), wavefront-soa (structure of arrays),
+    /// wavefront-sorted or wavefront-soa-sorted (each bounce's paths
+    /// sorted by material) or megakernel-paths (one invocation per path
+    /// of a wave), -mis light sampling with MIS, -general the general kernel
     /// (every feature's code) instead of the one specialized to the scene,
     /// -bvh4 the four-wide BVH walk, -cwbvh8 the compressed eight-wide
     /// walk (8-bit child boxes) or -brute every primitive tested,

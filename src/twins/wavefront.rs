@@ -31,16 +31,16 @@ use gpu::{GpuContext, Schedule};
 use reference::integrator::Integrator;
 use reference::Scene;
 
-/// Slots per wave of the compared renders (`SIZE`: 192 pixels, 2 samples):
-/// the adapter's default (one wave of both samples), 200 (a wave
-/// a sample), 100 (runs of 100 and 92 pixels, one sample a wave: four
-/// waves).
+/// Slots per wave of the compared renders (`SIZE`: 192 pixels, 2 samples;
+/// a wave holds both samples of its pixels, `gpu::wavefront::Waves`): the
+/// adapter's default (one wave), 200 (runs of 100 and 92 pixels: two
+/// waves), 100 (runs of 50 pixels: four waves).
 pub const WAVE_SLOTS: [Option<u32>; 3] = [None, Some(200), Some(100)];
 
 /// The splits of a sorted wavefront (`gpu::ShadeOrder::Material`): its
 /// waves are the unsorted wavefront's, whose three splits hold the wave
 /// bookkeeping; what the sort adds runs every bounce of every wave, and
-/// four waves of runs of pixels give it partial waves and a count carried
+/// four waves of 50 pixels give it a short last wave and counts cleared
 /// from wave to wave (a third of the renders, where CI's time is short).
 pub const SORTED_WAVE_SLOTS: [Option<u32>; 1] = [Some(100)];
 

@@ -118,6 +118,16 @@ pub fn image_bits(img: &twintrace::RenderImage) -> Vec<u32> {
         .collect()
 }
 
+/// Every schedule the tests render on `ctx`: the megakernel and the wave
+/// schedules the gates compare there (`twintrace::twins::wavefront::
+/// gate_schedules`: on a software adapter, all but the sorted wavefront
+/// over structure-of-arrays paths).
+pub fn gate_schedules(ctx: &gpu::GpuContext) -> Vec<gpu::Schedule> {
+    std::iter::once(gpu::Schedule::Megakernel)
+        .chain(twintrace::twins::wavefront::gate_schedules(ctx))
+        .collect()
+}
+
 /// The index of the test adapter ([`gpu`]) among `gpu::list_adapters()`,
 /// as `--devices` and `gpu::devices::DeviceSelection` name it.
 pub fn test_adapter_index() -> usize {
