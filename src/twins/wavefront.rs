@@ -274,7 +274,10 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let compared = scenes.len() * 2 * renders * (width * height) as usize;
     let names: Vec<String> = schedules
         .iter()
-        .map(|&s| format!("{} ({} splits)", s.name(), wave_slots(s).len()))
+        .map(|&s| {
+            let n = wave_slots(s).len();
+            format!("{} ({n} split{})", s.name(), if n == 1 { "" } else { "s" })
+        })
         .collect();
     Ok(format!(
         "{} scenes × 2 estimators × the wave schedules {}: their films equal the megakernel's {} ({})",
