@@ -81,7 +81,6 @@ struct WaveQueues {
     entries: array<u32>,
 }
 
-const SORTED_QUEUE: u32 = 4u;
 const SORT_RANK_MASK: u32 = (1u << SORT_RANK_BITS) - 1u;
 
 // wf_extend's and wf_shade's indirect dispatch arguments, written by

@@ -293,6 +293,7 @@ pub fn wavefront_source() -> String {
         ("WAVE_GROUP", crate::wavefront::WAVE_GROUP),
         ("SORT_BUCKETS", crate::wavefront::SORT_BUCKETS),
         ("SORT_RANK_BITS", crate::wavefront::SORT_RANK_BITS),
+        ("SORTED_QUEUE", crate::wavefront::SORTED_QUEUE),
         (
             "MAX_GROUPS_PER_DIMENSION",
             crate::wavefront::MAX_GROUPS_PER_DIMENSION,

@@ -55,9 +55,14 @@ const _: () = assert!(SORT_BUCKETS <= WAVE_GROUP);
 
 /// `wf_sort_count` packs a path's bucket and its rank in the bucket into
 /// one word, the rank in the low `SORT_RANK_BITS` bits: a sorted wave
-/// holds at most `2^SORT_RANK_BITS` slots ([`Pipelines::slots`]).
+/// holds at most `2^SORT_RANK_BITS` slots ([`Pipelines::most_slots`]).
 pub const SORT_RANK_BITS: u32 = 24;
 const _: () = assert!(SORT_BUCKETS <= 1 << (32 - SORT_RANK_BITS));
+
+/// Where the sorted queue starts in `WaveQueues::entries`, in slots: after
+/// the two live-path queues and the rays (`SORTED_QUEUE` in the WGSL,
+/// generated from this).
+pub const SORTED_QUEUE: u32 = 4;
 
 /// Bytes of `WaveQueues` before its entries: six words, then each sort
 /// bucket's count.
@@ -293,7 +298,6 @@ impl Pipelines {
         if queue_words > 0 {
             by_limit = by_limit.min(limit.saturating_sub(QUEUE_HEADER_BYTES) / (queue_words * 4));
         }
-        by_limit = by_limit.min(self.most_slots() as u64);
         let need = pixels.saturating_mul(spp as u64).max(1);
         target
             .min(by_limit.min(u32::MAX as u64) as u32)
@@ -303,8 +307,8 @@ impl Pipelines {
 
     /// The most slots a wave of these kernels holds: the sorted
     /// wavefront's `wf_sort_count` packs a path's rank in
-    /// [`SORT_RANK_BITS`] bits (a test's `set_wave_slots` is held to it
-    /// too).
+    /// [`SORT_RANK_BITS`] bits. The renderer holds every wave to it, the
+    /// slots [`Self::slots`] gives and those a test sets alike.
     pub fn most_slots(&self) -> u32 {
         match self.stages {
             Stages::Bounces { sort: Some(_), .. } => 1 << SORT_RANK_BITS,
@@ -318,8 +322,8 @@ impl Pipelines {
     fn queue_words_per_slot(&self) -> u64 {
         match self.stages {
             Stages::Paths(_) => 0,
-            Stages::Bounces { sort: None, .. } => 4,
-            Stages::Bounces { sort: Some(_), .. } => 5,
+            Stages::Bounces { sort: None, .. } => SORTED_QUEUE as u64,
+            Stages::Bounces { sort: Some(_), .. } => SORTED_QUEUE as u64 + 1,
         }
     }
 }
@@ -361,7 +365,7 @@ impl WaveState {
     /// The live paths the last bounce shaded, from its sorted queue
     /// ([`ShadeOrder::Material`]), in the order it shaded them.
     pub fn sorted_queue(&self) -> &[u32] {
-        self.queue(4)
+        self.queue(SORTED_QUEUE as usize)
     }
 
     /// The live-path queue the last bounce's sort (or shade) read.
@@ -369,8 +373,8 @@ impl WaveState {
         self.queue(self.queues[0] as usize)
     }
 
-    /// Queue `q` of the entries (0, 1: the live paths; 4: the sorted
-    /// ones), as long as the last bounce's live paths. Header words: cur,
+    /// Queue `q` of the entries (0, 1: the live paths; [`SORTED_QUEUE`]:
+    /// the sorted ones), as long as the last bounce's live paths. Header words: cur,
     /// active_total, ...
     fn queue(&self, q: usize) -> &[u32] {
         let live = self.queues[1] as usize;
@@ -381,7 +385,6 @@ impl WaveState {
 
 impl Pipelines {
     pub fn buffers(&self, ctx: &GpuContext, slots: u32) -> Result<WaveBuffers, GpuError> {
-        let slots = slots.min(self.most_slots());
         let device = &ctx.device;
         let limit = device.limits().max_storage_buffer_binding_size;
         let path_bytes = slots as u64 * self.words as u64 * 4;
