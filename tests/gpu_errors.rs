@@ -125,7 +125,8 @@ fn an_unknown_tag_poisons_its_samples() {
         );
     }
     // The background is a parameter: checked through a test kernel.
-    let r = gpu::GpuRenderer::new(ctx, &scene).unwrap();
+    let packed = gpu::scene_buffers::PackedScene::new(&scene);
+    let r = gpu::GpuRenderer::for_test_kernels(ctx, &packed, &scene).unwrap();
     let mut params = r.params(&RenderSettings {
         width: 1,
         height: 1,

@@ -33,7 +33,8 @@ fn head_on_hit_on_a_small_far_sphere() {
         .expect("the reference hits the pole");
     assert_eq!(cpu.prim, 0);
     let ctx = common::gpu();
-    let renderer = gpu::GpuRenderer::new(ctx, &scene).unwrap();
+    let packed = gpu::scene_buffers::PackedScene::new(&scene);
+    let renderer = gpu::GpuRenderer::for_test_kernels(ctx, &packed, &scene).unwrap();
     let input = hits::ray_words(&[ray]);
     let kernel = TestKernel {
         snippet: hits::SNIPPET,

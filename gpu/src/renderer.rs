@@ -124,10 +124,17 @@ pub struct KernelSpec {
     pub checks: Checks,
 }
 
+/// Why a renderer made by [`GpuRenderer::for_test_kernels`] does not render.
+const NO_RENDER_KERNEL: &str =
+    "this renderer holds a scene for test kernels and has no render kernel";
+
 /// The compiled kernels of a schedule.
 enum Kernels {
     Megakernel(wgpu::ComputePipeline),
     Wavefront(Box<wavefront::Pipelines>),
+    /// None: the scene's records only, for test kernels
+    /// ([`GpuRenderer::for_test_kernels`]); a render is refused.
+    None,
 }
 
 /// A scene uploaded to one device, with its render kernel compiled for
@@ -352,6 +359,27 @@ impl<'a> GpuRenderer<'a> {
         Self::build_scheduled(ctx, packed, scene, program, spec)
     }
 
+    /// `packed` uploaded for the test kernels of [`crate::testing`], with
+    /// no render kernel compiled: a test kernel binds the scene's records
+    /// and takes their walk's constants ([`Self::shared_constants`]), and
+    /// compiling a render kernel it never runs cost each such test a
+    /// megakernel build (most of a variant gate's time on lavapipe). A
+    /// render with it is refused.
+    pub fn for_test_kernels(
+        ctx: &'a GpuContext,
+        packed: &PackedScene,
+        scene: &'a Scene,
+    ) -> Result<Self, GpuError> {
+        let spec = KernelSpec {
+            integrator: Integrator::Bsdf,
+            features: Features::of(scene),
+            schedule: Schedule::Megakernel,
+            dispatch: Dispatch::Switch,
+            checks: Checks::Checked,
+        };
+        Self::upload(ctx, packed, scene, None, spec)
+    }
+
     /// [`Self::build`] for a schedule: `program` is the megakernel's
     /// (`shader::render_source`) or the wavefront's
     /// (`shader::wavefront_source`), or a test's edit of one.
@@ -360,6 +388,18 @@ impl<'a> GpuRenderer<'a> {
         packed: &PackedScene,
         scene: &'a Scene,
         program: &str,
+        spec: KernelSpec,
+    ) -> Result<Self, GpuError> {
+        Self::upload(ctx, packed, scene, Some(program), spec)
+    }
+
+    /// Uploads `packed` and, where `program` is given, compiles the
+    /// render kernels of `spec` from it.
+    fn upload(
+        ctx: &'a GpuContext,
+        packed: &PackedScene,
+        scene: &'a Scene,
+        program: Option<&str>,
         spec: KernelSpec,
     ) -> Result<Self, GpuError> {
         let KernelSpec {
@@ -411,8 +451,9 @@ impl<'a> GpuRenderer<'a> {
             leaves,
             dispatching,
         ];
-        let kernels = match schedule {
-            Schedule::Megakernel => Kernels::Megakernel(compile_checked(
+        let kernels = match (program, schedule) {
+            (None, _) => Kernels::None,
+            (Some(program), Schedule::Megakernel) => Kernels::Megakernel(compile_checked(
                 ctx,
                 checks,
                 program,
@@ -420,9 +461,11 @@ impl<'a> GpuRenderer<'a> {
                 &[&layout],
                 &constants,
             )?),
-            Schedule::Wavefront(..) | Schedule::PathMegakernel => Kernels::Wavefront(Box::new(
-                wavefront::Pipelines::new(ctx, &layout, program, &constants, schedule, checks)?,
-            )),
+            (Some(program), Schedule::Wavefront(..) | Schedule::PathMegakernel) => {
+                Kernels::Wavefront(Box::new(wavefront::Pipelines::new(
+                    ctx, &layout, program, &constants, schedule, checks,
+                )?))
+            }
         };
         Ok(Self {
             ctx,
@@ -650,6 +693,9 @@ impl<'a> GpuRenderer<'a> {
     ) -> Result<Accumulated, GpuError> {
         let settings = &range_settings(settings, &samples)?;
         let ctx = self.ctx;
+        if matches!(self.kernels, Kernels::None) {
+            return Err(GpuError::Validation(NO_RENDER_KERNEL.into()));
+        }
         if self.traversal.0 == Traversal::BruteForce {
             let prims = self.scene.primitives().len();
             if let Some(why) = brute_force_refusal(prims, settings.max_depth, ctx.is_software) {
@@ -702,6 +748,7 @@ impl<'a> GpuRenderer<'a> {
             // made one at a time (a large render on a small adapter has
             // billions).
             let plan = match &self.kernels {
+                Kernels::None => return Err(GpuError::Validation(NO_RENDER_KERNEL.into())),
                 Kernels::Megakernel(pipeline) => {
                     // On a software adapter, no more samples an invocation
                     // than llvmpipe's loop limit allows (SOFTWARE_LOOP_LIMIT).

@@ -25,7 +25,13 @@ const PIPELINES_KEPT: usize = 64;
 /// Pipelines a software device keeps: on lavapipe a compiled pipeline
 /// holds its machine code, up to hundreds of megabytes for the render
 /// kernels, and the test suite's one device, keeping 64, grew past 20 GB.
-const PIPELINES_KEPT_SOFTWARE: usize = 4;
+/// Keeping 16 it peaks at 4.0 GB (the integration tests on the 2-core
+/// development machine, `/usr/bin/time -v`), and 16 hold a wave gate's
+/// kernels of one variant (the sorted wavefront's seven and the
+/// megakernel) while a second test runs beside it: keeping 4, the wave
+/// gate rebuilt every kernel for every scene (618 pipelines, 108 s alone;
+/// 40 pipelines and 18 s keeping 16).
+const PIPELINES_KEPT_SOFTWARE: usize = 16;
 
 /// A map that keeps its `capacity` most recently used entries.
 pub(crate) struct Lru<K, V> {
