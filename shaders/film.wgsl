@@ -121,6 +121,22 @@ struct ChannelSums {
     s3_high: vec4<u32>,
 }
 
+// q² (below 2^64) and q³ (below 2^96) of a one-word q: three word
+// products.
+struct SmallPowers {
+    q2: vec2<u32>,
+    q3: vec3<u32>,
+}
+
+fn small_powers(q: u32) -> SmallPowers {
+    let p = mul_wide(q, q);
+    let lo = mul_wide(p.x, q);
+    let hi = mul_wide(p.y, q);
+    // q³ = lo + hi · 2^32.
+    let w1 = lo.y + hi.x;
+    return SmallPowers(p, vec3<u32>(lo.x, w1, hi.y + select(0u, 1u, w1 < lo.y)));
+}
+
 // Adds q, q² and q³ to a channel's sums. A value below 1 (q under 2^32,
 // most samples) takes three word products instead of sixteen; the high
 // words of Σq² and Σq³ are added to only where a carry (or a large q³)
@@ -130,13 +146,9 @@ fn channel_sums_add(s: ChannelSums, q: vec2<u32>) -> ChannelSums {
     var q2: Words6;
     var q3: Words6;
     if q.y == 0u {
-        let p = mul_wide(q.x, q.x);
-        let lo = mul_wide(p.x, q.x);
-        let hi = mul_wide(p.y, q.x);
-        // q³ = lo + hi · 2^32, below 2^96.
-        let w1 = lo.y + hi.x;
-        q2 = Words6(vec4<u32>(p, 0u, 0u), vec2<u32>(0u));
-        q3 = Words6(vec4<u32>(lo.x, w1, hi.y + select(0u, 1u, w1 < lo.y), 0u), vec2<u32>(0u));
+        let p = small_powers(q.x);
+        q2 = Words6(vec4<u32>(p.q2, 0u, 0u), vec2<u32>(0u));
+        q3 = Words6(vec4<u32>(p.q3, 0u), vec2<u32>(0u));
     } else {
         q2 = mul_words(q1, q);
         q3 = mul_words(q2.lo, q);
@@ -168,27 +180,14 @@ fn channel_sums_words(c: ChannelSums) -> array<u32, FILM_CHANNEL_WORDS> {
     );
 }
 
-// A pixel's exact sums while a kernel accumulates them (the GpuPixel
-// record's words, in registers).
+// A pixel's exact sums as a kernel reads them (the GpuPixel record's
+// words, in registers).
 struct PixelSums {
     count: u32,
     rejected: u32,
     r: ChannelSums,
     g: ChannelSums,
     b: ChannelSums,
-}
-
-// reference::film::PixelSums::add: a sample is accepted where all three
-// channels are (and its path was not poisoned), else counted as rejected.
-fn pixel_sums_add(s: ptr<function, PixelSums>, l: vec3<f32>, path_poisoned: bool) {
-    if !sample_accepted(l, path_poisoned) {
-        (*s).rejected += 1u;
-        return;
-    }
-    (*s).count += 1u;
-    (*s).r = channel_sums_add((*s).r, fixed_point(l.x).q);
-    (*s).g = channel_sums_add((*s).g, fixed_point(l.y).q);
-    (*s).b = channel_sums_add((*s).b, fixed_point(l.z).q);
 }
 
 // fixed_point(x).ok from x's bits alone: zeros of either sign, else
@@ -259,12 +258,57 @@ fn channel_sums_store(pixel: u32, base: u32, c: ChannelSums) {
     film[film_at(pixel, b + 17u)] = c.s3_high.w;
 }
 
-fn pixel_sums_store(pixel: u32, s: PixelSums) {
-    film[film_at(pixel, FILM_COUNT_WORD)] = s.count;
-    film[film_at(pixel, FILM_REJECTED_WORD)] = s.rejected;
-    channel_sums_store(pixel, 0u, s.r);
-    channel_sums_store(pixel, FILM_CHANNEL_WORDS, s.g);
-    channel_sums_store(pixel, 2u * FILM_CHANNEL_WORDS, s.b);
+// reference::film::PixelSums::add, on the pixel's words in the film: a
+// sample is accepted where all three channels are (and its path was not
+// poisoned), else counted as rejected. The per-pixel megakernel adds each
+// sample in place rather than holding the pixel's 56 words in registers
+// across its path loop (on an H200, 1.06-1.62x faster on nine of ten
+// renders and 0.88x on one: docs/benchmarks.md).
+fn film_add_sample(pixel: u32, l: vec3<f32>, path_poisoned: bool) {
+    if !sample_accepted(l, path_poisoned) {
+        film[film_at(pixel, FILM_REJECTED_WORD)] += 1u;
+        return;
+    }
+    film[film_at(pixel, FILM_COUNT_WORD)] += 1u;
+    film_add_channel(pixel, 0u, fixed_point(l.x).q);
+    film_add_channel(pixel, FILM_CHANNEL_WORDS, fixed_point(l.y).q);
+    film_add_channel(pixel, 2u * FILM_CHANNEL_WORDS, fixed_point(l.z).q);
+}
+
+// q added to a channel's sums in the film. Zero adds nothing. A value
+// below 1 (q below 2^32) touches the words its powers reach and one
+// above each (Σq's first two, Σq²'s first three, Σq³'s first four), where
+// the carries of most renders end; a carry past them, or a value of 1 or
+// more, takes the whole channel's words.
+fn film_add_channel(pixel: u32, base: u32, q: vec2<u32>) {
+    if q.x == 0u && q.y == 0u {
+        return;
+    }
+    let b = FILM_SUMS_WORD + base;
+    if q.y == 0u {
+        let p = small_powers(q.x);
+        let i1 = vec2<u32>(film_at(pixel, b), film_at(pixel, b + 1u));
+        let i2 = vec3<u32>(film_at(pixel, b + 4u), film_at(pixel, b + 5u), film_at(pixel, b + 6u));
+        let i3 = vec4<u32>(film_at(pixel, b + 10u), film_at(pixel, b + 11u), film_at(pixel, b + 12u), film_at(pixel, b + 13u));
+        let a1 = add_words(vec4<u32>(film[i1.x], film[i1.y], 0u, 0u), vec4<u32>(q.x, 0u, 0u, 0u), 0u);
+        let a2 = add_words(vec4<u32>(film[i2.x], film[i2.y], film[i2.z], 0u), vec4<u32>(p.q2, 0u, 0u), 0u);
+        let a3 = add_words(vec4<u32>(film[i3.x], film[i3.y], film[i3.z], film[i3.w]), vec4<u32>(p.q3, 0u), 0u);
+        // A carry out of the words read shows as a nonzero word past them
+        // (s1's third, s2's fourth) or a carry out of all four (s3).
+        if a1.w.z == 0u && a2.w.w == 0u && a3.carry == 0u {
+            film[i1.x] = a1.w.x;
+            film[i1.y] = a1.w.y;
+            film[i2.x] = a2.w.x;
+            film[i2.y] = a2.w.y;
+            film[i2.z] = a2.w.z;
+            film[i3.x] = a3.w.x;
+            film[i3.y] = a3.w.y;
+            film[i3.z] = a3.w.z;
+            film[i3.w] = a3.w.w;
+            return;
+        }
+    }
+    channel_sums_store(pixel, base, channel_sums_add(channel_sums_load(pixel, base), q));
 }
 
 // A pixel's statistics from its exact sums, bit for bit the host's:

@@ -339,11 +339,10 @@ fn render_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let pixel = gid.y * params.width + gid.x;
     let y = params.band_row + gid.y;
     let image_pixel = y * params.width + gid.x;
-    var acc = pixel_sums_load(pixel);
     for (var i = 0u; i < params.sample_count; i++) {
         let sample = params.sample_start + i;
         let l = trace(camera_ray(gid.x, y, sample), image_pixel, sample);
-        pixel_sums_add(&acc, l, poisoned);
+        film_add_sample(pixel, l, poisoned);
     }
-    pixel_sums_store(pixel, acc);
 }
+

@@ -43,6 +43,26 @@ fn a_truncating_fixed_point_fails_the_film_twin() {
 }
 
 #[test]
+fn an_in_place_add_that_misses_a_carry_fails_the_film_twin() {
+    // film_add_sample's add below 1 reads a channel's low words and falls
+    // back to the whole channel where a carry leaves them: each of its
+    // three checks dropped loses that carry on the pixels whose sums
+    // start a carry away.
+    let library = gpu::shader::library_source();
+    for (check, what) in [
+        ("a1.w.z == 0u && ", "a carry out of Σq's two words read"),
+        ("a2.w.w == 0u && ", "a carry out of Σq²'s three words read"),
+        (" && a3.carry == 0u", "a carry out of Σq³'s four words read"),
+    ] {
+        assert_eq!(library.matches(check).count(), 1, "{check}");
+        let mutant = library.replace(check, "");
+        let e = film::sums_with_library(common::gpu(), &mutant)
+            .expect_err(&format!("{what}, lost, passed the film twin"));
+        println!("{what}, lost: caught: {}", &e[..e.len().min(160)]);
+    }
+}
+
+#[test]
 fn gpu_sample_ranges_merge_into_the_whole_gpu_render_bit_for_bit() {
     let ctx = common::gpu();
     let scene = reference::load_scene("cornell-spheres").unwrap();

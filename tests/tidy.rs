@@ -251,7 +251,18 @@ const GPU_ONLY: &[(&str, &str)] = &[
         "reads a pixel from the device film (gpu::records::film_pixels on the host)",
     ),
     ("channel_sums_store", "writes one channel of a pixel to the device film"),
-    ("pixel_sums_store", "writes a pixel to the device film"),
+    (
+        "film_add_sample",
+        "film::PixelSums::add on a pixel's words in the device film, in place",
+    ),
+    (
+        "film_add_channel",
+        "one channel of film_add_sample: the words an add below 1 reaches, else the channel's",
+    ),
+    (
+        "small_powers",
+        "q² and q³ of a one-word q in 32-bit words (film.rs's u128 products)",
+    ),
     (
         "fract_euclid",
         "f32::rem_euclid in Wrap::wrap_coordinate",

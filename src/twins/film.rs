@@ -1,23 +1,31 @@
 //! The GPU film's exact sums are the reference's, word for word: the
-//! same samples fed through shaders/film.wgsl's `pixel_sums_add` and
-//! through `reference::film::PixelSums::add` give the same counts and the
-//! same `Σq`, `Σq²`, `Σq³` (so the same mean, variance and skewness, and
-//! any split of a render's samples merges into the whole on either
-//! backend). The samples cover what `fixed_point` must get right: zeros of
-//! both signs, subnormals, halves of the last unit, values just below and
-//! at the rejection bound, NaN, infinities, negatives, poisoned paths, and
-//! values from 1e-9 to 4e9 whose powers carry across every word.
+//! same samples added to a pixel's words in the film by
+//! shaders/film.wgsl's `film_add_sample` (the per-pixel megakernel's add;
+//! the wave schedules' fold shares its `channel_sums_add`) and by
+//! `reference::film::PixelSums::add` give the same counts and the same
+//! `Σq`, `Σq²`, `Σq³` (so the same mean, variance and skewness, and any
+//! split of a render's samples merges into the whole on either backend).
+//! The samples cover what `fixed_point` must get right: zeros of both
+//! signs, subnormals, halves of the last unit, values just below and at
+//! the rejection bound, NaN, infinities, negatives, poisoned paths, and
+//! values from 1e-9 to 4e9 whose powers carry across every word. The
+//! pixels start from sums of every kind the film holds between batches:
+//! zero, low words all ones (every add carries past the words the add
+//! below 1 reads), a carry one add away, and random words.
 
-use super::{ensure, run_kernel_with_library, Outcome};
+use super::{ensure, Outcome};
 use glam::Vec3;
 use gpu::records::GpuPixel;
+use gpu::testing::{run_test_kernel_with_library, TestKernel};
 use gpu::GpuContext;
-use reference::film::{FilmSums, PixelSums, SAMPLE_LIMIT};
+use reference::film::{FilmSums, PixelSums, PIXEL_WORDS, SAMPLE_LIMIT};
 
 const SNIPPET: &str = "
 // input: per pixel [first sample, sample count]; then per sample
-// [r, g, b bits, poisoned] from word 2 · pixels (the first input word is
-// the pixel count).
+// [r, g, b bits, poisoned] from word 1 + 2 · pixels (the first input word
+// is the pixel count). The film holds each pixel's starting sums
+// (params: an image one row of `pixels` pixels); each invocation adds
+// its pixel's samples in place, then copies the pixel's words out.
 @compute @workgroup_size(64)
 fn film_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let pixels = input[0];
@@ -28,21 +36,14 @@ fn film_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let first = input[1u + 2u * i];
     let count = input[2u + 2u * i];
     let base = 1u + 2u * pixels;
-    var acc = PixelSums(0u, 0u, ChannelSums(vec4<u32>(0u), vec4<u32>(0u), vec2<u32>(0u), vec4<u32>(0u), vec4<u32>(0u)), ChannelSums(vec4<u32>(0u), vec4<u32>(0u), vec2<u32>(0u), vec4<u32>(0u), vec4<u32>(0u)), ChannelSums(vec4<u32>(0u), vec4<u32>(0u), vec2<u32>(0u), vec4<u32>(0u), vec4<u32>(0u)));
     for (var k = 0u; k < count; k++) {
         let w = base + 4u * (first + k);
         let l = vec3<f32>(bitcast<f32>(input[w]), bitcast<f32>(input[w + 1u]), bitcast<f32>(input[w + 2u]));
-        pixel_sums_add(&acc, l, input[w + 3u] != 0u);
+        film_add_sample(i, l, input[w + 3u] != 0u);
     }
-    let o = 56u * i;
-    output[o] = acc.count;
-    output[o + 1u] = acc.rejected;
-    let cs = array<ChannelSums, 3>(acc.r, acc.g, acc.b);
-    for (var c = 0u; c < 3u; c++) {
-        let w = channel_sums_words(cs[c]);
-        for (var j = 0u; j < FILM_CHANNEL_WORDS; j++) {
-            output[o + 2u + FILM_CHANNEL_WORDS * c + j] = w[j];
-        }
+    let words = FILM_SUMS_WORD + 3u * FILM_CHANNEL_WORDS;
+    for (var j = 0u; j < words; j++) {
+        output[words * i + j] = film[film_at(i, j)];
     }
 }
 ";
@@ -108,6 +109,41 @@ fn words(p: &PixelSums) -> Vec<u32> {
     p.to_words().to_vec()
 }
 
+/// The sums pixel `p` starts from, as words: zero, or per channel and
+/// sum (Σq, Σq², Σq³) either a carry away or far from one. An add below 1
+/// reads a sum's low words (Σq's first two, Σq²'s first three, Σq³'s
+/// first four); a sum a carry away has them all ones, a far one random
+/// with the top one below 2^16 (no add of the test carries out of them).
+/// Pixel kinds: every sum a carry away, or one of the three only (so
+/// that a carry each check alone must see). The words above those read
+/// stay below 2^16, so no sum of the test reaches its top word's end.
+fn start(p: usize, r: &mut Mix) -> [u32; PIXEL_WORDS] {
+    let mut w = [0u32; PIXEL_WORDS];
+    let kind = p % 5;
+    if kind == 0 {
+        return w;
+    }
+    w[0] = r.below(1 << 20) as u32;
+    w[1] = r.below(1 << 20) as u32;
+    // (first word of a sum in its channel, its words, the words an add reads)
+    for c in 0..3 {
+        for (s, (first, len, read)) in [(0, 4, 2), (4, 6, 3), (10, 8, 4)].into_iter().enumerate() {
+            let near = kind == 1 || kind == s + 2;
+            let at = 2 + 18 * c + first;
+            for k in 0..len {
+                w[at + k] = if k >= read || (!near && k + 1 == read) {
+                    r.below(1 << 16) as u32
+                } else if near {
+                    u32::MAX
+                } else {
+                    r.next() as u32
+                };
+            }
+        }
+    }
+    w
+}
+
 /// The film twin over `library` (the production WGSL, or a mutant's).
 pub fn sums_with_library(ctx: &GpuContext, library: &str) -> Outcome {
     let scene = reference::load_scene("cornell").map_err(|e| e.to_string())?;
@@ -124,18 +160,42 @@ pub fn sums_with_library(ctx: &GpuContext, library: &str) -> Outcome {
             input.push(*poisoned as u32);
         }
     }
-    let words_per_pixel = std::mem::size_of::<GpuPixel>() / 4;
-    let out = run_kernel_with_library(
-        ctx,
-        &scene,
-        (SNIPPET, "film_main"),
-        &input,
-        (pixels.len(), pixels.len() * words_per_pixel),
-        library,
-    )?;
+    let mut r = Mix(0x5eed_f11e);
+    let starts: Vec<[u32; PIXEL_WORDS]> = (0..pixels.len()).map(|p| start(p, &mut r)).collect();
+    let mut film = Vec::with_capacity(starts.len());
+    for w in &starts {
+        let sums = w[2..]
+            .try_into()
+            .map_err(|_| "a pixel's sums words".to_string())?;
+        film.push(GpuPixel {
+            count: w[0],
+            rejected: w[1],
+            sums,
+        });
+    }
+    let packed = gpu::scene_buffers::PackedScene::new(&scene);
+    let renderer =
+        gpu::GpuRenderer::for_test_kernels(ctx, &packed, &scene).map_err(|e| e.to_string())?;
+    // One row of the test's pixels: film_at's word-major places.
+    let params = renderer.params(&reference::RenderSettings {
+        width: pixels.len() as u32,
+        height: 1,
+        ..Default::default()
+    });
+    let kernel = TestKernel {
+        snippet: SNIPPET,
+        entry: "film_main",
+        input: &input,
+        invocations: pixels.len() as u32,
+        output_words: pixels.len() * PIXEL_WORDS,
+        params: Some(params),
+        film: Some(&film),
+    };
+    let out = run_test_kernel_with_library(ctx, &renderer, &kernel, library)
+        .map_err(|e| e.to_string())?;
     let mut samples = 0;
     for (i, p) in pixels.iter().enumerate() {
-        let mut sums = PixelSums::default();
+        let mut sums = PixelSums::from_words(&starts[i]);
         for (s, poisoned) in p {
             if *poisoned {
                 sums.rejected += 1;
@@ -144,7 +204,7 @@ pub fn sums_with_library(ctx: &GpuContext, library: &str) -> Outcome {
             }
         }
         samples += p.len();
-        let got = &out[i * words_per_pixel..(i + 1) * words_per_pixel];
+        let got = &out[i * PIXEL_WORDS..(i + 1) * PIXEL_WORDS];
         ensure!(
             got == &words(&sums)[..],
             "pixel {i} ({} samples): GPU {got:08x?}, reference {:08x?}",
@@ -153,7 +213,7 @@ pub fn sums_with_library(ctx: &GpuContext, library: &str) -> Outcome {
         );
     }
     Ok(format!(
-        "{} pixels, {samples} samples: counts and sums word for word",
+        "{} pixels from zero and from sums a carry away, {samples} samples: counts and sums word for word",
         pixels.len()
     ))
 }
