@@ -345,4 +345,3 @@ fn render_main(@builtin(global_invocation_id) gid: vec3<u32>) {
         film_add_sample(pixel, l, poisoned);
     }
 }
-

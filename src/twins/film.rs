@@ -9,9 +9,10 @@
 //! signs, subnormals, halves of the last unit, values just below and at
 //! the rejection bound, NaN, infinities, negatives, poisoned paths, and
 //! values from 1e-9 to 4e9 whose powers carry across every word. The
-//! pixels start from sums of every kind the film holds between batches:
-//! zero, low words all ones (every add carries past the words the add
-//! below 1 reads), a carry one add away, and random words.
+//! pixels start from zero or from sums the film holds between batches:
+//! every sum a carry away from leaving the low words an add below 1
+//! reads, or one of Σq, Σq², Σq³ only, the others far from a carry
+//! (`start`).
 
 use super::{ensure, Outcome};
 use glam::Vec3;
