@@ -81,7 +81,7 @@ impl GpuRenderer<'_> {
         let params = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("aov params"),
             size: std::mem::size_of::<crate::records::GpuParams>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            usage: ctx.params_usage() | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
         let whole = self.params(settings);

@@ -132,15 +132,27 @@ pub const WAVE_ARGS: Binding = Binding {
     access: Access::ReadWrite,
 };
 
-/// Storage buffers wf_prepare's pipeline layout holds (scene group, wave
-/// group, arguments): the wavefront needs an adapter with this many
-/// (`gpu::wavefront::STORAGE_BUFFERS_NEEDED`), and a device is opened with
-/// as many where its adapter has them (`gpu::context`).
-pub const WAVEFRONT_STORAGE_BUFFERS: u32 = 18;
+/// Storage buffers wf_prepare's pipeline layout holds on a device of
+/// that kind (scene group, wave group, arguments): the wavefront needs an
+/// adapter with this many (`gpu::wavefront::Pipelines::new`), and a
+/// device is opened with as many where its adapter has them
+/// (`gpu::context`).
+pub fn wavefront_storage_buffers(software: bool) -> u32 {
+    storage_buffers_on(&[&scene_group(), &WAVE_GROUP, &[WAVE_ARGS]], software)
+}
 
-/// Storage buffers the path megakernel's layouts hold (scene group, wave
-/// group; `gpu::wavefront::STORAGE_BUFFERS_NEEDED_PATHS`).
-pub const PATH_MEGAKERNEL_STORAGE_BUFFERS: u32 = 17;
+/// Storage buffers the path megakernel's layouts hold on a device of
+/// that kind (scene group, wave group).
+pub fn path_megakernel_storage_buffers(software: bool) -> u32 {
+    storage_buffers_on(&[&scene_group(), &WAVE_GROUP], software)
+}
+
+/// Storage buffers the render kernel's layout holds on a device of that
+/// kind (the scene group: scene arrays and film, and the params where
+/// they are a storage buffer).
+pub fn render_storage_buffers(software: bool) -> u32 {
+    storage_buffers_on(&[&scene_group()], software)
+}
 
 /// The film's image layers the layers kernel writes (`gpu::film`).
 pub const FILM_LAYERS: Binding = Binding {
@@ -171,9 +183,24 @@ pub const MERGE_BAND: Binding = Binding {
 pub const MERGE_GROUP: [Binding; 2] = [MERGE_IN, MERGE_BAND];
 
 impl Binding {
+    /// How a device of that kind binds it: as its table says, except
+    /// [`PARAMS`] on a software adapter, a read-only storage buffer
+    /// ([`params_in_storage`]).
+    pub fn access_on(&self, software: bool) -> Access {
+        if software && *self == PARAMS {
+            Access::Read
+        } else {
+            self.access
+        }
+    }
+
     /// The WGSL declaration.
     pub fn wgsl(&self) -> String {
-        let space = match self.access {
+        self.wgsl_as(self.access)
+    }
+
+    fn wgsl_as(&self, access: Access) -> String {
+        let space = match access {
             Access::Uniform => "uniform",
             Access::Read => "storage, read",
             Access::ReadWrite => "storage, read_write",
@@ -184,9 +211,10 @@ impl Binding {
         )
     }
 
-    /// The bind group layout entry (compute stage).
-    pub fn layout_entry(&self) -> wgpu::BindGroupLayoutEntry {
-        let ty = match self.access {
+    /// The bind group layout entry (compute stage) on a device of that
+    /// kind ([`Self::access_on`]).
+    pub fn layout_entry_on(&self, software: bool) -> wgpu::BindGroupLayoutEntry {
+        let ty = match self.access_on(software) {
             Access::Uniform => wgpu::BufferBindingType::Uniform,
             Access::Read => wgpu::BufferBindingType::Storage { read_only: true },
             Access::ReadWrite => wgpu::BufferBindingType::Storage { read_only: false },
@@ -208,6 +236,79 @@ impl Binding {
 pub fn wgsl_declarations(group: &[Binding]) -> String {
     group.iter().map(Binding::wgsl).collect()
 }
+
+/// Whether a device binds [`PARAMS`] as a read-only storage buffer
+/// rather than a uniform buffer: on a software adapter. Lavapipe (Mesa
+/// 22.3, Debian 12's) specializes a kernel on the values it reads from a
+/// uniform buffer and, with no cache of those variants, re-runs its NIR
+/// passes and compiles again at every dispatch of a large kernel (the
+/// render kernels): 40–110 ms a dispatch, most of the per-pixel
+/// megakernel's time there. It does nothing of the kind with storage
+/// buffers ([`program_on`] has each kernel copy the params first). On
+/// hardware the uniform buffer stays: as a storage buffer the H200 took
+/// 0.3–5 % longer (docs/benchmarks.md, "Software Vulkan (lavapipe)").
+pub fn params_in_storage(software: bool) -> bool {
+    software
+}
+
+/// The storage buffers a layout of `group`s holds on a device of that
+/// kind: one more with [`params_in_storage`] where it binds [`PARAMS`].
+pub fn storage_buffers_on(groups: &[&[Binding]], software: bool) -> u32 {
+    groups
+        .iter()
+        .flat_map(|g| g.iter())
+        .filter(|b| b.access_on(software) != Access::Uniform)
+        .count() as u32
+}
+
+/// `source` as a device of that kind compiles it. Where
+/// [`params_in_storage`], the generated declaration of [`PARAMS`] becomes
+/// a read-only storage buffer, `params_storage`, and a private copy,
+/// `params`, that each entry point fills first: the kernels read the
+/// copy as they read the uniform buffer elsewhere (a storage buffer read
+/// at every use made lavapipe's compiles of the large kernels about a
+/// fifth longer). Else, and in a program without the declaration,
+/// `source` unchanged.
+pub fn program_on(source: &str, software: bool) -> std::borrow::Cow<'_, str> {
+    let uniform = PARAMS.wgsl();
+    if !params_in_storage(software) || !source.contains(&uniform) {
+        return source.into();
+    }
+    let storage = Binding {
+        name: PARAMS_STORAGE,
+        access: Access::Read,
+        ..PARAMS
+    };
+    let declared = source.replacen(
+        &uniform,
+        &format!(
+            "{}var<private> {}: {};\n",
+            storage.wgsl(),
+            PARAMS.name,
+            PARAMS.wgsl_type
+        ),
+        1,
+    );
+    // Each entry point's body (the first brace after its `fn`: a
+    // parameter list holds none) starts with the copy.
+    let copy = format!("\n    {} = {PARAMS_STORAGE};", PARAMS.name);
+    let mut out = String::with_capacity(declared.len() + 64);
+    let mut rest = declared.as_str();
+    while let Some(at) = rest.find("@compute") {
+        let body = rest[at..]
+            .find("fn ")
+            .and_then(|f| rest[at + f..].find('{').map(|b| at + f + b + 1));
+        let Some(body) = body else { break };
+        out.push_str(&rest[..body]);
+        out.push_str(&copy);
+        rest = &rest[body..];
+    }
+    out.push_str(rest);
+    out.into()
+}
+
+/// The storage buffer's name in a program [`program_on`] rewrote.
+const PARAMS_STORAGE: &str = "params_storage";
 
 #[cfg(test)]
 mod tests {
@@ -241,5 +342,72 @@ mod tests {
         let n = names.len();
         names.dedup();
         assert_eq!(names.len(), n);
+    }
+
+    /// On a software adapter the params block alone moves to the storage
+    /// address space, in the layouts and in the program text alike; on
+    /// hardware nothing changes.
+    #[test]
+    fn the_params_are_a_storage_buffer_on_a_software_adapter_only() {
+        // The generated declarations and two entry points (the render
+        // programs themselves run on lavapipe in every GPU test).
+        let source = format!(
+            "{}\n@compute @workgroup_size(64)\nfn a(@builtin(global_invocation_id) gid: vec3<u32>) {{\n    film[gid.x] = params.width;\n}}\n\n@compute @workgroup_size(8, 8, 1)\nfn b() {{\n    film[0] = params.height;\n}}\n",
+            wgsl_declarations(&scene_group())
+        );
+        assert_eq!(program_on(&source, false), source);
+        let software = program_on(&source, true);
+        assert_eq!(software.matches(&PARAMS.wgsl()).count(), 0);
+        let declared = "@group(0) @binding(0) var<storage, read> params_storage: GpuParams;\nvar<private> params: GpuParams;\n";
+        assert_eq!(software.matches(declared).count(), 1);
+        // Every entry point copies the params first, and nothing else
+        // changed.
+        let entries = source.matches("@compute").count();
+        assert_eq!(entries, 2);
+        let copy = "\n    params = params_storage;";
+        assert_eq!(software.matches(copy).count(), entries);
+        assert_eq!(
+            software.replace(copy, "").replace(declared, &PARAMS.wgsl()),
+            source
+        );
+        for at in software.match_indices("@compute").map(|(i, _)| i) {
+            let body = at + software[at..].find('{').unwrap() + 1;
+            assert!(
+                software[body..].starts_with(copy),
+                "{}",
+                &software[at..body]
+            );
+        }
+        // A program without the declaration is left alone.
+        assert_eq!(program_on("fn f() {}", true), "fn f() {}");
+        let ty = |b: &Binding, software| match b.layout_entry_on(software).ty {
+            wgpu::BindingType::Buffer { ty, .. } => ty,
+            other => panic!("{}: {other:?}", b.name),
+        };
+        assert_eq!(ty(&PARAMS, false), wgpu::BufferBindingType::Uniform);
+        assert_eq!(
+            ty(&PARAMS, true),
+            wgpu::BufferBindingType::Storage { read_only: true }
+        );
+        for b in scene_group().iter().skip(1).chain(&MERGE_GROUP) {
+            assert_eq!(ty(b, true), ty(b, false), "{}", b.name);
+        }
+        // The storage buffers a device must allow: one more on software.
+        assert_eq!(
+            (
+                render_storage_buffers(false),
+                path_megakernel_storage_buffers(false),
+                wavefront_storage_buffers(false)
+            ),
+            (15, 17, 18)
+        );
+        assert_eq!(
+            (
+                render_storage_buffers(true),
+                path_megakernel_storage_buffers(true),
+                wavefront_storage_buffers(true)
+            ),
+            (16, 18, 19)
+        );
     }
 }

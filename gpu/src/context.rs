@@ -5,13 +5,6 @@
 use crate::error::GpuError;
 use std::sync::{Arc, Mutex};
 
-/// Storage buffers the render kernel binds (scene arrays + film).
-pub const STORAGE_BUFFERS_NEEDED: u32 = 15;
-/// Storage buffers requested when the adapter has them: the test kernels
-/// bind two more (input, output) beside the scene, the wavefront's
-/// wf_prepare three (paths, queues, dispatch arguments).
-pub const STORAGE_BUFFERS_WANTED: u32 = crate::bindings::WAVEFRONT_STORAGE_BUFFERS;
-
 /// A summary of one adapter for `twintrace info`.
 #[derive(Clone, Debug)]
 pub struct AdapterSummary {
@@ -169,11 +162,19 @@ impl GpuContext {
     ) -> Result<Self, GpuError> {
         let summary = summarize(adapter);
         let al = adapter.limits();
-        if al.max_storage_buffers_per_shader_stage < STORAGE_BUFFERS_NEEDED {
+        let software = adapter.get_info().device_type == wgpu::DeviceType::Cpu;
+        // The render kernel's storage buffers (scene arrays, film; the
+        // params too on a software adapter) are needed; as many as the
+        // wavefront's wf_prepare binds (three more: paths, queues, dispatch
+        // arguments; the test kernels two, input and output) are asked
+        // for where the adapter has them.
+        let needed = crate::bindings::render_storage_buffers(software);
+        let wanted = crate::bindings::wavefront_storage_buffers(software);
+        if al.max_storage_buffers_per_shader_stage < needed {
             return Err(GpuError::UnsuitableAdapter {
                 adapter: summary.name,
                 reason: format!(
-                    "it allows {} storage buffers per shader stage, the kernels need {STORAGE_BUFFERS_NEEDED}",
+                    "it allows {} storage buffers per shader stage, the kernels need {needed}",
                     al.max_storage_buffers_per_shader_stage
                 ),
             });
@@ -182,7 +183,7 @@ impl GpuContext {
         let limits = wgpu::Limits {
             max_storage_buffers_per_shader_stage: al
                 .max_storage_buffers_per_shader_stage
-                .min(STORAGE_BUFFERS_WANTED),
+                .min(wanted),
             max_storage_buffer_binding_size: al.max_storage_buffer_binding_size,
             max_buffer_size: al.max_buffer_size,
             // gpu::display's target is a texture of the film's size (the
@@ -225,7 +226,6 @@ impl GpuContext {
                 *slot = Some(e.to_string());
             }
         }));
-        let is_software = adapter.get_info().device_type == wgpu::DeviceType::Cpu;
         let (disk_cache, warning) = match cache_dir {
             Some(dir) if disk => {
                 crate::pipeline::cache::DiskCache::open(&device, &adapter.get_info(), dir)
@@ -236,15 +236,26 @@ impl GpuContext {
             device,
             queue,
             adapter: summary,
-            is_software,
+            is_software: software,
             timestamps,
             lost,
             uncaptured,
             pipelines: std::sync::atomic::AtomicU64::new(0),
-            caches: crate::pipeline::cache::Caches::new(is_software),
+            caches: crate::pipeline::cache::Caches::new(software),
             disk_cache,
             warnings: Mutex::new(warning.into_iter().collect()),
         })
+    }
+
+    /// The usage a buffer bound as [`crate::bindings::PARAMS`] needs on
+    /// this device: a uniform buffer, or a storage buffer where
+    /// [`crate::bindings::params_in_storage`].
+    pub fn params_usage(&self) -> wgpu::BufferUsages {
+        if crate::bindings::params_in_storage(self.is_software) {
+            wgpu::BufferUsages::STORAGE
+        } else {
+            wgpu::BufferUsages::UNIFORM
+        }
     }
 
     /// Fails where a buffer of `needed` bytes, `what`, cannot be bound as

@@ -444,7 +444,7 @@ impl Display {
                         &wgpu::util::BufferInitDescriptor {
                             label: Some("display params"),
                             contents: bytemuck::bytes_of(&params),
-                            usage: wgpu::BufferUsages::UNIFORM,
+                            usage: ctx.params_usage(),
                         },
                     );
                     (band.rows, scene_group(&params_buf, &band.buffer))

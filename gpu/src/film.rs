@@ -569,7 +569,7 @@ fn merge_buffers(
         &wgpu::util::BufferInitDescriptor {
             label: Some("merge params"),
             contents: bytemuck::bytes_of(&params),
-            usage: wgpu::BufferUsages::UNIFORM,
+            usage: into.params_usage(),
         },
     );
     let incoming = into.device.create_buffer(&wgpu::BufferDescriptor {
@@ -822,7 +822,7 @@ fn layers_of<R>(
         &wgpu::util::BufferInitDescriptor {
             label: Some("layers params"),
             contents: bytemuck::bytes_of(&params),
-            usage: wgpu::BufferUsages::UNIFORM,
+            usage: ctx.params_usage(),
         },
     );
     let out = device.create_buffer(&wgpu::BufferDescriptor {

@@ -126,7 +126,7 @@ pub fn trace_closest(
             height: 1,
             ..Default::default()
         })),
-        usage: wgpu::BufferUsages::UNIFORM,
+        usage: ctx.params_usage(),
     });
     let film = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("film"),

@@ -725,7 +725,7 @@ impl<'a> GpuRenderer<'a> {
         let params_buf = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("params"),
             size: std::mem::size_of::<GpuParams>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            usage: ctx.params_usage() | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
         let whole = self.params(settings);

@@ -99,7 +99,7 @@ pub fn run_test_kernel_with_library(
     let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("params"),
         contents: bytemuck::bytes_of(&p),
-        usage: wgpu::BufferUsages::UNIFORM,
+        usage: ctx.params_usage(),
     });
     let zero_pixel = [GpuPixel::default()];
     let film_words = crate::records::film_words(k.film.unwrap_or(&zero_pixel));

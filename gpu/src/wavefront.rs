@@ -23,10 +23,6 @@ use crate::error::GpuError;
 use crate::pipeline::compile_entries;
 use crate::records::GpuParams;
 
-pub use crate::bindings::{
-    PATH_MEGAKERNEL_STORAGE_BUFFERS as STORAGE_BUFFERS_NEEDED_PATHS,
-    WAVEFRONT_STORAGE_BUFFERS as STORAGE_BUFFERS_NEEDED,
-};
 pub use crate::variants::{PathLayout, Schedule, ShadeOrder, Variant};
 
 /// Words of one path's state (the `PF_…` fields of shaders/wavefront.wgsl,
@@ -127,9 +123,9 @@ impl Pipelines {
     ) -> Result<Self, GpuError> {
         let have = ctx.device.limits().max_storage_buffers_per_shader_stage;
         let need = if schedule == Schedule::PathMegakernel {
-            STORAGE_BUFFERS_NEEDED_PATHS
+            bindings::path_megakernel_storage_buffers(ctx.is_software)
         } else {
-            STORAGE_BUFFERS_NEEDED
+            bindings::wavefront_storage_buffers(ctx.is_software)
         };
         if have < need {
             return Err(GpuError::UnsuitableAdapter {

@@ -42,7 +42,10 @@ pub fn layout(ctx: &GpuContext, name: &'static str, group: &[Binding]) -> wgpu::
     layouts
         .entry(name)
         .or_insert_with(|| {
-            let entries: Vec<_> = group.iter().map(Binding::layout_entry).collect();
+            let entries: Vec<_> = group
+                .iter()
+                .map(|b| b.layout_entry_on(ctx.is_software))
+                .collect();
             ctx.device
                 .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                     label: Some(name),
@@ -188,7 +191,10 @@ fn build_entries(
             let start = Instant::now();
             let descriptor = wgpu::ShaderModuleDescriptor {
                 label: entries.first().map(|e| e.0),
-                source: wgpu::ShaderSource::Wgsl(source.into()),
+                source: wgpu::ShaderSource::Wgsl(crate::bindings::program_on(
+                    source,
+                    ctx.is_software,
+                )),
             };
             let m = match checks {
                 Checks::Checked => device.create_shader_module(descriptor),
