@@ -187,7 +187,7 @@ impl Binding {
     /// [`PARAMS`] on a software adapter, a read-only storage buffer
     /// ([`params_in_storage`]).
     pub fn access_on(&self, software: bool) -> Access {
-        if software && *self == PARAMS {
+        if params_in_storage(software) && *self == PARAMS {
             Access::Read
         } else {
             self.access
