@@ -253,7 +253,7 @@ pub fn params_in_storage(software: bool) -> bool {
 
 /// The storage buffers a layout of `group`s holds on a device of that
 /// kind: one more with [`params_in_storage`] where it binds [`PARAMS`].
-pub fn storage_buffers_on(groups: &[&[Binding]], software: bool) -> u32 {
+fn storage_buffers_on(groups: &[&[Binding]], software: bool) -> u32 {
     groups
         .iter()
         .flat_map(|g| g.iter())

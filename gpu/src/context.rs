@@ -248,13 +248,12 @@ impl GpuContext {
     }
 
     /// The usage a buffer bound as [`crate::bindings::PARAMS`] needs on
-    /// this device: a uniform buffer, or a storage buffer where
-    /// [`crate::bindings::params_in_storage`].
+    /// this device: as the binding's access on it
+    /// ([`crate::bindings::Binding::access_on`]) says.
     pub fn params_usage(&self) -> wgpu::BufferUsages {
-        if crate::bindings::params_in_storage(self.is_software) {
-            wgpu::BufferUsages::STORAGE
-        } else {
-            wgpu::BufferUsages::UNIFORM
+        match crate::bindings::PARAMS.access_on(self.is_software) {
+            crate::bindings::Access::Uniform => wgpu::BufferUsages::UNIFORM,
+            _ => wgpu::BufferUsages::STORAGE,
         }
     }
 
