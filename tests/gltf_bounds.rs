@@ -245,8 +245,11 @@ fn each_value_out_of_its_bounds_is_one_error_naming_file_element_and_field() {
             format!("{EYE}perspective.yfov 3.1415925 must be below π (it is 180° as a 32-bit float")),
         (vec![("/cameras/0/perspective/aspectRatio".into(), json!(-1))],
             format!("{EYE}perspective.aspectRatio -1 must be above 0")),
-        // glTF 2.0 "Transformations": a unit quaternion (within 10^-3 of
-        // unit length), finite numbers, an affine matrix.
+        // glTF 2.0 "Transformations": a unit quaternion (within 0.00769
+        // of unit length, glTF-Validator's bound; 1.02 is beyond it),
+        // finite numbers, an affine matrix.
+        (vec![("/nodes/0/rotation".into(), json!([0, 0, 0, 1.02]))],
+            "nodes[0].rotation [0, 0, 0, 1.02] is not a unit quaternion (its length is 1.020000); glTF 2.0 requires unit length (the importer normalizes one within 0.00769 of it, glTF-Validator's bound)".into()),
         (vec![("/nodes/0/rotation".into(), json!([0, 0, 0, 2]))],
             "nodes[0].rotation [0, 0, 0, 2] is not a unit quaternion (its length is 2.000000)".into()),
         (vec![("/nodes/0/rotation".into(), json!([0, 0, 0.7, 0.7]))],
@@ -623,4 +626,74 @@ fn vertex_attributes_of_types_the_specification_does_not_allow_are_errors() {
             .to_string();
         assert!(e.contains(&want) && !e.contains('\n'), "\n  got  `{e}`\n  want `{want}`");
     }
+}
+
+/// A rotation written with two decimals (issue 57): [0, 0, 0.29, 0.96] is
+/// 1.0028 long, within glTF-Validator's 0.00769 of unit length, so it
+/// loads, normalized, with one warning naming the node; it places the
+/// triangle, and renders it, as the normalized quaternion written out in
+/// full does. One within 10^-3 (four decimals) loads without a warning.
+#[test]
+fn a_rotation_written_with_two_decimals_loads_normalized_with_a_warning() {
+    let two = [0.0, 0.0, 0.29, 0.96];
+    let length = (0.29f64 * 0.29 + 0.96 * 0.96).sqrt();
+    assert!((length - 1.0028).abs() < 1e-4, "{length}");
+    let unit: Vec<f64> = two.iter().map(|x| x / length).collect();
+    let rotated = |rotation: Value, name: &str| {
+        load(&[
+            ("/nodes/0/rotation", rotation),
+            ("/nodes/0/name", json!(name)),
+        ])
+        .unwrap_or_else(|e| panic!("{e}"))
+    };
+    let written = rotated(json!(two), "Arm");
+    let exact = rotated(json!(unit), "Arm");
+    let w = written.warnings();
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(
+        w[0].contains(
+            "bounds.gltf: node \"Arm\", nodes[0].rotation [0, 0, 0.29, 0.96] has length 1.002846"
+        ) && w[0].contains("normalized"),
+        "{w:?}"
+    );
+    assert!(exact.warnings().is_empty(), "{:?}", exact.warnings());
+    // The triangle's corners, placed (world = render + origin).
+    let corners = |s: &reference::Scene| -> Vec<glam::DVec3> {
+        s.triangles()[0]
+            .vertices
+            .iter()
+            .map(|&v| s.to_world(s.mesh().positions[v as usize]))
+            .collect()
+    };
+    for (a, b) in corners(&written).iter().zip(corners(&exact)) {
+        assert!((*a - b).length() < 1e-6, "{a} vs {b}");
+    }
+    // (1, 0, 0) turned by the normalized quaternion, not scaled by 1.0028².
+    let turned = glam::DQuat::from_array([0.0, 0.0, 0.29, 0.96]).normalize() * glam::DVec3::X;
+    assert!(
+        corners(&written)
+            .iter()
+            .any(|c| (*c - turned).length() < 1e-6),
+        "{:?}",
+        corners(&written)
+    );
+    let settings = reference::RenderSettings {
+        width: 8,
+        height: 8,
+        spp: 2,
+        max_depth: 2,
+        ..written.render_settings()
+    };
+    let image = |s: &reference::Scene| reference::render(s, &settings, &|_| {}).mean();
+    let (a, b) = (image(&written), image(&exact));
+    let diff = a
+        .iter()
+        .zip(&b)
+        .map(|(p, q)| (*p - *q).abs().max_element())
+        .fold(0.0f32, f32::max);
+    assert!(diff < 1e-3, "largest pixel difference {diff}");
+    // Four decimals, off by less than 10^-3: normalized silently.
+    #[allow(clippy::approx_constant)]
+    let four = rotated(json!([0, 0, 0.7071, 0.7071]), "Arm");
+    assert!(four.warnings().is_empty(), "{:?}", four.warnings());
 }

@@ -261,3 +261,67 @@ fn broken_files_are_errors_naming_the_file() {
         assert!(load_gltf_mesh(path).is_err());
     }
 }
+
+/// `extensionsRequired` as files write it (issue 57): the importer checks
+/// the list itself. A file that requires an extension the importer
+/// implements loads (KHR_lights_punctual, which the `gltf` crate alone
+/// refused, included); one that requires another is refused in one line
+/// naming the entry, by the command line as every scene that does not
+/// load (exit status 1, nothing written).
+#[test]
+fn required_extensions_are_checked_against_what_twintrace_implements() {
+    let dir = tempfile::tempdir().unwrap();
+    let with_required = |required: &[&str]| {
+        let mut doc: serde_json::Value = serde_json::from_str(&two_material_gltf()).unwrap();
+        doc["extensionsUsed"] = serde_json::json!(required);
+        doc["extensionsRequired"] = serde_json::json!(required);
+        doc.to_string()
+    };
+    for required in reference::loader::gltf::SUPPORTED_EXTENSIONS {
+        let path = write(dir.path(), "supported.gltf", with_required(&[required]));
+        let scene = reference::load_scene(path.to_str().unwrap())
+            .unwrap_or_else(|e| panic!("{required}: {e}"));
+        assert!(scene.warnings().is_empty(), "{:?}", scene.warnings());
+    }
+    // The command line: the one-line error, exit status 1, nothing written.
+    let cli = tempfile::tempdir().unwrap();
+    write(
+        cli.path(),
+        "draco.gltf",
+        with_required(&["KHR_lights_punctual", "KHR_draco_mesh_compression"]),
+    );
+    let out = std::process::Command::new(crate::common::twintrace_bin())
+        .args(["render", "draco.gltf", "--backend", "cpu", "-o", "out"])
+        .current_dir(cli.path())
+        .stdin(std::process::Stdio::null())
+        .output()
+        .expect("the binary runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    let lines: Vec<&str> = stderr.lines().collect();
+    assert_eq!(lines.len(), 1, "{stderr}");
+    assert!(
+        lines[0].starts_with(
+            "error: draco.gltf: extensionsRequired[1] = \"KHR_draco_mesh_compression\": not supported by twintrace"
+        ),
+        "{stderr}"
+    );
+    assert_eq!(std::fs::read_dir(cli.path()).unwrap().count(), 1);
+    // And a file by someone else that requires KHR_lights_punctual.
+    let lights = twintrace::compare::gate::workspace_root()
+        .join("fixtures/gltf-others/Lights/Point/LightsPoint.gltf");
+    let out = std::process::Command::new(crate::common::twintrace_bin())
+        .args(["info", lights.to_str().unwrap()])
+        .current_dir(cli.path())
+        .stdin(std::process::Stdio::null())
+        .output()
+        .expect("the binary runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("punctual lights: 3 (3 point"), "{stdout}");
+}

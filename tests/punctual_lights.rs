@@ -415,3 +415,260 @@ fn info_lists_the_lights_and_the_export_writes_their_emitters() {
     );
     assert!(!dir.path().join("refused").exists());
 }
+
+/// One grey quad (y = 0, x and z in [-1, 1], facing +y) lit by a
+/// `KHR_lights_punctual` light of `light` (its JSON) on a node `above`
+/// the quad pointing straight down, the extension required.
+fn lit_quad_gltf(light: serde_json::Value, above: [f32; 3]) -> String {
+    let f32s = |v: &[f32]| -> Vec<u8> { v.iter().flat_map(|x| x.to_le_bytes()).collect() };
+    let mut buffer = f32s(&[
+        -1.0, 0.0, 1.0, 1.0, 0.0, 1.0, 1.0, 0.0, -1.0, -1.0, 0.0, -1.0,
+    ]);
+    buffer.extend([0u16, 1, 2, 0, 2, 3].iter().flat_map(|i| i.to_le_bytes()));
+    let doc = serde_json::json!({
+        "asset": { "version": "2.0" },
+        "extensionsUsed": ["KHR_lights_punctual"],
+        "extensionsRequired": ["KHR_lights_punctual"],
+        "extensions": { "KHR_lights_punctual": { "lights": [light] } },
+        "scene": 0,
+        "scenes": [{ "nodes": [0, 1] }],
+        "nodes": [
+            { "mesh": 0 },
+            // −90° about x: the node's −Z points down −Y.
+            { "translation": above, "rotation": [-std::f64::consts::FRAC_1_SQRT_2, 0, 0, std::f64::consts::FRAC_1_SQRT_2],
+              "extensions": { "KHR_lights_punctual": { "light": 0 } } }
+        ],
+        "meshes": [{ "primitives": [{ "attributes": { "POSITION": 0 }, "indices": 1, "material": 0 }] }],
+        "materials": [{ "pbrMetallicRoughness": { "baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0, "roughnessFactor": 1 } }],
+        "buffers": [{ "byteLength": buffer.len(), "uri": format!("data:application/octet-stream;base64,{}", crate::gltf_import::base64(&buffer)) }],
+        "bufferViews": [{ "buffer": 0, "byteLength": 48 }, { "buffer": 0, "byteOffset": 48, "byteLength": 12 }],
+        "accessors": [
+            { "bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1, 0, -1], "max": [1, 0, 1] },
+            { "bufferView": 1, "componentType": 5123, "count": 6, "type": "SCALAR" }
+        ],
+    });
+    doc.to_string()
+}
+
+/// glTF's intensities are photometric (issue 57): a directional light of
+/// 683 lux is an irradiance of 1 W/m², a point or spot light of 683 cd a
+/// radiant intensity of 1 W/sr (Blender's importer's 683 lm/W,
+/// `LUMENS_PER_WATT`), colour per channel; the radiometric option keeps
+/// the numbers as written. A render of the quad under each scales by
+/// 683 (same samples: the light is all that differs).
+#[test]
+fn gltf_intensities_are_candela_and_lux_converted_at_683_lumens_per_watt() {
+    use reference::loader::gltf::{
+        add_gltf_scene_with, load_gltf_document, load_gltf_document_with, GltfLightUnits,
+        GltfOptions, LUMENS_PER_WATT,
+    };
+    assert_eq!(LUMENS_PER_WATT, 683.0);
+    let radiometric = GltfOptions {
+        light_units: GltfLightUnits::Radiometric,
+    };
+    assert_eq!(
+        GltfOptions::default().light_units,
+        GltfLightUnits::Photometric
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let colour = [1.0, 0.5, 0.25];
+    for (kind, light) in [
+        (
+            punctual_tag::DIRECTIONAL,
+            serde_json::json!({ "type": "directional", "intensity": 683, "color": colour }),
+        ),
+        (
+            punctual_tag::POINT,
+            serde_json::json!({ "type": "point", "intensity": 683, "color": colour }),
+        ),
+        (
+            punctual_tag::SPOT,
+            serde_json::json!({ "type": "spot", "intensity": 683, "color": colour }),
+        ),
+    ] {
+        let path = write(
+            dir.path(),
+            "lit.gltf",
+            &lit_quad_gltf(light, [0.0, 2.0, 0.0]),
+        );
+        let photometric = load_gltf_document(&path).unwrap();
+        let l = photometric.punctual_lights();
+        assert_eq!((l.len(), l[0].tag), (1, kind));
+        assert_eq!(l[0].intensity, glam::Vec3::from(colour), "{kind}");
+        let watts = load_gltf_document_with(&path, &radiometric).unwrap();
+        assert_eq!(
+            watts.punctual_lights()[0].intensity,
+            683.0 * glam::Vec3::from(colour),
+            "{kind}"
+        );
+        assert!(photometric.warnings().is_empty() && watts.warnings().is_empty());
+    }
+    // A `gltf` object added with the option, under a camera of its own.
+    let path = write(
+        dir.path(),
+        "sun.gltf",
+        &lit_quad_gltf(
+            serde_json::json!({ "type": "directional", "intensity": 683 }),
+            [0.0, 2.0, 0.0],
+        ),
+    );
+    let scene_of = |options: &GltfOptions| {
+        let mut b = reference::scene::SceneBuilder::new();
+        b.camera = reference::camera::CameraSettings {
+            look_from: glam::Vec3::new(0.0, 3.0, 0.5),
+            look_at: glam::Vec3::ZERO,
+            vfov: 30.0,
+            ..Default::default()
+        };
+        b.background = Some(reference::background::Background::Solid(glam::Vec3::ZERO));
+        add_gltf_scene_with(
+            &mut b,
+            &path,
+            &reference::scene::Transform::default(),
+            false,
+            options,
+        )
+        .unwrap();
+        b.build().unwrap()
+    };
+    let settings = reference::RenderSettings {
+        width: 8,
+        height: 8,
+        spp: 4,
+        max_depth: 2,
+        ..reference::RenderSettings::default()
+    };
+    let mean = |scene: &reference::Scene| {
+        let film = render_with(scene, &settings, Integrator::Mis, &|_| {});
+        film.mean().iter().copied().sum::<glam::Vec3>() / 64.0
+    };
+    let (lux, watts) = (
+        mean(&scene_of(&GltfOptions::default())),
+        mean(&scene_of(&radiometric)),
+    );
+    assert!(lux.min_element() > 0.0, "{lux}");
+    // f32 arithmetic on values 683 times larger: a few ulps apart.
+    let ratio = watts / lux;
+    assert!(
+        (ratio - glam::Vec3::splat(683.0)).abs().max_element() < 683.0 * 1e-5,
+        "{ratio}"
+    );
+}
+
+/// Files written by someone else's tools (fixtures/gltf-others/: Andreas
+/// Atteneder's, from Blender's exporter; CC BY 4.0) that list
+/// `KHR_lights_punctual` in `extensionsRequired`: each loads with its
+/// lights at the converted intensities (lux and candela / 683) and its
+/// `range`s as warnings, and a small CPU render of it is lit and finite.
+#[test]
+fn others_files_that_require_lights_load_and_render() {
+    let root = twintrace::compare::gate::workspace_root();
+    /// A file, its lights' kinds, light 0's intensity as written and its
+    /// colour, and how many `range` warnings it gives.
+    struct Expected {
+        file: &'static str,
+        tags: &'static [u32],
+        written: f32,
+        colour: [f32; 3],
+        ranges: usize,
+    }
+    let files = [
+        Expected {
+            file: "Lights/Directional/LightsDirectional.gltf",
+            tags: &[punctual_tag::DIRECTIONAL],
+            written: 20000.0,
+            colour: [0.8, 0.2, 0.2],
+            ranges: 0,
+        },
+        Expected {
+            file: "Lights/Point/LightsPoint.gltf",
+            tags: &[punctual_tag::POINT; 3],
+            written: 450.0,
+            colour: [0.8, 0.0, 0.0],
+            ranges: 3,
+        },
+        Expected {
+            file: "Lights/Spot/LightsSpot.gltf",
+            tags: &[punctual_tag::SPOT; 3],
+            written: 450.0,
+            colour: [0.8, 0.0, 0.0],
+            ranges: 1,
+        },
+    ];
+    for Expected {
+        file,
+        tags,
+        written,
+        colour,
+        ranges,
+    } in files
+    {
+        let path = root.join("fixtures/gltf-others").join(file);
+        let text = std::fs::read_to_string(&path).unwrap();
+        let doc: serde_json::Value = serde_json::from_str(&text).unwrap();
+        assert_eq!(
+            doc["extensionsRequired"],
+            serde_json::json!(["KHR_lights_punctual"]),
+            "{file}"
+        );
+        let scene = reference::loader::gltf::load_gltf_document(&path)
+            .unwrap_or_else(|e| panic!("{file}: {e}"));
+        let l = scene.punctual_lights();
+        assert_eq!(l.iter().map(|l| l.tag).collect::<Vec<_>>(), tags, "{file}");
+        let expected = glam::Vec3::from(colour) * (written / 683.0);
+        assert_eq!(l[0].intensity, expected, "{file}");
+        // 20000 lux of [0.8, 0.2, 0.2] is 23.4 W/m² of red; 450 cd of 0.8
+        // red 0.527 W/sr.
+        let exact = colour[0] as f64 * written as f64 / 683.0;
+        assert!(
+            (l[0].intensity.x as f64 / exact - 1.0).abs() < 1e-6,
+            "{file}: {}",
+            l[0].intensity
+        );
+        let warned = scene
+            .warnings()
+            .iter()
+            .filter(|w| w.contains("ignored: the light falls off by the inverse square law alone"))
+            .count();
+        assert_eq!(warned, ranges, "{file}: {:?}", scene.warnings());
+        assert_eq!(
+            scene.warnings().len(),
+            ranges,
+            "{file}: {:?}",
+            scene.warnings()
+        );
+        // Seen from above (the file has no camera), on black: what is
+        // lit is the lights' doing.
+        let mut b = reference::scene::SceneBuilder::new();
+        b.camera = reference::camera::CameraSettings {
+            look_from: glam::Vec3::new(0.0, 12.0, 0.5),
+            look_at: glam::Vec3::ZERO,
+            vfov: 50.0,
+            ..Default::default()
+        };
+        b.background = Some(reference::background::Background::Solid(glam::Vec3::ZERO));
+        reference::loader::gltf::add_gltf_scene(
+            &mut b,
+            &path,
+            &reference::scene::Transform::default(),
+            false,
+        )
+        .unwrap();
+        let scene = b.build().unwrap();
+        let settings = reference::RenderSettings {
+            width: 16,
+            height: 16,
+            spp: 4,
+            max_depth: 4,
+            ..reference::RenderSettings::default()
+        };
+        let film = render_with(&scene, &settings, Integrator::Mis, &|_| {});
+        assert_eq!(film.nonfinite_samples(), 0, "{file}");
+        let mean = film.mean();
+        assert!(mean.iter().all(|p| p.is_finite()), "{file}");
+        let lit = mean.iter().filter(|p| p.max_element() > 0.0).count();
+        assert!(lit > 16, "{file}: {lit} of 256 pixels lit");
+        // The red light (light 0) lights the plane red somewhere.
+        assert!(mean.iter().any(|p| p.x > p.y && p.x > p.z), "{file}");
+    }
+}

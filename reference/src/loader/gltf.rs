@@ -8,15 +8,28 @@
 //!   `SceneBuilder::add_mesh` per primitive instance (the `gltf` object);
 //! - [`load_gltf_document`]: a whole document as a [`Scene`].
 //!
-//! Extensions: the importer implements those of [`SUPPORTED_EXTENSIONS`]. A
-//! document whose `extensionsRequired` names another is refused, naming
-//! it; other extensions in `extensionsUsed` are ignored with one warning
-//! line ([`Scene::warnings`], printed by the CLI).
+//! The last two have `_with` forms ([`add_gltf_scene_with`],
+//! [`load_gltf_document_with`]) that take [`GltfOptions`]: how the lights'
+//! intensities are read ([`GltfLightUnits`]).
+//!
+//! Extensions: the importer implements those of [`SUPPORTED_EXTENSIONS`],
+//! and checks `extensionsRequired` itself (`check_required`): a
+//! document that requires one of them loads, one that requires another
+//! is refused, naming it (`extensionsRequired[1] = "KHR_draco_mesh_compression":
+//! not supported by twintrace`). (The `gltf` crate would refuse every
+//! required extension outside its own feature list, `KHR_lights_punctual`
+//! among them, so its validation runs without the list.) Other extensions
+//! in `extensionsUsed` are ignored with one warning line
+//! ([`Scene::warnings`], printed by the CLI).
 //!
 //! Which nodes: the default scene, else the first scene; a document without
 //! scenes contributes every mesh once, untransformed. Nodes are walked
 //! depth first in document order; a node reached twice (the hierarchy is
-//! not a forest) is an error, so cycles cannot hang the loader.
+//! not a forest) is an error, so cycles cannot hang the loader. A node's
+//! `rotation` must be a unit quaternion: one within glTF-Validator's
+//! bound of unit length is normalized (a warning line where it is off by
+//! more than a rounded unit quaternion is, `bounds::ROTATION_QUIET`),
+//! one further off is an error (`bounds::node_transform`).
 //!
 //! Geometry: `Triangles`, `TriangleStrip` and `TriangleFan` primitives are
 //! imported (strips and fans are converted to triangles as the glTF spec
@@ -71,9 +84,15 @@
 //!
 //! Lights (`KHR_lights_punctual`): each node holding a light adds it
 //! ([`SceneBuilder::add_light`]) at the node's world position, pointing
-//! along the node's −Z. `color` × `intensity` is read as radiometric per
-//! channel: radiant intensity (W/sr) for point and spot lights (glTF's
-//! candela), irradiance (W/m²) for directional lights (glTF's lux). A
+//! along the node's −Z. The extension's `intensity` is photometric:
+//! candela (lm/sr) for point and spot lights, lux (lm/m²) for directional
+//! ones. The renderer's lights are radiometric, per channel: radiant
+//! intensity (W/sr) and irradiance (W/m²). By default
+//! ([`GltfLightUnits::Photometric`]) `color` × `intensity` /
+//! [`LUMENS_PER_WATT`] (683 lm/W, as Blender's glTF importer converts) is
+//! what the renderer gets; [`GltfLightUnits::Radiometric`] takes
+//! `color` × `intensity` as watts already (for files whose writer put
+//! them there). A
 //! spot's `innerConeAngle` and `outerConeAngle` (defaults 0 and π/4)
 //! shape its falloff as the extension's reference formula does
 //! ([`crate::light::PunctualLight::falloff`]). `range` is not honoured:
@@ -129,6 +148,39 @@ pub const DEFAULT_VFOV: f32 = 40.0;
 /// substitutions), in bytes: beyond it the count is a mistake.
 const MAX_VIEWLESS_ACCESSOR_BYTES: usize = 1 << 30;
 
+/// Lumens per watt: how a `KHR_lights_punctual` intensity (candela, lm/sr,
+/// for point and spot lights; lux, lm/m², for directional ones) becomes
+/// the renderer's radiant intensity (W/sr) and irradiance (W/m²):
+/// divided by this luminous efficacy. 683 lm/W is the efficacy of light
+/// at 555 nm (the SI definition of the candela); provenance: Blender's
+/// glTF importer, glTF-Blender-IO's `PBR_WATTS_TO_LUMENS = 683`
+/// (addons/io_scene_gltf2/blender/com/conversion.py), which its
+/// `BlenderLight.calc_energy_directional` divides lux by (sun strength,
+/// W/m²) and `calc_energy_pointlike` divides candela by (× 4π: Blender's
+/// point and spot power in W) in its default lighting mode, "Standard".
+/// Its "Raw" mode, which keeps the numbers, is [`GltfLightUnits::Radiometric`].
+pub const LUMENS_PER_WATT: f32 = 683.0;
+
+/// How the importer reads a `KHR_lights_punctual` light's `intensity`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum GltfLightUnits {
+    /// The extension's meaning: candela (point, spot) and lux
+    /// (directional), converted to W/sr and W/m² at [`LUMENS_PER_WATT`].
+    #[default]
+    Photometric,
+    /// Watts already: W/sr and W/m², taken as they are (for files whose
+    /// writer put radiometric numbers in the field).
+    Radiometric,
+}
+
+/// How the importer reads a document (the default: as the glTF
+/// specification and its extensions define it).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct GltfOptions {
+    /// The units of the lights' `intensity`.
+    pub light_units: GltfLightUnits,
+}
+
 /// Loads every triangle of the document's scene, with the node transforms
 /// applied, as one mesh (see the module documentation for what is read).
 ///
@@ -160,7 +212,14 @@ pub fn load_gltf_mesh_reading(
     let mut cache = MeshCache::default();
     let mut lights = 0;
     let mut emissive = std::collections::BTreeSet::new();
-    for instance in instances(&file.document).map_err(|m| file.error(m))? {
+    let mut node_warnings = Vec::new();
+    let instances = instances(&file.document, &mut node_warnings).map_err(|m| file.error(m))?;
+    warnings.extend(
+        node_warnings
+            .into_iter()
+            .map(|w| format!("{}: {w}", path.display())),
+    );
+    for instance in instances {
         lights += instance.light.is_some() as usize;
         let Some(mesh) = &instance.mesh else { continue };
         for primitive in mesh.primitives() {
@@ -206,26 +265,53 @@ pub fn add_gltf_scene(
     transform: &Transform,
     take_camera: bool,
 ) -> Result<(), SceneError> {
-    import_scene(builder, path, transform, take_camera).map(|_| ())
+    add_gltf_scene_with(
+        builder,
+        path,
+        transform,
+        take_camera,
+        &GltfOptions::default(),
+    )
 }
 
-/// Loads a glTF document as a scene: its meshes, materials and first
-/// perspective camera. Without a camera, one looks down -Z at the centre
-/// of the scene's bounds from far enough to see its bounding sphere
-/// (vertical field of view [`DEFAULT_VFOV`]). The background is the Ray
-/// Tracing in One Weekend sky (white horizon, light blue zenith).
+/// [`add_gltf_scene`], reading the document as `options` say.
+pub fn add_gltf_scene_with(
+    builder: &mut SceneBuilder,
+    path: &Path,
+    transform: &Transform,
+    take_camera: bool,
+    options: &GltfOptions,
+) -> Result<(), SceneError> {
+    import_scene(builder, path, transform, take_camera, options).map(|_| ())
+}
+
+/// Loads a glTF document as a scene: its meshes, materials, lights and
+/// first perspective camera. Without a camera, one looks down -Z at the
+/// centre of the scene's bounds from far enough to see its bounding
+/// sphere (vertical field of view [`DEFAULT_VFOV`]). The background is the
+/// Ray Tracing in One Weekend sky (white horizon, light blue zenith).
+/// Read as the specification defines it ([`GltfOptions::default`]).
 pub fn load_gltf_document(path: &Path) -> Result<Scene, SceneError> {
-    load_gltf_document_from(path, None)
+    load_gltf_document_with(path, &GltfOptions::default())
+}
+
+/// [`load_gltf_document`], reading the document as `options` say.
+pub fn load_gltf_document_with(path: &Path, options: &GltfOptions) -> Result<Scene, SceneError> {
+    load_gltf_document_from(path, None, options)
 }
 
 /// [`load_gltf_document`] of a document already in memory (`bytes`, a
 /// `.gltf` or a `.glb`, named `path`): nothing is read from disk but what
 /// it refers to, relative to `path`'s folder (the fuzz targets' entry).
 pub fn load_gltf_document_bytes(path: &Path, bytes: &[u8]) -> Result<Scene, SceneError> {
-    load_gltf_document_from(path, Some(bytes))
+    load_gltf_document_from(path, Some(bytes), &GltfOptions::default())
 }
 
-fn load_gltf_document_from(path: &Path, bytes: Option<&[u8]>) -> Result<Scene, SceneError> {
+fn load_gltf_document_from(
+    path: &Path,
+    bytes: Option<&[u8]>,
+    options: &GltfOptions,
+) -> Result<Scene, SceneError> {
     let mut builder = SceneBuilder::new();
     builder.render_origin = RenderOrigin::Camera;
     builder.background = Some(Background::Sky {
@@ -233,7 +319,7 @@ fn load_gltf_document_from(path: &Path, bytes: Option<&[u8]>) -> Result<Scene, S
         zenith: Vec3::new(0.5, 0.7, 1.0),
     });
     let file = GltfFile::open_from(path, bytes)?;
-    let summary = import_file(&mut builder, file, &Transform::default(), true)?;
+    let summary = import_file(&mut builder, file, &Transform::default(), true, options)?;
     if !summary.camera_taken {
         let aspect = builder.render.width as f32 / builder.render.height as f32;
         builder.camera = framing_camera(summary.bounds_min, summary.bounds_max, aspect);
@@ -276,8 +362,15 @@ fn import_scene(
     path: &Path,
     transform: &Transform,
     take_camera: bool,
+    options: &GltfOptions,
 ) -> Result<ImportSummary, SceneError> {
-    import_file(builder, GltfFile::open(path)?, transform, take_camera)
+    import_file(
+        builder,
+        GltfFile::open(path)?,
+        transform,
+        take_camera,
+        options,
+    )
 }
 
 fn import_file(
@@ -285,6 +378,7 @@ fn import_file(
     file: GltfFile,
     transform: &Transform,
     take_camera: bool,
+    options: &GltfOptions,
 ) -> Result<ImportSummary, SceneError> {
     let path = file.path.as_path();
     builder.sources.extend(file.files.iter().cloned());
@@ -307,9 +401,16 @@ fn import_file(
         bounds_min: Vec3::INFINITY,
         bounds_max: Vec3::NEG_INFINITY,
     };
-    let lights = read_lights(&file, builder)?;
+    let lights = read_lights(&file, builder, options.light_units)?;
     let mut triangles = 0usize;
-    for instance in instances(&file.document).map_err(|m| file.error(m))? {
+    let mut node_warnings = Vec::new();
+    let instances = instances(&file.document, &mut node_warnings).map_err(|m| file.error(m))?;
+    builder.warnings.extend(
+        node_warnings
+            .into_iter()
+            .map(|w| format!("{}: {w}", path.display())),
+    );
+    for instance in instances {
         let world = Transform {
             matrix: transform.matrix * instance.world,
         };
@@ -497,8 +598,14 @@ impl GltfLight {
 /// in [0, 1], `intensity` at least 0, `range` above 0, a spot's
 /// `innerConeAngle` at least 0 and below `outerConeAngle`, which is at most
 /// π/2; all of them finite as f32. With the colour at most 1, `color` ×
-/// `intensity` is at most the intensity: finite.
-fn read_lights(file: &GltfFile, builder: &mut SceneBuilder) -> Result<Vec<GltfLight>, SceneError> {
+/// `intensity` is at most the intensity: finite. The intensity is read in
+/// `units` ([`GltfLightUnits`]): photometric, it is divided by
+/// [`LUMENS_PER_WATT`] (in f32, before the colour multiplies it).
+fn read_lights(
+    file: &GltfFile,
+    builder: &mut SceneBuilder,
+    units: GltfLightUnits,
+) -> Result<Vec<GltfLight>, SceneError> {
     let Some(ext) = file.document.extension_value(LIGHTS) else {
         return Ok(Vec::new());
     };
@@ -600,10 +707,14 @@ fn read_lights(file: &GltfFile, builder: &mut SceneBuilder) -> Result<Vec<GltfLi
                 bounds::show(range)
             ));
         }
+        let radiometric = match units {
+            GltfLightUnits::Photometric => intensity / LUMENS_PER_WATT,
+            GltfLightUnits::Radiometric => intensity,
+        };
         out.push(GltfLight {
             at,
             kind,
-            value: color * intensity,
+            value: color * radiometric,
             inner,
             outer,
         });
@@ -611,7 +722,12 @@ fn read_lights(file: &GltfFile, builder: &mut SceneBuilder) -> Result<Vec<GltfLi
     Ok(out)
 }
 
-/// The glTF extensions the importer implements.
+/// The glTF extensions the importer implements: a document may require
+/// them (`extensionsRequired`). Not among them, though the `gltf` crate
+/// parses them: `KHR_materials_unlit` and
+/// `KHR_materials_pbrSpecularGlossiness` (ignored with a warning where a
+/// document only uses them), `KHR_mesh_quantization` (its integer
+/// positions and normals are refused, `bounds::attribute`).
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     CLEARCOAT,
     LIGHTS,
@@ -621,6 +737,29 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_volume",
     "KHR_texture_transform",
 ];
+
+/// Every name of a document's `extensionsRequired` must be one of
+/// [`SUPPORTED_EXTENSIONS`]: a file that requires another cannot be shown
+/// as its author meant without it (glTF 2.0, "Specifying Extensions").
+/// The error names each such entry by its place in the list, in one line:
+/// `extensionsRequired[1] = "KHR_draco_mesh_compression": not supported by
+/// twintrace (supported: ...)`.
+fn check_required(required: &[String]) -> Result<(), String> {
+    let refused: Vec<String> = required
+        .iter()
+        .enumerate()
+        .filter(|(_, name)| !SUPPORTED_EXTENSIONS.contains(&name.as_str()))
+        .map(|(i, name)| format!("extensionsRequired[{i}] = {name:?}"))
+        .collect();
+    if refused.is_empty() {
+        return Ok(());
+    }
+    Err(format!(
+        "{}: not supported by twintrace (supported: {})",
+        refused.join(", "),
+        SUPPORTED_EXTENSIONS.join(", ")
+    ))
+}
 
 /// A parsed document with its buffers loaded.
 struct GltfFile {
@@ -660,25 +799,28 @@ impl GltfFile {
         }
         let (document, mut blob) =
             parse(bytes).map_err(|m| fail(format!("cannot read glTF: {m}")))?;
+        let mut json = document.into_json();
+        // The required list is checked here, against what this importer
+        // implements; the `gltf` crate's validation would refuse every
+        // name outside its own enabled features (`KHR_lights_punctual`,
+        // `KHR_materials_volume` and `KHR_materials_clearcoat` among
+        // them), so it runs without the list, which is then put back.
+        // Nothing else in that validation reads the list.
+        let required = std::mem::take(&mut json.extensions_required);
+        check_required(&required).map_err(&fail)?;
+        let document = Document::from_json_without_validation(json);
         check_position_accessors(&document).map_err(&fail)?;
-        let document = Document::from_json(document.into_json())
-            .map_err(|e| fail(format!("cannot read glTF: {e}")))?;
+        let mut json = Document::from_json(document.into_json())
+            .map_err(|e| fail(format!("cannot read glTF: {e}")))?
+            .into_json();
+        json.extensions_required = required;
+        let document = Document::from_json_without_validation(json);
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
-        let unsupported = |names: &mut dyn Iterator<Item = &str>| -> Vec<String> {
-            names
-                .filter(|n| !SUPPORTED_EXTENSIONS.contains(n))
-                .map(str::to_string)
-                .collect()
-        };
-        let required = unsupported(&mut document.extensions_required());
-        if !required.is_empty() {
-            return Err(fail(format!(
-                "requires glTF extensions this importer does not support: {} (supported: {})",
-                required.join(", "),
-                SUPPORTED_EXTENSIONS.join(", ")
-            )));
-        }
-        let ignored_extensions = unsupported(&mut document.extensions_used());
+        let ignored_extensions = document
+            .extensions_used()
+            .filter(|n| !SUPPORTED_EXTENSIONS.contains(n))
+            .map(str::to_string)
+            .collect();
         check_uris(&document).map_err(&fail)?;
         check_views(&document).map_err(&fail)?;
         let mut buffers = Vec::new();
@@ -976,8 +1118,13 @@ struct Instance<'a> {
     world: DAffine3,
 }
 
-/// The document's scene flattened, depth first in document order.
-fn instances(document: &Document) -> Result<Vec<Instance<'_>>, String> {
+/// The document's scene flattened, depth first in document order; what
+/// the nodes' transforms warn of (`node_matrix`) is added to `warnings`,
+/// one line each, without the file's name.
+fn instances<'a>(
+    document: &'a Document,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<Instance<'a>>, String> {
     let scene = document
         .default_scene()
         .or_else(|| document.scenes().next());
@@ -1010,7 +1157,7 @@ fn instances(document: &Document) -> Result<Vec<Instance<'_>>, String> {
             ));
         }
         // Finite: node_matrix checked every number.
-        let local = node_matrix(&node)?;
+        let local = node_matrix(&node, warnings)?;
         let world = parent * DAffine3::from_mat4(local);
         if !world.is_finite() {
             return Err(format!(
@@ -1046,15 +1193,17 @@ fn instances(document: &Document) -> Result<Vec<Instance<'_>>, String> {
 /// too, and rounded to f32 only in render space). What glTF 2.0 requires
 /// of them ([`bounds::node_transform`]) is checked first; a rotation
 /// within that check's tolerance of unit length is normalized, so that
-/// the digits a writer rounded to do not scale the mesh.
-fn node_matrix(node: &gltf::Node) -> Result<DMat4, String> {
+/// the digits a writer rounded to do not scale the mesh (every accepted
+/// rotation is, as before the tolerance was widened: one within 10^-3 of
+/// unit length loads exactly as it did). One further from unit length
+/// than [`bounds::ROTATION_QUIET`] adds a line to `warnings`.
+fn node_matrix(node: &gltf::Node, warnings: &mut Vec<String>) -> Result<DMat4, String> {
     let transform = node.transform();
-    bounds::node_transform(&transform).map_err(|m| {
-        format!(
-            "{}.{m}",
-            bounds::named("node", &format!("nodes[{}]", node.index()), node.name())
-        )
-    })?;
+    let named = || bounds::named("node", &format!("nodes[{}]", node.index()), node.name());
+    let warning = bounds::node_transform(&transform).map_err(|m| format!("{}.{m}", named()))?;
+    if let Some(w) = warning {
+        warnings.push(format!("{}.{w}", named()));
+    }
     Ok(match transform {
         gltf::scene::Transform::Matrix { matrix } => {
             DMat4::from_cols_array_2d(&matrix.map(|c| c.map(|x| x as f64)))
@@ -2553,21 +2702,47 @@ mod tests {
         };
         let e = e.to_string();
         assert!(
-            e.contains("draco.gltf") && e.contains("KHR_draco_mesh_compression"),
+            e.contains("draco.gltf")
+                && e.contains(
+                    "extensionsRequired[0] = \"KHR_draco_mesh_compression\": not supported by twintrace"
+                )
+                && !e.contains('\n'),
             "{e}"
         );
         assert!(load_gltf_mesh(&p).is_err());
-        // A required extension the importer has is fine.
+        // Each required extension the importer has is fine, all at once
+        // too (the `gltf` crate alone refuses KHR_lights_punctual,
+        // KHR_materials_volume and KHR_materials_clearcoat when required).
+        let mut lists: Vec<Vec<&str>> = SUPPORTED_EXTENSIONS.iter().map(|&e| vec![e]).collect();
+        lists.push(SUPPORTED_EXTENSIONS.to_vec());
+        for list in lists {
+            let p = write(dir.path(), "required.gltf", &with_extensions(&list, &list));
+            let scene = load_gltf_document(&p).unwrap_or_else(|e| panic!("{list:?}: {e}"));
+            assert!(scene.warnings().is_empty(), "{:?}", scene.warnings());
+        }
+        // Among others, each unsupported entry is named by its place.
         let p = write(
             dir.path(),
-            "emissive.gltf",
+            "two.gltf",
             &with_extensions(
-                &["KHR_materials_emissive_strength"],
-                &["KHR_materials_emissive_strength"],
+                &[
+                    "KHR_lights_punctual",
+                    "EXT_meshopt_compression",
+                    "KHR_materials_unlit",
+                ],
+                &[
+                    "KHR_lights_punctual",
+                    "EXT_meshopt_compression",
+                    "KHR_materials_unlit",
+                ],
             ),
         );
-        let scene = load_gltf_document(&p).unwrap();
-        assert!(scene.warnings().is_empty(), "{:?}", scene.warnings());
+        let e = load_gltf_document(&p).err().unwrap().to_string();
+        assert!(
+            e.contains("extensionsRequired[1] = \"EXT_meshopt_compression\", extensionsRequired[2] = \"KHR_materials_unlit\": not supported by twintrace")
+                && !e.contains("[0]"),
+            "{e}"
+        );
     }
 
     #[test]

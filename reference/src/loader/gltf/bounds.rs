@@ -284,12 +284,33 @@ fn component_name(component: DataType) -> &'static str {
     }
 }
 
-/// How far from 1 a node's rotation may be in length: 10^-3. A unit
-/// quaternion written with four decimals (0.7071) is off by at most
-/// 2·10^-4 and one rounded to f32 by about 10^-7; such a rotation is
-/// normalized. One further off is not a rounded unit quaternion, and read
-/// as it is it would scale the mesh by its squared length.
-pub(super) const ROTATION_UNIT_TOLERANCE: f64 = 1e-3;
+/// How far from 1 a node's rotation may be in length: 0.00769, the
+/// Khronos glTF-Validator's bound (`unitLengthThresholdVec4` in its
+/// lib/src/errors.dart, "slightly greater than the maximum error from
+/// signed 8-bit quantization"; lib/src/base/node.dart reports
+/// NODE_ROTATION_NON_UNIT, an error, beyond it). Within it the rotation is
+/// normalized. What other importers do: Blender normalizes any quaternion
+/// before use (`BKE_object_rot_to_mat3`, "quats are normalized before use
+/// to eliminate scaling issues"), so it takes every non-zero length;
+/// three.js's GLTFLoader composes the node's matrix from the quaternion
+/// as written (`Matrix4.compose` does not normalize), so a non-unit
+/// rotation also scales and shears the mesh. The importer takes the
+/// validator's bound: as forgiving as a valid file needs (a quaternion
+/// written with two decimals, such as [0, 0, 0.29, 0.96] of length
+/// 1.0028, loads), and a quaternion further off is not a rounded rotation
+/// but a mistake, refused rather than guessed at.
+pub(super) const ROTATION_UNIT_TOLERANCE: f64 = 0.00769;
+
+/// Up to this far from unit length a rotation is normalized silently:
+/// 10^-3. A unit quaternion written with three decimals or more is off by
+/// at most that (each of its four components rounded by at most
+/// 5·10^-4, an error of length at most √4 · 5·10^-4 = 10^-3; with f32's
+/// 24 bits, about 10^-7), so such a deviation is only the writer's
+/// rounding. Beyond it (two decimals allow up to 10^-2) the rotation
+/// itself is known only to about that precision (a quaternion off by δ
+/// turns by up to about 2δ radians more or less than meant: about 1° at
+/// 10^-2), which a warning line says.
+pub(super) const ROTATION_QUIET: f64 = 1e-3;
 
 /// A node's transform as glTF 2.0 requires it (the specification's
 /// "Transformations" section and node.schema.json): `rotation` a unit
@@ -297,8 +318,10 @@ pub(super) const ROTATION_UNIT_TOLERANCE: f64 = 1e-3;
 /// and `matrix` affine (its last row 0, 0, 0, 1: the specification asks
 /// for a matrix that decomposes into translation, rotation and scale, and
 /// the importer keeps only the affine part). The message starts with the
-/// field as the file spells it; the caller puts the node in front.
-pub(super) fn node_transform(t: &gltf::scene::Transform) -> Result<(), String> {
+/// field as the file spells it; the caller puts the node in front. `Ok`
+/// holds a warning of the same form where the rotation is accepted but
+/// further than [`ROTATION_QUIET`] from unit length.
+pub(super) fn node_transform(t: &gltf::scene::Transform) -> Result<Option<String>, String> {
     match t {
         gltf::scene::Transform::Matrix { matrix } => {
             let flat: Vec<f32> = matrix.iter().flatten().copied().collect();
@@ -325,15 +348,22 @@ pub(super) fn node_transform(t: &gltf::scene::Transform) -> Result<(), String> {
                 .map(|&x| f64::from(x) * f64::from(x))
                 .sum::<f64>()
                 .sqrt();
-            if (length - 1.0).abs() > ROTATION_UNIT_TOLERANCE {
+            let off = (length - 1.0).abs();
+            if off > ROTATION_UNIT_TOLERANCE {
                 return Err(format!(
-                    "rotation {} is not a unit quaternion (its length is {length:.6}); glTF 2.0 requires unit length",
+                    "rotation {} is not a unit quaternion (its length is {length:.6}); glTF 2.0 requires unit length (the importer normalizes one within {ROTATION_UNIT_TOLERANCE} of it, glTF-Validator's bound)",
                     show_all(rotation)
                 ));
             }
+            if off > ROTATION_QUIET {
+                return Ok(Some(format!(
+                    "rotation {} has length {length:.6}, not the unit length glTF 2.0 requires: normalized (the rotation is as precise as the digits it was written with)",
+                    show_all(rotation)
+                )));
+            }
         }
     }
-    Ok(())
+    Ok(None)
 }
 
 /// A perspective camera's numbers that the importer reads (the glTF 2.0
