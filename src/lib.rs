@@ -31,6 +31,7 @@ pub mod compare;
 pub mod exr_write;
 pub mod host_memory;
 pub mod image_io;
+pub mod mitsuba_tests;
 pub mod partial;
 pub mod perf;
 pub mod render;

@@ -10,7 +10,7 @@ pub enum SceneError {
     #[error("{field}: {message}")]
     Invalid { field: String, message: String },
     /// The document does not parse or does not match the format.
-    #[error("{path}:{line}:{column}: {field}: {message}", path = path.display())]
+    #[error("{path}:{line}:{column}: {field}{sep}{message}", path = path.display(), sep = if field.is_empty() { "" } else { ": " })]
     Parse {
         path: PathBuf,
         line: usize,

@@ -36,5 +36,5 @@ pub mod texture;
 pub use error::SceneError;
 pub use film::Film;
 pub use integrator::render;
-pub use loader::load_scene;
+pub use loader::{load_scene, load_scene_with, LoadOptions};
 pub use scene::{RenderSettings, Scene, SceneBuilder};

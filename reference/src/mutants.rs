@@ -66,6 +66,10 @@ pub enum Mutant {
     /// light set while lights are picked by power
     /// (`light::LightSet::punctual_pmf`).
     PunctualPmfUniform,
+    /// A Mitsuba emitter's uniform spectrum read as grey, as a
+    /// reflectance's is, rather than as the equal-energy illuminant's
+    /// colour (`loader::mitsuba::scene`, [`crate::loader::mitsuba::EQUAL_ENERGY_RGB`]).
+    MitsubaIlluminantGrey,
 }
 
 #[cfg(feature = "mutants")]

@@ -74,7 +74,7 @@ mod materials;
 
 #[derive(Debug, Args)]
 pub struct ExportArgs {
-    /// A scene file (.json, .gltf, .glb) or a built-in scene name.
+    /// A scene file (.json, .gltf, .glb, Mitsuba .xml) or a built-in scene name.
     pub scene: String,
     /// The folder to write `scene.xml` and its files into (created if missing; its parent must exist).
     #[arg(short = 'o', long = "output", value_name = "DIR")]
@@ -105,6 +105,20 @@ fn mesh_file(i: usize) -> String {
 const SKY_ROWS: usize = 4096;
 
 pub fn run(args: &ExportArgs) -> Result<()> {
+    // The scene file against the folder and its scene.xml first, before
+    // the scene is read: an export over its own scene is refused as that,
+    // whatever the file holds (all it reads is checked below).
+    let scene_file = Path::new(&args.scene);
+    if scene_file.exists() {
+        let arg = format!("-o {}", args.output.display());
+        outputs::check(
+            &[outputs::input_file("scene", scene_file)],
+            &[
+                outputs::output(arg.clone(), &args.output),
+                outputs::output(arg, args.output.join(XML_FILE)),
+            ],
+        )?;
+    }
     let scene = super::load_scene(&args.scene)?;
     let (mut width, mut height) = (
         scene.render_settings().width,
@@ -124,7 +138,6 @@ pub fn run(args: &ExportArgs) -> Result<()> {
     // Nothing written may be the scene or a file it reads (nor the
     // folder itself one of them).
     let mut inputs = Vec::new();
-    let scene_file = Path::new(&args.scene);
     if scene_file.exists() {
         inputs.push(outputs::input_file("scene", scene_file));
     }

@@ -24,6 +24,7 @@
 pub mod diff;
 pub mod export;
 pub mod interrupt;
+pub mod mitsuba_tests;
 pub mod outputs;
 pub mod perf;
 pub mod selftest;
@@ -49,6 +50,41 @@ use twintrace::tonemap::Tonemap;
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
+    /// A Mitsuba scene's parameter, as Mitsuba's `-D`: NAME=VALUE overrides the file's `<default name="NAME">` (repeatable).
+    #[arg(short = 'D', global = true, value_name = "NAME=VALUE", value_parser = parse_define)]
+    pub define: Vec<(String, String)>,
+    /// What glTF punctual lights' intensities are: photometric (candela and lux, as the glTF specification says; divided by 683 lm/W) or radiometric (W/sr and W/m², for files whose writers put watts in).
+    #[arg(long, global = true, value_enum, default_value_t = GltfLightUnitsArg::Photometric)]
+    pub gltf_light_units: GltfLightUnitsArg,
+}
+
+/// `--gltf-light-units`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
+pub enum GltfLightUnitsArg {
+    #[default]
+    Photometric,
+    Radiometric,
+}
+
+/// `-D NAME=VALUE`: a parameter name as Mitsuba's (letters, digits, `_`).
+fn parse_define(s: &str) -> Result<(String, String), String> {
+    let (name, value) = s
+        .split_once('=')
+        .ok_or_else(|| format!("\"{s}\" is not NAME=VALUE"))?;
+    if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+        return Err(format!("\"{name}\" is not a parameter name"));
+    }
+    Ok((name.to_string(), value.to_string()))
+}
+
+/// How this process reads scene files (`-D`, `--gltf-light-units`), set
+/// once from the command line before any scene loads.
+static LOAD_OPTIONS: std::sync::OnceLock<reference::LoadOptions> = std::sync::OnceLock::new();
+
+/// The command line's [`reference::LoadOptions`] (the defaults where the
+/// command line set none, as in tests that call the commands directly).
+pub fn load_options() -> reference::LoadOptions {
+    LOAD_OPTIONS.get().cloned().unwrap_or_default()
 }
 
 #[derive(Debug, Subcommand)]
@@ -67,6 +103,8 @@ pub enum Command {
     ExportMitsuba(export::ExportArgs),
     /// Measure run time against error (relMSE against stored references), paths/s and rays/s; compare with a baseline.
     Perf(perf::PerfArgs),
+    /// Run Mitsuba 3's render tests (the scenes of a mitsuba-data checkout) on the twins in Mitsuba's protocol: one line a scene, PASS, FAIL with the figures, or REFUSED with the plugin.
+    MitsubaTests(mitsuba_tests::MitsubaTestsArgs),
     /// Look at a scene live: a window that renders progressively on the GPU while you move the camera and change settings (--headless: the same frames without a window, written to --out).
     View(view::ViewArgs),
 }
@@ -116,7 +154,7 @@ impl Quality {
 
 #[derive(Debug, Args)]
 pub struct RenderArgs {
-    /// A scene file (.json, .gltf, .glb) or a built-in scene name such as cornell or rtow-final.
+    /// A scene file (.json, .gltf, .glb, Mitsuba .xml) or a built-in scene name such as cornell or rtow-final.
     pub scene: String,
     /// Output path; `.exr` and `.png` are added (a given .exr/.png extension is dropped).
     #[arg(short = 'o', long = "output", value_name = "OUT")]
@@ -228,13 +266,23 @@ pub struct MergeArgs {
 
 #[derive(Debug, Args)]
 pub struct InfoArgs {
-    /// A scene file (.json, .gltf, .glb) or a built-in scene name; without
+    /// A scene file (.json, .gltf, .glb, Mitsuba .xml) or a built-in scene name; without
     /// one, only the GPU adapters are listed.
     pub scene: Option<String>,
 }
 
 /// Runs one command.
 pub fn run(cli: Cli) -> Result<()> {
+    use reference::loader::gltf::{GltfLightUnits, GltfOptions};
+    let _ = LOAD_OPTIONS.set(reference::LoadOptions {
+        defines: cli.define.clone(),
+        gltf: GltfOptions {
+            light_units: match cli.gltf_light_units {
+                GltfLightUnitsArg::Photometric => GltfLightUnits::Photometric,
+                GltfLightUnitsArg::Radiometric => GltfLightUnits::Radiometric,
+            },
+        },
+    });
     match cli.command {
         Command::Render(args) => render(&args),
         Command::Info(args) => info(&args),
@@ -247,6 +295,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::ExportMitsuba(args) => export::run(&args),
         Command::Perf(args) => perf::run(&args),
         Command::View(args) => view::view(&args),
+        Command::MitsubaTests(args) => mitsuba_tests::run(&args),
     }
 }
 
@@ -290,8 +339,16 @@ fn size_arg(size: &str) -> Result<(u32, u32)> {
 /// Loads a scene; an error without a file name gets the scene's name.
 /// Each of the scene's warnings goes to stderr as one `warning:` line.
 pub fn load_scene(spec: &str) -> Result<Scene> {
-    let scene = reference::load_scene(spec).map_err(|e| match e {
+    let scene = reference::load_scene_with(spec, &load_options()).map_err(|e| match e {
         e @ SceneError::Invalid { .. } => anyhow!("scene `{spec}`: {e}"),
+        // A feature of another renderer's format that twintrace does not
+        // implement: an input it cannot use (exit 2), not a broken file.
+        e if e
+            .to_string()
+            .contains(reference::loader::mitsuba::NOT_SUPPORTED) =>
+        {
+            anyhow!(Refused(e.to_string()))
+        }
         e => anyhow!(e),
     })?;
     for w in scene.warnings() {

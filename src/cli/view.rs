@@ -14,7 +14,7 @@ use twintrace::view::{Event, Pace, View};
 
 #[derive(Debug, Args)]
 pub struct ViewArgs {
-    /// A scene file (.json, .gltf, .glb) or a built-in scene name.
+    /// A scene file (.json, .gltf, .glb, Mitsuba .xml) or a built-in scene name.
     pub scene: String,
     /// The film's size as WIDTHxHEIGHT (default: the scene's).
     #[arg(long, value_name = "WxH", allow_hyphen_values = true)]

@@ -36,6 +36,7 @@ pub mod gate;
 pub mod image;
 pub mod lobes;
 pub mod metrics;
+pub mod mitsuba;
 
 pub use image::{compare, Method, NoisyImage, TestSettings, Verdict};
 pub use metrics::Metrics;

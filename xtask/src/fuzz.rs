@@ -27,6 +27,7 @@ pub const TARGETS: &[&str] = &[
     "exr_image",
     "partial_film",
     "cli_text",
+    "mitsuba",
 ];
 
 /// The seconds each target runs in `cargo xtask test` (CI): 6 targets,

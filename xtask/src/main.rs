@@ -9,6 +9,7 @@ mod fuzz;
 mod gpu_suite;
 mod install;
 mod mitsuba;
+mod mitsuba_tests;
 mod perf;
 mod test;
 mod util;
@@ -29,7 +30,7 @@ Commands:
              the cores), from the seeds in fixtures/fuzz/TARGET; a crashing,
              hanging or exhausting input goes to target/fuzz/artifacts/TARGET/
              and fails the command (docs/fuzzing.md). Targets: scene_json,
-             gltf_json, glb, exr_image, partial_film, cli_text
+             gltf_json, glb, exr_image, partial_film, cli_text, mitsuba
   gpu-suite [--out DIR]
              pack the GPU gates (test binary, fixtures, run.sh) into DIR
              (default target/gpu-suite) to run on a machine with a real GPU
@@ -54,6 +55,12 @@ Commands:
              stores its renders in fixtures/refs/mitsuba/ (docs/gates.md);
              --chi2 runs the plugins' checks here (MITSUBA_PYTHON,
              MITSUBA_VARIANT)
+  mitsuba-tests --data DIR [--backend cpu,gpu] [--filter TEXT] [--spp N]
+             Mitsuba 3's render tests (DIR: a checkout of mitsuba-data, read
+             in place) on both twins in Mitsuba's protocol: builds the
+             release CLI and runs `twintrace mitsuba-tests`, one line a scene
+             and twin, PASS, FAIL with the figures, or REFUSED with the
+             plugin (docs/mitsuba.md)
   perf [ARGS] | perf compare RUN BASELINE | perf baseline N FILE [ARGS]
   | perf --pack [DIR]
              run time against error: builds the release CLI and runs
@@ -68,6 +75,7 @@ Commands:
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
+    let cwd = std::env::current_dir().unwrap_or_default();
     let root = util::workspace_root();
     if let Err(e) = std::env::set_current_dir(&root) {
         eprintln!("xtask: cannot enter {}: {e}", root.display());
@@ -89,6 +97,7 @@ fn main() -> ExitCode {
         Some("fuzz") => fuzz::run(&args[1..]),
         Some("bless") => bless::run(&args[1..]),
         Some("mitsuba") => mitsuba::run(&args[1..]),
+        Some("mitsuba-tests") => mitsuba_tests::run(&args[1..], &cwd),
         Some("perf") => perf::run(&args[1..]),
         None | Some("help") | Some("--help") | Some("-h") => {
             print!("{HELP}");

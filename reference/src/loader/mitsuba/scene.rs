@@ -1,0 +1,1235 @@
+//! A Mitsuba 3 scene tree ([`super::xml`]) made into a twintrace scene:
+//! each plugin read with the parameters and meaning of Mitsuba's `rgb`
+//! variants, everything twintrace does not implement refused in one line
+//! that names the plugin and its place, and every parameter a plugin does
+//! not take refused as Mitsuba refuses it ("unreferenced property").
+//!
+//! docs/mitsuba.md tables what is read and how.
+
+use super::meshes::{self, Mesh, MeshOptions};
+use super::xml::{Child, Document, Location, Object, Property, Spectrum, Value};
+use crate::background::Background;
+use crate::camera::CameraSettings;
+use crate::error::SceneError;
+use crate::loader::image::load_image;
+use crate::material::Material;
+use crate::mutants::{self, Mutant};
+use crate::rng::Sampler as PathSampler;
+use crate::scene::LightInput;
+use crate::scene::RenderOrigin;
+use crate::scene::{MeshInput, SceneBuilder};
+use crate::scene::{RenderSettings, Scene, Transform, MAX_DEPTH};
+use crate::texture::{Sampler, Texture, Wrap};
+use glam::{DAffine3, DMat3, DMat4, DVec3, Vec2, Vec3};
+use std::cell::Cell;
+use std::collections::HashMap;
+use std::path::PathBuf;
+use std::rc::Rc;
+
+/// The phrase every refusal of a plugin or parameter twintrace does not
+/// implement carries (the CLI exits 2 on it; the runner reports REFUSED).
+pub const NOT_SUPPORTED: &str = "is not supported";
+
+/// Linear sRGB of the equal-energy illuminant at luminance 1: what
+/// Mitsuba's `rgb` variants make of an emitter's uniform `spectrum`
+/// (value 1). Read from Mitsuba 3.9.1 itself (`scalar_rgb`:
+/// `mi.traverse(mi.load_dict({'type': 'point', 'intensity': {'type':
+/// 'spectrum', 'value': 1.0}}))['intensity.value']` = [1.20479,
+/// 0.948291, 0.908916]); a reflectance's uniform spectrum stays grey.
+pub const EQUAL_ENERGY_RGB: [f64; 3] = [1.20479, 0.948291, 0.908916];
+
+/// Millimetres of the diagonal of the 35 mm film (36 × 24 mm) that
+/// Mitsuba's `focal_length` refers to.
+const FILM_DIAGONAL_MM: f64 = 43.266_615_305_567_87;
+
+/// An object's parameters as a plugin reads them: each one read is
+/// marked, and [`Props::finish`] refuses any left unread.
+struct Props<'a> {
+    object: &'a Object,
+    read: Vec<Cell<bool>>,
+    children_read: Vec<Cell<bool>>,
+}
+
+/// A refusal or error at a place.
+fn fail(at: &Location, message: String) -> SceneError {
+    SceneError::Parse {
+        path: at.file.clone(),
+        line: at.line as usize,
+        column: at.column as usize,
+        field: String::new(),
+        message,
+    }
+}
+
+/// A plugin twintrace does not implement, refused by name.
+fn unsupported(object: &Object, what: &str) -> SceneError {
+    fail(
+        &object.at,
+        format!("{} {NOT_SUPPORTED}{what}", object.describe()),
+    )
+}
+
+impl<'a> Props<'a> {
+    fn new(object: &'a Object) -> Self {
+        Self {
+            object,
+            read: object.props.iter().map(|_| Cell::new(false)).collect(),
+            children_read: object.children.iter().map(|_| Cell::new(false)).collect(),
+        }
+    }
+
+    fn get(&self, name: &str) -> Option<&'a Property> {
+        let i = self.object.props.iter().rposition(|p| p.name == name)?;
+        self.read[i].set(true);
+        Some(&self.object.props[i])
+    }
+
+    fn wrong(&self, p: &Property, wanted: &str) -> SceneError {
+        fail(
+            &p.at,
+            format!(
+                "{}: \"{}\" must be {wanted}, not {}",
+                self.object.describe(),
+                p.name,
+                p.value.kind()
+            ),
+        )
+    }
+
+    fn float(&self, name: &str, default: f64) -> Result<f64, SceneError> {
+        match self.get(name) {
+            None => Ok(default),
+            Some(p) => match p.value {
+                Value::Float(v) => finite(p, v),
+                Value::Integer(v) => Ok(v as f64),
+                _ => Err(self.wrong(p, "a float")),
+            },
+        }
+    }
+
+    fn integer(&self, name: &str, default: i64) -> Result<i64, SceneError> {
+        match self.get(name) {
+            None => Ok(default),
+            Some(p) => match p.value {
+                Value::Integer(v) => Ok(v),
+                _ => Err(self.wrong(p, "an integer")),
+            },
+        }
+    }
+
+    fn boolean(&self, name: &str, default: bool) -> Result<bool, SceneError> {
+        match self.get(name) {
+            None => Ok(default),
+            Some(p) => match p.value {
+                Value::Boolean(v) => Ok(v),
+                _ => Err(self.wrong(p, "a boolean")),
+            },
+        }
+    }
+
+    fn string(&self, name: &str) -> Result<Option<&'a str>, SceneError> {
+        match self.get(name) {
+            None => Ok(None),
+            Some(p) => match &p.value {
+                Value::String(v) => Ok(Some(v.as_str())),
+                _ => Err(self.wrong(p, "a string")),
+            },
+        }
+    }
+
+    fn transform(&self, name: &str) -> Result<Option<(DMat4, &'a Location)>, SceneError> {
+        match self.get(name) {
+            None => Ok(None),
+            Some(p) => match p.value {
+                Value::Transform(m) => Ok(Some((m, &p.at))),
+                _ => Err(self.wrong(p, "a transform")),
+            },
+        }
+    }
+
+    fn point(&self, name: &str) -> Result<Option<DVec3>, SceneError> {
+        match self.get(name) {
+            None => Ok(None),
+            Some(p) => match p.value {
+                Value::Point(v) | Value::Vector(v) => {
+                    if v.is_finite() {
+                        Ok(Some(v))
+                    } else {
+                        Err(fail(&p.at, format!("\"{}\" is not finite", p.name)))
+                    }
+                }
+                _ => Err(self.wrong(p, "a point or vector")),
+            },
+        }
+    }
+
+    /// The nested objects of element `tag` (`bsdf`, `emitter`, ...),
+    /// marked read.
+    fn children(&self, tag: &str) -> Vec<&'a Child> {
+        self.object
+            .children
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| c.object.tag == tag)
+            .map(|(i, c)| {
+                self.children_read[i].set(true);
+                c
+            })
+            .collect()
+    }
+
+    /// At most one nested object of element `tag`.
+    fn child(&self, tag: &str) -> Result<Option<&'a Child>, SceneError> {
+        let c = self.children(tag);
+        match c.as_slice() {
+            [] => Ok(None),
+            [one] => Ok(Some(one)),
+            [_, second, ..] => Err(fail(
+                &second.object.at,
+                format!("{} takes one {tag}, not several", self.object.describe()),
+            )),
+        }
+    }
+
+    /// A nested object filling parameter `name` (a texture or spectrum
+    /// given as an object with `name="..."`).
+    fn named_child(&self, name: &str) -> Option<&'a Child> {
+        let i = self
+            .object
+            .children
+            .iter()
+            .position(|c| c.name.as_deref() == Some(name))?;
+        self.children_read[i].set(true);
+        Some(&self.object.children[i])
+    }
+
+    /// Refuses every parameter and nested object no one read.
+    fn finish(self) -> Result<(), SceneError> {
+        for (p, read) in self.object.props.iter().zip(&self.read) {
+            if !read.get() {
+                return Err(fail(
+                    &p.at,
+                    format!(
+                        "parameter \"{}\" of {} {NOT_SUPPORTED} (or is misspelt)",
+                        p.name,
+                        self.object.describe()
+                    ),
+                ));
+            }
+        }
+        for (c, read) in self.object.children.iter().zip(&self.children_read) {
+            if !read.get() {
+                let o = &c.object;
+                return Err(fail(
+                    &o.at,
+                    format!(
+                        "{} inside {} {NOT_SUPPORTED}",
+                        o.describe(),
+                        self.object.describe()
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+fn finite(p: &Property, v: f64) -> Result<f64, SceneError> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(fail(&p.at, format!("\"{}\" = {v} is not finite", p.name)))
+    }
+}
+
+/// What a colour parameter feeds: reflectances keep a uniform spectrum
+/// grey; emitters take it as the equal-energy illuminant
+/// ([`EQUAL_ENERGY_RGB`]).
+#[derive(Clone, Copy, PartialEq)]
+enum ColourUse {
+    Reflectance,
+    Emission,
+}
+
+/// A colour parameter: a constant, or a texture (by id in the builder).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Colour {
+    Constant(Vec3),
+    Texture(u32),
+}
+
+/// The reader's state: the builder, the document, and what was made of
+/// shared objects (a BSDF referenced by many shapes is one material; an
+/// image read once).
+struct Reader<'d> {
+    doc: &'d Document,
+    builder: SceneBuilder,
+    /// Materials made, by (BSDF object, emitter object) identity.
+    materials: HashMap<(usize, usize), u32>,
+    images: HashMap<(PathBuf, bool), u32>,
+    /// Meshes read, by (file, options) (instances of a group read their
+    /// files once).
+    meshes: HashMap<(PathBuf, bool, Option<bool>, u32), Rc<Mesh>>,
+    sensor_seen: bool,
+    one_sided_warned: bool,
+}
+
+/// Loads a Mitsuba 3 scene file with the command line's `-D` parameters.
+pub fn load(path: &std::path::Path, defines: &[(String, String)]) -> Result<Scene, SceneError> {
+    let doc = super::xml::parse_file(path, defines).map_err(|e| fail(&e.at, e.message))?;
+    build(&doc)
+}
+
+/// Makes the scene of a parsed document.
+pub fn build(doc: &Document) -> Result<Scene, SceneError> {
+    let mut r = Reader {
+        doc,
+        builder: SceneBuilder::new(),
+        materials: HashMap::new(),
+        images: HashMap::new(),
+        meshes: HashMap::new(),
+        sensor_seen: false,
+        one_sided_warned: false,
+    };
+    r.builder.render_origin = RenderOrigin::Camera;
+    r.builder.background = Some(Background::Solid(Vec3::ZERO));
+    r.builder.sources.push(doc.root.at.file.clone());
+    let root = &doc.root;
+    // Media first: a scene with media is refused for them, whatever else
+    // it holds, since no image of it without them would be right.
+    refuse_media(root)?;
+    let mut settings = RenderSettings::default();
+    let mut integrator_seen = false;
+    for child in &root.children {
+        let o = &child.object;
+        match o.tag.as_str() {
+            "integrator" => {
+                if integrator_seen {
+                    return Err(fail(&o.at, "the scene has more than one integrator".into()));
+                }
+                integrator_seen = true;
+                integrator(o, &mut settings)?;
+            }
+            "sensor" => {
+                if r.sensor_seen {
+                    return Err(fail(
+                        &o.at,
+                        "the scene has more than one sensor (twintrace renders one camera)".into(),
+                    ));
+                }
+                r.sensor_seen = true;
+                r.sensor(o, &mut settings)?;
+            }
+            "emitter" => r.emitter(o)?,
+            "shape" => r.shape(o, &Transform::default())?,
+            // Objects defined at the top level only to be referenced.
+            "bsdf" | "texture" => {}
+            _ => return Err(unsupported(o, " at the scene's top level")),
+        }
+    }
+    if !integrator_seen {
+        // Mitsuba's default integrator: path, max_depth -1, rr_depth 5.
+        settings.max_depth = MAX_DEPTH;
+        settings.roulette_depth = 5;
+    }
+    if !r.sensor_seen {
+        return Err(fail(&root.at, "the scene has no sensor".into()));
+    }
+    r.builder.render = settings;
+    r.builder.build()
+}
+
+/// Refuses the first medium, phase function or volume anywhere in the
+/// tree, and shapes that name a medium.
+fn refuse_media(o: &Object) -> Result<(), SceneError> {
+    for c in &o.children {
+        let t = c.object.tag.as_str();
+        if matches!(t, "medium" | "phase" | "volume") {
+            return Err(fail(
+                &c.object.at,
+                format!(
+                    "{} {NOT_SUPPORTED} (participating media are not implemented)",
+                    c.object.describe()
+                ),
+            ));
+        }
+        refuse_media(&c.object)?;
+    }
+    Ok(())
+}
+
+fn integrator(o: &Object, settings: &mut RenderSettings) -> Result<(), SceneError> {
+    let props = Props::new(o);
+    match o.kind.as_str() {
+        "moment" => {
+            // The moment integrator renders its nested integrators'
+            // images with their second moments: the image is the nested
+            // one's.
+            let nested = props.children("integrator");
+            match nested.as_slice() {
+                [one] => integrator(&one.object, settings)?,
+                _ => return Err(unsupported(o, " with other than one nested integrator")),
+            }
+        }
+        "path" | "direct" | "ptracer" => {
+            let (depth, rr) = match o.kind.as_str() {
+                // Mitsuba's direct illumination: emitters seen directly
+                // and one scattering toward them (depth 2 in its terms).
+                "direct" => {
+                    for (name, default) in [("emitter_samples", 1), ("bsdf_samples", 1)] {
+                        let n = props.integer(name, default)?;
+                        if n != 1 {
+                            return Err(unsupported(
+                                o,
+                                &format!(" with {name} = {n} (only 1 is read)"),
+                            ));
+                        }
+                    }
+                    (2, 5)
+                }
+                _ => {
+                    let depth = props.integer("max_depth", -1)?;
+                    let rr = props.integer("rr_depth", 5)?;
+                    if o.kind == "ptracer" {
+                        props.integer("samples_per_pass", -1)?;
+                    }
+                    (depth, rr)
+                }
+            };
+            if props.boolean("hide_emitters", false)? {
+                return Err(unsupported(o, " with hide_emitters"));
+            }
+            // Mitsuba's max_depth counts path vertices as twintrace's
+            // counts ray segments: 1 sees emitters only, 2 adds direct
+            // light, -1 is unbounded (twintrace's MAX_DEPTH).
+            settings.max_depth = match depth {
+                -1 => MAX_DEPTH,
+                d if d >= 1 && d <= MAX_DEPTH as i64 => d as u32,
+                d => {
+                    return Err(fail(
+                        &o.at,
+                        format!("max_depth {d} must be -1 or between 1 and {MAX_DEPTH}"),
+                    ))
+                }
+            };
+            if rr < 1 || rr > MAX_DEPTH as i64 {
+                return Err(fail(
+                    &o.at,
+                    format!("rr_depth {rr} must be between 1 and {MAX_DEPTH}"),
+                ));
+            }
+            settings.roulette_depth = rr as u32;
+        }
+        _ => return Err(unsupported(o, "")),
+    }
+    props.finish()
+}
+
+impl Reader<'_> {
+    fn sensor(&mut self, o: &Object, settings: &mut RenderSettings) -> Result<(), SceneError> {
+        let props = Props::new(o);
+        if !matches!(o.kind.as_str(), "perspective" | "thinlens") {
+            return Err(unsupported(o, ""));
+        }
+        // The film first: the field of view's axis needs its aspect.
+        let (width, height) = match props.child("film")? {
+            Some(f) => film(&f.object)?,
+            // Mitsuba's default film: hdrfilm 768 x 576 with a gaussian
+            // filter, which twintrace does not implement.
+            None => {
+                return Err(unsupported(
+                    o,
+                    " without a film (the default film's gaussian filter is not implemented; give <film type=\"hdrfilm\"> with <rfilter type=\"box\"/>)",
+                ))
+            }
+        };
+        settings.width = width;
+        settings.height = height;
+        match props.child("sampler")? {
+            Some(s) => sampler(&s.object, settings)?,
+            None => {
+                // Mitsuba's default sampler: independent, 4 samples.
+                settings.sampler = PathSampler::Independent;
+                settings.spp = 4;
+            }
+        }
+        let aspect = width as f64 / height as f64;
+        let fov = match (props.get("fov"), props.get("focal_length")) {
+            (Some(_), Some(p)) => {
+                return Err(fail(&p.at, "give fov or focal_length, not both".into()))
+            }
+            (Some(p), None) => match p.value {
+                Value::Float(v) => finite(p, v)?,
+                Value::Integer(v) => v as f64,
+                _ => return Err(props.wrong(p, "a float")),
+            },
+            (None, focal) => {
+                let mm = match focal {
+                    None => 50.0,
+                    Some(p) => match &p.value {
+                        Value::String(s) => parse_mm(s).ok_or_else(|| {
+                            fail(&p.at, format!("focal_length \"{s}\" is not like \"50mm\""))
+                        })?,
+                        Value::Float(v) => *v,
+                        _ => return Err(props.wrong(p, "a length like \"50mm\"")),
+                    },
+                };
+                // Mitsuba: the field of view along the 35 mm film's
+                // diagonal, fov_axis then taken as the diagonal.
+                2.0 * (FILM_DIAGONAL_MM / (2.0 * mm)).atan().to_degrees()
+            }
+        };
+        // A focal length (the default one included) gives the field of
+        // view along the film's diagonal, whatever fov_axis says.
+        let axis = props.string("fov_axis")?.unwrap_or("x");
+        let axis = if fov_given(o) { axis } else { "diagonal" };
+        let half = (fov.to_radians() / 2.0).tan();
+        let tan_v = match axis {
+            "x" => half / aspect,
+            "y" => half,
+            "diagonal" => half / (aspect * aspect + 1.0).sqrt(),
+            "smaller" if aspect >= 1.0 => half,
+            "smaller" => half / aspect,
+            "larger" if aspect >= 1.0 => half / aspect,
+            "larger" => half,
+            other => {
+                return Err(fail(
+                    &o.at,
+                    format!("fov_axis \"{other}\" is not x, y, diagonal, smaller or larger"),
+                ))
+            }
+        };
+        let vfov = 2.0 * tan_v.atan().to_degrees();
+        if !(vfov > 0.0 && vfov < 180.0) {
+            return Err(fail(
+                &o.at,
+                format!("field of view {fov} is not between 0 and 180 degrees"),
+            ));
+        }
+        // twintrace's camera sees from its lens to infinity; the clip
+        // distances are read, not applied (docs/mitsuba.md).
+        props.float("near_clip", 1e-2)?;
+        props.float("far_clip", 1e4)?;
+        for name in ["principal_point_offset_x", "principal_point_offset_y"] {
+            if props.float(name, 0.0)? != 0.0 {
+                return Err(unsupported(o, &format!(" with {name}")));
+            }
+        }
+        let (aperture, focus) = if o.kind == "thinlens" {
+            let r = props.float("aperture_radius", 0.0)?;
+            let d = props.float("focus_distance", 0.0)?;
+            (2.0 * r, d)
+        } else {
+            (0.0, 1.0)
+        };
+        let (m, at) = props
+            .transform("to_world")?
+            .map(|(m, at)| (m, at.clone()))
+            .unwrap_or((DMat4::IDENTITY, o.at.clone()));
+        let origin = m.transform_point3(DVec3::ZERO);
+        let dir = m.transform_vector3(DVec3::Z);
+        let up = m.transform_vector3(DVec3::Y);
+        let left = m.transform_vector3(DVec3::X);
+        if !(dir.length() > 0.0 && up.length() > 0.0 && origin.is_finite()) {
+            return Err(fail(&at, "the sensor's to_world is degenerate".into()));
+        }
+        // Mitsuba's frame has +x to the image's left (x = y × z); a
+        // to_world that mirrors it would flip the image, which
+        // twintrace's camera does not.
+        if up.cross(dir).dot(left) <= 0.0 {
+            return Err(fail(
+                &at,
+                format!("a sensor to_world that mirrors the image {NOT_SUPPORTED}"),
+            ));
+        }
+        let dir = dir.normalize();
+        let camera = CameraSettings {
+            look_from: origin.as_vec3(),
+            look_at: (origin + dir).as_vec3(),
+            up: up.normalize().as_vec3(),
+            vfov: vfov as f32,
+            aperture: aperture as f32,
+            focus_distance: focus as f32,
+        };
+        self.builder.set_camera_exact(origin, origin + dir, camera);
+        props.finish()
+    }
+
+    fn emitter(&mut self, o: &Object) -> Result<(), SceneError> {
+        let props = Props::new(o);
+        let transform = props.transform("to_world")?;
+        match o.kind.as_str() {
+            "point" => {
+                let intensity =
+                    self.constant_colour(&props, "intensity", ColourUse::Emission, 1.0)?;
+                let position = match (props.point("position")?, transform) {
+                    (Some(_), Some((_, at))) => {
+                        return Err(fail(at, "give position or to_world, not both".into()))
+                    }
+                    (Some(p), None) => p,
+                    (None, Some((m, _))) => m.transform_point3(DVec3::ZERO),
+                    (None, None) => DVec3::ZERO,
+                };
+                self.builder
+                    .add_light(LightInput::Point {
+                        position,
+                        intensity,
+                    })
+                    .map_err(|e| fail(&o.at, e.to_string()))?;
+            }
+            "directional" => {
+                let irradiance =
+                    self.constant_colour(&props, "irradiance", ColourUse::Emission, 1.0)?;
+                let direction = match (props.point("direction")?, transform) {
+                    (Some(_), Some((_, at))) => {
+                        return Err(fail(at, "give direction or to_world, not both".into()))
+                    }
+                    (Some(d), None) => d,
+                    (None, Some((m, _))) => m.transform_vector3(DVec3::Z),
+                    (None, None) => DVec3::Z,
+                };
+                let direction = direction
+                    .try_normalize()
+                    .ok_or_else(|| fail(&o.at, "the direction is zero".into()))?;
+                self.builder
+                    .add_light(LightInput::Directional {
+                        direction: direction.as_vec3(),
+                        irradiance,
+                    })
+                    .map_err(|e| fail(&o.at, e.to_string()))?;
+            }
+            // A constant environment is the same turned any way: its
+            // to_world (read above) changes nothing.
+            "constant" => {
+                let radiance =
+                    self.constant_colour(&props, "radiance", ColourUse::Emission, 1.0)?;
+                if !matches!(self.builder.background, Some(Background::Solid(c)) if c == Vec3::ZERO)
+                {
+                    return Err(unsupported(o, " beside another environment emitter"));
+                }
+                self.builder.background = Some(Background::Solid(radiance));
+            }
+            "area" => return Err(fail(&o.at, "an area emitter belongs inside a shape".into())),
+            _ => return Err(unsupported(o, "")),
+        }
+        props.float("sampling_weight", 1.0)?;
+        props.finish()
+    }
+
+    /// A colour parameter that must be a constant (lights' intensities).
+    fn constant_colour(
+        &mut self,
+        props: &Props,
+        name: &str,
+        usage: ColourUse,
+        default: f64,
+    ) -> Result<Vec3, SceneError> {
+        match self.colour(props, name, usage, default)? {
+            Colour::Constant(c) => Ok(c),
+            Colour::Texture(_) => Err(fail(
+                &props.object.at,
+                format!(
+                    "a textured \"{name}\" of {} {NOT_SUPPORTED}",
+                    props.object.describe()
+                ),
+            )),
+        }
+    }
+
+    /// A colour parameter: `rgb`, `spectrum`, a number, or a texture.
+    fn colour(
+        &mut self,
+        props: &Props,
+        name: &str,
+        usage: ColourUse,
+        default: f64,
+    ) -> Result<Colour, SceneError> {
+        if let Some(p) = props.get(name) {
+            if props.named_child(name).is_some() {
+                return Err(fail(&p.at, format!("\"{name}\" is given twice")));
+            }
+            let c = match &p.value {
+                Value::Rgb(c) => *c,
+                Value::Float(v) => DVec3::splat(*v),
+                Value::Integer(v) => DVec3::splat(*v as f64),
+                Value::Spectrum(Spectrum::Uniform(v)) => match usage {
+                    ColourUse::Reflectance => DVec3::splat(*v),
+                    ColourUse::Emission if mutants::is(Mutant::MitsubaIlluminantGrey) => {
+                        DVec3::splat(*v)
+                    }
+                    ColourUse::Emission => DVec3::from(EQUAL_ENERGY_RGB) * *v,
+                },
+                Value::Spectrum(Spectrum::Pairs(_)) => {
+                    return Err(fail(
+                        &p.at,
+                        format!("a wavelength:value spectrum (\"{name}\") {NOT_SUPPORTED}"),
+                    ))
+                }
+                _ => return Err(props.wrong(p, "a colour")),
+            };
+            let c = c.as_vec3();
+            if !c.is_finite() || c.min_element() < 0.0 {
+                return Err(fail(
+                    &p.at,
+                    format!("\"{name}\" = {c} must be finite and not negative"),
+                ));
+            }
+            return Ok(Colour::Constant(c));
+        }
+        match props.named_child(name) {
+            None => Ok(Colour::Constant(Vec3::splat(default as f32))),
+            Some(child) => {
+                let t = &child.object;
+                if t.tag != "texture" {
+                    return Err(unsupported(t, &format!(" as \"{name}\"")));
+                }
+                Ok(Colour::Texture(self.texture(t)?))
+            }
+        }
+    }
+
+    fn texture(&mut self, o: &Object) -> Result<u32, SceneError> {
+        let props = Props::new(o);
+        if o.kind != "bitmap" {
+            return Err(unsupported(o, ""));
+        }
+        let name = props
+            .string("filename")?
+            .ok_or_else(|| fail(&o.at, format!("{} has no filename", o.describe())))?;
+        let path = self.doc.resolve(name);
+        let raw = props.boolean("raw", false)?;
+        let wrap = match props.string("wrap_mode")?.unwrap_or("repeat") {
+            "repeat" => Wrap::Repeat,
+            "mirror" => Wrap::MirroredRepeat,
+            "clamp" => Wrap::ClampToEdge,
+            other => {
+                return Err(fail(
+                    &o.at,
+                    format!("wrap_mode \"{other}\" is not repeat, mirror or clamp"),
+                ))
+            }
+        };
+        let nearest = match props.string("filter_type")?.unwrap_or("bilinear") {
+            "bilinear" => false,
+            "nearest" => true,
+            other => {
+                return Err(fail(
+                    &o.at,
+                    format!("filter_type \"{other}\" is not bilinear or nearest"),
+                ))
+            }
+        };
+        if let Some(format) = props.string("format")? {
+            if format != "variant" {
+                return Err(unsupported(o, &format!(" with format \"{format}\"")));
+            }
+        }
+        // Mitsuba's texture coordinates have v down the image (v = 0 the
+        // top row); twintrace's have v up. With F(u, v) = (u, 1 − v), a
+        // Mitsuba to_uv of linear part A and offset b reads at
+        // F(A·F(uv) + b) in twintrace's coordinates.
+        let transform = match props.transform("to_uv")? {
+            None => None,
+            Some((m, at)) => {
+                let a = [m.x_axis.x, m.y_axis.x, m.x_axis.y, m.y_axis.y];
+                let b = [m.w_axis.x, m.w_axis.y];
+                if m.z_axis.x != 0.0 || m.z_axis.y != 0.0 {
+                    return Err(fail(
+                        at,
+                        "a to_uv that reads z is not a 2-D transform".into(),
+                    ));
+                }
+                // u' = a0·u + a1·(1 − v) + b0; v' = 1 − (a2·u + a3·(1 − v) + b1).
+                Some([a[0], -a[1], a[1] + b[0], -a[2], a[3], 1.0 - a[3] - b[1]].map(|x| x as f32))
+            }
+        };
+        let key = (path.clone(), raw);
+        let image = match self.images.get(&key) {
+            Some(&i) => i,
+            None => {
+                // `raw`: the values as stored, no sRGB decoding; else
+                // Mitsuba decodes 8- and 16-bit images' sRGB curve and
+                // keeps float images linear, as `load_image` does.
+                let data = load_image(&path, if raw { Some(false) } else { None })
+                    .map_err(|e| fail(&o.at, e.to_string()))?;
+                self.builder.sources.push(path.clone());
+                let i = self.builder.add_image(data);
+                self.images.insert(key, i);
+                i
+            }
+        };
+        props.finish()?;
+        self.builder
+            .add_texture(Texture::Image {
+                image,
+                factor: Vec3::ONE,
+                sampler: Sampler {
+                    wrap_u: wrap,
+                    wrap_v: wrap,
+                    nearest,
+                    transform,
+                    tex_coord: 0,
+                },
+            })
+            .map_err(|e| fail(&o.at, e.to_string()))
+    }
+
+    /// The material of a shape: its BSDF (Mitsuba's default, diffuse 0.5,
+    /// where it has none) with its area emitter.
+    fn material(
+        &mut self,
+        bsdf: Option<&Object>,
+        emitter: Option<&Object>,
+    ) -> Result<u32, SceneError> {
+        let key = (
+            bsdf.map_or(0, |b| b as *const Object as usize),
+            emitter.map_or(0, |e| e as *const Object as usize),
+        );
+        if let Some(&m) = self.materials.get(&key) {
+            return Ok(m);
+        }
+        let emission = match emitter {
+            None => None,
+            Some(e) => {
+                if e.kind != "area" {
+                    return Err(unsupported(e, " on a shape (only area emitters)"));
+                }
+                let props = Props::new(e);
+                let c = self.colour(&props, "radiance", ColourUse::Emission, 1.0)?;
+                props.float("sampling_weight", 1.0)?;
+                props.finish()?;
+                Some(self.texture_of(c, &e.at)?)
+            }
+        };
+        let material = match (bsdf, emission) {
+            // Mitsuba gives an emitter without a BSDF a black diffuse one:
+            // it emits and reflects nothing.
+            (None, Some(e)) => Material::DiffuseLight { emission: e },
+            (None, None) => Material::Lambertian {
+                albedo: self
+                    .builder
+                    .constant(Vec3::splat(0.5))
+                    .map_err(|e| SceneError::invalid("bsdf", e.to_string()))?,
+            },
+            (Some(b), _) => self.bsdf(b)?,
+        };
+        let id = self
+            .builder
+            .add_material(material)
+            .map_err(|e| fail(bsdf.map_or(&emitter.unwrap().at, |b| &b.at), e.to_string()))?;
+        if let (Some(_), Some(e)) = (bsdf, emission) {
+            self.builder
+                .set_emission(id, e)
+                .map_err(|err| fail(&emitter.unwrap().at, err.to_string()))?;
+        }
+        self.materials.insert(key, id);
+        Ok(id)
+    }
+
+    fn texture_of(&mut self, c: Colour, at: &Location) -> Result<u32, SceneError> {
+        match c {
+            Colour::Texture(t) => Ok(t),
+            Colour::Constant(c) => self
+                .builder
+                .constant(c)
+                .map_err(|e| fail(at, e.to_string())),
+        }
+    }
+
+    fn bsdf(&mut self, o: &Object) -> Result<Material, SceneError> {
+        let props = Props::new(o);
+        let m = match o.kind.as_str() {
+            "diffuse" => {
+                let c = self.colour(&props, "reflectance", ColourUse::Reflectance, 0.5)?;
+                if !self.one_sided_warned {
+                    self.one_sided_warned = true;
+                    self.builder.warnings.push(format!(
+                        "{}: Mitsuba's diffuse is black seen from behind; twintrace's reflects on both sides (as Mitsuba's twosided)",
+                        o.at
+                    ));
+                }
+                Material::Lambertian {
+                    albedo: self.texture_of(c, &o.at)?,
+                }
+            }
+            "twosided" => {
+                let nested = props.children("bsdf");
+                match nested.as_slice() {
+                    [one] if one.object.kind == "diffuse" => {
+                        let inner = Props::new(&one.object);
+                        let c = self.colour(&inner, "reflectance", ColourUse::Reflectance, 0.5)?;
+                        inner.finish()?;
+                        Material::Lambertian {
+                            albedo: self.texture_of(c, &one.object.at)?,
+                        }
+                    }
+                    [one] => return Err(unsupported(&one.object, " inside twosided")),
+                    _ => return Err(unsupported(o, " with other than one nested bsdf")),
+                }
+            }
+            _ => return Err(unsupported(o, "")),
+        };
+        props.finish()?;
+        Ok(m)
+    }
+
+    /// A shape, placed by `outer` (an instance's transform, or none).
+    fn shape(&mut self, o: &Object, outer: &Transform) -> Result<(), SceneError> {
+        let props = Props::new(o);
+        match o.kind.as_str() {
+            "shapegroup" => {
+                // Defined here, drawn by its instances.
+                for c in props.children("shape") {
+                    if matches!(c.object.kind.as_str(), "shapegroup" | "instance") {
+                        return Err(unsupported(&c.object, " inside a shapegroup"));
+                    }
+                }
+                return props.finish();
+            }
+            "instance" => {
+                let group = props.children("shape");
+                let group = match group.as_slice() {
+                    [g] if g.object.kind == "shapegroup" => g.object.clone(),
+                    _ => {
+                        return Err(fail(
+                            &o.at,
+                            "an instance takes one shapegroup reference".into(),
+                        ))
+                    }
+                };
+                let m = self.placement(&props, outer)?;
+                props.finish()?;
+                for c in &group.children {
+                    if c.object.tag == "shape" {
+                        self.shape(&c.object, &m)?;
+                    }
+                }
+                return Ok(());
+            }
+            _ => {}
+        }
+        let bsdf = props.child("bsdf")?.map(|c| c.object.clone());
+        let emitter = props.child("emitter")?.map(|c| c.object.clone());
+        let flip = props.boolean("flip_normals", false)?;
+        let transform = self.placement(&props, outer)?;
+        let material = self.material(bsdf.as_deref(), emitter.as_deref())?;
+        let at = o.at.clone();
+        let place = |e: SceneError| fail(&at, format!("{}: {e}", o.describe()));
+        match o.kind.as_str() {
+            "sphere" => {
+                let center = props.point("center")?.unwrap_or(DVec3::ZERO);
+                let radius = props.float("radius", 1.0)?;
+                if flip && emitter.is_some() {
+                    return Err(unsupported(o, " with flip_normals and an emitter"));
+                }
+                if let Some(b) = &bsdf {
+                    if uses_texture(b) {
+                        return Err(unsupported(
+                            o,
+                            " with a texture (twintrace's sphere has other texture coordinates)",
+                        ));
+                    }
+                }
+                self.builder
+                    .add_sphere(center, radius as f32, material, &transform)
+                    .map_err(place)?;
+            }
+            "rectangle" | "cube" => {
+                let mesh = if o.kind == "rectangle" {
+                    rectangle()
+                } else {
+                    cube()
+                };
+                let mesh = oriented(&mesh_input(&mesh), flip);
+                self.builder
+                    .add_mesh(&mesh, material, &transform)
+                    .map_err(place)?;
+            }
+            "obj" | "ply" | "serialized" => {
+                let name = props
+                    .string("filename")?
+                    .ok_or_else(|| fail(&o.at, format!("{} has no filename", o.describe())))?;
+                let path = self.doc.resolve(name);
+                let face_normals = props.boolean("face_normals", false)?;
+                // None: the plugin's own default (meshes::MeshOptions).
+                let flip_tex = if o.props.iter().any(|p| p.name == "flip_tex_coords") {
+                    Some(props.boolean("flip_tex_coords", false)?)
+                } else {
+                    None
+                };
+                let shape_index = if o.kind == "serialized" {
+                    let i = props.integer("shape_index", 0)?;
+                    u32::try_from(i).map_err(|_| {
+                        fail(&o.at, format!("shape_index {i} is negative or too large"))
+                    })?
+                } else {
+                    0
+                };
+                let key = (path.clone(), face_normals, flip_tex, shape_index);
+                let mesh = match self.meshes.get(&key) {
+                    Some(m) => m.clone(),
+                    None => {
+                        let opts = MeshOptions {
+                            face_normals,
+                            flip_tex_coords: flip_tex,
+                            shape_index,
+                        };
+                        let read = match o.kind.as_str() {
+                            "obj" => meshes::read_obj(&path, &opts),
+                            "ply" => meshes::read_ply(&path, &opts),
+                            _ => meshes::read_serialized(&path, &opts),
+                        };
+                        let mesh = Rc::new(read.map_err(|e| {
+                            fail(&o.at, format!("{}: {}: {e}", o.describe(), path.display()))
+                        })?);
+                        self.builder.sources.push(path.clone());
+                        self.meshes.insert(key, mesh.clone());
+                        mesh
+                    }
+                };
+                if mesh.indices.is_empty() {
+                    return Err(fail(
+                        &o.at,
+                        format!("{}: {} has no triangles", o.describe(), path.display()),
+                    ));
+                }
+                let input = oriented(&mesh_input(&mesh), flip);
+                self.builder
+                    .add_mesh(&input, material, &transform)
+                    .map_err(place)?;
+            }
+            _ => return Err(unsupported(o, "")),
+        }
+        props.finish()
+    }
+
+    /// A shape's `to_world` after `outer`.
+    fn placement(&self, props: &Props, outer: &Transform) -> Result<Transform, SceneError> {
+        match props.transform("to_world")? {
+            None => Ok(*outer),
+            Some((m, at)) => {
+                let affine = affine(&m).ok_or_else(|| {
+                    fail(
+                        at,
+                        "a projective to_world is not an affine placement".into(),
+                    )
+                })?;
+                if affine.matrix3.determinant() == 0.0 {
+                    return Err(fail(at, "the to_world is singular".into()));
+                }
+                Ok(Transform {
+                    matrix: outer.matrix * affine,
+                })
+            }
+        }
+    }
+}
+
+fn fov_given(o: &Object) -> bool {
+    o.props.iter().any(|p| p.name == "fov")
+}
+
+/// `"50mm"` or `"50"`: millimetres.
+fn parse_mm(s: &str) -> Option<f64> {
+    let t = s.trim();
+    let t = t.strip_suffix("mm").unwrap_or(t);
+    t.trim()
+        .parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite() && *v > 0.0)
+}
+
+fn affine(m: &DMat4) -> Option<DAffine3> {
+    let row = m.row(3);
+    (row == glam::DVec4::new(0.0, 0.0, 0.0, 1.0)).then(|| DAffine3 {
+        matrix3: DMat3::from_mat4(*m),
+        translation: m.w_axis.truncate(),
+    })
+}
+
+/// Whether a BSDF reads a texture anywhere.
+fn uses_texture(o: &Object) -> bool {
+    o.children
+        .iter()
+        .any(|c| c.object.tag == "texture" || (c.object.tag == "bsdf" && uses_texture(&c.object)))
+}
+
+fn film(o: &Object) -> Result<(u32, u32), SceneError> {
+    let props = Props::new(o);
+    if o.kind != "hdrfilm" {
+        return Err(unsupported(o, ""));
+    }
+    let w = props.integer("width", 768)?;
+    let h = props.integer("height", 576)?;
+    let size = |v: i64, name: &str| {
+        u32::try_from(v)
+            .ok()
+            .filter(|v| (1..=crate::scene::MAX_IMAGE_SIDE).contains(v))
+            .ok_or_else(|| {
+                fail(
+                    &o.at,
+                    format!(
+                        "{name} {v} must be between 1 and {}",
+                        crate::scene::MAX_IMAGE_SIDE
+                    ),
+                )
+            })
+    };
+    let (w, h) = (size(w, "width")?, size(h, "height")?);
+    for (name, full) in [
+        ("crop_offset_x", 0),
+        ("crop_offset_y", 0),
+        ("crop_width", w as i64),
+        ("crop_height", h as i64),
+    ] {
+        if props.integer(name, full)? != full {
+            return Err(unsupported(o, &format!(" with a crop ({name})")));
+        }
+    }
+    // What is written and how: twintrace writes its own outputs.
+    for name in ["pixel_format", "component_format", "file_format"] {
+        props.string(name)?;
+    }
+    for name in [
+        "sample_border",
+        "compensate",
+        "banner",
+        "high_quality_edges",
+    ] {
+        props.boolean(name, false)?;
+    }
+    match props.child("rfilter")? {
+        None => {
+            return Err(unsupported(
+                o,
+                " without an rfilter (Mitsuba's default, gaussian, is not implemented; give <rfilter type=\"box\"/>)",
+            ))
+        }
+        Some(f) => {
+            let f = &f.object;
+            if f.kind != "box" {
+                return Err(unsupported(f, ""));
+            }
+            let fp = Props::new(f);
+            // A box of radius 0.5: each sample counts for the pixel it
+            // falls in, as twintrace's film.
+            let r = fp.float("radius", 0.5)?;
+            if r != 0.5 {
+                return Err(unsupported(f, &format!(" with radius {r} (only 0.5)")));
+            }
+            fp.finish()?;
+        }
+    }
+    props.finish()?;
+    Ok((w, h))
+}
+
+fn sampler(o: &Object, settings: &mut RenderSettings) -> Result<(), SceneError> {
+    let props = Props::new(o);
+    settings.sampler = match o.kind.as_str() {
+        "independent" => PathSampler::Independent,
+        // Mitsuba's stratified and low-discrepancy samplers: twintrace's
+        // own low-discrepancy sequence (Owen-scrambled Sobol'), which
+        // renders the same image in expectation.
+        "stratified" | "multijitter" | "orthogonal" | "ldsampler" => PathSampler::Sobol,
+        _ => return Err(unsupported(o, "")),
+    };
+    let n = props.integer("sample_count", 4)?;
+    settings.spp = u32::try_from(n)
+        .ok()
+        .filter(|n| (1..=crate::scene::MAX_SPP).contains(n))
+        .ok_or_else(|| {
+            fail(
+                &o.at,
+                format!(
+                    "sample_count {n} must be between 1 and {}",
+                    crate::scene::MAX_SPP
+                ),
+            )
+        })?;
+    let seed = props.integer("seed", 0)?;
+    settings.seed = seed as u32;
+    if o.kind != "independent" {
+        props.boolean("jitter", true)?;
+        props.integer("strength", 2)?;
+    }
+    props.finish()
+}
+
+/// Mitsuba's `rectangle`: the square [−1, 1]² in the plane z = 0, facing
+/// +z, texture coordinates (u, v) = ((x + 1)/2, (y + 1)/2) in Mitsuba's
+/// convention (here v up: twintrace's v = 1 − Mitsuba's).
+fn rectangle() -> Mesh {
+    let p = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)];
+    Mesh {
+        positions: p.iter().map(|&(x, y)| Vec3::new(x, y, 0.0)).collect(),
+        normals: Some(vec![Vec3::Z; 4]),
+        uvs: Some(
+            p.iter()
+                .map(|&(x, y)| Vec2::new((x + 1.0) / 2.0, (y + 1.0) / 2.0))
+                .collect(),
+        ),
+        indices: vec![0, 1, 2, 0, 2, 3],
+    }
+}
+
+/// Mitsuba's `cube`: [−1, 1]³, each face its own four vertices with the
+/// face's normal, texture coordinates over each face as the rectangle's.
+fn cube() -> Mesh {
+    let mut mesh = Mesh::default();
+    // (normal, u axis, v axis): u × v = normal, so each face winds
+    // counter-clockwise seen from outside.
+    let faces = [
+        (Vec3::X, Vec3::Y, Vec3::Z),
+        (Vec3::NEG_X, Vec3::Z, Vec3::Y),
+        (Vec3::Y, Vec3::Z, Vec3::X),
+        (Vec3::NEG_Y, Vec3::X, Vec3::Z),
+        (Vec3::Z, Vec3::X, Vec3::Y),
+        (Vec3::NEG_Z, Vec3::Y, Vec3::X),
+    ];
+    let mut normals = Vec::new();
+    let mut uvs = Vec::new();
+    for (n, u, v) in faces {
+        let base = mesh.positions.len() as u32;
+        for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+            mesh.positions.push(n + a * u + b * v);
+            normals.push(n);
+            uvs.push(Vec2::new((a + 1.0) / 2.0, (b + 1.0) / 2.0));
+        }
+        mesh.indices
+            .extend([base, base + 1, base + 2, base, base + 2, base + 3]);
+    }
+    mesh.normals = Some(normals);
+    mesh.uvs = Some(uvs);
+    mesh
+}
+
+/// A mesh as the builder takes it: texture coordinates turned to v up.
+fn mesh_input(mesh: &Mesh) -> MeshInput {
+    MeshInput {
+        positions: mesh.positions.clone(),
+        normals: mesh.normals.clone(),
+        uvs: mesh
+            .uvs
+            .as_ref()
+            .map(|uvs| uvs.iter().map(|uv| Vec2::new(uv.x, 1.0 - uv.y)).collect()),
+        indices: mesh.indices.clone(),
+        ..MeshInput::default()
+    }
+}
+
+/// `flip_normals`: the triangles wound the other way and the normals
+/// reversed, so the surface faces the other side.
+fn oriented(mesh: &MeshInput, flip: bool) -> MeshInput {
+    if !flip {
+        return mesh.clone();
+    }
+    let mut m = mesh.clone();
+    for t in m.indices.chunks_exact_mut(3) {
+        t.swap(1, 2);
+    }
+    if let Some(n) = &mut m.normals {
+        n.iter_mut().for_each(|n| *n = -*n);
+    }
+    m
+}

@@ -1,0 +1,96 @@
+//! `twintrace mitsuba-tests --data DIR`: Mitsuba 3's render tests (the
+//! scenes of a mitsuba-data checkout) on the twins, one line a scene and
+//! twin: PASS or FAIL with the protocol's figures, or REFUSED with the
+//! plugin the reader does not implement ([`twintrace::mitsuba_tests`]).
+
+use super::{choose_device, Backend, Device};
+use anyhow::{anyhow, bail, Result};
+use clap::Args;
+use std::path::PathBuf;
+use twintrace::mitsuba_tests::{self, Budget, Outcome};
+use twintrace::render::Devices;
+
+#[derive(Debug, Args)]
+pub struct MitsubaTestsArgs {
+    /// A checkout of mitsuba-data (its tests/scenes are run; nothing of it is copied).
+    #[arg(long)]
+    pub data: PathBuf,
+    /// The twins to run, in order (cpu, gpu).
+    #[arg(long, value_delimiter = ',', default_values = ["cpu", "gpu"])]
+    pub backend: Vec<Backend>,
+    /// Only the scenes whose name (folder/file) contains this.
+    #[arg(long)]
+    pub filter: Option<String>,
+    /// Samples a pixel instead of the protocol's budget (2e6 samples an image).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// The render's seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+}
+
+pub fn run(args: &MitsubaTestsArgs) -> Result<()> {
+    let cases: Vec<_> = mitsuba_tests::cases(&args.data)?
+        .into_iter()
+        .filter(|c| args.filter.as_ref().is_none_or(|f| c.name.contains(f)))
+        .collect();
+    if cases.is_empty() {
+        bail!("no test scene matches");
+    }
+    let budget = Budget {
+        spp: args.spp,
+        seed: args.seed,
+    };
+    let mut failed = 0;
+    for &backend in &args.backend {
+        if backend == Backend::Auto {
+            bail!("--backend takes cpu or gpu");
+        }
+        let (device, name, _) = choose_device(backend)?;
+        let twin = if backend == Backend::Cpu {
+            "cpu"
+        } else {
+            "gpu"
+        };
+        println!("# {twin}: {name}");
+        for case in &cases {
+            let devices = match &device {
+                Device::Cpu => Devices::Cpu(None),
+                Device::Gpu(ctx) => Devices::Gpu(ctx),
+                Device::Gpus(_) => return Err(anyhow!("one device at a time")),
+            };
+            match mitsuba_tests::run(case, devices, budget) {
+                Ok(Outcome::Refused(line)) => {
+                    println!(
+                        "{:<52} {twin} REFUSED {}",
+                        case.name,
+                        super::one_line(&line)
+                    )
+                }
+                Ok(Outcome::Judged { verdict, spp }) => {
+                    let word = if verdict.passes() { "PASS" } else { "FAIL" };
+                    if !verdict.passes() {
+                        failed += 1;
+                    }
+                    println!(
+                        "{:<52} {twin} {word} {spp} spp: {}",
+                        case.name,
+                        verdict.figures()
+                    );
+                }
+                Err(e) => {
+                    failed += 1;
+                    println!(
+                        "{:<52} {twin} ERROR {}",
+                        case.name,
+                        super::one_line(&format!("{e:#}"))
+                    );
+                }
+            }
+        }
+    }
+    if failed > 0 {
+        bail!("mitsuba-tests: {failed} failed (see their lines)");
+    }
+    Ok(())
+}
