@@ -33,8 +33,9 @@ fn the_cpu_twin_passes_mitsubas_render_test_protocol_on_the_gate_scenes() {
 
 #[test]
 fn an_emitters_uniform_spectrum_read_grey_fails_the_gate() {
-    // The equal-energy illuminant's colour is a few percent off grey in
-    // each channel: too thin for any pixel's test, plain in the sums.
+    // The equal-energy illuminant's colour is −17 % to +10 % off grey a
+    // channel: at seed 0, 86.6 % of the pixel tests pass (bound 99.75 %),
+    // image-sum z −69.2, −0.5, +115.2.
     for case in fixture_cases() {
         let scene = mutants::with(Mutant::MitsubaIlluminantGrey, || mitsuba_tests::load(&case))
             .unwrap()

@@ -672,3 +672,61 @@ fn others_files_that_require_lights_load_and_render() {
         assert!(mean.iter().any(|p| p.x > p.y && p.x > p.z), "{file}");
     }
 }
+
+#[test]
+fn the_command_line_reads_gltf_lights_in_the_units_it_is_told() {
+    // A point light of 683 cd read as watts is 683 times the photometric
+    // one; whatever else lights the quad is the same in both renders (the
+    // same seed and samples), so the image read radiometric is brighter
+    // wherever the light reaches and the same elsewhere.
+    let dir = tempfile::tempdir().unwrap();
+    let mut doc: serde_json::Value = serde_json::from_str(&lit_quad_gltf(
+        serde_json::json!({ "type": "point", "intensity": 683, "color": [1, 1, 1] }),
+        [0.0, 2.0, 0.0],
+    ))
+    .unwrap();
+    // A camera above the quad looking down at it (turned as the light).
+    let half = std::f64::consts::FRAC_1_SQRT_2;
+    doc["cameras"] = serde_json::json!([{ "type": "perspective", "perspective": { "yfov": 0.9, "znear": 0.01 } }]);
+    doc["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .push(serde_json::json!({ "camera": 0, "translation": [0, 3, 0], "rotation": [-half, 0, 0, half] }));
+    doc["scenes"][0]["nodes"] = serde_json::json!([0, 1, 2]);
+    let scene = write(dir.path(), "lit.gltf", &doc.to_string());
+    let render = |units: &str, out: &str| {
+        let run = std::process::Command::new(common::twintrace_bin())
+            .current_dir(dir.path())
+            .args(["--gltf-light-units", units, "render"])
+            .arg(&scene)
+            .args([
+                "--backend",
+                "cpu",
+                "--size",
+                "16x16",
+                "--spp",
+                "4",
+                "-o",
+                out,
+            ])
+            .output()
+            .unwrap();
+        assert!(run.status.success(), "{run:?}");
+        twintrace::read_exr(&dir.path().join(format!("{out}.exr"))).unwrap()
+    };
+    let photometric = render("photometric", "p");
+    let radiometric = render("radiometric", "r");
+    let mut brighter = 0;
+    for (p, r) in photometric.mean.iter().zip(&radiometric.mean) {
+        assert!(r.cmpge(*p).all(), "{p} read photometric, {r} radiometric");
+        if r.max_element() > 10.0 * p.max_element() {
+            brighter += 1;
+        }
+    }
+    assert!(brighter > 0, "no pixel is lit more by lights read as watts");
+    let out = std::process::Command::new(common::twintrace_bin())
+        .args(["--gltf-light-units", "kilowatts", "info", "cornell"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+}
