@@ -3,12 +3,11 @@
 //! twin: PASS or FAIL with the protocol's figures, or REFUSED with the
 //! plugin the reader does not implement ([`twintrace::mitsuba_tests`]).
 
-use super::{choose_device, Backend, Device};
-use anyhow::{anyhow, bail, Result};
+use super::{choose_device, Backend};
+use anyhow::{bail, Result};
 use clap::Args;
 use std::path::PathBuf;
 use twintrace::mitsuba_tests::{self, Budget, Outcome};
-use twintrace::render::Devices;
 
 #[derive(Debug, Args)]
 pub struct MitsubaTestsArgs {
@@ -54,12 +53,7 @@ pub fn run(args: &MitsubaTestsArgs) -> Result<()> {
         };
         println!("# {twin}: {name}");
         for case in &cases {
-            let devices = match &device {
-                Device::Cpu => Devices::Cpu(None),
-                Device::Gpu(ctx) => Devices::Gpu(ctx),
-                Device::Gpus(_) => return Err(anyhow!("one device at a time")),
-            };
-            match mitsuba_tests::run(case, devices, budget) {
+            match mitsuba_tests::run(case, device.devices(None), budget) {
                 Ok(Outcome::Refused(line)) => {
                     println!(
                         "{:<52} {twin} REFUSED {}",

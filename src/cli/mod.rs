@@ -365,6 +365,21 @@ pub(crate) enum Device {
     Gpus(Vec<gpu::GpuContext>),
 }
 
+impl Device {
+    /// The render boundary's name for this device (the CPU reference in
+    /// `pool` where one is given).
+    pub fn devices<'a>(
+        &'a self,
+        pool: Option<&'a rayon::ThreadPool>,
+    ) -> twintrace::render::Devices<'a> {
+        match self {
+            Device::Cpu => twintrace::render::Devices::Cpu(pool),
+            Device::Gpu(ctx) => twintrace::render::Devices::Gpu(ctx),
+            Device::Gpus(contexts) => twintrace::render::Devices::Gpus(contexts),
+        }
+    }
+}
+
 /// `gpu` must open a device; `auto` takes a hardware GPU if there is one
 /// and otherwise the CPU reference (on a machine without a GPU, Mesa's
 /// software Vulkan is 12x slower than the reference there: docs/benchmarks.md).
@@ -761,11 +776,7 @@ fn render(args: &RenderArgs) -> Result<()> {
         let available = mem::available().map_err(Refused)?;
         mem::check(&what, pixels, per_pixel, available).map_err(|e| anyhow!(e))?;
     }
-    let devices = match &device {
-        Device::Cpu => twintrace::render::Devices::Cpu(pool.as_ref()),
-        Device::Gpu(ctx) => twintrace::render::Devices::Gpu(ctx),
-        Device::Gpus(contexts) => twintrace::render::Devices::Gpus(contexts),
-    };
+    let devices = device.devices(pool.as_ref());
     let mut progressive = twintrace::render::open(devices, &scene, &spec, settings)?;
     phases.end("kernels and upload");
     for note in progressive.notes() {

@@ -214,11 +214,7 @@ fn headless(
 ) -> Result<()> {
     let out = args.out.as_deref().unwrap_or(Path::new("."));
     let (device, _, _) = choose_device(args.backend)?;
-    let devices = match &device {
-        Device::Cpu => Devices::Cpu(None),
-        Device::Gpu(ctx) => Devices::Gpu(ctx),
-        Device::Gpus(contexts) => Devices::Gpus(contexts),
-    };
+    let devices = device.devices(None);
     let frames = args.frames.unwrap_or(16);
     let pace = Pace::Fixed(args.spp_per_frame.unwrap_or(1));
     let mut view = View::open(devices, scene, spec, settings, pace)?;

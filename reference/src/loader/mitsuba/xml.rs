@@ -201,13 +201,7 @@ impl Document {
 
 /// Reads a scene file with `-D` parameters (`(name, value)` pairs).
 pub fn parse_file(path: &Path, defines: &[(String, String)]) -> Result<Document, XmlError> {
-    let mut reader = Reader {
-        params: defines.iter().cloned().collect(),
-        defined: defines.iter().map(|(k, _)| k.clone()).collect(),
-        search: vec![path.parent().map(Path::to_path_buf).unwrap_or_default()],
-        ids: HashMap::new(),
-        open: Vec::new(),
-    };
+    let mut reader = Reader::new(path, defines);
     let root = reader.read_file(path, true)?;
     reader.search.reverse();
     Ok(Document {
@@ -222,13 +216,8 @@ pub fn parse_text(
     path: &Path,
     defines: &[(String, String)],
 ) -> Result<Document, XmlError> {
-    let mut reader = Reader {
-        params: defines.iter().cloned().collect(),
-        defined: defines.iter().map(|(k, _)| k.clone()).collect(),
-        search: vec![path.parent().map(Path::to_path_buf).unwrap_or_default()],
-        ids: HashMap::new(),
-        open: vec![path.to_path_buf()],
-    };
+    let mut reader = Reader::new(path, defines);
+    reader.open.push(path.to_path_buf());
     let root = reader.read_text(text, path, true)?;
     reader.search.reverse();
     Ok(Document {
@@ -251,6 +240,17 @@ fn at_file(path: &Path) -> Location {
 const MAX_XML_BYTES: u64 = 256 << 20;
 
 impl Reader {
+    /// A reader of the scene at `path` with the command line's parameters.
+    fn new(path: &Path, defines: &[(String, String)]) -> Self {
+        Reader {
+            params: defines.iter().cloned().collect(),
+            defined: defines.iter().map(|(k, _)| k.clone()).collect(),
+            search: vec![path.parent().map(Path::to_path_buf).unwrap_or_default()],
+            ids: HashMap::new(),
+            open: Vec::new(),
+        }
+    }
+
     fn read_file(&mut self, path: &Path, top: bool) -> Result<Object, XmlError> {
         let err = |message: String| XmlError {
             at: at_file(path),
