@@ -8,9 +8,11 @@ const MATERIAL_METAL: u32 = 1u;
 const MATERIAL_DIELECTRIC: u32 = 2u;
 const MATERIAL_DIFFUSE_LIGHT: u32 = 3u;
 const MATERIAL_GGX: u32 = 4u;
+const CAMERA_ORTHOGRAPHIC: u32 = 1u;
 const TEXTURE_CONSTANT: u32 = 0u;
 const TEXTURE_CHECKER: u32 = 1u;
 const TEXTURE_IMAGE: u32 = 2u;
+const TEXTURE_UV_CHECKER: u32 = 3u;
 const WRAP_REPEAT: u32 = 0u;
 const WRAP_CLAMP_TO_EDGE: u32 = 1u;
 const WRAP_MIRRORED_REPEAT: u32 = 2u;
@@ -107,6 +109,7 @@ const FEATURE_ALPHA: u32 = 8192u;
 const FEATURE_CLEARCOAT: u32 = 16384u;
 const FEATURE_EMISSIVE_BSDFS: u32 = 32768u;
 const FEATURE_PUNCTUAL_LIGHTS: u32 = 65536u;
+const FEATURE_UV_CHECKER_TEXTURES: u32 = 131072u;
 const INTEGRATOR_BSDF: u32 = 0u;
 const INTEGRATOR_MIS: u32 = 1u;
 const SMALL_CONE_SIN2: f32 = 6.8523e-4;
@@ -322,6 +325,10 @@ struct GpuParams {
     wave_pixel_count: u32,
     wave_capacity: u32,
     sampler: u32,
+    cam_projection: u32,
+    cam_dir_x: f32,
+    cam_dir_y: f32,
+    cam_dir_z: f32,
     pad_a: u32,
     pad_b: u32,
     pad_c: u32,

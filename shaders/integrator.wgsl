@@ -11,11 +11,17 @@ fn camera_ray(x: u32, y: u32, sample: u32) -> Ray {
     let pixel = y * params.width + x;
     let u = sampled_vertex_randoms(params.sampler, params.seed, pixel, sample, 0u);
     let film_pos = vec2<f32>((f32(x) + vr_get(u, DIM_PIXEL_X)) / f32(params.width), (f32(y) + vr_get(u, DIM_PIXEL_Y)) / f32(params.image_height));
+    let upper_left = v3(params.cam_upper_left_x, params.cam_upper_left_y, params.cam_upper_left_z);
+    let horizontal = v3(params.cam_horizontal_x, params.cam_horizontal_y, params.cam_horizontal_z);
+    let vertical = v3(params.cam_vertical_x, params.cam_vertical_y, params.cam_vertical_z);
+    if params.cam_projection == CAMERA_ORTHOGRAPHIC {
+        // reference::camera::Camera::generate_ray: parallel rays from the
+        // window (no lens).
+        return Ray(upper_left + film_pos.x * horizontal + film_pos.y * vertical, v3(params.cam_dir_x, params.cam_dir_y, params.cam_dir_z));
+    }
     let rd = params.lens_radius * sample_unit_disk(vec2<f32>(vr_get(u, DIM_LENS_U), vr_get(u, DIM_LENS_V)));
     let offset = v3(params.cam_u_x, params.cam_u_y, params.cam_u_z) * rd.x + v3(params.cam_v_x, params.cam_v_y, params.cam_v_z) * rd.y;
-    let upper_left = v3(params.cam_upper_left_x, params.cam_upper_left_y, params.cam_upper_left_z);
-    let target_point = upper_left + film_pos.x * v3(params.cam_horizontal_x, params.cam_horizontal_y, params.cam_horizontal_z)
-        + film_pos.y * v3(params.cam_vertical_x, params.cam_vertical_y, params.cam_vertical_z);
+    let target_point = upper_left + film_pos.x * horizontal + film_pos.y * vertical;
     let origin = v3(params.cam_origin_x, params.cam_origin_y, params.cam_origin_z) + offset;
     return Ray(origin, normalize(target_point - origin));
 }

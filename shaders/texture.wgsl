@@ -107,7 +107,7 @@ fn evaluate_leaf(id: u32, uv0: vec2<f32>, uv1: vec2<f32>) -> vec3<f32> {
             if !uses(FEATURE_IMAGE_TEXTURES) { poison(); break; }
             return vec3<f32>(t.r, t.g, t.b) * sample_image(t.image, transformed_uv(t, uv), t.sampler);
         }
-        case TEXTURE_CHECKER: {
+        case TEXTURE_CHECKER, TEXTURE_UV_CHECKER: {
             // The scene builder rejects checkers nested in checkers.
             return vec3<f32>(0.0);
         }
@@ -129,6 +129,17 @@ fn evaluate_texture(id: u32, p: vec3<f32>, uv: vec2<f32>, uv1: vec2<f32>) -> vec
         }
         let sines = sin(t.scale * p.x) * sin(t.scale * p.y) * sin(t.scale * p.z);
         leaf = select(t.even, t.odd, sines < 0.0);
+    }
+    if t.tag == TEXTURE_UV_CHECKER {
+        if !uses(FEATURE_UV_CHECKER_TEXTURES) {
+            poison();
+            return vec3<f32>(0.0);
+        }
+        // reference::texture::uv_checker_even at the sampler's
+        // coordinates.
+        let c = transformed_uv(t, select(uv, uv1, (t.sampler & SAMPLER_UV1) != 0u));
+        let above = c - floor(c) > vec2<f32>(0.5);
+        leaf = select(t.odd, t.even, above.x == above.y);
     }
     return evaluate_leaf(leaf, uv, uv1);
 }

@@ -277,6 +277,7 @@ fn add_grey_plane_and_camera(b: &mut SceneBuilder) -> Vec3 {
         vfov: 0.001,
         aperture: 0.0,
         focus_distance: 1.0,
+        projection: reference::camera::Projection::Perspective,
     };
     target
 }

@@ -191,6 +191,66 @@ fn camera_and_render_errors_are_named() {
         &["render.spp"],
     );
     check(&format!(r#"{{ {objects} }}"#), &["camera"]);
+    // An orthographic camera needs its window's height, and only it has one.
+    check(
+        &format!(
+            r#"{{ "camera": {{ "look_from": [0,0,5], "look_at": [0,0,0], "projection": "orthographic" }}, {objects} }}"#
+        ),
+        &["camera.height", "orthographic"],
+    );
+    check(
+        &format!(
+            r#"{{ "camera": {{ "look_from": [0,0,5], "look_at": [0,0,0], "height": 2 }}, {objects} }}"#
+        ),
+        &["camera.height", "perspective"],
+    );
+    check(
+        &format!(
+            r#"{{ "camera": {{ "look_from": [0,0,5], "look_at": [0,0,0], "projection": "orthographic", "height": -1 }}, {objects} }}"#
+        ),
+        &["camera.height", "positive"],
+    );
+    check(
+        &format!(
+            r#"{{ "camera": {{ "look_from": [0,0,5], "look_at": [0,0,0], "projection": "fisheye" }}, {objects} }}"#
+        ),
+        &["fisheye"],
+    );
+}
+
+#[test]
+fn an_orthographic_camera_and_a_uv_checker_load_as_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write_scene(
+        dir.path(),
+        "ortho.json",
+        r#"{ "camera": { "look_from": [0, 0, 5], "look_at": [0, 0, 0], "projection": "orthographic", "height": 3 },
+  "textures": { "squares": { "type": "uv_checker", "scale": [4, 2], "even": [1, 1, 1], "odd": [0, 0, 0] } },
+  "materials": { "m": { "type": "lambertian", "albedo": "squares" } },
+  "objects": [ { "type": "quad", "corner": [-1, -1, 0], "u": [2, 0, 0], "v": [0, 2, 0], "material": "m" } ] }"#,
+    );
+    let scene = reference::load_scene(p.to_str().unwrap()).unwrap();
+    assert_eq!(
+        scene.camera_settings().projection,
+        reference::camera::Projection::Orthographic { height: 3.0 }
+    );
+    let checker = scene
+        .textures()
+        .iter()
+        .find_map(|t| match t {
+            reference::texture::Texture::UvChecker { sampler, .. } => Some(sampler.transform),
+            _ => None,
+        })
+        .expect("a uv checker");
+    assert_eq!(checker, Some([4.0, 0.0, 0.0, 0.0, 2.0, 0.0]));
+    let nested = r#""textures": { "a": { "type": "uv_checker", "even": [1,1,1], "odd": [0,0,0] }, "b": { "type": "uv_checker", "even": "a", "odd": [0,0,0] } },
+  "materials": { "m": { "type": "lambertian", "albedo": "b" } }"#;
+    check(
+        &format!(
+            r#"{{ "camera": {{ "look_from": [0,0,5], "look_at": [0,0,0] }}, {nested}, "objects": [ {{ "type": "sphere", "center": [0,0,0], "radius": 1, "material": "m" }} ] }}"#
+        ),
+        &["checker"],
+    );
 }
 
 #[test]

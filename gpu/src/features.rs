@@ -65,6 +65,7 @@ feature_bits! {
     CLEARCOAT = 14,
     EMISSIVE_BSDFS = 15,
     PUNCTUAL_LIGHTS = 16,
+    UV_CHECKER_TEXTURES = 17,
 }
 
 impl Kernel {
@@ -137,6 +138,7 @@ impl Features {
                 Texture::Constant(_) => 0,
                 Texture::Image { .. } => feature::IMAGE_TEXTURES,
                 Texture::Checker { .. } => feature::CHECKER_TEXTURES,
+                Texture::UvChecker { .. } => feature::UV_CHECKER_TEXTURES,
             };
         }
         bits |= match scene.background() {

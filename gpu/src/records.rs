@@ -298,9 +298,13 @@ gpu_record! {
         // The wavefront's wave (gpu::wavefront): its first pixel, its
         // pixel count, and the path slots its buffers hold.
         wave_pixel_start: u32, wave_pixel_count: u32, wave_capacity: u32,
-        // The sequence of the paths' randoms (`reference::rng::Sampler::tag`),
-        // and the padding to a multiple of 16 bytes.
-        sampler: u32, pad_a: u32, pad_b: u32, pad_c: u32,
+        // The sequence of the paths' randoms (`reference::rng::Sampler::tag`).
+        sampler: u32,
+        // The camera's projection (`reference::camera::Projection::tag`)
+        // and an orthographic camera's ray direction (`Camera::parallel`),
+        // then the padding to a multiple of 16 bytes.
+        cam_projection: u32, cam_dir_x: f32, cam_dir_y: f32, cam_dir_z: f32,
+        pad_a: u32, pad_b: u32, pad_c: u32,
     }
 }
 

@@ -20,6 +20,7 @@ use crate::variants::{
     DISPATCH_CONSTANT, LEAVES_CONSTANT, NODE_LAYOUT_CONSTANT, TRAVERSAL_CONSTANT,
 };
 use crate::wavefront;
+use reference::camera::projection_tag;
 use reference::film::{Film, FilmSums};
 use reference::integrator::Integrator;
 use reference::{RenderSettings, Scene};
@@ -601,6 +602,10 @@ impl<'a> GpuRenderer<'a> {
         [p.cam_vertical_x, p.cam_vertical_y, p.cam_vertical_z] = cam.vertical.to_array();
         [p.cam_u_x, p.cam_u_y, p.cam_u_z] = cam.u.to_array();
         [p.cam_v_x, p.cam_v_y, p.cam_v_z] = cam.v.to_array();
+        if let Some(d) = cam.parallel {
+            p.cam_projection = projection_tag::ORTHOGRAPHIC;
+            [p.cam_dir_x, p.cam_dir_y, p.cam_dir_z] = d.to_array();
+        }
         pack_background(&self.scene.background(), &mut p);
         p
     }

@@ -11,7 +11,7 @@ use crate::variants::{LeafLayout, NodeLayout, Traversal};
 use reference::background::Background;
 use reference::light::LightSet;
 use reference::material::{Alpha, AlphaMode, Material};
-use reference::texture::Texture;
+use reference::texture::{Sampler, Texture};
 use reference::Scene;
 
 /// The scene as flat record arrays, ready to upload.
@@ -265,18 +265,7 @@ pub fn pack_texture(t: &Texture) -> GpuTexture {
             factor,
             sampler,
         } => {
-            let mut bits = sampler.wrap_u.tag() | sampler.wrap_v.tag() << SAMPLER_WRAP_V_SHIFT;
-            if sampler.nearest {
-                bits |= SAMPLER_NEAREST;
-            }
-            if sampler.tex_coord == 1 {
-                bits |= SAMPLER_UV1;
-            }
-            if sampler.transform.is_some() {
-                bits |= SAMPLER_TRANSFORM;
-            }
-            let [t0, t1, t2, t3, t4, t5] =
-                sampler.transform.unwrap_or([1.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
+            let (bits, [t0, t1, t2, t3, t4, t5]) = pack_sampler(&sampler);
             GpuTexture {
                 tag,
                 image,
@@ -293,7 +282,42 @@ pub fn pack_texture(t: &Texture) -> GpuTexture {
                 ..Default::default()
             }
         }
+        Texture::UvChecker { sampler, even, odd } => {
+            let (bits, [t0, t1, t2, t3, t4, t5]) = pack_sampler(&sampler);
+            GpuTexture {
+                tag,
+                even,
+                odd,
+                sampler: bits,
+                t0,
+                t1,
+                t2,
+                t3,
+                t4,
+                t5,
+                ..Default::default()
+            }
+        }
     }
+}
+
+/// A sampler's `GpuTexture::sampler` bits and its transform (the identity
+/// where it has none).
+fn pack_sampler(sampler: &Sampler) -> (u32, [f32; 6]) {
+    let mut bits = sampler.wrap_u.tag() | sampler.wrap_v.tag() << SAMPLER_WRAP_V_SHIFT;
+    if sampler.nearest {
+        bits |= SAMPLER_NEAREST;
+    }
+    if sampler.tex_coord == 1 {
+        bits |= SAMPLER_UV1;
+    }
+    if sampler.transform.is_some() {
+        bits |= SAMPLER_TRANSFORM;
+    }
+    (
+        bits,
+        sampler.transform.unwrap_or([1.0, 0.0, 0.0, 0.0, 1.0, 0.0]),
+    )
 }
 
 impl PackedScene {

@@ -95,9 +95,14 @@ pub fn generate() -> String {
     s += &u("MATERIAL_DIELECTRIC", material_tag::DIELECTRIC);
     s += &u("MATERIAL_DIFFUSE_LIGHT", material_tag::DIFFUSE_LIGHT);
     s += &u("MATERIAL_GGX", material_tag::GGX);
+    s += &u(
+        "CAMERA_ORTHOGRAPHIC",
+        reference::camera::projection_tag::ORTHOGRAPHIC,
+    );
     s += &u("TEXTURE_CONSTANT", texture_tag::CONSTANT);
     s += &u("TEXTURE_CHECKER", texture_tag::CHECKER);
     s += &u("TEXTURE_IMAGE", texture_tag::IMAGE);
+    s += &u("TEXTURE_UV_CHECKER", texture_tag::UV_CHECKER);
     s += &u("WRAP_REPEAT", reference::texture::wrap_tag::REPEAT);
     s += &u(
         "WRAP_CLAMP_TO_EDGE",

@@ -87,6 +87,7 @@ pub fn rtow_final(seed: u32) -> Result<Scene, SceneError> {
         vfov: 20.0,
         aperture: 0.1,
         focus_distance: 10.0,
+        projection: crate::camera::Projection::Perspective,
     };
     b.background = Some(Background::Sky {
         horizon: Vec3::ONE,
@@ -165,6 +166,7 @@ pub fn spheres_10k(seed: u32) -> Result<Scene, SceneError> {
         vfov: 45.0,
         aperture: 0.0,
         focus_distance: 30.0,
+        projection: crate::camera::Projection::Perspective,
     };
     b.background = Some(Background::Sky {
         horizon: Vec3::ONE,
@@ -272,6 +274,7 @@ pub fn cornell(spheres: bool) -> Result<Scene, SceneError> {
         vfov: 40.0,
         aperture: 0.0,
         focus_distance: 10.0,
+        projection: crate::camera::Projection::Perspective,
     };
     b.background = Some(Background::Solid(Vec3::ZERO));
     b.render = RenderSettings {

@@ -1,4 +1,5 @@
-//! The thin-lens camera of Ray Tracing in One Weekend.
+//! The cameras: the thin-lens camera of Ray Tracing in One Weekend, and
+//! an orthographic one (Mitsuba's `orthographic` sensor).
 
 use crate::error::SceneError;
 use crate::geometry::Ray;
@@ -17,6 +18,37 @@ pub struct CameraSettings {
     pub aperture: f32,
     /// Distance of the plane in focus, along the view direction.
     pub focus_distance: f32,
+    /// How the image maps to rays.
+    pub projection: Projection,
+}
+
+/// How a camera's image maps to rays.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Projection {
+    /// Rays from the eye (a point of the lens) through the image plane,
+    /// whose height `vfov` gives.
+    #[default]
+    Perspective,
+    /// Parallel rays along the view direction, from a window centred on
+    /// the eye, square to the view, `height` tall (scene units) and as
+    /// wide as the image's aspect makes it. `vfov`, `aperture` and
+    /// `focus_distance` are not used.
+    Orthographic { height: f32 },
+}
+
+/// Numeric tags of [`Projection`], shared with the GPU.
+pub mod projection_tag {
+    pub const PERSPECTIVE: u32 = 0;
+    pub const ORTHOGRAPHIC: u32 = 1;
+}
+
+impl Projection {
+    pub fn tag(self) -> u32 {
+        match self {
+            Projection::Perspective => projection_tag::PERSPECTIVE,
+            Projection::Orthographic { .. } => projection_tag::ORTHOGRAPHIC,
+        }
+    }
 }
 
 impl Default for CameraSettings {
@@ -28,6 +60,7 @@ impl Default for CameraSettings {
             vfov: 40.0,
             aperture: 0.0,
             focus_distance: 1.0,
+            projection: Projection::Perspective,
         }
     }
 }
@@ -83,6 +116,14 @@ impl CameraSettings {
                 format!("{} must be finite and positive", self.focus_distance),
             ));
         }
+        if let Projection::Orthographic { height } = self.projection {
+            if !(height.is_finite() && height > 0.0) {
+                return Err(SceneError::invalid(
+                    "camera.height",
+                    format!("{height} must be finite and positive"),
+                ));
+            }
+        }
         Ok(())
     }
 }
@@ -100,17 +141,35 @@ pub struct Camera {
     pub u: Vec3,
     pub v: Vec3,
     pub lens_radius: f32,
+    /// Orthographic: every ray's direction, and the image window
+    /// (`upper_left`, `horizontal`, `vertical`) lies in the plane
+    /// through `origin` square to it. Perspective: `None`.
+    pub parallel: Option<Vec3>,
 }
 
 impl Camera {
     /// Builds the camera; `settings` must be valid (the scene builder checks).
     pub fn new(settings: &CameraSettings, aspect: f32) -> Self {
-        let h = (settings.vfov.to_radians() * 0.5).tan();
-        let height = 2.0 * h;
-        let width = aspect * height;
         let w = (settings.look_from - settings.look_at).normalize();
         let u = settings.up.cross(w).normalize();
         let v = w.cross(u);
+        if let Projection::Orthographic { height } = settings.projection {
+            let horizontal = aspect * height * u;
+            let vertical = -height * v;
+            return Self {
+                origin: settings.look_from,
+                upper_left: settings.look_from - 0.5 * horizontal - 0.5 * vertical,
+                horizontal,
+                vertical,
+                u,
+                v,
+                lens_radius: 0.0,
+                parallel: Some(-w),
+            };
+        }
+        let h = (settings.vfov.to_radians() * 0.5).tan();
+        let height = 2.0 * h;
+        let width = aspect * height;
         let f = settings.focus_distance;
         let horizontal = f * width * u;
         let vertical = -f * height * v;
@@ -123,13 +182,19 @@ impl Camera {
             u,
             v,
             lens_radius: 0.5 * settings.aperture,
+            parallel: None,
         }
     }
 
     /// The ray through film position `film` (`[0,1]²`, (0,0) top-left),
-    /// from lens sample `lens` (`[0,1)²`). The direction is unit length.
+    /// from lens sample `lens` (`[0,1)²`; unused by an orthographic
+    /// camera). The direction is unit length.
     #[inline]
     pub fn generate_ray(&self, film: Vec2, lens: Vec2) -> Ray {
+        if let Some(direction) = self.parallel {
+            let origin = self.upper_left + film.x * self.horizontal + film.y * self.vertical;
+            return Ray::new(origin, direction);
+        }
         let rd = self.lens_radius * sample_unit_disk(lens);
         let offset = self.u * rd.x + self.v * rd.y;
         let target = self.upper_left + film.x * self.horizontal + film.y * self.vertical;
@@ -152,6 +217,7 @@ mod tests {
             vfov: 90.0,
             aperture: 0.0,
             focus_distance: 5.0,
+            projection: Projection::Perspective,
         };
         let cam = Camera::new(&s, 2.0);
         let r = cam.generate_ray(Vec2::splat(0.5), Vec2::splat(0.5));
@@ -166,6 +232,37 @@ mod tests {
     }
 
     #[test]
+    fn orthographic_rays_are_parallel_from_a_window_centred_on_the_eye() {
+        let s = CameraSettings {
+            look_from: Vec3::new(1.0, 2.0, 5.0),
+            look_at: Vec3::new(1.0, 2.0, 0.0),
+            projection: Projection::Orthographic { height: 2.0 },
+            ..CameraSettings::default()
+        };
+        let cam = Camera::new(&s, 1.5);
+        for (film, at) in [
+            (Vec2::splat(0.5), Vec3::new(1.0, 2.0, 5.0)),
+            // Top-left: half the width (1.5) left, half the height up.
+            (Vec2::ZERO, Vec3::new(-0.5, 3.0, 5.0)),
+            (Vec2::ONE, Vec3::new(2.5, 1.0, 5.0)),
+        ] {
+            // The lens sample is not used.
+            let r = cam.generate_ray(film, Vec2::new(0.9, 0.1));
+            assert_eq!(r.direction, Vec3::new(0.0, 0.0, -1.0));
+            assert!((r.origin - at).length() < 1e-6, "{film}: {}", r.origin);
+        }
+        let bad = CameraSettings {
+            projection: Projection::Orthographic { height: 0.0 },
+            ..s
+        };
+        assert!(bad
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("camera.height"));
+    }
+
+    #[test]
     fn thin_lens_rays_converge_on_the_focus_plane() {
         let s = CameraSettings {
             look_from: Vec3::new(0.0, 0.0, 5.0),
@@ -174,6 +271,7 @@ mod tests {
             vfov: 40.0,
             aperture: 1.0,
             focus_distance: 3.0,
+            projection: Projection::Perspective,
         };
         let cam = Camera::new(&s, 1.0);
         let film = Vec2::new(0.3, 0.7);

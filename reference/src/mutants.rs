@@ -70,6 +70,13 @@ pub enum Mutant {
     /// reflectance's is, rather than as the equal-energy illuminant's
     /// colour (`loader::mitsuba::scene`, [`crate::loader::mitsuba::EQUAL_ENERGY_RGB`]).
     MitsubaIlluminantGrey,
+    /// A Mitsuba `checkerboard` read at twintrace's texture coordinates
+    /// (v up) rather than at Mitsuba's (v down) (`loader::mitsuba::scene`).
+    MitsubaCheckerboardUnflipped,
+    /// A Mitsuba `orthographic` sensor's window placed at the sensor's
+    /// origin rather than at its near clip distance
+    /// (`loader::mitsuba::scene`).
+    MitsubaOrthographicNearIgnored,
 }
 
 #[cfg(feature = "mutants")]

@@ -181,6 +181,16 @@ pub enum Texture {
         factor: Vec3,
         sampler: Sampler,
     },
+    /// Squares in texture space (Mitsuba's `checkerboard`): `even` (its
+    /// `color0`) where the fractional parts of the coordinates `sampler`
+    /// reads (its set, transformed; its wrap modes and filter are not
+    /// used) are both above ½ or both at most ½, `odd` elsewhere.
+    /// `even`/`odd` are texture indices (constant or image, no checker).
+    UvChecker {
+        sampler: Sampler,
+        even: u32,
+        odd: u32,
+    },
 }
 
 /// Numeric tags of [`Texture`], shared with the GPU.
@@ -188,6 +198,7 @@ pub mod texture_tag {
     pub const CONSTANT: u32 = 0;
     pub const CHECKER: u32 = 1;
     pub const IMAGE: u32 = 2;
+    pub const UV_CHECKER: u32 = 3;
 }
 
 impl Texture {
@@ -196,8 +207,22 @@ impl Texture {
             Texture::Constant(_) => texture_tag::CONSTANT,
             Texture::Checker { .. } => texture_tag::CHECKER,
             Texture::Image { .. } => texture_tag::IMAGE,
+            Texture::UvChecker { .. } => texture_tag::UV_CHECKER,
         }
     }
+
+    /// A pattern of two other textures (a checker), which cannot be one
+    /// of a pattern's two.
+    pub fn is_pattern(&self) -> bool {
+        matches!(self, Texture::Checker { .. } | Texture::UvChecker { .. })
+    }
+}
+
+/// Which of a [`Texture::UvChecker`]'s two textures covers coordinates
+/// `uv`: true for `even`.
+#[inline]
+pub fn uv_checker_even(uv: Vec2) -> bool {
+    (uv.x - uv.x.floor() > 0.5) == (uv.y - uv.y.floor() > 0.5)
 }
 
 /// Evaluates texture `id` at point `p` whose texture coordinates (both
@@ -221,6 +246,14 @@ pub fn evaluate_texture(
             factor,
             sampler,
         } => factor * images[image as usize].sample_image(sampler.coordinates(uvs), &sampler),
+        Texture::UvChecker { sampler, even, odd } => {
+            let pick = if uv_checker_even(sampler.coordinates(uvs)) {
+                even
+            } else {
+                odd
+            };
+            evaluate_leaf(textures, images, pick, uvs)
+        }
     }
 }
 
@@ -233,7 +266,7 @@ fn evaluate_leaf(textures: &[Texture], images: &[ImageData], id: u32, uvs: [Vec2
             sampler,
         } => factor * images[image as usize].sample_image(sampler.coordinates(uvs), &sampler),
         // The scene builder rejects checkers nested in checkers.
-        Texture::Checker { .. } => Vec3::ZERO,
+        Texture::Checker { .. } | Texture::UvChecker { .. } => Vec3::ZERO,
     }
 }
 
@@ -362,6 +395,39 @@ mod tests {
                 img.sample_bilinear(uv)
             );
         }
+    }
+
+    #[test]
+    fn uv_checker_squares_follow_the_transformed_coordinates() {
+        let textures = [
+            Texture::Constant(Vec3::ONE),
+            Texture::Constant(Vec3::ZERO),
+            Texture::UvChecker {
+                // Five squares a unit along u and v (Mitsuba's `<scale
+                // x="5" y="5"/>`), from the second set.
+                sampler: Sampler {
+                    transform: Some([5.0, 0.0, 0.0, 0.0, 5.0, 0.0]),
+                    tex_coord: 1,
+                    ..Sampler::default()
+                },
+                even: 0,
+                odd: 1,
+            },
+        ];
+        let at = |u: f32, v: f32| {
+            evaluate_texture(&textures, &[], 2, Vec3::ZERO, [Vec2::ZERO, Vec2::new(u, v)])
+        };
+        // Both fractional parts at most ½ (0.05 · 5 = 0.25): even.
+        assert_eq!(at(0.05, 0.05), Vec3::ONE);
+        // Both above ½: even; one above: odd.
+        assert_eq!(at(0.15, 0.15), Vec3::ONE);
+        assert_eq!(at(0.15, 0.05), Vec3::ZERO);
+        assert_eq!(at(0.05, 0.15), Vec3::ZERO);
+        // Negative coordinates: the fractional part of −0.25 · 5 is 0.75.
+        assert_eq!(at(-0.05, 0.15), Vec3::ONE);
+        // A fractional part of exactly ½ is not above it (0.1 · 5 rounds
+        // to 0.5 in f32).
+        assert_eq!(at(0.1, 0.05), Vec3::ONE);
     }
 
     #[test]

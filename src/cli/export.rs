@@ -65,6 +65,7 @@ use clap::Args;
 use glam::Vec3;
 use materials::{triple, Surface};
 use reference::background::Background;
+use reference::camera::Projection;
 use reference::Scene;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -463,19 +464,35 @@ impl<'s> MitsubaScene<'s> {
         } else {
             String::new()
         };
+        // Mitsuba's orthographic window is 2 wide and 2 / aspect tall in
+        // the sensor's space: a uniform scale of height · aspect / 2 makes
+        // it `height` tall.
+        let (sensor, scale) = match cam.projection {
+            Projection::Orthographic { height: h } => (
+                "<sensor type=\"orthographic\">".to_string(),
+                format!(
+                    r#"<scale x="{:?}" y="{:?}"/>"#,
+                    h * width as f32 / height as f32 / 2.0,
+                    h * width as f32 / height as f32 / 2.0
+                ),
+            ),
+            Projection::Perspective => (
+                format!(
+                    r#"<sensor type="{}">{lens}<float name="fov" value="{:?}"/><string name="fov_axis" value="y"/>"#,
+                    if cam.aperture > 0.0 {
+                        "thinlens"
+                    } else {
+                        "perspective"
+                    },
+                    cam.vfov
+                ),
+                String::new(),
+            ),
+        };
+        writeln!(x, r#"  {sensor}<float name="near_clip" value="1e-4"/>"#)?;
         writeln!(
             x,
-            r#"  <sensor type="{}">{lens}<float name="fov" value="{:?}"/><string name="fov_axis" value="y"/><float name="near_clip" value="1e-4"/>"#,
-            if cam.aperture > 0.0 {
-                "thinlens"
-            } else {
-                "perspective"
-            },
-            cam.vfov
-        )?;
-        writeln!(
-            x,
-            r#"    <transform name="to_world"><lookat origin="{}" target="{}" up="{}"/></transform>"#,
+            r#"    <transform name="to_world">{scale}<lookat origin="{}" target="{}" up="{}"/></transform>"#,
             triple(cam.look_from),
             triple(cam.look_at),
             triple(cam.up)

@@ -1363,6 +1363,7 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
     let texture_kind = |i: usize| match scene.textures()[i] {
         Texture::Constant(_) => "constant",
         Texture::Checker { .. } => "checker",
+        Texture::UvChecker { .. } => "uv checker",
         Texture::Image { .. } => "image",
     };
     say!(
@@ -1415,15 +1416,23 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
         }
     }
     let c = &scene.camera_settings();
-    say!(
-        "camera: from {} looking at {}, up {}, vfov {}°, aperture {}, focus distance {}",
-        c.look_from,
-        c.look_at,
-        c.up,
-        c.vfov,
-        c.aperture,
-        c.focus_distance
-    );
+    match c.projection {
+        reference::camera::Projection::Perspective => say!(
+            "camera: from {} looking at {}, up {}, vfov {}°, aperture {}, focus distance {}",
+            c.look_from,
+            c.look_at,
+            c.up,
+            c.vfov,
+            c.aperture,
+            c.focus_distance
+        ),
+        reference::camera::Projection::Orthographic { height } => say!(
+            "camera: orthographic, from {} looking at {}, up {}, window {height} high",
+            c.look_from,
+            c.look_at,
+            c.up
+        ),
+    }
     let r = &scene.render_settings();
     say!(
         "render defaults: {}x{}, {} spp, max depth {}, seed {}, Russian roulette from depth {}, {} sampler",

@@ -143,6 +143,7 @@ pub fn bernoulli_furnace(albedo: f32, spp: u32, seed: u32) -> Result<FurnaceCase
         vfov: 20.0,
         aperture: 0.0,
         focus_distance: 3.0,
+        projection: reference::camera::Projection::Perspective,
     };
     b.background = Some(Background::Solid(Vec3::ONE));
     let a = albedo as f64;
@@ -206,6 +207,7 @@ pub fn white_furnace(roulette: bool, spp: u32, seed: u32) -> Result<FurnaceCase>
         vfov: 40.0,
         aperture: 0.0,
         focus_distance: 10.0,
+        projection: reference::camera::Projection::Perspective,
     };
     b.background = Some(Background::Solid(Vec3::splat(FURNACE_BACKGROUND)));
     Ok(FurnaceCase {
@@ -255,6 +257,7 @@ pub fn inside_out_emitter(spp: u32, seed: u32) -> Result<FurnaceCase> {
         vfov: 45.0,
         aperture: 0.0,
         focus_distance: 6.0,
+        projection: reference::camera::Projection::Perspective,
     };
     b.background = Some(Background::Solid(Vec3::ZERO));
     Ok(FurnaceCase {
@@ -302,6 +305,7 @@ pub fn concentric_spheres(albedo: f32, roulette: bool, spp: u32, seed: u32) -> R
         vfov: 40.0,
         aperture: 0.0,
         focus_distance: 1.0,
+        projection: reference::camera::Projection::Perspective,
     };
     b.background = Some(Background::Solid(Vec3::ZERO));
     let expected = concentric_radiance(albedo as f64, inner as f64, outer as f64, le as f64) as f32;
@@ -421,6 +425,7 @@ pub fn ggx_metal_plane(
         vfov: 0.5,
         aperture: 0.0,
         focus_distance: 100.0,
+        projection: reference::camera::Projection::Perspective,
     };
     b.background = Some(Background::Solid(Vec3::ONE));
     Ok(FurnaceCase {

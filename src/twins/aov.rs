@@ -12,7 +12,7 @@
 //! bit; the summary says how many pixels were.
 
 use super::{ensure, Outcome};
-use crate::compare::gate::fixture_scene;
+use crate::compare::gate::{fixture_scene, workspace_root};
 use glam::Vec3;
 use gpu::GpuContext;
 use reference::aov::{render_aovs, word, AovSums, WORDS};
@@ -59,7 +59,8 @@ const SAMPLES: Range<u32> = 3..7;
 
 /// The scenes: depth of field (lens samples), the Cornell box (quads from
 /// both sides), textures, the glTF materials (normal maps, vertex
-/// colours, both uv sets), glass and metal.
+/// colours, both uv sets), glass and metal, and a Mitsuba gate scene
+/// (an orthographic camera, uv checkers).
 pub fn scenes() -> Result<Vec<(String, Scene)>, String> {
     let load = |spec: &str| reference::load_scene(spec).map_err(|e| e.to_string());
     let mut out = vec![
@@ -74,6 +75,8 @@ pub fn scenes() -> Result<Vec<(String, Scene)>, String> {
     ] {
         out.push((f.trim_end_matches(".json").into(), load(&fixture_scene(f))?));
     }
+    let plan = workspace_root().join("fixtures/mitsuba/plan/test_plan_path.xml");
+    out.push(("mitsuba-plan".into(), load(&plan.display().to_string())?));
     Ok(out)
 }
 

@@ -15,7 +15,7 @@
 //! with the view direction (the camera would be undefined there).
 
 use glam::Vec3;
-use reference::camera::CameraSettings;
+use reference::camera::{CameraSettings, Projection};
 
 /// The largest |pitch|, radians: 89.5°, half a degree short of the
 /// poles, where `up × view` would vanish.
@@ -48,6 +48,8 @@ pub struct ViewCamera {
     pub aperture: f32,
     /// Distance of the plane in focus along the view direction.
     pub focus_distance: f32,
+    /// The scene camera's projection, kept as it is.
+    pub projection: Projection,
 }
 
 impl ViewCamera {
@@ -74,6 +76,7 @@ impl ViewCamera {
             vfov: c.vfov,
             aperture: c.aperture,
             focus_distance: c.focus_distance,
+            projection: c.projection,
         }
     }
 
@@ -86,6 +89,7 @@ impl ViewCamera {
             vfov: self.vfov,
             aperture: self.aperture,
             focus_distance: self.focus_distance,
+            projection: self.projection,
         }
     }
 
@@ -231,6 +235,7 @@ mod tests {
             vfov: 35.0,
             aperture: 0.1,
             focus_distance: 4.0,
+            projection: Projection::Perspective,
         }
     }
 

@@ -403,14 +403,19 @@ impl<'a> View<'a> {
 /// A camera as the scene format's `camera` object (every field written,
 /// so it reads back exactly): what a saved view and a camera path hold.
 pub fn camera_json(c: &CameraSettings) -> serde_json::Value {
-    serde_json::json!({
+    let mut json = serde_json::json!({
         "look_from": c.look_from.to_array(),
         "look_at": c.look_at.to_array(),
         "up": c.up.to_array(),
         "vfov": c.vfov,
         "aperture": c.aperture,
         "focus_distance": c.focus_distance,
-    })
+    });
+    if let reference::camera::Projection::Orthographic { height } = c.projection {
+        json["projection"] = "orthographic".into();
+        json["height"] = height.into();
+    }
+    json
 }
 
 fn validate_settings(settings: &RenderSettings) -> Result<()> {

@@ -346,6 +346,7 @@ fn framing_camera(min: Vec3, max: Vec3, aspect: f32) -> CameraSettings {
         vfov: DEFAULT_VFOV,
         aperture: 0.0,
         focus_distance: distance,
+        projection: crate::camera::Projection::Perspective,
     }
 }
 

@@ -5,12 +5,12 @@
 //! and the field path, e.g. `objects[3].radius`.
 
 use crate::background::Background;
-use crate::camera::CameraSettings;
+use crate::camera::{CameraSettings, Projection};
 use crate::error::SceneError;
 use crate::loader::image::load_image;
 use crate::material::{ClearCoat, Material};
 use crate::scene::{LightInput, RenderOrigin, RenderSettings, Scene, SceneBuilder, Transform};
-use crate::texture::Texture;
+use crate::texture::{Sampler, Texture};
 use glam::{DQuat, DVec3, Vec3};
 use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use serde::Deserialize;
@@ -96,6 +96,20 @@ pub struct CameraJson {
     pub aperture: f32,
     /// Defaults to the distance from `look_from` to `look_at`.
     pub focus_distance: Option<f32>,
+    #[serde(default)]
+    pub projection: ProjectionJson,
+    /// The orthographic window's height (scene units); required with
+    /// `"projection": "orthographic"`, refused otherwise.
+    pub height: Option<f32>,
+}
+
+/// `camera.projection`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ProjectionJson {
+    #[default]
+    Perspective,
+    Orthographic,
 }
 
 impl CameraJson {
@@ -104,6 +118,13 @@ impl CameraJson {
     /// `CameraSettings::validate` checks it.
     pub fn settings(&self) -> CameraSettings {
         let (from, at) = self.positions();
+        let projection = match self.projection {
+            ProjectionJson::Perspective => Projection::Perspective,
+            // `check` has seen the height.
+            ProjectionJson::Orthographic => Projection::Orthographic {
+                height: self.height.unwrap_or(0.0),
+            },
+        };
         CameraSettings {
             look_from: from.as_vec3(),
             look_at: at.as_vec3(),
@@ -113,6 +134,23 @@ impl CameraJson {
             focus_distance: self
                 .focus_distance
                 .unwrap_or((at.as_vec3() - from.as_vec3()).length()),
+            projection,
+        }
+    }
+
+    /// What serde cannot say: an orthographic camera's `height` given, and
+    /// only there.
+    pub fn check(&self) -> Result<(), SceneError> {
+        match (self.projection, self.height) {
+            (ProjectionJson::Orthographic, None) => Err(SceneError::invalid(
+                "camera.height",
+                "an orthographic camera needs its window's height".into(),
+            )),
+            (ProjectionJson::Perspective, Some(_)) => Err(SceneError::invalid(
+                "camera.height",
+                "only an orthographic camera has a height (a perspective one has vfov)".into(),
+            )),
+            _ => Ok(()),
         }
     }
 
@@ -184,6 +222,7 @@ pub enum TextureJson {
     Constant(ConstantTextureJson),
     Checker(CheckerTextureJson),
     Image(ImageTextureJson),
+    UvChecker(UvCheckerTextureJson),
 }
 
 fn default_checker_scale() -> f32 {
@@ -320,6 +359,21 @@ pub struct CheckerTextureJson {
     pub scale: f32,
     pub even: ColorRef,
     pub odd: ColorRef,
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct UvCheckerTextureJson {
+    /// Multiplies u and v before the squares are found (default 1, 1:
+    /// four squares on the unit square).
+    #[serde(default = "default_uv_checker_scale")]
+    pub scale: [f32; 2],
+    pub even: ColorRef,
+    pub odd: ColorRef,
+}
+
+fn default_uv_checker_scale() -> [f32; 2] {
+    [1.0, 1.0]
 }
 
 #[derive(Clone, Debug, PartialEq, Deserialize)]
@@ -724,6 +778,24 @@ impl Resolver<'_> {
                     })
                     .map_err(at)?
             }
+            TextureJson::UvChecker(UvCheckerTextureJson { scale, even, odd }) => {
+                let even = self
+                    .colour(even, depth + 1)
+                    .map_err(|e| e.within(&format!("textures.{name}.even")))?;
+                let odd = self
+                    .colour(odd, depth + 1)
+                    .map_err(|e| e.within(&format!("textures.{name}.odd")))?;
+                self.builder
+                    .add_texture(Texture::UvChecker {
+                        sampler: Sampler {
+                            transform: Some([scale[0], 0.0, 0.0, 0.0, scale[1], 0.0]),
+                            ..Sampler::default()
+                        },
+                        even,
+                        odd,
+                    })
+                    .map_err(at)?
+            }
             TextureJson::Image(ImageTextureJson { path, srgb }) => {
                 let image = self.image(path, *srgb)?;
                 self.builder
@@ -939,6 +1011,7 @@ fn build(doc: &SceneJson, base: &Path, sources: Vec<PathBuf>) -> Result<Scene, S
     };
     if let Some(c) = &doc.camera {
         let (from, at) = c.positions();
+        c.check()?;
         r.builder.set_camera_exact(from, at, c.settings());
     }
     r.builder.background = Some(match &doc.background {

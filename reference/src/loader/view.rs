@@ -87,6 +87,9 @@ pub fn load_view(path: &Path, text: &str) -> Result<Scene, SceneError> {
             .in_file(path));
         }
     }
+    if let Some(c) = &view.camera {
+        c.check().map_err(|e| e.in_file(path))?;
+    }
     let scene = super::load_scene(&spec)?;
     let sampler = view
         .render

@@ -15,7 +15,7 @@ use crate::shapes::{
     MeshData, Quad, Sphere, Triangle, TRIANGLE_HAS_ALPHA, TRIANGLE_HAS_COLORS,
     TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_TANGENTS, TRIANGLE_HAS_UV1, TRIANGLE_HAS_UVS,
 };
-use crate::texture::{ImageData, Texture};
+use crate::texture::{ImageData, Sampler, Texture};
 use glam::{DVec3, Vec2, Vec3, Vec4};
 use std::path::PathBuf;
 
@@ -166,23 +166,11 @@ fn check_texture(texture: &Texture, earlier: &[Texture], images: usize) -> Resul
                     format!("{scale} is not finite"),
                 ));
             }
-            for (name, id) in [("even", even), ("odd", odd)] {
-                match earlier.get(id as usize) {
-                    None => {
-                        return Err(SceneError::invalid(
-                            &format!("texture.{name}"),
-                            format!("texture index {id} does not exist"),
-                        ))
-                    }
-                    Some(Texture::Checker { .. }) => {
-                        return Err(SceneError::invalid(
-                            &format!("texture.{name}"),
-                            "a checker cannot nest another checker".into(),
-                        ))
-                    }
-                    Some(_) => {}
-                }
-            }
+            check_pattern_leaves(even, odd, earlier)?;
+        }
+        Texture::UvChecker { sampler, even, odd } => {
+            check_sampler(&sampler)?;
+            check_pattern_leaves(even, odd, earlier)?;
         }
         Texture::Image {
             image,
@@ -190,29 +178,57 @@ fn check_texture(texture: &Texture, earlier: &[Texture], images: usize) -> Resul
             sampler,
         } => {
             check_colour("texture.factor", factor)?;
-            if let Some(t) = sampler.transform {
-                if t.iter().any(|v| !v.is_finite()) {
-                    return Err(SceneError::invalid(
-                        "texture.transform",
-                        format!("{t:?} must be finite"),
-                    ));
-                }
-            }
-            if sampler.tex_coord > 1 {
-                return Err(SceneError::invalid(
-                    "texture.tex_coord",
-                    format!(
-                        "coordinate set {} does not exist (0 or 1)",
-                        sampler.tex_coord
-                    ),
-                ));
-            }
+            check_sampler(&sampler)?;
             if image as usize >= images {
                 return Err(SceneError::invalid(
                     "texture.image",
                     format!("image index {image} does not exist"),
                 ));
             }
+        }
+    }
+    Ok(())
+}
+
+/// A sampler's transform (finite) and coordinate set (0 or 1).
+fn check_sampler(sampler: &Sampler) -> Result<(), SceneError> {
+    if let Some(t) = sampler.transform {
+        if t.iter().any(|v| !v.is_finite()) {
+            return Err(SceneError::invalid(
+                "texture.transform",
+                format!("{t:?} must be finite"),
+            ));
+        }
+    }
+    if sampler.tex_coord > 1 {
+        return Err(SceneError::invalid(
+            "texture.tex_coord",
+            format!(
+                "coordinate set {} does not exist (0 or 1)",
+                sampler.tex_coord
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// A pattern's two textures: earlier ones, neither a pattern itself.
+fn check_pattern_leaves(even: u32, odd: u32, earlier: &[Texture]) -> Result<(), SceneError> {
+    for (name, id) in [("even", even), ("odd", odd)] {
+        match earlier.get(id as usize) {
+            None => {
+                return Err(SceneError::invalid(
+                    &format!("texture.{name}"),
+                    format!("texture index {id} does not exist"),
+                ))
+            }
+            Some(t) if t.is_pattern() => {
+                return Err(SceneError::invalid(
+                    &format!("texture.{name}"),
+                    "a checker cannot nest another checker".into(),
+                ))
+            }
+            Some(_) => {}
         }
     }
     Ok(())

@@ -75,6 +75,13 @@ pub(super) enum Tex {
         /// The reference's uv → the sampler's uv (KHR_texture_transform).
         transform: Box<UvMap>,
     },
+    /// Mitsuba's own `checkerboard`: `color0` `even`, `color1` `odd`, at
+    /// the reference's uv mapped by `transform`.
+    UvChecker {
+        transform: Box<UvMap>,
+        even: Box<Tex>,
+        odd: Box<Tex>,
+    },
     /// `tt_checker`: the scene's (render-space) `even` and `odd`.
     Checker {
         scale: f32,
@@ -94,6 +101,24 @@ impl Tex {
                 even.xml("even", uv),
                 odd.xml("odd", uv)
             ),
+            Tex::UvChecker {
+                transform,
+                even,
+                odd,
+            } => {
+                let m = compose(**transform, uv);
+                format!(
+                    r#"<texture type="checkerboard" name="{name}">{}{}<transform name="to_uv"><matrix value="{:?} {:?} 0 {:?} {:?} {:?} 0 {:?} 0 0 1 0 0 0 0 1"/></transform></texture>"#,
+                    even.xml("color0", uv),
+                    odd.xml("color1", uv),
+                    m[0],
+                    m[1],
+                    m[2],
+                    m[3],
+                    m[4],
+                    m[5]
+                )
+            }
             Tex::Image {
                 id,
                 wrap,
@@ -159,6 +184,7 @@ impl Tex {
         match self {
             Tex::Constant(_) => false,
             Tex::Checker { .. } => true,
+            Tex::UvChecker { even, odd, .. } => even.uses_plugins() || odd.uses_plugins(),
             Tex::Image { wrap, set, .. } => wrap.0 != wrap.1 || *set == 1,
         }
     }
@@ -168,14 +194,16 @@ impl Tex {
         match self {
             Tex::Constant(_) => false,
             Tex::Image { set, .. } => *set == 1,
-            Tex::Checker { even, odd, .. } => even.uses_uv1() || odd.uses_uv1(),
+            Tex::Checker { even, odd, .. } | Tex::UvChecker { even, odd, .. } => {
+                even.uses_uv1() || odd.uses_uv1()
+            }
         }
     }
 
     fn uses_uv(&self) -> bool {
         match self {
             Tex::Constant(_) => false,
-            Tex::Image { .. } => true,
+            Tex::Image { .. } | Tex::UvChecker { .. } => true,
             Tex::Checker { even, odd, .. } => even.uses_uv() || odd.uses_uv(),
         }
     }
@@ -189,7 +217,7 @@ impl Tex {
                     out.push(*id)
                 }
             }
-            Tex::Checker { even, odd, .. } => {
+            Tex::Checker { even, odd, .. } | Tex::UvChecker { even, odd, .. } => {
                 even.images(out);
                 odd.images(out);
             }
@@ -429,6 +457,19 @@ fn texture(scene: &Scene, id: u32, what: &str) -> Result<Tex> {
             odd: Box::new(texture(scene, *odd, what)?),
         },
         Some(Texture::Image { sampler, .. }) => image(id, sampler, what)?,
+        Some(Texture::UvChecker { sampler, even, odd }) => {
+            if sampler.tex_coord != 0 {
+                bail!("{what} reads a uv checker at texture coordinates 1 (not exported)");
+            }
+            Tex::UvChecker {
+                transform: Box::new(match sampler.transform {
+                    None => MESH_UV,
+                    Some(t) => t.map(f64::from),
+                }),
+                even: Box::new(texture(scene, *even, what)?),
+                odd: Box::new(texture(scene, *odd, what)?),
+            }
+        }
         None => bail!("{what} names texture {id}, which the scene lacks"),
     })
 }

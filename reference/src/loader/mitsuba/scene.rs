@@ -9,7 +9,7 @@
 use super::meshes::{self, Mesh, MeshOptions};
 use super::xml::{Child, Document, Location, Object, Property, Spectrum, Value};
 use crate::background::Background;
-use crate::camera::CameraSettings;
+use crate::camera::{CameraSettings, Projection};
 use crate::error::SceneError;
 use crate::loader::image::load_image;
 use crate::material::Material;
@@ -428,9 +428,10 @@ fn integrator(o: &Object, settings: &mut RenderSettings) -> Result<(), SceneErro
 impl Reader<'_> {
     fn sensor(&mut self, o: &Object, settings: &mut RenderSettings) -> Result<(), SceneError> {
         let props = Props::new(o);
-        if !matches!(o.kind.as_str(), "perspective" | "thinlens") {
+        if !matches!(o.kind.as_str(), "perspective" | "thinlens" | "orthographic") {
             return Err(unsupported(o, ""));
         }
+        let orthographic = o.kind == "orthographic";
         // The film first: the field of view's axis needs its aspect.
         let (width, height) = match props.child("film")? {
             Some(f) => film(&f.object)?,
@@ -454,61 +455,16 @@ impl Reader<'_> {
             }
         }
         let aspect = width as f64 / height as f64;
-        let fov = match (props.get("fov"), props.get("focal_length")) {
-            (Some(_), Some(p)) => {
-                return Err(fail(&p.at, "give fov or focal_length, not both".into()))
-            }
-            (Some(p), None) => match p.value {
-                Value::Float(v) => finite(p, v)?,
-                Value::Integer(v) => v as f64,
-                _ => return Err(props.wrong(p, "a float")),
-            },
-            (None, focal) => {
-                let mm = match focal {
-                    None => 50.0,
-                    Some(p) => match &p.value {
-                        Value::String(s) => parse_mm(s).ok_or_else(|| {
-                            fail(&p.at, format!("focal_length \"{s}\" is not like \"50mm\""))
-                        })?,
-                        Value::Float(v) => *v,
-                        _ => return Err(props.wrong(p, "a length like \"50mm\"")),
-                    },
-                };
-                // Mitsuba: the field of view along the 35 mm film's
-                // diagonal, fov_axis then taken as the diagonal.
-                2.0 * (FILM_DIAGONAL_MM / (2.0 * mm)).atan().to_degrees()
-            }
+        let vfov = if orthographic {
+            CameraSettings::default().vfov as f64
+        } else {
+            perspective_vfov(o, &props, aspect)?
         };
-        // A focal length (the default one included) gives the field of
-        // view along the film's diagonal, whatever fov_axis says.
-        let axis = props.string("fov_axis")?.unwrap_or("x");
-        let axis = if fov_given(o) { axis } else { "diagonal" };
-        let half = (fov.to_radians() / 2.0).tan();
-        let tan_v = match axis {
-            "x" => half / aspect,
-            "y" => half,
-            "diagonal" => half / (aspect * aspect + 1.0).sqrt(),
-            "smaller" if aspect >= 1.0 => half,
-            "smaller" => half / aspect,
-            "larger" if aspect >= 1.0 => half / aspect,
-            "larger" => half,
-            other => {
-                return Err(fail(
-                    &o.at,
-                    format!("fov_axis \"{other}\" is not x, y, diagonal, smaller or larger"),
-                ))
-            }
-        };
-        let vfov = 2.0 * tan_v.atan().to_degrees();
-        if !(vfov > 0.0 && vfov < 180.0) {
-            return Err(fail(
-                &o.at,
-                format!("field of view {fov} is not between 0 and 180 degrees"),
-            ));
-        }
-        // twintrace's camera sees from its lens to infinity; the clip
-        // distances are read, not applied (docs/mitsuba.md).
-        props.float("near_clip", 1e-2)?;
+        // twintrace's camera sees from its lens (an orthographic one from
+        // its window) to infinity; the clip distances are read, not
+        // applied, but where Mitsuba's orthographic window lies
+        // (docs/mitsuba.md).
+        let near = props.float("near_clip", 1e-2)?;
         props.float("far_clip", 1e4)?;
         for name in ["principal_point_offset_x", "principal_point_offset_y"] {
             if props.float(name, 0.0)? != 0.0 {
@@ -526,10 +482,18 @@ impl Reader<'_> {
             .transform("to_world")?
             .map(|(m, at)| (m, at.clone()))
             .unwrap_or((DMat4::IDENTITY, o.at.clone()));
-        let origin = m.transform_point3(DVec3::ZERO);
         let dir = m.transform_vector3(DVec3::Z);
         let up = m.transform_vector3(DVec3::Y);
         let left = m.transform_vector3(DVec3::X);
+        // Mitsuba's orthographic window lies at near_clip along the view
+        // (the sensor's z, scaled as to_world scales it).
+        let origin = m.transform_point3(
+            if orthographic && !mutants::is(Mutant::MitsubaOrthographicNearIgnored) {
+                DVec3::new(0.0, 0.0, near)
+            } else {
+                DVec3::ZERO
+            },
+        );
         if !(dir.length() > 0.0 && up.length() > 0.0 && origin.is_finite()) {
             return Err(fail(&at, "the sensor's to_world is degenerate".into()));
         }
@@ -542,6 +506,31 @@ impl Reader<'_> {
                 format!("a sensor to_world that mirrors the image {NOT_SUPPORTED}"),
             ));
         }
+        // Mitsuba maps the image through to_world: a shear or an unequal
+        // scale of the image's two axes stretches it, which twintrace's
+        // cameras (square pixels, the window as wide as the aspect makes
+        // it) cannot; a perspective sensor's scale along the view only
+        // moves its clip planes. 1e-6: far above the f64 rounding of a
+        // lookat and a scale, far below any stretch one could see.
+        let stretched = (left.length() - up.length()).abs() > 1e-6 * up.length()
+            || left.dot(up).abs() > 1e-6 * left.length() * up.length()
+            || (!orthographic
+                && (left.dot(dir).abs() > 1e-6 * left.length() * dir.length()
+                    || up.dot(dir).abs() > 1e-6 * up.length() * dir.length()));
+        if stretched {
+            return Err(fail(
+                &at,
+                format!("a sensor to_world that shears or stretches the image {NOT_SUPPORTED}"),
+            ));
+        }
+        let projection = if orthographic {
+            // The window: 2 wide and 2 / aspect tall in the sensor's space.
+            Projection::Orthographic {
+                height: (2.0 * up.length() / aspect) as f32,
+            }
+        } else {
+            Projection::Perspective
+        };
         let dir = dir.normalize();
         let camera = CameraSettings {
             look_from: origin.as_vec3(),
@@ -550,6 +539,7 @@ impl Reader<'_> {
             vfov: vfov as f32,
             aperture: aperture as f32,
             focus_distance: focus as f32,
+            projection,
         };
         self.builder.set_camera_exact(origin, origin + dir, camera);
         props.finish()
@@ -683,15 +673,17 @@ impl Reader<'_> {
                 if t.tag != "texture" {
                     return Err(unsupported(t, &format!(" as \"{name}\"")));
                 }
-                Ok(Colour::Texture(self.texture(t)?))
+                Ok(Colour::Texture(self.texture(t, usage)?))
             }
         }
     }
 
-    fn texture(&mut self, o: &Object) -> Result<u32, SceneError> {
+    fn texture(&mut self, o: &Object, usage: ColourUse) -> Result<u32, SceneError> {
         let props = Props::new(o);
-        if o.kind != "bitmap" {
-            return Err(unsupported(o, ""));
+        match o.kind.as_str() {
+            "bitmap" => {}
+            "checkerboard" => return self.checkerboard(props, usage),
+            _ => return Err(unsupported(o, "")),
         }
         let name = props
             .string("filename")?
@@ -770,6 +762,52 @@ impl Reader<'_> {
                     transform,
                     tex_coord: 0,
                 },
+            })
+            .map_err(|e| fail(&o.at, e.to_string()))
+    }
+
+    /// Mitsuba's `checkerboard`: `color0` (default 0.4) where the
+    /// fractional parts of its coordinates (the shape's, through `to_uv`)
+    /// are both above ½ or both at most ½, `color1` (default 0.2)
+    /// elsewhere.
+    fn checkerboard(&mut self, props: Props, usage: ColourUse) -> Result<u32, SceneError> {
+        let o = props.object;
+        let even = self.colour(&props, "color0", usage, 0.4)?;
+        let even = self.texture_of(even, &o.at)?;
+        let odd = self.colour(&props, "color1", usage, 0.2)?;
+        let odd = self.texture_of(odd, &o.at)?;
+        // twintrace's coordinates are Mitsuba's with v flipped:
+        // (u, v) = F(u_m, v_m) = (u_m, 1 − v_m). Mitsuba reads the squares
+        // at A·F(uv) + b, an affine map of twintrace's uv.
+        let m = match props.transform("to_uv")? {
+            None => DMat4::IDENTITY,
+            Some((m, at)) => {
+                if m.z_axis.x != 0.0 || m.z_axis.y != 0.0 {
+                    return Err(fail(
+                        at,
+                        "a to_uv that reads z is not a 2-D transform".into(),
+                    ));
+                }
+                m
+            }
+        };
+        let [a0, a1, a2, a3] = [m.x_axis.x, m.y_axis.x, m.x_axis.y, m.y_axis.y];
+        let [b0, b1] = [m.w_axis.x, m.w_axis.y];
+        let transform = if mutants::is(Mutant::MitsubaCheckerboardUnflipped) {
+            [a0, a1, b0, a2, a3, b1]
+        } else {
+            [a0, -a1, a1 + b0, a2, -a3, a3 + b1]
+        }
+        .map(|x| x as f32);
+        props.finish()?;
+        self.builder
+            .add_texture(Texture::UvChecker {
+                sampler: Sampler {
+                    transform: Some(transform),
+                    ..Sampler::default()
+                },
+                even,
+                odd,
             })
             .map_err(|e| fail(&o.at, e.to_string()))
     }
@@ -1025,6 +1063,62 @@ impl Reader<'_> {
     }
 }
 
+/// A perspective sensor's vertical field of view, degrees, from its
+/// `fov` and `fov_axis` or its `focal_length`.
+fn perspective_vfov(o: &Object, props: &Props, aspect: f64) -> Result<f64, SceneError> {
+    let fov = match (props.get("fov"), props.get("focal_length")) {
+        (Some(_), Some(p)) => return Err(fail(&p.at, "give fov or focal_length, not both".into())),
+        (Some(p), None) => match p.value {
+            Value::Float(v) => finite(p, v)?,
+            Value::Integer(v) => v as f64,
+            _ => return Err(props.wrong(p, "a float")),
+        },
+        (None, focal) => {
+            let mm = match focal {
+                None => 50.0,
+                Some(p) => match &p.value {
+                    Value::String(s) => parse_mm(s).ok_or_else(|| {
+                        fail(&p.at, format!("focal_length \"{s}\" is not like \"50mm\""))
+                    })?,
+                    Value::Float(v) => *v,
+                    _ => return Err(props.wrong(p, "a length like \"50mm\"")),
+                },
+            };
+            // Mitsuba: the field of view along the 35 mm film's
+            // diagonal, fov_axis then taken as the diagonal.
+            2.0 * (FILM_DIAGONAL_MM / (2.0 * mm)).atan().to_degrees()
+        }
+    };
+    // A focal length (the default one included) gives the field of
+    // view along the film's diagonal, whatever fov_axis says.
+    let axis = props.string("fov_axis")?.unwrap_or("x");
+    let axis = if fov_given(o) { axis } else { "diagonal" };
+    let half = (fov.to_radians() / 2.0).tan();
+    let tan_v = match axis {
+        "x" => half / aspect,
+        "y" => half,
+        "diagonal" => half / (aspect * aspect + 1.0).sqrt(),
+        "smaller" if aspect >= 1.0 => half,
+        "smaller" => half / aspect,
+        "larger" if aspect >= 1.0 => half / aspect,
+        "larger" => half,
+        other => {
+            return Err(fail(
+                &o.at,
+                format!("fov_axis \"{other}\" is not x, y, diagonal, smaller or larger"),
+            ))
+        }
+    };
+    let vfov = 2.0 * tan_v.atan().to_degrees();
+    if !(vfov > 0.0 && vfov < 180.0) {
+        return Err(fail(
+            &o.at,
+            format!("field of view {fov} is not between 0 and 180 degrees"),
+        ));
+    }
+    Ok(vfov)
+}
+
 fn fov_given(o: &Object) -> bool {
     o.props.iter().any(|p| p.name == "fov")
 }
@@ -1174,30 +1268,34 @@ fn rectangle() -> Mesh {
 }
 
 /// Mitsuba's `cube`: [−1, 1]³, each face its own four vertices with the
-/// face's normal, texture coordinates over each face as the rectangle's.
+/// face's normal, laid out as Mitsuba 3.9.1 lays them (read from its
+/// `vertex_positions`, `vertex_texcoords` and `faces`): face by face
+/// −y, +y, +x, +z, −x, −z, corners `n ∓ e1 ∓ e2` in the order (−,−),
+/// (+,−), (+,+), (−,+) with texture coordinates (0, 1), (1, 1), (1, 0),
+/// (0, 0), triangles (0, 1, 2) and (3, 0, 2).
 fn cube() -> Mesh {
     let mut mesh = Mesh::default();
-    // (normal, u axis, v axis): u × v = normal, so each face winds
+    // (normal, e1, e2): e1 × e2 = normal, so each face winds
     // counter-clockwise seen from outside.
     let faces = [
+        (Vec3::NEG_Y, Vec3::Z, Vec3::NEG_X),
+        (Vec3::Y, Vec3::NEG_X, Vec3::Z),
         (Vec3::X, Vec3::Y, Vec3::Z),
-        (Vec3::NEG_X, Vec3::Z, Vec3::Y),
-        (Vec3::Y, Vec3::Z, Vec3::X),
-        (Vec3::NEG_Y, Vec3::X, Vec3::Z),
-        (Vec3::Z, Vec3::X, Vec3::Y),
-        (Vec3::NEG_Z, Vec3::Y, Vec3::X),
+        (Vec3::Z, Vec3::Y, Vec3::NEG_X),
+        (Vec3::NEG_X, Vec3::Y, Vec3::NEG_Z),
+        (Vec3::NEG_Z, Vec3::NEG_Y, Vec3::NEG_X),
     ];
     let mut normals = Vec::new();
     let mut uvs = Vec::new();
-    for (n, u, v) in faces {
+    for (n, e1, e2) in faces {
         let base = mesh.positions.len() as u32;
         for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-            mesh.positions.push(n + a * u + b * v);
+            mesh.positions.push(n + a * e1 + b * e2);
             normals.push(n);
-            uvs.push(Vec2::new((a + 1.0) / 2.0, (b + 1.0) / 2.0));
+            uvs.push(Vec2::new((a + 1.0) / 2.0, (1.0 - b) / 2.0));
         }
         mesh.indices
-            .extend([base, base + 1, base + 2, base, base + 2, base + 3]);
+            .extend([base, base + 1, base + 2, base + 3, base, base + 2]);
     }
     mesh.normals = Some(normals);
     mesh.uvs = Some(uvs);
@@ -1232,4 +1330,112 @@ fn oriented(mesh: &MeshInput, flip: bool) -> MeshInput {
         n.iter_mut().for_each(|n| *n = -*n);
     }
     m
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::Camera;
+    use std::path::Path;
+
+    fn scene(body: &str) -> Result<Scene, SceneError> {
+        let text = format!(r#"<scene version="3.0.0">{body}</scene>"#);
+        let doc = super::super::xml::parse_text(&text, Path::new("s.xml"), &[])
+            .map_err(|e| fail(&e.at, e.message))?;
+        build(&doc)
+    }
+
+    const FILM: &str = r#"<film type="hdrfilm"><integer name="width" value="40"/><integer name="height" value="20"/><rfilter type="box"/></film>"#;
+    const SPHERE: &str = r#"<shape type="sphere"/>"#;
+
+    #[test]
+    fn the_cube_is_laid_out_as_mitsubas() {
+        // Mitsuba 3.9.1's `cube` (`mi.traverse(mi.load_dict({'type':
+        // 'cube'}))`): the first face's corners and texture coordinates,
+        // the last face's first corner, its triangles.
+        let c = cube();
+        assert_eq!(
+            &c.positions[..4],
+            &[
+                Vec3::new(1.0, -1.0, -1.0),
+                Vec3::new(1.0, -1.0, 1.0),
+                Vec3::new(-1.0, -1.0, 1.0),
+                Vec3::new(-1.0, -1.0, -1.0)
+            ]
+        );
+        assert_eq!(
+            &c.uvs.as_ref().unwrap()[..4],
+            &[
+                Vec2::new(0.0, 1.0),
+                Vec2::new(1.0, 1.0),
+                Vec2::new(1.0, 0.0),
+                Vec2::new(0.0, 0.0)
+            ]
+        );
+        assert_eq!(c.positions[20], Vec3::new(1.0, 1.0, -1.0));
+        assert_eq!(&c.indices[..6], &[0, 1, 2, 3, 0, 2]);
+        assert_eq!(&c.indices[30..], &[20, 21, 22, 23, 20, 22]);
+        // Every face winds counter-clockwise seen from outside.
+        for t in c.indices.chunks(3) {
+            let [a, b, d] = [0, 1, 2].map(|k| c.positions[t[k] as usize]);
+            let n = c.normals.as_ref().unwrap()[t[0] as usize];
+            assert!((b - a).cross(d - a).dot(n) > 0.0, "{t:?}");
+        }
+    }
+
+    #[test]
+    fn an_orthographic_sensor_has_mitsubas_window_at_its_near_clip_distance() {
+        let s = scene(&format!(
+            r#"<sensor type="orthographic"><float name="near_clip" value="0.5"/>
+            <transform name="to_world"><scale x="3" y="3"/><lookat origin="0, 0, -4" target="0, 0, 0" up="0, 1, 0"/></transform>{FILM}</sensor>{SPHERE}"#
+        ))
+        .unwrap();
+        let c = s.camera_settings();
+        // 2 wide and 2 / aspect tall in the sensor's space, scaled by 3.
+        assert_eq!(c.projection, Projection::Orthographic { height: 3.0 });
+        // Mitsuba's +x is the image's left: the top-left corner's ray
+        // starts at +x.
+        let cam = Camera::new(&s.render_camera_settings(), 2.0);
+        let r = cam.generate_ray(Vec2::ZERO, Vec2::ZERO);
+        let world = r.origin + (c.look_from - s.render_camera_settings().look_from);
+        assert!(
+            (world - Vec3::new(3.0, 1.5, -3.5)).length() < 1e-5,
+            "{world}"
+        );
+        assert_eq!(r.direction, Vec3::Z);
+        // A stretched window is refused.
+        let e = scene(&format!(
+            r#"<sensor type="orthographic"><transform name="to_world"><scale x="3" y="2"/></transform>{FILM}</sensor>{SPHERE}"#
+        ))
+        .unwrap_err();
+        assert!(e.to_string().contains("stretches"), "{e}");
+        // So is a perspective sensor's.
+        let e = scene(&format!(
+            r#"<sensor type="perspective"><transform name="to_world"><scale x="1" y="2"/></transform>{FILM}</sensor>{SPHERE}"#
+        ))
+        .unwrap_err();
+        assert!(e.to_string().contains("stretches"), "{e}");
+    }
+
+    #[test]
+    fn a_checkerboard_reads_mitsubas_coordinates() {
+        let s = scene(&format!(
+            r#"<sensor type="perspective">{FILM}</sensor>
+            <shape type="rectangle"><bsdf type="diffuse"><texture type="checkerboard" name="reflectance">
+            <rgb name="color0" value="1, 0, 0"/>
+            <transform name="to_uv"><scale x="2" y="3"/><translate x="0.25"/></transform></texture></bsdf></shape>"#
+        ))
+        .unwrap();
+        let t = s.textures();
+        let Some(&Texture::UvChecker { sampler, even, odd }) = t.last() else {
+            panic!("{t:?}")
+        };
+        assert_eq!(t[even as usize], Texture::Constant(Vec3::X));
+        // Mitsuba's default color1.
+        assert_eq!(t[odd as usize], Texture::Constant(Vec3::splat(0.2)));
+        // Mitsuba's (u, v_m) = (u, 1 − v): at twintrace's (0.1, 0.9) it
+        // reads (2·0.1 + 0.25, 3·0.1) = (0.45, 0.3).
+        let at = sampler.transformed_uv(Vec2::new(0.1, 0.9));
+        assert!((at - Vec2::new(0.45, 0.3)).length() < 1e-6, "{at}");
+    }
 }
