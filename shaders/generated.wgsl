@@ -9,6 +9,9 @@ const MATERIAL_DIELECTRIC: u32 = 2u;
 const MATERIAL_DIFFUSE_LIGHT: u32 = 3u;
 const MATERIAL_GGX: u32 = 4u;
 const CAMERA_ORTHOGRAPHIC: u32 = 1u;
+const NO_FILTER_TABLE: u32 = 4294967295u;
+const FILTER_TABLE_HEADER: u32 = 6u;
+const FILTER_BINS_PER_PIXEL: u32 = 64u;
 const TEXTURE_CONSTANT: u32 = 0u;
 const TEXTURE_CHECKER: u32 = 1u;
 const TEXTURE_IMAGE: u32 = 2u;
@@ -329,7 +332,7 @@ struct GpuParams {
     cam_dir_x: f32,
     cam_dir_y: f32,
     cam_dir_z: f32,
-    pad_a: u32,
+    filter_table: u32,
     pad_b: u32,
     pad_c: u32,
 }

@@ -6,24 +6,41 @@ fn v3(x: f32, y: f32, z: f32) -> vec3<f32> {
     return vec3<f32>(x, y, z);
 }
 
+// A camera ray and its weight (reference::integrator::camera_ray).
+struct CameraSample {
+    ray: Ray,
+    weight: f32,
+}
+
 // Pixel (x, y) of the image (not of the film's band: params.band_row).
-fn camera_ray(x: u32, y: u32, sample: u32) -> Ray {
+fn camera_sample(x: u32, y: u32, sample: u32) -> CameraSample {
     let pixel = y * params.width + x;
     let u = sampled_vertex_randoms(params.sampler, params.seed, pixel, sample, 0u);
-    let film_pos = vec2<f32>((f32(x) + vr_get(u, DIM_PIXEL_X)) / f32(params.width), (f32(y) + vr_get(u, DIM_PIXEL_Y)) / f32(params.image_height));
+    var film_pos = vec2<f32>((f32(x) + vr_get(u, DIM_PIXEL_X)) / f32(params.width), (f32(y) + vr_get(u, DIM_PIXEL_Y)) / f32(params.image_height));
+    var weight = 1.0;
+    if params.filter_table != NO_FILTER_TABLE {
+        let sx = filter_table_sample(vr_get(u, DIM_PIXEL_X), x, params.width);
+        let sy = filter_table_sample(vr_get(u, DIM_PIXEL_Y), y, params.image_height);
+        film_pos = vec2<f32>((f32(x) + 0.5 + sx.x) / f32(params.width), (f32(y) + 0.5 + sy.x) / f32(params.image_height));
+        weight = sx.y * sy.y;
+    }
     let upper_left = v3(params.cam_upper_left_x, params.cam_upper_left_y, params.cam_upper_left_z);
     let horizontal = v3(params.cam_horizontal_x, params.cam_horizontal_y, params.cam_horizontal_z);
     let vertical = v3(params.cam_vertical_x, params.cam_vertical_y, params.cam_vertical_z);
     if params.cam_projection == CAMERA_ORTHOGRAPHIC {
         // reference::camera::Camera::generate_ray: parallel rays from the
         // window (no lens).
-        return Ray(upper_left + film_pos.x * horizontal + film_pos.y * vertical, v3(params.cam_dir_x, params.cam_dir_y, params.cam_dir_z));
+        return CameraSample(Ray(upper_left + film_pos.x * horizontal + film_pos.y * vertical, v3(params.cam_dir_x, params.cam_dir_y, params.cam_dir_z)), weight);
     }
     let rd = params.lens_radius * sample_unit_disk(vec2<f32>(vr_get(u, DIM_LENS_U), vr_get(u, DIM_LENS_V)));
     let offset = v3(params.cam_u_x, params.cam_u_y, params.cam_u_z) * rd.x + v3(params.cam_v_x, params.cam_v_y, params.cam_v_z) * rd.y;
     let target_point = upper_left + film_pos.x * horizontal + film_pos.y * vertical;
     let origin = v3(params.cam_origin_x, params.cam_origin_y, params.cam_origin_z) + offset;
-    return Ray(origin, normalize(target_point - origin));
+    return CameraSample(Ray(origin, normalize(target_point - origin)), weight);
+}
+
+fn camera_ray(x: u32, y: u32, sample: u32) -> Ray {
+    return camera_sample(x, y, sample).ray;
 }
 
 // Beer-Lambert transmittance over a segment of length t that ended on the
@@ -347,7 +364,8 @@ fn render_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let image_pixel = y * params.width + gid.x;
     for (var i = 0u; i < params.sample_count; i++) {
         let sample = params.sample_start + i;
-        let l = trace(camera_ray(gid.x, y, sample), image_pixel, sample);
+        let cs = camera_sample(gid.x, y, sample);
+        let l = trace(cs.ray, image_pixel, sample) * cs.weight;
         film_add_sample(pixel, l, poisoned);
     }
 }

@@ -601,7 +601,13 @@ fn wf_accumulate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
     var accepted = 0u;
     for (var j = 0u; j < params.sample_count; j++) {
         let slot = j * params.wave_pixel_count + p;
-        let l = path_v(slot, PF_RADIANCE);
+        // The paths' light unweighted (as render_main's trace), times the
+        // camera sample's weight (1 for the box).
+        var l = path_v(slot, PF_RADIANCE);
+        if params.filter_table != NO_FILTER_TABLE {
+            let image_pixel = slot_pixel(slot);
+            l = l * camera_sample(image_pixel % params.width, image_pixel / params.width, slot_sample(slot)).weight;
+        }
         if sample_accepted(l, (path_u(slot, PF_FLAGS) & PATH_POISONED) != 0u) {
             accepted += 1u;
             sums = channel_sums_add(sums, fixed_point(l[c]).q);

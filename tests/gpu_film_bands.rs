@@ -146,8 +146,8 @@ const MUTANTS: &[(&str, &str, &str, Schedule)] = &[
     ),
     (
         "the camera ray through the band's row, not the image's",
-        "let l = trace(camera_ray(gid.x, y, sample), image_pixel, sample);",
-        "let l = trace(camera_ray(gid.x, gid.y, sample), image_pixel, sample);",
+        "let cs = camera_sample(gid.x, y, sample);",
+        "let cs = camera_sample(gid.x, gid.y, sample);",
         Schedule::Megakernel,
     ),
     (

@@ -96,6 +96,11 @@ fn an_orthographic_window_at_the_sensor_rather_than_its_near_clip_fails_the_gate
     mutant_fails("plan", Mutant::MitsubaOrthographicNearIgnored);
 }
 
+#[test]
+fn a_film_without_an_rfilter_read_with_the_box_fails_the_gate() {
+    mutant_fails("soft", Mutant::MitsubaDefaultFilterBox);
+}
+
 fn twintrace(dir: &std::path::Path, args: &[&str]) -> (Option<i32>, String, String) {
     let out = Command::new(crate::common::twintrace_bin())
         .current_dir(dir)

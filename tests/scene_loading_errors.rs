@@ -218,6 +218,11 @@ fn camera_and_render_errors_are_named() {
     );
 }
 
+/// A quad under an orthographic camera; `FILTER` is replaced.
+const ORTHO_QUAD: &str = r#"{ FILTER "camera": { "look_from": [0, 0, 5], "look_at": [0, 0, 0], "projection": "orthographic", "height": 3 },
+  "materials": { "m": { "type": "lambertian", "albedo": [0.5, 0.5, 0.5] } },
+  "objects": [ { "type": "quad", "corner": [-1, -1, 0], "u": [2, 0, 0], "v": [0, 2, 0], "material": "m" } ] }"#;
+
 #[test]
 fn an_orthographic_camera_and_a_uv_checker_load_as_written() {
     let dir = tempfile::tempdir().unwrap();
@@ -243,6 +248,29 @@ fn an_orthographic_camera_and_a_uv_checker_load_as_written() {
         })
         .expect("a uv checker");
     assert_eq!(checker, Some([4.0, 0.0, 0.0, 0.0, 2.0, 0.0]));
+    // A pixel filter: Mitsuba's Gaussian, its width checked.
+    let filtered = ORTHO_QUAD.replace(
+        "FILTER",
+        r#""filter": { "type": "gaussian", "stddev": 0.5 },"#,
+    );
+    let p = write_scene(dir.path(), "filtered.json", &filtered);
+    let scene = reference::load_scene(p.to_str().unwrap()).unwrap();
+    assert_eq!(
+        scene.filter(),
+        reference::filter::PixelFilter::Gaussian { stddev: 0.5 }
+    );
+    assert!(scene.filter_table().is_some());
+    check(
+        &ORTHO_QUAD.replace(
+            "FILTER",
+            r#""filter": { "type": "gaussian", "stddev": 0 },"#,
+        ),
+        &["filter.stddev"],
+    );
+    check(
+        &ORTHO_QUAD.replace("FILTER", r#""filter": { "type": "tent" },"#),
+        &["tent"],
+    );
     let nested = r#""textures": { "a": { "type": "uv_checker", "even": [1,1,1], "odd": [0,0,0] }, "b": { "type": "uv_checker", "even": "a", "odd": [0,0,0] } },
   "materials": { "m": { "type": "lambertian", "albedo": "b" } }"#;
     check(

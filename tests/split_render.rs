@@ -98,7 +98,8 @@ fn floating_point_accumulation_would_fail_the_merge_gate() {
                 let (x, y) = (pixel % s.width, pixel / s.width);
                 let mut p = PixelStats::default();
                 for sample in range.clone() {
-                    let ray = camera_ray(&camera, &s, x, y, sample);
+                    // The box filter: weight 1.
+                    let (ray, _) = camera_ray(None, &camera, &s, x, y, sample);
                     p.add(trace_path_mis(&scene, &lights, ray, &s, pixel, sample));
                 }
                 p

@@ -288,6 +288,11 @@ const GPU_ONLY_PREFIXES: &[(&str, &str)] = &[
 /// WGSL name, Rust name, why they differ.
 const RENAMED: &[(&str, &str, &str)] = &[
     (
+        "camera_sample",
+        "camera_ray",
+        "the ray and its weight, as the Rust returns them; the WGSL's camera_ray is the ray alone",
+    ),
+    (
         "reflect_about",
         "reflect",
         "WGSL predeclares a built-in `reflect`",

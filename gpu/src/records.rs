@@ -105,6 +105,9 @@ gpu_record! {
     }
 }
 
+/// `GpuParams::filter_table` of the box filter (no table).
+pub const NO_FILTER_TABLE: u32 = u32::MAX;
+
 /// `GpuTexture::sampler` bits: the u axis's wrap tag
 /// (`reference::texture::wrap_tag`) in bits 0-1, the v axis's in 2-3, then
 /// the nearest filter, whether `t0..t5` transform uv, and the
@@ -301,10 +304,12 @@ gpu_record! {
         // The sequence of the paths' randoms (`reference::rng::Sampler::tag`).
         sampler: u32,
         // The camera's projection (`reference::camera::Projection::tag`)
-        // and an orthographic camera's ray direction (`Camera::parallel`),
-        // then the padding to a multiple of 16 bytes.
+        // and an orthographic camera's ray direction (`Camera::parallel`);
+        // where the pixel filter's table starts in `texels`
+        // (`NO_FILTER_TABLE`: the box); then the padding to a multiple of
+        // 16 bytes.
         cam_projection: u32, cam_dir_x: f32, cam_dir_y: f32, cam_dir_z: f32,
-        pad_a: u32, pad_b: u32, pad_c: u32,
+        filter_table: u32, pad_b: u32, pad_c: u32,
     }
 }
 

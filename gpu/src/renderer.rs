@@ -146,6 +146,8 @@ pub struct GpuRenderer<'a> {
     /// The light set's parameters (`GpuParams::emitter_count`, `env_pmf`,
     /// `env_table`, `punctual_table`, `punctual_count`).
     lights: (u32, f32, u32, u32, u32),
+    /// `GpuParams::filter_table`.
+    filter_table: u32,
     layout: wgpu::BindGroupLayout,
     /// Each scene array with the binding it is bound to.
     scene_buffers: Vec<(Binding, wgpu::Buffer)>,
@@ -478,6 +480,7 @@ impl<'a> GpuRenderer<'a> {
                 packed.punctual_table,
                 packed.punctual_count,
             ),
+            filter_table: packed.filter_table,
             layout,
             scene_buffers,
             scene,
@@ -591,6 +594,7 @@ impl<'a> GpuRenderer<'a> {
             env_table: self.lights.2,
             punctual_table: self.lights.3,
             punctual_count: self.lights.4,
+            filter_table: self.filter_table,
             // The whole image: `accumulate` cuts it into the film's bands.
             band_row: 0,
             image_height: settings.height,

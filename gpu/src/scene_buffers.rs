@@ -65,6 +65,10 @@ pub struct PackedScene {
     /// Where the punctual lights' records (`GpuPunctualLight`) start in
     /// `texels`.
     pub punctual_table: u32,
+    /// Where the pixel filter's sampling table
+    /// (`reference::filter::FilterTable::to_words`) starts in `texels`;
+    /// [`NO_FILTER_TABLE`] for the box.
+    pub filter_table: u32,
 }
 
 /// A material's record with its coverage (`alpha`) and the texture of its
@@ -426,6 +430,14 @@ impl PackedScene {
             };
             texels.extend_from_slice(bytemuck::cast_slice(&[record]));
         }
+        let filter_table = match scene.filter_table() {
+            None => NO_FILTER_TABLE,
+            Some(t) => {
+                let at = texels.len() as u32;
+                texels.extend(t.to_words());
+                at
+            }
+        };
         let mut packed = PackedScene {
             traversal,
             leaves: LeafLayout::Indexed,
@@ -519,6 +531,7 @@ impl PackedScene {
             texels,
             emitter_count: lights.len() as u32,
             punctual_table,
+            filter_table,
             punctual_count: punctual.len() as u32,
             emitters: (lights.emitters().chain(punctual.emitters()))
                 .map(|(prim, cdf)| GpuEmitter { prim, cdf })

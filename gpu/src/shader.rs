@@ -42,7 +42,7 @@ pub const WORKGROUP: (u32, u32) = (8, 8);
 /// The WGSL library shared by the render kernel and the test kernels: one
 /// file per `reference/src` module (same file name, same function names),
 /// in the order they are joined.
-pub const LIBRARY_FILES: [(&str, &str); 11] = [
+pub const LIBRARY_FILES: [(&str, &str); 12] = [
     ("rng", include_str!("../../shaders/rng.wgsl")),
     ("sampling", include_str!("../../shaders/sampling.wgsl")),
     ("geometry", include_str!("../../shaders/geometry.wgsl")),
@@ -50,6 +50,7 @@ pub const LIBRARY_FILES: [(&str, &str); 11] = [
     ("bvh", include_str!("../../shaders/bvh.wgsl")),
     ("scene", include_str!("../../shaders/scene.wgsl")),
     ("texture", include_str!("../../shaders/texture.wgsl")),
+    ("filter", include_str!("../../shaders/filter.wgsl")),
     ("background", include_str!("../../shaders/background.wgsl")),
     ("material", include_str!("../../shaders/material.wgsl")),
     ("light", include_str!("../../shaders/light.wgsl")),
@@ -99,6 +100,9 @@ pub fn generate() -> String {
         "CAMERA_ORTHOGRAPHIC",
         reference::camera::projection_tag::ORTHOGRAPHIC,
     );
+    s += &u("NO_FILTER_TABLE", crate::records::NO_FILTER_TABLE);
+    s += &u("FILTER_TABLE_HEADER", reference::filter::TABLE_HEADER);
+    s += &u("FILTER_BINS_PER_PIXEL", reference::filter::BINS_PER_PIXEL);
     s += &u("TEXTURE_CONSTANT", texture_tag::CONSTANT);
     s += &u("TEXTURE_CHECKER", texture_tag::CHECKER);
     s += &u("TEXTURE_IMAGE", texture_tag::IMAGE);

@@ -221,7 +221,16 @@ pub fn render_aovs(
         .for_each(|(y, row)| {
             for (x, pixel) in row.chunks_exact_mut(WORDS).enumerate() {
                 for sample in samples.clone() {
-                    let ray = camera_ray(&camera, settings, x as u32, y as u32, sample);
+                    // The filter's weights (mean square 1 + 7e-5) are not
+                    // applied: a layer is the mean over the camera samples.
+                    let (ray, _) = camera_ray(
+                        scene.filter_table(),
+                        &camera,
+                        settings,
+                        x as u32,
+                        y as u32,
+                        sample,
+                    );
                     add_to(pixel, first_hit(scene, &ray));
                 }
             }

@@ -26,6 +26,7 @@
 
 use crate::background::evaluate_background;
 use crate::film::{Film, FilmSums, PixelSums};
+use crate::filter::FilterTable;
 use crate::geometry::{spawn_origin, Ray, SurfaceInteraction};
 use crate::light::{is_punctual, punctual_tag, LightSet, ENV_PRIM, PUNCTUAL_PRIM};
 use crate::material::{bsdf_eval, emitted, has_density, scatter, Material, TextureContext};
@@ -385,22 +386,42 @@ fn punctual_contribution(
     f_cos * ls.incident / pmf
 }
 
-/// The camera ray of one sample.
+/// The camera ray of one sample and its weight: the sub-pixel position
+/// uniform over the pixel (weight 1), or drawn from the scene's filter
+/// (`filter`: [`crate::filter`]) with its weight.
 #[inline]
 pub fn camera_ray(
+    filter: Option<&FilterTable>,
     camera: &crate::camera::Camera,
     settings: &RenderSettings,
     x: u32,
     y: u32,
     sample: u32,
-) -> Ray {
+) -> (Ray, f32) {
     let pixel = y * settings.width + x;
     let u = sampled_vertex_randoms(settings.sampler, settings.seed, pixel, sample, 0);
-    let film = Vec2::new(
-        (x as f32 + u[dims::PIXEL_X]) / settings.width as f32,
-        (y as f32 + u[dims::PIXEL_Y]) / settings.height as f32,
-    );
-    camera.generate_ray(film, Vec2::new(u[dims::LENS_U], u[dims::LENS_V]))
+    let (film, weight) = match filter {
+        None => (
+            Vec2::new(
+                (x as f32 + u[dims::PIXEL_X]) / settings.width as f32,
+                (y as f32 + u[dims::PIXEL_Y]) / settings.height as f32,
+            ),
+            1.0,
+        ),
+        Some(t) => {
+            let (dx, wx) = t.sample(u[dims::PIXEL_X], x, settings.width);
+            let (dy, wy) = t.sample(u[dims::PIXEL_Y], y, settings.height);
+            (
+                Vec2::new(
+                    (x as f32 + 0.5 + dx) / settings.width as f32,
+                    (y as f32 + 0.5 + dy) / settings.height as f32,
+                ),
+                wx * wy,
+            )
+        }
+    };
+    let ray = camera.generate_ray(film, Vec2::new(u[dims::LENS_U], u[dims::LENS_V]));
+    (ray, weight)
 }
 
 /// Renders `settings.spp` samples per pixel with BSDF sampling only
@@ -470,15 +491,19 @@ pub fn render_samples_until(
                     let mut sums = PixelSums::default();
                     let pixel = y * w + x;
                     for sample in samples.clone() {
-                        let ray = camera_ray(&camera, settings, x, y, sample);
-                        sums.add(match integrator {
-                            Integrator::Bsdf => {
-                                trace_path(scene, &lights, ray, settings, pixel, sample)
-                            }
-                            Integrator::Mis => {
-                                trace_path_mis(scene, &lights, ray, settings, pixel, sample)
-                            }
-                        });
+                        let (ray, weight) =
+                            camera_ray(scene.filter_table(), &camera, settings, x, y, sample);
+                        sums.add(
+                            weight
+                                * match integrator {
+                                    Integrator::Bsdf => {
+                                        trace_path(scene, &lights, ray, settings, pixel, sample)
+                                    }
+                                    Integrator::Mis => {
+                                        trace_path_mis(scene, &lights, ray, settings, pixel, sample)
+                                    }
+                                },
+                        );
                     }
                     out.push(sums);
                 }

@@ -20,6 +20,7 @@ pub mod embree;
 pub mod error;
 pub mod f64_oracle;
 pub mod film;
+pub mod filter;
 pub mod geometry;
 pub mod integrator;
 pub mod light;

@@ -77,6 +77,9 @@ pub enum Mutant {
     /// origin rather than at its near clip distance
     /// (`loader::mitsuba::scene`).
     MitsubaOrthographicNearIgnored,
+    /// A Mitsuba film without an `rfilter` read with the box rather than
+    /// Mitsuba's default Gaussian (`loader::mitsuba::scene`).
+    MitsubaDefaultFilterBox,
 }
 
 #[cfg(feature = "mutants")]

@@ -66,6 +66,7 @@ use glam::Vec3;
 use materials::{triple, Surface};
 use reference::background::Background;
 use reference::camera::Projection;
+use reference::filter::PixelFilter;
 use reference::Scene;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -501,9 +502,15 @@ impl<'s> MitsubaScene<'s> {
             x,
             r#"    <sampler type="independent"><integer name="sample_count" value="{spp}"/></sampler>"#
         )?;
+        let rfilter = match self.scene.filter() {
+            PixelFilter::Box => r#"<rfilter type="box"/>"#.to_string(),
+            PixelFilter::Gaussian { stddev } => format!(
+                r#"<rfilter type="gaussian"><float name="stddev" value="{stddev:?}"/></rfilter>"#
+            ),
+        };
         writeln!(
             x,
-            r#"    <film type="hdrfilm"><integer name="width" value="{width}"/><integer name="height" value="{height}"/><string name="pixel_format" value="rgb"/><rfilter type="box"/></film>"#
+            r#"    <film type="hdrfilm"><integer name="width" value="{width}"/><integer name="height" value="{height}"/><string name="pixel_format" value="rgb"/>{rfilter}</film>"#
         )?;
         x += "  </sensor>\n";
         for &id in &self.images {

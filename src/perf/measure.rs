@@ -205,7 +205,8 @@ fn retrace_share(scene: &Scene, settings: &RenderSettings) {
             for sample in 0..settings.spp {
                 if (pixel as u64 * spp + sample as u64) % INJECTED_STRIDE == 0 {
                     let (x, y) = (pixel % settings.width, pixel / settings.width);
-                    let ray = camera_ray(&camera, settings, x, y, sample);
+                    let (ray, _) =
+                        camera_ray(scene.filter_table(), &camera, settings, x, y, sample);
                     black_box(trace_path(scene, &lights, ray, settings, pixel, sample));
                 }
             }

@@ -59,8 +59,8 @@ const SAMPLES: Range<u32> = 3..7;
 
 /// The scenes: depth of field (lens samples), the Cornell box (quads from
 /// both sides), textures, the glTF materials (normal maps, vertex
-/// colours, both uv sets), glass and metal, and a Mitsuba gate scene
-/// (an orthographic camera, uv checkers).
+/// colours, both uv sets), glass and metal, and Mitsuba gate scenes (an
+/// orthographic camera, uv checkers; the Gaussian pixel filter).
 pub fn scenes() -> Result<Vec<(String, Scene)>, String> {
     let load = |spec: &str| reference::load_scene(spec).map_err(|e| e.to_string());
     let mut out = vec![
@@ -75,8 +75,13 @@ pub fn scenes() -> Result<Vec<(String, Scene)>, String> {
     ] {
         out.push((f.trim_end_matches(".json").into(), load(&fixture_scene(f))?));
     }
-    let plan = workspace_root().join("fixtures/mitsuba/plan/test_plan_path.xml");
-    out.push(("mitsuba-plan".into(), load(&plan.display().to_string())?));
+    for (name, file) in [
+        ("mitsuba-plan", "plan/test_plan_path.xml"),
+        ("mitsuba-soft", "soft/test_soft_direct.xml"),
+    ] {
+        let path = workspace_root().join("fixtures/mitsuba").join(file);
+        out.push((name.into(), load(&path.display().to_string())?));
+    }
     Ok(out)
 }
 

@@ -7,6 +7,7 @@
 use crate::background::Background;
 use crate::camera::{CameraSettings, Projection};
 use crate::error::SceneError;
+use crate::filter::PixelFilter;
 use crate::loader::image::load_image;
 use crate::material::{ClearCoat, Material};
 use crate::scene::{LightInput, RenderOrigin, RenderSettings, Scene, SceneBuilder, Transform};
@@ -511,6 +512,23 @@ pub struct SceneJson {
     /// Point, spot and directional lights.
     #[serde(default)]
     pub lights: Vec<LightJson>,
+    /// How each pixel's camera samples are spread (default: the box).
+    pub filter: Option<FilterJson>,
+}
+
+/// The scene's pixel filter (`reference::filter::PixelFilter`).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum FilterJson {
+    Box,
+    Gaussian {
+        #[serde(default = "default_gaussian_stddev")]
+        stddev: f32,
+    },
+}
+
+fn default_gaussian_stddev() -> f32 {
+    0.5
 }
 
 /// Parses a scene document; errors carry the path to the field and the
@@ -998,6 +1016,10 @@ fn build(doc: &SceneJson, base: &Path, sources: Vec<PathBuf>) -> Result<Scene, S
         roulette_depth: rj.roulette_depth.unwrap_or(defaults.roulette_depth),
         sampler: rj.sampler_or(defaults.sampler)?,
         camera: None,
+    };
+    r.builder.filter = match doc.filter {
+        None | Some(FilterJson::Box) => PixelFilter::Box,
+        Some(FilterJson::Gaussian { stddev }) => PixelFilter::Gaussian { stddev },
     };
     r.builder.render_origin = match doc.render_origin {
         Some(p) if !DVec3::from(p).is_finite() => {

@@ -7,6 +7,7 @@ use crate::background::Background;
 use crate::bvh::Bvh;
 use crate::camera::CameraSettings;
 use crate::error::SceneError;
+use crate::filter::PixelFilter;
 use crate::geometry::Aabb;
 use crate::light::{punctual_tag, PunctualLight};
 use crate::material::{Alpha, AlphaMode, Material};
@@ -85,6 +86,8 @@ pub struct SceneBuilder {
     quad_corners: Vec<DVec3>,
     positions: Vec<DVec3>,
     pub render: RenderSettings,
+    /// How each pixel's camera samples are spread (the box by default).
+    pub filter: PixelFilter,
     pub background: Option<Background>,
     /// What the loaders ignored and the user should hear of (one line
     /// each), kept with the scene ([`Scene::warnings`]).
@@ -993,11 +996,14 @@ impl SceneBuilder {
             .collect();
         let batched: Vec<bool> = self.primitives.iter().map(|p| batched(p.tag)).collect();
         let (bvh, bvh_stats) = Bvh::build_batched(&bounds, &batched);
+        self.filter.validate()?;
         let mut scene = Scene {
             camera_settings: self.camera,
             render_camera,
             render_space: space,
             render: self.render,
+            filter: self.filter,
+            filter_table: self.filter.table().map(std::sync::Arc::new),
             background,
             spheres,
             quads,

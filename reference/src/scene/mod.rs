@@ -27,6 +27,7 @@ pub use transform::Transform;
 use crate::background::Background;
 use crate::bvh::{box_pad, Bvh, BvhBuildStats};
 use crate::camera::{Camera, CameraSettings};
+use crate::filter::{FilterTable, PixelFilter};
 use crate::geometry::{gamma, Aabb, Hit, Ray, SurfaceInteraction};
 use crate::light::PunctualLight;
 use crate::material::{alpha_hash, normal_mapped, Alpha, Material};
@@ -79,6 +80,10 @@ pub struct Scene {
     /// Where render space lies: every position below is in it.
     render_space: RenderSpace,
     render: RenderSettings,
+    /// How each pixel's camera samples are spread, and its sampling table
+    /// (none for the box).
+    filter: PixelFilter,
+    filter_table: Option<std::sync::Arc<FilterTable>>,
     background: Background,
     spheres: Vec<Sphere>,
     quads: Vec<Quad>,
@@ -235,6 +240,16 @@ impl Scene {
     /// render space).
     pub fn camera_settings(&self) -> CameraSettings {
         self.camera_settings
+    }
+
+    /// How each pixel's camera samples are spread.
+    pub fn filter(&self) -> PixelFilter {
+        self.filter
+    }
+
+    /// The filter's sampling table (none for the box).
+    pub fn filter_table(&self) -> Option<&FilterTable> {
+        self.filter_table.as_deref()
     }
 
     /// The scene's own camera in render space.

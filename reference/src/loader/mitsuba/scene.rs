@@ -11,6 +11,7 @@ use super::xml::{Child, Document, Location, Object, Property, Spectrum, Value};
 use crate::background::Background;
 use crate::camera::{CameraSettings, Projection};
 use crate::error::SceneError;
+use crate::filter::PixelFilter;
 use crate::loader::image::load_image;
 use crate::material::Material;
 use crate::mutants::{self, Mutant};
@@ -433,17 +434,12 @@ impl Reader<'_> {
         }
         let orthographic = o.kind == "orthographic";
         // The film first: the field of view's axis needs its aspect.
-        let (width, height) = match props.child("film")? {
+        let (width, height, filter) = match props.child("film")? {
             Some(f) => film(&f.object)?,
-            // Mitsuba's default film: hdrfilm 768 x 576 with a gaussian
-            // filter, which twintrace does not implement.
-            None => {
-                return Err(unsupported(
-                    o,
-                    " without a film (the default film's gaussian filter is not implemented; give <film type=\"hdrfilm\"> with <rfilter type=\"box\"/>)",
-                ))
-            }
+            // Mitsuba's default film: hdrfilm 768 x 576, gaussian filter.
+            None => (768, 576, PixelFilter::Gaussian { stddev: 0.5 }),
         };
+        self.builder.filter = filter;
         settings.width = width;
         settings.height = height;
         match props.child("sampler")? {
@@ -1148,7 +1144,7 @@ fn uses_texture(o: &Object) -> bool {
         .any(|c| c.object.tag == "texture" || (c.object.tag == "bsdf" && uses_texture(&c.object)))
 }
 
-fn film(o: &Object) -> Result<(u32, u32), SceneError> {
+fn film(o: &Object) -> Result<(u32, u32, PixelFilter), SceneError> {
     let props = Props::new(o);
     if o.kind != "hdrfilm" {
         return Err(unsupported(o, ""));
@@ -1184,38 +1180,50 @@ fn film(o: &Object) -> Result<(u32, u32), SceneError> {
     for name in ["pixel_format", "component_format", "file_format"] {
         props.string(name)?;
     }
-    for name in [
-        "sample_border",
-        "compensate",
-        "banner",
-        "high_quality_edges",
-    ] {
+    for name in ["compensate", "banner", "high_quality_edges"] {
         props.boolean(name, false)?;
     }
-    match props.child("rfilter")? {
-        None => {
-            return Err(unsupported(
-                o,
-                " without an rfilter (Mitsuba's default, gaussian, is not implemented; give <rfilter type=\"box\"/>)",
-            ))
-        }
+    let filter = match props.child("rfilter")? {
+        None if mutants::is(Mutant::MitsubaDefaultFilterBox) => PixelFilter::Box,
+        // Mitsuba's default.
+        None => PixelFilter::Gaussian { stddev: 0.5 },
         Some(f) => {
             let f = &f.object;
-            if f.kind != "box" {
-                return Err(unsupported(f, ""));
-            }
             let fp = Props::new(f);
-            // A box of radius 0.5: each sample counts for the pixel it
-            // falls in, as twintrace's film.
-            let r = fp.float("radius", 0.5)?;
-            if r != 0.5 {
-                return Err(unsupported(f, &format!(" with radius {r} (only 0.5)")));
-            }
+            let filter = match f.kind.as_str() {
+                "box" => {
+                    // A box of radius 0.5: each sample counts for the
+                    // pixel it falls in, as twintrace's film.
+                    let r = fp.float("radius", 0.5)?;
+                    if r != 0.5 {
+                        return Err(unsupported(f, &format!(" with radius {r} (only 0.5)")));
+                    }
+                    PixelFilter::Box
+                }
+                "gaussian" => {
+                    let stddev = fp.float("stddev", 0.5)?;
+                    let filter = PixelFilter::Gaussian {
+                        stddev: stddev as f32,
+                    };
+                    filter.validate().map_err(|e| fail(&f.at, e.to_string()))?;
+                    filter
+                }
+                _ => return Err(unsupported(f, "")),
+            };
             fp.finish()?;
+            filter
         }
+    };
+    // Mitsuba samples the image alone unless asked to sample a border
+    // around it, which only a filter wider than the pixel reaches.
+    if props.boolean("sample_border", false)? && filter != PixelFilter::Box {
+        return Err(unsupported(
+            o,
+            " with sample_border and a filter wider than a pixel",
+        ));
     }
     props.finish()?;
-    Ok((w, h))
+    Ok((w, h, filter))
 }
 
 fn sampler(o: &Object, settings: &mut RenderSettings) -> Result<(), SceneError> {
