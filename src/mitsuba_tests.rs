@@ -8,8 +8,9 @@
 use crate::compare::mitsuba::{budget_spp, judge, Verdict};
 use crate::render::{self, Devices, RenderSpec};
 use anyhow::{anyhow, Context, Result};
+use glam::Vec3;
 use reference::loader::mitsuba::NOT_SUPPORTED;
-use reference::{LoadOptions, Scene};
+use reference::{LoadOptions, RenderSettings, Scene};
 use std::path::{Path, PathBuf};
 
 /// One test scene and its reference images.
@@ -133,43 +134,56 @@ pub fn load(case: &Case) -> Result<std::result::Result<Scene, String>> {
     }
 }
 
-/// Renders a loaded scene on `devices` at the budget and judges it
-/// against the case's references.
+/// The settings a case renders with: the scene's, at the budget's
+/// samples and seed; the case's references must be the film's size.
+pub fn settings(case: &Case, scene: &Scene, budget: Budget) -> Result<RenderSettings> {
+    let mut settings = scene.render_settings();
+    for (what, path) in [("reference", &case.reference), ("variance", &case.variance)] {
+        let image = crate::image_io::read_exr(path)?;
+        let (w, h) = (image.width, image.height);
+        if (w, h) != (settings.width, settings.height) {
+            return Err(anyhow!(
+                "{}: the {what} is {w}x{h}, the scene's film {}x{}",
+                case.name,
+                settings.width,
+                settings.height
+            ));
+        }
+    }
+    settings.spp = budget
+        .spp
+        .unwrap_or_else(|| budget_spp(settings.width as u64 * settings.height as u64));
+    settings.seed = budget.seed;
+    Ok(settings)
+}
+
+/// Judges a render's mean of `spp` samples a pixel against the case's
+/// references.
+pub fn judge_render(case: &Case, mean: &[Vec3], spp: u32) -> Result<Verdict> {
+    let reference = crate::image_io::read_exr(&case.reference)?;
+    let variance = crate::image_io::read_exr(&case.variance)?;
+    if reference.mean.len() != mean.len() || variance.mean.len() != mean.len() {
+        return Err(anyhow!(
+            "{}: the render and the references differ in size",
+            case.name
+        ));
+    }
+    Ok(judge(mean, spp, &reference.mean, &variance.mean))
+}
+
+/// Renders a loaded case at `budget` on `devices` and judges it.
 pub fn run_scene(
     case: &Case,
     scene: &Scene,
     devices: Devices,
     budget: Budget,
 ) -> Result<(Verdict, u32)> {
-    let reference = crate::image_io::read_exr(&case.reference)?;
-    let variance = crate::image_io::read_exr(&case.variance)?;
-    let mut settings = scene.render_settings();
-    if (reference.width, reference.height) != (settings.width, settings.height)
-        || (variance.width, variance.height) != (settings.width, settings.height)
-    {
-        return Err(anyhow!(
-            "{}: the references are {}x{} and {}x{}, the scene's film {}x{}",
-            case.name,
-            reference.width,
-            reference.height,
-            variance.width,
-            variance.height,
-            settings.width,
-            settings.height
-        ));
-    }
-    let spp = budget
-        .spp
-        .unwrap_or_else(|| budget_spp(settings.width as u64 * settings.height as u64));
-    settings.spp = spp;
-    settings.seed = budget.seed;
+    let settings = settings(case, scene, budget)?;
+    let spp = settings.spp;
     let mut film = render::open(devices, scene, &RenderSpec::DEFAULT, settings)?;
     film.add(0..spp, &|_| {})?;
     let layers = film.layers()?;
-    Ok((
-        judge(&layers.mean, spp, &reference.mean, &variance.mean),
-        spp,
-    ))
+    Ok((judge_render(case, &layers.mean, spp)?, spp))
 }
 
 /// Loads, renders and judges a case.

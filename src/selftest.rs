@@ -8,7 +8,11 @@
 //!   reference (the z-test of `twintrace diff`'s default), and the furnaces
 //!   whose answer is known (exact white furnace, the radiosity solution of
 //!   concentric spheres, the Bernoulli furnace's mean, variance and
-//!   skewness). One verdict per gate.
+//!   skewness), and the Mitsuba gate scenes of fixtures/mitsuba (their
+//!   references by Mitsuba 3.9.1 itself; a closed room whose point light
+//!   has a ceiling above it, textured and instanced shapes, an
+//!   orthographic camera, the Gaussian pixel filter) judged as Mitsuba's
+//!   render tests judge an image. One verdict per gate.
 //! - [`calibrate`]: per fixture, `count` correct renders (seeds `first..`),
 //!   each compared with its stored reference: the false-alarm rate of each
 //!   family of tests, with its Clopper–Pearson bound; and, applied to the
@@ -239,10 +243,48 @@ pub fn run_gates(
             out.push(g);
         }
     }
+    for case in mitsuba_gate_cases()? {
+        if only.is_some_and(|o| o != case.name) {
+            continue;
+        }
+        let name = format!("Mitsuba gate {}", case.name);
+        report(GateEvent::Started(&name));
+        let g = mitsuba_gate(name, &case, render, seed)?;
+        report(GateEvent::Finished(&g));
+        out.push(g);
+    }
     if out.is_empty() {
         anyhow::bail!("no gate is called `{}`", only.unwrap_or(""));
     }
     Ok(out)
+}
+
+/// The Mitsuba gate scenes (fixtures/mitsuba) [`run_gates`] runs last.
+pub fn mitsuba_gate_cases() -> Result<Vec<crate::mitsuba_tests::Case>> {
+    crate::mitsuba_tests::cases(&crate::compare::gate::workspace_root().join("fixtures/mitsuba"))
+}
+
+/// A Mitsuba gate scene rendered at the protocol's budget with `seed`
+/// and judged against Mitsuba's reference (Mitsuba's pixel test and the
+/// image sums: [`crate::compare::mitsuba`]).
+fn mitsuba_gate(
+    name: String,
+    case: &crate::mitsuba_tests::Case,
+    render: RenderFn,
+    seed: u32,
+) -> Result<GateOutcome> {
+    use crate::mitsuba_tests::{judge_render, load, settings, Budget};
+    let started = Instant::now();
+    let scene = load(case)?.map_err(|line| anyhow::anyhow!("{line}"))?;
+    let settings = settings(case, &scene, Budget { spp: None, seed })?;
+    let film = render(&scene, &settings)?;
+    let verdict = judge_render(case, &film.mean(), settings.spp)?;
+    Ok(GateOutcome {
+        name,
+        passed: verdict.passes(),
+        detail: format!("{} spp: {}", settings.spp, verdict.figures()),
+        seconds: started.elapsed().as_secs_f64(),
+    })
 }
 
 /// The twin checks a run takes: every one of [`crate::twins::CHECKS`],

@@ -23,3 +23,41 @@ fn gpu_the_gpu_twin_passes_mitsubas_render_test_protocol_on_the_gate_scenes() {
         assert!(verdict.passes(), "{}: {}", case.name, verdict.figures());
     }
 }
+
+#[test]
+fn gpu_a_point_lights_shadow_ray_not_stopped_at_the_light_fails_the_room_gate() {
+    // A plausible GPU-only defect: a point or spot light's shadow ray
+    // left unbounded, so that whatever lies beyond the light shadows it.
+    // Open gate scenes cannot see it; the room's point light has a
+    // ceiling above it.
+    let dir = twintrace::compare::gate::workspace_root().join("fixtures/mitsuba");
+    let case = mitsuba_tests::cases(&dir)
+        .unwrap()
+        .into_iter()
+        .find(|c| c.name.starts_with("rooms/"))
+        .unwrap();
+    let scene = mitsuba_tests::load(&case).unwrap().unwrap();
+    let settings = mitsuba_tests::settings(&case, &scene, Budget::default()).unwrap();
+    let from = "        t_max = length(aim);\n        dir = aim / t_max;";
+    let to = "        dir = aim / length(aim);";
+    let program = gpu::shader::render_source();
+    assert_eq!(program.matches(from).count(), 1, "`{from}` not found once");
+    let program = program.replace(from, to);
+    let packed = gpu::scene_buffers::PackedScene::new(&scene);
+    let integrator = twintrace::render::RenderSpec::DEFAULT.integrator();
+    let renderer =
+        gpu::GpuRenderer::with_program(crate::common::gpu(), &packed, &scene, &program, integrator)
+            .unwrap();
+    let film = renderer.render(&settings, &|_, _| {}).unwrap().film;
+    let verdict = mitsuba_tests::judge_render(&case, &film.mean(), settings.spp).unwrap();
+    println!(
+        "{}: unbounded shadow rays: {}",
+        case.name,
+        verdict.figures()
+    );
+    assert!(
+        !verdict.passes(),
+        "the mutant passed: {}",
+        verdict.figures()
+    );
+}

@@ -28,7 +28,7 @@ pub struct SelftestArgs {
     /// The estimator the gates render with (default: the render command's).
     #[arg(long, value_parser = axis::<Integrator>(), default_value = RenderSpec::DEFAULT.variant.integrator.name())]
     pub integrator: Integrator,
-    /// Run only the image gate of this fixture (a manifest name).
+    /// Run only the image gate of this fixture (a manifest name, or a Mitsuba gate scene: `rooms/test_room_path`).
     #[arg(long, value_name = "NAME")]
     pub only: Option<String>,
     /// Samples per pixel of the gate renders.
@@ -173,7 +173,9 @@ pub fn execute(args: &SelftestArgs) -> Result<bool> {
     };
     let images = match &args.only {
         Some(_) => 1,
-        None => read_manifest()?.len() + selftest::FURNACE_GATES,
+        None => {
+            read_manifest()?.len() + selftest::FURNACE_GATES + selftest::mitsuba_gate_cases()?.len()
+        }
     };
     let total = twins + images;
     let started = std::time::Instant::now();
