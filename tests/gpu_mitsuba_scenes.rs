@@ -24,22 +24,17 @@ fn gpu_the_gpu_twin_passes_mitsubas_render_test_protocol_on_the_gate_scenes() {
     }
 }
 
-#[test]
-fn gpu_a_point_lights_shadow_ray_not_stopped_at_the_light_fails_the_room_gate() {
-    // A plausible GPU-only defect: a point or spot light's shadow ray
-    // left unbounded, so that whatever lies beyond the light shadows it.
-    // Open gate scenes cannot see it; the room's point light has a
-    // ceiling above it.
+/// Gate scene `name` rendered on the GPU by the production render program
+/// with `from` replaced by `to` (once), judged at the protocol's budget.
+fn mutant_verdict(name: &str, from: &str, to: &str) -> twintrace::compare::mitsuba::Verdict {
     let dir = twintrace::compare::gate::workspace_root().join("fixtures/mitsuba");
     let case = mitsuba_tests::cases(&dir)
         .unwrap()
         .into_iter()
-        .find(|c| c.name.starts_with("rooms/"))
+        .find(|c| c.name.starts_with(&format!("{name}/")))
         .unwrap();
     let scene = mitsuba_tests::load(&case).unwrap().unwrap();
     let settings = mitsuba_tests::settings(&case, &scene, Budget::default()).unwrap();
-    let from = "        t_max = length(aim);\n        dir = aim / t_max;";
-    let to = "        dir = aim / length(aim);";
     let program = gpu::shader::render_source();
     assert_eq!(program.matches(from).count(), 1, "`{from}` not found once");
     let program = program.replace(from, to);
@@ -49,10 +44,40 @@ fn gpu_a_point_lights_shadow_ray_not_stopped_at_the_light_fails_the_room_gate() 
         gpu::GpuRenderer::with_program(crate::common::gpu(), &packed, &scene, &program, integrator)
             .unwrap();
     let film = renderer.render(&settings, &|_, _| {}).unwrap().film;
-    let verdict = mitsuba_tests::judge_render(&case, &film.mean(), settings.spp).unwrap();
+    mitsuba_tests::judge_render(&case, &film.mean(), settings.spp).unwrap()
+}
+
+#[test]
+fn gpu_a_point_lights_shadow_ray_not_stopped_at_the_light_fails_the_room_gate() {
+    // A plausible GPU-only defect: a point or spot light's shadow ray
+    // left unbounded, so that whatever lies beyond the light shadows it.
+    // Open gate scenes cannot see it; the room's point light has a
+    // ceiling above it.
+    let verdict = mutant_verdict(
+        "rooms",
+        "        t_max = length(aim);\n        dir = aim / t_max;",
+        "        dir = aim / length(aim);",
+    );
+    println!("rooms: unbounded shadow rays: {}", verdict.figures());
+    assert!(
+        !verdict.passes(),
+        "the mutant passed: {}",
+        verdict.figures()
+    );
+}
+
+#[test]
+fn gpu_next_event_estimation_reading_a_lamps_picture_as_its_emission_fails_the_soft_gate() {
+    // Another: a light sample reads the emitting surface's own texture
+    // (its reflectance) as what it emits. The soft scene's lamp is an
+    // emitter on a textured diffuse shape.
+    let verdict = mutant_verdict(
+        "soft",
+        "        t.emission = evaluate_texture(m.emission, si.p, si.uv, si.uv1);",
+        "        t.emission = evaluate_texture(m.texture, si.p, si.uv, si.uv1);",
+    );
     println!(
-        "{}: unbounded shadow rays: {}",
-        case.name,
+        "soft: the lamp's picture as its emission: {}",
         verdict.figures()
     );
     assert!(
