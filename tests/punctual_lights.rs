@@ -674,6 +674,50 @@ fn others_files_that_require_lights_load_and_render() {
 }
 
 #[test]
+fn a_json_scenes_gltf_object_reads_its_lights_in_the_units_it_or_the_loader_says() {
+    // A point light of 683 cd: 1 W/sr read photometric, 683 radiometric.
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "lit.gltf",
+        &lit_quad_gltf(
+            serde_json::json!({ "type": "point", "intensity": 683, "color": [1, 1, 1] }),
+            [0.0, 2.0, 0.0],
+        ),
+    );
+    let wrapper = |units: &str| {
+        format!(
+            r#"{{ "camera": {{ "look_from": [0, 3, 3], "look_at": [0, 0, 0] }},
+  "objects": [ {{ "type": "gltf", "path": "lit.gltf"{units} }} ] }}"#
+        )
+    };
+    let intensity = |file: &str, text: &str, options: &reference::LoadOptions| {
+        let p = write(dir.path(), file, text);
+        let scene = reference::load_scene_with(p.to_str().unwrap(), options).unwrap();
+        scene.punctual_lights()[0].intensity.x
+    };
+    let photometric = reference::LoadOptions::default();
+    let mut radiometric = reference::LoadOptions::default();
+    radiometric.gltf.light_units = reference::loader::gltf::GltfLightUnits::Radiometric;
+    // As the loader is told, where the object says nothing.
+    assert!((intensity("a.json", &wrapper(""), &photometric) - 1.0).abs() < 1e-6);
+    assert_eq!(intensity("b.json", &wrapper(""), &radiometric), 683.0);
+    // As the object says, whatever the loader is told.
+    let says = |u: &str| wrapper(&format!(r#", "light_units": "{u}""#));
+    assert_eq!(
+        intensity("c.json", &says("radiometric"), &photometric),
+        683.0
+    );
+    assert!((intensity("d.json", &says("photometric"), &radiometric) - 1.0).abs() < 1e-6);
+    // Anything else is refused, naming the field.
+    let p = write(dir.path(), "e.json", &says("kilowatts"));
+    let e = reference::load_scene(p.to_str().unwrap())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("light_units") || e.contains("kilowatts"), "{e}");
+}
+
+#[test]
 fn the_command_line_reads_gltf_lights_in_the_units_it_is_told() {
     // A point light of 683 cd read as watts is 683 times the photometric
     // one; whatever else lights the quad is the same in both renders (the

@@ -8,6 +8,7 @@ use crate::background::Background;
 use crate::camera::{CameraSettings, Projection};
 use crate::error::SceneError;
 use crate::filter::PixelFilter;
+use crate::loader::gltf::{GltfLightUnits, GltfOptions};
 use crate::loader::image::load_image;
 use crate::material::{ClearCoat, Material};
 use crate::scene::{LightInput, RenderOrigin, RenderSettings, Scene, SceneBuilder, Transform};
@@ -491,6 +492,17 @@ pub struct GltfJson {
     pub path: PathBuf,
     #[serde(default)]
     pub transform: TransformJson,
+    /// The units of the document's `KHR_lights_punctual` intensities
+    /// (default: the loader's, photometric unless told otherwise).
+    pub light_units: Option<LightUnitsJson>,
+}
+
+/// `gltf.light_units`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LightUnitsJson {
+    Photometric,
+    Radiometric,
 }
 
 /// A whole scene document.
@@ -647,23 +659,38 @@ fn refine_tagged_error(text: &str, field: &str) -> Option<(String, String)> {
 
 /// Reads, parses and builds a scene file.
 pub fn load_json_scene(path: &Path) -> Result<Scene, SceneError> {
+    load_json_scene_with(path, &GltfOptions::default())
+}
+
+/// [`load_json_scene`], its `gltf` objects read with `gltf` where they do
+/// not say otherwise.
+pub fn load_json_scene_with(path: &Path, gltf: &GltfOptions) -> Result<Scene, SceneError> {
     let text = std::fs::read_to_string(path).map_err(|e| SceneError::Io {
         path: path.to_path_buf(),
         message: format!("cannot read scene: {e}"),
     })?;
-    load_json_scene_text(path, &text)
+    load_json_scene_text_with(path, &text, gltf)
 }
 
 /// [`load_json_scene`] of a scene file already in memory (`text`, named
 /// `path`): nothing is read from disk but the files it refers to,
 /// relative to `path`'s folder (the fuzz targets' entry).
 pub fn load_json_scene_text(path: &Path, text: &str) -> Result<Scene, SceneError> {
+    load_json_scene_text_with(path, text, &GltfOptions::default())
+}
+
+/// [`load_json_scene_text`] with the loader's glTF options.
+pub fn load_json_scene_text_with(
+    path: &Path,
+    text: &str,
+    gltf: &GltfOptions,
+) -> Result<Scene, SceneError> {
     if serde_json::from_str::<serde_json::Value>(text).is_ok_and(|d| super::view::is_view(&d)) {
         return super::view::load_view(path, text);
     }
     let doc = parse_scene_json(text, path)?;
     let base = path.parent().unwrap_or(Path::new("."));
-    build(&doc, base, vec![path.to_path_buf()]).map_err(|e| e.in_file(path))
+    build(&doc, base, vec![path.to_path_buf()], gltf).map_err(|e| e.in_file(path))
 }
 
 impl TransformJson {
@@ -724,6 +751,8 @@ impl TransformJson {
 struct Resolver<'a> {
     doc: &'a SceneJson,
     base: &'a Path,
+    /// How `gltf` objects are read where they do not say.
+    gltf: GltfOptions,
     builder: SceneBuilder,
     textures: HashMap<String, u32>,
     materials: HashMap<String, u32>,
@@ -973,14 +1002,26 @@ impl Resolver<'_> {
                 )?;
                 self.builder.add_mesh(&mesh, m, &transform(t)?)
             }
-            ObjectJson::Gltf(GltfJson { path, transform: t }) => {
+            ObjectJson::Gltf(GltfJson {
+                path,
+                transform: t,
+                light_units,
+            }) => {
                 let t = transform(t)?;
                 let take_camera = self.doc.camera.is_none();
-                crate::loader::gltf::add_gltf_scene(
+                let mut options = self.gltf;
+                if let Some(units) = light_units {
+                    options.light_units = match units {
+                        LightUnitsJson::Photometric => GltfLightUnits::Photometric,
+                        LightUnitsJson::Radiometric => GltfLightUnits::Radiometric,
+                    };
+                }
+                crate::loader::gltf::add_gltf_scene_with(
                     &mut self.builder,
                     &self.base.join(path),
                     &t,
                     take_camera,
+                    &options,
                 )
             }
         }
@@ -989,17 +1030,23 @@ impl Resolver<'_> {
 
 /// Builds a parsed document; relative paths resolve against `base`.
 pub fn build_scene(doc: &SceneJson, base: &Path) -> Result<Scene, SceneError> {
-    build(doc, base, Vec::new())
+    build(doc, base, Vec::new(), &GltfOptions::default())
 }
 
 /// [`build_scene`], the scene's sources starting with `sources` (the
 /// scene file, when there is one).
-fn build(doc: &SceneJson, base: &Path, sources: Vec<PathBuf>) -> Result<Scene, SceneError> {
+fn build(
+    doc: &SceneJson,
+    base: &Path,
+    sources: Vec<PathBuf>,
+    gltf: &GltfOptions,
+) -> Result<Scene, SceneError> {
     let mut builder = SceneBuilder::new();
     builder.sources = sources;
     let mut r = Resolver {
         doc,
         base,
+        gltf: *gltf,
         builder,
         textures: HashMap::new(),
         materials: HashMap::new(),

@@ -45,6 +45,6 @@ pub fn load_scene_with(spec: &str, options: &LoadOptions) -> Result<Scene, Scene
         _ if !path.exists() && !spec.contains('/') && !spec.contains('.') => {
             Err(SceneError::UnknownBuiltin(spec.to_string()))
         }
-        _ => json::load_json_scene(path),
+        _ => json::load_json_scene_with(path, &options.gltf),
     }
 }
