@@ -268,46 +268,32 @@ pub fn pack_texture(t: &Texture) -> GpuTexture {
             image,
             factor,
             sampler,
-        } => {
-            let (bits, [t0, t1, t2, t3, t4, t5]) = pack_sampler(&sampler);
+        } => with_sampler(
             GpuTexture {
                 tag,
                 image,
                 r: factor.x,
                 g: factor.y,
                 b: factor.z,
-                sampler: bits,
-                t0,
-                t1,
-                t2,
-                t3,
-                t4,
-                t5,
                 ..Default::default()
-            }
-        }
-        Texture::UvChecker { sampler, even, odd } => {
-            let (bits, [t0, t1, t2, t3, t4, t5]) = pack_sampler(&sampler);
+            },
+            &sampler,
+        ),
+        Texture::UvChecker { sampler, even, odd } => with_sampler(
             GpuTexture {
                 tag,
                 even,
                 odd,
-                sampler: bits,
-                t0,
-                t1,
-                t2,
-                t3,
-                t4,
-                t5,
                 ..Default::default()
-            }
-        }
+            },
+            &sampler,
+        ),
     }
 }
 
-/// A sampler's `GpuTexture::sampler` bits and its transform (the identity
-/// where it has none).
-fn pack_sampler(sampler: &Sampler) -> (u32, [f32; 6]) {
+/// `t` with a sampler's `GpuTexture::sampler` bits and its transform (the
+/// identity where it has none).
+fn with_sampler(t: GpuTexture, sampler: &Sampler) -> GpuTexture {
     let mut bits = sampler.wrap_u.tag() | sampler.wrap_v.tag() << SAMPLER_WRAP_V_SHIFT;
     if sampler.nearest {
         bits |= SAMPLER_NEAREST;
@@ -318,10 +304,17 @@ fn pack_sampler(sampler: &Sampler) -> (u32, [f32; 6]) {
     if sampler.transform.is_some() {
         bits |= SAMPLER_TRANSFORM;
     }
-    (
-        bits,
-        sampler.transform.unwrap_or([1.0, 0.0, 0.0, 0.0, 1.0, 0.0]),
-    )
+    let [t0, t1, t2, t3, t4, t5] = sampler.transform.unwrap_or([1.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
+    GpuTexture {
+        sampler: bits,
+        t0,
+        t1,
+        t2,
+        t3,
+        t4,
+        t5,
+        ..t
+    }
 }
 
 impl PackedScene {

@@ -772,6 +772,23 @@ impl Resolver<'_> {
         Ok(id)
     }
 
+    /// A checker's two textures (texture `name`'s `even` and `odd`).
+    fn pattern_leaves(
+        &mut self,
+        name: &str,
+        even: &ColorRef,
+        odd: &ColorRef,
+        depth: u32,
+    ) -> Result<(u32, u32), SceneError> {
+        let even = self
+            .colour(even, depth + 1)
+            .map_err(|e| e.within(&format!("textures.{name}.even")))?;
+        let odd = self
+            .colour(odd, depth + 1)
+            .map_err(|e| e.within(&format!("textures.{name}.odd")))?;
+        Ok((even, odd))
+    }
+
     /// A colour field as a texture index (constants become textures).
     fn colour(&mut self, c: &ColorRef, depth: u32) -> Result<u32, SceneError> {
         match c {
@@ -811,12 +828,7 @@ impl Resolver<'_> {
                 self.builder.constant(Vec3::from(*color)).map_err(at)?
             }
             TextureJson::Checker(CheckerTextureJson { scale, even, odd }) => {
-                let even = self
-                    .colour(even, depth + 1)
-                    .map_err(|e| e.within(&format!("textures.{name}.even")))?;
-                let odd = self
-                    .colour(odd, depth + 1)
-                    .map_err(|e| e.within(&format!("textures.{name}.odd")))?;
+                let (even, odd) = self.pattern_leaves(name, even, odd, depth)?;
                 self.builder
                     .add_texture(Texture::Checker {
                         scale: *scale,
@@ -826,12 +838,7 @@ impl Resolver<'_> {
                     .map_err(at)?
             }
             TextureJson::UvChecker(UvCheckerTextureJson { scale, even, odd }) => {
-                let even = self
-                    .colour(even, depth + 1)
-                    .map_err(|e| e.within(&format!("textures.{name}.even")))?;
-                let odd = self
-                    .colour(odd, depth + 1)
-                    .map_err(|e| e.within(&format!("textures.{name}.odd")))?;
+                let (even, odd) = self.pattern_leaves(name, even, odd, depth)?;
                 self.builder
                     .add_texture(Texture::UvChecker {
                         sampler: Sampler {

@@ -53,6 +53,14 @@ fn compose(a: UvMap, b: UvMap) -> UvMap {
     ]
 }
 
+/// `m` as a texture's `to_uv` element.
+fn to_uv(m: UvMap) -> String {
+    format!(
+        r#"<transform name="to_uv"><matrix value="{:?} {:?} 0 {:?} {:?} {:?} 0 {:?} 0 0 1 0 0 0 0 1"/></transform>"#,
+        m[0], m[1], m[2], m[3], m[4], m[5]
+    )
+}
+
 /// The image file of texture `id` in the output folder.
 pub(super) fn texture_file(id: u32) -> String {
     format!("texture_{id}.exr")
@@ -106,17 +114,11 @@ impl Tex {
                 even,
                 odd,
             } => {
-                let m = compose(**transform, uv);
                 format!(
-                    r#"<texture type="checkerboard" name="{name}">{}{}<transform name="to_uv"><matrix value="{:?} {:?} 0 {:?} {:?} {:?} 0 {:?} 0 0 1 0 0 0 0 1"/></transform></texture>"#,
+                    r#"<texture type="checkerboard" name="{name}">{}{}{}</texture>"#,
                     even.xml("color0", uv),
                     odd.xml("color1", uv),
-                    m[0],
-                    m[1],
-                    m[2],
-                    m[3],
-                    m[4],
-                    m[5]
+                    to_uv(compose(**transform, uv))
                 )
             }
             Tex::Image {
@@ -166,15 +168,10 @@ impl Tex {
                     // `accel` off: on CUDA, Mitsuba's bitmap otherwise filters with the
                     // texture units, whose bilinear weights are 8-bit fixed point (up to
                     // 4.3e-3 off the reference's lookup on the H100, chi2.py's check).
-                    r#"<texture type="bitmap" name="{name}"><string name="filename" value="{}"/><boolean name="raw" value="true"/><boolean name="accel" value="false"/><string name="filter_type" value="{}"/><string name="wrap_mode" value="{wrap}"/><transform name="to_uv"><matrix value="{:?} {:?} 0 {:?} {:?} {:?} 0 {:?} 0 0 1 0 0 0 0 1"/></transform></texture>"#,
+                    r#"<texture type="bitmap" name="{name}"><string name="filename" value="{}"/><boolean name="raw" value="true"/><boolean name="accel" value="false"/><string name="filter_type" value="{}"/><string name="wrap_mode" value="{wrap}"/>{}</texture>"#,
                     texture_file(*id),
                     if *nearest { "nearest" } else { "bilinear" },
-                    m[0],
-                    m[1],
-                    m[2],
-                    m[3],
-                    m[4],
-                    m[5]
+                    to_uv(m)
                 )
             }
         }

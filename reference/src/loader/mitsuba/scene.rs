@@ -712,25 +712,12 @@ impl Reader<'_> {
                 return Err(unsupported(o, &format!(" with format \"{format}\"")));
             }
         }
-        // Mitsuba's texture coordinates have v down the image (v = 0 the
-        // top row); twintrace's have v up. With F(u, v) = (u, 1 − v), a
-        // Mitsuba to_uv of linear part A and offset b reads at
-        // F(A·F(uv) + b) in twintrace's coordinates.
-        let transform = match props.transform("to_uv")? {
-            None => None,
-            Some((m, at)) => {
-                let a = [m.x_axis.x, m.y_axis.x, m.x_axis.y, m.y_axis.y];
-                let b = [m.w_axis.x, m.w_axis.y];
-                if m.z_axis.x != 0.0 || m.z_axis.y != 0.0 {
-                    return Err(fail(
-                        at,
-                        "a to_uv that reads z is not a 2-D transform".into(),
-                    ));
-                }
-                // u' = a0·u + a1·(1 − v) + b0; v' = 1 − (a2·u + a3·(1 − v) + b1).
-                Some([a[0], -a[1], a[1] + b[0], -a[2], a[3], 1.0 - a[3] - b[1]].map(|x| x as f32))
-            }
-        };
+        // The bitmap's rows from the top, as twintrace's images: its lookup
+        // is at F(A·F(uv) + b) in twintrace's coordinates.
+        let transform = to_uv(&props)?.map(|m| {
+            let [c0, c1, c2, c3, c4, c5] = m;
+            [c0, c1, c2, -c3, -c4, 1.0 - c5].map(|x| x as f32)
+        });
         let key = (path.clone(), raw);
         let image = match self.images.get(&key) {
             Some(&i) => i,
@@ -772,27 +759,13 @@ impl Reader<'_> {
         let even = self.texture_of(even, &o.at)?;
         let odd = self.colour(&props, "color1", usage, 0.2)?;
         let odd = self.texture_of(odd, &o.at)?;
-        // twintrace's coordinates are Mitsuba's with v flipped:
-        // (u, v) = F(u_m, v_m) = (u_m, 1 − v_m). Mitsuba reads the squares
-        // at A·F(uv) + b, an affine map of twintrace's uv.
-        let m = match props.transform("to_uv")? {
-            None => DMat4::IDENTITY,
-            Some((m, at)) => {
-                if m.z_axis.x != 0.0 || m.z_axis.y != 0.0 {
-                    return Err(fail(
-                        at,
-                        "a to_uv that reads z is not a 2-D transform".into(),
-                    ));
-                }
-                m
-            }
-        };
-        let [a0, a1, a2, a3] = [m.x_axis.x, m.y_axis.x, m.x_axis.y, m.y_axis.y];
-        let [b0, b1] = [m.w_axis.x, m.w_axis.y];
+        // The squares are found at Mitsuba's own coordinates, A·F(uv) + b.
+        let [c0, c1, c2, c3, c4, c5] = to_uv(&props)?.unwrap_or([1.0, 0.0, 0.0, 0.0, -1.0, 1.0]);
         let transform = if mutants::is(Mutant::MitsubaCheckerboardUnflipped) {
-            [a0, a1, b0, a2, a3, b1]
+            // A·uv + b: without Mitsuba's v flip.
+            [c0, -c1, c2 + c1, c3, -c4, c5 + c4]
         } else {
-            [a0, -a1, a1 + b0, a2, -a3, a3 + b1]
+            [c0, c1, c2, c3, c4, c5]
         }
         .map(|x| x as f32);
         props.finish()?;
@@ -1113,6 +1086,26 @@ fn perspective_vfov(o: &Object, props: &Props, aspect: f64) -> Result<f64, Scene
         ));
     }
     Ok(vfov)
+}
+
+/// A texture's `to_uv` (linear part A, offset b: Mitsuba's coordinates,
+/// v down) as an affine map of twintrace's coordinates (v up), giving
+/// Mitsuba's: `A·F(uv) + b` with `F(u, v) = (u, 1 − v)`, as
+/// `[t0..t5]` for `(t0·u + t1·v + t2, t3·u + t4·v + t5)`. `None`: no
+/// `to_uv`.
+fn to_uv(props: &Props) -> Result<Option<[f64; 6]>, SceneError> {
+    let Some((m, at)) = props.transform("to_uv")? else {
+        return Ok(None);
+    };
+    if m.z_axis.x != 0.0 || m.z_axis.y != 0.0 {
+        return Err(fail(
+            at,
+            "a to_uv that reads z is not a 2-D transform".into(),
+        ));
+    }
+    let [a0, a1, a2, a3] = [m.x_axis.x, m.y_axis.x, m.x_axis.y, m.y_axis.y];
+    let [b0, b1] = [m.w_axis.x, m.w_axis.y];
+    Ok(Some([a0, -a1, a1 + b0, a2, -a3, a3 + b1]))
 }
 
 fn fov_given(o: &Object) -> bool {
