@@ -5,6 +5,8 @@ const PRIMITIVE_QUAD: u32 = 1u;
 const PRIMITIVE_TRIANGLE: u32 = 2u;
 const MATERIAL_LAMBERTIAN: u32 = 0u;
 const MATERIAL_METAL: u32 = 1u;
+const MATERIAL_CONDUCTOR: u32 = 5u;
+const MATERIAL_SMOOTH_DIELECTRIC: u32 = 6u;
 const MATERIAL_DIELECTRIC: u32 = 2u;
 const MATERIAL_DIFFUSE_LIGHT: u32 = 3u;
 const MATERIAL_GGX: u32 = 4u;
@@ -34,6 +36,7 @@ const PACKED_CHANNEL_MASK: u32 = 255u;
 const BACKGROUND_SOLID: u32 = 0u;
 const BACKGROUND_SKY: u32 = 1u;
 const BACKGROUND_ENVMAP: u32 = 2u;
+const ENV_ROWS_POLES: u32 = 1u;
 const TRIANGLE_HAS_NORMALS: u32 = 1u;
 const TRIANGLE_HAS_UVS: u32 = 2u;
 const TRIANGLE_HAS_COLORS: u32 = 4u;
@@ -113,6 +116,8 @@ const FEATURE_CLEARCOAT: u32 = 16384u;
 const FEATURE_EMISSIVE_BSDFS: u32 = 32768u;
 const FEATURE_PUNCTUAL_LIGHTS: u32 = 65536u;
 const FEATURE_UV_CHECKER_TEXTURES: u32 = 131072u;
+const FEATURE_CONDUCTOR: u32 = 262144u;
+const FEATURE_SMOOTH_DIELECTRIC: u32 = 524288u;
 const INTEGRATOR_BSDF: u32 = 0u;
 const INTEGRATOR_MIS: u32 = 1u;
 const SMALL_CONE_SIN2: f32 = 6.8523e-4;
@@ -295,8 +300,6 @@ struct GpuParams {
     bg_b_g: f32,
     bg_b_b: f32,
     bg_intensity: f32,
-    bg_rot_sin: f32,
-    bg_rot_cos: f32,
     lens_radius: f32,
     primitive_count: u32,
     cam_origin_x: f32,
@@ -333,6 +336,16 @@ struct GpuParams {
     cam_dir_y: f32,
     cam_dir_z: f32,
     filter_table: u32,
+    bg_map_xx: f32,
+    bg_map_xy: f32,
+    bg_map_xz: f32,
+    bg_map_yx: f32,
+    bg_map_yy: f32,
+    bg_map_yz: f32,
+    bg_map_zx: f32,
+    bg_map_zy: f32,
+    bg_map_zz: f32,
+    bg_rows: u32,
     pad_b: u32,
     pad_c: u32,
 }

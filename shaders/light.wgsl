@@ -197,15 +197,11 @@ fn env_light_sample(u: vec2<f32>) -> vec3<f32> {
     let phi = 2.0 * PI * (x - 0.5);
     let st = sin(theta);
     let dr = vec3<f32>(st * sin(phi), cos(theta), -st * cos(phi));
-    let s = params.bg_rot_sin;
-    let c = params.bg_rot_cos;
-    return vec3<f32>(c * dr.x - s * dr.z, dr.y, s * dr.x + c * dr.z);
+    return env_from_map(dr);
 }
 
 fn env_light_pdf(d: vec3<f32>) -> f32 {
-    let s = params.bg_rot_sin;
-    let c = params.bg_rot_cos;
-    let dr = vec3<f32>(c * d.x + s * d.z, d.y, -s * d.x + c * d.z);
+    let dr = env_to_map(d);
     let uv = equirect_uv(dr);
     let sin_theta = sqrt(max(1.0 - dr.y * dr.y, 0.0));
     if sin_theta <= 0.0 {

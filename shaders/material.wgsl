@@ -102,7 +102,7 @@ fn alpha_hash(ray: Ray, prim: u32) -> f32 {
 // bilinear image lookup, and with one a use the kernels took several times
 // longer to compile (the textures fixture's MIS kernel 65 s cold, 4 s so).
 struct MaterialTextures {
-    // The albedo (Lambertian, metal), the emission (diffuse light), the
+    // The albedo (Lambertian, metal), the specular tint (conductor), the emission (diffuse light), the
     // base colour times the vertex colour (GGX); zero for the dielectric.
     base: vec3<f32>,
     // GGX: metallic and roughness (ggx_parameters).
@@ -203,7 +203,7 @@ fn bsdf_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mat
             let lobes = ggx_lobes_with_coat(ggx_lobes_new(tx.base, tx.metal_rough.x, tx.metal_rough.y, wo), tx.coat.x, tx.coat.y, wo);
             return BsdfEval(true, ggx_lobes_eval(lobes, wo, wl) * wl.z, ggx_lobes_pdf(lobes, wo, wl));
         }
-        case MATERIAL_METAL, MATERIAL_DIELECTRIC, MATERIAL_DIFFUSE_LIGHT: {
+        case MATERIAL_METAL, MATERIAL_DIELECTRIC, MATERIAL_DIFFUSE_LIGHT, MATERIAL_CONDUCTOR, MATERIAL_SMOOTH_DIELECTRIC: {
             return BsdfEval(false, vec3<f32>(0.0), 0.0);
         }
         default: {
@@ -241,6 +241,12 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mater
         if m.tag == MATERIAL_METAL {
             return scatter_metal(m, ray_dir, tx, n, ng, u);
         }
+        if m.tag == MATERIAL_CONDUCTOR {
+            return scatter_conductor(m, ray_dir, tx, n, ng);
+        }
+        if m.tag == MATERIAL_SMOOTH_DIELECTRIC {
+            return scatter_smooth_dielectric(m, ray_dir, si, tx, n, u);
+        }
         if m.tag == MATERIAL_DIELECTRIC {
             return scatter_dielectric(m, ray_dir, si, n, u);
         }
@@ -259,6 +265,12 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mater
         }
         case MATERIAL_METAL: {
             return scatter_metal(m, ray_dir, tx, n, ng, u);
+        }
+        case MATERIAL_CONDUCTOR: {
+            return scatter_conductor(m, ray_dir, tx, n, ng);
+        }
+        case MATERIAL_SMOOTH_DIELECTRIC: {
+            return scatter_smooth_dielectric(m, ray_dir, si, tx, n, u);
         }
         case MATERIAL_DIELECTRIC: {
             return scatter_dielectric(m, ray_dir, si, n, u);
@@ -293,6 +305,43 @@ fn scatter_metal(m: GpuMaterial, ray_dir: vec3<f32>, tx: MaterialTextures, n: ve
     return Scatter(true, normalize(direction), tx.base);
 }
 
+// reference::material::fresnel_conductor: the unpolarized Fresnel
+// reflectance of a conductor of index eta + i·k, per channel.
+fn fresnel_conductor(cos_i: f32, eta: vec3<f32>, k: vec3<f32>) -> vec3<f32> {
+    let c2 = cos_i * cos_i;
+    let s2 = 1.0 - c2;
+    let eta2 = eta * eta;
+    let k2 = k * k;
+    let t0 = eta2 - k2 - vec3<f32>(s2);
+    let a2b2 = sqrt(max(t0 * t0 + 4.0 * eta2 * k2, vec3<f32>(0.0)));
+    let a = sqrt(max(0.5 * (a2b2 + t0), vec3<f32>(0.0)));
+    let t1 = a2b2 + vec3<f32>(c2);
+    let t2 = 2.0 * cos_i * a;
+    // A denominator 0 (a grazing ray with eta = k = 0): reflected whole.
+    let d_s = t1 + t2;
+    let rs = select(vec3<f32>(1.0), (t1 - t2) / d_s, d_s > vec3<f32>(0.0));
+    let t3 = c2 * a2b2 + vec3<f32>(s2 * s2);
+    let t4 = t2 * s2;
+    let d_p = t3 + t4;
+    let rp = select(rs, rs * (t3 - t4) / d_p, d_p > vec3<f32>(0.0));
+    return 0.5 * (rs + rp);
+}
+
+fn scatter_conductor(m: GpuMaterial, ray_dir: vec3<f32>, tx: MaterialTextures, n: vec3<f32>, ng: vec3<f32>) -> Scatter {
+    if !uses(FEATURE_CONDUCTOR) { poison(); return absorbed(); }
+    let direction = reflect_about(ray_dir, n);
+    if dot(direction, ng) <= 0.0 {
+        return absorbed();
+    }
+    let cos_i = min(dot(-ray_dir, n), 1.0);
+    if cos_i <= 0.0 {
+        return absorbed();
+    }
+    let eta = vec3<f32>(m.p0, m.p1, m.p2);
+    let k = vec3<f32>(m.absorption_r, m.absorption_g, m.absorption_b);
+    return Scatter(true, direction, tx.base * fresnel_conductor(cos_i, eta, k));
+}
+
 fn scatter_dielectric(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, n: vec3<f32>, u: VertexRandoms) -> Scatter {
     if !uses(FEATURE_DIELECTRIC) { poison(); return absorbed(); }
     var eta = m.p0;
@@ -306,6 +355,38 @@ fn scatter_dielectric(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction
         direction = normalize(r.direction);
     }
     return Scatter(true, direction, vec3<f32>(1.0));
+}
+
+// reference::material::fresnel_dielectric: the unpolarized Fresnel
+// reflectance of a smooth dielectric interface, eta = n_t / n_i.
+fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
+    let sin2_t = max(1.0 - cos_i * cos_i, 0.0) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = sqrt(1.0 - sin2_t);
+    let rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    let rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    return 0.5 * (rs * rs + rp * rp);
+}
+
+fn scatter_smooth_dielectric(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: MaterialTextures, n: vec3<f32>, u: VertexRandoms) -> Scatter {
+    if !uses(FEATURE_SMOOTH_DIELECTRIC) { poison(); return absorbed(); }
+    var eta = m.p0;
+    if !si.front_face {
+        eta = 1.0 / m.p0;
+    }
+    let cos_i = clamp(dot(-ray_dir, n), 0.0, 1.0);
+    if vr_get(u, DIM_LOBE) >= fresnel_dielectric(cos_i, eta) {
+        let r = refract_through(ray_dir, n, 1.0 / eta);
+        if r.ok {
+            // The transmittance is read here, where a path refracts: the
+            // reflectance is the vertex's `base`.
+            let t = evaluate_texture(m.texture2, si.p, si.uv, si.uv1);
+            return Scatter(true, normalize(r.direction), t / (eta * eta));
+        }
+    }
+    return Scatter(true, reflect_about(ray_dir, n), tx.base);
 }
 
 // reference::material::normal_mapped: the shading normal a normal map

@@ -440,9 +440,22 @@ fn export_mitsuba_writes_textures_and_environment_maps() {
     let o = twintrace(dir.path(), &["export-mitsuba", &scene, "-o", "sky"]);
     assert_eq!(o.code, Some(0), "{}", o.stderr);
     let xml = std::fs::read_to_string(dir.path().join("sky/scene.xml")).unwrap();
+    let head = r#"<emitter type="envmap"><string name="filename" value="sky.exr"/><float name="scale" value="1.0"/><transform name="to_world"><matrix value=""#;
+    let at = xml.find(head).unwrap_or_else(|| panic!("{xml}")) + head.len();
+    let to_world: Vec<f64> = xml[at..xml[at..].find('"').unwrap() + at]
+        .split_whitespace()
+        .map(|v| v.parse().unwrap())
+        .collect();
+    // The fixture's map is unturned: Mitsuba's half turn about +y alone.
+    let half_turn = [
+        -1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 1.0,
+    ];
     assert!(
-        xml.contains(r#"<emitter type="envmap"><string name="filename" value="sky.exr"/><float name="scale" value="1.0"/><transform name="to_world"><matrix value="-1.0 0 "#),
-        "{xml}"
+        to_world
+            .iter()
+            .zip(half_turn)
+            .all(|(a, b)| (a - b).abs() < 1e-6),
+        "{to_world:?}"
     );
     assert!(xml.contains(r#"<integrator type="volpath">"#), "{xml}");
     let map = twintrace::image_io::read_exr(&dir.path().join("sky/sky.exr")).unwrap();

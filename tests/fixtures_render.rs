@@ -32,7 +32,8 @@ fn no_checker_boundary_plane_is_tangent_to_a_sphere() {
                 Material::Lambertian { albedo } | Material::Metal { albedo, .. } => albedo,
                 Material::DiffuseLight { emission } => emission,
                 Material::Ggx { base_color, .. } => base_color,
-                Material::Dielectric { .. } => continue,
+                Material::Conductor { specular, .. } => specular,
+                Material::Dielectric { .. } | Material::SmoothDielectric { .. } => continue,
             };
             let Texture::Checker { scale, .. } = scene.textures()[texture as usize] else {
                 continue;

@@ -86,3 +86,40 @@ fn gpu_next_event_estimation_reading_a_lamps_picture_as_its_emission_fails_the_s
         verdict.figures()
     );
 }
+
+#[test]
+fn gpu_a_conductor_with_eta_and_k_swapped_fails_the_mirrors_gate() {
+    // The WGSL twin of `Mutant::ConductorEtaKSwapped`: the conductor's
+    // Fresnel reading its index's parts the wrong way round.
+    let verdict = mutant_verdict(
+        "mirrors",
+        "    return Scatter(true, direction, tx.base * fresnel_conductor(cos_i, eta, k));",
+        "    return Scatter(true, direction, tx.base * fresnel_conductor(cos_i, k, eta));",
+    );
+    println!("mirrors: eta and k swapped: {}", verdict.figures());
+    assert!(
+        !verdict.passes(),
+        "the mutant passed: {}",
+        verdict.figures()
+    );
+}
+
+#[test]
+fn gpu_a_smooth_dielectric_with_its_index_inverted_fails_the_mirrors_gate() {
+    // The WGSL twin of `Mutant::DielectricEtaInverted`: the glass ball's
+    // Fresnel reflectance computed for the index the other way round.
+    let verdict = mutant_verdict(
+        "mirrors",
+        "    if vr_get(u, DIM_LOBE) >= fresnel_dielectric(cos_i, eta) {",
+        "    if vr_get(u, DIM_LOBE) >= fresnel_dielectric(cos_i, 1.0 / eta) {",
+    );
+    println!(
+        "mirrors: the dielectric's index inverted: {}",
+        verdict.figures()
+    );
+    assert!(
+        !verdict.passes(),
+        "the mutant passed: {}",
+        verdict.figures()
+    );
+}

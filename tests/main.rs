@@ -23,6 +23,7 @@ mod khronos_assets;
 mod known_answers;
 mod light_sampling;
 mod mis_matches_bsdf;
+mod mitsuba_bsdfs;
 mod mitsuba_scenes;
 mod partial_film_roundtrip;
 mod perf_regression;

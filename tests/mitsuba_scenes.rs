@@ -101,6 +101,45 @@ fn a_film_without_an_rfilter_read_with_the_box_fails_the_gate() {
     mutant_fails("soft", Mutant::MitsubaDefaultFilterBox);
 }
 
+#[test]
+fn an_envmap_read_without_mitsubas_half_turn_fails_the_gate() {
+    mutant_fails("mirrors", Mutant::MitsubaEnvmapNoHalfTurn);
+}
+
+#[test]
+fn a_conductor_with_eta_and_k_swapped_fails_the_mirrors_gate() {
+    // A defect of the model, active while the CPU twin renders.
+    let case = fixture_case("mirrors");
+    let scene = mitsuba_tests::load(&case).unwrap().unwrap();
+    let (verdict, _) = mutants::pool(Mutant::ConductorEtaKSwapped)
+        .install(|| mitsuba_tests::run_scene(&case, &scene, Devices::Cpu(None), Budget::default()))
+        .unwrap();
+    println!("mirrors: eta and k swapped: {}", verdict.figures());
+    assert!(
+        !verdict.passes(),
+        "the mutant passed: {}",
+        verdict.figures()
+    );
+}
+
+#[test]
+fn a_smooth_dielectric_with_its_index_inverted_fails_the_mirrors_gate() {
+    let case = fixture_case("mirrors");
+    let scene = mitsuba_tests::load(&case).unwrap().unwrap();
+    let (verdict, _) = mutants::pool(Mutant::DielectricEtaInverted)
+        .install(|| mitsuba_tests::run_scene(&case, &scene, Devices::Cpu(None), Budget::default()))
+        .unwrap();
+    println!(
+        "mirrors: the dielectric's index inverted: {}",
+        verdict.figures()
+    );
+    assert!(
+        !verdict.passes(),
+        "the mutant passed: {}",
+        verdict.figures()
+    );
+}
+
 fn twintrace(dir: &std::path::Path, args: &[&str]) -> (Option<i32>, String, String) {
     let out = Command::new(crate::common::twintrace_bin())
         .current_dir(dir)
@@ -154,17 +193,17 @@ fn the_command_line_takes_mitsubas_parameters_and_refuses_what_is_not_implemente
     // place, exit 2, nothing written.
     write(
         d,
-        "conductor.xml",
-        &SCENE.replace("BSDF", r#"<bsdf type="conductor"/>"#),
+        "plastic.xml",
+        &SCENE.replace("BSDF", r#"<bsdf type="roughplastic"/>"#),
     );
     let (code, _, err) = twintrace(
         d,
-        &["render", "conductor.xml", "--backend", "cpu", "-o", "out"],
+        &["render", "plastic.xml", "--backend", "cpu", "-o", "out"],
     );
     assert_eq!(code, Some(2), "{err}");
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     assert!(
-        err.contains("conductor.xml:11:") && err.contains("bsdf \"conductor\" is not supported"),
+        err.contains("plastic.xml:11:") && err.contains("bsdf \"roughplastic\" is not supported"),
         "{err}"
     );
     assert!(!d.join("out.exr").exists());

@@ -423,3 +423,69 @@ fn an_added_emission_loads_and_makes_its_primitives_lights() {
     assert_eq!(lights.len(), 1);
     assert!(lights.pmf(0) > 0.0 && lights.pmf(1) == 0.0);
 }
+
+#[test]
+fn a_conductor_loads_with_mitsubas_defaults_and_its_values_are_checked() {
+    use glam::Vec3;
+    use reference::material::Material;
+    let dir = tempfile::tempdir().unwrap();
+    let text = r#"{ "camera": { "look_from": [0, 0, 5], "look_at": [0, 0, 0] },
+  "materials": {
+    "mirror": { "type": "conductor" },
+    "gold": { "type": "conductor", "eta": [0.143, 0.374, 1.442], "k": [3.983, 2.385, 1.603], "specular": [0.9, 0.8, 0.7] } },
+  "objects": [ { "type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "mirror" },
+               { "type": "sphere", "center": [3, 0, 0], "radius": 1, "material": "gold" } ] }"#;
+    let p = write_scene(dir.path(), "scene.json", text);
+    let scene = reference::load_scene(p.to_str().unwrap()).unwrap();
+    let conductors: Vec<_> = scene
+        .materials()
+        .iter()
+        .filter_map(|m| match *m {
+            Material::Conductor { specular, eta, k } => Some((specular, eta, k)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(conductors.len(), 2, "{:?}", scene.materials());
+    // Mitsuba's `material` "none": eta 0, k 1, a white tint.
+    assert_eq!((conductors[0].1, conductors[0].2), (Vec3::ZERO, Vec3::ONE));
+    assert_eq!(
+        scene.textures()[conductors[0].0 as usize],
+        reference::texture::Texture::Constant(Vec3::ONE)
+    );
+    assert_eq!(conductors[1].1, Vec3::new(0.143, 0.374, 1.442));
+    check(
+        &text.replace("[3.983, 2.385, 1.603]", "[3.983, -2.385, 1.603]"),
+        &["materials.gold", "k"],
+    );
+}
+
+#[test]
+fn a_smooth_dielectric_loads_with_white_tints_and_its_index_is_checked() {
+    use glam::Vec3;
+    use reference::material::Material;
+    let dir = tempfile::tempdir().unwrap();
+    let text = r#"{ "camera": { "look_from": [0, 0, 5], "look_at": [0, 0, 0] },
+  "materials": { "glass": { "type": "smooth_dielectric", "eta": 1.5, "transmittance": [0.9, 0.95, 1.0] } },
+  "objects": [ { "type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "glass" } ] }"#;
+    let p = write_scene(dir.path(), "scene.json", text);
+    let scene = reference::load_scene(p.to_str().unwrap()).unwrap();
+    let Material::SmoothDielectric {
+        eta,
+        reflectance,
+        transmittance,
+    } = scene.materials()[0]
+    else {
+        panic!("{:?}", scene.materials())
+    };
+    assert_eq!(eta, 1.5);
+    let constant = |t: u32| scene.textures()[t as usize];
+    assert_eq!(
+        constant(reflectance),
+        reference::texture::Texture::Constant(Vec3::ONE)
+    );
+    assert_eq!(
+        constant(transmittance),
+        reference::texture::Texture::Constant(Vec3::new(0.9, 0.95, 1.0))
+    );
+    check(&text.replace("1.5", "-1.5"), &["materials.glass", "eta"]);
+}

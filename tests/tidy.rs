@@ -59,6 +59,14 @@ fn reference_module(module: &str) -> Option<String> {
 /// WGSL functions with no Rust function of the same name, and why.
 const GPU_ONLY: &[(&str, &str)] = &[
     (
+        "env_to_map",
+        "Envmap::to_map applied to a direction from the per-dispatch parameters' rows (the reference multiplies by its Mat3)",
+    ),
+    (
+        "env_from_map",
+        "the transpose of env_to_map (the reference's EnvLight::sample multiplies by to_map's transpose)",
+    ),
+    (
         "safe_inv_dir",
         "WGSL min/max are undefined on NaN; the reference divides by zero",
     ),
@@ -72,6 +80,11 @@ const GPU_ONLY: &[(&str, &str)] = &[
     ),
     ("scatter_lambertian", "the Lambertian arm of material::scatter's match"),
     ("scatter_metal", "the metal arm of material::scatter's match"),
+    ("scatter_conductor", "the conductor arm of material::scatter's match"),
+    (
+        "scatter_smooth_dielectric",
+        "the smooth dielectric arm of material::scatter's match",
+    ),
     ("scatter_dielectric", "the dielectric arm of material::scatter's match"),
     ("scatter_ggx", "the GGX arm of material::scatter's match"),
     (

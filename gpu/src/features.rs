@@ -66,6 +66,8 @@ feature_bits! {
     EMISSIVE_BSDFS = 15,
     PUNCTUAL_LIGHTS = 16,
     UV_CHECKER_TEXTURES = 17,
+    CONDUCTOR = 18,
+    SMOOTH_DIELECTRIC = 19,
 }
 
 impl Kernel {
@@ -104,6 +106,8 @@ impl Features {
                 Material::Lambertian { .. } => feature::LAMBERTIAN,
                 Material::Metal { .. } => feature::METAL,
                 Material::Dielectric { .. } => feature::DIELECTRIC,
+                Material::Conductor { .. } => feature::CONDUCTOR,
+                Material::SmoothDielectric { .. } => feature::SMOOTH_DIELECTRIC,
                 Material::Ggx {
                     normal_map,
                     clearcoat,

@@ -281,7 +281,7 @@ gpu_record! {
         seed: u32, max_depth: u32, roulette_depth: u32, bg_tag: u32,
         bg_a_r: f32, bg_a_g: f32, bg_a_b: f32, bg_image: u32,
         bg_b_r: f32, bg_b_g: f32, bg_b_b: f32, bg_intensity: f32,
-        bg_rot_sin: f32, bg_rot_cos: f32, lens_radius: f32, primitive_count: u32,
+        lens_radius: f32, primitive_count: u32,
         cam_origin_x: f32, cam_origin_y: f32, cam_origin_z: f32,
         cam_upper_left_x: f32, cam_upper_left_y: f32, cam_upper_left_z: f32,
         cam_horizontal_x: f32, cam_horizontal_y: f32, cam_horizontal_z: f32,
@@ -306,10 +306,16 @@ gpu_record! {
         // The camera's projection (`reference::camera::Projection::tag`)
         // and an orthographic camera's ray direction (`Camera::parallel`);
         // where the pixel filter's table starts in `texels`
-        // (`NO_FILTER_TABLE`: the box); then the padding to a multiple of
-        // 16 bytes.
+        // (`NO_FILTER_TABLE`: the box).
         cam_projection: u32, cam_dir_x: f32, cam_dir_y: f32, cam_dir_z: f32,
-        filter_table: u32, pad_b: u32, pad_c: u32,
+        filter_table: u32,
+        // An environment map's rotation into its frame
+        // (`Background::Envmap::to_map`, rows) and its rows
+        // (`EnvRows::tag`); then the padding to a multiple of 16 bytes.
+        bg_map_xx: f32, bg_map_xy: f32, bg_map_xz: f32,
+        bg_map_yx: f32, bg_map_yy: f32, bg_map_yz: f32,
+        bg_map_zx: f32, bg_map_zy: f32, bg_map_zz: f32,
+        bg_rows: u32, pad_b: u32, pad_c: u32,
     }
 }
 

@@ -133,6 +133,28 @@ fn pack_bsdf(m: &Material) -> GpuMaterial {
             absorption_b: absorption.z,
             ..Default::default()
         },
+        Material::SmoothDielectric {
+            eta,
+            reflectance,
+            transmittance,
+        } => GpuMaterial {
+            tag,
+            texture: reflectance,
+            texture2: transmittance,
+            p0: eta,
+            ..Default::default()
+        },
+        Material::Conductor { specular, eta, k } => GpuMaterial {
+            tag,
+            texture: specular,
+            p0: eta.x,
+            p1: eta.y,
+            p2: eta.z,
+            absorption_r: k.x,
+            absorption_g: k.y,
+            absorption_b: k.z,
+            ..Default::default()
+        },
         Material::DiffuseLight { emission } => GpuMaterial {
             tag,
             texture: emission,
@@ -662,15 +684,17 @@ pub fn pack_background(bg: &Background, p: &mut GpuParams) {
         Background::Envmap {
             image,
             intensity,
-            rotate_y,
+            to_map,
+            rows,
         } => {
             p.bg_image = image;
             p.bg_intensity = intensity;
-            // The same expression as reference::background, so both
-            // renderers rotate by the same floats.
-            let (s, c) = (-rotate_y.to_radians()).sin_cos();
-            p.bg_rot_sin = s;
-            p.bg_rot_cos = c;
+            // The reference's own matrix, by rows.
+            let r = to_map.transpose().to_cols_array();
+            [p.bg_map_xx, p.bg_map_xy, p.bg_map_xz] = [r[0], r[1], r[2]];
+            [p.bg_map_yx, p.bg_map_yy, p.bg_map_yz] = [r[3], r[4], r[5]];
+            [p.bg_map_zx, p.bg_map_zy, p.bg_map_zz] = [r[6], r[7], r[8]];
+            p.bg_rows = rows.tag();
         }
     }
 }

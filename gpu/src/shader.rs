@@ -6,7 +6,7 @@
 
 use crate::bindings;
 use crate::records;
-use reference::background::background_tag;
+use reference::background::{background_tag, EnvRows};
 use reference::geometry::UNIT_ROUNDOFF;
 use reference::integrator::Integrator;
 use reference::light::{ENV_PRIM, ONE_MINUS_EPSILON, SMALL_CONE_SIN2};
@@ -93,6 +93,11 @@ pub fn generate() -> String {
     s += &u("PRIMITIVE_TRIANGLE", primitive_tag::TRIANGLE);
     s += &u("MATERIAL_LAMBERTIAN", material_tag::LAMBERTIAN);
     s += &u("MATERIAL_METAL", material_tag::METAL);
+    s += &u("MATERIAL_CONDUCTOR", material_tag::CONDUCTOR);
+    s += &u(
+        "MATERIAL_SMOOTH_DIELECTRIC",
+        material_tag::SMOOTH_DIELECTRIC,
+    );
     s += &u("MATERIAL_DIELECTRIC", material_tag::DIELECTRIC);
     s += &u("MATERIAL_DIFFUSE_LIGHT", material_tag::DIFFUSE_LIGHT);
     s += &u("MATERIAL_GGX", material_tag::GGX);
@@ -131,6 +136,7 @@ pub fn generate() -> String {
     s += &u("BACKGROUND_SOLID", background_tag::SOLID);
     s += &u("BACKGROUND_SKY", background_tag::SKY);
     s += &u("BACKGROUND_ENVMAP", background_tag::ENVMAP);
+    s += &u("ENV_ROWS_POLES", EnvRows::Poles.tag());
     s += &u("TRIANGLE_HAS_NORMALS", TRIANGLE_HAS_NORMALS);
     s += &u("TRIANGLE_HAS_UVS", TRIANGLE_HAS_UVS);
     s += &u("TRIANGLE_HAS_COLORS", TRIANGLE_HAS_COLORS);

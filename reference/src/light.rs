@@ -51,7 +51,7 @@ use crate::geometry::{Hit, Onb, Ray};
 use crate::material::{TextureContext, LUMINANCE_WEIGHTS};
 use crate::mutants::{self, Mutant};
 use crate::scene::{primitive_tag, Scene};
-use glam::{DVec3, Vec2, Vec3};
+use glam::{DVec3, Mat3, Vec2, Vec3};
 use std::f32::consts::PI;
 
 /// Below this `sin² θ_max` a sphere's cone is sampled with the small-angle
@@ -201,8 +201,10 @@ pub struct LightSet {
 /// `y ∈ [row, row+1)` of the image, `x = u·width`, `y = (1 − v)·height`).
 /// A cell's weight is the largest luminance among the texels a bilinear
 /// lookup in it reads (its 3x3 neighbourhood, wrapped as the lookup
-/// wraps), so that no direction with radiance has density 0, times
-/// `sin θ` at the cell's centre row.
+/// wraps; a map of [`crate::background::EnvRows::Poles`] reads, over row
+/// `j`'s band `θ/π ∈ [j/h, (j+1)/h]`, rows at `θ/π · (h − 1)`, which lie
+/// within one of `j`: in the same neighbourhood), so that no direction
+/// with radiance has density 0, times `sin θ` at the cell's centre row.
 #[derive(Clone, Debug, PartialEq)]
 pub struct EnvLight {
     pub width: u32,
@@ -214,9 +216,9 @@ pub struct EnvLight {
     pub col_cdf: Vec<f32>,
     /// Each cell's density over `(u, v) ∈ [0, 1]²`, row-major.
     pub cell_pdf: Vec<f32>,
-    /// The background's rotation, as `evaluate_background` applies it.
-    pub rot_sin: f32,
-    pub rot_cos: f32,
+    /// The background's rotation into the map's frame, as
+    /// `evaluate_background` applies it.
+    pub to_map: Mat3,
     /// Selection weight before normalizing (`4π R² L̄`).
     weight: f32,
 }
@@ -485,7 +487,8 @@ impl EnvLight {
         let Background::Envmap {
             image,
             intensity,
-            rotate_y,
+            to_map,
+            ..
         } = scene.background()
         else {
             return None;
@@ -536,15 +539,13 @@ impl EnvLight {
             .collect();
         let radius = bounding_radius(scene);
         let mean = (solid_angle_mean / sin_sum) as f32;
-        let (rot_sin, rot_cos) = (-rotate_y.to_radians()).sin_cos();
         Some(Self {
             width: w,
             height: h,
             row_cdf,
             col_cdf,
             cell_pdf,
-            rot_sin,
-            rot_cos,
+            to_map,
             weight: 4.0 * PI * radius.max(1e-3).powi(2) * mean,
         })
     }
@@ -562,14 +563,12 @@ impl EnvLight {
         // The map's direction (equirect_uv's inverse), turned back by the
         // background's rotation.
         let dr = Vec3::new(st * sp, ct, -st * cp);
-        let (s, c) = (self.rot_sin, self.rot_cos);
-        Vec3::new(c * dr.x - s * dr.z, dr.y, s * dr.x + c * dr.z)
+        self.to_map.transpose() * dr
     }
 
     /// The density, in solid angle, of direction `d` (unit).
     pub fn pdf(&self, d: Vec3) -> f32 {
-        let (s, c) = (self.rot_sin, self.rot_cos);
-        let dr = Vec3::new(c * d.x + s * d.z, d.y, -s * d.x + c * d.z);
+        let dr = self.to_map * d;
         let uv = equirect_uv(dr);
         let sin_theta = (1.0 - dr.y * dr.y).max(0.0).sqrt();
         if sin_theta <= 0.0 {

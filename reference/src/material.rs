@@ -25,6 +25,27 @@ pub enum Material {
     Dielectric { ior: f32, absorption: Vec3 },
     /// Emits `emission` from the front face only; scatters nothing.
     DiffuseLight { emission: u32 },
+    /// A smooth conductor (Mitsuba 3's `conductor`): a mirror that reflects
+    /// `specular · F(cos θ, eta + i·k)` per channel, `F` the unpolarized
+    /// Fresnel reflectance of a conductor of complex index `eta + i·k`
+    /// relative to the outside ([`fresnel_conductor`]). Both sides
+    /// reflect, as every twintrace material (Mitsuba's is black seen from
+    /// behind). `eta = 0, k = 1` is a perfect mirror.
+    Conductor { specular: u32, eta: Vec3, k: Vec3 },
+    /// A smooth dielectric interface with the exact Fresnel equations
+    /// (Mitsuba 3's `dielectric`): `eta` the index inside (behind the
+    /// geometric normal) over outside. It reflects with probability
+    /// `F` ([`fresnel_dielectric`]), weighted by `reflectance`, and
+    /// refracts otherwise, weighted by `transmittance / η²` (η the ratio of
+    /// the indices across the interface in the ray's direction of travel:
+    /// radiance's change from one medium to the other, as Mitsuba's
+    /// radiance mode weighs it); past the critical angle it reflects
+    /// (total internal reflection).
+    SmoothDielectric {
+        eta: f32,
+        reflectance: u32,
+        transmittance: u32,
+    },
     /// glTF metallic-roughness, `mix(dielectric, metal, metallic)` as the
     /// glTF specification's appendix B writes it: GGX specular
     /// (height-correlated Smith G2, Schlick F with
@@ -138,6 +159,8 @@ pub mod material_tag {
     pub const DIELECTRIC: u32 = 2;
     pub const DIFFUSE_LIGHT: u32 = 3;
     pub const GGX: u32 = 4;
+    pub const CONDUCTOR: u32 = 5;
+    pub const SMOOTH_DIELECTRIC: u32 = 6;
 }
 
 /// GGX alpha is clamped from below so that D stays finite in f32; 1e-4
@@ -153,6 +176,8 @@ impl Material {
             Material::Dielectric { .. } => material_tag::DIELECTRIC,
             Material::DiffuseLight { .. } => material_tag::DIFFUSE_LIGHT,
             Material::Ggx { .. } => material_tag::GGX,
+            Material::Conductor { .. } => material_tag::CONDUCTOR,
+            Material::SmoothDielectric { .. } => material_tag::SMOOTH_DIELECTRIC,
         }
     }
 }
@@ -258,6 +283,43 @@ pub fn scatter(
             })
         }
         Material::DiffuseLight { .. } => None,
+        Material::Conductor { specular, eta, k } => {
+            let direction = reflect(ray_dir, n);
+            if direction.dot(ng) <= 0.0 {
+                return None;
+            }
+            // Seen from below its shading normal (at a silhouette of
+            // interpolated normals) it reflects nothing, as Mitsuba's.
+            let cos_i = (-ray_dir).dot(n).min(1.0);
+            if cos_i <= 0.0 {
+                return None;
+            }
+            Some(Scatter {
+                direction,
+                weight: ctx.eval(specular, si) * fresnel_conductor(cos_i, eta, k),
+            })
+        }
+        Material::SmoothDielectric {
+            eta,
+            reflectance,
+            transmittance,
+        } => {
+            // The ratio of the indices across, in the direction of travel.
+            let eta = if si.front_face { eta } else { 1.0 / eta };
+            let cos_i = (-ray_dir).dot(n).clamp(0.0, 1.0);
+            if u[dims::LOBE] >= fresnel_dielectric(cos_i, eta) {
+                if let Some(t) = refract(ray_dir, n, 1.0 / eta) {
+                    return Some(Scatter {
+                        direction: t.normalize(),
+                        weight: ctx.eval(transmittance, si) / (eta * eta),
+                    });
+                }
+            }
+            Some(Scatter {
+                direction: reflect(ray_dir, n),
+                weight: ctx.eval(reflectance, si),
+            })
+        }
         Material::Ggx {
             base_color,
             metallic,
@@ -352,9 +414,11 @@ pub fn bsdf_eval(
                 .with_coat(coat, coat_roughness, wo);
             Some((lobes.eval(wo, wi) * wi.z, lobes.pdf(wo, wi)))
         }
-        Material::Metal { .. } | Material::Dielectric { .. } | Material::DiffuseLight { .. } => {
-            None
-        }
+        Material::Metal { .. }
+        | Material::Dielectric { .. }
+        | Material::DiffuseLight { .. }
+        | Material::Conductor { .. }
+        | Material::SmoothDielectric { .. } => None,
     }
 }
 
@@ -433,6 +497,65 @@ pub fn normal_mapped(n: Vec3, side: f32, ng: Vec3, tangent: Vec4, texel: Vec3, s
     } else {
         unmapped
     }
+}
+
+/// The unpolarized Fresnel reflectance, per channel, at incidence cosine
+/// `cos_i` (in [0, 1]) of a conductor whose index relative to the outside
+/// is `eta + i·k`: the mean of the s- and p-polarized reflectances,
+/// `R_s = (a² + b² − 2a cos + cos²) / (a² + b² + 2a cos + cos²)` and
+/// `R_p = R_s (cos² (a² + b²) − 2a cos sin² + sin⁴) / (cos² (a² + b²) +
+/// 2a cos sin² + sin⁴)`, where `a² + b² = √((η² − κ² − sin²)² + 4η²κ²)`
+/// and `a = √((a² + b² + η² − κ² − sin²) / 2)` (Born and Wolf's
+/// closed form for an absorbing medium). Held to Mitsuba 3.9.1's
+/// `conductor` by tests/mitsuba_bsdfs.rs.
+#[inline]
+pub fn fresnel_conductor(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
+    let (eta, k) = if mutants::is(Mutant::ConductorEtaKSwapped) {
+        (k, eta)
+    } else {
+        (eta, k)
+    };
+    let c2 = cos_i * cos_i;
+    let s2 = 1.0 - c2;
+    let (eta2, k2) = (eta * eta, k * k);
+    let t0 = eta2 - k2 - Vec3::splat(s2);
+    let sqrt = |v: Vec3| v.max(Vec3::ZERO).to_array().map(f32::sqrt);
+    let a2b2 = Vec3::from(sqrt(t0 * t0 + 4.0 * eta2 * k2));
+    let a = Vec3::from(sqrt(0.5 * (a2b2 + t0)));
+    let t1 = a2b2 + Vec3::splat(c2);
+    let t2 = 2.0 * cos_i * a;
+    // A denominator 0 (a grazing ray with η = κ = 0): reflected whole.
+    let d_s = t1 + t2;
+    let rs = Vec3::select(d_s.cmpgt(Vec3::ZERO), (t1 - t2) / d_s, Vec3::ONE);
+    let t3 = c2 * a2b2 + Vec3::splat(s2 * s2);
+    let t4 = t2 * s2;
+    let d_p = t3 + t4;
+    let rp = Vec3::select(d_p.cmpgt(Vec3::ZERO), rs * (t3 - t4) / d_p, rs);
+    0.5 * (rs + rp)
+}
+
+/// The unpolarized Fresnel reflectance of a smooth dielectric interface at
+/// incidence cosine `cos_i` (in [0, 1]), `eta` the ratio of the indices
+/// across it in the direction of travel (`n_t / n_i`): the mean of the s-
+/// and p-polarized reflectances `((cos_i − η cos_t) / (cos_i + η
+/// cos_t))²` and `((η cos_i − cos_t) / (η cos_i + cos_t))²`, `cos_t` from
+/// Snell's law; 1 past the critical angle. Held to Mitsuba 3.9.1's
+/// `dielectric` by tests/mitsuba_bsdfs.rs.
+#[inline]
+pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
+    let eta = if mutants::is(Mutant::DielectricEtaInverted) {
+        1.0 / eta
+    } else {
+        eta
+    };
+    let sin2_t = (1.0 - cos_i * cos_i).max(0.0) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    let rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    let rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    0.5 * (rs * rs + rp * rp)
 }
 
 /// Schlick's approximation of the Fresnel reflectance at incidence cosine

@@ -66,6 +66,16 @@ pub enum Mutant {
     /// light set while lights are picked by power
     /// (`light::LightSet::punctual_pmf`).
     PunctualPmfUniform,
+    /// A smooth dielectric's Fresnel reflectance with the ratio of the
+    /// indices inverted (`material::fresnel_dielectric`).
+    DielectricEtaInverted,
+    /// A conductor's `eta` and `k` exchanged in its Fresnel reflectance
+    /// (`material::fresnel_conductor`).
+    ConductorEtaKSwapped,
+    /// A Mitsuba `envmap` read without the half turn about +y that puts
+    /// Mitsuba's u = 0 (along −z) where twintrace's is
+    /// (`loader::mitsuba::scene`).
+    MitsubaEnvmapNoHalfTurn,
     /// A Mitsuba emitter's uniform spectrum read as grey, as a
     /// reflectance's is, rather than as the equal-energy illuminant's
     /// colour (`loader::mitsuba::scene`, [`crate::loader::mitsuba::EQUAL_ENERGY_RGB`]).

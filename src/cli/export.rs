@@ -24,7 +24,7 @@
 //! | `quad`, `box`, mesh triangles | `ply`, vertex order kept (so the geometric normal is the same), the reference's uv per vertex (a quad's (α, β), a triangle's own or its barycentrics) |
 //! | `solid` background | `constant` emitter (nothing when black) |
 //! | `sky` background | `envmap` of a 4096-row lat-long map; the gradient is linear in `cos θ`, so bilinear lookup errs by about 10^-7 |
-//! | `envmap` background | `envmap` of the map resampled to 2h + 1 rows ([`write_envmap`]), turned half a turn plus `rotate_y`, `scale` = intensity |
+//! | `envmap` background | `envmap` of the map (a map of bands resampled to 2h + 1 rows at the poles, [`write_envmap`]; a map of rows at the poles as it is), `to_world` half a turn about +y then the map's own rotation, `scale` = intensity |
 //! | thin-lens camera | `perspective` (`aperture` 0) or `thinlens` (radius = aperture / 2), `fov_axis="y"` |
 //! | box pixel filter, `max_depth` ray segments | `box` rfilter, `path` (or `volpath`) integrator's `max_depth` (1 = emitters seen directly in both) |
 //! | Russian roulette from hit `roulette_depth` on | `rr_depth` = `roulette_depth − 1` (Mitsuba rolls after hit `rr_depth`) |
@@ -62,9 +62,9 @@
 use super::outputs;
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use glam::Vec3;
+use glam::{Mat3, Vec3};
 use materials::{triple, Surface};
-use reference::background::Background;
+use reference::background::{Background, EnvRows};
 use reference::camera::Projection;
 use reference::filter::PixelFilter;
 use reference::Scene;
@@ -614,17 +614,30 @@ impl<'s> MitsubaScene<'s> {
             Background::Envmap {
                 image,
                 intensity,
-                rotate_y,
+                to_map,
+                rows,
             } => {
-                write_envmap(&dir.join(SKY_FILE), &self.scene.images()[image as usize])?;
-                // Mitsuba's u is 0 along −z where the reference's is 0.5:
-                // half a turn about +y, then the reference's own turn.
-                let a = (f64::from(rotate_y) + 180.0).to_radians();
-                let (sin, cos) = a.sin_cos();
+                let data = &self.scene.images()[image as usize];
+                match rows {
+                    EnvRows::Bands => write_envmap(&dir.join(SKY_FILE), data)?,
+                    EnvRows::Poles => write_map(
+                        &dir.join(SKY_FILE),
+                        data.width,
+                        data.height,
+                        data.texels.clone(),
+                    )?,
+                }
+                // Mitsuba reads the map at to_world⁻¹ · d with u = 0 along
+                // −z where the reference's u is 0.5 (half a turn H about
+                // +y): to_map = H · to_world⁻¹, so to_world = to_mapᵀ · H.
+                let m = (to_map.transpose() * Mat3::from_diagonal(Vec3::new(-1.0, 1.0, -1.0)))
+                    .as_dmat3()
+                    .transpose()
+                    .to_cols_array();
                 writeln!(
                     x,
-                    r#"  <emitter type="envmap"><string name="filename" value="{SKY_FILE}"/><float name="scale" value="{intensity:?}"/><transform name="to_world"><matrix value="{cos:?} 0 {sin:?} 0 0 1 0 0 {:?} 0 {cos:?} 0 0 0 0 1"/></transform></emitter>"#,
-                    -sin
+                    r#"  <emitter type="envmap"><string name="filename" value="{SKY_FILE}"/><float name="scale" value="{intensity:?}"/><transform name="to_world"><matrix value="{:?} {:?} {:?} 0 {:?} {:?} {:?} 0 {:?} {:?} {:?} 0 0 0 0 1"/></transform></emitter>"#,
+                    m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[7], m[8]
                 )?;
             }
         }

@@ -1350,6 +1350,8 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
         Material::Metal { .. } => "metal",
         Material::Dielectric { .. } => "dielectric",
         Material::DiffuseLight { .. } => "diffuse light",
+        Material::Conductor { .. } => "conductor",
+        Material::SmoothDielectric { .. } => "smooth dielectric",
         Material::Ggx { .. } => "ggx",
     };
     say!(
@@ -1405,14 +1407,23 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
         Background::Envmap {
             image,
             intensity,
-            rotate_y,
+            to_map,
+            rows,
         } => {
             let size = scene
                 .images()
                 .get(image as usize)
                 .map(|im| format!("{}x{}", im.width, im.height))
                 .unwrap_or_default();
-            say!("background: environment map, image {image} ({size}), intensity {intensity}, rotated {rotate_y}° about +y");
+            let turn = match reference::background::angle_about_y(to_map) {
+                Some(a) => format!("rotated {a}° about +y"),
+                None => format!("rotated into its frame by {to_map}"),
+            };
+            let rows = match rows {
+                reference::background::EnvRows::Bands => "",
+                reference::background::EnvRows::Poles => ", rows at the poles (Mitsuba's envmap)",
+            };
+            say!("background: environment map, image {image} ({size}), intensity {intensity}, {turn}{rows}");
         }
     }
     let c = &scene.camera_settings();

@@ -100,7 +100,8 @@ impl LobeCase {
 }
 
 /// The delta and density-less lobes every backend must reproduce: a
-/// mirror, glass from outside and from inside (where total internal
+/// mirror, a conductor (both sides), glass (Schlick's and the exact
+/// Fresnel's) from outside and from inside (where total internal
 /// reflection happens), fuzzy metal at two fuzz values; fixed and random
 /// incidences.
 pub fn standard_cases() -> Vec<LobeCase> {
@@ -123,6 +124,16 @@ pub fn standard_cases() -> Vec<LobeCase> {
     let glass = Material::Dielectric {
         ior: 1.5,
         absorption: Vec3::ZERO,
+    };
+    let gold = Material::Conductor {
+        specular: 0,
+        eta: Vec3::new(0.143, 0.374, 1.442),
+        k: Vec3::new(3.983, 2.385, 1.603),
+    };
+    let pyrex = Material::SmoothDielectric {
+        eta: 1.47,
+        reflectance: 0,
+        transmittance: 0,
     };
     let inside = |deg: f32| {
         let d = at(deg);
@@ -163,6 +174,36 @@ pub fn standard_cases() -> Vec<LobeCase> {
         case(
             "glass from inside, random incidence (total internal reflection beyond 41.8°)",
             glass,
+            false,
+            Incidence::Random,
+        ),
+        case(
+            "conductor (gold's index), 40°",
+            gold,
+            true,
+            Incidence::Fixed(at(40.0)),
+        ),
+        case(
+            "conductor (gold's index), random incidence",
+            gold,
+            true,
+            Incidence::Random,
+        ),
+        case(
+            "conductor from its back side, random incidence",
+            gold,
+            false,
+            Incidence::Random,
+        ),
+        case(
+            "smooth dielectric from outside, random incidence",
+            pyrex,
+            true,
+            Incidence::Random,
+        ),
+        case(
+            "smooth dielectric from inside, random incidence (total internal reflection beyond 42.9°)",
+            pyrex,
             false,
             Incidence::Random,
         ),

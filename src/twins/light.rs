@@ -18,7 +18,7 @@ use super::{ensure, run_kernel_with_library, Outcome};
 use crate::compare::gate::fixture_scene;
 use glam::{DVec3, Vec2, Vec3};
 use gpu::GpuContext;
-use reference::background::{equirect_uv, Background};
+use reference::background::{equirect_uv, turn_about_y, Background, EnvRows};
 use reference::geometry::Ray;
 use reference::light::{LightSet, ENV_PRIM, SMALL_CONE_SIN2};
 use reference::material::Material;
@@ -138,7 +138,8 @@ pub fn light_test_scene() -> Scene {
     b.background = Some(Background::Envmap {
         image: env,
         intensity: 0.0002,
-        rotate_y: 40.0,
+        to_map: turn_about_y(40.0),
+        rows: EnvRows::Bands,
     });
     add_three_lights(&mut b, (Vec3::new(-0.5, -1.2, 0.5), 0.5));
     let dim = b.constant(Vec3::splat(0.002)).unwrap();
@@ -327,8 +328,7 @@ pub fn light_samples_with_library(
             // cell's edge may read the neighbour (no density check there).
             let (env, _) = lights.env().unwrap();
             let s = c.direction;
-            let (rs, rc) = (env.rot_sin, env.rot_cos);
-            let dr = Vec3::new(rc * s.x + rs * s.z, s.y, -rs * s.x + rc * s.z);
+            let dr = env.to_map * s;
             let uv = equirect_uv(dr);
             let (x, y) = (uv.x * env.width as f32, (1.0 - uv.y) * env.height as f32);
             let reach = 4096.0 * f32::EPSILON * env.width.max(env.height) as f32;

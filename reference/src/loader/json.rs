@@ -4,7 +4,7 @@
 //! Semantic errors (a bad radius, an unknown material name) name the file
 //! and the field path, e.g. `objects[3].radius`.
 
-use crate::background::Background;
+use crate::background::{turn_about_y, Background, EnvRows};
 use crate::camera::{CameraSettings, Projection};
 use crate::error::SceneError;
 use crate::filter::PixelFilter;
@@ -239,6 +239,8 @@ pub enum MaterialJson {
     Dielectric(DielectricMaterialJson),
     DiffuseLight(DiffuseLightMaterialJson),
     Ggx(GgxMaterialJson),
+    Conductor(ConductorMaterialJson),
+    SmoothDielectric(SmoothDielectricMaterialJson),
 }
 
 fn default_roughness() -> f32 {
@@ -406,6 +408,49 @@ pub struct MetalMaterialJson {
     /// reflects (`reference::Scene::emission`); absent or black: none.
     #[serde(default)]
     pub emission: Option<ColorRef>,
+}
+
+/// A smooth conductor (Mitsuba 3's `conductor`): a mirror of Fresnel
+/// reflectance `F(cos θ, eta + i·k)` per channel, times `specular`.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ConductorMaterialJson {
+    /// The complex index's real part per channel (0: a perfect mirror with
+    /// the default `k`).
+    #[serde(default)]
+    pub eta: [f32; 3],
+    /// Its imaginary part (the extinction coefficient) per channel.
+    #[serde(default = "unit_k")]
+    pub k: [f32; 3],
+    /// A tint on the reflectance (default white).
+    #[serde(default)]
+    pub specular: Option<ColorRef>,
+    /// Radiance emitted from the front face, added to what the material
+    /// reflects (`reference::Scene::emission`); absent or black: none.
+    #[serde(default)]
+    pub emission: Option<ColorRef>,
+}
+
+/// A smooth dielectric with the exact Fresnel equations (Mitsuba 3's
+/// `dielectric`).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SmoothDielectricMaterialJson {
+    /// The index inside (behind the geometric normal) over outside.
+    pub eta: f32,
+    /// Tints on what it reflects and transmits (default white).
+    #[serde(default)]
+    pub reflectance: Option<ColorRef>,
+    #[serde(default)]
+    pub transmittance: Option<ColorRef>,
+    /// Radiance emitted from the front face, added to what the material
+    /// reflects (`reference::Scene::emission`); absent or black: none.
+    #[serde(default)]
+    pub emission: Option<ColorRef>,
+}
+
+fn unit_k() -> [f32; 3] {
+    [1.0; 3]
 }
 
 #[derive(Clone, Debug, PartialEq, Deserialize)]
@@ -790,6 +835,14 @@ impl Resolver<'_> {
     }
 
     /// A colour field as a texture index (constants become textures).
+    /// An optional colour, white where absent.
+    fn colour_or_white(&mut self, c: Option<&ColorRef>) -> Result<u32, SceneError> {
+        match c {
+            Some(c) => self.colour(c, 0),
+            None => self.builder.constant(Vec3::ONE),
+        }
+    }
+
     fn colour(&mut self, c: &ColorRef, depth: u32) -> Result<u32, SceneError> {
         match c {
             ColorRef::Rgb(rgb) => self.builder.constant(*rgb),
@@ -902,6 +955,29 @@ impl Resolver<'_> {
                 ior: *ior,
                 absorption: Vec3::from(*absorption),
             },
+            MaterialJson::Conductor(ConductorMaterialJson {
+                eta, k, specular, ..
+            }) => Material::Conductor {
+                specular: self
+                    .colour_or_white(specular.as_ref())
+                    .map_err(field("specular"))?,
+                eta: Vec3::from(*eta),
+                k: Vec3::from(*k),
+            },
+            MaterialJson::SmoothDielectric(SmoothDielectricMaterialJson {
+                eta,
+                reflectance,
+                transmittance,
+                ..
+            }) => Material::SmoothDielectric {
+                eta: *eta,
+                reflectance: self
+                    .colour_or_white(reflectance.as_ref())
+                    .map_err(field("reflectance"))?,
+                transmittance: self
+                    .colour_or_white(transmittance.as_ref())
+                    .map_err(field("transmittance"))?,
+            },
             MaterialJson::DiffuseLight(DiffuseLightMaterialJson { emission }) => {
                 Material::DiffuseLight {
                     emission: self.colour(emission, 0).map_err(field("emission"))?,
@@ -939,7 +1015,11 @@ impl Resolver<'_> {
             MaterialJson::Lambertian(LambertianMaterialJson { emission, .. })
             | MaterialJson::Metal(MetalMaterialJson { emission, .. })
             | MaterialJson::Dielectric(DielectricMaterialJson { emission, .. })
-            | MaterialJson::Ggx(GgxMaterialJson { emission, .. }) => emission.as_ref(),
+            | MaterialJson::Ggx(GgxMaterialJson { emission, .. })
+            | MaterialJson::Conductor(ConductorMaterialJson { emission, .. })
+            | MaterialJson::SmoothDielectric(SmoothDielectricMaterialJson { emission, .. }) => {
+                emission.as_ref()
+            }
             MaterialJson::DiffuseLight(_) => None,
         };
         match emission {
@@ -1107,10 +1187,17 @@ fn build(
             let image = r
                 .image(path, None)
                 .map_err(|e| e.within("background.path"))?;
+            if !rotate_y.is_finite() {
+                return Err(SceneError::invalid(
+                    "background.rotate_y",
+                    format!("{rotate_y} is not finite"),
+                ));
+            }
             Background::Envmap {
                 image,
                 intensity: *intensity,
-                rotate_y: *rotate_y,
+                to_map: turn_about_y(*rotate_y),
+                rows: EnvRows::Bands,
             }
         }
     });

@@ -291,6 +291,25 @@ fn check_material(material: &Material, textures: usize) -> Result<(), SceneError
     };
     match *material {
         Material::Lambertian { albedo } => tex_ok("albedo", albedo)?,
+        Material::SmoothDielectric {
+            eta,
+            reflectance,
+            transmittance,
+        } => {
+            tex_ok("reflectance", reflectance)?;
+            tex_ok("transmittance", transmittance)?;
+            if !(eta.is_finite() && eta > 0.0) {
+                return Err(SceneError::invalid(
+                    "eta",
+                    format!("{eta} must be a positive finite number"),
+                ));
+            }
+        }
+        Material::Conductor { specular, eta, k } => {
+            tex_ok("specular", specular)?;
+            check_colour("eta", eta)?;
+            check_colour("k", k)?;
+        }
         Material::Metal { albedo, fuzz } => {
             tex_ok("albedo", albedo)?;
             if !(0.0..=1.0).contains(&fuzz) {
@@ -385,7 +404,8 @@ fn check_view(
         Background::Envmap {
             image,
             intensity,
-            rotate_y,
+            to_map,
+            ..
         } => {
             if image as usize >= images {
                 return Err(SceneError::invalid(
@@ -393,10 +413,16 @@ fn check_view(
                     "envmap image missing".into(),
                 ));
             }
-            if !(intensity.is_finite() && intensity >= 0.0 && rotate_y.is_finite()) {
+            if !(intensity.is_finite() && intensity >= 0.0) {
                 return Err(SceneError::invalid(
                     "background.intensity",
-                    format!("intensity {intensity} / rotate_y {rotate_y} must be finite, intensity non-negative"),
+                    format!("intensity {intensity} must be finite and non-negative"),
+                ));
+            }
+            if !crate::background::is_rotation(to_map) {
+                return Err(SceneError::invalid(
+                    "background.rotate_y",
+                    format!("the map's turn {to_map} is not finite or not a rotation"),
                 ));
             }
         }

@@ -228,6 +228,18 @@ pub(super) enum Surface {
     Diffuse(Tex),
     /// A smooth metal: a perfect mirror times the albedo.
     Mirror(Tex),
+    /// Mitsuba's own smooth `dielectric` (`eta` inside over outside).
+    SmoothDielectric {
+        eta: f32,
+        reflectance: Tex,
+        transmittance: Tex,
+    },
+    /// Mitsuba's own smooth `conductor`.
+    Conductor {
+        specular: Tex,
+        eta: Vec3,
+        k: Vec3,
+    },
     FuzzyMetal {
         albedo: Tex,
         fuzz: f32,
@@ -299,6 +311,22 @@ impl Surface {
                 r#"<bsdf type="conductor"><string name="material" value="none"/>{}</bsdf>"#,
                 c.xml("specular_reflectance", uv)
             )),
+            Surface::Conductor { specular, eta, k } => sided(format!(
+                r#"<bsdf type="conductor"><rgb name="eta" value="{}"/><rgb name="k" value="{}"/>{}</bsdf>"#,
+                triple(*eta),
+                triple(*k),
+                specular.xml("specular_reflectance", uv)
+            )),
+            // Mitsuba's dielectric takes both sides itself.
+            Surface::SmoothDielectric {
+                eta,
+                reflectance,
+                transmittance,
+            } => format!(
+                r#"<bsdf type="dielectric"><float name="int_ior" value="{eta:?}"/><float name="ext_ior" value="1.0"/>{}{}</bsdf>"#,
+                reflectance.xml("specular_reflectance", uv),
+                transmittance.xml("specular_transmittance", uv)
+            ),
             Surface::FuzzyMetal { albedo, fuzz } => sided(format!(
                 r#"<bsdf type="tt_fuzzy_metal">{}<float name="fuzz" value="{fuzz:?}"/></bsdf>"#,
                 albedo.xml("albedo", uv)
@@ -374,6 +402,12 @@ impl Surface {
     fn textures(&self) -> Vec<&Tex> {
         match self {
             Surface::Diffuse(t) | Surface::Mirror(t) => vec![t],
+            Surface::Conductor { specular, .. } => vec![specular],
+            Surface::SmoothDielectric {
+                reflectance,
+                transmittance,
+                ..
+            } => vec![reflectance, transmittance],
             Surface::FuzzyMetal { albedo, .. } => vec![albedo],
             Surface::Dielectric { .. } | Surface::Light(_) => vec![],
             Surface::Ggx {
@@ -395,6 +429,12 @@ impl Surface {
     pub(super) fn uses_plugins(&self) -> bool {
         match self {
             Surface::Diffuse(t) | Surface::Mirror(t) => t.uses_plugins(),
+            Surface::Conductor { specular, .. } => specular.uses_plugins(),
+            Surface::SmoothDielectric {
+                reflectance,
+                transmittance,
+                ..
+            } => reflectance.uses_plugins() || transmittance.uses_plugins(),
             Surface::Light(_) => false,
             // (Shading normals, which need `tt_facing`, are `Placement`'s.)
             Surface::FuzzyMetal { .. } | Surface::Dielectric { .. } | Surface::Ggx { .. } => true,
@@ -434,8 +474,13 @@ impl Surface {
     pub(super) fn shading_normals_refused(&self) -> Option<&'static str> {
         match self {
             Surface::Diffuse(_) | Surface::Ggx { .. } | Surface::Dielectric { .. } => None,
-            Surface::Mirror(_) | Surface::FuzzyMetal { .. } => Some("a metal"),
+            Surface::Mirror(_) | Surface::Conductor { .. } | Surface::FuzzyMetal { .. } => {
+                Some("a metal")
+            }
             Surface::Light(_) => Some("a light"),
+            // Mitsuba's picks its side by the shading normal, the
+            // reference's by the geometric one.
+            Surface::SmoothDielectric { .. } => Some("a smooth dielectric"),
         }
     }
 }
@@ -525,6 +570,20 @@ pub(super) fn surface(scene: &Scene, i: usize) -> Result<Surface> {
             _ => bail!("{what} is a textured light (not exported)"),
         },
         Material::Dielectric { ior, absorption } => Surface::Dielectric { ior, absorption },
+        Material::SmoothDielectric {
+            eta,
+            reflectance,
+            transmittance,
+        } => Surface::SmoothDielectric {
+            eta,
+            reflectance: texture(scene, reflectance, &what)?,
+            transmittance: texture(scene, transmittance, &what)?,
+        },
+        Material::Conductor { specular, eta, k } => Surface::Conductor {
+            specular: texture(scene, specular, &what)?,
+            eta,
+            k,
+        },
         Material::Ggx {
             base_color,
             metallic,

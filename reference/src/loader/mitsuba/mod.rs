@@ -4,6 +4,7 @@
 
 pub mod meshes;
 pub mod scene;
+pub mod spectra;
 pub mod xml;
 
 pub use scene::{build, load, EQUAL_ENERGY_RGB, NOT_SUPPORTED};

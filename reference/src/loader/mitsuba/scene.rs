@@ -7,8 +7,9 @@
 //! docs/mitsuba.md tables what is read and how.
 
 use super::meshes::{self, Mesh, MeshOptions};
+use super::spectra::{self, SpectrumUse};
 use super::xml::{Child, Document, Location, Object, Property, Spectrum, Value};
-use crate::background::Background;
+use crate::background::{Background, EnvRows};
 use crate::camera::{CameraSettings, Projection};
 use crate::error::SceneError;
 use crate::filter::PixelFilter;
@@ -38,6 +39,36 @@ pub const NOT_SUPPORTED: &str = "is not supported";
 /// 'spectrum', 'value': 1.0}}))['intensity.value']` = [1.20479,
 /// 0.948291, 0.908916]); a reflectance's uniform spectrum stays grey.
 pub const EQUAL_ENERGY_RGB: [f64; 3] = [1.20479, 0.948291, 0.908916];
+
+/// Mitsuba 3's named indices of refraction (its `dielectric`'s
+/// documentation's table), as its rgb variants hold them (f32; read back
+/// from Mitsuba 3.9.1 with `mi.traverse(mi.load_dict({'type':
+/// 'dielectric', 'int_ior': NAME, 'ext_ior': 'vacuum'}))['eta']`).
+pub const NAMED_IORS: &[(&str, f64)] = &[
+    ("vacuum", 1.0),
+    ("helium", 1.000036),
+    ("hydrogen", 1.000132),
+    ("air", 1.000277),
+    ("carbon dioxide", 1.00045),
+    ("water", 1.333),
+    ("acetone", 1.36),
+    ("ethanol", 1.361),
+    ("carbon tetrachloride", 1.461),
+    ("glycerol", 1.4729),
+    ("benzene", 1.501),
+    ("silicone oil", 1.52045),
+    ("bromine", 1.661),
+    ("water ice", 1.31),
+    ("fused quartz", 1.458),
+    ("pyrex", 1.47),
+    ("acrylic glass", 1.49),
+    ("polypropylene", 1.49),
+    ("bk7", 1.5046),
+    ("sodium chloride", 1.544),
+    ("amber", 1.55),
+    ("pet", 1.575),
+    ("diamond", 2.419),
+];
 
 /// Millimetres of the diagonal of the 35 mm film (36 × 24 mm) that
 /// Mitsuba's `focal_length` refers to.
@@ -125,6 +156,43 @@ impl<'a> Props<'a> {
                 Value::Boolean(v) => Ok(v),
                 _ => Err(self.wrong(p, "a boolean")),
             },
+        }
+    }
+
+    /// An index of refraction: a number, or one of Mitsuba's named
+    /// materials ([`NAMED_IORS`]); `default` (a name) where absent.
+    fn ior(&self, name: &str, default: &str) -> Result<f64, SceneError> {
+        let named = |s: &str, at: &Location| {
+            NAMED_IORS
+                .iter()
+                .find(|(n, _)| *n == s)
+                .map(|(_, v)| *v)
+                .ok_or_else(|| {
+                    let names: Vec<&str> = NAMED_IORS.iter().map(|(n, _)| *n).collect();
+                    fail(
+                        at,
+                        format!(
+                            "\"{s}\" is not one of Mitsuba's named indices ({})",
+                            names.join(", ")
+                        ),
+                    )
+                })
+        };
+        match self.get(name) {
+            None => named(default, &self.object.at),
+            Some(p) => {
+                let v = match &p.value {
+                    Value::Float(v) => finite(p, *v)?,
+                    Value::Integer(v) => *v as f64,
+                    Value::String(s) => named(s, &p.at)?,
+                    _ => return Err(self.wrong(p, "an index of refraction (a number or a name)")),
+                };
+                if v > 0.0 {
+                    Ok(v)
+                } else {
+                    Err(fail(&p.at, format!("\"{name}\" = {v} must be positive")))
+                }
+            }
         }
     }
 
@@ -595,6 +663,61 @@ impl Reader<'_> {
                 }
                 self.builder.background = Some(Background::Solid(radiance));
             }
+            "envmap" => {
+                let name = props
+                    .string("filename")?
+                    .ok_or_else(|| fail(&o.at, format!("{} has no filename", o.describe())))?;
+                let path = self.doc.resolve(name);
+                let scale = props.float("scale", 1.0)?;
+                if !(scale.is_finite() && scale >= 0.0) {
+                    return Err(fail(
+                        &o.at,
+                        format!("scale {scale} must be finite and not negative"),
+                    ));
+                }
+                if let Some(f) = props.string("filter_type")? {
+                    if f != "bilinear" {
+                        return Err(unsupported(o, &format!(" with filter_type \"{f}\"")));
+                    }
+                }
+                // Mitsuba's envmap sampling option: the image is the same.
+                props.boolean("mis_compensation", false)?;
+                // Mitsuba reads the map at l = to_world⁻¹ · d, u = 0 along
+                // −z of l; twintrace's equirect_uv has u = ½ there: half a
+                // turn H about +y, so to_map = H · to_world⁻¹.
+                let half_turn = if mutants::is(Mutant::MitsubaEnvmapNoHalfTurn) {
+                    DMat3::IDENTITY
+                } else {
+                    DMat3::from_diagonal(DVec3::new(-1.0, 1.0, -1.0))
+                };
+                let to_map = match transform {
+                    None => half_turn,
+                    Some((m, at)) => {
+                        let r = DMat3::from_mat4(m);
+                        let e = r.transpose() * r - DMat3::IDENTITY;
+                        let rotation = e.to_cols_array().iter().all(|x| x.abs() < 1e-6)
+                            && r.determinant() > 0.0;
+                        if !rotation {
+                            return Err(unsupported(
+                                o,
+                                &format!(" with a to_world that is not a rotation (at {at})"),
+                            ));
+                        }
+                        half_turn * r.transpose()
+                    }
+                };
+                if !matches!(self.builder.background, Some(Background::Solid(c)) if c == Vec3::ZERO)
+                {
+                    return Err(unsupported(o, " beside another environment emitter"));
+                }
+                let image = self.image(path, false, &o.at)?;
+                self.builder.background = Some(Background::Envmap {
+                    image,
+                    intensity: scale as f32,
+                    to_map: to_map.as_mat3(),
+                    rows: EnvRows::Poles,
+                });
+            }
             "area" => return Err(fail(&o.at, "an area emitter belongs inside a shape".into())),
             _ => return Err(unsupported(o, "")),
         }
@@ -645,11 +768,23 @@ impl Reader<'_> {
                     }
                     ColourUse::Emission => DVec3::from(EQUAL_ENERGY_RGB) * *v,
                 },
-                Value::Spectrum(Spectrum::Pairs(_)) => {
-                    return Err(fail(
-                        &p.at,
-                        format!("a wavelength:value spectrum (\"{name}\") {NOT_SUPPORTED}"),
-                    ))
+                Value::Spectrum(Spectrum::Pairs(pairs)) => {
+                    let converted = spectra::to_srgb(
+                        pairs,
+                        match usage {
+                            ColourUse::Reflectance => SpectrumUse::Reflectance,
+                            ColourUse::Emission => SpectrumUse::Emission,
+                        },
+                    );
+                    if converted.clamped {
+                        self.builder.warnings.push(format!(
+                            "{}: spectrum \"{name}\" is outside sRGB's gamut{}: clamped to {} as Mitsuba's rgb variants clamp it",
+                            p.at,
+                            if usage == ColourUse::Reflectance { " or above 1" } else { "" },
+                            converted.rgb.as_vec3()
+                        ));
+                    }
+                    converted.rgb
                 }
                 _ => return Err(props.wrong(p, "a colour")),
             };
@@ -718,21 +853,7 @@ impl Reader<'_> {
             let [c0, c1, c2, c3, c4, c5] = m;
             [c0, c1, c2, -c3, -c4, 1.0 - c5].map(|x| x as f32)
         });
-        let key = (path.clone(), raw);
-        let image = match self.images.get(&key) {
-            Some(&i) => i,
-            None => {
-                // `raw`: the values as stored, no sRGB decoding; else
-                // Mitsuba decodes 8- and 16-bit images' sRGB curve and
-                // keeps float images linear, as `load_image` does.
-                let data = load_image(&path, if raw { Some(false) } else { None })
-                    .map_err(|e| fail(&o.at, e.to_string()))?;
-                self.builder.sources.push(path.clone());
-                let i = self.builder.add_image(data);
-                self.images.insert(key, i);
-                i
-            }
-        };
+        let image = self.image(path, raw, &o.at)?;
         props.finish()?;
         self.builder
             .add_texture(Texture::Image {
@@ -747,6 +868,22 @@ impl Reader<'_> {
                 },
             })
             .map_err(|e| fail(&o.at, e.to_string()))
+    }
+
+    /// The image at `path` (read once): `raw`, the values as stored, no
+    /// sRGB decoding; else Mitsuba decodes 8- and 16-bit images' sRGB
+    /// curve and keeps float images linear, as `load_image` does.
+    fn image(&mut self, path: PathBuf, raw: bool, at: &Location) -> Result<u32, SceneError> {
+        let key = (path.clone(), raw);
+        if let Some(&i) = self.images.get(&key) {
+            return Ok(i);
+        }
+        let data = load_image(&path, if raw { Some(false) } else { None })
+            .map_err(|e| fail(at, e.to_string()))?;
+        self.builder.sources.push(path);
+        let i = self.builder.add_image(data);
+        self.images.insert(key, i);
+        Ok(i)
     }
 
     /// Mitsuba's `checkerboard`: `color0` (default 0.4) where the
@@ -844,34 +981,96 @@ impl Reader<'_> {
     }
 
     fn bsdf(&mut self, o: &Object) -> Result<Material, SceneError> {
+        if o.kind == "twosided" {
+            let props = Props::new(o);
+            let nested = props.children("bsdf");
+            let m = match nested.as_slice() {
+                [one] if matches!(one.object.kind.as_str(), "diffuse" | "conductor") => {
+                    self.one_sided_bsdf(&one.object)?
+                }
+                [one] => return Err(unsupported(&one.object, " inside twosided")),
+                _ => return Err(unsupported(o, " with other than one nested bsdf")),
+            };
+            props.finish()?;
+            return Ok(m);
+        }
+        if o.kind == "dielectric" {
+            return self.dielectric(o);
+        }
+        let m = self.one_sided_bsdf(o)?;
+        if !self.one_sided_warned {
+            self.one_sided_warned = true;
+            self.builder.warnings.push(format!(
+                "{}: Mitsuba's {} is black seen from behind; twintrace's reflects on both sides (as Mitsuba's twosided)",
+                o.at, o.kind
+            ));
+        }
+        Ok(m)
+    }
+
+    /// Mitsuba's smooth `dielectric` (both sides its own): `int_ior`
+    /// (default "bk7") over `ext_ior` (default "air"), each a number or a
+    /// name, and the two tints.
+    fn dielectric(&mut self, o: &Object) -> Result<Material, SceneError> {
+        let props = Props::new(o);
+        let eta = props.ior("int_ior", "bk7")? / props.ior("ext_ior", "air")?;
+        let reflectance =
+            self.colour(&props, "specular_reflectance", ColourUse::Reflectance, 1.0)?;
+        let transmittance = self.colour(
+            &props,
+            "specular_transmittance",
+            ColourUse::Reflectance,
+            1.0,
+        )?;
+        let m = Material::SmoothDielectric {
+            eta: eta as f32,
+            reflectance: self.texture_of(reflectance, &o.at)?,
+            transmittance: self.texture_of(transmittance, &o.at)?,
+        };
+        props.finish()?;
+        Ok(m)
+    }
+
+    /// A BSDF Mitsuba makes one-sided (`twosided` makes it two-sided; all
+    /// twintrace's materials are).
+    fn one_sided_bsdf(&mut self, o: &Object) -> Result<Material, SceneError> {
         let props = Props::new(o);
         let m = match o.kind.as_str() {
             "diffuse" => {
                 let c = self.colour(&props, "reflectance", ColourUse::Reflectance, 0.5)?;
-                if !self.one_sided_warned {
-                    self.one_sided_warned = true;
-                    self.builder.warnings.push(format!(
-                        "{}: Mitsuba's diffuse is black seen from behind; twintrace's reflects on both sides (as Mitsuba's twosided)",
-                        o.at
-                    ));
-                }
                 Material::Lambertian {
                     albedo: self.texture_of(c, &o.at)?,
                 }
             }
-            "twosided" => {
-                let nested = props.children("bsdf");
-                match nested.as_slice() {
-                    [one] if one.object.kind == "diffuse" => {
-                        let inner = Props::new(&one.object);
-                        let c = self.colour(&inner, "reflectance", ColourUse::Reflectance, 0.5)?;
-                        inner.finish()?;
-                        Material::Lambertian {
-                            albedo: self.texture_of(c, &one.object.at)?,
-                        }
+            "conductor" => {
+                // Mitsuba's rule: `eta` given, or `material` "none" (the
+                // default), reads eta (default 0) and k (default 1);
+                // a named material reads Mitsuba's tabulated spectra.
+                let material = props.string("material")?.unwrap_or("none");
+                let explicit = props.get("eta").is_some() || props.named_child("eta").is_some();
+                match (material, explicit) {
+                    ("none", _) => {}
+                    (_, true) => {
+                        return Err(fail(
+                            &o.at,
+                            "give either eta and k or a material, not both".into(),
+                        ))
                     }
-                    [one] => return Err(unsupported(&one.object, " inside twosided")),
-                    _ => return Err(unsupported(o, " with other than one nested bsdf")),
+                    (name, false) => {
+                        return Err(unsupported(
+                            o,
+                            &format!(" with material \"{name}\" (Mitsuba's tabulated metals; give eta and k)"),
+                        ))
+                    }
+                }
+                let eta = self.constant_colour(&props, "eta", ColourUse::Reflectance, 0.0)?;
+                let k = self.constant_colour(&props, "k", ColourUse::Reflectance, 1.0)?;
+                let specular =
+                    self.colour(&props, "specular_reflectance", ColourUse::Reflectance, 1.0)?;
+                Material::Conductor {
+                    specular: self.texture_of(specular, &o.at)?,
+                    eta,
+                    k,
                 }
             }
             _ => return Err(unsupported(o, "")),

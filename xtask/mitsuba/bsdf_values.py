@@ -1,0 +1,106 @@
+"""Writes what Mitsuba 3's own BSDF plugins give on a fixed set of
+inputs, for twintrace's tests to hold its models to (tests/mitsuba_bsdfs.rs
+regenerates the same inputs and compares).
+
+    python3 xtask/mitsuba/bsdf_values.py conductor|dielectric  [--out fixtures/mitsuba/bsdf]
+
+Inputs: case i of N has incidence cosine (i + 1/2) / N (wi in the xz
+plane, the normal +z) and its parameters from the additive sequence
+frac((i + 1) * a) of the constants A below, computed in f64 and rounded
+to f32 (the same arithmetic in Rust). Output: N records of three f32
+(little endian), what each case's function says it records.
+
+Needs Mitsuba 3 (`pip install mitsuba==3.9.1 numpy`); runs on the CPU
+(`scalar_rgb`).
+"""
+
+import argparse
+import os
+
+import mitsuba as mi
+import numpy as np
+
+N = 10000
+# Irrational steps of an additive (Kronecker) sequence: fractional parts of
+# powers of the plastic number and of the golden ratio's relatives.
+A = [
+    0.7548776662466927,
+    0.5698402909980532,
+    0.8191725133961645,
+    0.6710436067037893,
+    0.5497004779019703,
+    0.3819660112501051,
+]
+
+
+def unit(i, k):
+    return ((i + 1) * A[k]) % 1.0
+
+
+def conductor(i):
+    """eta in [0.05, 4.05), k in [0, 8) per channel; records the sample weight per channel."""
+    eta = [np.float32(0.05 + 4.0 * unit(i, c)) for c in range(3)]
+    k = [np.float32(8.0 * unit(i, 3 + c)) for c in range(3)]
+    cos = np.float32((i + 0.5) / N)
+    bsdf = mi.load_dict(
+        {
+            "type": "conductor",
+            "eta": {"type": "rgb", "value": [float(x) for x in eta]},
+            "k": {"type": "rgb", "value": [float(x) for x in k]},
+        }
+    )
+    si = mi.SurfaceInteraction3f()
+    si.n = [0, 0, 1]
+    si.sh_frame = mi.Frame3f(si.n)
+    sin = np.float32(np.sqrt(np.float32(1.0) - cos * cos))
+    si.wi = [float(sin), 0.0, float(cos)]
+    bs, weight = bsdf.sample(mi.BSDFContext(), si, 0.5, [0.5, 0.5])
+    assert bs.pdf == 1.0 and abs(bs.wo[2] - cos) < 1e-6
+    return [weight[0], weight[1], weight[2]]
+
+
+def dielectric(i):
+    """cos in (-1, 1) (below 0: from inside), int_ior in [1, 2.6) over
+    ext_ior 1. Records F, then the weight and cos of wo of a transmission
+    (u = the largest f32 below 1; 0, 0 where it reflects)."""
+    eta = np.float32(1.0 + 1.6 * unit(i, 0))
+    cos = np.float32(2.0 * (i + 0.5) / N - 1.0)
+    bsdf = mi.load_dict(
+        {"type": "dielectric", "int_ior": float(eta), "ext_ior": 1.0}
+    )
+    si = mi.SurfaceInteraction3f()
+    si.n = [0, 0, 1]
+    si.sh_frame = mi.Frame3f(si.n)
+    sin = np.float32(np.sqrt(np.float32(1.0) - cos * cos))
+    si.wi = [float(sin), 0.0, float(cos)]
+    f = mi.fresnel(float(cos), float(eta))[0]
+    u = float(np.nextafter(np.float32(1.0), np.float32(0.0)))
+    bs, weight = bsdf.sample(mi.BSDFContext(), si, u, [0.5, 0.5])
+    if bs.wo[2] * cos < 0:
+        return [f, weight[0], bs.wo[2]]
+    return [f, 0.0, 0.0]
+
+
+CASES = {"conductor": conductor, "dielectric": dielectric}
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("case", choices=sorted(CASES))
+    parser.add_argument("--out", default="fixtures/mitsuba/bsdf")
+    args = parser.parse_args()
+    mi.set_variant("scalar_rgb")
+    values = np.array([CASES[args.case](i) for i in range(N)], dtype="<f4")
+    os.makedirs(args.out, exist_ok=True)
+    path = os.path.join(args.out, f"{args.case}.f32")
+    values.tofile(path)
+    with open(os.path.join(args.out, f"{args.case}.provenance.txt"), "w") as f:
+        f.write(
+            f"{N} records of 3 f32 ({' '.join(CASES[args.case].__doc__.split())}): Mitsuba {mi.__version__} ({mi.variant()}) plugin "
+            f"'{args.case}', written by xtask/mitsuba/bsdf_values.py {args.case}\n"
+        )
+    print(f"wrote {path}")
+
+
+if __name__ == "__main__":
+    main()
