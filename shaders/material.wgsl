@@ -203,7 +203,7 @@ fn bsdf_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mat
             let lobes = ggx_lobes_with_coat(ggx_lobes_new(tx.base, tx.metal_rough.x, tx.metal_rough.y, wo), tx.coat.x, tx.coat.y, wo);
             return BsdfEval(true, ggx_lobes_eval(lobes, wo, wl) * wl.z, ggx_lobes_pdf(lobes, wo, wl));
         }
-        case MATERIAL_METAL, MATERIAL_DIELECTRIC, MATERIAL_DIFFUSE_LIGHT, MATERIAL_CONDUCTOR, MATERIAL_SMOOTH_DIELECTRIC: {
+        case MATERIAL_METAL, MATERIAL_DIELECTRIC, MATERIAL_DIFFUSE_LIGHT, MATERIAL_CONDUCTOR, MATERIAL_SMOOTH_DIELECTRIC, MATERIAL_THIN_DIELECTRIC: {
             return BsdfEval(false, vec3<f32>(0.0), 0.0);
         }
         default: {
@@ -247,6 +247,9 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mater
         if m.tag == MATERIAL_SMOOTH_DIELECTRIC {
             return scatter_smooth_dielectric(m, ray_dir, si, tx, n, u);
         }
+        if m.tag == MATERIAL_THIN_DIELECTRIC {
+            return scatter_thin_dielectric(m, ray_dir, si, tx, n, u);
+        }
         if m.tag == MATERIAL_DIELECTRIC {
             return scatter_dielectric(m, ray_dir, si, n, u);
         }
@@ -271,6 +274,9 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mater
         }
         case MATERIAL_SMOOTH_DIELECTRIC: {
             return scatter_smooth_dielectric(m, ray_dir, si, tx, n, u);
+        }
+        case MATERIAL_THIN_DIELECTRIC: {
+            return scatter_thin_dielectric(m, ray_dir, si, tx, n, u);
         }
         case MATERIAL_DIELECTRIC: {
             return scatter_dielectric(m, ray_dir, si, n, u);
@@ -387,6 +393,24 @@ fn scatter_smooth_dielectric(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInte
         }
     }
     return Scatter(true, reflect_about(ray_dir, n), tx.base);
+}
+
+// reference::material::thin_dielectric_reflectance: a thin sheet's
+// reflectance with its inner reflections summed, 2F / (1 + F).
+fn thin_dielectric_reflectance(cos_i: f32, eta: f32) -> f32 {
+    let f = fresnel_dielectric(cos_i, eta);
+    return 2.0 * f / (1.0 + f);
+}
+
+fn scatter_thin_dielectric(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: MaterialTextures, n: vec3<f32>, u: VertexRandoms) -> Scatter {
+    if !uses(FEATURE_THIN_DIELECTRIC) { poison(); return absorbed(); }
+    let cos_i = clamp(dot(-ray_dir, n), 0.0, 1.0);
+    if vr_get(u, DIM_LOBE) < thin_dielectric_reflectance(cos_i, m.p0) {
+        return Scatter(true, reflect_about(ray_dir, n), tx.base);
+    }
+    // Straight through; the transmittance read where a path passes.
+    let t = evaluate_texture(m.texture2, si.p, si.uv, si.uv1);
+    return Scatter(true, ray_dir, t);
 }
 
 // reference::material::normal_mapped: the shading normal a normal map

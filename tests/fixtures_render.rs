@@ -33,7 +33,9 @@ fn no_checker_boundary_plane_is_tangent_to_a_sphere() {
                 Material::DiffuseLight { emission } => emission,
                 Material::Ggx { base_color, .. } => base_color,
                 Material::Conductor { specular, .. } => specular,
-                Material::Dielectric { .. } | Material::SmoothDielectric { .. } => continue,
+                Material::Dielectric { .. }
+                | Material::SmoothDielectric { .. }
+                | Material::ThinDielectric { .. } => continue,
             };
             let Texture::Checker { scale, .. } = scene.textures()[texture as usize] else {
                 continue;

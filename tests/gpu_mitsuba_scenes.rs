@@ -123,3 +123,22 @@ fn gpu_a_smooth_dielectric_with_its_index_inverted_fails_the_mirrors_gate() {
         verdict.figures()
     );
 }
+
+#[test]
+fn gpu_a_thin_dielectric_without_its_inner_reflections_fails_the_mirrors_gate() {
+    // The WGSL twin of `Mutant::ThinDielectricOneBounce`.
+    let verdict = mutant_verdict(
+        "mirrors",
+        "    return 2.0 * f / (1.0 + f);",
+        "    return f;",
+    );
+    println!(
+        "mirrors: the thin sheet's inner reflections dropped: {}",
+        verdict.figures()
+    );
+    assert!(
+        !verdict.passes(),
+        "the mutant passed: {}",
+        verdict.figures()
+    );
+}

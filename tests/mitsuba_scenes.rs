@@ -106,38 +106,35 @@ fn an_envmap_read_without_mitsubas_half_turn_fails_the_gate() {
     mutant_fails("mirrors", Mutant::MitsubaEnvmapNoHalfTurn);
 }
 
-#[test]
-fn a_conductor_with_eta_and_k_swapped_fails_the_mirrors_gate() {
-    // A defect of the model, active while the CPU twin renders.
+/// The mirrors gate scene rendered on the CPU twin with `m` active while
+/// it renders (a defect of a model) fails the gate.
+fn render_mutant_fails_mirrors(m: Mutant) {
     let case = fixture_case("mirrors");
     let scene = mitsuba_tests::load(&case).unwrap().unwrap();
-    let (verdict, _) = mutants::pool(Mutant::ConductorEtaKSwapped)
+    let (verdict, _) = mutants::pool(m)
         .install(|| mitsuba_tests::run_scene(&case, &scene, Devices::Cpu(None), Budget::default()))
         .unwrap();
-    println!("mirrors: eta and k swapped: {}", verdict.figures());
+    println!("mirrors: {m:?}: {}", verdict.figures());
     assert!(
         !verdict.passes(),
-        "the mutant passed: {}",
+        "the mutant {m:?} passed: {}",
         verdict.figures()
     );
 }
 
 #[test]
+fn a_conductor_with_eta_and_k_swapped_fails_the_mirrors_gate() {
+    render_mutant_fails_mirrors(Mutant::ConductorEtaKSwapped);
+}
+
+#[test]
 fn a_smooth_dielectric_with_its_index_inverted_fails_the_mirrors_gate() {
-    let case = fixture_case("mirrors");
-    let scene = mitsuba_tests::load(&case).unwrap().unwrap();
-    let (verdict, _) = mutants::pool(Mutant::DielectricEtaInverted)
-        .install(|| mitsuba_tests::run_scene(&case, &scene, Devices::Cpu(None), Budget::default()))
-        .unwrap();
-    println!(
-        "mirrors: the dielectric's index inverted: {}",
-        verdict.figures()
-    );
-    assert!(
-        !verdict.passes(),
-        "the mutant passed: {}",
-        verdict.figures()
-    );
+    render_mutant_fails_mirrors(Mutant::DielectricEtaInverted);
+}
+
+#[test]
+fn a_thin_dielectric_without_its_inner_reflections_fails_the_mirrors_gate() {
+    render_mutant_fails_mirrors(Mutant::ThinDielectricOneBounce);
 }
 
 fn twintrace(dir: &std::path::Path, args: &[&str]) -> (Option<i32>, String, String) {

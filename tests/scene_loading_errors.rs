@@ -488,4 +488,13 @@ fn a_smooth_dielectric_loads_with_white_tints_and_its_index_is_checked() {
         reference::texture::Texture::Constant(Vec3::new(0.9, 0.95, 1.0))
     );
     check(&text.replace("1.5", "-1.5"), &["materials.glass", "eta"]);
+    // The thin sheet takes the same fields.
+    let thin = text.replace("smooth_dielectric", "thin_dielectric");
+    let p = write_scene(dir.path(), "thin.json", &thin);
+    let scene = reference::load_scene(p.to_str().unwrap()).unwrap();
+    assert!(
+        matches!(scene.materials()[0], Material::ThinDielectric { eta, .. } if eta == 1.5),
+        "{:?}",
+        scene.materials()
+    );
 }

@@ -85,6 +85,10 @@ const GPU_ONLY: &[(&str, &str)] = &[
         "scatter_smooth_dielectric",
         "the smooth dielectric arm of material::scatter's match",
     ),
+    (
+        "scatter_thin_dielectric",
+        "the thin dielectric arm of material::scatter's match",
+    ),
     ("scatter_dielectric", "the dielectric arm of material::scatter's match"),
     ("scatter_ggx", "the GGX arm of material::scatter's match"),
     (

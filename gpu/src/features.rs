@@ -68,6 +68,7 @@ feature_bits! {
     UV_CHECKER_TEXTURES = 17,
     CONDUCTOR = 18,
     SMOOTH_DIELECTRIC = 19,
+    THIN_DIELECTRIC = 20,
 }
 
 impl Kernel {
@@ -108,6 +109,7 @@ impl Features {
                 Material::Dielectric { .. } => feature::DIELECTRIC,
                 Material::Conductor { .. } => feature::CONDUCTOR,
                 Material::SmoothDielectric { .. } => feature::SMOOTH_DIELECTRIC,
+                Material::ThinDielectric { .. } => feature::THIN_DIELECTRIC,
                 Material::Ggx {
                     normal_map,
                     clearcoat,

@@ -137,6 +137,11 @@ fn pack_bsdf(m: &Material) -> GpuMaterial {
             eta,
             reflectance,
             transmittance,
+        }
+        | Material::ThinDielectric {
+            eta,
+            reflectance,
+            transmittance,
         } => GpuMaterial {
             tag,
             texture: reflectance,

@@ -98,6 +98,7 @@ pub fn generate() -> String {
         "MATERIAL_SMOOTH_DIELECTRIC",
         material_tag::SMOOTH_DIELECTRIC,
     );
+    s += &u("MATERIAL_THIN_DIELECTRIC", material_tag::THIN_DIELECTRIC);
     s += &u("MATERIAL_DIELECTRIC", material_tag::DIELECTRIC);
     s += &u("MATERIAL_DIFFUSE_LIGHT", material_tag::DIFFUSE_LIGHT);
     s += &u("MATERIAL_GGX", material_tag::GGX);

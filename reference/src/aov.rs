@@ -71,7 +71,9 @@ pub fn albedo(material: &Material, ctx: TextureContext, si: &SurfaceInteraction)
         Material::Lambertian { albedo } | Material::Metal { albedo, .. } => ctx.eval(albedo, si),
         Material::Conductor { specular, .. } => ctx.eval(specular, si),
         Material::Ggx { base_color, .. } => ctx.base_color(base_color, si),
-        Material::Dielectric { .. } | Material::SmoothDielectric { .. } => Vec3::ONE,
+        Material::Dielectric { .. }
+        | Material::SmoothDielectric { .. }
+        | Material::ThinDielectric { .. } => Vec3::ONE,
         Material::DiffuseLight { .. } => Vec3::ZERO,
     }
 }

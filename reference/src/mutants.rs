@@ -69,6 +69,10 @@ pub enum Mutant {
     /// A smooth dielectric's Fresnel reflectance with the ratio of the
     /// indices inverted (`material::fresnel_dielectric`).
     DielectricEtaInverted,
+    /// A thin dielectric's reflectance without its inner reflections: the
+    /// one interface's `F` for `2F / (1 + F)`
+    /// (`material::thin_dielectric_reflectance`).
+    ThinDielectricOneBounce,
     /// A conductor's `eta` and `k` exchanged in its Fresnel reflectance
     /// (`material::fresnel_conductor`).
     ConductorEtaKSwapped,

@@ -1352,6 +1352,7 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
         Material::DiffuseLight { .. } => "diffuse light",
         Material::Conductor { .. } => "conductor",
         Material::SmoothDielectric { .. } => "smooth dielectric",
+        Material::ThinDielectric { .. } => "thin dielectric",
         Material::Ggx { .. } => "ggx",
     };
     say!(

@@ -101,7 +101,7 @@ impl LobeCase {
 
 /// The delta and density-less lobes every backend must reproduce: a
 /// mirror, a conductor (both sides), glass (Schlick's and the exact
-/// Fresnel's) from outside and from inside (where total internal
+/// Fresnel's) from outside and from inside, a thin glass sheet (where total internal
 /// reflection happens), fuzzy metal at two fuzz values; fixed and random
 /// incidences.
 pub fn standard_cases() -> Vec<LobeCase> {
@@ -132,6 +132,11 @@ pub fn standard_cases() -> Vec<LobeCase> {
     };
     let pyrex = Material::SmoothDielectric {
         eta: 1.47,
+        reflectance: 0,
+        transmittance: 0,
+    };
+    let sheet = Material::ThinDielectric {
+        eta: 1.6,
         reflectance: 0,
         transmittance: 0,
     };
@@ -204,6 +209,13 @@ pub fn standard_cases() -> Vec<LobeCase> {
         case(
             "smooth dielectric from inside, random incidence (total internal reflection beyond 42.9°)",
             pyrex,
+            false,
+            Incidence::Random,
+        ),
+        case("thin dielectric, random incidence", sheet, true, Incidence::Random),
+        case(
+            "thin dielectric from its back, random incidence",
+            sheet,
             false,
             Incidence::Random,
         ),

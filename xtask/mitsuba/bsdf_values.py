@@ -2,7 +2,7 @@
 inputs, for twintrace's tests to hold its models to (tests/mitsuba_bsdfs.rs
 regenerates the same inputs and compares).
 
-    python3 xtask/mitsuba/bsdf_values.py conductor|dielectric  [--out fixtures/mitsuba/bsdf]
+    python3 xtask/mitsuba/bsdf_values.py conductor|dielectric|thindielectric  [--out fixtures/mitsuba/bsdf]
 
 Inputs: case i of N has incidence cosine (i + 1/2) / N (wi in the xz
 plane, the normal +z) and its parameters from the additive sequence
@@ -81,7 +81,30 @@ def dielectric(i):
     return [f, 0.0, 0.0]
 
 
-CASES = {"conductor": conductor, "dielectric": dielectric}
+def thindielectric(i):
+    """cos in (-1, 1) (below 0: from behind), int_ior in [1, 2.6) over
+    ext_ior 1. Records the probability of reflection (the pdf of a
+    reflection drawn at u = 0), then the cos of wo of a transmission (u =
+    the largest f32 below 1) and its weight."""
+    eta = np.float32(1.0 + 1.6 * unit(i, 0))
+    cos = np.float32(2.0 * (i + 0.5) / N - 1.0)
+    bsdf = mi.load_dict(
+        {"type": "thindielectric", "int_ior": float(eta), "ext_ior": 1.0}
+    )
+    si = mi.SurfaceInteraction3f()
+    si.n = [0, 0, 1]
+    si.sh_frame = mi.Frame3f(si.n)
+    sin = np.float32(np.sqrt(np.float32(1.0) - cos * cos))
+    si.wi = [float(sin), 0.0, float(cos)]
+    reflected, _ = bsdf.sample(mi.BSDFContext(), si, 0.0, [0.5, 0.5])
+    assert reflected.wo[2] * cos > 0
+    u = float(np.nextafter(np.float32(1.0), np.float32(0.0)))
+    bs, weight = bsdf.sample(mi.BSDFContext(), si, u, [0.5, 0.5])
+    assert bs.wo[2] * cos < 0
+    return [reflected.pdf, bs.wo[2], weight[0]]
+
+
+CASES = {"conductor": conductor, "dielectric": dielectric, "thindielectric": thindielectric}
 
 
 def main():

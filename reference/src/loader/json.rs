@@ -241,6 +241,8 @@ pub enum MaterialJson {
     Ggx(GgxMaterialJson),
     Conductor(ConductorMaterialJson),
     SmoothDielectric(SmoothDielectricMaterialJson),
+    /// The same fields, `eta` the sheet's index over its surroundings'.
+    ThinDielectric(SmoothDielectricMaterialJson),
 }
 
 fn default_roughness() -> f32 {
@@ -964,20 +966,28 @@ impl Resolver<'_> {
                 eta: Vec3::from(*eta),
                 k: Vec3::from(*k),
             },
-            MaterialJson::SmoothDielectric(SmoothDielectricMaterialJson {
-                eta,
-                reflectance,
-                transmittance,
-                ..
-            }) => Material::SmoothDielectric {
-                eta: *eta,
-                reflectance: self
-                    .colour_or_white(reflectance.as_ref())
-                    .map_err(field("reflectance"))?,
-                transmittance: self
-                    .colour_or_white(transmittance.as_ref())
-                    .map_err(field("transmittance"))?,
-            },
+            MaterialJson::SmoothDielectric(d) | MaterialJson::ThinDielectric(d) => {
+                let (eta, reflectance, transmittance) = (
+                    d.eta,
+                    self.colour_or_white(d.reflectance.as_ref())
+                        .map_err(field("reflectance"))?,
+                    self.colour_or_white(d.transmittance.as_ref())
+                        .map_err(field("transmittance"))?,
+                );
+                if matches!(m, MaterialJson::ThinDielectric(_)) {
+                    Material::ThinDielectric {
+                        eta,
+                        reflectance,
+                        transmittance,
+                    }
+                } else {
+                    Material::SmoothDielectric {
+                        eta,
+                        reflectance,
+                        transmittance,
+                    }
+                }
+            }
             MaterialJson::DiffuseLight(DiffuseLightMaterialJson { emission }) => {
                 Material::DiffuseLight {
                     emission: self.colour(emission, 0).map_err(field("emission"))?,
@@ -1017,7 +1027,8 @@ impl Resolver<'_> {
             | MaterialJson::Dielectric(DielectricMaterialJson { emission, .. })
             | MaterialJson::Ggx(GgxMaterialJson { emission, .. })
             | MaterialJson::Conductor(ConductorMaterialJson { emission, .. })
-            | MaterialJson::SmoothDielectric(SmoothDielectricMaterialJson { emission, .. }) => {
+            | MaterialJson::SmoothDielectric(SmoothDielectricMaterialJson { emission, .. })
+            | MaterialJson::ThinDielectric(SmoothDielectricMaterialJson { emission, .. }) => {
                 emission.as_ref()
             }
             MaterialJson::DiffuseLight(_) => None,

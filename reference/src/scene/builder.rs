@@ -295,6 +295,11 @@ fn check_material(material: &Material, textures: usize) -> Result<(), SceneError
             eta,
             reflectance,
             transmittance,
+        }
+        | Material::ThinDielectric {
+            eta,
+            reflectance,
+            transmittance,
         } => {
             tex_ok("reflectance", reflectance)?;
             tex_ok("transmittance", transmittance)?;

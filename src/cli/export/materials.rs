@@ -228,11 +228,13 @@ pub(super) enum Surface {
     Diffuse(Tex),
     /// A smooth metal: a perfect mirror times the albedo.
     Mirror(Tex),
-    /// Mitsuba's own smooth `dielectric` (`eta` inside over outside).
+    /// Mitsuba's own smooth `dielectric` (`eta` inside over outside), or
+    /// its `thindielectric` where `thin`.
     SmoothDielectric {
         eta: f32,
         reflectance: Tex,
         transmittance: Tex,
+        thin: bool,
     },
     /// Mitsuba's own smooth `conductor`.
     Conductor {
@@ -322,8 +324,14 @@ impl Surface {
                 eta,
                 reflectance,
                 transmittance,
+                thin,
             } => format!(
-                r#"<bsdf type="dielectric"><float name="int_ior" value="{eta:?}"/><float name="ext_ior" value="1.0"/>{}{}</bsdf>"#,
+                r#"<bsdf type="{}"><float name="int_ior" value="{eta:?}"/><float name="ext_ior" value="1.0"/>{}{}</bsdf>"#,
+                if *thin {
+                    "thindielectric"
+                } else {
+                    "dielectric"
+                },
                 reflectance.xml("specular_reflectance", uv),
                 transmittance.xml("specular_transmittance", uv)
             ),
@@ -574,10 +582,16 @@ pub(super) fn surface(scene: &Scene, i: usize) -> Result<Surface> {
             eta,
             reflectance,
             transmittance,
+        }
+        | Material::ThinDielectric {
+            eta,
+            reflectance,
+            transmittance,
         } => Surface::SmoothDielectric {
             eta,
             reflectance: texture(scene, reflectance, &what)?,
             transmittance: texture(scene, transmittance, &what)?,
+            thin: matches!(scene.materials()[i], Material::ThinDielectric { .. }),
         },
         Material::Conductor { specular, eta, k } => Surface::Conductor {
             specular: texture(scene, specular, &what)?,

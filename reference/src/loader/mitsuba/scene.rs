@@ -994,7 +994,7 @@ impl Reader<'_> {
             props.finish()?;
             return Ok(m);
         }
-        if o.kind == "dielectric" {
+        if matches!(o.kind.as_str(), "dielectric" | "thindielectric") {
             return self.dielectric(o);
         }
         let m = self.one_sided_bsdf(o)?;
@@ -1008,9 +1008,9 @@ impl Reader<'_> {
         Ok(m)
     }
 
-    /// Mitsuba's smooth `dielectric` (both sides its own): `int_ior`
-    /// (default "bk7") over `ext_ior` (default "air"), each a number or a
-    /// name, and the two tints.
+    /// Mitsuba's smooth `dielectric` or `thindielectric` (both sides their
+    /// own): `int_ior` (default "bk7") over `ext_ior` (default "air"), each
+    /// a number or a name, and the two tints.
     fn dielectric(&mut self, o: &Object) -> Result<Material, SceneError> {
         let props = Props::new(o);
         let eta = props.ior("int_ior", "bk7")? / props.ior("ext_ior", "air")?;
@@ -1022,10 +1022,23 @@ impl Reader<'_> {
             ColourUse::Reflectance,
             1.0,
         )?;
-        let m = Material::SmoothDielectric {
-            eta: eta as f32,
-            reflectance: self.texture_of(reflectance, &o.at)?,
-            transmittance: self.texture_of(transmittance, &o.at)?,
+        let (eta, reflectance, transmittance) = (
+            eta as f32,
+            self.texture_of(reflectance, &o.at)?,
+            self.texture_of(transmittance, &o.at)?,
+        );
+        let m = if o.kind == "thindielectric" {
+            Material::ThinDielectric {
+                eta,
+                reflectance,
+                transmittance,
+            }
+        } else {
+            Material::SmoothDielectric {
+                eta,
+                reflectance,
+                transmittance,
+            }
         };
         props.finish()?;
         Ok(m)
