@@ -47,22 +47,28 @@ fn mutant_verdict(name: &str, from: &str, to: &str) -> twintrace::compare::mitsu
     mitsuba_tests::judge_render(&case, &film.mean(), settings.spp).unwrap()
 }
 
+/// [`mutant_verdict`] fails the gate (its figures printed under `what`).
+fn mutant_fails(name: &str, what: &str, from: &str, to: &str) {
+    let verdict = mutant_verdict(name, from, to);
+    println!("{name}: {what}: {}", verdict.figures());
+    assert!(
+        !verdict.passes(),
+        "{name}: {what}: the mutant passed: {}",
+        verdict.figures()
+    );
+}
+
 #[test]
 fn gpu_a_point_lights_shadow_ray_not_stopped_at_the_light_fails_the_room_gate() {
     // A plausible GPU-only defect: a point or spot light's shadow ray
     // left unbounded, so that whatever lies beyond the light shadows it.
     // Open gate scenes cannot see it; the room's point light has a
     // ceiling above it.
-    let verdict = mutant_verdict(
+    mutant_fails(
         "rooms",
+        "unbounded shadow rays",
         "        t_max = length(aim);\n        dir = aim / t_max;",
         "        dir = aim / length(aim);",
-    );
-    println!("rooms: unbounded shadow rays: {}", verdict.figures());
-    assert!(
-        !verdict.passes(),
-        "the mutant passed: {}",
-        verdict.figures()
     );
 }
 
@@ -71,19 +77,11 @@ fn gpu_next_event_estimation_reading_a_lamps_picture_as_its_emission_fails_the_s
     // Another: a light sample reads the emitting surface's own texture
     // (its reflectance) as what it emits. The soft scene's lamp is an
     // emitter on a textured diffuse shape.
-    let verdict = mutant_verdict(
+    mutant_fails(
         "soft",
+        "the lamp's picture as its emission",
         "        t.emission = evaluate_texture(m.emission, si.p, si.uv, si.uv1);",
         "        t.emission = evaluate_texture(m.texture, si.p, si.uv, si.uv1);",
-    );
-    println!(
-        "soft: the lamp's picture as its emission: {}",
-        verdict.figures()
-    );
-    assert!(
-        !verdict.passes(),
-        "the mutant passed: {}",
-        verdict.figures()
     );
 }
 
@@ -91,16 +89,11 @@ fn gpu_next_event_estimation_reading_a_lamps_picture_as_its_emission_fails_the_s
 fn gpu_a_conductor_with_eta_and_k_swapped_fails_the_mirrors_gate() {
     // The WGSL twin of `Mutant::ConductorEtaKSwapped`: the conductor's
     // Fresnel reading its index's parts the wrong way round.
-    let verdict = mutant_verdict(
+    mutant_fails(
         "mirrors",
+        "eta and k swapped",
         "    return Scatter(true, direction, tx.base * fresnel_conductor(cos_i, eta, k));",
         "    return Scatter(true, direction, tx.base * fresnel_conductor(cos_i, k, eta));",
-    );
-    println!("mirrors: eta and k swapped: {}", verdict.figures());
-    assert!(
-        !verdict.passes(),
-        "the mutant passed: {}",
-        verdict.figures()
     );
 }
 
@@ -108,37 +101,21 @@ fn gpu_a_conductor_with_eta_and_k_swapped_fails_the_mirrors_gate() {
 fn gpu_a_smooth_dielectric_with_its_index_inverted_fails_the_mirrors_gate() {
     // The WGSL twin of `Mutant::DielectricEtaInverted`: the glass ball's
     // Fresnel reflectance computed for the index the other way round.
-    let verdict = mutant_verdict(
+    mutant_fails(
         "mirrors",
+        "the dielectric's index inverted",
         "    if vr_get(u, DIM_LOBE) >= fresnel_dielectric(cos_i, eta) {",
         "    if vr_get(u, DIM_LOBE) >= fresnel_dielectric(cos_i, 1.0 / eta) {",
-    );
-    println!(
-        "mirrors: the dielectric's index inverted: {}",
-        verdict.figures()
-    );
-    assert!(
-        !verdict.passes(),
-        "the mutant passed: {}",
-        verdict.figures()
     );
 }
 
 #[test]
 fn gpu_a_thin_dielectric_without_its_inner_reflections_fails_the_mirrors_gate() {
     // The WGSL twin of `Mutant::ThinDielectricOneBounce`.
-    let verdict = mutant_verdict(
+    mutant_fails(
         "mirrors",
+        "the thin sheet's inner reflections dropped",
         "    return 2.0 * f / (1.0 + f);",
         "    return f;",
-    );
-    println!(
-        "mirrors: the thin sheet's inner reflections dropped: {}",
-        verdict.figures()
-    );
-    assert!(
-        !verdict.passes(),
-        "the mutant passed: {}",
-        verdict.figures()
     );
 }

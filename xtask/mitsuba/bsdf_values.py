@@ -37,6 +37,17 @@ def unit(i, k):
     return ((i + 1) * A[k]) % 1.0
 
 
+def surface(cos):
+    """A surface interaction at normal +z with wi at incidence cosine
+    `cos` (f32) in the xz plane."""
+    si = mi.SurfaceInteraction3f()
+    si.n = [0, 0, 1]
+    si.sh_frame = mi.Frame3f(si.n)
+    sin = np.float32(np.sqrt(np.float32(1.0) - cos * cos))
+    si.wi = [float(sin), 0.0, float(cos)]
+    return si
+
+
 def conductor(i):
     """eta in [0.05, 4.05), k in [0, 8) per channel; records the sample weight per channel."""
     eta = [np.float32(0.05 + 4.0 * unit(i, c)) for c in range(3)]
@@ -49,11 +60,7 @@ def conductor(i):
             "k": {"type": "rgb", "value": [float(x) for x in k]},
         }
     )
-    si = mi.SurfaceInteraction3f()
-    si.n = [0, 0, 1]
-    si.sh_frame = mi.Frame3f(si.n)
-    sin = np.float32(np.sqrt(np.float32(1.0) - cos * cos))
-    si.wi = [float(sin), 0.0, float(cos)]
+    si = surface(cos)
     bs, weight = bsdf.sample(mi.BSDFContext(), si, 0.5, [0.5, 0.5])
     assert bs.pdf == 1.0 and abs(bs.wo[2] - cos) < 1e-6
     return [weight[0], weight[1], weight[2]]
@@ -68,11 +75,7 @@ def dielectric(i):
     bsdf = mi.load_dict(
         {"type": "dielectric", "int_ior": float(eta), "ext_ior": 1.0}
     )
-    si = mi.SurfaceInteraction3f()
-    si.n = [0, 0, 1]
-    si.sh_frame = mi.Frame3f(si.n)
-    sin = np.float32(np.sqrt(np.float32(1.0) - cos * cos))
-    si.wi = [float(sin), 0.0, float(cos)]
+    si = surface(cos)
     f = mi.fresnel(float(cos), float(eta))[0]
     u = float(np.nextafter(np.float32(1.0), np.float32(0.0)))
     bs, weight = bsdf.sample(mi.BSDFContext(), si, u, [0.5, 0.5])
@@ -91,11 +94,7 @@ def thindielectric(i):
     bsdf = mi.load_dict(
         {"type": "thindielectric", "int_ior": float(eta), "ext_ior": 1.0}
     )
-    si = mi.SurfaceInteraction3f()
-    si.n = [0, 0, 1]
-    si.sh_frame = mi.Frame3f(si.n)
-    sin = np.float32(np.sqrt(np.float32(1.0) - cos * cos))
-    si.wi = [float(sin), 0.0, float(cos)]
+    si = surface(cos)
     reflected, _ = bsdf.sample(mi.BSDFContext(), si, 0.0, [0.5, 0.5])
     assert reflected.wo[2] * cos > 0
     u = float(np.nextafter(np.float32(1.0), np.float32(0.0)))
