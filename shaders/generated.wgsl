@@ -8,6 +8,42 @@ const MATERIAL_METAL: u32 = 1u;
 const MATERIAL_CONDUCTOR: u32 = 5u;
 const MATERIAL_SMOOTH_DIELECTRIC: u32 = 6u;
 const MATERIAL_THIN_DIELECTRIC: u32 = 7u;
+const MATERIAL_ROUGH_CONDUCTOR: u32 = 8u;
+const DISTRIBUTION_GGX: u32 = 0u;
+const DISTRIBUTION_BECKMANN: u32 = 1u;
+const MICROFACET_MIN_ALPHA: f32 = 1e-4;
+const FRAC_1_SQRT_PI: f32 = 5.641896e-1;
+const SLOPE_SAMPLE_MIN: f32 = 1e-6;
+const BECKMANN_SLOPE_STEPS: u32 = 16u;
+const BECKMANN_CDF_TOLERANCE: f32 = 1e-6;
+const MICROFACET_D_MIN: f32 = 1e-20;
+const SLOPE_SIN_MIN: f32 = 1e-7;
+const ERF_P: f32 = 3.275911e-1;
+const ERF_A1: f32 = 2.548296e-1;
+const ERF_A2: f32 = -2.8449675e-1;
+const ERF_A3: f32 = 1.4214137e0;
+const ERF_A4: f32 = -1.453152e0;
+const ERF_A5: f32 = 1.0614054e0;
+const ERF_INV_SPLIT: f32 = 5e0;
+const ERF_INV_CENTRE: f32 = 2.5e0;
+const ERF_INV_CENTRAL_0: f32 = 2.8102264e-8;
+const ERF_INV_CENTRAL_1: f32 = 3.4327394e-7;
+const ERF_INV_CENTRAL_2: f32 = -3.5233877e-6;
+const ERF_INV_CENTRAL_3: f32 = -4.3915065e-6;
+const ERF_INV_CENTRAL_4: f32 = 2.1858087e-4;
+const ERF_INV_CENTRAL_5: f32 = -1.253725e-3;
+const ERF_INV_CENTRAL_6: f32 = -4.1776816e-3;
+const ERF_INV_CENTRAL_7: f32 = 2.4664073e-1;
+const ERF_INV_CENTRAL_8: f32 = 1.5014094e0;
+const ERF_INV_TAIL_0: f32 = -2.0021426e-4;
+const ERF_INV_TAIL_1: f32 = 1.0095056e-4;
+const ERF_INV_TAIL_2: f32 = 1.3493432e-3;
+const ERF_INV_TAIL_3: f32 = -3.6734284e-3;
+const ERF_INV_TAIL_4: f32 = 5.7395077e-3;
+const ERF_INV_TAIL_5: f32 = -7.6224613e-3;
+const ERF_INV_TAIL_6: f32 = 9.4388705e-3;
+const ERF_INV_TAIL_7: f32 = 1.001674e0;
+const ERF_INV_TAIL_8: f32 = 2.8329768e0;
 const MATERIAL_DIELECTRIC: u32 = 2u;
 const MATERIAL_DIFFUSE_LIGHT: u32 = 3u;
 const MATERIAL_GGX: u32 = 4u;
@@ -120,6 +156,8 @@ const FEATURE_UV_CHECKER_TEXTURES: u32 = 131072u;
 const FEATURE_CONDUCTOR: u32 = 262144u;
 const FEATURE_SMOOTH_DIELECTRIC: u32 = 524288u;
 const FEATURE_THIN_DIELECTRIC: u32 = 1048576u;
+const FEATURE_ROUGH_CONDUCTOR: u32 = 2097152u;
+const FEATURE_BECKMANN: u32 = 4194304u;
 const INTEGRATOR_BSDF: u32 = 0u;
 const INTEGRATOR_MIS: u32 = 1u;
 const SMALL_CONE_SIN2: f32 = 6.8523e-4;
@@ -232,7 +270,7 @@ struct GpuMaterial {
     coat_roughness_texture: u32,
     emission: u32,
     shade_bucket: u32,
-    _pad1: u32,
+    distribution: u32,
     _pad2: u32,
 }
 struct GpuTexture {

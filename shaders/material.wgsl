@@ -105,7 +105,8 @@ struct MaterialTextures {
     // The albedo (Lambertian, metal), the specular tint (conductor), the emission (diffuse light), the
     // base colour times the vertex colour (GGX); zero for the dielectric.
     base: vec3<f32>,
-    // GGX: metallic and roughness (ggx_parameters).
+    // GGX: metallic and roughness (ggx_parameters); the rough conductor:
+    // its roughness in x.
     metal_rough: vec2<f32>,
     // GGX: the clear coat's weight and roughness (coat_parameters).
     coat: vec2<f32>,
@@ -117,6 +118,9 @@ fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures
     var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(0.0));
     if m.tag != MATERIAL_DIELECTRIC {
         t.base = evaluate_texture(m.texture, si.p, si.uv, si.uv1);
+    }
+    if m.tag == MATERIAL_ROUGH_CONDUCTOR {
+        t.metal_rough.x = evaluate_texture(m.texture2, si.p, si.uv, si.uv1).x;
     }
     if m.tag == MATERIAL_GGX {
         t.base *= si.color;
@@ -165,7 +169,7 @@ fn emitted(si: SurfaceInteraction, tx: MaterialTextures) -> vec3<f32> {
 
 // Whether the material's scatter has a density that bsdf_eval gives.
 fn has_density(m: GpuMaterial) -> bool {
-    return m.tag == MATERIAL_LAMBERTIAN || m.tag == MATERIAL_GGX;
+    return m.tag == MATERIAL_LAMBERTIAN || m.tag == MATERIAL_GGX || m.tag == MATERIAL_ROUGH_CONDUCTOR;
 }
 
 // f(wo, wi)·|cos θ_i| and the density with which scatter samples wi, for a
@@ -202,6 +206,21 @@ fn bsdf_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mat
             }
             let lobes = ggx_lobes_with_coat(ggx_lobes_new(tx.base, tx.metal_rough.x, tx.metal_rough.y, wo), tx.coat.x, tx.coat.y, wo);
             return BsdfEval(true, ggx_lobes_eval(lobes, wo, wl) * wl.z, ggx_lobes_pdf(lobes, wo, wl));
+        }
+        case MATERIAL_ROUGH_CONDUCTOR: {
+            if !uses(FEATURE_ROUGH_CONDUCTOR) { poison(); break; }
+            let frame = onb_from_normal(n);
+            let wo = onb_to_local(frame, -ray_dir);
+            let wl = onb_to_local(frame, wi);
+            if wo.z <= 0.0 || wl.z <= 0.0 {
+                return zero;
+            }
+            let h = normalize(wo + wl);
+            let mf = rough_microfacet(m, tx.metal_rough.x);
+            let dg = microfacet_d(mf, h) * microfacet_g1(mf, wo, h);
+            let pdf = dg / (4.0 * wo.z);
+            let f = fresnel_conductor(min(dot(wo, h), 1.0), vec3<f32>(m.p0, m.p1, m.p2), vec3<f32>(m.absorption_r, m.absorption_g, m.absorption_b));
+            return BsdfEval(true, tx.base * f * (dg * microfacet_g1(mf, wl, h) / (4.0 * wo.z)), pdf);
         }
         case MATERIAL_METAL, MATERIAL_DIELECTRIC, MATERIAL_DIFFUSE_LIGHT, MATERIAL_CONDUCTOR, MATERIAL_SMOOTH_DIELECTRIC, MATERIAL_THIN_DIELECTRIC: {
             return BsdfEval(false, vec3<f32>(0.0), 0.0);
@@ -244,6 +263,9 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mater
         if m.tag == MATERIAL_CONDUCTOR {
             return scatter_conductor(m, ray_dir, tx, n, ng);
         }
+        if m.tag == MATERIAL_ROUGH_CONDUCTOR {
+            return scatter_rough_conductor(m, ray_dir, tx, n, u);
+        }
         if m.tag == MATERIAL_SMOOTH_DIELECTRIC {
             return scatter_smooth_dielectric(m, ray_dir, si, tx, n, u);
         }
@@ -271,6 +293,9 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mater
         }
         case MATERIAL_CONDUCTOR: {
             return scatter_conductor(m, ray_dir, tx, n, ng);
+        }
+        case MATERIAL_ROUGH_CONDUCTOR: {
+            return scatter_rough_conductor(m, ray_dir, tx, n, u);
         }
         case MATERIAL_SMOOTH_DIELECTRIC: {
             return scatter_smooth_dielectric(m, ray_dir, si, tx, n, u);
@@ -346,6 +371,32 @@ fn scatter_conductor(m: GpuMaterial, ray_dir: vec3<f32>, tx: MaterialTextures, n
     let eta = vec3<f32>(m.p0, m.p1, m.p2);
     let k = vec3<f32>(m.absorption_r, m.absorption_g, m.absorption_b);
     return Scatter(true, direction, tx.base * fresnel_conductor(cos_i, eta, k));
+}
+
+// reference::material::rough_microfacet: the rough conductor's
+// distribution at a point of roughness alpha (isotropic).
+fn rough_microfacet(m: GpuMaterial, alpha: f32) -> Microfacet {
+    if m.distribution == DISTRIBUTION_BECKMANN && !uses(FEATURE_BECKMANN) {
+        poison();
+    }
+    return microfacet_new(m.distribution, alpha, alpha);
+}
+
+fn scatter_rough_conductor(m: GpuMaterial, ray_dir: vec3<f32>, tx: MaterialTextures, n: vec3<f32>, u: VertexRandoms) -> Scatter {
+    if !uses(FEATURE_ROUGH_CONDUCTOR) { poison(); return absorbed(); }
+    let frame = onb_from_normal(n);
+    let wo = onb_to_local(frame, -ray_dir);
+    if wo.z <= 0.0 {
+        return absorbed();
+    }
+    let mf = rough_microfacet(m, tx.metal_rough.x);
+    let mn = microfacet_sample_visible(mf, wo, vec2<f32>(vr_get(u, DIM_DIRECTION_U), vr_get(u, DIM_DIRECTION_V)));
+    let wi = reflect_about(-wo, mn);
+    if wi.z <= 0.0 {
+        return absorbed();
+    }
+    let f = fresnel_conductor(min(dot(wo, mn), 1.0), vec3<f32>(m.p0, m.p1, m.p2), vec3<f32>(m.absorption_r, m.absorption_g, m.absorption_b));
+    return Scatter(true, onb_to_world(frame, wi), tx.base * f * microfacet_g1(mf, wi, mn));
 }
 
 fn scatter_dielectric(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, n: vec3<f32>, u: VertexRandoms) -> Scatter {

@@ -119,3 +119,14 @@ fn gpu_a_thin_dielectric_without_its_inner_reflections_fails_the_mirrors_gate() 
         "    return f;",
     );
 }
+
+#[test]
+fn gpu_rough_conductors_of_beckmann_facets_where_ggx_is_asked_fail_the_rough_gate() {
+    // The WGSL twin of `Mutant::RoughBeckmannForGgx`.
+    mutant_fails(
+        "rough",
+        "Beckmann facets for GGX",
+        "    return microfacet_new(m.distribution, alpha, alpha);",
+        "    return microfacet_new(DISTRIBUTION_BECKMANN, alpha, alpha);",
+    );
+}

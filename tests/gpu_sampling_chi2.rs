@@ -30,7 +30,7 @@ const SPHERE: Domain = Domain::Sphere {
 const BASE: Vec3 = Vec3::new(0.9, 0.6, 0.3);
 
 const SNIPPET: &str = "
-// input: [seed, mode, n, front_face, random_incidence, wo.x, wo.y, wo.z, alpha, material (16 words; its textures beyond the first are none)]
+// input: [seed, mode, n, front_face, random_incidence, wo.x, wo.y, wo.z, alpha, material (20 words; its third texture and coat's are none), alpha_v, distribution]
 @compute @workgroup_size(64)
 fn sample_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
@@ -50,8 +50,12 @@ fn sample_main(@builtin(global_invocation_id) gid: vec3<u32>) {
         case 2u: { d = vec3<f32>(sample_unit_disk(dir_u), 0.0); }
         case 3u: { d = sample_unit_ball(vec3<f32>(vr_get(u, DIM_BALL_X), vr_get(u, DIM_BALL_Y), vr_get(u, DIM_BALL_Z))); }
         case 4u: { d = ggx_sample_visible_normal(wo, bitcast<f32>(input[8]), dir_u); }
+        case 6u: {
+            let mf = microfacet_new(input[30], bitcast<f32>(input[8]), bitcast<f32>(input[29]));
+            d = microfacet_sample_visible(mf, wo, dir_u);
+        }
         default: {
-            let m = GpuMaterial(input[9], input[10], bitcast<f32>(input[11]), bitcast<f32>(input[12]), bitcast<f32>(input[13]), bitcast<f32>(input[14]), bitcast<f32>(input[15]), input[16], NO_TEXTURE, 0.0, NO_TEXTURE, 0.0, bitcast<f32>(input[21]), NO_TEXTURE, bitcast<f32>(input[23]), NO_TEXTURE, NO_TEXTURE, 0u, 0u, 0u);
+            let m = GpuMaterial(input[9], input[10], bitcast<f32>(input[11]), bitcast<f32>(input[12]), bitcast<f32>(input[13]), bitcast<f32>(input[14]), bitcast<f32>(input[15]), input[16], NO_TEXTURE, bitcast<f32>(input[18]), NO_TEXTURE, 0.0, bitcast<f32>(input[21]), NO_TEXTURE, bitcast<f32>(input[23]), NO_TEXTURE, NO_TEXTURE, 0u, input[27], 0u);
             let front = input[3] != 0u;
             var ray_dir = -wo;
             if input[4] != 0u {
@@ -81,6 +85,9 @@ enum Mode {
     Ball = 3,
     VisibleNormal = 4,
     Scatter = 5,
+    /// `reference::microfacet`'s visible normals (`alpha`, `alpha_v`,
+    /// `distribution`).
+    MicrofacetNormal = 6,
 }
 
 struct Job {
@@ -90,7 +97,11 @@ struct Job {
     random_incidence: bool,
     /// Fixed incoming direction `wo` (toward the viewer), or GGX's viewer.
     wo: Vec3,
+    /// The visible normals' roughness (along x, for the microfacets), and
+    /// texture 1's value (the rough conductor's roughness).
     alpha: f32,
+    alpha_v: f32,
+    distribution: u32,
     material: Option<Material>,
 }
 
@@ -103,6 +114,8 @@ impl Job {
             random_incidence: false,
             wo: Vec3::Z,
             alpha: 0.0,
+            alpha_v: 0.0,
+            distribution: 0,
             material: None,
         }
     }
@@ -113,6 +126,8 @@ fn gpu_samples(job: &Job) -> Vec<Option<DVec3>> {
     // Texture 0 of this scene is BASE: what the material cases read.
     let mut b = reference::SceneBuilder::new();
     let t = b.constant(BASE).unwrap();
+    // Texture 1: the rough conductor's roughness.
+    assert_eq!(b.constant(Vec3::splat(job.alpha)).unwrap(), 1);
     let m = b.add_material(Material::Lambertian { albedo: t }).unwrap();
     b.add_sphere(Vec3::ZERO, 1.0, m, &Transform::default())
         .unwrap();
@@ -136,6 +151,7 @@ fn gpu_samples(job: &Job) -> Vec<Option<DVec3>> {
         job.alpha.to_bits(),
     ];
     input.extend_from_slice(bytemuck::cast_slice(&[mat]));
+    input.extend([job.alpha_v.to_bits(), job.distribution]);
     let out = run_test_kernel(
         ctx,
         &renderer,
@@ -218,6 +234,69 @@ fn gpu_sampling_routines_match_their_densities() {
             ggx::visible_normal_pdf(wo, m.as_vec3(), alpha) as f64
         });
         runs.push((format!("GGX visible normals α {alpha}, θo {theta}°"), o));
+    }
+    {
+        use reference::microfacet::{distribution, Microfacet};
+        for (k, (kind, au, av, theta, phi)) in [
+            (distribution::GGX, 0.6f32, 0.15f32, 45.0f32, 30.0f32),
+            (distribution::BECKMANN, 0.2, 0.2, 0.0, 0.0),
+            (distribution::BECKMANN, 0.6, 0.15, 80.0, 120.0),
+            (distribution::BECKMANN, 1.0, 1.0, 45.0, 30.0),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let (t, p) = (theta.to_radians(), phi.to_radians());
+            let wo = Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
+            let job = Job {
+                wo,
+                alpha: au,
+                alpha_v: av,
+                distribution: kind,
+                ..Job::new(Mode::MicrofacetNormal, 1040 + k as u32)
+            };
+            let mf = Microfacet::new(kind, au, av);
+            let o = test_density(&SPHERE, gpu_samples(&job), &|m: DVec3| {
+                mf.pdf_visible(wo, m.as_vec3()) as f64
+            });
+            runs.push((
+                format!("microfacet normals, distribution {kind}, α ({au}, {av}), θo {theta}°, φo {phi}°"),
+                o,
+            ));
+        }
+        for (k, (kind, alpha, theta)) in [
+            (distribution::GGX, 0.3f32, 30.0f32),
+            (distribution::BECKMANN, 0.8, 75.0),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let wo = towards(theta);
+            // The CPU test's material; the GPU kernel's texture 0 is BASE
+            // (the tint), texture 1 the roughness, as there.
+            let (material, mut textures) = crate::sampling_chi2::rough_conductor(kind, alpha);
+            textures[0] = reference::texture::Texture::Constant(BASE);
+            let job = Job {
+                wo,
+                alpha,
+                material: Some(material),
+                ..Job::new(Mode::Scatter, 1050 + k as u32)
+            };
+            let ctx = reference::material::TextureContext {
+                textures: &textures,
+                images: &[],
+            };
+            let z = crate::sampling_chi2::surface();
+            let o = test_density(&SPHERE, gpu_samples(&job), &|wi: DVec3| {
+                reference::material::bsdf_eval(&material, ctx, -wo, &z, wi.as_vec3())
+                    .unwrap()
+                    .1 as f64
+            });
+            runs.push((
+                format!("rough conductor, distribution {kind}, α {alpha}, θo {theta}°"),
+                o,
+            ));
+        }
     }
     let lambert = Job {
         wo: towards(40.0),

@@ -6,7 +6,8 @@
 //! line's handling of Mitsuba files (`-D`, refusals).
 //!
 //! False alarms: 2 of 300 seeds on the CPU twin, both from the image
-//! sums at their α = 0.01 (docs/mitsuba.md, "The gate").
+//! sums at their α = 0.01 (docs/mitsuba.md, "The gate"); the rough scene
+//! 0 of 300 (and 0 of 300 on an H200's GPU twin).
 
 use reference::camera::Projection;
 use reference::mutants::{self, Mutant};
@@ -109,12 +110,18 @@ fn an_envmap_read_without_mitsubas_half_turn_fails_the_gate() {
 /// The mirrors gate scene rendered on the CPU twin with `m` active while
 /// it renders (a defect of a model) fails the gate.
 fn render_mutant_fails_mirrors(m: Mutant) {
-    let case = fixture_case("mirrors");
+    render_mutant_fails("mirrors", m);
+}
+
+/// Gate scene `name` rendered on the CPU twin with `m` active while it
+/// renders fails the gate.
+fn render_mutant_fails(name: &str, m: Mutant) {
+    let case = fixture_case(name);
     let scene = mitsuba_tests::load(&case).unwrap().unwrap();
     let (verdict, _) = mutants::pool(m)
         .install(|| mitsuba_tests::run_scene(&case, &scene, Devices::Cpu(None), Budget::default()))
         .unwrap();
-    println!("mirrors: {m:?}: {}", verdict.figures());
+    println!("{name}: {m:?}: {}", verdict.figures());
     assert!(
         !verdict.passes(),
         "the mutant {m:?} passed: {}",
@@ -135,6 +142,21 @@ fn a_smooth_dielectric_with_its_index_inverted_fails_the_mirrors_gate() {
 #[test]
 fn a_thin_dielectric_without_its_inner_reflections_fails_the_mirrors_gate() {
     render_mutant_fails_mirrors(Mutant::ThinDielectricOneBounce);
+}
+
+#[test]
+fn a_checkerboard_of_numbers_read_as_a_checkerboard_of_colours_fails_the_rough_gate() {
+    // At seed 0: 94.4 % of the pixel tests pass.
+    mutant_fails("rough", Mutant::MitsubaCheckerboardNumberUnswapped);
+}
+
+#[test]
+fn rough_conductors_of_beckmann_facets_where_ggx_is_asked_fail_the_rough_gate() {
+    // At seed 0: 88.6 % of the pixel tests pass, image-sum z +107, +104,
+    // +76. (Beckmann's sampler drawing the distribution's normals rather
+    // than the visible ones moved a draft of this scene too little for
+    // this gate, 99.8 %: tests/sampling_chi2.rs catches it.)
+    render_mutant_fails("rough", Mutant::RoughBeckmannForGgx);
 }
 
 fn twintrace(dir: &std::path::Path, args: &[&str]) -> (Option<i32>, String, String) {
@@ -204,6 +226,32 @@ fn the_command_line_takes_mitsubas_parameters_and_refuses_what_is_not_implemente
         "{err}"
     );
     assert!(!d.join("out.exr").exists());
+    // Anisotropic roughness (no tangent frame yet): refused by name.
+    write(
+        d,
+        "brushed.xml",
+        &SCENE.replace(
+            "BSDF",
+            r#"<bsdf type="roughconductor"><float name="alpha_u" value="0.3"/><float name="alpha_v" value="0.1"/></bsdf>"#,
+        ),
+    );
+    let (code, _, err) = twintrace(d, &["info", "brushed.xml"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("roughconductor") && err.contains("alpha_u"),
+        "{err}"
+    );
+    // The same roughness both ways is isotropic, and read.
+    write(
+        d,
+        "even.xml",
+        &SCENE.replace(
+            "BSDF",
+            r#"<bsdf type="roughconductor"><float name="alpha_u" value="0.3"/><float name="alpha_v" value="0.3"/></bsdf>"#,
+        ),
+    );
+    let (code, out, err) = twintrace(d, &["info", "even.xml"]);
+    assert_eq!(code, Some(0), "{out}{err}");
     // A broken file: exit 1, the place named.
     write(
         d,
@@ -297,4 +345,46 @@ fn export_mitsuba_and_the_reader_round_trip_an_orthographic_camera_and_a_uv_chec
         "{close} of {} pixels agree",
         ia.len()
     );
+}
+
+#[test]
+fn export_mitsuba_writes_a_rough_conductor_as_mitsubas_own_and_the_reader_reads_it_back() {
+    use reference::material::Material;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let json = write(
+        d,
+        "rough.json",
+        r#"{ "camera": { "look_from": [0, 0, 5], "look_at": [0, 0, 0] },
+  "materials": { "m": { "type": "rough_conductor", "distribution": "ggx", "alpha": 0.25, "eta": [0.2, 0.9, 1.1], "k": [3.9, 2.4, 2.2] } },
+  "objects": [ { "type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "m" } ] }"#,
+    );
+    let (code, out, err) = twintrace(
+        d,
+        &["export-mitsuba", json.to_str().unwrap(), "-o", "exported"],
+    );
+    assert_eq!(code, Some(0), "{out}{err}");
+    let xml = d.join("exported/scene.xml");
+    let text = std::fs::read_to_string(&xml).unwrap();
+    assert!(
+        text.contains(r#"<bsdf type="roughconductor">"#) && !text.contains("tt_"),
+        "{text}"
+    );
+    let [a, b] = [json, xml].map(|p| reference::load_scene(p.to_str().unwrap()).unwrap());
+    let rough = |s: &reference::Scene| {
+        s.materials()
+            .iter()
+            .find_map(|m| match *m {
+                Material::RoughConductor {
+                    distribution,
+                    alpha,
+                    eta,
+                    k,
+                    ..
+                } => Some((distribution, s.textures()[alpha as usize], eta, k)),
+                _ => None,
+            })
+            .unwrap()
+    };
+    assert_eq!(rough(&a), rough(&b));
 }

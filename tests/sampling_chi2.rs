@@ -47,7 +47,7 @@ fn samples(f: impl Fn(u32) -> Option<DVec3>) -> Vec<Option<DVec3>> {
 }
 
 /// The local frame's surface point of the material tests: normal +z.
-fn surface() -> SurfaceInteraction {
+pub(crate) fn surface() -> SurfaceInteraction {
     SurfaceInteraction {
         p: Vec3::ZERO,
         geometric_normal: Vec3::Z,
@@ -237,6 +237,119 @@ fn ggx_material_samples_its_mixture_density() {
         ));
     }
     assert_family_passes("GGX material", &runs);
+}
+
+#[test]
+fn microfacet_visible_normals_match_their_density() {
+    // Both distributions, isotropic and anisotropic, viewers from normal
+    // to grazing at azimuths off the axes (the anisotropic stretch).
+    use reference::microfacet::{distribution, Microfacet};
+    let mut runs = Vec::new();
+    let mut seed = 400;
+    for kind in [distribution::GGX, distribution::BECKMANN] {
+        for &(au, av) in &[(0.2f32, 0.2f32), (0.6, 0.15), (1.0, 1.0)] {
+            for &(theta, phi) in &[(0.0f32, 0.0f32), (45.0, 30.0), (80.0, 120.0)] {
+                let (t, p) = (theta.to_radians(), phi.to_radians());
+                let wo = Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
+                let mf = Microfacet::new(kind, au, av);
+                let density = |m: DVec3| mf.pdf_visible(wo, m.as_vec3()) as f64;
+                // As the GGX test above: the quadrature's own error.
+                let mass: f64 = SPHERE.integrate(&density).iter().sum();
+                let name = format!("distribution {kind}, α ({au}, {av}), θo {theta}°, φo {phi}°");
+                assert!(
+                    (mass - 1.0).abs() < 2e-3,
+                    "{name}: the density integrates to {mass}"
+                );
+                seed += 1;
+                let o = test_density(
+                    &SPHERE,
+                    samples(|i| Some(mf.sample_visible(wo, dir_u(seed, i)).as_dvec3())),
+                    &density,
+                );
+                runs.push((name, o));
+            }
+        }
+    }
+    assert_family_passes("microfacet visible normals", &runs);
+}
+
+/// The visible-normal test fails Beckmann's sampler drawing the
+/// distribution's normals (a grazing viewer, where the two differ most).
+#[test]
+fn beckmann_normals_not_seen_from_the_viewer_fail() {
+    use reference::microfacet::{distribution, Microfacet};
+    use reference::mutants::{self, Mutant};
+    let wo = towards(80.0);
+    let mf = Microfacet::new(distribution::BECKMANN, 0.6, 0.15);
+    let o = mutants::with(Mutant::BeckmannSlopesNotVisible, || {
+        test_density(
+            &SPHERE,
+            samples(|i| Some(mf.sample_visible(wo, dir_u(401, i)).as_dvec3())),
+            &|m: DVec3| mf.pdf_visible(wo, m.as_vec3()) as f64,
+        )
+    });
+    println!("mutant: {}", o.summary());
+    assert!(!o.passes(0.01), "the mutant passed: {}", o.summary());
+}
+
+/// The rough conductor of the chi-square tests (CPU and GPU): a
+/// gold-like index, roughness `alpha` in texture 1 (texture 0 white, its
+/// tint).
+pub(crate) fn rough_conductor(distribution: u32, alpha: f32) -> (Material, [Texture; 2]) {
+    (
+        Material::RoughConductor {
+            distribution,
+            alpha: 1,
+            specular: 0,
+            eta: Vec3::new(0.2, 0.9, 1.1),
+            k: Vec3::new(3.9, 2.4, 2.2),
+        },
+        [
+            Texture::Constant(Vec3::ONE),
+            Texture::Constant(Vec3::splat(alpha)),
+        ],
+    )
+}
+
+#[test]
+fn rough_conductor_samples_its_density() {
+    // The material's scatter (visible normals, reflection, the mass below
+    // the horizon absorbed into the rejected cell) against its bsdf_eval
+    // density.
+    use reference::material::bsdf_eval;
+    use reference::microfacet::distribution;
+    let mut runs = Vec::new();
+    for (k, &(kind, alpha, theta)) in [
+        (distribution::GGX, 0.3f32, 30.0),
+        (distribution::GGX, 0.8, 75.0),
+        (distribution::BECKMANN, 0.3, 30.0),
+        (distribution::BECKMANN, 0.8, 75.0),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let (material, textures) = rough_conductor(kind, alpha);
+        let ctx = TextureContext {
+            textures: &textures,
+            images: &[],
+        };
+        let wo = towards(theta);
+        let seed = 500 + k as u32;
+        let o = test_density(
+            &SPHERE,
+            samples(|i| {
+                scatter(&material, ctx, -wo, &surface(), &u(seed, i))
+                    .map(|s| s.direction.as_dvec3())
+            }),
+            &|wi| {
+                bsdf_eval(&material, ctx, -wo, &surface(), wi.as_vec3())
+                    .unwrap()
+                    .1 as f64
+            },
+        );
+        runs.push((format!("distribution {kind}, α {alpha}, θo {theta}°"), o));
+    }
+    assert_family_passes("rough conductor", &runs);
 }
 
 #[test]

@@ -460,6 +460,58 @@ fn a_conductor_loads_with_mitsubas_defaults_and_its_values_are_checked() {
 }
 
 #[test]
+fn a_rough_conductor_loads_with_mitsubas_defaults_and_a_textured_roughness() {
+    use glam::Vec3;
+    use reference::material::Material;
+    use reference::microfacet::distribution;
+    let dir = tempfile::tempdir().unwrap();
+    let text = r#"{ "camera": { "look_from": [0, 0, 5], "look_at": [0, 0, 0] },
+  "textures": { "bumps": { "type": "checker", "even": [0.05, 0.05, 0.05], "odd": [0.4, 0.4, 0.4] } },
+  "materials": {
+    "brushed": { "type": "rough_conductor" },
+    "gold": { "type": "rough_conductor", "distribution": "ggx", "alpha": "bumps", "eta": [0.143, 0.374, 1.442], "k": [3.983, 2.385, 1.603] } },
+  "objects": [ { "type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "brushed" },
+               { "type": "sphere", "center": [3, 0, 0], "radius": 1, "material": "gold" } ] }"#;
+    let p = write_scene(dir.path(), "scene.json", text);
+    let scene = reference::load_scene(p.to_str().unwrap()).unwrap();
+    let rough: Vec<_> = scene
+        .materials()
+        .iter()
+        .filter_map(|m| match *m {
+            Material::RoughConductor {
+                distribution,
+                alpha,
+                eta,
+                k,
+                ..
+            } => Some((distribution, alpha, eta, k)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(rough.len(), 2, "{:?}", scene.materials());
+    // Mitsuba's defaults: Beckmann, alpha 0.1, eta 0, k 1.
+    assert_eq!(rough[0].0, distribution::BECKMANN);
+    assert_eq!(
+        scene.textures()[rough[0].1 as usize],
+        reference::texture::Texture::Constant(Vec3::splat(0.1))
+    );
+    assert_eq!((rough[0].2, rough[0].3), (Vec3::ZERO, Vec3::ONE));
+    assert_eq!(rough[1].0, distribution::GGX);
+    assert!(matches!(
+        scene.textures()[rough[1].1 as usize],
+        reference::texture::Texture::Checker { .. }
+    ));
+    check(
+        &text.replace(r#""distribution": "ggx""#, r#""distribution": "phong""#),
+        &["materials.gold", "phong", "ggx", "beckmann"],
+    );
+    check(
+        &text.replace(r#""alpha": "bumps""#, r#""alpha": "nowhere""#),
+        &["nowhere"],
+    );
+}
+
+#[test]
 fn a_smooth_dielectric_loads_with_white_tints_and_its_index_is_checked() {
     use glam::Vec3;
     use reference::material::Material;

@@ -82,6 +82,10 @@ const GPU_ONLY: &[(&str, &str)] = &[
     ("scatter_metal", "the metal arm of material::scatter's match"),
     ("scatter_conductor", "the conductor arm of material::scatter's match"),
     (
+        "scatter_rough_conductor",
+        "the rough conductor arm of material::scatter's match",
+    ),
+    (
         "scatter_smooth_dielectric",
         "the smooth dielectric arm of material::scatter's match",
     ),

@@ -69,6 +69,8 @@ feature_bits! {
     CONDUCTOR = 18,
     SMOOTH_DIELECTRIC = 19,
     THIN_DIELECTRIC = 20,
+    ROUGH_CONDUCTOR = 21,
+    BECKMANN = 22,
 }
 
 impl Kernel {
@@ -110,6 +112,14 @@ impl Features {
                 Material::Conductor { .. } => feature::CONDUCTOR,
                 Material::SmoothDielectric { .. } => feature::SMOOTH_DIELECTRIC,
                 Material::ThinDielectric { .. } => feature::THIN_DIELECTRIC,
+                Material::RoughConductor { distribution, .. } => {
+                    feature::ROUGH_CONDUCTOR
+                        | if *distribution == reference::microfacet::distribution::BECKMANN {
+                            feature::BECKMANN
+                        } else {
+                            0
+                        }
+                }
                 Material::Ggx {
                     normal_map,
                     clearcoat,

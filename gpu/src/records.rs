@@ -80,7 +80,12 @@ gpu_record! {
     /// A material (`reference::material::Material`), by tag:
     /// LAMBERTIAN `texture` = albedo; METAL `texture` = albedo, `p0` = fuzz;
     /// DIELECTRIC `p0` = ior, `absorption_*`; DIFFUSE_LIGHT `texture` =
-    /// emission; GGX `texture` = base colour, `p0` = metallic, `p1` =
+    /// emission; CONDUCTOR `texture` = the specular tint, `p0..p2` = eta,
+    /// `absorption_*` = k; ROUGH_CONDUCTOR as CONDUCTOR, with `texture2` =
+    /// the roughness and `distribution` its microfacets'
+    /// (`reference::microfacet::distribution`); SMOOTH_DIELECTRIC and
+    /// THIN_DIELECTRIC `p0` = eta, `texture` = the reflectance, `texture2`
+    /// = the transmittance; GGX `texture` = base colour, `p0` = metallic, `p1` =
     /// roughness, `texture2` = the metallic-roughness texture or
     /// `NO_TEXTURE`, `texture3` = the normal map or `NO_TEXTURE`, `p2` =
     /// the normal map's scale. Any tag: `alpha_texture` = the coverage's
@@ -101,7 +106,7 @@ gpu_record! {
         absorption_r: f32, absorption_g: f32, absorption_b: f32, texture2: u32,
         texture3: u32, p2: f32, alpha_texture: u32, alpha_cutoff: f32,
         coat: f32, coat_texture: u32, coat_roughness: f32, coat_roughness_texture: u32,
-        emission: u32, shade_bucket: u32, _pad1: u32, _pad2: u32,
+        emission: u32, shade_bucket: u32, distribution: u32, _pad2: u32,
     }
 }
 

@@ -160,6 +160,18 @@ fn pack_bsdf(m: &Material) -> GpuMaterial {
             absorption_b: k.z,
             ..Default::default()
         },
+        Material::RoughConductor {
+            distribution,
+            alpha,
+            specular,
+            eta,
+            k,
+        } => GpuMaterial {
+            tag,
+            texture2: alpha,
+            distribution,
+            ..pack_bsdf(&Material::Conductor { specular, eta, k })
+        },
         Material::DiffuseLight { emission } => GpuMaterial {
             tag,
             texture: emission,

@@ -42,7 +42,7 @@ pub const WORKGROUP: (u32, u32) = (8, 8);
 /// The WGSL library shared by the render kernel and the test kernels: one
 /// file per `reference/src` module (same file name, same function names),
 /// in the order they are joined.
-pub const LIBRARY_FILES: [(&str, &str); 12] = [
+pub const LIBRARY_FILES: [(&str, &str); 13] = [
     ("rng", include_str!("../../shaders/rng.wgsl")),
     ("sampling", include_str!("../../shaders/sampling.wgsl")),
     ("geometry", include_str!("../../shaders/geometry.wgsl")),
@@ -52,6 +52,7 @@ pub const LIBRARY_FILES: [(&str, &str); 12] = [
     ("texture", include_str!("../../shaders/texture.wgsl")),
     ("filter", include_str!("../../shaders/filter.wgsl")),
     ("background", include_str!("../../shaders/background.wgsl")),
+    ("microfacet", include_str!("../../shaders/microfacet.wgsl")),
     ("material", include_str!("../../shaders/material.wgsl")),
     ("light", include_str!("../../shaders/light.wgsl")),
     ("film", FILM_WGSL),
@@ -99,6 +100,36 @@ pub fn generate() -> String {
         material_tag::SMOOTH_DIELECTRIC,
     );
     s += &u("MATERIAL_THIN_DIELECTRIC", material_tag::THIN_DIELECTRIC);
+    s += &u("MATERIAL_ROUGH_CONDUCTOR", material_tag::ROUGH_CONDUCTOR);
+    s += &u("DISTRIBUTION_GGX", reference::microfacet::distribution::GGX);
+    s += &u(
+        "DISTRIBUTION_BECKMANN",
+        reference::microfacet::distribution::BECKMANN,
+    );
+    {
+        use reference::microfacet as mf;
+        s += &f("MICROFACET_MIN_ALPHA", mf::MICROFACET_MIN_ALPHA);
+        s += &f("FRAC_1_SQRT_PI", mf::FRAC_1_SQRT_PI);
+        s += &f("SLOPE_SAMPLE_MIN", mf::SLOPE_SAMPLE_MIN);
+        s += &u("BECKMANN_SLOPE_STEPS", mf::BECKMANN_SLOPE_STEPS);
+        s += &f("BECKMANN_CDF_TOLERANCE", mf::BECKMANN_CDF_TOLERANCE);
+        s += &f("MICROFACET_D_MIN", mf::MICROFACET_D_MIN);
+        s += &f("SLOPE_SIN_MIN", mf::SLOPE_SIN_MIN);
+        s += &f("ERF_P", mf::ERF_P);
+        for (i, a) in mf::ERF_A.iter().enumerate() {
+            s += &f(&format!("ERF_A{}", i + 1), *a);
+        }
+        s += &f("ERF_INV_SPLIT", mf::ERF_INV_SPLIT);
+        s += &f("ERF_INV_CENTRE", mf::ERF_INV_CENTRE);
+        for (name, c) in [
+            ("ERF_INV_CENTRAL", mf::ERF_INV_CENTRAL),
+            ("ERF_INV_TAIL", mf::ERF_INV_TAIL),
+        ] {
+            for (i, v) in c.iter().enumerate() {
+                s += &f(&format!("{name}_{i}"), *v);
+            }
+        }
+    }
     s += &u("MATERIAL_DIELECTRIC", material_tag::DIELECTRIC);
     s += &u("MATERIAL_DIFFUSE_LIGHT", material_tag::DIFFUSE_LIGHT);
     s += &u("MATERIAL_GGX", material_tag::GGX);

@@ -60,7 +60,7 @@ pub struct FirstHit {
 }
 
 /// The reflectance colour a denoiser's albedo guide means: a diffuse or
-/// metal surface's colour (its texture), a conductor's specular tint, a glTF material's base colour
+/// metal surface's colour (its texture), a conductor's specular tint (smooth or rough), a glTF material's base colour
 /// (texture times vertex colour), white for glass (it reflects and
 /// transmits everything), black for a `DiffuseLight` (it reflects
 /// nothing). Emission added to a BSDF does not change what it reflects:
@@ -69,7 +69,9 @@ pub struct FirstHit {
 pub fn albedo(material: &Material, ctx: TextureContext, si: &SurfaceInteraction) -> Vec3 {
     match *material {
         Material::Lambertian { albedo } | Material::Metal { albedo, .. } => ctx.eval(albedo, si),
-        Material::Conductor { specular, .. } => ctx.eval(specular, si),
+        Material::Conductor { specular, .. } | Material::RoughConductor { specular, .. } => {
+            ctx.eval(specular, si)
+        }
         Material::Ggx { base_color, .. } => ctx.base_color(base_color, si),
         Material::Dielectric { .. }
         | Material::SmoothDielectric { .. }

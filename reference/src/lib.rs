@@ -26,6 +26,7 @@ pub mod integrator;
 pub mod light;
 pub mod loader;
 pub mod material;
+pub mod microfacet;
 pub mod mutants;
 pub mod procedural;
 pub mod rng;

@@ -3,6 +3,7 @@
 //! surface toward where the ray came from.
 
 use crate::geometry::{reflect, refract, Onb, SurfaceInteraction};
+use crate::microfacet::{distribution, Microfacet};
 use crate::mutants::{self, Mutant};
 use crate::rng::dims;
 use crate::sampling::{ggx, sample_cosine_hemisphere, sample_unit_ball};
@@ -56,6 +57,21 @@ pub enum Material {
         eta: f32,
         reflectance: u32,
         transmittance: u32,
+    },
+    /// A rough conductor (Mitsuba 3's `roughconductor`): a surface of
+    /// mirror microfacets of the [`Microfacet`] `distribution`
+    /// ([`crate::microfacet::distribution`]), roughness the first channel
+    /// of texture `alpha` (isotropic), each facet reflecting as
+    /// [`Material::Conductor`] does:
+    /// `f = specular · F(wo·h, eta + i·k) · D(h) · G1(wo, h) · G1(wi, h) / (4 cos θo cos θi)`,
+    /// `h` the half vector. Sampled through the visible normals seen from
+    /// `wo`, so a sample's weight is `specular · F · G1(wi, m)`.
+    RoughConductor {
+        distribution: u32,
+        alpha: u32,
+        specular: u32,
+        eta: Vec3,
+        k: Vec3,
     },
     /// glTF metallic-roughness, `mix(dielectric, metal, metallic)` as the
     /// glTF specification's appendix B writes it: GGX specular
@@ -173,6 +189,7 @@ pub mod material_tag {
     pub const CONDUCTOR: u32 = 5;
     pub const SMOOTH_DIELECTRIC: u32 = 6;
     pub const THIN_DIELECTRIC: u32 = 7;
+    pub const ROUGH_CONDUCTOR: u32 = 8;
 }
 
 /// GGX alpha is clamped from below so that D stays finite in f32; 1e-4
@@ -191,6 +208,7 @@ impl Material {
             Material::Conductor { .. } => material_tag::CONDUCTOR,
             Material::SmoothDielectric { .. } => material_tag::SMOOTH_DIELECTRIC,
             Material::ThinDielectric { .. } => material_tag::THIN_DIELECTRIC,
+            Material::RoughConductor { .. } => material_tag::ROUGH_CONDUCTOR,
         }
     }
 }
@@ -351,6 +369,30 @@ pub fn scatter(
                 })
             }
         }
+        Material::RoughConductor {
+            distribution,
+            alpha,
+            specular,
+            eta,
+            k,
+        } => {
+            let frame = Onb::from_normal(n);
+            let wo = frame.to_local(-ray_dir);
+            if wo.z <= 0.0 {
+                return None;
+            }
+            let mf = rough_microfacet(distribution, ctx.eval(alpha, si).x);
+            let m = mf.sample_visible(wo, Vec2::new(u[dims::DIRECTION_U], u[dims::DIRECTION_V]));
+            let wi = reflect(-wo, m);
+            if wi.z <= 0.0 {
+                return None;
+            }
+            let f = fresnel_conductor(wo.dot(m).min(1.0), eta, k);
+            Some(Scatter {
+                direction: frame.to_world(wi),
+                weight: ctx.eval(specular, si) * f * mf.g1(wi, m),
+            })
+        }
         Material::Ggx {
             base_color,
             metallic,
@@ -398,9 +440,24 @@ pub fn scatter(
 }
 
 /// Whether [`bsdf_eval`] has a value for `material` (its scatter has a
-/// density): Lambertian and GGX.
+/// density): Lambertian, GGX and the rough conductor.
 pub fn has_density(material: &Material) -> bool {
-    matches!(material, Material::Lambertian { .. } | Material::Ggx { .. })
+    matches!(
+        material,
+        Material::Lambertian { .. } | Material::Ggx { .. } | Material::RoughConductor { .. }
+    )
+}
+
+/// The rough conductor's distribution at a point of roughness `alpha`
+/// (isotropic).
+#[inline]
+fn rough_microfacet(kind: u32, alpha: f32) -> Microfacet {
+    let kind = if mutants::is(Mutant::RoughBeckmannForGgx) {
+        distribution::BECKMANN
+    } else {
+        kind
+    };
+    Microfacet::new(kind, alpha, alpha)
 }
 
 /// `f(wo, wi) · |cos θ_i|` and the density with which [`scatter`] samples
@@ -444,6 +501,32 @@ pub fn bsdf_eval(
             let lobes = GgxLobes::new(ctx.base_color(base_color, si), metallic, roughness, wo)
                 .with_coat(coat, coat_roughness, wo);
             Some((lobes.eval(wo, wi) * wi.z, lobes.pdf(wo, wi)))
+        }
+        Material::RoughConductor {
+            distribution,
+            alpha,
+            specular,
+            eta,
+            k,
+        } => {
+            let frame = Onb::from_normal(n);
+            let (wo, wi) = (frame.to_local(-ray_dir), frame.to_local(wi));
+            if wo.z <= 0.0 || wi.z <= 0.0 {
+                return Some((Vec3::ZERO, 0.0));
+            }
+            let h = (wo + wi).normalize();
+            let mf = rough_microfacet(distribution, ctx.eval(alpha, si).x);
+            // D·G1(wo): the visible normals' density over 4 cos θo is the
+            // reflected direction's (the Jacobian 1 / (4 wo·h) times wo·h).
+            let dg = mf.d(h) * mf.g1(wo, h);
+            let pdf = if mutants::is(Mutant::RoughPdfWithoutJacobian) {
+                dg * wo.dot(h) / wo.z
+            } else {
+                dg / (4.0 * wo.z)
+            };
+            let f = fresnel_conductor(wo.dot(h).min(1.0), eta, k);
+            let f_cos = ctx.eval(specular, si) * f * (dg * mf.g1(wi, h) / (4.0 * wo.z));
+            Some((f_cos, pdf))
         }
         Material::Metal { .. }
         | Material::Dielectric { .. }

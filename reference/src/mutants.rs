@@ -76,6 +76,18 @@ pub enum Mutant {
     /// A conductor's `eta` and `k` exchanged in its Fresnel reflectance
     /// (`material::fresnel_conductor`).
     ConductorEtaKSwapped,
+    /// The rough conductor's microfacets Beckmann's where its scene asks
+    /// for GGX (`material::scatter` and `material::bsdf_eval`).
+    RoughBeckmannForGgx,
+    /// The rough conductor's density without the half vector's Jacobian
+    /// `1 / (4 wo·h)`: the visible normals' density given as the reflected
+    /// direction's (`material::bsdf_eval`).
+    RoughPdfWithoutJacobian,
+    /// Beckmann's visible slopes drawn without the viewer's
+    /// foreshortening (the marginal CDF's `tan θ` term dropped): the
+    /// distribution's normals, not the visible ones
+    /// (`microfacet::beckmann_visible_slope`).
+    BeckmannSlopesNotVisible,
     /// A Mitsuba `envmap` read without the half turn about +y that puts
     /// Mitsuba's u = 0 (along −z) where twintrace's is
     /// (`loader::mitsuba::scene`).
@@ -87,6 +99,10 @@ pub enum Mutant {
     /// A Mitsuba `checkerboard` read at twintrace's texture coordinates
     /// (v up) rather than at Mitsuba's (v down) (`loader::mitsuba::scene`).
     MitsubaCheckerboardUnflipped,
+    /// A Mitsuba `checkerboard` read as a number (a roughness) with its
+    /// colours where Mitsuba's `eval` puts them rather than where its
+    /// `eval_1` does (`loader::mitsuba::scene`).
+    MitsubaCheckerboardNumberUnswapped,
     /// A Mitsuba `orthographic` sensor's window placed at the sensor's
     /// origin rather than at its near clip distance
     /// (`loader::mitsuba::scene`).

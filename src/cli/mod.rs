@@ -1351,6 +1351,7 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
         Material::Dielectric { .. } => "dielectric",
         Material::DiffuseLight { .. } => "diffuse light",
         Material::Conductor { .. } => "conductor",
+        Material::RoughConductor { .. } => "rough conductor",
         Material::SmoothDielectric { .. } => "smooth dielectric",
         Material::ThinDielectric { .. } => "thin dielectric",
         Material::Ggx { .. } => "ggx",

@@ -2,13 +2,17 @@
 inputs, for twintrace's tests to hold its models to (tests/mitsuba_bsdfs.rs
 regenerates the same inputs and compares).
 
-    python3 xtask/mitsuba/bsdf_values.py conductor|dielectric|thindielectric  [--out fixtures/mitsuba/bsdf]
+    python3 xtask/mitsuba/bsdf_values.py CASE  [--out fixtures/mitsuba/bsdf]
 
-Inputs: case i of N has incidence cosine (i + 1/2) / N (wi in the xz
-plane, the normal +z) and its parameters from the additive sequence
-frac((i + 1) * a) of the constants A below, computed in f64 and rounded
-to f32 (the same arithmetic in Rust). Output: N records of three f32
-(little endian), what each case's function says it records.
+CASE: conductor, dielectric, thindielectric, roughconductor.
+
+Inputs: case i of N has its parameters from the additive sequence
+frac((i + 1) * a) of the constants A below, computed in f64 with + - * /
+and sqrt only (correctly rounded, so Rust computes the same bits) and
+rounded to f32; the smooth models' incidence cosine is (i + 1/2) / N (wi
+in the xz plane, the normal +z). Output: N records of f32 (little
+endian), what each case's function says it records (three, or as many
+as its docstring lists).
 
 Needs Mitsuba 3 (`pip install mitsuba==3.9.1 numpy`); runs on the CPU
 (`scalar_rgb`).
@@ -30,6 +34,12 @@ A = [
     0.6710436067037893,
     0.5497004779019703,
     0.3819660112501051,
+    # Fractional parts of the square roots of 2, 3, 5, 7 and 11.
+    0.41421356237309515,
+    0.7320508075688772,
+    0.2360679774997898,
+    0.6457513110645907,
+    0.3166247903554,
 ]
 
 
@@ -103,7 +113,71 @@ def thindielectric(i):
     return [reflected.pdf, bs.wo[2], weight[0]]
 
 
-CASES = {"conductor": conductor, "dielectric": dielectric, "thindielectric": thindielectric}
+def rough_inputs(i):
+    """Case i of the rough models: distribution (even i GGX, odd
+    Beckmann), alpha in [0.02, 1), wi (the viewer, upper hemisphere, any
+    azimuth) and wo (the light: wi reflected about a microfacet normal
+    spread as the lobe is, so most pairs fall where the BSDF is not
+    negligible), in f64."""
+    alpha = 0.02 + 0.98 * unit(i, 0)
+    cos_i = unit(i, 3)
+    sin_i = (1.0 - cos_i * cos_i) ** 0.5
+    x, y = 2.0 * unit(i, 4) - 1.0, 2.0 * unit(i, 5) - 1.0
+    r = (x * x + y * y) ** 0.5
+    wi = (sin_i * x / r, sin_i * y / r, cos_i)
+    t = unit(i, 6)
+    tan_m = alpha * (t / (1.0 - t)) ** 0.5
+    cos_m = 1.0 / (1.0 + tan_m * tan_m) ** 0.5
+    sin_m = tan_m * cos_m
+    x, y = 2.0 * unit(i, 7) - 1.0, 2.0 * unit(i, 8) - 1.0
+    r = (x * x + y * y) ** 0.5
+    m = (sin_m * x / r, sin_m * y / r, cos_m)
+    d = wi[0] * m[0] + wi[1] * m[1] + wi[2] * m[2]
+    wo = tuple(2.0 * d * m[k] - wi[k] for k in range(3))
+    return ("beckmann" if i % 2 else "ggx"), alpha, wi, wo
+
+
+def rough_surface(wi):
+    si = mi.SurfaceInteraction3f()
+    si.n = [0, 0, 1]
+    si.sh_frame = mi.Frame3f(si.n)
+    si.wi = [float(np.float32(c)) for c in wi]
+    return si
+
+
+def roughconductor(i):
+    """Records 7 f32: eval and pdf at (wi, wo), then a sample drawn at u
+    = (unit 9, unit 10): its wo (three), weight and pdf (weight 0: none).
+    eta in [0.2, 3.2) and k in [0, 5) the same in each channel (read in
+    channel 0)."""
+    distribution, alpha, wi, wo = rough_inputs(i)
+    eta = np.float32(0.2 + 3.0 * unit(i, 1))
+    k = np.float32(5.0 * unit(i, 2))
+    bsdf = mi.load_dict(
+        {
+            "type": "roughconductor",
+            "distribution": distribution,
+            "alpha": float(np.float32(alpha)),
+            "eta": float(eta),
+            "k": float(k),
+        }
+    )
+    si = rough_surface(wi)
+    ctx = mi.BSDFContext()
+    wo = mi.Vector3f([float(np.float32(c)) for c in wo])
+    value = bsdf.eval(ctx, si, wo)[0]
+    pdf = bsdf.pdf(ctx, si, wo)
+    u = [float(np.float32(unit(i, 9))), float(np.float32(unit(i, 10)))]
+    bs, weight = bsdf.sample(ctx, si, 0.5, u)
+    return [value, pdf, bs.wo[0], bs.wo[1], bs.wo[2], weight[0], bs.pdf]
+
+
+CASES = {
+    "conductor": conductor,
+    "dielectric": dielectric,
+    "thindielectric": thindielectric,
+    "roughconductor": roughconductor,
+}
 
 
 def main():
@@ -118,7 +192,7 @@ def main():
     values.tofile(path)
     with open(os.path.join(args.out, f"{args.case}.provenance.txt"), "w") as f:
         f.write(
-            f"{N} records of 3 f32 ({' '.join(CASES[args.case].__doc__.split())}): Mitsuba {mi.__version__} ({mi.variant()}) plugin "
+            f"{N} records of {values.shape[1]} f32 ({' '.join(CASES[args.case].__doc__.split())}): Mitsuba {mi.__version__} ({mi.variant()}) plugin "
             f"'{args.case}', written by xtask/mitsuba/bsdf_values.py {args.case}\n"
         )
     print(f"wrote {path}")

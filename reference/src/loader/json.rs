@@ -11,6 +11,7 @@ use crate::filter::PixelFilter;
 use crate::loader::gltf::{GltfLightUnits, GltfOptions};
 use crate::loader::image::load_image;
 use crate::material::{ClearCoat, Material};
+use crate::microfacet;
 use crate::scene::{LightInput, RenderOrigin, RenderSettings, Scene, SceneBuilder, Transform};
 use crate::texture::{Sampler, Texture};
 use glam::{DQuat, DVec3, Vec3};
@@ -53,6 +54,25 @@ impl<'de> Deserialize<'de> for ColorRef {
         }
         d.deserialize_any(V)
     }
+}
+
+/// A number field that may vary over the surface: a number or the name of
+/// a texture (whose first channel is read).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(untagged, expecting = "a number or the name of a texture")]
+pub enum ScalarRef {
+    Value(f32),
+    Texture(String),
+}
+
+/// A microfacet distribution's name.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DistributionJson {
+    Ggx,
+    /// Mitsuba's default.
+    #[default]
+    Beckmann,
 }
 
 /// A uniform or per-axis scale.
@@ -240,6 +260,7 @@ pub enum MaterialJson {
     DiffuseLight(DiffuseLightMaterialJson),
     Ggx(GgxMaterialJson),
     Conductor(ConductorMaterialJson),
+    RoughConductor(RoughConductorMaterialJson),
     SmoothDielectric(SmoothDielectricMaterialJson),
     /// The same fields, `eta` the sheet's index over its surroundings'.
     ThinDielectric(SmoothDielectricMaterialJson),
@@ -431,6 +452,31 @@ pub struct ConductorMaterialJson {
     /// reflects (`reference::Scene::emission`); absent or black: none.
     #[serde(default)]
     pub emission: Option<ColorRef>,
+}
+
+/// A rough conductor (Mitsuba 3's `roughconductor`): microfacets of the
+/// `distribution`, each reflecting as the smooth conductor.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RoughConductorMaterialJson {
+    /// `ggx` or `beckmann` (default, as Mitsuba's).
+    #[serde(default)]
+    pub distribution: DistributionJson,
+    /// The microfacets' roughness α (isotropic; Mitsuba's default 0.1).
+    #[serde(default = "default_alpha")]
+    pub alpha: ScalarRef,
+    #[serde(default)]
+    pub eta: [f32; 3],
+    #[serde(default = "unit_k")]
+    pub k: [f32; 3],
+    #[serde(default)]
+    pub specular: Option<ColorRef>,
+    #[serde(default)]
+    pub emission: Option<ColorRef>,
+}
+
+fn default_alpha() -> ScalarRef {
+    ScalarRef::Value(0.1)
 }
 
 /// A smooth dielectric with the exact Fresnel equations (Mitsuba 3's
@@ -845,6 +891,14 @@ impl Resolver<'_> {
         }
     }
 
+    /// A number field as a texture index (numbers become grey constants).
+    fn scalar(&mut self, c: &ScalarRef) -> Result<u32, SceneError> {
+        match c {
+            ScalarRef::Value(v) => self.builder.constant(Vec3::splat(*v)),
+            ScalarRef::Texture(name) => self.texture(name, 0),
+        }
+    }
+
     fn colour(&mut self, c: &ColorRef, depth: u32) -> Result<u32, SceneError> {
         match c {
             ColorRef::Rgb(rgb) => self.builder.constant(*rgb),
@@ -966,6 +1020,25 @@ impl Resolver<'_> {
                 eta: Vec3::from(*eta),
                 k: Vec3::from(*k),
             },
+            MaterialJson::RoughConductor(RoughConductorMaterialJson {
+                distribution,
+                alpha,
+                eta,
+                k,
+                specular,
+                ..
+            }) => Material::RoughConductor {
+                distribution: match distribution {
+                    DistributionJson::Ggx => microfacet::distribution::GGX,
+                    DistributionJson::Beckmann => microfacet::distribution::BECKMANN,
+                },
+                alpha: self.scalar(alpha).map_err(field("alpha"))?,
+                specular: self
+                    .colour_or_white(specular.as_ref())
+                    .map_err(field("specular"))?,
+                eta: Vec3::from(*eta),
+                k: Vec3::from(*k),
+            },
             MaterialJson::SmoothDielectric(d) | MaterialJson::ThinDielectric(d) => {
                 let (eta, reflectance, transmittance) = (
                     d.eta,
@@ -1027,6 +1100,7 @@ impl Resolver<'_> {
             | MaterialJson::Dielectric(DielectricMaterialJson { emission, .. })
             | MaterialJson::Ggx(GgxMaterialJson { emission, .. })
             | MaterialJson::Conductor(ConductorMaterialJson { emission, .. })
+            | MaterialJson::RoughConductor(RoughConductorMaterialJson { emission, .. })
             | MaterialJson::SmoothDielectric(SmoothDielectricMaterialJson { emission, .. })
             | MaterialJson::ThinDielectric(SmoothDielectricMaterialJson { emission, .. }) => {
                 emission.as_ref()

@@ -315,6 +315,24 @@ fn check_material(material: &Material, textures: usize) -> Result<(), SceneError
             check_colour("eta", eta)?;
             check_colour("k", k)?;
         }
+        Material::RoughConductor {
+            distribution,
+            alpha,
+            specular,
+            eta,
+            k,
+        } => {
+            tex_ok("alpha", alpha)?;
+            tex_ok("specular", specular)?;
+            check_colour("eta", eta)?;
+            check_colour("k", k)?;
+            if distribution > crate::microfacet::distribution::BECKMANN {
+                return Err(SceneError::invalid(
+                    "distribution",
+                    format!("{distribution} is neither GGX (0) nor Beckmann (1)"),
+                ));
+            }
+        }
         Material::Metal { albedo, fuzz } => {
             tex_ok("albedo", albedo)?;
             if !(0.0..=1.0).contains(&fuzz) {

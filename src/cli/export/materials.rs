@@ -242,6 +242,16 @@ pub(super) enum Surface {
         eta: Vec3,
         k: Vec3,
     },
+    /// Mitsuba's own `roughconductor` (a roughness constant over the
+    /// surface).
+    RoughConductor {
+        /// `reference::microfacet::distribution`'s.
+        distribution: u32,
+        alpha: f32,
+        specular: Tex,
+        eta: Vec3,
+        k: Vec3,
+    },
     FuzzyMetal {
         albedo: Tex,
         fuzz: f32,
@@ -315,6 +325,23 @@ impl Surface {
             )),
             Surface::Conductor { specular, eta, k } => sided(format!(
                 r#"<bsdf type="conductor"><rgb name="eta" value="{}"/><rgb name="k" value="{}"/>{}</bsdf>"#,
+                triple(*eta),
+                triple(*k),
+                specular.xml("specular_reflectance", uv)
+            )),
+            Surface::RoughConductor {
+                distribution,
+                alpha,
+                specular,
+                eta,
+                k,
+            } => sided(format!(
+                r#"<bsdf type="roughconductor"><string name="distribution" value="{}"/><float name="alpha" value="{alpha:?}"/><rgb name="eta" value="{}"/><rgb name="k" value="{}"/>{}</bsdf>"#,
+                if *distribution == reference::microfacet::distribution::BECKMANN {
+                    "beckmann"
+                } else {
+                    "ggx"
+                },
                 triple(*eta),
                 triple(*k),
                 specular.xml("specular_reflectance", uv)
@@ -410,7 +437,9 @@ impl Surface {
     fn textures(&self) -> Vec<&Tex> {
         match self {
             Surface::Diffuse(t) | Surface::Mirror(t) => vec![t],
-            Surface::Conductor { specular, .. } => vec![specular],
+            Surface::Conductor { specular, .. } | Surface::RoughConductor { specular, .. } => {
+                vec![specular]
+            }
             Surface::SmoothDielectric {
                 reflectance,
                 transmittance,
@@ -437,7 +466,9 @@ impl Surface {
     pub(super) fn uses_plugins(&self) -> bool {
         match self {
             Surface::Diffuse(t) | Surface::Mirror(t) => t.uses_plugins(),
-            Surface::Conductor { specular, .. } => specular.uses_plugins(),
+            Surface::Conductor { specular, .. } | Surface::RoughConductor { specular, .. } => {
+                specular.uses_plugins()
+            }
             Surface::SmoothDielectric {
                 reflectance,
                 transmittance,
@@ -482,9 +513,10 @@ impl Surface {
     pub(super) fn shading_normals_refused(&self) -> Option<&'static str> {
         match self {
             Surface::Diffuse(_) | Surface::Ggx { .. } | Surface::Dielectric { .. } => None,
-            Surface::Mirror(_) | Surface::Conductor { .. } | Surface::FuzzyMetal { .. } => {
-                Some("a metal")
-            }
+            Surface::Mirror(_)
+            | Surface::Conductor { .. }
+            | Surface::RoughConductor { .. }
+            | Surface::FuzzyMetal { .. } => Some("a metal"),
             Surface::Light(_) => Some("a light"),
             // Mitsuba's picks its side by the shading normal, the
             // reference's by the geometric one.
@@ -594,6 +626,24 @@ pub(super) fn surface(scene: &Scene, i: usize) -> Result<Surface> {
             thin: matches!(scene.materials()[i], Material::ThinDielectric { .. }),
         },
         Material::Conductor { specular, eta, k } => Surface::Conductor {
+            specular: texture(scene, specular, &what)?,
+            eta,
+            k,
+        },
+        Material::RoughConductor {
+            distribution,
+            alpha,
+            specular,
+            eta,
+            k,
+        } => Surface::RoughConductor {
+            distribution,
+            // Mitsuba reads a float texture's value where twintrace reads
+            // a texture's first channel: only a constant means one thing.
+            alpha: match texture(scene, alpha, &what)? {
+                Tex::Constant(c) => c.x,
+                _ => bail!("{what} has a textured roughness (not exported)"),
+            },
             specular: texture(scene, specular, &what)?,
             eta,
             k,

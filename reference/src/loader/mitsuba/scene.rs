@@ -313,11 +313,16 @@ fn finite(p: &Property, v: f64) -> Result<f64, SceneError> {
 
 /// What a colour parameter feeds: reflectances keep a uniform spectrum
 /// grey; emitters take it as the equal-energy illuminant
-/// ([`EQUAL_ENERGY_RGB`]).
+/// ([`EQUAL_ENERGY_RGB`]); a number (a roughness) is read as a
+/// reflectance, but Mitsuba reads its textures through `eval_1`, where
+/// its `checkerboard` gives `color0` on the squares where `eval` gives
+/// `color1` (Mitsuba 3.9.1's checkerboard.cpp: `eval` takes `color0`
+/// where the two half-period tests agree, `eval_1` where they differ).
 #[derive(Clone, Copy, PartialEq)]
 enum ColourUse {
     Reflectance,
     Emission,
+    Number,
 }
 
 /// A colour parameter: a constant, or a texture (by id in the builder).
@@ -762,7 +767,7 @@ impl Reader<'_> {
                 Value::Float(v) => DVec3::splat(*v),
                 Value::Integer(v) => DVec3::splat(*v as f64),
                 Value::Spectrum(Spectrum::Uniform(v)) => match usage {
-                    ColourUse::Reflectance => DVec3::splat(*v),
+                    ColourUse::Reflectance | ColourUse::Number => DVec3::splat(*v),
                     ColourUse::Emission if mutants::is(Mutant::MitsubaIlluminantGrey) => {
                         DVec3::splat(*v)
                     }
@@ -772,7 +777,7 @@ impl Reader<'_> {
                     let converted = spectra::to_srgb(
                         pairs,
                         match usage {
-                            ColourUse::Reflectance => SpectrumUse::Reflectance,
+                            ColourUse::Reflectance | ColourUse::Number => SpectrumUse::Reflectance,
                             ColourUse::Emission => SpectrumUse::Emission,
                         },
                     );
@@ -780,7 +785,7 @@ impl Reader<'_> {
                         self.builder.warnings.push(format!(
                             "{}: spectrum \"{name}\" is outside sRGB's gamut{}: clamped to {} as Mitsuba's rgb variants clamp it",
                             p.at,
-                            if usage == ColourUse::Reflectance { " or above 1" } else { "" },
+                            if usage == ColourUse::Emission { "" } else { " or above 1" },
                             converted.rgb.as_vec3()
                         ));
                     }
@@ -896,6 +901,13 @@ impl Reader<'_> {
         let even = self.texture_of(even, &o.at)?;
         let odd = self.colour(&props, "color1", usage, 0.2)?;
         let odd = self.texture_of(odd, &o.at)?;
+        let (even, odd) = if usage == ColourUse::Number
+            && !mutants::is(Mutant::MitsubaCheckerboardNumberUnswapped)
+        {
+            (odd, even)
+        } else {
+            (even, odd)
+        };
         // The squares are found at Mitsuba's own coordinates, A·F(uv) + b.
         let [c0, c1, c2, c3, c4, c5] = to_uv(&props)?.unwrap_or([1.0, 0.0, 0.0, 0.0, -1.0, 1.0]);
         let transform = if mutants::is(Mutant::MitsubaCheckerboardUnflipped) {
@@ -985,7 +997,12 @@ impl Reader<'_> {
             let props = Props::new(o);
             let nested = props.children("bsdf");
             let m = match nested.as_slice() {
-                [one] if matches!(one.object.kind.as_str(), "diffuse" | "conductor") => {
+                [one]
+                    if matches!(
+                        one.object.kind.as_str(),
+                        "diffuse" | "conductor" | "roughconductor"
+                    ) =>
+                {
                     self.one_sided_bsdf(&one.object)?
                 }
                 [one] => return Err(unsupported(&one.object, " inside twosided")),
@@ -1056,31 +1073,36 @@ impl Reader<'_> {
                 }
             }
             "conductor" => {
-                // Mitsuba's rule: `eta` given, or `material` "none" (the
-                // default), reads eta (default 0) and k (default 1);
-                // a named material reads Mitsuba's tabulated spectra.
-                let material = props.string("material")?.unwrap_or("none");
-                let explicit = props.get("eta").is_some() || props.named_child("eta").is_some();
-                match (material, explicit) {
-                    ("none", _) => {}
-                    (_, true) => {
-                        return Err(fail(
-                            &o.at,
-                            "give either eta and k or a material, not both".into(),
-                        ))
-                    }
-                    (name, false) => {
-                        return Err(unsupported(
-                            o,
-                            &format!(" with material \"{name}\" (Mitsuba's tabulated metals; give eta and k)"),
-                        ))
-                    }
-                }
-                let eta = self.constant_colour(&props, "eta", ColourUse::Reflectance, 0.0)?;
-                let k = self.constant_colour(&props, "k", ColourUse::Reflectance, 1.0)?;
+                let (eta, k) = self.conductor_index(&props)?;
                 let specular =
                     self.colour(&props, "specular_reflectance", ColourUse::Reflectance, 1.0)?;
                 Material::Conductor {
+                    specular: self.texture_of(specular, &o.at)?,
+                    eta,
+                    k,
+                }
+            }
+            "roughconductor" => {
+                let (eta, k) = self.conductor_index(&props)?;
+                let specular =
+                    self.colour(&props, "specular_reflectance", ColourUse::Reflectance, 1.0)?;
+                let distribution = match props.string("distribution")?.unwrap_or("beckmann") {
+                    "beckmann" => crate::microfacet::distribution::BECKMANN,
+                    "ggx" => crate::microfacet::distribution::GGX,
+                    other => {
+                        return Err(fail(
+                            &o.at,
+                            format!("distribution \"{other}\" is not beckmann or ggx"),
+                        ))
+                    }
+                };
+                // Visible normals or not, the same BSDF: only the noise
+                // differs, and twintrace always samples the visible ones.
+                props.boolean("sample_visible", true)?;
+                let alpha = self.roughness(&props)?;
+                Material::RoughConductor {
+                    distribution,
+                    alpha,
                     specular: self.texture_of(specular, &o.at)?,
                     eta,
                     k,
@@ -1090,6 +1112,78 @@ impl Reader<'_> {
         };
         props.finish()?;
         Ok(m)
+    }
+
+    /// A conductor's complex index. Mitsuba's rule: `eta` given, or
+    /// `material` "none" (the default), reads eta (default 0) and k
+    /// (default 1); a named material reads Mitsuba's tabulated spectra.
+    fn conductor_index(&mut self, props: &Props) -> Result<(Vec3, Vec3), SceneError> {
+        let o = props.object;
+        let material = props.string("material")?.unwrap_or("none");
+        let explicit = props.get("eta").is_some() || props.named_child("eta").is_some();
+        match (material, explicit) {
+            ("none", _) => {}
+            (_, true) => {
+                return Err(fail(
+                    &o.at,
+                    "give either eta and k or a material, not both".into(),
+                ))
+            }
+            (name, false) => {
+                return Err(unsupported(
+                    o,
+                    &format!(
+                        " with material \"{name}\" (Mitsuba's tabulated metals; give eta and k)"
+                    ),
+                ))
+            }
+        }
+        let eta = self.constant_colour(props, "eta", ColourUse::Reflectance, 0.0)?;
+        let k = self.constant_colour(props, "k", ColourUse::Reflectance, 1.0)?;
+        Ok((eta, k))
+    }
+
+    /// A microfacet model's roughness (`alpha`, default 0.1, or `alpha_u`
+    /// and `alpha_v` where they are the same), a number or a
+    /// checkerboard of numbers, as a texture.
+    fn roughness(&mut self, props: &Props) -> Result<u32, SceneError> {
+        let o = props.object;
+        let given = |name: &str| props.get(name).is_some() || props.named_child(name).is_some();
+        let one = |reader: &mut Self, name: &str| -> Result<Colour, SceneError> {
+            if let Some(child) = props.named_child(name) {
+                if child.object.kind != "checkerboard" {
+                    return Err(unsupported(&child.object, &format!(" as \"{name}\"")));
+                }
+            }
+            match reader.colour(props, name, ColourUse::Number, 0.1)? {
+                Colour::Constant(c) if c.x != c.y || c.y != c.z => Err(fail(
+                    &o.at,
+                    format!("\"{name}\" = {c} is a colour, not a roughness"),
+                )),
+                c => Ok(c),
+            }
+        };
+        let alpha = match (given("alpha"), given("alpha_u"), given("alpha_v")) {
+            (_, false, false) => one(self, "alpha")?,
+            (false, true, true) => {
+                let (u, v) = (one(self, "alpha_u")?, one(self, "alpha_v")?);
+                if u != v {
+                    return Err(unsupported(
+                        o,
+                        " with alpha_u other than alpha_v (anisotropic roughness needs the surface's tangent frame, which twintrace does not carry yet)",
+                    ));
+                }
+                u
+            }
+            (true, _, _) => {
+                return Err(fail(
+                    &o.at,
+                    "give either alpha or alpha_u and alpha_v, not both".into(),
+                ))
+            }
+            _ => return Err(fail(&o.at, "give both alpha_u and alpha_v".into())),
+        };
+        self.texture_of(alpha, &o.at)
     }
 
     /// A shape, placed by `outer` (an instance's transform, or none).
