@@ -5,7 +5,7 @@
 //! the tests here make the same inputs and compare the production code's
 //! answer. Each comparison has a mutant of the model that fails it.
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use reference::geometry::SurfaceInteraction;
 use reference::material::{
     bsdf_eval, fresnel_dielectric, scatter, thin_dielectric_reflectance, Material, TextureContext,
@@ -68,17 +68,7 @@ fn surface_seen_from(front: bool) -> SurfaceInteraction {
 }
 
 fn surface() -> SurfaceInteraction {
-    SurfaceInteraction {
-        p: Vec3::ZERO,
-        geometric_normal: Vec3::Z,
-        shading_normal: Vec3::Z,
-        uv: Vec2::ZERO,
-        uv1: Vec2::ZERO,
-        color: Vec3::ONE,
-        p_error: 0.0,
-        front_face: true,
-        material: 0,
-    }
+    crate::sampling_chi2::surface()
 }
 
 /// Case `i`'s incidence cosine and the ray arriving along it (wi in the

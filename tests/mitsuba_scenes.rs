@@ -64,15 +64,18 @@ fn fixture_case(name: &str) -> Case {
         .unwrap_or_else(|| panic!("no gate scene {name}"))
 }
 
-/// The gate scene `name` read with mutant `m` active fails the gate on the
-/// CPU twin (the figures are printed).
+/// The gate scene `name`, read and rendered on the CPU twin with mutant
+/// `m` active (a defect of the reader or of a model: each mutant has one
+/// place, so the other phase is the production code), fails the gate
+/// (the figures are printed).
 fn mutant_fails(name: &str, m: Mutant) {
     let case = fixture_case(name);
     let scene = mutants::with(m, || mitsuba_tests::load(&case))
         .unwrap()
         .unwrap();
-    let (verdict, _) =
-        mitsuba_tests::run_scene(&case, &scene, Devices::Cpu(None), Budget::default()).unwrap();
+    let (verdict, _) = mutants::pool(m)
+        .install(|| mitsuba_tests::run_scene(&case, &scene, Devices::Cpu(None), Budget::default()))
+        .unwrap();
     println!("{}: {m:?}: {}", case.name, verdict.figures());
     assert!(
         !verdict.passes(),
@@ -107,41 +110,19 @@ fn an_envmap_read_without_mitsubas_half_turn_fails_the_gate() {
     mutant_fails("mirrors", Mutant::MitsubaEnvmapNoHalfTurn);
 }
 
-/// The mirrors gate scene rendered on the CPU twin with `m` active while
-/// it renders (a defect of a model) fails the gate.
-fn render_mutant_fails_mirrors(m: Mutant) {
-    render_mutant_fails("mirrors", m);
-}
-
-/// Gate scene `name` rendered on the CPU twin with `m` active while it
-/// renders fails the gate.
-fn render_mutant_fails(name: &str, m: Mutant) {
-    let case = fixture_case(name);
-    let scene = mitsuba_tests::load(&case).unwrap().unwrap();
-    let (verdict, _) = mutants::pool(m)
-        .install(|| mitsuba_tests::run_scene(&case, &scene, Devices::Cpu(None), Budget::default()))
-        .unwrap();
-    println!("{name}: {m:?}: {}", verdict.figures());
-    assert!(
-        !verdict.passes(),
-        "the mutant {m:?} passed: {}",
-        verdict.figures()
-    );
-}
-
 #[test]
 fn a_conductor_with_eta_and_k_swapped_fails_the_mirrors_gate() {
-    render_mutant_fails_mirrors(Mutant::ConductorEtaKSwapped);
+    mutant_fails("mirrors", Mutant::ConductorEtaKSwapped);
 }
 
 #[test]
 fn a_smooth_dielectric_with_its_index_inverted_fails_the_mirrors_gate() {
-    render_mutant_fails_mirrors(Mutant::DielectricEtaInverted);
+    mutant_fails("mirrors", Mutant::DielectricEtaInverted);
 }
 
 #[test]
 fn a_thin_dielectric_without_its_inner_reflections_fails_the_mirrors_gate() {
-    render_mutant_fails_mirrors(Mutant::ThinDielectricOneBounce);
+    mutant_fails("mirrors", Mutant::ThinDielectricOneBounce);
 }
 
 #[test]
@@ -156,7 +137,7 @@ fn rough_conductors_of_beckmann_facets_where_ggx_is_asked_fail_the_rough_gate() 
     // +76. (Beckmann's sampler drawing the distribution's normals rather
     // than the visible ones moved a draft of this scene too little for
     // this gate, 99.8 %: tests/sampling_chi2.rs catches it.)
-    render_mutant_fails("rough", Mutant::RoughBeckmannForGgx);
+    mutant_fails("rough", Mutant::RoughBeckmannForGgx);
 }
 
 fn twintrace(dir: &std::path::Path, args: &[&str]) -> (Option<i32>, String, String) {

@@ -198,6 +198,24 @@ pub mod material_tag {
 pub const GGX_MIN_ALPHA: f32 = 1e-4;
 
 impl Material {
+    /// Mitsuba's smooth dielectric interface, or its thin sheet where
+    /// `thin`: the two share their parameters.
+    pub fn dielectric_of(thin: bool, eta: f32, reflectance: u32, transmittance: u32) -> Self {
+        if thin {
+            Material::ThinDielectric {
+                eta,
+                reflectance,
+                transmittance,
+            }
+        } else {
+            Material::SmoothDielectric {
+                eta,
+                reflectance,
+                transmittance,
+            }
+        }
+    }
+
     pub fn tag(&self) -> u32 {
         match self {
             Material::Lambertian { .. } => material_tag::LAMBERTIAN,

@@ -1040,26 +1040,14 @@ impl Resolver<'_> {
                 k: Vec3::from(*k),
             },
             MaterialJson::SmoothDielectric(d) | MaterialJson::ThinDielectric(d) => {
-                let (eta, reflectance, transmittance) = (
+                Material::dielectric_of(
+                    matches!(m, MaterialJson::ThinDielectric(_)),
                     d.eta,
                     self.colour_or_white(d.reflectance.as_ref())
                         .map_err(field("reflectance"))?,
                     self.colour_or_white(d.transmittance.as_ref())
                         .map_err(field("transmittance"))?,
-                );
-                if matches!(m, MaterialJson::ThinDielectric(_)) {
-                    Material::ThinDielectric {
-                        eta,
-                        reflectance,
-                        transmittance,
-                    }
-                } else {
-                    Material::SmoothDielectric {
-                        eta,
-                        reflectance,
-                        transmittance,
-                    }
-                }
+                )
             }
             MaterialJson::DiffuseLight(DiffuseLightMaterialJson { emission }) => {
                 Material::DiffuseLight {

@@ -1039,24 +1039,12 @@ impl Reader<'_> {
             ColourUse::Reflectance,
             1.0,
         )?;
-        let (eta, reflectance, transmittance) = (
+        let m = Material::dielectric_of(
+            o.kind == "thindielectric",
             eta as f32,
             self.texture_of(reflectance, &o.at)?,
             self.texture_of(transmittance, &o.at)?,
         );
-        let m = if o.kind == "thindielectric" {
-            Material::ThinDielectric {
-                eta,
-                reflectance,
-                transmittance,
-            }
-        } else {
-            Material::SmoothDielectric {
-                eta,
-                reflectance,
-                transmittance,
-            }
-        };
         props.finish()?;
         Ok(m)
     }
