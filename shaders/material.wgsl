@@ -105,22 +105,27 @@ struct MaterialTextures {
     // The albedo (Lambertian, metal), the specular tint (conductor), the emission (diffuse light), the
     // base colour times the vertex colour (GGX); zero for the dielectric.
     base: vec3<f32>,
-    // GGX: metallic and roughness (ggx_parameters); the rough conductor:
-    // its roughness in x.
+    // GGX: metallic and roughness (ggx_parameters); the rough conductor
+    // and dielectric: the roughness in x.
     metal_rough: vec2<f32>,
     // GGX: the clear coat's weight and roughness (coat_parameters).
     coat: vec2<f32>,
     // What the material emits (its `emission` texture; zero without one).
     emission: vec3<f32>,
+    // The rough dielectric's transmittance (zero for the others).
+    transmittance: vec3<f32>,
 }
 
 fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures {
-    var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(0.0));
+    var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
     if m.tag != MATERIAL_DIELECTRIC {
         t.base = evaluate_texture(m.texture, si.p, si.uv, si.uv1);
     }
-    if m.tag == MATERIAL_ROUGH_CONDUCTOR {
+    if m.tag == MATERIAL_ROUGH_CONDUCTOR || m.tag == MATERIAL_ROUGH_DIELECTRIC {
         t.metal_rough.x = evaluate_texture(m.texture2, si.p, si.uv, si.uv1).x;
+    }
+    if m.tag == MATERIAL_ROUGH_DIELECTRIC && uses(FEATURE_ROUGH_DIELECTRIC) {
+        t.transmittance = evaluate_texture(m.texture3, si.p, si.uv, si.uv1);
     }
     if m.tag == MATERIAL_GGX {
         t.base *= si.color;
@@ -151,7 +156,7 @@ fn added_emission(m: GpuMaterial, si: SurfaceInteraction) -> vec3<f32> {
 
 // What emitted reads at a light's sampled point (no BSDF parameters).
 fn light_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures {
-    var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(0.0));
+    var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
     if m.emission != NO_TEXTURE {
         t.emission = evaluate_texture(m.emission, si.p, si.uv, si.uv1);
     }
@@ -169,7 +174,7 @@ fn emitted(si: SurfaceInteraction, tx: MaterialTextures) -> vec3<f32> {
 
 // Whether the material's scatter has a density that bsdf_eval gives.
 fn has_density(m: GpuMaterial) -> bool {
-    return m.tag == MATERIAL_LAMBERTIAN || m.tag == MATERIAL_GGX || m.tag == MATERIAL_ROUGH_CONDUCTOR;
+    return m.tag == MATERIAL_LAMBERTIAN || m.tag == MATERIAL_GGX || m.tag == MATERIAL_ROUGH_CONDUCTOR || m.tag == MATERIAL_ROUGH_DIELECTRIC;
 }
 
 // f(wo, wi)·|cos θ_i| and the density with which scatter samples wi, for a
@@ -222,6 +227,10 @@ fn bsdf_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mat
             let f = fresnel_conductor(min(dot(wo, h), 1.0), vec3<f32>(m.p0, m.p1, m.p2), vec3<f32>(m.absorption_r, m.absorption_g, m.absorption_b));
             return BsdfEval(true, tx.base * f * (dg * microfacet_g1(mf, wl, h) / (4.0 * wo.z)), pdf);
         }
+        case MATERIAL_ROUGH_DIELECTRIC: {
+            if !uses(FEATURE_ROUGH_DIELECTRIC) { poison(); break; }
+            return rough_dielectric_eval(m, ray_dir, si, tx, n, wi);
+        }
         case MATERIAL_METAL, MATERIAL_DIELECTRIC, MATERIAL_DIFFUSE_LIGHT, MATERIAL_CONDUCTOR, MATERIAL_SMOOTH_DIELECTRIC, MATERIAL_THIN_DIELECTRIC: {
             return BsdfEval(false, vec3<f32>(0.0), 0.0);
         }
@@ -269,6 +278,9 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mater
         if m.tag == MATERIAL_SMOOTH_DIELECTRIC {
             return scatter_smooth_dielectric(m, ray_dir, si, tx, n, u);
         }
+        if m.tag == MATERIAL_ROUGH_DIELECTRIC {
+            return scatter_rough_dielectric(m, ray_dir, si, tx, n, u);
+        }
         if m.tag == MATERIAL_THIN_DIELECTRIC {
             return scatter_thin_dielectric(m, ray_dir, si, tx, n, u);
         }
@@ -299,6 +311,9 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mater
         }
         case MATERIAL_SMOOTH_DIELECTRIC: {
             return scatter_smooth_dielectric(m, ray_dir, si, tx, n, u);
+        }
+        case MATERIAL_ROUGH_DIELECTRIC: {
+            return scatter_rough_dielectric(m, ray_dir, si, tx, n, u);
         }
         case MATERIAL_THIN_DIELECTRIC: {
             return scatter_thin_dielectric(m, ray_dir, si, tx, n, u);
@@ -373,8 +388,8 @@ fn scatter_conductor(m: GpuMaterial, ray_dir: vec3<f32>, tx: MaterialTextures, n
     return Scatter(true, direction, tx.base * fresnel_conductor(cos_i, eta, k));
 }
 
-// reference::material::rough_microfacet: the rough conductor's
-// distribution at a point of roughness alpha (isotropic).
+// reference::material::rough_microfacet: the rough conductor's and
+// dielectric's distribution at a point of roughness alpha (isotropic).
 fn rough_microfacet(m: GpuMaterial, alpha: f32) -> Microfacet {
     if m.distribution == DISTRIBUTION_BECKMANN && !uses(FEATURE_BECKMANN) {
         poison();
@@ -444,6 +459,84 @@ fn scatter_smooth_dielectric(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInte
         }
     }
     return Scatter(true, reflect_about(ray_dir, n), tx.base);
+}
+
+// reference::material::rough_dielectric_eta: the ratio of the indices
+// across in the direction of travel.
+fn rough_dielectric_eta(eta: f32, front_face: bool) -> f32 {
+    if front_face {
+        return eta;
+    }
+    return 1.0 / eta;
+}
+
+// bsdf_eval's rough dielectric (reference::material::bsdf_eval), n facing
+// the ray's side.
+fn rough_dielectric_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: MaterialTextures, n: vec3<f32>, wi: vec3<f32>) -> BsdfEval {
+    let zero = BsdfEval(true, vec3<f32>(0.0), 0.0);
+    let frame = onb_from_normal(n);
+    let wo = onb_to_local(frame, -ray_dir);
+    let wl = onb_to_local(frame, wi);
+    if wo.z <= 0.0 || wl.z == 0.0 {
+        return zero;
+    }
+    let eta = rough_dielectric_eta(m.p0, si.front_face);
+    let reflected = wl.z > 0.0;
+    let hv = wo + select(eta * wl, wl, reflected);
+    if dot(hv, hv) == 0.0 {
+        return zero;
+    }
+    var h = normalize(hv);
+    if h.z < 0.0 {
+        h = -h;
+    }
+    let cos_o = dot(wo, h);
+    let cos_i = dot(wl, h);
+    if cos_o <= 0.0 || cos_i * wl.z <= 0.0 {
+        return zero;
+    }
+    let mf = rough_microfacet(m, tx.metal_rough.x);
+    let dg = microfacet_d(mf, h) * microfacet_g1(mf, wo, h);
+    let g = dg * microfacet_g1(mf, wl, h);
+    let f = fresnel_dielectric(min(cos_o, 1.0), eta);
+    if reflected {
+        return BsdfEval(true, tx.base * (f * g / (4.0 * wo.z)), f * dg / (4.0 * wo.z));
+    }
+    let denom = cos_o + eta * cos_i;
+    let denom2 = denom * denom;
+    let pdf = (1.0 - f) * dg * cos_o / wo.z * (eta * eta * abs(cos_i) / denom2);
+    return BsdfEval(true, tx.transmittance * ((1.0 - f) * g * cos_o * abs(cos_i) / (wo.z * denom2)), pdf);
+}
+
+fn scatter_rough_dielectric(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: MaterialTextures, n: vec3<f32>, u: VertexRandoms) -> Scatter {
+    if !uses(FEATURE_ROUGH_DIELECTRIC) { poison(); return absorbed(); }
+    let frame = onb_from_normal(n);
+    let wo = onb_to_local(frame, -ray_dir);
+    if wo.z <= 0.0 {
+        return absorbed();
+    }
+    let eta = rough_dielectric_eta(m.p0, si.front_face);
+    let mf = rough_microfacet(m, tx.metal_rough.x);
+    let mn = microfacet_sample_visible(mf, wo, vec2<f32>(vr_get(u, DIM_DIRECTION_U), vr_get(u, DIM_DIRECTION_V)));
+    let cos_o = clamp(dot(wo, mn), 0.0, 1.0);
+    var wi = vec3<f32>(0.0);
+    var weight = vec3<f32>(0.0);
+    if vr_get(u, DIM_LOBE) < fresnel_dielectric(cos_o, eta) {
+        wi = reflect_about(-wo, mn);
+        weight = tx.base;
+    } else {
+        let r = refract_through(-wo, mn, 1.0 / eta);
+        if !r.ok {
+            return absorbed();
+        }
+        wi = normalize(r.direction);
+        weight = tx.transmittance / (eta * eta);
+    }
+    let g1 = microfacet_g1(mf, wi, mn);
+    if g1 == 0.0 {
+        return absorbed();
+    }
+    return Scatter(true, onb_to_world(frame, wi), weight * g1);
 }
 
 // reference::material::thin_dielectric_reflectance: a thin sheet's

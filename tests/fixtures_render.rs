@@ -36,7 +36,8 @@ fn no_checker_boundary_plane_is_tangent_to_a_sphere() {
                 | Material::RoughConductor { specular, .. } => specular,
                 Material::Dielectric { .. }
                 | Material::SmoothDielectric { .. }
-                | Material::ThinDielectric { .. } => continue,
+                | Material::ThinDielectric { .. }
+                | Material::RoughDielectric { .. } => continue,
             };
             let Texture::Checker { scale, .. } = scene.textures()[texture as usize] else {
                 continue;

@@ -130,3 +130,14 @@ fn gpu_rough_conductors_of_beckmann_facets_where_ggx_is_asked_fail_the_rough_gat
         "    return microfacet_new(DISTRIBUTION_BECKMANN, alpha, alpha);",
     );
 }
+
+#[test]
+fn gpu_rough_dielectrics_that_keep_their_index_inside_fail_the_glass_gate() {
+    // The WGSL twin of `Mutant::RoughDielectricEtaUninverted`.
+    mutant_fails(
+        "glass",
+        "the index ratio not inverted inside",
+        "fn rough_dielectric_eta(eta: f32, front_face: bool) -> f32 {\n    if front_face {",
+        "fn rough_dielectric_eta(eta: f32, front_face: bool) -> f32 {\n    if true {",
+    );
+}

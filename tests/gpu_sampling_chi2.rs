@@ -30,7 +30,7 @@ const SPHERE: Domain = Domain::Sphere {
 const BASE: Vec3 = Vec3::new(0.9, 0.6, 0.3);
 
 const SNIPPET: &str = "
-// input: [seed, mode, n, front_face, random_incidence, wo.x, wo.y, wo.z, alpha, material (20 words; its third texture and coat's are none), alpha_v, distribution]
+// input: [seed, mode, n, front_face, random_incidence, wo.x, wo.y, wo.z, alpha, material (20 words; its coat's textures are none), alpha_v, distribution]
 @compute @workgroup_size(64)
 fn sample_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
@@ -55,7 +55,7 @@ fn sample_main(@builtin(global_invocation_id) gid: vec3<u32>) {
             d = microfacet_sample_visible(mf, wo, dir_u);
         }
         default: {
-            let m = GpuMaterial(input[9], input[10], bitcast<f32>(input[11]), bitcast<f32>(input[12]), bitcast<f32>(input[13]), bitcast<f32>(input[14]), bitcast<f32>(input[15]), input[16], NO_TEXTURE, bitcast<f32>(input[18]), NO_TEXTURE, 0.0, bitcast<f32>(input[21]), NO_TEXTURE, bitcast<f32>(input[23]), NO_TEXTURE, NO_TEXTURE, 0u, input[27], 0u);
+            let m = GpuMaterial(input[9], input[10], bitcast<f32>(input[11]), bitcast<f32>(input[12]), bitcast<f32>(input[13]), bitcast<f32>(input[14]), bitcast<f32>(input[15]), input[16], input[17], bitcast<f32>(input[18]), NO_TEXTURE, 0.0, bitcast<f32>(input[21]), NO_TEXTURE, bitcast<f32>(input[23]), NO_TEXTURE, NO_TEXTURE, 0u, input[27], 0u);
             let front = input[3] != 0u;
             var ray_dir = -wo;
             if input[4] != 0u {
@@ -294,6 +294,34 @@ fn gpu_sampling_routines_match_their_densities() {
             });
             runs.push((
                 format!("rough conductor, distribution {kind}, α {alpha}, θo {theta}°"),
+                o,
+            ));
+        }
+        // The CPU test's rough dielectric, seen from inside and from
+        // outside.
+        let cases = crate::sampling_chi2::ROUGH_DIELECTRIC_CASES;
+        for (k, &(kind, alpha, eta, theta, front)) in [cases[2], cases[3]].iter().enumerate() {
+            let (material, mut textures) = crate::sampling_chi2::rough_dielectric(kind, alpha, eta);
+            textures[0] = reference::texture::Texture::Constant(BASE);
+            let (si, wo) = crate::sampling_chi2::viewer(theta, front);
+            let job = Job {
+                wo,
+                alpha,
+                front_face: front,
+                material: Some(material),
+                ..Job::new(Mode::Scatter, 1060 + k as u32)
+            };
+            let ctx = reference::material::TextureContext {
+                textures: &textures,
+                images: &[],
+            };
+            let o = test_density(&SPHERE, gpu_samples(&job), &|wi: DVec3| {
+                reference::material::bsdf_eval(&material, ctx, -wo, &si, wi.as_vec3())
+                    .unwrap()
+                    .1 as f64
+            });
+            runs.push((
+                format!("rough dielectric, distribution {kind}, α {alpha}, η {eta}, θo {theta}°, outside {front}"),
                 o,
             ));
         }

@@ -140,6 +140,11 @@ fn rough_conductors_of_beckmann_facets_where_ggx_is_asked_fail_the_rough_gate() 
     mutant_fails("rough", Mutant::RoughBeckmannForGgx);
 }
 
+#[test]
+fn rough_dielectrics_that_keep_their_index_inside_fail_the_glass_gate() {
+    mutant_fails("glass", Mutant::RoughDielectricEtaUninverted);
+}
+
 fn twintrace(dir: &std::path::Path, args: &[&str]) -> (Option<i32>, String, String) {
     let out = Command::new(crate::common::twintrace_bin())
         .current_dir(dir)
@@ -363,6 +368,54 @@ fn export_mitsuba_writes_a_rough_conductor_as_mitsubas_own_and_the_reader_reads_
                     k,
                     ..
                 } => Some((distribution, s.textures()[alpha as usize], eta, k)),
+                _ => None,
+            })
+            .unwrap()
+    };
+    assert_eq!(rough(&a), rough(&b));
+}
+
+#[test]
+fn export_mitsuba_writes_a_rough_dielectric_as_mitsubas_own_and_the_reader_reads_it_back() {
+    use reference::material::Material;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let json = write(
+        d,
+        "frosted.json",
+        r#"{ "camera": { "look_from": [0, 0, 5], "look_at": [0, 0, 0] },
+  "materials": { "m": { "type": "rough_dielectric", "distribution": "ggx", "alpha": 0.2, "eta": 1.45, "transmittance": [0.9, 0.8, 0.7] } },
+  "objects": [ { "type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "m" } ] }"#,
+    );
+    let (code, out, err) = twintrace(
+        d,
+        &["export-mitsuba", json.to_str().unwrap(), "-o", "exported"],
+    );
+    assert_eq!(code, Some(0), "{out}{err}");
+    let xml = d.join("exported/scene.xml");
+    let text = std::fs::read_to_string(&xml).unwrap();
+    assert!(
+        text.contains(r#"<bsdf type="roughdielectric">"#) && !text.contains("tt_"),
+        "{text}"
+    );
+    let [a, b] = [json, xml].map(|p| reference::load_scene(p.to_str().unwrap()).unwrap());
+    let rough = |s: &reference::Scene| {
+        s.materials()
+            .iter()
+            .find_map(|m| match *m {
+                Material::RoughDielectric {
+                    distribution,
+                    alpha,
+                    eta,
+                    reflectance,
+                    transmittance,
+                } => Some((
+                    distribution,
+                    s.textures()[alpha as usize],
+                    eta,
+                    s.textures()[reflectance as usize],
+                    s.textures()[transmittance as usize],
+                )),
                 _ => None,
             })
             .unwrap()

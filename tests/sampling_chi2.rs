@@ -352,6 +352,115 @@ fn rough_conductor_samples_its_density() {
     assert_family_passes("rough conductor", &runs);
 }
 
+/// The rough dielectric of the chi-square tests (CPU and GPU): index
+/// `eta` inside over outside, roughness `alpha` in texture 1 (texture 0
+/// white, both tints).
+pub(crate) fn rough_dielectric(
+    distribution: u32,
+    alpha: f32,
+    eta: f32,
+) -> (Material, [Texture; 2]) {
+    (
+        Material::RoughDielectric {
+            distribution,
+            alpha: 1,
+            eta,
+            reflectance: 0,
+            transmittance: 0,
+        },
+        [
+            Texture::Constant(Vec3::ONE),
+            Texture::Constant(Vec3::splat(alpha)),
+        ],
+    )
+}
+
+/// The rough dielectric's cases of the chi-square tests: distribution,
+/// roughness, index, the viewer's angle from the normal and whether it
+/// is outside (inside: past the critical angle at 60°, where much of the
+/// lobe reflects whole).
+pub(crate) const ROUGH_DIELECTRIC_CASES: [(u32, f32, f32, f64, bool); 5] = [
+    (
+        reference::microfacet::distribution::GGX,
+        0.3,
+        1.5,
+        30.0,
+        true,
+    ),
+    (
+        reference::microfacet::distribution::GGX,
+        0.6,
+        1.33,
+        60.0,
+        true,
+    ),
+    (
+        reference::microfacet::distribution::GGX,
+        0.4,
+        1.5,
+        60.0,
+        false,
+    ),
+    (
+        reference::microfacet::distribution::BECKMANN,
+        0.3,
+        1.5,
+        30.0,
+        true,
+    ),
+    (
+        reference::microfacet::distribution::BECKMANN,
+        0.5,
+        1.7,
+        20.0,
+        false,
+    ),
+];
+
+/// The surface seen from outside (`front`) or inside, and the direction
+/// toward the viewer at `theta` degrees from the normal on that side.
+pub(crate) fn viewer(theta: f64, front: bool) -> (SurfaceInteraction, Vec3) {
+    let wo = towards(theta);
+    if front {
+        (surface(), wo)
+    } else {
+        let si = SurfaceInteraction {
+            front_face: false,
+            ..surface()
+        };
+        (si, Vec3::new(wo.x, wo.y, -wo.z))
+    }
+}
+
+#[test]
+fn rough_dielectric_samples_its_density() {
+    // The material's scatter (visible normals, then reflection or
+    // refraction by F) against its bsdf_eval density over the sphere.
+    use reference::material::bsdf_eval;
+    let mut runs = Vec::new();
+    for (k, &(kind, alpha, eta, theta, front)) in ROUGH_DIELECTRIC_CASES.iter().enumerate() {
+        let (material, textures) = rough_dielectric(kind, alpha, eta);
+        let ctx = TextureContext {
+            textures: &textures,
+            images: &[],
+        };
+        let (si, wo) = viewer(theta, front);
+        let seed = 520 + k as u32;
+        let o = test_density(
+            &SPHERE,
+            samples(|i| {
+                scatter(&material, ctx, -wo, &si, &u(seed, i)).map(|s| s.direction.as_dvec3())
+            }),
+            &|wi| bsdf_eval(&material, ctx, -wo, &si, wi.as_vec3()).unwrap().1 as f64,
+        );
+        runs.push((
+            format!("distribution {kind}, α {alpha}, η {eta}, θo {theta}°, outside {front}"),
+            o,
+        ));
+    }
+    assert_family_passes("rough dielectric", &runs);
+}
+
 #[test]
 fn lambertian_material_scatters_cosine_about_the_normal() {
     let textures = [Texture::Constant(Vec3::splat(0.5))];

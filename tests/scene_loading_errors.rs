@@ -550,3 +550,67 @@ fn a_smooth_dielectric_loads_with_white_tints_and_its_index_is_checked() {
         scene.materials()
     );
 }
+
+#[test]
+fn a_rough_dielectric_loads_with_mitsubas_defaults_and_a_textured_roughness() {
+    use glam::Vec3;
+    use reference::material::Material;
+    use reference::microfacet::distribution;
+    let dir = tempfile::tempdir().unwrap();
+    let text = r#"{ "camera": { "look_from": [0, 0, 5], "look_at": [0, 0, 0] },
+  "textures": { "bumps": { "type": "checker", "even": [0.05, 0.05, 0.05], "odd": [0.4, 0.4, 0.4] } },
+  "materials": {
+    "frosted": { "type": "rough_dielectric", "eta": 1.5 },
+    "tinted": { "type": "rough_dielectric", "distribution": "ggx", "alpha": "bumps", "eta": 1.33, "transmittance": [0.9, 0.8, 0.7] } },
+  "objects": [ { "type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "frosted" },
+               { "type": "sphere", "center": [3, 0, 0], "radius": 1, "material": "tinted" } ] }"#;
+    let p = write_scene(dir.path(), "scene.json", text);
+    let scene = reference::load_scene(p.to_str().unwrap()).unwrap();
+    let rough: Vec<_> = scene
+        .materials()
+        .iter()
+        .filter_map(|m| match *m {
+            Material::RoughDielectric {
+                distribution,
+                alpha,
+                eta,
+                reflectance,
+                transmittance,
+            } => Some((distribution, alpha, eta, reflectance, transmittance)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(rough.len(), 2, "{:?}", scene.materials());
+    let texture = |i: u32| scene.textures()[i as usize];
+    // Mitsuba's defaults: Beckmann, alpha 0.1, white tints.
+    assert_eq!(rough[0].0, distribution::BECKMANN);
+    assert_eq!(
+        texture(rough[0].1),
+        reference::texture::Texture::Constant(Vec3::splat(0.1))
+    );
+    assert_eq!(rough[0].2, 1.5);
+    assert_eq!(
+        texture(rough[0].3),
+        reference::texture::Texture::Constant(Vec3::ONE)
+    );
+    assert_eq!(rough[1].0, distribution::GGX);
+    assert!(matches!(
+        texture(rough[1].1),
+        reference::texture::Texture::Checker { .. }
+    ));
+    assert_eq!(
+        texture(rough[1].4),
+        reference::texture::Texture::Constant(Vec3::new(0.9, 0.8, 0.7))
+    );
+    check(
+        &text.replace(r#""eta": 1.33"#, r#""eta": -1.33"#),
+        &["materials.tinted", "eta", "-1.33"],
+    );
+    check(
+        &text.replace(
+            r#""type": "rough_dielectric", "eta": 1.5"#,
+            r#""type": "rough_dielectric""#,
+        ),
+        &["materials.frosted", "eta"],
+    );
+}

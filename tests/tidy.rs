@@ -90,6 +90,14 @@ const GPU_ONLY: &[(&str, &str)] = &[
         "the smooth dielectric arm of material::scatter's match",
     ),
     (
+        "scatter_rough_dielectric",
+        "the rough dielectric arm of material::scatter's match",
+    ),
+    (
+        "rough_dielectric_eval",
+        "the rough dielectric arm of material::bsdf_eval's match",
+    ),
+    (
         "scatter_thin_dielectric",
         "the thin dielectric arm of material::scatter's match",
     ),

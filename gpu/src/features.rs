@@ -71,6 +71,7 @@ feature_bits! {
     THIN_DIELECTRIC = 20,
     ROUGH_CONDUCTOR = 21,
     BECKMANN = 22,
+    ROUGH_DIELECTRIC = 23,
 }
 
 impl Kernel {
@@ -113,12 +114,10 @@ impl Features {
                 Material::SmoothDielectric { .. } => feature::SMOOTH_DIELECTRIC,
                 Material::ThinDielectric { .. } => feature::THIN_DIELECTRIC,
                 Material::RoughConductor { distribution, .. } => {
-                    feature::ROUGH_CONDUCTOR
-                        | if *distribution == reference::microfacet::distribution::BECKMANN {
-                            feature::BECKMANN
-                        } else {
-                            0
-                        }
+                    feature::ROUGH_CONDUCTOR | beckmann(*distribution)
+                }
+                Material::RoughDielectric { distribution, .. } => {
+                    feature::ROUGH_DIELECTRIC | beckmann(*distribution)
                 }
                 Material::Ggx {
                     normal_map,
@@ -176,6 +175,16 @@ impl Features {
             .filter(|(_, bit)| self.contains(*bit))
             .map(|(name, _)| name.trim_start_matches("FEATURE_"))
             .collect()
+    }
+}
+
+/// [`feature::BECKMANN`] for a microfacet model of Beckmann's
+/// distribution, else nothing (GGX's code is the microfacets' baseline).
+fn beckmann(distribution: u32) -> u32 {
+    if distribution == reference::microfacet::distribution::BECKMANN {
+        feature::BECKMANN
+    } else {
+        0
     }
 }
 

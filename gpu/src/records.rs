@@ -85,7 +85,9 @@ gpu_record! {
     /// the roughness and `distribution` its microfacets'
     /// (`reference::microfacet::distribution`); SMOOTH_DIELECTRIC and
     /// THIN_DIELECTRIC `p0` = eta, `texture` = the reflectance, `texture2`
-    /// = the transmittance; GGX `texture` = base colour, `p0` = metallic, `p1` =
+    /// = the transmittance; ROUGH_DIELECTRIC `p0` = eta, `texture` = the
+    /// reflectance, `texture2` = the roughness, `texture3` = the
+    /// transmittance, `distribution`; GGX `texture` = base colour, `p0` = metallic, `p1` =
     /// roughness, `texture2` = the metallic-roughness texture or
     /// `NO_TEXTURE`, `texture3` = the normal map or `NO_TEXTURE`, `p2` =
     /// the normal map's scale. Any tag: `alpha_texture` = the coverage's

@@ -172,6 +172,21 @@ fn pack_bsdf(m: &Material) -> GpuMaterial {
             distribution,
             ..pack_bsdf(&Material::Conductor { specular, eta, k })
         },
+        Material::RoughDielectric {
+            distribution,
+            alpha,
+            eta,
+            reflectance,
+            transmittance,
+        } => GpuMaterial {
+            tag,
+            texture: reflectance,
+            texture2: alpha,
+            texture3: transmittance,
+            p0: eta,
+            distribution,
+            ..Default::default()
+        },
         Material::DiffuseLight { emission } => GpuMaterial {
             tag,
             texture: emission,

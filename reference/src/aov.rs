@@ -61,7 +61,7 @@ pub struct FirstHit {
 
 /// The reflectance colour a denoiser's albedo guide means: a diffuse or
 /// metal surface's colour (its texture), a conductor's specular tint (smooth or rough), a glTF material's base colour
-/// (texture times vertex colour), white for glass (it reflects and
+/// (texture times vertex colour), white for glass, smooth or rough (it reflects and
 /// transmits everything), black for a `DiffuseLight` (it reflects
 /// nothing). Emission added to a BSDF does not change what it reflects:
 /// an emissive glTF material's albedo is its base colour.
@@ -75,7 +75,8 @@ pub fn albedo(material: &Material, ctx: TextureContext, si: &SurfaceInteraction)
         Material::Ggx { base_color, .. } => ctx.base_color(base_color, si),
         Material::Dielectric { .. }
         | Material::SmoothDielectric { .. }
-        | Material::ThinDielectric { .. } => Vec3::ONE,
+        | Material::ThinDielectric { .. }
+        | Material::RoughDielectric { .. } => Vec3::ONE,
         Material::DiffuseLight { .. } => Vec3::ZERO,
     }
 }

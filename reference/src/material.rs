@@ -73,6 +73,27 @@ pub enum Material {
         eta: Vec3,
         k: Vec3,
     },
+    /// A rough dielectric interface (Mitsuba 3's `roughdielectric`):
+    /// microfacets of the [`Microfacet`] `distribution`, roughness the
+    /// first channel of texture `alpha` (isotropic), each an interface of
+    /// [`Material::SmoothDielectric`] (`eta` the index inside, behind the
+    /// geometric normal, over outside). With `η` the ratio of the indices
+    /// across in the ray's direction of travel, `h` the half vector
+    /// (`wo + wi` reflected, `wo + η wi` refracted, turned to the viewer's
+    /// side) and `F = F(wo·h, η)`:
+    /// reflection `f = reflectance · F · D(h) · G1(wo, h) · G1(wi, h) / (4 |cos θo cos θi|)`,
+    /// transmission `f = transmittance · (1 − F) · D · G1 · G1 · |wo·h| |wi·h| / (|cos θo cos θi| (wo·h + η wi·h)²)`
+    /// (the radiance's `1/η²` across the interface included, as Mitsuba's
+    /// radiance mode). Sampled through the visible normals seen from
+    /// `wo`, then reflection with probability `F`: a sample's weight is
+    /// `reflectance · G1(wi, m)` or `transmittance · G1(wi, m) / η²`.
+    RoughDielectric {
+        distribution: u32,
+        alpha: u32,
+        eta: f32,
+        reflectance: u32,
+        transmittance: u32,
+    },
     /// glTF metallic-roughness, `mix(dielectric, metal, metallic)` as the
     /// glTF specification's appendix B writes it: GGX specular
     /// (height-correlated Smith G2, Schlick F with
@@ -190,6 +211,7 @@ pub mod material_tag {
     pub const SMOOTH_DIELECTRIC: u32 = 6;
     pub const THIN_DIELECTRIC: u32 = 7;
     pub const ROUGH_CONDUCTOR: u32 = 8;
+    pub const ROUGH_DIELECTRIC: u32 = 9;
 }
 
 /// GGX alpha is clamped from below so that D stays finite in f32; 1e-4
@@ -227,6 +249,7 @@ impl Material {
             Material::SmoothDielectric { .. } => material_tag::SMOOTH_DIELECTRIC,
             Material::ThinDielectric { .. } => material_tag::THIN_DIELECTRIC,
             Material::RoughConductor { .. } => material_tag::ROUGH_CONDUCTOR,
+            Material::RoughDielectric { .. } => material_tag::ROUGH_DIELECTRIC,
         }
     }
 }
@@ -411,6 +434,40 @@ pub fn scatter(
                 weight: ctx.eval(specular, si) * f * mf.g1(wi, m),
             })
         }
+        Material::RoughDielectric {
+            distribution,
+            alpha,
+            eta,
+            reflectance,
+            transmittance,
+        } => {
+            let frame = Onb::from_normal(n);
+            let wo = frame.to_local(-ray_dir);
+            if wo.z <= 0.0 {
+                return None;
+            }
+            let eta = rough_dielectric_eta(eta, si.front_face);
+            let mf = rough_microfacet(distribution, ctx.eval(alpha, si).x);
+            let m = mf.sample_visible(wo, Vec2::new(u[dims::DIRECTION_U], u[dims::DIRECTION_V]));
+            let cos_o = wo.dot(m).clamp(0.0, 1.0);
+            // Past the critical angle F is 1: every draw reflects.
+            let (wi, weight) = if u[dims::LOBE] < fresnel_dielectric(cos_o, eta) {
+                (reflect(-wo, m), ctx.eval(reflectance, si))
+            } else {
+                let wi = refract(-wo, m, 1.0 / eta)?.normalize();
+                (wi, ctx.eval(transmittance, si) / (eta * eta))
+            };
+            // Zero where wi left through the macro-surface's other side
+            // than its lobe (G1's orientation test).
+            let g1 = mf.g1(wi, m);
+            if g1 == 0.0 {
+                return None;
+            }
+            Some(Scatter {
+                direction: frame.to_world(wi),
+                weight: weight * g1,
+            })
+        }
         Material::Ggx {
             base_color,
             metallic,
@@ -458,16 +515,31 @@ pub fn scatter(
 }
 
 /// Whether [`bsdf_eval`] has a value for `material` (its scatter has a
-/// density): Lambertian, GGX and the rough conductor.
+/// density): Lambertian, GGX and the rough conductor and dielectric.
 pub fn has_density(material: &Material) -> bool {
     matches!(
         material,
-        Material::Lambertian { .. } | Material::Ggx { .. } | Material::RoughConductor { .. }
+        Material::Lambertian { .. }
+            | Material::Ggx { .. }
+            | Material::RoughConductor { .. }
+            | Material::RoughDielectric { .. }
     )
 }
 
-/// The rough conductor's distribution at a point of roughness `alpha`
-/// (isotropic).
+/// The rough dielectric's ratio of the indices across its interface in
+/// the direction of travel, for a ray arriving on its front (outside)
+/// face or its back.
+#[inline]
+fn rough_dielectric_eta(eta: f32, front_face: bool) -> f32 {
+    if front_face || mutants::is(Mutant::RoughDielectricEtaUninverted) {
+        eta
+    } else {
+        1.0 / eta
+    }
+}
+
+/// The rough conductor's and dielectric's distribution at a point of
+/// roughness `alpha` (isotropic).
 #[inline]
 fn rough_microfacet(kind: u32, alpha: f32) -> Microfacet {
     let kind = if mutants::is(Mutant::RoughBeckmannForGgx) {
@@ -544,6 +616,54 @@ pub fn bsdf_eval(
             };
             let f = fresnel_conductor(wo.dot(h).min(1.0), eta, k);
             let f_cos = ctx.eval(specular, si) * f * (dg * mf.g1(wi, h) / (4.0 * wo.z));
+            Some((f_cos, pdf))
+        }
+        Material::RoughDielectric {
+            distribution,
+            alpha,
+            eta,
+            reflectance,
+            transmittance,
+        } => {
+            let frame = Onb::from_normal(n);
+            let (wo, wi) = (frame.to_local(-ray_dir), frame.to_local(wi));
+            if wo.z <= 0.0 || wi.z == 0.0 {
+                return Some((Vec3::ZERO, 0.0));
+            }
+            let eta = rough_dielectric_eta(eta, si.front_face);
+            let reflected = wi.z > 0.0;
+            let hv = wo + if reflected { wi } else { eta * wi };
+            if hv.length_squared() == 0.0 {
+                return Some((Vec3::ZERO, 0.0));
+            }
+            let h = hv.normalize();
+            let h = if h.z < 0.0 { -h } else { h };
+            let (cos_o, cos_i) = (wo.dot(h), wi.dot(h));
+            // Each side of the facet seen from its own side of the
+            // macro-surface (Mitsuba's test, which G1 repeats).
+            if cos_o <= 0.0 || cos_i * wi.z <= 0.0 {
+                return Some((Vec3::ZERO, 0.0));
+            }
+            let mf = rough_microfacet(distribution, ctx.eval(alpha, si).x);
+            // D·G1(wo): the visible normals' density times wo.z.
+            let dg = mf.d(h) * mf.g1(wo, h);
+            let g = dg * mf.g1(wi, h);
+            let f = fresnel_dielectric(cos_o.min(1.0), eta);
+            if reflected {
+                let pdf = f * dg / (4.0 * wo.z);
+                let f_cos = ctx.eval(reflectance, si) * (f * g / (4.0 * wo.z));
+                return Some((f_cos, pdf));
+            }
+            let denom = cos_o + eta * cos_i;
+            let denom2 = denom * denom;
+            let jacobian = if mutants::is(Mutant::RoughTransmissionWithoutJacobian) {
+                1.0
+            } else {
+                eta * eta * cos_i.abs() / denom2
+            };
+            let pdf = (1.0 - f) * dg * cos_o / wo.z * jacobian;
+            let f_cos = ctx.eval(transmittance, si)
+                * ((1.0 - f) * g * cos_o * cos_i.abs() / (wo.z * denom2));
             Some((f_cos, pdf))
         }
         Material::Metal { .. }

@@ -76,7 +76,7 @@ pub enum Mutant {
     /// A conductor's `eta` and `k` exchanged in its Fresnel reflectance
     /// (`material::fresnel_conductor`).
     ConductorEtaKSwapped,
-    /// The rough conductor's microfacets Beckmann's where its scene asks
+    /// The rough materials' microfacets Beckmann's where their scene asks
     /// for GGX (`material::scatter` and `material::bsdf_eval`).
     RoughBeckmannForGgx,
     /// The rough conductor's density without the half vector's Jacobian
@@ -88,6 +88,14 @@ pub enum Mutant {
     /// distribution's normals, not the visible ones
     /// (`microfacet::beckmann_visible_slope`).
     BeckmannSlopesNotVisible,
+    /// The rough dielectric's index ratio not inverted on its back face:
+    /// light leaving the inside bends and reflects as if it entered
+    /// (`material::scatter` and `material::bsdf_eval`).
+    RoughDielectricEtaUninverted,
+    /// The rough dielectric's transmission density without the refracted
+    /// half vector's Jacobian `η²|wi·h| / (wo·h + η wi·h)²`
+    /// (`material::bsdf_eval`).
+    RoughTransmissionWithoutJacobian,
     /// A Mitsuba `envmap` read without the half turn about +y that puts
     /// Mitsuba's u = 0 (along −z) where twintrace's is
     /// (`loader::mitsuba::scene`).

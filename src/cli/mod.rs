@@ -1354,6 +1354,7 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
         Material::RoughConductor { .. } => "rough conductor",
         Material::SmoothDielectric { .. } => "smooth dielectric",
         Material::ThinDielectric { .. } => "thin dielectric",
+        Material::RoughDielectric { .. } => "rough dielectric",
         Material::Ggx { .. } => "ggx",
     };
     say!(

@@ -4,7 +4,8 @@ regenerates the same inputs and compares).
 
     python3 xtask/mitsuba/bsdf_values.py CASE  [--out fixtures/mitsuba/bsdf]
 
-CASE: conductor, dielectric, thindielectric, roughconductor.
+CASE: conductor, dielectric, thindielectric, roughconductor,
+roughdielectric.
 
 Inputs: case i of N has its parameters from the additive sequence
 frac((i + 1) * a) of the constants A below, computed in f64 with + - * /
@@ -34,12 +35,14 @@ A = [
     0.6710436067037893,
     0.5497004779019703,
     0.3819660112501051,
-    # Fractional parts of the square roots of 2, 3, 5, 7 and 11.
+    # Fractional parts of the square roots of 2, 3, 5, 7, 11, 13 and 17.
     0.41421356237309515,
     0.7320508075688772,
     0.2360679774997898,
     0.6457513110645907,
     0.3166247903554,
+    0.6055512754639891,
+    0.12310562561766059,
 ]
 
 
@@ -119,6 +122,14 @@ def rough_inputs(i):
     azimuth) and wo (the light: wi reflected about a microfacet normal
     spread as the lobe is, so most pairs fall where the BSDF is not
     negligible), in f64."""
+    distribution, alpha, wi, m = rough_normal(i)
+    d = wi[0] * m[0] + wi[1] * m[1] + wi[2] * m[2]
+    wo = tuple(2.0 * d * m[k] - wi[k] for k in range(3))
+    return distribution, alpha, wi, wo
+
+
+def rough_normal(i):
+    """rough_inputs' distribution, alpha, wi and its microfacet normal m."""
     alpha = 0.02 + 0.98 * unit(i, 0)
     cos_i = unit(i, 3)
     sin_i = (1.0 - cos_i * cos_i) ** 0.5
@@ -132,9 +143,29 @@ def rough_inputs(i):
     x, y = 2.0 * unit(i, 7) - 1.0, 2.0 * unit(i, 8) - 1.0
     r = (x * x + y * y) ** 0.5
     m = (sin_m * x / r, sin_m * y / r, cos_m)
-    d = wi[0] * m[0] + wi[1] * m[1] + wi[2] * m[2]
-    wo = tuple(2.0 * d * m[k] - wi[k] for k in range(3))
-    return ("beckmann" if i % 2 else "ggx"), alpha, wi, wo
+    return ("beckmann" if i % 2 else "ggx"), alpha, wi, m
+
+
+def rough_dielectric_inputs(i):
+    """Case i of the rough dielectric: rough_normal's, with int_ior eta
+    in [1.05, 2.55) over ext_ior 1, wi and m mirrored below the surface
+    where unit 2 < 1/2 (the viewer inside), and wo refracted through m
+    where unit 11 < 1/2 (reflected past the critical angle), else
+    reflected; in f64."""
+    distribution, alpha, wi, m = rough_normal(i)
+    eta = 1.05 + 1.5 * unit(i, 1)
+    if unit(i, 2) < 0.5:
+        wi = (wi[0], wi[1], -wi[2])
+        m = (m[0], m[1], -m[2])
+    c = wi[0] * m[0] + wi[1] * m[1] + wi[2] * m[2]
+    rel = eta if wi[2] > 0.0 else 1.0 / eta
+    sin2_t = (1.0 - c * c) / (rel * rel)
+    if unit(i, 11) < 0.5 and sin2_t < 1.0:
+        t = c / rel - (1.0 - sin2_t) ** 0.5
+        wo = tuple(t * m[k] - wi[k] / rel for k in range(3))
+    else:
+        wo = tuple(2.0 * c * m[k] - wi[k] for k in range(3))
+    return distribution, alpha, eta, wi, wo
 
 
 def rough_surface(wi):
@@ -172,11 +203,36 @@ def roughconductor(i):
     return [value, pdf, bs.wo[0], bs.wo[1], bs.wo[2], weight[0], bs.pdf]
 
 
+def roughdielectric(i):
+    """Records 7 f32: eval and pdf at (wi, wo), then a sample drawn at
+    lobe u = unit 12 and u = (unit 9, unit 10): its wo (three), weight
+    and pdf (weight 0: none)."""
+    distribution, alpha, eta, wi, wo = rough_dielectric_inputs(i)
+    bsdf = mi.load_dict(
+        {
+            "type": "roughdielectric",
+            "distribution": distribution,
+            "alpha": float(np.float32(alpha)),
+            "int_ior": float(np.float32(eta)),
+            "ext_ior": 1.0,
+        }
+    )
+    si = rough_surface(wi)
+    ctx = mi.BSDFContext()
+    wo = mi.Vector3f([float(np.float32(c)) for c in wo])
+    value = bsdf.eval(ctx, si, wo)[0]
+    pdf = bsdf.pdf(ctx, si, wo)
+    u = [float(np.float32(unit(i, 9))), float(np.float32(unit(i, 10)))]
+    bs, weight = bsdf.sample(ctx, si, float(np.float32(unit(i, 12))), u)
+    return [value, pdf, bs.wo[0], bs.wo[1], bs.wo[2], weight[0], bs.pdf]
+
+
 CASES = {
     "conductor": conductor,
     "dielectric": dielectric,
     "thindielectric": thindielectric,
     "roughconductor": roughconductor,
+    "roughdielectric": roughdielectric,
 }
 
 

@@ -75,6 +75,16 @@ pub enum DistributionJson {
     Beckmann,
 }
 
+impl DistributionJson {
+    /// Its [`microfacet::distribution`] tag.
+    pub fn tag(self) -> u32 {
+        match self {
+            DistributionJson::Ggx => microfacet::distribution::GGX,
+            DistributionJson::Beckmann => microfacet::distribution::BECKMANN,
+        }
+    }
+}
+
 /// A uniform or per-axis scale.
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(untagged, expecting = "a number or [x, y, z]")]
@@ -264,6 +274,7 @@ pub enum MaterialJson {
     SmoothDielectric(SmoothDielectricMaterialJson),
     /// The same fields, `eta` the sheet's index over its surroundings'.
     ThinDielectric(SmoothDielectricMaterialJson),
+    RoughDielectric(RoughDielectricMaterialJson),
 }
 
 fn default_roughness() -> f32 {
@@ -493,6 +504,28 @@ pub struct SmoothDielectricMaterialJson {
     pub transmittance: Option<ColorRef>,
     /// Radiance emitted from the front face, added to what the material
     /// reflects (`reference::Scene::emission`); absent or black: none.
+    #[serde(default)]
+    pub emission: Option<ColorRef>,
+}
+
+/// A rough dielectric (Mitsuba 3's `roughdielectric`): microfacets of
+/// the `distribution`, each an interface as the smooth dielectric's.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RoughDielectricMaterialJson {
+    /// `ggx` or `beckmann` (default, as Mitsuba's).
+    #[serde(default)]
+    pub distribution: DistributionJson,
+    /// The microfacets' roughness α (isotropic; Mitsuba's default 0.1).
+    #[serde(default = "default_alpha")]
+    pub alpha: ScalarRef,
+    /// The index inside (behind the geometric normal) over outside.
+    pub eta: f32,
+    /// Tints on what it reflects and transmits (default white).
+    #[serde(default)]
+    pub reflectance: Option<ColorRef>,
+    #[serde(default)]
+    pub transmittance: Option<ColorRef>,
     #[serde(default)]
     pub emission: Option<ColorRef>,
 }
@@ -1028,10 +1061,7 @@ impl Resolver<'_> {
                 specular,
                 ..
             }) => Material::RoughConductor {
-                distribution: match distribution {
-                    DistributionJson::Ggx => microfacet::distribution::GGX,
-                    DistributionJson::Beckmann => microfacet::distribution::BECKMANN,
-                },
+                distribution: distribution.tag(),
                 alpha: self.scalar(alpha).map_err(field("alpha"))?,
                 specular: self
                     .colour_or_white(specular.as_ref())
@@ -1049,6 +1079,17 @@ impl Resolver<'_> {
                         .map_err(field("transmittance"))?,
                 )
             }
+            MaterialJson::RoughDielectric(d) => Material::RoughDielectric {
+                distribution: d.distribution.tag(),
+                alpha: self.scalar(&d.alpha).map_err(field("alpha"))?,
+                eta: d.eta,
+                reflectance: self
+                    .colour_or_white(d.reflectance.as_ref())
+                    .map_err(field("reflectance"))?,
+                transmittance: self
+                    .colour_or_white(d.transmittance.as_ref())
+                    .map_err(field("transmittance"))?,
+            },
             MaterialJson::DiffuseLight(DiffuseLightMaterialJson { emission }) => {
                 Material::DiffuseLight {
                     emission: self.colour(emission, 0).map_err(field("emission"))?,
@@ -1090,7 +1131,8 @@ impl Resolver<'_> {
             | MaterialJson::Conductor(ConductorMaterialJson { emission, .. })
             | MaterialJson::RoughConductor(RoughConductorMaterialJson { emission, .. })
             | MaterialJson::SmoothDielectric(SmoothDielectricMaterialJson { emission, .. })
-            | MaterialJson::ThinDielectric(SmoothDielectricMaterialJson { emission, .. }) => {
+            | MaterialJson::ThinDielectric(SmoothDielectricMaterialJson { emission, .. })
+            | MaterialJson::RoughDielectric(RoughDielectricMaterialJson { emission, .. }) => {
                 emission.as_ref()
             }
             MaterialJson::DiffuseLight(_) => None,

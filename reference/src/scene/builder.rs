@@ -125,6 +125,28 @@ fn check_finite_vec(field: &str, v: Vec3) -> Result<(), SceneError> {
     }
 }
 
+/// A dielectric's ratio of indices.
+fn check_eta(eta: f32) -> Result<(), SceneError> {
+    if !(eta.is_finite() && eta > 0.0) {
+        return Err(SceneError::invalid(
+            "eta",
+            format!("{eta} must be a positive finite number"),
+        ));
+    }
+    Ok(())
+}
+
+/// A microfacet distribution's tag.
+fn check_distribution(distribution: u32) -> Result<(), SceneError> {
+    if distribution > crate::microfacet::distribution::BECKMANN {
+        return Err(SceneError::invalid(
+            "distribution",
+            format!("{distribution} is neither GGX (0) nor Beckmann (1)"),
+        ));
+    }
+    Ok(())
+}
+
 fn check_colour(field: &str, c: Vec3) -> Result<(), SceneError> {
     check_finite_vec(field, c)?;
     if c.min_element() < 0.0 {
@@ -303,12 +325,7 @@ fn check_material(material: &Material, textures: usize) -> Result<(), SceneError
         } => {
             tex_ok("reflectance", reflectance)?;
             tex_ok("transmittance", transmittance)?;
-            if !(eta.is_finite() && eta > 0.0) {
-                return Err(SceneError::invalid(
-                    "eta",
-                    format!("{eta} must be a positive finite number"),
-                ));
-            }
+            check_eta(eta)?;
         }
         Material::Conductor { specular, eta, k } => {
             tex_ok("specular", specular)?;
@@ -326,12 +343,20 @@ fn check_material(material: &Material, textures: usize) -> Result<(), SceneError
             tex_ok("specular", specular)?;
             check_colour("eta", eta)?;
             check_colour("k", k)?;
-            if distribution > crate::microfacet::distribution::BECKMANN {
-                return Err(SceneError::invalid(
-                    "distribution",
-                    format!("{distribution} is neither GGX (0) nor Beckmann (1)"),
-                ));
-            }
+            check_distribution(distribution)?;
+        }
+        Material::RoughDielectric {
+            distribution,
+            alpha,
+            eta,
+            reflectance,
+            transmittance,
+        } => {
+            tex_ok("alpha", alpha)?;
+            tex_ok("reflectance", reflectance)?;
+            tex_ok("transmittance", transmittance)?;
+            check_eta(eta)?;
+            check_distribution(distribution)?;
         }
         Material::Metal { albedo, fuzz } => {
             tex_ok("albedo", albedo)?;

@@ -252,6 +252,15 @@ pub(super) enum Surface {
         eta: Vec3,
         k: Vec3,
     },
+    /// Mitsuba's own `roughdielectric` (a roughness constant over the
+    /// surface; both sides its own).
+    RoughDielectric {
+        distribution: u32,
+        alpha: f32,
+        eta: f32,
+        reflectance: Tex,
+        transmittance: Tex,
+    },
     FuzzyMetal {
         albedo: Tex,
         fuzz: f32,
@@ -337,15 +346,23 @@ impl Surface {
                 k,
             } => sided(format!(
                 r#"<bsdf type="roughconductor"><string name="distribution" value="{}"/><float name="alpha" value="{alpha:?}"/><rgb name="eta" value="{}"/><rgb name="k" value="{}"/>{}</bsdf>"#,
-                if *distribution == reference::microfacet::distribution::BECKMANN {
-                    "beckmann"
-                } else {
-                    "ggx"
-                },
+                distribution_name(*distribution),
                 triple(*eta),
                 triple(*k),
                 specular.xml("specular_reflectance", uv)
             )),
+            Surface::RoughDielectric {
+                distribution,
+                alpha,
+                eta,
+                reflectance,
+                transmittance,
+            } => format!(
+                r#"<bsdf type="roughdielectric"><string name="distribution" value="{}"/><float name="alpha" value="{alpha:?}"/><float name="int_ior" value="{eta:?}"/><float name="ext_ior" value="1.0"/>{}{}</bsdf>"#,
+                distribution_name(*distribution),
+                reflectance.xml("specular_reflectance", uv),
+                transmittance.xml("specular_transmittance", uv)
+            ),
             // Mitsuba's dielectric takes both sides itself.
             Surface::SmoothDielectric {
                 eta,
@@ -444,6 +461,11 @@ impl Surface {
                 reflectance,
                 transmittance,
                 ..
+            }
+            | Surface::RoughDielectric {
+                reflectance,
+                transmittance,
+                ..
             } => vec![reflectance, transmittance],
             Surface::FuzzyMetal { albedo, .. } => vec![albedo],
             Surface::Dielectric { .. } | Surface::Light(_) => vec![],
@@ -470,6 +492,11 @@ impl Surface {
                 specular.uses_plugins()
             }
             Surface::SmoothDielectric {
+                reflectance,
+                transmittance,
+                ..
+            }
+            | Surface::RoughDielectric {
                 reflectance,
                 transmittance,
                 ..
@@ -521,6 +548,7 @@ impl Surface {
             // Mitsuba's picks its side by the shading normal, the
             // reference's by the geometric one.
             Surface::SmoothDielectric { .. } => Some("a smooth dielectric"),
+            Surface::RoughDielectric { .. } => Some("a rough dielectric"),
         }
     }
 }
@@ -638,15 +666,23 @@ pub(super) fn surface(scene: &Scene, i: usize) -> Result<Surface> {
             k,
         } => Surface::RoughConductor {
             distribution,
-            // Mitsuba reads a float texture's value where twintrace reads
-            // a texture's first channel: only a constant means one thing.
-            alpha: match texture(scene, alpha, &what)? {
-                Tex::Constant(c) => c.x,
-                _ => bail!("{what} has a textured roughness (not exported)"),
-            },
+            alpha: constant_roughness(scene, alpha, &what)?,
             specular: texture(scene, specular, &what)?,
             eta,
             k,
+        },
+        Material::RoughDielectric {
+            distribution,
+            alpha,
+            eta,
+            reflectance,
+            transmittance,
+        } => Surface::RoughDielectric {
+            distribution,
+            alpha: constant_roughness(scene, alpha, &what)?,
+            eta,
+            reflectance: texture(scene, reflectance, &what)?,
+            transmittance: texture(scene, transmittance, &what)?,
         },
         Material::Ggx {
             base_color,
@@ -735,4 +771,23 @@ pub(super) fn coverage(scene: &Scene, i: usize) -> Result<Option<Coverage>> {
             AlphaMode::Blend => None,
         },
     }))
+}
+
+/// Mitsuba's name of a microfacet distribution.
+fn distribution_name(distribution: u32) -> &'static str {
+    if distribution == reference::microfacet::distribution::BECKMANN {
+        "beckmann"
+    } else {
+        "ggx"
+    }
+}
+
+/// A microfacet model's roughness, exported as a number: Mitsuba reads a
+/// float texture's value where twintrace reads a texture's first
+/// channel, so only a constant means one thing.
+fn constant_roughness(scene: &Scene, alpha: u32, what: &str) -> Result<f32> {
+    match texture(scene, alpha, what)? {
+        Tex::Constant(c) => Ok(c.x),
+        _ => bail!("{what} has a textured roughness (not exported)"),
+    }
 }

@@ -1014,6 +1014,9 @@ impl Reader<'_> {
         if matches!(o.kind.as_str(), "dielectric" | "thindielectric") {
             return self.dielectric(o);
         }
+        if o.kind == "roughdielectric" {
+            return self.rough_dielectric(o);
+        }
         let m = self.one_sided_bsdf(o)?;
         if !self.one_sided_warned {
             self.one_sided_warned = true;
@@ -1030,23 +1033,64 @@ impl Reader<'_> {
     /// a number or a name, and the two tints.
     fn dielectric(&mut self, o: &Object) -> Result<Material, SceneError> {
         let props = Props::new(o);
-        let eta = props.ior("int_ior", "bk7")? / props.ior("ext_ior", "air")?;
-        let reflectance =
-            self.colour(&props, "specular_reflectance", ColourUse::Reflectance, 1.0)?;
-        let transmittance = self.colour(
-            &props,
-            "specular_transmittance",
-            ColourUse::Reflectance,
-            1.0,
-        )?;
-        let m = Material::dielectric_of(
-            o.kind == "thindielectric",
-            eta as f32,
-            self.texture_of(reflectance, &o.at)?,
-            self.texture_of(transmittance, &o.at)?,
-        );
+        let (eta, reflectance, transmittance) = self.interface(&props)?;
+        let m =
+            Material::dielectric_of(o.kind == "thindielectric", eta, reflectance, transmittance);
         props.finish()?;
         Ok(m)
+    }
+
+    /// A dielectric's `int_ior` (default "bk7") over `ext_ior` (default
+    /// "air"), and its two tints as textures.
+    fn interface(&mut self, props: &Props) -> Result<(f32, u32, u32), SceneError> {
+        let at = &props.object.at;
+        let eta = props.ior("int_ior", "bk7")? / props.ior("ext_ior", "air")?;
+        let reflectance =
+            self.colour(props, "specular_reflectance", ColourUse::Reflectance, 1.0)?;
+        let transmittance =
+            self.colour(props, "specular_transmittance", ColourUse::Reflectance, 1.0)?;
+        Ok((
+            eta as f32,
+            self.texture_of(reflectance, at)?,
+            self.texture_of(transmittance, at)?,
+        ))
+    }
+
+    /// Mitsuba's `roughdielectric` (both sides its own): the smooth
+    /// dielectric's indices and tints on microfacets
+    /// ([`Self::microfacets`]).
+    fn rough_dielectric(&mut self, o: &Object) -> Result<Material, SceneError> {
+        let props = Props::new(o);
+        let (eta, reflectance, transmittance) = self.interface(&props)?;
+        let (distribution, alpha) = self.microfacets(&props)?;
+        let m = Material::RoughDielectric {
+            distribution,
+            alpha,
+            eta,
+            reflectance,
+            transmittance,
+        };
+        props.finish()?;
+        Ok(m)
+    }
+
+    /// A microfacet model's `distribution` (default Beckmann) and
+    /// roughness ([`Self::roughness`]). Visible normals sampled or not
+    /// (`sample_visible`), the same BSDF: only the noise differs, and
+    /// twintrace always samples the visible ones.
+    fn microfacets(&mut self, props: &Props) -> Result<(u32, u32), SceneError> {
+        let distribution = match props.string("distribution")?.unwrap_or("beckmann") {
+            "beckmann" => crate::microfacet::distribution::BECKMANN,
+            "ggx" => crate::microfacet::distribution::GGX,
+            other => {
+                return Err(fail(
+                    &props.object.at,
+                    format!("distribution \"{other}\" is not beckmann or ggx"),
+                ))
+            }
+        };
+        props.boolean("sample_visible", true)?;
+        Ok((distribution, self.roughness(props)?))
     }
 
     /// A BSDF Mitsuba makes one-sided (`twosided` makes it two-sided; all
@@ -1074,20 +1118,7 @@ impl Reader<'_> {
                 let (eta, k) = self.conductor_index(&props)?;
                 let specular =
                     self.colour(&props, "specular_reflectance", ColourUse::Reflectance, 1.0)?;
-                let distribution = match props.string("distribution")?.unwrap_or("beckmann") {
-                    "beckmann" => crate::microfacet::distribution::BECKMANN,
-                    "ggx" => crate::microfacet::distribution::GGX,
-                    other => {
-                        return Err(fail(
-                            &o.at,
-                            format!("distribution \"{other}\" is not beckmann or ggx"),
-                        ))
-                    }
-                };
-                // Visible normals or not, the same BSDF: only the noise
-                // differs, and twintrace always samples the visible ones.
-                props.boolean("sample_visible", true)?;
-                let alpha = self.roughness(&props)?;
+                let (distribution, alpha) = self.microfacets(&props)?;
                 Material::RoughConductor {
                     distribution,
                     alpha,
