@@ -288,7 +288,7 @@ pub const CHECKS: &[Check] = &[
         variant: false,
     },
     Check {
-        name: "specialized kernel == general kernel (every scene, both estimators)",
+        name: "specialized kernel == general kernel (every scene on a GPU, those that bring a feature each on a software adapter; both estimators)",
         run: specialization::all_scenes,
         variant: true,
     },
