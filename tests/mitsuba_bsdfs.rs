@@ -605,20 +605,10 @@ fn rough_dielectric_against_mitsuba(fit: bool) -> RoughWorst {
     let mut w = RoughWorst::default();
     for (i, want) in want.iter().enumerate() {
         let (kind, alpha, eta, wi, wo) = rough_dielectric_inputs(i);
-        let textures = [
-            Texture::Constant(Vec3::ONE),
-            Texture::Constant(Vec3::splat(alpha)),
-        ];
+        let (material, textures) = crate::sampling_chi2::rough_dielectric(kind, alpha, eta);
         let ctx = TextureContext {
             textures: &textures,
             images: &[],
-        };
-        let material = Material::RoughDielectric {
-            distribution: kind,
-            alpha: 1,
-            eta,
-            reflectance: 0,
-            transmittance: 0,
         };
         // The viewer inside: the surface is seen from its back.
         let si = surface_seen_from(wi.z > 0.0);
