@@ -22,8 +22,8 @@ struct AovSums {
     hits: u32,
 }
 
-// The reflectance colour (see the reference): the texture of a diffuse or
-// metal surface, times the vertex colour for GGX; white glass (smooth,
+// The reflectance colour (see the reference): the texture of a diffuse,
+// metal or plastic surface, times the vertex colour for GGX; white glass (smooth,
 // thin or rough, whatever its tints), black emitters.
 fn albedo(m: GpuMaterial, si: SurfaceInteraction) -> vec3<f32> {
     if m.tag == MATERIAL_DIELECTRIC || m.tag == MATERIAL_SMOOTH_DIELECTRIC || m.tag == MATERIAL_THIN_DIELECTRIC || m.tag == MATERIAL_ROUGH_DIELECTRIC {

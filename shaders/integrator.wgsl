@@ -317,7 +317,7 @@ fn trace_path_mis(ray_in: Ray, pixel: u32, sample: u32) -> vec3<f32> {
         alive = s.ok;
         if alive {
             from_pdf = 0.0;
-            if density && INTEGRATOR == INTEGRATOR_MIS {
+            if s.density && INTEGRATOR == INTEGRATOR_MIS {
                 let b = bsdf_eval(m, ray.direction, si, tx, s.direction);
                 if b.ok && b.pdf > 0.0 {
                     from_p = si.p;

@@ -112,8 +112,9 @@ struct MaterialTextures {
     coat: vec2<f32>,
     // What the material emits (its `emission` texture; zero without one).
     emission: vec3<f32>,
-    // The rough dielectric's transmittance (zero for the others).
-    transmittance: vec3<f32>,
+    // The rough dielectric's transmittance, the plastic's specular tint
+    // (zero for the others).
+    tint: vec3<f32>,
 }
 
 fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures {
@@ -124,8 +125,8 @@ fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures
     if m.tag == MATERIAL_ROUGH_CONDUCTOR || m.tag == MATERIAL_ROUGH_DIELECTRIC {
         t.metal_rough.x = evaluate_texture(m.texture2, si.p, si.uv, si.uv1).x;
     }
-    if m.tag == MATERIAL_ROUGH_DIELECTRIC && uses(FEATURE_ROUGH_DIELECTRIC) {
-        t.transmittance = evaluate_texture(m.texture3, si.p, si.uv, si.uv1);
+    if (m.tag == MATERIAL_ROUGH_DIELECTRIC && uses(FEATURE_ROUGH_DIELECTRIC)) || (m.tag == MATERIAL_PLASTIC && uses(FEATURE_PLASTIC)) {
+        t.tint = evaluate_texture(m.texture3, si.p, si.uv, si.uv1);
     }
     if m.tag == MATERIAL_GGX {
         t.base *= si.color;
@@ -174,7 +175,7 @@ fn emitted(si: SurfaceInteraction, tx: MaterialTextures) -> vec3<f32> {
 
 // Whether the material's scatter has a density that bsdf_eval gives.
 fn has_density(m: GpuMaterial) -> bool {
-    return m.tag == MATERIAL_LAMBERTIAN || m.tag == MATERIAL_GGX || m.tag == MATERIAL_ROUGH_CONDUCTOR || m.tag == MATERIAL_ROUGH_DIELECTRIC;
+    return m.tag == MATERIAL_LAMBERTIAN || m.tag == MATERIAL_GGX || m.tag == MATERIAL_ROUGH_CONDUCTOR || m.tag == MATERIAL_ROUGH_DIELECTRIC || m.tag == MATERIAL_PLASTIC;
 }
 
 // f(wo, wi)·|cos θ_i| and the density with which scatter samples wi, for a
@@ -231,6 +232,10 @@ fn bsdf_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mat
             if !uses(FEATURE_ROUGH_DIELECTRIC) { poison(); break; }
             return rough_dielectric_eval(m, ray_dir, si, tx, n, wi);
         }
+        case MATERIAL_PLASTIC: {
+            if !uses(FEATURE_PLASTIC) { poison(); break; }
+            return plastic_eval(m, ray_dir, tx, n, wi);
+        }
         case MATERIAL_METAL, MATERIAL_DIELECTRIC, MATERIAL_DIFFUSE_LIGHT, MATERIAL_CONDUCTOR, MATERIAL_SMOOTH_DIELECTRIC, MATERIAL_THIN_DIELECTRIC: {
             return BsdfEval(false, vec3<f32>(0.0), 0.0);
         }
@@ -242,14 +247,25 @@ fn bsdf_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mat
     return BsdfEval(false, vec3<f32>(0.0), 0.0);
 }
 
+// reference::material::Scatter; `density`: drawn with bsdf_eval's density
+// (false: a delta lobe's draw, or any draw of a material without one).
 struct Scatter {
     ok: bool,
     direction: vec3<f32>,
     weight: vec3<f32>,
+    density: bool,
 }
 
 fn absorbed() -> Scatter {
-    return Scatter(false, vec3<f32>(0.0), vec3<f32>(0.0));
+    return Scatter(false, vec3<f32>(0.0), vec3<f32>(0.0), false);
+}
+
+fn sampled(direction: vec3<f32>, weight: vec3<f32>) -> Scatter {
+    return Scatter(true, direction, weight, true);
+}
+
+fn delta(direction: vec3<f32>, weight: vec3<f32>) -> Scatter {
+    return Scatter(true, direction, weight, false);
 }
 
 // The material's sampling routine, picked by a switch on the tag (the
@@ -287,6 +303,9 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mater
         if m.tag == MATERIAL_DIELECTRIC {
             return scatter_dielectric(m, ray_dir, si, n, u);
         }
+        if m.tag == MATERIAL_PLASTIC {
+            return scatter_plastic(m, ray_dir, tx, n, ng, u);
+        }
         if m.tag == MATERIAL_GGX {
             return scatter_ggx(m, ray_dir, tx, n, u);
         }
@@ -321,6 +340,9 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mater
         case MATERIAL_DIELECTRIC: {
             return scatter_dielectric(m, ray_dir, si, n, u);
         }
+        case MATERIAL_PLASTIC: {
+            return scatter_plastic(m, ray_dir, tx, n, ng, u);
+        }
         case MATERIAL_GGX: {
             return scatter_ggx(m, ray_dir, tx, n, u);
         }
@@ -338,7 +360,7 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mater
 fn scatter_lambertian(tx: MaterialTextures, n: vec3<f32>, u: VertexRandoms) -> Scatter {
     if !uses(FEATURE_LAMBERTIAN) { poison(); return absorbed(); }
     let local = sample_cosine_hemisphere(vec2<f32>(vr_get(u, DIM_DIRECTION_U), vr_get(u, DIM_DIRECTION_V)));
-    return Scatter(true, onb_to_world(onb_from_normal(n), local), tx.base);
+    return sampled(onb_to_world(onb_from_normal(n), local), tx.base);
 }
 
 fn scatter_metal(m: GpuMaterial, ray_dir: vec3<f32>, tx: MaterialTextures, n: vec3<f32>, ng: vec3<f32>, u: VertexRandoms) -> Scatter {
@@ -348,7 +370,7 @@ fn scatter_metal(m: GpuMaterial, ray_dir: vec3<f32>, tx: MaterialTextures, n: ve
     if dot(direction, ng) <= 0.0 {
         return absorbed();
     }
-    return Scatter(true, normalize(direction), tx.base);
+    return delta(normalize(direction), tx.base);
 }
 
 // reference::material::fresnel_conductor: the unpolarized Fresnel
@@ -385,7 +407,7 @@ fn scatter_conductor(m: GpuMaterial, ray_dir: vec3<f32>, tx: MaterialTextures, n
     }
     let eta = vec3<f32>(m.p0, m.p1, m.p2);
     let k = vec3<f32>(m.absorption_r, m.absorption_g, m.absorption_b);
-    return Scatter(true, direction, tx.base * fresnel_conductor(cos_i, eta, k));
+    return delta(direction, tx.base * fresnel_conductor(cos_i, eta, k));
 }
 
 // reference::material::rough_microfacet: the rough conductor's and
@@ -411,7 +433,7 @@ fn scatter_rough_conductor(m: GpuMaterial, ray_dir: vec3<f32>, tx: MaterialTextu
         return absorbed();
     }
     let f = fresnel_conductor(min(dot(wo, mn), 1.0), vec3<f32>(m.p0, m.p1, m.p2), vec3<f32>(m.absorption_r, m.absorption_g, m.absorption_b));
-    return Scatter(true, onb_to_world(frame, wi), tx.base * f * microfacet_g1(mf, wi, mn));
+    return sampled(onb_to_world(frame, wi), tx.base * f * microfacet_g1(mf, wi, mn));
 }
 
 fn scatter_dielectric(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, n: vec3<f32>, u: VertexRandoms) -> Scatter {
@@ -426,7 +448,7 @@ fn scatter_dielectric(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction
     if r.ok && schlick_reflectance(cos_i, eta) <= vr_get(u, DIM_LOBE) {
         direction = normalize(r.direction);
     }
-    return Scatter(true, direction, vec3<f32>(1.0));
+    return delta(direction, vec3<f32>(1.0));
 }
 
 // reference::material::fresnel_dielectric: the unpolarized Fresnel
@@ -455,10 +477,10 @@ fn scatter_smooth_dielectric(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInte
             // The transmittance is read here, where a path refracts: the
             // reflectance is the vertex's `base`.
             let t = evaluate_texture(m.texture2, si.p, si.uv, si.uv1);
-            return Scatter(true, normalize(r.direction), t / (eta * eta));
+            return delta(normalize(r.direction), t / (eta * eta));
         }
     }
-    return Scatter(true, reflect_about(ray_dir, n), tx.base);
+    return delta(reflect_about(ray_dir, n), tx.base);
 }
 
 // reference::material::rough_dielectric_eta: the ratio of the indices
@@ -505,7 +527,7 @@ fn rough_dielectric_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteract
     let denom = cos_o + eta * cos_i;
     let denom2 = denom * denom;
     let pdf = (1.0 - f) * dg * cos_o / wo.z * (eta * eta * abs(cos_i) / denom2);
-    return BsdfEval(true, tx.transmittance * ((1.0 - f) * g * cos_o * abs(cos_i) / (wo.z * denom2)), pdf);
+    return BsdfEval(true, tx.tint * ((1.0 - f) * g * cos_o * abs(cos_i) / (wo.z * denom2)), pdf);
 }
 
 fn scatter_rough_dielectric(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: MaterialTextures, n: vec3<f32>, u: VertexRandoms) -> Scatter {
@@ -530,13 +552,13 @@ fn scatter_rough_dielectric(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInter
             return absorbed();
         }
         wi = normalize(r.direction);
-        weight = tx.transmittance / (eta * eta);
+        weight = tx.tint / (eta * eta);
     }
     let g1 = microfacet_g1(mf, wi, mn);
     if g1 == 0.0 {
         return absorbed();
     }
-    return Scatter(true, onb_to_world(frame, wi), weight * g1);
+    return sampled(onb_to_world(frame, wi), weight * g1);
 }
 
 // reference::material::thin_dielectric_reflectance: a thin sheet's
@@ -550,11 +572,76 @@ fn scatter_thin_dielectric(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceIntera
     if !uses(FEATURE_THIN_DIELECTRIC) { poison(); return absorbed(); }
     let cos_i = clamp(dot(-ray_dir, n), 0.0, 1.0);
     if vr_get(u, DIM_LOBE) < thin_dielectric_reflectance(cos_i, m.p0) {
-        return Scatter(true, reflect_about(ray_dir, n), tx.base);
+        return delta(reflect_about(ray_dir, n), tx.base);
     }
     // Straight through; the transmittance read where a path passes.
     let t = evaluate_texture(m.texture2, si.p, si.uv, si.uv1);
-    return Scatter(true, ray_dir, t);
+    return delta(ray_dir, t);
+}
+
+// reference::material::plastic_specular_probability: the probability of
+// drawing the coat's reflection where it reflects f (negative where
+// neither lobe has any).
+fn plastic_specular_probability(f: f32, weight: f32) -> f32 {
+    let specular = f * weight;
+    let total = specular + (1.0 - f) * (1.0 - weight);
+    if total > 0.0 {
+        return specular / total;
+    }
+    return -1.0;
+}
+
+// reference::material::plastic_base: the base through the coat with its
+// inner reflections summed (p1 the coat's inner diffuse reflectance,
+// absorption_r 1 where nonlinear), over eta².
+fn plastic_base(m: GpuMaterial, diffuse: vec3<f32>) -> vec3<f32> {
+    var inner = vec3<f32>(m.p1);
+    if m.absorption_r != 0.0 {
+        inner = diffuse * m.p1;
+    }
+    return diffuse / (vec3<f32>(1.0) - inner) / (m.p0 * m.p0);
+}
+
+// bsdf_eval's plastic, n facing the ray's side: the diffuse lobe alone.
+fn plastic_eval(m: GpuMaterial, ray_dir: vec3<f32>, tx: MaterialTextures, n: vec3<f32>, wi: vec3<f32>) -> BsdfEval {
+    let zero = BsdfEval(true, vec3<f32>(0.0), 0.0);
+    let frame = onb_from_normal(n);
+    let wo = onb_to_local(frame, -ray_dir);
+    let wl = onb_to_local(frame, wi);
+    if wo.z <= 0.0 || wl.z <= 0.0 {
+        return zero;
+    }
+    let f_o = fresnel_dielectric(min(wo.z, 1.0), m.p0);
+    let p = plastic_specular_probability(f_o, m.p2);
+    if p < 0.0 {
+        return zero;
+    }
+    let f_i = fresnel_dielectric(min(wl.z, 1.0), m.p0);
+    let cos = wl.z * FRAC_1_PI;
+    return BsdfEval(true, plastic_base(m, tx.base) * ((1.0 - f_o) * (1.0 - f_i) * cos), (1.0 - p) * cos);
+}
+
+fn scatter_plastic(m: GpuMaterial, ray_dir: vec3<f32>, tx: MaterialTextures, n: vec3<f32>, ng: vec3<f32>, u: VertexRandoms) -> Scatter {
+    if !uses(FEATURE_PLASTIC) { poison(); return absorbed(); }
+    let cos_o = dot(-ray_dir, n);
+    if cos_o <= 0.0 {
+        return absorbed();
+    }
+    let f_o = fresnel_dielectric(min(cos_o, 1.0), m.p0);
+    let p = plastic_specular_probability(f_o, m.p2);
+    if p < 0.0 {
+        return absorbed();
+    }
+    if vr_get(u, DIM_LOBE) < p {
+        let direction = reflect_about(ray_dir, n);
+        if dot(direction, ng) <= 0.0 {
+            return absorbed();
+        }
+        return delta(direction, tx.tint * (f_o / p));
+    }
+    let local = sample_cosine_hemisphere(vec2<f32>(vr_get(u, DIM_DIRECTION_U), vr_get(u, DIM_DIRECTION_V)));
+    let f_i = fresnel_dielectric(clamp(local.z, 0.0, 1.0), m.p0);
+    return sampled(onb_to_world(onb_from_normal(n), local), plastic_base(m, tx.base) * ((1.0 - f_o) * (1.0 - f_i) / (1.0 - p)));
 }
 
 // reference::material::normal_mapped: the shading normal a normal map
@@ -636,5 +723,5 @@ fn scatter_ggx(m: GpuMaterial, ray_dir: vec3<f32>, tx: MaterialTextures, n: vec3
     if pdf <= 0.0 {
         return absorbed();
     }
-    return Scatter(true, onb_to_world(frame, wi), ggx_lobes_eval(lobes, wo, wi) * wi.z / pdf);
+    return sampled(onb_to_world(frame, wi), ggx_lobes_eval(lobes, wo, wi) * wi.z / pdf);
 }

@@ -458,7 +458,7 @@ fn shade_mis(v: ptr<function, Vertex>, hit: Hit, pixel: u32, sample: u32) {
     var alive = s.ok;
     if alive {
         (*v).from_pdf = 0.0;
-        if density && INTEGRATOR == INTEGRATOR_MIS {
+        if s.density && INTEGRATOR == INTEGRATOR_MIS {
             let b = bsdf_eval(m, ray.direction, si, tx, s.direction);
             if b.ok && b.pdf > 0.0 {
                 (*v).from_p = si.p;

@@ -32,6 +32,7 @@ fn no_checker_boundary_plane_is_tangent_to_a_sphere() {
                 Material::Lambertian { albedo } | Material::Metal { albedo, .. } => albedo,
                 Material::DiffuseLight { emission } => emission,
                 Material::Ggx { base_color, .. } => base_color,
+                Material::Plastic { diffuse, .. } => diffuse,
                 Material::Conductor { specular, .. }
                 | Material::RoughConductor { specular, .. } => specular,
                 Material::Dielectric { .. }

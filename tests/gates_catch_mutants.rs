@@ -109,10 +109,10 @@ fn scatter_mutated(
             -si.shading_normal
         };
         let local = naive_polar_cosine(Vec2::new(u[dims::DIRECTION_U], u[dims::DIRECTION_V]));
-        return Some(Scatter {
-            direction: Onb::from_normal(n).to_world(local),
-            weight: ctx.eval(*albedo, si),
-        });
+        return Some(Scatter::sampled(
+            Onb::from_normal(n).to_world(local),
+            ctx.eval(*albedo, si),
+        ));
     }
     scatter(material, ctx, ray_dir, si, u)
 }
@@ -550,10 +550,7 @@ fn mutated_lobe(
                 if direction.dot(ng) <= 0.0 {
                     return None;
                 }
-                Some(Scatter {
-                    direction: direction.normalize(),
-                    weight: ctx.eval(albedo, si),
-                })
+                Some(Scatter::delta(direction.normalize(), ctx.eval(albedo, si)))
             }
             Material::Dielectric { ior, .. } => {
                 let eta = if si.front_face && m != LobeMutation::EtaNotInvertedOnEntry {
@@ -572,10 +569,7 @@ fn mutated_lobe(
                     Some(t) if refracts => t.normalize(),
                     _ => reflect(ray_dir, n),
                 };
-                Some(Scatter {
-                    direction,
-                    weight: Vec3::ONE,
-                })
+                Some(Scatter::delta(direction, Vec3::ONE))
             }
             _ => scatter(material, ctx, ray_dir, si, u),
         }

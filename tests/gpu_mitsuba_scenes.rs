@@ -92,8 +92,8 @@ fn gpu_a_conductor_with_eta_and_k_swapped_fails_the_mirrors_gate() {
     mutant_fails(
         "mirrors",
         "eta and k swapped",
-        "    return Scatter(true, direction, tx.base * fresnel_conductor(cos_i, eta, k));",
-        "    return Scatter(true, direction, tx.base * fresnel_conductor(cos_i, k, eta));",
+        "    return delta(direction, tx.base * fresnel_conductor(cos_i, eta, k));",
+        "    return delta(direction, tx.base * fresnel_conductor(cos_i, k, eta));",
     );
 }
 
@@ -139,5 +139,16 @@ fn gpu_rough_dielectrics_that_keep_their_index_inside_fail_the_glass_gate() {
         "the index ratio not inverted inside",
         "fn rough_dielectric_eta(eta: f32, front_face: bool) -> f32 {\n    if front_face {",
         "fn rough_dielectric_eta(eta: f32, front_face: bool) -> f32 {\n    if true {",
+    );
+}
+
+#[test]
+fn gpu_plastics_without_their_coats_inner_reflections_fail_the_plastic_gate() {
+    // The WGSL twin of `Mutant::PlasticInnerReflectionsDropped`.
+    mutant_fails(
+        "plastic",
+        "the coat's inner reflections dropped",
+        "    var inner = vec3<f32>(m.p1);\n    if m.absorption_r != 0.0 {\n        inner = diffuse * m.p1;\n    }",
+        "    var inner = vec3<f32>(0.0);",
     );
 }

@@ -66,7 +66,9 @@ fn sample_main(@builtin(global_invocation_id) gid: vec3<u32>) {
             let z = vec3<f32>(0.0, 0.0, 1.0);
             let si = SurfaceInteraction(vec3<f32>(0.0), z, z, vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(1.0), 0.0, front, 0u);
             let s = scatter(m, ray_dir, si, material_textures(m, si), u);
-            ok = s.ok;
+            // Mode 7: the draws with a density alone (a delta lobe's fall
+            // in the rejected cell).
+            ok = s.ok && (mode != 7u || s.density);
             d = s.direction;
         }
     }
@@ -88,6 +90,9 @@ enum Mode {
     /// `reference::microfacet`'s visible normals (`alpha`, `alpha_v`,
     /// `distribution`).
     MicrofacetNormal = 6,
+    /// The material's draws from its density alone (a delta lobe's are
+    /// rejected).
+    ScatterDensity = 7,
 }
 
 struct Job {
@@ -126,7 +131,7 @@ fn gpu_samples(job: &Job) -> Vec<Option<DVec3>> {
     // Texture 0 of this scene is BASE: what the material cases read.
     let mut b = reference::SceneBuilder::new();
     let t = b.constant(BASE).unwrap();
-    // Texture 1: the rough conductor's roughness.
+    // Texture 1: the rough materials' roughness (the plastic's white tint).
     assert_eq!(b.constant(Vec3::splat(job.alpha)).unwrap(), 1);
     let m = b.add_material(Material::Lambertian { albedo: t }).unwrap();
     b.add_sphere(Vec3::ZERO, 1.0, m, &Transform::default())
@@ -178,6 +183,32 @@ fn gpu_samples(job: &Job) -> Vec<Option<DVec3>> {
             })
         })
         .collect()
+}
+
+/// The material of `job` drawn on the GPU against the reference's
+/// `bsdf_eval` density seen at `si`, with the kernel's textures: 0 is
+/// BASE (it replaces `textures[0]`), 1 the job's `alpha`, which must be
+/// `textures[1]`.
+fn gpu_material_density(
+    job: &Job,
+    mut textures: [reference::texture::Texture; 2],
+    si: &reference::geometry::SurfaceInteraction,
+) -> Chi2Outcome {
+    textures[0] = reference::texture::Texture::Constant(BASE);
+    assert_eq!(
+        textures[1],
+        reference::texture::Texture::Constant(Vec3::splat(job.alpha))
+    );
+    let material = job.material.unwrap();
+    let ctx = reference::material::TextureContext {
+        textures: &textures,
+        images: &[],
+    };
+    test_density(&SPHERE, gpu_samples(job), &|wi: DVec3| {
+        reference::material::bsdf_eval(&material, ctx, -job.wo, si, wi.as_vec3())
+            .unwrap()
+            .1 as f64
+    })
 }
 
 fn towards(theta_deg: f32) -> Vec3 {
@@ -271,27 +302,16 @@ fn gpu_sampling_routines_match_their_densities() {
         .into_iter()
         .enumerate()
         {
-            let wo = towards(theta);
-            // The CPU test's material; the GPU kernel's texture 0 is BASE
-            // (the tint), texture 1 the roughness, as there.
-            let (material, mut textures) = crate::sampling_chi2::rough_conductor(kind, alpha);
-            textures[0] = reference::texture::Texture::Constant(BASE);
+            // The CPU test's material (the kernel's texture 1 the
+            // roughness, as there).
+            let (material, textures) = crate::sampling_chi2::rough_conductor(kind, alpha);
             let job = Job {
-                wo,
+                wo: towards(theta),
                 alpha,
                 material: Some(material),
                 ..Job::new(Mode::Scatter, 1050 + k as u32)
             };
-            let ctx = reference::material::TextureContext {
-                textures: &textures,
-                images: &[],
-            };
-            let z = crate::sampling_chi2::surface();
-            let o = test_density(&SPHERE, gpu_samples(&job), &|wi: DVec3| {
-                reference::material::bsdf_eval(&material, ctx, -wo, &z, wi.as_vec3())
-                    .unwrap()
-                    .1 as f64
-            });
+            let o = gpu_material_density(&job, textures, &crate::sampling_chi2::surface());
             runs.push((
                 format!("rough conductor, distribution {kind}, α {alpha}, θo {theta}°"),
                 o,
@@ -301,8 +321,7 @@ fn gpu_sampling_routines_match_their_densities() {
         // outside.
         let cases = crate::sampling_chi2::ROUGH_DIELECTRIC_CASES;
         for (k, &(kind, alpha, eta, theta, front)) in [cases[2], cases[3]].iter().enumerate() {
-            let (material, mut textures) = crate::sampling_chi2::rough_dielectric(kind, alpha, eta);
-            textures[0] = reference::texture::Texture::Constant(BASE);
+            let (material, textures) = crate::sampling_chi2::rough_dielectric(kind, alpha, eta);
             let (si, wo) = crate::sampling_chi2::viewer(theta, front);
             let job = Job {
                 wo,
@@ -311,20 +330,31 @@ fn gpu_sampling_routines_match_their_densities() {
                 material: Some(material),
                 ..Job::new(Mode::Scatter, 1060 + k as u32)
             };
-            let ctx = reference::material::TextureContext {
-                textures: &textures,
-                images: &[],
-            };
-            let o = test_density(&SPHERE, gpu_samples(&job), &|wi: DVec3| {
-                reference::material::bsdf_eval(&material, ctx, -wo, &si, wi.as_vec3())
-                    .unwrap()
-                    .1 as f64
-            });
+            let o = gpu_material_density(&job, textures, &si);
             runs.push((
                 format!("rough dielectric, distribution {kind}, α {alpha}, η {eta}, θo {theta}°, outside {front}"),
                 o,
             ));
         }
+    }
+    // The CPU test's plastic: nonlinear and linear, in front and behind.
+    let cases = crate::sampling_chi2::PLASTIC_CASES;
+    for (k, &(diffuse, eta, nonlinear, theta, front)) in [cases[1], cases[2]].iter().enumerate() {
+        let (material, textures) = crate::sampling_chi2::plastic(diffuse, eta, nonlinear);
+        let (si, wo) = crate::sampling_chi2::viewer(theta, front);
+        // Texture 1 (`alpha`) white: the coat's tint.
+        let job = Job {
+            wo,
+            alpha: 1.0,
+            front_face: front,
+            material: Some(material),
+            ..Job::new(Mode::ScatterDensity, 1070 + k as u32)
+        };
+        let o = gpu_material_density(&job, textures, &si);
+        runs.push((
+            format!("plastic, diffuse {diffuse}, η {eta}, nonlinear {nonlinear}, θo {theta}°, in front {front}"),
+            o,
+        ));
     }
     let lambert = Job {
         wo: towards(40.0),

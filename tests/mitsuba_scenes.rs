@@ -145,6 +145,11 @@ fn rough_dielectrics_that_keep_their_index_inside_fail_the_glass_gate() {
     mutant_fails("glass", Mutant::RoughDielectricEtaUninverted);
 }
 
+#[test]
+fn plastics_without_their_coats_inner_reflections_fail_the_plastic_gate() {
+    mutant_fails("plastic", Mutant::PlasticInnerReflectionsDropped);
+}
+
 fn twintrace(dir: &std::path::Path, args: &[&str]) -> (Option<i32>, String, String) {
     let out = Command::new(crate::common::twintrace_bin())
         .current_dir(dir)
@@ -416,4 +421,35 @@ fn export_mitsuba_writes_a_rough_dielectric_as_mitsubas_own_and_the_reader_reads
             .unwrap()
     };
     assert_eq!(rough(&a), rough(&b));
+}
+
+#[test]
+fn export_mitsuba_writes_a_plastic_as_mitsubas_own_and_the_reader_reads_it_back() {
+    use reference::material::Material;
+    let [a, b] = exported_as_mitsubas_own(
+        r#"{ "type": "plastic", "diffuse": [0.2, 0.4, 0.6], "specular": [0.9, 0.8, 0.7], "eta": 1.6, "nonlinear": true }"#,
+        "plastic",
+    );
+    let plastic = |s: &reference::Scene| {
+        s.materials()
+            .iter()
+            .find_map(|m| match *m {
+                Material::Plastic {
+                    diffuse,
+                    specular,
+                    eta,
+                    nonlinear,
+                    specular_weight,
+                } => Some((
+                    s.textures()[diffuse as usize],
+                    s.textures()[specular as usize],
+                    eta,
+                    nonlinear,
+                    specular_weight,
+                )),
+                _ => None,
+            })
+            .unwrap()
+    };
+    assert_eq!(plastic(&a), plastic(&b));
 }

@@ -77,8 +77,8 @@ fn unknown_types_and_fields_are_named() {
         &["textures.t", "unknown variant `noise`"],
     );
     check(
-        r#"{ "camera": { "look_from": [0,0,5], "look_at": [0,0,0] }, "materials": { "m": { "type": "plastic" } }, "objects": [] }"#,
-        &["materials.m", "unknown variant `plastic`"],
+        r#"{ "camera": { "look_from": [0,0,5], "look_at": [0,0,0] }, "materials": { "m": { "type": "hair" } }, "objects": [] }"#,
+        &["materials.m", "unknown variant `hair`"],
     );
     check(
         r#"{ "camera": { "look_from": [0,0,5], "look_at": [0,0,0], "fov": 30 }, "objects": [] }"#,
@@ -612,5 +612,63 @@ fn a_rough_dielectric_loads_with_mitsubas_defaults_and_a_textured_roughness() {
             r#""type": "rough_dielectric""#,
         ),
         &["materials.frosted", "eta"],
+    );
+}
+
+#[test]
+fn a_plastic_loads_with_its_sampling_weight_and_refuses_a_coat_its_model_cannot_hold() {
+    use glam::Vec3;
+    use reference::material::Material;
+    let dir = tempfile::tempdir().unwrap();
+    let text = r#"{ "camera": { "look_from": [0, 0, 5], "look_at": [0, 0, 0] },
+  "textures": { "tiles": { "type": "checker", "even": [0.1, 0.2, 0.3], "odd": [0.5, 0.6, 0.7] } },
+  "materials": {
+    "shiny": { "type": "plastic", "diffuse": [0.1, 0.27, 0.36], "eta": 1.49 },
+    "tiled": { "type": "plastic", "diffuse": "tiles", "specular": [0.9, 0.8, 0.7], "eta": 1.9, "nonlinear": true } },
+  "objects": [ { "type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "shiny" },
+               { "type": "sphere", "center": [3, 0, 0], "radius": 1, "material": "tiled" } ] }"#;
+    let p = write_scene(dir.path(), "scene.json", text);
+    let scene = reference::load_scene(p.to_str().unwrap()).unwrap();
+    let plastics: Vec<_> = scene
+        .materials()
+        .iter()
+        .filter_map(|m| match *m {
+            Material::Plastic {
+                specular,
+                eta,
+                nonlinear,
+                specular_weight,
+                ..
+            } => Some((specular, eta, nonlinear, specular_weight)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(plastics.len(), 2, "{:?}", scene.materials());
+    // Mitsuba's weight s / (d + s) of the textures' means: a white coat
+    // over a mean diffuse of 0.73 / 3; a tint of mean 0.8 over the
+    // checker's mean 0.4.
+    let d = (0.1f32 + 0.27 + 0.36) / 3.0;
+    assert!(
+        (plastics[0].3 - 1.0 / (d + 1.0)).abs() < 1e-6,
+        "{plastics:?}"
+    );
+    assert!((plastics[1].3 - 0.8 / 1.2).abs() < 1e-6, "{plastics:?}");
+    assert_eq!(
+        scene.textures()[plastics[0].0 as usize],
+        reference::texture::Texture::Constant(Vec3::ONE)
+    );
+    assert_eq!((plastics[0].1, plastics[0].2), (1.49, false));
+    assert_eq!((plastics[1].1, plastics[1].2), (1.9, true));
+    check(
+        &text.replace(r#""eta": 1.9"#, r#""eta": 4.5"#),
+        &["materials.tiled", "eta", "4.5", "3.9"],
+    );
+    check(
+        &text.replace(r#""eta": 1.49"#, r#""eta": 0"#),
+        &["materials.shiny", "eta"],
+    );
+    check(
+        &text.replace(r#""diffuse": [0.1, 0.27, 0.36], "#, ""),
+        &["materials.shiny", "diffuse"],
     );
 }

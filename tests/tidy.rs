@@ -97,6 +97,8 @@ const GPU_ONLY: &[(&str, &str)] = &[
         "rough_dielectric_eval",
         "the rough dielectric arm of material::bsdf_eval's match",
     ),
+    ("scatter_plastic", "the plastic arm of material::scatter's match"),
+    ("plastic_eval", "the plastic arm of material::bsdf_eval's match"),
     (
         "scatter_thin_dielectric",
         "the thin dielectric arm of material::scatter's match",

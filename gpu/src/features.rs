@@ -72,6 +72,7 @@ feature_bits! {
     ROUGH_CONDUCTOR = 21,
     BECKMANN = 22,
     ROUGH_DIELECTRIC = 23,
+    PLASTIC = 24,
 }
 
 impl Kernel {
@@ -119,6 +120,7 @@ impl Features {
                 Material::RoughDielectric { distribution, .. } => {
                     feature::ROUGH_DIELECTRIC | beckmann(*distribution)
                 }
+                Material::Plastic { .. } => feature::PLASTIC,
                 Material::Ggx {
                     normal_map,
                     clearcoat,

@@ -87,7 +87,12 @@ gpu_record! {
     /// THIN_DIELECTRIC `p0` = eta, `texture` = the reflectance, `texture2`
     /// = the transmittance; ROUGH_DIELECTRIC `p0` = eta, `texture` = the
     /// reflectance, `texture2` = the roughness, `texture3` = the
-    /// transmittance, `distribution`; GGX `texture` = base colour, `p0` = metallic, `p1` =
+    /// transmittance, `distribution`; PLASTIC `texture` = the diffuse
+    /// reflectance, `texture3` = the specular tint, `p0` = eta, `p1` = the
+    /// coat's inner diffuse reflectance
+    /// (`reference::material::plastic_internal_reflectance`), `p2` = the
+    /// specular sampling weight, `absorption_r` = 1 where nonlinear, else
+    /// 0; GGX `texture` = base colour, `p0` = metallic, `p1` =
     /// roughness, `texture2` = the metallic-roughness texture or
     /// `NO_TEXTURE`, `texture3` = the normal map or `NO_TEXTURE`, `p2` =
     /// the normal map's scale. Any tag: `alpha_texture` = the coverage's

@@ -187,6 +187,22 @@ fn pack_bsdf(m: &Material) -> GpuMaterial {
             distribution,
             ..Default::default()
         },
+        Material::Plastic {
+            diffuse,
+            specular,
+            eta,
+            nonlinear,
+            specular_weight,
+        } => GpuMaterial {
+            tag,
+            texture: diffuse,
+            texture3: specular,
+            p0: eta,
+            p1: reference::material::plastic_internal_reflectance(eta),
+            p2: specular_weight,
+            absorption_r: if nonlinear { 1.0 } else { 0.0 },
+            ..Default::default()
+        },
         Material::DiffuseLight { emission } => GpuMaterial {
             tag,
             texture: emission,

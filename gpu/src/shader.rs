@@ -102,6 +102,7 @@ pub fn generate() -> String {
     s += &u("MATERIAL_THIN_DIELECTRIC", material_tag::THIN_DIELECTRIC);
     s += &u("MATERIAL_ROUGH_CONDUCTOR", material_tag::ROUGH_CONDUCTOR);
     s += &u("MATERIAL_ROUGH_DIELECTRIC", material_tag::ROUGH_DIELECTRIC);
+    s += &u("MATERIAL_PLASTIC", material_tag::PLASTIC);
     s += &u("DISTRIBUTION_GGX", reference::microfacet::distribution::GGX);
     s += &u(
         "DISTRIBUTION_BECKMANN",

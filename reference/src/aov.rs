@@ -73,6 +73,7 @@ pub fn albedo(material: &Material, ctx: TextureContext, si: &SurfaceInteraction)
             ctx.eval(specular, si)
         }
         Material::Ggx { base_color, .. } => ctx.base_color(base_color, si),
+        Material::Plastic { diffuse, .. } => ctx.eval(diffuse, si),
         Material::Dielectric { .. }
         | Material::SmoothDielectric { .. }
         | Material::ThinDielectric { .. }

@@ -7,8 +7,10 @@
 //!   whose material has a density ([`crate::material::bsdf_eval`]): one
 //!   light sample ([`crate::light`]) with a shadow ray, combined with the
 //!   BSDF sample's emission by the power heuristic (Veach 1997, ch. 9);
-//!   emission reached through delta or density-less vertices (glass,
-//!   metal) and from the camera counts in full ([`trace_path_mis`]).
+//!   emission reached through a delta lobe's draw or a density-less
+//!   vertex (glass, metal, a plastic's coat:
+//!   [`crate::material::Scatter::density`]) and from the camera counts
+//!   in full ([`trace_path_mis`]).
 //!
 //! Punctual lights (point, spot, directional) are delta lights, which no
 //! BSDF sample can find: both estimators sample them by next-event
@@ -237,9 +239,8 @@ pub fn trace_path_mis(
             radiance += throughput * le * weight;
         }
         let u = sampled_vertex_randoms(settings.sampler, settings.seed, pixel, sample, segment + 1);
-        let has_density = has_density(material);
         // The shadow ray is the path's next segment: none after the last.
-        if has_density && !lights.is_empty() && segment + 1 < settings.max_depth {
+        if has_density(material) && !lights.is_empty() && segment + 1 < settings.max_depth {
             let ul =
                 sampled_light_randoms(settings.sampler, settings.seed, pixel, sample, segment + 1);
             radiance += throughput * next_event(scene, lights, ctx, material, &ray, &si, &ul);
@@ -247,7 +248,7 @@ pub fn trace_path_mis(
         let Some(s) = scatter(material, ctx, ray.direction, &si, &u) else {
             break;
         };
-        came_from = if has_density {
+        came_from = if s.density {
             bsdf_eval(material, ctx, ray.direction, &si, s.direction)
                 .map(|(_, pdf)| (si.p, pdf))
                 .filter(|&(_, pdf)| pdf > 0.0)

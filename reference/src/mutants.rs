@@ -96,6 +96,10 @@ pub enum Mutant {
     /// half vector's Jacobian `η²|wi·h| / (wo·h + η wi·h)²`
     /// (`material::bsdf_eval`).
     RoughTransmissionWithoutJacobian,
+    /// The plastics' base without its coat's inner reflections: the
+    /// diffuse reflectance for `diffuse / (1 − F_dr)`
+    /// (`material::plastic_base`).
+    PlasticInnerReflectionsDropped,
     /// A Mitsuba `envmap` read without the half turn about +y that puts
     /// Mitsuba's u = 0 (along −z) where twintrace's is
     /// (`loader::mitsuba::scene`).

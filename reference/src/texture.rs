@@ -193,6 +193,30 @@ pub enum Texture {
     },
 }
 
+/// Texture `id`'s mean, one number (Mitsuba's `Texture::mean` in its rgb
+/// variants, which weighs a plastic's sampling of its two lobes): a
+/// constant's channels' mean, an image's mean luminance
+/// (Rec. 709's weights, [`crate::material::LUMINANCE_WEIGHTS`], times its
+/// factor), a pattern's
+/// two textures' mean.
+pub fn texture_mean(textures: &[Texture], images: &[ImageData], id: u32) -> f32 {
+    match textures[id as usize] {
+        Texture::Constant(c) => (c.x + c.y + c.z) / 3.0,
+        Texture::Image { image, factor, .. } => {
+            let texels = &images[image as usize].texels;
+            let weights = Vec3::from_array(crate::material::LUMINANCE_WEIGHTS);
+            let sum: f64 = texels
+                .iter()
+                .map(|&t| f64::from(weights.dot(t * factor)))
+                .sum();
+            (sum / texels.len().max(1) as f64) as f32
+        }
+        Texture::Checker { even, odd, .. } | Texture::UvChecker { even, odd, .. } => {
+            0.5 * (texture_mean(textures, images, even) + texture_mean(textures, images, odd))
+        }
+    }
+}
+
 /// Numeric tags of [`Texture`], shared with the GPU.
 pub mod texture_tag {
     pub const CONSTANT: u32 = 0;

@@ -1355,12 +1355,25 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
         Material::SmoothDielectric { .. } => "smooth dielectric",
         Material::ThinDielectric { .. } => "thin dielectric",
         Material::RoughDielectric { .. } => "rough dielectric",
+        Material::Plastic { .. } => "plastic",
         Material::Ggx { .. } => "ggx",
     };
     say!(
         "materials: {}",
         count(
-            &["lambertian", "metal", "dielectric", "diffuse light", "ggx"],
+            &[
+                "lambertian",
+                "metal",
+                "dielectric",
+                "diffuse light",
+                "conductor",
+                "rough conductor",
+                "smooth dielectric",
+                "thin dielectric",
+                "rough dielectric",
+                "plastic",
+                "ggx"
+            ],
             &material_kind,
             scene.materials().len()
         )

@@ -5,7 +5,7 @@ regenerates the same inputs and compares).
     python3 xtask/mitsuba/bsdf_values.py CASE  [--out fixtures/mitsuba/bsdf]
 
 CASE: conductor, dielectric, thindielectric, roughconductor,
-roughdielectric.
+roughdielectric, plastic.
 
 Inputs: case i of N has its parameters from the additive sequence
 frac((i + 1) * a) of the constants A below, computed in f64 with + - * /
@@ -227,12 +227,68 @@ def roughdielectric(i):
     return [value, pdf, bs.wo[0], bs.wo[1], bs.wo[2], weight[0], bs.pdf]
 
 
+def plastic_inputs(i):
+    """Case i of the plastic: diffuse reflectance in [0, 1) per channel
+    (units 0-2), int_ior in [1.05, 2.55) over ext_ior 1 (unit 3),
+    nonlinear on odd i, a specular tint in [0, 1) per channel (units
+    9-11) where i is a multiple of 3 (else none: white), wi (the viewer)
+    at cos = unit 4 and azimuth 2 pi unit 5, wo (the light) at cos =
+    sqrt(unit 6) and azimuth 2 pi unit 7; in f64."""
+    diffuse = [unit(i, c) for c in range(3)]
+    eta = 1.05 + 1.5 * unit(i, 3)
+    tint = [unit(i, 9 + c) for c in range(3)] if i % 3 == 0 else None
+    wi = hemisphere(unit(i, 4), unit(i, 5))
+    wo = hemisphere(unit(i, 6) ** 0.5, unit(i, 7))
+    return diffuse, eta, i % 2 == 1, tint, wi, wo
+
+
+def hemisphere(cos, u):
+    """The direction at cosine cos from +z, azimuth 2 pi u (the records
+    carry the directions, so the test needs no trigonometry of its own)."""
+    sin = (1.0 - cos * cos) ** 0.5
+    phi = 2.0 * np.pi * u
+    return (sin * np.cos(phi), sin * np.sin(phi), cos)
+
+
+def plastic(i):
+    """Records 18 f32: wi and wo as the plugin saw them (three each),
+    eval (three channels) and pdf at (wi, wo), then a sample drawn at
+    lobe u = unit 12 and u = (unit 8, unit 2): its wo (three), weight
+    (three channels), pdf, and 1 where it is the coat's mirror (0: the
+    diffuse lobe)."""
+    diffuse, eta, nonlinear, tint, wi, wo = plastic_inputs(i)
+    spec = {
+        "type": "plastic",
+        "diffuse_reflectance": {"type": "rgb", "value": [float(np.float32(c)) for c in diffuse]},
+        "int_ior": float(np.float32(eta)),
+        "ext_ior": 1.0,
+        "nonlinear": nonlinear,
+    }
+    if tint is not None:
+        spec["specular_reflectance"] = {"type": "rgb", "value": [float(np.float32(c)) for c in tint]}
+    bsdf = mi.load_dict(spec)
+    si = rough_surface(wi)
+    ctx = mi.BSDFContext()
+    wo = mi.Vector3f([float(np.float32(c)) for c in wo])
+    value = bsdf.eval(ctx, si, wo)
+    pdf = bsdf.pdf(ctx, si, wo)
+    u = [float(np.float32(unit(i, 8))), float(np.float32(unit(i, 2)))]
+    bs, weight = bsdf.sample(ctx, si, float(np.float32(unit(i, 12))), u)
+    mirror = 1.0 if mi.has_flag(bs.sampled_type, mi.BSDFFlags.DeltaReflection) else 0.0
+    return [
+        si.wi[0], si.wi[1], si.wi[2], wo[0], wo[1], wo[2],
+        value[0], value[1], value[2], pdf,
+        bs.wo[0], bs.wo[1], bs.wo[2], weight[0], weight[1], weight[2], bs.pdf, mirror,
+    ]
+
+
 CASES = {
     "conductor": conductor,
     "dielectric": dielectric,
     "thindielectric": thindielectric,
     "roughconductor": roughconductor,
     "roughdielectric": roughdielectric,
+    "plastic": plastic,
 }
 
 

@@ -275,6 +275,7 @@ pub enum MaterialJson {
     /// The same fields, `eta` the sheet's index over its surroundings'.
     ThinDielectric(SmoothDielectricMaterialJson),
     RoughDielectric(RoughDielectricMaterialJson),
+    Plastic(PlasticMaterialJson),
 }
 
 fn default_roughness() -> f32 {
@@ -526,6 +527,26 @@ pub struct RoughDielectricMaterialJson {
     pub reflectance: Option<ColorRef>,
     #[serde(default)]
     pub transmittance: Option<ColorRef>,
+    #[serde(default)]
+    pub emission: Option<ColorRef>,
+}
+
+/// A smooth plastic (Mitsuba 3's `plastic`): a diffuse base under a
+/// smooth dielectric coat.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlasticMaterialJson {
+    /// The base's diffuse reflectance.
+    pub diffuse: ColorRef,
+    /// A tint on what the coat reflects (default white).
+    #[serde(default)]
+    pub specular: Option<ColorRef>,
+    /// The coat's index over the outside's.
+    pub eta: f32,
+    /// The base's colour compounded at each reflection inside the coat
+    /// (Mitsuba's `nonlinear`; default false).
+    #[serde(default)]
+    pub nonlinear: bool,
     #[serde(default)]
     pub emission: Option<ColorRef>,
 }
@@ -1090,6 +1111,15 @@ impl Resolver<'_> {
                     .colour_or_white(d.transmittance.as_ref())
                     .map_err(field("transmittance"))?,
             },
+            MaterialJson::Plastic(p) => {
+                let diffuse = self.colour(&p.diffuse, 0).map_err(field("diffuse"))?;
+                let specular = self
+                    .colour_or_white(p.specular.as_ref())
+                    .map_err(field("specular"))?;
+                self.builder
+                    .plastic(diffuse, specular, p.eta, p.nonlinear)
+                    .map_err(|e| e.within(&format!("materials.{name}")))?
+            }
             MaterialJson::DiffuseLight(DiffuseLightMaterialJson { emission }) => {
                 Material::DiffuseLight {
                     emission: self.colour(emission, 0).map_err(field("emission"))?,
@@ -1132,9 +1162,8 @@ impl Resolver<'_> {
             | MaterialJson::RoughConductor(RoughConductorMaterialJson { emission, .. })
             | MaterialJson::SmoothDielectric(SmoothDielectricMaterialJson { emission, .. })
             | MaterialJson::ThinDielectric(SmoothDielectricMaterialJson { emission, .. })
-            | MaterialJson::RoughDielectric(RoughDielectricMaterialJson { emission, .. }) => {
-                emission.as_ref()
-            }
+            | MaterialJson::RoughDielectric(RoughDielectricMaterialJson { emission, .. })
+            | MaterialJson::Plastic(PlasticMaterialJson { emission, .. }) => emission.as_ref(),
             MaterialJson::DiffuseLight(_) => None,
         };
         match emission {

@@ -358,6 +358,36 @@ fn check_material(material: &Material, textures: usize) -> Result<(), SceneError
             check_eta(eta)?;
             check_distribution(distribution)?;
         }
+        Material::Plastic {
+            diffuse,
+            specular,
+            eta,
+            specular_weight,
+            ..
+        } => {
+            tex_ok("diffuse", diffuse)?;
+            tex_ok("specular", specular)?;
+            check_eta(eta)?;
+            // Egan and Hilgeman's fit of the coat's inner reflectance
+            // passes 1 near eta 3.9 (Mitsuba's plugin gives negative
+            // light there): a coat that dense has no plastic's model.
+            let internal = crate::material::plastic_internal_reflectance(eta);
+            if internal >= 1.0 {
+                return Err(SceneError::invalid(
+                    "eta",
+                    format!(
+                        "{eta}: a plastic's coat reflects {internal} of its diffuse light back in \
+                         by the fit of its model (at most about 3.9 keeps it below 1)"
+                    ),
+                ));
+            }
+            if !(0.0..=1.0).contains(&specular_weight) {
+                return Err(SceneError::invalid(
+                    "specular_weight",
+                    format!("{specular_weight} is outside [0, 1]"),
+                ));
+            }
+        }
         Material::Metal { albedo, fuzz } => {
             tex_ok("albedo", albedo)?;
             if !(0.0..=1.0).contains(&fuzz) {
@@ -498,6 +528,44 @@ impl SceneBuilder {
     /// Shorthand for a constant texture.
     pub fn constant(&mut self, c: Vec3) -> Result<u32, SceneError> {
         self.add_texture(Texture::Constant(c))
+    }
+
+    /// Texture `id`'s mean ([`crate::texture::texture_mean`]).
+    pub fn texture_mean(&self, id: u32) -> Result<f32, SceneError> {
+        if id as usize >= self.textures.len() {
+            return Err(SceneError::invalid(
+                "texture",
+                format!("texture index {id} does not exist"),
+            ));
+        }
+        Ok(crate::texture::texture_mean(
+            &self.textures,
+            &self.images,
+            id,
+        ))
+    }
+
+    /// A smooth plastic ([`Material::Plastic`]) of textures `diffuse` and
+    /// `specular`, its sampling weight from their means as Mitsuba's
+    /// ([`crate::material::plastic_specular_weight`]); checked when added.
+    pub fn plastic(
+        &self,
+        diffuse: u32,
+        specular: u32,
+        eta: f32,
+        nonlinear: bool,
+    ) -> Result<Material, SceneError> {
+        let weight = crate::material::plastic_specular_weight(
+            self.texture_mean(diffuse)?,
+            self.texture_mean(specular)?,
+        );
+        Ok(Material::Plastic {
+            diffuse,
+            specular,
+            eta,
+            nonlinear,
+            specular_weight: weight,
+        })
     }
 
     /// Adds a material after checking its parameters.

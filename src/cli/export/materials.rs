@@ -261,6 +261,13 @@ pub(super) enum Surface {
         reflectance: Tex,
         transmittance: Tex,
     },
+    /// Mitsuba's own smooth `plastic`.
+    Plastic {
+        diffuse: Tex,
+        specular: Tex,
+        eta: f32,
+        nonlinear: bool,
+    },
     FuzzyMetal {
         albedo: Tex,
         fuzz: f32,
@@ -379,6 +386,16 @@ impl Surface {
                 reflectance.xml("specular_reflectance", uv),
                 transmittance.xml("specular_transmittance", uv)
             ),
+            Surface::Plastic {
+                diffuse,
+                specular,
+                eta,
+                nonlinear,
+            } => sided(format!(
+                r#"<bsdf type="plastic"><float name="int_ior" value="{eta:?}"/><float name="ext_ior" value="1.0"/><boolean name="nonlinear" value="{nonlinear}"/>{}{}</bsdf>"#,
+                diffuse.xml("diffuse_reflectance", uv),
+                specular.xml("specular_reflectance", uv)
+            )),
             Surface::FuzzyMetal { albedo, fuzz } => sided(format!(
                 r#"<bsdf type="tt_fuzzy_metal">{}<float name="fuzz" value="{fuzz:?}"/></bsdf>"#,
                 albedo.xml("albedo", uv)
@@ -467,6 +484,9 @@ impl Surface {
                 transmittance,
                 ..
             } => vec![reflectance, transmittance],
+            Surface::Plastic {
+                diffuse, specular, ..
+            } => vec![diffuse, specular],
             Surface::FuzzyMetal { albedo, .. } => vec![albedo],
             Surface::Dielectric { .. } | Surface::Light(_) => vec![],
             Surface::Ggx {
@@ -501,6 +521,9 @@ impl Surface {
                 transmittance,
                 ..
             } => reflectance.uses_plugins() || transmittance.uses_plugins(),
+            Surface::Plastic {
+                diffuse, specular, ..
+            } => diffuse.uses_plugins() || specular.uses_plugins(),
             Surface::Light(_) => false,
             // (Shading normals, which need `tt_facing`, are `Placement`'s.)
             Surface::FuzzyMetal { .. } | Surface::Dielectric { .. } | Surface::Ggx { .. } => true,
@@ -533,8 +556,8 @@ impl Surface {
     }
 
     /// Why it cannot be on triangles with shading normals, if it cannot:
-    /// the mirror and fuzzy metal test their reflection against the
-    /// geometric normal, which their Mitsuba forms do not see; Mitsuba's
+    /// the mirror, the fuzzy metal and the plastic's coat test their
+    /// reflection against the geometric normal, which their Mitsuba forms do not see; Mitsuba's
     /// `area` light emits toward its shading normal's side, the
     /// reference's toward the geometric front.
     pub(super) fn shading_normals_refused(&self) -> Option<&'static str> {
@@ -549,6 +572,8 @@ impl Surface {
             // reference's by the geometric one.
             Surface::SmoothDielectric { .. } => Some("a smooth dielectric"),
             Surface::RoughDielectric { .. } => Some("a rough dielectric"),
+            // Its coat's mirror, as a metal's.
+            Surface::Plastic { .. } => Some("a plastic"),
         }
     }
 }
@@ -683,6 +708,18 @@ pub(super) fn surface(scene: &Scene, i: usize) -> Result<Surface> {
             eta,
             reflectance: texture(scene, reflectance, &what)?,
             transmittance: texture(scene, transmittance, &what)?,
+        },
+        Material::Plastic {
+            diffuse,
+            specular,
+            eta,
+            nonlinear,
+            ..
+        } => Surface::Plastic {
+            diffuse: texture(scene, diffuse, &what)?,
+            specular: texture(scene, specular, &what)?,
+            eta,
+            nonlinear,
         },
         Material::Ggx {
             base_color,

@@ -1000,7 +1000,7 @@ impl Reader<'_> {
                 [one]
                     if matches!(
                         one.object.kind.as_str(),
-                        "diffuse" | "conductor" | "roughconductor"
+                        "diffuse" | "conductor" | "roughconductor" | "plastic"
                     ) =>
                 {
                     self.one_sided_bsdf(&one.object)?
@@ -1126,6 +1126,22 @@ impl Reader<'_> {
                     eta,
                     k,
                 }
+            }
+            "plastic" => {
+                // Mitsuba's defaults: polypropylene (1.49) over air.
+                let eta = props.ior("int_ior", "polypropylene")? / props.ior("ext_ior", "air")?;
+                let diffuse =
+                    self.colour(&props, "diffuse_reflectance", ColourUse::Reflectance, 0.5)?;
+                let specular =
+                    self.colour(&props, "specular_reflectance", ColourUse::Reflectance, 1.0)?;
+                let nonlinear = props.boolean("nonlinear", false)?;
+                let (diffuse, specular) = (
+                    self.texture_of(diffuse, &o.at)?,
+                    self.texture_of(specular, &o.at)?,
+                );
+                self.builder
+                    .plastic(diffuse, specular, eta as f32, nonlinear)
+                    .map_err(|e| fail(&o.at, e.to_string()))?
             }
             _ => return Err(unsupported(o, "")),
         };
