@@ -112,7 +112,7 @@ struct MaterialTextures {
     coat: vec2<f32>,
     // What the material emits (its `emission` texture; zero without one).
     emission: vec3<f32>,
-    // The rough dielectric's transmittance, the plastic's specular tint
+    // The rough dielectric's transmittance, the plastics' specular tint
     // (zero for the others).
     tint: vec3<f32>,
 }
@@ -125,7 +125,7 @@ fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures
     if m.tag == MATERIAL_ROUGH_CONDUCTOR || m.tag == MATERIAL_ROUGH_DIELECTRIC {
         t.metal_rough.x = evaluate_texture(m.texture2, si.p, si.uv, si.uv1).x;
     }
-    if (m.tag == MATERIAL_ROUGH_DIELECTRIC && uses(FEATURE_ROUGH_DIELECTRIC)) || (m.tag == MATERIAL_PLASTIC && uses(FEATURE_PLASTIC)) {
+    if (m.tag == MATERIAL_ROUGH_DIELECTRIC && uses(FEATURE_ROUGH_DIELECTRIC)) || (m.tag == MATERIAL_PLASTIC && uses(FEATURE_PLASTIC)) || (m.tag == MATERIAL_ROUGH_PLASTIC && uses(FEATURE_ROUGH_PLASTIC)) {
         t.tint = evaluate_texture(m.texture3, si.p, si.uv, si.uv1);
     }
     if m.tag == MATERIAL_GGX {
@@ -175,7 +175,7 @@ fn emitted(si: SurfaceInteraction, tx: MaterialTextures) -> vec3<f32> {
 
 // Whether the material's scatter has a density that bsdf_eval gives.
 fn has_density(m: GpuMaterial) -> bool {
-    return m.tag == MATERIAL_LAMBERTIAN || m.tag == MATERIAL_GGX || m.tag == MATERIAL_ROUGH_CONDUCTOR || m.tag == MATERIAL_ROUGH_DIELECTRIC || m.tag == MATERIAL_PLASTIC;
+    return m.tag == MATERIAL_LAMBERTIAN || m.tag == MATERIAL_GGX || m.tag == MATERIAL_ROUGH_CONDUCTOR || m.tag == MATERIAL_ROUGH_DIELECTRIC || m.tag == MATERIAL_PLASTIC || m.tag == MATERIAL_ROUGH_PLASTIC;
 }
 
 // f(wo, wi)·|cos θ_i| and the density with which scatter samples wi, for a
@@ -235,6 +235,11 @@ fn bsdf_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mat
         case MATERIAL_PLASTIC: {
             if !uses(FEATURE_PLASTIC) { poison(); break; }
             return plastic_eval(m, ray_dir, tx, n, wi);
+        }
+        case MATERIAL_ROUGH_PLASTIC: {
+            if !uses(FEATURE_ROUGH_PLASTIC) { poison(); break; }
+            let frame = onb_from_normal(n);
+            return rough_plastic_eval(m, tx, onb_to_local(frame, -ray_dir), onb_to_local(frame, wi));
         }
         case MATERIAL_METAL, MATERIAL_DIELECTRIC, MATERIAL_DIFFUSE_LIGHT, MATERIAL_CONDUCTOR, MATERIAL_SMOOTH_DIELECTRIC, MATERIAL_THIN_DIELECTRIC: {
             return BsdfEval(false, vec3<f32>(0.0), 0.0);
@@ -306,6 +311,9 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mater
         if m.tag == MATERIAL_PLASTIC {
             return scatter_plastic(m, ray_dir, tx, n, ng, u);
         }
+        if m.tag == MATERIAL_ROUGH_PLASTIC {
+            return scatter_rough_plastic(m, ray_dir, tx, n, u);
+        }
         if m.tag == MATERIAL_GGX {
             return scatter_ggx(m, ray_dir, tx, n, u);
         }
@@ -342,6 +350,9 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mater
         }
         case MATERIAL_PLASTIC: {
             return scatter_plastic(m, ray_dir, tx, n, ng, u);
+        }
+        case MATERIAL_ROUGH_PLASTIC: {
+            return scatter_rough_plastic(m, ray_dir, tx, n, u);
         }
         case MATERIAL_GGX: {
             return scatter_ggx(m, ray_dir, tx, n, u);
@@ -642,6 +653,70 @@ fn scatter_plastic(m: GpuMaterial, ray_dir: vec3<f32>, tx: MaterialTextures, n: 
     let local = sample_cosine_hemisphere(vec2<f32>(vr_get(u, DIM_DIRECTION_U), vr_get(u, DIM_DIRECTION_V)));
     let f_i = fresnel_dielectric(clamp(local.z, 0.0, 1.0), m.p0);
     return sampled(onb_to_world(onb_from_normal(n), local), plastic_base(m, tx.base) * ((1.0 - f_o) * (1.0 - f_i) / (1.0 - p)));
+}
+
+// reference::material::rough_plastic_transmittance: the coat's
+// transmittance table (image `image`, first channel) read linearly at cos.
+fn rough_plastic_transmittance(image: u32, cos: f32) -> f32 {
+    let img = images[image];
+    let x = cos * f32(img.width - 1u);
+    let i = min(u32(x), img.width - 2u);
+    let v0 = texel(img, i, 0u).x;
+    let v1 = texel(img, i + 1u, 0u).x;
+    return v0 + (v1 - v0) * (x - f32(i));
+}
+
+// reference::material::rough_plastic_eval: f·cos θi and the density at
+// viewer wo and light wi, local.
+fn rough_plastic_eval(m: GpuMaterial, tx: MaterialTextures, wo: vec3<f32>, wi: vec3<f32>) -> BsdfEval {
+    let zero = BsdfEval(true, vec3<f32>(0.0), 0.0);
+    if wo.z <= 0.0 || wi.z <= 0.0 {
+        return zero;
+    }
+    let t_o = rough_plastic_transmittance(m.texture2, wo.z);
+    let p = plastic_specular_probability(1.0 - t_o, m.p2);
+    if p < 0.0 {
+        return zero;
+    }
+    let mf = rough_microfacet(m, m.absorption_g);
+    let h = normalize(wo + wi);
+    let dg = microfacet_d(mf, h) * microfacet_g1(mf, wo, h);
+    let f = fresnel_dielectric(clamp(dot(wo, h), 0.0, 1.0), m.p0);
+    let coat = tx.tint * (f * dg * microfacet_g1(mf, wi, h) / (4.0 * wo.z));
+    let t_i = rough_plastic_transmittance(m.texture2, wi.z);
+    let cos = wi.z * FRAC_1_PI;
+    let base = plastic_base(m, tx.base) * (t_o * t_i * cos);
+    return BsdfEval(true, coat + base, p * dg / (4.0 * wo.z) + (1.0 - p) * cos);
+}
+
+fn scatter_rough_plastic(m: GpuMaterial, ray_dir: vec3<f32>, tx: MaterialTextures, n: vec3<f32>, u: VertexRandoms) -> Scatter {
+    if !uses(FEATURE_ROUGH_PLASTIC) { poison(); return absorbed(); }
+    let frame = onb_from_normal(n);
+    let wo = onb_to_local(frame, -ray_dir);
+    if wo.z <= 0.0 {
+        return absorbed();
+    }
+    let t_o = rough_plastic_transmittance(m.texture2, wo.z);
+    let p = plastic_specular_probability(1.0 - t_o, m.p2);
+    if p < 0.0 {
+        return absorbed();
+    }
+    let dir_u = vec2<f32>(vr_get(u, DIM_DIRECTION_U), vr_get(u, DIM_DIRECTION_V));
+    var wi: vec3<f32>;
+    if vr_get(u, DIM_LOBE) < p {
+        let mf = rough_microfacet(m, m.absorption_g);
+        wi = reflect_about(-wo, microfacet_sample_visible(mf, wo, dir_u));
+    } else {
+        wi = sample_cosine_hemisphere(dir_u);
+    }
+    if wi.z <= 0.0 {
+        return absorbed();
+    }
+    let b = rough_plastic_eval(m, tx, wo, wi);
+    if b.pdf <= 0.0 {
+        return absorbed();
+    }
+    return sampled(onb_to_world(frame, wi), b.f_cos / b.pdf);
 }
 
 // reference::material::normal_mapped: the shading normal a normal map

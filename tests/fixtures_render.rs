@@ -32,7 +32,9 @@ fn no_checker_boundary_plane_is_tangent_to_a_sphere() {
                 Material::Lambertian { albedo } | Material::Metal { albedo, .. } => albedo,
                 Material::DiffuseLight { emission } => emission,
                 Material::Ggx { base_color, .. } => base_color,
-                Material::Plastic { diffuse, .. } => diffuse,
+                Material::Plastic { diffuse, .. } | Material::RoughPlastic { diffuse, .. } => {
+                    diffuse
+                }
                 Material::Conductor { specular, .. }
                 | Material::RoughConductor { specular, .. } => specular,
                 Material::Dielectric { .. }

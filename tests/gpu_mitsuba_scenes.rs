@@ -152,3 +152,14 @@ fn gpu_plastics_without_their_coats_inner_reflections_fail_the_plastic_gate() {
         "    var inner = vec3<f32>(0.0);",
     );
 }
+
+#[test]
+fn gpu_rough_plastics_whose_base_skips_the_coats_transmittance_fail_the_coats_gate() {
+    // The WGSL twin of `Mutant::RoughPlasticTransmittanceUnread`.
+    mutant_fails(
+        "coats",
+        "the coat's transmittance unread",
+        "    let base = plastic_base(m, tx.base) * (t_o * t_i * cos);",
+        "    let base = plastic_base(m, tx.base) * cos;",
+    );
+}

@@ -108,6 +108,8 @@ struct Job {
     alpha_v: f32,
     distribution: u32,
     material: Option<Material>,
+    /// The scene's image 0 (a rough plastic's coat table), if any.
+    table: Option<reference::texture::ImageData>,
 }
 
 impl Job {
@@ -122,6 +124,7 @@ impl Job {
             alpha_v: 0.0,
             distribution: 0,
             material: None,
+            table: None,
         }
     }
 }
@@ -133,6 +136,9 @@ fn gpu_samples(job: &Job) -> Vec<Option<DVec3>> {
     let t = b.constant(BASE).unwrap();
     // Texture 1: the rough materials' roughness (the plastic's white tint).
     assert_eq!(b.constant(Vec3::splat(job.alpha)).unwrap(), 1);
+    if let Some(table) = &job.table {
+        assert_eq!(b.add_image(table.clone()), 0);
+    }
     let m = b.add_material(Material::Lambertian { albedo: t }).unwrap();
     b.add_sphere(Vec3::ZERO, 1.0, m, &Transform::default())
         .unwrap();
@@ -200,9 +206,10 @@ fn gpu_material_density(
         reference::texture::Texture::Constant(Vec3::splat(job.alpha))
     );
     let material = job.material.unwrap();
+    let images: Vec<_> = job.table.iter().cloned().collect();
     let ctx = reference::material::TextureContext {
         textures: &textures,
-        images: &[],
+        images: &images,
     };
     test_density(&SPHERE, gpu_samples(job), &|wi: DVec3| {
         reference::material::bsdf_eval(&material, ctx, -job.wo, si, wi.as_vec3())
@@ -353,6 +360,27 @@ fn gpu_sampling_routines_match_their_densities() {
         let o = gpu_material_density(&job, textures, &si);
         runs.push((
             format!("plastic, diffuse {diffuse}, η {eta}, nonlinear {nonlinear}, θo {theta}°, in front {front}"),
+            o,
+        ));
+    }
+    // The CPU test's rough plastic: GGX from behind, Beckmann in front.
+    let cases = crate::sampling_chi2::ROUGH_PLASTIC_CASES;
+    for (k, &(kind, alpha, eta, diffuse, theta, front)) in [cases[1], cases[2]].iter().enumerate() {
+        let (material, textures, table) =
+            crate::sampling_chi2::rough_plastic(kind, alpha, eta, diffuse);
+        let (si, wo) = crate::sampling_chi2::viewer(theta, front);
+        // Texture 1 (`alpha`) white: the coat's tint.
+        let job = Job {
+            wo,
+            alpha: 1.0,
+            front_face: front,
+            material: Some(material),
+            table: Some(table),
+            ..Job::new(Mode::Scatter, 1080 + k as u32)
+        };
+        let o = gpu_material_density(&job, textures, &si);
+        runs.push((
+            format!("rough plastic, distribution {kind}, α {alpha}, η {eta}, θo {theta}°, in front {front}"),
             o,
         ));
     }

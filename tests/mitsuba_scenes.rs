@@ -150,6 +150,11 @@ fn plastics_without_their_coats_inner_reflections_fail_the_plastic_gate() {
     mutant_fails("plastic", Mutant::PlasticInnerReflectionsDropped);
 }
 
+#[test]
+fn rough_plastics_whose_base_skips_the_coats_transmittance_fail_the_coats_gate() {
+    mutant_fails("coats", Mutant::RoughPlasticTransmittanceUnread);
+}
+
 fn twintrace(dir: &std::path::Path, args: &[&str]) -> (Option<i32>, String, String) {
     let out = Command::new(crate::common::twintrace_bin())
         .current_dir(dir)
@@ -203,17 +208,14 @@ fn the_command_line_takes_mitsubas_parameters_and_refuses_what_is_not_implemente
     // place, exit 2, nothing written.
     write(
         d,
-        "plastic.xml",
-        &SCENE.replace("BSDF", r#"<bsdf type="roughplastic"/>"#),
+        "hair.xml",
+        &SCENE.replace("BSDF", r#"<bsdf type="hair"/>"#),
     );
-    let (code, _, err) = twintrace(
-        d,
-        &["render", "plastic.xml", "--backend", "cpu", "-o", "out"],
-    );
+    let (code, _, err) = twintrace(d, &["render", "hair.xml", "--backend", "cpu", "-o", "out"]);
     assert_eq!(code, Some(2), "{err}");
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     assert!(
-        err.contains("plastic.xml:11:") && err.contains("bsdf \"roughplastic\" is not supported"),
+        err.contains("hair.xml:11:") && err.contains("bsdf \"hair\" is not supported"),
         "{err}"
     );
     assert!(!d.join("out.exr").exists());
@@ -452,4 +454,42 @@ fn export_mitsuba_writes_a_plastic_as_mitsubas_own_and_the_reader_reads_it_back(
             .unwrap()
     };
     assert_eq!(plastic(&a), plastic(&b));
+}
+
+#[test]
+fn export_mitsuba_writes_a_rough_plastic_as_mitsubas_own_and_the_reader_reads_it_back() {
+    use reference::material::Material;
+    let [a, b] = exported_as_mitsubas_own(
+        r#"{ "type": "rough_plastic", "distribution": "ggx", "alpha": 0.2, "diffuse": [0.2, 0.4, 0.6], "eta": 1.6 }"#,
+        "roughplastic",
+    );
+    let rough = |s: &reference::Scene| {
+        s.materials()
+            .iter()
+            .find_map(|m| match *m {
+                Material::RoughPlastic {
+                    distribution,
+                    alpha,
+                    diffuse,
+                    eta,
+                    nonlinear,
+                    specular_weight,
+                    transmittance,
+                    internal,
+                    ..
+                } => Some((
+                    distribution,
+                    alpha,
+                    s.textures()[diffuse as usize],
+                    eta,
+                    nonlinear,
+                    specular_weight,
+                    s.images()[transmittance as usize].texels.clone(),
+                    internal,
+                )),
+                _ => None,
+            })
+            .unwrap()
+    };
+    assert_eq!(rough(&a), rough(&b));
 }

@@ -524,6 +524,104 @@ fn plastic_samples_its_density() {
     assert_family_passes("plastic", &runs);
 }
 
+/// The rough plastic of the chi-square tests (CPU and GPU): its coat's
+/// table the scene's image 0, diffuse reflectance `diffuse` (texture 0)
+/// under a white coat (texture 1), made as the loaders make it.
+pub(crate) fn rough_plastic(
+    distribution: u32,
+    alpha: f32,
+    eta: f32,
+    diffuse: Vec3,
+) -> (Material, [Texture; 2], reference::texture::ImageData) {
+    let mut b = reference::SceneBuilder::new();
+    let d = b.constant(diffuse).unwrap();
+    let s = b.constant(Vec3::ONE).unwrap();
+    let material = b
+        .rough_plastic(distribution, alpha, (d, s), eta, false)
+        .unwrap();
+    let Material::RoughPlastic { transmittance, .. } = material else {
+        unreachable!()
+    };
+    assert_eq!((d, s, transmittance), (0, 1, 0));
+    let table = b.image(0).unwrap().clone();
+    (
+        material,
+        [Texture::Constant(diffuse), Texture::Constant(Vec3::ONE)],
+        table,
+    )
+}
+
+/// The rough plastic's cases of the chi-square tests: distribution,
+/// roughness, index, diffuse reflectance, the viewer's angle from the
+/// normal and whether it is in front.
+pub(crate) const ROUGH_PLASTIC_CASES: [(u32, f32, f32, Vec3, f64, bool); 4] = [
+    (
+        reference::microfacet::distribution::GGX,
+        0.1,
+        1.5,
+        Vec3::splat(0.5),
+        30.0,
+        true,
+    ),
+    (
+        reference::microfacet::distribution::GGX,
+        0.4,
+        1.9,
+        Vec3::new(0.1, 0.27, 0.36),
+        70.0,
+        false,
+    ),
+    (
+        reference::microfacet::distribution::BECKMANN,
+        0.05,
+        1.33,
+        Vec3::splat(0.8),
+        50.0,
+        true,
+    ),
+    (
+        reference::microfacet::distribution::BECKMANN,
+        0.6,
+        1.49,
+        Vec3::splat(0.05),
+        10.0,
+        true,
+    ),
+];
+
+#[test]
+fn rough_plastic_samples_its_density() {
+    // The mixture of the coat's visible normals and the cosine lobe
+    // against bsdf_eval's density (every draw has one).
+    use reference::material::bsdf_eval;
+    let mut runs = Vec::new();
+    for (k, &(kind, alpha, eta, diffuse, theta, front)) in ROUGH_PLASTIC_CASES.iter().enumerate() {
+        let (material, textures, table) = rough_plastic(kind, alpha, eta, diffuse);
+        let images = [table];
+        let ctx = TextureContext {
+            textures: &textures,
+            images: &images,
+        };
+        let (si, wo) = viewer(theta, front);
+        let seed = 560 + k as u32;
+        let o = test_density(
+            &SPHERE,
+            samples(|i| {
+                scatter(&material, ctx, -wo, &si, &u(seed, i)).map(|s| {
+                    assert!(s.density);
+                    s.direction.as_dvec3()
+                })
+            }),
+            &|wi| bsdf_eval(&material, ctx, -wo, &si, wi.as_vec3()).unwrap().1 as f64,
+        );
+        runs.push((
+            format!("distribution {kind}, α {alpha}, η {eta}, diffuse {diffuse}, θo {theta}°, in front {front}"),
+            o,
+        ));
+    }
+    assert_family_passes("rough plastic", &runs);
+}
+
 #[test]
 fn lambertian_material_scatters_cosine_about_the_normal() {
     let textures = [Texture::Constant(Vec3::splat(0.5))];

@@ -672,3 +672,50 @@ fn a_plastic_loads_with_its_sampling_weight_and_refuses_a_coat_its_model_cannot_
         &["materials.shiny", "diffuse"],
     );
 }
+
+#[test]
+fn a_rough_plastic_loads_its_coats_tables_once_and_refuses_a_coat_that_is_no_interface() {
+    use reference::material::Material;
+    use reference::microfacet::distribution;
+    let dir = tempfile::tempdir().unwrap();
+    let text = r#"{ "camera": { "look_from": [0, 0, 5], "look_at": [0, 0, 0] },
+  "materials": {
+    "satin": { "type": "rough_plastic", "diffuse": [0.1, 0.27, 0.36], "eta": 1.49 },
+    "same_coat": { "type": "rough_plastic", "diffuse": [0.5, 0.5, 0.5], "eta": 1.49, "nonlinear": true },
+    "glossy": { "type": "rough_plastic", "distribution": "ggx", "alpha": 0.05, "diffuse": [0.8, 0.3, 0.2], "specular": [0.9, 0.8, 0.7], "eta": 1.9 } },
+  "objects": [ { "type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "satin" },
+               { "type": "sphere", "center": [3, 0, 0], "radius": 1, "material": "same_coat" },
+               { "type": "sphere", "center": [6, 0, 0], "radius": 1, "material": "glossy" } ] }"#;
+    let p = write_scene(dir.path(), "scene.json", text);
+    let scene = reference::load_scene(p.to_str().unwrap()).unwrap();
+    let rough: Vec<_> = scene
+        .materials()
+        .iter()
+        .filter_map(|m| match *m {
+            Material::RoughPlastic {
+                distribution,
+                alpha,
+                transmittance,
+                internal,
+                ..
+            } => Some((distribution, alpha, transmittance, internal)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(rough.len(), 3, "{:?}", scene.materials());
+    // Mitsuba's defaults: Beckmann, alpha 0.1; one table for one coat.
+    assert_eq!((rough[0].0, rough[0].1), (distribution::BECKMANN, 0.1));
+    assert_eq!(rough[0].2, rough[1].2);
+    assert_eq!(rough[0].3, rough[1].3);
+    assert_ne!(rough[0].2, rough[2].2);
+    assert_eq!((rough[2].0, rough[2].1), (distribution::GGX, 0.05));
+    assert_eq!(scene.images().len(), 2);
+    check(
+        &text.replace(r#""eta": 1.9"#, r#""eta": 1.0"#),
+        &["materials.glossy", "eta", "differ"],
+    );
+    check(
+        &text.replace(r#""alpha": 0.05"#, r#""alpha": -0.05"#),
+        &["materials.glossy", "alpha"],
+    );
+}

@@ -100,6 +100,10 @@ const GPU_ONLY: &[(&str, &str)] = &[
     ("scatter_plastic", "the plastic arm of material::scatter's match"),
     ("plastic_eval", "the plastic arm of material::bsdf_eval's match"),
     (
+        "scatter_rough_plastic",
+        "the rough plastic arm of material::scatter's match",
+    ),
+    (
         "scatter_thin_dielectric",
         "the thin dielectric arm of material::scatter's match",
     ),

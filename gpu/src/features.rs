@@ -73,6 +73,7 @@ feature_bits! {
     BECKMANN = 22,
     ROUGH_DIELECTRIC = 23,
     PLASTIC = 24,
+    ROUGH_PLASTIC = 25,
 }
 
 impl Kernel {
@@ -121,6 +122,9 @@ impl Features {
                     feature::ROUGH_DIELECTRIC | beckmann(*distribution)
                 }
                 Material::Plastic { .. } => feature::PLASTIC,
+                Material::RoughPlastic { distribution, .. } => {
+                    feature::ROUGH_PLASTIC | beckmann(*distribution)
+                }
                 Material::Ggx {
                     normal_map,
                     clearcoat,

@@ -92,7 +92,9 @@ gpu_record! {
     /// coat's inner diffuse reflectance
     /// (`reference::material::plastic_internal_reflectance`), `p2` = the
     /// specular sampling weight, `absorption_r` = 1 where nonlinear, else
-    /// 0; GGX `texture` = base colour, `p0` = metallic, `p1` =
+    /// 0; ROUGH_PLASTIC as PLASTIC, with `p1` = its coat's own inner
+    /// reflectance, `texture2` = the image of its coat's transmittance
+    /// table, `absorption_g` = alpha, `distribution`; GGX `texture` = base colour, `p0` = metallic, `p1` =
     /// roughness, `texture2` = the metallic-roughness texture or
     /// `NO_TEXTURE`, `texture3` = the normal map or `NO_TEXTURE`, `p2` =
     /// the normal map's scale. Any tag: `alpha_texture` = the coverage's

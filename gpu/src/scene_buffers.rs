@@ -203,6 +203,29 @@ fn pack_bsdf(m: &Material) -> GpuMaterial {
             absorption_r: if nonlinear { 1.0 } else { 0.0 },
             ..Default::default()
         },
+        Material::RoughPlastic {
+            distribution,
+            alpha,
+            diffuse,
+            specular,
+            eta,
+            nonlinear,
+            specular_weight,
+            transmittance,
+            internal,
+        } => GpuMaterial {
+            tag,
+            texture: diffuse,
+            texture2: transmittance,
+            texture3: specular,
+            p0: eta,
+            p1: internal,
+            p2: specular_weight,
+            absorption_r: if nonlinear { 1.0 } else { 0.0 },
+            absorption_g: alpha,
+            distribution,
+            ..Default::default()
+        },
         Material::DiffuseLight { emission } => GpuMaterial {
             tag,
             texture: emission,

@@ -103,6 +103,7 @@ pub fn generate() -> String {
     s += &u("MATERIAL_ROUGH_CONDUCTOR", material_tag::ROUGH_CONDUCTOR);
     s += &u("MATERIAL_ROUGH_DIELECTRIC", material_tag::ROUGH_DIELECTRIC);
     s += &u("MATERIAL_PLASTIC", material_tag::PLASTIC);
+    s += &u("MATERIAL_ROUGH_PLASTIC", material_tag::ROUGH_PLASTIC);
     s += &u("DISTRIBUTION_GGX", reference::microfacet::distribution::GGX);
     s += &u(
         "DISTRIBUTION_BECKMANN",

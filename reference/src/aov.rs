@@ -73,7 +73,9 @@ pub fn albedo(material: &Material, ctx: TextureContext, si: &SurfaceInteraction)
             ctx.eval(specular, si)
         }
         Material::Ggx { base_color, .. } => ctx.base_color(base_color, si),
-        Material::Plastic { diffuse, .. } => ctx.eval(diffuse, si),
+        Material::Plastic { diffuse, .. } | Material::RoughPlastic { diffuse, .. } => {
+            ctx.eval(diffuse, si)
+        }
         Material::Dielectric { .. }
         | Material::SmoothDielectric { .. }
         | Material::ThinDielectric { .. }

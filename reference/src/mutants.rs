@@ -100,6 +100,9 @@ pub enum Mutant {
     /// diffuse reflectance for `diffuse / (1 − F_dr)`
     /// (`material::plastic_base`).
     PlasticInnerReflectionsDropped,
+    /// The rough plastic's base without its coat's transmittance: `T` read
+    /// as 1 at both crossings (`material::rough_plastic_eval`).
+    RoughPlasticTransmittanceUnread,
     /// A Mitsuba `envmap` read without the half turn about +y that puts
     /// Mitsuba's u = 0 (along −z) where twintrace's is
     /// (`loader::mitsuba::scene`).

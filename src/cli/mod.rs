@@ -1356,6 +1356,7 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
         Material::ThinDielectric { .. } => "thin dielectric",
         Material::RoughDielectric { .. } => "rough dielectric",
         Material::Plastic { .. } => "plastic",
+        Material::RoughPlastic { .. } => "rough plastic",
         Material::Ggx { .. } => "ggx",
     };
     say!(
@@ -1372,6 +1373,7 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
                 "thin dielectric",
                 "rough dielectric",
                 "plastic",
+                "rough plastic",
                 "ggx"
             ],
             &material_kind,

@@ -5,7 +5,7 @@ regenerates the same inputs and compares).
     python3 xtask/mitsuba/bsdf_values.py CASE  [--out fixtures/mitsuba/bsdf]
 
 CASE: conductor, dielectric, thindielectric, roughconductor,
-roughdielectric, plastic.
+roughdielectric, plastic, roughplastic.
 
 Inputs: case i of N has its parameters from the additive sequence
 frac((i + 1) * a) of the constants A below, computed in f64 with + - * /
@@ -35,7 +35,8 @@ A = [
     0.6710436067037893,
     0.5497004779019703,
     0.3819660112501051,
-    # Fractional parts of the square roots of 2, 3, 5, 7, 11, 13 and 17.
+    # Fractional parts of the square roots of 2, 3, 5, 7, 11, 13, 17, 19,
+    # 23, 29 and 31.
     0.41421356237309515,
     0.7320508075688772,
     0.2360679774997898,
@@ -43,6 +44,10 @@ A = [
     0.3166247903554,
     0.6055512754639891,
     0.12310562561766059,
+    0.358898943540674,
+    0.7958315233127191,
+    0.38516480713450374,
+    0.5677643628300215,
 ]
 
 
@@ -128,9 +133,11 @@ def rough_inputs(i):
     return distribution, alpha, wi, wo
 
 
-def rough_normal(i):
-    """rough_inputs' distribution, alpha, wi and its microfacet normal m."""
-    alpha = 0.02 + 0.98 * unit(i, 0)
+def rough_normal(i, alpha=None):
+    """rough_inputs' distribution, alpha (unit 0 unless given), wi and its
+    microfacet normal m."""
+    if alpha is None:
+        alpha = 0.02 + 0.98 * unit(i, 0)
     cos_i = unit(i, 3)
     sin_i = (1.0 - cos_i * cos_i) ** 0.5
     x, y = 2.0 * unit(i, 4) - 1.0, 2.0 * unit(i, 5) - 1.0
@@ -257,8 +264,19 @@ def plastic(i):
     (three channels), pdf, and 1 where it is the coat's mirror (0: the
     diffuse lobe)."""
     diffuse, eta, nonlinear, tint, wi, wo = plastic_inputs(i)
+    spec = plastic_spec("plastic", diffuse, eta, nonlinear, tint)
+    bsdf = mi.load_dict(spec)
+    u = [float(np.float32(unit(i, 8))), float(np.float32(unit(i, 2)))]
+    values, bs = colour_records(bsdf, wi, wo, float(np.float32(unit(i, 12))), u)
+    mirror = 1.0 if mi.has_flag(bs.sampled_type, mi.BSDFFlags.DeltaReflection) else 0.0
+    return values + [mirror]
+
+
+def plastic_spec(kind, diffuse, eta, nonlinear, tint):
+    """A plastic's dictionary for mi.load_dict: its colours and index in
+    f32, over ext_ior 1, the tint only where there is one."""
     spec = {
-        "type": "plastic",
+        "type": kind,
         "diffuse_reflectance": {"type": "rgb", "value": [float(np.float32(c)) for c in diffuse]},
         "int_ior": float(np.float32(eta)),
         "ext_ior": 1.0,
@@ -266,20 +284,69 @@ def plastic(i):
     }
     if tint is not None:
         spec["specular_reflectance"] = {"type": "rgb", "value": [float(np.float32(c)) for c in tint]}
-    bsdf = mi.load_dict(spec)
+    return spec
+
+
+def colour_records(bsdf, wi, wo, sample1, sample2):
+    """wi and wo as the plugin sees them, eval (three channels) and pdf at
+    (wi, wo), and the sample drawn at sample1 and sample2: its wo, weight
+    (three channels) and pdf; 17 numbers, and the sample record."""
     si = rough_surface(wi)
     ctx = mi.BSDFContext()
     wo = mi.Vector3f([float(np.float32(c)) for c in wo])
     value = bsdf.eval(ctx, si, wo)
     pdf = bsdf.pdf(ctx, si, wo)
-    u = [float(np.float32(unit(i, 8))), float(np.float32(unit(i, 2)))]
-    bs, weight = bsdf.sample(ctx, si, float(np.float32(unit(i, 12))), u)
-    mirror = 1.0 if mi.has_flag(bs.sampled_type, mi.BSDFFlags.DeltaReflection) else 0.0
+    bs, weight = bsdf.sample(ctx, si, sample1, sample2)
     return [
         si.wi[0], si.wi[1], si.wi[2], wo[0], wo[1], wo[2],
         value[0], value[1], value[2], pdf,
-        bs.wo[0], bs.wo[1], bs.wo[2], weight[0], weight[1], weight[2], bs.pdf, mirror,
-    ]
+        bs.wo[0], bs.wo[1], bs.wo[2], weight[0], weight[1], weight[2], bs.pdf,
+    ], bs
+
+
+# The rough plastic's coats (distribution, alpha, eta) are few: twintrace
+# computes a coat's tables as Mitsuba does when it loads, and the test
+# computes each once.
+COATS = 16
+
+
+def roughplastic_inputs(i):
+    """Case i of the rough plastic: coat k = i % COATS, its distribution
+    (even k GGX, odd Beckmann), alpha in [0.02, 1) (unit 0 of k) and
+    int_ior in [1.05, 2.55) over ext_ior 1 (unit 1 of k); rough_normal's
+    wi (the viewer) and m at that alpha; a
+    diffuse reflectance in [0, 1) per channel (units 2, 11, 13); nonlinear
+    where i // 2 is odd; a specular tint in [0, 1) per channel (units
+    14-16) where i is a multiple of 3 (else none: white); wo (the light)
+    wi reflected about rough_normal's m, or, where i % 5 == 4, spread as
+    the cosine (cos = sqrt(unit 9), azimuth 2 pi unit 10); in f64."""
+    k = i % COATS
+    alpha = 0.02 + 0.98 * unit(k, 0)
+    eta = 1.05 + 1.5 * unit(k, 1)
+    distribution, alpha, wi, m = rough_normal(i, alpha)
+    diffuse = [unit(i, k) for k in (2, 11, 13)]
+    tint = [unit(i, k) for k in (14, 15, 16)] if i % 3 == 0 else None
+    if i % 5 == 4:
+        wo = hemisphere(unit(i, 9) ** 0.5, unit(i, 10))
+    else:
+        d = wi[0] * m[0] + wi[1] * m[1] + wi[2] * m[2]
+        wo = tuple(2.0 * d * m[k] - wi[k] for k in range(3))
+    return distribution, alpha, eta, diffuse, (i // 2) % 2 == 1, tint, wi, wo
+
+
+def roughplastic(i):
+    """Records 17 f32: wi and wo as the plugin saw them (three each),
+    eval (three channels) and pdf at (wi, wo), then a sample drawn at
+    lobe u = unit 12 and u = (unit 9, unit 10): its wo (three), weight
+    (three channels; 0: none) and pdf."""
+    distribution, alpha, eta, diffuse, nonlinear, tint, wi, wo = roughplastic_inputs(i)
+    spec = plastic_spec("roughplastic", diffuse, eta, nonlinear, tint)
+    spec["distribution"] = distribution
+    spec["alpha"] = float(np.float32(alpha))
+    bsdf = mi.load_dict(spec)
+    u = [float(np.float32(unit(i, 9))), float(np.float32(unit(i, 10)))]
+    values, _ = colour_records(bsdf, wi, wo, float(np.float32(unit(i, 12))), u)
+    return values
 
 
 CASES = {
@@ -289,6 +356,7 @@ CASES = {
     "roughconductor": roughconductor,
     "roughdielectric": roughdielectric,
     "plastic": plastic,
+    "roughplastic": roughplastic,
 }
 
 

@@ -276,6 +276,7 @@ pub enum MaterialJson {
     ThinDielectric(SmoothDielectricMaterialJson),
     RoughDielectric(RoughDielectricMaterialJson),
     Plastic(PlasticMaterialJson),
+    RoughPlastic(RoughPlasticMaterialJson),
 }
 
 fn default_roughness() -> f32 {
@@ -549,6 +550,36 @@ pub struct PlasticMaterialJson {
     pub nonlinear: bool,
     #[serde(default)]
     pub emission: Option<ColorRef>,
+}
+
+/// A rough plastic (Mitsuba 3's `roughplastic`): the plastic's base
+/// under a rough dielectric coat.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RoughPlasticMaterialJson {
+    /// `ggx` or `beckmann` (default, as Mitsuba's).
+    #[serde(default)]
+    pub distribution: DistributionJson,
+    /// The coat's roughness α (a number, isotropic; Mitsuba's default 0.1).
+    #[serde(default = "default_plastic_alpha")]
+    pub alpha: f32,
+    /// The base's diffuse reflectance.
+    pub diffuse: ColorRef,
+    /// A tint on what the coat reflects (default white).
+    #[serde(default)]
+    pub specular: Option<ColorRef>,
+    /// The coat's index over the outside's.
+    pub eta: f32,
+    /// The base's colour compounded at each reflection inside the coat
+    /// (Mitsuba's `nonlinear`; default false).
+    #[serde(default)]
+    pub nonlinear: bool,
+    #[serde(default)]
+    pub emission: Option<ColorRef>,
+}
+
+fn default_plastic_alpha() -> f32 {
+    0.1
 }
 
 fn unit_k() -> [f32; 3] {
@@ -1120,6 +1151,21 @@ impl Resolver<'_> {
                     .plastic(diffuse, specular, p.eta, p.nonlinear)
                     .map_err(|e| e.within(&format!("materials.{name}")))?
             }
+            MaterialJson::RoughPlastic(p) => {
+                let diffuse = self.colour(&p.diffuse, 0).map_err(field("diffuse"))?;
+                let specular = self
+                    .colour_or_white(p.specular.as_ref())
+                    .map_err(field("specular"))?;
+                self.builder
+                    .rough_plastic(
+                        p.distribution.tag(),
+                        p.alpha,
+                        (diffuse, specular),
+                        p.eta,
+                        p.nonlinear,
+                    )
+                    .map_err(|e| e.within(&format!("materials.{name}")))?
+            }
             MaterialJson::DiffuseLight(DiffuseLightMaterialJson { emission }) => {
                 Material::DiffuseLight {
                     emission: self.colour(emission, 0).map_err(field("emission"))?,
@@ -1163,7 +1209,10 @@ impl Resolver<'_> {
             | MaterialJson::SmoothDielectric(SmoothDielectricMaterialJson { emission, .. })
             | MaterialJson::ThinDielectric(SmoothDielectricMaterialJson { emission, .. })
             | MaterialJson::RoughDielectric(RoughDielectricMaterialJson { emission, .. })
-            | MaterialJson::Plastic(PlasticMaterialJson { emission, .. }) => emission.as_ref(),
+            | MaterialJson::Plastic(PlasticMaterialJson { emission, .. })
+            | MaterialJson::RoughPlastic(RoughPlasticMaterialJson { emission, .. }) => {
+                emission.as_ref()
+            }
             MaterialJson::DiffuseLight(_) => None,
         };
         match emission {

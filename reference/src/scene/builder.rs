@@ -300,7 +300,11 @@ pub(super) fn check_added_emission(
 }
 
 /// A material's parameters, and its references to `textures` textures.
-fn check_material(material: &Material, textures: usize) -> Result<(), SceneError> {
+fn check_material(
+    material: &Material,
+    textures: usize,
+    images: &[ImageData],
+) -> Result<(), SceneError> {
     let tex_ok = |field: &str, id: u32| {
         if (id as usize) < textures {
             Ok(())
@@ -386,6 +390,57 @@ fn check_material(material: &Material, textures: usize) -> Result<(), SceneError
                     "specular_weight",
                     format!("{specular_weight} is outside [0, 1]"),
                 ));
+            }
+        }
+        Material::RoughPlastic {
+            distribution,
+            alpha,
+            diffuse,
+            specular,
+            eta,
+            specular_weight,
+            transmittance,
+            internal,
+            ..
+        } => {
+            tex_ok("diffuse", diffuse)?;
+            tex_ok("specular", specular)?;
+            check_eta(eta)?;
+            if eta == 1.0 {
+                // Mitsuba's refuses it too: a coat that is no interface.
+                return Err(SceneError::invalid(
+                    "eta",
+                    "1: a rough plastic's coat must differ from its surroundings".into(),
+                ));
+            }
+            check_distribution(distribution)?;
+            if !(alpha.is_finite() && alpha > 0.0) {
+                return Err(SceneError::invalid(
+                    "alpha",
+                    format!("{alpha} must be a positive finite number"),
+                ));
+            }
+            if !(0.0..=1.0).contains(&specular_weight) {
+                return Err(SceneError::invalid(
+                    "specular_weight",
+                    format!("{specular_weight} is outside [0, 1]"),
+                ));
+            }
+            if !(0.0..1.0).contains(&internal) {
+                return Err(SceneError::invalid(
+                    "internal",
+                    format!("{internal} is outside [0, 1)"),
+                ));
+            }
+            let size = crate::material::ROUGH_PLASTIC_TABLE_SIZE;
+            match images.get(transmittance as usize) {
+                Some(t) if t.width == size && t.height == 1 => {}
+                _ => {
+                    return Err(SceneError::invalid(
+                        "transmittance",
+                        format!("image {transmittance} is not a table of {size} x 1"),
+                    ))
+                }
             }
         }
         Material::Metal { albedo, fuzz } => {
@@ -568,9 +623,78 @@ impl SceneBuilder {
         })
     }
 
+    /// A rough plastic ([`Material::RoughPlastic`]) of roughness `alpha`,
+    /// textures `diffuse` and `specular`: its coat's tables computed
+    /// ([`crate::material::rough_plastic_tables`]; once for each
+    /// distribution, roughness and index: a rough plastic already added
+    /// lends its own) and its sampling weight from the textures' means as
+    /// Mitsuba's. Checked when added.
+    pub fn rough_plastic(
+        &mut self,
+        distribution: u32,
+        alpha: f32,
+        (diffuse, specular): (u32, u32),
+        eta: f32,
+        nonlinear: bool,
+    ) -> Result<Material, SceneError> {
+        check_distribution(distribution)?;
+        check_eta(eta)?;
+        // Refused before its tables are computed (check_material checks
+        // the material again).
+        if !(alpha.is_finite() && alpha > 0.0) {
+            return Err(SceneError::invalid(
+                "alpha",
+                format!("{alpha} must be a positive finite number"),
+            ));
+        }
+        let weight = crate::material::plastic_specular_weight(
+            self.texture_mean(diffuse)?,
+            self.texture_mean(specular)?,
+        );
+        let same_coat = self.materials.iter().find_map(|m| match *m {
+            Material::RoughPlastic {
+                distribution: d,
+                alpha: a,
+                eta: e,
+                transmittance,
+                internal,
+                ..
+            } if (d, a.to_bits(), e.to_bits())
+                == (distribution, alpha.to_bits(), eta.to_bits()) =>
+            {
+                Some((transmittance, internal))
+            }
+            _ => None,
+        });
+        let (transmittance, internal) = match same_coat {
+            Some(coat) => coat,
+            None => {
+                let (table, internal) =
+                    crate::material::rough_plastic_tables(distribution, alpha, eta);
+                let image = self.add_image(ImageData {
+                    width: table.len() as u32,
+                    height: 1,
+                    texels: table.into_iter().map(Vec3::splat).collect(),
+                });
+                (image, internal)
+            }
+        };
+        Ok(Material::RoughPlastic {
+            distribution,
+            alpha,
+            diffuse,
+            specular,
+            eta,
+            nonlinear,
+            specular_weight: weight,
+            transmittance,
+            internal,
+        })
+    }
+
     /// Adds a material after checking its parameters.
     pub fn add_material(&mut self, material: Material) -> Result<u32, SceneError> {
-        check_material(&material, self.textures.len())?;
+        check_material(&material, self.textures.len(), &self.images)?;
         self.materials.push(material);
         Ok(self.materials.len() as u32 - 1)
     }
@@ -1046,6 +1170,10 @@ impl SceneBuilder {
         self.textures.len()
     }
 
+    pub fn texture(&self, id: u32) -> Option<&Texture> {
+        self.textures.get(id as usize)
+    }
+
     pub fn image(&self, id: u32) -> Option<&ImageData> {
         self.images.get(id as usize)
     }
@@ -1243,7 +1371,7 @@ impl Scene {
             render_camera.validate()?;
         }
         for (i, material) in look.materials.iter().enumerate() {
-            check_material(material, look.textures.len())
+            check_material(material, look.textures.len(), &self.images)
                 .map_err(|e| e.within(&format!("materials[{i}]")))?;
         }
         for alpha in self.alphas.iter().flatten() {

@@ -268,6 +268,15 @@ pub(super) enum Surface {
         eta: f32,
         nonlinear: bool,
     },
+    /// Mitsuba's own `roughplastic`.
+    RoughPlastic {
+        distribution: u32,
+        alpha: f32,
+        diffuse: Tex,
+        specular: Tex,
+        eta: f32,
+        nonlinear: bool,
+    },
     FuzzyMetal {
         albedo: Tex,
         fuzz: f32,
@@ -396,6 +405,19 @@ impl Surface {
                 diffuse.xml("diffuse_reflectance", uv),
                 specular.xml("specular_reflectance", uv)
             )),
+            Surface::RoughPlastic {
+                distribution,
+                alpha,
+                diffuse,
+                specular,
+                eta,
+                nonlinear,
+            } => sided(format!(
+                r#"<bsdf type="roughplastic"><string name="distribution" value="{}"/><float name="alpha" value="{alpha:?}"/><float name="int_ior" value="{eta:?}"/><float name="ext_ior" value="1.0"/><boolean name="nonlinear" value="{nonlinear}"/>{}{}</bsdf>"#,
+                distribution_name(*distribution),
+                diffuse.xml("diffuse_reflectance", uv),
+                specular.xml("specular_reflectance", uv)
+            )),
             Surface::FuzzyMetal { albedo, fuzz } => sided(format!(
                 r#"<bsdf type="tt_fuzzy_metal">{}<float name="fuzz" value="{fuzz:?}"/></bsdf>"#,
                 albedo.xml("albedo", uv)
@@ -486,6 +508,9 @@ impl Surface {
             } => vec![reflectance, transmittance],
             Surface::Plastic {
                 diffuse, specular, ..
+            }
+            | Surface::RoughPlastic {
+                diffuse, specular, ..
             } => vec![diffuse, specular],
             Surface::FuzzyMetal { albedo, .. } => vec![albedo],
             Surface::Dielectric { .. } | Surface::Light(_) => vec![],
@@ -522,6 +547,9 @@ impl Surface {
                 ..
             } => reflectance.uses_plugins() || transmittance.uses_plugins(),
             Surface::Plastic {
+                diffuse, specular, ..
+            }
+            | Surface::RoughPlastic {
                 diffuse, specular, ..
             } => diffuse.uses_plugins() || specular.uses_plugins(),
             Surface::Light(_) => false,
@@ -562,7 +590,11 @@ impl Surface {
     /// reference's toward the geometric front.
     pub(super) fn shading_normals_refused(&self) -> Option<&'static str> {
         match self {
-            Surface::Diffuse(_) | Surface::Ggx { .. } | Surface::Dielectric { .. } => None,
+            // The rough plastic, as Mitsuba's, reads only the shading frame.
+            Surface::Diffuse(_)
+            | Surface::Ggx { .. }
+            | Surface::Dielectric { .. }
+            | Surface::RoughPlastic { .. } => None,
             Surface::Mirror(_)
             | Surface::Conductor { .. }
             | Surface::RoughConductor { .. }
@@ -716,6 +748,22 @@ pub(super) fn surface(scene: &Scene, i: usize) -> Result<Surface> {
             nonlinear,
             ..
         } => Surface::Plastic {
+            diffuse: texture(scene, diffuse, &what)?,
+            specular: texture(scene, specular, &what)?,
+            eta,
+            nonlinear,
+        },
+        Material::RoughPlastic {
+            distribution,
+            alpha,
+            diffuse,
+            specular,
+            eta,
+            nonlinear,
+            ..
+        } => Surface::RoughPlastic {
+            distribution,
+            alpha,
             diffuse: texture(scene, diffuse, &what)?,
             specular: texture(scene, specular, &what)?,
             eta,

@@ -1000,7 +1000,7 @@ impl Reader<'_> {
                 [one]
                     if matches!(
                         one.object.kind.as_str(),
-                        "diffuse" | "conductor" | "roughconductor" | "plastic"
+                        "diffuse" | "conductor" | "roughconductor" | "plastic" | "roughplastic"
                     ) =>
                 {
                     self.one_sided_bsdf(&one.object)?
@@ -1141,6 +1141,27 @@ impl Reader<'_> {
                 );
                 self.builder
                     .plastic(diffuse, specular, eta as f32, nonlinear)
+                    .map_err(|e| fail(&o.at, e.to_string()))?
+            }
+            "roughplastic" => {
+                let eta = props.ior("int_ior", "polypropylene")? / props.ior("ext_ior", "air")?;
+                let (distribution, alpha) = self.microfacets(&props)?;
+                // Mitsuba's roughplastic takes its roughness as a number.
+                let alpha = match self.builder.texture(alpha) {
+                    Some(&Texture::Constant(c)) => c.x,
+                    _ => return Err(unsupported(o, " with a textured roughness")),
+                };
+                let diffuse =
+                    self.colour(&props, "diffuse_reflectance", ColourUse::Reflectance, 0.5)?;
+                let specular =
+                    self.colour(&props, "specular_reflectance", ColourUse::Reflectance, 1.0)?;
+                let nonlinear = props.boolean("nonlinear", false)?;
+                let textures = (
+                    self.texture_of(diffuse, &o.at)?,
+                    self.texture_of(specular, &o.at)?,
+                );
+                self.builder
+                    .rough_plastic(distribution, alpha, textures, eta as f32, nonlinear)
                     .map_err(|e| fail(&o.at, e.to_string()))?
             }
             _ => return Err(unsupported(o, "")),
