@@ -734,18 +734,15 @@ fn rough_plastic_eval(
     let dg = mf.d(h) * mf.g1(wo, h);
     let f = fresnel_dielectric(wo.dot(h).clamp(0.0, 1.0), eta);
     let coat = ctx.eval(specular, si) * (f * dg * mf.g1(wi, h) / (4.0 * wo.z));
-    let t_i = if mutants::is(Mutant::RoughPlasticTransmittanceUnread) {
+    // Both crossings' transmittance (the mutant leaves it out; the lobe
+    // choice above still reads it).
+    let crossings = if mutants::is(Mutant::RoughPlasticTransmittanceUnread) {
         1.0
     } else {
-        rough_plastic_transmittance(table, wi.z)
-    };
-    let t_o = if mutants::is(Mutant::RoughPlasticTransmittanceUnread) {
-        1.0
-    } else {
-        t_o
+        t_o * rough_plastic_transmittance(table, wi.z)
     };
     let cos = wi.z * FRAC_1_PI;
-    let base = plastic_base(ctx.eval(diffuse, si), eta, nonlinear, internal) * (t_o * t_i * cos);
+    let base = plastic_base(ctx.eval(diffuse, si), eta, nonlinear, internal) * (crossings * cos);
     let pdf = p * dg / (4.0 * wo.z) + (1.0 - p) * cos;
     (coat + base, pdf)
 }
