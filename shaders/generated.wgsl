@@ -130,6 +130,7 @@ const DIM_BALL_X: u32 = 3u;
 const DIM_BALL_Y: u32 = 4u;
 const DIM_BALL_Z: u32 = 5u;
 const DIM_ROULETTE: u32 = 6u;
+const DIM_MASK: u32 = 7u;
 const LIGHT_DIM_SELECT: u32 = 0u;
 const LIGHT_DIM_POINT_U: u32 = 1u;
 const LIGHT_DIM_POINT_V: u32 = 2u;
@@ -164,6 +165,8 @@ const FEATURE_BECKMANN: u32 = 4194304u;
 const FEATURE_ROUGH_DIELECTRIC: u32 = 8388608u;
 const FEATURE_PLASTIC: u32 = 16777216u;
 const FEATURE_ROUGH_PLASTIC: u32 = 33554432u;
+const FEATURE_MASK: u32 = 67108864u;
+const FEATURE_ONE_SIDED: u32 = 134217728u;
 const INTEGRATOR_BSDF: u32 = 0u;
 const INTEGRATOR_MIS: u32 = 1u;
 const SMALL_CONE_SIN2: f32 = 6.8523e-4;
@@ -188,6 +191,7 @@ const DIELECTRIC_F0: f32 = 4e-2;
 const SPECULAR_PROBABILITY_MIN: f32 = 5e-2;
 const SPECULAR_PROBABILITY_MAX: f32 = 9.5e-1;
 const LUMINANCE_WEIGHTS: vec3<f32> = vec3<f32>(2.126e-1, 7.152e-1, 7.22e-2);
+const MITSUBA_LUMINANCE: vec3<f32> = vec3<f32>(2.12671e-1, 7.1516e-1, 7.2169e-2);
 
 struct GpuSphere {
     center_x: f32,
@@ -277,6 +281,10 @@ struct GpuMaterial {
     emission: u32,
     shade_bucket: u32,
     distribution: u32,
+    opacity: u32,
+    one_sided: u32,
+    _pad0: u32,
+    _pad1: u32,
     _pad2: u32,
 }
 struct GpuTexture {

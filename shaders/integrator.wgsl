@@ -99,7 +99,7 @@ fn trace_path(ray_in: Ray, pixel: u32, sample: u32) -> vec3<f32> {
         let tx = material_textures(m, si);
         radiance += throughput * emitted(si, tx);
         let u = sampled_vertex_randoms(params.sampler, params.seed, pixel, sample, segment + 1u);
-        let s = scatter(m, ray.direction, si, tx, u);
+        let s = wrapped_scatter(m, ray.direction, si, tx, u);
         if !s.ok {
             break;
         }
@@ -202,7 +202,7 @@ fn next_event_ray(m: GpuMaterial, ray: Ray, si: SurfaceInteraction, tx: Material
     if !ls.ok {
         return no_shadow_query();
     }
-    let b = bsdf_eval(m, ray.direction, si, tx, ls.direction);
+    let b = wrapped_bsdf_eval(m, ray.direction, si, tx, ls.direction);
     if !b.ok || all(b.f_cos == vec3<f32>(0.0)) {
         return no_shadow_query();
     }
@@ -313,16 +313,13 @@ fn trace_path_mis(ray_in: Ray, pixel: u32, sample: u32) -> vec3<f32> {
             let ul = sampled_light_randoms(params.sampler, params.seed, pixel, sample, segment + 1u);
             shadow = next_event_ray(m, ray, si, tx, ul, throughput);
         }
-        let s = scatter(m, ray.direction, si, tx, u);
+        let s = wrapped_scatter(m, ray.direction, si, tx, u);
         alive = s.ok;
         if alive {
             from_pdf = 0.0;
-            if s.density && INTEGRATOR == INTEGRATOR_MIS {
-                let b = bsdf_eval(m, ray.direction, si, tx, s.direction);
-                if b.ok && b.pdf > 0.0 {
-                    from_p = si.p;
-                    from_pdf = b.pdf;
-                }
+            if INTEGRATOR == INTEGRATOR_MIS {
+                from_p = si.p;
+                from_pdf = draw_density(m, ray.direction, si, tx, s);
             }
             throughput *= s.weight;
             alive = survives_roulette(&throughput, vr_get(u, DIM_ROULETTE), segment);

@@ -115,10 +115,19 @@ struct MaterialTextures {
     // The rough dielectric's transmittance, the plastics' specular tint
     // (zero for the others).
     tint: vec3<f32>,
+    // A mask's opacity (opacity_of; 1 without a mask).
+    opacity: f32,
 }
 
 fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures {
-    var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), 1.0);
+    if m.opacity != NO_TEXTURE {
+        if uses(FEATURE_MASK) {
+            t.opacity = opacity_of(evaluate_texture(m.opacity, si.p, si.uv, si.uv1));
+        } else {
+            poison();
+        }
+    }
     if m.tag != MATERIAL_DIELECTRIC {
         t.base = evaluate_texture(m.texture, si.p, si.uv, si.uv1);
     }
@@ -157,7 +166,7 @@ fn added_emission(m: GpuMaterial, si: SurfaceInteraction) -> vec3<f32> {
 
 // What emitted reads at a light's sampled point (no BSDF parameters).
 fn light_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures {
-    var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), 1.0);
     if m.emission != NO_TEXTURE {
         t.emission = evaluate_texture(m.emission, si.p, si.uv, si.uv1);
     }
@@ -271,6 +280,68 @@ fn sampled(direction: vec3<f32>, weight: vec3<f32>) -> Scatter {
 
 fn delta(direction: vec3<f32>, weight: vec3<f32>) -> Scatter {
     return Scatter(true, direction, weight, false);
+}
+
+// reference::material::opacity_of: the value of a grey texel, else the
+// luminance by Mitsuba's weights; in [0, 1], NaN read as 0.
+fn opacity_of(c: vec3<f32>) -> f32 {
+    var v = c.x;
+    if !(c.x == c.y && c.y == c.z) {
+        v = dot(c, MITSUBA_LUMINANCE);
+    }
+    if v > 0.0 {
+        return min(v, 1.0);
+    }
+    return 0.0;
+}
+
+// Whether a one-sided material is met from behind, where it absorbs
+// (reference::material::Wrappers::one_sided).
+fn absorbs_behind(m: GpuMaterial, si: SurfaceInteraction) -> bool {
+    if m.one_sided == 0u || si.front_face {
+        return false;
+    }
+    if !uses(FEATURE_ONE_SIDED) {
+        poison();
+        return false;
+    }
+    return true;
+}
+
+// reference::material::wrapped_scatter: scatter under Mitsuba's wrappers
+// (through a mask, a delta pass-through with probability 1 − opacity;
+// else the material, absorbed behind a one-sided one).
+fn wrapped_scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: MaterialTextures, u: VertexRandoms) -> Scatter {
+    if m.opacity != NO_TEXTURE && vr_get(u, DIM_MASK) >= tx.opacity {
+        return delta(ray_dir, vec3<f32>(1.0));
+    }
+    if absorbs_behind(m, si) {
+        return absorbed();
+    }
+    return scatter(m, ray_dir, si, tx, u);
+}
+
+// reference::material::wrapped_bsdf_eval: bsdf_eval under the wrappers
+// (nothing behind a one-sided material; times a mask's opacity).
+fn wrapped_bsdf_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: MaterialTextures, wi: vec3<f32>) -> BsdfEval {
+    if absorbs_behind(m, si) {
+        return BsdfEval(false, vec3<f32>(0.0), 0.0);
+    }
+    let b = bsdf_eval(m, ray_dir, si, tx, wi);
+    return BsdfEval(b.ok, b.f_cos * tx.opacity, b.pdf * tx.opacity);
+}
+
+// reference::material::draw_density: the density MIS weighs a draw by (0:
+// what the path meets next counts in full).
+fn draw_density(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: MaterialTextures, s: Scatter) -> f32 {
+    if !s.density {
+        return 0.0;
+    }
+    let b = wrapped_bsdf_eval(m, ray_dir, si, tx, s.direction);
+    if b.ok && b.pdf > 0.0 {
+        return b.pdf;
+    }
+    return 0.0;
 }
 
 // The material's sampling routine, picked by a switch on the tag (the

@@ -402,7 +402,7 @@ fn shade_bsdf(v: ptr<function, Vertex>, hit: Hit, pixel: u32, sample: u32) {
     (*v).radiance += (*v).throughput * emitted(si, tx);
     let segment = (*v).segment;
     let u = sampled_vertex_randoms(params.sampler, params.seed, pixel, sample, segment + 1u);
-    let s = scatter(m, ray.direction, si, tx, u);
+    let s = wrapped_scatter(m, ray.direction, si, tx, u);
     if !s.ok {
         return;
     }
@@ -454,16 +454,13 @@ fn shade_mis(v: ptr<function, Vertex>, hit: Hit, pixel: u32, sample: u32) {
             (*v).next |= PATH_SHADOW;
         }
     }
-    let s = scatter(m, ray.direction, si, tx, u);
+    let s = wrapped_scatter(m, ray.direction, si, tx, u);
     var alive = s.ok;
     if alive {
         (*v).from_pdf = 0.0;
-        if s.density && INTEGRATOR == INTEGRATOR_MIS {
-            let b = bsdf_eval(m, ray.direction, si, tx, s.direction);
-            if b.ok && b.pdf > 0.0 {
-                (*v).from_p = si.p;
-                (*v).from_pdf = b.pdf;
-            }
+        if INTEGRATOR == INTEGRATOR_MIS {
+            (*v).from_p = si.p;
+            (*v).from_pdf = draw_density(m, ray.direction, si, tx, s);
         }
         var throughput = (*v).throughput * s.weight;
         alive = survives_roulette(&throughput, vr_get(u, DIM_ROULETTE), segment);

@@ -163,3 +163,25 @@ fn gpu_rough_plastics_whose_base_skips_the_coats_transmittance_fail_the_coats_ga
         "    let base = plastic_base(m, tx.base) * cos;",
     );
 }
+
+#[test]
+fn gpu_one_sided_materials_that_reflect_behind_fail_the_masks_gate() {
+    // The WGSL twin of `Mutant::OneSidedBackReflects`.
+    mutant_fails(
+        "masks",
+        "a one-sided material reflecting behind",
+        "    if m.one_sided == 0u || si.front_face {",
+        "    if true {",
+    );
+}
+
+#[test]
+fn gpu_masks_whose_light_samples_ignore_the_opacity_fail_the_masks_gate() {
+    // The WGSL twin of `Mutant::MaskLightUnscaled`.
+    mutant_fails(
+        "masks",
+        "the light samples without the opacity",
+        "    return BsdfEval(b.ok, b.f_cos * tx.opacity, b.pdf * tx.opacity);",
+        "    return b;",
+    );
+}

@@ -30,7 +30,7 @@ const SPHERE: Domain = Domain::Sphere {
 const BASE: Vec3 = Vec3::new(0.9, 0.6, 0.3);
 
 const SNIPPET: &str = "
-// input: [seed, mode, n, front_face, random_incidence, wo.x, wo.y, wo.z, alpha, material (20 words; its coat's textures are none), alpha_v, distribution]
+// input: [seed, mode, n, front_face, random_incidence, wo.x, wo.y, wo.z, alpha, material (24 words; its coat's textures are none), alpha_v, distribution]
 @compute @workgroup_size(64)
 fn sample_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
@@ -51,11 +51,11 @@ fn sample_main(@builtin(global_invocation_id) gid: vec3<u32>) {
         case 3u: { d = sample_unit_ball(vec3<f32>(vr_get(u, DIM_BALL_X), vr_get(u, DIM_BALL_Y), vr_get(u, DIM_BALL_Z))); }
         case 4u: { d = ggx_sample_visible_normal(wo, bitcast<f32>(input[8]), dir_u); }
         case 6u: {
-            let mf = microfacet_new(input[30], bitcast<f32>(input[8]), bitcast<f32>(input[29]));
+            let mf = microfacet_new(input[34], bitcast<f32>(input[8]), bitcast<f32>(input[33]));
             d = microfacet_sample_visible(mf, wo, dir_u);
         }
         default: {
-            let m = GpuMaterial(input[9], input[10], bitcast<f32>(input[11]), bitcast<f32>(input[12]), bitcast<f32>(input[13]), bitcast<f32>(input[14]), bitcast<f32>(input[15]), input[16], input[17], bitcast<f32>(input[18]), NO_TEXTURE, 0.0, bitcast<f32>(input[21]), NO_TEXTURE, bitcast<f32>(input[23]), NO_TEXTURE, NO_TEXTURE, 0u, input[27], 0u);
+            let m = GpuMaterial(input[9], input[10], bitcast<f32>(input[11]), bitcast<f32>(input[12]), bitcast<f32>(input[13]), bitcast<f32>(input[14]), bitcast<f32>(input[15]), input[16], input[17], bitcast<f32>(input[18]), NO_TEXTURE, 0.0, bitcast<f32>(input[21]), NO_TEXTURE, bitcast<f32>(input[23]), NO_TEXTURE, NO_TEXTURE, 0u, input[27], input[28], input[29], 0u, 0u, 0u);
             let front = input[3] != 0u;
             var ray_dir = -wo;
             if input[4] != 0u {

@@ -69,8 +69,8 @@ const MUTANTS: &[Mutant] = &[
     ),
     (
         "a shaded vertex draws the randoms of the vertex before it",
-        "let u = sampled_vertex_randoms(params.sampler, params.seed, pixel, sample, segment + 1u);\n    let s = scatter",
-        "let u = sampled_vertex_randoms(params.sampler, params.seed, pixel, sample, segment);\n    let s = scatter",
+        "let u = sampled_vertex_randoms(params.sampler, params.seed, pixel, sample, segment + 1u);\n    let s = wrapped_scatter",
+        "let u = sampled_vertex_randoms(params.sampler, params.seed, pixel, sample, segment);\n    let s = wrapped_scatter",
         "rtow-final",
         Integrator::Bsdf,
         ALL,

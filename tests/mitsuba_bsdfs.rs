@@ -976,3 +976,164 @@ fn a_rough_plastic_whose_base_skips_its_coats_transmittance_is_not_mitsubas() {
         "the mutant passed: {w:?}"
     );
 }
+
+/// The largest relative differences of the wrapped diffuse from
+/// Mitsuba's `mask` around `diffuse` (or `twosided` `diffuse`), and the
+/// case each is at.
+#[derive(Debug, Default)]
+struct MaskWorst {
+    eval: (f32, usize),
+    pdf: (f32, usize),
+    /// Mitsuba's diffuse draws: twintrace's eval over pdf and pdf there.
+    nested_weight: (f32, usize),
+    nested_pdf: (f32, usize),
+    /// Mitsuba's null draws: twintrace's draw at the same numbers (a
+    /// delta draw straight on, weight 1).
+    null_weight: (f32, usize),
+    null_draws: usize,
+    /// Cases where the two picked different lobes at the same numbers, or
+    /// one side found a value and the other none.
+    support_differs: usize,
+    /// twintrace's own nested draws: their weight against eval / pdf.
+    own_weight: f32,
+}
+
+/// The wrapped Lambertian (`Wrappers`) against Mitsuba's `mask` on the
+/// script's inputs: the viewer on either side, one-sided and two-sided,
+/// opacities 0, 1 and between. Mitsuba's one number picks the lobe and,
+/// divided by the opacity, the nested one's; twintrace reads the mask's
+/// from `dims::MASK` and the nested's from `dims::LOBE`, given here as
+/// Mitsuba's.
+fn mask_against_mitsuba() -> MaskWorst {
+    use reference::material::{wrapped_bsdf_eval, wrapped_scatter, Wrappers};
+    use reference::rng::dims;
+    let want = mitsuba_records::<18>("mask");
+    let mut w = MaskWorst::default();
+    for (i, r) in want.iter().enumerate() {
+        let reflectance = Vec3::from_array([0, 1, 2].map(|c| unit(i, c) as f32));
+        let opacity = match i % 10 {
+            0 => 0.0,
+            1 => 1.0,
+            _ => unit(i, 13) as f32,
+        };
+        let textures = [
+            Texture::Constant(reflectance),
+            Texture::Constant(Vec3::splat(opacity)),
+        ];
+        let ctx = TextureContext {
+            textures: &textures,
+            images: &[],
+        };
+        let material = Material::Lambertian { albedo: 0 };
+        let wrappers = Wrappers {
+            one_sided: i % 3 != 2,
+            opacity: Some(1),
+        };
+        let wi = Vec3::new(r[0], r[1], r[2]);
+        let wo = Vec3::new(r[3], r[4], r[5]);
+        // The ray arrives along −wi: on the front where wi is above.
+        let si = surface_seen_from(wi.z > 0.0);
+        let eval = |dir: Vec3| {
+            wrapped_bsdf_eval(&material, wrappers, ctx, -wi, &si, dir).unwrap_or((Vec3::ZERO, 0.0))
+        };
+        let (f, pdf) = eval(wo);
+        let (want_f, want_pdf) = (Vec3::new(r[6], r[7], r[8]), r[9]);
+        w.support_differs += ((f.max_element() > 0.0) != (want_f.max_element() > 0.0)
+            || (pdf > 0.0) != (want_pdf > 0.0)) as usize;
+        note(&mut w.eval, rel3(f, want_f), i);
+        note(&mut w.pdf, rel(pdf, want_pdf, ROUGH_FLOOR), i);
+        let (sampled, weight, sample_pdf) = (
+            Vec3::new(r[10], r[11], r[12]),
+            Vec3::new(r[13], r[14], r[15]),
+            r[16],
+        );
+        let s1 = unit(i, 12) as f32;
+        let mut u = [0.5; 8];
+        u[dims::MASK] = s1;
+        u[dims::LOBE] = s1 / opacity;
+        u[dims::DIRECTION_U] = unit(i, 8) as f32;
+        u[dims::DIRECTION_V] = unit(i, 2) as f32;
+        let own = wrapped_scatter(&material, wrappers, ctx, -wi, &si, &u);
+        if let Some(s) = own.filter(|s| s.density) {
+            let (f, pdf) = eval(s.direction);
+            w.own_weight = w.own_weight.max(rel3(s.weight, f / pdf));
+        }
+        if r[17] == 1.0 {
+            // Mitsuba's null lobe: on along −wi, weight 1, pdf 1 − opacity.
+            w.null_draws += 1;
+            match own {
+                Some(s) if !s.density && (s.direction - sampled).abs().max_element() < 1e-6 => {
+                    note(&mut w.null_weight, rel3(s.weight, weight), i);
+                    note(
+                        &mut w.null_weight,
+                        rel(1.0 - opacity, sample_pdf, ROUGH_FLOOR),
+                        i,
+                    );
+                }
+                _ => w.support_differs += 1,
+            }
+        } else if weight == Vec3::ZERO {
+            // No draw: the one-sided diffuse seen from behind.
+            w.support_differs += own.is_some() as usize;
+        } else {
+            w.support_differs += !own.is_some_and(|s| s.density) as usize;
+            let (f, pdf) = eval(sampled);
+            if pdf <= 0.0 {
+                w.support_differs += 1;
+            } else {
+                note(&mut w.nested_weight, rel3(f / pdf, weight), i);
+                note(&mut w.nested_pdf, rel(pdf, sample_pdf, ROUGH_FLOOR), i);
+            }
+        }
+    }
+    w
+}
+
+/// The mask's relative bound (values under 10⁻³ absolutely): the
+/// diffuse's arithmetic in f32 on both sides, measured within
+/// 2.4·10⁻⁷ of each other (the_mask_is_mitsubas prints each); bound at
+/// ten times the f32 epsilon.
+const MASK_BOUND: f32 = 1.2e-6;
+
+/// Mitsuba 3.9.1's `mask` around its `diffuse` (one-sided) and
+/// `twosided` `diffuse` on 10⁴ cases (opacities 0, 1 and between, the
+/// viewer and the light on either side): eval and pdf, the null lobe's
+/// draws (the same lobe at the same number in every case, straight on,
+/// weight 1), twintrace's eval over pdf where Mitsuba's nested draws
+/// land, and none where Mitsuba's one-sided diffuse is seen from behind.
+#[test]
+fn the_mask_and_one_sided_diffuse_are_mitsubas() {
+    let w = mask_against_mitsuba();
+    println!("mask: {w:?}");
+    assert_eq!(w.support_differs, 0, "{w:?}");
+    assert!(w.null_draws > 1000, "{w:?}");
+    for (what, worst) in [
+        ("eval", w.eval),
+        ("pdf", w.pdf),
+        ("null weight and pdf", w.null_weight),
+        ("nested weight", w.nested_weight),
+        ("nested pdf", w.nested_pdf),
+    ] {
+        assert!(
+            worst.0 < MASK_BOUND,
+            "{what}: {:e} at case {}",
+            worst.0,
+            worst.1
+        );
+    }
+    assert!(w.own_weight < MASK_BOUND, "{w:?}");
+}
+
+#[test]
+fn a_mask_whose_light_samples_ignore_the_opacity_is_not_mitsubas() {
+    let w = mutants::with(Mutant::MaskLightUnscaled, mask_against_mitsuba);
+    println!("mutant: {w:?}");
+    assert!(w.eval.0 > 0.1, "the mutant passed: {w:?}");
+}
+
+#[test]
+fn a_one_sided_diffuse_that_reflects_behind_is_not_mitsubas() {
+    let w = mutants::with(Mutant::OneSidedBackReflects, mask_against_mitsuba);
+    println!("mutant: {w:?}");
+    assert!(w.support_differs > 100, "the mutant passed: {w:?}");
+}

@@ -155,6 +155,16 @@ fn rough_plastics_whose_base_skips_the_coats_transmittance_fail_the_coats_gate()
     mutant_fails("coats", Mutant::RoughPlasticTransmittanceUnread);
 }
 
+#[test]
+fn one_sided_materials_that_reflect_behind_fail_the_masks_gate() {
+    mutant_fails("masks", Mutant::OneSidedBackReflects);
+}
+
+#[test]
+fn masks_whose_light_samples_ignore_the_opacity_fail_the_masks_gate() {
+    mutant_fails("masks", Mutant::MaskLightUnscaled);
+}
+
 fn twintrace(dir: &std::path::Path, args: &[&str]) -> (Option<i32>, String, String) {
     let out = Command::new(crate::common::twintrace_bin())
         .current_dir(dir)
@@ -454,6 +464,32 @@ fn export_mitsuba_writes_a_plastic_as_mitsubas_own_and_the_reader_reads_it_back(
             .unwrap()
     };
     assert_eq!(plastic(&a), plastic(&b));
+}
+
+#[test]
+fn export_mitsuba_writes_a_mask_of_a_one_sided_material_as_mitsubas_own_and_the_reader_reads_it_back(
+) {
+    // `m` masks `one`, the one-sided copy of `core`.
+    let [a, b] = exported_as_mitsubas_own(
+        r#"{ "type": "mask", "material": "one", "opacity": 0.3 },
+        "one": { "type": "one_sided", "material": "core" },
+        "core": { "type": "plastic", "diffuse": [0.2, 0.4, 0.6], "eta": 1.6 }"#,
+        "mask",
+    );
+    let sphere = |s: &reference::Scene| {
+        let m = s.spheres()[0].material;
+        let w = s.wrappers(m);
+        let opacity = w.opacity.map(|t| s.textures()[t as usize]);
+        let reference::material::Material::Plastic { eta, .. } = s.materials()[m as usize] else {
+            panic!("not a plastic: {:?}", s.materials()[m as usize]);
+        };
+        (eta, w.one_sided, opacity)
+    };
+    let (eta, one_sided, opacity) = sphere(&a);
+    assert_eq!(eta, 1.6);
+    assert!(one_sided);
+    assert_eq!(opacity, Some(Texture::Constant(glam::Vec3::splat(0.3))));
+    assert_eq!(sphere(&a), sphere(&b));
 }
 
 #[test]

@@ -719,3 +719,76 @@ fn a_rough_plastic_loads_its_coats_tables_once_and_refuses_a_coat_that_is_no_int
         &["materials.glossy", "alpha"],
     );
 }
+
+/// A scene whose sphere uses material `a` of `materials` (JSON members).
+fn wrapped_scene(materials: &str) -> String {
+    format!(
+        r#"{{ "camera": {{ "look_from": [0, 0, 5], "look_at": [0, 0, 0] }},
+  "materials": {{ {materials} }},
+  "objects": [ {{ "type": "sphere", "center": [0,0,0], "radius": 1, "material": "a" }} ] }}"#
+    )
+}
+
+#[test]
+fn masks_and_one_sided_materials_that_cannot_be_are_named() {
+    // Wrappers that name each other: a loop, not a stack overflow.
+    check(
+        &wrapped_scene(
+            r#""a": { "type": "mask", "material": "b" }, "b": { "type": "one_sided", "material": "a" }"#,
+        ),
+        &["materials.a", "loop: a -> b -> a"],
+    );
+    check(
+        &wrapped_scene(
+            r#""a": { "type": "mask", "material": "b" }, "b": { "type": "mask", "material": "c" },
+            "c": { "type": "lambertian", "albedo": [0.5, 0.5, 0.5] }"#,
+        ),
+        &["materials.a", "one mask"],
+    );
+    check(
+        &wrapped_scene(
+            r#""a": { "type": "one_sided", "material": "l" }, "l": { "type": "diffuse_light", "emission": [1, 1, 1] }"#,
+        ),
+        &["materials.a", "light"],
+    );
+    check(
+        &wrapped_scene(r#""a": { "type": "mask", "material": "nope" }"#),
+        &["materials.a.material", "unknown material `nope`"],
+    );
+    check(
+        &wrapped_scene(
+            r#""a": { "type": "mask", "material": "c", "opacity": "t" },
+            "c": { "type": "lambertian", "albedo": [0.5, 0.5, 0.5] }"#,
+        ),
+        &["materials.a.opacity"],
+    );
+}
+
+#[test]
+fn a_mask_copies_the_material_it_wraps_with_its_emission() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write_scene(
+        dir.path(),
+        "scene.json",
+        &wrapped_scene(
+            r#""a": { "type": "mask", "material": "c", "opacity": 0.25 },
+            "c": { "type": "lambertian", "albedo": [0.5, 0.5, 0.5], "emission": [2, 2, 2] }"#,
+        ),
+    );
+    let scene = reference::load_scene(p.to_str().unwrap()).unwrap();
+    let m = scene.spheres()[0].material;
+    let w = scene.wrappers(m);
+    assert!(!w.one_sided);
+    let opacity = w.opacity.map(|t| scene.textures()[t as usize]);
+    assert_eq!(
+        opacity,
+        Some(reference::texture::Texture::Constant(glam::Vec3::splat(
+            0.25
+        )))
+    );
+    assert!(matches!(
+        scene.materials()[m as usize],
+        reference::material::Material::Lambertian { .. }
+    ));
+    assert!(scene.added_emission(m).is_some());
+}

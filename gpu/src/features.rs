@@ -74,6 +74,8 @@ feature_bits! {
     ROUGH_DIELECTRIC = 23,
     PLASTIC = 24,
     ROUGH_PLASTIC = 25,
+    MASK = 26,
+    ONE_SIDED = 27,
 }
 
 impl Kernel {
@@ -145,6 +147,16 @@ impl Features {
         }
         if (0..scene.materials().len() as u32).any(|m| scene.alpha(m).is_some()) {
             bits |= feature::ALPHA;
+        }
+        // Mitsuba's wrappers: the mask's draw and texture, the side test.
+        for m in 0..scene.materials().len() as u32 {
+            let w = scene.wrappers(m);
+            if w.opacity.is_some() {
+                bits |= feature::MASK;
+            }
+            if w.one_sided {
+                bits |= feature::ONE_SIDED;
+            }
         }
         // Emission added to a BSDF is one more texture read a vertex.
         if (0..scene.materials().len() as u32).any(|m| scene.added_emission(m).is_some()) {

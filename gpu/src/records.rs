@@ -109,13 +109,17 @@ gpu_record! {
     /// its `texture`, or the emission added to another BSDF) or
     /// `NO_TEXTURE`. Any tag: `shade_bucket` = where the sorted
     /// wavefront shades the paths that hit it
-    /// (`scene_buffers::assign_shade_buckets`).
+    /// (`scene_buffers::assign_shade_buckets`). Any tag, Mitsuba's
+    /// wrappers (`reference::material::Wrappers`): `opacity` = the mask's
+    /// texture or `NO_TEXTURE`, `one_sided` = 1 where the material absorbs
+    /// behind, else 0.
     GpuMaterial {
         tag: u32, texture: u32, p0: f32, p1: f32,
         absorption_r: f32, absorption_g: f32, absorption_b: f32, texture2: u32,
         texture3: u32, p2: f32, alpha_texture: u32, alpha_cutoff: f32,
         coat: f32, coat_texture: u32, coat_roughness: f32, coat_roughness_texture: u32,
-        emission: u32, shade_bucket: u32, distribution: u32, _pad2: u32,
+        emission: u32, shade_bucket: u32, distribution: u32, opacity: u32,
+        one_sided: u32, _pad0: u32, _pad1: u32, _pad2: u32,
     }
 }
 
@@ -391,7 +395,7 @@ mod tests {
         assert_eq!(std::mem::size_of::<GpuVertex>(), 32);
         assert_eq!(std::mem::size_of::<GpuPrimitive>(), 32);
         assert_eq!(std::mem::size_of::<GpuVertexExtra>(), 48);
-        assert_eq!(std::mem::size_of::<GpuMaterial>(), 80);
+        assert_eq!(std::mem::size_of::<GpuMaterial>(), 96);
         assert_eq!(std::mem::size_of::<GpuTexture>(), 64);
         assert_eq!(std::mem::size_of::<GpuEmitter>(), 8);
         assert_eq!(std::mem::size_of::<GpuLightDensity>(), 8);

@@ -10,7 +10,7 @@ use crate::traversal::{INLINE_ALPHA, INLINE_TAG_SHIFT, INLINE_WORDS};
 use crate::variants::{LeafLayout, NodeLayout, Traversal};
 use reference::background::Background;
 use reference::light::LightSet;
-use reference::material::{Alpha, AlphaMode, Material};
+use reference::material::{Alpha, AlphaMode, Material, Wrappers};
 use reference::texture::{Sampler, Texture};
 use reference::Scene;
 
@@ -89,7 +89,19 @@ pub fn pack_material(m: &Material, alpha: Option<Alpha>, emission: Option<u32>) 
         alpha_texture,
         alpha_cutoff,
         emission: emission.unwrap_or(NO_TEXTURE),
+        // No mask ([`pack_wrappers`] puts one).
+        opacity: NO_TEXTURE,
         ..pack_bsdf(m)
+    }
+}
+
+/// A material's record under Mitsuba's wrappers (`wrappers`): its mask's
+/// texture and its one side.
+pub fn pack_wrappers(record: GpuMaterial, wrappers: Wrappers) -> GpuMaterial {
+    GpuMaterial {
+        opacity: wrappers.opacity.unwrap_or(NO_TEXTURE),
+        one_sided: wrappers.one_sided as u32,
+        ..record
     }
 }
 
@@ -609,7 +621,11 @@ impl PackedScene {
             vertex_extras: vertex_extras(m),
             materials: assign_shade_buckets(
                 (scene.materials().iter().enumerate())
-                    .map(|(i, m)| pack_material(m, scene.alpha(i as u32), scene.emission(i as u32)))
+                    .map(|(i, m)| {
+                        let i = i as u32;
+                        let record = pack_material(m, scene.alpha(i), scene.emission(i));
+                        pack_wrappers(record, scene.wrappers(i))
+                    })
                     .collect(),
             ),
             textures: scene.textures().iter().map(pack_texture).collect(),

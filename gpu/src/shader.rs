@@ -11,8 +11,8 @@ use reference::geometry::UNIT_ROUNDOFF;
 use reference::integrator::Integrator;
 use reference::light::{ENV_PRIM, ONE_MINUS_EPSILON, SMALL_CONE_SIN2};
 use reference::material::{
-    material_tag, DIELECTRIC_F0, GGX_MIN_ALPHA, LUMINANCE_WEIGHTS, SPECULAR_PROBABILITY_MAX,
-    SPECULAR_PROBABILITY_MIN,
+    material_tag, DIELECTRIC_F0, GGX_MIN_ALPHA, LUMINANCE_WEIGHTS, MITSUBA_LUMINANCE,
+    SPECULAR_PROBABILITY_MAX, SPECULAR_PROBABILITY_MIN,
 };
 use reference::rng::{dims, light_dims};
 use reference::scene::primitive_tag;
@@ -247,6 +247,7 @@ pub fn generate() -> String {
         ("DIM_BALL_Y", dims::BALL_Y),
         ("DIM_BALL_Z", dims::BALL_Z),
         ("DIM_ROULETTE", dims::ROULETTE),
+        ("DIM_MASK", dims::MASK),
     ] {
         s += &u(name, v as u32);
     }
@@ -297,6 +298,8 @@ pub fn generate() -> String {
     s += &f("SPECULAR_PROBABILITY_MAX", SPECULAR_PROBABILITY_MAX);
     let [r, g, b] = LUMINANCE_WEIGHTS.map(f32_literal);
     s += &format!("const LUMINANCE_WEIGHTS: vec3<f32> = vec3<f32>({r}, {g}, {b});\n");
+    let [r, g, b] = MITSUBA_LUMINANCE.map(f32_literal);
+    s += &format!("const MITSUBA_LUMINANCE: vec3<f32> = vec3<f32>({r}, {g}, {b});\n");
     s += "\n";
     s += &records::wgsl_records();
     s += "\n";

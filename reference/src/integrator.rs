@@ -24,14 +24,20 @@
 //! counts ray segments: a path traces at most `max_depth` rays and gets
 //! nothing after the last (the book's `depth` argument); the shadow ray of
 //! a vertex counts with the segment that reached it, so both estimators
-//! gather light over paths of the same lengths.
+//! gather light over paths of the same lengths. A vertex shades with its
+//! material's [`Wrappers`] ([`wrapped_scatter`], [`wrapped_bsdf_eval`]):
+//! a pass through a mask is a delta draw and takes a segment, as in
+//! Mitsuba's path integrator.
 
 use crate::background::evaluate_background;
 use crate::film::{Film, FilmSums, PixelSums};
 use crate::filter::FilterTable;
 use crate::geometry::{spawn_origin, Ray, SurfaceInteraction};
 use crate::light::{is_punctual, punctual_tag, LightSet, ENV_PRIM, PUNCTUAL_PRIM};
-use crate::material::{bsdf_eval, emitted, has_density, scatter, Material, TextureContext};
+use crate::material::{
+    draw_density, emitted, has_density, wrapped_bsdf_eval, wrapped_scatter, Material,
+    TextureContext, Wrappers,
+};
 use crate::mutants::{self, Mutant};
 use crate::rng::{dims, light_dims, sampled_light_randoms, sampled_vertex_randoms};
 use crate::scene::{RenderSettings, Scene};
@@ -73,6 +79,7 @@ pub fn trace_path(
         };
         let si = scene.surface_interaction(&ray, &hit);
         let material = vertex_material(scene, si.material);
+        let wrap = scene.wrappers(si.material);
         throughput *= transmittance(material, &si, hit.t);
         radiance += throughput * emitted(scene.emission(si.material), ctx, &si);
         let u = sampled_vertex_randoms(settings.sampler, settings.seed, pixel, sample, segment + 1);
@@ -80,9 +87,10 @@ pub fn trace_path(
         if has_density(material) && !lights.is_empty() && segment + 1 < settings.max_depth {
             let ul =
                 sampled_light_randoms(settings.sampler, settings.seed, pixel, sample, segment + 1);
-            radiance += throughput * next_event(scene, lights, ctx, material, &ray, &si, &ul);
+            radiance +=
+                throughput * next_event(scene, lights, ctx, (material, wrap), &ray, &si, &ul);
         }
-        let Some(s) = scatter(material, ctx, ray.direction, &si, &u) else {
+        let Some(s) = wrapped_scatter(material, wrap, ctx, ray.direction, &si, &u) else {
             break;
         };
         throughput *= s.weight;
@@ -230,6 +238,7 @@ pub fn trace_path_mis(
         };
         let si = scene.surface_interaction(&ray, &hit);
         let material = vertex_material(scene, si.material);
+        let wrap = scene.wrappers(si.material);
         throughput *= transmittance(material, &si, hit.t);
         let le = emitted(scene.emission(si.material), ctx, &si);
         if le != Vec3::ZERO {
@@ -243,18 +252,14 @@ pub fn trace_path_mis(
         if has_density(material) && !lights.is_empty() && segment + 1 < settings.max_depth {
             let ul =
                 sampled_light_randoms(settings.sampler, settings.seed, pixel, sample, segment + 1);
-            radiance += throughput * next_event(scene, lights, ctx, material, &ray, &si, &ul);
+            radiance +=
+                throughput * next_event(scene, lights, ctx, (material, wrap), &ray, &si, &ul);
         }
-        let Some(s) = scatter(material, ctx, ray.direction, &si, &u) else {
+        let Some(s) = wrapped_scatter(material, wrap, ctx, ray.direction, &si, &u) else {
             break;
         };
-        came_from = if s.density {
-            bsdf_eval(material, ctx, ray.direction, &si, s.direction)
-                .map(|(_, pdf)| (si.p, pdf))
-                .filter(|&(_, pdf)| pdf > 0.0)
-        } else {
-            None
-        };
+        came_from =
+            draw_density(material, wrap, ctx, ray.direction, &si, &s).map(|pdf| (si.p, pdf));
         throughput *= s.weight;
         if !survives_roulette(&mut throughput, u[dims::ROULETTE], segment, settings) {
             break;
@@ -287,7 +292,7 @@ fn next_event(
     scene: &Scene,
     lights: &LightSet,
     ctx: TextureContext,
-    material: &Material,
+    (material, wrap): (&Material, Wrappers),
     ray: &Ray,
     si: &SurfaceInteraction,
     ul: &[f32; 4],
@@ -301,7 +306,8 @@ fn next_event(
         return Vec3::ZERO;
     };
     let wi = ls.direction;
-    let Some((f_cos, pdf_bsdf)) = bsdf_eval(material, ctx, ray.direction, si, wi) else {
+    let Some((f_cos, pdf_bsdf)) = wrapped_bsdf_eval(material, wrap, ctx, ray.direction, si, wi)
+    else {
         return Vec3::ZERO;
     };
     if f_cos == Vec3::ZERO {

@@ -365,6 +365,118 @@ impl Scatter {
     }
 }
 
+/// What Mitsuba's BSDF wrappers add to a material: which sides reflect,
+/// and a `mask`. Both act where a path meets the surface
+/// ([`wrapped_scatter`], [`wrapped_bsdf_eval`]), not in the traversal: a
+/// masked surface stops shadow rays whatever its opacity, and a path that
+/// passes it has used one of its segments, as in Mitsuba's path
+/// integrator (unlike glTF's alpha, [`Alpha`], which the traversal
+/// decides). The default: both sides, opaque (every twintrace model).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct Wrappers {
+    /// Mitsuba's models without `twosided`: the material absorbs a path
+    /// that arrives behind it (on the side its geometric normal points
+    /// away from), reflecting nothing (a mask around it still lets its
+    /// share through).
+    pub one_sided: bool,
+    /// Mitsuba's `mask`: the texture whose value at a point is its opacity
+    /// ([`opacity_of`]). A path meeting the point scatters as the material
+    /// with that probability and passes straight on otherwise; the
+    /// material's value and density are scaled by it.
+    pub opacity: Option<u32>,
+}
+
+/// Mitsuba's luminance weights (its rgb variants' `luminance`, CIE Y of
+/// linear sRGB), which its `eval_1` of a colour bitmap reads.
+pub const MITSUBA_LUMINANCE: [f32; 3] = [0.212671, 0.715160, 0.072169];
+
+/// A mask's opacity from its texture's colour `c`: the value where the
+/// channels agree (a grey image or a number, which Mitsuba reads as one
+/// channel), else the luminance by [`MITSUBA_LUMINANCE`]; clamped to
+/// [0, 1] as Mitsuba's, NaN read as 0.
+#[inline]
+pub fn opacity_of(c: Vec3) -> f32 {
+    let v = if c.x == c.y && c.y == c.z {
+        c.x
+    } else {
+        c.dot(Vec3::from_array(MITSUBA_LUMINANCE))
+    };
+    if v > 0.0 {
+        v.min(1.0)
+    } else {
+        0.0
+    }
+}
+
+/// [`scatter`] under the material's [`Wrappers`]: through a mask, the path
+/// passes on with probability `1 − opacity` (read from [`dims::MASK`], a
+/// number no model reads), on either side; otherwise it scatters as the
+/// material, which absorbs it behind a one-sided surface.
+pub fn wrapped_scatter(
+    material: &Material,
+    wrap: Wrappers,
+    ctx: TextureContext,
+    ray_dir: Vec3,
+    si: &SurfaceInteraction,
+    u: &[f32; 8],
+) -> Option<Scatter> {
+    if let Some(t) = wrap.opacity {
+        let opacity = opacity_of(ctx.eval(t, si));
+        if u[dims::MASK] >= opacity {
+            // Mitsuba's null lobe: a delta draw (its `Delta` flags hold
+            // `Null`), so what the path meets next counts in full.
+            return Some(Scatter::delta(ray_dir, Vec3::ONE));
+        }
+    }
+    if wrap.one_sided && !si.front_face && !mutants::is(Mutant::OneSidedBackReflects) {
+        return None;
+    }
+    scatter(material, ctx, ray_dir, si, u)
+}
+
+/// [`bsdf_eval`] under the material's [`Wrappers`]: `None` behind a one-sided
+/// surface; through a mask, the value and the density times the opacity
+/// (the pass-through is a delta lobe, which no light sample finds).
+pub fn wrapped_bsdf_eval(
+    material: &Material,
+    wrap: Wrappers,
+    ctx: TextureContext,
+    ray_dir: Vec3,
+    si: &SurfaceInteraction,
+    wi: Vec3,
+) -> Option<(Vec3, f32)> {
+    if wrap.one_sided && !si.front_face && !mutants::is(Mutant::OneSidedBackReflects) {
+        return None;
+    }
+    let (f_cos, pdf) = bsdf_eval(material, ctx, ray_dir, si, wi)?;
+    match wrap.opacity {
+        Some(t) if !mutants::is(Mutant::MaskLightUnscaled) => {
+            let opacity = opacity_of(ctx.eval(t, si));
+            Some((f_cos * opacity, pdf * opacity))
+        }
+        _ => Some((f_cos, pdf)),
+    }
+}
+
+/// The density MIS weighs a draw `s` of [`wrapped_scatter`] by (`None`:
+/// what the path meets next counts in full): the wrapped density toward
+/// its direction, for a draw that has one ([`Scatter::density`]).
+pub fn draw_density(
+    material: &Material,
+    wrap: Wrappers,
+    ctx: TextureContext,
+    ray_dir: Vec3,
+    si: &SurfaceInteraction,
+    s: &Scatter,
+) -> Option<f32> {
+    if !s.density {
+        return None;
+    }
+    wrapped_bsdf_eval(material, wrap, ctx, ray_dir, si, s.direction)
+        .map(|(_, pdf)| pdf)
+        .filter(|&pdf| pdf > 0.0)
+}
+
 /// Light emitted toward `wo` by a material whose emission is the texture
 /// `emission` ([`crate::scene::Scene::emission`]: a `DiffuseLight`'s, or
 /// the emission added to another material's BSDF; `None`: it emits

@@ -103,6 +103,14 @@ pub enum Mutant {
     /// The rough plastic's base without its coat's transmittance: `T` read
     /// as 1 at both crossings (`material::rough_plastic_eval`).
     RoughPlasticTransmittanceUnread,
+    /// A one-sided material that reflects behind as in front (its
+    /// [`crate::material::Wrappers::one_sided`] unread:
+    /// `material::wrapped_scatter`, `material::wrapped_bsdf_eval`).
+    OneSidedBackReflects,
+    /// A mask's light samples weighed without its opacity: the material's
+    /// value and density in full where the mask is partly open
+    /// (`material::wrapped_bsdf_eval`).
+    MaskLightUnscaled,
     /// A Mitsuba `envmap` read without the half turn about +y that puts
     /// Mitsuba's u = 0 (along −z) where twintrace's is
     /// (`loader::mitsuba::scene`).

@@ -329,6 +329,9 @@ pub mod dims {
     pub const BALL_Z: usize = 5;
     /// Surface vertex: Russian roulette.
     pub const ROULETTE: usize = 6;
+    /// Surface vertex: a mask's choice between its material and passing
+    /// on (`material::wrapped_scatter`).
+    pub const MASK: usize = 7;
 }
 
 #[cfg(test)]

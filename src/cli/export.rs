@@ -19,6 +19,8 @@
 //! | image texture, two wrap modes or the second uv set | `tt_image` (plugin: `sample_image`) |
 //! | glTF alpha (MASK, BLEND) on triangles carrying it | `mask` of `tt_alpha` (plugin), traced by `volpath` (shadow rays pass the uncovered share) |
 //! | triangles with shading normals | `ply` vertex normals; `tt_facing` (plugin) for the reference's facing instead of `twosided`, `tt_diffuse` for its Lambertian |
+//! | `one_sided` around `lambertian`, `metal` (fuzz 0), the conductors, the plastics | the model without `twosided` (not on triangles with shading normals, where Mitsuba picks the side by the shading normal) |
+//! | `mask` | `mask` of the opacity (a `float`, a `bitmap`, a `checkerboard` of numbers with its colours swapped as Mitsuba's `eval_1` reads them); not in a scene `volpath` traces (media, glTF alpha), which lets shadow rays through masks |
 //! | `diffuse_light` | `area` emitter (one-sided, along the geometric normal) on a black `diffuse` |
 //! | `sphere` (negative radius: inward normal) | `sphere` (`flip_normals`); a textured one placed by a matrix that turns Mitsuba's uv into the reference's |
 //! | `quad`, `box`, mesh triangles | `ply`, vertex order kept (so the geometric normal is the same), the reference's uv per vertex (a quad's (α, β), a triangle's own or its barycentrics) |
@@ -182,6 +184,8 @@ struct MitsubaScene<'s> {
     surfaces: Vec<Surface>,
     /// Each material's coverage (glTF's alpha), if it has one.
     coverages: Vec<Option<materials::Coverage>>,
+    /// Each material's wrappers (one side, a mask).
+    wrappings: Vec<materials::Wrapping>,
     /// Triangles per material and vertex attributes.
     meshes: Vec<Mesh>,
     spheres: Vec<(Vec3, f32, u32)>,
@@ -223,6 +227,9 @@ impl<'s> MitsubaScene<'s> {
     fn new(scene: &'s Scene) -> Result<Self> {
         let surfaces = (0..scene.materials().len())
             .map(|i| materials::surface(scene, i))
+            .collect::<Result<Vec<_>>>()?;
+        let wrappings = (0..scene.materials().len())
+            .map(|i| materials::wrapping(scene, i, &surfaces[i]))
             .collect::<Result<Vec<_>>>()?;
         // Refused here, before `write` creates any file.
         let b = scene.bounds();
@@ -377,9 +384,31 @@ impl<'s> MitsubaScene<'s> {
             .iter()
             .map(|s| (s.center, s.radius, s.material))
             .collect();
+        // Mitsuba's `mask` stops shadow rays in `path`, as twintrace's, but
+        // `volpath` (which media and coverage need) lets them through.
+        let volpath = surfaces.iter().any(Surface::has_medium) || meshes.iter().any(|m| m.alpha);
+        if let Some(i) = wrappings
+            .iter()
+            .position(|w| w.opacity.is_some())
+            .filter(|_| volpath)
+        {
+            bail!("material {i} has a mask, which the scene's medium or alpha coverage (traced by volpath, which lets shadow rays through masks) would render otherwise (not exported)");
+        }
+        if let Some(m) = meshes
+            .iter()
+            .find(|m| m.normals && wrappings[m.material as usize].one_sided)
+        {
+            bail!(
+                "material {} is one-sided on triangles with shading normals, where Mitsuba picks the side by the shading normal and twintrace by the geometric one (not exported)",
+                m.material
+            );
+        }
         let mut images = Vec::new();
         for s in &surfaces {
             s.images(&mut images);
+        }
+        for w in &wrappings {
+            w.images(&mut images);
         }
         for c in coverages.iter().flatten() {
             c.images(&mut images);
@@ -387,6 +416,7 @@ impl<'s> MitsubaScene<'s> {
         Ok(Self {
             scene,
             surfaces,
+            wrappings,
             coverages,
             meshes,
             spheres,
@@ -524,8 +554,10 @@ impl<'s> MitsubaScene<'s> {
                 shading_normals: mesh.normals,
                 vertex_colors: mesh.colors,
                 tangents: mesh.tangents,
+                one_sided: self.wrappings[mesh.material as usize].one_sided,
             };
-            let mut bsdf = self.surfaces[mesh.material as usize].xml(at);
+            let wrapping = &self.wrappings[mesh.material as usize];
+            let mut bsdf = wrapping.wrap(&self.surfaces[mesh.material as usize].xml(at), at.uv);
             if let (true, Some(c)) = (mesh.alpha, &self.coverages[mesh.material as usize]) {
                 bsdf = c.wrap(&bsdf, at.uv, true);
             }
@@ -537,15 +569,17 @@ impl<'s> MitsubaScene<'s> {
         }
         for (center, radius, material) in &self.spheres {
             let surface = &self.surfaces[*material as usize];
+            let wrapping = &self.wrappings[*material as usize];
             let at = materials::Placement {
                 uv: materials::SPHERE_UV,
                 shading_normals: false,
                 vertex_colors: false,
                 tangents: false,
+                one_sided: wrapping.one_sided,
             };
             // A textured sphere is placed by a matrix that gives its uv the
             // reference's orientation; the others as before.
-            let placed = if surface.uses_uv() {
+            let placed = if surface.uses_uv() || wrapping.uses_uv() {
                 materials::sphere_to_world(*center, radius.abs())
             } else {
                 format!(
@@ -558,7 +592,7 @@ impl<'s> MitsubaScene<'s> {
                 x,
                 r#"  <shape type="sphere">{placed}<boolean name="flip_normals" value="{}"/>{}</shape>"#,
                 *radius < 0.0,
-                surface.xml(at)
+                wrapping.wrap(&surface.xml(at), at.uv)
             )?;
         }
         for l in self.scene.punctual_lights() {

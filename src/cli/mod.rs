@@ -1380,6 +1380,15 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
             scene.materials().len()
         )
     );
+    // Mitsuba's wrappers, where some material has one.
+    let n = scene.materials().len() as u32;
+    let masked = (0..n)
+        .filter(|&m| scene.wrappers(m).opacity.is_some())
+        .count();
+    let one_sided = (0..n).filter(|&m| scene.wrappers(m).one_sided).count();
+    if masked + one_sided > 0 {
+        say!("  of which {one_sided} one-sided, {masked} masked");
+    }
     let texture_kind = |i: usize| match scene.textures()[i] {
         Texture::Constant(_) => "constant",
         Texture::Checker { .. } => "checker",
@@ -1389,7 +1398,7 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
     say!(
         "textures: {}",
         count(
-            &["constant", "checker", "image"],
+            &["constant", "checker", "uv checker", "image"],
             &texture_kind,
             scene.textures().len()
         )

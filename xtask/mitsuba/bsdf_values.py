@@ -5,7 +5,7 @@ regenerates the same inputs and compares).
     python3 xtask/mitsuba/bsdf_values.py CASE  [--out fixtures/mitsuba/bsdf]
 
 CASE: conductor, dielectric, thindielectric, roughconductor,
-roughdielectric, plastic, roughplastic.
+roughdielectric, plastic, roughplastic, mask.
 
 Inputs: case i of N has its parameters from the additive sequence
 frac((i + 1) * a) of the constants A below, computed in f64 with + - * /
@@ -349,7 +349,47 @@ def roughplastic(i):
     return values
 
 
+def mask_inputs(i):
+    """Case i of the mask: a diffuse reflectance in [0, 1) per channel
+    (units 0-2) under a mask of opacity unit 13 (0 where i % 10 == 0, 1
+    where i % 10 == 1), the diffuse one-sided, or two-sided
+    (`twosided`) where i % 3 == 2; wi (the viewer) at cos = unit 4 and
+    azimuth 2 pi unit 5, below the surface where i % 4 == 3; wo (the
+    light) at cos = sqrt(unit 6) and azimuth 2 pi unit 7, below where
+    i % 5 == 4; in f64."""
+    reflectance = [unit(i, c) for c in range(3)]
+    opacity = {0: 0.0, 1: 1.0}.get(i % 10, unit(i, 13))
+    wi = list(hemisphere(unit(i, 4), unit(i, 5)))
+    wo = list(hemisphere(unit(i, 6) ** 0.5, unit(i, 7)))
+    if i % 4 == 3:
+        wi[2] = -wi[2]
+    if i % 5 == 4:
+        wo[2] = -wo[2]
+    return reflectance, opacity, i % 3 == 2, tuple(wi), tuple(wo)
+
+
+def mask(i):
+    """Records 18 f32: wi and wo as the plugin saw them (three each),
+    eval (three channels) and pdf at (wi, wo), then a sample drawn at
+    u = unit 12 and u = (unit 8, unit 2): its wo (three), weight (three
+    channels; 0: none) and pdf, and 1 where it is the mask's null lobe
+    (0: the diffuse's)."""
+    reflectance, opacity, two_sided, wi, wo = mask_inputs(i)
+    nested = {
+        "type": "diffuse",
+        "reflectance": {"type": "rgb", "value": [float(np.float32(c)) for c in reflectance]},
+    }
+    if two_sided:
+        nested = {"type": "twosided", "nested": nested}
+    bsdf = mi.load_dict({"type": "mask", "opacity": float(np.float32(opacity)), "nested": nested})
+    u = [float(np.float32(unit(i, 8))), float(np.float32(unit(i, 2)))]
+    values, bs = colour_records(bsdf, wi, wo, float(np.float32(unit(i, 12))), u)
+    null = 1.0 if mi.has_flag(bs.sampled_type, mi.BSDFFlags.Null) else 0.0
+    return values + [null]
+
+
 CASES = {
+    "mask": mask,
     "conductor": conductor,
     "dielectric": dielectric,
     "thindielectric": thindielectric,

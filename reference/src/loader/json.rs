@@ -277,6 +277,33 @@ pub enum MaterialJson {
     RoughDielectric(RoughDielectricMaterialJson),
     Plastic(PlasticMaterialJson),
     RoughPlastic(RoughPlasticMaterialJson),
+    Mask(MaskMaterialJson),
+    OneSided(OneSidedMaterialJson),
+}
+
+/// Mitsuba 3's `mask` around another material (by name): where a path
+/// meets it, it scatters as that material with probability `opacity` and
+/// passes straight on otherwise (`reference::material::Wrappers`).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaskMaterialJson {
+    pub material: String,
+    /// A number or a texture (its value, or for a colour its luminance),
+    /// in [0, 1] (Mitsuba's default 0.5).
+    #[serde(default = "default_opacity")]
+    pub opacity: ScalarRef,
+}
+
+fn default_opacity() -> ScalarRef {
+    ScalarRef::Value(0.5)
+}
+
+/// Another material (by name) made one-sided, as Mitsuba's models are
+/// without `twosided`: it absorbs paths that arrive behind it.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OneSidedMaterialJson {
+    pub material: String,
 }
 
 fn default_roughness() -> f32 {
@@ -935,6 +962,9 @@ struct Resolver<'a> {
     textures: HashMap<String, u32>,
     materials: HashMap<String, u32>,
     images: HashMap<(PathBuf, Option<bool>), u32>,
+    /// The wrapping materials being read (`mask`, `one_sided`), outermost
+    /// first: a name met again is a loop.
+    wrapping: Vec<String>,
 }
 
 impl Resolver<'_> {
@@ -1171,6 +1201,11 @@ impl Resolver<'_> {
                     emission: self.colour(emission, 0).map_err(field("emission"))?,
                 }
             }
+            MaterialJson::Mask(_) | MaterialJson::OneSided(_) => {
+                let id = self.wrapped_material(name, m)?;
+                self.materials.insert(name.to_string(), id);
+                return Ok(id);
+            }
             MaterialJson::Ggx(GgxMaterialJson {
                 base_color,
                 metallic,
@@ -1213,7 +1248,9 @@ impl Resolver<'_> {
             | MaterialJson::RoughPlastic(RoughPlasticMaterialJson { emission, .. }) => {
                 emission.as_ref()
             }
-            MaterialJson::DiffuseLight(_) => None,
+            MaterialJson::DiffuseLight(_) | MaterialJson::Mask(_) | MaterialJson::OneSided(_) => {
+                None
+            }
         };
         match emission {
             None => {}
@@ -1227,6 +1264,55 @@ impl Resolver<'_> {
             }
         }
         self.materials.insert(name.to_string(), id);
+        Ok(id)
+    }
+
+    /// A `mask` or `one_sided` material: a copy of the material it names
+    /// (with its emission) under one more of Mitsuba's wrappers.
+    fn wrapped_material(&mut self, name: &str, m: &MaterialJson) -> Result<u32, SceneError> {
+        let at = |e: SceneError| e.within(&format!("materials.{name}"));
+        let (inner, opacity) = match m {
+            MaterialJson::Mask(w) => (&w.material, Some(&w.opacity)),
+            MaterialJson::OneSided(w) => (&w.material, None),
+            _ => unreachable!("wrapped_material is called for mask and one_sided"),
+        };
+        if self.wrapping.iter().any(|n| n == name) {
+            return Err(at(SceneError::invalid(
+                "material",
+                format!(
+                    "materials wrap each other in a loop: {} -> {name}",
+                    self.wrapping.join(" -> ")
+                ),
+            )));
+        }
+        self.wrapping.push(name.to_string());
+        let inner_id = self.material(inner);
+        self.wrapping.pop();
+        let inner_id = inner_id.map_err(|e| e.within(&format!("materials.{name}.material")))?;
+        let (material, mut wrappers, emission) = self
+            .builder
+            .material_parts(inner_id)
+            .expect("a material the resolver made");
+        match opacity {
+            Some(_) if wrappers.opacity.is_some() => {
+                return Err(at(SceneError::invalid(
+                    "material",
+                    format!("`{inner}` is a mask already: a material takes one mask"),
+                )))
+            }
+            Some(o) => {
+                let texture = self
+                    .scalar(o)
+                    .map_err(|e| e.within(&format!("materials.{name}.opacity")))?;
+                wrappers.opacity = Some(texture);
+            }
+            None => wrappers.one_sided = true,
+        }
+        let id = self.builder.add_material(material).map_err(at)?;
+        self.builder.set_wrappers(id, wrappers).map_err(at)?;
+        if let Some(e) = emission {
+            self.builder.set_emission(id, e).map_err(at)?;
+        }
         Ok(id)
     }
 
@@ -1331,6 +1417,7 @@ fn build(
         textures: HashMap::new(),
         materials: HashMap::new(),
         images: HashMap::new(),
+        wrapping: Vec::new(),
     };
     let defaults = RenderSettings::default();
     let rj = &doc.render;

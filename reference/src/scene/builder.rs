@@ -10,7 +10,7 @@ use crate::error::SceneError;
 use crate::filter::PixelFilter;
 use crate::geometry::Aabb;
 use crate::light::{punctual_tag, PunctualLight};
-use crate::material::{Alpha, AlphaMode, Material};
+use crate::material::{Alpha, AlphaMode, Material, Wrappers};
 use crate::mutants::{self, Mutant};
 use crate::shapes::{
     MeshData, Quad, Sphere, Triangle, TRIANGLE_HAS_ALPHA, TRIANGLE_HAS_COLORS,
@@ -108,6 +108,9 @@ pub struct SceneBuilder {
     /// ([`SceneBuilder::set_emission`]); shorter than `materials` until
     /// the build.
     emissions: Vec<Option<u32>>,
+    /// By material: Mitsuba's wrappers on it ([`SceneBuilder::set_wrappers`]);
+    /// shorter than `materials` until the build.
+    wraps: Vec<Wrappers>,
     textures: Vec<Texture>,
     images: Vec<ImageData>,
     primitives: Vec<Primitive>,
@@ -257,6 +260,27 @@ fn check_pattern_leaves(even: u32, odd: u32, earlier: &[Texture]) -> Result<(), 
         }
     }
     Ok(())
+}
+
+/// A wrap's opacity texture, and the material it wraps.
+pub(super) fn check_wrap(
+    material: &Material,
+    wrap: &Wrappers,
+    textures: usize,
+) -> Result<(), SceneError> {
+    if *wrap != Wrappers::default() && matches!(material, Material::DiffuseLight { .. }) {
+        return Err(SceneError::invalid(
+            "wrap",
+            "a light (diffuse_light) takes no mask or one-sidedness".into(),
+        ));
+    }
+    match wrap.opacity {
+        Some(t) if t as usize >= textures => Err(SceneError::invalid(
+            "opacity",
+            format!("texture index {t} does not exist"),
+        )),
+        _ => Ok(()),
+    }
 }
 
 /// A coverage's texture reference and cutoff.
@@ -733,6 +757,24 @@ impl SceneBuilder {
         Ok(())
     }
 
+    /// Puts Mitsuba's wrappers on material `material` ([`Wrappers`]): one
+    /// side, a mask. A light (`DiffuseLight`) takes none: it already
+    /// emits from its front alone and scatters nothing.
+    pub fn set_wrappers(&mut self, material: u32, wrap: Wrappers) -> Result<(), SceneError> {
+        self.check_material(material)?;
+        check_wrap(
+            &self.materials[material as usize],
+            &wrap,
+            self.textures.len(),
+        )?;
+        let m = material as usize;
+        if self.wraps.len() <= m {
+            self.wraps.resize(m + 1, Wrappers::default());
+        }
+        self.wraps[m] = wrap;
+        Ok(())
+    }
+
     fn check_material(&self, material: u32) -> Result<(), SceneError> {
         if (material as usize) < self.materials.len() {
             Ok(())
@@ -1162,6 +1204,15 @@ impl SceneBuilder {
         }
     }
 
+    /// Material `id` with its wrappers and the emission added to it
+    /// (`None`: no such material).
+    pub fn material_parts(&self, id: u32) -> Option<(Material, Wrappers, Option<u32>)> {
+        let i = id as usize;
+        let material = *self.materials.get(i)?;
+        let wrappers = self.wraps.get(i).copied().unwrap_or_default();
+        Some((material, wrappers, self.emissions.get(i).copied().flatten()))
+    }
+
     pub fn material_count(&self) -> usize {
         self.materials.len()
     }
@@ -1193,6 +1244,8 @@ impl SceneBuilder {
         alphas.resize(self.materials.len(), None);
         let mut emissions = self.emissions;
         emissions.resize(self.materials.len(), None);
+        let mut wraps = self.wraps;
+        wraps.resize(self.materials.len(), Wrappers::default());
         let has_alpha = |m: u32| alphas[m as usize].is_some();
         if let Some(m) = (self.spheres.iter().map(|s| s.material))
             .chain(self.quads.iter().map(|q| q.material))
@@ -1282,6 +1335,7 @@ impl SceneBuilder {
             materials: self.materials,
             alphas,
             emissions,
+            wraps,
             textures,
             images: self.images,
             punctual_lights,
@@ -1376,6 +1430,12 @@ impl Scene {
         }
         for alpha in self.alphas.iter().flatten() {
             check_alpha(alpha, look.textures.len()).map_err(|e| e.within("alphas"))?;
+        }
+        for (i, wrap) in self.wraps.iter().enumerate() {
+            if let Some(material) = look.materials.get(i) {
+                check_wrap(material, wrap, look.textures.len())
+                    .map_err(|e| e.within(&format!("materials[{i}]")))?;
+            }
         }
         // An edit may make an emissive material a light, whose own
         // emission is then the one read (`Scene::added_emission`).

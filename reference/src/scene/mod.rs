@@ -30,7 +30,7 @@ use crate::camera::{Camera, CameraSettings};
 use crate::filter::{FilterTable, PixelFilter};
 use crate::geometry::{gamma, Aabb, Hit, Ray, SurfaceInteraction};
 use crate::light::PunctualLight;
-use crate::material::{alpha_hash, normal_mapped, Alpha, Material};
+use crate::material::{alpha_hash, normal_mapped, Alpha, Material, Wrappers};
 use crate::mutants::{self, Mutant};
 use crate::shapes::{
     MeshData, Quad, Quads4, RayShear, Sphere, Triangle, TRIANGLE_HAS_ALPHA, TRIANGLE_HAS_COLORS,
@@ -95,6 +95,8 @@ pub struct Scene {
     /// By material: the texture of the emission added to its BSDF
     /// ([`SceneBuilder::set_emission`]), if it has one.
     emissions: Vec<Option<u32>>,
+    /// By material: Mitsuba's wrappers on it ([`SceneBuilder::set_wrappers`]).
+    wraps: Vec<Wrappers>,
     textures: Vec<Texture>,
     images: Vec<ImageData>,
     /// Point, spot and directional lights, positions in render space.
@@ -176,6 +178,11 @@ impl Scene {
             self.textures,
             self.punctual_lights
         );
+        // Only where a material has one, so that scenes without keep
+        // their fingerprints.
+        if self.wraps.iter().any(|w| *w != Wrappers::default()) {
+            let _ = write!(h, "{:?}", self.wraps);
+        }
         for c in self.render_space.origin().to_array() {
             let bits = c.to_bits();
             h.word(bits as u32);
@@ -329,6 +336,15 @@ impl Scene {
     /// Material `material`'s coverage, if it has one.
     pub fn alpha(&self, material: u32) -> Option<Alpha> {
         self.alphas.get(material as usize).copied().flatten()
+    }
+
+    /// Mitsuba's wrappers on material `material` (the default where it has
+    /// none).
+    pub fn wrappers(&self, material: u32) -> Wrappers {
+        self.wraps
+            .get(material as usize)
+            .copied()
+            .unwrap_or_default()
     }
 
     /// The texture of what material `material` emits from its front

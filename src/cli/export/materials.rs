@@ -319,6 +319,9 @@ pub(super) struct Placement {
     /// The mesh carries tangents (`vertex_tangent`, and `vertex_tsign`
     /// their w), which a `ggx` normal map reads.
     pub tangents: bool,
+    /// The material is one-sided ([`Wrapping`]): its Mitsuba model without
+    /// `twosided`.
+    pub one_sided: bool,
 }
 
 impl Surface {
@@ -327,7 +330,9 @@ impl Surface {
     pub(super) fn xml(&self, at: Placement) -> String {
         let uv = at.uv;
         let sided = |inner: String| {
-            if at.shading_normals {
+            if at.one_sided {
+                inner
+            } else if at.shading_normals {
                 format!(r#"<bsdf type="tt_facing">{inner}</bsdf>"#)
             } else {
                 format!(r#"<bsdf type="twosided">{inner}</bsdf>"#)
@@ -797,6 +802,86 @@ pub(super) fn surface(scene: &Scene, i: usize) -> Result<Surface> {
                 },
             }
         }
+    })
+}
+
+/// A material's wrappers (`reference::material::Wrappers`) as Mitsuba's:
+/// its model without `twosided` where one-sided, inside a `mask` of its
+/// opacity.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(super) struct Wrapping {
+    pub one_sided: bool,
+    pub opacity: Option<Tex>,
+}
+
+impl Wrapping {
+    /// `bsdf` inside the `mask` of its opacity (as it is without one). The
+    /// opacity is Mitsuba's `eval_1` of the texture: a grey number, the
+    /// luminance of a bitmap, a checkerboard of numbers (whose colours
+    /// Mitsuba's `eval_1` takes swapped).
+    pub(super) fn wrap(&self, bsdf: &str, uv: UvMap) -> String {
+        let Some(opacity) = &self.opacity else {
+            return bsdf.to_string();
+        };
+        let texture = match opacity {
+            Tex::Constant(c) => format!(
+                r#"<float name="opacity" value="{:?}"/>"#,
+                reference::material::opacity_of(*c)
+            ),
+            Tex::UvChecker {
+                transform,
+                even,
+                odd,
+            } => Tex::UvChecker {
+                transform: transform.clone(),
+                even: odd.clone(),
+                odd: even.clone(),
+            }
+            .xml("opacity", uv),
+            t => t.xml("opacity", uv),
+        };
+        format!(r#"<bsdf type="mask">{texture}{bsdf}</bsdf>"#)
+    }
+
+    pub(super) fn images(&self, out: &mut Vec<u32>) {
+        if let Some(t) = &self.opacity {
+            t.images(out);
+        }
+    }
+
+    pub(super) fn uses_uv(&self) -> bool {
+        self.opacity.as_ref().is_some_and(Tex::uses_uv)
+    }
+}
+
+/// Material `i`'s wrappers as Mitsuba writes them, or why they cannot be:
+/// one side only on the models Mitsuba makes one-sided, and an opacity of
+/// a texture Mitsuba reads as a number alike.
+pub(super) fn wrapping(scene: &Scene, i: usize, surface: &Surface) -> Result<Wrapping> {
+    let what = format!("material {i}");
+    let w = scene.wrappers(i as u32);
+    if w.one_sided
+        && !matches!(
+            surface,
+            Surface::Diffuse(_)
+                | Surface::Mirror(_)
+                | Surface::Conductor { .. }
+                | Surface::RoughConductor { .. }
+                | Surface::Plastic { .. }
+                | Surface::RoughPlastic { .. }
+        )
+    {
+        bail!("{what} is one-sided, which its Mitsuba form cannot be (not exported)");
+    }
+    let opacity = w.opacity.map(|t| texture(scene, t, &what)).transpose()?;
+    if let Some(t @ (Tex::Checker { .. } | Tex::Image { .. })) = &opacity {
+        if matches!(t, Tex::Checker { .. }) || t.uses_plugins() {
+            bail!("{what} has a mask whose opacity Mitsuba would not read as a number alike (a 3-D checker, an image of two wrap modes or the second uv set: not exported)");
+        }
+    }
+    Ok(Wrapping {
+        one_sided: w.one_sided,
+        opacity,
     })
 }
 

@@ -14,7 +14,13 @@ use crate::camera::{CameraSettings, Projection};
 use crate::error::SceneError;
 use crate::filter::PixelFilter;
 use crate::loader::image::load_image;
-use crate::material::Material;
+use crate::material::{Material, Wrappers};
+
+/// Mitsuba's models without `twosided`: black seen from behind.
+const ONE_SIDED: Wrappers = Wrappers {
+    one_sided: true,
+    opacity: None,
+};
 use crate::mutants::{self, Mutant};
 use crate::rng::Sampler as PathSampler;
 use crate::scene::LightInput;
@@ -345,7 +351,6 @@ struct Reader<'d> {
     /// files once).
     meshes: HashMap<(PathBuf, bool, Option<bool>, u32), Rc<Mesh>>,
     sensor_seen: bool,
-    one_sided_warned: bool,
 }
 
 /// Loads a Mitsuba 3 scene file with the command line's `-D` parameters.
@@ -363,7 +368,6 @@ pub fn build(doc: &Document) -> Result<Scene, SceneError> {
         images: HashMap::new(),
         meshes: HashMap::new(),
         sensor_seen: false,
-        one_sided_warned: false,
     };
     r.builder.render_origin = RenderOrigin::Camera;
     r.builder.background = Some(Background::Solid(Vec3::ZERO));
@@ -957,22 +961,31 @@ impl Reader<'_> {
                 Some(self.texture_of(c, &e.at)?)
             }
         };
-        let material = match (bsdf, emission) {
+        let (material, wrap) = match (bsdf, emission) {
             // Mitsuba gives an emitter without a BSDF a black diffuse one:
             // it emits and reflects nothing.
-            (None, Some(e)) => Material::DiffuseLight { emission: e },
-            (None, None) => Material::Lambertian {
-                albedo: self
-                    .builder
-                    .constant(Vec3::splat(0.5))
-                    .map_err(|e| SceneError::invalid("bsdf", e.to_string()))?,
-            },
+            (None, Some(e)) => (Material::DiffuseLight { emission: e }, Wrappers::default()),
+            // A shape without either: Mitsuba's one-sided diffuse 0.5.
+            (None, None) => (
+                Material::Lambertian {
+                    albedo: self
+                        .builder
+                        .constant(Vec3::splat(0.5))
+                        .map_err(|e| SceneError::invalid("bsdf", e.to_string()))?,
+                },
+                ONE_SIDED,
+            ),
             (Some(b), _) => self.bsdf(b)?,
         };
-        let id = self
-            .builder
-            .add_material(material)
-            .map_err(|e| fail(bsdf.map_or(&emitter.unwrap().at, |b| &b.at), e.to_string()))?;
+        // Where an error is told: the BSDF, else the emitter, else (the
+        // default material) the shape's "bsdf".
+        let at = bsdf.map(|b| &b.at).or(emitter.map(|e| &e.at));
+        let fail_at = |e: SceneError| match at {
+            Some(at) => fail(at, e.to_string()),
+            None => SceneError::invalid("bsdf", e.to_string()),
+        };
+        let id = self.builder.add_material(material).map_err(fail_at)?;
+        self.builder.set_wrappers(id, wrap).map_err(fail_at)?;
         if let (Some(_), Some(e)) = (bsdf, emission) {
             self.builder
                 .set_emission(id, e)
@@ -992,7 +1005,30 @@ impl Reader<'_> {
         }
     }
 
-    fn bsdf(&mut self, o: &Object) -> Result<Material, SceneError> {
+    /// A BSDF and its wrappers: Mitsuba's `twosided` (both sides), `mask`
+    /// (an opacity), and its models, one-sided unless they are dielectrics.
+    fn bsdf(&mut self, o: &Object) -> Result<(Material, Wrappers), SceneError> {
+        if o.kind == "mask" {
+            let props = Props::new(o);
+            let nested = props.children("bsdf");
+            let [one] = nested.as_slice() else {
+                return Err(unsupported(o, " with other than one nested bsdf"));
+            };
+            let (material, wrap) = self.bsdf(&one.object)?;
+            if wrap.opacity.is_some() {
+                return Err(unsupported(&one.object, " inside a mask"));
+            }
+            let opacity = self.colour(&props, "opacity", ColourUse::Number, 0.5)?;
+            let opacity = self.texture_of(opacity, &o.at)?;
+            props.finish()?;
+            return Ok((
+                material,
+                Wrappers {
+                    opacity: Some(opacity),
+                    ..wrap
+                },
+            ));
+        }
         if o.kind == "twosided" {
             let props = Props::new(o);
             let nested = props.children("bsdf");
@@ -1009,23 +1045,15 @@ impl Reader<'_> {
                 _ => return Err(unsupported(o, " with other than one nested bsdf")),
             };
             props.finish()?;
-            return Ok(m);
+            return Ok((m, Wrappers::default()));
         }
         if matches!(o.kind.as_str(), "dielectric" | "thindielectric") {
-            return self.dielectric(o);
+            return Ok((self.dielectric(o)?, Wrappers::default()));
         }
         if o.kind == "roughdielectric" {
-            return self.rough_dielectric(o);
+            return Ok((self.rough_dielectric(o)?, Wrappers::default()));
         }
-        let m = self.one_sided_bsdf(o)?;
-        if !self.one_sided_warned {
-            self.one_sided_warned = true;
-            self.builder.warnings.push(format!(
-                "{}: Mitsuba's {} is black seen from behind; twintrace's reflects on both sides (as Mitsuba's twosided)",
-                o.at, o.kind
-            ));
-        }
-        Ok(m)
+        Ok((self.one_sided_bsdf(o)?, ONE_SIDED))
     }
 
     /// Mitsuba's smooth `dielectric` or `thindielectric` (both sides their
