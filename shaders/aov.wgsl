@@ -32,7 +32,7 @@ fn albedo(m: GpuMaterial, si: SurfaceInteraction) -> vec3<f32> {
     if m.tag == MATERIAL_DIFFUSE_LIGHT {
         return vec3<f32>(0.0);
     }
-    var base = evaluate_texture(m.texture, si.p, si.uv, si.uv1);
+    var base = evaluate_texture(m.texture, si.p, si.uv, si.uv1, si.color);
     if m.tag == MATERIAL_GGX {
         base *= si.color;
     }

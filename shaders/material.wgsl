@@ -123,19 +123,19 @@ fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures
     var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), 1.0);
     if m.opacity != NO_TEXTURE {
         if uses(FEATURE_MASK) {
-            t.opacity = opacity_of(evaluate_texture(m.opacity, si.p, si.uv, si.uv1));
+            t.opacity = opacity_of(evaluate_texture(m.opacity, si.p, si.uv, si.uv1, si.color));
         } else {
             poison();
         }
     }
     if m.tag != MATERIAL_DIELECTRIC {
-        t.base = evaluate_texture(m.texture, si.p, si.uv, si.uv1);
+        t.base = evaluate_texture(m.texture, si.p, si.uv, si.uv1, si.color);
     }
     if m.tag == MATERIAL_ROUGH_CONDUCTOR || m.tag == MATERIAL_ROUGH_DIELECTRIC {
-        t.metal_rough.x = evaluate_texture(m.texture2, si.p, si.uv, si.uv1).x;
+        t.metal_rough.x = evaluate_texture(m.texture2, si.p, si.uv, si.uv1, si.color).x;
     }
     if (m.tag == MATERIAL_ROUGH_DIELECTRIC && uses(FEATURE_ROUGH_DIELECTRIC)) || (m.tag == MATERIAL_PLASTIC && uses(FEATURE_PLASTIC)) || (m.tag == MATERIAL_ROUGH_PLASTIC && uses(FEATURE_ROUGH_PLASTIC)) {
-        t.tint = evaluate_texture(m.texture3, si.p, si.uv, si.uv1);
+        t.tint = evaluate_texture(m.texture3, si.p, si.uv, si.uv1, si.color);
     }
     if m.tag == MATERIAL_GGX {
         t.base *= si.color;
@@ -161,14 +161,14 @@ fn added_emission(m: GpuMaterial, si: SurfaceInteraction) -> vec3<f32> {
         poison();
         return vec3<f32>(0.0);
     }
-    return evaluate_texture(m.emission, si.p, si.uv, si.uv1);
+    return evaluate_texture(m.emission, si.p, si.uv, si.uv1, si.color);
 }
 
 // What emitted reads at a light's sampled point (no BSDF parameters).
 fn light_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures {
     var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), 1.0);
     if m.emission != NO_TEXTURE {
-        t.emission = evaluate_texture(m.emission, si.p, si.uv, si.uv1);
+        t.emission = evaluate_texture(m.emission, si.p, si.uv, si.uv1, si.color);
     }
     return t;
 }
@@ -295,10 +295,10 @@ fn opacity_of(c: vec3<f32>) -> f32 {
     return 0.0;
 }
 
-// Whether a one-sided material is met from behind, where it absorbs
-// (reference::material::Wrappers::one_sided).
-fn absorbs_behind(m: GpuMaterial, si: SurfaceInteraction) -> bool {
-    if m.one_sided == 0u || si.front_face {
+// reference::material::absorbs_behind: whether a one-sided material is
+// met from behind (the viewer below the shading normal), where it absorbs.
+fn absorbs_behind(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction) -> bool {
+    if m.one_sided == 0u || dot(ray_dir, si.shading_normal) < 0.0 {
         return false;
     }
     if !uses(FEATURE_ONE_SIDED) {
@@ -315,7 +315,7 @@ fn wrapped_scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, t
     if m.opacity != NO_TEXTURE && vr_get(u, DIM_MASK) >= tx.opacity {
         return delta(ray_dir, vec3<f32>(1.0));
     }
-    if absorbs_behind(m, si) {
+    if absorbs_behind(m, ray_dir, si) {
         return absorbed();
     }
     return scatter(m, ray_dir, si, tx, u);
@@ -324,7 +324,7 @@ fn wrapped_scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, t
 // reference::material::wrapped_bsdf_eval: bsdf_eval under the wrappers
 // (nothing behind a one-sided material; times a mask's opacity).
 fn wrapped_bsdf_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: MaterialTextures, wi: vec3<f32>) -> BsdfEval {
-    if absorbs_behind(m, si) {
+    if absorbs_behind(m, ray_dir, si) {
         return BsdfEval(false, vec3<f32>(0.0), 0.0);
     }
     let b = bsdf_eval(m, ray_dir, si, tx, wi);
@@ -558,7 +558,7 @@ fn scatter_smooth_dielectric(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInte
         if r.ok {
             // The transmittance is read here, where a path refracts: the
             // reflectance is the vertex's `base`.
-            let t = evaluate_texture(m.texture2, si.p, si.uv, si.uv1);
+            let t = evaluate_texture(m.texture2, si.p, si.uv, si.uv1, si.color);
             return delta(normalize(r.direction), t / (eta * eta));
         }
     }
@@ -657,7 +657,7 @@ fn scatter_thin_dielectric(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceIntera
         return delta(reflect_about(ray_dir, n), tx.base);
     }
     // Straight through; the transmittance read where a path passes.
-    let t = evaluate_texture(m.texture2, si.p, si.uv, si.uv1);
+    let t = evaluate_texture(m.texture2, si.p, si.uv, si.uv1, si.color);
     return delta(ray_dir, t);
 }
 
@@ -816,7 +816,7 @@ fn ggx_parameters(m: GpuMaterial, si: SurfaceInteraction) -> vec2<f32> {
     if m.texture2 == NO_TEXTURE {
         return vec2<f32>(m.p0, m.p1);
     }
-    let t = evaluate_texture(m.texture2, si.p, si.uv, si.uv1);
+    let t = evaluate_texture(m.texture2, si.p, si.uv, si.uv1, si.color);
     return vec2<f32>(m.p0 * t.z, m.p1 * t.y);
 }
 
@@ -833,10 +833,10 @@ fn coat_parameters(m: GpuMaterial, si: SurfaceInteraction) -> vec2<f32> {
     }
     var c = vec2<f32>(m.coat, m.coat_roughness);
     if m.coat_texture != NO_TEXTURE {
-        c.x *= evaluate_texture(m.coat_texture, si.p, si.uv, si.uv1).x;
+        c.x *= evaluate_texture(m.coat_texture, si.p, si.uv, si.uv1, si.color).x;
     }
     if m.coat_roughness_texture != NO_TEXTURE {
-        c.y *= evaluate_texture(m.coat_roughness_texture, si.p, si.uv, si.uv1).y;
+        c.y *= evaluate_texture(m.coat_roughness_texture, si.p, si.uv, si.uv1, si.color).y;
     }
     return c;
 }

@@ -80,6 +80,7 @@ fn alpha_covers(ray: Ray, prim: u32, bary: vec2<f32>) -> bool {
     }
     var uv1 = vec2<f32>(0.0);
     var vertex_alpha = 1.0;
+    var vertex_color = vec3<f32>(1.0);
     if (tri.flags & (TRIANGLE_HAS_UV1 | TRIANGLE_HAS_COLORS)) != 0u {
         let ea = vertex_extras[tri.v0];
         let eb = vertex_extras[tri.v1];
@@ -89,9 +90,10 @@ fn alpha_covers(ray: Ray, prim: u32, bary: vec2<f32>) -> bool {
         }
         if (tri.flags & TRIANGLE_HAS_COLORS) != 0u {
             vertex_alpha = b0 * ea.a + b1 * eb.a + b2 * ec.a;
+            vertex_color = b0 * vec3<f32>(ea.r, ea.g, ea.b) + b1 * vec3<f32>(eb.r, eb.g, eb.b) + b2 * vec3<f32>(ec.r, ec.g, ec.b);
         }
     }
-    let alpha = evaluate_texture(m.alpha_texture, p, uv, uv1).x * vertex_alpha;
+    let alpha = evaluate_texture(m.alpha_texture, p, uv, uv1, vertex_color).x * vertex_alpha;
     if m.alpha_cutoff == ALPHA_BLEND {
         return alpha_hash(ray, prim) < alpha;
     }
@@ -228,7 +230,7 @@ fn surface_interaction(ray: Ray, hit: Hit) -> SurfaceInteraction {
                         poison();
                     } else {
                         let tangent = b0 * vec4<f32>(ea.t_x, ea.t_y, ea.t_z, ea.t_w) + b1 * vec4<f32>(eb.t_x, eb.t_y, eb.t_z, eb.t_w) + b2 * vec4<f32>(ec.t_x, ec.t_y, ec.t_z, ec.t_w);
-                        let texel = evaluate_texture(m.texture3, si.p, uv, si.uv1);
+                        let texel = evaluate_texture(m.texture3, si.p, uv, si.uv1, si.color);
                         ns = normal_mapped(n, side, ng, tangent, texel, m.p2);
                     }
                 }

@@ -107,8 +107,9 @@ fn evaluate_leaf(id: u32, uv0: vec2<f32>, uv1: vec2<f32>) -> vec3<f32> {
             if !uses(FEATURE_IMAGE_TEXTURES) { poison(); break; }
             return vec3<f32>(t.r, t.g, t.b) * sample_image(t.image, transformed_uv(t, uv), t.sampler);
         }
-        case TEXTURE_CHECKER, TEXTURE_UV_CHECKER: {
-            // The scene builder rejects checkers nested in checkers.
+        case TEXTURE_CHECKER, TEXTURE_UV_CHECKER, TEXTURE_VERTEX_COLOR: {
+            // The scene builder rejects checkers and vertex colours in
+            // checkers.
             return vec3<f32>(0.0);
         }
         default: {
@@ -119,9 +120,16 @@ fn evaluate_leaf(id: u32, uv0: vec2<f32>, uv1: vec2<f32>) -> vec3<f32> {
     return vec3<f32>(0.0);
 }
 
-fn evaluate_texture(id: u32, p: vec3<f32>, uv: vec2<f32>, uv1: vec2<f32>) -> vec3<f32> {
+fn evaluate_texture(id: u32, p: vec3<f32>, uv: vec2<f32>, uv1: vec2<f32>, color: vec3<f32>) -> vec3<f32> {
     let t = textures[id];
     var leaf = id;
+    if t.tag == TEXTURE_VERTEX_COLOR {
+        if !uses(FEATURE_VERTEX_COLOR_TEXTURES) {
+            poison();
+            return vec3<f32>(0.0);
+        }
+        return vec3<f32>(t.r, t.g, t.b) * color;
+    }
     if t.tag == TEXTURE_CHECKER {
         if !uses(FEATURE_CHECKER_TEXTURES) {
             poison();

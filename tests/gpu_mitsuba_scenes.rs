@@ -80,8 +80,8 @@ fn gpu_next_event_estimation_reading_a_lamps_picture_as_its_emission_fails_the_s
     mutant_fails(
         "soft",
         "the lamp's picture as its emission",
-        "        t.emission = evaluate_texture(m.emission, si.p, si.uv, si.uv1);",
-        "        t.emission = evaluate_texture(m.texture, si.p, si.uv, si.uv1);",
+        "        t.emission = evaluate_texture(m.emission, si.p, si.uv, si.uv1, si.color);",
+        "        t.emission = evaluate_texture(m.texture, si.p, si.uv, si.uv1, si.color);",
     );
 }
 
@@ -170,7 +170,7 @@ fn gpu_one_sided_materials_that_reflect_behind_fail_the_masks_gate() {
     mutant_fails(
         "masks",
         "a one-sided material reflecting behind",
-        "    if m.one_sided == 0u || si.front_face {",
+        "    if m.one_sided == 0u || dot(ray_dir, si.shading_normal) < 0.0 {",
         "    if true {",
     );
 }
@@ -183,5 +183,16 @@ fn gpu_masks_whose_light_samples_ignore_the_opacity_fail_the_masks_gate() {
         "the light samples without the opacity",
         "    return BsdfEval(b.ok, b.f_cos * tx.opacity, b.pdf * tx.opacity);",
         "    return b;",
+    );
+}
+
+#[test]
+fn gpu_vertex_colour_textures_without_the_colour_fail_the_attributes_gate() {
+    // A vertex colour texture that reads its factor alone.
+    mutant_fails(
+        "attributes",
+        "the vertex colour unread",
+        "        return vec3<f32>(t.r, t.g, t.b) * color;",
+        "        return vec3<f32>(t.r, t.g, t.b);",
     );
 }

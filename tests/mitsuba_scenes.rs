@@ -161,6 +161,11 @@ fn one_sided_materials_that_reflect_behind_fail_the_masks_gate() {
 }
 
 #[test]
+fn face_attributes_read_as_vertex_attributes_fail_the_attributes_gate() {
+    mutant_fails("attributes", Mutant::MitsubaFaceAttributeByVertex);
+}
+
+#[test]
 fn masks_whose_light_samples_ignore_the_opacity_fail_the_masks_gate() {
     mutant_fails("masks", Mutant::MaskLightUnscaled);
 }

@@ -78,10 +78,6 @@ const GPU_ONLY: &[(&str, &str)] = &[
         "bvh_intersect_wide",
         "the GPU's four-wide walk (gpu::traversal; the reference's collapse is 8-wide, Bvh::intersect)",
     ),
-    (
-        "absorbs_behind",
-        "the one-sided test of material::wrapped_scatter and wrapped_bsdf_eval, with the feature's poisoning",
-    ),
     ("scatter_lambertian", "the Lambertian arm of material::scatter's match"),
     ("scatter_metal", "the metal arm of material::scatter's match"),
     ("scatter_conductor", "the conductor arm of material::scatter's match"),

@@ -76,6 +76,7 @@ feature_bits! {
     ROUGH_PLASTIC = 25,
     MASK = 26,
     ONE_SIDED = 27,
+    VERTEX_COLOR_TEXTURES = 28,
 }
 
 impl Kernel {
@@ -172,6 +173,7 @@ impl Features {
                 Texture::Image { .. } => feature::IMAGE_TEXTURES,
                 Texture::Checker { .. } => feature::CHECKER_TEXTURES,
                 Texture::UvChecker { .. } => feature::UV_CHECKER_TEXTURES,
+                Texture::VertexColor { .. } => feature::VERTEX_COLOR_TEXTURES,
             };
         }
         bits |= match scene.background() {

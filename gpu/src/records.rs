@@ -141,7 +141,7 @@ gpu_record! {
     /// A texture (`reference::texture::Texture`), by tag: CONSTANT colour
     /// in `r, g, b`; CHECKER `scale`, `even`, `odd`; IMAGE `image` with the
     /// factor in `r, g, b`, its sampler's bits in `sampler` and its uv
-    /// transform in `t0..t5`.
+    /// transform in `t0..t5`; VERTEX_COLOR the factor in `r, g, b`.
     GpuTexture { tag: u32, even: u32, odd: u32, image: u32, r: f32, g: f32, b: f32, scale: f32, sampler: u32, t0: f32, t1: f32, t2: f32, t3: f32, t4: f32, t5: f32, _pad0: u32 }
 }
 

@@ -393,6 +393,13 @@ pub fn pack_texture(t: &Texture) -> GpuTexture {
             },
             &sampler,
         ),
+        Texture::VertexColor { factor } => GpuTexture {
+            tag,
+            r: factor.x,
+            g: factor.y,
+            b: factor.z,
+            ..Default::default()
+        },
     }
 }
 

@@ -147,6 +147,7 @@ pub fn generate() -> String {
     s += &u("TEXTURE_CHECKER", texture_tag::CHECKER);
     s += &u("TEXTURE_IMAGE", texture_tag::IMAGE);
     s += &u("TEXTURE_UV_CHECKER", texture_tag::UV_CHECKER);
+    s += &u("TEXTURE_VERTEX_COLOR", texture_tag::VERTEX_COLOR);
     s += &u("WRAP_REPEAT", reference::texture::wrap_tag::REPEAT);
     s += &u(
         "WRAP_CLAMP_TO_EDGE",

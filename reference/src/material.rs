@@ -318,7 +318,14 @@ pub struct TextureContext<'a> {
 impl TextureContext<'_> {
     #[inline]
     pub fn eval(&self, id: u32, si: &SurfaceInteraction) -> Vec3 {
-        evaluate_texture(self.textures, self.images, id, si.p, [si.uv, si.uv1])
+        evaluate_texture(
+            self.textures,
+            self.images,
+            id,
+            si.p,
+            [si.uv, si.uv1],
+            si.color,
+        )
     }
 
     /// The GGX base colour at `si`: texture `id` times the vertex colour.
@@ -375,9 +382,9 @@ impl Scatter {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct Wrappers {
     /// Mitsuba's models without `twosided`: the material absorbs a path
-    /// that arrives behind it (on the side its geometric normal points
-    /// away from), reflecting nothing (a mask around it still lets its
-    /// share through).
+    /// that arrives behind it (below its shading normal, which lies on
+    /// the geometric normal's side), reflecting nothing (a mask around it
+    /// still lets its share through).
     pub one_sided: bool,
     /// Mitsuba's `mask`: the texture whose value at a point is its opacity
     /// ([`opacity_of`]). A path meeting the point scatters as the material
@@ -408,6 +415,19 @@ pub fn opacity_of(c: Vec3) -> f32 {
     }
 }
 
+/// Whether a one-sided material is met from behind, where it absorbs:
+/// the viewer below the shading normal (on the geometric normal's side,
+/// [`SurfaceInteraction::shading_normal`]), `cos θ_i ≤ 0` in the shading
+/// frame as Mitsuba's one-sided models test it (at a silhouette of
+/// interpolated normals that holds for rays that meet the geometric
+/// front too).
+#[inline]
+fn absorbs_behind(wrap: Wrappers, ray_dir: Vec3, si: &SurfaceInteraction) -> bool {
+    wrap.one_sided
+        && ray_dir.dot(si.shading_normal) >= 0.0
+        && !mutants::is(Mutant::OneSidedBackReflects)
+}
+
 /// [`scatter`] under the material's [`Wrappers`]: through a mask, the path
 /// passes on with probability `1 − opacity` (read from [`dims::MASK`], a
 /// number no model reads), on either side; otherwise it scatters as the
@@ -428,7 +448,7 @@ pub fn wrapped_scatter(
             return Some(Scatter::delta(ray_dir, Vec3::ONE));
         }
     }
-    if wrap.one_sided && !si.front_face && !mutants::is(Mutant::OneSidedBackReflects) {
+    if absorbs_behind(wrap, ray_dir, si) {
         return None;
     }
     scatter(material, ctx, ray_dir, si, u)
@@ -445,7 +465,7 @@ pub fn wrapped_bsdf_eval(
     si: &SurfaceInteraction,
     wi: Vec3,
 ) -> Option<(Vec3, f32)> {
-    if wrap.one_sided && !si.front_face && !mutants::is(Mutant::OneSidedBackReflects) {
+    if absorbs_behind(wrap, ray_dir, si) {
         return None;
     }
     let (f_cos, pdf) = bsdf_eval(material, ctx, ray_dir, si, wi)?;

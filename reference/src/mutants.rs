@@ -133,6 +133,9 @@ pub enum Mutant {
     /// A Mitsuba film without an `rfilter` read with the box rather than
     /// Mitsuba's default Gaussian (`loader::mitsuba::scene`).
     MitsubaDefaultFilterBox,
+    /// A PLY face attribute read as a vertex attribute: a corner takes the
+    /// value of the face numbered as its vertex (`loader::mitsuba::scene`).
+    MitsubaFaceAttributeByVertex,
 }
 
 #[cfg(feature = "mutants")]

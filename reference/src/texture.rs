@@ -191,6 +191,14 @@ pub enum Texture {
         even: u32,
         odd: u32,
     },
+    /// The mesh's vertex colour at the point
+    /// ([`crate::geometry::SurfaceInteraction::color`]: interpolated, one
+    /// where the shape has none) times `factor`: Mitsuba's
+    /// `mesh_attribute` of a mesh attribute the reader makes its vertex
+    /// colours. Not one of a pattern's two.
+    VertexColor {
+        factor: Vec3,
+    },
 }
 
 /// Texture `id`'s mean, one number (Mitsuba's `Texture::mean` in its rgb
@@ -214,6 +222,9 @@ pub fn texture_mean(textures: &[Texture], images: &[ImageData], id: u32) -> f32 
         Texture::Checker { even, odd, .. } | Texture::UvChecker { even, odd, .. } => {
             0.5 * (texture_mean(textures, images, even) + texture_mean(textures, images, odd))
         }
+        // The builder refuses a mean of one (SceneBuilder::texture_mean): the
+        // factor's, for a caller that asks apart.
+        Texture::VertexColor { factor } => (factor.x + factor.y + factor.z) / 3.0,
     }
 }
 
@@ -223,6 +234,7 @@ pub mod texture_tag {
     pub const CHECKER: u32 = 1;
     pub const IMAGE: u32 = 2;
     pub const UV_CHECKER: u32 = 3;
+    pub const VERTEX_COLOR: u32 = 4;
 }
 
 impl Texture {
@@ -232,6 +244,7 @@ impl Texture {
             Texture::Checker { .. } => texture_tag::CHECKER,
             Texture::Image { .. } => texture_tag::IMAGE,
             Texture::UvChecker { .. } => texture_tag::UV_CHECKER,
+            Texture::VertexColor { .. } => texture_tag::VERTEX_COLOR,
         }
     }
 
@@ -250,16 +263,18 @@ pub fn uv_checker_even(uv: Vec2) -> bool {
 }
 
 /// Evaluates texture `id` at point `p` whose texture coordinates (both
-/// sets) are `uvs`.
+/// sets) are `uvs` and vertex colour `color`.
 pub fn evaluate_texture(
     textures: &[Texture],
     images: &[ImageData],
     id: u32,
     p: Vec3,
     uvs: [Vec2; 2],
+    color: Vec3,
 ) -> Vec3 {
     match textures[id as usize] {
         Texture::Constant(c) => c,
+        Texture::VertexColor { factor } => factor * color,
         Texture::Checker { scale, even, odd } => {
             let sines = (scale * p.x).sin() * (scale * p.y).sin() * (scale * p.z).sin();
             let pick = if sines < 0.0 { odd } else { even };
@@ -289,8 +304,11 @@ fn evaluate_leaf(textures: &[Texture], images: &[ImageData], id: u32, uvs: [Vec2
             factor,
             sampler,
         } => factor * images[image as usize].sample_image(sampler.coordinates(uvs), &sampler),
-        // The scene builder rejects checkers nested in checkers.
-        Texture::Checker { .. } | Texture::UvChecker { .. } => Vec3::ZERO,
+        // The scene builder rejects checkers and vertex colours in
+        // checkers.
+        Texture::Checker { .. } | Texture::UvChecker { .. } | Texture::VertexColor { .. } => {
+            Vec3::ZERO
+        }
     }
 }
 
@@ -439,7 +457,14 @@ mod tests {
             },
         ];
         let at = |u: f32, v: f32| {
-            evaluate_texture(&textures, &[], 2, Vec3::ZERO, [Vec2::ZERO, Vec2::new(u, v)])
+            evaluate_texture(
+                &textures,
+                &[],
+                2,
+                Vec3::ZERO,
+                [Vec2::ZERO, Vec2::new(u, v)],
+                Vec3::ONE,
+            )
         };
         // Both fractional parts at most ½ (0.05 · 5 = 0.25): even.
         assert_eq!(at(0.05, 0.05), Vec3::ONE);
@@ -468,11 +493,11 @@ mod tests {
         let p_even = Vec3::splat(1.0); // sin(1)^3 > 0
         let p_odd = Vec3::new(-1.0, 1.0, 1.0);
         assert_eq!(
-            evaluate_texture(&textures, &[], 2, p_even, [Vec2::ZERO; 2]),
+            evaluate_texture(&textures, &[], 2, p_even, [Vec2::ZERO; 2], Vec3::ONE),
             Vec3::ONE
         );
         assert_eq!(
-            evaluate_texture(&textures, &[], 2, p_odd, [Vec2::ZERO; 2]),
+            evaluate_texture(&textures, &[], 2, p_odd, [Vec2::ZERO; 2], Vec3::ONE),
             Vec3::ZERO
         );
     }
@@ -490,6 +515,7 @@ mod tests {
             0,
             Vec3::ZERO,
             [Vec2::new(0.75, 0.25), Vec2::ZERO],
+            Vec3::ONE,
         );
         assert_eq!(c, Vec3::splat(0.5));
     }
@@ -507,7 +533,14 @@ mod tests {
                     ..Sampler::default()
                 },
             }];
-            evaluate_texture(&textures, std::slice::from_ref(&img), 0, Vec3::ZERO, uvs)
+            evaluate_texture(
+                &textures,
+                std::slice::from_ref(&img),
+                0,
+                Vec3::ZERO,
+                uvs,
+                Vec3::ONE,
+            )
         };
         assert_eq!(read(0), Vec3::Z);
         assert_eq!(read(1), Vec3::Y);

@@ -1394,11 +1394,18 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
         Texture::Checker { .. } => "checker",
         Texture::UvChecker { .. } => "uv checker",
         Texture::Image { .. } => "image",
+        Texture::VertexColor { .. } => "vertex colour",
     };
     say!(
         "textures: {}",
         count(
-            &["constant", "checker", "uv checker", "image"],
+            &[
+                "constant",
+                "checker",
+                "uv checker",
+                "image",
+                "vertex colour"
+            ],
             &texture_kind,
             scene.textures().len()
         )

@@ -200,6 +200,7 @@ fn check_texture(texture: &Texture, earlier: &[Texture], images: usize) -> Resul
             check_sampler(&sampler)?;
             check_pattern_leaves(even, odd, earlier)?;
         }
+        Texture::VertexColor { factor } => check_colour("texture.factor", factor)?,
         Texture::Image {
             image,
             factor,
@@ -254,6 +255,12 @@ fn check_pattern_leaves(even: u32, odd: u32, earlier: &[Texture]) -> Result<(), 
                 return Err(SceneError::invalid(
                     &format!("texture.{name}"),
                     "a checker cannot nest another checker".into(),
+                ))
+            }
+            Some(Texture::VertexColor { .. }) => {
+                return Err(SceneError::invalid(
+                    &format!("texture.{name}"),
+                    "a checker cannot nest a vertex colour".into(),
                 ))
             }
             Some(_) => {}
@@ -611,11 +618,21 @@ impl SceneBuilder {
 
     /// Texture `id`'s mean ([`crate::texture::texture_mean`]).
     pub fn texture_mean(&self, id: u32) -> Result<f32, SceneError> {
-        if id as usize >= self.textures.len() {
-            return Err(SceneError::invalid(
-                "texture",
-                format!("texture index {id} does not exist"),
-            ));
+        match self.textures.get(id as usize) {
+            None => {
+                return Err(SceneError::invalid(
+                    "texture",
+                    format!("texture index {id} does not exist"),
+                ))
+            }
+            // As Mitsuba's `mesh_attribute`, which has no mean.
+            Some(Texture::VertexColor { .. }) => {
+                return Err(SceneError::invalid(
+                    "texture",
+                    "a vertex colour has no mean (a plastic cannot weigh its lobes by it)".into(),
+                ))
+            }
+            Some(_) => {}
         }
         Ok(crate::texture::texture_mean(
             &self.textures,

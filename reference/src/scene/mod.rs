@@ -517,7 +517,15 @@ impl Scene {
             return true;
         };
         let at = self.triangle_point(tri, hit);
-        let a = evaluate_texture(&self.textures, &self.images, alpha.texture, at.p, at.uvs).x;
+        let a = evaluate_texture(
+            &self.textures,
+            &self.images,
+            alpha.texture,
+            at.p,
+            at.uvs,
+            at.color.truncate(),
+        )
+        .x;
         alpha.covers(a * at.color.w, alpha_hash(ray, hit.prim))
     }
 
@@ -629,8 +637,14 @@ impl Scene {
                     self.materials[tri.material as usize],
                 ) {
                     let tangent = b0 * m.tangents[i0] + b1 * m.tangents[i1] + b2 * m.tangents[i2];
-                    let texel =
-                        evaluate_texture(&self.textures, &self.images, map.texture, pos, at.uvs);
+                    let texel = evaluate_texture(
+                        &self.textures,
+                        &self.images,
+                        map.texture,
+                        pos,
+                        at.uvs,
+                        at.color.truncate(),
+                    );
                     ns = normal_mapped(n, side, ng, tangent, texel, map.scale);
                 }
                 (pos, ng, ns, uv, tri.material, err)

@@ -268,7 +268,14 @@ mod tests {
                         } else {
                             Vec3::ONE
                         };
-                        let got = evaluate_texture(&rendered, &[], 2, p.as_vec3(), [Vec2::ZERO; 2]);
+                        let got = evaluate_texture(
+                            &rendered,
+                            &[],
+                            2,
+                            p.as_vec3(),
+                            [Vec2::ZERO; 2],
+                            Vec3::ONE,
+                        );
                         assert_eq!(got, want, "{scales:?} near {near}: f32 at {p}");
                     }
                 }

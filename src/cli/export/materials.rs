@@ -642,6 +642,9 @@ fn texture(scene: &Scene, id: u32, what: &str) -> Result<Tex> {
                 odd: Box::new(texture(scene, *odd, what)?),
             }
         }
+        Some(Texture::VertexColor { .. }) => {
+            bail!("{what} reads the mesh's vertex colours as a texture (not exported)")
+        }
         None => bail!("{what} names texture {id}, which the scene lacks"),
     })
 }

@@ -38,9 +38,12 @@
 //!   reads a stream of words); Mitsuba's extra types `long`, `ulong`, `half`
 //!   and `float16` are not read; the format version is not checked.
 //!
-//! Not read at all: PLY colors and other vertex or face attributes, the
-//! serialized shape name and vertex colors (skipped), and the plugins'
-//! `to_world` and `flip_normals` (the caller's business).
+//! PLY vertex and face properties beyond those are grouped into attributes
+//! as Mitsuba groups them ([`ply_attributes`]), for `mesh_attribute`.
+//!
+//! Not read at all: the serialized shape name and vertex colors
+//! (skipped), and the plugins' `to_world` and `flip_normals` (the
+//! caller's business).
 
 use glam::{Vec2, Vec3};
 use std::fmt::Display;
@@ -59,6 +62,129 @@ pub struct Mesh {
     pub uvs: Option<Vec<glam::Vec2>>,
     /// Three indices per triangle.
     pub indices: Vec<u32>,
+    /// The PLY file's other vertex and face properties, grouped into
+    /// attributes as Mitsuba's `ply` groups them ([`ply_attributes`]);
+    /// none for the other formats.
+    pub attributes: Vec<Attribute>,
+}
+
+/// A mesh attribute (what Mitsuba's `mesh_attribute` texture reads): its
+/// name (`vertex_…` or `face_…`), its channels (1, 3 or, for a colour
+/// with alpha, 4) and its values, `channels` a vertex, or a triangle for
+/// a face attribute (a polygon's value repeated on each triangle of its
+/// fan).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Attribute {
+    pub name: String,
+    pub channels: usize,
+    pub values: Vec<f32>,
+}
+
+impl Attribute {
+    /// Whether it is a face attribute (one value a triangle).
+    pub fn per_face(&self) -> bool {
+        self.name.starts_with("face_")
+    }
+}
+
+/// How Mitsuba's `ply` groups the properties of an element (`kind`
+/// "vertex_" or "face_") that it reads otherwise into attributes (its
+/// ply.h `find_other_fields`): `r`, `g`, `b` (and `a`), or `red`,
+/// `green`, `blue` (and `alpha`), are `{kind}color`; then consecutive
+/// properties `{prefix}_{c}` whose one-letter postfixes run through one of
+/// the series x y z w, r g b a, 0 1 2 3, 1 2 3 4 are `{kind}{prefix}`
+/// (`{kind}{prefix}_color` for r g b), kept where they have 1 or 3
+/// channels. Properties without such a postfix, a prefix met a second
+/// time, and a broken series are left out, as Mitsuba leaves them (with a
+/// warning). Returns each attribute's name and its properties' names.
+pub fn ply_attributes(
+    kind: &str,
+    properties: &[&str],
+    reserved: &[&str],
+) -> Vec<(String, Vec<String>)> {
+    let has = |n: &str| properties.contains(&n);
+    let mut out = Vec::new();
+    let mut colour_names: &[&str] = &[];
+    if has("r") && has("g") && has("b") {
+        colour_names = &["r", "g", "b", "a"];
+    } else if has("red") && has("green") && has("blue") {
+        colour_names = &["red", "green", "blue", "alpha"];
+    }
+    if !colour_names.is_empty() {
+        let fields: Vec<String> = colour_names
+            .iter()
+            .filter(|n| has(n))
+            .map(|n| n.to_string())
+            .collect();
+        out.push((format!("{kind}color"), fields));
+    }
+    const SERIES: [&str; 4] = ["xyzw", "rgba", "0123", "1234"];
+    let mut seen: Vec<&str> = Vec::new();
+    // The attribute being read: its prefix, its series, its fields.
+    let mut current: Option<(&str, usize, Vec<String>)> = None;
+    #[allow(clippy::type_complexity)]
+    fn flush<'a>(
+        kind: &str,
+        current: &mut Option<(&'a str, usize, Vec<String>)>,
+        seen: &mut Vec<&'a str>,
+        out: &mut Vec<(String, Vec<String>)>,
+    ) {
+        if let Some((prefix, series, fields)) = current.take() {
+            if fields.len() == 1 || fields.len() == 3 {
+                let colour = if series == 1 { "_color" } else { "" };
+                out.push((format!("{kind}{prefix}{colour}"), fields));
+            }
+            seen.push(prefix);
+        }
+    }
+    let mut skip_prefix: Option<&str> = None;
+    for &name in properties {
+        if reserved.contains(&name)
+            || ["r", "g", "b", "a"].contains(&name)
+            || colour_names.contains(&name)
+        {
+            continue;
+        }
+        let Some((prefix, postfix)) = name.rsplit_once('_') else {
+            flush(kind, &mut current, &mut seen, &mut out);
+            continue;
+        };
+        if skip_prefix == Some(prefix) {
+            continue;
+        }
+        skip_prefix = None;
+        let mut chars = postfix.chars();
+        let (Some(c), None) = (chars.next(), chars.next()) else {
+            flush(kind, &mut current, &mut seen, &mut out);
+            continue;
+        };
+        if current.as_ref().is_some_and(|(p, _, _)| *p != prefix) {
+            flush(kind, &mut current, &mut seen, &mut out);
+        }
+        match &mut current {
+            None => {
+                if seen.contains(&prefix) {
+                    skip_prefix = Some(prefix);
+                    continue;
+                }
+                if let Some(series) = SERIES.iter().position(|s| s.starts_with(c)) {
+                    current = Some((prefix, series, vec![name.to_string()]));
+                }
+            }
+            Some((_, series, fields)) => {
+                if SERIES[*series].chars().nth(fields.len()) == Some(c) {
+                    fields.push(name.to_string());
+                } else {
+                    // A broken series: the attribute is left out.
+                    current = None;
+                    seen.push(prefix);
+                    skip_prefix = Some(prefix);
+                }
+            }
+        }
+    }
+    flush(kind, &mut current, &mut seen, &mut out);
+    out
 }
 
 /// The shape plugin parameters that change what a mesh file means.
@@ -253,6 +379,7 @@ fn finish(
         normals,
         uvs,
         indices,
+        attributes: Vec::new(),
     })
 }
 
@@ -661,7 +788,29 @@ const VERTEX_SLOTS: [&str; 8] = ["x", "y", "z", "nx", "ny", "nz", "u", "v"];
 /// One `vertex` record: the eight slots, converted to `f32` by a plain
 /// cast whatever their type (Mitsuba converts integer properties to float
 /// without normalizing them: checked with a `uchar x` file).
-struct PlyVertex([f32; VERTEX_SLOTS.len()]);
+/// The attribute properties' values follow, by the slot numbers
+/// [`attribute_slot`] gives them.
+struct PlyVertex([f32; VERTEX_SLOTS.len()], Vec<f32>);
+
+/// The name the renamed element definitions give attribute property `k`.
+fn attribute_slot(k: usize) -> String {
+    format!("@{k}")
+}
+
+/// Stores `value` in `extra` at the attribute slot `name` names, if it
+/// names one.
+fn set_attribute(extra: &mut Vec<f32>, name: &str, value: f32) -> PropertyAccessResult {
+    match name.strip_prefix('@').and_then(|k| k.parse::<usize>().ok()) {
+        Some(k) => {
+            if extra.len() <= k {
+                extra.resize(k + 1, 0.0);
+            }
+            extra[k] = value;
+            PropertyAccessResult::Set
+        }
+        None => PropertyAccessResult::Ignored,
+    }
+}
 
 impl PlyVertex {
     fn set(&mut self, name: &str, value: f32) -> PropertyAccessResult {
@@ -670,14 +819,14 @@ impl PlyVertex {
                 self.0[k] = value;
                 PropertyAccessResult::Set
             }
-            None => PropertyAccessResult::Ignored,
+            None => set_attribute(&mut self.1, name, value),
         }
     }
 }
 
 impl PropertyAccess for PlyVertex {
     fn new() -> Self {
-        PlyVertex([0.0; VERTEX_SLOTS.len()])
+        PlyVertex([0.0; VERTEX_SLOTS.len()], Vec::new())
     }
     fn set_char(&mut self, name: &str, value: i8) -> PropertyAccessResult {
         self.set(name, f32::from(value))
@@ -708,10 +857,12 @@ impl PropertyAccess for PlyVertex {
 /// The name the renamed `face` definition gives the index list.
 const FACE_LIST: &str = "i";
 
-/// One `face` record: its index list, or the negative index it held.
+/// One `face` record: its index list, or the negative index it held, and
+/// its attribute properties' values (by [`attribute_slot`]).
 struct PlyFace {
     indices: Vec<u32>,
     negative: Option<i64>,
+    extra: Vec<f32>,
 }
 
 impl PlyFace {
@@ -739,7 +890,32 @@ impl PropertyAccess for PlyFace {
         PlyFace {
             indices: Vec::new(),
             negative: None,
+            extra: Vec::new(),
         }
+    }
+    fn set_char(&mut self, name: &str, value: i8) -> PropertyAccessResult {
+        set_attribute(&mut self.extra, name, f32::from(value))
+    }
+    fn set_uchar(&mut self, name: &str, value: u8) -> PropertyAccessResult {
+        set_attribute(&mut self.extra, name, f32::from(value))
+    }
+    fn set_short(&mut self, name: &str, value: i16) -> PropertyAccessResult {
+        set_attribute(&mut self.extra, name, f32::from(value))
+    }
+    fn set_ushort(&mut self, name: &str, value: u16) -> PropertyAccessResult {
+        set_attribute(&mut self.extra, name, f32::from(value))
+    }
+    fn set_int(&mut self, name: &str, value: i32) -> PropertyAccessResult {
+        set_attribute(&mut self.extra, name, value as f32)
+    }
+    fn set_uint(&mut self, name: &str, value: u32) -> PropertyAccessResult {
+        set_attribute(&mut self.extra, name, value as f32)
+    }
+    fn set_float(&mut self, name: &str, value: f32) -> PropertyAccessResult {
+        set_attribute(&mut self.extra, name, value)
+    }
+    fn set_double(&mut self, name: &str, value: f64) -> PropertyAccessResult {
+        set_attribute(&mut self.extra, name, value as f32)
     }
     fn set_list_char(&mut self, name: &str, value: Vec<i8>) -> PropertyAccessResult {
         self.take(name, value)
@@ -914,6 +1090,7 @@ pub fn parse_ply(bytes: &[u8], opts: &MeshOptions) -> Result<Mesh, String> {
     let mut normals: Option<Vec<Vec3>> = None;
     let mut uvs: Option<Vec<Vec2>> = None;
     let mut indices = Vec::new();
+    let mut attributes = Vec::new();
     for (name, def) in &header.elements {
         // Room for what the file can hold, not for what the header claims.
         let capacity = def
@@ -948,13 +1125,22 @@ pub fn parse_ply(bytes: &[u8], opts: &MeshOptions) -> Result<Mesh, String> {
                     scalar_property(def, v)?;
                     keep.extend([(u, "u"), (v, "v")]);
                 }
+                let mut reserved = vec!["x", "y", "z", "nx", "ny", "nz", "u", "v"];
+                reserved.extend(uv_names.iter().flat_map(|&(u, v)| [u, v]));
+                let (groups, slots) = attribute_slots(def, "vertex_", &reserved);
+                let slot_keep: Vec<(&str, &str)> = slots
+                    .iter()
+                    .map(|(file, slot)| (file.as_str(), slot.as_str()))
+                    .collect();
+                keep.extend(slot_keep);
                 let def = renamed(def, &keep);
                 let parser = Parser::<PlyVertex>::new();
                 positions = Vec::with_capacity(capacity);
                 let mut ns = Vec::with_capacity(if has_normals { capacity } else { 0 });
                 let mut ts = Vec::with_capacity(if uv_names.is_some() { capacity } else { 0 });
+                let mut values: Vec<Vec<f32>> = vec![Vec::new(); groups.len()];
                 for i in 0..def.count {
-                    let PlyVertex(s) = body.record(&parser, &def, i)?;
+                    let PlyVertex(s, extra) = body.record(&parser, &def, i)?;
                     positions.push(Vec3::new(s[0], s[1], s[2]));
                     if has_normals {
                         ns.push(Vec3::new(s[3], s[4], s[5]));
@@ -962,9 +1148,11 @@ pub fn parse_ply(bytes: &[u8], opts: &MeshOptions) -> Result<Mesh, String> {
                     if uv_names.is_some() {
                         ts.push(Vec2::new(s[6], s[7]));
                     }
+                    gather(&groups, &extra, &mut values, 1);
                 }
                 normals = has_normals.then_some(ns);
                 uvs = uv_names.is_some().then_some(ts);
+                attributes.extend(attributes_of(&groups, values));
             }
             "face" => {
                 let list = PLY_FACE_LISTS
@@ -978,19 +1166,26 @@ pub fn parse_ply(bytes: &[u8], opts: &MeshOptions) -> Result<Mesh, String> {
                     }
                     PropertyType::List(..) => {}
                 }
-                let def = renamed(def, &[(list, FACE_LIST)]);
+                let (groups, slots) = attribute_slots(def, "face_", &[list]);
+                let mut keep = vec![(*list, FACE_LIST)];
+                keep.extend(slots.iter().map(|(f, s)| (f.as_str(), s.as_str())));
+                let def = renamed(def, &keep);
                 let parser = Parser::<PlyFace>::new();
                 indices = Vec::with_capacity(capacity.saturating_mul(3));
+                let mut values: Vec<Vec<f32>> = vec![Vec::new(); groups.len()];
                 for i in 0..def.count {
                     let face = body.record(&parser, &def, i)?;
                     if let Some(v) = face.negative {
                         return Err(format!("face {i}: negative vertex index {v}"));
                     }
                     let c = &face.indices;
+                    let triangles = c.len().saturating_sub(2);
                     for k in 1..c.len().saturating_sub(1) {
                         indices.extend_from_slice(&[c[0], c[k], c[k + 1]]);
                     }
+                    gather(&groups, &face.extra, &mut values, triangles);
                 }
+                attributes.extend(attributes_of(&groups, values));
             }
             _ => {
                 let all_scalar = def
@@ -1025,7 +1220,63 @@ pub fn parse_ply(bytes: &[u8], opts: &MeshOptions) -> Result<Mesh, String> {
     if let Some(uvs) = &mut uvs {
         flip_v(uvs, opts.flip_tex_coords.unwrap_or(PLY_FLIP_DEFAULT));
     }
-    finish(positions, normals, uvs, indices, opts.face_normals)
+    let mut mesh = finish(positions, normals, uvs, indices, opts.face_normals)?;
+    mesh.attributes = attributes;
+    Ok(mesh)
+}
+
+/// An element's attributes ([`ply_attributes`] over its scalar properties
+/// but `reserved`), each with its properties' slot numbers, and the
+/// (file name, slot name) pairs that rename them for the parser.
+#[allow(clippy::type_complexity)]
+fn attribute_slots(
+    def: &ElementDef,
+    kind: &str,
+    reserved: &[&str],
+) -> (Vec<(String, Vec<usize>)>, Vec<(String, String)>) {
+    let scalars: Vec<&str> = def
+        .properties
+        .iter()
+        .filter(|(_, p)| matches!(p.data_type, PropertyType::Scalar(_)))
+        .map(|(n, _)| n.as_str())
+        .collect();
+    let mut slots = Vec::new();
+    let groups = ply_attributes(kind, &scalars, reserved)
+        .into_iter()
+        .map(|(name, fields)| {
+            let ks = fields
+                .into_iter()
+                .map(|f| {
+                    slots.push((f, attribute_slot(slots.len())));
+                    slots.len() - 1
+                })
+                .collect();
+            (name, ks)
+        })
+        .collect();
+    (groups, slots)
+}
+
+/// Appends one record's attribute values (`extra`, by slot), `repeat`
+/// times, to each attribute's values.
+fn gather(groups: &[(String, Vec<usize>)], extra: &[f32], values: &mut [Vec<f32>], repeat: usize) {
+    for ((_, ks), out) in groups.iter().zip(values) {
+        for _ in 0..repeat {
+            out.extend(ks.iter().map(|&k| extra.get(k).copied().unwrap_or(0.0)));
+        }
+    }
+}
+
+fn attributes_of(groups: &[(String, Vec<usize>)], values: Vec<Vec<f32>>) -> Vec<Attribute> {
+    groups
+        .iter()
+        .zip(values)
+        .map(|((name, ks), values)| Attribute {
+            name: name.clone(),
+            channels: ks.len(),
+            values,
+        })
+        .collect()
 }
 
 /// Checks that `def` has the scalar property `name`.
@@ -1325,6 +1576,66 @@ mod tests {
     const TRIANGLE_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
 
     // ---- vertex normals -------------------------------------------------
+
+    #[test]
+    fn ply_properties_group_into_attributes_as_mitsubas() {
+        let names = |v: Vec<(String, Vec<String>)>| {
+            v.into_iter()
+                .map(|(n, f)| format!("{n}:{}", f.join(",")))
+                .collect::<Vec<_>>()
+        };
+        let vertex = ["x", "y", "z", "nx", "ny", "nz", "u", "v"];
+        assert_eq!(
+            names(ply_attributes(
+                "vertex_",
+                &["x", "y", "z", "color_0", "color_1", "color_2", "weight_0"],
+                &vertex
+            )),
+            [
+                "vertex_color:color_0,color_1,color_2",
+                "vertex_weight:weight_0"
+            ]
+        );
+        // Plain r g b (and red green blue) are the colour; an r g b series
+        // is `_color`; x y z and 1 2 3 series; two fields are dropped, as
+        // are names without a one-letter postfix.
+        assert_eq!(
+            names(ply_attributes(
+                "face_",
+                &[
+                    "vertex_indices",
+                    "red",
+                    "green",
+                    "blue",
+                    "n_x",
+                    "n_y",
+                    "p_r",
+                    "p_g",
+                    "p_b",
+                    "q_1",
+                    "q_2",
+                    "q_3",
+                    "plain",
+                    "s_ab"
+                ],
+                &["vertex_indices"]
+            )),
+            [
+                "face_color:red,green,blue",
+                "face_p_color:p_r,p_g,p_b",
+                "face_q:q_1,q_2,q_3"
+            ]
+        );
+        // A broken series and a prefix met again are left out.
+        assert_eq!(
+            names(ply_attributes(
+                "vertex_",
+                &["a_x", "a_z", "b_0", "c_0", "b_0"],
+                &vertex
+            )),
+            ["vertex_b:b_0", "vertex_c:c_0"]
+        );
+    }
 
     #[test]
     fn computed_normals_are_angle_weighted() {

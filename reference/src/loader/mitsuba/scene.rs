@@ -351,6 +351,12 @@ struct Reader<'d> {
     /// files once).
     meshes: HashMap<(PathBuf, bool, Option<bool>, u32), Rc<Mesh>>,
     sensor_seen: bool,
+    /// The mesh attributes the `mesh_attribute` textures read since the
+    /// material being made began.
+    attributes_read: Vec<String>,
+    /// By material: the mesh attributes its textures read (a shape's mesh
+    /// gives them as its vertex colours).
+    material_attributes: HashMap<u32, Vec<String>>,
 }
 
 /// Loads a Mitsuba 3 scene file with the command line's `-D` parameters.
@@ -368,6 +374,8 @@ pub fn build(doc: &Document) -> Result<Scene, SceneError> {
         images: HashMap::new(),
         meshes: HashMap::new(),
         sensor_seen: false,
+        attributes_read: Vec::new(),
+        material_attributes: HashMap::new(),
     };
     r.builder.render_origin = RenderOrigin::Camera;
     r.builder.background = Some(Background::Solid(Vec3::ZERO));
@@ -823,6 +831,7 @@ impl Reader<'_> {
         match o.kind.as_str() {
             "bitmap" => {}
             "checkerboard" => return self.checkerboard(props, usage),
+            "mesh_attribute" => return self.mesh_attribute(props),
             _ => return Err(unsupported(o, "")),
         }
         let name = props
@@ -934,6 +943,32 @@ impl Reader<'_> {
             .map_err(|e| fail(&o.at, e.to_string()))
     }
 
+    /// Mitsuba's `mesh_attribute`: the attribute `name` (`vertex_…` or
+    /// `face_…`) of the mesh of the shape that uses it, times `scale`. The
+    /// shape's mesh gives the attribute as its vertex colours
+    /// ([`with_attribute`]), which the texture reads.
+    fn mesh_attribute(&mut self, props: Props) -> Result<u32, SceneError> {
+        let o = props.object;
+        let name = props
+            .string("name")?
+            .ok_or_else(|| fail(&o.at, format!("{} has no name", o.describe())))?
+            .to_string();
+        if !(name.starts_with("vertex_") || name.starts_with("face_")) {
+            return Err(fail(
+                &o.at,
+                format!("mesh attribute \"{name}\" does not start with vertex_ or face_"),
+            ));
+        }
+        let scale = props.float("scale", 1.0)? as f32;
+        props.finish()?;
+        self.attributes_read.push(name);
+        self.builder
+            .add_texture(Texture::VertexColor {
+                factor: Vec3::splat(scale),
+            })
+            .map_err(|e| fail(&o.at, e.to_string()))
+    }
+
     /// The material of a shape: its BSDF (Mitsuba's default, diffuse 0.5,
     /// where it has none) with its area emitter.
     fn material(
@@ -948,6 +983,23 @@ impl Reader<'_> {
         if let Some(&m) = self.materials.get(&key) {
             return Ok(m);
         }
+        let outer = std::mem::take(&mut self.attributes_read);
+        let made = self.new_material(bsdf, emitter);
+        let read = std::mem::replace(&mut self.attributes_read, outer);
+        let id = made?;
+        if !read.is_empty() {
+            self.material_attributes.insert(id, read);
+        }
+        self.materials.insert(key, id);
+        Ok(id)
+    }
+
+    /// [`Self::material`] made anew.
+    fn new_material(
+        &mut self,
+        bsdf: Option<&Object>,
+        emitter: Option<&Object>,
+    ) -> Result<u32, SceneError> {
         let emission = match emitter {
             None => None,
             Some(e) => {
@@ -991,7 +1043,6 @@ impl Reader<'_> {
                 .set_emission(id, e)
                 .map_err(|err| fail(&emitter.unwrap().at, err.to_string()))?;
         }
-        self.materials.insert(key, id);
         Ok(id)
     }
 
@@ -1312,6 +1363,27 @@ impl Reader<'_> {
         let material = self.material(bsdf.as_deref(), emitter.as_deref())?;
         let at = o.at.clone();
         let place = |e: SceneError| fail(&at, format!("{}: {e}", o.describe()));
+        // The mesh attribute its material's textures read (one at most).
+        let attribute = match self.material_attributes.get(&material).map(Vec::as_slice) {
+            None | Some([]) => None,
+            Some([first, rest @ ..]) => {
+                if let Some(other) = rest.iter().find(|n| *n != first) {
+                    return Err(unsupported(
+                        o,
+                        &format!(
+                            " whose textures read two mesh attributes (\"{first}\", \"{other}\")"
+                        ),
+                    ));
+                }
+                if !matches!(o.kind.as_str(), "obj" | "ply" | "serialized") {
+                    return Err(fail(
+                        &o.at,
+                        format!("{}: a mesh_attribute texture needs a mesh", o.describe()),
+                    ));
+                }
+                Some(first.clone())
+            }
+        };
         match o.kind.as_str() {
             "sphere" => {
                 let center = props.point("center")?.unwrap_or(DVec3::ZERO);
@@ -1390,7 +1462,28 @@ impl Reader<'_> {
                         format!("{}: {} has no triangles", o.describe(), path.display()),
                     ));
                 }
-                let input = oriented(&mesh_input(&mesh), flip);
+                let mut input = mesh_input(&mesh);
+                if let Some(name) = &attribute {
+                    let Some(a) = mesh.attributes.iter().find(|a| &a.name == name) else {
+                        let known: Vec<&str> =
+                            mesh.attributes.iter().map(|a| a.name.as_str()).collect();
+                        return Err(fail(
+                            &o.at,
+                            format!(
+                                "{}: {} has no attribute \"{name}\" (it has: {})",
+                                o.describe(),
+                                path.display(),
+                                if known.is_empty() {
+                                    "none".to_string()
+                                } else {
+                                    known.join(", ")
+                                }
+                            ),
+                        ));
+                    };
+                    input = with_attribute(input, a);
+                }
+                let input = oriented(&input, flip);
                 self.builder
                     .add_mesh(&input, material, &transform)
                     .map_err(place)?;
@@ -1655,6 +1748,7 @@ fn rectangle() -> Mesh {
                 .collect(),
         ),
         indices: vec![0, 1, 2, 0, 2, 3],
+        attributes: Vec::new(),
     }
 }
 
@@ -1707,6 +1801,54 @@ fn mesh_input(mesh: &Mesh) -> MeshInput {
     }
 }
 
+/// `mesh` with attribute `a` as its vertex colours (what a
+/// `mesh_attribute` texture reads): a vertex attribute's value a vertex,
+/// a face attribute's on the three corners of its triangle, each
+/// triangle then given vertices of its own. One channel is grey; a
+/// fourth (a colour's alpha) is not read.
+fn with_attribute(mesh: MeshInput, a: &meshes::Attribute) -> MeshInput {
+    let colour = |k: usize| {
+        let v = &a.values[k * a.channels..(k + 1) * a.channels];
+        match v {
+            [g] => glam::Vec4::new(*g, *g, *g, 1.0),
+            [r, g, b, ..] => glam::Vec4::new(*r, *g, *b, 1.0),
+            _ => glam::Vec4::ONE,
+        }
+    };
+    let count = a.values.len() / a.channels.max(1);
+    if !a.per_face() || mutants::is(Mutant::MitsubaFaceAttributeByVertex) {
+        let colors = (0..mesh.positions.len())
+            .map(|k| {
+                if k < count {
+                    colour(k)
+                } else {
+                    glam::Vec4::ONE
+                }
+            })
+            .collect();
+        return MeshInput {
+            colors: Some(colors),
+            ..mesh
+        };
+    }
+    let corners = &mesh.indices;
+    fn pick<T: Copy>(v: &Option<Vec<T>>, corners: &[u32]) -> Option<Vec<T>> {
+        v.as_ref()
+            .map(|v| corners.iter().map(|&i| v[i as usize]).collect())
+    }
+    MeshInput {
+        positions: corners
+            .iter()
+            .map(|&i| mesh.positions[i as usize])
+            .collect(),
+        normals: pick(&mesh.normals, corners),
+        uvs: pick(&mesh.uvs, corners),
+        colors: Some((0..corners.len()).map(|c| colour(c / 3)).collect()),
+        indices: (0..corners.len() as u32).collect(),
+        ..MeshInput::default()
+    }
+}
+
 /// `flip_normals`: the triangles wound the other way and the normals
 /// reversed, so the surface faces the other side.
 fn oriented(mesh: &MeshInput, flip: bool) -> MeshInput {
@@ -1737,6 +1879,67 @@ mod tests {
     }
 
     const FILM: &str = r#"<film type="hdrfilm"><integer name="width" value="40"/><integer name="height" value="20"/><rfilter type="box"/></film>"#;
+
+    /// A scene of one PLY shape (`ply`'s text, written beside the scene)
+    /// whose diffuse reflectance is the mesh attribute `name`.
+    fn attribute_scene(ply: &str, name: &str) -> Result<Scene, SceneError> {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("m.ply"), ply).unwrap();
+        let text = format!(
+            r#"<scene version="3.0.0"><sensor type="perspective">{FILM}</sensor><shape type="ply"><string name="filename" value="m.ply"/>
+            <bsdf type="diffuse"><texture type="mesh_attribute" name="reflectance"><string name="name" value="{name}"/><float name="scale" value="0.5"/></texture></bsdf></shape></scene>"#
+        );
+        let path = dir.path().join("s.xml");
+        let doc =
+            super::super::xml::parse_text(&text, &path, &[]).map_err(|e| fail(&e.at, e.message))?;
+        build(&doc)
+    }
+
+    /// A square of two triangles (one PLY quad, fanned) with a vertex
+    /// colour (`r g b`) and a face attribute (`w_0`).
+    const ATTRIBUTE_PLY: &str = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nproperty float r\nproperty float g\nproperty float b\nelement face 1\nproperty list uchar int vertex_indices\nproperty float w_0\nend_header\n0 0 0 1 0 0\n1 0 0 0 1 0\n1 1 0 0 0 1\n0 1 0 1 1 1\n4 0 1 2 3 0.25\n";
+
+    #[test]
+    fn mesh_attributes_become_the_meshs_vertex_colours() {
+        use crate::texture::Texture;
+        let s = attribute_scene(ATTRIBUTE_PLY, "vertex_color").unwrap();
+        let colours: Vec<Vec3> = s.mesh().colors.iter().map(|c| c.truncate()).collect();
+        assert_eq!(colours, [Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE]);
+        assert!(s.textures().contains(&Texture::VertexColor {
+            factor: Vec3::splat(0.5)
+        }));
+        // A face attribute: each triangle's corners of their own, the
+        // polygon's value on both triangles of its fan.
+        let s = attribute_scene(ATTRIBUTE_PLY, "face_w").unwrap();
+        assert_eq!(s.triangles().len(), 2);
+        assert_eq!(s.mesh().positions.len(), 6);
+        assert!(s
+            .mesh()
+            .colors
+            .iter()
+            .all(|c| *c == glam::Vec4::new(0.25, 0.25, 0.25, 1.0)));
+    }
+
+    #[test]
+    fn a_mesh_attribute_the_shape_lacks_or_cannot_have_is_named() {
+        let e = attribute_scene(ATTRIBUTE_PLY, "vertex_weight")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("no attribute \"vertex_weight\"") && e.contains("vertex_color, face_w"),
+            "{e}"
+        );
+        let e = attribute_scene(ATTRIBUTE_PLY, "colour")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("does not start with vertex_ or face_"), "{e}");
+        let e = scene(
+            r#"<shape type="sphere"><bsdf type="diffuse"><texture type="mesh_attribute" name="reflectance"><string name="name" value="vertex_color"/></texture></bsdf></shape>"#,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("needs a mesh"), "{e}");
+    }
     const SPHERE: &str = r#"<shape type="sphere"/>"#;
 
     #[test]
