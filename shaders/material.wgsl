@@ -298,7 +298,7 @@ fn opacity_of(c: vec3<f32>) -> f32 {
 // reference::material::absorbs_behind: whether a one-sided material is
 // met from behind (the viewer below the shading normal), where it absorbs.
 fn absorbs_behind(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction) -> bool {
-    if m.one_sided == 0u || dot(ray_dir, si.shading_normal) < 0.0 {
+    if m.one_sided == 0u || !(dot(ray_dir, si.shading_normal) >= 0.0) {
         return false;
     }
     if !uses(FEATURE_ONE_SIDED) {

@@ -170,7 +170,7 @@ fn gpu_one_sided_materials_that_reflect_behind_fail_the_masks_gate() {
     mutant_fails(
         "masks",
         "a one-sided material reflecting behind",
-        "    if m.one_sided == 0u || dot(ray_dir, si.shading_normal) < 0.0 {",
+        "    if m.one_sided == 0u || !(dot(ray_dir, si.shading_normal) >= 0.0) {",
         "    if true {",
     );
 }

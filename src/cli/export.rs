@@ -399,7 +399,7 @@ impl<'s> MitsubaScene<'s> {
             .find(|m| m.normals && wrappings[m.material as usize].one_sided)
         {
             bail!(
-                "material {} is one-sided on triangles with shading normals, where Mitsuba picks the side by the shading normal and twintrace by the geometric one (not exported)",
+                "material {} is one-sided on triangles with shading normals, where twintrace shades it in the frame the geometric normal's side picks and Mitsuba in the shading frame: they differ at silhouettes (not exported)",
                 m.material
             );
         }

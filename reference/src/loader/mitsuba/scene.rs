@@ -352,11 +352,12 @@ struct Reader<'d> {
     meshes: HashMap<(PathBuf, bool, Option<bool>, u32), Rc<Mesh>>,
     sensor_seen: bool,
     /// The mesh attributes the `mesh_attribute` textures read since the
-    /// material being made began.
-    attributes_read: Vec<String>,
+    /// material being made began, each with whether it is read as a
+    /// number (Mitsuba's `eval_1`, of one channel only).
+    attributes_read: Vec<(String, bool)>,
     /// By material: the mesh attributes its textures read (a shape's mesh
     /// gives them as its vertex colours).
-    material_attributes: HashMap<u32, Vec<String>>,
+    material_attributes: HashMap<u32, Vec<(String, bool)>>,
 }
 
 /// Loads a Mitsuba 3 scene file with the command line's `-D` parameters.
@@ -831,7 +832,7 @@ impl Reader<'_> {
         match o.kind.as_str() {
             "bitmap" => {}
             "checkerboard" => return self.checkerboard(props, usage),
-            "mesh_attribute" => return self.mesh_attribute(props),
+            "mesh_attribute" => return self.mesh_attribute(props, usage),
             _ => return Err(unsupported(o, "")),
         }
         let name = props
@@ -947,7 +948,7 @@ impl Reader<'_> {
     /// `face_…`) of the mesh of the shape that uses it, times `scale`. The
     /// shape's mesh gives the attribute as its vertex colours
     /// ([`with_attribute`]), which the texture reads.
-    fn mesh_attribute(&mut self, props: Props) -> Result<u32, SceneError> {
+    fn mesh_attribute(&mut self, props: Props, usage: ColourUse) -> Result<u32, SceneError> {
         let o = props.object;
         let name = props
             .string("name")?
@@ -961,7 +962,8 @@ impl Reader<'_> {
         }
         let scale = props.float("scale", 1.0)? as f32;
         props.finish()?;
-        self.attributes_read.push(name);
+        self.attributes_read
+            .push((name, usage == ColourUse::Number));
         self.builder
             .add_texture(Texture::VertexColor {
                 factor: Vec3::splat(scale),
@@ -1069,8 +1071,22 @@ impl Reader<'_> {
             if wrap.opacity.is_some() {
                 return Err(unsupported(&one.object, " inside a mask"));
             }
-            let opacity = self.colour(&props, "opacity", ColourUse::Number, 0.5)?;
+            // Mitsuba's `eval_1`: an `rgb` constant's mean (a bitmap's
+            // luminance, which `material::opacity_of` reads).
+            let opacity = match self.colour(&props, "opacity", ColourUse::Number, 0.5)? {
+                Colour::Constant(c) => Colour::Constant(Vec3::splat((c.x + c.y + c.z) / 3.0)),
+                t => t,
+            };
             let opacity = self.texture_of(opacity, &o.at)?;
+            if let Some(Texture::UvChecker { even, odd, .. }) = self.builder.texture(opacity) {
+                let coloured = |t: &u32| matches!(self.builder.texture(*t), Some(Texture::Constant(c)) if c.x != c.y || c.y != c.z);
+                if coloured(even) || coloured(odd) {
+                    return Err(unsupported(
+                        o,
+                        " with a checkerboard of colours as its opacity (Mitsuba reads their means; give numbers)",
+                    ));
+                }
+            }
             props.finish()?;
             return Ok((
                 material,
@@ -1367,7 +1383,8 @@ impl Reader<'_> {
         let attribute = match self.material_attributes.get(&material).map(Vec::as_slice) {
             None | Some([]) => None,
             Some([first, rest @ ..]) => {
-                if let Some(other) = rest.iter().find(|n| *n != first) {
+                if let Some((other, _)) = rest.iter().find(|(n, _)| *n != first.0) {
+                    let first = &first.0;
                     return Err(unsupported(
                         o,
                         &format!(
@@ -1381,7 +1398,8 @@ impl Reader<'_> {
                         format!("{}: a mesh_attribute texture needs a mesh", o.describe()),
                     ));
                 }
-                Some(first.clone())
+                let number = rest.iter().chain([first]).any(|(_, number)| *number);
+                Some((first.0.clone(), number))
             }
         };
         match o.kind.as_str() {
@@ -1463,7 +1481,7 @@ impl Reader<'_> {
                     ));
                 }
                 let mut input = mesh_input(&mesh);
-                if let Some(name) = &attribute {
+                if let Some((name, number)) = &attribute {
                     let Some(a) = mesh.attributes.iter().find(|a| &a.name == name) else {
                         let known: Vec<&str> =
                             mesh.attributes.iter().map(|a| a.name.as_str()).collect();
@@ -1481,6 +1499,19 @@ impl Reader<'_> {
                             ),
                         ));
                     };
+                    // Mitsuba's `eval_attribute` reads 1 or 3 channels,
+                    // its `eval_attribute_1` 1.
+                    if a.channels == 4 || (*number && a.channels != 1) {
+                        return Err(fail(
+                            &o.at,
+                            format!(
+                                "{}: mesh attribute \"{name}\" has {} channels, which Mitsuba cannot read {}",
+                                o.describe(),
+                                a.channels,
+                                if *number { "as a number" } else { "as a colour" }
+                            ),
+                        ));
+                    }
                     input = with_attribute(input, a);
                 }
                 let input = oriented(&input, flip);
@@ -1804,8 +1835,8 @@ fn mesh_input(mesh: &Mesh) -> MeshInput {
 /// `mesh` with attribute `a` as its vertex colours (what a
 /// `mesh_attribute` texture reads): a vertex attribute's value a vertex,
 /// a face attribute's on the three corners of its triangle, each
-/// triangle then given vertices of its own. One channel is grey; a
-/// fourth (a colour's alpha) is not read.
+/// triangle then given vertices of its own. One channel is grey (the
+/// reader refuses four, as Mitsuba's `eval_attribute` does).
 fn with_attribute(mesh: MeshInput, a: &meshes::Attribute) -> MeshInput {
     let colour = |k: usize| {
         let v = &a.values[k * a.channels..(k + 1) * a.channels];
@@ -1918,6 +1949,60 @@ mod tests {
             .colors
             .iter()
             .all(|c| *c == glam::Vec4::new(0.25, 0.25, 0.25, 1.0)));
+    }
+
+    #[test]
+    fn a_mask_reads_an_rgb_opacity_as_its_mean_as_mitsubas_eval_1() {
+        use crate::texture::Texture;
+        // Mitsuba 3.9.1: `srgb` [0.2, 0.5, 0.8].eval_1 = 0.5.
+        let s = scene(&format!(
+            r#"<sensor type="perspective">{FILM}</sensor><shape type="sphere"><bsdf type="mask"><rgb name="opacity" value="0.2, 0.5, 0.8"/><bsdf type="diffuse"/></bsdf></shape>"#
+        ))
+        .unwrap();
+        let m = s.spheres()[0].material;
+        let t = s.wrappers(m).opacity.unwrap();
+        let Texture::Constant(c) = s.textures()[t as usize] else {
+            panic!("{:?}", s.textures()[t as usize]);
+        };
+        assert!((c - Vec3::splat(0.5)).abs().max_element() < 1e-7, "{c}");
+        let e = scene(&format!(
+            r#"<sensor type="perspective">{FILM}</sensor><shape type="rectangle"><bsdf type="mask"><texture type="checkerboard" name="opacity"><rgb name="color0" value="0.2, 0.5, 0.8"/></texture><bsdf type="diffuse"/></bsdf></shape>"#
+        ))
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("checkerboard of colours"), "{e}");
+    }
+
+    #[test]
+    fn mesh_attributes_of_channels_mitsuba_cannot_read_are_refused() {
+        // Four channels (r g b a), and three read as a number (a mask's
+        // opacity).
+        let rgba = ATTRIBUTE_PLY
+            .replace("property float b\n", "property float b\nproperty float a\n")
+            .replace("0 0 0 1 0 0\n", "0 0 0 1 0 0 1\n")
+            .replace("1 0 0 0 1 0\n", "1 0 0 0 1 0 1\n")
+            .replace("1 1 0 0 0 1\n", "1 1 0 0 0 1 1\n")
+            .replace("0 1 0 1 1 1\n", "0 1 0 1 1 1 1\n");
+        let e = attribute_scene(&rgba, "vertex_color")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("has 4 channels"), "{e}");
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("m.ply"), ATTRIBUTE_PLY).unwrap();
+        let text = format!(
+            r#"<scene version="3.0.0"><sensor type="perspective">{FILM}</sensor><shape type="ply"><string name="filename" value="m.ply"/>
+            <bsdf type="mask"><texture type="mesh_attribute" name="opacity"><string name="name" value="vertex_color"/></texture><bsdf type="diffuse"/></bsdf></shape></scene>"#
+        );
+        let doc = super::super::xml::parse_text(&text, &dir.path().join("s.xml"), &[]).unwrap();
+        let e = build(&doc).unwrap_err().to_string();
+        assert!(
+            e.contains("has 3 channels") && e.contains("as a number"),
+            "{e}"
+        );
+        // One channel as a number: read.
+        let text = text.replace("vertex_color", "face_w");
+        let doc = super::super::xml::parse_text(&text, &dir.path().join("s.xml"), &[]).unwrap();
+        build(&doc).unwrap();
     }
 
     #[test]
