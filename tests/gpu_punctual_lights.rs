@@ -149,7 +149,8 @@ fn a_bsdf_kernel_built_without_punctual_lights_poisons_its_samples() {
     let with =
         twintrace::twins::specialization::film_bits(common::gpu(), &scene, Integrator::Bsdf, all)
             .unwrap();
-    use twintrace::twins::specialization::{counts, SIZE};
+    use twintrace::twins::film_words::counts;
+    use twintrace::twins::specialization::SIZE;
     assert_ne!(words, with);
     // Every sample poisoned, none in the full kernel.
     let all_samples = (SIZE.0 * SIZE.1 * SIZE.2) as u64;

@@ -578,9 +578,9 @@ fn many_samples_of_a_tiny_image_are_all_traced() {
             checks: gpu::Checks::Trusted,
         };
         let r = gpu::GpuRenderer::with_variant(ctx, &scene, variant).unwrap();
-        twintrace::twins::specialization::film_words(&r.render(&settings, &|_, _| {}).unwrap().film)
+        twintrace::twins::film_words::film_words(&r.render(&settings, &|_, _| {}).unwrap().film)
     };
     let mega = film(gpu::Schedule::Megakernel);
     let paths = film(gpu::Schedule::PathMegakernel);
-    twintrace::twins::wavefront::compare_words(&mega, &paths).unwrap();
+    twintrace::twins::film_words::compare_words(&mega, &paths).unwrap();
 }

@@ -234,16 +234,16 @@ fn a_wave_dispatched_as_a_two_dimensional_grid_renders_as_the_megakernel() {
         let mut r = gpu::GpuRenderer::with_variant(ctx, &scene, variant).unwrap();
         r.set_wave_slots(Some(paths));
         let out = r.render(&settings, &|_, _| {}).unwrap();
-        twintrace::twins::specialization::film_words(&out.film)
+        twintrace::twins::film_words::film_words(&out.film)
     };
     let mega = film(gpu::Schedule::Megakernel);
     // Not vacuous: every pixel sees the sky (a path left untraced would
     // fold a zero).
-    for p in mega.chunks(twintrace::twins::specialization::WORDS_PER_PIXEL) {
+    for p in mega.chunks(twintrace::twins::film_words::WORDS_PER_PIXEL) {
         assert!(f64::from_bits(p[2]) > 0.0, "a pixel's mean is not positive");
     }
     let paths_film = film(gpu::Schedule::PathMegakernel);
-    if let Err(e) = twintrace::twins::wavefront::compare_words(&mega, &paths_film) {
+    if let Err(e) = twintrace::twins::film_words::compare_words(&mega, &paths_film) {
         panic!("{e}");
     }
 }

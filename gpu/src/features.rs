@@ -13,8 +13,9 @@
 //! the scene's code (fewer instructions and registers), and a kernel that
 //! met a feature its specialization left out reports poisoned samples
 //! rather than a wrong image. The default, [`Features::ALL`], is the general kernel:
-//! the oracle the specialized one is gated against (bit for bit, every
-//! fixture: tests/gpu_specialization.rs).
+//! the oracle the specialized one is gated against (every fixture, under
+//! the GPU-against-GPU rule of `twintrace::twins::film_words`:
+//! tests/gpu_specialization.rs).
 //!
 //! The kernel axis itself ([`Kernel`]) and the dispatch axis ([`Dispatch`],
 //! with its constant) are defined in `crate::variants` and re-exported

@@ -45,7 +45,7 @@ fn compare_with(
         ..Build::gate(ctx, scene, program, integrator)
     };
     let film = variant_film(ctx, scene, trusted)?;
-    let words = super::specialization::WORDS_PER_PIXEL;
+    let words = super::film_words::WORDS_PER_PIXEL;
     let differ: Vec<usize> = (0..oracle.len() / words)
         .filter(|p| oracle[p * words..(p + 1) * words] != film[p * words..(p + 1) * words])
         .collect();

@@ -2,16 +2,16 @@
 //! sampling code by a chain of tag tests (`gpu::Dispatch::Branches`)
 //! against the one that switches on the tag (the baseline): every fixture
 //! and built-in scene, both estimators, films under the wavefront's rule
-//! ([`super::wavefront::compare_words`]: counts exact, means bit for bit
+//! ([`super::film_words::compare_words`]: counts exact, means bit for bit
 //! or a few ulp apart where a driver contracts two programs' shared code
 //! differently). Both run the same per-kind functions; only the selection
 //! differs, so any difference beyond the rule is a selection slip (a kind
 //! sent to another's code, or lost).
 
+use super::film_words::compare_words;
 use super::specialization::{
     every_variant, gate_kernel_words, gate_scenes, oracle_film, variant_film, Build, SIZE,
 };
-use super::wavefront::compare_words;
 use super::Outcome;
 use gpu::{Dispatch, GpuContext};
 use reference::integrator::Integrator;

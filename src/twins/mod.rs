@@ -43,6 +43,7 @@ pub mod coverage;
 pub mod dispatch;
 pub mod display;
 pub mod film;
+pub mod film_words;
 pub mod hits;
 pub mod light;
 pub mod numerics;

@@ -1,12 +1,15 @@
 //! The specialized render kernel against the general one: the kernel
 //! built without the code of the features a scene does not use
-//! (`gpu::features`) must render every fixture and built-in scene bit for
-//! bit as the kernel with every feature's code does, with either
-//! estimator (the same film: every pixel's count, rejected samples, mean
-//! and moments). Not a CPU twin: the general kernel is the oracle, and
-//! this holds a user's driver to what lavapipe and the H100 do (its
-//! compiler could fuse or order the two kernels' shared code differently).
+//! (`gpu::features`) must render every fixture and built-in scene as the
+//! kernel with every feature's code does, with either estimator, under
+//! [`super::film_words`]'s rule (every pixel's count and rejected samples
+//! equal; means, M2 and M3 bit for bit, or the means a few ulp apart where
+//! the driver contracts the two programs' shared arithmetic differently:
+//! lavapipe renders them bit for bit). Not a CPU twin: the general kernel
+//! is the oracle, and this holds a user's driver to what lavapipe and the
+//! H100 do.
 
+use super::film_words::{compare_words, counts, film_words, Inexact};
 use super::Outcome;
 use crate::compare::gate::workspace_root;
 use gpu::features::{Features, Kernel};
@@ -163,9 +166,9 @@ pub fn every_variant<V: Copy + Sync>(
     scenes: &[GateScene],
     variants: &[V],
     compare: impl Fn(&GateScene, Integrator, V) -> Option<Result<(usize, u64), String>> + Sync,
-) -> Result<(usize, super::wavefront::Inexact), String> {
+) -> Result<(usize, super::film_words::Inexact), String> {
     let mut failures = Vec::new();
-    let mut inexact = super::wavefront::Inexact::default();
+    let mut inexact = super::film_words::Inexact::default();
     let mut cases = 0;
     for &variant in variants {
         for integrator in Integrator::ALL {
@@ -286,7 +289,7 @@ pub fn packed_film_bits(
         spp,
         max_depth: 8,
         // The paths the wave schedules' ulp rule was measured on
-        // (`super::wavefront::MEAN_ULP_MAX`): on the H100 the Sobol'
+        // (`super::film_words::MEAN_ULP_MAX`): on the H100 the Sobol'
         // sampler's paths left a pixel of four-materials 6 ulp apart
         // between the wavefront and the megakernel, where the independent
         // sampler's leave at most 2. Both samplers' numbers come from
@@ -305,37 +308,6 @@ pub fn packed_film_bits(
         films.push(film_words(&film));
     }
     Ok(films)
-}
-
-/// A film as words: per pixel the count, the rejected samples, then the
-/// mean, M2 and M3 as f64 bits ([`WORDS_PER_PIXEL`]).
-pub fn film_words(film: &reference::film::Film) -> Vec<u64> {
-    film.pixels
-        .iter()
-        .flat_map(|p| {
-            let moments = [p.mean, p.m2, p.m3].map(|v| v.to_array().map(f64::to_bits));
-            [p.count as u64, p.nonfinite as u64]
-                .into_iter()
-                .chain(moments.into_iter().flatten())
-        })
-        .collect()
-}
-
-/// The first pixel where two [`film_bits`] films differ.
-pub fn first_difference(a: &[u64], b: &[u64]) -> usize {
-    a.chunks(WORDS_PER_PIXEL)
-        .zip(b.chunks(WORDS_PER_PIXEL))
-        .position(|(x, y)| x != y)
-        .unwrap_or(0)
-}
-
-/// Words per pixel of [`film_bits`].
-pub const WORDS_PER_PIXEL: usize = 11;
-
-/// The samples counted and rejected in a [`film_bits`] film.
-pub fn counts(bits: &[u64]) -> (u64, u64) {
-    bits.chunks(WORDS_PER_PIXEL)
-        .fold((0, 0), |(n, r), p| (n + p[0], r + p[1]))
 }
 
 /// The scenes the specialization gate judges: every scene of
@@ -365,8 +337,9 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let scenes = gate_specs(ctx)?;
     let (width, height, spp) = SIZE;
     // Scenes in parallel (super::par_map); the first failure in scene order.
-    let outcomes = super::par_map(&scenes, |(spec, scene)| -> Result<(), String> {
+    let outcomes = super::par_map(&scenes, |(spec, scene)| -> Result<Inexact, String> {
         let features = Kernel::Specialized.features(scene);
+        let mut inexact = Inexact::default();
         for integrator in Integrator::ALL {
             let general = film_bits(ctx, scene, integrator, Features::ALL)?;
             let special = film_bits(ctx, scene, integrator, features)?;
@@ -380,26 +353,32 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
                     integrator.name()
                 ));
             }
-            if general != special {
-                let pixel = first_difference(&general, &special);
-                return Err(format!(
-                    "{spec} ({}, features {:?}): the specialized kernel's film differs from the general kernel's, first at pixel {pixel}",
+            let found = compare_words(&general, &special).map_err(|e| {
+                format!(
+                    "{spec} ({}, features {:?}): the specialized kernel's film differs from the general kernel's: {e}",
                     integrator.name(),
                     features.names()
-                ));
-            }
+                )
+            })?;
+            inexact.add(found);
         }
-        Ok(())
+        Ok(inexact)
     });
-    outcomes.into_iter().collect::<Result<Vec<()>, String>>()?;
+    let mut inexact = Inexact::default();
+    for found in outcomes {
+        let found = found?;
+        inexact.add((found.pixels, found.mean_ulp));
+    }
     let total = scene_specs()?.len();
+    let compared = scenes.len() * 2 * (width * height) as usize;
     Ok(format!(
-        "{} of {total} scenes × 2 estimators ({}): the specialized kernel's films equal the general kernel's bit for bit",
+        "{} of {total} scenes × 2 estimators ({}): the specialized kernel's films equal the general kernel's {}",
         scenes.len(),
         if scenes.len() == total {
             "every scene"
         } else {
             "each bringing a feature the earlier ones lack, a software adapter"
-        }
+        },
+        inexact.exactness(compared)
     ))
 }

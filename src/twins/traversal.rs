@@ -16,17 +16,17 @@
 //! skipped, and a box test is conservative (it never hides a hit the
 //! primitive test would report). So the order of the walk cannot change
 //! the hit. The films are compared under the wavefront's rule
-//! ([`super::wavefront::compare_words`]: counts exact, means bit for bit
+//! ([`super::film_words::compare_words`]: counts exact, means bit for bit
 //! or a few ulp apart where a driver contracts the shading code of two
 //! programs differently); the summary line says how many pixels were not
 //! bit for bit.
 
+use super::film_words::compare_words;
 use super::hits::{ray_words, scenes, SNIPPET};
 use super::specialization::{
     every_variant, gate_kernel_words, gate_scenes, oracle_film, packed_film_bits, variant_film,
     Build, SIZE,
 };
-use super::wavefront::compare_words;
 use super::{camera_and_random_rays, run_kernel_walking, Outcome};
 use gpu::scene_buffers::PackedScene;
 use gpu::{GpuContext, LeafLayout, NodeLayout, Traversal};

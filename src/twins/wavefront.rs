@@ -10,21 +10,15 @@
 //! the wave bookkeeping is compared too. GPU against GPU, like
 //! [`super::specialization`]: it holds a user's driver to the same rule.
 //!
-//! The rule: every pixel's count and rejected samples equal; every mean,
-//! M2 and M3 equal bit for bit, except in a pixel whose means differ by
-//! at most [`MEAN_ULP_MAX`] ulp (0 included: a sample a fraction of an ulp
-//! off can leave the mean's rounding alone and still move M2). The driver
-//! compiles the path's arithmetic into two different programs, and may
-//! fuse a multiply into an add (Vulkan allows contraction) in one and not
-//! the other: lavapipe renders every scene bit for bit; NVIDIA's compiler
-//! (H200, driver 580) left 3 of 384 BSDF paths on two scenes 1–2 ulp
-//! apart. The moments of such a pixel are those samples folded by the same
-//! code, which lavapipe holds bit for bit, so they are not compared there.
+//! The films are held to [`super::film_words`] (counts exact, means bit for
+//! bit or a few ulp apart where the driver contracts the two programs'
+//! shared arithmetic differently).
 //! The summary line says how many pixels were not bit for bit.
 
+use super::film_words::{compare_films, counts, Inexact};
 use super::specialization::{
-    counts, every_variant, film_bits, gate_kernel_words, gate_scenes, oracle_film,
-    variant_film_bits, Build, SIZE, WORDS_PER_PIXEL,
+    every_variant, film_bits, gate_kernel_words, gate_scenes, oracle_film, variant_film_bits,
+    Build, SIZE,
 };
 use super::Outcome;
 use gpu::{GpuContext, Schedule};
@@ -167,94 +161,8 @@ pub fn compare_poisoned(
     Ok(())
 }
 
-/// The most a pixel's means may differ, in f32 ulp: twice the 2 ulp seen on
-/// NVIDIA (module docs); a slip in the wavefront's bookkeeping changes a
-/// path's light by far more, or its count.
-pub const MEAN_ULP_MAX: u64 = 4;
-
-/// Pixels compared under the ulp rule rather than bit for bit, and their
-/// largest mean difference.
-#[derive(Default)]
-pub struct Inexact {
-    pub pixels: usize,
-    pub mean_ulp: u64,
-}
-
-impl Inexact {
-    /// Adds a comparison's `(pixels, mean_ulp)` ([`compare_words`]).
-    pub fn add(&mut self, (pixels, mean_ulp): (usize, u64)) {
-        self.pixels += pixels;
-        self.mean_ulp = self.mean_ulp.max(mean_ulp);
-    }
-
-    /// "bit for bit", or how many of `compared` pixels were not and by how
-    /// much: the summary lines' words.
-    pub fn exactness(&self, compared: usize) -> String {
-        if self.pixels == 0 {
-            "bit for bit".to_string()
-        } else {
-            format!(
-                "bit for bit but for {} of {compared} pixels, whose means differ by at most {} ulp",
-                self.pixels, self.mean_ulp
-            )
-        }
-    }
-}
-
-/// The f32 ulps between two f32 values stored as f64 bits.
-fn ulps(a: u64, b: u64) -> u64 {
-    let key = |bits: u64| {
-        let x = f64::from_bits(bits) as f32;
-        let i = x.to_bits() as i32 as i64;
-        // Sign-magnitude to a monotonic integer line.
-        if i < 0 {
-            -(i & 0x7fff_ffff)
-        } else {
-            i
-        }
-    };
-    key(a).abs_diff(key(b))
-}
-
-/// The rule of the module docs on two films as
-/// [`super::specialization::film_words`]: the pixels not bit for bit and
-/// their largest mean difference in ulp, or the first pixel that breaks it.
-pub fn compare_words(mega: &[u64], wave: &[u64]) -> Result<(usize, u64), String> {
-    let mut inexact = Inexact::default();
-    compare_films(mega, wave, &mut inexact)?;
-    Ok((inexact.pixels, inexact.mean_ulp))
-}
-
-/// [`compare_words`], accumulating into `inexact`.
-fn compare_films(mega: &[u64], wave: &[u64], inexact: &mut Inexact) -> Result<(), String> {
-    let pixels = mega.len() / WORDS_PER_PIXEL;
-    for (i, (m, w)) in mega
-        .chunks(WORDS_PER_PIXEL)
-        .zip(wave.chunks(WORDS_PER_PIXEL))
-        .enumerate()
-    {
-        if m == w {
-            continue;
-        }
-        if m[..2] != w[..2] {
-            return Err(format!(
-                "pixel {i} of {pixels}: the variant counted {} samples and rejected {}, its oracle {} and {}",
-                w[0], w[1], m[0], m[1]
-            ));
-        }
-        let mean_ulp = (2..5).map(|k| ulps(m[k], w[k])).max().unwrap_or(0);
-        if mean_ulp > MEAN_ULP_MAX {
-            return Err(format!(
-                "pixel {i} of {pixels}: the means differ by {mean_ulp} ulp (at most {MEAN_ULP_MAX})"
-            ));
-        }
-        inexact.add((1, mean_ulp));
-    }
-    Ok(())
-}
-
 /// Every scene of [`scene_specs`], both estimators: wavefront == megakernel
-/// under the module's rule. Every scene is compared; the error lists each
+/// under [`super::film_words`]. Every scene is compared; the error lists each
 /// one that fails.
 pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let program = gpu::shader::wavefront_source();
@@ -286,59 +194,4 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
         inexact.exactness(compared),
         gate_kernel_words(ctx)
     ))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// One pixel's words: count, rejected, mean, M2, M3 (f32 values as
-    /// f64 bits).
-    fn pixel(count: u64, mean: f32, m2: f32) -> Vec<u64> {
-        let f = |x: f32| (x as f64).to_bits();
-        vec![
-            count,
-            0,
-            f(mean),
-            f(mean),
-            f(mean),
-            f(m2),
-            f(m2),
-            f(m2),
-            0,
-            0,
-            0,
-        ]
-    }
-
-    fn up(x: f32, k: u32) -> f32 {
-        f32::from_bits(x.to_bits() + k)
-    }
-
-    #[test]
-    fn ulps_count_steps_across_zero() {
-        let b = |x: f32| (x as f64).to_bits();
-        assert_eq!(ulps(b(1.0), b(up(1.0, 3))), 3);
-        assert_eq!(ulps(b(-f32::from_bits(1)), b(f32::from_bits(1))), 2);
-        assert_eq!(ulps(b(0.0), b(-0.0)), 0);
-    }
-
-    #[test]
-    fn the_rule_takes_means_a_few_ulp_apart_and_nothing_else() {
-        let mega = pixel(2, 0.5, 0.25);
-        let mut seen = Inexact::default();
-        assert!(compare_films(&mega, &mega, &mut seen).is_ok());
-        assert_eq!(seen.pixels, 0);
-        let near = pixel(2, up(0.5, MEAN_ULP_MAX as u32), 0.3);
-        assert!(compare_films(&mega, &near, &mut seen).is_ok());
-        assert_eq!((seen.pixels, seen.mean_ulp), (1, MEAN_ULP_MAX));
-        let far = pixel(2, up(0.5, MEAN_ULP_MAX as u32 + 1), 0.25);
-        assert!(compare_films(&mega, &far, &mut seen).is_err());
-        // Equal means, other moments: a sample a fraction of an ulp off.
-        let refolded = pixel(2, 0.5, 0.3);
-        assert!(compare_films(&mega, &refolded, &mut seen).is_ok());
-        assert_eq!(seen.pixels, 2);
-        let recounted = pixel(1, 0.5, 0.25);
-        assert!(compare_films(&mega, &recounted, &mut seen).is_err());
-    }
 }
