@@ -97,10 +97,14 @@ fn alpha_hash(ray: Ray, prim: u32) -> f32 {
 // The material's textures at a surface point, evaluated once a path
 // vertex and handed to emitted, bsdf_eval and scatter. The reference
 // evaluates them inside each of those (through its TextureContext); the
-// values are the same. Once a vertex, because llvmpipe (CI's Vulkan) and
-// the drivers inline every call: each texture call site is a copy of the
-// bilinear image lookup, and with one a use the kernels took several times
-// longer to compile (the textures fixture's MIS kernel 65 s cold, 4 s so).
+// values are the same. Once a vertex, and through one call site
+// (material_textures' loop), because llvmpipe (CI's Vulkan) and the
+// drivers inline every call: each texture call site is a copy of the
+// whole lookup (image filtering, checkers), and the copies were most of
+// the general kernel's compile time on llvmpipe (its MIS kernel 41 s cold
+// with a call per texture read, 12 s with the lookups stubbed out; the
+// textures fixture's 65 s when every use read its texture, 4 s once a
+// vertex).
 struct MaterialTextures {
     // The albedo (Lambertian, metal), the specular tint (conductor), the emission (diffuse light), the
     // base colour times the vertex colour (GGX); zero for the dielectric.
@@ -112,56 +116,144 @@ struct MaterialTextures {
     coat: vec2<f32>,
     // What the material emits (its `emission` texture; zero without one).
     emission: vec3<f32>,
-    // The rough dielectric's transmittance, the plastics' specular tint
-    // (zero for the others).
+    // The dielectrics' transmittance (smooth, thin, rough), the plastics'
+    // specular tint (zero for the others).
     tint: vec3<f32>,
     // A mask's opacity (opacity_of; 1 without a mask).
     opacity: f32,
 }
 
+// The texture slots material_textures reads, in its loop's order (the
+// emission last).
+const SLOT_OPACITY: u32 = 0u;
+const SLOT_BASE: u32 = 1u;
+const SLOT_SECOND: u32 = 2u;
+const SLOT_THIRD: u32 = 3u;
+const SLOT_COAT: u32 = 4u;
+const SLOT_COAT_ROUGHNESS: u32 = 5u;
+const SLOTS: u32 = 7u;
+
 fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures {
     var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), 1.0);
+    // Which texture each slot reads at this vertex (NO_TEXTURE: none).
+    var opacity = NO_TEXTURE;
     if m.opacity != NO_TEXTURE {
         if uses(FEATURE_MASK) {
-            t.opacity = opacity_of(evaluate_texture(m.opacity, si.p, si.uv, si.uv1, si.color));
+            opacity = m.opacity;
         } else {
             poison();
         }
     }
+    var base = NO_TEXTURE;
     if m.tag != MATERIAL_DIELECTRIC {
-        t.base = evaluate_texture(m.texture, si.p, si.uv, si.uv1, si.color);
+        base = m.texture;
     }
-    if m.tag == MATERIAL_ROUGH_CONDUCTOR || m.tag == MATERIAL_ROUGH_DIELECTRIC {
-        t.metal_rough.x = evaluate_texture(m.texture2, si.p, si.uv, si.uv1, si.color).x;
+    // The rough materials' roughness, GGX's metallic-roughness texture
+    // (reference::material::ggx_parameters), the dielectrics'
+    // transmittance.
+    var second = NO_TEXTURE;
+    if m.tag == MATERIAL_ROUGH_CONDUCTOR || m.tag == MATERIAL_ROUGH_DIELECTRIC || m.tag == MATERIAL_GGX || m.tag == MATERIAL_SMOOTH_DIELECTRIC || m.tag == MATERIAL_THIN_DIELECTRIC {
+        second = m.texture2;
     }
+    var third = NO_TEXTURE;
     if (m.tag == MATERIAL_ROUGH_DIELECTRIC && uses(FEATURE_ROUGH_DIELECTRIC)) || (m.tag == MATERIAL_PLASTIC && uses(FEATURE_PLASTIC)) || (m.tag == MATERIAL_ROUGH_PLASTIC && uses(FEATURE_ROUGH_PLASTIC)) {
-        t.tint = evaluate_texture(m.texture3, si.p, si.uv, si.uv1, si.color);
+        third = m.texture3;
+    }
+    // reference::material::coat_parameters: a GGX's clear coat (none
+    // where its weight is 0).
+    var coated = false;
+    var coat = NO_TEXTURE;
+    var coat_roughness = NO_TEXTURE;
+    if m.tag == MATERIAL_GGX && m.coat > 0.0 {
+        if uses(FEATURE_CLEARCOAT) {
+            coated = true;
+            coat = m.coat_texture;
+            coat_roughness = m.coat_roughness_texture;
+        } else {
+            poison();
+        }
+    }
+    // reference::Scene::added_emission: the emission added to a BSDF.
+    var emission = NO_TEXTURE;
+    if m.tag != MATERIAL_DIFFUSE_LIGHT && m.emission != NO_TEXTURE {
+        if uses(FEATURE_EMISSIVE_BSDFS) {
+            emission = m.emission;
+        } else {
+            poison();
+        }
+    }
+    var v_opacity = vec3<f32>(0.0);
+    var v_base = vec3<f32>(0.0);
+    var v_second = vec3<f32>(0.0);
+    var v_third = vec3<f32>(0.0);
+    var v_coat = vec3<f32>(0.0);
+    var v_coat_roughness = vec3<f32>(0.0);
+    var v_emission = vec3<f32>(0.0);
+    for (var k = 0u; k < SLOTS; k++) {
+        var id = emission;
+        switch k {
+            case SLOT_OPACITY: { id = opacity; }
+            case SLOT_BASE: { id = base; }
+            case SLOT_SECOND: { id = second; }
+            case SLOT_THIRD: { id = third; }
+            case SLOT_COAT: { id = coat; }
+            case SLOT_COAT_ROUGHNESS: { id = coat_roughness; }
+            default: {}
+        }
+        if id == NO_TEXTURE {
+            continue;
+        }
+        let v = evaluate_texture(id, si.p, si.uv, si.uv1, si.color);
+        switch k {
+            case SLOT_OPACITY: { v_opacity = v; }
+            case SLOT_BASE: { v_base = v; }
+            case SLOT_SECOND: { v_second = v; }
+            case SLOT_THIRD: { v_third = v; }
+            case SLOT_COAT: { v_coat = v; }
+            case SLOT_COAT_ROUGHNESS: { v_coat_roughness = v; }
+            default: { v_emission = v; }
+        }
+    }
+    if opacity != NO_TEXTURE {
+        t.opacity = opacity_of(v_opacity);
+    }
+    t.base = v_base;
+    if m.tag == MATERIAL_ROUGH_CONDUCTOR || m.tag == MATERIAL_ROUGH_DIELECTRIC {
+        t.metal_rough.x = v_second.x;
+    }
+    if m.tag == MATERIAL_SMOOTH_DIELECTRIC || m.tag == MATERIAL_THIN_DIELECTRIC {
+        t.tint = v_second;
+    }
+    if third != NO_TEXTURE {
+        t.tint = v_third;
     }
     if m.tag == MATERIAL_GGX {
         t.base *= si.color;
-        t.metal_rough = ggx_parameters(m, si);
-        t.coat = coat_parameters(m, si);
+        // The factors times the metallic-roughness texture's blue and
+        // green channels.
+        t.metal_rough = vec2<f32>(m.p0, m.p1);
+        if second != NO_TEXTURE {
+            t.metal_rough = vec2<f32>(m.p0 * v_second.z, m.p1 * v_second.y);
+        }
+        // The coat's factors times the red and green channels of their
+        // textures.
+        if coated {
+            t.coat = vec2<f32>(m.coat, m.coat_roughness);
+            if coat != NO_TEXTURE {
+                t.coat.x *= v_coat.x;
+            }
+            if coat_roughness != NO_TEXTURE {
+                t.coat.y *= v_coat_roughness.y;
+            }
+        }
     }
     if m.tag == MATERIAL_DIFFUSE_LIGHT {
         // Its emission is its texture, already read.
         t.emission = t.base;
     } else {
-        t.emission = added_emission(m, si);
+        t.emission = v_emission;
     }
     return t;
-}
-
-// The emission added to a BSDF (reference::Scene::added_emission), read
-// where the material has one: zero without.
-fn added_emission(m: GpuMaterial, si: SurfaceInteraction) -> vec3<f32> {
-    if m.emission == NO_TEXTURE {
-        return vec3<f32>(0.0);
-    }
-    if !uses(FEATURE_EMISSIVE_BSDFS) {
-        poison();
-        return vec3<f32>(0.0);
-    }
-    return evaluate_texture(m.emission, si.p, si.uv, si.uv1, si.color);
 }
 
 // What emitted reads at a light's sampled point (no BSDF parameters).
@@ -556,10 +648,9 @@ fn scatter_smooth_dielectric(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInte
     if vr_get(u, DIM_LOBE) >= fresnel_dielectric(cos_i, eta) {
         let r = refract_through(ray_dir, n, 1.0 / eta);
         if r.ok {
-            // The transmittance is read here, where a path refracts: the
-            // reflectance is the vertex's `base`.
-            let t = evaluate_texture(m.texture2, si.p, si.uv, si.uv1, si.color);
-            return delta(normalize(r.direction), t / (eta * eta));
+            // The transmittance is the vertex's `tint`, the reflectance
+            // its `base`.
+            return delta(normalize(r.direction), tx.tint / (eta * eta));
         }
     }
     return delta(reflect_about(ray_dir, n), tx.base);
@@ -656,9 +747,8 @@ fn scatter_thin_dielectric(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceIntera
     if vr_get(u, DIM_LOBE) < thin_dielectric_reflectance(cos_i, m.p0) {
         return delta(reflect_about(ray_dir, n), tx.base);
     }
-    // Straight through; the transmittance read where a path passes.
-    let t = evaluate_texture(m.texture2, si.p, si.uv, si.uv1, si.color);
-    return delta(ray_dir, t);
+    // Straight through, by the transmittance.
+    return delta(ray_dir, tx.tint);
 }
 
 // reference::material::plastic_specular_probability: the probability of
@@ -807,38 +897,6 @@ fn normal_mapped(n: vec3<f32>, side: f32, ng: vec3<f32>, tangent: vec4<f32>, tex
         return mapped;
     }
     return unmapped;
-}
-
-// reference::material::ggx_parameters: metallic and roughness at si, the
-// factors times the metallic-roughness texture's blue and green channels
-// where the material has one.
-fn ggx_parameters(m: GpuMaterial, si: SurfaceInteraction) -> vec2<f32> {
-    if m.texture2 == NO_TEXTURE {
-        return vec2<f32>(m.p0, m.p1);
-    }
-    let t = evaluate_texture(m.texture2, si.p, si.uv, si.uv1, si.color);
-    return vec2<f32>(m.p0 * t.z, m.p1 * t.y);
-}
-
-// reference::material::coat_parameters: the clear coat's weight and
-// roughness at si (0 without a coat), the factors times the red and green
-// channels of their textures where the coat has them.
-fn coat_parameters(m: GpuMaterial, si: SurfaceInteraction) -> vec2<f32> {
-    if m.coat <= 0.0 {
-        return vec2<f32>(0.0);
-    }
-    if !uses(FEATURE_CLEARCOAT) {
-        poison();
-        return vec2<f32>(0.0);
-    }
-    var c = vec2<f32>(m.coat, m.coat_roughness);
-    if m.coat_texture != NO_TEXTURE {
-        c.x *= evaluate_texture(m.coat_texture, si.p, si.uv, si.uv1, si.color).x;
-    }
-    if m.coat_roughness_texture != NO_TEXTURE {
-        c.y *= evaluate_texture(m.coat_roughness_texture, si.p, si.uv, si.uv1, si.color).y;
-    }
-    return c;
 }
 
 fn scatter_ggx(m: GpuMaterial, ray_dir: vec3<f32>, tx: MaterialTextures, n: vec3<f32>, u: VertexRandoms) -> Scatter {

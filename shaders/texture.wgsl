@@ -66,6 +66,11 @@ fn transformed_uv(t: GpuTexture, uv: vec2<f32>) -> vec2<f32> {
 // reference::texture::ImageData::sample_image: each axis wrapped by its
 // mode (`sampler`'s bits, gpu::records::SAMPLER_*), then the nearest
 // texel or bilinear filtering; uv (0,0) is the image's bottom-left corner.
+// The texels are read in a loop (one corner, or four), so that the kernel
+// holds one copy of the texel read and the index wrapping for each call
+// site rather than five and six: a software driver compiles a texture
+// lookup inlined a dozen times into the render kernel, and the copies
+// were most of its compile time.
 fn sample_image(image: u32, uv: vec2<f32>, sampler: u32) -> vec3<f32> {
     let img = images[image];
     let wrap_u = sampler & SAMPLER_WRAP_MASK;
@@ -74,19 +79,36 @@ fn sample_image(image: u32, uv: vec2<f32>, sampler: u32) -> vec3<f32> {
     let h = f32(img.height);
     let x = wrap_coordinate(uv.x, wrap_u) * w - 0.5;
     let y = (1.0 - wrap_coordinate(uv.y, wrap_v)) * h - 0.5;
-    if (sampler & SAMPLER_NEAREST) != 0u {
-        return texel(img, wrap_index(floor(x + 0.5), img.width, wrap_u), wrap_index(floor(y + 0.5), img.height, wrap_v));
+    let nearest = (sampler & SAMPLER_NEAREST) != 0u;
+    // The first corner: the nearest texel's, or the bilinear square's
+    // lower one; corner k adds k & 1 across and k >> 1 down.
+    var x0 = floor(x);
+    var y0 = floor(y);
+    if nearest {
+        x0 = floor(x + 0.5);
+        y0 = floor(y + 0.5);
     }
-    let x0 = floor(x);
-    let y0 = floor(y);
+    var c00 = vec3<f32>(0.0);
+    var c10 = vec3<f32>(0.0);
+    var c01 = vec3<f32>(0.0);
+    var c11 = vec3<f32>(0.0);
+    let corners = select(4u, 1u, nearest);
+    for (var k = 0u; k < corners; k++) {
+        let c = texel(img, wrap_index(x0 + f32(k & 1u), img.width, wrap_u), wrap_index(y0 + f32(k >> 1u), img.height, wrap_v));
+        switch k {
+            case 0u: { c00 = c; }
+            case 1u: { c10 = c; }
+            case 2u: { c01 = c; }
+            default: { c11 = c; }
+        }
+    }
+    if nearest {
+        return c00;
+    }
     let fx = x - x0;
     let fy = y - y0;
-    let xa = wrap_index(x0, img.width, wrap_u);
-    let xb = wrap_index(x0 + 1.0, img.width, wrap_u);
-    let ya = wrap_index(y0, img.height, wrap_v);
-    let yb = wrap_index(y0 + 1.0, img.height, wrap_v);
-    let top = mix(texel(img, xa, ya), texel(img, xb, ya), fx);
-    let bottom = mix(texel(img, xa, yb), texel(img, xb, yb), fx);
+    let top = mix(c00, c10, fx);
+    let bottom = mix(c01, c11, fx);
     return mix(top, bottom, fy);
 }
 

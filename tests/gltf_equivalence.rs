@@ -741,7 +741,7 @@ fn the_emissive_gate_fails_when_either_part_is_dropped_on_the_gpu() {
         (
             "emission dropped",
             production.replace(
-                "t.emission = added_emission(m, si);",
+                "t.emission = v_emission;",
                 "t.emission = vec3<f32>(0.0);",
             ),
         ),

@@ -167,15 +167,11 @@ const GPU_ONLY: &[(&str, &str)] = &[
     ),
     (
         "material_textures",
-        "the TextureContext lookups of emitted, bsdf_eval and scatter, made once a path vertex (one inlined copy of the image lookup)",
+        "the TextureContext lookups of emitted, bsdf_eval and scatter (and reference::Scene::added_emission, ggx_parameters, coat_parameters), made once a path vertex through one call of the texture lookup",
     ),
     (
         "light_textures",
         "emitted's TextureContext lookup at a light's sampled point",
-    ),
-    (
-        "added_emission",
-        "reference::Scene::added_emission (scene/mod.rs: the scene's table by material, which the GPU record carries) read through a TextureContext lookup",
     ),
     ("node_min", "reads a packed BvhNode record"),
     ("node_max", "reads a packed BvhNode record"),
