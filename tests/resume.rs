@@ -775,13 +775,21 @@ fn a_second_interrupt_exits_at_once_leaving_the_files_whole() {
     let j: serde_json::Value = serde_json::from_str(&o.stdout).unwrap();
     let tracing = Duration::from_secs_f64(j["phases_s"]["rendering"].as_f64().unwrap());
     std::fs::write(dir.join("out.partial.exr"), b"an earlier part").unwrap();
-    let before: Vec<(String, Vec<u8>)> = files(dir)
-        .into_iter()
-        .map(|f| (f.clone(), std::fs::read(dir.join(&f)).unwrap()))
-        .collect();
+    // The files as a run finds them: a run that ends on one signal (or
+    // none) saves its part (or output), and the next run is held to the
+    // files it left.
+    let hidden_temporary = |f: &String| f.starts_with('.') && f.ends_with(".tmp");
+    let snapshot = || -> Vec<(String, Vec<u8>)> {
+        files(dir)
+            .into_iter()
+            .filter(|f| !hidden_temporary(f))
+            .map(|f| (f.clone(), std::fs::read(dir.join(&f)).unwrap()))
+            .collect()
+    };
     let mut twice = 0;
     let mut log = String::new();
     for at in [0.3, 0.5, 0.7] {
+        let before = snapshot();
         let mut child = start(dir, &common_bin(), &render);
         std::thread::sleep(tracing.mul_f64(at));
         for _ in 0..2 {
@@ -806,7 +814,7 @@ fn a_second_interrupt_exits_at_once_leaving_the_files_whole() {
         twice += 1;
         let now: Vec<String> = files(dir)
             .into_iter()
-            .filter(|f| !(f.starts_with('.') && f.ends_with(".tmp")))
+            .filter(|f| !hidden_temporary(f))
             .collect();
         assert_eq!(
             now,
