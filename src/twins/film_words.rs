@@ -2,10 +2,11 @@
 //! bits per pixel), and the rule two GPU programs' films are held to
 //! where both should render the same samples through the same functions
 //! (the wave schedules, the specialized kernel, the branch dispatch, the
-//! walks against the binary one): every pixel's count and rejected samples equal; every mean, M2
-//! and M3 equal bit for bit, except in a pixel whose means differ by at
-//! most [`MEAN_ULP_MAX`] ulp (0 included: a sample a fraction of an ulp
-//! off can leave the mean's rounding alone and still move M2). The driver
+//! walks against the binary one): every pixel's count and rejected
+//! samples equal; every mean, M2 and M3 equal bit for bit, except in a
+//! pixel whose means differ by at most [`MEAN_ULP_MAX`] ulp (0 included:
+//! a sample a fraction of an ulp off can leave the mean's rounding alone
+//! and still move M2). The driver
 //! compiles the path's shared arithmetic into two different programs, and
 //! may fuse a multiply into an add (Vulkan allows contraction) in one and
 //! not the other: lavapipe renders every such pair bit for bit; NVIDIA's
@@ -88,9 +89,9 @@ fn ulps(a: u64, b: u64) -> u64 {
     key(a).abs_diff(key(b))
 }
 
-/// The rule of the module docs on two films as
-/// [`film_words`]: the pixels not bit for bit and
-/// their largest mean difference in ulp, or the first pixel that breaks it.
+/// The rule of the module docs on two films as [`film_words`]: the
+/// pixels not bit for bit and their largest mean difference in ulp, or
+/// the first pixel that breaks it.
 pub fn compare_words(mega: &[u64], wave: &[u64]) -> Result<(usize, u64), String> {
     let mut inexact = Inexact::default();
     compare_films(mega, wave, &mut inexact)?;

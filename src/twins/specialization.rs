@@ -337,7 +337,7 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let scenes = gate_specs(ctx)?;
     let (width, height, spp) = SIZE;
     // Scenes in parallel (super::par_map); the first failure in scene order.
-    let outcomes = super::par_map(&scenes, |(spec, scene)| -> Result<Inexact, String> {
+    let outcomes = super::par_map(&scenes, |(spec, scene)| -> Result<(usize, u64), String> {
         let features = Kernel::Specialized.features(scene);
         let mut inexact = Inexact::default();
         for integrator in Integrator::ALL {
@@ -362,12 +362,11 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
             })?;
             inexact.add(found);
         }
-        Ok(inexact)
+        Ok((inexact.pixels, inexact.mean_ulp))
     });
     let mut inexact = Inexact::default();
     for found in outcomes {
-        let found = found?;
-        inexact.add((found.pixels, found.mean_ulp));
+        inexact.add(found?);
     }
     let total = scene_specs()?.len();
     let compared = scenes.len() * 2 * (width * height) as usize;
