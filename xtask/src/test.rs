@@ -33,7 +33,13 @@ pub fn run(extra: &[String]) -> Result<(), String> {
     let lib = ensure_embree()?;
     ensure_libclang()?;
     sh("cargo", &["fmt", "--all", "--check"])?;
-    let env = embree_env(&lib);
+    let mut env = embree_env(&lib);
+    // A CI build starts from nothing and is never rebuilt: incremental
+    // compilation's caches would only be written (docs/benchmarks.md,
+    // "CI's time").
+    if std::env::var_os("CI").is_some() {
+        env.push(("CARGO_INCREMENTAL".into(), "0".into()));
+    }
     sh_env(
         "cargo",
         &[
