@@ -167,7 +167,7 @@ struct Outcome {
 
 pub fn run(args: &[String]) -> Result<(), String> {
     let o = parse(args)?;
-    let fuzz_dir = crate::test::target_dir().join("fuzz");
+    let fuzz_dir = crate::util::target_dir().join("fuzz");
     let bins = build(&fuzz_dir)?;
     eprintln!(
         "xtask: fuzzing {} for {} s each, {} at a time",

@@ -18,7 +18,7 @@
 //!
 //! Nothing is skipped: a piece that cannot be installed is an error.
 
-use crate::util::{apt_install, run as sh};
+use crate::util::{apt_install, run as sh, target_dir};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -59,13 +59,6 @@ pub fn run(extra: &[String]) -> Result<(), String> {
     sh_env("cargo", &args, &env)?;
     // The readers' fuzz targets, each for a fixed budget (docs/fuzzing.md).
     crate::fuzz::run(&["--seconds".into(), crate::fuzz::CI_SECONDS.to_string()])
-}
-
-/// The cargo target directory (`CARGO_TARGET_DIR` or `./target`).
-pub(crate) fn target_dir() -> PathBuf {
-    std::env::var_os("CARGO_TARGET_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from("target"))
 }
 
 /// `LIBRARY_PATH` and `LD_LIBRARY_PATH` with `lib` in front.
