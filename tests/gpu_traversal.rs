@@ -469,7 +469,10 @@ fn records_packed_wrong_fail_the_hit_records() {
 #[test]
 fn renderers_report_the_walk_they_run() {
     let ctx = common::gpu();
-    let scene = rtow();
+    // Each walk's kernel is a compile: specialized to 17 small spheres and
+    // quads of one Lambertian material, the 20 took 17 s on lavapipe with
+    // its cache empty (2 cores), against 119 s specialized to rtow.
+    let small = twintrace::twins::hits::far_small_shapes(16);
     let oracle = (Traversal::Binary, NodeLayout::Aos, LeafLayout::Indexed);
     let mut built = 0;
     for traversal in Traversal::ALL {
@@ -489,7 +492,7 @@ fn renderers_report_the_walk_they_run() {
                     dispatch: gpu::Dispatch::Switch,
                     checks: gpu::Checks::Trusted,
                 };
-                let r = gpu::GpuRenderer::with_variant(ctx, &scene, variant).unwrap();
+                let r = gpu::GpuRenderer::with_variant(ctx, &small, variant).unwrap();
                 assert_eq!(r.traversal(), (traversal, None));
                 assert_eq!(r.node_layout(), nodes);
                 assert_eq!(r.leaves(), leaves);
@@ -498,6 +501,7 @@ fn renderers_report_the_walk_they_run() {
         }
     }
     assert_eq!(built, 24 - 1 - twintrace::twins::traversal::VARIANTS.len());
+    let scene = rtow();
     let p = PackedScene::for_walk(&scene, Traversal::BruteForce, LeafLayout::Indexed);
     assert_eq!(p.nodes[0].count() as usize, scene.primitives().len());
     let ids: Vec<u32> = p.leaf_entries.iter().flatten().copied().collect();
