@@ -22,8 +22,10 @@ cargo xtask <command>
 Commands:
   test       install what the tests need (Mesa lavapipe when no Vulkan driver
              is present, Valgrind for the perf self-test), then run the whole suite:
-             cargo fmt --check, cargo clippy -D warnings, cargo test --workspace
-             (extra arguments go to cargo test), then `fuzz` for 40 s a target
+             cargo fmt --check, then cargo test --workspace built with clippy's
+             lints (-D warnings; its driver as the workspace's compiler wrapper,
+             every target; extra arguments go to cargo test), then `fuzz` for
+             40 s a target
   fuzz [--seconds N] [--jobs J] [--seed S] [TARGET]...
              build the libFuzzer targets of fuzz/ (SanitizerCoverage on stable
              rustc) and run each N seconds (default 40), J at a time (default:

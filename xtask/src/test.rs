@@ -40,25 +40,63 @@ pub fn run(extra: &[String]) -> Result<(), String> {
     if std::env::var_os("CI").is_some() {
         env.push(("CARGO_INCREMENTAL".into(), "0".into()));
     }
-    sh_env(
-        "cargo",
-        &[
-            "clippy",
-            "--workspace",
-            "--all-targets",
-            "--features",
-            "reference/embree",
-            "--",
-            "-D",
-            "warnings",
-        ],
-        &env,
-    )?;
-    let mut args = vec!["test", "--workspace", "--features", "reference/embree"];
+    // Clippy lints the workspace's crates as they are built for the tests
+    // (its driver as cargo's workspace wrapper, as `cargo clippy` runs it,
+    // with `-D warnings`), rather than in a check build of its own: the
+    // dependencies are compiled once, not also checked (CI's clippy step
+    // took 258 s, nearly all of it checking them; the lints in the build
+    // cost 9 s; docs/benchmarks.md, "CI's time").
+    // `--all-targets` lints and builds the benches and examples too; the
+    // run that follows builds nothing more (the same wrapper and flags).
+    env.extend(clippy_env()?);
+    let features = ["--workspace", "--features", "reference/embree"];
+    let mut build = vec!["test"];
+    build.extend(features);
+    build.extend(["--all-targets", "--no-run"]);
+    sh_env("cargo", &build, &env)?;
+    let mut args = vec!["test"];
+    args.extend(features);
     args.extend(extra.iter().map(String::as_str));
     sh_env("cargo", &args, &env)?;
     // The readers' fuzz targets, each for a fixed budget (docs/fuzzing.md).
     crate::fuzz::run(&["--seconds".into(), crate::fuzz::CI_SECONDS.to_string()])
+}
+
+/// The arguments `cargo clippy -- -D warnings` hands its driver.
+const CLIPPY_ARGS: &[&str] = &["-D", "warnings"];
+
+/// What makes a cargo build lint as `cargo clippy` does: `clippy-driver`
+/// (beside rustc in the toolchain's sysroot) as the workspace's compiler
+/// wrapper, so that dependencies build with rustc alone, and the lint
+/// arguments in `CLIPPY_ARGS`, which the driver reads separated by
+/// `__CLIPPY_HACKERY__` (cargo-clippy's own encoding).
+fn clippy_env() -> Result<Vec<(String, String)>, String> {
+    let out = Command::new("rustc")
+        .args(["--print", "sysroot"])
+        .output()
+        .map_err(|e| format!("cannot run rustc: {e}"))?;
+    let sysroot = String::from_utf8_lossy(&out.stdout).trim().to_string();
+    let driver = Path::new(&sysroot).join("bin").join("clippy-driver");
+    if !driver.is_file() {
+        return Err(format!(
+            "{} not found: install clippy (`rustup component add clippy`)",
+            driver.display()
+        ));
+    }
+    Ok(vec![
+        (
+            "RUSTC_WORKSPACE_WRAPPER".into(),
+            driver.display().to_string(),
+        ),
+        ("CLIPPY_ARGS".into(), clippy_args(CLIPPY_ARGS)),
+    ])
+}
+
+/// `args` as `CLIPPY_ARGS` carries them: each followed by the separator.
+fn clippy_args(args: &[&str]) -> String {
+    args.iter()
+        .map(|a| format!("{a}__CLIPPY_HACKERY__"))
+        .collect()
 }
 
 /// `LIBRARY_PATH` and `LD_LIBRARY_PATH` with `lib` in front.
@@ -240,4 +278,58 @@ fn has_libclang() -> bool {
             });
             has_lib && has_headers
         })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn clippy_args_are_encoded_as_cargo_clippy_encodes_them() {
+        assert_eq!(
+            clippy_args(CLIPPY_ARGS),
+            "-D__CLIPPY_HACKERY__warnings__CLIPPY_HACKERY__"
+        );
+    }
+
+    /// A crate of one function, built by cargo with [`clippy_env`]: the
+    /// status and the messages.
+    fn build_linted(dir: &Path, body: &str) -> (bool, String) {
+        std::fs::create_dir_all(dir.join("src")).unwrap();
+        std::fs::write(
+            dir.join("Cargo.toml"),
+            "[package]\nname = \"linted\"\nversion = \"0.0.0\"\nedition = \"2021\"\n[workspace]\n",
+        )
+        .unwrap();
+        std::fs::write(dir.join("src/lib.rs"), body).unwrap();
+        let out = Command::new("cargo")
+            .args(["build", "--quiet", "--offline"])
+            .current_dir(dir)
+            .env("CARGO_TARGET_DIR", dir.join("target"))
+            .envs(clippy_env().unwrap())
+            .output()
+            .unwrap();
+        (
+            out.status.success(),
+            String::from_utf8_lossy(&out.stderr).into(),
+        )
+    }
+
+    /// The build with the lints fails on a clippy lint (not only on
+    /// rustc's warnings) and passes the same crate without it.
+    #[test]
+    fn the_linted_build_fails_on_a_clippy_lint_and_passes_clean_code() {
+        let dir = std::env::temp_dir().join(format!("xtask-lint-{}", std::process::id()));
+        let (ok, err) = build_linted(
+            &dir.join("bad"),
+            "pub fn one(x: &u32) -> u32 {\n    x.clone()\n}\n",
+        );
+        assert!(!ok && err.contains("clippy::clone_on_copy"), "{err}");
+        let (ok, err) = build_linted(
+            &dir.join("good"),
+            "pub fn one(x: &u32) -> u32 {\n    *x\n}\n",
+        );
+        assert!(ok, "{err}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }
