@@ -166,8 +166,7 @@ const MUTANTS: &[GpuMutant] = &[
 /// the code) is what the specialization gate shows for every feature.
 #[test]
 fn gpu_mutants_of_the_models_fail_their_gate_scenes() {
-    let every = twintrace::twins::specialization::gate_kernel(crate::common::gpu())
-        == gpu::features::Kernel::Specialized;
+    let every = twintrace::twins::full_gates(crate::common::gpu());
     let mut failed = 0;
     for m in MUTANTS.iter().filter(|m| every || m.cpu_twin.is_none()) {
         let verdict = mutant_verdict(m.scene, m.from, m.to);

@@ -7,12 +7,10 @@
 //! comparison (its samples are poisoned), so the gate can fail.
 
 use crate::common;
-use gpu::features::{feature, Features, Kernel};
+use gpu::features::{feature, Features};
 use reference::integrator::Integrator;
 use twintrace::twins::film_words::counts;
-use twintrace::twins::specialization::{
-    all_scenes, film_bits, gate_kernel, gate_specs, scene_specs,
-};
+use twintrace::twins::specialization::{all_scenes, film_bits, gate_specs, scene_specs};
 
 /// On a software adapter (CI) the scenes that each bring a feature the
 /// earlier ones lack (`gate_specs`); every scene on hardware (the H100
@@ -51,7 +49,7 @@ fn specialized_kernels_render_every_scene_as_the_general_kernel() {
 #[test]
 fn a_kernel_without_a_feature_its_scene_uses_is_caught() {
     let ctx = common::gpu();
-    let every_scene = gate_kernel(ctx) == Kernel::Specialized;
+    let every_scene = twintrace::twins::full_gates(ctx);
     let (mut mutants, mut caught, mut used) = (0, 0u32, 0u32);
     let mut scenes: Vec<_> = scene_specs()
         .unwrap()

@@ -162,6 +162,15 @@ pub(crate) fn run_kernel_walking(
     run_test_kernel_with_library(ctx, &renderer, &kernel, library).map_err(|e| e.to_string())
 }
 
+/// Whether the gates on `ctx` judge with their full breadth (every scene,
+/// variant, estimator and mutant): on hardware (the H100 suite, `selftest`
+/// on a GPU), or where `TWINTRACE_GATES=full` asks for it. On a software
+/// adapter (CI's lavapipe) each gate that builds many kernels judges the
+/// part its doc names (docs/gates.md, "What CI's lavapipe runs").
+pub fn full_gates(ctx: &GpuContext) -> bool {
+    !ctx.is_software || std::env::var("TWINTRACE_GATES").is_ok_and(|v| v == "full")
+}
+
 /// `f` over every item, on as many threads as the machine has cores (at
 /// most one an item), results in the items' order. The variant gates
 /// build kernels for every scene, and building a pipeline (naga's

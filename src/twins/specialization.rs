@@ -95,11 +95,10 @@ pub fn oracle_film(
 /// `selftest` on a GPU run the specialized kernels. `TWINTRACE_GATES=full`
 /// asks for them on a software adapter too.
 pub fn gate_kernel(ctx: &GpuContext) -> Kernel {
-    let full = std::env::var("TWINTRACE_GATES").is_ok_and(|v| v == "full");
-    if ctx.is_software && !full {
-        Kernel::General
-    } else {
+    if super::full_gates(ctx) {
         Kernel::Specialized
+    } else {
+        Kernel::General
     }
 }
 
@@ -318,7 +317,7 @@ pub fn packed_film_bits(
 /// any scene uses is still compiled out of a kernel and compared (the
 /// scenes left out only combine features the others have).
 pub fn gate_specs(ctx: &GpuContext) -> Result<Vec<(String, Scene)>, String> {
-    let every = gate_kernel(ctx) == Kernel::Specialized;
+    let every = super::full_gates(ctx);
     let mut covered = 0u32;
     let mut out = Vec::new();
     for spec in scene_specs()? {

@@ -78,7 +78,7 @@ pub fn film_estimators((traversal, nodes, leaves): Walk) -> &'static [Integrator
 /// hit records hold every walk to the binary one ray by ray whatever the
 /// estimator).
 pub fn gate_estimators(ctx: &GpuContext, walk: Walk) -> &'static [Integrator] {
-    if super::specialization::gate_kernel(ctx) == gpu::features::Kernel::Specialized {
+    if super::full_gates(ctx) {
         film_estimators(walk)
     } else {
         &[Integrator::Mis]

@@ -44,14 +44,14 @@ pub const SORTED_WAVE_SLOTS: [Option<u32>; 1] = [Some(100)];
 /// structure-of-arrays path state, whose two parts each run there (the
 /// sort over the array-of-structs state, the path state's reads in
 /// `wavefront-soa`) and whose kernels cost CI's time a compile each.
-/// `TWINTRACE_GATES=full` asks for all of them on a software adapter too,
-/// as it does for [`super::specialization::gate_kernel`].
+/// `TWINTRACE_GATES=full` asks for all of them on a software adapter too
+/// ([`super::full_gates`]).
 pub fn gate_schedules(ctx: &GpuContext) -> Vec<Schedule> {
-    let full = std::env::var("TWINTRACE_GATES").is_ok_and(|v| v == "full");
+    let full = super::full_gates(ctx);
     let soa_sorted = Schedule::Wavefront(gpu::PathLayout::Soa, gpu::ShadeOrder::Material);
     Schedule::WAVES
         .into_iter()
-        .filter(|&s| !ctx.is_software || full || s != soa_sorted)
+        .filter(|&s| full || s != soa_sorted)
         .collect()
 }
 

@@ -49,13 +49,11 @@ pub fn run(extra: &[String]) -> Result<(), String> {
     // `--all-targets` lints and builds the benches and examples too; the
     // run that follows builds nothing more (the same wrapper and flags).
     env.extend(clippy_env()?);
-    let features = ["--workspace", "--features", "reference/embree"];
-    let mut build = vec!["test"];
-    build.extend(features);
+    let test = ["test", "--workspace", "--features", "reference/embree"];
+    let mut build = test.to_vec();
     build.extend(["--all-targets", "--no-run"]);
     sh_env("cargo", &build, &env)?;
-    let mut args = vec!["test"];
-    args.extend(features);
+    let mut args = test.to_vec();
     args.extend(extra.iter().map(String::as_str));
     sh_env("cargo", &args, &env)?;
     // The readers' fuzz targets, each for a fixed budget (docs/fuzzing.md).
