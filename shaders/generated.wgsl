@@ -53,7 +53,7 @@ const MATERIAL_GGX: u32 = 4u;
 const CAMERA_ORTHOGRAPHIC: u32 = 1u;
 const NO_FILTER_TABLE: u32 = 4294967295u;
 const FILTER_TABLE_HEADER: u32 = 6u;
-const FILTER_BINS_PER_PIXEL: u32 = 64u;
+const FILTER_BINS_PER_PIXEL: u32 = 1024u;
 const TEXTURE_CONSTANT: u32 = 0u;
 const TEXTURE_CHECKER: u32 = 1u;
 const TEXTURE_IMAGE: u32 = 2u;
@@ -169,6 +169,7 @@ const FEATURE_ROUGH_PLASTIC: u32 = 33554432u;
 const FEATURE_MASK: u32 = 67108864u;
 const FEATURE_ONE_SIDED: u32 = 134217728u;
 const FEATURE_VERTEX_COLOR_TEXTURES: u32 = 268435456u;
+const FEATURE_PROFILED_LIGHTS: u32 = 536870912u;
 const INTEGRATOR_BSDF: u32 = 0u;
 const INTEGRATOR_MIS: u32 = 1u;
 const SMALL_CONE_SIN2: f32 = 6.8523e-4;
@@ -178,7 +179,9 @@ const PUNCTUAL_PRIM: u32 = 2147483648u;
 const PUNCTUAL_POINT: u32 = 0u;
 const PUNCTUAL_SPOT: u32 = 1u;
 const PUNCTUAL_DIRECTIONAL: u32 = 2u;
-const PUNCTUAL_LIGHT_WORDS: u32 = 16u;
+const PUNCTUAL_SPOT_LINEAR: u32 = 3u;
+const PUNCTUAL_PROJECTOR: u32 = 4u;
+const PUNCTUAL_LIGHT_WORDS: u32 = 28u;
 const WORKGROUP_X: u32 = 8u;
 const WORKGROUP_Y: u32 = 8u;
 const PI: f32 = 3.1415927e0;
@@ -336,8 +339,20 @@ struct GpuPunctualLight {
     angle_scale: f32,
     pmf_mis: f32,
     pmf_bsdf: f32,
+    cos_inner: f32,
+    texture: f32,
+    axis_x_x: f32,
+    axis_x_y: f32,
+    axis_x_z: f32,
+    axis_y_x: f32,
+    axis_y_y: f32,
+    axis_y_z: f32,
+    profile_0: f32,
+    profile_1: f32,
+    profile_2: f32,
     pad_a: f32,
     pad_b: f32,
+    pad_c: f32,
 }
 struct GpuParams {
     width: u32,

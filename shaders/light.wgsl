@@ -31,7 +31,10 @@ fn punctual_light_at(index: u32) -> GpuPunctualLight {
     return GpuPunctualLight(texels[o], texels[o + 1u], texels[o + 2u], texels[o + 3u],
         texels[o + 4u], texels[o + 5u], texels[o + 6u], texels[o + 7u],
         texels[o + 8u], texels[o + 9u], texels[o + 10u], texels[o + 11u],
-        texels[o + 12u], texels[o + 13u], texels[o + 14u], texels[o + 15u]);
+        texels[o + 12u], texels[o + 13u], texels[o + 14u], texels[o + 15u],
+        texels[o + 16u], texels[o + 17u], texels[o + 18u], texels[o + 19u],
+        texels[o + 20u], texels[o + 21u], texels[o + 22u], texels[o + 23u],
+        texels[o + 24u], texels[o + 25u], texels[o + 26u], texels[o + 27u]);
 }
 
 // The spot's falloff t², t = clamp((cos − cos θ_o) · scale, 0, 1); 1 for
@@ -65,8 +68,56 @@ fn punctual_light_toward(l: GpuPunctualLight, p: vec3<f32>) -> PunctualToward {
     if !(d2 > 0.0 && is_finite3(direction)) {
         return PunctualToward(false, vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
     }
+    if u32(l.tag) == PUNCTUAL_SPOT_LINEAR || u32(l.tag) == PUNCTUAL_PROJECTOR {
+        if !uses(FEATURE_PROFILED_LIGHTS) {
+            poison();
+            return PunctualToward(false, vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+        }
+        return PunctualToward(true, direction, offset, punctual_light_profiled(l, offset, direction, d2));
+    }
     let falloff = punctual_light_falloff(l, dot(axis, -direction));
     return PunctualToward(true, direction, offset, intensity * (falloff / d2));
+}
+
+// Mitsuba's spot and projector (PunctualLight::profiled): the incident
+// term at a point whose offset to the light is `offset`.
+fn punctual_light_profiled(l: GpuPunctualLight, offset: vec3<f32>, direction: vec3<f32>, d2: f32) -> vec3<f32> {
+    let axis_x = vec3<f32>(l.axis_x_x, l.axis_x_y, l.axis_x_z);
+    let axis_y = vec3<f32>(l.axis_y_x, l.axis_y_y, l.axis_y_z);
+    let axis_z = vec3<f32>(l.direction_x, l.direction_y, l.direction_z);
+    let intensity = vec3<f32>(l.intensity_r, l.intensity_g, l.intensity_b);
+    if u32(l.tag) == PUNCTUAL_SPOT_LINEAR {
+        let v = -direction;
+        let local = vec3<f32>(dot(axis_x, v), dot(axis_y, v), dot(axis_z, v));
+        let cos_theta = normalize(local).z;
+        if !(cos_theta > l.cos_outer) {
+            return vec3<f32>(0.0);
+        }
+        var falloff = 1.0;
+        if cos_theta < l.cos_inner {
+            falloff = max((l.profile_0 - acos(cos_theta)) * l.profile_1, 0.0);
+        }
+        let s = 0.5 * l.profile_2 / local.z;
+        let uv = vec2<f32>(0.5 + s * local.x, 0.5 + s * local.y);
+        return intensity * punctual_light_profile_texture(l, uv) * (falloff / d2);
+    }
+    let v = -offset;
+    let q = vec3<f32>(dot(axis_x, v), dot(axis_y, v), dot(axis_z, v));
+    let uv = vec2<f32>(0.5 - l.profile_0 * q.x / q.z, 0.5 - l.profile_1 * q.y / q.z);
+    if !(q.z > 0.0 && all(uv >= vec2<f32>(0.0)) && all(uv <= vec2<f32>(1.0))) {
+        return vec3<f32>(0.0);
+    }
+    return intensity * punctual_light_profile_texture(l, uv) * (sqrt(d2) / (q.z * q.z * q.z));
+}
+
+// A light's texture at Mitsuba's coordinates `uv`, read at twintrace's
+// (u, 1 − v); 1 without one (its id −1).
+fn punctual_light_profile_texture(l: GpuPunctualLight, uv: vec2<f32>) -> vec3<f32> {
+    if l.texture < 0.0 {
+        return vec3<f32>(1.0);
+    }
+    let t = vec2<f32>(uv.x, 1.0 - uv.y);
+    return evaluate_texture(u32(l.texture), vec3<f32>(0.0), t, t, vec3<f32>(1.0));
 }
 
 struct SphereOf {

@@ -148,6 +148,27 @@ const MUTANTS: &[GpuMutant] = &[
         cpu_twin: Some(Mutant::MaskLightUnscaled),
     },
     GpuMutant {
+        scene: "lamps",
+        what: "the spot ramped in the cosine",
+        from: "        falloff = max((l.profile_0 - acos(cos_theta)) * l.profile_1, 0.0);",
+        to: "        falloff = (cos_theta - l.cos_outer) / (l.cos_inner - l.cos_outer);",
+        cpu_twin: Some(Mutant::SpotRampInCosine),
+    },
+    GpuMutant {
+        scene: "lamps",
+        what: "the projector without its obliquity",
+        from: "* (sqrt(d2) / (q.z * q.z * q.z));",
+        to: "* (q.z / (q.z * q.z * q.z));",
+        cpu_twin: Some(Mutant::ProjectorNoObliquity),
+    },
+    GpuMutant {
+        scene: "lamps",
+        what: "the light's texture without the v flip",
+        from: "    let t = vec2<f32>(uv.x, 1.0 - uv.y);",
+        to: "    let t = uv;",
+        cpu_twin: Some(Mutant::LightTextureUnflipped),
+    },
+    GpuMutant {
         // A vertex colour texture that reads its factor alone.
         scene: "attributes",
         what: "the vertex colour unread",

@@ -170,6 +170,177 @@ fn masks_whose_light_samples_ignore_the_opacity_fail_the_masks_gate() {
     mutant_fails("masks", Mutant::MaskLightUnscaled);
 }
 
+#[test]
+fn spots_ramped_in_the_cosine_fail_the_lamps_gate() {
+    mutant_fails("lamps", Mutant::SpotRampInCosine);
+}
+
+#[test]
+fn projectors_without_their_obliquity_fail_the_lamps_gate() {
+    mutant_fails("lamps", Mutant::ProjectorNoObliquity);
+}
+
+#[test]
+fn light_textures_read_without_mitsubas_v_flip_fail_the_lamps_gate() {
+    mutant_fails("lamps", Mutant::LightTextureUnflipped);
+}
+
+/// Mitsuba picks an emitter by its `sampling_weight` (default 1): a
+/// shape's weight shared by its primitives by area, a constant
+/// environment no light of twintrace's set. Known answers on the lamps
+/// gate scene and on a cube lamp of six faces.
+#[test]
+fn emitters_are_picked_by_their_sampling_weights() {
+    use reference::light::{LightSet, PUNCTUAL_PRIM};
+    let case = fixture_case("lamps");
+    let scene = mitsuba_tests::load(&case).unwrap().unwrap();
+    // The lamp (one sphere, weight 3) and four punctual lights (1, 2, 1,
+    // 0.5): 7.5 in all. f32 sums of a few such numbers: 1e-6.
+    let lights = LightSet::new(&scene);
+    let emitters: Vec<_> = lights.emitters().collect();
+    assert_eq!(emitters.len(), 5, "{emitters:?}");
+    let lamp = emitters
+        .iter()
+        .find(|(p, _)| p & PUNCTUAL_PRIM == 0)
+        .unwrap()
+        .0;
+    assert!(
+        (lights.pmf(lamp) - 3.0 / 7.5).abs() < 1e-6,
+        "{}",
+        lights.pmf(lamp)
+    );
+    for (i, w) in [1.0, 2.0, 1.0, 0.5].into_iter().enumerate() {
+        let pmf = lights.punctual_pmf(i as u32);
+        assert!((pmf - w / 7.5).abs() < 1e-6, "light {i}: {pmf}");
+        // The BSDF estimator's set of the punctual lights alone.
+        let alone = LightSet::punctual_only(&scene).punctual_pmf(i as u32);
+        assert!((alone - w / 4.5).abs() < 1e-6, "light {i} alone: {alone}");
+    }
+    // A cube lamp of weight 2 beside a point light of weight 1: each of
+    // its six faces 1/6 of 2/3 (equal areas), the light 1/3.
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(
+        dir.path(),
+        "cube.xml",
+        &SCENE.replace(
+            "BSDF",
+            r#"</shape><shape type="cube"><emitter type="area"><float name="sampling_weight" value="2"/></emitter></shape>
+            <emitter type="point"><point name="position" x="0" y="3" z="0"/></emitter><shape type="rectangle">"#,
+        ),
+    );
+    let scene = reference::loader::mitsuba::load(&path, &[]).unwrap();
+    let lights = LightSet::new(&scene);
+    let faces: Vec<f32> = lights
+        .emitters()
+        .filter(|(p, _)| p & PUNCTUAL_PRIM == 0)
+        .map(|(p, _)| lights.pmf(p))
+        .collect();
+    let total: f32 = faces.iter().sum();
+    assert!((total - 2.0 / 3.0).abs() < 1e-6, "{faces:?}");
+    for f in &faces {
+        assert!(
+            (f * faces.len() as f32 - 2.0 / 3.0).abs() < 1e-5,
+            "{faces:?}"
+        );
+    }
+    assert!((lights.punctual_pmf(0) - 1.0 / 3.0).abs() < 1e-6);
+}
+
+/// Mitsuba's spot and projector (textured and not) exported by
+/// export-mitsuba as Mitsuba's own (a to_world matrix, the projector's
+/// field of view along y, its texture at Mitsuba's coordinates) and read
+/// back: the same lights and the same image.
+#[test]
+fn export_mitsuba_writes_spots_and_projectors_as_mitsubas_own_and_the_reader_reads_them_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let root = twintrace::compare::gate::workspace_root();
+    std::fs::copy(
+        root.join("fixtures/mitsuba/rooms/textures/tiles.png"),
+        d.join("tiles.png"),
+    )
+    .unwrap();
+    let scene = write(
+        d,
+        "lights.xml",
+        r#"<scene version="3.0.0">
+    <sensor type="perspective">
+        <float name="fov" value="40"/>
+        <sampler type="independent"><integer name="sample_count" value="16"/></sampler>
+        <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="12"/><rfilter type="box"/></film>
+    </sensor>
+    <shape type="sphere"><point name="center" x="0" y="0" z="4"/><bsdf type="twosided"><bsdf type="diffuse"/></bsdf></shape>
+    <emitter type="spot">
+        <rgb name="intensity" value="20, 15, 10"/>
+        <float name="cutoff_angle" value="30"/><float name="beam_width" value="12"/>
+        <texture type="bitmap" name="texture"><string name="filename" value="tiles.png"/></texture>
+        <transform name="to_world"><lookat origin="1, 2, 2" target="0, 0, 4" up="0, 1, 0"/></transform>
+    </emitter>
+    <emitter type="projector">
+        <float name="fov" value="35"/><float name="scale" value="2"/>
+        <texture type="bitmap" name="irradiance"><string name="filename" value="tiles.png"/><string name="filter_type" value="nearest"/></texture>
+        <transform name="to_world"><lookat origin="-1, 1, 0" target="0, 0, 4" up="0, 1, 0"/></transform>
+    </emitter>
+    <emitter type="projector">
+        <float name="fov" value="50"/><rgb name="irradiance" value="0.5, 1, 2"/>
+        <transform name="to_world"><lookat origin="0, -2, 1" target="0, 0, 4" up="0, 0, 1"/></transform>
+    </emitter>
+</scene>"#,
+    );
+    let (code, out, err) = twintrace(
+        d,
+        &["export-mitsuba", scene.to_str().unwrap(), "-o", "exported"],
+    );
+    assert_eq!(code, Some(0), "{out}{err}");
+    let xml = d.join("exported/scene.xml");
+    let text = std::fs::read_to_string(&xml).unwrap();
+    assert!(
+        text.matches(r#"<emitter type="spot">"#).count() == 1
+            && text.matches(r#"<emitter type="projector">"#).count() == 2
+            && !text.contains("tt_"),
+        "{text}"
+    );
+    let [a, b] = [scene, xml].map(|p| reference::load_scene(p.to_str().unwrap()).unwrap());
+    // The lights' numbers: f32 written with `{:?}` and read back, the
+    // angles through degrees and the frames through a matrix (1e-5).
+    for (la, lb) in a.punctual_lights().iter().zip(b.punctual_lights()) {
+        assert_eq!(la.tag, lb.tag);
+        let close = |x: f32, y: f32| (x - y).abs() <= 1e-5 * x.abs().max(1.0);
+        let fields = |l: &reference::light::PunctualLight| {
+            let mut v = vec![l.cos_inner, l.cos_outer];
+            v.extend(l.profile);
+            for a in [l.position, l.direction, l.intensity, l.axis_x, l.axis_y] {
+                v.extend(a.to_array());
+            }
+            v
+        };
+        assert!(
+            fields(la).iter().zip(fields(lb)).all(|(x, y)| close(*x, y)),
+            "{la:?}\n{lb:?}"
+        );
+        assert_eq!(
+            la.texture == reference::light::NO_TEXTURE,
+            lb.texture == reference::light::NO_TEXTURE
+        );
+    }
+    assert_eq!(a.punctual_lights().len(), 3);
+    // And the image. Measured: RMSE 6.9e-9 (the two files' f32 rounding
+    // of the frames); 1e-4 relative of the brightest pixel leaves room
+    // for rounding and stays far below a texture read flipped or a light
+    // of the wrong profile (tens of percent).
+    let settings = a.render_settings();
+    let ia = reference::render(&a, &settings, &|_| {}).mean();
+    let ib = reference::render(&b, &settings, &|_| {}).mean();
+    let top = ia.iter().map(|c| c.max_element()).fold(0.0f32, f32::max);
+    assert!(top > 0.0);
+    let worst = ia
+        .iter()
+        .zip(&ib)
+        .map(|(x, y)| (*x - *y).abs().max_element())
+        .fold(0.0f32, f32::max);
+    assert!(worst <= 1e-4 * top, "{worst} of {top}");
+}
+
 fn twintrace(dir: &std::path::Path, args: &[&str]) -> (Option<i32>, String, String) {
     let out = Command::new(crate::common::twintrace_bin())
         .current_dir(dir)

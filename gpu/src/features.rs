@@ -22,6 +22,7 @@
 //! here; [`Kernel::features`] is here, with the feature sets.
 
 use reference::background::Background;
+use reference::light::punctual_tag;
 use reference::material::Material;
 use reference::scene::{primitive_tag, Scene};
 use reference::texture::Texture;
@@ -78,6 +79,7 @@ feature_bits! {
     MASK = 26,
     ONE_SIDED = 27,
     VERTEX_COLOR_TEXTURES = 28,
+    PROFILED_LIGHTS = 29,
 }
 
 impl Kernel {
@@ -167,6 +169,15 @@ impl Features {
         // Delta lights: a shadow ray even in the BSDF estimator.
         if !scene.punctual_lights().is_empty() {
             bits |= feature::PUNCTUAL_LIGHTS;
+        }
+        // Mitsuba's spot and projector: a profile read through the light's
+        // frame, and maybe a texture.
+        if scene
+            .punctual_lights()
+            .iter()
+            .any(|l| l.tag == punctual_tag::SPOT_LINEAR || l.tag == punctual_tag::PROJECTOR)
+        {
+            bits |= feature::PROFILED_LIGHTS;
         }
         for t in scene.textures() {
             bits |= match t {

@@ -186,17 +186,22 @@ gpu_record! {
 gpu_record! {
     /// A punctual light (`reference::light::PunctualLight`), in `texels`
     /// from `GpuParams::punctual_table`, [`PUNCTUAL_LIGHT_WORDS`] floats
-    /// each (`punctual_light_at` reads one): its tag as a float (0, 1, 2:
+    /// each (`punctual_light_at` reads one): its tag as a float (0 to 4:
     /// exact), position, direction, intensity, the spot's `cos θ_o` and
-    /// `PunctualLight::angle_scale`, and its selection probability in the
+    /// `PunctualLight::angle_scale`, its selection probability in the
     /// MIS estimator's light set and in the BSDF estimator's
     /// (`LightSet::punctual_pmf` of `LightSet::new` and of
-    /// `LightSet::punctual_only`).
+    /// `LightSet::punctual_only`), `cos θ_i`, and for Mitsuba's spot and
+    /// projector its texture (the id as an exact float, −1 for none: a
+    /// NaN's bits need not survive a float load), frame axes and profile.
     GpuPunctualLight {
         tag: f32, position_x: f32, position_y: f32, position_z: f32,
         direction_x: f32, direction_y: f32, direction_z: f32, intensity_r: f32,
         intensity_g: f32, intensity_b: f32, cos_outer: f32, angle_scale: f32,
-        pmf_mis: f32, pmf_bsdf: f32, pad_a: f32, pad_b: f32,
+        pmf_mis: f32, pmf_bsdf: f32, cos_inner: f32, texture: f32,
+        axis_x_x: f32, axis_x_y: f32, axis_x_z: f32, axis_y_x: f32,
+        axis_y_y: f32, axis_y_z: f32, profile_0: f32, profile_1: f32,
+        profile_2: f32, pad_a: f32, pad_b: f32, pad_c: f32,
     }
 }
 
@@ -399,7 +404,7 @@ mod tests {
         assert_eq!(std::mem::size_of::<GpuTexture>(), 64);
         assert_eq!(std::mem::size_of::<GpuEmitter>(), 8);
         assert_eq!(std::mem::size_of::<GpuLightDensity>(), 8);
-        assert_eq!(std::mem::size_of::<GpuPunctualLight>(), 64);
+        assert_eq!(std::mem::size_of::<GpuPunctualLight>(), 112);
         assert_eq!(std::mem::size_of::<GpuPixel>(), 224);
         assert_eq!(FILM_PIXEL_WORDS, reference::film::PIXEL_WORDS);
         // Uniform buffers need a size that is a multiple of 16.

@@ -531,6 +531,17 @@ impl PackedScene {
                 angle_scale: l.angle_scale(),
                 pmf_mis: lights.punctual_pmf(i as u32),
                 pmf_bsdf: punctual.punctual_pmf(i as u32),
+                cos_inner: l.cos_inner,
+                texture: light_texture(l.texture),
+                axis_x_x: l.axis_x.x,
+                axis_x_y: l.axis_x.y,
+                axis_x_z: l.axis_x.z,
+                axis_y_x: l.axis_y.x,
+                axis_y_y: l.axis_y.y,
+                axis_y_z: l.axis_y.z,
+                profile_0: l.profile[0],
+                profile_1: l.profile[1],
+                profile_2: l.profile[2],
                 ..Default::default()
             };
             texels.extend_from_slice(bytemuck::cast_slice(&[record]));
@@ -791,6 +802,17 @@ pub fn pack_background(bg: &Background, p: &mut GpuParams) {
             p.bg_rows = rows.tag();
         }
     }
+}
+
+/// A punctual light's texture id as [`GpuPunctualLight::texture`] holds
+/// it: an exact float, −1 for none. Ids stay below 2^24 (a scene of more
+/// textures would not fit the GPU's texture table long before).
+fn light_texture(id: u32) -> f32 {
+    if id == reference::light::NO_TEXTURE {
+        return -1.0;
+    }
+    assert!(id < 1 << 24, "texture id {id} is not exact in f32");
+    id as f32
 }
 
 #[cfg(test)]

@@ -283,6 +283,14 @@ pub fn generate() -> String {
         "PUNCTUAL_DIRECTIONAL",
         reference::light::punctual_tag::DIRECTIONAL,
     );
+    s += &u(
+        "PUNCTUAL_SPOT_LINEAR",
+        reference::light::punctual_tag::SPOT_LINEAR,
+    );
+    s += &u(
+        "PUNCTUAL_PROJECTOR",
+        reference::light::punctual_tag::PROJECTOR,
+    );
     s += &u("PUNCTUAL_LIGHT_WORDS", crate::records::PUNCTUAL_LIGHT_WORDS);
     s += &u("WORKGROUP_X", WORKGROUP.0);
     s += &u("WORKGROUP_Y", WORKGROUP.1);

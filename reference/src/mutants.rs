@@ -136,6 +136,16 @@ pub enum Mutant {
     /// A PLY face attribute read as a vertex attribute: a corner takes the
     /// value of the face numbered as its vertex (`loader::mitsuba::scene`).
     MitsubaFaceAttributeByVertex,
+    /// Mitsuba's spot ramped linearly in the cosine between its cutoff
+    /// and beam width rather than in the angle (`light::PunctualLight`).
+    SpotRampInCosine,
+    /// Mitsuba's projector without its obliquity, `1 / q_z²` where
+    /// Mitsuba has `1 / (q_z² cos θ)` (`light::PunctualLight`).
+    ProjectorNoObliquity,
+    /// A spot's or projector's texture read at Mitsuba's `(u, v)` as
+    /// twintrace's coordinates, without the v flip
+    /// (`light::PunctualLight`).
+    LightTextureUnflipped,
 }
 
 #[cfg(feature = "mutants")]

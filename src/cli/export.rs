@@ -181,6 +181,8 @@ pub fn run(args: &ExportArgs) -> Result<()> {
 
 struct MitsubaScene<'s> {
     scene: &'s Scene,
+    /// By punctual light: the texture of a Mitsuba spot or projector.
+    light_textures: Vec<Option<materials::Tex>>,
     surfaces: Vec<Surface>,
     /// Each material's coverage (glTF's alpha), if it has one.
     coverages: Vec<Option<materials::Coverage>>,
@@ -403,7 +405,22 @@ impl<'s> MitsubaScene<'s> {
                 m.material
             );
         }
+        // Mitsuba's spot and projector: their textures, read at Mitsuba's
+        // (u, v) as the reference reads them at (u, 1 − v).
+        let light_textures = scene
+            .punctual_lights()
+            .iter()
+            .enumerate()
+            .map(|(i, l)| {
+                (l.texture != reference::light::NO_TEXTURE)
+                    .then(|| materials::texture(scene, l.texture, &format!("light {i}")))
+                    .transpose()
+            })
+            .collect::<Result<Vec<_>>>()?;
         let mut images = Vec::new();
+        for t in light_textures.iter().flatten() {
+            t.images(&mut images);
+        }
         for s in &surfaces {
             s.images(&mut images);
         }
@@ -415,6 +432,7 @@ impl<'s> MitsubaScene<'s> {
         }
         Ok(Self {
             scene,
+            light_textures,
             surfaces,
             wrappings,
             coverages,
@@ -595,7 +613,7 @@ impl<'s> MitsubaScene<'s> {
                 wrapping.wrap(&surface.xml(at), at.uv)
             )?;
         }
-        for l in self.scene.punctual_lights() {
+        for (i, l) in self.scene.punctual_lights().iter().enumerate() {
             use reference::light::punctual_tag;
             let rgb =
                 |name: &str, c: Vec3| format!(r#"<rgb name="{name}" value="{}"/>"#, triple(c));
@@ -623,12 +641,65 @@ impl<'s> MitsubaScene<'s> {
                         (l.cos_inner as f64).acos().to_degrees()
                     )?
                 }
-                _ => writeln!(
+                punctual_tag::DIRECTIONAL => writeln!(
                     x,
                     r#"  <emitter type="directional"><vector name="direction" value="{}"/>{}</emitter>"#,
                     triple(l.direction),
                     rgb("irradiance", l.intensity)
                 )?,
+                tag => {
+                    // Mitsuba's own spot and projector: the frame as the
+                    // to_world's columns, the texture at Mitsuba's (u, v).
+                    let (x_axis, y_axis, z_axis, p) = (l.axis_x, l.axis_y, l.direction, l.position);
+                    let matrix: Vec<String> = [
+                        [x_axis.x, y_axis.x, z_axis.x, p.x],
+                        [x_axis.y, y_axis.y, z_axis.y, p.y],
+                        [x_axis.z, y_axis.z, z_axis.z, p.z],
+                        [0.0, 0.0, 0.0, 1.0],
+                    ]
+                    .iter()
+                    .flatten()
+                    .map(|v| format!("{v:?}"))
+                    .collect();
+                    let to_world = format!(
+                        r#"<transform name="to_world"><matrix value="{}"/></transform>"#,
+                        matrix.join(" ")
+                    );
+                    const FLIP: materials::UvMap = [1.0, 0.0, 0.0, 0.0, -1.0, 1.0];
+                    let texture = |name: &str| {
+                        self.light_textures[i]
+                            .as_ref()
+                            .map_or(String::new(), |t| t.xml(name, FLIP))
+                    };
+                    let degrees = |cos: f32| (cos as f64).acos().to_degrees();
+                    if tag == punctual_tag::SPOT_LINEAR {
+                        writeln!(
+                            x,
+                            r#"  <emitter type="spot">{to_world}{}<float name="cutoff_angle" value="{:?}"/><float name="beam_width" value="{:?}"/>{}</emitter>"#,
+                            rgb("intensity", l.intensity),
+                            (l.profile[0] as f64).to_degrees(),
+                            degrees(l.cos_inner),
+                            texture("texture")
+                        )?
+                    } else {
+                        // intensity = π · scale · irradiance; the field of
+                        // view along y, whose half has tangent 1 / (2 sv).
+                        let fov_y = 2.0 * (0.5 / l.profile[1] as f64).atan().to_degrees();
+                        let pi = std::f32::consts::PI;
+                        let light = match &self.light_textures[i] {
+                            Some(_) => format!(
+                                r#"<float name="scale" value="{:?}"/>{}"#,
+                                l.intensity.x / pi,
+                                texture("irradiance")
+                            ),
+                            None => rgb("irradiance", l.intensity / pi),
+                        };
+                        writeln!(
+                            x,
+                            r#"  <emitter type="projector">{to_world}<float name="fov" value="{fov_y:?}"/><string name="fov_axis" value="y"/>{light}</emitter>"#
+                        )?
+                    }
+                }
             }
         }
         match self.scene.background() {

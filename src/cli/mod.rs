@@ -1423,12 +1423,14 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
     let light_kind = |i: usize| match scene.punctual_lights()[i].tag {
         reference::light::punctual_tag::POINT => "point",
         reference::light::punctual_tag::SPOT => "spot",
+        reference::light::punctual_tag::SPOT_LINEAR => "Mitsuba spot",
+        reference::light::punctual_tag::PROJECTOR => "projector",
         _ => "directional",
     };
     say!(
         "punctual lights: {}",
         count(
-            &["point", "spot", "directional"],
+            &["point", "spot", "Mitsuba spot", "projector", "directional"],
             &light_kind,
             scene.punctual_lights().len()
         )

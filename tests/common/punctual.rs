@@ -1,6 +1,7 @@
 //! Known answers for punctual lights (issue 41, item 4): a Lambertian
-//! plane lit by a point, a spot or a directional light alone (and a point
-//! and a directional light together), seen from above. With one bounce
+//! plane lit by a point, a spot, a directional light, Mitsuba's spot or
+//! its projector alone (and a point and a directional light together),
+//! seen from above. With one bounce
 //! (`max_depth` 2) and a black background, every path's value is the
 //! plane's outgoing radiance `ρ/π · E(x)` at the point its camera ray
 //! meets, with `E = I cos θ / d²` (times the spot's falloff) or
@@ -53,9 +54,9 @@ pub struct Case {
 pub const SIZE: u32 = 8;
 
 /// The cases: point, spot (the view covers its inner cone, its falloff
-/// zone and beyond), directional at an angle, and a point with a
-/// directional light (selection by power: a wrong selection probability
-/// shows).
+/// zone and beyond), directional at an angle, a point with a directional
+/// light (selection by power: a wrong selection probability shows), and
+/// Mitsuba's spot and projector.
 pub fn cases() -> Vec<Case> {
     let point = LightInput::Point {
         position: DVec3::new(0.3, 2.0, 0.2),
@@ -77,6 +78,24 @@ pub fn cases() -> Vec<Case> {
         direction: Vec3::new(-0.3, -0.9, 0.3),
         irradiance: Vec3::new(1.0, 1.0, 1.0),
     };
+    // Mitsuba's spot, straight down: its beam, its ramp and beyond in view.
+    let mitsuba_spot = LightInput::SpotLinear {
+        position: DVec3::new(0.1, 2.5, -0.1),
+        frame: [Vec3::X, Vec3::Z, Vec3::NEG_Y],
+        intensity: Vec3::new(8.0, 6.0, 5.0),
+        cutoff_angle: 25f32.to_radians(),
+        beam_width: 10f32.to_radians(),
+        texture: None,
+    };
+    // Mitsuba's projector, tilted: its window's edges in view, lit
+    // obliquely.
+    let projector = LightInput::Projector {
+        position: DVec3::new(-0.2, 2.0, 0.1),
+        frame: tilted_frame(DVec3::new(0.2, -1.0, 0.1)),
+        intensity: Vec3::new(1.0, 1.5, 0.5) * std::f32::consts::PI,
+        tan_half: Vec2::new(0.3, 0.25),
+        texture: None,
+    };
     vec![
         Case {
             name: "point",
@@ -96,6 +115,16 @@ pub fn cases() -> Vec<Case> {
         Case {
             name: "point and directional",
             lights: vec![point, second_directional],
+            spp: 1024,
+        },
+        Case {
+            name: "Mitsuba spot",
+            lights: vec![mitsuba_spot],
+            spp: 1024,
+        },
+        Case {
+            name: "projector",
+            lights: vec![projector],
             spp: 1024,
         },
     ]
@@ -150,6 +179,24 @@ fn khr_spot_falloff(cos_axis: f64, inner: f64, outer: f64) -> f64 {
     t * t
 }
 
+/// A right-handed orthonormal frame whose z is `z` (normalized), its x
+/// square to world y.
+fn tilted_frame(z: DVec3) -> [Vec3; 3] {
+    let z = z.normalize();
+    let x = DVec3::Y.cross(z).normalize();
+    let y = z.cross(x);
+    [x, y, z].map(|v| v.as_vec3())
+}
+
+/// `v` in the light frame `f` (axes in world coordinates).
+fn in_frame(f: &[Vec3; 3], v: DVec3) -> DVec3 {
+    DVec3::new(
+        f[0].as_dvec3().dot(v),
+        f[1].as_dvec3().dot(v),
+        f[2].as_dvec3().dot(v),
+    )
+}
+
 /// Irradiance at `x` on the plane (normal +y).
 pub fn irradiance(light: &LightInput, x: DVec3) -> DVec3 {
     match *light {
@@ -185,6 +232,51 @@ pub fn irradiance(light: &LightInput, x: DVec3) -> DVec3 {
         } => {
             let d = direction.as_dvec3().normalize();
             irradiance.as_dvec3() * (-d.y).max(0.0)
+        }
+        // Mitsuba 3.9.1's spot.cpp: full within the beam width, linear in
+        // the angle to none at the cutoff.
+        LightInput::SpotLinear {
+            position,
+            frame,
+            intensity,
+            cutoff_angle,
+            beam_width,
+            texture,
+        } => {
+            assert!(texture.is_none(), "no textures in the known answers");
+            let to = position - x;
+            let d2 = to.length_squared();
+            let d = d2.sqrt();
+            let theta = in_frame(&frame, -to / d).z.clamp(-1.0, 1.0).acos();
+            let (cutoff, beam) = (cutoff_angle as f64, beam_width as f64);
+            let falloff = if theta <= beam {
+                1.0
+            } else if theta < cutoff {
+                (cutoff - theta) / (cutoff - beam)
+            } else {
+                0.0
+            };
+            intensity.as_dvec3() * falloff * (to.y / d).max(0.0) / d2
+        }
+        // Mitsuba 3.9.1's projector.cpp: the point in the light's frame,
+        // lit within the window, π s E / (q_z² cos θ) with cos θ = q_z / d.
+        LightInput::Projector {
+            position,
+            frame,
+            intensity,
+            tan_half,
+            texture,
+        } => {
+            assert!(texture.is_none(), "no textures in the known answers");
+            let to = position - x;
+            let d = to.length();
+            let q = in_frame(&frame, -to);
+            let u = 0.5 - 0.5 / tan_half.x as f64 * q.x / q.z;
+            let v = 0.5 - 0.5 / tan_half.y as f64 * q.y / q.z;
+            if !(q.z > 0.0 && (0.0..=1.0).contains(&u) && (0.0..=1.0).contains(&v)) {
+                return DVec3::ZERO;
+            }
+            intensity.as_dvec3() * (d / q.z.powi(3)) * (to.y / d).max(0.0)
         }
     }
 }

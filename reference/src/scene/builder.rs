@@ -57,6 +57,84 @@ pub enum LightInput {
     /// Irradiance (W/m²) on a surface facing it, arriving along
     /// `direction` (the way the light travels).
     Directional { direction: Vec3, irradiance: Vec3 },
+    /// Mitsuba's `spot`: radiant intensity along its frame's z, full
+    /// inside `beam_width`, falling linearly in the angle to none at
+    /// `cutoff_angle` (radians from the axis, `0 ≤ beam ≤ cutoff`, the
+    /// cutoff above 0 and at most π, at most π/2 with a texture), times
+    /// `texture` (a texture id: an image or a uv checker) projected
+    /// through the cone ([`crate::light::PunctualLight`]).
+    SpotLinear {
+        position: DVec3,
+        /// The light's x, y and z axes (orthonormal, right-handed).
+        frame: [Vec3; 3],
+        intensity: Vec3,
+        cutoff_angle: f32,
+        beam_width: f32,
+        texture: Option<u32>,
+    },
+    /// Mitsuba's `projector`: `π · scale · irradiance` as `intensity`,
+    /// times `texture` if any, projected through a pinhole along its
+    /// frame's z whose half fields of view have the tangents `tan_half`
+    /// (x, y) ([`crate::light::PunctualLight`]).
+    Projector {
+        position: DVec3,
+        /// The light's x, y and z axes (orthonormal, right-handed).
+        frame: [Vec3; 3],
+        intensity: Vec3,
+        tan_half: Vec2,
+        texture: Option<u32>,
+    },
+}
+
+/// Emitter selection by weights a scene file gives, as Mitsuba selects
+/// an emitter with probability proportional to its `sampling_weight`
+/// (default 1): a shape's weight is shared among its primitives by area
+/// (so the shape is sampled uniformly by area, as Mitsuba's), an
+/// emitting primitive of no listed shape weighs 1, and the environment
+/// map and each punctual light weigh what is given (a solid background
+/// is never a light, [`crate::light`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct EmitterWeights {
+    /// Emitting shapes: their primitive ids and weight.
+    pub shapes: Vec<(std::ops::Range<u32>, f32)>,
+    /// By punctual light, in the order they were added.
+    pub punctual: Vec<f32>,
+    /// The environment map's.
+    pub environment: f32,
+}
+
+impl EmitterWeights {
+    /// Checks the weights (finite, above 0, one a punctual light, ranges
+    /// of existing primitives).
+    fn checked(self, primitives: usize, punctual: usize) -> Result<Self, SceneError> {
+        let bad = |w: f32| !(w.is_finite() && w > 0.0);
+        if self.punctual.len() != punctual {
+            return Err(SceneError::invalid(
+                "sampling_weight",
+                format!(
+                    "{} weights for {punctual} punctual lights",
+                    self.punctual.len()
+                ),
+            ));
+        }
+        for &w in self.punctual.iter().chain([&self.environment]) {
+            if bad(w) {
+                return Err(SceneError::invalid(
+                    "sampling_weight",
+                    format!("{w} must be finite and above 0"),
+                ));
+            }
+        }
+        for (range, w) in &self.shapes {
+            if bad(*w) || range.start > range.end || range.end as usize > primitives {
+                return Err(SceneError::invalid(
+                    "sampling_weight",
+                    format!("weight {w} of primitives {range:?} (of {primitives})"),
+                ));
+            }
+        }
+        Ok(self)
+    }
 }
 
 /// The most punctual lights a scene may hold (their ids share the emitter
@@ -88,6 +166,9 @@ pub struct SceneBuilder {
     pub render: RenderSettings,
     /// How each pixel's camera samples are spread (the box by default).
     pub filter: PixelFilter,
+    /// The emitters' selection weights a file gives (Mitsuba's
+    /// `sampling_weight`s); `None`: by power ([`crate::light`]).
+    pub emitter_weights: Option<EmitterWeights>,
     pub background: Option<Background>,
     /// What the loaders ignored and the user should hear of (one line
     /// each), kept with the scene ([`Scene::warnings`]).
@@ -834,6 +915,27 @@ impl SceneBuilder {
                 SceneError::invalid("direction", format!("{d} has no direction (zero length)"))
             })
         };
+        // A light's frame: finite, orthonormal and right-handed to 1e-4
+        // (f32 axes of an f64 rotation are within a few 1e-7), made unit.
+        let frame_of = |f: [Vec3; 3]| {
+            let unit = |v: Vec3| (v.length() - 1.0).abs() < 1e-4;
+            let ok = f.iter().all(|v| v.is_finite() && unit(*v))
+                && f[0].dot(f[1]).abs() < 1e-4
+                && f[1].dot(f[2]).abs() < 1e-4
+                && f[0].dot(f[2]).abs() < 1e-4
+                && f[0].cross(f[1]).dot(f[2]) > 0.0;
+            if ok {
+                Ok(f.map(Vec3::normalize))
+            } else {
+                Err(SceneError::invalid(
+                    "frame",
+                    format!(
+                        "axes {}, {}, {} are not a rotation (orthonormal and right-handed)",
+                        f[0], f[1], f[2]
+                    ),
+                ))
+            }
+        };
         let (light, position) = match light {
             LightInput::Point {
                 position,
@@ -842,11 +944,8 @@ impl SceneBuilder {
                 check_colour("intensity", intensity)?;
                 let light = PunctualLight {
                     tag: punctual_tag::POINT,
-                    position: Vec3::ZERO,
-                    direction: Vec3::NEG_Z,
                     intensity,
-                    cos_inner: 1.0,
-                    cos_outer: 1.0,
+                    ..PunctualLight::default()
                 };
                 (light, position_of(position)?)
             }
@@ -877,11 +976,11 @@ impl SceneBuilder {
                 }
                 let light = PunctualLight {
                     tag: punctual_tag::SPOT,
-                    position: Vec3::ZERO,
                     direction: direction_of(direction)?,
                     intensity,
                     cos_inner: inner.cos(),
                     cos_outer: outer.cos(),
+                    ..PunctualLight::default()
                 };
                 (light, position_of(position)?)
             }
@@ -892,13 +991,93 @@ impl SceneBuilder {
                 check_colour("irradiance", irradiance)?;
                 let light = PunctualLight {
                     tag: punctual_tag::DIRECTIONAL,
-                    position: Vec3::ZERO,
                     direction: direction_of(direction)?,
                     intensity: irradiance,
-                    cos_inner: 1.0,
-                    cos_outer: 1.0,
+                    ..PunctualLight::default()
                 };
                 (light, DVec3::ZERO)
+            }
+            LightInput::SpotLinear {
+                position,
+                frame,
+                intensity,
+                cutoff_angle: cutoff,
+                beam_width: beam,
+                texture,
+            } => {
+                check_colour("intensity", intensity)?;
+                let show = |a: f32| format!("{a} rad ({:.3}°)", a.to_degrees());
+                let most = if texture.is_some() {
+                    std::f32::consts::FRAC_PI_2
+                } else {
+                    std::f32::consts::PI
+                };
+                if !(cutoff.is_finite() && cutoff > 0.0 && cutoff <= most) {
+                    return Err(SceneError::invalid(
+                        "cutoff_angle",
+                        format!(
+                            "{} must be above 0 and at most {}{}",
+                            show(cutoff),
+                            show(most),
+                            if texture.is_some() {
+                                " with a texture"
+                            } else {
+                                ""
+                            }
+                        ),
+                    ));
+                }
+                if !(beam.is_finite() && beam >= 0.0 && beam <= cutoff) {
+                    return Err(SceneError::invalid(
+                        "beam_width",
+                        format!(
+                            "{} must be at least 0 and at most the cutoff angle {}",
+                            show(beam),
+                            show(cutoff)
+                        ),
+                    ));
+                }
+                let [x, y, z] = frame_of(frame)?;
+                let light = PunctualLight {
+                    tag: punctual_tag::SPOT_LINEAR,
+                    direction: z,
+                    intensity,
+                    cos_inner: beam.cos(),
+                    cos_outer: cutoff.cos(),
+                    axis_x: x,
+                    axis_y: y,
+                    texture: self.light_texture(texture)?,
+                    profile: [cutoff, 1.0 / (cutoff - beam), 1.0 / cutoff.tan()],
+                    ..PunctualLight::default()
+                };
+                (light, position_of(position)?)
+            }
+            LightInput::Projector {
+                position,
+                frame,
+                intensity,
+                tan_half,
+                texture,
+            } => {
+                check_colour("intensity", intensity)?;
+                if !(tan_half.is_finite() && tan_half.min_element() > 0.0) {
+                    return Err(SceneError::invalid(
+                        "fov",
+                        format!("half fields of view of tangents {tan_half} must be above 0 and below 90°"),
+                    ));
+                }
+                let [x, y, z] = frame_of(frame)?;
+                let light = PunctualLight {
+                    tag: punctual_tag::PROJECTOR,
+                    direction: z,
+                    intensity,
+                    axis_x: x,
+                    axis_y: y,
+                    texture: self.light_texture(texture)?,
+                    profile: [0.5 / tan_half.x, 0.5 / tan_half.y, 0.0],
+                    ..PunctualLight::default()
+                };
+                (light, position_of(position)?)
             }
         };
         self.punctual_lights.push(PunctualLight {
@@ -907,6 +1086,25 @@ impl SceneBuilder {
         });
         self.light_positions.push(position);
         Ok(())
+    }
+
+    /// A light's texture: none, or an image or a uv checker (read at
+    /// coordinates, not at a surface: no 3-D checker or vertex colour).
+    fn light_texture(&self, texture: Option<u32>) -> Result<u32, SceneError> {
+        let Some(id) = texture else {
+            return Ok(crate::light::NO_TEXTURE);
+        };
+        match self.textures.get(id as usize) {
+            None => Err(SceneError::invalid(
+                "texture",
+                format!("texture index {id} does not exist"),
+            )),
+            Some(Texture::Constant(_) | Texture::Image { .. } | Texture::UvChecker { .. }) => Ok(id),
+            Some(_) => Err(SceneError::invalid(
+                "texture",
+                "a light's texture must be an image or a uv checker (a light has no surface point or vertex colour)".into(),
+            )),
+        }
     }
 
     /// The punctual lights added so far (positions in world coordinates,
@@ -1230,6 +1428,11 @@ impl SceneBuilder {
         Some((material, wrappers, self.emissions.get(i).copied().flatten()))
     }
 
+    /// The primitives added so far (the next one's id).
+    pub fn primitive_count(&self) -> usize {
+        self.primitives.len()
+    }
+
     pub fn material_count(&self) -> usize {
         self.materials.len()
     }
@@ -1344,6 +1547,10 @@ impl SceneBuilder {
             render: self.render,
             filter: self.filter,
             filter_table: self.filter.table().map(std::sync::Arc::new),
+            emitter_weights: match self.emitter_weights {
+                None => None,
+                Some(w) => Some(w.checked(self.primitives.len(), punctual_lights.len())?),
+            },
             background,
             spheres,
             quads,

@@ -19,7 +19,7 @@ mod settings;
 mod tests;
 mod transform;
 
-pub use builder::{Appearance, LightInput, MeshInput, SceneBuilder};
+pub use builder::{Appearance, EmitterWeights, LightInput, MeshInput, SceneBuilder};
 pub use render_space::{RenderOrigin, RenderSpace};
 pub use settings::{RenderSettings, MAX_DEPTH, MAX_IMAGE_SIDE, MAX_SPP};
 pub use transform::Transform;
@@ -84,6 +84,8 @@ pub struct Scene {
     /// (none for the box).
     filter: PixelFilter,
     filter_table: Option<std::sync::Arc<FilterTable>>,
+    /// The file's emitter selection weights, if it gave them.
+    emitter_weights: Option<EmitterWeights>,
     background: Background,
     spheres: Vec<Sphere>,
     quads: Vec<Quad>,
@@ -182,6 +184,9 @@ impl Scene {
         // their fingerprints.
         if self.wraps.iter().any(|w| *w != Wrappers::default()) {
             let _ = write!(h, "{:?}", self.wraps);
+        }
+        if let Some(w) = &self.emitter_weights {
+            let _ = write!(h, "{w:?}");
         }
         for c in self.render_space.origin().to_array() {
             let bits = c.to_bits();
@@ -306,6 +311,12 @@ impl Scene {
     /// a render's own settings may override.
     pub fn render_settings(&self) -> RenderSettings {
         self.render
+    }
+
+    /// The emitter selection weights the scene's file gave (Mitsuba's
+    /// `sampling_weight`s), or `None`: by power ([`crate::light`]).
+    pub fn emitter_weights(&self) -> Option<&EmitterWeights> {
+        self.emitter_weights.as_ref()
     }
 
     pub fn background(&self) -> Background {

@@ -101,7 +101,7 @@ pub(super) enum Tex {
 impl Tex {
     /// The texture as the XML child named `name`, on a shape whose uv
     /// becomes the reference's by `uv`.
-    fn xml(&self, name: &str, uv: UvMap) -> String {
+    pub(super) fn xml(&self, name: &str, uv: UvMap) -> String {
         match self {
             Tex::Constant(c) => format!(r#"<rgb name="{name}" value="{}"/>"#, triple(*c)),
             Tex::Checker { scale, even, odd } => format!(
@@ -206,7 +206,7 @@ impl Tex {
     }
 
     /// The image textures it reads, each once.
-    fn images(&self, out: &mut Vec<u32>) {
+    pub(super) fn images(&self, out: &mut Vec<u32>) {
         match self {
             Tex::Constant(_) => {}
             Tex::Image { id, .. } => {
@@ -620,7 +620,7 @@ pub(super) fn triple(v: Vec3) -> String {
 }
 
 /// Texture `id` of `scene` as Mitsuba evaluates it, or why it cannot be.
-fn texture(scene: &Scene, id: u32, what: &str) -> Result<Tex> {
+pub(super) fn texture(scene: &Scene, id: u32, what: &str) -> Result<Tex> {
     Ok(match scene.textures().get(id as usize) {
         Some(Texture::Constant(c)) => Tex::Constant(*c),
         Some(Texture::Checker { scale, even, odd }) => Tex::Checker {

@@ -23,12 +23,12 @@ const ONE_SIDED: Wrappers = Wrappers {
 };
 use crate::mutants::{self, Mutant};
 use crate::rng::Sampler as PathSampler;
-use crate::scene::LightInput;
 use crate::scene::RenderOrigin;
+use crate::scene::{EmitterWeights, LightInput};
 use crate::scene::{MeshInput, SceneBuilder};
 use crate::scene::{RenderSettings, Scene, Transform, MAX_DEPTH};
 use crate::texture::{Sampler, Texture, Wrap};
-use glam::{DAffine3, DMat3, DMat4, DVec3, Vec2, Vec3};
+use glam::{DAffine3, DMat3, DMat4, DVec2, DVec3, Vec2, Vec3};
 use std::cell::Cell;
 use std::collections::HashMap;
 use std::path::PathBuf;
@@ -380,6 +380,11 @@ pub fn build(doc: &Document) -> Result<Scene, SceneError> {
     };
     r.builder.render_origin = RenderOrigin::Camera;
     r.builder.background = Some(Background::Solid(Vec3::ZERO));
+    // Mitsuba picks an emitter by its sampling_weight (default 1).
+    r.builder.emitter_weights = Some(EmitterWeights {
+        environment: 1.0,
+        ..EmitterWeights::default()
+    });
     r.builder.sources.push(doc.root.at.file.clone());
     let root = &doc.root;
     // Media first: a scene with media is refused for them, whatever else
@@ -736,11 +741,88 @@ impl Reader<'_> {
                     rows: EnvRows::Poles,
                 });
             }
+            "spot" => {
+                let intensity =
+                    self.constant_colour(&props, "intensity", ColourUse::Emission, 1.0)?;
+                // Mitsuba's spot takes only a texture that varies.
+                let texture = match self.colour(&props, "texture", ColourUse::Reflectance, 1.0)? {
+                    Colour::Texture(t) => Some(t),
+                    Colour::Constant(_) if props.get("texture").is_some() => {
+                        return Err(fail(
+                            &o.at,
+                            "a spot's \"texture\" must vary over it (a bitmap or a checkerboard), as Mitsuba's must".into(),
+                        ))
+                    }
+                    Colour::Constant(_) => None,
+                };
+                let cutoff = props.float("cutoff_angle", 20.0)?;
+                let beam = props.float("beam_width", cutoff * 0.75)?;
+                let (position, frame) = light_frame(o, transform)?;
+                self.builder
+                    .add_light(LightInput::SpotLinear {
+                        position,
+                        frame,
+                        intensity,
+                        cutoff_angle: cutoff.to_radians() as f32,
+                        beam_width: beam.to_radians() as f32,
+                        texture,
+                    })
+                    .map_err(|e| fail(&o.at, e.to_string()))?;
+            }
+            "projector" => {
+                let scale = props.float("scale", 1.0)?;
+                if !(scale.is_finite() && scale >= 0.0) {
+                    return Err(fail(
+                        &o.at,
+                        format!("scale {scale} must be finite and not negative"),
+                    ));
+                }
+                let factor = (std::f64::consts::PI * scale) as f32;
+                let (intensity, texture) =
+                    match self.colour(&props, "irradiance", ColourUse::Emission, 1.0)? {
+                        Colour::Constant(c) => (c * factor, None),
+                        Colour::Texture(t) => (Vec3::splat(factor), Some(t)),
+                    };
+                // Mitsuba's projector frames its field of view by its
+                // texture's resolution (a bitmap's; 1 x 1 for others).
+                let aspect = match texture.and_then(|t| self.builder.texture(t)) {
+                    Some(Texture::Image { image, .. }) => {
+                        let im = self.builder.image(*image).expect("the reader's image");
+                        im.width as f64 / im.height as f64
+                    }
+                    _ => 1.0,
+                };
+                let tan_y = (perspective_vfov(o, &props, aspect)?.to_radians() / 2.0).tan();
+                let (position, frame) = light_frame(o, transform)?;
+                self.builder
+                    .add_light(LightInput::Projector {
+                        position,
+                        frame,
+                        intensity,
+                        tan_half: DVec2::new(tan_y * aspect, tan_y).as_vec2(),
+                        texture,
+                    })
+                    .map_err(|e| fail(&o.at, e.to_string()))?;
+            }
             "area" => return Err(fail(&o.at, "an area emitter belongs inside a shape".into())),
             _ => return Err(unsupported(o, "")),
         }
-        props.float("sampling_weight", 1.0)?;
+        let weight = sampling_weight(&props)?;
+        let weights = self.weights();
+        match o.kind.as_str() {
+            "envmap" => weights.environment = weight,
+            // A constant environment is no light of twintrace's light set.
+            "constant" => {}
+            _ => weights.punctual.push(weight),
+        }
         props.finish()
+    }
+
+    /// The emitter weights the reader fills (set when it starts).
+    fn weights(&mut self) -> &mut EmitterWeights {
+        self.builder
+            .emitter_weights
+            .get_or_insert_with(EmitterWeights::default)
     }
 
     /// A colour parameter that must be a constant (lights' intensities).
@@ -861,6 +943,9 @@ impl Reader<'_> {
                 ))
             }
         };
+        // Mitsuba's GPU texture units (`accel`, default on) filter with
+        // 8-bit weights; twintrace's lookup is the exact one either way.
+        props.boolean("accel", true)?;
         if let Some(format) = props.string("format")? {
             if format != "variant" {
                 return Err(unsupported(o, &format!(" with format \"{format}\"")));
@@ -1010,7 +1095,7 @@ impl Reader<'_> {
                 }
                 let props = Props::new(e);
                 let c = self.colour(&props, "radiance", ColourUse::Emission, 1.0)?;
-                props.float("sampling_weight", 1.0)?;
+                sampling_weight(&props)?;
                 props.finish()?;
                 Some(self.texture_of(c, &e.at)?)
             }
@@ -1372,6 +1457,22 @@ impl Reader<'_> {
             }
             _ => {}
         }
+        // An emitting shape's primitives share its weight.
+        let first = self.builder.primitive_count() as u32;
+        let weight = match props.child("emitter")? {
+            Some(e) => Some(sampling_weight(&Props::new(&e.object))?),
+            None => None,
+        };
+        self.surface(o, props, outer)?;
+        if let Some(w) = weight {
+            let end = self.builder.primitive_count() as u32;
+            self.weights().shapes.push((first..end, w));
+        }
+        Ok(())
+    }
+
+    /// A shape that is not a group or an instance: its primitives.
+    fn surface(&mut self, o: &Object, props: Props, outer: &Transform) -> Result<(), SceneError> {
         let bsdf = props.child("bsdf")?.map(|c| c.object.clone());
         let emitter = props.child("emitter")?.map(|c| c.object.clone());
         let flip = props.boolean("flip_normals", false)?;
@@ -1544,6 +1645,45 @@ impl Reader<'_> {
             }
         }
     }
+}
+
+/// An emitter's `sampling_weight` (default 1): finite and above 0.
+fn sampling_weight(props: &Props) -> Result<f32, SceneError> {
+    let w = props.float("sampling_weight", 1.0)?;
+    if !(w.is_finite() && w > 0.0) {
+        return Err(fail(
+            &props.object.at,
+            format!("sampling_weight {w} must be finite and above 0"),
+        ));
+    }
+    Ok(w as f32)
+}
+
+/// A spot's or projector's place and frame: its `to_world`'s origin and
+/// axes, which must be a rotation (Mitsuba's profiles read directions
+/// through the inverse of any `to_world`; a scale or shear of one is
+/// refused here).
+fn light_frame(
+    o: &Object,
+    transform: Option<(DMat4, &Location)>,
+) -> Result<(DVec3, [Vec3; 3]), SceneError> {
+    let Some((m, at)) = transform else {
+        return Ok((DVec3::ZERO, [Vec3::X, Vec3::Y, Vec3::Z]));
+    };
+    let r = DMat3::from_mat4(m);
+    let e = r.transpose() * r - DMat3::IDENTITY;
+    // 1e-6: as the envmap's test, far above a lookat's f64 rounding.
+    if !(e.to_cols_array().iter().all(|x| x.abs() < 1e-6) && r.determinant() > 0.0) {
+        return Err(unsupported(
+            o,
+            &format!(" with a to_world that is not a rotation and a translation (at {at})"),
+        ));
+    }
+    let position = m.transform_point3(DVec3::ZERO);
+    Ok((
+        position,
+        [r.x_axis, r.y_axis, r.z_axis].map(|a| a.as_vec3()),
+    ))
 }
 
 /// A perspective sensor's vertical field of view, degrees, from its
