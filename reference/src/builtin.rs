@@ -9,8 +9,7 @@ use crate::rng::random_f32;
 use crate::scene::{RenderOrigin, RenderSettings, Scene, SceneBuilder, Transform};
 use glam::{Quat, Vec3};
 
-/// Names [`load`] accepts.
-pub const NAMES: &[&str] = &["rtow-final", "cornell", "cornell-spheres", "spheres-10k"];
+pub use crate::builtin_names::NAMES;
 
 /// Builds a built-in scene.
 pub fn load(name: &str) -> Result<Scene, SceneError> {

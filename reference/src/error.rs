@@ -30,7 +30,7 @@ pub enum SceneError {
         problem: Box<SceneError>,
     },
     /// A built-in scene name that does not exist.
-    #[error("unknown built-in scene `{0}` (known: {known})", known = crate::builtin::NAMES.join(", "))]
+    #[error("unknown built-in scene `{0}` (known: {known})", known = crate::builtin_names::NAMES.join(", "))]
     UnknownBuiltin(String),
 }
 

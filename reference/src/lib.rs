@@ -13,6 +13,7 @@
 pub mod aov;
 pub mod background;
 pub mod builtin;
+mod builtin_names;
 pub mod bvh;
 pub mod camera;
 #[cfg(feature = "embree")]

@@ -1385,8 +1385,7 @@ pub struct GgxLobes {
     pub coat_alpha: f32,
 }
 
-/// Rec. 709 / sRGB luminance weights of linear R, G, B.
-pub const LUMINANCE_WEIGHTS: [f32; 3] = [0.2126, 0.7152, 0.0722];
+pub use crate::texture::LUMINANCE_WEIGHTS;
 /// Normal-incidence reflectance of the GGX material's dielectric base
 /// (index of refraction 1.5: ((1.5 − 1) / (1.5 + 1))² = 0.04).
 pub const DIELECTRIC_F0: f32 = 0.04;

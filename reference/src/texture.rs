@@ -201,10 +201,13 @@ pub enum Texture {
     },
 }
 
+/// Rec. 709 / sRGB luminance weights of linear R, G, B.
+pub const LUMINANCE_WEIGHTS: [f32; 3] = [0.2126, 0.7152, 0.0722];
+
 /// Texture `id`'s mean, one number (Mitsuba's `Texture::mean` in its rgb
 /// variants, which weighs a plastic's sampling of its two lobes): a
 /// constant's channels' mean, an image's mean luminance
-/// (Rec. 709's weights, [`crate::material::LUMINANCE_WEIGHTS`], times its
+/// (Rec. 709's weights, [`LUMINANCE_WEIGHTS`], times its
 /// factor), a pattern's
 /// two textures' mean.
 pub fn texture_mean(textures: &[Texture], images: &[ImageData], id: u32) -> f32 {
@@ -212,7 +215,7 @@ pub fn texture_mean(textures: &[Texture], images: &[ImageData], id: u32) -> f32 
         Texture::Constant(c) => (c.x + c.y + c.z) / 3.0,
         Texture::Image { image, factor, .. } => {
             let texels = &images[image as usize].texels;
-            let weights = Vec3::from_array(crate::material::LUMINANCE_WEIGHTS);
+            let weights = Vec3::from_array(LUMINANCE_WEIGHTS);
             let sum: f64 = texels
                 .iter()
                 .map(|&t| f64::from(weights.dot(t * factor)))

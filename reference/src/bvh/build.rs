@@ -1,8 +1,9 @@
 //! The binned-SAH build of the binary node array.
 
+use super::node::BvhNode;
+use super::tree::Bvh;
 #[cfg(doc)]
-use super::{wide::CollapsePlan, Leaves};
-use super::{Bvh, BvhNode};
+use super::{walk::Leaves, wide::CollapsePlan};
 use crate::geometry::Aabb;
 use glam::Vec3;
 use std::time::{Duration, Instant};

@@ -1,19 +1,17 @@
 //! What the GPU relies on: the node record it uploads as is, the stack
 //! size its kernels allocate, the box test with its slack constants
-//! (shaders/bvh.wgsl repeats it operation for operation), and the rule
-//! that admits a hit ([`Bvh::admits`]), which makes a walk of the tree
-//! equal a brute-force scan.
+//! (shaders/bvh.wgsl repeats it operation for operation), on which the
+//! rule that admits a hit ([`Bvh::admits`](super::Bvh::admits), in
+//! `tree`) rests.
 
-use super::Bvh;
-#[cfg(doc)]
-use super::SAH_MAX_DEPTH;
 use crate::geometry::{Aabb, Ray};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 /// Traversal stack size, shared with the GPU kernels. The build bounds the
-/// tree depth to fit: SAH splits stop at depth [`SAH_MAX_DEPTH`], below it
-/// only median splits (at most 32 more levels for up to 2^32 primitives).
+/// tree depth to fit: SAH splits stop at depth
+/// [`SAH_MAX_DEPTH`](super::SAH_MAX_DEPTH), below it only median splits
+/// (at most 32 more levels for up to 2^32 primitives).
 pub const BVH_STACK_SIZE: usize = 64;
 
 /// One node of the flattened BVH.
@@ -83,7 +81,8 @@ pub const BOX_NEAR_SLACK: f32 = 1.0 - 1.0 / 4096.0;
 pub const BOX_T_PAD: f32 = 16.0 * (f32::EPSILON * 0.5);
 
 /// The absolute t slack of `ray`'s box tests (the same for every box of
-/// the traversal and for [`Bvh::admits`]; see [`BOX_T_PAD`]).
+/// the traversal and for [`Bvh::admits`](super::Bvh::admits); see
+/// [`BOX_T_PAD`]).
 #[inline]
 pub fn box_pad(root_min: Vec3, root_max: Vec3, ray: &Ray) -> f32 {
     let reach = (root_max - ray.origin)
@@ -117,8 +116,8 @@ pub fn intersect_aabb(
 ///
 /// Every operation here is monotone in the box bounds (IEEE rounding is
 /// monotone), so a box that contains another passes whenever the inner
-/// one does, for the same ray, pad and `t_max`. [`Bvh::admits`] relies on
-/// exactly that.
+/// one does, for the same ray, pad and `t_max`.
+/// [`Bvh::admits`](super::Bvh::admits) relies on exactly that.
 #[inline]
 pub fn intersect_aabb_padded(
     min: Vec3,
@@ -144,39 +143,4 @@ pub fn intersect_aabb_padded(
         t_far = if far < t_far { far } else { t_far };
     }
     (t_near * BOX_NEAR_SLACK - pad <= t_far + pad).then_some(t_near)
-}
-
-impl Bvh {
-    /// Whether a primitive hit at `t` counts: the primitive's own box
-    /// (`bounds`, exactly as the build saw it) must pass the traversal's
-    /// box test for the segment `[0, t]`. Every node above the primitive
-    /// contains its box and the traversal compares against the best
-    /// hit's t (`Closest::t`), which is `>= t`,
-    /// so by monotonicity no node on the way to an admitted hit is ever
-    /// culled: the BVH then returns what a scan over all primitives
-    /// returns, bit for bit, even for hits whose computed t lies outside
-    /// the box (a ray starting on a surface whose t rounds to just above 0
-    /// while the primitive is behind it; a grazing quad or sphere whose t
-    /// error exceeds the slack). Found by reference/tests/bvh_property.rs.
-    /// Real hits are kept: the box test is conservative for the exact
-    /// geometry, and [`BOX_T_PAD`] covers the triangle routine's t error,
-    /// so a triangle hit is never refused; a quad or sphere hit is refused
-    /// only where its own t error exceeds both slacks (extreme grazing, at
-    /// the edge of its box), that is where hit or miss is within rounding.
-    #[inline]
-    pub fn admits(&self, bounds: Aabb, ray: &Ray, t: f32) -> bool {
-        let Some(root) = self.nodes.first() else {
-            return false;
-        };
-        let pad = box_pad(Vec3::from(root.min), Vec3::from(root.max), ray);
-        intersect_aabb_padded(
-            bounds.min,
-            bounds.max,
-            ray.origin,
-            ray.direction.recip(),
-            pad,
-            t,
-        )
-        .is_some()
-    }
 }

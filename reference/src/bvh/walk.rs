@@ -2,8 +2,8 @@
 //! closest-hit rule, and what a caller's leaves provide.
 
 use super::node::{box_pad, BvhNode, BOX_NEAR_SLACK, SLAB_FAR_SCALE};
+use super::tree::Bvh;
 use super::wide::{WideNode, WIDTH};
-use super::Bvh;
 use crate::geometry::{next_up, Hit, Ray};
 use glam::{Vec3, Vec4};
 

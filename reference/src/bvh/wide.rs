@@ -1,10 +1,11 @@
 //! The CPU traversal's 8-wide view of the binary tree: the collapse plan
 //! and the wide nodes it fills.
 
-use super::{Bvh, BvhNode};
-use crate::error::SceneError;
+use super::node::BvhNode;
 
-/// Most batched primitives ([`Bvh::build_batched`]) one leaf test takes.
+/// Most batched primitives
+/// ([`Bvh::build_batched`](super::Bvh::build_batched)) one leaf test
+/// takes.
 pub const LEAF_BATCH: usize = 4;
 
 /// Children per collapsed node; a multiple of 4 (boxes are tested four
@@ -21,8 +22,9 @@ const _: () = assert!(WIDTH % 4 == 0 && WIDTH.is_power_of_two() && WIDTH <= 32);
 /// built as they do by collapsing the binary tree, here as the surface-area
 /// cost model says is cheapest ([`CollapsePlan`]). Every lane is a binary
 /// node with its box bit for bit: the interior nodes in between are
-/// skipped, and in a batched build ([`Bvh::build_batched`]) a small subtree
-/// may become one leaf lane, the run of its entries under its root's box.
+/// skipped, and in a batched build
+/// ([`Bvh::build_batched`](super::Bvh::build_batched)) a small subtree may
+/// become one leaf lane, the run of its entries under its root's box.
 /// `bounds` rows are min x, y, z
 /// then max x, y, z (the words `NodeSlabs` picks by ray direction).
 #[repr(C, align(64))]
@@ -115,8 +117,9 @@ pub(super) struct CollapsePlan {
 }
 
 impl CollapsePlan {
-    /// The plan for `nodes`; `batched` as for [`Bvh::build_batched`].
-    fn new(nodes: &[BvhNode], prim_order: &[u32], batched: &[bool]) -> Self {
+    /// The plan for `nodes`; `batched` as for
+    /// [`Bvh::build_batched`](super::Bvh::build_batched).
+    pub(super) fn new(nodes: &[BvhNode], prim_order: &[u32], batched: &[bool]) -> Self {
         let mut plan = CollapsePlan {
             split: vec![[0u8; WIDTH]; nodes.len()],
             own: vec![0u8; nodes.len()],
@@ -211,8 +214,8 @@ impl CollapsePlan {
 
 /// Collapses binary interior node `i` into a new [`WideNode`] (and its
 /// subtree after it) as `plan` says, and returns the new node's index and
-/// its subtree's stack need (see [`Bvh`]'s `stack_need`).
-fn collapse(
+/// its subtree's stack need (see [`Bvh`](super::Bvh)'s `stack_need`).
+pub(super) fn collapse(
     nodes: &[BvhNode],
     plan: &CollapsePlan,
     i: usize,
@@ -256,80 +259,4 @@ pub(super) fn leaf_span(nodes: &[BvhNode], n: usize) -> (u32, u32) {
     let (first, left) = leaf_span(nodes, n + 1);
     let (_, right) = leaf_span(nodes, node.index as usize);
     (first, left + right)
-}
-
-impl Bvh {
-    /// A tree from its node array and primitive order, as [`Bvh::build`]
-    /// makes them (depth-first, left child next, see the module comment):
-    /// for tests that hand-edit a tree (`Scene::with_bvh` puts one under a
-    /// scene). The layout is checked, so that a walk of the result stays in
-    /// bounds and ends: every leaf's entries lie in `prim_order`, and every
-    /// interior node's left child follows it and its right child lies past
-    /// that. Whether the tree covers every primitive, or bounds it, is not
-    /// checked: a broken tree is what such tests are for.
-    pub fn from_parts(nodes: Vec<BvhNode>, prim_order: Vec<u32>) -> Result<Bvh, SceneError> {
-        for (i, n) in nodes.iter().enumerate() {
-            let field = format!("bvh.nodes[{i}]");
-            if n.is_leaf() {
-                let end = n.index as u64 + n.count() as u64;
-                if end > prim_order.len() as u64 {
-                    return Err(SceneError::invalid(
-                        &field,
-                        format!(
-                            "the leaf's entries {}..{end} run past the primitive order ({})",
-                            n.index,
-                            prim_order.len()
-                        ),
-                    ));
-                }
-            } else if !(i + 1 < nodes.len()
-                && n.index as usize > i + 1
-                && (n.index as usize) < nodes.len())
-            {
-                return Err(SceneError::invalid(
-                    &field,
-                    format!(
-                        "an interior node's children must lie after it: {} and {} in {} nodes",
-                        i + 1,
-                        n.index,
-                        nodes.len()
-                    ),
-                ));
-            }
-        }
-        Ok(Self::assemble(nodes, prim_order, &[]))
-    }
-
-    /// The tree of built or checked `nodes` (see [`Bvh::from_parts`]) with
-    /// the CPU traversal's wide view, collapsed for the batched primitives
-    /// of [`Bvh::build_batched`].
-    pub(super) fn assemble(nodes: Vec<BvhNode>, prim_order: Vec<u32>, batched: &[bool]) -> Bvh {
-        let (mut wide, mut leaf_ranges) = (Vec::new(), Vec::new());
-        let mut stack_need = 0;
-        if let Some(root) = nodes.first() {
-            wide.push(WideNode::NONE);
-            let child = if root.is_leaf() {
-                leaf_ranges.push([root.index, root.count()]);
-                0
-            } else {
-                let (child, need) = collapse(
-                    &nodes,
-                    &CollapsePlan::new(&nodes, &prim_order, batched),
-                    0,
-                    &mut wide,
-                    &mut leaf_ranges,
-                );
-                stack_need = need;
-                child
-            };
-            wide[0].set(0, root, child);
-        }
-        Bvh {
-            nodes,
-            prim_order,
-            wide,
-            leaf_ranges,
-            stack_need,
-        }
-    }
 }

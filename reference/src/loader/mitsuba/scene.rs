@@ -2044,7 +2044,7 @@ mod tests {
 
     fn scene(body: &str) -> Result<Scene, SceneError> {
         let text = format!(r#"<scene version="3.0.0">{body}</scene>"#);
-        let doc = super::super::xml::parse_text(&text, Path::new("s.xml"), &[])
+        let doc = crate::loader::mitsuba::xml::parse_text(&text, Path::new("s.xml"), &[])
             .map_err(|e| fail(&e.at, e.message))?;
         build(&doc)
     }
@@ -2061,8 +2061,8 @@ mod tests {
             <bsdf type="diffuse"><texture type="mesh_attribute" name="reflectance"><string name="name" value="{name}"/><float name="scale" value="0.5"/></texture></bsdf></shape></scene>"#
         );
         let path = dir.path().join("s.xml");
-        let doc =
-            super::super::xml::parse_text(&text, &path, &[]).map_err(|e| fail(&e.at, e.message))?;
+        let doc = crate::loader::mitsuba::xml::parse_text(&text, &path, &[])
+            .map_err(|e| fail(&e.at, e.message))?;
         build(&doc)
     }
 
@@ -2133,7 +2133,8 @@ mod tests {
             r#"<scene version="3.0.0"><sensor type="perspective">{FILM}</sensor><shape type="ply"><string name="filename" value="m.ply"/>
             <bsdf type="mask"><texture type="mesh_attribute" name="opacity"><string name="name" value="vertex_color"/></texture><bsdf type="diffuse"/></bsdf></shape></scene>"#
         );
-        let doc = super::super::xml::parse_text(&text, &dir.path().join("s.xml"), &[]).unwrap();
+        let doc =
+            crate::loader::mitsuba::xml::parse_text(&text, &dir.path().join("s.xml"), &[]).unwrap();
         let e = build(&doc).unwrap_err().to_string();
         assert!(
             e.contains("has 3 channels") && e.contains("as a number"),
@@ -2141,7 +2142,8 @@ mod tests {
         );
         // One channel as a number: read.
         let text = text.replace("vertex_color", "face_w");
-        let doc = super::super::xml::parse_text(&text, &dir.path().join("s.xml"), &[]).unwrap();
+        let doc =
+            crate::loader::mitsuba::xml::parse_text(&text, &dir.path().join("s.xml"), &[]).unwrap();
         build(&doc).unwrap();
     }
 
