@@ -1,4 +1,4 @@
-// Light sampling: the twin of reference/src/light.rs. The light set is
+// Light sampling: the twin of reference/src/light/. The light set is
 // built on the host (LightSet::new) and uploaded: `emitters` (primitive id
 // and cumulative selection probability, `params.emitter_count` of them)
 // and `light_densities` (selection probability and area by primitive id).

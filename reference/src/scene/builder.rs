@@ -9,7 +9,7 @@ use crate::camera::CameraSettings;
 use crate::error::SceneError;
 use crate::filter::PixelFilter;
 use crate::geometry::Aabb;
-use crate::light::{punctual_tag, PunctualLight};
+use crate::light::punctual::{punctual_tag, PunctualLight};
 use crate::material::{Alpha, AlphaMode, Material, Wrappers};
 use crate::mutants::{self, Mutant};
 use crate::shapes::{
@@ -62,7 +62,7 @@ pub enum LightInput {
     /// `cutoff_angle` (radians from the axis, `0 ≤ beam ≤ cutoff`, the
     /// cutoff above 0 and at most π, at most π/2 with a texture), times
     /// `texture` (a texture id: an image or a uv checker) projected
-    /// through the cone ([`crate::light::PunctualLight`]).
+    /// through the cone ([`crate::light::punctual::PunctualLight`]).
     SpotLinear {
         position: DVec3,
         /// The light's x, y and z axes (orthonormal, right-handed).
@@ -75,7 +75,7 @@ pub enum LightInput {
     /// Mitsuba's `projector`: `π · scale · irradiance` as `intensity`,
     /// times `texture` if any, projected through a pinhole along its
     /// frame's z whose half fields of view have the tangents `tan_half`
-    /// (x, y) ([`crate::light::PunctualLight`]).
+    /// (x, y) ([`crate::light::punctual::PunctualLight`]).
     Projector {
         position: DVec3,
         /// The light's x, y and z axes (orthonormal, right-handed).
@@ -1092,7 +1092,7 @@ impl SceneBuilder {
     /// coordinates, not at a surface: no 3-D checker or vertex colour).
     fn light_texture(&self, texture: Option<u32>) -> Result<u32, SceneError> {
         let Some(id) = texture else {
-            return Ok(crate::light::NO_TEXTURE);
+            return Ok(crate::light::punctual::NO_TEXTURE);
         };
         match self.textures.get(id as usize) {
             None => Err(SceneError::invalid(

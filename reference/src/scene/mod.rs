@@ -29,7 +29,7 @@ use crate::bvh::{box_pad, Bvh, BvhBuildStats};
 use crate::camera::{Camera, CameraSettings};
 use crate::filter::{FilterTable, PixelFilter};
 use crate::geometry::{gamma, Aabb, Hit, Ray, SurfaceInteraction};
-use crate::light::PunctualLight;
+use crate::light::punctual::PunctualLight;
 use crate::material::{alpha_hash, normal_mapped, Alpha, Material, Wrappers};
 use crate::mutants::{self, Mutant};
 use crate::shapes::{
