@@ -61,7 +61,7 @@ pub enum LightInput {
     /// inside `beam_width`, falling linearly in the angle to none at
     /// `cutoff_angle` (radians from the axis, `0 ≤ beam ≤ cutoff`, the
     /// cutoff above 0 and at most π, at most π/2 with a texture), times
-    /// `texture` (a texture id: an image or a uv checker) projected
+    /// `texture` (a texture id: a constant, an image or a uv checker) projected
     /// through the cone ([`crate::light::punctual::PunctualLight`]).
     SpotLinear {
         position: DVec3,
@@ -1088,8 +1088,9 @@ impl SceneBuilder {
         Ok(())
     }
 
-    /// A light's texture: none, or an image or a uv checker (read at
-    /// coordinates, not at a surface: no 3-D checker or vertex colour).
+    /// A light's texture: none, or a constant, an image or a uv checker
+    /// (read at coordinates, not at a surface: no 3-D checker or vertex
+    /// colour).
     fn light_texture(&self, texture: Option<u32>) -> Result<u32, SceneError> {
         let Some(id) = texture else {
             return Ok(crate::light::punctual::NO_TEXTURE);

@@ -717,10 +717,7 @@ impl Reader<'_> {
                     None => half_turn,
                     Some((m, at)) => {
                         let r = DMat3::from_mat4(m);
-                        let e = r.transpose() * r - DMat3::IDENTITY;
-                        let rotation = e.to_cols_array().iter().all(|x| x.abs() < 1e-6)
-                            && r.determinant() > 0.0;
-                        if !rotation {
+                        if !is_rotation(r) {
                             return Err(unsupported(
                                 o,
                                 &format!(" with a to_world that is not a rotation (at {at})"),
@@ -1659,6 +1656,14 @@ fn sampling_weight(props: &Props) -> Result<f32, SceneError> {
     Ok(w as f32)
 }
 
+/// Whether `r` is a rotation: orthonormal to 1e-6 (far above the f64
+/// rounding of a lookat or a rotate, far below any scale one could see)
+/// and not a mirror.
+fn is_rotation(r: DMat3) -> bool {
+    let e = r.transpose() * r - DMat3::IDENTITY;
+    e.to_cols_array().iter().all(|x| x.abs() < 1e-6) && r.determinant() > 0.0
+}
+
 /// A spot's or projector's place and frame: its `to_world`'s origin and
 /// axes, which must be a rotation (Mitsuba's profiles read directions
 /// through the inverse of any `to_world`; a scale or shear of one is
@@ -1671,9 +1676,7 @@ fn light_frame(
         return Ok((DVec3::ZERO, [Vec3::X, Vec3::Y, Vec3::Z]));
     };
     let r = DMat3::from_mat4(m);
-    let e = r.transpose() * r - DMat3::IDENTITY;
-    // 1e-6: as the envmap's test, far above a lookat's f64 rounding.
-    if !(e.to_cols_array().iter().all(|x| x.abs() < 1e-6) && r.determinant() > 0.0) {
+    if !is_rotation(r) {
         return Err(unsupported(
             o,
             &format!(" with a to_world that is not a rotation and a translation (at {at})"),
