@@ -119,6 +119,7 @@ const SLAB_FAR_SCALE: f32 = 1.0000004e0;
 const BOX_NEAR_SLACK: f32 = 9.9975586e-1;
 const BOX_T_PAD: f32 = 9.536743e-7;
 const GGX_MIN_ALPHA: f32 = 1e-4;
+const NORMAL_MAP_SHADOWING_SCALE: f32 = 1.25e-1;
 const ROULETTE_MAX_SURVIVAL: f32 = 9.5e-1;
 const DIM_PIXEL_X: u32 = 0u;
 const DIM_PIXEL_Y: u32 = 1u;
@@ -170,6 +171,7 @@ const FEATURE_MASK: u32 = 67108864u;
 const FEATURE_ONE_SIDED: u32 = 134217728u;
 const FEATURE_VERTEX_COLOR_TEXTURES: u32 = 268435456u;
 const FEATURE_PROFILED_LIGHTS: u32 = 536870912u;
+const FEATURE_TANGENT_FRAME: u32 = 1073741824u;
 const INTEGRATOR_BSDF: u32 = 0u;
 const INTEGRATOR_MIS: u32 = 1u;
 const SMALL_CONE_SIN2: f32 = 6.8523e-4;
@@ -288,9 +290,9 @@ struct GpuMaterial {
     distribution: u32,
     opacity: u32,
     one_sided: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
+    alpha_v: u32,
+    normal_map: u32,
+    normal_map_mirrored: u32,
 }
 struct GpuTexture {
     tag: u32,

@@ -63,6 +63,11 @@ struct SurfaceInteraction {
     p_error: f32,
     front_face: bool,
     material: u32,
+    // The shading frame's tangent and bitangent
+    // (reference::geometry::SurfaceInteraction::tangent): set only where
+    // the kernel's features include FEATURE_TANGENT_FRAME.
+    tangent: vec3<f32>,
+    bitangent: vec3<f32>,
 }
 
 // GPU only: set by the `default` branch of every switch on a tag, which no
@@ -142,6 +147,18 @@ fn onb_from_normal(n: vec3<f32>) -> Onb {
     let a = -1.0 / (sign + n.z);
     let b = n.x * n.y * a;
     return Onb(vec3<f32>(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), vec3<f32>(b, sign + n.y * n.y * a, -n.y), n);
+}
+
+// reference::geometry::tangent_frame: the frame (s, n × s, n) of the
+// shading normal n and the parameterization's dp/du.
+fn tangent_frame(n: vec3<f32>, dp_du: vec3<f32>) -> Onb {
+    let along = dp_du - n * dot(n, dp_du);
+    let len2 = dot(along, along);
+    var s = onb_from_normal(n).s;
+    if len2 > 0.0 && len2 <= F32_MAX {
+        s = along / sqrt(len2);
+    }
+    return Onb(s, cross(n, s), n);
 }
 
 fn onb_to_world(f: Onb, v: vec3<f32>) -> vec3<f32> {

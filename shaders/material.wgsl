@@ -110,7 +110,8 @@ struct MaterialTextures {
     // base colour times the vertex colour (GGX); zero for the dielectric.
     base: vec3<f32>,
     // GGX: metallic and roughness (ggx_parameters); the rough conductor
-    // and dielectric: the roughness in x.
+    // and dielectric: the roughness along the tangent in x, across it in
+    // y (the same where isotropic).
     metal_rough: vec2<f32>,
     // GGX: the clear coat's weight and roughness (coat_parameters).
     coat: vec2<f32>,
@@ -121,6 +122,8 @@ struct MaterialTextures {
     tint: vec3<f32>,
     // A mask's opacity (opacity_of; 1 without a mask).
     opacity: f32,
+    // Mitsuba's normal map's texel (zero without one).
+    normal_map: vec3<f32>,
 }
 
 // The texture slots material_textures reads, in its loop's order (the
@@ -131,10 +134,11 @@ const SLOT_SECOND: u32 = 2u;
 const SLOT_THIRD: u32 = 3u;
 const SLOT_COAT: u32 = 4u;
 const SLOT_COAT_ROUGHNESS: u32 = 5u;
-const SLOTS: u32 = 7u;
+const SLOT_NORMAL_MAP: u32 = 6u;
+const SLOTS: u32 = 8u;
 
 fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures {
-    var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), 1.0);
+    var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), 1.0, vec3<f32>(0.0));
     // Which texture each slot reads at this vertex (NO_TEXTURE: none).
     var opacity = NO_TEXTURE;
     if m.opacity != NO_TEXTURE {
@@ -173,6 +177,25 @@ fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures
             poison();
         }
     }
+    // The rough models' roughness across the tangent (anisotropic) reads
+    // the coat's slot, which only GGX uses otherwise.
+    let anisotropic = (m.tag == MATERIAL_ROUGH_CONDUCTOR || m.tag == MATERIAL_ROUGH_DIELECTRIC) && m.alpha_v != NO_TEXTURE;
+    if anisotropic {
+        if uses(FEATURE_TANGENT_FRAME) {
+            coat = m.alpha_v;
+        } else {
+            poison();
+        }
+    }
+    // Mitsuba's normal map (reference::material::NormalMapped).
+    var normal_map = NO_TEXTURE;
+    if m.normal_map != NO_TEXTURE {
+        if uses(FEATURE_TANGENT_FRAME) {
+            normal_map = m.normal_map;
+        } else {
+            poison();
+        }
+    }
     // reference::Scene::added_emission: the emission added to a BSDF.
     var emission = NO_TEXTURE;
     if m.tag != MATERIAL_DIFFUSE_LIGHT && m.emission != NO_TEXTURE {
@@ -188,6 +211,7 @@ fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures
     var v_third = vec3<f32>(0.0);
     var v_coat = vec3<f32>(0.0);
     var v_coat_roughness = vec3<f32>(0.0);
+    var v_normal_map = vec3<f32>(0.0);
     var v_emission = vec3<f32>(0.0);
     for (var k = 0u; k < SLOTS; k++) {
         var id = emission;
@@ -198,6 +222,7 @@ fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures
             case SLOT_THIRD: { id = third; }
             case SLOT_COAT: { id = coat; }
             case SLOT_COAT_ROUGHNESS: { id = coat_roughness; }
+            case SLOT_NORMAL_MAP: { id = normal_map; }
             default: {}
         }
         if id == NO_TEXTURE {
@@ -211,6 +236,7 @@ fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures
             case SLOT_THIRD: { v_third = v; }
             case SLOT_COAT: { v_coat = v; }
             case SLOT_COAT_ROUGHNESS: { v_coat_roughness = v; }
+            case SLOT_NORMAL_MAP: { v_normal_map = v; }
             default: { v_emission = v; }
         }
     }
@@ -219,8 +245,9 @@ fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures
     }
     t.base = v_base;
     if m.tag == MATERIAL_ROUGH_CONDUCTOR || m.tag == MATERIAL_ROUGH_DIELECTRIC {
-        t.metal_rough.x = v_second.x;
+        t.metal_rough = vec2<f32>(v_second.x, select(v_second.x, v_coat.x, anisotropic));
     }
+    t.normal_map = v_normal_map;
     if m.tag == MATERIAL_SMOOTH_DIELECTRIC || m.tag == MATERIAL_THIN_DIELECTRIC {
         t.tint = v_second;
     }
@@ -258,7 +285,7 @@ fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures
 
 // What emitted reads at a light's sampled point (no BSDF parameters).
 fn light_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures {
-    var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), 1.0);
+    var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), 1.0, vec3<f32>(0.0));
     if m.emission != NO_TEXTURE {
         t.emission = evaluate_texture(m.emission, si.p, si.uv, si.uv1, si.color);
     }
@@ -316,14 +343,15 @@ fn bsdf_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mat
         }
         case MATERIAL_ROUGH_CONDUCTOR: {
             if !uses(FEATURE_ROUGH_CONDUCTOR) { poison(); break; }
-            let frame = onb_from_normal(n);
+            let lobe = rough_lobe(m, tx, n, si);
+            let frame = lobe.frame;
+            let mf = lobe.mf;
             let wo = onb_to_local(frame, -ray_dir);
             let wl = onb_to_local(frame, wi);
             if wo.z <= 0.0 || wl.z <= 0.0 {
                 return zero;
             }
             let h = normalize(wo + wl);
-            let mf = rough_microfacet(m, tx.metal_rough.x);
             let dg = microfacet_d(mf, h) * microfacet_g1(mf, wo, h);
             let pdf = dg / (4.0 * wo.z);
             let f = fresnel_conductor(min(dot(wo, h), 1.0), vec3<f32>(m.p0, m.p1, m.p2), vec3<f32>(m.absorption_r, m.absorption_g, m.absorption_b));
@@ -400,12 +428,73 @@ fn absorbs_behind(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction) ->
     return true;
 }
 
+// reference::material::NormalMapped: Mitsuba's normal map's frame at a
+// vertex (si: the surface with the map's frame; n: the frame's normal the
+// map was read in; alpha2: the shadowing term's alpha squared).
+struct NormalMapped {
+    si: SurfaceInteraction,
+    n: vec3<f32>,
+    alpha2: f32,
+}
+
+fn normal_mapped_new(texel: vec3<f32>, mirrored: bool, ray_dir: vec3<f32>, si: SurfaceInteraction) -> NormalMapped {
+    let wi = -ray_dir;
+    let s = si.tangent;
+    let t = si.bitangent;
+    var n = cross(s, t);
+    if mirrored && dot(wi, n) < 0.0 {
+        n = -n;
+    }
+    let frame = Onb(s, t, n);
+    let wi_local = onb_to_local(frame, wi);
+    var c = 2.0 * texel - vec3<f32>(1.0);
+    if wi_local.z * dot(wi_local, c) <= 0.0 {
+        c = vec3<f32>(-c.x, -c.y, c.z);
+    }
+    let mn = normalize_or(c, vec3<f32>(0.0, 0.0, 1.0));
+    let s_local = normalize_or(vec3<f32>(1.0, 0.0, 0.0) - mn * mn.x, onb_from_normal(mn).s);
+    let n_p = onb_to_world(frame, mn);
+    let s_p = onb_to_world(frame, s_local);
+    let cos2 = mn.z * mn.z;
+    var out = si;
+    out.geometric_normal = n_p;
+    out.shading_normal = n_p;
+    out.front_face = dot(ray_dir, n_p) < 0.0;
+    out.tangent = s_p;
+    out.bitangent = cross(n_p, s_p);
+    return NormalMapped(out, n, min(NORMAL_MAP_SHADOWING_SCALE * (1.0 - cos2) / cos2, 1.0));
+}
+
+fn normal_mapped_keeps(p: NormalMapped, wo: vec3<f32>) -> bool {
+    return dot(wo, p.n) * dot(wo, p.si.shading_normal) > 0.0;
+}
+
+fn normal_mapped_shadowing(p: NormalMapped, wo: vec3<f32>) -> f32 {
+    let c = dot(wo, p.n);
+    let cos2 = c * c;
+    let tan2 = max(1.0 - cos2, 0.0) / cos2;
+    return 2.0 / (1.0 + sqrt(1.0 + p.alpha2 * tan2));
+}
+
 // reference::material::wrapped_scatter: scatter under Mitsuba's wrappers
 // (through a mask, a delta pass-through with probability 1 − opacity;
-// else the material, absorbed behind a one-sided one).
+// else the material, in a normal map's frame where it has one, absorbed
+// behind a one-sided one).
 fn wrapped_scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: MaterialTextures, u: VertexRandoms) -> Scatter {
     if m.opacity != NO_TEXTURE && vr_get(u, DIM_MASK) >= tx.opacity {
         return delta(ray_dir, vec3<f32>(1.0));
+    }
+    if m.normal_map != NO_TEXTURE && uses(FEATURE_TANGENT_FRAME) {
+        let mapped = normal_mapped_new(tx.normal_map, m.normal_map_mirrored != 0u, ray_dir, si);
+        if absorbs_behind(m, ray_dir, mapped.si) {
+            return absorbed();
+        }
+        var s = scatter(m, ray_dir, mapped.si, tx, u);
+        if !s.ok || !normal_mapped_keeps(mapped, s.direction) {
+            return absorbed();
+        }
+        s.weight *= normal_mapped_shadowing(mapped, s.direction);
+        return s;
     }
     if absorbs_behind(m, ray_dir, si) {
         return absorbed();
@@ -414,12 +503,29 @@ fn wrapped_scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, t
 }
 
 // reference::material::wrapped_bsdf_eval: bsdf_eval under the wrappers
-// (nothing behind a one-sided material; times a mask's opacity).
+// (in a normal map's frame, nothing behind a one-sided material; times a
+// mask's opacity).
 fn wrapped_bsdf_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: MaterialTextures, wi: vec3<f32>) -> BsdfEval {
-    if absorbs_behind(m, ray_dir, si) {
-        return BsdfEval(false, vec3<f32>(0.0), 0.0);
+    var b = BsdfEval(false, vec3<f32>(0.0), 0.0);
+    if m.normal_map != NO_TEXTURE && uses(FEATURE_TANGENT_FRAME) {
+        let mapped = normal_mapped_new(tx.normal_map, m.normal_map_mirrored != 0u, ray_dir, si);
+        if absorbs_behind(m, ray_dir, mapped.si) {
+            return b;
+        }
+        b = bsdf_eval(m, ray_dir, mapped.si, tx, wi);
+        if b.ok {
+            if normal_mapped_keeps(mapped, wi) {
+                b.f_cos *= normal_mapped_shadowing(mapped, wi);
+            } else {
+                b = BsdfEval(true, vec3<f32>(0.0), 0.0);
+            }
+        }
+    } else {
+        if absorbs_behind(m, ray_dir, si) {
+            return b;
+        }
+        b = bsdf_eval(m, ray_dir, si, tx, wi);
     }
-    let b = bsdf_eval(m, ray_dir, si, tx, wi);
     return BsdfEval(b.ok, b.f_cos * tx.opacity, b.pdf * tx.opacity);
 }
 
@@ -457,7 +563,7 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mater
             return scatter_conductor(m, ray_dir, tx, n, ng);
         }
         if m.tag == MATERIAL_ROUGH_CONDUCTOR {
-            return scatter_rough_conductor(m, ray_dir, tx, n, u);
+            return scatter_rough_conductor(m, ray_dir, si, tx, n, u);
         }
         if m.tag == MATERIAL_SMOOTH_DIELECTRIC {
             return scatter_smooth_dielectric(m, ray_dir, si, tx, n, u);
@@ -497,7 +603,7 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mater
             return scatter_conductor(m, ray_dir, tx, n, ng);
         }
         case MATERIAL_ROUGH_CONDUCTOR: {
-            return scatter_rough_conductor(m, ray_dir, tx, n, u);
+            return scatter_rough_conductor(m, ray_dir, si, tx, n, u);
         }
         case MATERIAL_SMOOTH_DIELECTRIC: {
             return scatter_smooth_dielectric(m, ray_dir, si, tx, n, u);
@@ -585,22 +691,42 @@ fn scatter_conductor(m: GpuMaterial, ray_dir: vec3<f32>, tx: MaterialTextures, n
 }
 
 // reference::material::rough_microfacet: the rough conductor's and
-// dielectric's distribution at a point of roughness alpha (isotropic).
-fn rough_microfacet(m: GpuMaterial, alpha: f32) -> Microfacet {
+// dielectric's distribution at a point of roughness alpha_u along the
+// frame's x and alpha_v along its y.
+fn rough_microfacet(m: GpuMaterial, alpha_u: f32, alpha_v: f32) -> Microfacet {
     if m.distribution == DISTRIBUTION_BECKMANN && !uses(FEATURE_BECKMANN) {
         poison();
     }
-    return microfacet_new(m.distribution, alpha, alpha);
+    return microfacet_new(m.distribution, alpha_u, alpha_v);
 }
 
-fn scatter_rough_conductor(m: GpuMaterial, ray_dir: vec3<f32>, tx: MaterialTextures, n: vec3<f32>, u: VertexRandoms) -> Scatter {
+struct RoughLobe {
+    frame: Onb,
+    mf: Microfacet,
+}
+
+// reference::material::rough_lobe: the frame and distribution of a rough
+// conductor or dielectric, n its shading normal turned to the viewer
+// (the surface's tangent frame where it is anisotropic).
+fn rough_lobe(m: GpuMaterial, tx: MaterialTextures, n: vec3<f32>, si: SurfaceInteraction) -> RoughLobe {
+    if m.alpha_v == NO_TEXTURE {
+        return RoughLobe(onb_from_normal(n), rough_microfacet(m, tx.metal_rough.x, tx.metal_rough.x));
+    }
+    if !uses(FEATURE_TANGENT_FRAME) {
+        poison();
+    }
+    return RoughLobe(Onb(si.tangent, cross(n, si.tangent), n), rough_microfacet(m, tx.metal_rough.x, tx.metal_rough.y));
+}
+
+fn scatter_rough_conductor(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: MaterialTextures, n: vec3<f32>, u: VertexRandoms) -> Scatter {
     if !uses(FEATURE_ROUGH_CONDUCTOR) { poison(); return absorbed(); }
-    let frame = onb_from_normal(n);
+    let lobe = rough_lobe(m, tx, n, si);
+    let frame = lobe.frame;
+    let mf = lobe.mf;
     let wo = onb_to_local(frame, -ray_dir);
     if wo.z <= 0.0 {
         return absorbed();
     }
-    let mf = rough_microfacet(m, tx.metal_rough.x);
     let mn = microfacet_sample_visible(mf, wo, vec2<f32>(vr_get(u, DIM_DIRECTION_U), vr_get(u, DIM_DIRECTION_V)));
     let wi = reflect_about(-wo, mn);
     if wi.z <= 0.0 {
@@ -669,7 +795,9 @@ fn rough_dielectric_eta(eta: f32, front_face: bool) -> f32 {
 // the ray's side.
 fn rough_dielectric_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: MaterialTextures, n: vec3<f32>, wi: vec3<f32>) -> BsdfEval {
     let zero = BsdfEval(true, vec3<f32>(0.0), 0.0);
-    let frame = onb_from_normal(n);
+    let lobe = rough_lobe(m, tx, n, si);
+    let frame = lobe.frame;
+    let mf = lobe.mf;
     let wo = onb_to_local(frame, -ray_dir);
     let wl = onb_to_local(frame, wi);
     if wo.z <= 0.0 || wl.z == 0.0 {
@@ -690,7 +818,6 @@ fn rough_dielectric_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteract
     if cos_o <= 0.0 || cos_i * wl.z <= 0.0 {
         return zero;
     }
-    let mf = rough_microfacet(m, tx.metal_rough.x);
     let dg = microfacet_d(mf, h) * microfacet_g1(mf, wo, h);
     let g = dg * microfacet_g1(mf, wl, h);
     let f = fresnel_dielectric(min(cos_o, 1.0), eta);
@@ -705,13 +832,14 @@ fn rough_dielectric_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteract
 
 fn scatter_rough_dielectric(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: MaterialTextures, n: vec3<f32>, u: VertexRandoms) -> Scatter {
     if !uses(FEATURE_ROUGH_DIELECTRIC) { poison(); return absorbed(); }
-    let frame = onb_from_normal(n);
+    let lobe = rough_lobe(m, tx, n, si);
+    let frame = lobe.frame;
+    let mf = lobe.mf;
     let wo = onb_to_local(frame, -ray_dir);
     if wo.z <= 0.0 {
         return absorbed();
     }
     let eta = rough_dielectric_eta(m.p0, si.front_face);
-    let mf = rough_microfacet(m, tx.metal_rough.x);
     let mn = microfacet_sample_visible(mf, wo, vec2<f32>(vr_get(u, DIM_DIRECTION_U), vr_get(u, DIM_DIRECTION_V)));
     let cos_o = clamp(dot(wo, mn), 0.0, 1.0);
     var wi = vec3<f32>(0.0);
@@ -839,7 +967,7 @@ fn rough_plastic_eval(m: GpuMaterial, tx: MaterialTextures, wo: vec3<f32>, wi: v
     if p < 0.0 {
         return zero;
     }
-    let mf = rough_microfacet(m, m.absorption_g);
+    let mf = rough_microfacet(m, m.absorption_g, m.absorption_g);
     let h = normalize(wo + wi);
     let dg = microfacet_d(mf, h) * microfacet_g1(mf, wo, h);
     let f = fresnel_dielectric(clamp(dot(wo, h), 0.0, 1.0), m.p0);
@@ -865,7 +993,7 @@ fn scatter_rough_plastic(m: GpuMaterial, ray_dir: vec3<f32>, tx: MaterialTexture
     let dir_u = vec2<f32>(vr_get(u, DIM_DIRECTION_U), vr_get(u, DIM_DIRECTION_V));
     var wi: vec3<f32>;
     if vr_get(u, DIM_LOBE) < p {
-        let mf = rough_microfacet(m, m.absorption_g);
+        let mf = rough_microfacet(m, m.absorption_g, m.absorption_g);
         wi = reflect_about(-wo, microfacet_sample_visible(mf, wo, dir_u));
     } else {
         wi = sample_cosine_hemisphere(dir_u);

@@ -154,6 +154,10 @@ fn surface_interaction(ray: Ray, hit: Hit) -> SurfaceInteraction {
     let p = primitives[hit.prim];
     var si: SurfaceInteraction;
     si.color = vec3<f32>(1.0);
+    // Each shape's normal before the flip onto the geometric side, and
+    // dp/du, for the tangent frame (reference::Scene::surface_interaction).
+    var frame_n = vec3<f32>(0.0, 0.0, 1.0);
+    var dp_du = vec3<f32>(0.0);
     switch p.tag {
         case PRIMITIVE_SPHERE: {
             if !uses(FEATURE_SPHERES) { poison(); break; }
@@ -167,6 +171,8 @@ fn surface_interaction(ray: Ray, hit: Hit) -> SurfaceInteraction {
             }
             si.geometric_normal = n;
             si.shading_normal = n;
+            frame_n = n;
+            dp_du = vec3<f32>(outward.z, 0.0, -outward.x);
             si.uv = vec2<f32>((atan2(-outward.z, outward.x) + PI) / (2.0 * PI), acos(clamp(-outward.y, -1.0, 1.0)) / PI);
             si.p_error = gamma(5.0) * (abs(s.radius) + max3(abs(c)) + max3(abs(si.p)));
             si.material = s.material;
@@ -181,6 +187,8 @@ fn surface_interaction(ray: Ray, hit: Hit) -> SurfaceInteraction {
             si.p = corner + hit.uv.x * u + hit.uv.y * v;
             si.geometric_normal = n;
             si.shading_normal = n;
+            frame_n = n;
+            dp_du = u;
             si.uv = hit.uv;
             si.p_error = gamma(4.0) * max3(abs(corner) + abs(hit.uv.x * u) + abs(hit.uv.y * v) + abs(si.p));
             si.material = q.material;
@@ -239,11 +247,32 @@ fn surface_interaction(ray: Ray, hit: Hit) -> SurfaceInteraction {
             si.shading_normal = ns;
             si.uv = uv;
             si.material = tri.material;
+            frame_n = side * ns;
+            // reference::Scene::triangle_dp_du: from the texture
+            // coordinates where the triangle has them.
+            if uses(FEATURE_TANGENT_FRAME) {
+                dp_du = pb - pa;
+                if (tri.flags & TRIANGLE_HAS_UVS) != 0u {
+                    let duv0 = vec2<f32>(b.u, b.v) - vec2<f32>(a.u, a.v);
+                    let duv1 = vec2<f32>(c.u, c.v) - vec2<f32>(a.u, a.v);
+                    let det = duv0.x * duv1.y - duv0.y * duv1.x;
+                    if det == 0.0 {
+                        dp_du = onb_from_normal(ng).s;
+                    } else {
+                        dp_du = (duv1.y * (pb - pa) - duv0.y * (pc - pa)) / det;
+                    }
+                }
+            }
         }
         default: {
             poison();
         }
     }
     si.front_face = dot(ray.direction, si.geometric_normal) < 0.0;
+    if uses(FEATURE_TANGENT_FRAME) {
+        let frame = tangent_frame(frame_n, dp_du);
+        si.tangent = frame.s;
+        si.bitangent = frame.t;
+    }
     return si;
 }

@@ -108,8 +108,8 @@ const MUTANTS: &[GpuMutant] = &[
     GpuMutant {
         scene: "rough",
         what: "Beckmann facets for GGX",
-        from: "    return microfacet_new(m.distribution, alpha, alpha);",
-        to: "    return microfacet_new(DISTRIBUTION_BECKMANN, alpha, alpha);",
+        from: "    return microfacet_new(m.distribution, alpha_u, alpha_v);",
+        to: "    return microfacet_new(DISTRIBUTION_BECKMANN, alpha_u, alpha_v);",
         cpu_twin: Some(Mutant::RoughBeckmannForGgx),
     },
     GpuMutant {
@@ -153,6 +153,27 @@ const MUTANTS: &[GpuMutant] = &[
         from: "        falloff = max((l.profile_0 - acos(cos_theta)) * l.profile_1, 0.0);",
         to: "        falloff = (cos_theta - l.cos_outer) / (l.cos_inner - l.cos_outer);",
         cpu_twin: Some(Mutant::SpotRampInCosine),
+    },
+    GpuMutant {
+        scene: "frames",
+        what: "the anisotropic roughnesses swapped",
+        from: "rough_microfacet(m, tx.metal_rough.x, tx.metal_rough.y)",
+        to: "rough_microfacet(m, tx.metal_rough.y, tx.metal_rough.x)",
+        cpu_twin: Some(Mutant::AnisotropySwapped),
+    },
+    GpuMutant {
+        scene: "frames",
+        what: "the normal map without its shadowing term",
+        from: "    return 2.0 / (1.0 + sqrt(1.0 + p.alpha2 * tan2));",
+        to: "    return 1.0;",
+        cpu_twin: Some(Mutant::NormalMapWithoutShadowing),
+    },
+    GpuMutant {
+        scene: "frames",
+        what: "the normal map read in a frame not from the texture coordinates",
+        from: "    let s = si.tangent;\n    let t = si.bitangent;",
+        to: "    let f0 = onb_from_normal(cross(si.tangent, si.bitangent));\n    let s = f0.s;\n    let t = f0.t;",
+        cpu_twin: Some(Mutant::TangentNotFromUv),
     },
     GpuMutant {
         scene: "lamps",

@@ -55,7 +55,7 @@ fn sample_main(@builtin(global_invocation_id) gid: vec3<u32>) {
             d = microfacet_sample_visible(mf, wo, dir_u);
         }
         default: {
-            let m = GpuMaterial(input[9], input[10], bitcast<f32>(input[11]), bitcast<f32>(input[12]), bitcast<f32>(input[13]), bitcast<f32>(input[14]), bitcast<f32>(input[15]), input[16], input[17], bitcast<f32>(input[18]), NO_TEXTURE, 0.0, bitcast<f32>(input[21]), NO_TEXTURE, bitcast<f32>(input[23]), NO_TEXTURE, NO_TEXTURE, 0u, input[27], input[28], input[29], 0u, 0u, 0u);
+            let m = GpuMaterial(input[9], input[10], bitcast<f32>(input[11]), bitcast<f32>(input[12]), bitcast<f32>(input[13]), bitcast<f32>(input[14]), bitcast<f32>(input[15]), input[16], input[17], bitcast<f32>(input[18]), NO_TEXTURE, 0.0, bitcast<f32>(input[21]), NO_TEXTURE, bitcast<f32>(input[23]), NO_TEXTURE, NO_TEXTURE, 0u, input[27], input[28], input[29], NO_TEXTURE, NO_TEXTURE, 0u);
             let front = input[3] != 0u;
             var ray_dir = -wo;
             if input[4] != 0u {
@@ -64,7 +64,7 @@ fn sample_main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 ray_dir = select(c, -c, front);
             }
             let z = vec3<f32>(0.0, 0.0, 1.0);
-            let si = SurfaceInteraction(vec3<f32>(0.0), z, z, vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(1.0), 0.0, front, 0u);
+            let si = SurfaceInteraction(vec3<f32>(0.0), z, z, vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(1.0), 0.0, front, 0u, vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0));
             let s = scatter(m, ray_dir, si, material_textures(m, si), u);
             // Mode 7: the draws with a density alone (a delta lobe's fall
             // in the rejected cell).

@@ -242,6 +242,8 @@ fn dielectric_known_answers() -> Result<String, String> {
             p_error: 0.0,
             front_face: front,
             material: 0,
+            tangent: reference::geometry::tangent_frame(n, Vec3::ZERO).0,
+            bitangent: reference::geometry::tangent_frame(n, Vec3::ZERO).1,
         };
         let eta = if front { 1.0 / 1.5 } else { 1.5 };
         // Past the critical angle glass reflects everything.
@@ -410,6 +412,8 @@ fn gltf_bsdf_albedo_matches_the_specification_at_several_angles() {
         p_error: 0.0,
         front_face: true,
         material: 0,
+        tangent: Vec3::X,
+        bitangent: Vec3::Y,
     };
     const DRAWS: u32 = 40_000;
     let mut said = Vec::new();

@@ -58,6 +58,8 @@ pub(crate) fn surface() -> SurfaceInteraction {
         p_error: 0.0,
         front_face: true,
         material: 0,
+        tangent: Vec3::X,
+        bitangent: Vec3::Y,
     }
 }
 
@@ -300,6 +302,7 @@ pub(crate) fn rough_conductor(distribution: u32, alpha: f32) -> (Material, [Text
         Material::RoughConductor {
             distribution,
             alpha: 1,
+            alpha_v: None,
             specular: 0,
             eta: Vec3::new(0.2, 0.9, 1.1),
             k: Vec3::new(3.9, 2.4, 2.2),
@@ -364,6 +367,7 @@ pub(crate) fn rough_dielectric(
         Material::RoughDielectric {
             distribution,
             alpha: 1,
+            alpha_v: None,
             eta,
             reflectance: 0,
             transmittance: 0,

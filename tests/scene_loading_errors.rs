@@ -576,6 +576,7 @@ fn a_rough_dielectric_loads_with_mitsubas_defaults_and_a_textured_roughness() {
                 eta,
                 reflectance,
                 transmittance,
+                ..
             } => Some((distribution, alpha, eta, reflectance, transmittance)),
             _ => None,
         })

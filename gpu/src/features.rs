@@ -80,6 +80,7 @@ feature_bits! {
     ONE_SIDED = 27,
     VERTEX_COLOR_TEXTURES = 28,
     PROFILED_LIGHTS = 29,
+    TANGENT_FRAME = 30,
 }
 
 impl Kernel {
@@ -121,12 +122,16 @@ impl Features {
                 Material::Conductor { .. } => feature::CONDUCTOR,
                 Material::SmoothDielectric { .. } => feature::SMOOTH_DIELECTRIC,
                 Material::ThinDielectric { .. } => feature::THIN_DIELECTRIC,
-                Material::RoughConductor { distribution, .. } => {
-                    feature::ROUGH_CONDUCTOR | beckmann(*distribution)
-                }
-                Material::RoughDielectric { distribution, .. } => {
-                    feature::ROUGH_DIELECTRIC | beckmann(*distribution)
-                }
+                Material::RoughConductor {
+                    distribution,
+                    alpha_v,
+                    ..
+                } => feature::ROUGH_CONDUCTOR | beckmann(*distribution) | anisotropic(*alpha_v),
+                Material::RoughDielectric {
+                    distribution,
+                    alpha_v,
+                    ..
+                } => feature::ROUGH_DIELECTRIC | beckmann(*distribution) | anisotropic(*alpha_v),
                 Material::Plastic { .. } => feature::PLASTIC,
                 Material::RoughPlastic { distribution, .. } => {
                     feature::ROUGH_PLASTIC | beckmann(*distribution)
@@ -160,6 +165,10 @@ impl Features {
             }
             if w.one_sided {
                 bits |= feature::ONE_SIDED;
+            }
+            // Mitsuba's normal map reads the surface's tangent frame.
+            if w.normal_map.is_some() {
+                bits |= feature::TANGENT_FRAME;
             }
         }
         // Emission added to a BSDF is one more texture read a vertex.
@@ -212,6 +221,15 @@ impl Features {
 
 /// [`feature::BECKMANN`] for a microfacet model of Beckmann's
 /// distribution, else nothing (GGX's code is the microfacets' baseline).
+/// An anisotropic rough model reads the surface's tangent frame.
+fn anisotropic(alpha_v: Option<u32>) -> u32 {
+    if alpha_v.is_some() {
+        feature::TANGENT_FRAME
+    } else {
+        0
+    }
+}
+
 fn beckmann(distribution: u32) -> u32 {
     if distribution == reference::microfacet::distribution::BECKMANN {
         feature::BECKMANN

@@ -112,14 +112,18 @@ gpu_record! {
     /// (`scene_buffers::assign_shade_buckets`). Any tag, Mitsuba's
     /// wrappers (`reference::material::Wrappers`): `opacity` = the mask's
     /// texture or `NO_TEXTURE`, `one_sided` = 1 where the material absorbs
-    /// behind, else 0.
+    /// behind, else 0, `normal_map` = Mitsuba's normal map's texture or
+    /// `NO_TEXTURE`, `normal_map_mirrored` = 1 where it is read in the
+    /// frame turned to the viewer. ROUGH_CONDUCTOR and ROUGH_DIELECTRIC:
+    /// `alpha_v` = the roughness across the tangent where anisotropic,
+    /// else `NO_TEXTURE`.
     GpuMaterial {
         tag: u32, texture: u32, p0: f32, p1: f32,
         absorption_r: f32, absorption_g: f32, absorption_b: f32, texture2: u32,
         texture3: u32, p2: f32, alpha_texture: u32, alpha_cutoff: f32,
         coat: f32, coat_texture: u32, coat_roughness: f32, coat_roughness_texture: u32,
         emission: u32, shade_bucket: u32, distribution: u32, opacity: u32,
-        one_sided: u32, _pad0: u32, _pad1: u32, _pad2: u32,
+        one_sided: u32, alpha_v: u32, normal_map: u32, normal_map_mirrored: u32,
     }
 }
 

@@ -85,13 +85,19 @@ pub fn pack_material(m: &Material, alpha: Option<Alpha>, emission: Option<u32>) 
             mode: AlphaMode::Blend,
         }) => (texture, ALPHA_BLEND),
     };
+    let record = pack_bsdf(m);
     GpuMaterial {
         alpha_texture,
         alpha_cutoff,
         emission: emission.unwrap_or(NO_TEXTURE),
-        // No mask ([`pack_wrappers`] puts one).
+        // No mask or normal map ([`pack_wrappers`] puts them).
         opacity: NO_TEXTURE,
-        ..pack_bsdf(m)
+        normal_map: NO_TEXTURE,
+        alpha_v: match m {
+            Material::RoughConductor { .. } | Material::RoughDielectric { .. } => record.alpha_v,
+            _ => NO_TEXTURE,
+        },
+        ..record
     }
 }
 
@@ -101,6 +107,8 @@ pub fn pack_wrappers(record: GpuMaterial, wrappers: Wrappers) -> GpuMaterial {
     GpuMaterial {
         opacity: wrappers.opacity.unwrap_or(NO_TEXTURE),
         one_sided: wrappers.one_sided as u32,
+        normal_map: wrappers.normal_map.unwrap_or(NO_TEXTURE),
+        normal_map_mirrored: wrappers.normal_map_mirrored as u32,
         ..record
     }
 }
@@ -175,18 +183,21 @@ fn pack_bsdf(m: &Material) -> GpuMaterial {
         Material::RoughConductor {
             distribution,
             alpha,
+            alpha_v,
             specular,
             eta,
             k,
         } => GpuMaterial {
             tag,
             texture2: alpha,
+            alpha_v: alpha_v.unwrap_or(NO_TEXTURE),
             distribution,
             ..pack_bsdf(&Material::Conductor { specular, eta, k })
         },
         Material::RoughDielectric {
             distribution,
             alpha,
+            alpha_v,
             eta,
             reflectance,
             transmittance,
@@ -194,6 +205,7 @@ fn pack_bsdf(m: &Material) -> GpuMaterial {
             tag,
             texture: reflectance,
             texture2: alpha,
+            alpha_v: alpha_v.unwrap_or(NO_TEXTURE),
             texture3: transmittance,
             p0: eta,
             distribution,

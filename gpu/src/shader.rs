@@ -233,6 +233,10 @@ pub fn generate() -> String {
     s += &f("BOX_T_PAD", reference::bvh::BOX_T_PAD);
     s += &f("GGX_MIN_ALPHA", GGX_MIN_ALPHA);
     s += &f(
+        "NORMAL_MAP_SHADOWING_SCALE",
+        reference::material::NORMAL_MAP_SHADOWING_SCALE,
+    );
+    s += &f(
         "ROULETTE_MAX_SURVIVAL",
         reference::integrator::ROULETTE_MAX_SURVIVAL,
     );

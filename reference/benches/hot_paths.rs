@@ -153,6 +153,8 @@ fn bsdf_sampling(c: &mut Criterion) {
         p_error: 0.0,
         front_face: true,
         material: 0,
+        tangent: Vec3::X,
+        bitangent: -Vec3::Z,
     };
     let dirs: Vec<Vec3> = (0..BATCH)
         .map(|i| -sample_cosine_hemisphere(Vec2::new(u(i, 0), u(i, 1))))

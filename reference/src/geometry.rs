@@ -56,6 +56,34 @@ pub struct SurfaceInteraction {
     /// Whether the ray arrived on the side `geometric_normal` points to.
     pub front_face: bool,
     pub material: u32,
+    /// The shading frame's tangent (Mitsuba's `sh_frame.s`): unit,
+    /// perpendicular to `shading_normal`, along the direction in which the
+    /// shape's `u` parameter grows (∂p/∂u projected, [`tangent_frame`]).
+    /// Read only by models that are not symmetric about the normal
+    /// (anisotropic roughness, Mitsuba's normal map).
+    pub tangent: Vec3,
+    /// `n × tangent`, `n` the shading normal as the shape gives it (a
+    /// mesh's interpolated normal before `shading_normal`'s flip onto the
+    /// geometric side): `tangent × bitangent` is that normal, so
+    /// (tangent, bitangent, ±shading_normal) is Mitsuba's shading frame.
+    pub bitangent: Vec3,
+}
+
+/// The shading frame's tangent and bitangent at a point of normal `n`
+/// (unit) whose parameterization has derivative `dp_du` (Mitsuba's
+/// `initialize_sh_frame`): `s` = `dp_du` without its part along `n`,
+/// normalized, and `t = n × s`. Where that leaves nothing (`dp_du` zero or
+/// along `n`, or not finite), `s` is [`Onb::from_normal`]'s.
+#[inline]
+pub fn tangent_frame(n: Vec3, dp_du: Vec3) -> (Vec3, Vec3) {
+    let along = dp_du - n * n.dot(dp_du);
+    let len2 = along.length_squared();
+    let s = if len2 > 0.0 && len2.is_finite() {
+        along / len2.sqrt()
+    } else {
+        Onb::from_normal(n).s
+    };
+    (s, n.cross(s))
 }
 
 /// The next float above `x`: both zeros step to the smallest subnormal,

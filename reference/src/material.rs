@@ -61,7 +61,8 @@ pub enum Material {
     /// A rough conductor (Mitsuba 3's `roughconductor`): a surface of
     /// mirror microfacets of the [`Microfacet`] `distribution`
     /// ([`crate::microfacet::distribution`]), roughness the first channel
-    /// of texture `alpha` (isotropic), each facet reflecting as
+    /// of texture `alpha` ([`rough_lobe`]: in every direction, or, with
+    /// `alpha_v`, along the surface's tangent), each facet reflecting as
     /// [`Material::Conductor`] does:
     /// `f = specular · F(wo·h, eta + i·k) · D(h) · G1(wo, h) · G1(wi, h) / (4 cos θo cos θi)`,
     /// `h` the half vector. Sampled through the visible normals seen from
@@ -69,13 +70,15 @@ pub enum Material {
     RoughConductor {
         distribution: u32,
         alpha: u32,
+        alpha_v: Option<u32>,
         specular: u32,
         eta: Vec3,
         k: Vec3,
     },
     /// A rough dielectric interface (Mitsuba 3's `roughdielectric`):
     /// microfacets of the [`Microfacet`] `distribution`, roughness the
-    /// first channel of texture `alpha` (isotropic), each an interface of
+    /// first channel of texture `alpha` (and of `alpha_v` where it is
+    /// anisotropic, [`rough_lobe`]), each an interface of
     /// [`Material::SmoothDielectric`] (`eta` the index inside, behind the
     /// geometric normal, over outside). With `η` the ratio of the indices
     /// across in the ray's direction of travel, `h` the half vector
@@ -90,6 +93,7 @@ pub enum Material {
     RoughDielectric {
         distribution: u32,
         alpha: u32,
+        alpha_v: Option<u32>,
         eta: f32,
         reflectance: u32,
         transmittance: u32,
@@ -391,6 +395,109 @@ pub struct Wrappers {
     /// with that probability and passes straight on otherwise; the
     /// material's value and density are scaled by it.
     pub opacity: Option<u32>,
+    /// Mitsuba's `normalmap`: the texture whose texel `c` is the normal
+    /// `2c − 1` in the surface's shading frame (tangent, bitangent,
+    /// normal; [`NormalMapped`]), which the material then shades in.
+    pub normal_map: Option<u32>,
+    /// With `normal_map`: the frame's normal turned to the viewer's side
+    /// before the map is read (Mitsuba's `twosided` around `normalmap`,
+    /// which mirrors the frame for a path arriving behind); else the map
+    /// is read in the frame as the shape gives it (`normalmap` around a
+    /// model that takes both sides itself, or a one-sided one).
+    pub normal_map_mirrored: bool,
+}
+
+/// The shadowing term's `α² = min(tan²θ_m · this, 1)` of a normal map's
+/// normal at `θ_m` from the surface's: Estevez et al.'s (Ray Tracing Gems,
+/// 2019) and Mitsuba 3.9.1's `eval_shadow_terminator` (normalmap_helpers.h).
+pub const NORMAL_MAP_SHADOWING_SCALE: f32 = 0.125;
+
+/// A normal map's shading frame at a vertex, as Mitsuba 3.9.1's
+/// `normalmap` makes it. In the surface's frame (tangent `s`, bitangent
+/// `t`, normal `n = s × t`, `n` turned to the viewer's side where
+/// [`Wrappers::normal_map_mirrored`]), the map's normal is `m = 2c − 1`,
+/// its x and y negated where the viewer is on the other side of it than
+/// of `n` (`cos θ_i · (wi·m) ≤ 0`, Mitsuba's `flip_invalid_normals`),
+/// normalized; the new frame's tangent is the x axis without its part
+/// along `m`. The material shades in that frame: [`Self::si`] is the
+/// surface with `m` as both its normals (the side a path arrives on is
+/// the side of `m`, as Mitsuba's models read it from `cos θ_i`) and the
+/// new tangent. A direction counts only where it is on the same side of
+/// `n` and `m` ([`Self::keeps`]), and the value is scaled by Estevez et
+/// al.'s shadowing term ([`Self::shadowing`]).
+#[derive(Clone, Copy, Debug)]
+pub struct NormalMapped {
+    /// The surface with the map's frame.
+    pub si: SurfaceInteraction,
+    /// The frame's normal `n` the map was read in.
+    pub n: Vec3,
+    /// The shadowing term's `α² = min(tan²θ_m / 8, 1)`, `θ_m` the map's
+    /// normal's angle to `n`.
+    alpha2: f32,
+}
+
+impl NormalMapped {
+    /// The frame at `si` of a map of texel `texel`, for a path arriving
+    /// along `ray_dir`.
+    pub fn new(texel: Vec3, mirrored: bool, ray_dir: Vec3, si: &SurfaceInteraction) -> Self {
+        let wi = -ray_dir;
+        let (s, t) = if mutants::is(Mutant::TangentNotFromUv) {
+            let f = Onb::from_normal(si.tangent.cross(si.bitangent));
+            (f.s, f.t)
+        } else {
+            (si.tangent, si.bitangent)
+        };
+        let mut n = s.cross(t);
+        if mirrored && wi.dot(n) < 0.0 {
+            n = -n;
+        }
+        let frame = Onb { s, t, n };
+        let wi_local = frame.to_local(wi);
+        let mut m = 2.0 * texel - Vec3::ONE;
+        if wi_local.z * wi_local.dot(m) <= 0.0 {
+            m = Vec3::new(-m.x, -m.y, m.z);
+        }
+        // A texel of (½, ½, ½) has no direction: the surface's own.
+        let m = m.normalize_or(Vec3::Z);
+        let s_local = (Vec3::X - m * m.x).normalize_or(Onb::from_normal(m).s);
+        let n_p = frame.to_world(m);
+        let s_p = frame.to_world(s_local);
+        let cos2 = m.z * m.z;
+        let alpha2 = (NORMAL_MAP_SHADOWING_SCALE * (1.0 - cos2) / cos2).min(1.0);
+        NormalMapped {
+            si: SurfaceInteraction {
+                geometric_normal: n_p,
+                shading_normal: n_p,
+                front_face: ray_dir.dot(n_p) < 0.0,
+                tangent: s_p,
+                bitangent: n_p.cross(s_p),
+                ..*si
+            },
+            n,
+            alpha2,
+        }
+    }
+
+    /// Whether `wo` is on the same side of the surface's frame and the
+    /// map's (Mitsuba's test in its `sample`, `eval` and `pdf`).
+    #[inline]
+    pub fn keeps(&self, wo: Vec3) -> bool {
+        wo.dot(self.n) * wo.dot(self.si.shading_normal) > 0.0
+    }
+
+    /// Estevez et al.'s shadowing term (Ray Tracing Gems, 2019), as
+    /// Mitsuba's `eval_shadow_terminator`: `2 / (1 + √(1 + α² tan²θ_o))`,
+    /// `θ_o` the angle of `wo` to the surface's frame's normal.
+    #[inline]
+    pub fn shadowing(&self, wo: Vec3) -> f32 {
+        if mutants::is(Mutant::NormalMapWithoutShadowing) {
+            return 1.0;
+        }
+        let cos = wo.dot(self.n);
+        let cos2 = cos * cos;
+        let tan2 = (1.0 - cos2).max(0.0) / cos2;
+        2.0 / (1.0 + (1.0 + self.alpha2 * tan2).sqrt())
+    }
 }
 
 /// Mitsuba's luminance weights (its rgb variants' `luminance`, CIE Y of
@@ -448,6 +555,20 @@ pub fn wrapped_scatter(
             return Some(Scatter::delta(ray_dir, Vec3::ONE));
         }
     }
+    if let Some(map) = wrap.normal_map {
+        let mapped = NormalMapped::new(ctx.eval(map, si), wrap.normal_map_mirrored, ray_dir, si);
+        if absorbs_behind(wrap, ray_dir, &mapped.si) {
+            return None;
+        }
+        let s = scatter(material, ctx, ray_dir, &mapped.si, u)?;
+        if !mapped.keeps(s.direction) {
+            return None;
+        }
+        return Some(Scatter {
+            weight: s.weight * mapped.shadowing(s.direction),
+            ..s
+        });
+    }
     if absorbs_behind(wrap, ray_dir, si) {
         return None;
     }
@@ -465,10 +586,26 @@ pub fn wrapped_bsdf_eval(
     si: &SurfaceInteraction,
     wi: Vec3,
 ) -> Option<(Vec3, f32)> {
-    if absorbs_behind(wrap, ray_dir, si) {
-        return None;
-    }
-    let (f_cos, pdf) = bsdf_eval(material, ctx, ray_dir, si, wi)?;
+    let (f_cos, pdf) = match wrap.normal_map {
+        Some(map) => {
+            let mapped =
+                NormalMapped::new(ctx.eval(map, si), wrap.normal_map_mirrored, ray_dir, si);
+            if absorbs_behind(wrap, ray_dir, &mapped.si) {
+                return None;
+            }
+            let (f_cos, pdf) = bsdf_eval(material, ctx, ray_dir, &mapped.si, wi)?;
+            if !mapped.keeps(wi) {
+                return Some((Vec3::ZERO, 0.0));
+            }
+            (f_cos * mapped.shadowing(wi), pdf)
+        }
+        None => {
+            if absorbs_behind(wrap, ray_dir, si) {
+                return None;
+            }
+            bsdf_eval(material, ctx, ray_dir, si, wi)?
+        }
+    };
     match wrap.opacity {
         Some(t) if !mutants::is(Mutant::MaskLightUnscaled) => {
             let opacity = opacity_of(ctx.eval(t, si));
@@ -619,16 +756,16 @@ pub fn scatter(
         Material::RoughConductor {
             distribution,
             alpha,
+            alpha_v,
             specular,
             eta,
             k,
         } => {
-            let frame = Onb::from_normal(n);
+            let (frame, mf) = rough_lobe(distribution, alpha, alpha_v, n, ctx, si);
             let wo = frame.to_local(-ray_dir);
             if wo.z <= 0.0 {
                 return None;
             }
-            let mf = rough_microfacet(distribution, ctx.eval(alpha, si).x);
             let m = mf.sample_visible(wo, Vec2::new(u[dims::DIRECTION_U], u[dims::DIRECTION_V]));
             let wi = reflect(-wo, m);
             if wi.z <= 0.0 {
@@ -643,17 +780,17 @@ pub fn scatter(
         Material::RoughDielectric {
             distribution,
             alpha,
+            alpha_v,
             eta,
             reflectance,
             transmittance,
         } => {
-            let frame = Onb::from_normal(n);
+            let (frame, mf) = rough_lobe(distribution, alpha, alpha_v, n, ctx, si);
             let wo = frame.to_local(-ray_dir);
             if wo.z <= 0.0 {
                 return None;
             }
             let eta = rough_dielectric_eta(eta, si.front_face);
-            let mf = rough_microfacet(distribution, ctx.eval(alpha, si).x);
             let m = mf.sample_visible(wo, Vec2::new(u[dims::DIRECTION_U], u[dims::DIRECTION_V]));
             let cos_o = wo.dot(m).clamp(0.0, 1.0);
             // Past the critical angle F is 1: every draw reflects.
@@ -720,7 +857,7 @@ pub fn scatter(
             let p = plastic_specular_probability(1.0 - t_o, specular_weight)?;
             let dir_u = Vec2::new(u[dims::DIRECTION_U], u[dims::DIRECTION_V]);
             let wi = if u[dims::LOBE] < p {
-                let mf = rough_microfacet(distribution, alpha);
+                let mf = rough_microfacet(distribution, alpha, alpha);
                 reflect(-wo, mf.sample_visible(wo, dir_u))
             } else {
                 sample_cosine_hemisphere(dir_u)
@@ -860,7 +997,7 @@ fn rough_plastic_eval(
     let Some(p) = plastic_specular_probability(1.0 - t_o, specular_weight) else {
         return (Vec3::ZERO, 0.0);
     };
-    let mf = rough_microfacet(distribution, alpha);
+    let mf = rough_microfacet(distribution, alpha, alpha);
     let h = (wo + wi).normalize();
     // D·G1(wo): the visible normals' density times wo.z.
     let dg = mf.d(h) * mf.g1(wo, h);
@@ -1038,15 +1175,54 @@ fn rough_dielectric_eta(eta: f32, front_face: bool) -> f32 {
 }
 
 /// The rough conductor's and dielectric's distribution at a point of
-/// roughness `alpha` (isotropic).
+/// roughness `alpha_u` along the frame's x and `alpha_v` along its y.
 #[inline]
-fn rough_microfacet(kind: u32, alpha: f32) -> Microfacet {
+fn rough_microfacet(kind: u32, alpha_u: f32, alpha_v: f32) -> Microfacet {
     let kind = if mutants::is(Mutant::RoughBeckmannForGgx) {
         distribution::BECKMANN
     } else {
         kind
     };
-    Microfacet::new(kind, alpha, alpha)
+    Microfacet::new(kind, alpha_u, alpha_v)
+}
+
+/// The local frame and the distribution of a rough conductor or
+/// dielectric at `si`, `n` its shading normal turned to the viewer's side.
+/// Isotropic (`alpha_v` `None`): [`Onb::from_normal`] and roughness
+/// `alpha`'s first channel in every direction. Anisotropic: the frame
+/// (tangent, `n × tangent`, `n`) of the surface's parameterization
+/// ([`SurfaceInteraction::tangent`]), roughness `alpha` along the tangent
+/// and `alpha_v` across it, as Mitsuba's `alpha_u` and `alpha_v` along its
+/// shading frame's `s` and `t` (its back side mirrors `t`, which the
+/// distribution does not see).
+#[inline]
+pub fn rough_lobe(
+    kind: u32,
+    alpha: u32,
+    alpha_v: Option<u32>,
+    n: Vec3,
+    ctx: TextureContext,
+    si: &SurfaceInteraction,
+) -> (Onb, Microfacet) {
+    let alpha_u = ctx.eval(alpha, si).x;
+    match alpha_v {
+        None => (
+            Onb::from_normal(n),
+            rough_microfacet(kind, alpha_u, alpha_u),
+        ),
+        Some(v) => {
+            let alpha_v = ctx.eval(v, si).x;
+            let frame = Onb {
+                s: si.tangent,
+                t: n.cross(si.tangent),
+                n,
+            };
+            if mutants::is(Mutant::AnisotropySwapped) {
+                return (frame, rough_microfacet(kind, alpha_v, alpha_u));
+            }
+            (frame, rough_microfacet(kind, alpha_u, alpha_v))
+        }
+    }
 }
 
 /// `f(wo, wi) · |cos θ_i|` and the density with which [`scatter`] samples
@@ -1094,17 +1270,17 @@ pub fn bsdf_eval(
         Material::RoughConductor {
             distribution,
             alpha,
+            alpha_v,
             specular,
             eta,
             k,
         } => {
-            let frame = Onb::from_normal(n);
+            let (frame, mf) = rough_lobe(distribution, alpha, alpha_v, n, ctx, si);
             let (wo, wi) = (frame.to_local(-ray_dir), frame.to_local(wi));
             if wo.z <= 0.0 || wi.z <= 0.0 {
                 return Some((Vec3::ZERO, 0.0));
             }
             let h = (wo + wi).normalize();
-            let mf = rough_microfacet(distribution, ctx.eval(alpha, si).x);
             // D·G1(wo): the visible normals' density over 4 cos θo is the
             // reflected direction's (the Jacobian 1 / (4 wo·h) times wo·h).
             let dg = mf.d(h) * mf.g1(wo, h);
@@ -1120,11 +1296,12 @@ pub fn bsdf_eval(
         Material::RoughDielectric {
             distribution,
             alpha,
+            alpha_v,
             eta,
             reflectance,
             transmittance,
         } => {
-            let frame = Onb::from_normal(n);
+            let (frame, mf) = rough_lobe(distribution, alpha, alpha_v, n, ctx, si);
             let (wo, wi) = (frame.to_local(-ray_dir), frame.to_local(wi));
             if wo.z <= 0.0 || wi.z == 0.0 {
                 return Some((Vec3::ZERO, 0.0));
@@ -1143,7 +1320,6 @@ pub fn bsdf_eval(
             if cos_o <= 0.0 || cos_i * wi.z <= 0.0 {
                 return Some((Vec3::ZERO, 0.0));
             }
-            let mf = rough_microfacet(distribution, ctx.eval(alpha, si).x);
             // D·G1(wo): the visible normals' density times wo.z.
             let dg = mf.d(h) * mf.g1(wo, h);
             let g = dg * mf.g1(wi, h);
@@ -1497,6 +1673,8 @@ mod tests {
             p_error: 0.0,
             front_face,
             material: 0,
+            tangent: Vec3::X,
+            bitangent: -Vec3::Z,
         }
     }
 

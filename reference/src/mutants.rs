@@ -79,6 +79,17 @@ pub enum Mutant {
     /// The rough materials' microfacets Beckmann's where their scene asks
     /// for GGX (`material::scatter` and `material::bsdf_eval`).
     RoughBeckmannForGgx,
+    /// An anisotropic rough model's two roughnesses exchanged: `alpha_v`
+    /// along the surface's tangent and `alpha_u` across it
+    /// (`material::rough_lobe`).
+    AnisotropySwapped,
+    /// The surface's tangent frame from its normal alone
+    /// (`Onb::from_normal`), not from its parameterization's ∂p/∂u, where
+    /// a normal map reads it (`material::NormalMapped::new`).
+    TangentNotFromUv,
+    /// A normal map's value without Estevez et al.'s shadowing term
+    /// (`material::NormalMapped::shadowing`).
+    NormalMapWithoutShadowing,
     /// The rough conductor's density without the half vector's Jacobian
     /// `1 / (4 wo·h)`: the visible normals' density given as the reflected
     /// direction's (`material::bsdf_eval`).

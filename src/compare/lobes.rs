@@ -57,6 +57,8 @@ impl LobeCase {
             p_error: 0.0,
             front_face: self.front_face,
             material: 0,
+            tangent: Vec3::X,
+            bitangent: Vec3::Y,
         }
     }
 

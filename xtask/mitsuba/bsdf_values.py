@@ -5,7 +5,7 @@ regenerates the same inputs and compares).
     python3 xtask/mitsuba/bsdf_values.py CASE  [--out fixtures/mitsuba/bsdf]
 
 CASE: conductor, dielectric, thindielectric, roughconductor,
-roughdielectric, plastic, roughplastic, mask.
+roughdielectric, plastic, roughplastic, mask, anisotropic, normalmap.
 
 Inputs: case i of N has its parameters from the additive sequence
 frac((i + 1) * a) of the constants A below, computed in f64 with + - * /
@@ -200,6 +200,31 @@ def roughconductor(i):
             "k": float(k),
         }
     )
+    return rough_records(bsdf, wi, wo, i)
+
+
+def anisotropic_inputs(i):
+    """rough_inputs' alpha (as alpha_u), wi and wo, GGX always, and
+    alpha_v in [0.02, 1) (unit 13)."""
+    _, alpha_u, wi, wo = rough_inputs(i)
+    return alpha_u, 0.02 + 0.98 * unit(i, 13), wi, wo
+
+
+def anisotropic_conductor(i):
+    alpha_u, alpha_v, _, _ = anisotropic_inputs(i)
+    return {
+        "type": "roughconductor",
+        "distribution": "ggx",
+        "alpha_u": float(np.float32(alpha_u)),
+        "alpha_v": float(np.float32(alpha_v)),
+        "eta": float(np.float32(0.2 + 3.0 * unit(i, 1))),
+        "k": float(np.float32(5.0 * unit(i, 2))),
+    }
+
+
+def rough_records(bsdf, wi, wo, i):
+    """eval and pdf at (wi, wo), then a sample drawn at u = (unit 9,
+    unit 10): its wo (three), weight and pdf (weight 0: none)."""
     si = rough_surface(wi)
     ctx = mi.BSDFContext()
     wo = mi.Vector3f([float(np.float32(c)) for c in wo])
@@ -208,6 +233,44 @@ def roughconductor(i):
     u = [float(np.float32(unit(i, 9))), float(np.float32(unit(i, 10)))]
     bs, weight = bsdf.sample(ctx, si, 0.5, u)
     return [value, pdf, bs.wo[0], bs.wo[1], bs.wo[2], weight[0], bs.pdf]
+
+
+def anisotropic(i):
+    """Records 7 f32 as roughconductor's, of an anisotropic GGX
+    roughconductor: alpha_u (along the frame's x, Mitsuba's sh_frame.s)
+    and alpha_v (along y) from anisotropic_inputs."""
+    _, _, wi, wo = anisotropic_inputs(i)
+    return rough_records(mi.load_dict(anisotropic_conductor(i)), wi, wo, i)
+
+
+def normal_map_texel(i):
+    """Case i's normal map value (1 + m) / 2, m a unit normal tilted
+    from +z by up to asin 0.85 (about 58 degrees; units 14-16)."""
+    x, y = 2.0 * unit(i, 14) - 1.0, 2.0 * unit(i, 15) - 1.0
+    r = (x * x + y * y) ** 0.5
+    sin_t = 0.85 * unit(i, 16)
+    m = (sin_t * x / r, sin_t * y / r, (1.0 - sin_t * sin_t) ** 0.5)
+    return [(1.0 + c) * 0.5 for c in m]
+
+
+def normalmap(i):
+    """Records 7 f32 as roughconductor's, of Mitsuba's normalmap (a
+    rawconstant of normal_map_texel) around anisotropic's conductor, the
+    viewer below the surface where i % 5 == 4 (wi's z negated)."""
+    _, _, wi, wo = anisotropic_inputs(i)
+    if i % 5 == 4:
+        wi = (wi[0], wi[1], -wi[2])
+    bsdf = mi.load_dict(
+        {
+            "type": "normalmap",
+            "normalmap": {
+                "type": "rawconstant",
+                "value": [float(np.float32(c)) for c in normal_map_texel(i)],
+            },
+            "bsdf": anisotropic_conductor(i),
+        }
+    )
+    return rough_records(bsdf, wi, wo, i)
 
 
 def roughdielectric(i):
@@ -397,6 +460,8 @@ CASES = {
     "roughdielectric": roughdielectric,
     "plastic": plastic,
     "roughplastic": roughplastic,
+    "anisotropic": anisotropic,
+    "normalmap": normalmap,
 }
 
 

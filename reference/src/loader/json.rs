@@ -502,9 +502,13 @@ pub struct RoughConductorMaterialJson {
     /// `ggx` or `beckmann` (default, as Mitsuba's).
     #[serde(default)]
     pub distribution: DistributionJson,
-    /// The microfacets' roughness α (isotropic; Mitsuba's default 0.1).
+    /// The microfacets' roughness α (Mitsuba's default 0.1): in every
+    /// direction, or along the surface's tangent where `alpha_v` is given.
     #[serde(default = "default_alpha")]
     pub alpha: ScalarRef,
+    /// The roughness across the tangent (anisotropic; absent: isotropic).
+    #[serde(default)]
+    pub alpha_v: Option<ScalarRef>,
     #[serde(default)]
     pub eta: [f32; 3],
     #[serde(default = "unit_k")]
@@ -545,9 +549,13 @@ pub struct RoughDielectricMaterialJson {
     /// `ggx` or `beckmann` (default, as Mitsuba's).
     #[serde(default)]
     pub distribution: DistributionJson,
-    /// The microfacets' roughness α (isotropic; Mitsuba's default 0.1).
+    /// The microfacets' roughness α (Mitsuba's default 0.1): in every
+    /// direction, or along the surface's tangent where `alpha_v` is given.
     #[serde(default = "default_alpha")]
     pub alpha: ScalarRef,
+    /// The roughness across the tangent (anisotropic; absent: isotropic).
+    #[serde(default)]
+    pub alpha_v: Option<ScalarRef>,
     /// The index inside (behind the geometric normal) over outside.
     pub eta: f32,
     /// Tints on what it reflects and transmits (default white).
@@ -1138,6 +1146,7 @@ impl Resolver<'_> {
             MaterialJson::RoughConductor(RoughConductorMaterialJson {
                 distribution,
                 alpha,
+                alpha_v,
                 eta,
                 k,
                 specular,
@@ -1145,6 +1154,11 @@ impl Resolver<'_> {
             }) => Material::RoughConductor {
                 distribution: distribution.tag(),
                 alpha: self.scalar(alpha).map_err(field("alpha"))?,
+                alpha_v: alpha_v
+                    .as_ref()
+                    .map(|a| self.scalar(a))
+                    .transpose()
+                    .map_err(field("alpha_v"))?,
                 specular: self
                     .colour_or_white(specular.as_ref())
                     .map_err(field("specular"))?,
@@ -1164,6 +1178,12 @@ impl Resolver<'_> {
             MaterialJson::RoughDielectric(d) => Material::RoughDielectric {
                 distribution: d.distribution.tag(),
                 alpha: self.scalar(&d.alpha).map_err(field("alpha"))?,
+                alpha_v: d
+                    .alpha_v
+                    .as_ref()
+                    .map(|a| self.scalar(a))
+                    .transpose()
+                    .map_err(field("alpha_v"))?,
                 eta: d.eta,
                 reflectance: self
                     .colour_or_white(d.reflectance.as_ref())

@@ -359,16 +359,27 @@ pub(super) fn check_wrap(
     if *wrap != Wrappers::default() && matches!(material, Material::DiffuseLight { .. }) {
         return Err(SceneError::invalid(
             "wrap",
-            "a light (diffuse_light) takes no mask or one-sidedness".into(),
+            "a light (diffuse_light) takes no mask, normal map or one-sidedness".into(),
         ));
     }
-    match wrap.opacity {
-        Some(t) if t as usize >= textures => Err(SceneError::invalid(
-            "opacity",
-            format!("texture index {t} does not exist"),
-        )),
-        _ => Ok(()),
+    for (what, t) in [("opacity", wrap.opacity), ("normal_map", wrap.normal_map)] {
+        match t {
+            Some(t) if t as usize >= textures => {
+                return Err(SceneError::invalid(
+                    what,
+                    format!("texture index {t} does not exist"),
+                ))
+            }
+            _ => {}
+        }
     }
+    if wrap.normal_map_mirrored && wrap.normal_map.is_none() {
+        return Err(SceneError::invalid(
+            "normal_map_mirrored",
+            "is set without a normal map".into(),
+        ));
+    }
+    Ok(())
 }
 
 /// A coverage's texture reference and cutoff.
@@ -451,11 +462,15 @@ fn check_material(
         Material::RoughConductor {
             distribution,
             alpha,
+            alpha_v,
             specular,
             eta,
             k,
         } => {
             tex_ok("alpha", alpha)?;
+            if let Some(v) = alpha_v {
+                tex_ok("alpha_v", v)?;
+            }
             tex_ok("specular", specular)?;
             check_colour("eta", eta)?;
             check_colour("k", k)?;
@@ -464,11 +479,15 @@ fn check_material(
         Material::RoughDielectric {
             distribution,
             alpha,
+            alpha_v,
             eta,
             reflectance,
             transmittance,
         } => {
             tex_ok("alpha", alpha)?;
+            if let Some(v) = alpha_v {
+                tex_ok("alpha_v", v)?;
+            }
             tex_ok("reflectance", reflectance)?;
             tex_ok("transmittance", transmittance)?;
             check_eta(eta)?;

@@ -28,7 +28,8 @@ use crate::background::Background;
 use crate::bvh::{box_pad, Bvh, BvhBuildStats};
 use crate::camera::{Camera, CameraSettings};
 use crate::filter::{FilterTable, PixelFilter};
-use crate::geometry::{gamma, Aabb, Hit, Ray, SurfaceInteraction};
+use crate::geometry::Onb;
+use crate::geometry::{gamma, tangent_frame, Aabb, Hit, Ray, SurfaceInteraction};
 use crate::light::punctual::PunctualLight;
 use crate::material::{alpha_hash, normal_mapped, Alpha, Material, Wrappers};
 use crate::mutants::{self, Mutant};
@@ -574,7 +575,9 @@ impl Scene {
     pub fn surface_interaction(&self, ray: &Ray, hit: &Hit) -> SurfaceInteraction {
         let p = self.primitives[hit.prim as usize];
         let (mut uv1, mut color) = (Vec2::ZERO, Vec3::ONE);
-        let (pos, ng, ns, uv, material, p_error) = match p.tag {
+        // Each shape's normal before the flip onto the geometric side, and
+        // ∂p/∂u, for the tangent frame.
+        let (pos, ng, ns, uv, material, p_error, frame_n, dp_du) = match p.tag {
             primitive_tag::SPHERE => {
                 let s = &self.spheres[p.index as usize];
                 let outward = (ray.at(hit.t) - s.center) / s.radius.abs();
@@ -594,7 +597,9 @@ impl Scene {
                 // with the centre a few ulps of the result.
                 let err = gamma(5)
                     * (s.radius.abs() + s.center.abs().max_element() + pos.abs().max_element());
-                (pos, n, n, uv, s.material, err)
+                // u grows with the angle atan2(-z, x) about +y.
+                let dp_du = Vec3::new(outward.z, 0.0, -outward.x);
+                (pos, n, n, uv, s.material, err, n, dp_du)
             }
             primitive_tag::QUAD => {
                 let q = &self.quads[p.index as usize];
@@ -606,7 +611,7 @@ impl Scene {
                         + (hit.uv.y * q.v).abs()
                         + pos.abs())
                     .max_element();
-                (pos, n, n, hit.uv, q.material, err)
+                (pos, n, n, hit.uv, q.material, err, n, q.u)
             }
             _ => {
                 let tri = &self.triangles[p.index as usize];
@@ -658,9 +663,11 @@ impl Scene {
                     );
                     ns = normal_mapped(n, side, ng, tangent, texel, map.scale);
                 }
-                (pos, ng, ns, uv, tri.material, err)
+                let dp_du = self.triangle_dp_du(tri, ng);
+                (pos, ng, ns, uv, tri.material, err, side * ns, dp_du)
             }
         };
+        let (tangent, bitangent) = tangent_frame(frame_n, dp_du);
         SurfaceInteraction {
             p: pos,
             geometric_normal: ng,
@@ -671,6 +678,31 @@ impl Scene {
             p_error,
             front_face: ray.direction.dot(ng) < 0.0,
             material,
+            tangent,
+            bitangent,
         }
+    }
+
+    /// ∂p/∂u of triangle `tri` of face normal `ng`, as Mitsuba's meshes
+    /// give it: from the vertices' texture coordinates where it has them
+    /// (where they are degenerate, [`Onb::from_normal`]'s tangent of `ng`),
+    /// else the edge `p1 − p0` (u the barycentric `b1`).
+    #[inline]
+    fn triangle_dp_du(&self, tri: &Triangle, ng: Vec3) -> Vec3 {
+        let [i0, i1, i2] = tri.vertices.map(|i| i as usize);
+        let m = &self.mesh;
+        let (dp0, dp1) = (
+            m.positions[i1] - m.positions[i0],
+            m.positions[i2] - m.positions[i0],
+        );
+        if tri.flags & TRIANGLE_HAS_UVS == 0 {
+            return dp0;
+        }
+        let (duv0, duv1) = (m.uvs[i1] - m.uvs[i0], m.uvs[i2] - m.uvs[i0]);
+        let det = duv0.x * duv1.y - duv0.y * duv1.x;
+        if det == 0.0 {
+            return Onb::from_normal(ng).s;
+        }
+        (duv1.y * dp0 - duv0.y * dp1) / det
     }
 }

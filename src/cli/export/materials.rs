@@ -248,6 +248,9 @@ pub(super) enum Surface {
         /// `reference::microfacet::distribution`'s.
         distribution: u32,
         alpha: f32,
+        /// Where anisotropic, the roughness across the tangent (`alpha`
+        /// is then Mitsuba's `alpha_u`).
+        alpha_v: Option<f32>,
         specular: Tex,
         eta: Vec3,
         k: Vec3,
@@ -257,6 +260,7 @@ pub(super) enum Surface {
     RoughDielectric {
         distribution: u32,
         alpha: f32,
+        alpha_v: Option<f32>,
         eta: f32,
         reflectance: Tex,
         transmittance: Tex,
@@ -362,12 +366,14 @@ impl Surface {
             Surface::RoughConductor {
                 distribution,
                 alpha,
+                alpha_v,
                 specular,
                 eta,
                 k,
             } => sided(format!(
-                r#"<bsdf type="roughconductor"><string name="distribution" value="{}"/><float name="alpha" value="{alpha:?}"/><rgb name="eta" value="{}"/><rgb name="k" value="{}"/>{}</bsdf>"#,
+                r#"<bsdf type="roughconductor"><string name="distribution" value="{}"/>{}<rgb name="eta" value="{}"/><rgb name="k" value="{}"/>{}</bsdf>"#,
                 distribution_name(*distribution),
+                roughness_xml(*alpha, *alpha_v),
                 triple(*eta),
                 triple(*k),
                 specular.xml("specular_reflectance", uv)
@@ -375,12 +381,14 @@ impl Surface {
             Surface::RoughDielectric {
                 distribution,
                 alpha,
+                alpha_v,
                 eta,
                 reflectance,
                 transmittance,
             } => format!(
-                r#"<bsdf type="roughdielectric"><string name="distribution" value="{}"/><float name="alpha" value="{alpha:?}"/><float name="int_ior" value="{eta:?}"/><float name="ext_ior" value="1.0"/>{}{}</bsdf>"#,
+                r#"<bsdf type="roughdielectric"><string name="distribution" value="{}"/>{}<float name="int_ior" value="{eta:?}"/><float name="ext_ior" value="1.0"/>{}{}</bsdf>"#,
                 distribution_name(*distribution),
+                roughness_xml(*alpha, *alpha_v),
                 reflectance.xml("specular_reflectance", uv),
                 transmittance.xml("specular_transmittance", uv)
             ),
@@ -726,12 +734,16 @@ pub(super) fn surface(scene: &Scene, i: usize) -> Result<Surface> {
         Material::RoughConductor {
             distribution,
             alpha,
+            alpha_v,
             specular,
             eta,
             k,
         } => Surface::RoughConductor {
             distribution,
             alpha: constant_roughness(scene, alpha, &what)?,
+            alpha_v: alpha_v
+                .map(|v| constant_roughness(scene, v, &what))
+                .transpose()?,
             specular: texture(scene, specular, &what)?,
             eta,
             k,
@@ -739,12 +751,16 @@ pub(super) fn surface(scene: &Scene, i: usize) -> Result<Surface> {
         Material::RoughDielectric {
             distribution,
             alpha,
+            alpha_v,
             eta,
             reflectance,
             transmittance,
         } => Surface::RoughDielectric {
             distribution,
             alpha: constant_roughness(scene, alpha, &what)?,
+            alpha_v: alpha_v
+                .map(|v| constant_roughness(scene, v, &what))
+                .transpose()?,
             eta,
             reflectance: texture(scene, reflectance, &what)?,
             transmittance: texture(scene, transmittance, &what)?,
@@ -952,6 +968,17 @@ fn distribution_name(distribution: u32) -> &'static str {
         "beckmann"
     } else {
         "ggx"
+    }
+}
+
+/// A rough model's roughness in Mitsuba's XML: `alpha`, or `alpha_u` and
+/// `alpha_v` where it is anisotropic.
+fn roughness_xml(alpha: f32, alpha_v: Option<f32>) -> String {
+    match alpha_v {
+        None => format!(r#"<float name="alpha" value="{alpha:?}"/>"#),
+        Some(v) => format!(
+            r#"<float name="alpha_u" value="{alpha:?}"/><float name="alpha_v" value="{v:?}"/>"#
+        ),
     }
 }
 

@@ -20,6 +20,8 @@ use crate::material::{Material, Wrappers};
 const ONE_SIDED: Wrappers = Wrappers {
     one_sided: true,
     opacity: None,
+    normal_map: None,
+    normal_map_mirrored: false,
 };
 use crate::mutants::{self, Mutant};
 use crate::rng::Sampler as PathSampler;
@@ -45,6 +47,206 @@ pub const NOT_SUPPORTED: &str = "is not supported";
 /// 'spectrum', 'value': 1.0}}))['intensity.value']` = [1.20479,
 /// 0.948291, 0.908916]); a reflectance's uniform spectrum stays grey.
 pub const EQUAL_ENERGY_RGB: [f64; 3] = [1.20479, 0.948291, 0.908916];
+
+/// Mitsuba 3's tabulated conductors (its `conductor`'s `material`), as
+/// its rgb variants hold them: the complex index `eta + i·k` of each
+/// colour channel, Mitsuba's own reduction of the measured spectra (f32;
+/// read back from Mitsuba 3.9.1's `scalar_rgb` with
+/// `mi.traverse(mi.load_dict({'type': 'conductor', 'material': NAME}))`'s
+/// `eta.value` and `k.value`, by xtask/mitsuba/named_conductors.py; where
+/// a spectrum falls outside sRGB's gamut Mitsuba clamps the negative
+/// channel to 0, as here). "none" is the default mirror (eta 0, k 1).
+pub const NAMED_CONDUCTORS: &[(&str, [f32; 3], [f32; 3])] = &[
+    (
+        "a-C",
+        [2.9440458, 2.2271364, 1.9681617],
+        [0.8874649, 0.7992985, 0.81529],
+    ),
+    (
+        "Ag",
+        [0.1552762, 0.116727956, 0.13838764],
+        [4.8283544, 3.1222224, 2.1469011],
+    ),
+    (
+        "Al",
+        [1.6575009, 0.8804047, 0.52124447],
+        [9.223811, 6.269502, 4.837004],
+    ),
+    (
+        "AlAs",
+        [3.605296, 3.2329378, 2.2163186],
+        [0.0006794373, 0.0, 0.007512709],
+    ),
+    (
+        "AlAs_palik",
+        [3.605296, 3.2329378, 2.2163186],
+        [0.0006794373, 0.0, 0.007512709],
+    ),
+    (
+        "AlSb",
+        [0.0, 4.1393747, 4.6692543],
+        [0.0, 0.09400908, 1.30057],
+    ),
+    (
+        "AlSb_palik",
+        [0.0, 4.1393747, 4.6692543],
+        [0.0, 0.09400908, 1.30057],
+    ),
+    (
+        "Au",
+        [0.14303598, 0.37530708, 1.4420453],
+        [3.982997, 2.3855565, 1.6033592],
+    ),
+    (
+        "Be",
+        [4.1850123, 3.1850293, 2.7840612],
+        [3.835466, 3.0101223, 2.868994],
+    ),
+    (
+        "Cr",
+        [4.3696675, 2.9165053, 1.6549046],
+        [5.206547, 4.231306, 3.7546988],
+    ),
+    ("CsI", [2.1448996, 1.7023189, 1.6624272], [0.0, 0.0, 0.0]),
+    (
+        "Cu",
+        [0.20100547, 0.9237495, 1.1022154],
+        [3.9132621, 2.4530451, 2.1420898],
+    ),
+    (
+        "Cu_palik",
+        [0.21322851, 0.9197154, 1.1024108],
+        [3.9218733, 2.4573317, 2.136584],
+    ),
+    (
+        "Cu2O",
+        [3.5517726, 2.9498696, 2.7518754],
+        [0.11420702, 0.19389686, 0.6061339],
+    ),
+    (
+        "CuO",
+        [3.247541, 2.4478052, 2.2102196],
+        [0.52108955, 0.57003075, 0.72217894],
+    ),
+    ("d-C", [2.7087197, 2.3188257, 2.2288976], [0.0, 0.0, 0.0]),
+    (
+        "Hg",
+        [2.3989387, 1.440028, 0.9095704],
+        [6.327587, 4.371925, 3.4217637],
+    ),
+    (
+        "HgTe",
+        [4.77904, 3.2311962, 2.6599011],
+        [1.6316127, 1.5808104, 1.7292874],
+    ),
+    (
+        "Ir",
+        [3.0863, 2.0821905, 1.6179146],
+        [5.592153, 4.067088, 3.267312],
+    ),
+    (
+        "K",
+        [0.06404319, 0.046409767, 0.038184915],
+        [2.1041996, 1.34894, 0.9131259],
+    ),
+    (
+        "Li",
+        [0.26579094, 0.19561832, 0.22094862],
+        [3.540155, 2.3111234, 1.6686072],
+    ),
+    (
+        "MgO",
+        [2.0895839, 1.6507235, 1.594879],
+        [4.3326952e-12, 0.0, 2.4986457e-11],
+    ),
+    (
+        "Mo",
+        [4.483974, 3.5251307, 2.7763104],
+        [4.1114373, 3.420827, 3.1506073],
+    ),
+    (
+        "Na_palik",
+        [0.060269356, 0.056140948, 0.061988432],
+        [3.1792734, 2.1124904, 1.5790411],
+    ),
+    (
+        "Nb",
+        [3.420074, 2.7900932, 2.3956294],
+        [3.4413946, 2.7376661, 2.5797458],
+    ),
+    (
+        "Ni_palik",
+        [2.3673046, 1.6633731, 1.4670781],
+        [4.4988117, 3.050153, 2.3454392],
+    ),
+    (
+        "Rh",
+        [2.5857935, 1.8602164, 1.5542634],
+        [6.7822604, 4.702987, 3.976073],
+    ),
+    (
+        "Se",
+        [4.0583115, 2.842935, 2.8208535],
+        [0.75404954, 0.6384435, 0.52180755],
+    ),
+    (
+        "Se_palik",
+        [4.0583115, 2.842935, 2.8208535],
+        [0.75404954, 0.6384435, 0.52180755],
+    ),
+    (
+        "SiC",
+        [3.1723416, 2.5259717, 2.4793706],
+        [7.5376636e-07, 0.0, 1.0192531e-05],
+    ),
+    ("SnTe", [4.5242496, 1.981645, 1.2815913], [0.0, 0.0, 0.0]),
+    (
+        "Ta",
+        [2.062721, 2.3929389, 2.6279287],
+        [2.4083598, 1.7414864, 1.9470278],
+    ),
+    (
+        "Te",
+        [7.3902335, 4.482105, 2.637106],
+        [3.2560222, 3.5270588, 3.2920542],
+    ),
+    ("ThF4", [1.8307136, 1.4422286, 1.3876476], [0.0, 0.0, 0.0]),
+    (
+        "TiC",
+        [3.7005284, 2.8374221, 2.582287],
+        [3.265635, 2.3515892, 2.1727905],
+    ),
+    (
+        "TiN",
+        [1.6484497, 1.150516, 1.3798234],
+        [3.368328, 1.9434981, 1.1020677],
+    ),
+    (
+        "TiO2",
+        [3.45661, 2.8017359, 2.905175],
+        [0.00010526484, 0.0, 0.0006528865],
+    ),
+    (
+        "VC",
+        [3.657566, 2.752736, 2.532672],
+        [3.0683007, 2.1986873, 1.9631927],
+    ),
+    (
+        "V_palik",
+        [4.277582, 3.5129488, 2.7610714],
+        [3.4913008, 2.8894548, 3.111522],
+    ),
+    (
+        "VN",
+        [2.8656023, 2.119189, 1.9400911],
+        [3.0322425, 2.0561156, 1.6163063],
+    ),
+    (
+        "W",
+        [4.3708167, 3.3002465, 2.9984074],
+        [3.5006406, 2.604874, 2.2732332],
+    ),
+];
 
 /// Mitsuba 3's named indices of refraction (its `dielectric`'s
 /// documentation's table), as its rgb variants hold them (f32; read back
@@ -912,6 +1114,7 @@ impl Reader<'_> {
             "bitmap" => {}
             "checkerboard" => return self.checkerboard(props, usage),
             "mesh_attribute" => return self.mesh_attribute(props, usage),
+            "rawconstant" => return self.raw_constant(props),
             _ => return Err(unsupported(o, "")),
         }
         let name = props
@@ -968,6 +1171,25 @@ impl Reader<'_> {
                     tex_coord: 0,
                 },
             })
+            .map_err(|e| fail(&o.at, e.to_string()))
+    }
+
+    /// Mitsuba's `rawconstant`: its `value` (a number or a vector) as it
+    /// is written, no colour conversion (data, as a normal map's).
+    fn raw_constant(&mut self, props: Props) -> Result<u32, SceneError> {
+        let o = props.object;
+        let v = match props.get("value") {
+            None => return Err(fail(&o.at, format!("{} has no value", o.describe()))),
+            Some(p) => match p.value {
+                Value::Float(v) => DVec3::splat(finite(p, v)?),
+                Value::Integer(v) => DVec3::splat(v as f64),
+                Value::Vector(v) | Value::Point(v) | Value::Rgb(v) if v.is_finite() => v,
+                _ => return Err(props.wrong(p, "a finite number or vector")),
+            },
+        };
+        props.finish()?;
+        self.builder
+            .add_texture(Texture::Constant(v.as_vec3()))
             .map_err(|e| fail(&o.at, e.to_string()))
     }
 
@@ -1178,9 +1400,34 @@ impl Reader<'_> {
                 },
             ));
         }
+        if o.kind == "normalmap" {
+            return self.normal_map(o);
+        }
         if o.kind == "twosided" {
             let props = Props::new(o);
             let nested = props.children("bsdf");
+            if let [one] = nested.as_slice() {
+                if one.object.kind == "normalmap" {
+                    // Both sides, each seeing the map in the frame turned
+                    // to it.
+                    let (m, wrap) = self.normal_map(&one.object)?;
+                    if !wrap.one_sided {
+                        return Err(unsupported(
+                            &one.object,
+                            " inside twosided around a model that takes both sides itself",
+                        ));
+                    }
+                    props.finish()?;
+                    return Ok((
+                        m,
+                        Wrappers {
+                            one_sided: false,
+                            normal_map_mirrored: true,
+                            ..wrap
+                        },
+                    ));
+                }
+            }
             let m = match nested.as_slice() {
                 [one]
                     if matches!(
@@ -1203,6 +1450,47 @@ impl Reader<'_> {
             return Ok((self.rough_dielectric(o)?, Wrappers::default()));
         }
         Ok((self.one_sided_bsdf(o)?, ONE_SIDED))
+    }
+
+    /// Mitsuba's `normalmap` around a BSDF: its `normalmap` texture (data:
+    /// a bitmap is read `raw` only where the file says so, as Mitsuba
+    /// reads it) perturbs the shading frame the BSDF sees
+    /// ([`crate::material::NormalMapped`]). A mask or another map inside
+    /// it is refused (put the mask outside).
+    fn normal_map(&mut self, o: &Object) -> Result<(Material, Wrappers), SceneError> {
+        let props = Props::new(o);
+        let nested = props.children("bsdf");
+        let [one] = nested.as_slice() else {
+            return Err(unsupported(o, " with other than one nested bsdf"));
+        };
+        if matches!(one.object.kind.as_str(), "normalmap" | "mask" | "bumpmap") {
+            return Err(unsupported(&one.object, " inside a normalmap"));
+        }
+        let (material, wrap) = self.bsdf(&one.object)?;
+        if props.named_child("normalmap").is_none() && props.get("normalmap").is_none() {
+            return Err(fail(
+                &o.at,
+                format!("{} has no \"normalmap\" texture", o.describe()),
+            ));
+        }
+        let map = self.colour(&props, "normalmap", ColourUse::Reflectance, 0.0)?;
+        let map = self.texture_of(map, &o.at)?;
+        // Mitsuba 3.9.1's defaults, the only behaviour twintrace has.
+        if !props.boolean("flip_invalid_normals", true)? {
+            return Err(unsupported(o, " with flip_invalid_normals false"));
+        }
+        if !props.boolean("use_shadowing_function", true)? {
+            return Err(unsupported(o, " with use_shadowing_function false"));
+        }
+        props.finish()?;
+        Ok((
+            material,
+            Wrappers {
+                normal_map: Some(map),
+                normal_map_mirrored: false,
+                ..wrap
+            },
+        ))
     }
 
     /// Mitsuba's smooth `dielectric` or `thindielectric` (both sides their
@@ -1239,10 +1527,11 @@ impl Reader<'_> {
     fn rough_dielectric(&mut self, o: &Object) -> Result<Material, SceneError> {
         let props = Props::new(o);
         let (eta, reflectance, transmittance) = self.interface(&props)?;
-        let (distribution, alpha) = self.microfacets(&props)?;
+        let (distribution, (alpha, alpha_v)) = self.microfacets(&props)?;
         let m = Material::RoughDielectric {
             distribution,
             alpha,
+            alpha_v,
             eta,
             reflectance,
             transmittance,
@@ -1255,7 +1544,7 @@ impl Reader<'_> {
     /// roughness ([`Self::roughness`]). Visible normals sampled or not
     /// (`sample_visible`), the same BSDF: only the noise differs, and
     /// twintrace always samples the visible ones.
-    fn microfacets(&mut self, props: &Props) -> Result<(u32, u32), SceneError> {
+    fn microfacets(&mut self, props: &Props) -> Result<(u32, (u32, Option<u32>)), SceneError> {
         let distribution = match props.string("distribution")?.unwrap_or("beckmann") {
             "beckmann" => crate::microfacet::distribution::BECKMANN,
             "ggx" => crate::microfacet::distribution::GGX,
@@ -1295,10 +1584,11 @@ impl Reader<'_> {
                 let (eta, k) = self.conductor_index(&props)?;
                 let specular =
                     self.colour(&props, "specular_reflectance", ColourUse::Reflectance, 1.0)?;
-                let (distribution, alpha) = self.microfacets(&props)?;
+                let (distribution, (alpha, alpha_v)) = self.microfacets(&props)?;
                 Material::RoughConductor {
                     distribution,
                     alpha,
+                    alpha_v,
                     specular: self.texture_of(specular, &o.at)?,
                     eta,
                     k,
@@ -1322,7 +1612,13 @@ impl Reader<'_> {
             }
             "roughplastic" => {
                 let eta = props.ior("int_ior", "polypropylene")? / props.ior("ext_ior", "air")?;
-                let (distribution, alpha) = self.microfacets(&props)?;
+                let (distribution, (alpha, alpha_v)) = self.microfacets(&props)?;
+                if alpha_v.is_some() {
+                    return Err(unsupported(
+                        o,
+                        " with alpha_u other than alpha_v (Mitsuba's roughplastic is isotropic)",
+                    ));
+                }
                 // Mitsuba's roughplastic takes its roughness as a number.
                 let alpha = match self.builder.texture(alpha) {
                     Some(&Texture::Constant(c)) => c.x,
@@ -1353,7 +1649,9 @@ impl Reader<'_> {
     fn conductor_index(&mut self, props: &Props) -> Result<(Vec3, Vec3), SceneError> {
         let o = props.object;
         let material = props.string("material")?.unwrap_or("none");
-        let explicit = props.get("eta").is_some() || props.named_child("eta").is_some();
+        let explicit = ["eta", "k"]
+            .iter()
+            .any(|n| props.get(n).is_some() || props.named_child(n).is_some());
         match (material, explicit) {
             ("none", _) => {}
             (_, true) => {
@@ -1363,12 +1661,17 @@ impl Reader<'_> {
                 ))
             }
             (name, false) => {
-                return Err(unsupported(
-                    o,
-                    &format!(
-                        " with material \"{name}\" (Mitsuba's tabulated metals; give eta and k)"
-                    ),
-                ))
+                let Some((_, eta, k)) = NAMED_CONDUCTORS.iter().find(|(n, ..)| *n == name) else {
+                    let names: Vec<&str> = NAMED_CONDUCTORS.iter().map(|(n, ..)| *n).collect();
+                    return Err(fail(
+                        &o.at,
+                        format!(
+                            "material \"{name}\" is not one of Mitsuba's tabulated conductors (none, {})",
+                            names.join(", ")
+                        ),
+                    ));
+                };
+                return Ok((Vec3::from_array(*eta), Vec3::from_array(*k)));
             }
         }
         let eta = self.constant_colour(props, "eta", ColourUse::Reflectance, 0.0)?;
@@ -1377,9 +1680,11 @@ impl Reader<'_> {
     }
 
     /// A microfacet model's roughness (`alpha`, default 0.1, or `alpha_u`
-    /// and `alpha_v` where they are the same), a number or a
-    /// checkerboard of numbers, as a texture.
-    fn roughness(&mut self, props: &Props) -> Result<u32, SceneError> {
+    /// and `alpha_v`), each a number or a checkerboard of numbers, as a
+    /// texture: `alpha`, or `alpha_u` and, where it differs, `alpha_v`
+    /// (anisotropic: along and across the surface's tangent,
+    /// [`crate::material::rough_lobe`]).
+    fn roughness(&mut self, props: &Props) -> Result<(u32, Option<u32>), SceneError> {
         let o = props.object;
         let given = |name: &str| props.get(name).is_some() || props.named_child(name).is_some();
         let one = |reader: &mut Self, name: &str| -> Result<Colour, SceneError> {
@@ -1401,10 +1706,8 @@ impl Reader<'_> {
             (false, true, true) => {
                 let (u, v) = (one(self, "alpha_u")?, one(self, "alpha_v")?);
                 if u != v {
-                    return Err(unsupported(
-                        o,
-                        " with alpha_u other than alpha_v (anisotropic roughness needs the surface's tangent frame, which twintrace does not carry yet)",
-                    ));
+                    let u = self.texture_of(u, &o.at)?;
+                    return Ok((u, Some(self.texture_of(v, &o.at)?)));
                 }
                 u
             }
@@ -1416,7 +1719,7 @@ impl Reader<'_> {
             }
             _ => return Err(fail(&o.at, "give both alpha_u and alpha_v".into())),
         };
-        self.texture_of(alpha, &o.at)
+        Ok((self.texture_of(alpha, &o.at)?, None))
     }
 
     /// A shape, placed by `outer` (an instance's transform, or none).
@@ -1512,6 +1815,24 @@ impl Reader<'_> {
                         return Err(unsupported(
                             o,
                             " with a texture (twintrace's sphere has other texture coordinates)",
+                        ));
+                    }
+                }
+                if let Some((m, w, _)) = self.builder.material_parts(material) {
+                    let anisotropic = matches!(
+                        m,
+                        Material::RoughConductor {
+                            alpha_v: Some(_),
+                            ..
+                        } | Material::RoughDielectric {
+                            alpha_v: Some(_),
+                            ..
+                        }
+                    );
+                    if anisotropic || w.normal_map.is_some() {
+                        return Err(unsupported(
+                            o,
+                            " with an anisotropic or normal-mapped material (twintrace's sphere has another tangent frame)",
                         ));
                     }
                 }
@@ -2067,6 +2388,96 @@ mod tests {
         let doc = crate::loader::mitsuba::xml::parse_text(&text, &path, &[])
             .map_err(|e| fail(&e.at, e.message))?;
         build(&doc)
+    }
+
+    #[test]
+    fn anisotropic_roughness_normal_maps_and_tabulated_metals_are_read() {
+        let s = scene(&format!(
+            r#"<sensor type="perspective">{FILM}</sensor><shape type="rectangle"><bsdf type="twosided"><bsdf type="normalmap">
+            <texture name="normalmap" type="rawconstant"><vector name="value" value="0.6, 0.5, 0.9"/></texture>
+            <bsdf type="roughconductor"><string name="material" value="Au"/><float name="alpha_u" value="0.3"/><float name="alpha_v" value="0.05"/></bsdf>
+            </bsdf></bsdf></shape>"#
+        ))
+        .unwrap();
+        let Material::RoughConductor {
+            alpha,
+            alpha_v,
+            eta,
+            k,
+            ..
+        } = s.materials()[0]
+        else {
+            panic!("{:?}", s.materials())
+        };
+        let value = |t: u32| s.textures()[t as usize];
+        assert_eq!(value(alpha), Texture::Constant(Vec3::splat(0.3)));
+        assert_eq!(
+            alpha_v.map(value),
+            Some(Texture::Constant(Vec3::splat(0.05)))
+        );
+        let (_, au_eta, au_k) = NAMED_CONDUCTORS.iter().find(|(n, ..)| *n == "Au").unwrap();
+        assert_eq!(
+            (eta, k),
+            (Vec3::from_array(*au_eta), Vec3::from_array(*au_k))
+        );
+        let w = s.wrappers(0);
+        assert!(!w.one_sided && w.normal_map_mirrored, "{w:?}");
+        // The rawconstant as written: data, no colour conversion.
+        assert_eq!(
+            w.normal_map.map(value),
+            Some(Texture::Constant(Vec3::new(0.6, 0.5, 0.9)))
+        );
+        // Isotropic where the two are the same; normalmap alone is one-sided
+        // and read in the shape's frame.
+        let s = scene(&format!(
+            r#"<sensor type="perspective">{FILM}</sensor><shape type="rectangle"><bsdf type="normalmap">
+            <rgb name="normalmap" value="0.5, 0.5, 1"/>
+            <bsdf type="roughconductor"><float name="alpha_u" value="0.2"/><float name="alpha_v" value="0.2"/></bsdf></bsdf></shape>"#
+        ))
+        .unwrap();
+        assert!(matches!(
+            s.materials()[0],
+            Material::RoughConductor { alpha_v: None, .. }
+        ));
+        let w = s.wrappers(0);
+        assert!(w.one_sided && !w.normal_map_mirrored && w.normal_map.is_some());
+    }
+
+    #[test]
+    fn what_the_frame_does_not_support_is_refused_by_name() {
+        for (body, says) in [
+            (
+                r#"<bsdf type="roughplastic"><float name="alpha_u" value="0.2"/><float name="alpha_v" value="0.1"/></bsdf>"#,
+                "roughplastic\" is not supported with alpha_u other than alpha_v",
+            ),
+            (
+                r#"<bsdf type="normalmap"><rgb name="normalmap" value="0.5, 0.5, 1"/><bsdf type="mask"><bsdf type="diffuse"/></bsdf></bsdf>"#,
+                "mask\" is not supported inside a normalmap",
+            ),
+            (
+                r#"<bsdf type="normalmap"><bsdf type="diffuse"/></bsdf>"#,
+                "has no \"normalmap\" texture",
+            ),
+            (
+                r#"<bsdf type="conductor"><string name="material" value="Unobtainium"/></bsdf>"#,
+                "\"Unobtainium\" is not one of Mitsuba's tabulated conductors (none, a-C, Ag, Al",
+            ),
+            (
+                r#"<bsdf type="twosided"><bsdf type="normalmap"><rgb name="normalmap" value="0.5, 0.5, 1"/><bsdf type="dielectric"/></bsdf></bsdf>"#,
+                "inside twosided around a model that takes both sides itself",
+            ),
+            (
+                r#"<bsdf type="roughconductor"><float name="alpha_u" value="0.2"/><float name="alpha_v" value="0.1"/></bsdf>"#,
+                "sphere\" is not supported with an anisotropic or normal-mapped material",
+            ),
+        ] {
+            let err = scene(&format!(
+                r#"<sensor type="perspective">{FILM}</sensor><shape type="sphere">{body}</shape>"#
+            ))
+            .unwrap_err()
+            .to_string();
+            assert!(err.contains(says), "{body}: {err}");
+        }
     }
 
     /// A square of two triangles (one PLY quad, fanned) with a vertex
