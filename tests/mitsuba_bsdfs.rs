@@ -441,9 +441,11 @@ fn note_rough_case(
     fit: &dyn Fn(Vec3) -> (f32, f32),
 ) {
     let d = distribution as usize;
+    let raw = |dir: Vec3| {
+        wrapped_bsdf_eval(material, wrap, ctx, -wi, si, dir).unwrap_or((Vec3::ZERO, 0.0))
+    };
     let eval = |dir: Vec3| {
-        let (f, pdf) =
-            wrapped_bsdf_eval(material, wrap, ctx, -wi, si, dir).unwrap_or((Vec3::ZERO, 0.0));
+        let (f, pdf) = raw(dir);
         let (fe, fp) = fit(dir);
         (f * fe, pdf * fp)
     };
@@ -472,7 +474,7 @@ fn note_rough_case(
     // twintrace's own sample at the same numbers: its weight is its eval
     // over its pdf.
     if let Some(s) = wrapped_scatter(material, wrap, ctx, -wi, si, &u) {
-        let (f, pdf) = eval(s.direction);
+        let (f, pdf) = raw(s.direction);
         if pdf > 0.0 {
             w.own_weight = w.own_weight.max(rel(s.weight.x, f.x / pdf, ROUGH_FLOOR));
         }
