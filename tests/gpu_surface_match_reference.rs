@@ -21,9 +21,11 @@ fn surface_interactions_match_the_reference() {
     pass("surface interactions", surface::all_scenes(common::gpu()));
 }
 
-/// The check sees each vertex attribute and the normal map: a kernel that
-/// ignores the colours, reads the first uv set for the second, ignores the
-/// normal map, or turns its bitangent the other way fails it.
+/// The check sees each vertex attribute, the normal map and the tangent
+/// frame: a kernel that ignores the colours, reads the first uv set for
+/// the second, ignores the normal map, turns its bitangent the other way,
+/// or takes the shading frame's tangent reversed or from the other edge
+/// fails it.
 #[test]
 fn surface_kernels_missing_a_vertex_attribute_or_the_normal_map_fail() {
     let scene = reference::load_scene(&fixture_scene("gltf-materials.json")).unwrap();
@@ -49,6 +51,11 @@ fn surface_kernels_missing_a_vertex_attribute_or_the_normal_map_fail() {
             "let b = select(cross(n, t), -cross(n, t), tangent.w < 0.0);",
             "let b = select(-cross(n, t), cross(n, t), tangent.w < 0.0);",
         ),
+        (
+            "the shading frame's tangent from the determinant's other sign",
+            "dp_du = (duv1.y * (pb - pa) - duv0.y * (pc - pa)) / det;",
+            "dp_du = (duv0.y * (pc - pa) - duv1.y * (pb - pa)) / det;",
+        ),
     ] {
         assert_eq!(library.matches(from).count(), 1, "`{from}` not found once");
         let mutant = library.replace(from, to);
@@ -61,6 +68,23 @@ fn surface_kernels_missing_a_vertex_attribute_or_the_normal_map_fail() {
         .expect_err(what);
         println!("{what}: {}", e.lines().next().unwrap_or(""));
     }
+    // A mesh without texture coordinates (the frames scene's pyramid).
+    let frames = twintrace::compare::gate::workspace_root()
+        .join("fixtures/mitsuba/frames/test_frames_path.xml");
+    let scene = reference::load_scene(&frames.to_string_lossy()).unwrap();
+    let (from, to) = ("dp_du = pb - pa;", "dp_du = pc - pa;");
+    assert_eq!(library.matches(from).count(), 1, "`{from}` not found once");
+    let e = surface::surface_interactions_with_library(
+        common::gpu(),
+        "mitsuba frames",
+        &scene,
+        &library.replace(from, to),
+    )
+    .expect_err("the tangent from the other edge");
+    println!(
+        "the tangent from the other edge: {}",
+        e.lines().next().unwrap_or("")
+    );
 }
 
 #[test]

@@ -748,3 +748,35 @@ fn export_mitsuba_writes_a_rough_plastic_as_mitsubas_own_and_the_reader_reads_it
     };
     assert_eq!(rough(&a), rough(&b));
 }
+
+#[test]
+fn export_mitsuba_writes_a_normal_map_as_mitsubas_own_and_the_reader_reads_it_back() {
+    use reference::material::Material;
+    let [a, b] = exported_on_as_mitsubas_own(
+        r#"{ "type": "normal_mapped", "material": "inner", "normal_map": [0.6, 0.5, 0.9] },
+  "inner": { "type": "rough_conductor", "distribution": "ggx", "alpha": 0.3, "alpha_v": 0.05, "eta": [0.2, 0.9, 1.1], "k": [3.9, 2.4, 2.2] }"#,
+        "normalmap",
+        QUAD,
+    );
+    // The mapped material (the JSON scene also holds the one it wraps).
+    let mapped = |s: &reference::Scene| {
+        (0..s.materials().len() as u32)
+            .find_map(|m| {
+                let w = s.wrappers(m);
+                let map = w.normal_map?;
+                let Material::RoughConductor { alpha, alpha_v, .. } = s.materials()[m as usize]
+                else {
+                    return None;
+                };
+                let tex = |t: u32| s.textures()[t as usize];
+                Some((
+                    tex(map),
+                    w.normal_map_mirrored,
+                    tex(alpha),
+                    alpha_v.map(tex),
+                ))
+            })
+            .unwrap()
+    };
+    assert_eq!(mapped(&a), mapped(&b));
+}

@@ -763,6 +763,22 @@ fn masks_and_one_sided_materials_that_cannot_be_are_named() {
         ),
         &["materials.a.opacity"],
     );
+    // A normal map goes inside a mask, as Mitsuba's normalmap holds the
+    // BSDF a mask wraps.
+    check(
+        &wrapped_scene(
+            r#""a": { "type": "normal_mapped", "material": "b", "normal_map": [0.5, 0.5, 1] },
+            "b": { "type": "mask", "material": "c" }, "c": { "type": "lambertian", "albedo": [0.5, 0.5, 0.5] }"#,
+        ),
+        &["materials.a", "put the normal map inside the mask"],
+    );
+    check(
+        &wrapped_scene(
+            r#""a": { "type": "normal_mapped", "material": "c", "normal_map": "t" },
+            "c": { "type": "lambertian", "albedo": [0.5, 0.5, 0.5] }"#,
+        ),
+        &["materials.a.normal_map"],
+    );
 }
 
 #[test]

@@ -62,7 +62,7 @@ fn si_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let d = vec3<f32>(bitcast<f32>(input[w + 3u]), bitcast<f32>(input[w + 4u]), bitcast<f32>(input[w + 5u]));
     let uv = vec2<f32>(bitcast<f32>(input[w + 8u]), bitcast<f32>(input[w + 9u]));
     let si = surface_interaction(Ray(o, d), Hit(true, bitcast<f32>(input[w + 6u]), input[w + 7u], uv));
-    let r = 19u * i;
+    let r = 25u * i;
     output[r] = bitcast<u32>(si.p.x);
     output[r + 1u] = bitcast<u32>(si.p.y);
     output[r + 2u] = bitcast<u32>(si.p.z);
@@ -82,11 +82,27 @@ fn si_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     output[r + 16u] = bitcast<u32>(si.color.x);
     output[r + 17u] = bitcast<u32>(si.color.y);
     output[r + 18u] = bitcast<u32>(si.color.z);
+    output[r + 19u] = bitcast<u32>(si.tangent.x);
+    output[r + 20u] = bitcast<u32>(si.tangent.y);
+    output[r + 21u] = bitcast<u32>(si.tangent.z);
+    output[r + 22u] = bitcast<u32>(si.bitangent.x);
+    output[r + 23u] = bitcast<u32>(si.bitangent.y);
+    output[r + 24u] = bitcast<u32>(si.bitangent.z);
 }
 ";
 
 /// Words a case's output holds.
-const SI_WORDS: usize = 19;
+const SI_WORDS: usize = 25;
+
+/// The tangent frame: ∂p/∂u (a triangle's from its texture coordinates,
+/// two products over a determinant), its part along the normal removed
+/// and normalized (a dot, a product, a square root and a division), and
+/// the bitangent's cross product with the normal (whose own error,
+/// NORMAL_TOL, it carries): some 20 roundings on a well-conditioned
+/// parameterization, counted as 64 ulps, times the frame's magnification
+/// at the hit ([`tangent_magnification`]). Measured: printed by the test
+/// as a fraction of the bound.
+const TANGENT_TOL: f32 = 64.0 * EPS;
 
 /// Camera rays and random rays through the scene's bounds that hit.
 fn hits(scene: &Scene) -> Vec<(Ray, reference::geometry::Hit)> {
@@ -168,6 +184,7 @@ pub fn surface_interactions_with_library(
         let uv = Vec2::new(f32::from_bits(w[9]), f32::from_bits(w[10]));
         let uv1 = Vec2::new(f32::from_bits(w[14]), f32::from_bits(w[15]));
         let color = v3(&w[16..19]);
+        let (tangent, bitangent) = (v3(&w[19..22]), v3(&w[22..25]));
         let p_error = f32::from_bits(w[11]);
         let at = format!("{name} case {i} (prim {}, t {})", hit.prim, hit.t);
         let prim = scene.primitives()[hit.prim as usize];
@@ -234,6 +251,20 @@ pub fn surface_interactions_with_library(
                 cpu.color
             ));
         }
+        // The frame's conditioning: how much of the normalized derivative
+        // survives the projection (the shading normal's error enters the
+        // tangent through it, magnified by its inverse).
+        let tangent_tol = (TANGENT_TOL + normal_tol) * tangent_magnification(scene, hit.prim, &cpu);
+        let dt = (tangent - cpu.tangent)
+            .abs()
+            .max_element()
+            .max((bitangent - cpu.bitangent).abs().max_element());
+        if dt > tangent_tol {
+            fail(format!(
+                "tangent frame {tangent}, {bitangent} vs {}, {} (bound {tangent_tol})",
+                cpu.tangent, cpu.bitangent
+            ));
+        }
         let de = (p_error - cpu.p_error).abs() / cpu.p_error;
         if de > P_ERROR_REL_TOL {
             fail(format!("p_error {p_error} vs {}", cpu.p_error));
@@ -244,7 +275,9 @@ pub fn surface_interactions_with_library(
         }
         for (k, x) in [
             dp / p_tol,
-            (dn / normal_tol).max(ds / shading_tol),
+            (dn / normal_tol)
+                .max(ds / shading_tol)
+                .max(dt / tangent_tol),
             (duv / uv_tol).max(duv1 / uv1_tol).max(dc / color_tol),
             de / P_ERROR_REL_TOL,
         ]
@@ -262,7 +295,7 @@ pub fn surface_interactions_with_library(
         &failures[..failures.len().min(5)]
     );
     Ok(format!(
-        "{name}: {} hits ({mapped} normal-mapped); largest |Δp| {:.3}, |Δn| {:.3}, |Δuv, Δuv1, Δcolour| {:.3}, |Δp_error| {:.3} of their bounds",
+        "{name}: {} hits ({mapped} normal-mapped); largest |Δp| {:.3}, |Δn, Δframe| {:.3}, |Δuv, Δuv1, Δcolour| {:.3}, |Δp_error| {:.3} of their bounds",
         cases.len(),
         worst[0],
         worst[1],
@@ -271,10 +304,54 @@ pub fn surface_interactions_with_library(
     ))
 }
 
+/// How much the tangent frame magnifies rounding at a hit (1 where it is
+/// well conditioned; [`TANGENT_TOL`]): a sphere's u derivative shrinks
+/// toward its poles as sin θ; a triangle's ∂p/∂u loses relative accuracy
+/// in its determinant of texture coordinates (by the ratio of the
+/// determinant's terms to it) and in the projection off the shading
+/// normal (by the inverse of the share of it that survives); a quad's is
+/// its exact edge, square to its normal.
+fn tangent_magnification(
+    scene: &Scene,
+    prim: u32,
+    si: &reference::geometry::SurfaceInteraction,
+) -> f32 {
+    let p = scene.primitives()[prim as usize];
+    let m = match p.tag {
+        primitive_tag::SPHERE => {
+            let n = si.geometric_normal;
+            1.0 / (n.x * n.x + n.z * n.z).sqrt()
+        }
+        primitive_tag::QUAD => 1.0,
+        _ => {
+            let tri = &scene.triangles()[p.index as usize];
+            let dp = scene.triangle_dp_du(tri, si.geometric_normal);
+            let n = si.shading_normal;
+            let survives = (dp - n * n.dot(dp)).length() / dp.length();
+            let det_terms = if tri.flags & reference::shapes::TRIANGLE_HAS_UVS != 0 {
+                let uvs = &scene.mesh().uvs;
+                let [i0, i1, i2] = tri.vertices.map(|i| i as usize);
+                let (a, b) = (uvs[i1] - uvs[i0], uvs[i2] - uvs[i0]);
+                let det = a.x * b.y - a.y * b.x;
+                ((a.x * b.y).abs() + (a.y * b.x).abs()) / det.abs()
+            } else {
+                1.0
+            };
+            det_terms / survives
+        }
+    };
+    if m.is_finite() {
+        m.max(1.0)
+    } else {
+        f32::INFINITY
+    }
+}
+
 /// [`surface_interactions`] on spheres (rtow-final), quads (cornell),
-/// triangles with shading normals and uv (the glTF fixture), and triangles
+/// triangles with shading normals and uv (the glTF fixture), triangles
 /// with vertex colours, a second uv set and normal maps (the glTF
-/// materials fixture).
+/// materials fixture), and the tangent frames of Mitsuba's gate scene
+/// frames (meshes with and without texture coordinates, quads).
 pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let load = |spec: &str| reference::load_scene(spec).map_err(|e| e.to_string());
     let mut lines = Vec::new();
@@ -285,6 +362,14 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
         (
             "gltf-materials",
             load(&fixture_scene("gltf-materials.json"))?,
+        ),
+        (
+            "mitsuba frames",
+            load(
+                &crate::compare::gate::workspace_root()
+                    .join("fixtures/mitsuba/frames/test_frames_path.xml")
+                    .to_string_lossy(),
+            )?,
         ),
     ] {
         lines.push(surface_interactions(ctx, name, &scene)?);

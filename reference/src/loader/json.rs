@@ -279,6 +279,7 @@ pub enum MaterialJson {
     RoughPlastic(RoughPlasticMaterialJson),
     Mask(MaskMaterialJson),
     OneSided(OneSidedMaterialJson),
+    NormalMapped(NormalMappedMaterialJson),
 }
 
 /// Mitsuba 3's `mask` around another material (by name): where a path
@@ -292,6 +293,18 @@ pub struct MaskMaterialJson {
     /// in [0, 1] (Mitsuba's default 0.5).
     #[serde(default = "default_opacity")]
     pub opacity: ScalarRef,
+}
+
+/// Mitsuba 3's `normalmap` around another material (by name): the
+/// texture's value `c` is the normal `2c − 1` in the surface's tangent
+/// frame, in which the material then shades
+/// (`reference::material::NormalMapped`; read as data, so an image should
+/// be linear).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NormalMappedMaterialJson {
+    pub material: String,
+    pub normal_map: ColorRef,
 }
 
 fn default_opacity() -> ScalarRef {
@@ -1221,7 +1234,7 @@ impl Resolver<'_> {
                     emission: self.colour(emission, 0).map_err(field("emission"))?,
                 }
             }
-            MaterialJson::Mask(_) | MaterialJson::OneSided(_) => {
+            MaterialJson::Mask(_) | MaterialJson::OneSided(_) | MaterialJson::NormalMapped(_) => {
                 let id = self.wrapped_material(name, m)?;
                 self.materials.insert(name.to_string(), id);
                 return Ok(id);
@@ -1268,9 +1281,10 @@ impl Resolver<'_> {
             | MaterialJson::RoughPlastic(RoughPlasticMaterialJson { emission, .. }) => {
                 emission.as_ref()
             }
-            MaterialJson::DiffuseLight(_) | MaterialJson::Mask(_) | MaterialJson::OneSided(_) => {
-                None
-            }
+            MaterialJson::DiffuseLight(_)
+            | MaterialJson::Mask(_)
+            | MaterialJson::OneSided(_)
+            | MaterialJson::NormalMapped(_) => None,
         };
         match emission {
             None => {}
@@ -1287,14 +1301,16 @@ impl Resolver<'_> {
         Ok(id)
     }
 
-    /// A `mask` or `one_sided` material: a copy of the material it names
-    /// (with its emission) under one more of Mitsuba's wrappers.
+    /// A `mask`, `one_sided` or `normal_mapped` material: a copy of the
+    /// material it names (with its emission) under one more of Mitsuba's
+    /// wrappers.
     fn wrapped_material(&mut self, name: &str, m: &MaterialJson) -> Result<u32, SceneError> {
         let at = |e: SceneError| e.within(&format!("materials.{name}"));
-        let (inner, opacity) = match m {
-            MaterialJson::Mask(w) => (&w.material, Some(&w.opacity)),
-            MaterialJson::OneSided(w) => (&w.material, None),
-            _ => unreachable!("wrapped_material is called for mask and one_sided"),
+        let (inner, opacity, normal_map) = match m {
+            MaterialJson::Mask(w) => (&w.material, Some(&w.opacity), None),
+            MaterialJson::OneSided(w) => (&w.material, None, None),
+            MaterialJson::NormalMapped(w) => (&w.material, None, Some(&w.normal_map)),
+            _ => unreachable!("wrapped_material is called for mask, one_sided and normal_mapped"),
         };
         if self.wrapping.iter().any(|n| n == name) {
             return Err(at(SceneError::invalid(
@@ -1313,20 +1329,34 @@ impl Resolver<'_> {
             .builder
             .material_parts(inner_id)
             .expect("a material the resolver made");
-        match opacity {
-            Some(_) if wrappers.opacity.is_some() => {
+        match (opacity, normal_map) {
+            (Some(_), _) if wrappers.opacity.is_some() => {
                 return Err(at(SceneError::invalid(
                     "material",
                     format!("`{inner}` is a mask already: a material takes one mask"),
                 )))
             }
-            Some(o) => {
+            (Some(o), _) => {
                 let texture = self
                     .scalar(o)
                     .map_err(|e| e.within(&format!("materials.{name}.opacity")))?;
                 wrappers.opacity = Some(texture);
             }
-            None => wrappers.one_sided = true,
+            // Mitsuba's normalmap holds the BSDF the mask wraps, not the
+            // mask (the reader refuses a mask inside a normalmap alike).
+            (None, Some(_)) if wrappers.opacity.is_some() || wrappers.normal_map.is_some() => {
+                return Err(at(SceneError::invalid(
+                    "material",
+                    format!("`{inner}` has a mask or a normal map already: put the normal map inside the mask, one a material"),
+                )))
+            }
+            (None, Some(c)) => {
+                let texture = self
+                    .colour(c, 0)
+                    .map_err(|e| e.within(&format!("materials.{name}.normal_map")))?;
+                wrappers.normal_map = Some(texture);
+            }
+            (None, None) => wrappers.one_sided = true,
         }
         let id = self.builder.add_material(material).map_err(at)?;
         self.builder.set_wrappers(id, wrappers).map_err(at)?;

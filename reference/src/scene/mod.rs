@@ -688,7 +688,7 @@ impl Scene {
     /// (where they are degenerate, [`Onb::from_normal`]'s tangent of `ng`),
     /// else the edge `p1 − p0` (u the barycentric `b1`).
     #[inline]
-    fn triangle_dp_du(&self, tri: &Triangle, ng: Vec3) -> Vec3 {
+    pub fn triangle_dp_du(&self, tri: &Triangle, ng: Vec3) -> Vec3 {
         let [i0, i1, i2] = tri.vertices.map(|i| i as usize);
         let m = &self.mesh;
         let (dp0, dp1) = (

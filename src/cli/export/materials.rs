@@ -825,12 +825,13 @@ pub(super) fn surface(scene: &Scene, i: usize) -> Result<Surface> {
 }
 
 /// A material's wrappers (`reference::material::Wrappers`) as Mitsuba's:
-/// its model without `twosided` where one-sided, inside a `mask` of its
-/// opacity.
+/// its model without `twosided` where one-sided, inside a `normalmap` of
+/// its normal map, inside a `mask` of its opacity.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub(super) struct Wrapping {
     pub one_sided: bool,
     pub opacity: Option<Tex>,
+    pub normal_map: Option<Tex>,
 }
 
 impl Wrapping {
@@ -839,6 +840,17 @@ impl Wrapping {
     /// luminance of a bitmap, a checkerboard of numbers (whose colours
     /// Mitsuba's `eval_1` takes swapped).
     pub(super) fn wrap(&self, bsdf: &str, uv: UvMap) -> String {
+        let mapped;
+        let bsdf = match &self.normal_map {
+            Some(t) => {
+                mapped = format!(
+                    r#"<bsdf type="normalmap">{}{bsdf}</bsdf>"#,
+                    t.xml("normalmap", uv)
+                );
+                mapped.as_str()
+            }
+            None => bsdf,
+        };
         let Some(opacity) = &self.opacity else {
             return bsdf.to_string();
         };
@@ -863,13 +875,16 @@ impl Wrapping {
     }
 
     pub(super) fn images(&self, out: &mut Vec<u32>) {
-        if let Some(t) = &self.opacity {
+        for t in self.opacity.iter().chain(&self.normal_map) {
             t.images(out);
         }
     }
 
     pub(super) fn uses_uv(&self) -> bool {
-        self.opacity.as_ref().is_some_and(Tex::uses_uv)
+        self.opacity
+            .iter()
+            .chain(&self.normal_map)
+            .any(Tex::uses_uv)
     }
 }
 
@@ -898,9 +913,14 @@ pub(super) fn wrapping(scene: &Scene, i: usize, surface: &Surface) -> Result<Wra
             bail!("{what} has a mask whose opacity Mitsuba would not read as a number alike (a 3-D checker, an image of two wrap modes or the second uv set: not exported)");
         }
     }
+    if w.normal_map_mirrored {
+        bail!("{what} reads its normal map in the frame turned to the viewer (Mitsuba's twosided around a normalmap), which the export does not write (not exported)");
+    }
+    let normal_map = w.normal_map.map(|t| texture(scene, t, &what)).transpose()?;
     Ok(Wrapping {
         one_sided: w.one_sided,
         opacity,
+        normal_map,
     })
 }
 
