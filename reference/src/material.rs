@@ -555,24 +555,37 @@ pub fn wrapped_scatter(
             return Some(Scatter::delta(ray_dir, Vec3::ONE));
         }
     }
-    if let Some(map) = wrap.normal_map {
-        let mapped = NormalMapped::new(ctx.eval(map, si), wrap.normal_map_mirrored, ray_dir, si);
-        if absorbs_behind(wrap, ray_dir, &mapped.si) {
-            return None;
-        }
-        let s = scatter(material, ctx, ray_dir, &mapped.si, u)?;
-        if !mapped.keeps(s.direction) {
-            return None;
-        }
-        return Some(Scatter {
-            weight: s.weight * mapped.shadowing(s.direction),
-            ..s
-        });
-    }
-    if absorbs_behind(wrap, ray_dir, si) {
+    let mapped = map_frame(wrap, ctx, ray_dir, si);
+    let shaded = mapped.as_ref().map_or(si, |m| &m.si);
+    if absorbs_behind(wrap, ray_dir, shaded) {
         return None;
     }
-    scatter(material, ctx, ray_dir, si, u)
+    let s = scatter(material, ctx, ray_dir, shaded, u)?;
+    match mapped {
+        Some(m) if !m.keeps(s.direction) => None,
+        Some(m) => Some(Scatter {
+            weight: s.weight * m.shadowing(s.direction),
+            ..s
+        }),
+        None => Some(s),
+    }
+}
+
+/// The frame of `wrap`'s normal map at `si`, where it has one.
+#[inline]
+fn map_frame(
+    wrap: Wrappers,
+    ctx: TextureContext,
+    ray_dir: Vec3,
+    si: &SurfaceInteraction,
+) -> Option<NormalMapped> {
+    let map = wrap.normal_map?;
+    Some(NormalMapped::new(
+        ctx.eval(map, si),
+        wrap.normal_map_mirrored,
+        ray_dir,
+        si,
+    ))
 }
 
 /// [`bsdf_eval`] under the material's [`Wrappers`]: `None` behind a one-sided
@@ -586,26 +599,18 @@ pub fn wrapped_bsdf_eval(
     si: &SurfaceInteraction,
     wi: Vec3,
 ) -> Option<(Vec3, f32)> {
-    let (f_cos, pdf) = match wrap.normal_map {
-        Some(map) => {
-            let mapped =
-                NormalMapped::new(ctx.eval(map, si), wrap.normal_map_mirrored, ray_dir, si);
-            if absorbs_behind(wrap, ray_dir, &mapped.si) {
-                return None;
-            }
-            let (f_cos, pdf) = bsdf_eval(material, ctx, ray_dir, &mapped.si, wi)?;
-            if !mapped.keeps(wi) {
-                return Some((Vec3::ZERO, 0.0));
-            }
-            (f_cos * mapped.shadowing(wi), pdf)
+    let mapped = map_frame(wrap, ctx, ray_dir, si);
+    let shaded = mapped.as_ref().map_or(si, |m| &m.si);
+    if absorbs_behind(wrap, ray_dir, shaded) {
+        return None;
+    }
+    let (mut f_cos, pdf) = bsdf_eval(material, ctx, ray_dir, shaded, wi)?;
+    if let Some(m) = mapped {
+        if !m.keeps(wi) {
+            return Some((Vec3::ZERO, 0.0));
         }
-        None => {
-            if absorbs_behind(wrap, ray_dir, si) {
-                return None;
-            }
-            bsdf_eval(material, ctx, ray_dir, si, wi)?
-        }
-    };
+        f_cos *= m.shadowing(wi);
+    }
     match wrap.opacity {
         Some(t) if !mutants::is(Mutant::MaskLightUnscaled) => {
             let opacity = opacity_of(ctx.eval(t, si));
