@@ -67,6 +67,8 @@ const SAMPLER_WRAP_MASK: u32 = 3u;
 const SAMPLER_NEAREST: u32 = 16u;
 const SAMPLER_TRANSFORM: u32 = 32u;
 const SAMPLER_UV1: u32 = 64u;
+const NORMAL_MAP_MIRRORED: u32 = 1u;
+const NORMAL_MAP_BUMP: u32 = 2u;
 const IMAGE_F32: u32 = 0u;
 const IMAGE_SRGB8: u32 = 1u;
 const IMAGE_UNORM8: u32 = 2u;
@@ -292,7 +294,7 @@ struct GpuMaterial {
     one_sided: u32,
     alpha_v: u32,
     normal_map: u32,
-    normal_map_mirrored: u32,
+    normal_map_mode: u32,
 }
 struct GpuTexture {
     tag: u32,

@@ -68,6 +68,11 @@ struct SurfaceInteraction {
     // the kernel's features include FEATURE_TANGENT_FRAME.
     tangent: vec3<f32>,
     bitangent: vec3<f32>,
+    // dp/du and dp/dv per unit of uv (reference::geometry::
+    // SurfaceInteraction::dp_du), for a bump map: set only where the
+    // kernel's features include FEATURE_TANGENT_FRAME.
+    dp_du: vec3<f32>,
+    dp_dv: vec3<f32>,
 }
 
 // GPU only: set by the `default` branch of every switch on a tag, which no

@@ -228,7 +228,13 @@ fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures
         if id == NO_TEXTURE {
             continue;
         }
-        let v = evaluate_texture(id, si.p, si.uv, si.uv1, si.color);
+        var v = vec3<f32>(0.0);
+        if k == SLOT_NORMAL_MAP && (m.normal_map_mode & NORMAL_MAP_BUMP) != 0u {
+            // A bump map's height: its gradient (x, y).
+            v = vec3<f32>(texture_gradient(id, si.uv, si.uv1), 0.0);
+        } else {
+            v = evaluate_texture(id, si.p, si.uv, si.uv1, si.color);
+        }
         switch k {
             case SLOT_OPACITY: { v_opacity = v; }
             case SLOT_BASE: { v_base = v; }
@@ -438,31 +444,75 @@ struct NormalMapped {
 }
 
 fn normal_mapped_new(texel: vec3<f32>, mirrored: bool, ray_dir: vec3<f32>, si: SurfaceInteraction) -> NormalMapped {
-    let wi = -ray_dir;
-    let s = si.tangent;
-    let t = si.bitangent;
-    var n = cross(s, t);
-    if mirrored && dot(wi, n) < 0.0 {
-        n = -n;
-    }
-    let frame = Onb(s, t, n);
-    let wi_local = onb_to_local(frame, wi);
+    let frame = mirrored_frame(si.tangent, si.bitangent, mirrored, ray_dir);
+    let wi_local = onb_to_local(frame, -ray_dir);
     var c = 2.0 * texel - vec3<f32>(1.0);
     if wi_local.z * dot(wi_local, c) <= 0.0 {
         c = vec3<f32>(-c.x, -c.y, c.z);
     }
     let mn = normalize_or(c, vec3<f32>(0.0, 0.0, 1.0));
     let s_local = normalize_or(vec3<f32>(1.0, 0.0, 0.0) - mn * mn.x, onb_from_normal(mn).s);
-    let n_p = onb_to_world(frame, mn);
+    return normal_mapped_in_frame(frame, mn, s_local, ray_dir, si);
+}
+
+// reference::material::mirrored_frame: the surface's frame (s, t, s × t),
+// its normal turned to the side a path arriving along ray_dir comes from
+// where mirrored.
+fn mirrored_frame(s: vec3<f32>, t: vec3<f32>, mirrored: bool, ray_dir: vec3<f32>) -> Onb {
+    var n = cross(s, t);
+    if mirrored && dot(-ray_dir, n) < 0.0 {
+        n = -n;
+    }
+    return Onb(s, t, n);
+}
+
+// reference::material::NormalMapped::bumped: Mitsuba's bump map's frame
+// at a vertex whose height has the gradient grad per unit of uv.
+fn normal_mapped_bumped(grad_in: vec2<f32>, mirrored: bool, ray_dir: vec3<f32>, si: SurfaceInteraction) -> NormalMapped {
+    let s = si.tangent;
+    let t = si.bitangent;
+    let n = cross(s, t);
+    let grad = grad_in;
+    let du = si.dp_du + n * (grad.x - dot(n, si.dp_du));
+    let dv = si.dp_dv + n * (grad.y - dot(n, si.dp_dv));
+    var bent = normalize_or(cross(du, dv), n);
+    if dot(si.geometric_normal, bent) < 0.0 {
+        bent = -bent;
+    }
+    var m = onb_to_local(Onb(s, t, n), bent);
+    let frame = mirrored_frame(s, t, mirrored, ray_dir);
+    let wi_local = onb_to_local(frame, -ray_dir);
+    if wi_local.z * dot(wi_local, m) <= 0.0 {
+        m = vec3<f32>(-m.x, -m.y, m.z);
+    }
+    let d = si.dp_du;
+    let s_local = normalize_or(d - m * dot(m, d), onb_from_normal(m).s);
+    return normal_mapped_in_frame(frame, m, s_local, ray_dir, si);
+}
+
+// reference::material::NormalMapped::in_frame: the surface shaded in
+// frame with the normal m and the tangent s_local (frame's coordinates).
+fn normal_mapped_in_frame(frame: Onb, m: vec3<f32>, s_local: vec3<f32>, ray_dir: vec3<f32>, si: SurfaceInteraction) -> NormalMapped {
+    let n_p = onb_to_world(frame, m);
     let s_p = onb_to_world(frame, s_local);
-    let cos2 = mn.z * mn.z;
+    let cos2 = m.z * m.z;
     var out = si;
     out.geometric_normal = n_p;
     out.shading_normal = n_p;
     out.front_face = dot(ray_dir, n_p) < 0.0;
     out.tangent = s_p;
     out.bitangent = cross(n_p, s_p);
-    return NormalMapped(out, n, min(NORMAL_MAP_SHADOWING_SCALE * (1.0 - cos2) / cos2, 1.0));
+    return NormalMapped(out, frame.n, min(NORMAL_MAP_SHADOWING_SCALE * (1.0 - cos2) / cos2, 1.0));
+}
+
+// reference::material::map_frame: the frame of the material's normal or
+// bump map (tx.normal_map: the map's texel, or the height's gradient).
+fn map_frame(m: GpuMaterial, tx: MaterialTextures, ray_dir: vec3<f32>, si: SurfaceInteraction) -> NormalMapped {
+    let mirrored = (m.normal_map_mode & NORMAL_MAP_MIRRORED) != 0u;
+    if (m.normal_map_mode & NORMAL_MAP_BUMP) != 0u {
+        return normal_mapped_bumped(tx.normal_map.xy, mirrored, ray_dir, si);
+    }
+    return normal_mapped_new(tx.normal_map, mirrored, ray_dir, si);
 }
 
 fn normal_mapped_keeps(p: NormalMapped, wo: vec3<f32>) -> bool {
@@ -485,7 +535,7 @@ fn wrapped_scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, t
         return delta(ray_dir, vec3<f32>(1.0));
     }
     if m.normal_map != NO_TEXTURE && uses(FEATURE_TANGENT_FRAME) {
-        let mapped = normal_mapped_new(tx.normal_map, m.normal_map_mirrored != 0u, ray_dir, si);
+        let mapped = map_frame(m, tx, ray_dir, si);
         if absorbs_behind(m, ray_dir, mapped.si) {
             return absorbed();
         }
@@ -508,7 +558,7 @@ fn wrapped_scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, t
 fn wrapped_bsdf_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: MaterialTextures, wi: vec3<f32>) -> BsdfEval {
     var b = BsdfEval(false, vec3<f32>(0.0), 0.0);
     if m.normal_map != NO_TEXTURE && uses(FEATURE_TANGENT_FRAME) {
-        let mapped = normal_mapped_new(tx.normal_map, m.normal_map_mirrored != 0u, ray_dir, si);
+        let mapped = map_frame(m, tx, ray_dir, si);
         if absorbs_behind(m, ray_dir, mapped.si) {
             return b;
         }

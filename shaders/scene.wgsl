@@ -158,6 +158,7 @@ fn surface_interaction(ray: Ray, hit: Hit) -> SurfaceInteraction {
     // dp/du, for the tangent frame (reference::Scene::surface_interaction).
     var frame_n = vec3<f32>(0.0, 0.0, 1.0);
     var dp_du = vec3<f32>(0.0);
+    var dp_dv = vec3<f32>(0.0);
     switch p.tag {
         case PRIMITIVE_SPHERE: {
             if !uses(FEATURE_SPHERES) { poison(); break; }
@@ -173,6 +174,11 @@ fn surface_interaction(ray: Ray, hit: Hit) -> SurfaceInteraction {
             si.shading_normal = n;
             frame_n = n;
             dp_du = vec3<f32>(outward.z, 0.0, -outward.x);
+            if uses(FEATURE_TANGENT_FRAME) {
+                let duv = sphere_dp_duv(outward, abs(s.radius));
+                si.dp_du = duv[0];
+                si.dp_dv = duv[1];
+            }
             si.uv = vec2<f32>((atan2(-outward.z, outward.x) + PI) / (2.0 * PI), acos(clamp(-outward.y, -1.0, 1.0)) / PI);
             si.p_error = gamma(5.0) * (abs(s.radius) + max3(abs(c)) + max3(abs(si.p)));
             si.material = s.material;
@@ -189,6 +195,8 @@ fn surface_interaction(ray: Ray, hit: Hit) -> SurfaceInteraction {
             si.shading_normal = n;
             frame_n = n;
             dp_du = u;
+            si.dp_du = u;
+            si.dp_dv = v;
             si.uv = hit.uv;
             si.p_error = gamma(4.0) * max3(abs(corner) + abs(hit.uv.x * u) + abs(hit.uv.y * v) + abs(si.p));
             si.material = q.material;
@@ -252,16 +260,22 @@ fn surface_interaction(ray: Ray, hit: Hit) -> SurfaceInteraction {
             // coordinates where the triangle has them.
             if uses(FEATURE_TANGENT_FRAME) {
                 dp_du = pb - pa;
+                dp_dv = pc - pa;
                 if (tri.flags & TRIANGLE_HAS_UVS) != 0u {
                     let duv0 = vec2<f32>(b.u, b.v) - vec2<f32>(a.u, a.v);
                     let duv1 = vec2<f32>(c.u, c.v) - vec2<f32>(a.u, a.v);
                     let det = duv0.x * duv1.y - duv0.y * duv1.x;
                     if det == 0.0 {
-                        dp_du = onb_from_normal(ng).s;
+                        let f = onb_from_normal(ng);
+                        dp_du = f.s;
+                        dp_dv = f.t;
                     } else {
                         dp_du = (duv1.y * (pb - pa) - duv0.y * (pc - pa)) / det;
+                        dp_dv = (duv0.x * (pc - pa) - duv1.x * (pb - pa)) / det;
                     }
                 }
+                si.dp_du = dp_du;
+                si.dp_dv = dp_dv;
             }
         }
         default: {
@@ -275,4 +289,17 @@ fn surface_interaction(ray: Ray, hit: Hit) -> SurfaceInteraction {
         si.bitangent = frame.t;
     }
     return si;
+}
+
+// reference::scene::sphere_dp_duv: dp/du and dp/dv per unit of uv on a
+// sphere of radius r at the unit direction o from its centre (columns 0
+// and 1).
+fn sphere_dp_duv(o: vec3<f32>, r: f32) -> mat2x3<f32> {
+    let rho = sqrt(o.x * o.x + o.z * o.z);
+    let dp_du = (2.0 * PI * r) * vec3<f32>(o.z, 0.0, -o.x);
+    var dp_dv = vec3<f32>(0.0, PI * r, 0.0);
+    if rho > 0.0 {
+        dp_dv = (PI * r) * vec3<f32>(-o.y * o.x / rho, rho, -o.y * o.z / rho);
+    }
+    return mat2x3<f32>(dp_du, dp_dv);
 }

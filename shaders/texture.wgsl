@@ -112,6 +112,89 @@ fn sample_image(image: u32, uv: vec2<f32>, sampler: u32) -> vec3<f32> {
     return mix(top, bottom, fy);
 }
 
+// reference::texture::one_channel: a colour's one-channel value as
+// Mitsuba's eval_1 reads it (the value where the channels agree, else the
+// luminance).
+fn one_channel(c: vec3<f32>) -> f32 {
+    if c.x == c.y && c.y == c.z {
+        return c.x;
+    }
+    return dot(c, MITSUBA_LUMINANCE);
+}
+
+// reference::texture::Wrap::slope: the derivative of wrap_coordinate
+// (-1 in a mirrored copy).
+fn wrap_slope(c: f32, mode: u32) -> f32 {
+    if mode == WRAP_MIRRORED_REPEAT && c - 2.0 * floor(c * 0.5) > 1.0 {
+        return -1.0;
+    }
+    return 1.0;
+}
+
+// reference::texture::ImageData::gradient: the gradient per unit of uv
+// (transformed) of the one-channel value of sample_image times factor (a
+// grey factor multiplies the image's gradient; Mitsuba's eval_1_grad);
+// zero for the nearest texel.
+fn image_data_gradient(image: u32, uv: vec2<f32>, sampler: u32, factor: vec3<f32>) -> vec2<f32> {
+    if (sampler & SAMPLER_NEAREST) != 0u {
+        return vec2<f32>(0.0);
+    }
+    let img = images[image];
+    let wrap_u = sampler & SAMPLER_WRAP_MASK;
+    let wrap_v = (sampler >> SAMPLER_WRAP_V_SHIFT) & SAMPLER_WRAP_MASK;
+    let w = f32(img.width);
+    let h = f32(img.height);
+    let x = wrap_coordinate(uv.x, wrap_u) * w - 0.5;
+    let y = (1.0 - wrap_coordinate(uv.y, wrap_v)) * h - 0.5;
+    let x0 = floor(x);
+    let y0 = floor(y);
+    let grey = factor.x == factor.y && factor.y == factor.z;
+    var f00 = 0.0;
+    var f10 = 0.0;
+    var f01 = 0.0;
+    var f11 = 0.0;
+    for (var k = 0u; k < 4u; k++) {
+        let c = texel(img, wrap_index(x0 + f32(k & 1u), img.width, wrap_u), wrap_index(y0 + f32(k >> 1u), img.height, wrap_v));
+        let v = one_channel(select(factor * c, c, grey));
+        switch k {
+            case 0u: { f00 = v; }
+            case 1u: { f10 = v; }
+            case 2u: { f01 = v; }
+            default: { f11 = v; }
+        }
+    }
+    let fx = x - x0;
+    let fy = y - y0;
+    let df_dx = (1.0 - fy) * (f10 - f00) + fy * (f11 - f01);
+    let df_dy = (1.0 - fx) * (f01 - f00) + fx * (f11 - f10);
+    let g = vec2<f32>(w * df_dx * wrap_slope(uv.x, wrap_u), -h * df_dy * wrap_slope(uv.y, wrap_v));
+    if grey {
+        return g * factor.x;
+    }
+    return g;
+}
+
+// reference::texture::texture_gradient: an image's gradient taken back
+// through its sampler's transform; zero for a constant (the scene builder
+// lets only those two be bump maps).
+fn texture_gradient(id: u32, uv0: vec2<f32>, uv1: vec2<f32>) -> vec2<f32> {
+    let t = textures[id];
+    if t.tag != TEXTURE_IMAGE {
+        return vec2<f32>(0.0);
+    }
+    if !uses(FEATURE_IMAGE_TEXTURES) {
+        poison();
+        return vec2<f32>(0.0);
+    }
+    let coords = select(uv0, uv1, (t.sampler & SAMPLER_UV1) != 0u);
+    let g = image_data_gradient(t.image, transformed_uv(t, coords), t.sampler, vec3<f32>(t.r, t.g, t.b));
+    // Back through the transform (its transpose), where there is one.
+    if (t.sampler & SAMPLER_TRANSFORM) != 0u {
+        return vec2<f32>(t.t0 * g.x + t.t3 * g.y, t.t1 * g.x + t.t4 * g.y);
+    }
+    return g;
+}
+
 // Bilinear, repeat wrapping (the default sampler; environment maps).
 fn sample_bilinear(image: u32, uv: vec2<f32>) -> vec3<f32> {
     return sample_image(image, uv, (WRAP_REPEAT << SAMPLER_WRAP_V_SHIFT) | WRAP_REPEAT);

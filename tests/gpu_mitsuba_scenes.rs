@@ -171,9 +171,16 @@ const MUTANTS: &[GpuMutant] = &[
     GpuMutant {
         scene: "frames",
         what: "the normal map read in a frame not from the texture coordinates",
-        from: "    let s = si.tangent;\n    let t = si.bitangent;",
-        to: "    let f0 = onb_from_normal(cross(si.tangent, si.bitangent));\n    let s = f0.s;\n    let t = f0.t;",
+        from: "    let frame = mirrored_frame(si.tangent, si.bitangent, mirrored, ray_dir);",
+        to: "    let f0 = onb_from_normal(cross(si.tangent, si.bitangent));\n    let frame = mirrored_frame(f0.s, f0.t, mirrored, ray_dir);",
         cpu_twin: Some(Mutant::TangentNotFromUv),
+    },
+    GpuMutant {
+        scene: "bumps",
+        what: "the bump map's gradient along v reversed",
+        from: "    let grad = grad_in;",
+        to: "    let grad = vec2<f32>(grad_in.x, -grad_in.y);",
+        cpu_twin: Some(Mutant::BumpGradientVFlipped),
     },
     GpuMutant {
         scene: "lamps",

@@ -64,7 +64,7 @@ fn sample_main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 ray_dir = select(c, -c, front);
             }
             let z = vec3<f32>(0.0, 0.0, 1.0);
-            let si = SurfaceInteraction(vec3<f32>(0.0), z, z, vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(1.0), 0.0, front, 0u, vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0));
+            let si = SurfaceInteraction(vec3<f32>(0.0), z, z, vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(1.0), 0.0, front, 0u, vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0));
             let s = scatter(m, ray_dir, si, material_textures(m, si), u);
             // Mode 7: the draws with a density alone (a delta lobe's fall
             // in the rejected cell).

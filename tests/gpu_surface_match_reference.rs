@@ -24,8 +24,8 @@ fn surface_interactions_match_the_reference() {
 /// The check sees each vertex attribute, the normal map and the tangent
 /// frame: a kernel that ignores the colours, reads the first uv set for
 /// the second, ignores the normal map, turns its bitangent the other way,
-/// or takes the shading frame's tangent reversed or from the other edge
-/// fails it.
+/// or takes the shading frame's tangent reversed or from the other edge,
+/// or ∂p/∂v (a bump map's) reversed, fails it.
 #[test]
 fn surface_kernels_missing_a_vertex_attribute_or_the_normal_map_fail() {
     let scene = reference::load_scene(&fixture_scene("gltf-materials.json")).unwrap();
@@ -55,6 +55,11 @@ fn surface_kernels_missing_a_vertex_attribute_or_the_normal_map_fail() {
             "the shading frame's tangent from the determinant's other sign",
             "dp_du = (duv1.y * (pb - pa) - duv0.y * (pc - pa)) / det;",
             "dp_du = (duv0.y * (pc - pa) - duv1.y * (pb - pa)) / det;",
+        ),
+        (
+            "dp/dv from the determinant's other sign",
+            "dp_dv = (duv0.x * (pc - pa) - duv1.x * (pb - pa)) / det;",
+            "dp_dv = (duv1.x * (pb - pa) - duv0.x * (pc - pa)) / det;",
         ),
     ] {
         assert_eq!(library.matches(from).count(), 1, "`{from}` not found once");

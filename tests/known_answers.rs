@@ -244,6 +244,8 @@ fn dielectric_known_answers() -> Result<String, String> {
             material: 0,
             tangent: reference::geometry::tangent_frame(n, Vec3::ZERO).0,
             bitangent: reference::geometry::tangent_frame(n, Vec3::ZERO).1,
+            dp_du: reference::geometry::tangent_frame(n, Vec3::ZERO).0,
+            dp_dv: reference::geometry::tangent_frame(n, Vec3::ZERO).1,
         };
         let eta = if front { 1.0 / 1.5 } else { 1.5 };
         // Past the critical angle glass reflects everything.
@@ -414,6 +416,8 @@ fn gltf_bsdf_albedo_matches_the_specification_at_several_angles() {
         material: 0,
         tangent: Vec3::X,
         bitangent: Vec3::Y,
+        dp_du: Vec3::X,
+        dp_dv: Vec3::Y,
     };
     const DRAWS: u32 = 40_000;
     let mut said = Vec::new();

@@ -186,6 +186,11 @@ fn normal_maps_read_in_a_frame_not_from_the_texture_coordinates_fail_the_frames_
 }
 
 #[test]
+fn bump_maps_whose_gradient_along_v_is_reversed_fail_the_bumps_gate() {
+    mutant_fails("bumps", Mutant::BumpGradientVFlipped);
+}
+
+#[test]
 fn spots_ramped_in_the_cosine_fail_the_lamps_gate() {
     mutant_fails("lamps", Mutant::SpotRampInCosine);
 }

@@ -60,6 +60,8 @@ pub(crate) fn surface() -> SurfaceInteraction {
         material: 0,
         tangent: Vec3::X,
         bitangent: Vec3::Y,
+        dp_du: Vec3::X,
+        dp_dv: Vec3::Y,
     }
 }
 

@@ -782,6 +782,58 @@ fn masks_and_one_sided_materials_that_cannot_be_are_named() {
 }
 
 #[test]
+fn a_bump_map_reads_its_height_times_its_scale_and_refuses_what_has_no_gradient() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write_scene(
+        dir.path(),
+        "scene.json",
+        &wrapped_scene(
+            r#""a": { "type": "bump_mapped", "material": "c", "bump_map": [0.25, 0.25, 0.25], "scale": 2 },
+            "c": { "type": "lambertian", "albedo": [0.5, 0.5, 0.5] }"#,
+        ),
+    );
+    let scene = reference::load_scene(p.to_str().unwrap()).unwrap();
+    let w = scene.wrappers(scene.spheres()[0].material);
+    assert!(
+        w.bump_map && !w.normal_map_mirrored && !w.one_sided,
+        "{w:?}"
+    );
+    assert_eq!(
+        w.normal_map.map(|t| scene.textures()[t as usize]),
+        Some(reference::texture::Texture::Constant(glam::Vec3::splat(
+            0.5
+        )))
+    );
+    let with_checker = |materials: &str| {
+        wrapped_scene(materials).replacen(
+            r#""materials""#,
+            r#""textures": { "t": { "type": "checker", "scale": 4.0, "even": [0.2, 0.2, 0.2], "odd": [0.9, 0.9, 0.9] } }, "materials""#,
+            1,
+        )
+    };
+    check(
+        &with_checker(
+            r#""a": { "type": "bump_mapped", "material": "c", "bump_map": "t" },
+            "c": { "type": "lambertian", "albedo": [0.5, 0.5, 0.5] }"#,
+        ),
+        &[
+            "materials.a.bump_map",
+            "an image read through the first uv set, or a constant",
+        ],
+    );
+    check(
+        &wrapped_scene(
+            r#""a": { "type": "bump_mapped", "material": "c", "bump_map": [0.5, 0.5, 0.5], "scale": -1 },
+            "c": { "type": "lambertian", "albedo": [0.5, 0.5, 0.5] }"#,
+        ),
+        &[
+            "materials.a.bump_map",
+            "-1 is not a finite number of at least 0",
+        ],
+    );
+}
+
+#[test]
 fn a_mask_copies_the_material_it_wraps_with_its_emission() {
     let dir = tempfile::tempdir().unwrap();
     let p = write_scene(

@@ -113,8 +113,10 @@ gpu_record! {
     /// wrappers (`reference::material::Wrappers`): `opacity` = the mask's
     /// texture or `NO_TEXTURE`, `one_sided` = 1 where the material absorbs
     /// behind, else 0, `normal_map` = Mitsuba's normal map's texture or
-    /// `NO_TEXTURE`, `normal_map_mirrored` = 1 where it is read in the
-    /// frame turned to the viewer. ROUGH_CONDUCTOR and ROUGH_DIELECTRIC:
+    /// `NO_TEXTURE` (a bump map's height where `normal_map_mode` has
+    /// [`NORMAL_MAP_BUMP`]), `normal_map_mode` = [`NORMAL_MAP_MIRRORED`]
+    /// where it is read in the frame turned to the viewer, and
+    /// [`NORMAL_MAP_BUMP`] where it is Mitsuba's bump map. ROUGH_CONDUCTOR and ROUGH_DIELECTRIC:
     /// `alpha_v` = the roughness across the tangent where anisotropic,
     /// else `NO_TEXTURE`.
     GpuMaterial {
@@ -123,9 +125,15 @@ gpu_record! {
         texture3: u32, p2: f32, alpha_texture: u32, alpha_cutoff: f32,
         coat: f32, coat_texture: u32, coat_roughness: f32, coat_roughness_texture: u32,
         emission: u32, shade_bucket: u32, distribution: u32, opacity: u32,
-        one_sided: u32, alpha_v: u32, normal_map: u32, normal_map_mirrored: u32,
+        one_sided: u32, alpha_v: u32, normal_map: u32, normal_map_mode: u32,
     }
 }
+
+/// `GpuMaterial::normal_map_mode` bits: the map is read in the frame
+/// turned to the viewer (`reference::material::Wrappers::normal_map_mirrored`);
+/// the map is a bump map's height (`Wrappers::bump_map`).
+pub const NORMAL_MAP_MIRRORED: u32 = 1;
+pub const NORMAL_MAP_BUMP: u32 = 1 << 1;
 
 /// `GpuParams::filter_table` of the box filter (no table).
 pub const NO_FILTER_TABLE: u32 = u32::MAX;

@@ -108,7 +108,15 @@ pub fn pack_wrappers(record: GpuMaterial, wrappers: Wrappers) -> GpuMaterial {
         opacity: wrappers.opacity.unwrap_or(NO_TEXTURE),
         one_sided: wrappers.one_sided as u32,
         normal_map: wrappers.normal_map.unwrap_or(NO_TEXTURE),
-        normal_map_mirrored: wrappers.normal_map_mirrored as u32,
+        normal_map_mode: if wrappers.normal_map_mirrored {
+            crate::records::NORMAL_MAP_MIRRORED
+        } else {
+            0
+        } | if wrappers.bump_map {
+            crate::records::NORMAL_MAP_BUMP
+        } else {
+            0
+        },
         ..record
     }
 }

@@ -162,6 +162,8 @@ pub fn generate() -> String {
     s += &u("SAMPLER_NEAREST", crate::records::SAMPLER_NEAREST);
     s += &u("SAMPLER_TRANSFORM", crate::records::SAMPLER_TRANSFORM);
     s += &u("SAMPLER_UV1", crate::records::SAMPLER_UV1);
+    s += &u("NORMAL_MAP_MIRRORED", crate::records::NORMAL_MAP_MIRRORED);
+    s += &u("NORMAL_MAP_BUMP", crate::records::NORMAL_MAP_BUMP);
     s += &u("IMAGE_F32", crate::records::IMAGE_F32);
     s += &u("IMAGE_SRGB8", crate::records::IMAGE_SRGB8);
     s += &u("IMAGE_UNORM8", crate::records::IMAGE_UNORM8);

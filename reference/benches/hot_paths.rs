@@ -155,6 +155,8 @@ fn bsdf_sampling(c: &mut Criterion) {
         material: 0,
         tangent: Vec3::X,
         bitangent: -Vec3::Z,
+        dp_du: Vec3::X,
+        dp_dv: -Vec3::Z,
     };
     let dirs: Vec<Vec3> = (0..BATCH)
         .map(|i| -sample_cosine_hemisphere(Vec2::new(u(i, 0), u(i, 1))))

@@ -67,6 +67,12 @@ pub struct SurfaceInteraction {
     /// geometric side): `tangent × bitangent` is that normal, so
     /// (tangent, bitangent, ±shading_normal) is Mitsuba's shading frame.
     pub bitangent: Vec3,
+    /// ∂p/∂u and ∂p/∂v of the shape's parameterization in the texture
+    /// coordinates `uv` (Mitsuba's `dp_du`, `dp_dv`; not normalized):
+    /// read only by a bump map ([`crate::material::NormalMapped::bumped`]),
+    /// whose height gradient is per unit of `uv`.
+    pub dp_du: Vec3,
+    pub dp_dv: Vec3,
 }
 
 /// The shading frame's tangent and bitangent at a point of normal `n`

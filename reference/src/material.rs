@@ -7,7 +7,7 @@ use crate::microfacet::{distribution, Microfacet};
 use crate::mutants::{self, Mutant};
 use crate::rng::dims;
 use crate::sampling::{ggx, sample_cosine_hemisphere, sample_unit_ball};
-use crate::texture::{evaluate_texture, ImageData, Texture};
+use crate::texture::{evaluate_texture, texture_gradient, ImageData, Texture};
 use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::FRAC_1_PI;
 
@@ -294,6 +294,71 @@ impl Material {
         }
     }
 
+    /// Every texture the model reads (not its wrappers' nor an emission
+    /// added to it: [`Wrappers`], `Scene::added_emission`).
+    pub fn texture_ids(&self) -> Vec<u32> {
+        match *self {
+            Material::Lambertian { albedo } | Material::Metal { albedo, .. } => vec![albedo],
+            Material::Dielectric { .. } => Vec::new(),
+            Material::DiffuseLight { emission } => vec![emission],
+            Material::Conductor { specular, .. } => vec![specular],
+            Material::SmoothDielectric {
+                reflectance,
+                transmittance,
+                ..
+            }
+            | Material::ThinDielectric {
+                reflectance,
+                transmittance,
+                ..
+            } => vec![reflectance, transmittance],
+            Material::RoughConductor {
+                alpha,
+                alpha_v,
+                specular,
+                ..
+            } => [Some(alpha), alpha_v, Some(specular)]
+                .into_iter()
+                .flatten()
+                .collect(),
+            Material::RoughDielectric {
+                alpha,
+                alpha_v,
+                reflectance,
+                transmittance,
+                ..
+            } => [Some(alpha), alpha_v, Some(reflectance), Some(transmittance)]
+                .into_iter()
+                .flatten()
+                .collect(),
+            Material::Plastic {
+                diffuse, specular, ..
+            } => vec![diffuse, specular],
+            Material::RoughPlastic {
+                diffuse,
+                specular,
+                transmittance,
+                ..
+            } => vec![diffuse, specular, transmittance],
+            Material::Ggx {
+                base_color,
+                metallic_roughness,
+                normal_map,
+                clearcoat,
+                ..
+            } => [
+                Some(base_color),
+                metallic_roughness,
+                normal_map.map(|n| n.texture),
+                clearcoat.and_then(|c| c.texture),
+                clearcoat.and_then(|c| c.roughness_texture),
+            ]
+            .into_iter()
+            .flatten()
+            .collect(),
+        }
+    }
+
     pub fn tag(&self) -> u32 {
         match self {
             Material::Lambertian { .. } => material_tag::LAMBERTIAN,
@@ -330,6 +395,13 @@ impl TextureContext<'_> {
             [si.uv, si.uv1],
             si.color,
         )
+    }
+
+    /// The gradient per unit of `si`'s uv of texture `id`'s one-channel
+    /// value ([`texture_gradient`]).
+    #[inline]
+    pub fn gradient(&self, id: u32, si: &SurfaceInteraction) -> Vec2 {
+        texture_gradient(self.textures, self.images, id, [si.uv, si.uv1])
     }
 
     /// The GGX base colour at `si`: texture `id` times the vertex colour.
@@ -405,6 +477,12 @@ pub struct Wrappers {
     /// is read in the frame as the shape gives it (`normalmap` around a
     /// model that takes both sides itself, or a one-sided one).
     pub normal_map_mirrored: bool,
+    /// With `normal_map`: the texture is a height, not a normal: Mitsuba's
+    /// `bumpmap`, whose normal is the surface's bent by the gradient of
+    /// the texture's one-channel value per unit of uv
+    /// ([`crate::texture::texture_gradient`]; its scale is the
+    /// texture's factor), [`NormalMapped::bumped`].
+    pub bump_map: bool,
 }
 
 /// The shadowing term's `α² = min(tan²θ_m · this, 1)` of a normal map's
@@ -436,23 +514,30 @@ pub struct NormalMapped {
     alpha2: f32,
 }
 
+/// The surface's frame (`s`, `t`, `s × t`), its normal turned to the side
+/// a path arriving along `ray_dir` comes from where `mirrored`
+/// ([`Wrappers::normal_map_mirrored`]).
+#[inline]
+fn mirrored_frame(s: Vec3, t: Vec3, mirrored: bool, ray_dir: Vec3) -> Onb {
+    let mut n = s.cross(t);
+    if mirrored && (-ray_dir).dot(n) < 0.0 {
+        n = -n;
+    }
+    Onb { s, t, n }
+}
+
 impl NormalMapped {
     /// The frame at `si` of a map of texel `texel`, for a path arriving
     /// along `ray_dir`.
     pub fn new(texel: Vec3, mirrored: bool, ray_dir: Vec3, si: &SurfaceInteraction) -> Self {
-        let wi = -ray_dir;
         let (s, t) = if mutants::is(Mutant::TangentNotFromUv) {
             let f = Onb::from_normal(si.tangent.cross(si.bitangent));
             (f.s, f.t)
         } else {
             (si.tangent, si.bitangent)
         };
-        let mut n = s.cross(t);
-        if mirrored && wi.dot(n) < 0.0 {
-            n = -n;
-        }
-        let frame = Onb { s, t, n };
-        let wi_local = frame.to_local(wi);
+        let frame = mirrored_frame(s, t, mirrored, ray_dir);
+        let wi_local = frame.to_local(-ray_dir);
         let mut m = 2.0 * texel - Vec3::ONE;
         if wi_local.z * wi_local.dot(m) <= 0.0 {
             m = Vec3::new(-m.x, -m.y, m.z);
@@ -460,6 +545,57 @@ impl NormalMapped {
         // A texel of (½, ½, ½) has no direction: the surface's own.
         let m = m.normalize_or(Vec3::Z);
         let s_local = (Vec3::X - m * m.x).normalize_or(Onb::from_normal(m).s);
+        Self::in_frame(frame, m, s_local, ray_dir, si)
+    }
+
+    /// The frame at `si` of a bump map (Mitsuba 3.9.1's `bumpmap`) whose
+    /// height has the gradient `grad` per unit of uv (the texture's
+    /// [`crate::texture::texture_gradient`], its scale included), for a
+    /// path arriving along `ray_dir`. ∂p/∂u and ∂p/∂v
+    /// ([`SurfaceInteraction::dp_du`]) are moved along the shape's
+    /// shading normal `n` to `grad` (their part along `n` replaced); the
+    /// new normal is their cross product, turned to the geometric
+    /// normal's side and read in the surface's frame (`m`); its x and y
+    /// are negated where the viewer is on the other side of it than of
+    /// `n` (Mitsuba's `flip_invalid_normals`). The new tangent is, as
+    /// Mitsuba's, ∂p/∂u's world coordinates taken as coordinates in the
+    /// frame, without their part along `m` (only a model that is not
+    /// symmetric about the normal reads it). Then as [`Self::new`]: read
+    /// in the frame turned to the viewer where `mirrored`.
+    pub fn bumped(grad: Vec2, mirrored: bool, ray_dir: Vec3, si: &SurfaceInteraction) -> Self {
+        let (s, t) = (si.tangent, si.bitangent);
+        let n = s.cross(t);
+        let mut grad = grad;
+        if mutants::is(Mutant::BumpGradientVFlipped) {
+            grad.y = -grad.y;
+        }
+        let du = si.dp_du + n * (grad.x - n.dot(si.dp_du));
+        let dv = si.dp_dv + n * (grad.y - n.dot(si.dp_dv));
+        let mut bent = du.cross(dv).normalize_or(n);
+        if si.geometric_normal.dot(bent) < 0.0 {
+            bent = -bent;
+        }
+        let mut m = Onb { s, t, n }.to_local(bent);
+        let frame = mirrored_frame(s, t, mirrored, ray_dir);
+        let wi_local = frame.to_local(-ray_dir);
+        if wi_local.z * wi_local.dot(m) <= 0.0 {
+            m = Vec3::new(-m.x, -m.y, m.z);
+        }
+        let d = si.dp_du;
+        let s_local = (d - m * m.dot(d)).normalize_or(Onb::from_normal(m).s);
+        Self::in_frame(frame, m, s_local, ray_dir, si)
+    }
+
+    /// The surface `si` shaded in `frame` with the normal `m` and the
+    /// tangent `s_local` (both unit, in `frame`'s coordinates).
+    fn in_frame(
+        frame: Onb,
+        m: Vec3,
+        s_local: Vec3,
+        ray_dir: Vec3,
+        si: &SurfaceInteraction,
+    ) -> Self {
+        let n = frame.n;
         let n_p = frame.to_world(m);
         let s_p = frame.to_world(s_local);
         let cos2 = m.z * m.z;
@@ -500,9 +636,7 @@ impl NormalMapped {
     }
 }
 
-/// Mitsuba's luminance weights (its rgb variants' `luminance`, CIE Y of
-/// linear sRGB), which its `eval_1` of a colour bitmap reads.
-pub const MITSUBA_LUMINANCE: [f32; 3] = [0.212671, 0.715160, 0.072169];
+pub use crate::texture::MITSUBA_LUMINANCE;
 
 /// A mask's opacity from its texture's colour `c`: the value where the
 /// channels agree (a grey image or a number, which Mitsuba reads as one
@@ -580,12 +714,12 @@ fn map_frame(
     si: &SurfaceInteraction,
 ) -> Option<NormalMapped> {
     let map = wrap.normal_map?;
-    Some(NormalMapped::new(
-        ctx.eval(map, si),
-        wrap.normal_map_mirrored,
-        ray_dir,
-        si,
-    ))
+    let mirrored = wrap.normal_map_mirrored;
+    Some(if wrap.bump_map {
+        NormalMapped::bumped(ctx.gradient(map, si), mirrored, ray_dir, si)
+    } else {
+        NormalMapped::new(ctx.eval(map, si), mirrored, ray_dir, si)
+    })
 }
 
 /// [`bsdf_eval`] under the material's [`Wrappers`]: `None` behind a one-sided
@@ -1680,6 +1814,8 @@ mod tests {
             material: 0,
             tangent: Vec3::X,
             bitangent: -Vec3::Z,
+            dp_du: Vec3::X,
+            dp_dv: -Vec3::Z,
         }
     }
 
@@ -1833,6 +1969,44 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn bump_maps_tilt_the_normal_against_the_heights_gradient() {
+        // A flat surface of normal +y, u along +x and v along −z (the
+        // test's `si`): a height rising by g_u along u and g_v along v
+        // tilts the normal to (−g_u, 1, g_v) (∂p/∂u × ∂p/∂v with their
+        // parts along the normal replaced by the gradient).
+        let front = si(true);
+        let ray_dir = Vec3::new(0.3, -1.0, 0.2).normalize();
+        let (gu, gv) = (0.5, -0.3);
+        let b = NormalMapped::bumped(Vec2::new(gu, gv), false, ray_dir, &front);
+        let want = Vec3::new(-gu, 1.0, gv).normalize();
+        assert!(
+            (b.si.shading_normal - want).length() < 1e-6,
+            "{}",
+            b.si.shading_normal
+        );
+        assert_eq!(b.si.geometric_normal, b.si.shading_normal);
+        assert!(b.si.front_face && b.n == Vec3::Y);
+        // No gradient: the surface's own frame.
+        let flat = NormalMapped::bumped(Vec2::ZERO, false, ray_dir, &front);
+        assert_eq!((flat.si.shading_normal, flat.alpha2), (Vec3::Y, 0.0));
+        // Mirrored, seen from below: the same bump reflected through the
+        // surface (Mitsuba's twosided flips the viewer into the frame).
+        let below = Vec3::new(0.3, 1.0, 0.2).normalize();
+        let m = NormalMapped::bumped(Vec2::new(gu, gv), true, below, &si(false));
+        let want = Vec3::new(-gu, -1.0, gv).normalize();
+        assert!(
+            (m.si.shading_normal - want).length() < 1e-6,
+            "{}",
+            m.si.shading_normal
+        );
+        assert_eq!(m.n, -Vec3::Y);
+        // Its shadowing term's α² is Mitsuba's from the tilt.
+        let cos2 = 1.0 / (1.0 + gu * gu + gv * gv);
+        let alpha2 = NORMAL_MAP_SHADOWING_SCALE * (1.0 - cos2) / cos2;
+        assert!((b.alpha2 - alpha2).abs() < 1e-6, "{} vs {alpha2}", b.alpha2);
     }
 
     #[test]

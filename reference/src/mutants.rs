@@ -90,6 +90,10 @@ pub enum Mutant {
     /// A normal map's value without Estevez et al.'s shadowing term
     /// (`material::NormalMapped::shadowing`).
     NormalMapWithoutShadowing,
+    /// A bump map's height gradient along v negated: its texture read as
+    /// if v ran down the image as its rows do
+    /// (`material::NormalMapped::bumped`).
+    BumpGradientVFlipped,
     /// The rough conductor's density without the half vector's Jacobian
     /// `1 / (4 wo·h)`: the visible normals' density given as the reflected
     /// direction's (`material::bsdf_eval`).

@@ -29,28 +29,98 @@ impl ImageData {
     /// the nearest texel or bilinear filtering (texel centres at
     /// half-integers, as in glTF and OpenGL).
     pub fn sample_image(&self, uv: Vec2, sampler: &Sampler) -> Vec3 {
-        let (w, h) = (self.width as f32, self.height as f32);
-        let (wrap_u, wrap_v) = (sampler.wrap_u, sampler.wrap_v);
-        let x = wrap_u.wrap_coordinate(uv.x) * w - 0.5;
-        let y = (1.0 - wrap_v.wrap_coordinate(uv.y)) * h - 0.5;
+        let (x, y) = self.texel_space(uv, sampler);
         if sampler.nearest {
-            let xi = wrap_u.wrap_index((x + 0.5).floor(), self.width);
-            let yi = wrap_v.wrap_index((y + 0.5).floor(), self.height);
+            let xi = sampler.wrap_u.wrap_index((x + 0.5).floor(), self.width);
+            let yi = sampler.wrap_v.wrap_index((y + 0.5).floor(), self.height);
             return self.texel(xi, yi);
         }
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
-        let (xa, xb) = (
-            wrap_u.wrap_index(x0, self.width),
-            wrap_u.wrap_index(x0 + 1.0, self.width),
-        );
-        let (ya, yb) = (
-            wrap_v.wrap_index(y0, self.height),
-            wrap_v.wrap_index(y0 + 1.0, self.height),
-        );
+        let ([xa, xb], [ya, yb], fx, fy) = self.bilinear_square(x, y, sampler);
         let top = self.texel(xa, ya).lerp(self.texel(xb, ya), fx);
         let bottom = self.texel(xa, yb).lerp(self.texel(xb, yb), fx);
         top.lerp(bottom, fy)
+    }
+
+    /// The point `uv` (already transformed) in texel units: each axis
+    /// wrapped by its mode, texel centres at half-integers, y down the
+    /// rows.
+    #[inline]
+    fn texel_space(&self, uv: Vec2, sampler: &Sampler) -> (f32, f32) {
+        let x = sampler.wrap_u.wrap_coordinate(uv.x) * self.width as f32 - 0.5;
+        let y = (1.0 - sampler.wrap_v.wrap_coordinate(uv.y)) * self.height as f32 - 0.5;
+        (x, y)
+    }
+
+    /// The four texels around (`x`, `y`) in texel units (columns, rows,
+    /// wrapped) and the point's fractions across and down the square.
+    #[inline]
+    fn bilinear_square(&self, x: f32, y: f32, sampler: &Sampler) -> ([u32; 2], [u32; 2], f32, f32) {
+        let (x0, y0) = (x.floor(), y.floor());
+        let (wrap_u, wrap_v) = (sampler.wrap_u, sampler.wrap_v);
+        (
+            [
+                wrap_u.wrap_index(x0, self.width),
+                wrap_u.wrap_index(x0 + 1.0, self.width),
+            ],
+            [
+                wrap_v.wrap_index(y0, self.height),
+                wrap_v.wrap_index(y0 + 1.0, self.height),
+            ],
+            x - x0,
+            y - y0,
+        )
+    }
+
+    /// The gradient per unit of `uv` (already transformed) of the
+    /// one-channel value ([`one_channel`]) of [`Self::sample_image`]
+    /// times `factor` (a grey factor, a bump map's scale, multiplies the
+    /// image's gradient, as Mitsuba's `bumpmap` scales its texture's):
+    /// Mitsuba's `eval_1_grad` of a bitmap. Bilinear
+    /// filtering's derivative inside the texel square the point lies in
+    /// (each axis's difference of the one-channel texels, weighed along
+    /// the other axis), times the image's size along it and the wrap's
+    /// slope there (−1 in a mirrored copy); v runs up the image, against
+    /// its rows. The nearest texel's is zero, as Mitsuba's.
+    pub fn gradient(&self, uv: Vec2, sampler: &Sampler, factor: Vec3) -> Vec2 {
+        if sampler.nearest {
+            return Vec2::ZERO;
+        }
+        let (x, y) = self.texel_space(uv, sampler);
+        let ([xa, xb], [ya, yb], fx, fy) = self.bilinear_square(x, y, sampler);
+        let grey = factor.x == factor.y && factor.y == factor.z;
+        let f = |x, y| {
+            let c = self.texel(x, y);
+            one_channel(if grey { c } else { factor * c })
+        };
+        let (f00, f10, f01, f11) = (f(xa, ya), f(xb, ya), f(xa, yb), f(xb, yb));
+        let df_dx = (1.0 - fy) * (f10 - f00) + fy * (f11 - f01);
+        let df_dy = (1.0 - fx) * (f01 - f00) + fx * (f11 - f10);
+        let g = Vec2::new(
+            self.width as f32 * df_dx * sampler.wrap_u.slope(uv.x),
+            -(self.height as f32) * df_dy * sampler.wrap_v.slope(uv.y),
+        );
+        if grey {
+            g * factor.x
+        } else {
+            g
+        }
+    }
+}
+
+/// Mitsuba's luminance weights (its rgb variants' `luminance`, CIE Y of
+/// linear sRGB), which its `eval_1` of a colour bitmap reads.
+pub const MITSUBA_LUMINANCE: [f32; 3] = [0.212671, 0.715160, 0.072169];
+
+/// A colour's one-channel value as Mitsuba's `eval_1` reads a texture:
+/// the value where the channels agree (a grey image or a number, which
+/// Mitsuba holds as one channel), else its luminance by
+/// [`MITSUBA_LUMINANCE`].
+#[inline]
+pub fn one_channel(c: Vec3) -> f32 {
+    if c.x == c.y && c.y == c.z {
+        c.x
+    } else {
+        c.dot(Vec3::from_array(MITSUBA_LUMINANCE))
     }
 }
 
@@ -97,6 +167,17 @@ impl Wrap {
                     t
                 }
             }
+        }
+    }
+
+    /// The derivative of [`Self::wrap_coordinate`] at `c`: −1 in a
+    /// mirrored copy, else 1 (clamping's 0 beyond the edge needs no
+    /// factor: the texels it reads there are one).
+    #[inline]
+    pub fn slope(self, c: f32) -> f32 {
+        match self {
+            Wrap::MirroredRepeat if c.rem_euclid(2.0) > 1.0 => -1.0,
+            _ => 1.0,
         }
     }
 
@@ -296,6 +377,33 @@ pub fn evaluate_texture(
             };
             evaluate_leaf(textures, images, pick, uvs)
         }
+    }
+}
+
+/// The gradient per unit of uv (the first set's: a bump map's, as
+/// Mitsuba's one set) of texture `id`'s one-channel value, Mitsuba's
+/// `eval_1_grad`: an image's ([`ImageData::gradient`]) taken back through
+/// its sampler's transform; zero for a constant. The scene builder lets
+/// only those two be bump maps.
+pub fn texture_gradient(
+    textures: &[Texture],
+    images: &[ImageData],
+    id: u32,
+    uvs: [Vec2; 2],
+) -> Vec2 {
+    match textures[id as usize] {
+        Texture::Image {
+            image,
+            factor,
+            sampler,
+        } => {
+            let g = images[image as usize].gradient(sampler.coordinates(uvs), &sampler, factor);
+            match sampler.transform {
+                None => g,
+                Some(t) => Vec2::new(t[0] * g.x + t[3] * g.y, t[1] * g.x + t[4] * g.y),
+            }
+        }
+        _ => Vec2::ZERO,
     }
 }
 
@@ -554,5 +662,105 @@ mod tests {
         assert_eq!(srgb_to_linear(0.0), 0.0);
         assert_relative_eq!(srgb_to_linear(1.0), 1.0, epsilon = 1e-6);
         assert_relative_eq!(srgb_to_linear(0.5), 0.214_041, epsilon = 1e-5);
+    }
+
+    /// A 5 x 4 image of distinct colours, grey (`grey`) or not.
+    fn ramp(grey: bool) -> ImageData {
+        let texels = (0..20)
+            .map(|k| {
+                let v = ((k * 7) % 20) as f32 / 20.0;
+                if grey {
+                    Vec3::splat(v)
+                } else {
+                    Vec3::new(v, 1.0 - v, (k % 3) as f32 / 3.0)
+                }
+            })
+            .collect();
+        ImageData {
+            width: 5,
+            height: 4,
+            texels,
+        }
+    }
+
+    #[test]
+    fn image_gradients_are_the_lookups_derivatives() {
+        // Central differences of the one-channel value of the lookup, at
+        // points inside a texel square (away from where bilinear
+        // filtering's derivative jumps), against the analytic gradient:
+        // each wrap mode, in a mirrored copy, through a transform, a
+        // colour image (its luminance) and a factor.
+        let h = 1e-3f32;
+        for grey in [true, false] {
+            let img = ramp(grey);
+            for wrap in [Wrap::Repeat, Wrap::MirroredRepeat, Wrap::ClampToEdge] {
+                for transform in [None, Some([1.5, 0.3, 0.1, -0.4, 2.0, 0.2])] {
+                    let sampler = Sampler {
+                        wrap_u: wrap,
+                        wrap_v: wrap,
+                        transform,
+                        ..Sampler::default()
+                    };
+                    let textures = [Texture::Image {
+                        image: 0,
+                        factor: Vec3::splat(0.7),
+                        sampler,
+                    }];
+                    let images = std::slice::from_ref(&img);
+                    let value = |uv: Vec2| {
+                        one_channel(evaluate_texture(
+                            &textures,
+                            images,
+                            0,
+                            Vec3::ZERO,
+                            [uv, Vec2::ZERO],
+                            Vec3::ONE,
+                        ))
+                    };
+                    for uv in [
+                        Vec2::new(0.33, 0.41),
+                        Vec2::new(1.37, -0.29),
+                        Vec2::new(0.61, 0.87),
+                    ] {
+                        let g = texture_gradient(&textures, images, 0, [uv, Vec2::ZERO]);
+                        let du = (value(uv + Vec2::X * h) - value(uv - Vec2::X * h)) / (2.0 * h);
+                        let dv = (value(uv + Vec2::Y * h) - value(uv - Vec2::Y * h)) / (2.0 * h);
+                        // The differences' own rounding: 8-bit-scale values
+                        // over 2e-3, some 1e-4 relative of gradients of
+                        // order 1-10.
+                        let close = |a: f32, b: f32| (a - b).abs() <= 0.02 + 0.01 * b.abs();
+                        assert!(
+                            close(g.x, du) && close(g.y, dv),
+                            "grey {grey}, {wrap:?}, {transform:?}, uv {uv}: {g} vs ({du}, {dv})"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_nearest_texel_and_a_constant_have_no_gradient() {
+        let img = ramp(true);
+        let textures = [
+            Texture::Image {
+                image: 0,
+                factor: Vec3::ONE,
+                sampler: Sampler {
+                    nearest: true,
+                    ..Sampler::default()
+                },
+            },
+            Texture::Constant(Vec3::splat(0.5)),
+        ];
+        for id in 0..2 {
+            let g = texture_gradient(
+                &textures,
+                std::slice::from_ref(&img),
+                id,
+                [Vec2::splat(0.3); 2],
+            );
+            assert_eq!(g, Vec2::ZERO);
+        }
     }
 }

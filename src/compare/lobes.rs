@@ -59,6 +59,8 @@ impl LobeCase {
             material: 0,
             tangent: Vec3::X,
             bitangent: Vec3::Y,
+            dp_du: Vec3::X,
+            dp_dv: Vec3::Y,
         }
     }
 

@@ -62,7 +62,7 @@ fn si_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let d = vec3<f32>(bitcast<f32>(input[w + 3u]), bitcast<f32>(input[w + 4u]), bitcast<f32>(input[w + 5u]));
     let uv = vec2<f32>(bitcast<f32>(input[w + 8u]), bitcast<f32>(input[w + 9u]));
     let si = surface_interaction(Ray(o, d), Hit(true, bitcast<f32>(input[w + 6u]), input[w + 7u], uv));
-    let r = 25u * i;
+    let r = 31u * i;
     output[r] = bitcast<u32>(si.p.x);
     output[r + 1u] = bitcast<u32>(si.p.y);
     output[r + 2u] = bitcast<u32>(si.p.z);
@@ -88,11 +88,17 @@ fn si_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     output[r + 22u] = bitcast<u32>(si.bitangent.x);
     output[r + 23u] = bitcast<u32>(si.bitangent.y);
     output[r + 24u] = bitcast<u32>(si.bitangent.z);
+    output[r + 25u] = bitcast<u32>(si.dp_du.x);
+    output[r + 26u] = bitcast<u32>(si.dp_du.y);
+    output[r + 27u] = bitcast<u32>(si.dp_du.z);
+    output[r + 28u] = bitcast<u32>(si.dp_dv.x);
+    output[r + 29u] = bitcast<u32>(si.dp_dv.y);
+    output[r + 30u] = bitcast<u32>(si.dp_dv.z);
 }
 ";
 
 /// Words a case's output holds.
-const SI_WORDS: usize = 25;
+const SI_WORDS: usize = 31;
 
 /// The tangent frame: ∂p/∂u (a triangle's from its texture coordinates,
 /// two products over a determinant), its part along the normal removed
@@ -185,6 +191,7 @@ pub fn surface_interactions_with_library(
         let uv1 = Vec2::new(f32::from_bits(w[14]), f32::from_bits(w[15]));
         let color = v3(&w[16..19]);
         let (tangent, bitangent) = (v3(&w[19..22]), v3(&w[22..25]));
+        let (dp_du, dp_dv) = (v3(&w[25..28]), v3(&w[28..31]));
         let p_error = f32::from_bits(w[11]);
         let at = format!("{name} case {i} (prim {}, t {})", hit.prim, hit.t);
         let prim = scene.primitives()[hit.prim as usize];
@@ -265,6 +272,21 @@ pub fn surface_interactions_with_library(
                 cpu.tangent, cpu.bitangent
             ));
         }
+        // ∂p/∂u and ∂p/∂v (a bump map's): the same computation as the
+        // tangent's before its projection and normalization, so its bound
+        // relative to their size (a sphere's from its normal, through the
+        // same magnification).
+        let dp_tol = tangent_tol * cpu.dp_du.length().max(cpu.dp_dv.length());
+        let ddp = (dp_du - cpu.dp_du)
+            .abs()
+            .max_element()
+            .max((dp_dv - cpu.dp_dv).abs().max_element());
+        if ddp > dp_tol {
+            fail(format!(
+                "dp/du, dp/dv {dp_du}, {dp_dv} vs {}, {} (bound {dp_tol})",
+                cpu.dp_du, cpu.dp_dv
+            ));
+        }
         let de = (p_error - cpu.p_error).abs() / cpu.p_error;
         if de > P_ERROR_REL_TOL {
             fail(format!("p_error {p_error} vs {}", cpu.p_error));
@@ -277,7 +299,8 @@ pub fn surface_interactions_with_library(
             dp / p_tol,
             (dn / normal_tol)
                 .max(ds / shading_tol)
-                .max(dt / tangent_tol),
+                .max(dt / tangent_tol)
+                .max(ddp / dp_tol),
             (duv / uv_tol).max(duv1 / uv1_tol).max(dc / color_tol),
             de / P_ERROR_REL_TOL,
         ]
@@ -325,7 +348,7 @@ fn tangent_magnification(
         primitive_tag::QUAD => 1.0,
         _ => {
             let tri = &scene.triangles()[p.index as usize];
-            let dp = scene.triangle_dp_du(tri, si.geometric_normal);
+            let dp = scene.triangle_dp_duv(tri, si.geometric_normal).0;
             let n = si.shading_normal;
             let survives = (dp - n * n.dot(dp)).length() / dp.length();
             let det_terms = if tri.flags & reference::shapes::TRIANGLE_HAS_UVS != 0 {
@@ -350,8 +373,9 @@ fn tangent_magnification(
 /// [`surface_interactions`] on spheres (rtow-final), quads (cornell),
 /// triangles with shading normals and uv (the glTF fixture), triangles
 /// with vertex colours, a second uv set and normal maps (the glTF
-/// materials fixture), and the tangent frames of Mitsuba's gate scene
-/// frames (meshes with and without texture coordinates, quads).
+/// materials fixture), and the tangent frames and ∂p/∂u, ∂p/∂v of
+/// Mitsuba's gate scenes frames and bumps (meshes with and without
+/// texture coordinates, quads).
 pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let load = |spec: &str| reference::load_scene(spec).map_err(|e| e.to_string());
     let mut lines = Vec::new();
@@ -368,6 +392,14 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
             load(
                 &crate::compare::gate::workspace_root()
                     .join("fixtures/mitsuba/frames/test_frames_path.xml")
+                    .to_string_lossy(),
+            )?,
+        ),
+        (
+            "mitsuba bumps",
+            load(
+                &crate::compare::gate::workspace_root()
+                    .join("fixtures/mitsuba/bumps/test_bumps_path.xml")
                     .to_string_lossy(),
             )?,
         ),

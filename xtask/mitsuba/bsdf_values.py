@@ -5,7 +5,8 @@ regenerates the same inputs and compares).
     python3 xtask/mitsuba/bsdf_values.py CASE  [--out fixtures/mitsuba/bsdf]
 
 CASE: conductor, dielectric, thindielectric, roughconductor,
-roughdielectric, plastic, roughplastic, mask, anisotropic, normalmap.
+roughdielectric, plastic, roughplastic, mask, anisotropic, normalmap,
+bumpmap.
 
 Inputs: case i of N has its parameters from the additive sequence
 frac((i + 1) * a) of the constants A below, computed in f64 with + - * /
@@ -20,6 +21,7 @@ Needs Mitsuba 3 (`pip install mitsuba==3.9.1 numpy`); runs on the CPU
 """
 
 import argparse
+import math
 import os
 
 import mitsuba as mi
@@ -222,10 +224,12 @@ def anisotropic_conductor(i):
     }
 
 
-def rough_records(bsdf, wi, wo, i):
+def rough_records(bsdf, wi, wo, i, si=None):
     """eval and pdf at (wi, wo), then a sample drawn at u = (unit 9,
-    unit 10): its wo (three), weight and pdf (weight 0: none)."""
-    si = rough_surface(wi)
+    unit 10): its wo (three), weight and pdf (weight 0: none); at
+    rough_surface(wi) unless si is given."""
+    if si is None:
+        si = rough_surface(wi)
     ctx = mi.BSDFContext()
     wo = mi.Vector3f([float(np.float32(c)) for c in wo])
     value = bsdf.eval(ctx, si, wo)[0]
@@ -271,6 +275,51 @@ def normalmap(i):
         }
     )
     return rough_records(bsdf, wi, wo, i)
+
+
+BUMP_SIZE = 4
+
+
+def bump_inputs(i):
+    """Case i's bump map: a BUMP_SIZE x BUMP_SIZE height image (rows from
+    the top; texel t is unit 14 of case BUMP_SIZE^2 * i + t), the point's
+    uv in Mitsuba's convention (v down the image; units 15 and 16, on a
+    grid of 2^-16 so that twintrace's v = 1 - v is exact),
+    dp_du and dp_dv (each mostly along x or y with parts along the
+    others, the normal's included; units 0-5 of case N + i) and the
+    scale in [0.05, 0.35) (unit 6 of case N + i), all rounded to f32."""
+    f = lambda x: float(np.float32(x))  # noqa: E731
+    texels = [f(unit(BUMP_SIZE * BUMP_SIZE * i + t, 14)) for t in range(BUMP_SIZE * BUMP_SIZE)]
+    uv = [math.floor(unit(i, k) * 65536.0) / 65536.0 for k in (15, 16)]
+    j = N + i
+    dp_du = [f(0.5 + unit(j, 0)), f(0.3 * (unit(j, 1) - 0.5)), f(0.4 * (unit(j, 2) - 0.5))]
+    dp_dv = [f(0.3 * (unit(j, 3) - 0.5)), f(0.5 + unit(j, 4)), f(0.4 * (unit(j, 5) - 0.5))]
+    return texels, uv, dp_du, dp_dv, f(0.05 + 0.3 * unit(j, 6))
+
+
+def bumpmap(i):
+    """Records 7 f32 as roughconductor's, of Mitsuba's bumpmap (a raw
+    bilinear bitmap of bump_inputs' height, repeated) around
+    anisotropic's conductor, at bump_inputs' uv, dp_du and dp_dv, the
+    viewer below the surface where i % 5 == 4 (wi's z negated)."""
+    _, _, wi, wo = anisotropic_inputs(i)
+    if i % 5 == 4:
+        wi = (wi[0], wi[1], -wi[2])
+    texels, uv, dp_du, dp_dv, scale = bump_inputs(i)
+    image = np.array(texels, dtype=np.float32).reshape(BUMP_SIZE, BUMP_SIZE, 1)
+    bsdf = mi.load_dict(
+        {
+            "type": "bumpmap",
+            "scale": scale,
+            "height": {"type": "bitmap", "bitmap": mi.Bitmap(image), "raw": True},
+            "bsdf": anisotropic_conductor(i),
+        }
+    )
+    si = rough_surface(wi)
+    si.uv = uv
+    si.dp_du = dp_du
+    si.dp_dv = dp_dv
+    return rough_records(bsdf, wi, wo, i, si)
 
 
 def roughdielectric(i):
@@ -462,6 +511,7 @@ CASES = {
     "roughplastic": roughplastic,
     "anisotropic": anisotropic,
     "normalmap": normalmap,
+    "bumpmap": bumpmap,
 }
 
 

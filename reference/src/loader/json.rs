@@ -280,6 +280,7 @@ pub enum MaterialJson {
     Mask(MaskMaterialJson),
     OneSided(OneSidedMaterialJson),
     NormalMapped(NormalMappedMaterialJson),
+    BumpMapped(BumpMappedMaterialJson),
 }
 
 /// Mitsuba 3's `mask` around another material (by name): where a path
@@ -305,6 +306,25 @@ pub struct MaskMaterialJson {
 pub struct NormalMappedMaterialJson {
     pub material: String,
     pub normal_map: ColorRef,
+}
+
+/// Mitsuba 3's `bumpmap` around another material (by name): the surface's
+/// normal bent by the gradient of a height (`bump_map`, an image read
+/// through the first uv set, its one-channel value: the grey or the
+/// luminance) times `scale` (at least 0; default 1), per unit of uv
+/// (`reference::material::NormalMapped::bumped`; read as data, so an
+/// image should be linear).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BumpMappedMaterialJson {
+    pub material: String,
+    pub bump_map: ColorRef,
+    #[serde(default = "default_bump_scale")]
+    pub scale: f32,
+}
+
+fn default_bump_scale() -> f32 {
+    1.0
 }
 
 fn default_opacity() -> ScalarRef {
@@ -1234,7 +1254,10 @@ impl Resolver<'_> {
                     emission: self.colour(emission, 0).map_err(field("emission"))?,
                 }
             }
-            MaterialJson::Mask(_) | MaterialJson::OneSided(_) | MaterialJson::NormalMapped(_) => {
+            MaterialJson::Mask(_)
+            | MaterialJson::OneSided(_)
+            | MaterialJson::NormalMapped(_)
+            | MaterialJson::BumpMapped(_) => {
                 let id = self.wrapped_material(name, m)?;
                 self.materials.insert(name.to_string(), id);
                 return Ok(id);
@@ -1284,7 +1307,8 @@ impl Resolver<'_> {
             MaterialJson::DiffuseLight(_)
             | MaterialJson::Mask(_)
             | MaterialJson::OneSided(_)
-            | MaterialJson::NormalMapped(_) => None,
+            | MaterialJson::NormalMapped(_)
+            | MaterialJson::BumpMapped(_) => None,
         };
         match emission {
             None => {}
@@ -1301,16 +1325,20 @@ impl Resolver<'_> {
         Ok(id)
     }
 
-    /// A `mask`, `one_sided` or `normal_mapped` material: a copy of the
+    /// A `mask`, `one_sided`, `normal_mapped` or `bump_mapped` material: a copy of the
     /// material it names (with its emission) under one more of Mitsuba's
     /// wrappers.
     fn wrapped_material(&mut self, name: &str, m: &MaterialJson) -> Result<u32, SceneError> {
         let at = |e: SceneError| e.within(&format!("materials.{name}"));
+        // A map: its texture, and for a bump map its scale.
         let (inner, opacity, normal_map) = match m {
             MaterialJson::Mask(w) => (&w.material, Some(&w.opacity), None),
             MaterialJson::OneSided(w) => (&w.material, None, None),
-            MaterialJson::NormalMapped(w) => (&w.material, None, Some(&w.normal_map)),
-            _ => unreachable!("wrapped_material is called for mask, one_sided and normal_mapped"),
+            MaterialJson::NormalMapped(w) => (&w.material, None, Some((&w.normal_map, None))),
+            MaterialJson::BumpMapped(w) => (&w.material, None, Some((&w.bump_map, Some(w.scale)))),
+            _ => unreachable!(
+                "wrapped_material is called for mask, one_sided, normal_mapped and bump_mapped"
+            ),
         };
         if self.wrapping.iter().any(|n| n == name) {
             return Err(at(SceneError::invalid(
@@ -1350,11 +1378,17 @@ impl Resolver<'_> {
                     format!("`{inner}` has a mask or a normal map already: put the normal map inside the mask, one a material"),
                 )))
             }
-            (None, Some(c)) => {
+            (None, Some((c, None))) => {
                 let texture = self
                     .colour(c, 0)
                     .map_err(|e| e.within(&format!("materials.{name}.normal_map")))?;
                 wrappers.normal_map = Some(texture);
+            }
+            (None, Some((c, Some(scale)))) => {
+                let within = |e: SceneError| e.within(&format!("materials.{name}.bump_map"));
+                let texture = self.colour(c, 0).map_err(within)?;
+                wrappers.normal_map = Some(self.scaled(texture, scale).map_err(within)?);
+                wrappers.bump_map = true;
             }
             (None, None) => wrappers.one_sided = true,
         }
@@ -1364,6 +1398,31 @@ impl Resolver<'_> {
             self.builder.set_emission(id, e).map_err(at)?;
         }
         Ok(id)
+    }
+
+    /// Texture `t` times `scale` (a bump map's height: an image or a
+    /// constant; the builder refuses the others as heights).
+    fn scaled(&mut self, t: u32, scale: f32) -> Result<u32, SceneError> {
+        if !(scale >= 0.0 && scale.is_finite()) {
+            return Err(SceneError::invalid(
+                "scale",
+                format!("{scale} is not a finite number of at least 0"),
+            ));
+        }
+        let scaled = match self.builder.texture(t) {
+            Some(&Texture::Image {
+                image,
+                factor,
+                sampler,
+            }) => Texture::Image {
+                image,
+                factor: factor * scale,
+                sampler,
+            },
+            Some(&Texture::Constant(c)) => Texture::Constant(c * scale),
+            _ => return Ok(t),
+        };
+        self.builder.add_texture(scaled)
     }
 
     fn object(&mut self, o: &ObjectJson) -> Result<(), SceneError> {

@@ -354,7 +354,7 @@ fn check_pattern_leaves(even: u32, odd: u32, earlier: &[Texture]) -> Result<(), 
 pub(super) fn check_wrap(
     material: &Material,
     wrap: &Wrappers,
-    textures: usize,
+    textures: &[Texture],
 ) -> Result<(), SceneError> {
     if *wrap != Wrappers::default() && matches!(material, Material::DiffuseLight { .. }) {
         return Err(SceneError::invalid(
@@ -364,7 +364,7 @@ pub(super) fn check_wrap(
     }
     for (what, t) in [("opacity", wrap.opacity), ("normal_map", wrap.normal_map)] {
         match t {
-            Some(t) if t as usize >= textures => {
+            Some(t) if t as usize >= textures.len() => {
                 return Err(SceneError::invalid(
                     what,
                     format!("texture index {t} does not exist"),
@@ -378,6 +378,27 @@ pub(super) fn check_wrap(
             "normal_map_mirrored",
             "is set without a normal map".into(),
         ));
+    }
+    if wrap.bump_map {
+        // The gradient is per unit of the first uv set, whose ∂p/∂u and
+        // ∂p/∂v the surface gives (`texture::texture_gradient`).
+        match wrap.normal_map.map(|t| &textures[t as usize]) {
+            None => {
+                return Err(SceneError::invalid(
+                    "bump_map",
+                    "is set without a texture".into(),
+                ))
+            }
+            Some(Texture::Constant(_)) => {}
+            Some(Texture::Image { sampler, .. }) if sampler.tex_coord == 0 => {}
+            Some(_) => {
+                return Err(SceneError::invalid(
+                    "bump_map",
+                    "a bump map's height is an image read through the first uv set, or a constant"
+                        .into(),
+                ))
+            }
+        }
     }
     Ok(())
 }
@@ -879,11 +900,7 @@ impl SceneBuilder {
     /// emits from its front alone and scatters nothing.
     pub fn set_wrappers(&mut self, material: u32, wrap: Wrappers) -> Result<(), SceneError> {
         self.check_material(material)?;
-        check_wrap(
-            &self.materials[material as usize],
-            &wrap,
-            self.textures.len(),
-        )?;
+        check_wrap(&self.materials[material as usize], &wrap, &self.textures)?;
         let m = material as usize;
         if self.wraps.len() <= m {
             self.wraps.resize(m + 1, Wrappers::default());
@@ -1677,7 +1694,7 @@ impl Scene {
         }
         for (i, wrap) in self.wraps.iter().enumerate() {
             if let Some(material) = look.materials.get(i) {
-                check_wrap(material, wrap, look.textures.len())
+                check_wrap(material, wrap, &look.textures)
                     .map_err(|e| e.within(&format!("materials[{i}]")))?;
             }
         }

@@ -574,9 +574,10 @@ impl Scene {
     pub fn surface_interaction(&self, ray: &Ray, hit: &Hit) -> SurfaceInteraction {
         let p = self.primitives[hit.prim as usize];
         let (mut uv1, mut color) = (Vec2::ZERO, Vec3::ONE);
-        // Each shape's normal before the flip onto the geometric side, and
-        // ∂p/∂u, for the tangent frame.
-        let (pos, ng, ns, uv, material, p_error, frame_n, dp_du) = match p.tag {
+        // Each shape's normal before the flip onto the geometric side,
+        // ∂p/∂u's direction for the tangent frame, and ∂p/∂u and ∂p/∂v per
+        // unit of uv for a bump map.
+        let (pos, ng, ns, uv, material, p_error, frame_n, dp_du, dp_duv) = match p.tag {
             primitive_tag::SPHERE => {
                 let s = &self.spheres[p.index as usize];
                 let outward = (ray.at(hit.t) - s.center) / s.radius.abs();
@@ -598,7 +599,8 @@ impl Scene {
                     * (s.radius.abs() + s.center.abs().max_element() + pos.abs().max_element());
                 // u grows with the angle atan2(-z, x) about +y.
                 let dp_du = Vec3::new(outward.z, 0.0, -outward.x);
-                (pos, n, n, uv, s.material, err, n, dp_du)
+                let dp_duv = sphere_dp_duv(outward, s.radius.abs());
+                (pos, n, n, uv, s.material, err, n, dp_du, dp_duv)
             }
             primitive_tag::QUAD => {
                 let q = &self.quads[p.index as usize];
@@ -610,7 +612,7 @@ impl Scene {
                         + (hit.uv.y * q.v).abs()
                         + pos.abs())
                     .max_element();
-                (pos, n, n, hit.uv, q.material, err, n, q.u)
+                (pos, n, n, hit.uv, q.material, err, n, q.u, (q.u, q.v))
             }
             _ => {
                 let tri = &self.triangles[p.index as usize];
@@ -662,8 +664,18 @@ impl Scene {
                     );
                     ns = normal_mapped(n, side, ng, tangent, texel, map.scale);
                 }
-                let dp_du = self.triangle_dp_du(tri, ng);
-                (pos, ng, ns, uv, tri.material, err, side * ns, dp_du)
+                let dp_duv = self.triangle_dp_duv(tri, ng);
+                (
+                    pos,
+                    ng,
+                    ns,
+                    uv,
+                    tri.material,
+                    err,
+                    side * ns,
+                    dp_duv.0,
+                    dp_duv,
+                )
             }
         };
         let (tangent, bitangent) = tangent_frame(frame_n, dp_du);
@@ -679,15 +691,18 @@ impl Scene {
             material,
             tangent,
             bitangent,
+            dp_du: dp_duv.0,
+            dp_dv: dp_duv.1,
         }
     }
 
-    /// ∂p/∂u of triangle `tri` of face normal `ng`, as Mitsuba's meshes
-    /// give it: from the vertices' texture coordinates where it has them
-    /// (where they are degenerate, [`Onb::from_normal`]'s tangent of `ng`),
-    /// else the edge `p1 − p0` (u the barycentric `b1`).
+    /// ∂p/∂u and ∂p/∂v of triangle `tri` of face normal `ng`, as Mitsuba's
+    /// meshes give them: from the vertices' texture coordinates where it
+    /// has them (where they are degenerate, [`Onb::from_normal`]'s
+    /// tangent and bitangent of `ng`), else the edges `p1 − p0` and
+    /// `p2 − p0` (u and v the barycentrics `b1`, `b2`).
     #[inline]
-    pub fn triangle_dp_du(&self, tri: &Triangle, ng: Vec3) -> Vec3 {
+    pub fn triangle_dp_duv(&self, tri: &Triangle, ng: Vec3) -> (Vec3, Vec3) {
         let [i0, i1, i2] = tri.vertices.map(|i| i as usize);
         let m = &self.mesh;
         let (dp0, dp1) = (
@@ -695,13 +710,34 @@ impl Scene {
             m.positions[i2] - m.positions[i0],
         );
         if tri.flags & TRIANGLE_HAS_UVS == 0 {
-            return dp0;
+            return (dp0, dp1);
         }
         let (duv0, duv1) = (m.uvs[i1] - m.uvs[i0], m.uvs[i2] - m.uvs[i0]);
         let det = duv0.x * duv1.y - duv0.y * duv1.x;
         if det == 0.0 {
-            return Onb::from_normal(ng).s;
+            let f = Onb::from_normal(ng);
+            return (f.s, f.t);
         }
-        (duv1.y * dp0 - duv0.y * dp1) / det
+        (
+            (duv1.y * dp0 - duv0.y * dp1) / det,
+            (duv0.x * dp1 - duv1.x * dp0) / det,
+        )
     }
+}
+
+/// ∂p/∂u and ∂p/∂v per unit of uv on a sphere of radius `r` at the unit
+/// direction `o` from its centre, for its uv (u = (atan2(−z, x) + π) / 2π,
+/// v = acos(−y) / π): u turns the point about +y, `2π·r·(o.z, 0, −o.x)`;
+/// v moves it from the −y pole to the +y pole, `π·r·(−o.y·o.x/ρ, ρ,
+/// −o.y·o.z/ρ)` with `ρ = √(o.x² + o.z²)` (along +y at the poles).
+#[inline]
+pub fn sphere_dp_duv(o: Vec3, r: f32) -> (Vec3, Vec3) {
+    let rho = (o.x * o.x + o.z * o.z).sqrt();
+    let dp_du = (2.0 * PI * r) * Vec3::new(o.z, 0.0, -o.x);
+    let dp_dv = if rho > 0.0 {
+        (PI * r) * Vec3::new(-o.y * o.x / rho, rho, -o.y * o.z / rho)
+    } else {
+        Vec3::new(0.0, PI * r, 0.0)
+    };
+    (dp_du, dp_dv)
 }

@@ -438,3 +438,37 @@ fn checkers_keep_their_world_pattern_and_edits_keep_their_meaning() {
     assert!(field_of(push(3.0).unwrap_err()).ends_with(".scale"));
     assert!(push(8.0).is_ok());
 }
+
+#[test]
+fn a_spheres_dp_du_and_dp_dv_are_its_uvs_derivatives() {
+    // The point at (u, v) of the uv Scene::surface_interaction gives a
+    // sphere (u = (atan2(−z, x) + π) / 2π, v = acos(−y) / π), and its
+    // central differences against sphere_dp_duv.
+    let r = 1.7f64;
+    let at = |u: f64, v: f64| {
+        let (phi, theta) = (
+            2.0 * std::f64::consts::PI * u - std::f64::consts::PI,
+            std::f64::consts::PI * v,
+        );
+        glam::DVec3::new(
+            theta.sin() * phi.cos(),
+            -theta.cos(),
+            -theta.sin() * phi.sin(),
+        ) * r
+    };
+    let h = 1e-6;
+    for (u, v) in [(0.1, 0.3), (0.55, 0.8), (0.9, 0.5)] {
+        let o = (at(u, v) / r).as_vec3();
+        let (du, dv) = sphere_dp_duv(o, r as f32);
+        let fd_u = ((at(u + h, v) - at(u - h, v)) / (2.0 * h)).as_vec3();
+        let fd_v = ((at(u, v + h) - at(u, v - h)) / (2.0 * h)).as_vec3();
+        assert!(
+            (du - fd_u).length() < 1e-4 * fd_u.length(),
+            "{du} vs {fd_u}"
+        );
+        assert!(
+            (dv - fd_v).length() < 1e-4 * fd_v.length(),
+            "{dv} vs {fd_v}"
+        );
+    }
+}

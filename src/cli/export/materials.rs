@@ -913,6 +913,9 @@ pub(super) fn wrapping(scene: &Scene, i: usize, surface: &Surface) -> Result<Wra
             bail!("{what} has a mask whose opacity Mitsuba would not read as a number alike (a 3-D checker, an image of two wrap modes or the second uv set: not exported)");
         }
     }
+    if w.bump_map {
+        bail!("{what} has a bump map (Mitsuba's bumpmap), which the export does not write (not exported)");
+    }
     if w.normal_map_mirrored {
         bail!("{what} reads its normal map in the frame turned to the viewer (Mitsuba's twosided around a normalmap), which the export does not write (not exported)");
     }

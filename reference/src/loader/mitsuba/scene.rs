@@ -22,6 +22,7 @@ const ONE_SIDED: Wrappers = Wrappers {
     opacity: None,
     normal_map: None,
     normal_map_mirrored: false,
+    bump_map: false,
 };
 use crate::mutants::{self, Mutant};
 use crate::rng::Sampler as PathSampler;
@@ -1403,14 +1404,21 @@ impl Reader<'_> {
         if o.kind == "normalmap" {
             return self.normal_map(o);
         }
+        if o.kind == "bumpmap" {
+            return self.bump_map(o);
+        }
         if o.kind == "twosided" {
             let props = Props::new(o);
             let nested = props.children("bsdf");
             if let [one] = nested.as_slice() {
-                if one.object.kind == "normalmap" {
+                if matches!(one.object.kind.as_str(), "normalmap" | "bumpmap") {
                     // Both sides, each seeing the map in the frame turned
                     // to it.
-                    let (m, wrap) = self.normal_map(&one.object)?;
+                    let (m, wrap) = if one.object.kind == "normalmap" {
+                        self.normal_map(&one.object)?
+                    } else {
+                        self.bump_map(&one.object)?
+                    };
                     if !wrap.one_sided {
                         return Err(unsupported(
                             &one.object,
@@ -1459,14 +1467,7 @@ impl Reader<'_> {
     /// it is refused (put the mask outside).
     fn normal_map(&mut self, o: &Object) -> Result<(Material, Wrappers), SceneError> {
         let props = Props::new(o);
-        let nested = props.children("bsdf");
-        let [one] = nested.as_slice() else {
-            return Err(unsupported(o, " with other than one nested bsdf"));
-        };
-        if matches!(one.object.kind.as_str(), "normalmap" | "mask" | "bumpmap") {
-            return Err(unsupported(&one.object, " inside a normalmap"));
-        }
-        let (material, wrap) = self.bsdf(&one.object)?;
+        let (material, wrap) = self.mapped_bsdf(&props)?;
         if props.named_child("normalmap").is_none() && props.get("normalmap").is_none() {
             return Err(fail(
                 &o.at,
@@ -1475,13 +1476,7 @@ impl Reader<'_> {
         }
         let map = self.colour(&props, "normalmap", ColourUse::Reflectance, 0.0)?;
         let map = self.texture_of(map, &o.at)?;
-        // Mitsuba 3.9.1's defaults, the only behaviour twintrace has.
-        if !props.boolean("flip_invalid_normals", true)? {
-            return Err(unsupported(o, " with flip_invalid_normals false"));
-        }
-        if !props.boolean("use_shadowing_function", true)? {
-            return Err(unsupported(o, " with use_shadowing_function false"));
-        }
+        map_defaults(&props)?;
         props.finish()?;
         Ok((
             material,
@@ -1491,6 +1486,75 @@ impl Reader<'_> {
                 ..wrap
             },
         ))
+    }
+
+    /// Mitsuba's `bumpmap` around a BSDF: the gradient of its one texture
+    /// (a `bitmap`, the only texture whose gradient Mitsuba 3.9.1 gives;
+    /// read `raw` only where the file says so) times `scale` bends the
+    /// shading frame the BSDF sees ([`crate::material::NormalMapped::bumped`]).
+    /// The scale is the texture's factor, so a negative one is refused. A
+    /// mask or another map inside it is refused (put the mask outside).
+    fn bump_map(&mut self, o: &Object) -> Result<(Material, Wrappers), SceneError> {
+        let props = Props::new(o);
+        let (material, wrap) = self.mapped_bsdf(&props)?;
+        let textures = props.children("texture");
+        let [height] = textures.as_slice() else {
+            return Err(fail(
+                &o.at,
+                format!(
+                    "{} has {} textures (it takes one: the height)",
+                    o.describe(),
+                    textures.len()
+                ),
+            ));
+        };
+        if height.object.kind != "bitmap" {
+            return Err(unsupported(
+                &height.object,
+                " as a bumpmap's height (Mitsuba 3.9.1 takes the gradient of a bitmap only)",
+            ));
+        }
+        let scale = props.float("scale", 1.0)?;
+        if scale < 0.0 {
+            return Err(unsupported(o, &format!(" with a negative scale ({scale})")));
+        }
+        let id = self.texture(&height.object, ColourUse::Number)?;
+        let Some(&Texture::Image { image, sampler, .. }) = self.builder.texture(id) else {
+            return Err(fail(&o.at, "a bitmap did not read as an image".into()));
+        };
+        let map = self
+            .builder
+            .add_texture(Texture::Image {
+                image,
+                factor: Vec3::splat(scale as f32),
+                sampler,
+            })
+            .map_err(|e| fail(&o.at, e.to_string()))?;
+        map_defaults(&props)?;
+        props.finish()?;
+        Ok((
+            material,
+            Wrappers {
+                normal_map: Some(map),
+                normal_map_mirrored: false,
+                bump_map: true,
+                ..wrap
+            },
+        ))
+    }
+
+    /// The one BSDF inside a `normalmap` or `bumpmap` (`props`' object),
+    /// read; a mask or another map there is refused.
+    fn mapped_bsdf(&mut self, props: &Props) -> Result<(Material, Wrappers), SceneError> {
+        let o = props.object;
+        let nested = props.children("bsdf");
+        let [one] = nested.as_slice() else {
+            return Err(unsupported(o, " with other than one nested bsdf"));
+        };
+        if matches!(one.object.kind.as_str(), "normalmap" | "mask" | "bumpmap") {
+            return Err(unsupported(&one.object, &format!(" inside a {}", o.kind)));
+        }
+        self.bsdf(&one.object)
     }
 
     /// Mitsuba's smooth `dielectric` or `thindielectric` (both sides their
@@ -1933,6 +1997,9 @@ impl Reader<'_> {
                     }
                     input = with_attribute(input, a);
                 }
+                if input.uvs.is_none() && self.reads_uv(material) {
+                    input = barycentric_uvs(input);
+                }
                 let input = oriented(&input, flip);
                 self.builder
                     .add_mesh(&input, material, &transform)
@@ -1941,6 +2008,32 @@ impl Reader<'_> {
             _ => return Err(unsupported(o, "")),
         }
         props.finish()
+    }
+
+    /// Whether material `material` reads its surface's texture
+    /// coordinates: under a normal or bump map, or through a texture of
+    /// it, its wrappers or its added emission that is an image or a
+    /// checkerboard in uv (or a 3-D checker of images).
+    fn reads_uv(&self, material: u32) -> bool {
+        let Some((m, w, emission)) = self.builder.material_parts(material) else {
+            return false;
+        };
+        let leaf = |t: u32| {
+            matches!(
+                self.builder.texture(t),
+                Some(Texture::Image { .. } | Texture::UvChecker { .. })
+            )
+        };
+        let reads = |t: u32| match self.builder.texture(t) {
+            Some(Texture::Checker { even, odd, .. }) => leaf(*even) || leaf(*odd),
+            _ => leaf(t),
+        };
+        w.normal_map.is_some()
+            || m.texture_ids()
+                .into_iter()
+                .chain(w.opacity)
+                .chain(emission)
+                .any(reads)
     }
 
     /// A shape's `to_world` after `outer`.
@@ -2344,6 +2437,49 @@ fn with_attribute(mesh: MeshInput, a: &meshes::Attribute) -> MeshInput {
     }
 }
 
+/// A `normalmap`'s or `bumpmap`'s switches at Mitsuba 3.9.1's defaults,
+/// the only behaviour twintrace has (others refused).
+fn map_defaults(props: &Props) -> Result<(), SceneError> {
+    for name in ["flip_invalid_normals", "use_shadowing_function"] {
+        if !props.boolean(name, true)? {
+            return Err(unsupported(props.object, &format!(" with {name} false")));
+        }
+    }
+    Ok(())
+}
+
+/// `mesh` (without texture coordinates) given Mitsuba's: a triangle's
+/// point at barycentrics (b1, b2) is at uv (b1, b2), which twintrace
+/// reads v up as (b1, 1 − b2). Each triangle's corners get vertices of
+/// their own at (0, 1), (1, 1) and (0, 0), keeping their positions and
+/// normals, so that a texture, a bump map or a tangent reads the surface
+/// where Mitsuba's does (also after `flip_normals` rewinds the triangle,
+/// as Mitsuba's does not).
+fn barycentric_uvs(mesh: MeshInput) -> MeshInput {
+    let corners = &mesh.indices;
+    fn pick<T: Copy>(v: &Option<Vec<T>>, corners: &[u32]) -> Option<Vec<T>> {
+        v.as_ref()
+            .map(|v| corners.iter().map(|&i| v[i as usize]).collect())
+    }
+    let at = [
+        Vec2::new(0.0, 1.0),
+        Vec2::new(1.0, 1.0),
+        Vec2::new(0.0, 0.0),
+    ];
+    MeshInput {
+        positions: corners
+            .iter()
+            .map(|&i| mesh.positions[i as usize])
+            .collect(),
+        normals: pick(&mesh.normals, corners),
+        uvs: Some((0..corners.len()).map(|c| at[c % 3]).collect()),
+        colors: pick(&mesh.colors, corners),
+        tangents: pick(&mesh.tangents, corners),
+        uvs1: pick(&mesh.uvs1, corners),
+        indices: (0..corners.len() as u32).collect(),
+    }
+}
+
 /// `flip_normals`: the triangles wound the other way and the normals
 /// reversed, so the surface faces the other side.
 fn oriented(mesh: &MeshInput, flip: bool) -> MeshInput {
@@ -2477,6 +2613,92 @@ mod tests {
             .unwrap_err()
             .to_string();
             assert!(err.contains(says), "{body}: {err}");
+        }
+    }
+
+    /// A scene of one shape (`shape`'s XML, beside a PLY of
+    /// [`ATTRIBUTE_PLY`] as m.ply) whose bsdf is `bsdf`, with `HEIGHT` the
+    /// path of fixtures/mitsuba/bumps' height image.
+    fn bump_scene(shape: &str, bsdf: &str) -> Result<Scene, SceneError> {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("m.ply"), ATTRIBUTE_PLY).unwrap();
+        let height = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../fixtures/mitsuba/bumps/textures/height.png");
+        let bsdf = bsdf.replace("HEIGHT", &height.to_string_lossy());
+        let text = format!(
+            r#"<scene version="3.0.0"><sensor type="perspective">{FILM}</sensor><shape type="{shape}"><string name="filename" value="m.ply"/>{bsdf}</shape></scene>"#
+        );
+        let path = dir.path().join("s.xml");
+        let doc = crate::loader::mitsuba::xml::parse_text(&text, &path, &[])
+            .map_err(|e| fail(&e.at, e.message))?;
+        build(&doc)
+    }
+
+    #[test]
+    fn bump_maps_are_read_with_their_scale_and_uvless_meshes_get_mitsubas_barycentrics() {
+        let s = bump_scene(
+            "ply",
+            r#"<bsdf type="twosided"><bsdf type="bumpmap"><float name="scale" value="0.25"/>
+            <texture name="h" type="bitmap"><boolean name="raw" value="true"/><string name="filename" value="HEIGHT"/></texture>
+            <bsdf type="diffuse"/></bsdf></bsdf>"#,
+        )
+        .unwrap();
+        let w = s.wrappers(0);
+        assert!(w.bump_map && w.normal_map_mirrored && !w.one_sided, "{w:?}");
+        let Some(Texture::Image { factor, .. }) = w.normal_map.map(|t| s.textures()[t as usize])
+        else {
+            panic!("{w:?}: {:?}", s.textures())
+        };
+        assert_eq!(factor, Vec3::splat(0.25));
+        // The PLY has no texture coordinates: each triangle's corners get
+        // vertices of their own at Mitsuba's barycentric (b1, b2), v up.
+        let m = s.mesh();
+        assert_eq!((s.triangles().len(), m.positions.len()), (2, 6));
+        let at = [
+            Vec2::new(0.0, 1.0),
+            Vec2::new(1.0, 1.0),
+            Vec2::new(0.0, 0.0),
+        ];
+        assert_eq!(m.uvs, [at, at].concat());
+        // A material that reads no coordinates leaves the mesh shared.
+        let s = bump_scene("ply", r#"<bsdf type="diffuse"/>"#).unwrap();
+        assert_eq!(s.mesh().positions.len(), 4);
+        // One-sided without twosided; the default scale 1.
+        let s = bump_scene(
+            "ply",
+            r#"<bsdf type="bumpmap"><texture name="h" type="bitmap"><string name="filename" value="HEIGHT"/></texture><bsdf type="roughconductor"/></bsdf>"#,
+        )
+        .unwrap();
+        let w = s.wrappers(0);
+        assert!(w.bump_map && w.one_sided && !w.normal_map_mirrored, "{w:?}");
+        assert!(matches!(
+            w.normal_map.map(|t| s.textures()[t as usize]),
+            Some(Texture::Image { factor, .. }) if factor == Vec3::ONE
+        ));
+        for (bsdf, says) in [
+            (
+                r#"<bsdf type="bumpmap"><float name="scale" value="-1"/><texture name="h" type="bitmap"><string name="filename" value="HEIGHT"/></texture><bsdf type="diffuse"/></bsdf>"#,
+                "is not supported with a negative scale",
+            ),
+            (
+                r#"<bsdf type="bumpmap"><texture name="h" type="checkerboard"/><bsdf type="diffuse"/></bsdf>"#,
+                "checkerboard\" is not supported as a bumpmap's height",
+            ),
+            (
+                r#"<bsdf type="bumpmap"><bsdf type="diffuse"/></bsdf>"#,
+                "has 0 textures (it takes one: the height)",
+            ),
+            (
+                r#"<bsdf type="bumpmap"><texture name="h" type="bitmap"><string name="filename" value="HEIGHT"/></texture><bsdf type="normalmap"><rgb name="normalmap" value="0.5, 0.5, 1"/><bsdf type="diffuse"/></bsdf></bsdf>"#,
+                "normalmap\" is not supported inside a bumpmap",
+            ),
+            (
+                r#"<bsdf type="bumpmap"><boolean name="use_shadowing_function" value="false"/><texture name="h" type="bitmap"><string name="filename" value="HEIGHT"/></texture><bsdf type="diffuse"/></bsdf>"#,
+                "with use_shadowing_function false",
+            ),
+        ] {
+            let err = bump_scene("ply", bsdf).unwrap_err().to_string();
+            assert!(err.contains(says), "{bsdf}: {err}");
         }
     }
 
