@@ -2606,6 +2606,14 @@ mod tests {
                 r#"<bsdf type="roughconductor"><float name="alpha_u" value="0.2"/><float name="alpha_v" value="0.1"/></bsdf>"#,
                 "sphere\" is not supported with an anisotropic or normal-mapped material",
             ),
+            (
+                concat!(
+                    r#"<bsdf type="bumpmap"><texture name="h" type="bitmap"><string name="filename" value=""#,
+                    env!("CARGO_MANIFEST_DIR"),
+                    r#"/../fixtures/mitsuba/bumps/textures/height.png"/></texture><bsdf type="diffuse"/></bsdf>"#
+                ),
+                "sphere\" is not supported with a texture",
+            ),
         ] {
             let err = scene(&format!(
                 r#"<sensor type="perspective">{FILM}</sensor><shape type="sphere">{body}</shape>"#
