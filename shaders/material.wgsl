@@ -411,10 +411,7 @@ fn delta(direction: vec3<f32>, weight: vec3<f32>) -> Scatter {
 // reference::material::opacity_of: the value of a grey texel, else the
 // luminance by Mitsuba's weights; in [0, 1], NaN read as 0.
 fn opacity_of(c: vec3<f32>) -> f32 {
-    var v = c.x;
-    if !(c.x == c.y && c.y == c.z) {
-        v = dot(c, MITSUBA_LUMINANCE);
-    }
+    let v = one_channel(c);
     if v > 0.0 {
         return min(v, 1.0);
     }

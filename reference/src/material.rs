@@ -644,11 +644,7 @@ pub use crate::texture::MITSUBA_LUMINANCE;
 /// [0, 1] as Mitsuba's, NaN read as 0.
 #[inline]
 pub fn opacity_of(c: Vec3) -> f32 {
-    let v = if c.x == c.y && c.y == c.z {
-        c.x
-    } else {
-        c.dot(Vec3::from_array(MITSUBA_LUMINANCE))
-    };
+    let v = crate::texture::one_channel(c);
     if v > 0.0 {
         v.min(1.0)
     } else {

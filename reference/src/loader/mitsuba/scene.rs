@@ -2420,10 +2420,6 @@ fn with_attribute(mesh: MeshInput, a: &meshes::Attribute) -> MeshInput {
         };
     }
     let corners = &mesh.indices;
-    fn pick<T: Copy>(v: &Option<Vec<T>>, corners: &[u32]) -> Option<Vec<T>> {
-        v.as_ref()
-            .map(|v| corners.iter().map(|&i| v[i as usize]).collect())
-    }
     MeshInput {
         positions: corners
             .iter()
@@ -2457,10 +2453,6 @@ fn map_defaults(props: &Props) -> Result<(), SceneError> {
 /// as Mitsuba's does not).
 fn barycentric_uvs(mesh: MeshInput) -> MeshInput {
     let corners = &mesh.indices;
-    fn pick<T: Copy>(v: &Option<Vec<T>>, corners: &[u32]) -> Option<Vec<T>> {
-        v.as_ref()
-            .map(|v| corners.iter().map(|&i| v[i as usize]).collect())
-    }
     let at = [
         Vec2::new(0.0, 1.0),
         Vec2::new(1.0, 1.0),
@@ -2478,6 +2470,12 @@ fn barycentric_uvs(mesh: MeshInput) -> MeshInput {
         uvs1: pick(&mesh.uvs1, corners),
         indices: (0..corners.len() as u32).collect(),
     }
+}
+
+/// A vertex attribute (where the mesh has it) read at each of `corners`.
+fn pick<T: Copy>(v: &Option<Vec<T>>, corners: &[u32]) -> Option<Vec<T>> {
+    v.as_ref()
+        .map(|v| corners.iter().map(|&i| v[i as usize]).collect())
 }
 
 /// `flip_normals`: the triangles wound the other way and the normals
@@ -2511,19 +2509,28 @@ mod tests {
 
     const FILM: &str = r#"<film type="hdrfilm"><integer name="width" value="40"/><integer name="height" value="20"/><rfilter type="box"/></film>"#;
 
-    /// A scene of one PLY shape (`ply`'s text, written beside the scene)
-    /// whose diffuse reflectance is the mesh attribute `name`.
-    fn attribute_scene(ply: &str, name: &str) -> Result<Scene, SceneError> {
+    /// A scene of one PLY shape (`ply`'s text, written beside the scene as
+    /// m.ply) whose bsdf is `bsdf`.
+    fn ply_scene(ply: &str, bsdf: &str) -> Result<Scene, SceneError> {
         let dir = tempfile::tempdir().unwrap();
         std::fs::write(dir.path().join("m.ply"), ply).unwrap();
         let text = format!(
-            r#"<scene version="3.0.0"><sensor type="perspective">{FILM}</sensor><shape type="ply"><string name="filename" value="m.ply"/>
-            <bsdf type="diffuse"><texture type="mesh_attribute" name="reflectance"><string name="name" value="{name}"/><float name="scale" value="0.5"/></texture></bsdf></shape></scene>"#
+            r#"<scene version="3.0.0"><sensor type="perspective">{FILM}</sensor><shape type="ply"><string name="filename" value="m.ply"/>{bsdf}</shape></scene>"#
         );
         let path = dir.path().join("s.xml");
         let doc = crate::loader::mitsuba::xml::parse_text(&text, &path, &[])
             .map_err(|e| fail(&e.at, e.message))?;
         build(&doc)
+    }
+
+    /// [`ply_scene`] whose diffuse reflectance is the mesh attribute `name`.
+    fn attribute_scene(ply: &str, name: &str) -> Result<Scene, SceneError> {
+        ply_scene(
+            ply,
+            &format!(
+                r#"<bsdf type="diffuse"><texture type="mesh_attribute" name="reflectance"><string name="name" value="{name}"/><float name="scale" value="0.5"/></texture></bsdf>"#
+            ),
+        )
     }
 
     #[test]
@@ -2624,28 +2631,21 @@ mod tests {
         }
     }
 
-    /// A scene of one shape (`shape`'s XML, beside a PLY of
-    /// [`ATTRIBUTE_PLY`] as m.ply) whose bsdf is `bsdf`, with `HEIGHT` the
-    /// path of fixtures/mitsuba/bumps' height image.
-    fn bump_scene(shape: &str, bsdf: &str) -> Result<Scene, SceneError> {
-        let dir = tempfile::tempdir().unwrap();
-        std::fs::write(dir.path().join("m.ply"), ATTRIBUTE_PLY).unwrap();
+    /// [`ply_scene`] of [`ATTRIBUTE_PLY`] (no texture coordinates) whose
+    /// bsdf is `bsdf`, `HEIGHT` in it the path of fixtures/mitsuba/bumps'
+    /// height image.
+    fn bump_scene(bsdf: &str) -> Result<Scene, SceneError> {
         let height = Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("../fixtures/mitsuba/bumps/textures/height.png");
-        let bsdf = bsdf.replace("HEIGHT", &height.to_string_lossy());
-        let text = format!(
-            r#"<scene version="3.0.0"><sensor type="perspective">{FILM}</sensor><shape type="{shape}"><string name="filename" value="m.ply"/>{bsdf}</shape></scene>"#
-        );
-        let path = dir.path().join("s.xml");
-        let doc = crate::loader::mitsuba::xml::parse_text(&text, &path, &[])
-            .map_err(|e| fail(&e.at, e.message))?;
-        build(&doc)
+        ply_scene(
+            ATTRIBUTE_PLY,
+            &bsdf.replace("HEIGHT", &height.to_string_lossy()),
+        )
     }
 
     #[test]
     fn bump_maps_are_read_with_their_scale_and_uvless_meshes_get_mitsubas_barycentrics() {
         let s = bump_scene(
-            "ply",
             r#"<bsdf type="twosided"><bsdf type="bumpmap"><float name="scale" value="0.25"/>
             <texture name="h" type="bitmap"><boolean name="raw" value="true"/><string name="filename" value="HEIGHT"/></texture>
             <bsdf type="diffuse"/></bsdf></bsdf>"#,
@@ -2669,11 +2669,10 @@ mod tests {
         ];
         assert_eq!(m.uvs, [at, at].concat());
         // A material that reads no coordinates leaves the mesh shared.
-        let s = bump_scene("ply", r#"<bsdf type="diffuse"/>"#).unwrap();
+        let s = bump_scene(r#"<bsdf type="diffuse"/>"#).unwrap();
         assert_eq!(s.mesh().positions.len(), 4);
         // One-sided without twosided; the default scale 1.
         let s = bump_scene(
-            "ply",
             r#"<bsdf type="bumpmap"><texture name="h" type="bitmap"><string name="filename" value="HEIGHT"/></texture><bsdf type="roughconductor"/></bsdf>"#,
         )
         .unwrap();
@@ -2705,7 +2704,7 @@ mod tests {
                 "with use_shadowing_function false",
             ),
         ] {
-            let err = bump_scene("ply", bsdf).unwrap_err().to_string();
+            let err = bump_scene(bsdf).unwrap_err().to_string();
             assert!(err.contains(says), "{bsdf}: {err}");
         }
     }
