@@ -199,7 +199,7 @@ fn boxes_quantized_inward_fail_the_hit_records_and_the_films() {
             ctx,
             spec,
             &scene,
-            integrator,
+            (integrator, gpu::Features::of(&scene)),
             "the binary walk",
         )
         .unwrap();

@@ -9,7 +9,8 @@
 //! `super::wavefront`, trusted on both sides of that rule.
 
 use super::specialization::{
-    every_variant, gate_kernel_words, gate_scenes, oracle_film, variant_film, Build, SIZE,
+    every_variant, features_used, gate_features, gate_kernel_words, gate_scenes, oracle_film,
+    own_oracle, scene_specs, variant_film, Build, SIZE,
 };
 use super::Outcome;
 use gpu::{Checks, GpuContext};
@@ -18,7 +19,8 @@ use reference::Scene;
 
 /// The trusted megakernel's film of `scene` (over `program`, the
 /// megakernel's WGSL or an edit) against the checked production
-/// megakernel's, one estimator: `Ok((0, 0))` where every word is equal,
+/// megakernel's, one estimator, both built for the scene's own features:
+/// `Ok((0, 0))` where every word is equal,
 /// else the first pixel that differs and the count.
 pub fn compare_scene(
     ctx: &GpuContext,
@@ -27,22 +29,25 @@ pub fn compare_scene(
     integrator: Integrator,
     program: &str,
 ) -> Result<(usize, u64), String> {
-    let oracle = oracle_film(ctx, spec, scene, integrator, "the checked kernel")?;
-    compare_with(ctx, spec, scene, &oracle, integrator, program)
+    let (build, oracle) = own_oracle(
+        (ctx, spec, scene),
+        integrator,
+        program,
+        "the checked kernel",
+    )?;
+    compare_with((ctx, spec, scene), &oracle, build)
 }
 
 /// [`compare_scene`] against the checked kernel's film already rendered.
 fn compare_with(
-    ctx: &GpuContext,
-    spec: &str,
-    scene: &Scene,
+    (ctx, spec, scene): (&GpuContext, &str, &Scene),
     oracle: &[u64],
-    integrator: Integrator,
-    program: &str,
+    build: Build,
 ) -> Result<(usize, u64), String> {
+    let integrator = build.integrator;
     let trusted = Build {
         checks: Checks::Trusted,
-        ..Build::gate(ctx, scene, program, integrator)
+        ..build
     };
     let film = variant_film(ctx, scene, trusted)?;
     let words = super::film_words::WORDS_PER_PIXEL;
@@ -67,18 +72,31 @@ fn compare_with(
 }
 
 /// The scenes `specs` (fixture paths or built-in names), both estimators:
-/// trusted == checked, word for word; the first failure.
+/// trusted == checked, word for word, with the kernels the all-scenes
+/// gates build ([`super::specialization::gate_features`]: on a software
+/// adapter their checked films are those gates' oracles); the first
+/// failure.
 pub fn some_scenes(ctx: &GpuContext, specs: &[&str]) -> Outcome {
     let program = gpu::shader::render_source();
+    let used = features_used(&scene_specs()?)?;
     for spec in specs {
         let scene = reference::load_scene(spec).map_err(|e| format!("{spec}: {e}"))?;
         for integrator in Integrator::ALL {
-            compare_scene(ctx, spec, &scene, integrator, &program)?;
+            let build = Build::megakernel(&program, integrator, gate_features(ctx, &scene, used));
+            let oracle = oracle_film(
+                ctx,
+                spec,
+                &scene,
+                (integrator, build.features),
+                "the checked kernel",
+            )?;
+            compare_with((ctx, spec, &scene), &oracle, build)?;
         }
     }
     Ok(format!(
-        "{} scenes × 2 estimators: the trusted kernel's films equal the checked kernel's word for word",
-        specs.len()
+        "{} scenes × 2 estimators: the trusted kernel's films equal the checked kernel's word for word ({})",
+        specs.len(),
+        gate_kernel_words(ctx)
     ))
 }
 
@@ -89,12 +107,9 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let scenes = gate_scenes(ctx, "the checked kernel")?;
     every_variant(&scenes, &[()], |s, integrator, ()| {
         Some(compare_with(
-            ctx,
-            &s.spec,
-            &s.scene,
+            (ctx, &s.spec, &s.scene),
             s.oracle(integrator),
-            integrator,
-            &program,
+            s.build(&program, integrator),
         ))
     })?;
     let (width, height, _) = SIZE;

@@ -10,7 +10,7 @@
 
 use super::film_words::compare_words;
 use super::specialization::{
-    every_variant, gate_kernel_words, gate_scenes, oracle_film, variant_film, Build, SIZE,
+    every_variant, gate_kernel_words, gate_scenes, own_oracle, variant_film, Build, SIZE,
 };
 use super::Outcome;
 use gpu::{Dispatch, GpuContext};
@@ -18,7 +18,8 @@ use reference::integrator::Integrator;
 use reference::Scene;
 
 /// The branch-dispatch film of `scene` (over `program`, the megakernel's
-/// WGSL or an edit) against the switch's (production), one estimator: the
+/// WGSL or an edit) against the switch's (production), one estimator,
+/// both built for the scene's own features: the
 /// pixels not bit for bit and their largest mean difference in ulp.
 pub fn compare_scene(
     ctx: &GpuContext,
@@ -27,22 +28,20 @@ pub fn compare_scene(
     integrator: Integrator,
     program: &str,
 ) -> Result<(usize, u64), String> {
-    let oracle = oracle_film(ctx, spec, scene, integrator, "the switch kernel")?;
-    compare_with(ctx, spec, scene, &oracle, integrator, program)
+    let (build, oracle) = own_oracle((ctx, spec, scene), integrator, program, "the switch kernel")?;
+    compare_with((ctx, spec, scene), &oracle, build)
 }
 
 /// [`compare_scene`] against the switch kernel's film already rendered.
 fn compare_with(
-    ctx: &GpuContext,
-    spec: &str,
-    scene: &Scene,
+    (ctx, spec, scene): (&GpuContext, &str, &Scene),
     oracle: &[u64],
-    integrator: Integrator,
-    program: &str,
+    build: Build,
 ) -> Result<(usize, u64), String> {
+    let integrator = build.integrator;
     let branches = Build {
         dispatch: Dispatch::Branches,
-        ..Build::gate(ctx, scene, program, integrator)
+        ..build
     };
     let film = variant_film(ctx, scene, branches)?;
     compare_words(oracle, &film)
@@ -56,12 +55,9 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let scenes = gate_scenes(ctx, "the switch kernel")?;
     let (films, inexact) = every_variant(&scenes, &[()], |s, integrator, ()| {
         Some(compare_with(
-            ctx,
-            &s.spec,
-            &s.scene,
+            (ctx, &s.spec, &s.scene),
             s.oracle(integrator),
-            integrator,
-            &program,
+            s.build(&program, integrator),
         ))
     })?;
     let (width, height, _) = SIZE;

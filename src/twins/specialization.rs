@@ -57,18 +57,19 @@ pub fn film_bits(
 }
 
 /// The oracle's film of `scene` for the GPU-against-GPU gates (the
-/// megakernel, switch dispatch, binary walk over indexed leaves, with
-/// [`gate_kernel`]'s features), checked not to be vacuous: every sample
-/// counted, none rejected (a poisoned sample in both films would compare
-/// equal). `oracle` names it in the error.
+/// megakernel, switch dispatch, binary walk over indexed leaves, built
+/// for `features`: the scene's own, [`Features::of`], where one scene is
+/// judged; [`GateScene::features`] where every gate scene is), checked
+/// not to be vacuous: every sample counted, none rejected (a poisoned
+/// sample in both films would compare equal). `oracle` names it in the
+/// error.
 pub fn oracle_film(
     ctx: &GpuContext,
     spec: &str,
     scene: &Scene,
-    integrator: Integrator,
+    (integrator, features): (Integrator, Features),
     oracle: &str,
 ) -> Result<Vec<u64>, String> {
-    let features = gate_kernel(ctx).features(scene);
     let film = film_bits(ctx, scene, integrator, features)?;
     let (width, height, spp) = SIZE;
     let (counted, rejected) = counts(&film);
@@ -81,40 +82,65 @@ pub fn oracle_film(
     Ok(film)
 }
 
-/// The kernel the GPU-against-GPU gates ([`super::checks`],
+/// What a gate that judges one scene (a mutant's) compares with: the
+/// oracle's build of the scene's own kernel ([`Features::of`], the
+/// smallest that runs its code) over `program`, and its film
+/// ([`oracle_film`]; `oracle` names it in errors).
+pub fn own_oracle<'a>(
+    (ctx, spec, scene): (&GpuContext, &str, &Scene),
+    integrator: Integrator,
+    program: &'a str,
+    oracle: &str,
+) -> Result<(Build<'a>, Vec<u64>), String> {
+    let build = Build::megakernel(program, integrator, Features::of(scene));
+    let film = oracle_film(ctx, spec, scene, (integrator, build.features), oracle)?;
+    Ok((build, film))
+}
+
+/// The features the GPU-against-GPU gates ([`super::checks`],
 /// [`super::dispatch`], [`super::traversal`]'s films,
-/// [`super::wavefront`]) build their oracle and variant films with on
-/// `ctx`. On hardware, the kernel specialized to each scene: the default
-/// variant's, a compile a scene. On a software adapter (lavapipe, CI),
-/// one general kernel a variant serves every scene: there a compile costs
-/// about a second of CPU and was most of what those gates cost. The
-/// specialized kernel is held to the general one on every scene by
-/// [`all_scenes`], so what those gates show on lavapipe of a variant with
-/// the general kernel holds for it specialized too, but for a slip that
-/// only specialization and the variant together make: the H100 suite and
-/// `selftest` on a GPU run the specialized kernels. `TWINTRACE_GATES=full`
-/// asks for them on a software adapter too.
-pub fn gate_kernel(ctx: &GpuContext) -> Kernel {
+/// [`super::wavefront`]) build a scene's kernels for when they judge
+/// every gate scene ([`gate_scenes`]) on `ctx`, given `used`, every
+/// feature some gate scene uses. On hardware the scene's own (the default
+/// variant's specialization, a compile a scene). On a software adapter
+/// (lavapipe, CI) `used` for every scene: one kernel a variant serves
+/// them all, where a compile costs seconds to tens of seconds of CPU and
+/// was most of what those gates cost. Not the general kernel
+/// ([`Features::ALL`]): the code of features no gate scene uses (the
+/// Mitsuba models among them) would never run, and it tripled each compile (the
+/// Cornell box's checked megakernel, MIS, lavapipe's cache off: 36.3 s
+/// general, 12.3 s for the gate scenes' features, 4.2 s specialized).
+/// The specialized kernel is held to the general one on every scene by
+/// [`all_scenes`], so what those gates show on lavapipe of a variant
+/// holds for it specialized too, but for a slip that only specialization
+/// and the variant together make: the H100 suite and `selftest` on a GPU
+/// run the specialized kernels. `TWINTRACE_GATES=full` asks for them on a
+/// software adapter too. A gate that judges one scene (a mutant's) builds
+/// that scene's own kernels anywhere: the smallest that run its code.
+pub fn gate_features(ctx: &GpuContext, scene: &Scene, used: Features) -> Features {
     if super::full_gates(ctx) {
-        Kernel::Specialized
+        Features::of(scene)
     } else {
-        Kernel::General
+        used
     }
 }
 
-/// What the gates' summary lines say of [`gate_kernel`].
+/// What the gates' summary lines say of [`gate_features`].
 pub fn gate_kernel_words(ctx: &GpuContext) -> &'static str {
-    match gate_kernel(ctx) {
-        Kernel::General => "one general kernel a variant for every scene (a software adapter)",
-        Kernel::Specialized => "kernels specialized to each scene",
+    if super::full_gates(ctx) {
+        "kernels specialized to each scene"
+    } else {
+        "one kernel a variant for every scene, built for the features they use (a software adapter)"
     }
 }
 
-/// A scene of [`scene_specs`] and its oracle's films ([`oracle_film`]),
-/// one an estimator (in the order of `Integrator::ALL`).
+/// A scene of [`scene_specs`], the features its kernels are built for
+/// ([`gate_features`]) and its oracle's films ([`oracle_film`]), one an
+/// estimator (in the order of `Integrator::ALL`).
 pub struct GateScene {
     pub spec: String,
     pub scene: Scene,
+    pub features: Features,
     oracle: Vec<Vec<u64>>,
 }
 
@@ -124,28 +150,49 @@ impl GateScene {
         let i = Integrator::ALL.iter().position(|&x| x == integrator);
         &self.oracle[i.unwrap_or(0)]
     }
+
+    /// What a gate builds for this scene with `integrator` over `program`:
+    /// [`Build::megakernel`] at the scene's features, one axis of which
+    /// the gate changes.
+    pub fn build<'a>(&self, program: &'a str, integrator: Integrator) -> Build<'a> {
+        Build::megakernel(program, integrator, self.features)
+    }
+}
+
+/// Every feature some scene of `specs` uses.
+pub fn features_used(specs: &[String]) -> Result<Features, String> {
+    let mut used = 0;
+    for spec in specs {
+        let scene = reference::load_scene(spec).map_err(|e| format!("{spec}: {e}"))?;
+        used |= Features::of(&scene).0;
+    }
+    Ok(Features(used))
 }
 
 /// Every scene of [`scene_specs`] with its oracle's films (`oracle` names
 /// the oracle in errors): an estimator at a time, the scenes in parallel
-/// ([`super::par_map`]), so that a general kernel ([`gate_kernel`]) is
-/// compiled once for all of them.
+/// ([`super::par_map`]), so that a kernel shared by every scene
+/// ([`gate_features`]) is compiled once for all of them.
 pub fn gate_scenes(ctx: &GpuContext, oracle: &str) -> Result<Vec<GateScene>, String> {
     let specs = scene_specs()?;
     let loaded = super::par_map(&specs, |spec| {
         reference::load_scene(spec).map_err(|e| format!("{spec}: {e}"))
     });
-    let mut scenes = Vec::with_capacity(specs.len());
-    for (spec, scene) in specs.into_iter().zip(loaded) {
-        scenes.push(GateScene {
+    let loaded = loaded.into_iter().collect::<Result<Vec<_>, String>>()?;
+    let used = Features(loaded.iter().fold(0, |bits, s| bits | Features::of(s).0));
+    let mut scenes: Vec<GateScene> = specs
+        .into_iter()
+        .zip(loaded)
+        .map(|(spec, scene)| GateScene {
+            features: gate_features(ctx, &scene, used),
             spec,
-            scene: scene?,
+            scene,
             oracle: Vec::new(),
-        });
-    }
+        })
+        .collect();
     for integrator in Integrator::ALL {
         let films = super::par_map(&scenes, |s| {
-            oracle_film(ctx, &s.spec, &s.scene, integrator, oracle)
+            oracle_film(ctx, &s.spec, &s.scene, (integrator, s.features), oracle)
         });
         for (s, film) in scenes.iter_mut().zip(films) {
             s.oracle.push(film?);
@@ -157,7 +204,7 @@ pub fn gate_scenes(ctx: &GpuContext, oracle: &str) -> Result<Vec<GateScene>, Str
 /// Runs `compare(scene, estimator, variant)` for every variant of
 /// `variants`, both estimators and every scene of `scenes`, variant by
 /// variant and estimator by estimator with the scenes in parallel (one
-/// kernel a variant and estimator, where [`gate_kernel`] is general);
+/// kernel a variant and estimator, where [`gate_features`] shares one);
 /// `compare` returns `None` for a case it does not judge. Returns the
 /// cases compared and the pixels not bit for bit; every case is
 /// compared, and the error lists each one that fails.
@@ -218,12 +265,6 @@ impl<'a> Build<'a> {
             dispatch: Dispatch::Switch,
             checks: gpu::Checks::Checked,
         }
-    }
-
-    /// [`Build::megakernel`] with the features [`gate_kernel`] builds for
-    /// `scene` on `ctx`: what a GPU-against-GPU gate changes one axis of.
-    pub fn gate(ctx: &GpuContext, scene: &Scene, program: &'a str, integrator: Integrator) -> Self {
-        Self::megakernel(program, integrator, gate_kernel(ctx).features(scene))
     }
 }
 
@@ -310,8 +351,8 @@ pub fn packed_film_bits(
 }
 
 /// The scenes the specialization gate judges: every scene of
-/// [`scene_specs`] where [`gate_kernel`] specializes (hardware, or
-/// `TWINTRACE_GATES=full`); on a software adapter, where each scene's
+/// [`scene_specs`] where the gates judge in full (hardware, or
+/// `TWINTRACE_GATES=full`: [`super::full_gates`]); on a software adapter, where each scene's
 /// specialized kernel is a compile of tens of seconds, the scenes in
 /// order that bring a feature no earlier one has, so that every feature
 /// any scene uses is still compiled out of a kernel and compared (the

@@ -24,12 +24,12 @@
 use super::film_words::compare_words;
 use super::hits::{ray_words, scenes, SNIPPET};
 use super::specialization::{
-    every_variant, gate_kernel_words, gate_scenes, oracle_film, packed_film_bits, variant_film,
+    every_variant, gate_kernel_words, gate_scenes, own_oracle, packed_film_bits, variant_film,
     Build, SIZE,
 };
 use super::{camera_and_random_rays, run_kernel_walking, Outcome};
 use gpu::scene_buffers::PackedScene;
-use gpu::{GpuContext, LeafLayout, NodeLayout, Traversal};
+use gpu::{Features, GpuContext, LeafLayout, NodeLayout, Traversal};
 use reference::integrator::Integrator;
 use reference::Scene;
 
@@ -192,25 +192,24 @@ pub fn compare_films(
     (walk, integrator): (Walk, Integrator),
     program: &str,
 ) -> Result<(usize, u64), String> {
-    let binary = oracle_film(ctx, spec, scene, integrator, "the binary walk")?;
-    compare_films_with(ctx, spec, scene, &binary, (walk, integrator), program)
+    let (build, binary) = own_oracle((ctx, spec, scene), integrator, program, "the binary walk")?;
+    compare_films_with((ctx, spec, scene), &binary, walk, build)
 }
 
 /// [`compare_films`] against the binary walk's film already rendered
-/// (`oracle_film`).
-pub fn compare_films_with(
-    ctx: &GpuContext,
-    spec: &str,
-    scene: &Scene,
+/// (`oracle_film`), `build` (the oracle's) changed to `walk`.
+fn compare_films_with(
+    (ctx, spec, scene): (&GpuContext, &str, &Scene),
     binary: &[u64],
-    (walk, integrator): (Walk, Integrator),
-    program: &str,
+    walk: Walk,
+    build: Build,
 ) -> Result<(usize, u64), String> {
+    let integrator = build.integrator;
     let build = Build {
         traversal: walk.0,
         nodes: walk.1,
         leaves: walk.2,
-        ..Build::gate(ctx, scene, program, integrator)
+        ..build
     };
     let film = variant_film(ctx, scene, build)?;
     compare_words(binary, &film).map_err(|e| {
@@ -222,8 +221,9 @@ pub fn compare_films_with(
     })
 }
 
-/// [`compare_films_with`] for records already packed (a test's edit of a
-/// walk's records): their film against the binary walk's `binary`.
+/// [`compare_films`] for records already packed (a test's edit of a
+/// walk's records): their film against the binary walk's `binary`
+/// ([`oracle_film`] at the scene's own features, which this builds).
 pub fn compare_packed_films_with(
     ctx: &GpuContext,
     spec: &str,
@@ -237,7 +237,7 @@ pub fn compare_packed_films_with(
         traversal: walk.0,
         nodes: walk.1,
         leaves: walk.2,
-        ..Build::gate(ctx, scene, program, integrator)
+        ..Build::megakernel(program, integrator, Features::of(scene))
     };
     let film = packed_film_bits(ctx, scene, packed, build, &[None])?.remove(0);
     compare_words(binary, &film).map_err(|e| {
@@ -391,7 +391,8 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
         (brute_force_takes(&s.scene, walk) && gate_estimators(ctx, walk).contains(&integrator))
             .then(|| {
                 let binary = s.oracle(integrator);
-                compare_films_with(ctx, &s.spec, &s.scene, binary, (walk, integrator), &program)
+                let build = s.build(&program, integrator);
+                compare_films_with((ctx, &s.spec, &s.scene), binary, walk, build)
             })
     });
     let (films, inexact) = match films {

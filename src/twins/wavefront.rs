@@ -17,8 +17,8 @@
 
 use super::film_words::{compare_films, counts, Inexact};
 use super::specialization::{
-    every_variant, film_bits, gate_kernel_words, gate_scenes, oracle_film, variant_film_bits,
-    Build, SIZE,
+    every_variant, film_bits, gate_kernel_words, gate_scenes, own_oracle, variant_film_bits, Build,
+    SIZE,
 };
 use super::Outcome;
 use gpu::{GpuContext, Schedule};
@@ -65,8 +65,9 @@ pub fn wave_slots(schedule: Schedule) -> &'static [Option<u32>] {
 
 /// The megakernel's film and those of the wave schedules `schedules`
 /// (`Schedule::WAVES`: each path layout and shade order, and the path
-/// megakernel), each split as [`wave_slots`] says, for one scene and estimator under the
-/// module's rule; `program` is the wavefront's WGSL
+/// megakernel), each split as [`wave_slots`] says, for one scene and
+/// estimator under the module's rule, every kernel built for the scene's
+/// own features; `program` is the wavefront's WGSL
 /// (`gpu::shader::wavefront_source`, or a test's edit, compiled for the
 /// schedules that run it only: each kernel of a mutated program is a
 /// compile no shader cache holds). Returns the pixels not bit for bit and
@@ -78,33 +79,26 @@ pub fn compare_schedules(
     program: &str,
     schedules: &[Schedule],
 ) -> Result<(usize, u64), String> {
-    let mega = oracle_film(ctx, spec, scene, integrator, "the megakernel")?;
+    let (mega_build, mega) = own_oracle((ctx, spec, scene), integrator, program, "the megakernel")?;
     let mut inexact = Inexact::default();
     for &schedule in schedules {
-        inexact.add(compare_schedule(
-            ctx,
-            (spec, scene),
-            &mega,
-            (integrator, schedule),
-            program,
-        )?);
+        let build = Build {
+            schedule,
+            ..mega_build
+        };
+        inexact.add(compare_schedule((ctx, spec, scene), &mega, build)?);
     }
     Ok((inexact.pixels, inexact.mean_ulp))
 }
 
-/// [`compare_schedules`] for one wave schedule, against the megakernel's film
-/// already rendered.
+/// [`compare_schedules`] for one wave schedule (`build`'s), against the
+/// megakernel's film already rendered.
 fn compare_schedule(
-    ctx: &GpuContext,
-    (spec, scene): (&str, &Scene),
+    (ctx, spec, scene): (&GpuContext, &str, &Scene),
     mega: &[u64],
-    (integrator, schedule): (Integrator, Schedule),
-    program: &str,
+    build: Build,
 ) -> Result<(usize, u64), String> {
-    let build = Build {
-        schedule,
-        ..Build::gate(ctx, scene, program, integrator)
-    };
+    let (integrator, schedule) = (build.integrator, build.schedule);
     let films = variant_film_bits(ctx, scene, build, wave_slots(schedule))?;
     let mut inexact = Inexact::default();
     for (wave, &slots) in films.iter().zip(wave_slots(schedule)) {
@@ -169,12 +163,14 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let scenes = gate_scenes(ctx, "the megakernel")?;
     let schedules = gate_schedules(ctx);
     let (_, inexact) = every_variant(&scenes, &schedules, |s, integrator, schedule| {
+        let build = Build {
+            schedule,
+            ..s.build(&program, integrator)
+        };
         Some(compare_schedule(
-            ctx,
-            (&s.spec, &s.scene),
+            (ctx, &s.spec, &s.scene),
             s.oracle(integrator),
-            (integrator, schedule),
-            &program,
+            build,
         ))
     })?;
     let (width, height, _) = SIZE;
