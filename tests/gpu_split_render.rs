@@ -96,6 +96,30 @@ fn variant(schedule: gpu::Schedule) -> gpu::Variant {
     gpu::Variant::plain(Integrator::Mis, schedule)
 }
 
+/// Every sample of `settings` rendered with `variant` on every context of
+/// `contexts` through the render boundary's group
+/// (`twintrace::render::GroupProgressive`, what `--devices` opens), in
+/// units of `chunk` samples from the shared counter: the film's sums and
+/// each device's share in samples.
+fn group_render(
+    contexts: &[gpu::GpuContext],
+    scene: &Scene,
+    variant: gpu::Variant,
+    settings: &RenderSettings,
+    chunk: u32,
+) -> Result<(FilmSums, Vec<u64>)> {
+    use twintrace::render::{GroupProgressive, Progressive, RenderSpec};
+    let spec = RenderSpec {
+        variant,
+        ..RenderSpec::DEFAULT
+    };
+    let mut group = GroupProgressive::new(contexts, scene, &spec, *settings)?;
+    group.set_chunk(Some(chunk));
+    let added = group.add(0..settings.spp, &|_| {})?;
+    let shares = added.shares.iter().map(|s| s.samples).collect();
+    Ok((group.sums()?, shares))
+}
+
 #[test]
 fn two_devices_on_one_adapter_render_the_one_device_image_bit_for_bit() {
     let ctx = common::gpu();
@@ -120,22 +144,10 @@ fn two_devices_on_one_adapter_render_the_one_device_image_bit_for_bit() {
         .unwrap();
     // Chunks of 4 and of 7 samples: uneven shares, a short last chunk.
     for chunk in [4, 7] {
-        let two = gpu::devices::render_on_devices(
-            &contexts,
-            &scene,
-            v,
-            &settings,
-            0..settings.spp,
-            chunk,
-            &|_, _| {},
-        )
-        .unwrap();
-        assert_eq!(two.sums, one, "chunk {chunk}");
-        assert_eq!(two.shares.iter().map(|s| s.samples).sum::<u64>(), 30);
-        println!(
-            "chunk {chunk}: shares {:?}",
-            two.shares.iter().map(|s| s.samples).collect::<Vec<_>>()
-        );
+        let (sums, shares) = group_render(&contexts, &scene, v, &settings, chunk).unwrap();
+        assert_eq!(sums, one, "chunk {chunk}");
+        assert_eq!(shares.iter().sum::<u64>(), 30);
+        println!("chunk {chunk}: shares {shares:?}");
     }
 }
 
@@ -165,14 +177,11 @@ fn all_devices_render_the_one_device_image_where_they_are_of_one_kind() {
         .render(&settings, &|_, _| {})
         .unwrap()
         .sums;
-    let all =
-        gpu::devices::render_on_devices(&contexts, &scene, v, &settings, 0..64, 5, &|_, _| {})
-            .unwrap();
-    assert_eq!(all.sums, one, "{} devices", contexts.len());
+    let (sums, shares) = group_render(&contexts, &scene, v, &settings, 5).unwrap();
+    assert_eq!(sums, one, "{} devices", contexts.len());
     println!(
-        "{} device(s) {names:?}: shares {:?}, bit for bit",
-        contexts.len(),
-        all.shares.iter().map(|s| s.samples).collect::<Vec<_>>()
+        "{} device(s) {names:?}: shares {shares:?}, bit for bit",
+        contexts.len()
     );
 }
 
@@ -219,17 +228,9 @@ fn devices_of_different_kinds_render_the_reference_image_and_a_biased_device_fai
     let render = |scene: &Scene, settings: &RenderSettings| -> Result<Film> {
         // About four units a device: each takes one as they start together.
         let chunk = (settings.spp / (4 * contexts.len() as u32)).max(1);
-        let r = gpu::devices::render_on_devices(
-            &contexts,
-            scene,
-            v,
-            settings,
-            0..settings.spp,
-            chunk,
-            &|_, _| {},
-        )?;
-        *shares.lock().unwrap() = r.shares.iter().map(|s| s.samples).collect::<Vec<_>>();
-        Ok(r.sums.to_film())
+        let (sums, dealt) = group_render(&contexts, scene, v, settings, chunk)?;
+        *shares.lock().unwrap() = dealt;
+        Ok(sums.to_film())
     };
     gate_fixture(
         "gpu_split_render/devices",

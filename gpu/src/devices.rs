@@ -97,15 +97,6 @@ pub struct DeviceShare {
     pub samples: u64,
 }
 
-/// A multi-device render: the film's sums, each device's share, and the
-/// wall time.
-#[derive(Clone, Debug)]
-pub struct MultiRender {
-    pub sums: FilmSums,
-    pub shares: Vec<DeviceShare>,
-    pub wall: Duration,
-}
-
 /// How a group's sample range is dealt to its devices, unit by unit from
 /// a shared counter (work stealing: a slower device takes fewer units).
 /// Each device adds its units up in its own film, so a unit costs only
@@ -481,32 +472,6 @@ fn join_all<T>(
             })
         })
         .collect()
-}
-
-/// Renders sample indices `samples` of `scene` with `variant` on every
-/// context of `contexts` (a [`DeviceGroup`]), in units of `unit` samples
-/// taken from a shared counter. `progress(samples done, total)` after
-/// each unit (pixels × samples).
-pub fn render_on_devices(
-    contexts: &[GpuContext],
-    scene: &Scene,
-    variant: Variant,
-    settings: &RenderSettings,
-    samples: Range<u32>,
-    unit: u32,
-    progress: &(dyn Fn(u64, u64) + Sync),
-) -> Result<MultiRender, GpuError> {
-    let start = Instant::now();
-    let mut group = DeviceGroup::new(contexts, scene, variant)?;
-    let shares = group
-        .add(settings, samples, Dealing::Fixed(unit), progress, &|| false)?
-        .shares;
-    let sums = group.read_sums(settings)?;
-    Ok(MultiRender {
-        sums,
-        shares,
-        wall: start.elapsed(),
-    })
 }
 
 #[cfg(test)]
