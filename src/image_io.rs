@@ -126,8 +126,9 @@ impl RenderImage {
         }
     }
 
-    /// A film's image layers ([`crate::render::Layers`]).
-    pub fn from_layers(layers: crate::render::Layers, metadata: RenderMetadata) -> Self {
+    /// A film's image layers (`gpu::film::FilmLayers`, which the render
+    /// boundary hands out as `render::Layers`).
+    pub fn from_layers(layers: gpu::film::FilmLayers, metadata: RenderMetadata) -> Self {
         Self {
             width: layers.width,
             height: layers.height,
