@@ -11,7 +11,7 @@
 //! pixels, counted. On a software adapter the two are expected bit for
 //! bit; the summary says how many pixels were.
 
-use super::{ensure, Outcome};
+use super::harness::{ensure, Outcome};
 use crate::compare::gate::{fixture_scene, workspace_root};
 use glam::Vec3;
 use gpu::GpuContext;

@@ -8,11 +8,11 @@
 //! The default variant's path megakernel is held to the megakernel by
 //! `super::wavefront`, trusted on both sides of that rule.
 
+use super::harness::Outcome;
 use super::specialization::{
     every_variant, features_used, gate_features, gate_kernel_words, gate_scenes, oracle_film,
     own_oracle, scene_specs, variant_film, Build, SIZE,
 };
-use super::Outcome;
 use gpu::{Checks, GpuContext};
 use reference::integrator::Integrator;
 use reference::Scene;

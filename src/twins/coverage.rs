@@ -8,7 +8,7 @@
 //! when its barycentrics move by [`NUDGE`] is excused, counted; every
 //! other case must agree.
 
-use super::{ensure, run_kernel_with_library, Outcome};
+use super::harness::{ensure, run_kernel_with_library, Outcome};
 use glam::{Vec2, Vec3, Vec4};
 use gpu::GpuContext;
 use reference::geometry::{Hit, Ray};

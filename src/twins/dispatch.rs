@@ -9,10 +9,10 @@
 //! sent to another's code, or lost).
 
 use super::film_words::compare_words;
+use super::harness::Outcome;
 use super::specialization::{
     every_variant, gate_kernel_words, gate_scenes, own_oracle, variant_film, Build, SIZE,
 };
-use super::Outcome;
 use gpu::{Dispatch, GpuContext};
 use reference::integrator::Integrator;
 use reference::Scene;

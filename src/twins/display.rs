@@ -28,7 +28,7 @@
 //! of a few samples each over eleven decades. 120 pixels wide: the
 //! readback's rows (480 bytes) are padded to 512.
 
-use super::{ensure, Outcome};
+use super::harness::{ensure, Outcome};
 use crate::render::Layers;
 use crate::tonemap::{self, Tonemap};
 use glam::Vec3;

@@ -14,7 +14,7 @@
 //! reads, or one of Σq, Σq², Σq³ only, the others far from a carry
 //! (`start`).
 
-use super::{ensure, Outcome};
+use super::harness::{ensure, Outcome};
 use glam::Vec3;
 use gpu::records::GpuPixel;
 use gpu::testing::{run_test_kernel_with_library, TestKernel};

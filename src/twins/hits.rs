@@ -19,7 +19,7 @@
 //! hits the reference admits (tests/gpu_buffer_layout.rs checks the
 //! fields the kernel reads).
 
-use super::{camera_and_random_rays, ensure, run_kernel_with_library, Outcome};
+use super::harness::{camera_and_random_rays, ensure, run_kernel_with_library, Outcome};
 use crate::compare::gate::fixture_scene;
 use glam::{Vec2, Vec3};
 use gpu::GpuContext;

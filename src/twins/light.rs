@@ -14,7 +14,7 @@
 //!   emitter, agrees to a relative bound that grows where it cancels
 //!   (`|cos θ_light|` small; `1 − cos θ_max` of a small cone).
 
-use super::{ensure, run_kernel_with_library, Outcome};
+use super::harness::{ensure, run_kernel_with_library, Outcome};
 use crate::compare::gate::fixture_scene;
 use glam::{DVec3, Vec2, Vec3};
 use gpu::GpuContext;

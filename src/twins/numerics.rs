@@ -5,7 +5,7 @@
 //! any GPU, and NaN must stay NaN); GGX Λ and G1 and the sphere's root
 //! choice at their limits; and the cube root, which WGSL lacks.
 
-use super::{ensure, run_kernel, Outcome};
+use super::harness::{ensure, run_kernel, Outcome};
 use gpu::GpuContext;
 use reference::f64_oracle::{self, Shape64};
 use reference::geometry::{flush_subnormal, next_down_normal, next_up, next_up_normal, Ray};

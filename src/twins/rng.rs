@@ -3,7 +3,7 @@
 //! Sobol' sampler's vertex and light floats (`sampled_vertex_randoms`,
 //! `sampled_light_randoms` with `Sampler::Sobol`).
 
-use super::{ensure, run_kernel_with_library, Outcome};
+use super::harness::{ensure, run_kernel_with_library, Outcome};
 use gpu::GpuContext;
 
 const SNIPPET: &str = "

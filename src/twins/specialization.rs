@@ -10,7 +10,7 @@
 //! H100 do.
 
 use super::film_words::{compare_words, counts, film_words, Inexact};
-use super::Outcome;
+use super::harness::Outcome;
 use crate::compare::gate::workspace_root;
 use gpu::features::{Features, Kernel};
 use gpu::{Dispatch, GpuContext, LeafLayout, NodeLayout, Schedule, Traversal};
@@ -118,7 +118,7 @@ pub fn own_oracle<'a>(
 /// software adapter too. A gate that judges one scene (a mutant's) builds
 /// that scene's own kernels anywhere: the smallest that run its code.
 pub fn gate_features(ctx: &GpuContext, scene: &Scene, used: Features) -> Features {
-    if super::full_gates(ctx) {
+    if super::harness::full_gates(ctx) {
         Features::of(scene)
     } else {
         used
@@ -127,7 +127,7 @@ pub fn gate_features(ctx: &GpuContext, scene: &Scene, used: Features) -> Feature
 
 /// What the gates' summary lines say of [`gate_features`].
 pub fn gate_kernel_words(ctx: &GpuContext) -> &'static str {
-    if super::full_gates(ctx) {
+    if super::harness::full_gates(ctx) {
         "kernels specialized to each scene"
     } else {
         "one kernel a variant for every scene, built for the features they use (a software adapter)"
@@ -171,11 +171,11 @@ pub fn features_used(specs: &[String]) -> Result<Features, String> {
 
 /// Every scene of [`scene_specs`] with its oracle's films (`oracle` names
 /// the oracle in errors): an estimator at a time, the scenes in parallel
-/// ([`super::par_map`]), so that a kernel shared by every scene
+/// ([`super::harness::par_map`]), so that a kernel shared by every scene
 /// ([`gate_features`]) is compiled once for all of them.
 pub fn gate_scenes(ctx: &GpuContext, oracle: &str) -> Result<Vec<GateScene>, String> {
     let specs = scene_specs()?;
-    let loaded = super::par_map(&specs, |spec| {
+    let loaded = super::harness::par_map(&specs, |spec| {
         reference::load_scene(spec).map_err(|e| format!("{spec}: {e}"))
     });
     let loaded = loaded.into_iter().collect::<Result<Vec<_>, String>>()?;
@@ -191,7 +191,7 @@ pub fn gate_scenes(ctx: &GpuContext, oracle: &str) -> Result<Vec<GateScene>, Str
         })
         .collect();
     for integrator in Integrator::ALL {
-        let films = super::par_map(&scenes, |s| {
+        let films = super::harness::par_map(&scenes, |s| {
             oracle_film(ctx, &s.spec, &s.scene, (integrator, s.features), oracle)
         });
         for (s, film) in scenes.iter_mut().zip(films) {
@@ -218,7 +218,7 @@ pub fn every_variant<V: Copy + Sync>(
     let mut cases = 0;
     for &variant in variants {
         for integrator in Integrator::ALL {
-            let outcomes = super::par_map(scenes, |s| compare(s, integrator, variant));
+            let outcomes = super::harness::par_map(scenes, |s| compare(s, integrator, variant));
             for found in outcomes.into_iter().flatten() {
                 cases += 1;
                 match found {
@@ -352,13 +352,13 @@ pub fn packed_film_bits(
 
 /// The scenes the specialization gate judges: every scene of
 /// [`scene_specs`] where the gates judge in full (hardware, or
-/// `TWINTRACE_GATES=full`: [`super::full_gates`]); on a software adapter, where each scene's
+/// `TWINTRACE_GATES=full`: [`super::harness::full_gates`]); on a software adapter, where each scene's
 /// specialized kernel is a compile of tens of seconds, the scenes in
 /// order that bring a feature no earlier one has, so that every feature
 /// any scene uses is still compiled out of a kernel and compared (the
 /// scenes left out only combine features the others have).
 pub fn gate_specs(ctx: &GpuContext) -> Result<Vec<(String, Scene)>, String> {
-    let every = super::full_gates(ctx);
+    let every = super::harness::full_gates(ctx);
     let mut covered = 0u32;
     let mut out = Vec::new();
     for spec in scene_specs()? {
@@ -376,34 +376,37 @@ pub fn gate_specs(ctx: &GpuContext) -> Result<Vec<(String, Scene)>, String> {
 pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let scenes = gate_specs(ctx)?;
     let (width, height, spp) = SIZE;
-    // Scenes in parallel (super::par_map); the first failure in scene order.
-    let outcomes = super::par_map(&scenes, |(spec, scene)| -> Result<(usize, u64), String> {
-        let features = Kernel::Specialized.features(scene);
-        let mut inexact = Inexact::default();
-        for integrator in Integrator::ALL {
-            let general = film_bits(ctx, scene, integrator, Features::ALL)?;
-            let special = film_bits(ctx, scene, integrator, features)?;
-            // Not a vacuous comparison: the general kernel counted every
-            // sample (a poisoned or non-finite one in both films would
-            // compare equal).
-            let (counted, rejected) = counts(&general);
-            if counted != (width * height * spp) as u64 || rejected != 0 {
-                return Err(format!(
+    // Scenes in parallel (super::harness::par_map); the first failure in scene order.
+    let outcomes = super::harness::par_map(
+        &scenes,
+        |(spec, scene)| -> Result<(usize, u64), String> {
+            let features = Kernel::Specialized.features(scene);
+            let mut inexact = Inexact::default();
+            for integrator in Integrator::ALL {
+                let general = film_bits(ctx, scene, integrator, Features::ALL)?;
+                let special = film_bits(ctx, scene, integrator, features)?;
+                // Not a vacuous comparison: the general kernel counted every
+                // sample (a poisoned or non-finite one in both films would
+                // compare equal).
+                let (counted, rejected) = counts(&general);
+                if counted != (width * height * spp) as u64 || rejected != 0 {
+                    return Err(format!(
                     "{spec} ({}): the general kernel's film counted {counted} samples and rejected {rejected}",
                     integrator.name()
                 ));
-            }
-            let found = compare_words(&general, &special).map_err(|e| {
+                }
+                let found = compare_words(&general, &special).map_err(|e| {
                 format!(
                     "{spec} ({}, features {:?}): the specialized kernel's film differs from the general kernel's: {e}",
                     integrator.name(),
                     features.names()
                 )
             })?;
-            inexact.add(found);
-        }
-        Ok((inexact.pixels, inexact.mean_ulp))
-    });
+                inexact.add(found);
+            }
+            Ok((inexact.pixels, inexact.mean_ulp))
+        },
+    );
     let mut inexact = Inexact::default();
     for found in outcomes {
         inexact.add(found?);

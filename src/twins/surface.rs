@@ -13,7 +13,9 @@
 //!   once where the CPU rounds twice), and always strictly on the normal's
 //!   side of the point.
 
-use super::{camera_and_random_rays, ensure, run_kernel, run_kernel_with_library, Outcome};
+use super::harness::{
+    camera_and_random_rays, ensure, run_kernel, run_kernel_with_library, Outcome,
+};
 use crate::compare::gate::fixture_scene;
 use glam::{Vec2, Vec3};
 use gpu::GpuContext;

@@ -22,12 +22,12 @@
 //! bit for bit.
 
 use super::film_words::compare_words;
+use super::harness::{camera_and_random_rays, run_kernel_walking, Outcome};
 use super::hits::{ray_words, scenes, SNIPPET};
 use super::specialization::{
     every_variant, gate_kernel_words, gate_scenes, own_oracle, packed_film_bits, variant_film,
     Build, SIZE,
 };
-use super::{camera_and_random_rays, run_kernel_walking, Outcome};
 use gpu::scene_buffers::PackedScene;
 use gpu::{Features, GpuContext, LeafLayout, NodeLayout, Traversal};
 use reference::integrator::Integrator;
@@ -78,7 +78,7 @@ pub fn film_estimators((traversal, nodes, leaves): Walk) -> &'static [Integrator
 /// hit records hold every walk to the binary one ray by ray whatever the
 /// estimator).
 pub fn gate_estimators(ctx: &GpuContext, walk: Walk) -> &'static [Integrator] {
-    if super::full_gates(ctx) {
+    if super::harness::full_gates(ctx) {
         film_estimators(walk)
     } else {
         &[Integrator::Mis]
@@ -223,7 +223,7 @@ fn compare_films_with(
 
 /// [`compare_films`] for records already packed (a test's edit of a
 /// walk's records): their film against the binary walk's `binary`
-/// ([`oracle_film`] at the scene's own features, which this builds).
+/// ([`super::specialization::oracle_film`] at the scene's own features, which this builds).
 pub fn compare_packed_films_with(
     ctx: &GpuContext,
     spec: &str,
@@ -331,7 +331,7 @@ fn brute_force_takes(scene: &Scene, (traversal, _, _): Walk) -> bool {
 }
 
 /// Hit records on every scene of [`scenes`] and films of every scene of
-/// [`scene_specs`], both estimators, each walk of [`VARIANTS`] against the
+/// [`super::specialization::scene_specs`], both estimators, each walk of [`VARIANTS`] against the
 /// binary one. Every case is compared; the error lists each one that
 /// fails.
 pub fn all_scenes(ctx: &GpuContext) -> Outcome {
@@ -339,12 +339,12 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let program = gpu::shader::render_source();
     let mut failures = Vec::new();
     let mut hit_lines = Vec::new();
-    // Scenes in parallel (super::par_map), each scene's walks in turn.
+    // Scenes in parallel (super::harness::par_map), each scene's walks in turn.
     let hit_scenes = scenes()?;
     // Each scene's binary hit records, then every (scene, walk) against
-    // them: the items in parallel (super::par_map), so that no one scene's
+    // them: the items in parallel (super::harness::par_map), so that no one scene's
     // walks make the gate's critical path.
-    let oracles = super::par_map(&hit_scenes, |(_, scene)| binary_hit_words(ctx, scene));
+    let oracles = super::harness::par_map(&hit_scenes, |(_, scene)| binary_hit_words(ctx, scene));
     let oracles = oracles.into_iter().collect::<Result<Vec<_>, String>>()?;
     let hit_items: Vec<(usize, Walk)> = hit_scenes
         .iter()
@@ -356,7 +356,7 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
                 .map(move |w| (i, w))
         })
         .collect();
-    let outcomes = super::par_map(&hit_items, |&(i, walk)| {
+    let outcomes = super::harness::par_map(&hit_items, |&(i, walk)| {
         let (name, scene) = &hit_scenes[i];
         packed(scene, walk)
             .and_then(|p| compare_hits_with(ctx, name, scene, &oracles[i], &p, &library))
@@ -375,7 +375,7 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     }
     // The compressed walk's boxes as the kernel computes them are the
     // ones the host checked to contain the exact boxes.
-    let boxes = super::par_map(&hit_scenes, |(name, scene)| {
+    let boxes = super::harness::par_map(&hit_scenes, |(name, scene)| {
         let walk = (Traversal::Compressed, NodeLayout::Aos, LeafLayout::Indexed);
         packed(scene, walk).and_then(|p| compare_compressed_boxes(ctx, name, scene, &p, &library))
     });

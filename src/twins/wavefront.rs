@@ -16,11 +16,11 @@
 //! The summary line says how many pixels were not bit for bit.
 
 use super::film_words::{compare_films, counts, Inexact};
+use super::harness::Outcome;
 use super::specialization::{
     every_variant, film_bits, gate_kernel_words, gate_scenes, own_oracle, variant_film_bits, Build,
     SIZE,
 };
-use super::Outcome;
 use gpu::{GpuContext, Schedule};
 use reference::integrator::Integrator;
 use reference::Scene;
@@ -45,9 +45,9 @@ pub const SORTED_WAVE_SLOTS: [Option<u32>; 1] = [Some(100)];
 /// sort over the array-of-structs state, the path state's reads in
 /// `wavefront-soa`) and whose kernels cost CI's time a compile each.
 /// `TWINTRACE_GATES=full` asks for all of them on a software adapter too
-/// ([`super::full_gates`]).
+/// ([`super::harness::full_gates`]).
 pub fn gate_schedules(ctx: &GpuContext) -> Vec<Schedule> {
-    let full = super::full_gates(ctx);
+    let full = super::harness::full_gates(ctx);
     let soa_sorted = Schedule::Wavefront(gpu::PathLayout::Soa, gpu::ShadeOrder::Material);
     Schedule::WAVES
         .into_iter()
@@ -155,7 +155,7 @@ pub fn compare_poisoned(
     Ok(())
 }
 
-/// Every scene of [`scene_specs`], both estimators: wavefront == megakernel
+/// Every scene of [`super::specialization::scene_specs`], both estimators: wavefront == megakernel
 /// under [`super::film_words`]. Every scene is compared; the error lists each
 /// one that fails.
 pub fn all_scenes(ctx: &GpuContext) -> Outcome {
