@@ -13,7 +13,7 @@
 //! number is refused like any other out of range, with one exception:
 //! `attenuationDistance`, whose default is an infinite distance.
 
-use super::UvTransform;
+use super::uv_transform::{uv_matrix, UvTransform};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Semantic;
 
@@ -186,14 +186,14 @@ pub(super) fn material(m: &gltf::Material) -> Result<(), String> {
 /// A texture's `KHR_texture_transform` (in the texture reference `slot`,
 /// such as `normalTexture`): its offset, rotation and scale finite (the
 /// extension gives them no other bound), and the renderer's uv map that
-/// they compose ([`super::uv_matrix`]) finite in f32, which large offsets
+/// they compose ([`uv_matrix`]) finite in f32, which large offsets
 /// and scales together can overflow.
 pub(super) fn transform(slot: &str, t: &UvTransform) -> Result<(), String> {
     let field = format!("{slot}.extensions.KHR_texture_transform");
     numbers(&format!("{field}.offset"), &t.offset, Range::Any)?;
     number(&format!("{field}.rotation"), t.rotation, Range::Any)?;
     numbers(&format!("{field}.scale"), &t.scale, Range::Any)?;
-    let map = super::uv_matrix(t);
+    let map = uv_matrix(t);
     if map.iter().any(|v| !v.is_finite()) {
         return Err(format!(
             "{field}: offset {}, rotation {} and scale {} compose a uv map beyond the range of a 32-bit float",
