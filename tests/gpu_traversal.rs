@@ -195,11 +195,10 @@ fn boxes_quantized_inward_fail_the_hit_records_and_the_films() {
         assert!(e.contains(", ray "), "not a hit difference: {e}");
         println!("inward boxes, hit records: {e}");
         let integrator = Integrator::Mis;
-        let binary = twintrace::twins::specialization::oracle_film(
-            ctx,
-            spec,
-            &scene,
-            (integrator, gpu::Features::of(&scene)),
+        let (_, binary) = twintrace::twins::specialization::own_oracle(
+            (ctx, spec, &scene),
+            integrator,
+            &program,
             "the binary walk",
         )
         .unwrap();

@@ -10,7 +10,7 @@
 
 use super::harness::Outcome;
 use super::specialization::{
-    every_variant, features_used, gate_features, gate_kernel_words, gate_scenes, oracle_film,
+    every_variant, features_used, gate_features, gate_kernel_words, gate_scenes, oracle_build,
     own_oracle, scene_specs, variant_film, Build, SIZE,
 };
 use gpu::{Checks, GpuContext};
@@ -82,12 +82,11 @@ pub fn some_scenes(ctx: &GpuContext, specs: &[&str]) -> Outcome {
     for spec in specs {
         let scene = reference::load_scene(spec).map_err(|e| format!("{spec}: {e}"))?;
         for integrator in Integrator::ALL {
-            let build = Build::megakernel(&program, integrator, gate_features(ctx, &scene, used));
-            let oracle = oracle_film(
-                ctx,
-                spec,
-                &scene,
-                (integrator, build.features),
+            let features = gate_features(ctx, &scene, used);
+            let (build, oracle) = oracle_build(
+                (ctx, spec, &scene),
+                (integrator, features),
+                &program,
                 "the checked kernel",
             )?;
             compare_with((ctx, spec, &scene), &oracle, build)?;

@@ -82,19 +82,31 @@ pub fn oracle_film(
     Ok(film)
 }
 
-/// What a gate that judges one scene (a mutant's) compares with: the
-/// oracle's build of the scene's own kernel ([`Features::of`], the
-/// smallest that runs its code) over `program`, and its film
-/// ([`oracle_film`]; `oracle` names it in errors).
+/// The oracle's build of `scene` at `features` over `program` (what a
+/// gate changes one axis of), and its film ([`oracle_film`]; `oracle`
+/// names it in errors).
+pub fn oracle_build<'a>(
+    (ctx, spec, scene): (&GpuContext, &str, &Scene),
+    (integrator, features): (Integrator, Features),
+    program: &'a str,
+    oracle: &str,
+) -> Result<(Build<'a>, Vec<u64>), String> {
+    let build = Build::megakernel(program, integrator, features);
+    let film = oracle_film(ctx, spec, scene, (integrator, features), oracle)?;
+    Ok((build, film))
+}
+
+/// [`oracle_build`] for a gate that judges one scene (a mutant's): at the
+/// scene's own features ([`Features::of`], the smallest kernel that runs
+/// its code).
 pub fn own_oracle<'a>(
     (ctx, spec, scene): (&GpuContext, &str, &Scene),
     integrator: Integrator,
     program: &'a str,
     oracle: &str,
 ) -> Result<(Build<'a>, Vec<u64>), String> {
-    let build = Build::megakernel(program, integrator, Features::of(scene));
-    let film = oracle_film(ctx, spec, scene, (integrator, build.features), oracle)?;
-    Ok((build, film))
+    let features = Features::of(scene);
+    oracle_build((ctx, spec, scene), (integrator, features), program, oracle)
 }
 
 /// The features the GPU-against-GPU gates ([`super::checks`],
@@ -159,14 +171,22 @@ impl GateScene {
     }
 }
 
+/// Every feature some scene of `scenes` uses.
+fn union_of<'s>(scenes: impl IntoIterator<Item = &'s Scene>) -> Features {
+    Features(
+        scenes
+            .into_iter()
+            .fold(0, |bits, s| bits | Features::of(s).0),
+    )
+}
+
 /// Every feature some scene of `specs` uses.
 pub fn features_used(specs: &[String]) -> Result<Features, String> {
-    let mut used = 0;
+    let mut scenes = Vec::with_capacity(specs.len());
     for spec in specs {
-        let scene = reference::load_scene(spec).map_err(|e| format!("{spec}: {e}"))?;
-        used |= Features::of(&scene).0;
+        scenes.push(reference::load_scene(spec).map_err(|e| format!("{spec}: {e}"))?);
     }
-    Ok(Features(used))
+    Ok(union_of(&scenes))
 }
 
 /// Every scene of [`scene_specs`] with its oracle's films (`oracle` names
@@ -179,7 +199,7 @@ pub fn gate_scenes(ctx: &GpuContext, oracle: &str) -> Result<Vec<GateScene>, Str
         reference::load_scene(spec).map_err(|e| format!("{spec}: {e}"))
     });
     let loaded = loaded.into_iter().collect::<Result<Vec<_>, String>>()?;
-    let used = Features(loaded.iter().fold(0, |bits, s| bits | Features::of(s).0));
+    let used = union_of(&loaded);
     let mut scenes: Vec<GateScene> = specs
         .into_iter()
         .zip(loaded)

@@ -223,7 +223,8 @@ fn compare_films_with(
 
 /// [`compare_films`] for records already packed (a test's edit of a
 /// walk's records): their film against the binary walk's `binary`
-/// ([`super::specialization::oracle_film`] at the scene's own features, which this builds).
+/// ([`super::specialization::own_oracle`]'s film: this builds at the
+/// scene's own features too).
 pub fn compare_packed_films_with(
     ctx: &GpuContext,
     spec: &str,
