@@ -12,6 +12,15 @@ const MATERIAL_ROUGH_CONDUCTOR: u32 = 8u;
 const MATERIAL_ROUGH_DIELECTRIC: u32 = 9u;
 const MATERIAL_PLASTIC: u32 = 10u;
 const MATERIAL_ROUGH_PLASTIC: u32 = 11u;
+const MATERIAL_PRINCIPLED: u32 = 12u;
+const PRINCIPLED_ANISOTROPY: f32 = 9e-1;
+const PRINCIPLED_MIN_ALPHA: f32 = 1e-3;
+const CLEARCOAT_SCALE: f32 = 2.5e-1;
+const CLEARCOAT_MASKING_ALPHA: f32 = 2.5e-1;
+const CLEARCOAT_ALPHA_ROUGH: f32 = 1e-1;
+const CLEARCOAT_ALPHA_GLOSSY: f32 = 1e-3;
+const CLEARCOAT_F0: f32 = 4e-2;
+const SUBSURFACE_SCALE: f32 = 1.25e0;
 const DISTRIBUTION_GGX: u32 = 0u;
 const DISTRIBUTION_BECKMANN: u32 = 1u;
 const MICROFACET_MIN_ALPHA: f32 = 1e-4;
@@ -143,37 +152,39 @@ const PAIRS_CAMERA: u32 = 5u;
 const PAIRS_SURFACE: u32 = 2u;
 const PAIRS_LIGHT: u32 = 2u;
 const PAIRS_NONE: u32 = 0u;
-const FEATURE_SPHERES: u32 = 1u;
-const FEATURE_QUADS: u32 = 2u;
-const FEATURE_TRIANGLES: u32 = 4u;
-const FEATURE_LAMBERTIAN: u32 = 8u;
-const FEATURE_METAL: u32 = 16u;
-const FEATURE_DIELECTRIC: u32 = 32u;
-const FEATURE_GGX: u32 = 64u;
-const FEATURE_IMAGE_TEXTURES: u32 = 128u;
-const FEATURE_CHECKER_TEXTURES: u32 = 256u;
-const FEATURE_SOLID_BACKGROUND: u32 = 512u;
-const FEATURE_SKY_BACKGROUND: u32 = 1024u;
-const FEATURE_ENVMAP_BACKGROUND: u32 = 2048u;
-const FEATURE_NORMAL_MAPS: u32 = 4096u;
-const FEATURE_ALPHA: u32 = 8192u;
-const FEATURE_CLEARCOAT: u32 = 16384u;
-const FEATURE_EMISSIVE_BSDFS: u32 = 32768u;
-const FEATURE_PUNCTUAL_LIGHTS: u32 = 65536u;
-const FEATURE_UV_CHECKER_TEXTURES: u32 = 131072u;
-const FEATURE_CONDUCTOR: u32 = 262144u;
-const FEATURE_SMOOTH_DIELECTRIC: u32 = 524288u;
-const FEATURE_THIN_DIELECTRIC: u32 = 1048576u;
-const FEATURE_ROUGH_CONDUCTOR: u32 = 2097152u;
-const FEATURE_BECKMANN: u32 = 4194304u;
-const FEATURE_ROUGH_DIELECTRIC: u32 = 8388608u;
-const FEATURE_PLASTIC: u32 = 16777216u;
-const FEATURE_ROUGH_PLASTIC: u32 = 33554432u;
-const FEATURE_MASK: u32 = 67108864u;
-const FEATURE_ONE_SIDED: u32 = 134217728u;
-const FEATURE_VERTEX_COLOR_TEXTURES: u32 = 268435456u;
-const FEATURE_PROFILED_LIGHTS: u32 = 536870912u;
-const FEATURE_TANGENT_FRAME: u32 = 1073741824u;
+const FEATURE_SPHERES: vec2<u32> = vec2<u32>(1u, 0u);
+const FEATURE_QUADS: vec2<u32> = vec2<u32>(2u, 0u);
+const FEATURE_TRIANGLES: vec2<u32> = vec2<u32>(4u, 0u);
+const FEATURE_LAMBERTIAN: vec2<u32> = vec2<u32>(8u, 0u);
+const FEATURE_METAL: vec2<u32> = vec2<u32>(16u, 0u);
+const FEATURE_DIELECTRIC: vec2<u32> = vec2<u32>(32u, 0u);
+const FEATURE_GGX: vec2<u32> = vec2<u32>(64u, 0u);
+const FEATURE_IMAGE_TEXTURES: vec2<u32> = vec2<u32>(128u, 0u);
+const FEATURE_CHECKER_TEXTURES: vec2<u32> = vec2<u32>(256u, 0u);
+const FEATURE_SOLID_BACKGROUND: vec2<u32> = vec2<u32>(512u, 0u);
+const FEATURE_SKY_BACKGROUND: vec2<u32> = vec2<u32>(1024u, 0u);
+const FEATURE_ENVMAP_BACKGROUND: vec2<u32> = vec2<u32>(2048u, 0u);
+const FEATURE_NORMAL_MAPS: vec2<u32> = vec2<u32>(4096u, 0u);
+const FEATURE_ALPHA: vec2<u32> = vec2<u32>(8192u, 0u);
+const FEATURE_CLEARCOAT: vec2<u32> = vec2<u32>(16384u, 0u);
+const FEATURE_EMISSIVE_BSDFS: vec2<u32> = vec2<u32>(32768u, 0u);
+const FEATURE_PUNCTUAL_LIGHTS: vec2<u32> = vec2<u32>(65536u, 0u);
+const FEATURE_UV_CHECKER_TEXTURES: vec2<u32> = vec2<u32>(131072u, 0u);
+const FEATURE_CONDUCTOR: vec2<u32> = vec2<u32>(262144u, 0u);
+const FEATURE_SMOOTH_DIELECTRIC: vec2<u32> = vec2<u32>(524288u, 0u);
+const FEATURE_THIN_DIELECTRIC: vec2<u32> = vec2<u32>(1048576u, 0u);
+const FEATURE_ROUGH_CONDUCTOR: vec2<u32> = vec2<u32>(2097152u, 0u);
+const FEATURE_BECKMANN: vec2<u32> = vec2<u32>(4194304u, 0u);
+const FEATURE_ROUGH_DIELECTRIC: vec2<u32> = vec2<u32>(8388608u, 0u);
+const FEATURE_PLASTIC: vec2<u32> = vec2<u32>(16777216u, 0u);
+const FEATURE_ROUGH_PLASTIC: vec2<u32> = vec2<u32>(33554432u, 0u);
+const FEATURE_MASK: vec2<u32> = vec2<u32>(67108864u, 0u);
+const FEATURE_ONE_SIDED: vec2<u32> = vec2<u32>(134217728u, 0u);
+const FEATURE_VERTEX_COLOR_TEXTURES: vec2<u32> = vec2<u32>(268435456u, 0u);
+const FEATURE_PROFILED_LIGHTS: vec2<u32> = vec2<u32>(536870912u, 0u);
+const FEATURE_TANGENT_FRAME: vec2<u32> = vec2<u32>(1073741824u, 0u);
+const FEATURE_BLEND: vec2<u32> = vec2<u32>(2147483648u, 0u);
+const FEATURE_PRINCIPLED: vec2<u32> = vec2<u32>(0u, 1u);
 const INTEGRATOR_BSDF: u32 = 0u;
 const INTEGRATOR_MIS: u32 = 1u;
 const SMALL_CONE_SIN2: f32 = 6.8523e-4;
@@ -295,6 +306,18 @@ struct GpuMaterial {
     alpha_v: u32,
     normal_map: u32,
     normal_map_mode: u32,
+    blend_weight: u32,
+    blend_second: u32,
+    pr_roughness: u32,
+    pr_anisotropic: u32,
+    pr_spec_trans: u32,
+    pr_metallic: u32,
+    pr_clearcoat: u32,
+    pr_clearcoat_gloss: u32,
+    pr_sheen: u32,
+    pr_sheen_tint: u32,
+    pr_flatness: u32,
+    pr_spec_tint: u32,
 }
 struct GpuTexture {
     tag: u32,

@@ -307,7 +307,7 @@ fn trace_path_mis(ray_in: Ray, pixel: u32, sample: u32) -> vec3<f32> {
             radiance += throughput * le * weight;
         }
         let u = sampled_vertex_randoms(params.sampler, params.seed, pixel, sample, segment + 1u);
-        let density = has_density(m);
+        let density = vertex_has_density(m);
         // The shadow ray is the path's next segment: none after the last.
         if density && light_table().y > 0u && segment + 1u < params.max_depth {
             let ul = sampled_light_randoms(params.sampler, params.seed, pixel, sample, segment + 1u);

@@ -124,10 +124,16 @@ struct MaterialTextures {
     opacity: f32,
     // Mitsuba's normal map's texel (zero without one).
     normal_map: vec3<f32>,
+    // Mitsuba's blendbsdf: the second BSDF's weight (opacity_of; 0
+    // without a blend).
+    blend: f32,
+    // The principled BSDF's one-channel parameters, in PRINCIPLED_SLOT
+    // order (0 where not given or another model).
+    pr: array<f32, 10>,
 }
 
 // The texture slots material_textures reads, in its loop's order (the
-// emission last).
+// emission after the wrappers', then a principled BSDF's).
 const SLOT_OPACITY: u32 = 0u;
 const SLOT_BASE: u32 = 1u;
 const SLOT_SECOND: u32 = 2u;
@@ -135,10 +141,32 @@ const SLOT_THIRD: u32 = 3u;
 const SLOT_COAT: u32 = 4u;
 const SLOT_COAT_ROUGHNESS: u32 = 5u;
 const SLOT_NORMAL_MAP: u32 = 6u;
-const SLOTS: u32 = 8u;
+const SLOT_BLEND: u32 = 7u;
+const SLOT_EMISSION: u32 = 8u;
+const SLOTS: u32 = 9u;
+// The principled BSDF's slots follow (its base colour reads SLOT_BASE):
+// roughness, anisotropic, spec_trans, metallic, clearcoat,
+// clearcoat_gloss, sheen, sheen_tint, flatness, spec_tint.
+const PRINCIPLED_SLOTS: u32 = 10u;
+
+// The texture of the principled parameter in slot `k` (of PRINCIPLED_SLOTS).
+fn principled_texture(m: GpuMaterial, k: u32) -> u32 {
+    switch k {
+        case 0u: { return m.pr_roughness; }
+        case 1u: { return m.pr_anisotropic; }
+        case 2u: { return m.pr_spec_trans; }
+        case 3u: { return m.pr_metallic; }
+        case 4u: { return m.pr_clearcoat; }
+        case 5u: { return m.pr_clearcoat_gloss; }
+        case 6u: { return m.pr_sheen; }
+        case 7u: { return m.pr_sheen_tint; }
+        case 8u: { return m.pr_flatness; }
+        default: { return m.pr_spec_tint; }
+    }
+}
 
 fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures {
-    var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), 1.0, vec3<f32>(0.0));
+    var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), 1.0, vec3<f32>(0.0), 0.0, array<f32, 10>());
     // Which texture each slot reads at this vertex (NO_TEXTURE: none).
     var opacity = NO_TEXTURE;
     if m.opacity != NO_TEXTURE {
@@ -196,6 +224,11 @@ fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures
             poison();
         }
     }
+    // Mitsuba's blendbsdf: its weight (reference::material::Blend).
+    var blend = NO_TEXTURE;
+    if is_blend(m) {
+        blend = m.blend_weight;
+    }
     // reference::Scene::added_emission: the emission added to a BSDF.
     var emission = NO_TEXTURE;
     if m.tag != MATERIAL_DIFFUSE_LIGHT && m.emission != NO_TEXTURE {
@@ -212,9 +245,17 @@ fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures
     var v_coat = vec3<f32>(0.0);
     var v_coat_roughness = vec3<f32>(0.0);
     var v_normal_map = vec3<f32>(0.0);
+    var v_blend = vec3<f32>(0.0);
     var v_emission = vec3<f32>(0.0);
-    for (var k = 0u; k < SLOTS; k++) {
+    var slots = SLOTS;
+    if m.tag == MATERIAL_PRINCIPLED && uses(FEATURE_PRINCIPLED) {
+        slots = SLOTS + PRINCIPLED_SLOTS;
+    }
+    for (var k = 0u; k < slots; k++) {
         var id = emission;
+        if k >= SLOTS {
+            id = principled_texture(m, k - SLOTS);
+        }
         switch k {
             case SLOT_OPACITY: { id = opacity; }
             case SLOT_BASE: { id = base; }
@@ -223,6 +264,7 @@ fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures
             case SLOT_COAT: { id = coat; }
             case SLOT_COAT_ROUGHNESS: { id = coat_roughness; }
             case SLOT_NORMAL_MAP: { id = normal_map; }
+            case SLOT_BLEND: { id = blend; }
             default: {}
         }
         if id == NO_TEXTURE {
@@ -243,7 +285,9 @@ fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures
             case SLOT_COAT: { v_coat = v; }
             case SLOT_COAT_ROUGHNESS: { v_coat_roughness = v; }
             case SLOT_NORMAL_MAP: { v_normal_map = v; }
-            default: { v_emission = v; }
+            case SLOT_BLEND: { v_blend = v; }
+            case SLOT_EMISSION: { v_emission = v; }
+            default: { t.pr[k - SLOTS] = one_channel(v); }
         }
     }
     if opacity != NO_TEXTURE {
@@ -254,6 +298,9 @@ fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures
         t.metal_rough = vec2<f32>(v_second.x, select(v_second.x, v_coat.x, anisotropic));
     }
     t.normal_map = v_normal_map;
+    if blend != NO_TEXTURE {
+        t.blend = opacity_of(v_blend);
+    }
     if m.tag == MATERIAL_SMOOTH_DIELECTRIC || m.tag == MATERIAL_THIN_DIELECTRIC {
         t.tint = v_second;
     }
@@ -291,7 +338,7 @@ fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures
 
 // What emitted reads at a light's sampled point (no BSDF parameters).
 fn light_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures {
-    var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), 1.0, vec3<f32>(0.0));
+    var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), 1.0, vec3<f32>(0.0), 0.0, array<f32, 10>());
     if m.emission != NO_TEXTURE {
         t.emission = evaluate_texture(m.emission, si.p, si.uv, si.uv1, si.color);
     }
@@ -307,9 +354,28 @@ fn emitted(si: SurfaceInteraction, tx: MaterialTextures) -> vec3<f32> {
     return vec3<f32>(0.0);
 }
 
+// Whether the material is Mitsuba's blendbsdf (reference::material::Blend):
+// its second BSDF is materials[m.blend_second].
+fn is_blend(m: GpuMaterial) -> bool {
+    if m.blend_second == NO_TEXTURE {
+        return false;
+    }
+    if !uses(FEATURE_BLEND) {
+        poison();
+        return false;
+    }
+    return true;
+}
+
+// reference::material::Bsdf::has_density: whether bsdf_eval has a value
+// for the material or, in a blend, for its second BSDF.
+fn vertex_has_density(m: GpuMaterial) -> bool {
+    return has_density(m) || (is_blend(m) && has_density(materials[m.blend_second]));
+}
+
 // Whether the material's scatter has a density that bsdf_eval gives.
 fn has_density(m: GpuMaterial) -> bool {
-    return m.tag == MATERIAL_LAMBERTIAN || m.tag == MATERIAL_GGX || m.tag == MATERIAL_ROUGH_CONDUCTOR || m.tag == MATERIAL_ROUGH_DIELECTRIC || m.tag == MATERIAL_PLASTIC || m.tag == MATERIAL_ROUGH_PLASTIC;
+    return m.tag == MATERIAL_LAMBERTIAN || m.tag == MATERIAL_GGX || m.tag == MATERIAL_ROUGH_CONDUCTOR || m.tag == MATERIAL_ROUGH_DIELECTRIC || m.tag == MATERIAL_PLASTIC || m.tag == MATERIAL_ROUGH_PLASTIC || m.tag == MATERIAL_PRINCIPLED;
 }
 
 // f(wo, wi)·|cos θ_i| and the density with which scatter samples wi, for a
@@ -375,6 +441,13 @@ fn bsdf_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mat
             if !uses(FEATURE_ROUGH_PLASTIC) { poison(); break; }
             let frame = onb_from_normal(n);
             return rough_plastic_eval(m, tx, onb_to_local(frame, -ray_dir), onb_to_local(frame, wi));
+        }
+        case MATERIAL_PRINCIPLED: {
+            if !uses(FEATURE_PRINCIPLED) { poison(); break; }
+            let at = principled_at(m, tx, si);
+            let view = onb_to_local(at.frame, -ray_dir);
+            let light = onb_to_local(at.frame, wi);
+            return BsdfEval(true, principled_eval(at.p, view, light), principled_pdf(at.p, view, light));
         }
         case MATERIAL_METAL, MATERIAL_DIELECTRIC, MATERIAL_DIFFUSE_LIGHT, MATERIAL_CONDUCTOR, MATERIAL_SMOOTH_DIELECTRIC, MATERIAL_THIN_DIELECTRIC: {
             return BsdfEval(false, vec3<f32>(0.0), 0.0);
@@ -525,55 +598,110 @@ fn normal_mapped_shadowing(p: NormalMapped, wo: vec3<f32>) -> f32 {
 
 // reference::material::wrapped_scatter: scatter under Mitsuba's wrappers
 // (through a mask, a delta pass-through with probability 1 − opacity;
-// else the material, in a normal map's frame where it has one, absorbed
-// behind a one-sided one).
-fn wrapped_scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: MaterialTextures, u: VertexRandoms) -> Scatter {
-    if m.opacity != NO_TEXTURE && vr_get(u, DIM_MASK) >= tx.opacity {
+// else the material, a blend's BSDF picked by the lobe slot, in a normal
+// map's frame where it has one, absorbed behind a one-sided one). One
+// call of scatter, mapped or not: the drivers inline each call site.
+fn wrapped_scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: MaterialTextures, u_vertex: VertexRandoms) -> Scatter {
+    if m.opacity != NO_TEXTURE && vr_get(u_vertex, DIM_MASK) >= tx.opacity {
         return delta(ray_dir, vec3<f32>(1.0));
     }
-    if m.normal_map != NO_TEXTURE && uses(FEATURE_TANGENT_FRAME) {
-        let mapped = map_frame(m, tx, ray_dir, si);
-        if absorbs_behind(m, ray_dir, mapped.si) {
+    // Mitsuba's blendbsdf: the second below its weight, the slot rescaled.
+    var u = u_vertex;
+    var mc = m;
+    var txc = tx;
+    let blend = is_blend(m);
+    if blend {
+        let w = tx.blend;
+        let x = vr_get(u, DIM_LOBE);
+        if x < w {
+            mc = materials[m.blend_second];
+            txc = material_textures(mc, si);
+            u = vr_with(u, DIM_LOBE, min(x / w, ONE_MINUS_EPSILON));
+        } else {
+            u = vr_with(u, DIM_LOBE, min((x - w) / (1.0 - w), ONE_MINUS_EPSILON));
+        }
+    }
+    var shaded = si;
+    let mapped_frame = m.normal_map != NO_TEXTURE && uses(FEATURE_TANGENT_FRAME);
+    var mapped: NormalMapped;
+    if mapped_frame {
+        mapped = map_frame(m, tx, ray_dir, si);
+        shaded = mapped.si;
+    }
+    if absorbs_behind(mc, ray_dir, shaded) {
+        return absorbed();
+    }
+    var s = scatter(mc, ray_dir, shaded, txc, u);
+    // A blend's draw from a density: the mixed value over the mixed
+    // density (as Mitsuba's).
+    if blend && s.ok && s.density {
+        let e = blended_eval(m, ray_dir, shaded, tx, s.direction);
+        if !e.ok || !(e.pdf > 0.0) {
             return absorbed();
         }
-        var s = scatter(m, ray_dir, mapped.si, tx, u);
+        s.weight = e.f_cos / e.pdf;
+    }
+    if mapped_frame {
         if !s.ok || !normal_mapped_keeps(mapped, s.direction) {
             return absorbed();
         }
         s.weight *= normal_mapped_shadowing(mapped, s.direction);
-        return s;
     }
-    if absorbs_behind(m, ray_dir, si) {
-        return absorbed();
-    }
-    return scatter(m, ray_dir, si, tx, u);
+    return s;
 }
 
 // reference::material::wrapped_bsdf_eval: bsdf_eval under the wrappers
-// (in a normal map's frame, nothing behind a one-sided material; times a
-// mask's opacity).
+// (in a normal map's frame, nothing behind a one-sided material; a
+// blend's two BSDFs mixed by its weight; times a mask's opacity).
 fn wrapped_bsdf_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: MaterialTextures, wi: vec3<f32>) -> BsdfEval {
-    var b = BsdfEval(false, vec3<f32>(0.0), 0.0);
-    if m.normal_map != NO_TEXTURE && uses(FEATURE_TANGENT_FRAME) {
-        let mapped = map_frame(m, tx, ray_dir, si);
-        if absorbs_behind(m, ray_dir, mapped.si) {
-            return b;
+    var shaded = si;
+    let mapped_frame = m.normal_map != NO_TEXTURE && uses(FEATURE_TANGENT_FRAME);
+    var mapped: NormalMapped;
+    if mapped_frame {
+        mapped = map_frame(m, tx, ray_dir, si);
+        shaded = mapped.si;
+    }
+    var b = blended_eval(m, ray_dir, shaded, tx, wi);
+    if mapped_frame && b.ok {
+        if normal_mapped_keeps(mapped, wi) {
+            b.f_cos *= normal_mapped_shadowing(mapped, wi);
+        } else {
+            b = BsdfEval(true, vec3<f32>(0.0), 0.0);
         }
-        b = bsdf_eval(m, ray_dir, mapped.si, tx, wi);
-        if b.ok {
-            if normal_mapped_keeps(mapped, wi) {
-                b.f_cos *= normal_mapped_shadowing(mapped, wi);
-            } else {
-                b = BsdfEval(true, vec3<f32>(0.0), 0.0);
-            }
-        }
-    } else {
-        if absorbs_behind(m, ray_dir, si) {
-            return b;
-        }
-        b = bsdf_eval(m, ray_dir, si, tx, wi);
     }
     return BsdfEval(b.ok, b.f_cos * tx.opacity, b.pdf * tx.opacity);
+}
+
+// reference::material::blended_eval: bsdf_eval in the frame `shaded`,
+// nothing behind a one-sided material; a blend's two BSDFs mixed by its
+// weight. One call of bsdf_eval for both of a blend's BSDFs: the drivers
+// inline each call site.
+fn blended_eval(m: GpuMaterial, ray_dir: vec3<f32>, shaded: SurfaceInteraction, tx: MaterialTextures, wi: vec3<f32>) -> BsdfEval {
+    let blend = is_blend(m);
+    var b = BsdfEval(false, vec3<f32>(0.0), 0.0);
+    for (var part = 0u; part < select(1u, 2u, blend); part++) {
+        var mc = m;
+        var txc = tx;
+        var share = 1.0 - tx.blend;
+        if part == 1u {
+            mc = materials[m.blend_second];
+            txc = material_textures(mc, shaded);
+            share = tx.blend;
+        }
+        if absorbs_behind(mc, ray_dir, shaded) {
+            continue;
+        }
+        let e = bsdf_eval(mc, ray_dir, shaded, txc, wi);
+        if !e.ok {
+            continue;
+        }
+        if blend {
+            b = BsdfEval(true, b.f_cos + e.f_cos * share, b.pdf + e.pdf * share);
+        } else {
+            b = e;
+        }
+    }
+    return b;
 }
 
 // reference::material::draw_density: the density MIS weighs a draw by (0:
@@ -633,6 +761,9 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mater
         if m.tag == MATERIAL_GGX {
             return scatter_ggx(m, ray_dir, tx, n, u);
         }
+        if m.tag == MATERIAL_PRINCIPLED {
+            return scatter_principled(m, ray_dir, si, tx, u);
+        }
         if m.tag == MATERIAL_DIFFUSE_LIGHT {
             return absorbed();
         }
@@ -673,6 +804,9 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mater
         case MATERIAL_GGX: {
             return scatter_ggx(m, ray_dir, tx, n, u);
         }
+        case MATERIAL_PRINCIPLED: {
+            return scatter_principled(m, ray_dir, si, tx, u);
+        }
         case MATERIAL_DIFFUSE_LIGHT: {
             return absorbed();
         }
@@ -681,6 +815,42 @@ fn scatter(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mater
             return absorbed();
         }
     }
+}
+
+// reference::material::principled_at: the principled BSDF's values at a
+// point and its frame (the outward shading normal, about the tangent where
+// it is anisotropic).
+struct PrincipledAt {
+    p: Principled,
+    frame: Onb,
+}
+
+fn principled_at(m: GpuMaterial, tx: MaterialTextures, si: SurfaceInteraction) -> PrincipledAt {
+    let n = si.shading_normal;
+    var frame = onb_from_normal(n);
+    if m.pr_anisotropic != NO_TEXTURE {
+        if !uses(FEATURE_TANGENT_FRAME) {
+            poison();
+        }
+        frame = Onb(si.tangent, cross(n, si.tangent), n);
+    }
+    let p = Principled(tx.base, tx.pr[0], tx.pr[1], tx.pr[2], m.pr_spec_trans != NO_TEXTURE, tx.pr[3], tx.pr[4], tx.pr[5], tx.pr[6], tx.pr[7], tx.pr[8], tx.pr[9], m.p0);
+    return PrincipledAt(p, frame);
+}
+
+fn scatter_principled(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: MaterialTextures, u: VertexRandoms) -> Scatter {
+    if !uses(FEATURE_PRINCIPLED) { poison(); return absorbed(); }
+    let at = principled_at(m, tx, si);
+    let wi = onb_to_local(at.frame, -ray_dir);
+    let drawn = principled_sample(at.p, wi, vr_get(u, DIM_LOBE), vec2<f32>(vr_get(u, DIM_DIRECTION_U), vr_get(u, DIM_DIRECTION_V)));
+    if drawn.w == 0.0 {
+        return absorbed();
+    }
+    let pdf = principled_pdf(at.p, wi, drawn.xyz);
+    if !(pdf > 0.0) {
+        return absorbed();
+    }
+    return sampled(onb_to_world(at.frame, drawn.xyz), principled_eval(at.p, wi, drawn.xyz) / pdf);
 }
 
 // scatter's cases, `n` and `ng` already facing the ray's side.

@@ -74,6 +74,14 @@ fn microfacet_sample_visible(mf: Microfacet, wo: vec3<f32>, u: vec2<f32>) -> vec
     return normalize(vec3<f32>(mf.alpha_u * m_std.x, mf.alpha_v * m_std.y, max(m_std.z, 0.0)));
 }
 
+// reference::microfacet::Microfacet::pdf_visible: D(m)·G1(wo, m)·|wo·m| / wo.z.
+fn microfacet_pdf_visible(mf: Microfacet, wo: vec3<f32>, m: vec3<f32>) -> f32 {
+    if wo.z <= 0.0 {
+        return 0.0;
+    }
+    return microfacet_d(mf, m) * microfacet_g1(mf, wo, m) * abs(dot(wo, m)) / wo.z;
+}
+
 // reference::microfacet::beckmann_visible_slope: Newton's method on the
 // visible slopes' marginal CDF in the variable erf(x), kept in a bracket
 // by bisection.

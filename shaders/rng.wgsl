@@ -47,6 +47,17 @@ fn vr_get(r: VertexRandoms, i: u32) -> f32 {
     return r.b[i - 4u];
 }
 
+// `r` with slot `i` set to `v`.
+fn vr_with(r: VertexRandoms, i: u32, v: f32) -> VertexRandoms {
+    var o = r;
+    if i < 4u {
+        o.a[i] = v;
+    } else {
+        o.b[i - 4u] = v;
+    }
+    return o;
+}
+
 // The four uniform floats of the light sample at vertex `bounce` (block 2
 // of the vertex's stream; slots in LIGHT_DIM_*).
 fn light_randoms(seed: u32, pixel: u32, sample: u32, bounce: u32) -> vec4<f32> {

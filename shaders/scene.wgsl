@@ -9,9 +9,10 @@
 // poisons the sample (a kernel built for the wrong scene is an error, not
 // a wrong image). The default, every bit, is the general kernel.
 override FEATURES: u32 = 0xffffffffu;
+override FEATURES_HI: u32 = 0xffffffffu;
 
-fn uses(feature: u32) -> bool {
-    return (FEATURES & feature) != 0u;
+fn uses(feature: vec2<u32>) -> bool {
+    return ((FEATURES & feature.x) | (FEATURES_HI & feature.y)) != 0u;
 }
 
 // How a tag picks its code where both ways are written (intersect_shape,

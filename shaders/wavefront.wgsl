@@ -446,7 +446,7 @@ fn shade_mis(v: ptr<function, Vertex>, hit: Hit, pixel: u32, sample: u32) {
     }
     let segment = (*v).segment;
     let u = sampled_vertex_randoms(params.sampler, params.seed, pixel, sample, segment + 1u);
-    let density = has_density(m);
+    let density = vertex_has_density(m);
     if density && light_table().y > 0u && segment + 1u < params.max_depth {
         let ul = sampled_light_randoms(params.sampler, params.seed, pixel, sample, segment + 1u);
         (*v).shadow = next_event_ray(m, ray, si, tx, ul, (*v).throughput);

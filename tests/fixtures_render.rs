@@ -31,7 +31,9 @@ fn no_checker_boundary_plane_is_tangent_to_a_sphere() {
             let texture = match scene.materials()[s.material as usize] {
                 Material::Lambertian { albedo } | Material::Metal { albedo, .. } => albedo,
                 Material::DiffuseLight { emission } => emission,
-                Material::Ggx { base_color, .. } => base_color,
+                Material::Ggx { base_color, .. } | Material::Principled { base_color, .. } => {
+                    base_color
+                }
                 Material::Plastic { diffuse, .. } | Material::RoughPlastic { diffuse, .. } => {
                     diffuse
                 }

@@ -11,16 +11,23 @@ fn gpu_the_gpu_twin_passes_mitsubas_render_test_protocol_on_the_gate_scenes() {
     let dir = twintrace::compare::gate::workspace_root().join("fixtures/mitsuba");
     let cases = mitsuba_tests::cases(&dir).unwrap();
     assert!(!cases.is_empty());
-    for case in cases {
-        let scene = mitsuba_tests::load(&case).unwrap().unwrap();
+    // The scenes on as many threads as there are cores: one scene's kernel
+    // is compiled while another renders (CI's lavapipe compiles on the CPU).
+    let verdicts = twintrace::twins::par_map(&cases, |case| {
+        let scene = mitsuba_tests::load(case).unwrap().unwrap();
         let (verdict, spp) = mitsuba_tests::run_scene(
-            &case,
+            case,
             &scene,
             Devices::Gpu(crate::common::gpu()),
             Budget::default(),
         )
         .unwrap();
+        (verdict, spp)
+    });
+    for (case, (verdict, spp)) in cases.iter().zip(&verdicts) {
         println!("{}: gpu, {spp} spp: {}", case.name, verdict.figures());
+    }
+    for (case, (verdict, _)) in cases.iter().zip(&verdicts) {
         assert!(verdict.passes(), "{}: {}", case.name, verdict.figures());
     }
 }
@@ -174,6 +181,27 @@ const MUTANTS: &[GpuMutant] = &[
         from: "    let frame = mirrored_frame(si.tangent, si.bitangent, mirrored, ray_dir);",
         to: "    let f0 = onb_from_normal(cross(si.tangent, si.bitangent));\n    let frame = mirrored_frame(f0.s, f0.t, mirrored, ray_dir);",
         cpu_twin: Some(Mutant::TangentNotFromUv),
+    },
+    GpuMutant {
+        scene: "principled",
+        what: "the principled diffuse without its retro-reflection",
+        from: "lerp(f_diff + f_retro, f_ss, p.flatness)",
+        to: "lerp(f_diff, f_ss, p.flatness)",
+        cpu_twin: Some(Mutant::PrincipledRetroDropped),
+    },
+    GpuMutant {
+        scene: "principled",
+        what: "the principled reflection's density without its Jacobian",
+        from: "    var dwh_dwo = 1.0 / (4.0 * dot_o);",
+        to: "    var dwh_dwo = 1.0;",
+        cpu_twin: Some(Mutant::PrincipledReflectionJacobianDropped),
+    },
+    GpuMutant {
+        scene: "blends",
+        what: "the blend's weights swapped",
+        from: "        t.blend = opacity_of(v_blend);",
+        to: "        t.blend = 1.0 - opacity_of(v_blend);",
+        cpu_twin: Some(Mutant::BlendWeightSwapped),
     },
     GpuMutant {
         scene: "bumps",

@@ -30,7 +30,7 @@ const SPHERE: Domain = Domain::Sphere {
 const BASE: Vec3 = Vec3::new(0.9, 0.6, 0.3);
 
 const SNIPPET: &str = "
-// input: [seed, mode, n, front_face, random_incidence, wo.x, wo.y, wo.z, alpha, material (24 words; its coat's textures are none), alpha_v, distribution]
+// input: [seed, mode, n, front_face, random_incidence, wo.x, wo.y, wo.z, alpha, material (a GpuMaterial's words; its coat's textures are none), alpha_v (at ALPHA_V_AT), distribution (at DISTRIBUTION_AT)]
 @compute @workgroup_size(64)
 fn sample_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
@@ -51,11 +51,11 @@ fn sample_main(@builtin(global_invocation_id) gid: vec3<u32>) {
         case 3u: { d = sample_unit_ball(vec3<f32>(vr_get(u, DIM_BALL_X), vr_get(u, DIM_BALL_Y), vr_get(u, DIM_BALL_Z))); }
         case 4u: { d = ggx_sample_visible_normal(wo, bitcast<f32>(input[8]), dir_u); }
         case 6u: {
-            let mf = microfacet_new(input[34], bitcast<f32>(input[8]), bitcast<f32>(input[33]));
+            let mf = microfacet_new(input[DISTRIBUTION_AT], bitcast<f32>(input[8]), bitcast<f32>(input[ALPHA_V_AT]));
             d = microfacet_sample_visible(mf, wo, dir_u);
         }
         default: {
-            let m = GpuMaterial(input[9], input[10], bitcast<f32>(input[11]), bitcast<f32>(input[12]), bitcast<f32>(input[13]), bitcast<f32>(input[14]), bitcast<f32>(input[15]), input[16], input[17], bitcast<f32>(input[18]), NO_TEXTURE, 0.0, bitcast<f32>(input[21]), NO_TEXTURE, bitcast<f32>(input[23]), NO_TEXTURE, NO_TEXTURE, 0u, input[27], input[28], input[29], NO_TEXTURE, NO_TEXTURE, 0u);
+            let m = GpuMaterial(input[9], input[10], bitcast<f32>(input[11]), bitcast<f32>(input[12]), bitcast<f32>(input[13]), bitcast<f32>(input[14]), bitcast<f32>(input[15]), input[16], input[17], bitcast<f32>(input[18]), NO_TEXTURE, 0.0, bitcast<f32>(input[21]), NO_TEXTURE, bitcast<f32>(input[23]), NO_TEXTURE, NO_TEXTURE, 0u, input[27], input[28], input[29], NO_TEXTURE, NO_TEXTURE, 0u, NO_TEXTURE, NO_TEXTURE, NO_TEXTURE, NO_TEXTURE, NO_TEXTURE, NO_TEXTURE, NO_TEXTURE, NO_TEXTURE, NO_TEXTURE, NO_TEXTURE, NO_TEXTURE, NO_TEXTURE);
             let front = input[3] != 0u;
             var ray_dir = -wo;
             if input[4] != 0u {
@@ -162,12 +162,17 @@ fn gpu_samples(job: &Job) -> Vec<Option<DVec3>> {
         job.alpha.to_bits(),
     ];
     input.extend_from_slice(bytemuck::cast_slice(&[mat]));
+    // The words after the material's record: where the snippet reads them.
+    let alpha_v_at = input.len();
     input.extend([job.alpha_v.to_bits(), job.distribution]);
+    let snippet = SNIPPET
+        .replace("ALPHA_V_AT", &format!("{alpha_v_at}u"))
+        .replace("DISTRIBUTION_AT", &format!("{}u", alpha_v_at + 1));
     let out = run_test_kernel(
         ctx,
         &renderer,
         &TestKernel {
-            snippet: SNIPPET,
+            snippet: &snippet,
             entry: "sample_main",
             input: &input,
             invocations: N,

@@ -51,7 +51,7 @@ fn specialized_kernels_render_every_scene_as_the_general_kernel() {
 fn a_kernel_without_a_feature_its_scene_uses_is_caught() {
     let ctx = common::gpu();
     let every_scene = twintrace::twins::full_gates(ctx);
-    let (mut mutants, mut caught, mut used) = (0, 0u32, 0u32);
+    let (mut mutants, mut caught, mut used) = (0, 0u64, 0u64);
     let mut scenes: Vec<_> = scene_specs()
         .unwrap()
         .into_iter()

@@ -186,6 +186,21 @@ fn normal_maps_read_in_a_frame_not_from_the_texture_coordinates_fail_the_frames_
 }
 
 #[test]
+fn principled_bsdfs_without_their_retro_reflection_fail_the_principled_gate() {
+    mutant_fails("principled", Mutant::PrincipledRetroDropped);
+}
+
+#[test]
+fn principled_bsdfs_without_their_reflections_jacobian_fail_the_principled_gate() {
+    mutant_fails("principled", Mutant::PrincipledReflectionJacobianDropped);
+}
+
+#[test]
+fn blends_whose_weights_are_swapped_fail_the_blends_gate() {
+    mutant_fails("blends", Mutant::BlendWeightSwapped);
+}
+
+#[test]
 fn bump_maps_whose_gradient_along_v_is_reversed_fail_the_bumps_gate() {
     mutant_fails("bumps", Mutant::BumpGradientVFlipped);
 }

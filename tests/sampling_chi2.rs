@@ -628,6 +628,109 @@ fn rough_plastic_samples_its_density() {
     assert_family_passes("rough plastic", &runs);
 }
 
+/// Principled BSDFs of the chi-square tests (CPU and GPU): base colour
+/// (texture 0), roughness, and the lobes as (anisotropic, spec_trans,
+/// metallic, clearcoat, sheen) given or not, with their values; the
+/// index; the viewer's angle from the normal and whether it is outside.
+pub(crate) fn principled(
+    roughness: f32,
+    lobes: [Option<f32>; 5],
+    eta: f32,
+) -> (Material, Vec<Texture>) {
+    let mut textures = vec![
+        Texture::Constant(Vec3::new(0.7, 0.4, 0.2)),
+        Texture::Constant(Vec3::splat(roughness)),
+    ];
+    let mut lobe = |v: Option<f32>| {
+        v.map(|v| {
+            textures.push(Texture::Constant(Vec3::splat(v)));
+            textures.len() as u32 - 1
+        })
+    };
+    let [anisotropic, spec_trans, metallic, clearcoat, sheen] = lobes.map(&mut lobe);
+    let clearcoat_gloss = clearcoat.and_then(|_| lobe(Some(0.3)));
+    let material = Material::Principled {
+        base_color: 0,
+        roughness: 1,
+        anisotropic,
+        spec_trans,
+        metallic,
+        clearcoat,
+        clearcoat_gloss,
+        sheen,
+        sheen_tint: None,
+        flatness: None,
+        spec_tint: None,
+        eta,
+    };
+    (material, textures)
+}
+
+pub(crate) type PrincipledCase = (f32, [Option<f32>; 5], f32, f64, bool);
+
+/// The principled cases: a rough dielectric-like one that transmits (seen
+/// from outside and from inside), a coated, sheened diffuse one, an
+/// anisotropic metal, and a smooth one of every lobe.
+pub(crate) const PRINCIPLED_CASES: [PrincipledCase; 5] = [
+    (0.5, [None, Some(0.8), None, None, None], 1.5, 35.0, true),
+    (0.4, [None, Some(0.9), None, None, None], 1.33, 20.0, false),
+    (
+        0.6,
+        [None, None, None, Some(0.8), Some(0.5)],
+        1.5,
+        60.0,
+        true,
+    ),
+    (
+        0.5,
+        [Some(0.7), None, Some(0.9), None, None],
+        1.5,
+        45.0,
+        true,
+    ),
+    (
+        0.2,
+        [Some(0.3), Some(0.4), Some(0.3), Some(0.5), Some(0.4)],
+        1.7,
+        70.0,
+        true,
+    ),
+];
+
+#[test]
+fn principled_samples_its_density() {
+    // Its four lobes drawn by probabilities that the specular normal's
+    // Fresnel weighs, against bsdf_eval's density over the sphere.
+    use reference::material::bsdf_eval;
+    let mut runs = Vec::new();
+    for (k, &(roughness, lobes, eta, theta, front)) in PRINCIPLED_CASES.iter().enumerate() {
+        let (material, textures) = principled(roughness, lobes, eta);
+        let ctx = TextureContext {
+            textures: &textures,
+            images: &[],
+        };
+        let (si, wo) = viewer(theta, front);
+        let seed = 580 + k as u32;
+        let o = test_density(
+            &SPHERE,
+            samples(|i| {
+                scatter(&material, ctx, -wo, &si, &u(seed, i)).map(|s| {
+                    assert!(s.density);
+                    s.direction.as_dvec3()
+                })
+            }),
+            &|wi| bsdf_eval(&material, ctx, -wo, &si, wi.as_vec3()).unwrap().1 as f64,
+        );
+        runs.push((
+            format!(
+                "roughness {roughness}, lobes {lobes:?}, η {eta}, θo {theta}°, outside {front}"
+            ),
+            o,
+        ));
+    }
+    assert_family_passes("principled", &runs);
+}
+
 #[test]
 fn lambertian_material_scatters_cosine_about_the_normal() {
     let textures = [Texture::Constant(Vec3::splat(0.5))];

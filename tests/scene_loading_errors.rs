@@ -731,6 +731,106 @@ fn wrapped_scene(materials: &str) -> String {
 }
 
 #[test]
+fn principled_materials_that_cannot_be_are_named() {
+    for (material, says) in [
+        (
+            r#""a": { "type": "principled", "eta": 1.5, "specular": 0.5 }"#,
+            &["materials.a", "eta or specular, not both"][..],
+        ),
+        (
+            r#""a": { "type": "principled", "specular": -1 }"#,
+            &["materials.a", "specular"],
+        ),
+        (
+            r#""a": { "type": "principled", "metallic": "nope" }"#,
+            &["materials.a", "metallic", "nope"],
+        ),
+        (
+            r#""a": { "type": "principled", "eta": 0 }"#,
+            &["materials.a", "eta"],
+        ),
+        (
+            r#""a": { "type": "principled", "shine": 1 }"#,
+            &["materials", "shine"],
+        ),
+    ] {
+        check(&wrapped_scene(material), says);
+    }
+    // Given, a principled material loads with its lobes; 0 turns one off.
+    let dir = tempfile::tempdir().unwrap();
+    let p = write_scene(
+        dir.path(),
+        "p.json",
+        &wrapped_scene(
+            r#""a": { "type": "principled", "base_color": [0.2, 0.4, 0.6], "metallic": 0.5, "spec_trans": 0, "clearcoat": 0.3, "eta": 1.33 }"#,
+        ),
+    );
+    let scene = reference::load_scene(p.to_str().unwrap()).unwrap();
+    let m = scene.spheres()[0].material as usize;
+    let reference::material::Material::Principled {
+        metallic,
+        spec_trans,
+        clearcoat,
+        clearcoat_gloss,
+        eta,
+        ..
+    } = scene.materials()[m]
+    else {
+        panic!("{:?}", scene.materials()[m]);
+    };
+    assert!(metallic.is_some() && clearcoat.is_some() && clearcoat_gloss.is_some());
+    assert_eq!(spec_trans, None);
+    assert_eq!(eta, 1.33);
+}
+
+#[test]
+fn blends_that_cannot_be_are_named() {
+    let lambertian = r#""c": { "type": "lambertian", "albedo": [0.5, 0.5, 0.5] }"#;
+    for (materials, says) in [
+        (
+            format!(r#""a": {{ "type": "blend", "materials": ["a", "c"] }}, {lambertian}"#),
+            &["materials.a", "loop: a -> a"][..],
+        ),
+        (
+            format!(
+                r#""a": {{ "type": "blend", "materials": ["c", "m"] }}, "m": {{ "type": "mask", "material": "c" }}, {lambertian}"#
+            ),
+            &["materials.a", "materials[1]", "`m` has a mask"],
+        ),
+        (
+            format!(
+                r#""a": {{ "type": "blend", "materials": ["l", "c"] }}, "l": {{ "type": "diffuse_light", "emission": [1, 1, 1] }}, {lambertian}"#
+            ),
+            &["materials.a", "materials[0]", "light"],
+        ),
+        (
+            format!(
+                r#""a": {{ "type": "blend", "materials": ["c", "e"] }}, "e": {{ "type": "lambertian", "albedo": [0.5, 0.5, 0.5], "emission": [1, 1, 1] }}, {lambertian}"#
+            ),
+            &["materials.a", "materials[1]", "emits"],
+        ),
+        (
+            format!(r#""a": {{ "type": "blend", "materials": ["c"] }}, {lambertian}"#),
+            &["materials"],
+        ),
+        (
+            format!(
+                r#""a": {{ "type": "one_sided", "material": "b" }}, "b": {{ "type": "blend", "materials": ["c", "c"] }}, {lambertian}"#
+            ),
+            &["materials.a", "is a blend"],
+        ),
+        (
+            format!(
+                r#""a": {{ "type": "blend", "materials": ["c", "c"], "weight": "t" }}, {lambertian}"#
+            ),
+            &["materials.a.weight"],
+        ),
+    ] {
+        check(&wrapped_scene(&materials), says);
+    }
+}
+
+#[test]
 fn masks_and_one_sided_materials_that_cannot_be_are_named() {
     // Wrappers that name each other: a loop, not a stack overflow.
     check(

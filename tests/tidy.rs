@@ -110,6 +110,14 @@ const GPU_ONLY: &[(&str, &str)] = &[
     ("scatter_dielectric", "the dielectric arm of material::scatter's match"),
     ("scatter_ggx", "the GGX arm of material::scatter's match"),
     (
+        "scatter_principled",
+        "the principled arm of material::scatter's match",
+    ),
+    (
+        "principled_texture",
+        "the principled parameters' texture ids by slot, for material_textures' one lookup (the reference's Material::Principled names them)",
+    ),
+    (
         "intersect_sphere_record",
         "the sphere arm of the shape match in LeafPrim::intersect",
     ),
@@ -168,6 +176,18 @@ const GPU_ONLY: &[(&str, &str)] = &[
     (
         "material_textures",
         "the TextureContext lookups of emitted, bsdf_eval and scatter (and reference::Scene::added_emission, ggx_parameters, coat_parameters), made once a path vertex through one call of the texture lookup",
+    ),
+    (
+        "is_blend",
+        "whether a material's Wrappers::blend is set (the reference's material::Bsdf carries the second BSDF)",
+    ),
+    (
+        "vertex_has_density",
+        "reference::material::Bsdf::has_density (a method there)",
+    ),
+    (
+        "vr_with",
+        "the reference copies its array of vertex randoms and sets a slot (material::wrapped_scatter)",
     ),
     (
         "light_textures",

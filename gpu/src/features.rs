@@ -2,9 +2,10 @@
 //! not use ("skip what a scene doesn't need").
 //!
 //! [`Features::of`] inspects a scene (its primitive kinds, materials,
-//! textures and background) and the WGSL pipeline-overridable constant
-//! `FEATURES` (a bit per feature, [`FEATURES_CONSTANT`]) is set to it when
-//! the pipeline is made. Every `switch` case of a feature starts with
+//! textures and background) and the WGSL pipeline-overridable constants
+//! `FEATURES` and `FEATURES_HI` (a bit per feature, the low and high 32
+//! of 64: [`Features::constants`]) are set to it when the pipeline is
+//! made. Every `switch` case of a feature starts with
 //! `if !uses(FEATURE_…) { poison(); … }`, and the few branches outside a
 //! switch test `uses(FEATURE_…) && …` (the light sampler's sphere and
 //! triangle paths, the dielectric's absorption, the environment's density;
@@ -31,9 +32,12 @@ pub use crate::variants::{
     Dispatch, Kernel, DISPATCH_BRANCHES, DISPATCH_CONSTANT, DISPATCH_SWITCH,
 };
 
-/// The render program's pipeline-overridable constant that holds the
-/// scene's [`Features`].
+/// The render program's pipeline-overridable constants that hold the
+/// scene's [`Features`]: bits 0–31 and 32–63 (WGSL has no 64-bit
+/// constant; a `FEATURE_…` constant is the pair of words, and `uses`
+/// tests both).
 pub const FEATURES_CONSTANT: &str = "FEATURES";
+pub const FEATURES_HI_CONSTANT: &str = "FEATURES_HI";
 
 /// Declares each feature bit once: its Rust constant and, in [`NAMED`],
 /// the WGSL constant `FEATURE_<NAME>` generated from it.
@@ -41,10 +45,10 @@ macro_rules! feature_bits {
     ($($name:ident = $bit:literal,)*) => {
         /// The feature bits (the WGSL constants `FEATURE_…`).
         pub mod feature {
-            $(pub const $name: u32 = 1 << $bit;)*
+            $(pub const $name: u64 = 1 << $bit;)*
 
             /// Every bit, with its WGSL name (for the generated constants).
-            pub const NAMED: &[(&str, u32)] = &[$((concat!("FEATURE_", stringify!($name)), $name),)*];
+            pub const NAMED: &[(&str, u64)] = &[$((concat!("FEATURE_", stringify!($name)), $name),)*];
         }
     };
 }
@@ -81,6 +85,8 @@ feature_bits! {
     VERTEX_COLOR_TEXTURES = 28,
     PROFILED_LIGHTS = 29,
     TANGENT_FRAME = 30,
+    BLEND = 31,
+    PRINCIPLED = 32,
 }
 
 impl Kernel {
@@ -95,11 +101,21 @@ impl Kernel {
 
 /// A set of feature bits ([`feature`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct Features(pub u32);
+pub struct Features(pub u64);
 
 impl Features {
     /// Every feature: the general kernel (the WGSL default of `FEATURES`).
-    pub const ALL: Features = Features(u32::MAX);
+    pub const ALL: Features = Features(u64::MAX);
+
+    /// The pipeline's override constants that say these features
+    /// ([`FEATURES_CONSTANT`], [`FEATURES_HI_CONSTANT`]): each a u32,
+    /// exact as f64.
+    pub fn constants(self) -> [(&'static str, f64); 2] {
+        [
+            (FEATURES_CONSTANT, (self.0 & 0xffff_ffff) as f64),
+            (FEATURES_HI_CONSTANT, (self.0 >> 32) as f64),
+        ]
+    }
 
     /// What `scene` uses: its primitive kinds, the kinds of its materials
     /// and textures (every one it lists), and its background's kind.
@@ -111,7 +127,7 @@ impl Features {
                 primitive_tag::QUAD => feature::QUADS,
                 primitive_tag::TRIANGLE => feature::TRIANGLES,
                 // A kind this list does not know: the general kernel.
-                _ => u32::MAX,
+                _ => u64::MAX,
             };
         }
         for m in scene.materials() {
@@ -136,6 +152,10 @@ impl Features {
                 Material::RoughPlastic { distribution, .. } => {
                     feature::ROUGH_PLASTIC | beckmann(*distribution)
                 }
+                Material::Principled {
+                    anisotropic: anisotropy,
+                    ..
+                } => feature::PRINCIPLED | anisotropic(*anisotropy),
                 Material::Ggx {
                     normal_map,
                     clearcoat,
@@ -169,6 +189,10 @@ impl Features {
             // Mitsuba's normal map reads the surface's tangent frame.
             if w.normal_map.is_some() {
                 bits |= feature::TANGENT_FRAME;
+            }
+            // Mitsuba's blendbsdf: a second BSDF's textures and value.
+            if w.blend.is_some() {
+                bits |= feature::BLEND;
             }
         }
         // Emission added to a BSDF is one more texture read a vertex.
@@ -205,7 +229,7 @@ impl Features {
         Features(bits)
     }
 
-    pub fn contains(self, bits: u32) -> bool {
+    pub fn contains(self, bits: u64) -> bool {
         self.0 & bits == bits
     }
 
@@ -222,7 +246,7 @@ impl Features {
 /// [`feature::BECKMANN`] for a microfacet model of Beckmann's
 /// distribution, else nothing (GGX's code is the microfacets' baseline).
 /// An anisotropic rough model reads the surface's tangent frame.
-fn anisotropic(alpha_v: Option<u32>) -> u32 {
+fn anisotropic(alpha_v: Option<u32>) -> u64 {
     if alpha_v.is_some() {
         feature::TANGENT_FRAME
     } else {
@@ -230,7 +254,7 @@ fn anisotropic(alpha_v: Option<u32>) -> u32 {
     }
 }
 
-fn beckmann(distribution: u32) -> u32 {
+fn beckmann(distribution: u32) -> u64 {
     if distribution == reference::microfacet::distribution::BECKMANN {
         feature::BECKMANN
     } else {
@@ -244,14 +268,17 @@ mod tests {
 
     #[test]
     fn the_bits_are_distinct_and_fit_the_constant() {
-        let mut all = 0u32;
+        let mut all = 0u64;
         for &(_, bit) in feature::NAMED {
             assert_eq!(bit.count_ones(), 1);
             assert_eq!(all & bit, 0, "bit {bit:#x} used twice");
             all |= bit;
         }
-        // The WGSL constant is a u32 passed as f64: exact.
-        assert_eq!(Features::ALL.0 as f64 as u32, u32::MAX);
+        // The WGSL constants are u32s passed as f64: exact.
+        for (_, v) in Features::ALL.constants() {
+            assert_eq!(v as u32, u32::MAX);
+            assert_eq!(v as u32 as f64, v);
+        }
     }
 
     #[test]

@@ -7,7 +7,6 @@
 use crate::bindings;
 use crate::context::GpuContext;
 use crate::error::GpuError;
-use crate::features::FEATURES_CONSTANT;
 use crate::pipeline::compile_with;
 use crate::readback::{read_buffer, read_timestamps};
 use crate::renderer::{bind_group_layout, GpuRenderer};
@@ -97,7 +96,10 @@ pub fn trace_closest(
         &source,
         "closest_hit_main",
         &[&scene_layout, &io_layout],
-        &[(FEATURES_CONSTANT, variant.kernel.features(scene).0 as f64)]
+        &variant
+            .kernel
+            .features(scene)
+            .constants()
             .into_iter()
             .chain(renderer.shared_constants())
             .collect::<Vec<_>>(),

@@ -118,7 +118,12 @@ gpu_record! {
     /// where it is read in the frame turned to the viewer, and
     /// [`NORMAL_MAP_BUMP`] where it is Mitsuba's bump map. ROUGH_CONDUCTOR and ROUGH_DIELECTRIC:
     /// `alpha_v` = the roughness across the tangent where anisotropic,
-    /// else `NO_TEXTURE`.
+    /// else `NO_TEXTURE`. Any tag, Mitsuba's `blendbsdf`
+    /// (`reference::material::Blend`): `blend_second` = the second BSDF's
+    /// material or `NO_TEXTURE` (no blend), `blend_weight` = the weight's
+    /// texture. PRINCIPLED (`reference::material::Material::Principled`):
+    /// `texture` = the base colour, `p0` = eta, `pr_*` its one-channel
+    /// parameters' textures or `NO_TEXTURE` (not given: 0).
     GpuMaterial {
         tag: u32, texture: u32, p0: f32, p1: f32,
         absorption_r: f32, absorption_g: f32, absorption_b: f32, texture2: u32,
@@ -126,6 +131,10 @@ gpu_record! {
         coat: f32, coat_texture: u32, coat_roughness: f32, coat_roughness_texture: u32,
         emission: u32, shade_bucket: u32, distribution: u32, opacity: u32,
         one_sided: u32, alpha_v: u32, normal_map: u32, normal_map_mode: u32,
+        blend_weight: u32, blend_second: u32,
+        pr_roughness: u32, pr_anisotropic: u32, pr_spec_trans: u32, pr_metallic: u32,
+        pr_clearcoat: u32, pr_clearcoat_gloss: u32, pr_sheen: u32, pr_sheen_tint: u32,
+        pr_flatness: u32, pr_spec_tint: u32,
     }
 }
 
@@ -412,7 +421,7 @@ mod tests {
         assert_eq!(std::mem::size_of::<GpuVertex>(), 32);
         assert_eq!(std::mem::size_of::<GpuPrimitive>(), 32);
         assert_eq!(std::mem::size_of::<GpuVertexExtra>(), 48);
-        assert_eq!(std::mem::size_of::<GpuMaterial>(), 96);
+        assert_eq!(std::mem::size_of::<GpuMaterial>(), 144);
         assert_eq!(std::mem::size_of::<GpuTexture>(), 64);
         assert_eq!(std::mem::size_of::<GpuEmitter>(), 8);
         assert_eq!(std::mem::size_of::<GpuLightDensity>(), 8);

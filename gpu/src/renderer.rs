@@ -7,7 +7,7 @@
 use crate::bindings::{self, Binding};
 use crate::context::GpuContext;
 use crate::error::GpuError;
-use crate::features::{Features, FEATURES_CONSTANT};
+use crate::features::Features;
 use crate::film::{self, layers_source, DeviceFilm, FilmLayers, FilmSlot};
 use crate::pipeline::compile_checked;
 use crate::readback::read_timestamps;
@@ -178,7 +178,7 @@ pub struct GpuRenderer<'a> {
     film_band_pixels: Option<u64>,
     /// The pipeline constants the kernels were compiled with (the AOV
     /// kernel, `crate::aov`, is compiled with the same).
-    pub(crate) constants: [(&'static str, f64); 6],
+    pub(crate) constants: [(&'static str, f64); 7],
     /// The AOV kernel, compiled the first time AOVs are asked for.
     pub(crate) aov_pipeline: std::sync::OnceLock<wgpu::ComputePipeline>,
 }
@@ -443,12 +443,14 @@ impl<'a> GpuRenderer<'a> {
             packed.leaves,
             dispatch,
         );
+        let [features_lo, features_hi] = features.constants();
         let constants = [
             (
                 shader::INTEGRATOR_CONSTANT,
                 shader::integrator_tag(integrator) as f64,
             ),
-            (FEATURES_CONSTANT, features.0 as f64),
+            features_lo,
+            features_hi,
             node_layout,
             walk,
             leaves,

@@ -86,13 +86,33 @@ pub fn pack_material(m: &Material, alpha: Option<Alpha>, emission: Option<u32>) 
         }) => (texture, ALPHA_BLEND),
     };
     let record = pack_bsdf(m);
+    // The principled parameters' textures: none on another model.
+    let principled = |t: u32| {
+        if matches!(m, Material::Principled { .. }) {
+            t
+        } else {
+            NO_TEXTURE
+        }
+    };
     GpuMaterial {
         alpha_texture,
         alpha_cutoff,
         emission: emission.unwrap_or(NO_TEXTURE),
-        // No mask or normal map ([`pack_wrappers`] puts them).
+        // No mask, normal map or blend ([`pack_wrappers`] puts them).
         opacity: NO_TEXTURE,
         normal_map: NO_TEXTURE,
+        blend_weight: NO_TEXTURE,
+        blend_second: NO_TEXTURE,
+        pr_roughness: principled(record.pr_roughness),
+        pr_anisotropic: principled(record.pr_anisotropic),
+        pr_spec_trans: principled(record.pr_spec_trans),
+        pr_metallic: principled(record.pr_metallic),
+        pr_clearcoat: principled(record.pr_clearcoat),
+        pr_clearcoat_gloss: principled(record.pr_clearcoat_gloss),
+        pr_sheen: principled(record.pr_sheen),
+        pr_sheen_tint: principled(record.pr_sheen_tint),
+        pr_flatness: principled(record.pr_flatness),
+        pr_spec_tint: principled(record.pr_spec_tint),
         alpha_v: match m {
             Material::RoughConductor { .. } | Material::RoughDielectric { .. } => record.alpha_v,
             _ => NO_TEXTURE,
@@ -102,9 +122,11 @@ pub fn pack_material(m: &Material, alpha: Option<Alpha>, emission: Option<u32>) 
 }
 
 /// A material's record under Mitsuba's wrappers (`wrappers`): its mask's
-/// texture and its one side.
+/// texture, its one side, its normal map and its blend.
 pub fn pack_wrappers(record: GpuMaterial, wrappers: Wrappers) -> GpuMaterial {
     GpuMaterial {
+        blend_weight: wrappers.blend.map_or(NO_TEXTURE, |b| b.weight),
+        blend_second: wrappers.blend.map_or(NO_TEXTURE, |b| b.second),
         opacity: wrappers.opacity.unwrap_or(NO_TEXTURE),
         one_sided: wrappers.one_sided as u32,
         normal_map: wrappers.normal_map.unwrap_or(NO_TEXTURE),
@@ -258,6 +280,38 @@ fn pack_bsdf(m: &Material) -> GpuMaterial {
             distribution,
             ..Default::default()
         },
+        Material::Principled {
+            base_color,
+            roughness,
+            anisotropic,
+            spec_trans,
+            metallic,
+            clearcoat,
+            clearcoat_gloss,
+            sheen,
+            sheen_tint,
+            flatness,
+            spec_tint,
+            eta,
+        } => {
+            let t = |t: Option<u32>| t.unwrap_or(NO_TEXTURE);
+            GpuMaterial {
+                tag,
+                texture: base_color,
+                p0: eta,
+                pr_roughness: roughness,
+                pr_anisotropic: t(anisotropic),
+                pr_spec_trans: t(spec_trans),
+                pr_metallic: t(metallic),
+                pr_clearcoat: t(clearcoat),
+                pr_clearcoat_gloss: t(clearcoat_gloss),
+                pr_sheen: t(sheen),
+                pr_sheen_tint: t(sheen_tint),
+                pr_flatness: t(flatness),
+                pr_spec_tint: t(spec_tint),
+                ..Default::default()
+            }
+        }
         Material::DiffuseLight { emission } => GpuMaterial {
             tag,
             texture: emission,

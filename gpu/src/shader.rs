@@ -42,7 +42,7 @@ pub const WORKGROUP: (u32, u32) = (8, 8);
 /// The WGSL library shared by the render kernel and the test kernels: one
 /// file per `reference/src` module (same file name, same function names),
 /// in the order they are joined.
-pub const LIBRARY_FILES: [(&str, &str); 13] = [
+pub const LIBRARY_FILES: [(&str, &str); 14] = [
     ("rng", include_str!("../../shaders/rng.wgsl")),
     ("sampling", include_str!("../../shaders/sampling.wgsl")),
     ("geometry", include_str!("../../shaders/geometry.wgsl")),
@@ -53,6 +53,7 @@ pub const LIBRARY_FILES: [(&str, &str); 13] = [
     ("filter", include_str!("../../shaders/filter.wgsl")),
     ("background", include_str!("../../shaders/background.wgsl")),
     ("microfacet", include_str!("../../shaders/microfacet.wgsl")),
+    ("principled", include_str!("../../shaders/principled.wgsl")),
     ("material", include_str!("../../shaders/material.wgsl")),
     ("light", include_str!("../../shaders/light.wgsl")),
     ("film", FILM_WGSL),
@@ -104,6 +105,18 @@ pub fn generate() -> String {
     s += &u("MATERIAL_ROUGH_DIELECTRIC", material_tag::ROUGH_DIELECTRIC);
     s += &u("MATERIAL_PLASTIC", material_tag::PLASTIC);
     s += &u("MATERIAL_ROUGH_PLASTIC", material_tag::ROUGH_PLASTIC);
+    s += &u("MATERIAL_PRINCIPLED", material_tag::PRINCIPLED);
+    {
+        use reference::principled as pr;
+        s += &f("PRINCIPLED_ANISOTROPY", pr::PRINCIPLED_ANISOTROPY);
+        s += &f("PRINCIPLED_MIN_ALPHA", pr::PRINCIPLED_MIN_ALPHA);
+        s += &f("CLEARCOAT_SCALE", pr::CLEARCOAT_SCALE);
+        s += &f("CLEARCOAT_MASKING_ALPHA", pr::CLEARCOAT_MASKING_ALPHA);
+        s += &f("CLEARCOAT_ALPHA_ROUGH", pr::CLEARCOAT_ALPHA_ROUGH);
+        s += &f("CLEARCOAT_ALPHA_GLOSSY", pr::CLEARCOAT_ALPHA_GLOSSY);
+        s += &f("CLEARCOAT_F0", pr::CLEARCOAT_F0);
+        s += &f("SUBSURFACE_SCALE", pr::SUBSURFACE_SCALE);
+    }
     s += &u("DISTRIBUTION_GGX", reference::microfacet::distribution::GGX);
     s += &u(
         "DISTRIBUTION_BECKMANN",
@@ -274,8 +287,13 @@ pub fn generate() -> String {
     ] {
         s += &u(name, v);
     }
+    // A feature is the pair of its bits' words (`uses` in scene.wgsl).
     for &(name, bit) in crate::features::feature::NAMED {
-        s += &u(name, bit);
+        s += &format!(
+            "const {name}: vec2<u32> = vec2<u32>({}u, {}u);\n",
+            bit & 0xffff_ffff,
+            bit >> 32
+        );
     }
     s += &u("INTEGRATOR_BSDF", integrator_tag(Integrator::Bsdf));
     s += &u("INTEGRATOR_MIS", integrator_tag(Integrator::Mis));

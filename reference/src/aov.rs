@@ -76,6 +76,7 @@ pub fn albedo(material: &Material, ctx: TextureContext, si: &SurfaceInteraction)
         Material::Plastic { diffuse, .. } | Material::RoughPlastic { diffuse, .. } => {
             ctx.eval(diffuse, si)
         }
+        Material::Principled { base_color, .. } => ctx.eval(base_color, si),
         Material::Dielectric { .. }
         | Material::SmoothDielectric { .. }
         | Material::ThinDielectric { .. }

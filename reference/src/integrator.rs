@@ -25,7 +25,8 @@
 //! nothing after the last (the book's `depth` argument); the shadow ray of
 //! a vertex counts with the segment that reached it, so both estimators
 //! gather light over paths of the same lengths. A vertex shades with its
-//! material's [`Wrappers`] ([`wrapped_scatter`], [`wrapped_bsdf_eval`]):
+//! material's [`Wrappers`](crate::material::Wrappers) ([`wrapped_scatter`],
+//! [`wrapped_bsdf_eval`]; a blend's two BSDFs, [`crate::material::Blend`]):
 //! a pass through a mask is a delta draw and takes a segment, as in
 //! Mitsuba's path integrator.
 
@@ -35,8 +36,7 @@ use crate::filter::FilterTable;
 use crate::geometry::{spawn_origin, Ray, SurfaceInteraction};
 use crate::light::{is_punctual, punctual_tag, LightSet, ENV_PRIM, PUNCTUAL_PRIM};
 use crate::material::{
-    draw_density, emitted, has_density, wrapped_bsdf_eval, wrapped_scatter, Material,
-    TextureContext, Wrappers,
+    draw_density, emitted, wrapped_bsdf_eval, wrapped_scatter, Bsdf, Material, TextureContext,
 };
 use crate::mutants::{self, Mutant};
 use crate::rng::{dims, light_dims, sampled_light_randoms, sampled_vertex_randoms};
@@ -79,18 +79,17 @@ pub fn trace_path(
         };
         let si = scene.surface_interaction(&ray, &hit);
         let material = vertex_material(scene, si.material);
-        let wrap = scene.wrappers(si.material);
+        let bsdf = vertex_bsdf(scene, material, si.material);
         throughput *= transmittance(material, &si, hit.t);
         radiance += throughput * emitted(scene.emission(si.material), ctx, &si);
         let u = sampled_vertex_randoms(settings.sampler, settings.seed, pixel, sample, segment + 1);
         // Delta lights, by next-event estimation as in `trace_path_mis`.
-        if has_density(material) && !lights.is_empty() && segment + 1 < settings.max_depth {
+        if bsdf.has_density() && !lights.is_empty() && segment + 1 < settings.max_depth {
             let ul =
                 sampled_light_randoms(settings.sampler, settings.seed, pixel, sample, segment + 1);
-            radiance +=
-                throughput * next_event(scene, lights, ctx, (material, wrap), &ray, &si, &ul);
+            radiance += throughput * next_event(scene, lights, ctx, bsdf, &ray, &si, &ul);
         }
-        let Some(s) = wrapped_scatter(material, wrap, ctx, ray.direction, &si, &u) else {
+        let Some(s) = wrapped_scatter(bsdf, ctx, ray.direction, &si, &u) else {
             break;
         };
         throughput *= s.weight;
@@ -113,6 +112,23 @@ fn vertex_material(scene: &Scene, id: u32) -> &Material {
         return &ABSORBER;
     }
     &scene.materials()[id as usize]
+}
+
+/// The BSDF of material `id` at a path vertex, `material` its model
+/// ([`vertex_material`]), with its wrappers and a blend's second BSDF.
+#[inline]
+fn vertex_bsdf<'a>(scene: &'a Scene, material: &'a Material, id: u32) -> Bsdf<'a> {
+    let wrap = scene.wrappers(id);
+    Bsdf {
+        material,
+        wrap,
+        second: wrap.blend.map(|b| {
+            (
+                &scene.materials()[b.second as usize],
+                scene.wrappers(b.second).one_sided,
+            )
+        }),
+    }
 }
 
 /// Beer-Lambert transmittance over a segment of length `t` that ended on
@@ -238,7 +254,7 @@ pub fn trace_path_mis(
         };
         let si = scene.surface_interaction(&ray, &hit);
         let material = vertex_material(scene, si.material);
-        let wrap = scene.wrappers(si.material);
+        let bsdf = vertex_bsdf(scene, material, si.material);
         throughput *= transmittance(material, &si, hit.t);
         let le = emitted(scene.emission(si.material), ctx, &si);
         if le != Vec3::ZERO {
@@ -249,17 +265,15 @@ pub fn trace_path_mis(
         }
         let u = sampled_vertex_randoms(settings.sampler, settings.seed, pixel, sample, segment + 1);
         // The shadow ray is the path's next segment: none after the last.
-        if has_density(material) && !lights.is_empty() && segment + 1 < settings.max_depth {
+        if bsdf.has_density() && !lights.is_empty() && segment + 1 < settings.max_depth {
             let ul =
                 sampled_light_randoms(settings.sampler, settings.seed, pixel, sample, segment + 1);
-            radiance +=
-                throughput * next_event(scene, lights, ctx, (material, wrap), &ray, &si, &ul);
+            radiance += throughput * next_event(scene, lights, ctx, bsdf, &ray, &si, &ul);
         }
-        let Some(s) = wrapped_scatter(material, wrap, ctx, ray.direction, &si, &u) else {
+        let Some(s) = wrapped_scatter(bsdf, ctx, ray.direction, &si, &u) else {
             break;
         };
-        came_from =
-            draw_density(material, wrap, ctx, ray.direction, &si, &s).map(|pdf| (si.p, pdf));
+        came_from = draw_density(bsdf, ctx, ray.direction, &si, &s).map(|pdf| (si.p, pdf));
         throughput *= s.weight;
         if !survives_roulette(&mut throughput, u[dims::ROULETTE], segment, settings) {
             break;
@@ -292,7 +306,7 @@ fn next_event(
     scene: &Scene,
     lights: &LightSet,
     ctx: TextureContext,
-    (material, wrap): (&Material, Wrappers),
+    bsdf: Bsdf,
     ray: &Ray,
     si: &SurfaceInteraction,
     ul: &[f32; 4],
@@ -306,8 +320,7 @@ fn next_event(
         return Vec3::ZERO;
     };
     let wi = ls.direction;
-    let Some((f_cos, pdf_bsdf)) = wrapped_bsdf_eval(material, wrap, ctx, ray.direction, si, wi)
-    else {
+    let Some((f_cos, pdf_bsdf)) = wrapped_bsdf_eval(bsdf, ctx, ray.direction, si, wi) else {
         return Vec3::ZERO;
     };
     if f_cos == Vec3::ZERO {

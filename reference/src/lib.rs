@@ -29,6 +29,7 @@ pub mod loader;
 pub mod material;
 pub mod microfacet;
 pub mod mutants;
+pub mod principled;
 pub mod procedural;
 pub mod rng;
 pub mod sampling;

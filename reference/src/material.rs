@@ -6,7 +6,7 @@ use crate::geometry::{reflect, refract, Onb, SurfaceInteraction};
 use crate::microfacet::{distribution, Microfacet};
 use crate::mutants::{self, Mutant};
 use crate::rng::dims;
-use crate::sampling::{ggx, sample_cosine_hemisphere, sample_unit_ball};
+use crate::sampling::{ggx, sample_cosine_hemisphere, sample_unit_ball, ONE_MINUS_EPSILON};
 use crate::texture::{evaluate_texture, texture_gradient, ImageData, Texture};
 use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::FRAC_1_PI;
@@ -170,6 +170,25 @@ pub enum Material {
         normal_map: Option<NormalMap>,
         clearcoat: Option<ClearCoat>,
     },
+    /// Mitsuba 3's `principled` ([`crate::principled`]): the textures of its
+    /// parameters, `base_color` a colour and the others one-channel values
+    /// ([`crate::texture::one_channel`]; `None`: not given, read as 0), and
+    /// its index `eta`. The anisotropic one reads the surface's tangent
+    /// frame. Both sides its own: seen from inside, a rough dielectric.
+    Principled {
+        base_color: u32,
+        roughness: u32,
+        anisotropic: Option<u32>,
+        spec_trans: Option<u32>,
+        metallic: Option<u32>,
+        clearcoat: Option<u32>,
+        clearcoat_gloss: Option<u32>,
+        sheen: Option<u32>,
+        sheen_tint: Option<u32>,
+        flatness: Option<u32>,
+        spec_tint: Option<u32>,
+        eta: f32,
+    },
 }
 
 /// A clear coat (glTF's `KHR_materials_clearcoat`): a dielectric layer
@@ -268,6 +287,7 @@ pub mod material_tag {
     pub const ROUGH_DIELECTRIC: u32 = 9;
     pub const PLASTIC: u32 = 10;
     pub const ROUGH_PLASTIC: u32 = 11;
+    pub const PRINCIPLED: u32 = 12;
 }
 
 /// GGX alpha is clamped from below so that D stays finite in f32; 1e-4
@@ -340,6 +360,35 @@ impl Material {
                 transmittance,
                 ..
             } => vec![diffuse, specular, transmittance],
+            Material::Principled {
+                base_color,
+                roughness,
+                anisotropic,
+                spec_trans,
+                metallic,
+                clearcoat,
+                clearcoat_gloss,
+                sheen,
+                sheen_tint,
+                flatness,
+                spec_tint,
+                ..
+            } => [
+                Some(base_color),
+                Some(roughness),
+                anisotropic,
+                spec_trans,
+                metallic,
+                clearcoat,
+                clearcoat_gloss,
+                sheen,
+                sheen_tint,
+                flatness,
+                spec_tint,
+            ]
+            .into_iter()
+            .flatten()
+            .collect(),
             Material::Ggx {
                 base_color,
                 metallic_roughness,
@@ -373,6 +422,7 @@ impl Material {
             Material::RoughDielectric { .. } => material_tag::ROUGH_DIELECTRIC,
             Material::Plastic { .. } => material_tag::PLASTIC,
             Material::RoughPlastic { .. } => material_tag::ROUGH_PLASTIC,
+            Material::Principled { .. } => material_tag::PRINCIPLED,
         }
     }
 }
@@ -483,6 +533,67 @@ pub struct Wrappers {
     /// ([`crate::texture::texture_gradient`]; its scale is the
     /// texture's factor), [`NormalMapped::bumped`].
     pub bump_map: bool,
+    /// Mitsuba's `blendbsdf`: this material is the blend's first BSDF,
+    /// and [`Blend::second`] its second ([`Bsdf`]).
+    pub blend: Option<Blend>,
+}
+
+/// Mitsuba's `blendbsdf` of two BSDFs: `(1 − w)·f₀ + w·f₁` and the same mix
+/// of their densities, `w` the weight texture's one-channel value
+/// ([`opacity_of`]: in [0, 1]). A draw picks the second BSDF with
+/// probability `w` by the lobe slot, rescaled to reuse it, as Mitsuba's
+/// `sample` does; a draw from a density has the mixed value over the
+/// mixed density as its weight, as Mitsuba's (one-sample MIS over the
+/// two), and a delta lobe's draw the drawn BSDF's own weight (Mitsuba
+/// 3.9.1 mixes it with the other's value and density at that direction,
+/// which biases it; docs/mitsuba.md). Each BSDF keeps its own sidedness;
+/// the blend's mask and normal map (its outer wrappers) apply to both.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Blend {
+    /// The weight's texture.
+    pub weight: u32,
+    /// The second BSDF: a material of the scene, plain but for its side
+    /// ([`Wrappers::one_sided`]).
+    pub second: u32,
+}
+
+/// A material where a path meets it: its model, its wrappers, and, where
+/// it is a blend ([`Wrappers::blend`]), the second BSDF and whether that
+/// one absorbs behind.
+#[derive(Clone, Copy, Debug)]
+pub struct Bsdf<'a> {
+    pub material: &'a Material,
+    pub wrap: Wrappers,
+    pub second: Option<(&'a Material, bool)>,
+}
+
+impl<'a> Bsdf<'a> {
+    /// A material that is not a blend.
+    pub fn plain(material: &'a Material, wrap: Wrappers) -> Self {
+        Bsdf {
+            material,
+            wrap,
+            second: None,
+        }
+    }
+
+    /// Whether [`bsdf_eval`] has a value for some of its BSDFs
+    /// ([`has_density`]).
+    pub fn has_density(&self) -> bool {
+        has_density(self.material) || self.second.is_some_and(|(m, _)| has_density(m))
+    }
+
+    /// The blend's weight of the second BSDF at `si` (`None`: no blend).
+    fn blend_weight(&self, ctx: TextureContext, si: &SurfaceInteraction) -> Option<f32> {
+        let b = self.wrap.blend?;
+        self.second?;
+        let w = opacity_of(ctx.eval(b.weight, si));
+        Some(if mutants::is(Mutant::BlendWeightSwapped) {
+            1.0 - w
+        } else {
+            w
+        })
+    }
 }
 
 /// The shadowing term's `α² = min(tan²θ_m · this, 1)` of a normal map's
@@ -659,24 +770,23 @@ pub fn opacity_of(c: Vec3) -> f32 {
 /// interpolated normals that holds for rays that meet the geometric
 /// front too).
 #[inline]
-fn absorbs_behind(wrap: Wrappers, ray_dir: Vec3, si: &SurfaceInteraction) -> bool {
-    wrap.one_sided
-        && ray_dir.dot(si.shading_normal) >= 0.0
-        && !mutants::is(Mutant::OneSidedBackReflects)
+fn absorbs_behind(one_sided: bool, ray_dir: Vec3, si: &SurfaceInteraction) -> bool {
+    one_sided && ray_dir.dot(si.shading_normal) >= 0.0 && !mutants::is(Mutant::OneSidedBackReflects)
 }
 
 /// [`scatter`] under the material's [`Wrappers`]: through a mask, the path
 /// passes on with probability `1 − opacity` (read from [`dims::MASK`], a
 /// number no model reads), on either side; otherwise it scatters as the
-/// material, which absorbs it behind a one-sided surface.
+/// material (a blend's BSDF picked by [`dims::LOBE`], [`Blend`]), which
+/// absorbs it behind a one-sided surface.
 pub fn wrapped_scatter(
-    material: &Material,
-    wrap: Wrappers,
+    bsdf: Bsdf,
     ctx: TextureContext,
     ray_dir: Vec3,
     si: &SurfaceInteraction,
     u: &[f32; 8],
 ) -> Option<Scatter> {
+    let wrap = bsdf.wrap;
     if let Some(t) = wrap.opacity {
         let opacity = opacity_of(ctx.eval(t, si));
         if u[dims::MASK] >= opacity {
@@ -687,10 +797,30 @@ pub fn wrapped_scatter(
     }
     let mapped = map_frame(wrap, ctx, ray_dir, si);
     let shaded = mapped.as_ref().map_or(si, |m| &m.si);
-    if absorbs_behind(wrap, ray_dir, shaded) {
+    let mut u = *u;
+    let (material, one_sided) = match (bsdf.blend_weight(ctx, si), bsdf.second) {
+        // Mitsuba's blendbsdf: the second below `w`, the slot rescaled.
+        (Some(w), Some(second)) if u[dims::LOBE] < w => {
+            u[dims::LOBE] = (u[dims::LOBE] / w).min(ONE_MINUS_EPSILON);
+            second
+        }
+        (Some(w), Some(_)) => {
+            u[dims::LOBE] = ((u[dims::LOBE] - w) / (1.0 - w)).min(ONE_MINUS_EPSILON);
+            (bsdf.material, wrap.one_sided)
+        }
+        _ => (bsdf.material, wrap.one_sided),
+    };
+    if absorbs_behind(one_sided, ray_dir, shaded) {
         return None;
     }
-    let s = scatter(material, ctx, ray_dir, shaded, u)?;
+    let mut s = scatter(material, ctx, ray_dir, shaded, &u)?;
+    if s.density && bsdf.second.is_some() {
+        // A blend's draw from a density: the mixed value over the mixed
+        // density, as Mitsuba's (one-sample MIS over its two BSDFs).
+        let (f_cos, pdf) = blended_eval(bsdf, ctx, ray_dir, si, shaded, s.direction)
+            .filter(|&(_, pdf)| pdf > 0.0)?;
+        s.weight = f_cos / pdf;
+    }
     match mapped {
         Some(m) if !m.keeps(s.direction) => None,
         Some(m) => Some(Scatter {
@@ -719,22 +849,21 @@ fn map_frame(
 }
 
 /// [`bsdf_eval`] under the material's [`Wrappers`]: `None` behind a one-sided
-/// surface; through a mask, the value and the density times the opacity
-/// (the pass-through is a delta lobe, which no light sample finds).
+/// surface; a blend's two BSDFs mixed ([`Blend`]: one behind its one-sided
+/// surface or without a density adds nothing; `None` where neither adds);
+/// through a mask, the value and the density times the opacity (the
+/// pass-through is a delta lobe, which no light sample finds).
 pub fn wrapped_bsdf_eval(
-    material: &Material,
-    wrap: Wrappers,
+    bsdf: Bsdf,
     ctx: TextureContext,
     ray_dir: Vec3,
     si: &SurfaceInteraction,
     wi: Vec3,
 ) -> Option<(Vec3, f32)> {
+    let wrap = bsdf.wrap;
     let mapped = map_frame(wrap, ctx, ray_dir, si);
     let shaded = mapped.as_ref().map_or(si, |m| &m.si);
-    if absorbs_behind(wrap, ray_dir, shaded) {
-        return None;
-    }
-    let (mut f_cos, pdf) = bsdf_eval(material, ctx, ray_dir, shaded, wi)?;
+    let (mut f_cos, pdf) = blended_eval(bsdf, ctx, ray_dir, si, shaded, wi)?;
     if let Some(m) = mapped {
         if !m.keeps(wi) {
             return Some((Vec3::ZERO, 0.0));
@@ -750,12 +879,45 @@ pub fn wrapped_bsdf_eval(
     }
 }
 
+/// [`bsdf_eval`] of the material in the frame `shaded` (`si`'s, or its
+/// normal map's), `None` behind a one-sided one; of a blend, its two
+/// BSDFs mixed by its weight at `si` ([`Blend`]: one behind its one-sided
+/// surface or without a density adds nothing; `None` where neither adds).
+fn blended_eval(
+    bsdf: Bsdf,
+    ctx: TextureContext,
+    ray_dir: Vec3,
+    si: &SurfaceInteraction,
+    shaded: &SurfaceInteraction,
+    wi: Vec3,
+) -> Option<(Vec3, f32)> {
+    let part = |material: &Material, one_sided: bool| {
+        if absorbs_behind(one_sided, ray_dir, shaded) {
+            return None;
+        }
+        bsdf_eval(material, ctx, ray_dir, shaded, wi)
+    };
+    match (bsdf.blend_weight(ctx, si), bsdf.second) {
+        (Some(w), Some((second, second_one_sided))) => {
+            let a = part(bsdf.material, bsdf.wrap.one_sided);
+            let b = part(second, second_one_sided);
+            if a.is_none() && b.is_none() {
+                return None;
+            }
+            let (fa, pa) = a.unwrap_or((Vec3::ZERO, 0.0));
+            let (fb, pb) = b.unwrap_or((Vec3::ZERO, 0.0));
+            Some((fa * (1.0 - w) + fb * w, pa * (1.0 - w) + pb * w))
+        }
+        _ => part(bsdf.material, bsdf.wrap.one_sided),
+    }
+}
+
 /// The density MIS weighs a draw `s` of [`wrapped_scatter`] by (`None`:
 /// what the path meets next counts in full): the wrapped density toward
-/// its direction, for a draw that has one ([`Scatter::density`]).
+/// its direction, for a draw that has one ([`Scatter::density`]; a
+/// blend's mixed density, whichever of its BSDFs drew it).
 pub fn draw_density(
-    material: &Material,
-    wrap: Wrappers,
+    bsdf: Bsdf,
     ctx: TextureContext,
     ray_dir: Vec3,
     si: &SurfaceInteraction,
@@ -764,7 +926,7 @@ pub fn draw_density(
     if !s.density {
         return None;
     }
-    wrapped_bsdf_eval(material, wrap, ctx, ray_dir, si, s.direction)
+    wrapped_bsdf_eval(bsdf, ctx, ray_dir, si, s.direction)
         .map(|(_, pdf)| pdf)
         .filter(|&pdf| pdf > 0.0)
 }
@@ -976,6 +1138,17 @@ pub fn scatter(
                 base * ((1.0 - f_o) * (1.0 - f_i) / (1.0 - p)),
             ))
         }
+        Material::Principled { .. } => {
+            let (p, frame) = principled_at(material, ctx, si)?;
+            let wi = frame.to_local(-ray_dir);
+            let wo = p.sample(
+                wi,
+                u[dims::LOBE],
+                Vec2::new(u[dims::DIRECTION_U], u[dims::DIRECTION_V]),
+            )?;
+            let pdf = p.pdf(wi, wo);
+            (pdf > 0.0).then(|| Scatter::sampled(frame.to_world(wo), p.eval(wi, wo) / pdf))
+        }
         Material::RoughPlastic {
             distribution,
             alpha,
@@ -1065,6 +1238,7 @@ pub fn has_density(material: &Material) -> bool {
             | Material::RoughDielectric { .. }
             | Material::Plastic { .. }
             | Material::RoughPlastic { .. }
+            | Material::Principled { .. }
     )
 }
 
@@ -1503,6 +1677,11 @@ pub fn bsdf_eval(
             let (wo, wi) = (frame.to_local(-ray_dir), frame.to_local(wi));
             Some(rough_plastic_eval(material, ctx, si, wo, wi))
         }
+        Material::Principled { .. } => {
+            let (p, frame) = principled_at(material, ctx, si)?;
+            let (view, light) = (frame.to_local(-ray_dir), frame.to_local(wi));
+            Some((p.eval(view, light), p.pdf(view, light)))
+        }
         Material::Metal { .. }
         | Material::Dielectric { .. }
         | Material::DiffuseLight { .. }
@@ -1510,6 +1689,61 @@ pub fn bsdf_eval(
         | Material::SmoothDielectric { .. }
         | Material::ThinDielectric { .. } => None,
     }
+}
+
+/// A principled material's values at `si` ([`crate::principled::Principled`])
+/// and the frame it shades in: the shading normal as the surface gives it
+/// (outward: the side a path arrives on is the sign of its local `z`, as
+/// Mitsuba's models read `cos θ_i`), about the surface's tangent where it
+/// is anisotropic. `None` for another material.
+pub fn principled_at(
+    material: &Material,
+    ctx: TextureContext,
+    si: &SurfaceInteraction,
+) -> Option<(crate::principled::Principled, Onb)> {
+    let Material::Principled {
+        base_color,
+        roughness,
+        anisotropic,
+        spec_trans,
+        metallic,
+        clearcoat,
+        clearcoat_gloss,
+        sheen,
+        sheen_tint,
+        flatness,
+        spec_tint,
+        eta,
+    } = *material
+    else {
+        return None;
+    };
+    let value = |t: Option<u32>| t.map_or(0.0, |t| crate::texture::one_channel(ctx.eval(t, si)));
+    let n = si.shading_normal;
+    let frame = match anisotropic {
+        Some(_) => Onb {
+            s: si.tangent,
+            t: n.cross(si.tangent),
+            n,
+        },
+        None => Onb::from_normal(n),
+    };
+    let p = crate::principled::Principled {
+        base_color: ctx.eval(base_color, si),
+        roughness: value(Some(roughness)),
+        anisotropic: value(anisotropic),
+        spec_trans: value(spec_trans),
+        has_spec_trans: spec_trans.is_some(),
+        metallic: value(metallic),
+        clearcoat: value(clearcoat),
+        clearcoat_gloss: value(clearcoat_gloss),
+        sheen: value(sheen),
+        sheen_tint: value(sheen_tint),
+        flatness: value(flatness),
+        spec_tint: value(spec_tint),
+        eta,
+    };
+    Some((p, frame))
 }
 
 /// The GGX material's metallic and roughness at `si`: the factors, each

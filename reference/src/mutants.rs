@@ -126,6 +126,16 @@ pub enum Mutant {
     /// value and density in full where the mask is partly open
     /// (`material::wrapped_bsdf_eval`).
     MaskLightUnscaled,
+    /// A `blendbsdf` that weighs its first BSDF by the weight texture's
+    /// value and its second by one minus it, the other way round from
+    /// Mitsuba's (`material::Bsdf`).
+    BlendWeightSwapped,
+    /// The principled diffuse lobe without Burley's retro-reflection
+    /// (`principled::Principled::eval`).
+    PrincipledRetroDropped,
+    /// The principled specular reflection's density without the half
+    /// vector's Jacobian `1 / (4 wo·h)` (`principled::Principled::pdf`).
+    PrincipledReflectionJacobianDropped,
     /// A Mitsuba `envmap` read without the half turn about +y that puts
     /// Mitsuba's u = 0 (along −z) where twintrace's is
     /// (`loader::mitsuba::scene`).

@@ -5,6 +5,9 @@
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI};
 
+/// The largest f32 below 1.
+pub const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
+
 /// Concentric map of the unit square onto the unit disk (Shirley & Chiu
 /// 1997): area-preserving, so uniform in, uniform out.
 #[inline]

@@ -1358,6 +1358,7 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
         Material::Plastic { .. } => "plastic",
         Material::RoughPlastic { .. } => "rough plastic",
         Material::Ggx { .. } => "ggx",
+        Material::Principled { .. } => "principled",
     };
     say!(
         "materials: {}",
@@ -1374,7 +1375,8 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
                 "rough dielectric",
                 "plastic",
                 "rough plastic",
-                "ggx"
+                "ggx",
+                "principled"
             ],
             &material_kind,
             scene.materials().len()
@@ -1386,8 +1388,11 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
         .filter(|&m| scene.wrappers(m).opacity.is_some())
         .count();
     let one_sided = (0..n).filter(|&m| scene.wrappers(m).one_sided).count();
-    if masked + one_sided > 0 {
-        say!("  of which {one_sided} one-sided, {masked} masked");
+    let blends = (0..n)
+        .filter(|&m| scene.wrappers(m).blend.is_some())
+        .count();
+    if masked + one_sided + blends > 0 {
+        say!("  of which {one_sided} one-sided, {masked} masked, {blends} blends (each blend's second BSDF is one of the materials)");
     }
     let texture_kind = |i: usize| match scene.textures()[i] {
         Texture::Constant(_) => "constant",

@@ -379,7 +379,7 @@ pub fn packed_film_bits(
 /// scenes left out only combine features the others have).
 pub fn gate_specs(ctx: &GpuContext) -> Result<Vec<(String, Scene)>, String> {
     let every = super::harness::full_gates(ctx);
-    let mut covered = 0u32;
+    let mut covered = 0u64;
     let mut out = Vec::new();
     for spec in scene_specs()? {
         let scene = reference::load_scene(&spec).map_err(|e| format!("{spec}: {e}"))?;

@@ -5,8 +5,8 @@ regenerates the same inputs and compares).
     python3 xtask/mitsuba/bsdf_values.py CASE  [--out fixtures/mitsuba/bsdf]
 
 CASE: conductor, dielectric, thindielectric, roughconductor,
-roughdielectric, plastic, roughplastic, mask, anisotropic, normalmap,
-bumpmap.
+roughdielectric, plastic, roughplastic, mask, blend, principled,
+anisotropic, normalmap, bumpmap.
 
 Inputs: case i of N has its parameters from the additive sequence
 frac((i + 1) * a) of the constants A below, computed in f64 with + - * /
@@ -500,7 +500,139 @@ def mask(i):
     return values + [null]
 
 
+def blend_inputs(i):
+    """Case i of the blend: mask_inputs' diffuse reflectance, its side
+    (one-sided, or `twosided` where i % 3 == 2) and its viewer and light
+    as the first BSDF and the directions; as the second a one-sided GGX
+    roughconductor of alpha in [0.05, 1) (unit 14), eta in [0.2, 3.2)
+    (unit 15) and k in [0, 5) (unit 16); the second's weight unit 11 (0
+    where i % 10 == 0, 1 where i % 10 == 1); in f64."""
+    reflectance, _, two_sided, wi, wo = mask_inputs(i)
+    weight = {0: 0.0, 1: 1.0}.get(i % 10, unit(i, 11))
+    alpha = 0.05 + 0.95 * unit(i, 14)
+    eta = 0.2 + 3.0 * unit(i, 15)
+    k = 5.0 * unit(i, 16)
+    return reflectance, two_sided, weight, alpha, eta, k, wi, wo
+
+
+def blend(i):
+    """Records 17 f32: wi and wo as the plugin saw them (three each),
+    eval (three channels) and pdf at (wi, wo), then a sample drawn at
+    u = unit 12 and u = (unit 8, unit 2): its wo (three), weight (three
+    channels; 0: none) and pdf (the drawn BSDF's own, as Mitsuba's
+    blendbsdf gives it)."""
+    reflectance, two_sided, weight, alpha, eta, k, wi, wo = blend_inputs(i)
+    first = {
+        "type": "diffuse",
+        "reflectance": {"type": "rgb", "value": [float(np.float32(c)) for c in reflectance]},
+    }
+    if two_sided:
+        first = {"type": "twosided", "nested": first}
+    second = {
+        "type": "roughconductor",
+        "distribution": "ggx",
+        "alpha": float(np.float32(alpha)),
+        "eta": float(np.float32(eta)),
+        "k": float(np.float32(k)),
+    }
+    # The nested BSDFs in the order of their names, whichever order the
+    # plugin reads them in.
+    bsdf = mi.load_dict(
+        {"type": "blendbsdf", "weight": float(np.float32(weight)), "a": first, "b": second}
+    )
+    u = [float(np.float32(unit(i, 8))), float(np.float32(unit(i, 2)))]
+    values, _ = colour_records(bsdf, wi, wo, float(np.float32(unit(i, 12))), u)
+    return values
+
+
+# The principled cases' second draw of units: index i + SHIFT.
+SHIFT = 10007
+
+
+def principled_inputs(i):
+    """Case i of the principled BSDF: its parameters (a dict of Mitsuba's
+    names; a lobe left out is off) and the viewer wi and light wo, in f64.
+    base_color units 0-2; roughness 0.05 + 0.95 unit 3; anisotropic unit 4
+    where i % 2 == 1; metallic unit 5 where i % 3 != 0; spec_trans unit 6
+    where i % 4 is 1 or 2 (0 where i % 8 == 1: the lobe given, its value
+    0); clearcoat unit 7 and clearcoat_gloss unit 8 where i % 5 is 0, 2 or
+    3; sheen unit 9 where i % 2 == 0; sheen_tint unit 10 where i % 3 == 1;
+    flatness unit 11 where i % 6 < 3; spec_tint unit 12 where i % 7 < 4;
+    eta 0.6 + 1.6 unit 13 where i % 5 == 4, else specular unit 14. wi at
+    cos = unit 15 and azimuth 2 pi unit 16, below the surface where
+    i % 4 == 3. wo: where i % 3 == 0, wi reflected about a normal of
+    tan = roughness^2 sqrt(t / (1 - t)), t = unit 0 of i + SHIFT, azimuth
+    2 pi unit 1 of i + SHIFT; else at cos = sqrt(unit 2 of i + SHIFT) and
+    azimuth 2 pi unit 3 of i + SHIFT, below where i % 3 == 1."""
+    j = i + SHIFT
+    params = {
+        "base_color": [unit(i, c) for c in range(3)],
+        "roughness": 0.05 + 0.95 * unit(i, 3),
+    }
+    if i % 2 == 1:
+        params["anisotropic"] = unit(i, 4)
+    if i % 3 != 0:
+        params["metallic"] = unit(i, 5)
+    if i % 4 in (1, 2):
+        params["spec_trans"] = 0.0 if i % 8 == 1 else unit(i, 6)
+    if i % 5 in (0, 2, 3):
+        params["clearcoat"] = unit(i, 7)
+        params["clearcoat_gloss"] = unit(i, 8)
+    if i % 2 == 0:
+        params["sheen"] = unit(i, 9)
+    if i % 3 == 1:
+        params["sheen_tint"] = unit(i, 10)
+    if i % 6 < 3:
+        params["flatness"] = unit(i, 11)
+    if i % 7 < 4:
+        params["spec_tint"] = unit(i, 12)
+    if i % 5 == 4:
+        params["eta"] = 0.6 + 1.6 * unit(i, 13)
+    else:
+        params["specular"] = unit(i, 14)
+    wi = list(hemisphere(unit(i, 15), unit(i, 16)))
+    if i % 4 == 3:
+        wi[2] = -wi[2]
+    if i % 3 == 0:
+        r2 = params["roughness"] ** 2
+        t = unit(j, 0)
+        tan_m = r2 * (t / (1.0 - t)) ** 0.5
+        cos_m = 1.0 / (1.0 + tan_m * tan_m) ** 0.5
+        m = hemisphere(cos_m, unit(j, 1))
+        if wi[2] < 0.0:
+            m = tuple(-c for c in m)
+        d = sum(wi[k] * m[k] for k in range(3))
+        wo = tuple(2.0 * d * m[k] - wi[k] for k in range(3))
+    else:
+        wo = list(hemisphere(unit(j, 2) ** 0.5, unit(j, 3)))
+        if i % 3 == 1:
+            wo[2] = -wo[2]
+        wo = tuple(wo)
+    return params, tuple(wi), wo
+
+
+def principled(i):
+    """Records 17 f32: wi and wo as the plugin saw them (three each),
+    eval (three channels) and pdf at (wi, wo), then a sample drawn at
+    lobe u = unit 4 of i + SHIFT and u = (unit 5, unit 6 of i + SHIFT):
+    its wo (three), weight (three channels; 0: none) and pdf."""
+    params, wi, wo = principled_inputs(i)
+    spec = {"type": "principled"}
+    for name, v in params.items():
+        if name == "base_color":
+            spec[name] = {"type": "rgb", "value": [float(np.float32(c)) for c in v]}
+        else:
+            spec[name] = float(np.float32(v))
+    bsdf = mi.load_dict(spec)
+    j = i + SHIFT
+    u = [float(np.float32(unit(j, 5))), float(np.float32(unit(j, 6)))]
+    values, _ = colour_records(bsdf, wi, wo, float(np.float32(unit(j, 4))), u)
+    return values
+
+
 CASES = {
+    "principled": principled,
+    "blend": blend,
     "mask": mask,
     "conductor": conductor,
     "dielectric": dielectric,

@@ -589,8 +589,7 @@ fn sample_cdf(cdf: &[f32], u: f32) -> (usize, f32) {
     (i, t.clamp(0.0, ONE_MINUS_EPSILON))
 }
 
-/// The largest f32 below 1.
-pub const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
+pub use crate::sampling::ONE_MINUS_EPSILON;
 
 /// Centre and (absolute) radius when `prim` is a sphere.
 fn sphere_of(scene: &Scene, prim: u32) -> Option<(Vec3, f32)> {

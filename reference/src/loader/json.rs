@@ -10,7 +10,7 @@ use crate::error::SceneError;
 use crate::filter::PixelFilter;
 use crate::loader::gltf::{GltfLightUnits, GltfOptions};
 use crate::loader::image::load_image;
-use crate::material::{ClearCoat, Material};
+use crate::material::{Blend, ClearCoat, Material, Wrappers};
 use crate::microfacet;
 use crate::scene::{LightInput, RenderOrigin, RenderSettings, Scene, SceneBuilder, Transform};
 use crate::texture::{Sampler, Texture};
@@ -281,6 +281,62 @@ pub enum MaterialJson {
     OneSided(OneSidedMaterialJson),
     NormalMapped(NormalMappedMaterialJson),
     BumpMapped(BumpMappedMaterialJson),
+    Blend(BlendMaterialJson),
+    Principled(PrincipledMaterialJson),
+}
+
+/// Mitsuba 3's `principled` (`reference::principled`): its parameters as
+/// Mitsuba's, each number a number or the name of a texture (its value, or
+/// a colour's luminance); a lobe absent or given as 0 is off.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PrincipledMaterialJson {
+    #[serde(default = "default_principled_base")]
+    pub base_color: ColorRef,
+    #[serde(default = "default_opacity")]
+    pub roughness: ScalarRef,
+    #[serde(default)]
+    pub anisotropic: Option<ScalarRef>,
+    #[serde(default)]
+    pub spec_trans: Option<ScalarRef>,
+    #[serde(default)]
+    pub metallic: Option<ScalarRef>,
+    #[serde(default)]
+    pub clearcoat: Option<ScalarRef>,
+    #[serde(default)]
+    pub clearcoat_gloss: Option<ScalarRef>,
+    #[serde(default)]
+    pub sheen: Option<ScalarRef>,
+    #[serde(default)]
+    pub sheen_tint: Option<ScalarRef>,
+    #[serde(default)]
+    pub flatness: Option<ScalarRef>,
+    #[serde(default)]
+    pub spec_tint: Option<ScalarRef>,
+    /// The interior's index over the exterior's; or `specular` (default
+    /// 0.5) standing for one, as Mitsuba's: give at most one.
+    #[serde(default)]
+    pub eta: Option<f32>,
+    #[serde(default)]
+    pub specular: Option<f32>,
+    #[serde(default)]
+    pub emission: Option<ColorRef>,
+}
+
+fn default_principled_base() -> ColorRef {
+    ColorRef::Rgb(Vec3::splat(0.5))
+}
+
+/// Mitsuba 3's `blendbsdf` of two other materials (by name):
+/// `(1 − weight)·first + weight·second` (`reference::material::Blend`).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BlendMaterialJson {
+    pub materials: [String; 2],
+    /// A number or a texture (its value, or for a colour its luminance),
+    /// in [0, 1] (Mitsuba's default 0.5): the second's share.
+    #[serde(default = "default_opacity")]
+    pub weight: ScalarRef,
 }
 
 /// Mitsuba 3's `mask` around another material (by name): where a path
@@ -1254,6 +1310,14 @@ impl Resolver<'_> {
                     emission: self.colour(emission, 0).map_err(field("emission"))?,
                 }
             }
+            MaterialJson::Principled(p) => self
+                .principled(p)
+                .map_err(|e| e.within(&format!("materials.{name}")))?,
+            MaterialJson::Blend(b) => {
+                let id = self.blend_material(name, b)?;
+                self.materials.insert(name.to_string(), id);
+                return Ok(id);
+            }
             MaterialJson::Mask(_)
             | MaterialJson::OneSided(_)
             | MaterialJson::NormalMapped(_)
@@ -1301,10 +1365,12 @@ impl Resolver<'_> {
             | MaterialJson::ThinDielectric(SmoothDielectricMaterialJson { emission, .. })
             | MaterialJson::RoughDielectric(RoughDielectricMaterialJson { emission, .. })
             | MaterialJson::Plastic(PlasticMaterialJson { emission, .. })
-            | MaterialJson::RoughPlastic(RoughPlasticMaterialJson { emission, .. }) => {
+            | MaterialJson::RoughPlastic(RoughPlasticMaterialJson { emission, .. })
+            | MaterialJson::Principled(PrincipledMaterialJson { emission, .. }) => {
                 emission.as_ref()
             }
             MaterialJson::DiffuseLight(_)
+            | MaterialJson::Blend(_)
             | MaterialJson::Mask(_)
             | MaterialJson::OneSided(_)
             | MaterialJson::NormalMapped(_)
@@ -1340,19 +1406,9 @@ impl Resolver<'_> {
                 "wrapped_material is called for mask, one_sided, normal_mapped and bump_mapped"
             ),
         };
-        if self.wrapping.iter().any(|n| n == name) {
-            return Err(at(SceneError::invalid(
-                "material",
-                format!(
-                    "materials wrap each other in a loop: {} -> {name}",
-                    self.wrapping.join(" -> ")
-                ),
-            )));
-        }
-        self.wrapping.push(name.to_string());
-        let inner_id = self.material(inner);
-        self.wrapping.pop();
-        let inner_id = inner_id.map_err(|e| e.within(&format!("materials.{name}.material")))?;
+        let inner_id = self
+            .wrapped(name, inner)
+            .map_err(|e| e.within(&format!("materials.{name}.material")))?;
         let (material, mut wrappers, emission) = self
             .builder
             .material_parts(inner_id)
@@ -1390,9 +1446,153 @@ impl Resolver<'_> {
                 wrappers.normal_map = Some(self.scaled(texture, scale).map_err(within)?);
                 wrappers.bump_map = true;
             }
+            (None, None) if wrappers.blend.is_some() => {
+                return Err(at(SceneError::invalid(
+                    "material",
+                    format!("`{inner}` is a blend: make the materials it blends one_sided instead"),
+                )))
+            }
             (None, None) => wrappers.one_sided = true,
         }
         let id = self.builder.add_material(material).map_err(at)?;
+        self.builder.set_wrappers(id, wrappers).map_err(at)?;
+        if let Some(e) = emission {
+            self.builder.set_emission(id, e).map_err(at)?;
+        }
+        Ok(id)
+    }
+
+    /// A `principled` material's model: each lobe's texture (absent or 0:
+    /// off) and its index.
+    fn principled(&mut self, p: &PrincipledMaterialJson) -> Result<Material, SceneError> {
+        let lobe = |this: &mut Self, what: &str, v: &Option<ScalarRef>| match v {
+            None | Some(ScalarRef::Value(0.0)) => Ok(None),
+            Some(v) => this.scalar(v).map(Some).map_err(|e| e.within(what)),
+        };
+        let spec_trans = lobe(self, "spec_trans", &p.spec_trans)?;
+        let clearcoat = lobe(self, "clearcoat", &p.clearcoat)?;
+        let eta = match (p.eta, p.specular) {
+            (Some(_), Some(_)) => {
+                return Err(SceneError::invalid(
+                    "eta",
+                    "give eta or specular, not both".into(),
+                ))
+            }
+            (Some(eta), None) if spec_trans.is_some() && eta == 1.0 => 1.001,
+            (Some(eta), None) => eta,
+            (None, specular) => {
+                let specular = specular.unwrap_or(0.5);
+                if !(specular.is_finite() && specular >= 0.0) {
+                    return Err(SceneError::invalid(
+                        "specular",
+                        format!("{specular} is not a finite number of at least 0"),
+                    ));
+                }
+                let specular = if spec_trans.is_some() && specular == 0.0 {
+                    1e-3
+                } else {
+                    specular
+                };
+                crate::principled::eta_of_specular(specular)
+            }
+        };
+        Ok(Material::Principled {
+            base_color: self
+                .colour(&p.base_color, 0)
+                .map_err(|e| e.within("base_color"))?,
+            roughness: self
+                .scalar(&p.roughness)
+                .map_err(|e| e.within("roughness"))?,
+            anisotropic: lobe(self, "anisotropic", &p.anisotropic)?,
+            spec_trans,
+            metallic: lobe(self, "metallic", &p.metallic)?,
+            clearcoat_gloss: match clearcoat {
+                Some(_) => Some(match &p.clearcoat_gloss {
+                    None => self.builder.constant(Vec3::ZERO)?,
+                    Some(g) => self.scalar(g).map_err(|e| e.within("clearcoat_gloss"))?,
+                }),
+                None => None,
+            },
+            clearcoat,
+            sheen: lobe(self, "sheen", &p.sheen)?,
+            sheen_tint: lobe(self, "sheen_tint", &p.sheen_tint)?,
+            flatness: lobe(self, "flatness", &p.flatness)?,
+            spec_tint: lobe(self, "spec_tint", &p.spec_tint)?,
+            eta,
+        })
+    }
+
+    /// Material `inner`, read for the wrapping material `name` (a mask, a
+    /// map, a side or a blend); a name met again while its wrappers are
+    /// read is a loop.
+    fn wrapped(&mut self, name: &str, inner: &str) -> Result<u32, SceneError> {
+        if self.wrapping.iter().any(|n| n == name) {
+            return Err(SceneError::invalid(
+                "material",
+                format!(
+                    "materials wrap each other in a loop: {} -> {name}",
+                    self.wrapping.join(" -> ")
+                ),
+            ));
+        }
+        self.wrapping.push(name.to_string());
+        let id = self.material(inner);
+        self.wrapping.pop();
+        id
+    }
+
+    /// A `blend` material: a copy of its first material (with its
+    /// emission) blended with its second by `weight`. Each may be
+    /// `one_sided`; masks and maps go around the blend, not inside it.
+    fn blend_material(&mut self, name: &str, b: &BlendMaterialJson) -> Result<u32, SceneError> {
+        let at = |e: SceneError| e.within(&format!("materials.{name}"));
+        let mut parts = Vec::with_capacity(2);
+        for (k, inner) in b.materials.iter().enumerate() {
+            let id = self
+                .wrapped(name, inner)
+                .map_err(|e| e.within(&format!("materials.{name}.materials[{k}]")))?;
+            let (material, wrappers, emission) = self
+                .builder
+                .material_parts(id)
+                .expect("a material the resolver made");
+            if matches!(material, Material::DiffuseLight { .. }) {
+                return Err(at(SceneError::invalid(
+                    &format!("materials[{k}]"),
+                    format!("`{inner}` is a light (diffuse_light), which has no BSDF to blend"),
+                )));
+            }
+            if wrappers
+                != (Wrappers {
+                    one_sided: wrappers.one_sided,
+                    ..Wrappers::default()
+                })
+            {
+                return Err(at(SceneError::invalid(
+                    &format!("materials[{k}]"),
+                    format!("`{inner}` has a mask, a map or a blend: a blend's materials may only be one_sided (put masks and maps around the blend)"),
+                )));
+            }
+            if k == 1 && emission.is_some() {
+                return Err(at(SceneError::invalid(
+                    "materials[1]",
+                    format!("`{inner}` emits: a blend emits what its first material does (give the emission to that one)"),
+                )));
+            }
+            parts.push((id, material, wrappers.one_sided, emission));
+        }
+        let weight = self
+            .scalar(&b.weight)
+            .map_err(|e| e.within(&format!("materials.{name}.weight")))?;
+        let (_, material, one_sided, emission) = parts[0];
+        let id = self.builder.add_material(material).map_err(at)?;
+        let wrappers = Wrappers {
+            one_sided,
+            blend: Some(Blend {
+                weight,
+                second: parts[1].0,
+            }),
+            ..Wrappers::default()
+        };
         self.builder.set_wrappers(id, wrappers).map_err(at)?;
         if let Some(e) = emission {
             self.builder.set_emission(id, e).map_err(at)?;

@@ -362,7 +362,11 @@ pub(super) fn check_wrap(
             "a light (diffuse_light) takes no mask, normal map or one-sidedness".into(),
         ));
     }
-    for (what, t) in [("opacity", wrap.opacity), ("normal_map", wrap.normal_map)] {
+    for (what, t) in [
+        ("opacity", wrap.opacity),
+        ("normal_map", wrap.normal_map),
+        ("blend.weight", wrap.blend.map(|b| b.weight)),
+    ] {
         match t {
             Some(t) if t as usize >= textures.len() => {
                 return Err(SceneError::invalid(
@@ -398,6 +402,45 @@ pub(super) fn check_wrap(
                         .into(),
                 ))
             }
+        }
+    }
+    Ok(())
+}
+
+/// Each blend's second BSDF ([`crate::material::Blend`]): another material
+/// of the scene, not a light, whose wrappers say at most its side (a blend
+/// inside a blend, or a mask or map inside one, is not a model).
+pub(super) fn check_blends(materials: &[Material], wraps: &[Wrappers]) -> Result<(), SceneError> {
+    for (i, wrap) in wraps.iter().enumerate() {
+        let Some(b) = wrap.blend else { continue };
+        let at = format!("materials[{i}].blend.second");
+        let second = b.second as usize;
+        if second >= materials.len() {
+            return Err(SceneError::invalid(
+                &at,
+                format!("material index {second} does not exist"),
+            ));
+        }
+        if second == i {
+            return Err(SceneError::invalid(&at, "is the blend itself".into()));
+        }
+        if matches!(materials[second], Material::DiffuseLight { .. }) {
+            return Err(SceneError::invalid(
+                &at,
+                "is a light (diffuse_light), which has no BSDF to blend".into(),
+            ));
+        }
+        let inner = wraps.get(second).copied().unwrap_or_default();
+        if inner
+            != (Wrappers {
+                one_sided: inner.one_sided,
+                ..Wrappers::default()
+            })
+        {
+            return Err(SceneError::invalid(
+                &at,
+                format!("material {second} has a mask, a map or a blend of its own; a blend's BSDFs take only their side"),
+            ));
         }
     }
     Ok(())
@@ -593,6 +636,47 @@ fn check_material(
                         format!("image {transmittance} is not a table of {size} x 1"),
                     ))
                 }
+            }
+        }
+        Material::Principled {
+            base_color,
+            roughness,
+            anisotropic,
+            spec_trans,
+            metallic,
+            clearcoat,
+            clearcoat_gloss,
+            sheen,
+            sheen_tint,
+            flatness,
+            spec_tint,
+            eta,
+        } => {
+            tex_ok("base_color", base_color)?;
+            tex_ok("roughness", roughness)?;
+            for (what, t) in [
+                ("anisotropic", anisotropic),
+                ("spec_trans", spec_trans),
+                ("metallic", metallic),
+                ("clearcoat", clearcoat),
+                ("clearcoat_gloss", clearcoat_gloss),
+                ("sheen", sheen),
+                ("sheen_tint", sheen_tint),
+                ("flatness", flatness),
+                ("spec_tint", spec_tint),
+            ] {
+                if let Some(t) = t {
+                    tex_ok(what, t)?;
+                }
+            }
+            check_eta(eta)?;
+            if spec_trans.is_some() && eta == 1.0 {
+                // Mitsuba moves it to 1.001: a transmission through no
+                // interface has no half vector.
+                return Err(SceneError::invalid(
+                    "eta",
+                    "1: a principled BSDF that transmits must differ from its surroundings".into(),
+                ));
             }
         }
         Material::Metal { albedo, fuzz } => {
@@ -1503,6 +1587,7 @@ impl SceneBuilder {
         emissions.resize(self.materials.len(), None);
         let mut wraps = self.wraps;
         wraps.resize(self.materials.len(), Wrappers::default());
+        check_blends(&self.materials, &wraps)?;
         let has_alpha = |m: u32| alphas[m as usize].is_some();
         if let Some(m) = (self.spheres.iter().map(|s| s.material))
             .chain(self.quads.iter().map(|q| q.material))
@@ -1698,6 +1783,7 @@ impl Scene {
                     .map_err(|e| e.within(&format!("materials[{i}]")))?;
             }
         }
+        check_blends(&look.materials, &self.wraps)?;
         // An edit may make an emissive material a light, whose own
         // emission is then the one read (`Scene::added_emission`).
         for (i, emission) in self.emissions.iter().enumerate() {

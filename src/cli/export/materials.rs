@@ -700,6 +700,9 @@ pub(super) fn surface(scene: &Scene, i: usize) -> Result<Surface> {
     }
     let optional = |t: Option<u32>| t.map(|t| texture(scene, t, &what)).transpose();
     Ok(match scene.materials()[i] {
+        Material::Principled { .. } => {
+            bail!("{what} is a principled BSDF (Mitsuba's principled), which the export does not write (not exported)")
+        }
         Material::Lambertian { albedo } => Surface::Diffuse(texture(scene, albedo, &what)?),
         Material::Metal { albedo, fuzz: 0.0 } => Surface::Mirror(texture(scene, albedo, &what)?),
         Material::Metal { albedo, fuzz } => Surface::FuzzyMetal {
@@ -915,6 +918,9 @@ pub(super) fn wrapping(scene: &Scene, i: usize, surface: &Surface) -> Result<Wra
     }
     if w.bump_map {
         bail!("{what} has a bump map (Mitsuba's bumpmap), which the export does not write (not exported)");
+    }
+    if w.blend.is_some() {
+        bail!("{what} is a blend of two BSDFs (Mitsuba's blendbsdf), which the export does not write (not exported)");
     }
     if w.normal_map_mirrored {
         bail!("{what} reads its normal map in the frame turned to the viewer (Mitsuba's twosided around a normalmap), which the export does not write (not exported)");

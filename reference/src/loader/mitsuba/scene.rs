@@ -14,7 +14,7 @@ use crate::camera::{CameraSettings, Projection};
 use crate::error::SceneError;
 use crate::filter::PixelFilter;
 use crate::loader::image::load_image;
-use crate::material::{Material, Wrappers};
+use crate::material::{Blend, Material, Wrappers};
 
 /// Mitsuba's models without `twosided`: black seen from behind.
 const ONE_SIDED: Wrappers = Wrappers {
@@ -23,6 +23,7 @@ const ONE_SIDED: Wrappers = Wrappers {
     normal_map: None,
     normal_map_mirrored: false,
     bump_map: false,
+    blend: None,
 };
 use crate::mutants::{self, Mutant};
 use crate::rng::Sampler as PathSampler;
@@ -1376,22 +1377,7 @@ impl Reader<'_> {
             if wrap.opacity.is_some() {
                 return Err(unsupported(&one.object, " inside a mask"));
             }
-            // Mitsuba's `eval_1`: an `rgb` constant's mean (a bitmap's
-            // luminance, which `material::opacity_of` reads).
-            let opacity = match self.colour(&props, "opacity", ColourUse::Number, 0.5)? {
-                Colour::Constant(c) => Colour::Constant(Vec3::splat((c.x + c.y + c.z) / 3.0)),
-                t => t,
-            };
-            let opacity = self.texture_of(opacity, &o.at)?;
-            if let Some(Texture::UvChecker { even, odd, .. }) = self.builder.texture(opacity) {
-                let coloured = |t: &u32| matches!(self.builder.texture(*t), Some(Texture::Constant(c)) if c.x != c.y || c.y != c.z);
-                if coloured(even) || coloured(odd) {
-                    return Err(unsupported(
-                        o,
-                        " with a checkerboard of colours as its opacity (Mitsuba reads their means; give numbers)",
-                    ));
-                }
-            }
+            let opacity = self.one_channel(&props, "opacity", 0.5)?;
             props.finish()?;
             return Ok((
                 material,
@@ -1400,6 +1386,12 @@ impl Reader<'_> {
                     ..wrap
                 },
             ));
+        }
+        if o.kind == "blendbsdf" {
+            return self.blend(o, false);
+        }
+        if o.kind == "principled" {
+            return Ok((self.principled(o)?, Wrappers::default()));
         }
         if o.kind == "normalmap" {
             return self.normal_map(o);
@@ -1425,6 +1417,12 @@ impl Reader<'_> {
                             " inside twosided around a model that takes both sides itself",
                         ));
                     }
+                    // A blend's second BSDF takes both sides too.
+                    if let Some(b) = wrap.blend {
+                        self.builder
+                            .set_wrappers(b.second, Wrappers::default())
+                            .map_err(|e| fail(&o.at, e.to_string()))?;
+                    }
                     props.finish()?;
                     return Ok((
                         m,
@@ -1434,6 +1432,13 @@ impl Reader<'_> {
                             ..wrap
                         },
                     ));
+                }
+            }
+            if let [one] = nested.as_slice() {
+                if one.object.kind == "blendbsdf" {
+                    let blend = self.blend(&one.object, true)?;
+                    props.finish()?;
+                    return Ok(blend);
                 }
             }
             let m = match nested.as_slice() {
@@ -1458,6 +1463,184 @@ impl Reader<'_> {
             return Ok((self.rough_dielectric(o)?, Wrappers::default()));
         }
         Ok((self.one_sided_bsdf(o)?, ONE_SIDED))
+    }
+
+    /// A texture that Mitsuba reads by `eval_1` (a mask's opacity, a
+    /// blend's weight, the principled BSDF's numbers), `default` where
+    /// absent: an `rgb` constant's mean (a bitmap's
+    /// luminance, which `material::opacity_of` reads); a checkerboard of
+    /// colours is refused (Mitsuba reads their means).
+    fn one_channel(&mut self, props: &Props, name: &str, default: f64) -> Result<u32, SceneError> {
+        let o = props.object;
+        let value = match self.colour(props, name, ColourUse::Number, default)? {
+            Colour::Constant(c) => Colour::Constant(Vec3::splat((c.x + c.y + c.z) / 3.0)),
+            t => t,
+        };
+        let texture = self.texture_of(value, &o.at)?;
+        if let Some(Texture::UvChecker { even, odd, .. }) = self.builder.texture(texture) {
+            let coloured = |t: &u32| matches!(self.builder.texture(*t), Some(Texture::Constant(c)) if c.x != c.y || c.y != c.z);
+            if coloured(even) || coloured(odd) {
+                return Err(unsupported(
+                    o,
+                    &format!(" with a checkerboard of colours as its {name} (Mitsuba reads their means; give numbers)"),
+                ));
+            }
+        }
+        Ok(texture)
+    }
+
+    /// Mitsuba's `blendbsdf`: `weight` (a number or a texture, read as a
+    /// mask's opacity, [`Self::one_channel`]) of the second of its two
+    /// nested BSDFs against the first ([`crate::material::Blend`]). Each is
+    /// a model with its own side (inside `twosided` there: both sides); a
+    /// mask, a map or a blend inside is refused (put it around the blend).
+    /// The first is the material returned, the second a material of its
+    /// own. `two_sided`: the blend is inside `twosided`, which gives both
+    /// BSDFs both sides.
+    fn blend(&mut self, o: &Object, two_sided: bool) -> Result<(Material, Wrappers), SceneError> {
+        let props = Props::new(o);
+        let nested = props.children("bsdf");
+        let [first, second] = nested.as_slice() else {
+            return Err(unsupported(o, " with other than two nested bsdfs"));
+        };
+        let weight = self.one_channel(&props, "weight", 0.5)?;
+        let read = |this: &mut Self, one: &Object| -> Result<(Material, bool), SceneError> {
+            if matches!(
+                one.kind.as_str(),
+                "normalmap" | "mask" | "bumpmap" | "blendbsdf"
+            ) {
+                return Err(unsupported(
+                    one,
+                    " inside a blendbsdf (put it around the blend)",
+                ));
+            }
+            let (m, wrap) = this.bsdf(one)?;
+            if wrap.normal_map.is_some() {
+                return Err(unsupported(
+                    one,
+                    " with a map, inside a blendbsdf (put the map around the blend)",
+                ));
+            }
+            Ok((m, wrap.one_sided && !two_sided))
+        };
+        let (m0, one_sided0) = read(self, &first.object)?;
+        let (m1, one_sided1) = read(self, &second.object)?;
+        let at = &second.object.at;
+        let id = self
+            .builder
+            .add_material(m1)
+            .map_err(|e| fail(at, e.to_string()))?;
+        self.builder
+            .set_wrappers(
+                id,
+                Wrappers {
+                    one_sided: one_sided1,
+                    ..Wrappers::default()
+                },
+            )
+            .map_err(|e| fail(at, e.to_string()))?;
+        props.finish()?;
+        Ok((
+            m0,
+            Wrappers {
+                one_sided: one_sided0,
+                blend: Some(Blend { weight, second: id }),
+                ..Wrappers::default()
+            },
+        ))
+    }
+
+    /// Mitsuba's `principled` (both sides its own; [`crate::principled`]):
+    /// `base_color` (0.5) a colour or a texture, `roughness` (0.5) and the
+    /// lobes' numbers, each a number or a texture read by `eval_1`; a lobe
+    /// absent or given as the number 0 is off, as Mitsuba's `get_flag`
+    /// reads it; `eta`, or `specular` (0.5) standing for one, not both.
+    /// Sampling rates other than 1 are refused.
+    fn principled(&mut self, o: &Object) -> Result<Material, SceneError> {
+        let props = Props::new(o);
+        let base_color = self.colour(&props, "base_color", ColourUse::Reflectance, 0.5)?;
+        let base_color = self.texture_of(base_color, &o.at)?;
+        let roughness = self.one_channel(&props, "roughness", 0.5)?;
+        let lobe = |this: &mut Self, name: &str| -> Result<Option<u32>, SceneError> {
+            let given = props.object.props.iter().rposition(|p| p.name == name);
+            let off = given.is_some_and(
+                |i| matches!(props.object.props[i].value, Value::Float(v) if v == 0.0),
+            );
+            if off {
+                props.get(name);
+                return Ok(None);
+            }
+            if given.is_none() && props.named_child(name).is_none() {
+                return Ok(None);
+            }
+            this.one_channel(&props, name, 0.0).map(Some)
+        };
+        let anisotropic = lobe(self, "anisotropic")?;
+        let spec_trans = lobe(self, "spec_trans")?;
+        let sheen = lobe(self, "sheen")?;
+        let sheen_tint = lobe(self, "sheen_tint")?;
+        let flatness = lobe(self, "flatness")?;
+        let spec_tint = lobe(self, "spec_tint")?;
+        let metallic = lobe(self, "metallic")?;
+        let clearcoat = lobe(self, "clearcoat")?;
+        let clearcoat_gloss = match clearcoat {
+            Some(_) => Some(self.one_channel(&props, "clearcoat_gloss", 0.0)?),
+            None => {
+                // Read (and checked) as Mitsuba reads it, unused without a coat.
+                self.one_channel(&props, "clearcoat_gloss", 0.0)?;
+                None
+            }
+        };
+        for rate in [
+            "main_specular_sampling_rate",
+            "clearcoat_sampling_rate",
+            "diffuse_reflectance_sampling_rate",
+        ] {
+            if props.float(rate, 1.0)? != 1.0 {
+                return Err(unsupported(o, &format!(" with a {rate} other than 1")));
+            }
+        }
+        let has = |name: &str| props.object.props.iter().any(|p| p.name == name);
+        let eta = match (has("eta"), has("specular")) {
+            (true, true) => {
+                return Err(fail(
+                    &o.at,
+                    format!("{}: give \"eta\" or \"specular\", not both", o.describe()),
+                ))
+            }
+            (true, false) => {
+                let eta = props.float("eta", 1.5)? as f32;
+                if spec_trans.is_some() && eta == 1.0 {
+                    // Mitsuba's: an index of 1 transmits through no interface.
+                    1.001
+                } else {
+                    eta
+                }
+            }
+            (false, _) => {
+                let mut specular = props.float("specular", 0.5)? as f32;
+                if spec_trans.is_some() && specular == 0.0 {
+                    // Mitsuba's: a specular of 0 is an index of 1.
+                    specular = 1e-3;
+                }
+                crate::principled::eta_of_specular(specular)
+            }
+        };
+        props.finish()?;
+        Ok(Material::Principled {
+            base_color,
+            roughness,
+            anisotropic,
+            spec_trans,
+            metallic,
+            clearcoat,
+            clearcoat_gloss,
+            sheen,
+            sheen_tint,
+            flatness,
+            spec_tint,
+            eta,
+        })
     }
 
     /// Mitsuba's `normalmap` around a BSDF: its `normalmap` texture (data:
@@ -1883,17 +2066,26 @@ impl Reader<'_> {
                     }
                 }
                 if let Some((m, w, _)) = self.builder.material_parts(material) {
-                    let anisotropic = matches!(
-                        m,
-                        Material::RoughConductor {
-                            alpha_v: Some(_),
-                            ..
-                        } | Material::RoughDielectric {
-                            alpha_v: Some(_),
-                            ..
-                        }
-                    );
-                    if anisotropic || w.normal_map.is_some() {
+                    let anisotropic = |m: &Material| {
+                        matches!(
+                            m,
+                            Material::RoughConductor {
+                                alpha_v: Some(_),
+                                ..
+                            } | Material::RoughDielectric {
+                                alpha_v: Some(_),
+                                ..
+                            } | Material::Principled {
+                                anisotropic: Some(_),
+                                ..
+                            }
+                        )
+                    };
+                    let second = w
+                        .blend
+                        .and_then(|b| self.builder.material_parts(b.second))
+                        .is_some_and(|(m, ..)| anisotropic(&m));
+                    if anisotropic(&m) || second || w.normal_map.is_some() {
                         return Err(unsupported(
                             o,
                             " with an anisotropic or normal-mapped material (twintrace's sphere has another tangent frame)",
@@ -2028,10 +2220,17 @@ impl Reader<'_> {
             Some(Texture::Checker { even, odd, .. }) => leaf(*even) || leaf(*odd),
             _ => leaf(t),
         };
+        let second = w
+            .blend
+            .and_then(|b| self.builder.material_parts(b.second))
+            .map(|(m, ..)| m.texture_ids())
+            .unwrap_or_default();
         w.normal_map.is_some()
             || m.texture_ids()
                 .into_iter()
                 .chain(w.opacity)
+                .chain(w.blend.map(|b| b.weight))
+                .chain(second)
                 .chain(emission)
                 .any(reads)
     }
@@ -2732,6 +2931,74 @@ mod tests {
             .colors
             .iter()
             .all(|c| *c == glam::Vec4::new(0.25, 0.25, 0.25, 1.0)));
+    }
+
+    #[test]
+    fn a_blendbsdf_is_its_first_bsdf_with_the_second_as_a_material_of_its_own() {
+        use crate::texture::Texture;
+        let shape = |bsdf: &str| {
+            scene(&format!(
+                r#"<sensor type="perspective">{FILM}</sensor><shape type="rectangle">{bsdf}</shape>"#
+            ))
+        };
+        let s = shape(
+            r#"<bsdf type="blendbsdf"><float name="weight" value="0.25"/><bsdf type="diffuse"/><bsdf type="twosided"><bsdf type="conductor"/></bsdf></bsdf>"#,
+        )
+        .unwrap();
+        let m = s.triangles()[0].material;
+        let w = s.wrappers(m);
+        let b = w.blend.unwrap();
+        assert!(w.one_sided, "Mitsuba's diffuse is one-sided");
+        assert!(matches!(
+            s.materials()[m as usize],
+            Material::Lambertian { .. }
+        ));
+        assert!(matches!(
+            s.materials()[b.second as usize],
+            Material::Conductor { .. }
+        ));
+        assert!(!s.wrappers(b.second).one_sided, "inside twosided");
+        assert_eq!(
+            s.textures()[b.weight as usize],
+            Texture::Constant(Vec3::splat(0.25))
+        );
+        // Inside twosided, both take both sides; a mask and a normal map
+        // go around it.
+        let s = shape(
+            r#"<bsdf type="mask"><bsdf type="twosided"><bsdf type="blendbsdf"><bsdf type="diffuse"/><bsdf type="plastic"/></bsdf></bsdf></bsdf>"#,
+        )
+        .unwrap();
+        let w = s.wrappers(s.triangles()[0].material);
+        assert!(w.opacity.is_some() && !w.one_sided);
+        assert!(!s.wrappers(w.blend.unwrap().second).one_sided);
+        let s = shape(
+            r#"<bsdf type="twosided"><bsdf type="normalmap"><rgb name="normalmap" value="0.5, 0.5, 1"/><bsdf type="blendbsdf"><bsdf type="diffuse"/><bsdf type="plastic"/></bsdf></bsdf></bsdf>"#,
+        )
+        .unwrap();
+        let w = s.wrappers(s.triangles()[0].material);
+        assert!(w.normal_map.is_some() && !w.one_sided);
+        assert!(!s.wrappers(w.blend.unwrap().second).one_sided);
+        for (bsdf, says) in [
+            (
+                r#"<bsdf type="blendbsdf"><bsdf type="diffuse"/></bsdf>"#,
+                "other than two nested bsdfs",
+            ),
+            (
+                r#"<bsdf type="blendbsdf"><bsdf type="diffuse"/><bsdf type="mask"><bsdf type="diffuse"/></bsdf></bsdf>"#,
+                "inside a blendbsdf",
+            ),
+            (
+                r#"<bsdf type="blendbsdf"><bsdf type="blendbsdf"><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf><bsdf type="diffuse"/></bsdf>"#,
+                "inside a blendbsdf",
+            ),
+            (
+                r#"<bsdf type="blendbsdf"><texture type="checkerboard" name="weight"><rgb name="color0" value="0.2, 0.5, 0.8"/></texture><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>"#,
+                "checkerboard of colours",
+            ),
+        ] {
+            let err = shape(bsdf).unwrap_err().to_string();
+            assert!(err.contains(says), "{bsdf}: {err}");
+        }
     }
 
     #[test]
