@@ -1580,15 +1580,17 @@ fn principled_case(i: usize) -> (Material, Vec<Texture>) {
     let material = Material::Principled {
         base_color: 0,
         roughness: roughness_id,
-        anisotropic,
-        spec_trans,
-        metallic,
-        clearcoat,
-        clearcoat_gloss,
-        sheen,
-        sheen_tint,
-        flatness,
-        spec_tint,
+        lobes: reference::material::PrincipledLobes {
+            anisotropic,
+            spec_trans,
+            metallic,
+            clearcoat,
+            clearcoat_gloss,
+            sheen,
+            sheen_tint,
+            flatness,
+            spec_tint,
+        },
         eta,
     };
     (material, textures)

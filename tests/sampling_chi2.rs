@@ -652,15 +652,15 @@ pub(crate) fn principled(
     let material = Material::Principled {
         base_color: 0,
         roughness: 1,
-        anisotropic,
-        spec_trans,
-        metallic,
-        clearcoat,
-        clearcoat_gloss,
-        sheen,
-        sheen_tint: None,
-        flatness: None,
-        spec_tint: None,
+        lobes: reference::material::PrincipledLobes {
+            anisotropic,
+            spec_trans,
+            metallic,
+            clearcoat,
+            clearcoat_gloss,
+            sheen,
+            ..Default::default()
+        },
         eta,
     };
     (material, textures)

@@ -767,19 +767,12 @@ fn principled_materials_that_cannot_be_are_named() {
     );
     let scene = reference::load_scene(p.to_str().unwrap()).unwrap();
     let m = scene.spheres()[0].material as usize;
-    let reference::material::Material::Principled {
-        metallic,
-        spec_trans,
-        clearcoat,
-        clearcoat_gloss,
-        eta,
-        ..
-    } = scene.materials()[m]
-    else {
+    let reference::material::Material::Principled { lobes, eta, .. } = scene.materials()[m] else {
         panic!("{:?}", scene.materials()[m]);
     };
-    assert!(metallic.is_some() && clearcoat.is_some() && clearcoat_gloss.is_some());
-    assert_eq!(spec_trans, None);
+    assert!(lobes.metallic.is_some() && lobes.clearcoat.is_some());
+    assert!(lobes.clearcoat_gloss.is_some());
+    assert_eq!(lobes.spec_trans, None);
     assert_eq!(eta, 1.33);
 }
 

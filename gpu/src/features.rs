@@ -152,10 +152,9 @@ impl Features {
                 Material::RoughPlastic { distribution, .. } => {
                     feature::ROUGH_PLASTIC | beckmann(*distribution)
                 }
-                Material::Principled {
-                    anisotropic: anisotropy,
-                    ..
-                } => feature::PRINCIPLED | anisotropic(*anisotropy),
+                Material::Principled { lobes, .. } => {
+                    feature::PRINCIPLED | anisotropic(lobes.anisotropic)
+                }
                 Material::Ggx {
                     normal_map,
                     clearcoat,

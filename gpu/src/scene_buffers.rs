@@ -283,32 +283,25 @@ fn pack_bsdf(m: &Material) -> GpuMaterial {
         Material::Principled {
             base_color,
             roughness,
-            anisotropic,
-            spec_trans,
-            metallic,
-            clearcoat,
-            clearcoat_gloss,
-            sheen,
-            sheen_tint,
-            flatness,
-            spec_tint,
+            lobes,
             eta,
         } => {
-            let t = |t: Option<u32>| t.unwrap_or(NO_TEXTURE);
+            let [anisotropic, spec_trans, metallic, clearcoat, clearcoat_gloss, sheen, sheen_tint, flatness, spec_tint] =
+                lobes.textures().map(|t| t.unwrap_or(NO_TEXTURE));
             GpuMaterial {
                 tag,
                 texture: base_color,
                 p0: eta,
                 pr_roughness: roughness,
-                pr_anisotropic: t(anisotropic),
-                pr_spec_trans: t(spec_trans),
-                pr_metallic: t(metallic),
-                pr_clearcoat: t(clearcoat),
-                pr_clearcoat_gloss: t(clearcoat_gloss),
-                pr_sheen: t(sheen),
-                pr_sheen_tint: t(sheen_tint),
-                pr_flatness: t(flatness),
-                pr_spec_tint: t(spec_tint),
+                pr_anisotropic: anisotropic,
+                pr_spec_trans: spec_trans,
+                pr_metallic: metallic,
+                pr_clearcoat: clearcoat,
+                pr_clearcoat_gloss: clearcoat_gloss,
+                pr_sheen: sheen,
+                pr_sheen_tint: sheen_tint,
+                pr_flatness: flatness,
+                pr_spec_tint: spec_tint,
                 ..Default::default()
             }
         }

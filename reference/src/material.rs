@@ -178,17 +178,54 @@ pub enum Material {
     Principled {
         base_color: u32,
         roughness: u32,
-        anisotropic: Option<u32>,
-        spec_trans: Option<u32>,
-        metallic: Option<u32>,
-        clearcoat: Option<u32>,
-        clearcoat_gloss: Option<u32>,
-        sheen: Option<u32>,
-        sheen_tint: Option<u32>,
-        flatness: Option<u32>,
-        spec_tint: Option<u32>,
+        lobes: PrincipledLobes,
         eta: f32,
     },
+}
+
+/// The principled BSDF's one-channel parameters' textures
+/// ([`Material::Principled`]; `None`: not given, read as 0).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PrincipledLobes {
+    pub anisotropic: Option<u32>,
+    pub spec_trans: Option<u32>,
+    pub metallic: Option<u32>,
+    pub clearcoat: Option<u32>,
+    pub clearcoat_gloss: Option<u32>,
+    pub sheen: Option<u32>,
+    pub sheen_tint: Option<u32>,
+    pub flatness: Option<u32>,
+    pub spec_tint: Option<u32>,
+}
+
+impl PrincipledLobes {
+    /// Mitsuba's names of the parameters, in [`Self::textures`]' order.
+    pub const NAMES: [&'static str; 9] = [
+        "anisotropic",
+        "spec_trans",
+        "metallic",
+        "clearcoat",
+        "clearcoat_gloss",
+        "sheen",
+        "sheen_tint",
+        "flatness",
+        "spec_tint",
+    ];
+
+    /// The textures, in [`Self::NAMES`]' order.
+    pub fn textures(&self) -> [Option<u32>; 9] {
+        [
+            self.anisotropic,
+            self.spec_trans,
+            self.metallic,
+            self.clearcoat,
+            self.clearcoat_gloss,
+            self.sheen,
+            self.sheen_tint,
+            self.flatness,
+            self.spec_tint,
+        ]
+    }
 }
 
 /// A clear coat (glTF's `KHR_materials_clearcoat`): a dielectric layer
@@ -363,32 +400,13 @@ impl Material {
             Material::Principled {
                 base_color,
                 roughness,
-                anisotropic,
-                spec_trans,
-                metallic,
-                clearcoat,
-                clearcoat_gloss,
-                sheen,
-                sheen_tint,
-                flatness,
-                spec_tint,
+                lobes,
                 ..
-            } => [
-                Some(base_color),
-                Some(roughness),
-                anisotropic,
-                spec_trans,
-                metallic,
-                clearcoat,
-                clearcoat_gloss,
-                sheen,
-                sheen_tint,
-                flatness,
-                spec_tint,
-            ]
-            .into_iter()
-            .flatten()
-            .collect(),
+            } => [Some(base_color), Some(roughness)]
+                .into_iter()
+                .chain(lobes.textures())
+                .flatten()
+                .collect(),
             Material::Ggx {
                 base_color,
                 metallic_roughness,
@@ -1704,15 +1722,7 @@ pub fn principled_at(
     let Material::Principled {
         base_color,
         roughness,
-        anisotropic,
-        spec_trans,
-        metallic,
-        clearcoat,
-        clearcoat_gloss,
-        sheen,
-        sheen_tint,
-        flatness,
-        spec_tint,
+        lobes,
         eta,
     } = *material
     else {
@@ -1720,7 +1730,7 @@ pub fn principled_at(
     };
     let value = |t: Option<u32>| t.map_or(0.0, |t| crate::texture::one_channel(ctx.eval(t, si)));
     let n = si.shading_normal;
-    let frame = match anisotropic {
+    let frame = match lobes.anisotropic {
         Some(_) => Onb {
             s: si.tangent,
             t: n.cross(si.tangent),
@@ -1731,16 +1741,16 @@ pub fn principled_at(
     let p = crate::principled::Principled {
         base_color: ctx.eval(base_color, si),
         roughness: value(Some(roughness)),
-        anisotropic: value(anisotropic),
-        spec_trans: value(spec_trans),
-        has_spec_trans: spec_trans.is_some(),
-        metallic: value(metallic),
-        clearcoat: value(clearcoat),
-        clearcoat_gloss: value(clearcoat_gloss),
-        sheen: value(sheen),
-        sheen_tint: value(sheen_tint),
-        flatness: value(flatness),
-        spec_tint: value(spec_tint),
+        anisotropic: value(lobes.anisotropic),
+        spec_trans: value(lobes.spec_trans),
+        has_spec_trans: lobes.spec_trans.is_some(),
+        metallic: value(lobes.metallic),
+        clearcoat: value(lobes.clearcoat),
+        clearcoat_gloss: value(lobes.clearcoat_gloss),
+        sheen: value(lobes.sheen),
+        sheen_tint: value(lobes.sheen_tint),
+        flatness: value(lobes.flatness),
+        spec_tint: value(lobes.spec_tint),
         eta,
     };
     Some((p, frame))

@@ -10,7 +10,7 @@ use crate::error::SceneError;
 use crate::filter::PixelFilter;
 use crate::loader::gltf::{GltfLightUnits, GltfOptions};
 use crate::loader::image::load_image;
-use crate::material::{Blend, ClearCoat, Material, Wrappers};
+use crate::material::{Blend, ClearCoat, Material, PrincipledLobes, Wrappers};
 use crate::microfacet;
 use crate::scene::{LightInput, RenderOrigin, RenderSettings, Scene, SceneBuilder, Transform};
 use crate::texture::{Sampler, Texture};
@@ -1503,21 +1503,23 @@ impl Resolver<'_> {
             roughness: self
                 .scalar(&p.roughness)
                 .map_err(|e| e.within("roughness"))?,
-            anisotropic: lobe(self, "anisotropic", &p.anisotropic)?,
-            spec_trans,
-            metallic: lobe(self, "metallic", &p.metallic)?,
-            clearcoat_gloss: match clearcoat {
-                Some(_) => Some(match &p.clearcoat_gloss {
-                    None => self.builder.constant(Vec3::ZERO)?,
-                    Some(g) => self.scalar(g).map_err(|e| e.within("clearcoat_gloss"))?,
-                }),
-                None => None,
+            lobes: PrincipledLobes {
+                anisotropic: lobe(self, "anisotropic", &p.anisotropic)?,
+                spec_trans,
+                metallic: lobe(self, "metallic", &p.metallic)?,
+                clearcoat_gloss: match clearcoat {
+                    Some(_) => Some(match &p.clearcoat_gloss {
+                        None => self.builder.constant(Vec3::ZERO)?,
+                        Some(g) => self.scalar(g).map_err(|e| e.within("clearcoat_gloss"))?,
+                    }),
+                    None => None,
+                },
+                clearcoat,
+                sheen: lobe(self, "sheen", &p.sheen)?,
+                sheen_tint: lobe(self, "sheen_tint", &p.sheen_tint)?,
+                flatness: lobe(self, "flatness", &p.flatness)?,
+                spec_tint: lobe(self, "spec_tint", &p.spec_tint)?,
             },
-            clearcoat,
-            sheen: lobe(self, "sheen", &p.sheen)?,
-            sheen_tint: lobe(self, "sheen_tint", &p.sheen_tint)?,
-            flatness: lobe(self, "flatness", &p.flatness)?,
-            spec_tint: lobe(self, "spec_tint", &p.spec_tint)?,
             eta,
         })
     }

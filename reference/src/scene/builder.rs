@@ -641,36 +641,21 @@ fn check_material(
         Material::Principled {
             base_color,
             roughness,
-            anisotropic,
-            spec_trans,
-            metallic,
-            clearcoat,
-            clearcoat_gloss,
-            sheen,
-            sheen_tint,
-            flatness,
-            spec_tint,
+            lobes,
             eta,
         } => {
             tex_ok("base_color", base_color)?;
             tex_ok("roughness", roughness)?;
-            for (what, t) in [
-                ("anisotropic", anisotropic),
-                ("spec_trans", spec_trans),
-                ("metallic", metallic),
-                ("clearcoat", clearcoat),
-                ("clearcoat_gloss", clearcoat_gloss),
-                ("sheen", sheen),
-                ("sheen_tint", sheen_tint),
-                ("flatness", flatness),
-                ("spec_tint", spec_tint),
-            ] {
+            for (what, t) in crate::material::PrincipledLobes::NAMES
+                .into_iter()
+                .zip(lobes.textures())
+            {
                 if let Some(t) = t {
                     tex_ok(what, t)?;
                 }
             }
             check_eta(eta)?;
-            if spec_trans.is_some() && eta == 1.0 {
+            if lobes.spec_trans.is_some() && eta == 1.0 {
                 // Mitsuba moves it to 1.001: a transmission through no
                 // interface has no half vector.
                 return Err(SceneError::invalid(

@@ -14,7 +14,7 @@ use crate::camera::{CameraSettings, Projection};
 use crate::error::SceneError;
 use crate::filter::PixelFilter;
 use crate::loader::image::load_image;
-use crate::material::{Blend, Material, Wrappers};
+use crate::material::{Blend, Material, PrincipledLobes, Wrappers};
 
 /// Mitsuba's models without `twosided`: black seen from behind.
 const ONE_SIDED: Wrappers = Wrappers {
@@ -1630,15 +1630,17 @@ impl Reader<'_> {
         Ok(Material::Principled {
             base_color,
             roughness,
-            anisotropic,
-            spec_trans,
-            metallic,
-            clearcoat,
-            clearcoat_gloss,
-            sheen,
-            sheen_tint,
-            flatness,
-            spec_tint,
+            lobes: PrincipledLobes {
+                anisotropic,
+                spec_trans,
+                metallic,
+                clearcoat,
+                clearcoat_gloss,
+                sheen,
+                sheen_tint,
+                flatness,
+                spec_tint,
+            },
             eta,
         })
     }
@@ -2075,11 +2077,8 @@ impl Reader<'_> {
                             } | Material::RoughDielectric {
                                 alpha_v: Some(_),
                                 ..
-                            } | Material::Principled {
-                                anisotropic: Some(_),
-                                ..
                             }
-                        )
+                        ) || matches!(m, Material::Principled { lobes, .. } if lobes.anisotropic.is_some())
                     };
                     let second = w
                         .blend
