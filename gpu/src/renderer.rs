@@ -581,7 +581,7 @@ impl<'a> GpuRenderer<'a> {
 
     /// Per-dispatch parameters for `settings` (sample range filled later).
     pub fn params(&self, settings: &RenderSettings) -> GpuParams {
-        let cam = settings.camera(self.scene);
+        let cam = self.scene.traced_camera(settings);
         let mut p = GpuParams {
             width: settings.width,
             height: settings.height,

@@ -209,7 +209,7 @@ pub struct AovLayers {
 }
 
 /// Traces the camera rays of sample indices `samples` of every pixel of
-/// `settings`' image (the camera `settings.camera(scene)`) and adds their
+/// `settings`' image (the camera `scene.traced_camera(settings)`) and adds their
 /// first hits to `sums` in sample order. Rows run in parallel on rayon's
 /// current pool.
 pub fn render_aovs(
@@ -218,7 +218,7 @@ pub fn render_aovs(
     samples: Range<u32>,
     sums: &mut AovSums,
 ) {
-    let camera: Camera = settings.camera(scene);
+    let camera: Camera = scene.traced_camera(settings);
     let w = settings.width as usize;
     assert_eq!(
         (sums.width, sums.height),

@@ -493,7 +493,7 @@ pub fn render_samples_until(
         Integrator::Mis => LightSet::new(scene),
         Integrator::Bsdf => LightSet::punctual_only(scene),
     };
-    let camera = settings.camera(scene);
+    let camera = scene.traced_camera(settings);
     let (w, h) = (settings.width, settings.height);
     let tiles_x = w.div_ceil(TILE_SIZE);
     let tiles_y = h.div_ceil(TILE_SIZE);

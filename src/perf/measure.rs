@@ -196,7 +196,7 @@ impl<'a> Prepared<'a> {
 /// Re-traces every [`INJECTED_STRIDE`]th path of a render (the injected
 /// slowdown), discarding the radiance.
 fn retrace_share(scene: &Scene, settings: &RenderSettings) {
-    let camera = settings.camera(scene);
+    let camera = scene.traced_camera(settings);
     let lights = reference::light::LightSet::punctual_only(scene);
     let spp = settings.spp as u64;
     (0..settings.width * settings.height)

@@ -159,7 +159,7 @@ impl<'a> View<'a> {
         };
         // The camera is the scene's (or the settings') exactly until it is
         // moved: the view camera's angles would round its position.
-        let camera = ViewCamera::from_settings(&settings.camera_settings(scene));
+        let camera = ViewCamera::from_settings(&scene.camera_settings_for(&settings));
         let render = render::open(devices.devices(), scene, &spec, settings)?;
         let next = match pace {
             Pace::Fixed(n) => n.max(1),
@@ -196,7 +196,7 @@ impl<'a> View<'a> {
     /// The camera the film is traced from, exactly (the scene's until the
     /// eye moves; the controls' [`ViewCamera`] rounds it).
     pub fn traced_camera(&self) -> CameraSettings {
-        self.settings.camera_settings(self.scene)
+        self.scene.camera_settings_for(&self.settings)
     }
 
     /// Samples a pixel the film holds.
@@ -225,7 +225,7 @@ impl<'a> View<'a> {
         let aspect = settings.width as f32 / settings.height as f32;
         // The camera traced: the exact one (the scene's, a path's key) until
         // the eye moves; a change of lens alone keeps its position.
-        let exact = settings.camera_settings(self.scene);
+        let exact = self.scene.camera_settings_for(&settings);
         let mut moved = false;
         match event {
             Event::Orbit { yaw, pitch } => {

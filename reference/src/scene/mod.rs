@@ -273,7 +273,7 @@ impl Scene {
     /// and target translated in f64 and rounded; the scene's own camera
     /// (equal field for field) is the one the file's f64 numbers placed.
     /// Every camera a render traces goes through here
-    /// ([`RenderSettings::camera`]).
+    /// ([`Self::traced_camera`]).
     pub fn render_camera_of(&self, world: &CameraSettings) -> CameraSettings {
         if *world == self.camera_settings {
             return self.render_camera;
@@ -283,6 +283,24 @@ impl Scene {
             look_at: self.to_render(world.look_at.as_dvec3()),
             ..*world
         }
+    }
+
+    /// The camera a render with `settings` sees this scene from, in world
+    /// coordinates (what tools show and save): the settings' own, else the
+    /// scene's.
+    pub fn camera_settings_for(&self, settings: &RenderSettings) -> CameraSettings {
+        settings.camera.unwrap_or(self.camera_settings())
+    }
+
+    /// [`Self::camera_settings_for`] in render space
+    /// ([`Self::render_camera_of`]), ready for an image of the settings'
+    /// size: the camera both twins trace.
+    pub fn traced_camera(&self, settings: &RenderSettings) -> Camera {
+        let traced = match &settings.camera {
+            Some(world) => self.render_camera_of(world),
+            None => self.render_camera_settings(),
+        };
+        Camera::new(&traced, settings.width as f32 / settings.height as f32)
     }
 
     /// Where render space lies (its origin in world coordinates and the

@@ -1,8 +1,7 @@
 //! Render settings and the limits that keep a render's size sane.
 
-use crate::camera::{Camera, CameraSettings};
+use crate::camera::CameraSettings;
 use crate::error::SceneError;
-use crate::scene::Scene;
 
 /// Render parameters a scene proposes; the command line overrides them.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -49,23 +48,6 @@ pub const MAX_SPP: u32 = 1 << 24;
 pub const MAX_DEPTH: u32 = 1024;
 
 impl RenderSettings {
-    /// The camera the render sees `scene` from, in world coordinates
-    /// (what tools show and save): this one's, else the scene's.
-    pub fn camera_settings(&self, scene: &Scene) -> CameraSettings {
-        self.camera.unwrap_or(scene.camera_settings())
-    }
-
-    /// [`Self::camera_settings`] in the scene's render space
-    /// ([`Scene::render_camera_of`]), ready for an image of this size: the
-    /// camera both twins trace.
-    pub fn camera(&self, scene: &Scene) -> Camera {
-        let traced = match &self.camera {
-            Some(world) => scene.render_camera_of(world),
-            None => scene.render_camera_settings(),
-        };
-        Camera::new(&traced, self.width as f32 / self.height as f32)
-    }
-
     /// Checks the parameters; the error names the offending field.
     pub fn validate(&self) -> Result<(), SceneError> {
         if let Some(camera) = &self.camera {

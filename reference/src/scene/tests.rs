@@ -389,8 +389,8 @@ fn a_loaded_scene_is_rounded_to_f32_only_in_render_space() {
         ..RenderSettings::default()
     };
     assert_eq!(
-        settings.camera(&scene),
-        RenderSettings::default().camera(&scene)
+        scene.traced_camera(&settings),
+        scene.traced_camera(&RenderSettings::default())
     );
     // Another world camera is translated in f64.
     let moved = CameraSettings {
