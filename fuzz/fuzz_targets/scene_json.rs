@@ -1,4 +1,5 @@
-//! The JSON scene loader (`reference::loader::json`) on any text: a
+//! The JSON scene loader (`reference::loader::load_scene_text`: a scene
+//! file or a view file, `reference::loader::json` and `::view`) on any text: a
 //! scene, an error naming the field, never a panic or a hang. The scene
 //! is named as if in a folder that does not exist, so the files it
 //! refers to (meshes, textures, another scene of a view file) are
@@ -13,5 +14,5 @@ fuzz_target!(|data: &[u8]| {
         return;
     };
     let path = Path::new("/nonexistent-twintrace-fuzz/scene.json");
-    let _ = reference::loader::json::load_json_scene_text(path, text);
+    let _ = reference::loader::load_scene_text(path, text);
 });

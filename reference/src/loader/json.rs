@@ -975,21 +975,14 @@ pub fn load_json_scene_with(path: &Path, gltf: &GltfOptions) -> Result<Scene, Sc
 }
 
 /// [`load_json_scene`] of a scene file already in memory (`text`, named
-/// `path`): nothing is read from disk but the files it refers to,
-/// relative to `path`'s folder (the fuzz targets' entry).
-pub fn load_json_scene_text(path: &Path, text: &str) -> Result<Scene, SceneError> {
-    load_json_scene_text_with(path, text, &GltfOptions::default())
-}
-
-/// [`load_json_scene_text`] with the loader's glTF options.
+/// `path`; a view file is the loader's to tell apart,
+/// `crate::loader::load_scene_text`): nothing is read from disk but the
+/// files it refers to, relative to `path`'s folder.
 pub fn load_json_scene_text_with(
     path: &Path,
     text: &str,
     gltf: &GltfOptions,
 ) -> Result<Scene, SceneError> {
-    if serde_json::from_str::<serde_json::Value>(text).is_ok_and(|d| super::view::is_view(&d)) {
-        return super::view::load_view(path, text);
-    }
     let doc = parse_scene_json(text, path)?;
     let base = path.parent().unwrap_or(Path::new("."));
     build(&doc, base, vec![path.to_path_buf()], gltf).map_err(|e| e.in_file(path))

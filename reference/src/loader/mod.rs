@@ -45,6 +45,31 @@ pub fn load_scene_with(spec: &str, options: &LoadOptions) -> Result<Scene, Scene
         _ if !path.exists() && !spec.contains('/') && !spec.contains('.') => {
             Err(SceneError::UnknownBuiltin(spec.to_string()))
         }
-        _ => json::load_json_scene_with(path, &options.gltf),
+        _ => {
+            let text = std::fs::read_to_string(path).map_err(|e| SceneError::Io {
+                path: path.to_path_buf(),
+                message: format!("cannot read scene: {e}"),
+            })?;
+            load_scene_text_with(path, &text, &options.gltf)
+        }
     }
+}
+
+/// A JSON scene file or a view file ([`view`]) already in memory (`text`,
+/// named `path`): nothing is read from disk but the files it refers to,
+/// relative to `path`'s folder (the fuzz targets' entry).
+pub fn load_scene_text(path: &Path, text: &str) -> Result<Scene, SceneError> {
+    load_scene_text_with(path, text, &gltf::GltfOptions::default())
+}
+
+/// [`load_scene_text`] with the loader's glTF options.
+pub fn load_scene_text_with(
+    path: &Path,
+    text: &str,
+    gltf: &gltf::GltfOptions,
+) -> Result<Scene, SceneError> {
+    if serde_json::from_str::<serde_json::Value>(text).is_ok_and(|d| view::is_view(&d)) {
+        return view::load_view(path, text, &load_scene);
+    }
+    json::load_json_scene_text_with(path, text, gltf)
 }

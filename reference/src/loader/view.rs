@@ -42,8 +42,13 @@ pub fn is_view(doc: &serde_json::Value) -> bool {
     doc.get("scene").is_some() && doc.get("objects").is_none()
 }
 
-/// Loads the view file at `path` (its text `text`).
-pub fn load_view(path: &Path, text: &str) -> Result<Scene, SceneError> {
+/// Loads the view file at `path` (its text `text`), the scene it names
+/// read by `load` (the loader's `load_scene`).
+pub fn load_view(
+    path: &Path,
+    text: &str,
+    load: &dyn Fn(&str) -> Result<Scene, SceneError>,
+) -> Result<Scene, SceneError> {
     let de = &mut serde_json::Deserializer::from_str(text);
     let view: ViewJson = serde_path_to_error::deserialize(de).map_err(|e| {
         let inner = e.inner();
@@ -90,7 +95,7 @@ pub fn load_view(path: &Path, text: &str) -> Result<Scene, SceneError> {
     if let Some(c) = &view.camera {
         c.check().map_err(|e| e.in_file(path))?;
     }
-    let scene = super::load_scene(&spec)?;
+    let scene = load(&spec)?;
     let sampler = view
         .render
         .sampler_or(scene.render_settings().sampler)
