@@ -65,14 +65,14 @@ use super::outputs;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use glam::{Mat3, Vec3};
-use materials::{triple, Surface};
+use materials::{triple, write_map, Surface};
 use reference::background::{Background, EnvRows};
 use reference::camera::Projection;
 use reference::filter::PixelFilter;
 use reference::Scene;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use twintrace::image_io::{self, RenderImage, RenderMetadata};
+use twintrace::image_io;
 
 mod materials;
 
@@ -817,26 +817,6 @@ fn write_ply(path: &Path, mesh: &Mesh) -> Result<()> {
         w.flush()?;
         Ok(())
     })
-}
-
-/// An EXR of `mean` alone (`width` x `height`, rows from the top) for
-/// Mitsuba's `envmap` or `bitmap` to read, signed by export-mitsuba.
-fn write_map(path: &Path, width: u32, height: u32, mean: Vec<Vec3>) -> Result<()> {
-    let image = RenderImage {
-        width,
-        height,
-        mean,
-        variance: None,
-        skewness: None,
-        metadata: RenderMetadata {
-            software: Some(format!(
-                "twintrace {} export-mitsuba",
-                env!("CARGO_PKG_VERSION")
-            )),
-            ..RenderMetadata::default()
-        },
-    };
-    image_io::write_exr(path, &image)
 }
 
 /// The sky as a lat-long map in Mitsuba's convention: row `j` holds the

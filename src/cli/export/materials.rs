@@ -13,6 +13,7 @@ use reference::material::{AlphaMode, Material};
 use reference::texture::{Sampler, Texture, Wrap};
 use reference::Scene;
 use std::path::Path;
+use twintrace::image_io::{self, RenderImage, RenderMetadata};
 
 /// How a shape's Mitsuba uv becomes the reference's: `uv_ref = (m0·u +
 /// m1·v + m2, m3·u + m4·v + m5)`.
@@ -677,6 +678,26 @@ fn image(id: u32, sampler: &Sampler, what: &str) -> Result<Tex> {
     })
 }
 
+/// An EXR of `mean` alone (`width` x `height`, rows from the top) for
+/// Mitsuba's `envmap` or `bitmap` to read, signed by export-mitsuba.
+pub(super) fn write_map(path: &Path, width: u32, height: u32, mean: Vec<Vec3>) -> Result<()> {
+    let image = RenderImage {
+        width,
+        height,
+        mean,
+        variance: None,
+        skewness: None,
+        metadata: RenderMetadata {
+            software: Some(format!(
+                "twintrace {} export-mitsuba",
+                env!("CARGO_PKG_VERSION")
+            )),
+            ..RenderMetadata::default()
+        },
+    };
+    image_io::write_exr(path, &image)
+}
+
 /// Writes texture `id` (an image) as [`texture_file`] in `dir`: its
 /// linear texels times its factor, rows from the top, as f32.
 pub(super) fn write_texture(scene: &Scene, id: u32, dir: &Path) -> Result<()> {
@@ -684,7 +705,7 @@ pub(super) fn write_texture(scene: &Scene, id: u32, dir: &Path) -> Result<()> {
         bail!("texture {id} is not an image");
     };
     let data = &scene.images()[*image as usize];
-    super::write_map(
+    write_map(
         &dir.join(texture_file(id)),
         data.width,
         data.height,
