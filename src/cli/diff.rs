@@ -24,7 +24,8 @@
 //! or the report would overwrite one of the images; each refusal is one
 //! `error:` line naming the file and the argument.
 
-use super::{one_line, outputs};
+use super::common::one_line;
+use super::outputs;
 use anyhow::{anyhow, bail, Result};
 use clap::{Args, ValueEnum};
 use std::io::Write as _;
@@ -141,7 +142,7 @@ fn load_side(
         } else {
             "spp"
         };
-        return Err(super::Refused(format!(
+        return Err(super::common::Refused(format!(
             "--runs-{side} gives {side}'s variance and count from the runs' spread: --{arg}-{side} does not go with it"
         ))
         .into());
@@ -155,7 +156,7 @@ fn load_side(
         .collect::<Result<Vec<_>>>()?;
     let labels: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
     NoisyImage::from_runs(&images, &labels)
-        .map_err(|e| super::Refused(format!("--runs-{side}: {e}")).into())
+        .map_err(|e| super::common::Refused(format!("--runs-{side}: {e}")).into())
 }
 
 fn load(
@@ -184,7 +185,7 @@ fn load(
         image.spp = spp;
     }
     if image.spp == Some(0) {
-        return Err(super::Refused(format!(
+        return Err(super::common::Refused(format!(
             "`{}`: a render of 0 samples a pixel cannot be judged{}",
             path.display(),
             if spp.is_some() {
@@ -261,7 +262,7 @@ pub fn execute(args: &DiffArgs) -> Result<DiffOutcome> {
             Some(Method::Welch)
         }
         DiffMethod::Reference | DiffMethod::Exact if runs => {
-            return Err(super::Refused(
+            return Err(super::common::Refused(
                 "--runs-a/--runs-b take Welch's test (--method auto or welch): a side of runs counts runs, not samples".to_string(),
             )
             .into())
@@ -272,7 +273,7 @@ pub fn execute(args: &DiffArgs) -> Result<DiffOutcome> {
                     Side::A => (&args.b, "b", &b),
                     Side::B => (&args.a, "a", &a),
                 };
-                return Err(super::Refused(needs(path, name, img)).into());
+                return Err(super::common::Refused(needs(path, name, img)).into());
             }
             // One variance predicting both images' noise: only for one
             // estimator (another samples otherwise).
@@ -283,7 +284,7 @@ pub fn execute(args: &DiffArgs) -> Result<DiffOutcome> {
                     Side::A => (&args.b, "b"),
                     Side::B => (&args.a, "a"),
                 };
-                return Err(super::Refused(format!(
+                return Err(super::common::Refused(format!(
                     "`{}` has no variance layer and comes from another estimator ({} and {}), whose noise the other image's variance does not predict; give its variance (--variance-{name} FILE)",
                     path.display(),
                     a.renderer.as_deref().unwrap_or("?"),
@@ -293,7 +294,7 @@ pub fn execute(args: &DiffArgs) -> Result<DiffOutcome> {
             }
             Some(m) => Some(m),
             None => {
-                return Err(super::Refused(format!(
+                return Err(super::common::Refused(format!(
                     "cannot test `{}` against `{}`: neither has a variance layer (give --variance-a or --variance-b FILE)",
                     args.a.display(),
                     args.b.display()
@@ -307,7 +308,7 @@ pub fn execute(args: &DiffArgs) -> Result<DiffOutcome> {
             (true, false) => Some(Method::KnownVariance(Side::A)),
             (false, true) => Some(Method::KnownVariance(Side::B)),
             _ => {
-                return Err(super::Refused(format!(
+                return Err(super::common::Refused(format!(
                     "--method exact takes the image without a variance layer as exact, but {}",
                     if a.variance.is_some() {
                         format!("both `{}` and `{}` have one", args.a.display(), args.b.display())

@@ -123,7 +123,7 @@ pub fn run(args: &ExportArgs) -> Result<()> {
             ],
         )?;
     }
-    let scene = super::load_scene(&args.scene)?;
+    let scene = super::common::load_scene(&args.scene)?;
     let (mut width, mut height) = (
         scene.render_settings().width,
         scene.render_settings().height,

@@ -4,7 +4,7 @@
 //! sums', or REFUSED with the plugin the reader does not implement
 //! ([`twintrace::mitsuba_tests`]).
 
-use super::{choose_device, Backend};
+use super::common::{choose_device, Backend};
 use anyhow::{bail, Result};
 use clap::Args;
 use std::path::PathBuf;
@@ -59,7 +59,7 @@ pub fn run(args: &MitsubaTestsArgs) -> Result<()> {
                     println!(
                         "{:<52} {twin} REFUSED {}",
                         case.name,
-                        super::one_line(&line)
+                        super::common::one_line(&line)
                     )
                 }
                 Ok(Outcome::Judged { verdict, spp }) => {
@@ -91,7 +91,7 @@ pub fn run(args: &MitsubaTestsArgs) -> Result<()> {
                     println!(
                         "{:<52} {twin} ERROR {}",
                         case.name,
-                        super::one_line(&format!("{e:#}"))
+                        super::common::one_line(&format!("{e:#}"))
                     );
                 }
             }

@@ -14,7 +14,7 @@
 //! the same device and inode (a hard link, a case-insensitive file
 //! system).
 
-use super::Refused;
+use super::common::Refused;
 use std::path::{Component, Path, PathBuf};
 
 /// A file a command reads or writes, and how a refusal names it.

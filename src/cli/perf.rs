@@ -13,7 +13,8 @@
 //!   rule's false alarms on runs of one build and its detections of the
 //!   injected slowdown (how its K was chosen).
 
-use super::{outputs, print_stdout};
+use super::common::print_stdout;
+use super::outputs;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
 use gpu::Variant;
@@ -95,7 +96,7 @@ pub struct RunArgs {
     /// render's default), since the baseline's rows and the relMSE a
     /// row's own variance predicts take the samples as independent; rows
     /// rendered with sobol are named VARIANT-sobol.
-    #[arg(long, value_parser = super::sampler_parser())]
+    #[arg(long, value_parser = super::common::sampler_parser())]
     pub sampler: Option<reference::rng::Sampler>,
     /// Timed repetitions of every measurement (medians and spreads come from them).
     #[arg(long, default_value_t = 5, allow_hyphen_values = true, value_parser = twintrace::partial::parse_count)]
@@ -272,7 +273,7 @@ pub fn read_run(path: &Path) -> Result<PerfRun> {
 fn judge(new: &PerfRun, new_name: &str, base: &[PerfRun], base_path: &Path) -> Result<()> {
     let cmp = regress::compare(new, base)?;
     if let Some(why) = cmp.refusal() {
-        return Err(super::Refused(format!(
+        return Err(super::common::Refused(format!(
             "perf: cannot judge `{new_name}` against `{}`: {why}",
             base_path.display()
         ))
@@ -387,7 +388,7 @@ fn run_suite(a: &RunArgs) -> Result<()> {
     let ctx = if want_gpu {
         match gpu::GpuContext::new() {
             Ok(ctx) => {
-                super::print_warnings(&ctx);
+                super::common::print_warnings(&ctx);
                 Some(ctx)
             }
             Err(e) if a.backend == PerfBackend::All => {

@@ -4,7 +4,8 @@
 //! `--calibrate N` measures the stored-reference gate's false alarms and
 //! power over N seeds per fixture instead.
 
-use super::{choose_device, spec::axis, Backend, Device};
+use super::common::{choose_device, Backend, Device};
+use super::spec::axis;
 use anyhow::{bail, Result};
 use clap::Args;
 use reference::integrator::Integrator;

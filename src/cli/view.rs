@@ -1,7 +1,8 @@
 //! `twintrace view`: the interactive viewer ([`twintrace::view`]), in a
 //! window or headless.
 
-use super::{choose_device, load_scene, size_arg, spec, Backend, Device, Refused};
+use super::common::{choose_device, load_scene, size_arg, Backend, Device, Refused};
+use super::spec;
 use anyhow::{anyhow, bail, Context as _, Result};
 use clap::Args;
 use reference::camera::CameraSettings;
@@ -27,7 +28,7 @@ pub struct ViewArgs {
     pub seed: Option<u32>,
     /// Where the paths' random numbers come from (default: the scene's):
     /// as `render --sampler`.
-    #[arg(long, value_parser = super::sampler_parser())]
+    #[arg(long, value_parser = super::common::sampler_parser())]
     pub sampler: Option<reference::rng::Sampler>,
     /// Where the frames run. A window needs a GPU (`auto` and `gpu` take
     /// the adapter that can draw to it); `--headless` runs on any
