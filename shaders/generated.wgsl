@@ -21,6 +21,8 @@ const CLEARCOAT_ALPHA_ROUGH: f32 = 1e-1;
 const CLEARCOAT_ALPHA_GLOSSY: f32 = 1e-3;
 const CLEARCOAT_F0: f32 = 4e-2;
 const SUBSURFACE_SCALE: f32 = 1.25e0;
+const THIN_ROUGHNESS_SLOPE: f32 = 6.5e-1;
+const THIN_ROUGHNESS_OFFSET: f32 = 3.5e-1;
 const DISTRIBUTION_GGX: u32 = 0u;
 const DISTRIBUTION_BECKMANN: u32 = 1u;
 const MICROFACET_MIN_ALPHA: f32 = 1e-4;
@@ -185,6 +187,7 @@ const FEATURE_PROFILED_LIGHTS: vec2<u32> = vec2<u32>(536870912u, 0u);
 const FEATURE_TANGENT_FRAME: vec2<u32> = vec2<u32>(1073741824u, 0u);
 const FEATURE_BLEND: vec2<u32> = vec2<u32>(2147483648u, 0u);
 const FEATURE_PRINCIPLED: vec2<u32> = vec2<u32>(0u, 1u);
+const FEATURE_PRINCIPLED_THIN: vec2<u32> = vec2<u32>(0u, 2u);
 const INTEGRATOR_BSDF: u32 = 0u;
 const INTEGRATOR_MIS: u32 = 1u;
 const SMALL_CONE_SIN2: f32 = 6.8523e-4;
@@ -318,6 +321,7 @@ struct GpuMaterial {
     pr_sheen_tint: u32,
     pr_flatness: u32,
     pr_spec_tint: u32,
+    pr_diff_trans: u32,
 }
 struct GpuTexture {
     tag: u32,

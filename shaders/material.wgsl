@@ -129,7 +129,7 @@ struct MaterialTextures {
     blend: f32,
     // The principled BSDF's one-channel parameters, in PRINCIPLED_SLOT
     // order (0 where not given or another model).
-    pr: array<f32, 10>,
+    pr: array<f32, 11>,
 }
 
 // The texture slots material_textures reads, in its loop's order (the
@@ -146,8 +146,8 @@ const SLOT_EMISSION: u32 = 8u;
 const SLOTS: u32 = 9u;
 // The principled BSDF's slots follow (its base colour reads SLOT_BASE):
 // roughness, anisotropic, spec_trans, metallic, clearcoat,
-// clearcoat_gloss, sheen, sheen_tint, flatness, spec_tint.
-const PRINCIPLED_SLOTS: u32 = 10u;
+// clearcoat_gloss, sheen, sheen_tint, flatness, spec_tint, diff_trans.
+const PRINCIPLED_SLOTS: u32 = 11u;
 
 // The texture of the principled parameter in slot `k` (of PRINCIPLED_SLOTS).
 fn principled_texture(m: GpuMaterial, k: u32) -> u32 {
@@ -161,12 +161,13 @@ fn principled_texture(m: GpuMaterial, k: u32) -> u32 {
         case 6u: { return m.pr_sheen; }
         case 7u: { return m.pr_sheen_tint; }
         case 8u: { return m.pr_flatness; }
-        default: { return m.pr_spec_tint; }
+        case 9u: { return m.pr_spec_tint; }
+        default: { return m.pr_diff_trans; }
     }
 }
 
 fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures {
-    var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), 1.0, vec3<f32>(0.0), 0.0, array<f32, 10>());
+    var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), 1.0, vec3<f32>(0.0), 0.0, array<f32, 11>());
     // Which texture each slot reads at this vertex (NO_TEXTURE: none).
     var opacity = NO_TEXTURE;
     if m.opacity != NO_TEXTURE {
@@ -248,7 +249,7 @@ fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures
     var v_blend = vec3<f32>(0.0);
     var v_emission = vec3<f32>(0.0);
     var slots = SLOTS;
-    if m.tag == MATERIAL_PRINCIPLED && uses(FEATURE_PRINCIPLED) {
+    if m.tag == MATERIAL_PRINCIPLED && (uses(FEATURE_PRINCIPLED) || uses(FEATURE_PRINCIPLED_THIN)) {
         slots = SLOTS + PRINCIPLED_SLOTS;
     }
     for (var k = 0u; k < slots; k++) {
@@ -338,7 +339,7 @@ fn material_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures
 
 // What emitted reads at a light's sampled point (no BSDF parameters).
 fn light_textures(m: GpuMaterial, si: SurfaceInteraction) -> MaterialTextures {
-    var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), 1.0, vec3<f32>(0.0), 0.0, array<f32, 10>());
+    var t = MaterialTextures(vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), 1.0, vec3<f32>(0.0), 0.0, array<f32, 11>());
     if m.emission != NO_TEXTURE {
         t.emission = evaluate_texture(m.emission, si.p, si.uv, si.uv1, si.color);
     }
@@ -443,7 +444,7 @@ fn bsdf_eval(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: Mat
             return rough_plastic_eval(m, tx, onb_to_local(frame, -ray_dir), onb_to_local(frame, wi));
         }
         case MATERIAL_PRINCIPLED: {
-            if !uses(FEATURE_PRINCIPLED) { poison(); break; }
+            if !uses(FEATURE_PRINCIPLED) && !uses(FEATURE_PRINCIPLED_THIN) { poison(); break; }
             let at = principled_at(m, tx, si);
             let view = onb_to_local(at.frame, -ray_dir);
             let light = onb_to_local(at.frame, wi);
@@ -834,12 +835,12 @@ fn principled_at(m: GpuMaterial, tx: MaterialTextures, si: SurfaceInteraction) -
         }
         frame = Onb(si.tangent, cross(n, si.tangent), n);
     }
-    let p = Principled(tx.base, tx.pr[0], tx.pr[1], tx.pr[2], m.pr_spec_trans != NO_TEXTURE, tx.pr[3], tx.pr[4], tx.pr[5], tx.pr[6], tx.pr[7], tx.pr[8], tx.pr[9], m.p0);
+    let p = Principled(tx.base, tx.pr[0], tx.pr[1], tx.pr[2], m.pr_spec_trans != NO_TEXTURE, tx.pr[3], tx.pr[4], tx.pr[5], tx.pr[6], tx.pr[7], tx.pr[8], tx.pr[9], m.p0, m.p1 != 0.0, tx.pr[10]);
     return PrincipledAt(p, frame);
 }
 
 fn scatter_principled(m: GpuMaterial, ray_dir: vec3<f32>, si: SurfaceInteraction, tx: MaterialTextures, u: VertexRandoms) -> Scatter {
-    if !uses(FEATURE_PRINCIPLED) { poison(); return absorbed(); }
+    if !uses(FEATURE_PRINCIPLED) && !uses(FEATURE_PRINCIPLED_THIN) { poison(); return absorbed(); }
     let at = principled_at(m, tx, si);
     let wi = onb_to_local(at.frame, -ray_dir);
     let drawn = principled_sample(at.p, wi, vr_get(u, DIM_LOBE), vec2<f32>(vr_get(u, DIM_DIRECTION_U), vr_get(u, DIM_DIRECTION_V)));

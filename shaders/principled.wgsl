@@ -1,7 +1,9 @@
 // Mitsuba 3's `principled` BSDF: the twin of reference/src/principled.rs
 // (which says what each lobe is). Directions are local to the shading
 // frame (outward normal), both pointing away: `wi` toward the viewer,
-// `wo` toward the light.
+// `wo` toward the light. The thin sheet (`principledthin`, `thin`) has its
+// own functions, thin_*, each the twin of Principled's thin_* method; a
+// scene without it (or without the full model) compiles the other out.
 
 struct Principled {
     base_color: vec3<f32>,
@@ -17,6 +19,8 @@ struct Principled {
     flatness: f32,
     spec_tint: f32,
     eta: f32,
+    thin: bool,
+    diff_trans: f32,
 }
 
 // `m` with the sign of `s` (its sign bit: -0 negates).
@@ -155,10 +159,14 @@ fn facet_agrees(m_in: vec3<f32>, wi: vec3<f32>, wo: vec3<f32>, cos_i: f32, refle
     return dot(wi, m) > 0.0 && dot(wo, -m) > 0.0;
 }
 
-fn principled_specular(p: Principled) -> Microfacet {
-    let r2 = p.roughness * p.roughness;
-    let aspect = sqrt(1.0 - PRINCIPLED_ANISOTROPY * p.anisotropic);
+fn ggx_of(roughness: f32, anisotropic: f32) -> Microfacet {
+    let r2 = roughness * roughness;
+    let aspect = sqrt(1.0 - PRINCIPLED_ANISOTROPY * anisotropic);
     return microfacet_new(DISTRIBUTION_GGX, max(r2 / aspect, PRINCIPLED_MIN_ALPHA), max(r2 * aspect, PRINCIPLED_MIN_ALPHA));
+}
+
+fn principled_specular(p: Principled) -> Microfacet {
+    return ggx_of(p.roughness, p.anisotropic);
 }
 
 fn principled_clear_coat(p: Principled) -> f32 {
@@ -210,7 +218,26 @@ fn principled_reflection_fresnel(p: Principled, f: f32, cos_i: f32, front: bool)
     return vec3<f32>((1.0 - p.metallic) * (1.0 - p.spec_tint) * f) + schlick;
 }
 
+// Principled::diffuse: the diffuse lobe's shape (Burley's with its
+// retro-reflection, toward the subsurface approximation by flatness).
+fn principled_diffuse(p: Principled, cos_i: f32, cos_o: f32, cos_d: f32) -> f32 {
+    let fo = schlick_weight(abs(cos_o));
+    let fi = schlick_weight(abs(cos_i));
+    let f_diff = (1.0 - 0.5 * fi) * (1.0 - 0.5 * fo);
+    let rr = 2.0 * p.roughness * cos_d * cos_d;
+    let f_retro = rr * (fo + fi + fo * fi * (rr - 1.0));
+    let fss90 = rr / 2.0;
+    let fss = lerp(1.0, fss90, fo) * lerp(1.0, fss90, fi);
+    let f_ss = SUBSURFACE_SCALE * (fss * (1.0 / (abs(cos_o) + abs(cos_i)) - 0.5) + 0.5);
+    return lerp(f_diff + f_retro, f_ss, p.flatness);
+}
+
 fn principled_eval(p: Principled, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
+    if p.thin {
+        if !uses(FEATURE_PRINCIPLED_THIN) { poison(); return vec3<f32>(0.0); }
+        return thin_eval(p, wi, wo);
+    }
+    if !uses(FEATURE_PRINCIPLED) { poison(); return vec3<f32>(0.0); }
     let cos_i = wi.z;
     if cos_i == 0.0 {
         return vec3<f32>(0.0);
@@ -250,16 +277,8 @@ fn principled_eval(p: Principled, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
         value += vec3<f32>(p.clearcoat * CLEARCOAT_SCALE * fcc * dcc * gcc * abs(cos_o));
     }
     if w.x > 0.0 && reflects_side && front {
-        let fo = schlick_weight(abs(cos_o));
-        let fi = schlick_weight(abs(cos_i));
-        let f_diff = (1.0 - 0.5 * fi) * (1.0 - 0.5 * fo);
         let cos_d = dot(wh, wo);
-        let rr = 2.0 * p.roughness * cos_d * cos_d;
-        let f_retro = rr * (fo + fi + fo * fi * (rr - 1.0));
-        let fss90 = rr / 2.0;
-        let fss = lerp(1.0, fss90, fo) * lerp(1.0, fss90, fi);
-        let f_ss = SUBSURFACE_SCALE * (fss * (1.0 / (abs(cos_o) + abs(cos_i)) - 0.5) + 0.5);
-        value += p.base_color * (w.x * abs(cos_o) * FRAC_1_PI * lerp(f_diff + f_retro, f_ss, p.flatness));
+        value += p.base_color * (w.x * abs(cos_o) * FRAC_1_PI * principled_diffuse(p, cos_i, cos_o, cos_d));
         if p.sheen > 0.0 && 1.0 - p.metallic > 0.0 {
             let fd = schlick_weight(abs(cos_d));
             let tint = tint_of(p.base_color, dot(p.base_color, MITSUBA_LUMINANCE));
@@ -271,6 +290,11 @@ fn principled_eval(p: Principled, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
 }
 
 fn principled_pdf(p: Principled, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
+    if p.thin {
+        if !uses(FEATURE_PRINCIPLED_THIN) { poison(); return 0.0; }
+        return thin_pdf(p, wi, wo);
+    }
+    if !uses(FEATURE_PRINCIPLED) { poison(); return 0.0; }
     let cos_i = wi.z;
     if cos_i == 0.0 {
         return 0.0;
@@ -312,6 +336,11 @@ fn principled_pdf(p: Principled, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
 
 // A direction toward the light (xyz) and whether the draw succeeded (w).
 fn principled_sample(p: Principled, wi: vec3<f32>, u_lobe: f32, u: vec2<f32>) -> vec4<f32> {
+    if p.thin {
+        if !uses(FEATURE_PRINCIPLED_THIN) { poison(); return vec4<f32>(0.0); }
+        return thin_sample(p, wi, u_lobe, u);
+    }
+    if !uses(FEATURE_PRINCIPLED) { poison(); return vec4<f32>(0.0); }
     let cos_i = wi.z;
     if cos_i == 0.0 {
         return vec4<f32>(0.0);
@@ -341,4 +370,146 @@ fn principled_sample(p: Principled, wi: vec3<f32>, u_lobe: f32, u: vec2<f32>) ->
         ok = facet_agrees(m, wi, wo, cos_i, true) && cos_i * wo.z > 0.0;
     }
     return vec4<f32>(wo, select(0.0, 1.0, ok));
+}
+
+// The thin sheet's transmission distribution (roughness scaled by the index).
+fn thin_transmission(p: Principled) -> Microfacet {
+    return ggx_of((THIN_ROUGHNESS_SLOPE * p.eta - THIN_ROUGHNESS_OFFSET) * p.roughness, p.anisotropic);
+}
+
+// The probabilities of the specular reflection (x), the specular
+// transmission (y), the diffuse reflection (z), the diffuse transmission (w).
+fn thin_probabilities(p: Principled) -> vec4<f32> {
+    let st = p.spec_trans;
+    let dt = p.diff_trans / 2.0;
+    let spec = select(0.0, st / 2.0, p.has_spec_trans);
+    let diffuse = (1.0 - st) * (1.0 - dt);
+    let diffuse_trans = (1.0 - st) * dt;
+    let rcp = 1.0 / (spec + spec + diffuse + diffuse_trans);
+    return vec4<f32>(spec * rcp, spec * rcp, diffuse * rcp, diffuse_trans * rcp);
+}
+
+// The viewer and the light as seen from the sheet's front (the viewer's
+// side), and their half vector, the light reflected to the front.
+struct ThinFrame {
+    wi: vec3<f32>,
+    wo: vec3<f32>,
+    wh: vec3<f32>,
+}
+
+fn thin_frame(wi_in: vec3<f32>, wo_in: vec3<f32>) -> ThinFrame {
+    let wi = mulsign(wi_in, wi_in.z);
+    let wo = mulsign(wo_in, wi_in.z);
+    return ThinFrame(wi, wo, normalize(wi + vec3<f32>(wo.xy, abs(wo.z))));
+}
+
+fn thin_eval(p: Principled, wi_in: vec3<f32>, wo_in: vec3<f32>) -> vec3<f32> {
+    if wi_in.z == 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let fr = thin_frame(wi_in, wo_in);
+    let wi = fr.wi;
+    let wo = fr.wo;
+    let wh = fr.wh;
+    let cos_i = wi.z;
+    let cos_o = wo.z;
+    let reflects_side = cos_o > 0.0;
+    let refracts_side = cos_o < 0.0;
+    let st = p.spec_trans;
+    let dt = p.diff_trans / 2.0;
+    var value = vec3<f32>(0.0);
+    if p.has_spec_trans {
+        let f = fresnel(dot(wi, wh), p.eta).r;
+        if st > 0.0 && reflects_side && facet_agrees(wh, wi, wo, cos_i, true) {
+            let spec = principled_specular(p);
+            let r = (p.eta - 1.0) / (p.eta + 1.0);
+            var schlick = vec3<f32>(0.0);
+            if p.spec_tint != 0.0 {
+                let tint = tint_of(p.base_color, dot(p.base_color, MITSUBA_LUMINANCE));
+                schlick = schlick3(tint * (r * r), dot(wi, wh), p.eta);
+            }
+            let f_thin = lerp3(vec3<f32>(f), schlick, p.spec_tint);
+            let d = microfacet_d(spec, wh);
+            let g = microfacet_g1(spec, wi, wh) * microfacet_g1(spec, wo, wh);
+            value += f_thin * (st * d * g / (4.0 * cos_i));
+        }
+        if st > 0.0 && refracts_side && facet_agrees(wh, wi, wo, cos_i, false) {
+            let spec = thin_transmission(p);
+            let d = microfacet_d(spec, wh);
+            let g = microfacet_g1(spec, wi, wh) * microfacet_g1(spec, wo, wh);
+            value += p.base_color * (st * (1.0 - f) * d * g / (4.0 * cos_i));
+        }
+    }
+    if reflects_side && st < 1.0 && dt < 1.0 {
+        let cos_d = dot(wh, wo);
+        value += p.base_color * ((1.0 - st) * cos_o * FRAC_1_PI * (1.0 - dt) * principled_diffuse(p, cos_i, cos_o, cos_d));
+        if p.sheen > 0.0 {
+            let fd = schlick_weight(abs(cos_d));
+            let tint = tint_of(p.base_color, dot(p.base_color, MITSUBA_LUMINANCE));
+            let c_sheen = lerp3(vec3<f32>(1.0), tint, p.sheen_tint);
+            value += c_sheen * (p.sheen * (1.0 - st) * fd * (1.0 - dt) * abs(cos_o));
+        }
+    }
+    if refracts_side && st < 1.0 && dt > 0.0 {
+        value += p.base_color * ((1.0 - st) * dt * FRAC_1_PI * abs(cos_o));
+    }
+    return value;
+}
+
+fn thin_pdf(p: Principled, wi_in: vec3<f32>, wo_in: vec3<f32>) -> f32 {
+    if wi_in.z == 0.0 {
+        return 0.0;
+    }
+    let prob = thin_probabilities(p);
+    let fr = thin_frame(wi_in, wo_in);
+    let wi = fr.wi;
+    let wo = fr.wo;
+    let wh = fr.wh;
+    let reflects_side = wo.z > 0.0;
+    let refracts_side = wo.z < 0.0;
+    var pdf = 0.0;
+    if p.has_spec_trans {
+        let dwh_dwo = abs(1.0 / (4.0 * dot(vec3<f32>(wo.xy, abs(wo.z)), wh)));
+        if facet_agrees(wh, wi, wo, wi.z, true) && reflects_side {
+            pdf += prob.x * microfacet_pdf_visible(principled_specular(p), wi, wh) * dwh_dwo;
+        }
+        if facet_agrees(wh, wi, wo, wi.z, false) && refracts_side {
+            pdf += prob.y * microfacet_pdf_visible(thin_transmission(p), wi, wh) * dwh_dwo;
+        }
+    }
+    if reflects_side {
+        pdf += prob.z * wo.z * FRAC_1_PI;
+    }
+    if refracts_side {
+        pdf += prob.w * -wo.z * FRAC_1_PI;
+    }
+    return pdf;
+}
+
+fn thin_sample(p: Principled, wi: vec3<f32>, u_lobe: f32, u: vec2<f32>) -> vec4<f32> {
+    let cos_i = wi.z;
+    if cos_i == 0.0 {
+        return vec4<f32>(0.0);
+    }
+    let prob = thin_probabilities(p);
+    let front = mulsign(wi, cos_i);
+    var wo = vec3<f32>(0.0);
+    var ok = true;
+    if p.has_spec_trans && u_lobe < prob.x {
+        let m = microfacet_sample_visible(principled_specular(p), front, u);
+        wo = reflect_about(-front, m);
+        ok = facet_agrees(m, front, wo, front.z, true) && wo.z > 0.0;
+    } else if p.has_spec_trans && u_lobe < prob.x + prob.y {
+        let m = microfacet_sample_visible(thin_transmission(p), front, u);
+        let r = reflect_about(-front, m);
+        wo = vec3<f32>(r.xy, -r.z);
+        ok = facet_agrees(m, front, wo, front.z, false) && wo.z < 0.0;
+    } else if u_lobe < prob.x + prob.y + prob.z {
+        wo = sample_cosine_hemisphere(u);
+    } else if p.diff_trans > 0.0 {
+        wo = -sample_cosine_hemisphere(u);
+    } else {
+        ok = false;
+    }
+    return vec4<f32>(mulsign(wo, cos_i), select(0.0, 1.0, ok));
 }

@@ -185,8 +185,8 @@ const MUTANTS: &[GpuMutant] = &[
     GpuMutant {
         scene: "principled",
         what: "the principled diffuse without its retro-reflection",
-        from: "lerp(f_diff + f_retro, f_ss, p.flatness)",
-        to: "lerp(f_diff, f_ss, p.flatness)",
+        from: "    return lerp(f_diff + f_retro, f_ss, p.flatness);",
+        to: "    return lerp(f_diff, f_ss, p.flatness);",
         cpu_twin: Some(Mutant::PrincipledRetroDropped),
     },
     GpuMutant {
@@ -195,6 +195,13 @@ const MUTANTS: &[GpuMutant] = &[
         from: "    var dwh_dwo = 1.0 / (4.0 * dot_o);",
         to: "    var dwh_dwo = 1.0;",
         cpu_twin: Some(Mutant::PrincipledReflectionJacobianDropped),
+    },
+    GpuMutant {
+        scene: "sheets",
+        what: "the thin sheet's transmission at the reflection's roughness",
+        from: "ggx_of((THIN_ROUGHNESS_SLOPE * p.eta - THIN_ROUGHNESS_OFFSET) * p.roughness, p.anisotropic)",
+        to: "ggx_of(p.roughness, p.anisotropic)",
+        cpu_twin: Some(Mutant::PrincipledThinRoughnessUnscaled),
     },
     GpuMutant {
         scene: "blends",

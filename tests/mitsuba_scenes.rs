@@ -196,6 +196,16 @@ fn principled_bsdfs_without_their_reflections_jacobian_fail_the_principled_gate(
 }
 
 #[test]
+fn thin_principled_sheets_whose_transmission_is_not_scaled_fail_the_sheets_gate() {
+    mutant_fails("sheets", Mutant::PrincipledThinRoughnessUnscaled);
+}
+
+#[test]
+fn null_bsdfs_read_as_opaque_fail_the_sheets_gate() {
+    mutant_fails("sheets", Mutant::NullOpaque);
+}
+
+#[test]
 fn blends_whose_weights_are_swapped_fail_the_blends_gate() {
     mutant_fails("blends", Mutant::BlendWeightSwapped);
 }

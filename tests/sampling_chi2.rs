@@ -662,8 +662,80 @@ pub(crate) fn principled(
             ..Default::default()
         },
         eta,
+        thin: false,
     };
     (material, textures)
+}
+
+type ThinCase = (f32, [Option<f32>; 4], f32, f64, bool);
+
+/// The thin principled sheets of the chi-square test: roughness, the
+/// lobes (anisotropic, spec_trans, diff_trans, sheen) given or not, the
+/// index, the viewer's angle from the normal and whether it is in front:
+/// a glossy sheet that transmits both ways, an anisotropic one seen from
+/// behind, a diffuse one, and one of every lobe at a grazing angle.
+const PRINCIPLED_THIN_CASES: [ThinCase; 4] = [
+    (0.5, [None, Some(0.6), Some(1.2), None], 1.5, 35.0, true),
+    (
+        0.3,
+        [Some(0.5), Some(0.8), None, Some(0.5)],
+        1.33,
+        60.0,
+        false,
+    ),
+    (0.7, [None, None, Some(0.8), Some(0.3)], 1.5, 20.0, false),
+    (
+        0.2,
+        [Some(0.3), Some(0.4), Some(1.6), Some(0.4)],
+        2.0,
+        70.0,
+        true,
+    ),
+];
+
+#[test]
+fn thin_principled_samples_its_density() {
+    // Its four lobes (specular reflection and transmission, diffuse
+    // reflection and transmission) against bsdf_eval's density.
+    use reference::material::bsdf_eval;
+    let mut runs = Vec::new();
+    for (k, &(roughness, [anisotropic, spec_trans, diff_trans, sheen], eta, theta, front)) in
+        PRINCIPLED_THIN_CASES.iter().enumerate()
+    {
+        let (mut material, mut textures) =
+            principled(roughness, [anisotropic, spec_trans, None, None, sheen], eta);
+        if let Material::Principled { thin, lobes, .. } = &mut material {
+            *thin = true;
+            lobes.diff_trans = diff_trans.map(|v| {
+                textures.push(Texture::Constant(Vec3::splat(v)));
+                textures.len() as u32 - 1
+            });
+        }
+        let ctx = TextureContext {
+            textures: &textures,
+            images: &[],
+        };
+        let (si, wo) = viewer(theta, front);
+        let seed = 590 + k as u32;
+        let o = test_density(
+            &SPHERE,
+            samples(|i| {
+                scatter(&material, ctx, -wo, &si, &u(seed, i)).map(|s| {
+                    assert!(s.density);
+                    s.direction.as_dvec3()
+                })
+            }),
+            &|wi| bsdf_eval(&material, ctx, -wo, &si, wi.as_vec3()).unwrap().1 as f64,
+        );
+        runs.push((
+            format!(
+                "roughness {roughness}, lobes {:?}, η {eta}, θo {theta}°, in front {front}",
+                [anisotropic, spec_trans, diff_trans, sheen]
+            ),
+            o,
+        ));
+    }
+    assert_family_passes("thin principled", &runs);
 }
 
 pub(crate) type PrincipledCase = (f32, [Option<f32>; 5], f32, f64, bool);

@@ -753,6 +753,30 @@ fn principled_materials_that_cannot_be_are_named() {
             r#""a": { "type": "principled", "shine": 1 }"#,
             &["materials", "shine"],
         ),
+        (
+            r#""a": { "type": "principled", "diff_trans": 1 }"#,
+            &[
+                "materials.a",
+                "diff_trans",
+                "a principled material has no diff_trans",
+            ],
+        ),
+        (
+            r#""a": { "type": "principled_thin", "clearcoat": 0.5 }"#,
+            &[
+                "materials.a",
+                "clearcoat",
+                "a principled_thin material has no clearcoat",
+            ],
+        ),
+        (
+            r#""a": { "type": "principled_thin", "specular": 0.5 }"#,
+            &["materials.a", "specular"],
+        ),
+        (
+            r#""a": { "type": "principled_thin", "eta": -1 }"#,
+            &["materials.a", "eta"],
+        ),
     ] {
         check(&wrapped_scene(material), says);
     }
@@ -774,6 +798,24 @@ fn principled_materials_that_cannot_be_are_named() {
     assert!(lobes.clearcoat_gloss.is_some());
     assert_eq!(lobes.spec_trans, None);
     assert_eq!(eta, 1.33);
+    // A thin sheet: its diffuse transmission, its index 1.5 by default.
+    let p = write_scene(
+        dir.path(),
+        "t.json",
+        &wrapped_scene(
+            r#""a": { "type": "principled_thin", "base_color": [0.2, 0.4, 0.6], "diff_trans": 0.8, "sheen": 0 }"#,
+        ),
+    );
+    let scene = reference::load_scene(p.to_str().unwrap()).unwrap();
+    let m = scene.spheres()[0].material as usize;
+    let reference::material::Material::Principled {
+        lobes, eta, thin, ..
+    } = scene.materials()[m]
+    else {
+        panic!("{:?}", scene.materials()[m]);
+    };
+    assert!(thin && lobes.diff_trans.is_some() && lobes.sheen.is_none());
+    assert_eq!(eta, 1.5);
 }
 
 #[test]

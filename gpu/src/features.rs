@@ -87,6 +87,7 @@ feature_bits! {
     TANGENT_FRAME = 30,
     BLEND = 31,
     PRINCIPLED = 32,
+    PRINCIPLED_THIN = 33,
 }
 
 impl Kernel {
@@ -152,8 +153,13 @@ impl Features {
                 Material::RoughPlastic { distribution, .. } => {
                     feature::ROUGH_PLASTIC | beckmann(*distribution)
                 }
-                Material::Principled { lobes, .. } => {
-                    feature::PRINCIPLED | anisotropic(lobes.anisotropic)
+                Material::Principled { lobes, thin, .. } => {
+                    let model = if *thin {
+                        feature::PRINCIPLED_THIN
+                    } else {
+                        feature::PRINCIPLED
+                    };
+                    model | anisotropic(lobes.anisotropic)
                 }
                 Material::Ggx {
                     normal_map,

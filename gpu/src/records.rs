@@ -122,7 +122,8 @@ gpu_record! {
     /// (`reference::material::Blend`): `blend_second` = the second BSDF's
     /// material or `NO_TEXTURE` (no blend), `blend_weight` = the weight's
     /// texture. PRINCIPLED (`reference::material::Material::Principled`):
-    /// `texture` = the base colour, `p0` = eta, `pr_*` its one-channel
+    /// `texture` = the base colour, `p0` = eta, `p1` = 1 for the thin
+    /// sheet (`principledthin`), else 0, `pr_*` its one-channel
     /// parameters' textures or `NO_TEXTURE` (not given: 0).
     GpuMaterial {
         tag: u32, texture: u32, p0: f32, p1: f32,
@@ -134,7 +135,7 @@ gpu_record! {
         blend_weight: u32, blend_second: u32,
         pr_roughness: u32, pr_anisotropic: u32, pr_spec_trans: u32, pr_metallic: u32,
         pr_clearcoat: u32, pr_clearcoat_gloss: u32, pr_sheen: u32, pr_sheen_tint: u32,
-        pr_flatness: u32, pr_spec_tint: u32,
+        pr_flatness: u32, pr_spec_tint: u32, pr_diff_trans: u32,
     }
 }
 
@@ -421,7 +422,7 @@ mod tests {
         assert_eq!(std::mem::size_of::<GpuVertex>(), 32);
         assert_eq!(std::mem::size_of::<GpuPrimitive>(), 32);
         assert_eq!(std::mem::size_of::<GpuVertexExtra>(), 48);
-        assert_eq!(std::mem::size_of::<GpuMaterial>(), 144);
+        assert_eq!(std::mem::size_of::<GpuMaterial>(), 148);
         assert_eq!(std::mem::size_of::<GpuTexture>(), 64);
         assert_eq!(std::mem::size_of::<GpuEmitter>(), 8);
         assert_eq!(std::mem::size_of::<GpuLightDensity>(), 8);

@@ -113,6 +113,7 @@ pub fn pack_material(m: &Material, alpha: Option<Alpha>, emission: Option<u32>) 
         pr_sheen_tint: principled(record.pr_sheen_tint),
         pr_flatness: principled(record.pr_flatness),
         pr_spec_tint: principled(record.pr_spec_tint),
+        pr_diff_trans: principled(record.pr_diff_trans),
         alpha_v: match m {
             Material::RoughConductor { .. } | Material::RoughDielectric { .. } => record.alpha_v,
             _ => NO_TEXTURE,
@@ -285,13 +286,15 @@ fn pack_bsdf(m: &Material) -> GpuMaterial {
             roughness,
             lobes,
             eta,
+            thin,
         } => {
-            let [anisotropic, spec_trans, metallic, clearcoat, clearcoat_gloss, sheen, sheen_tint, flatness, spec_tint] =
+            let [anisotropic, spec_trans, metallic, clearcoat, clearcoat_gloss, sheen, sheen_tint, flatness, spec_tint, diff_trans] =
                 lobes.textures().map(|t| t.unwrap_or(NO_TEXTURE));
             GpuMaterial {
                 tag,
                 texture: base_color,
                 p0: eta,
+                p1: if thin { 1.0 } else { 0.0 },
                 pr_roughness: roughness,
                 pr_anisotropic: anisotropic,
                 pr_spec_trans: spec_trans,
@@ -302,6 +305,7 @@ fn pack_bsdf(m: &Material) -> GpuMaterial {
                 pr_sheen_tint: sheen_tint,
                 pr_flatness: flatness,
                 pr_spec_tint: spec_tint,
+                pr_diff_trans: diff_trans,
                 ..Default::default()
             }
         }

@@ -116,6 +116,8 @@ pub fn generate() -> String {
         s += &f("CLEARCOAT_ALPHA_GLOSSY", pr::CLEARCOAT_ALPHA_GLOSSY);
         s += &f("CLEARCOAT_F0", pr::CLEARCOAT_F0);
         s += &f("SUBSURFACE_SCALE", pr::SUBSURFACE_SCALE);
+        s += &f("THIN_ROUGHNESS_SLOPE", pr::THIN_ROUGHNESS_SLOPE);
+        s += &f("THIN_ROUGHNESS_OFFSET", pr::THIN_ROUGHNESS_OFFSET);
     }
     s += &u("DISTRIBUTION_GGX", reference::microfacet::distribution::GGX);
     s += &u(

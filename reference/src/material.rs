@@ -175,11 +175,16 @@ pub enum Material {
     /// ([`crate::texture::one_channel`]; `None`: not given, read as 0), and
     /// its index `eta`. The anisotropic one reads the surface's tangent
     /// frame. Both sides its own: seen from inside, a rough dielectric.
+    /// Where `thin`, Mitsuba's `principledthin`: a sheet the same from both
+    /// sides, with a diffuse transmission and no metal or clear coat
+    /// (`lobes.metallic`, `clearcoat` and `clearcoat_gloss` are `None`;
+    /// `lobes.diff_trans` is the thin sheet's only).
     Principled {
         base_color: u32,
         roughness: u32,
         lobes: PrincipledLobes,
         eta: f32,
+        thin: bool,
     },
 }
 
@@ -196,11 +201,12 @@ pub struct PrincipledLobes {
     pub sheen_tint: Option<u32>,
     pub flatness: Option<u32>,
     pub spec_tint: Option<u32>,
+    pub diff_trans: Option<u32>,
 }
 
 impl PrincipledLobes {
     /// Mitsuba's names of the parameters, in [`Self::textures`]' order.
-    pub const NAMES: [&'static str; 9] = [
+    pub const NAMES: [&'static str; 10] = [
         "anisotropic",
         "spec_trans",
         "metallic",
@@ -210,10 +216,11 @@ impl PrincipledLobes {
         "sheen_tint",
         "flatness",
         "spec_tint",
+        "diff_trans",
     ];
 
     /// The textures, in [`Self::NAMES`]' order.
-    pub fn textures(&self) -> [Option<u32>; 9] {
+    pub fn textures(&self) -> [Option<u32>; 10] {
         [
             self.anisotropic,
             self.spec_trans,
@@ -224,6 +231,7 @@ impl PrincipledLobes {
             self.sheen_tint,
             self.flatness,
             self.spec_tint,
+            self.diff_trans,
         ]
     }
 }
@@ -1724,6 +1732,7 @@ pub fn principled_at(
         roughness,
         lobes,
         eta,
+        thin,
     } = *material
     else {
         return None;
@@ -1752,6 +1761,8 @@ pub fn principled_at(
         flatness: value(lobes.flatness),
         spec_tint: value(lobes.spec_tint),
         eta,
+        thin,
+        diff_trans: value(lobes.diff_trans),
     };
     Some((p, frame))
 }

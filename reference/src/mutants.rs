@@ -136,6 +136,13 @@ pub enum Mutant {
     /// The principled specular reflection's density without the half
     /// vector's Jacobian `1 / (4 wo·h)` (`principled::Principled::pdf`).
     PrincipledReflectionJacobianDropped,
+    /// The thin principled sheet's specular transmission at the
+    /// reflection's roughness, not scaled by `0.65·eta − 0.35`
+    /// (`principled::Principled::thin_transmission`).
+    PrincipledThinRoughnessUnscaled,
+    /// Mitsuba's `null` BSDF read as an opaque black surface rather than
+    /// one light passes straight through (`SceneBuilder::null_material`).
+    NullOpaque,
     /// A Mitsuba `envmap` read without the half turn about +y that puts
     /// Mitsuba's u = 0 (along −z) where twintrace's is
     /// (`loader::mitsuba::scene`).

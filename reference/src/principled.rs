@@ -8,6 +8,14 @@
 //! front side's only; seen from inside (`wi.z < 0`) it is a rough
 //! dielectric of index `eta`.
 //!
+//! Its thin form (Mitsuba's `principledthin`, [`Principled::thin`]) is a
+//! sheet with no inside, the same from both sides: the diffuse lobe (with
+//! retro-reflection, flatness and sheen), a Lambertian transmission
+//! (`diff_trans`), and, weighed by `spec_trans`, a GGX reflection with the
+//! dielectric's Fresnel (tinted by `spec_tint`) and a GGX transmission that
+//! does not bend (its roughness scaled by `0.65·eta − 0.35`, Burley 2015's
+//! figure 15).
+//!
 //! Directions are local to the surface's shading frame (tangent, bitangent,
 //! outward normal), both pointing away from it: `wi` toward the viewer,
 //! `wo` toward the light (Mitsuba's names). [`Principled::eval`] is
@@ -42,6 +50,11 @@ pub const CLEARCOAT_ALPHA_GLOSSY: f32 = 0.001;
 pub const CLEARCOAT_F0: f32 = 0.04;
 /// Hanrahan–Krueger's subsurface approximation's scale, as Burley's.
 pub const SUBSURFACE_SCALE: f32 = 1.25;
+/// The thin sheet's transmission roughness: `roughness` times
+/// `THIN_ROUGHNESS_SLOPE·eta − THIN_ROUGHNESS_OFFSET` (Burley 2015,
+/// figure 15, as Mitsuba's `principledthin`).
+pub const THIN_ROUGHNESS_SLOPE: f32 = 0.65;
+pub const THIN_ROUGHNESS_OFFSET: f32 = 0.35;
 
 /// The principled BSDF's values at a point (its textures read there).
 /// A lobe whose parameter the file does not give is Mitsuba's zero; only
@@ -64,6 +77,13 @@ pub struct Principled {
     /// The interior's index over the exterior's (Mitsuba's `eta`, or its
     /// `specular` mapped to one: [`eta_of_specular`]).
     pub eta: f32,
+    /// Mitsuba's `principledthin`: a sheet the same from both sides
+    /// (`metallic` and the clear coat 0; see the module's introduction).
+    pub thin: bool,
+    /// The thin sheet's diffuse transmission, 0 to 2 (Mitsuba's
+    /// `diff_trans`: half of it is the share of the diffuse energy
+    /// transmitted); 0 where not `thin`.
+    pub diff_trans: f32,
 }
 
 /// Mitsuba's `specular` (0.5 by default) as an index of refraction:
@@ -236,17 +256,23 @@ fn facet_agrees(m: Vec3, wi: Vec3, wo: Vec3, cos_i: f32, reflection: bool) -> bo
         }
 }
 
+/// The specular lobes' GGX distribution of `roughness` (Mitsuba's
+/// `calc_dist_params`: `roughness²` stretched by `√(1 − 0.9·anisotropic)`,
+/// at least 0.001).
+fn ggx_of(roughness: f32, anisotropic: f32) -> Microfacet {
+    let r2 = roughness * roughness;
+    let aspect = (1.0 - PRINCIPLED_ANISOTROPY * anisotropic).sqrt();
+    let (ax, ay) = (
+        (r2 / aspect).max(PRINCIPLED_MIN_ALPHA),
+        (r2 * aspect).max(PRINCIPLED_MIN_ALPHA),
+    );
+    Microfacet::new(distribution::GGX, ax, ay)
+}
+
 impl Principled {
-    /// The specular lobes' GGX distribution (Mitsuba's `calc_dist_params`:
-    /// `roughness²` stretched by `√(1 − 0.9·anisotropic)`, at least 0.001).
+    /// The specular lobes' GGX distribution ([`ggx_of`]).
     fn specular(&self) -> Microfacet {
-        let r2 = self.roughness * self.roughness;
-        let aspect = (1.0 - PRINCIPLED_ANISOTROPY * self.anisotropic).sqrt();
-        let (ax, ay) = (
-            (r2 / aspect).max(PRINCIPLED_MIN_ALPHA),
-            (r2 * aspect).max(PRINCIPLED_MIN_ALPHA),
-        );
-        Microfacet::new(distribution::GGX, ax, ay)
+        ggx_of(self.roughness, self.anisotropic)
     }
 
     fn clear_coat(&self) -> Gtr1 {
@@ -323,8 +349,31 @@ impl Principled {
         Vec3::splat((1.0 - self.metallic) * (1.0 - self.spec_tint) * f) + schlick
     }
 
+    /// The diffuse lobe's shape at viewer and light cosines `cos_i` and
+    /// `cos_o` and `cos_d = h·wo`: Burley's `f_diff + f_retro` (its
+    /// retro-reflection), toward Hanrahan–Krueger's subsurface `f_ss` by
+    /// `flatness`; times `base/π` and the lobe's weight it is the value.
+    fn diffuse(&self, cos_i: f32, cos_o: f32, cos_d: f32) -> f32 {
+        let (fo, fi) = (schlick_weight(cos_o.abs()), schlick_weight(cos_i.abs()));
+        let f_diff = (1.0 - 0.5 * fi) * (1.0 - 0.5 * fo);
+        let rr = 2.0 * self.roughness * cos_d * cos_d;
+        let f_retro = rr * (fo + fi + fo * fi * (rr - 1.0));
+        let fss90 = rr / 2.0;
+        let fss = lerp(1.0, fss90, fo) * lerp(1.0, fss90, fi);
+        let f_ss = SUBSURFACE_SCALE * (fss * (1.0 / (cos_o.abs() + cos_i.abs()) - 0.5) + 0.5);
+        let lobe = if mutants::is(Mutant::PrincipledRetroDropped) {
+            f_diff
+        } else {
+            f_diff + f_retro
+        };
+        lerp(lobe, f_ss, self.flatness)
+    }
+
     /// `f(wi, wo)·|cos θ_o|` (Mitsuba's `eval`).
     pub fn eval(&self, wi: Vec3, wo: Vec3) -> Vec3 {
+        if self.thin {
+            return self.thin_eval(wi, wo);
+        }
         let cos_i = wi.z;
         if cos_i == 0.0 {
             return Vec3::ZERO;
@@ -372,24 +421,12 @@ impl Principled {
             value += Vec3::splat(self.clearcoat * CLEARCOAT_SCALE * fcc * dcc * gcc * cos_o.abs());
         }
         if brdf > 0.0 && reflect && front {
-            let (fo, fi) = (schlick_weight(cos_o.abs()), schlick_weight(cos_i.abs()));
-            let f_diff = (1.0 - 0.5 * fi) * (1.0 - 0.5 * fo);
             let cos_d = wh.dot(wo);
-            let rr = 2.0 * self.roughness * cos_d * cos_d;
-            let f_retro = rr * (fo + fi + fo * fi * (rr - 1.0));
-            let fss90 = rr / 2.0;
-            let fss = lerp(1.0, fss90, fo) * lerp(1.0, fss90, fi);
-            let f_ss = SUBSURFACE_SCALE * (fss * (1.0 / (cos_o.abs() + cos_i.abs()) - 0.5) + 0.5);
-            let lobe = if mutants::is(Mutant::PrincipledRetroDropped) {
-                f_diff
-            } else {
-                f_diff + f_retro
-            };
             value += self.base_color
                 * (brdf
                     * cos_o.abs()
                     * std::f32::consts::FRAC_1_PI
-                    * lerp(lobe, f_ss, self.flatness));
+                    * self.diffuse(cos_i, cos_o, cos_d));
             if self.sheen > 0.0 && 1.0 - self.metallic > 0.0 {
                 let fd = schlick_weight(cos_d.abs());
                 let tint = tint_of(self.base_color, luminance(self.base_color));
@@ -402,6 +439,9 @@ impl Principled {
 
     /// The density of [`Self::sample`]'s directions (Mitsuba's `pdf`).
     pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
+        if self.thin {
+            return self.thin_pdf(wi, wo);
+        }
         let cos_i = wi.z;
         if cos_i == 0.0 {
             return 0.0;
@@ -446,6 +486,9 @@ impl Principled {
     /// the lobes), then the lobe's direction at `u`. `None` where the draw
     /// leaves through the wrong side.
     pub fn sample(&self, wi: Vec3, u_lobe: f32, u: Vec2) -> Option<Vec3> {
+        if self.thin {
+            return self.thin_sample(wi, u_lobe, u);
+        }
         let cos_i = wi.z;
         if cos_i == 0.0 {
             return None;
@@ -482,5 +525,147 @@ impl Principled {
             )
         };
         ok.then_some(wo)
+    }
+
+    /// The thin sheet's transmission distribution: [`ggx_of`] at the
+    /// roughness scaled by the index (Burley 2015's figure 15).
+    fn thin_transmission(&self) -> Microfacet {
+        let scale = if mutants::is(Mutant::PrincipledThinRoughnessUnscaled) {
+            1.0
+        } else {
+            THIN_ROUGHNESS_SLOPE * self.eta - THIN_ROUGHNESS_OFFSET
+        };
+        ggx_of(scale * self.roughness, self.anisotropic)
+    }
+
+    /// The thin sheet's probabilities of drawing the specular reflection,
+    /// the specular transmission, the diffuse reflection and the diffuse
+    /// transmission.
+    fn thin_probabilities(&self) -> [f32; 4] {
+        let (st, dt) = (self.spec_trans, self.diff_trans / 2.0);
+        let spec = if self.has_spec_trans { st / 2.0 } else { 0.0 };
+        let diffuse = (1.0 - st) * (1.0 - dt);
+        let diffuse_trans = (1.0 - st) * dt;
+        let rcp = 1.0 / (spec + spec + diffuse + diffuse_trans);
+        [spec * rcp, spec * rcp, diffuse * rcp, diffuse_trans * rcp]
+    }
+
+    /// The thin sheet's frame turned to the viewer's side: `wi` and `wo`
+    /// as seen from the front, and their half vector, `wo` reflected to
+    /// the front for a transmission (the sheet does not bend light).
+    fn thin_frame(wi: Vec3, wo: Vec3) -> (Vec3, Vec3, Vec3) {
+        let (wi, wo) = (mulsign(wi, wi.z), mulsign(wo, wi.z));
+        let wo_r = Vec3::new(wo.x, wo.y, wo.z.abs());
+        (wi, wo, (wi + wo_r).normalize())
+    }
+
+    /// [`Self::eval`] of the thin sheet (Mitsuba's `principledthin`).
+    fn thin_eval(&self, wi: Vec3, wo: Vec3) -> Vec3 {
+        if wi.z == 0.0 {
+            return Vec3::ZERO;
+        }
+        let (wi, wo, wh) = Self::thin_frame(wi, wo);
+        let (cos_i, cos_o) = (wi.z, wo.z);
+        let (reflect, refract) = (cos_o > 0.0, cos_o < 0.0);
+        let (st, dt) = (self.spec_trans, self.diff_trans / 2.0);
+        let mut value = Vec3::ZERO;
+        if self.has_spec_trans {
+            let (f, ..) = fresnel(wi.dot(wh), self.eta);
+            if st > 0.0 && reflect && facet_agrees(wh, wi, wo, cos_i, true) {
+                let spec = self.specular();
+                let r0 = ((self.eta - 1.0) / (self.eta + 1.0)).powi(2);
+                let schlick = if self.spec_tint != 0.0 {
+                    let tint = tint_of(self.base_color, luminance(self.base_color));
+                    schlick3(tint * r0, wi.dot(wh), self.eta)
+                } else {
+                    Vec3::ZERO
+                };
+                let f_thin = lerp3(Vec3::splat(f), schlick, self.spec_tint);
+                let (d, g) = (spec.d(wh), spec.g1(wi, wh) * spec.g1(wo, wh));
+                value += f_thin * (st * d * g / (4.0 * cos_i));
+            }
+            if st > 0.0 && refract && facet_agrees(wh, wi, wo, cos_i, false) {
+                let spec = self.thin_transmission();
+                let (d, g) = (spec.d(wh), spec.g1(wi, wh) * spec.g1(wo, wh));
+                value += self.base_color * (st * (1.0 - f) * d * g / (4.0 * cos_i));
+            }
+        }
+        if reflect && st < 1.0 && dt < 1.0 {
+            let cos_d = wh.dot(wo);
+            value += self.base_color
+                * ((1.0 - st)
+                    * cos_o
+                    * std::f32::consts::FRAC_1_PI
+                    * (1.0 - dt)
+                    * self.diffuse(cos_i, cos_o, cos_d));
+            if self.sheen > 0.0 {
+                let fd = schlick_weight(cos_d.abs());
+                let tint = tint_of(self.base_color, luminance(self.base_color));
+                let c_sheen = lerp3(Vec3::ONE, tint, self.sheen_tint);
+                value += c_sheen * (self.sheen * (1.0 - st) * fd * (1.0 - dt) * cos_o.abs());
+            }
+        }
+        if refract && st < 1.0 && dt > 0.0 {
+            value +=
+                self.base_color * ((1.0 - st) * dt * std::f32::consts::FRAC_1_PI * cos_o.abs());
+        }
+        value
+    }
+
+    /// [`Self::pdf`] of the thin sheet.
+    fn thin_pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
+        if wi.z == 0.0 {
+            return 0.0;
+        }
+        let [p_reflect, p_trans, p_diffuse, p_diffuse_trans] = self.thin_probabilities();
+        let (wi, wo, wh) = Self::thin_frame(wi, wo);
+        let (reflect, refract) = (wo.z > 0.0, wo.z < 0.0);
+        let mut pdf = 0.0;
+        if self.has_spec_trans {
+            let wo_r = Vec3::new(wo.x, wo.y, wo.z.abs());
+            let dwh_dwo = (1.0 / (4.0 * wo_r.dot(wh))).abs();
+            if facet_agrees(wh, wi, wo, wi.z, true) && reflect {
+                pdf += p_reflect * self.specular().pdf_visible(wi, wh) * dwh_dwo;
+            }
+            if facet_agrees(wh, wi, wo, wi.z, false) && refract {
+                pdf += p_trans * self.thin_transmission().pdf_visible(wi, wh) * dwh_dwo;
+            }
+        }
+        if reflect {
+            pdf += p_diffuse * wo.z * std::f32::consts::FRAC_1_PI;
+        }
+        if refract {
+            pdf += p_diffuse_trans * -wo.z * std::f32::consts::FRAC_1_PI;
+        }
+        pdf
+    }
+
+    /// [`Self::sample`] of the thin sheet: a lobe by `u_lobe`, then its
+    /// direction at `u` (a specular transmission is the reflection about
+    /// the drawn normal mirrored through the sheet).
+    fn thin_sample(&self, wi: Vec3, u_lobe: f32, u: Vec2) -> Option<Vec3> {
+        let cos_i = wi.z;
+        if cos_i == 0.0 {
+            return None;
+        }
+        let [p_reflect, p_trans, p_diffuse, _] = self.thin_probabilities();
+        let front = mulsign(wi, cos_i);
+        let wo = if self.has_spec_trans && u_lobe < p_reflect {
+            let m = self.specular().sample_visible(front, u);
+            let wo = reflect(-front, m);
+            (facet_agrees(m, front, wo, front.z, true) && wo.z > 0.0).then_some(wo)?
+        } else if self.has_spec_trans && u_lobe < p_reflect + p_trans {
+            let m = self.thin_transmission().sample_visible(front, u);
+            let r = reflect(-front, m);
+            let wo = Vec3::new(r.x, r.y, -r.z);
+            (facet_agrees(m, front, wo, front.z, false) && wo.z < 0.0).then_some(wo)?
+        } else if u_lobe < p_reflect + p_trans + p_diffuse {
+            sample_cosine_hemisphere(u)
+        } else if self.diff_trans > 0.0 {
+            -sample_cosine_hemisphere(u)
+        } else {
+            return None;
+        };
+        Some(mulsign(wo, cos_i))
     }
 }

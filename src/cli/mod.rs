@@ -1217,7 +1217,8 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
         Material::Plastic { .. } => "plastic",
         Material::RoughPlastic { .. } => "rough plastic",
         Material::Ggx { .. } => "ggx",
-        Material::Principled { .. } => "principled",
+        Material::Principled { thin: false, .. } => "principled",
+        Material::Principled { thin: true, .. } => "thin principled",
     };
     say!(
         "materials: {}",
@@ -1235,7 +1236,8 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
                 "plastic",
                 "rough plastic",
                 "ggx",
-                "principled"
+                "principled",
+                "thin principled"
             ],
             &material_kind,
             scene.materials().len()

@@ -6,7 +6,7 @@ regenerates the same inputs and compares).
 
 CASE: conductor, dielectric, thindielectric, roughconductor,
 roughdielectric, plastic, roughplastic, mask, blend, principled,
-anisotropic, normalmap, bumpmap.
+principledthin, null, anisotropic, normalmap, bumpmap.
 
 Inputs: case i of N has its parameters from the additive sequence
 frac((i + 1) * a) of the constants A below, computed in f64 with + - * /
@@ -611,27 +611,130 @@ def principled_inputs(i):
     return params, tuple(wi), wo
 
 
+def principledthin_inputs(i):
+    """Case i of the thin principled BSDF: its parameters (a dict of
+    Mitsuba's names; a lobe left out is off) and the viewer wi and light
+    wo, in f64. base_color units 0-2; roughness 0.05 + 0.95 unit 3;
+    anisotropic unit 4 where i % 2 == 1; spec_trans unit 6 where i % 4 is
+    1, 2 or 3 (0 where i % 8 == 1: the lobe given, its value 0);
+    diff_trans 2 unit 5 where i % 3 != 0 (Mitsuba's range, 0 to 2); sheen
+    unit 9 where i % 2 == 0; sheen_tint unit 10 where i % 3 == 1; flatness
+    unit 11 where i % 6 < 3; spec_tint unit 12 where i % 7 < 4; eta 0.8 +
+    1.7 unit 13. wi at cos = unit 15 and azimuth 2 pi unit 16, below the
+    surface where i % 4 == 3. wo: where i % 3 == 0, wi reflected about a
+    normal of tan = roughness^2 sqrt(t / (1 - t)), t = unit 0 of i +
+    SHIFT, azimuth 2 pi unit 1 of i + SHIFT (mirrored through the surface,
+    the thin sheet's transmission, where i % 6 == 3); else at cos =
+    sqrt(unit 2 of i + SHIFT) and azimuth 2 pi unit 3 of i + SHIFT, below
+    where i % 3 == 1."""
+    j = i + SHIFT
+    params = {
+        "base_color": [unit(i, c) for c in range(3)],
+        "roughness": 0.05 + 0.95 * unit(i, 3),
+    }
+    if i % 2 == 1:
+        params["anisotropic"] = unit(i, 4)
+    if i % 4 in (1, 2, 3):
+        params["spec_trans"] = 0.0 if i % 8 == 1 else unit(i, 6)
+    if i % 3 != 0:
+        params["diff_trans"] = 2.0 * unit(i, 5)
+    if i % 2 == 0:
+        params["sheen"] = unit(i, 9)
+    if i % 3 == 1:
+        params["sheen_tint"] = unit(i, 10)
+    if i % 6 < 3:
+        params["flatness"] = unit(i, 11)
+    if i % 7 < 4:
+        params["spec_tint"] = unit(i, 12)
+    params["eta"] = 0.8 + 1.7 * unit(i, 13)
+    wi = list(hemisphere(unit(i, 15), unit(i, 16)))
+    if i % 4 == 3:
+        wi[2] = -wi[2]
+    if i % 3 == 0:
+        r2 = params["roughness"] ** 2
+        t = unit(j, 0)
+        tan_m = r2 * (t / (1.0 - t)) ** 0.5
+        cos_m = 1.0 / (1.0 + tan_m * tan_m) ** 0.5
+        m = hemisphere(cos_m, unit(j, 1))
+        if wi[2] < 0.0:
+            m = tuple(-c for c in m)
+        d = sum(wi[k] * m[k] for k in range(3))
+        wo = [2.0 * d * m[k] - wi[k] for k in range(3)]
+        if i % 6 == 3:
+            wo[2] = -wo[2]
+        wo = tuple(wo)
+    else:
+        wo = list(hemisphere(unit(j, 2) ** 0.5, unit(j, 3)))
+        if i % 3 == 1:
+            wo[2] = -wo[2]
+        wo = tuple(wo)
+    return params, tuple(wi), wo
+
+
+def principled_plugin(kind, params):
+    spec = {"type": kind}
+    for name, v in params.items():
+        if name == "base_color":
+            spec[name] = {"type": "rgb", "value": [float(np.float32(c)) for c in v]}
+        else:
+            spec[name] = float(np.float32(v))
+    return mi.load_dict(spec)
+
+
 def principled(i):
     """Records 17 f32: wi and wo as the plugin saw them (three each),
     eval (three channels) and pdf at (wi, wo), then a sample drawn at
     lobe u = unit 4 of i + SHIFT and u = (unit 5, unit 6 of i + SHIFT):
     its wo (three), weight (three channels; 0: none) and pdf."""
     params, wi, wo = principled_inputs(i)
-    spec = {"type": "principled"}
-    for name, v in params.items():
-        if name == "base_color":
-            spec[name] = {"type": "rgb", "value": [float(np.float32(c)) for c in v]}
-        else:
-            spec[name] = float(np.float32(v))
-    bsdf = mi.load_dict(spec)
+    bsdf = principled_plugin("principled", params)
     j = i + SHIFT
     u = [float(np.float32(unit(j, 5))), float(np.float32(unit(j, 6)))]
     values, _ = colour_records(bsdf, wi, wo, float(np.float32(unit(j, 4))), u)
     return values
 
 
+def principledthin(i):
+    """Records 17 f32, as principled's: wi and wo (three each), eval
+    (three) and pdf, then a sample drawn at lobe u = unit 4 of i + SHIFT
+    and u = (unit 5, unit 6 of i + SHIFT): its wo (three), weight (three;
+    0: none) and pdf."""
+    params, wi, wo = principledthin_inputs(i)
+    bsdf = principled_plugin("principledthin", params)
+    j = i + SHIFT
+    u = [float(np.float32(unit(j, 5))), float(np.float32(unit(j, 6)))]
+    values, _ = colour_records(bsdf, wi, wo, float(np.float32(unit(j, 4))), u)
+    return values
+
+
+def null(i):
+    """Records 17 f32, as principled's, of Mitsuba's `null`: wi at cos =
+    unit 15 and azimuth 2 pi unit 16 (below the surface where i is odd),
+    wo at cos = sqrt(unit 2 of i + SHIFT) and azimuth 2 pi unit 3 of i +
+    SHIFT (below where i % 3 == 1, the other way where i % 3 == 2: -wi);
+    eval and pdf there, and the sample at lobe u = unit 4 of i + SHIFT and
+    u = (unit 5, unit 6 of i + SHIFT)."""
+    j = i + SHIFT
+    wi = list(hemisphere(unit(i, 15), unit(i, 16)))
+    if i % 2 == 1:
+        wi[2] = -wi[2]
+    if i % 3 == 2:
+        wo = tuple(-c for c in wi)
+    else:
+        wo = list(hemisphere(unit(j, 2) ** 0.5, unit(j, 3)))
+        if i % 3 == 1:
+            wo[2] = -wo[2]
+        wo = tuple(wo)
+    bsdf = mi.load_dict({"type": "null"})
+    u = [float(np.float32(unit(j, 5))), float(np.float32(unit(j, 6)))]
+    values, _ = colour_records(bsdf, tuple(wi), wo, float(np.float32(unit(j, 4))), u)
+    return values
+
+
 CASES = {
+    "null": null,
     "principled": principled,
+    "principledthin": principledthin,
     "blend": blend,
     "mask": mask,
     "conductor": conductor,

@@ -283,7 +283,18 @@ pub enum MaterialJson {
     BumpMapped(BumpMappedMaterialJson),
     Blend(BlendMaterialJson),
     Principled(PrincipledMaterialJson),
+    /// Mitsuba 3's `principledthin`: the same fields but `metallic`,
+    /// `clearcoat`, `clearcoat_gloss` and `specular`, with `diff_trans`;
+    /// `eta` 1.5 by default.
+    PrincipledThin(PrincipledMaterialJson),
+    /// Mitsuba 3's `null`: a surface light passes straight through.
+    Null(NullMaterialJson),
 }
+
+/// Mitsuba 3's `null` (no parameters): `reference::scene::SceneBuilder::null_material`.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NullMaterialJson {}
 
 /// Mitsuba 3's `principled` (`reference::principled`): its parameters as
 /// Mitsuba's, each number a number or the name of a texture (its value, or
@@ -313,6 +324,9 @@ pub struct PrincipledMaterialJson {
     pub flatness: Option<ScalarRef>,
     #[serde(default)]
     pub spec_tint: Option<ScalarRef>,
+    /// `principled_thin`'s diffuse transmission, 0 to 2.
+    #[serde(default)]
+    pub diff_trans: Option<ScalarRef>,
     /// The interior's index over the exterior's; or `specular` (default
     /// 0.5) standing for one, as Mitsuba's: give at most one.
     #[serde(default)]
@@ -1304,10 +1318,21 @@ impl Resolver<'_> {
                 }
             }
             MaterialJson::Principled(p) => self
-                .principled(p)
+                .principled(p, false)
+                .map_err(|e| e.within(&format!("materials.{name}")))?,
+            MaterialJson::PrincipledThin(p) => self
+                .principled(p, true)
                 .map_err(|e| e.within(&format!("materials.{name}")))?,
             MaterialJson::Blend(b) => {
                 let id = self.blend_material(name, b)?;
+                self.materials.insert(name.to_string(), id);
+                return Ok(id);
+            }
+            MaterialJson::Null(_) => {
+                let at = |e: SceneError| e.within(&format!("materials.{name}"));
+                let (material, wrappers) = self.builder.null_material().map_err(at)?;
+                let id = self.builder.add_material(material).map_err(at)?;
+                self.builder.set_wrappers(id, wrappers).map_err(at)?;
                 self.materials.insert(name.to_string(), id);
                 return Ok(id);
             }
@@ -1359,12 +1384,14 @@ impl Resolver<'_> {
             | MaterialJson::RoughDielectric(RoughDielectricMaterialJson { emission, .. })
             | MaterialJson::Plastic(PlasticMaterialJson { emission, .. })
             | MaterialJson::RoughPlastic(RoughPlasticMaterialJson { emission, .. })
-            | MaterialJson::Principled(PrincipledMaterialJson { emission, .. }) => {
+            | MaterialJson::Principled(PrincipledMaterialJson { emission, .. })
+            | MaterialJson::PrincipledThin(PrincipledMaterialJson { emission, .. }) => {
                 emission.as_ref()
             }
             MaterialJson::DiffuseLight(_)
             | MaterialJson::Blend(_)
             | MaterialJson::Mask(_)
+            | MaterialJson::Null(_)
             | MaterialJson::OneSided(_)
             | MaterialJson::NormalMapped(_)
             | MaterialJson::BumpMapped(_) => None,
@@ -1455,13 +1482,68 @@ impl Resolver<'_> {
         Ok(id)
     }
 
-    /// A `principled` material's model: each lobe's texture (absent or 0:
-    /// off) and its index.
-    fn principled(&mut self, p: &PrincipledMaterialJson) -> Result<Material, SceneError> {
+    /// A `principled` (or, where `thin`, `principled_thin`) material's
+    /// model: each lobe's texture (absent or 0: off) and its index.
+    fn principled(
+        &mut self,
+        p: &PrincipledMaterialJson,
+        thin: bool,
+    ) -> Result<Material, SceneError> {
         let lobe = |this: &mut Self, what: &str, v: &Option<ScalarRef>| match v {
             None | Some(ScalarRef::Value(0.0)) => Ok(None),
             Some(v) => this.scalar(v).map(Some).map_err(|e| e.within(what)),
         };
+        let given = |what: &'static str, v: bool| v.then_some(what);
+        let other = if thin {
+            [
+                given("metallic", p.metallic.is_some()),
+                given("clearcoat", p.clearcoat.is_some()),
+                given("clearcoat_gloss", p.clearcoat_gloss.is_some()),
+                given("specular", p.specular.is_some()),
+            ]
+        } else {
+            [
+                given("diff_trans", p.diff_trans.is_some()),
+                None,
+                None,
+                None,
+            ]
+        };
+        if let Some(what) = other.into_iter().flatten().next() {
+            let model = if thin {
+                "principled_thin"
+            } else {
+                "principled"
+            };
+            return Err(SceneError::invalid(
+                what,
+                format!("a {model} material has no {what}"),
+            ));
+        }
+        let base_color = self
+            .colour(&p.base_color, 0)
+            .map_err(|e| e.within("base_color"))?;
+        let roughness = self
+            .scalar(&p.roughness)
+            .map_err(|e| e.within("roughness"))?;
+        if thin {
+            return Ok(Material::Principled {
+                base_color,
+                roughness,
+                lobes: PrincipledLobes {
+                    anisotropic: lobe(self, "anisotropic", &p.anisotropic)?,
+                    spec_trans: lobe(self, "spec_trans", &p.spec_trans)?,
+                    sheen: lobe(self, "sheen", &p.sheen)?,
+                    sheen_tint: lobe(self, "sheen_tint", &p.sheen_tint)?,
+                    flatness: lobe(self, "flatness", &p.flatness)?,
+                    spec_tint: lobe(self, "spec_tint", &p.spec_tint)?,
+                    diff_trans: lobe(self, "diff_trans", &p.diff_trans)?,
+                    ..PrincipledLobes::default()
+                },
+                eta: p.eta.unwrap_or(1.5),
+                thin,
+            });
+        }
         let spec_trans = lobe(self, "spec_trans", &p.spec_trans)?;
         let clearcoat = lobe(self, "clearcoat", &p.clearcoat)?;
         let eta = match (p.eta, p.specular) {
@@ -1490,12 +1572,8 @@ impl Resolver<'_> {
             }
         };
         Ok(Material::Principled {
-            base_color: self
-                .colour(&p.base_color, 0)
-                .map_err(|e| e.within("base_color"))?,
-            roughness: self
-                .scalar(&p.roughness)
-                .map_err(|e| e.within("roughness"))?,
+            base_color,
+            roughness,
             lobes: PrincipledLobes {
                 anisotropic: lobe(self, "anisotropic", &p.anisotropic)?,
                 spec_trans,
@@ -1512,8 +1590,10 @@ impl Resolver<'_> {
                 sheen_tint: lobe(self, "sheen_tint", &p.sheen_tint)?,
                 flatness: lobe(self, "flatness", &p.flatness)?,
                 spec_tint: lobe(self, "spec_tint", &p.spec_tint)?,
+                diff_trans: None,
             },
             eta,
+            thin,
         })
     }
 

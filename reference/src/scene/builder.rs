@@ -643,6 +643,7 @@ fn check_material(
             roughness,
             lobes,
             eta,
+            thin,
         } => {
             tex_ok("base_color", base_color)?;
             tex_ok("roughness", roughness)?;
@@ -655,7 +656,26 @@ fn check_material(
                 }
             }
             check_eta(eta)?;
-            if lobes.spec_trans.is_some() && eta == 1.0 {
+            let (thin_only, full_only) = (
+                [("diff_trans", lobes.diff_trans)],
+                [
+                    ("metallic", lobes.metallic),
+                    ("clearcoat", lobes.clearcoat),
+                    ("clearcoat_gloss", lobes.clearcoat_gloss),
+                ],
+            );
+            let (model, other) = if thin {
+                ("thin principled", &full_only[..])
+            } else {
+                ("principled", &thin_only[..])
+            };
+            if let Some((what, _)) = other.iter().find(|(_, t)| t.is_some()) {
+                return Err(SceneError::invalid(
+                    what,
+                    format!("a {model} BSDF has no {what}"),
+                ));
+            }
+            if !thin && lobes.spec_trans.is_some() && eta == 1.0 {
                 // Mitsuba moves it to 1.001: a transmission through no
                 // interface has no half vector.
                 return Err(SceneError::invalid(
@@ -804,6 +824,26 @@ impl SceneBuilder {
     /// Shorthand for a constant texture.
     pub fn constant(&mut self, c: Vec3) -> Result<u32, SceneError> {
         self.add_texture(Texture::Constant(c))
+    }
+
+    /// Mitsuba's `null` BSDF, a surface that light passes straight
+    /// through, as its material and wrappers: a mask of opacity 0 (its
+    /// pass-through is Mitsuba's null lobe, a delta draw that counts as a
+    /// segment of the path) around a black diffuse that no path reaches.
+    pub fn null_material(&mut self) -> Result<(Material, Wrappers), SceneError> {
+        let black = self.constant(Vec3::ZERO)?;
+        let opacity = if mutants::is(Mutant::NullOpaque) {
+            self.constant(Vec3::ONE)?
+        } else {
+            black
+        };
+        Ok((
+            Material::Lambertian { albedo: black },
+            Wrappers {
+                opacity: Some(opacity),
+                ..Wrappers::default()
+            },
+        ))
     }
 
     /// Texture `id`'s mean ([`crate::texture::texture_mean`]).

@@ -721,8 +721,9 @@ pub(super) fn surface(scene: &Scene, i: usize) -> Result<Surface> {
     }
     let optional = |t: Option<u32>| t.map(|t| texture(scene, t, &what)).transpose();
     Ok(match scene.materials()[i] {
-        Material::Principled { .. } => {
-            bail!("{what} is a principled BSDF (Mitsuba's principled), which the export does not write (not exported)")
+        Material::Principled { thin, .. } => {
+            let plugin = if thin { "principledthin" } else { "principled" };
+            bail!("{what} is a principled BSDF (Mitsuba's {plugin}), which the export does not write (not exported)")
         }
         Material::Lambertian { albedo } => Surface::Diffuse(texture(scene, albedo, &what)?),
         Material::Metal { albedo, fuzz: 0.0 } => Surface::Mirror(texture(scene, albedo, &what)?),

@@ -1367,6 +1367,13 @@ impl Reader<'_> {
     /// A BSDF and its wrappers: Mitsuba's `twosided` (both sides), `mask`
     /// (an opacity), and its models, one-sided unless they are dielectrics.
     fn bsdf(&mut self, o: &Object) -> Result<(Material, Wrappers), SceneError> {
+        if o.kind == "null" {
+            Props::new(o).finish()?;
+            return self
+                .builder
+                .null_material()
+                .map_err(|e| fail(&o.at, e.to_string()));
+        }
         if o.kind == "mask" {
             let props = Props::new(o);
             let nested = props.children("bsdf");
@@ -1390,7 +1397,7 @@ impl Reader<'_> {
         if o.kind == "blendbsdf" {
             return self.blend(o, false);
         }
-        if o.kind == "principled" {
+        if o.kind == "principled" || o.kind == "principledthin" {
             return Ok((self.principled(o)?, Wrappers::default()));
         }
         if o.kind == "normalmap" {
@@ -1555,8 +1562,11 @@ impl Reader<'_> {
     /// lobes' numbers, each a number or a texture read by `eval_1`; a lobe
     /// absent or given as the number 0 is off, as Mitsuba's `get_flag`
     /// reads it; `eta`, or `specular` (0.5) standing for one, not both.
-    /// Sampling rates other than 1 are refused.
+    /// Sampling rates other than 1 are refused. Its thin sheet,
+    /// `principledthin`, has `diff_trans` and no metal or clear coat, and
+    /// its `eta` (1.5) a number (a texture is refused).
     fn principled(&mut self, o: &Object) -> Result<Material, SceneError> {
+        let thin = o.kind == "principledthin";
         let props = Props::new(o);
         let base_color = self.colour(&props, "base_color", ColourUse::Reflectance, 0.5)?;
         let base_color = self.texture_of(base_color, &o.at)?;
@@ -1581,6 +1591,40 @@ impl Reader<'_> {
         let sheen_tint = lobe(self, "sheen_tint")?;
         let flatness = lobe(self, "flatness")?;
         let spec_tint = lobe(self, "spec_tint")?;
+        if thin {
+            let diff_trans = lobe(self, "diff_trans")?;
+            for rate in [
+                "specular_reflectance_sampling_rate",
+                "specular_transmittance_sampling_rate",
+                "diffuse_reflectance_sampling_rate",
+                "diffuse_transmittance_sampling_rate",
+            ] {
+                if props.float(rate, 1.0)? != 1.0 {
+                    return Err(unsupported(o, &format!(" with a {rate} other than 1")));
+                }
+            }
+            if props.named_child("eta").is_some() {
+                return Err(unsupported(o, " with a textured \"eta\""));
+            }
+            let eta = props.float("eta", 1.5)? as f32;
+            props.finish()?;
+            return Ok(Material::Principled {
+                base_color,
+                roughness,
+                lobes: PrincipledLobes {
+                    anisotropic,
+                    spec_trans,
+                    sheen,
+                    sheen_tint,
+                    flatness,
+                    spec_tint,
+                    diff_trans,
+                    ..PrincipledLobes::default()
+                },
+                eta,
+                thin,
+            });
+        }
         let metallic = lobe(self, "metallic")?;
         let clearcoat = lobe(self, "clearcoat")?;
         let clearcoat_gloss = match clearcoat {
@@ -1640,8 +1684,10 @@ impl Reader<'_> {
                 sheen_tint,
                 flatness,
                 spec_tint,
+                diff_trans: None,
             },
             eta,
+            thin,
         })
     }
 
@@ -2993,6 +3039,47 @@ mod tests {
             (
                 r#"<bsdf type="blendbsdf"><texture type="checkerboard" name="weight"><rgb name="color0" value="0.2, 0.5, 0.8"/></texture><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>"#,
                 "checkerboard of colours",
+            ),
+        ] {
+            let err = shape(bsdf).unwrap_err().to_string();
+            assert!(err.contains(says), "{bsdf}: {err}");
+        }
+    }
+
+    #[test]
+    fn a_principledthin_is_the_thin_principled_sheet() {
+        let shape = |bsdf: &str| {
+            scene(&format!(
+                r#"<sensor type="perspective">{FILM}</sensor><shape type="rectangle">{bsdf}</shape>"#
+            ))
+        };
+        let s = shape(
+            r#"<bsdf type="principledthin"><float name="diff_trans" value="1.2"/><float name="spec_trans" value="0"/><float name="eta" value="1.33"/></bsdf>"#,
+        )
+        .unwrap();
+        let m = s.triangles()[0].material as usize;
+        let Material::Principled {
+            lobes, eta, thin, ..
+        } = s.materials()[m]
+        else {
+            panic!("{:?}", s.materials()[m]);
+        };
+        assert!(thin && eta == 1.33);
+        assert!(lobes.diff_trans.is_some(), "given");
+        assert!(lobes.spec_trans.is_none(), "the number 0: off");
+        assert!(!s.wrappers(m as u32).one_sided, "the same from both sides");
+        for (bsdf, says) in [
+            (
+                r#"<bsdf type="principledthin"><float name="metallic" value="0.5"/></bsdf>"#,
+                "metallic",
+            ),
+            (
+                r#"<bsdf type="principledthin"><texture type="checkerboard" name="eta"/></bsdf>"#,
+                "textured \"eta\"",
+            ),
+            (
+                r#"<bsdf type="principledthin"><float name="diffuse_transmittance_sampling_rate" value="2"/></bsdf>"#,
+                "diffuse_transmittance_sampling_rate other than 1",
             ),
         ] {
             let err = shape(bsdf).unwrap_err().to_string();
