@@ -5,7 +5,7 @@ use crate::common;
 use crate::common::gates::assert_known_answer;
 use anyhow::Result;
 use reference::{Film, RenderSettings, Scene};
-use twintrace::compare::furnace;
+use twintrace::compare::{furnace, model_furnaces};
 
 const SEED: u32 = 13;
 
@@ -63,6 +63,30 @@ fn concentric_spheres_and_ggx_metal_match_their_answers_on_the_gpu() {
     for roughness in [0.0f32, 0.3, 1.0] {
         assert_known_answer(
             &furnace::ggx_metal_plane(roughness, 45.0, 1024, SEED).unwrap(),
+            &gpu_render,
+        );
+    }
+}
+
+/// The known answers of Mitsuba's models (tests/furnace.rs) on the GPU: a
+/// white rough conductor of each distribution, a dielectric slab and a
+/// thin sheet head-on and at 60°.
+#[test]
+fn the_mitsuba_models_known_answers_hold_on_the_gpu() {
+    use reference::microfacet::distribution::{BECKMANN, GGX};
+    for dist in [GGX, BECKMANN] {
+        assert_known_answer(
+            &model_furnaces::rough_conductor_plane(dist, 0.4, 60.0, 1024, SEED).unwrap(),
+            &gpu_render,
+        );
+    }
+    for theta in [0.0, 60.0] {
+        assert_known_answer(
+            &model_furnaces::dielectric_slab(1.5, theta, 1024, SEED).unwrap(),
+            &gpu_render,
+        );
+        assert_known_answer(
+            &model_furnaces::thin_sheet(1.5, theta, 1024, SEED).unwrap(),
             &gpu_render,
         );
     }

@@ -91,7 +91,7 @@ pub const FURNACE_BACKGROUND: f32 = 0.8;
 /// ceiling traps paths for thousands of bounces.)
 pub const LOSSLESS_DEPTH: u32 = 1024;
 
-fn settings(
+pub(super) fn settings(
     width: u32,
     height: u32,
     spp: u32,
@@ -361,6 +361,16 @@ pub fn ggx_brdf_f64(metallic: f64, roughness: f64, wo: DVec3, wi: DVec3) -> f64 
 /// symmetric in `φ ↔ −φ` for `ω_o` in the xz-plane, so only `φ ∈ [0, π]`
 /// is evaluated.
 pub fn ggx_albedo(metallic: f32, roughness: f32, theta_o_deg: f64, n: usize) -> f64 {
+    directional_albedo(theta_o_deg, n, |wo, wi| {
+        ggx_brdf_f64(metallic as f64, roughness as f64, wo, wi)
+    })
+}
+
+/// `∫ brdf(ω_o, ω_i) cos θ_i dω_i` over the upper hemisphere for `ω_o` at
+/// `theta_o_deg` in the xz-plane, by the midpoint rule on `n × n` cells
+/// in `(θ_i, φ_i)`, `dω = sin θ dθ dφ`, in f64; `brdf` must be symmetric
+/// in `φ ↔ −φ` (only `φ ∈ [0, π]` is evaluated, twice).
+pub fn directional_albedo(theta_o_deg: f64, n: usize, brdf: impl Fn(DVec3, DVec3) -> f64) -> f64 {
     let t = theta_o_deg.to_radians();
     let wo = DVec3::new(t.sin(), 0.0, t.cos());
     let (dtheta, dphi) = (
@@ -374,7 +384,7 @@ pub fn ggx_albedo(metallic: f32, roughness: f32, theta_o_deg: f64, n: usize) -> 
         for j in 0..n {
             let phi = (j as f64 + 0.5) * dphi;
             let wi = DVec3::new(s * phi.cos(), s * phi.sin(), c);
-            sum += ggx_brdf_f64(metallic as f64, roughness as f64, wo, wi) * c * s;
+            sum += brdf(wo, wi) * c * s;
         }
     }
     2.0 * sum * dtheta * dphi

@@ -16,6 +16,9 @@
 //!   two-sample tests (the CPU half of CPU vs GPU);
 //! - [`exact`]: bitwise comparison with ulp distances;
 //! - [`furnace`]: scenes with known answers and their check;
+//!   [`model_furnaces`]: the known answers of Mitsuba's models (a white
+//!   rough conductor's albedo, a dielectric slab's and a thin sheet's
+//!   transmission);
 //! - [`gate`]: stored references under `fixtures/refs/`, rendering a scene
 //!   with any renderer (a function that renders a `Film`) at a test budget,
 //!   and the evidence a failing gate writes under `target/diff/<test>/`.
@@ -37,6 +40,7 @@ pub mod image;
 pub mod lobes;
 pub mod metrics;
 pub mod mitsuba;
+pub mod model_furnaces;
 
 pub use image::{compare, Method, NoisyImage, TestSettings, Verdict};
 pub use metrics::Metrics;
