@@ -23,8 +23,8 @@
 //! <row> key=value …`), which `cargo xtask perf` collects.
 
 use super::error::{predicted_relmse, relmse};
+use super::run::{median, Adapter, Curve, Host, PerfRun, Point, RunSettings, Throughput, SCHEMA};
 use super::suite::{curves, workloads, CurveCase, Suite, Workload, PERF_SEED};
-use super::{median, Adapter, Curve, Host, PerfRun, Point, RunSettings, Throughput, SCHEMA};
 use crate::compare::gate::{load_reference_in, load_scene, workspace_root};
 use crate::compare::image::NoisyImage;
 use anyhow::{anyhow, bail, Context, Result};
@@ -289,7 +289,7 @@ pub fn run(options: &Options, metric: &mut dyn FnMut(&str)) -> Result<PerfRun> {
     Ok(PerfRun {
         schema: SCHEMA,
         revision: options.revision.clone(),
-        date: super::utc_now(),
+        date: super::run::utc_now(),
         host: Host::detect(),
         adapter: options.gpu.map(|ctx| Adapter {
             name: ctx.adapter.name.clone(),

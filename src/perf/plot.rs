@@ -3,7 +3,7 @@
 //! text elements, so no font library or system font is needed to make
 //! it).
 
-use super::{format_seconds, time_to, Curve, PerfRun, Throughput, RELMSE_TARGETS};
+use super::run::{format_seconds, median, time_to, Curve, PerfRun, Throughput, RELMSE_TARGETS};
 use anyhow::{anyhow, Result};
 use plotters::prelude::*;
 use std::fmt::Write as _;
@@ -122,12 +122,12 @@ fn throughput_row(t: &Throughput) -> String {
         t.variant,
         t.count,
         t.unit,
-        format_seconds(super::median(&t.wall_s)),
+        format_seconds(median(&t.wall_s)),
         sci(t.rate()),
         t.unit,
         t.gpu_s
             .as_deref()
-            .map_or("–".into(), |g| format_seconds(super::median(g))),
+            .map_or("–".into(), |g| format_seconds(median(g))),
         t.gpu_rate()
             .map_or("–".into(), |r| format!("{} {}/s", sci(r), t.unit)),
         t.note

@@ -35,7 +35,7 @@
 //! of the new run (medians; a scaled-MAD spread, `K` of them), says so in
 //! the report, and misses drift between runs.
 
-use super::{median, PerfRun};
+use super::run::{median, PerfRun, SCHEMA};
 use crate::stats::sidak;
 use crate::stats::student_t_two_sided_p;
 use anyhow::{bail, Result};
@@ -362,11 +362,11 @@ pub fn compare(new: &PerfRun, base: &[PerfRun]) -> Result<Comparison> {
     for (run, which) in
         std::iter::once((new, "this run")).chain(base.iter().map(|b| (b, "the baseline")))
     {
-        if run.schema != super::SCHEMA {
+        if run.schema != SCHEMA {
             bail!(
                 "{which} has schema {}, this build reads schema {}",
                 run.schema,
-                super::SCHEMA
+                SCHEMA
             );
         }
     }

@@ -3,7 +3,7 @@
 //! view as a view file (`reference::loader::view`) that `render` takes as
 //! a scene, so that a view worth keeping is a fixture in one step.
 
-use super::View;
+use super::session::View;
 use crate::image_io::{self, RenderImage, RenderMetadata};
 use crate::tonemap::Tonemap;
 use anyhow::{bail, Context as _, Result};
@@ -68,7 +68,7 @@ pub fn save(
                 .map_err(Into::into)
         })?;
     }
-    let camera = super::camera_json(&view.traced_camera());
+    let camera = super::session::camera_json(&view.traced_camera());
     let write_json = |path: PathBuf, value: serde_json::Value| {
         image_io::write_atomic(&path, |f| {
             std::io::Write::write_all(f, format!("{value:#}\n").as_bytes()).map_err(Into::into)

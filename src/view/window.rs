@@ -14,8 +14,9 @@
 //! the verdict `twintrace diff` would give the two films and a pixel
 //! inspector, refreshed about once a second.
 
+use super::camera;
 use super::compare::{self, CpuTwin, Judgement, Latest};
-use super::{camera, Event, Frame, Pace, View};
+use super::session::{Event, Frame, Pace, View};
 use crate::aov::AovLayer;
 use crate::compare::image::RegionTest;
 use crate::render::{Devices, RenderSpec};
@@ -920,7 +921,7 @@ fn draw_ui(
                     .response
                     .on_hover_text(format!(
                         "first-hit layers (AOVs), traced from the film's first {} samples",
-                        super::AOV_SAMPLES
+                        super::session::AOV_SAMPLES
                     ));
                 if layer != panel.layer {
                     panel.layer = layer;
