@@ -139,6 +139,12 @@ gpu_record! {
     }
 }
 
+/// Buckets of the sorted wavefront's counting sort
+/// (`crate::wavefront::ShadeOrder::Material`): `GpuMaterial::shade_bucket`
+/// is one of the first `SORT_BUCKETS - 1` (`scene_buffers::assign_shade_buckets`);
+/// the last holds misses and shadow-only paths.
+pub const SORT_BUCKETS: u32 = 64;
+
 /// `GpuMaterial::normal_map_mode` bits: the map is read in the frame
 /// turned to the viewer (`reference::material::Wrappers::normal_map_mirrored`);
 /// the map is a bump map's height (`Wrappers::bump_map`).

@@ -152,7 +152,7 @@ pub fn pack_wrappers(record: GpuMaterial, wrappers: Wrappers) -> GpuMaterial {
 /// bucket each; more share buckets with their neighbours in rank, so that
 /// one bucket holds one kind but where two kinds meet.
 pub fn assign_shade_buckets(mut materials: Vec<GpuMaterial>) -> Vec<GpuMaterial> {
-    let buckets = crate::wavefront::SORT_BUCKETS as u64 - 1;
+    let buckets = crate::records::SORT_BUCKETS as u64 - 1;
     let mut ranked: Vec<usize> = (0..materials.len()).collect();
     ranked.sort_by_key(|&i| (materials[i].tag, i));
     let n = materials.len().max(1) as u64;
@@ -944,7 +944,7 @@ mod tests {
         // kind, buckets never decrease, and each of the 63 is used.
         let tags: Vec<u32> = (0..480).map(|i| (i * 7 % 3) as u32).collect();
         let b = with_tag(&tags);
-        let last = crate::wavefront::SORT_BUCKETS - 1;
+        let last = crate::records::SORT_BUCKETS - 1;
         assert!(b.iter().all(|&x| x < last));
         let mut by_rank: Vec<(u32, usize)> = (0..480).map(|i| (tags[i], i)).collect();
         by_rank.sort();

@@ -42,11 +42,11 @@ pub const WAVE_GROUP: u32 = 64;
 /// default `maxComputeWorkgroupsPerDimension`); more make a second row.
 pub const MAX_GROUPS_PER_DIMENSION: u32 = 65_535;
 
-/// Buckets of the sorted wavefront's counting sort ([`ShadeOrder::Material`]):
-/// one invocation of a `wf_sort_scatter` workgroup each (which sums the
-/// counts up to its own), so at most [`WAVE_GROUP`]; the last holds misses and shadow-only paths
-/// (`scene_buffers::assign_shade_buckets` gives the materials the others).
-pub const SORT_BUCKETS: u32 = 64;
+/// The sorted wavefront's buckets (`crate::records::SORT_BUCKETS`, where
+/// the materials' records take theirs): one invocation of a
+/// `wf_sort_scatter` workgroup each (which sums the counts up to its own),
+/// so at most [`WAVE_GROUP`].
+pub use crate::records::SORT_BUCKETS;
 const _: () = assert!(SORT_BUCKETS <= WAVE_GROUP);
 
 /// `wf_sort_count` packs a path's bucket and its rank in the bucket into
