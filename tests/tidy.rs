@@ -19,8 +19,9 @@
 //! - shaders/ mirrors reference/src file for file.
 //! - Files the sources and docs name by path exist, and nothing cites a
 //!   file outside the repository.
-//! - No file of gpu/src, readers/src, xtask/src or src uses another that
-//!   uses it back (the crates are built in layers; test code left out).
+//! - No file of any crate's sources (gpu/src, readers/src, xtask/src,
+//!   src, reference/src) uses another that uses it back (the crates are
+//!   built in layers; test code left out).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fs;
@@ -1096,17 +1097,17 @@ fn a_cycle(graph: &BTreeMap<String, BTreeSet<String>>) -> Option<Vec<String>> {
 /// The crates are built in layers: no file of a crate's sources uses
 /// another that uses it back, however indirectly (ARCHITECTURE.md's map
 /// relies on it; a cycle is how the four render abstractions grew into one
-/// another). Held for gpu/, readers/, xtask/ and the twintrace crate
-/// (src/); reference/ still has one (scene/mod.rs holding the `Scene` its
-/// builder makes), and joins the list when it loses it. Its name stays clear of `gpu_`: the H100 suite's package
+/// another). Held for every crate: gpu/, readers/, xtask/, the twintrace
+/// crate (src/) and reference/. Its name stays clear of `gpu_`: the H100 suite's package
 /// runs the tests so named, and has no source tree.
 #[test]
 fn the_crates_modules_import_each_other_in_no_cycle() {
-    let [gpu, readers, xtask, twintrace] = [
+    let [gpu, readers, xtask, twintrace, reference] = [
         ("gpu/src", "lib.rs"),
         ("readers/src", "lib.rs"),
         ("xtask/src", "main.rs"),
         ("src", "lib.rs"),
+        ("reference/src", "lib.rs"),
     ]
     .map(|(dir, root_file)| {
         let graph = imports(dir, root_file);
@@ -1130,6 +1131,11 @@ fn the_crates_modules_import_each_other_in_no_cycle() {
             && twintrace["view/window.rs"].contains("view/session.rs"),
         "the import graph misses uses of a sibling: {twintrace:?}"
     );
+    assert!(
+        reference["scene/builder.rs"].contains("scene/world.rs")
+            && reference["scene/world.rs"].contains("scene/leaf.rs"),
+        "the import graph misses uses of a sibling: {reference:?}"
+    );
     // Test code is left out: a module's tests may use anything.
     assert!(
         !gpu["pipeline/cache.rs"].contains("pipeline/mod.rs")
@@ -1143,6 +1149,7 @@ fn the_crates_modules_import_each_other_in_no_cycle() {
         (&xtask, "fuzz.rs", "test.rs"),
         (&twintrace, "perf/run.rs", "perf/measure.rs"),
         (&twintrace, "view/session.rs", "view/save.rs"),
+        (&reference, "scene/leaf.rs", "scene/world.rs"),
     ] {
         let mut g = graph.clone();
         g.get_mut(from).unwrap().insert(to.to_string());

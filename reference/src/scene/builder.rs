@@ -1,8 +1,11 @@
 //! Building a scene: every parameter checked, then the BVH built.
 
 use super::leaf::{batched, primitive_bounds};
+use super::primitive::{primitive_tag, Primitive};
 use super::render_space::{RenderOrigin, RenderSpace};
-use super::{primitive_tag, Primitive, RenderSettings, Scene, Transform};
+use super::settings::RenderSettings;
+use super::transform::Transform;
+use super::world::{EmitterWeights, Scene};
 use crate::background::Background;
 use crate::bvh::Bvh;
 use crate::camera::CameraSettings;
@@ -84,57 +87,6 @@ pub enum LightInput {
         tan_half: Vec2,
         texture: Option<u32>,
     },
-}
-
-/// Emitter selection by weights a scene file gives, as Mitsuba selects
-/// an emitter with probability proportional to its `sampling_weight`
-/// (default 1): a shape's weight is shared among its primitives by area
-/// (so the shape is sampled uniformly by area, as Mitsuba's), an
-/// emitting primitive of no listed shape weighs 1, and the environment
-/// map and each punctual light weigh what is given (a solid background
-/// is never a light, [`crate::light`]).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct EmitterWeights {
-    /// Emitting shapes: their primitive ids and weight.
-    pub shapes: Vec<(std::ops::Range<u32>, f32)>,
-    /// By punctual light, in the order they were added.
-    pub punctual: Vec<f32>,
-    /// The environment map's.
-    pub environment: f32,
-}
-
-impl EmitterWeights {
-    /// Checks the weights (finite, above 0, one a punctual light, ranges
-    /// of existing primitives).
-    fn checked(self, primitives: usize, punctual: usize) -> Result<Self, SceneError> {
-        let bad = |w: f32| !(w.is_finite() && w > 0.0);
-        if self.punctual.len() != punctual {
-            return Err(SceneError::invalid(
-                "sampling_weight",
-                format!(
-                    "{} weights for {punctual} punctual lights",
-                    self.punctual.len()
-                ),
-            ));
-        }
-        for &w in self.punctual.iter().chain([&self.environment]) {
-            if bad(w) {
-                return Err(SceneError::invalid(
-                    "sampling_weight",
-                    format!("{w} must be finite and above 0"),
-                ));
-            }
-        }
-        for (range, w) in &self.shapes {
-            if bad(*w) || range.start > range.end || range.end as usize > primitives {
-                return Err(SceneError::invalid(
-                    "sampling_weight",
-                    format!("weight {w} of primitives {range:?} (of {primitives})"),
-                ));
-            }
-        }
-        Ok(self)
-    }
 }
 
 /// The most punctual lights a scene may hold (their ids share the emitter

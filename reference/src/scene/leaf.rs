@@ -3,7 +3,7 @@
 //! leaf tests
 //! [`Bvh::intersect`] calls.
 
-use super::{primitive_tag, Primitive, Scene};
+use super::primitive::{primitive_tag, Primitive};
 #[cfg(doc)]
 use crate::bvh::Bvh;
 use crate::bvh::{intersect_aabb_padded, intersect_entries, Closest, LeafRef, Leaves, LEAF_BATCH};
@@ -11,7 +11,7 @@ use crate::geometry::{Aabb, Hit, Ray};
 use crate::mutants::{self, Mutant};
 use crate::shapes::{
     intersect_quads4, intersect_triangles4, MeshData, Quad, Quads4, RayShear, Sphere, Triangle,
-    Triangles4, TRIANGLE_HAS_ALPHA,
+    Triangles4,
 };
 use glam::{Vec2, Vec3};
 
@@ -46,7 +46,7 @@ pub(super) struct LeafPrim {
     prim: u32,
     /// The primitive's tag in the low 16 bits; [`LeafPrim::ALPHA`] set
     /// for a triangle whose material has an alpha (its hits go through
-    /// [`Scene::alpha_covers`]; a bit here so that other entries never
+    /// the scene's `alpha_covers`; a bit here so that other entries never
     /// read the triangle record).
     tag: u32,
 }
@@ -55,27 +55,14 @@ impl LeafPrim {
     /// The bit of `tag` that marks a triangle with an alpha.
     const ALPHA: u32 = 1 << 16;
 
-    pub(super) fn of(scene: &Scene, prim: u32) -> Self {
-        let p = scene.primitives[prim as usize];
-        let geometry = match p.tag {
-            primitive_tag::SPHERE => {
-                let s = &scene.spheres[p.index as usize];
-                [s.center, Vec3::new(s.radius, 0.0, 0.0), Vec3::ZERO]
-            }
-            primitive_tag::QUAD => {
-                let q = &scene.quads[p.index as usize];
-                [q.corner, q.u, q.v]
-            }
-            _ => scene.triangles[p.index as usize]
-                .vertices
-                .map(|i| scene.mesh.positions[i as usize]),
-        };
-        let alpha = p.tag == primitive_tag::TRIANGLE
-            && scene.triangles[p.index as usize].flags & TRIANGLE_HAS_ALPHA != 0;
+    /// Primitive `prim` of kind `tag` at its points `p` (a sphere: its
+    /// center and (radius, 0, 0); a quad: corner, u, v; a triangle: its
+    /// vertices), a triangle whose material has an alpha where `alpha`.
+    pub(super) fn new(prim: u32, tag: u32, p: [Vec3; 3], alpha: bool) -> Self {
         LeafPrim {
-            p: geometry,
+            p,
             prim,
-            tag: p.tag | if alpha { Self::ALPHA } else { 0 },
+            tag: tag | if alpha { Self::ALPHA } else { 0 },
         }
     }
 
@@ -85,7 +72,7 @@ impl LeafPrim {
         self.tag & (Self::ALPHA - 1)
     }
 
-    /// Whether a hit on it must pass [`Scene::alpha_covers`].
+    /// Whether a hit on it must pass the scene's `alpha_covers`.
     #[inline]
     pub(super) fn has_alpha(&self) -> bool {
         self.tag & Self::ALPHA != 0
@@ -247,7 +234,7 @@ impl LeafBlock {
 }
 
 /// One ray's tests of the leaf-ordered primitives, for [`Bvh::intersect`].
-pub(super) struct LeafTests<'a> {
+pub(super) struct LeafTests<'a, C: Coverage> {
     pub(super) prims: &'a [LeafPrim],
     /// `prims`' boxes ([`LeafPrim::bounds`], computed once: a quad's
     /// directed roundings cost more than its hit test).
@@ -257,11 +244,18 @@ pub(super) struct LeafTests<'a> {
     pub(super) ray: &'a Ray,
     pub(super) constants: RayConstants,
     pub(super) t_min: f32,
-    /// For [`Scene::alpha_covers`].
-    pub(super) scene: &'a Scene,
+    /// Whether a hit on a triangle with an alpha stands (the scene's
+    /// `alpha_covers`).
+    pub(super) covers: &'a C,
 }
 
-impl Leaves for LeafTests<'_> {
+/// What decides whether a hit on a triangle with an alpha stands: the
+/// scene's coverage (`Scene::alpha_covers`).
+pub(super) trait Coverage {
+    fn covers(&self, ray: &Ray, hit: &Hit) -> bool;
+}
+
+impl<C: Coverage> Leaves for LeafTests<'_, C> {
     #[inline]
     fn intersect(&mut self, entry: usize, t_max: f32) -> Option<Hit> {
         let prim = &self.prims[entry];
@@ -272,14 +266,14 @@ impl Leaves for LeafTests<'_> {
             self.t_min,
             t_max,
         )?;
-        (!prim.has_alpha() || self.scene.alpha_covers(self.ray, &hit)).then_some(hit)
+        (!prim.has_alpha() || self.covers.covers(self.ray, &hit)).then_some(hit)
     }
 
     /// A leaf of triangles or of quads in one four-wide test, at the
     /// limit the first entry would be tested with; then, in entry order,
     /// each lane's hit is taken only if it lies below the limit as it
     /// stands by then (which only shrinks), passes [`Bvh::admits`] and,
-    /// for a triangle with an alpha, [`Scene::alpha_covers`]: what testing
+    /// for a triangle with an alpha, the scene's `alpha_covers`: what testing
     /// the entries one by one gives, bit for bit.
     #[inline]
     fn intersect_leaf(&mut self, leaf: LeafRef, closest: &mut Closest) {
@@ -322,7 +316,7 @@ impl Leaves for LeafTests<'_> {
                 };
                 if block.alpha & (1 << lane) == 0
                     || mutants::is(Mutant::AlphaIgnoredInLeafBlocks)
-                    || self.scene.alpha_covers(self.ray, &hit)
+                    || self.covers.covers(self.ray, &hit)
                 {
                     closest.offer(hit);
                 }

@@ -2,10 +2,16 @@
 //! the builder refuses, and keeps what it does not touch.
 
 use super::*;
+use crate::background::Background;
 use crate::builtin;
+use crate::bvh::Bvh;
 use crate::bvh::BvhNode;
+use crate::camera::CameraSettings;
 use crate::error::SceneError;
 use crate::geometry::Ray;
+use crate::material::{Alpha, Material};
+use crate::texture::Texture;
+use glam::{DVec3, Vec3};
 
 fn cornell() -> Scene {
     builtin::cornell(true).expect("the built-in Cornell box")
