@@ -549,6 +549,37 @@ def blend(i):
 SHIFT = 10007
 
 
+def principled_directions(i, roughness, through):
+    """The principled cases' viewer wi and light wo, in f64: wi at cos =
+    unit 15 and azimuth 2 pi unit 16, below the surface where i % 4 == 3;
+    wo, where i % 3 == 0, wi reflected about a normal of tan = roughness^2
+    sqrt(t / (1 - t)), t = unit 0 of i + SHIFT, azimuth 2 pi unit 1 of
+    i + SHIFT (mirrored through the surface where `through`); else at cos
+    = sqrt(unit 2 of i + SHIFT) and azimuth 2 pi unit 3 of i + SHIFT,
+    below where i % 3 == 1."""
+    j = i + SHIFT
+    wi = list(hemisphere(unit(i, 15), unit(i, 16)))
+    if i % 4 == 3:
+        wi[2] = -wi[2]
+    if i % 3 == 0:
+        r2 = roughness ** 2
+        t = unit(j, 0)
+        tan_m = r2 * (t / (1.0 - t)) ** 0.5
+        cos_m = 1.0 / (1.0 + tan_m * tan_m) ** 0.5
+        m = hemisphere(cos_m, unit(j, 1))
+        if wi[2] < 0.0:
+            m = tuple(-c for c in m)
+        d = sum(wi[k] * m[k] for k in range(3))
+        wo = [2.0 * d * m[k] - wi[k] for k in range(3)]
+        if through:
+            wo[2] = -wo[2]
+    else:
+        wo = list(hemisphere(unit(j, 2) ** 0.5, unit(j, 3)))
+        if i % 3 == 1:
+            wo[2] = -wo[2]
+    return tuple(wi), tuple(wo)
+
+
 def principled_inputs(i):
     """Case i of the principled BSDF: its parameters (a dict of Mitsuba's
     names; a lobe left out is off) and the viewer wi and light wo, in f64.
@@ -564,7 +595,6 @@ def principled_inputs(i):
     tan = roughness^2 sqrt(t / (1 - t)), t = unit 0 of i + SHIFT, azimuth
     2 pi unit 1 of i + SHIFT; else at cos = sqrt(unit 2 of i + SHIFT) and
     azimuth 2 pi unit 3 of i + SHIFT, below where i % 3 == 1."""
-    j = i + SHIFT
     params = {
         "base_color": [unit(i, c) for c in range(3)],
         "roughness": 0.05 + 0.95 * unit(i, 3),
@@ -590,25 +620,7 @@ def principled_inputs(i):
         params["eta"] = 0.6 + 1.6 * unit(i, 13)
     else:
         params["specular"] = unit(i, 14)
-    wi = list(hemisphere(unit(i, 15), unit(i, 16)))
-    if i % 4 == 3:
-        wi[2] = -wi[2]
-    if i % 3 == 0:
-        r2 = params["roughness"] ** 2
-        t = unit(j, 0)
-        tan_m = r2 * (t / (1.0 - t)) ** 0.5
-        cos_m = 1.0 / (1.0 + tan_m * tan_m) ** 0.5
-        m = hemisphere(cos_m, unit(j, 1))
-        if wi[2] < 0.0:
-            m = tuple(-c for c in m)
-        d = sum(wi[k] * m[k] for k in range(3))
-        wo = tuple(2.0 * d * m[k] - wi[k] for k in range(3))
-    else:
-        wo = list(hemisphere(unit(j, 2) ** 0.5, unit(j, 3)))
-        if i % 3 == 1:
-            wo[2] = -wo[2]
-        wo = tuple(wo)
-    return params, tuple(wi), wo
+    return (params,) + principled_directions(i, params["roughness"], False)
 
 
 def principledthin_inputs(i):
@@ -627,7 +639,6 @@ def principledthin_inputs(i):
     the thin sheet's transmission, where i % 6 == 3); else at cos =
     sqrt(unit 2 of i + SHIFT) and azimuth 2 pi unit 3 of i + SHIFT, below
     where i % 3 == 1."""
-    j = i + SHIFT
     params = {
         "base_color": [unit(i, c) for c in range(3)],
         "roughness": 0.05 + 0.95 * unit(i, 3),
@@ -647,28 +658,7 @@ def principledthin_inputs(i):
     if i % 7 < 4:
         params["spec_tint"] = unit(i, 12)
     params["eta"] = 0.8 + 1.7 * unit(i, 13)
-    wi = list(hemisphere(unit(i, 15), unit(i, 16)))
-    if i % 4 == 3:
-        wi[2] = -wi[2]
-    if i % 3 == 0:
-        r2 = params["roughness"] ** 2
-        t = unit(j, 0)
-        tan_m = r2 * (t / (1.0 - t)) ** 0.5
-        cos_m = 1.0 / (1.0 + tan_m * tan_m) ** 0.5
-        m = hemisphere(cos_m, unit(j, 1))
-        if wi[2] < 0.0:
-            m = tuple(-c for c in m)
-        d = sum(wi[k] * m[k] for k in range(3))
-        wo = [2.0 * d * m[k] - wi[k] for k in range(3)]
-        if i % 6 == 3:
-            wo[2] = -wo[2]
-        wo = tuple(wo)
-    else:
-        wo = list(hemisphere(unit(j, 2) ** 0.5, unit(j, 3)))
-        if i % 3 == 1:
-            wo[2] = -wo[2]
-        wo = tuple(wo)
-    return params, tuple(wi), wo
+    return (params,) + principled_directions(i, params["roughness"], i % 6 == 3)
 
 
 def principled_plugin(kind, params):
