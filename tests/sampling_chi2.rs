@@ -697,7 +697,6 @@ const PRINCIPLED_THIN_CASES: [ThinCase; 4] = [
 fn thin_principled_samples_its_density() {
     // Its four lobes (specular reflection and transmission, diffuse
     // reflection and transmission) against bsdf_eval's density.
-    use reference::material::bsdf_eval;
     let mut runs = Vec::new();
     for (k, &(roughness, [anisotropic, spec_trans, diff_trans, sheen], eta, theta, front)) in
         PRINCIPLED_THIN_CASES.iter().enumerate()
@@ -711,22 +710,7 @@ fn thin_principled_samples_its_density() {
                 textures.len() as u32 - 1
             });
         }
-        let ctx = TextureContext {
-            textures: &textures,
-            images: &[],
-        };
-        let (si, wo) = viewer(theta, front);
-        let seed = 590 + k as u32;
-        let o = test_density(
-            &SPHERE,
-            samples(|i| {
-                scatter(&material, ctx, -wo, &si, &u(seed, i)).map(|s| {
-                    assert!(s.density);
-                    s.direction.as_dvec3()
-                })
-            }),
-            &|wi| bsdf_eval(&material, ctx, -wo, &si, wi.as_vec3()).unwrap().1 as f64,
-        );
+        let o = density_outcome(&material, &textures, theta, front, 590 + k as u32);
         runs.push((
             format!(
                 "roughness {roughness}, lobes {:?}, η {eta}, θo {theta}°, in front {front}",
@@ -736,6 +720,34 @@ fn thin_principled_samples_its_density() {
         ));
     }
     assert_family_passes("thin principled", &runs);
+}
+
+/// The chi-square of `material`'s draws (every one with a density) for
+/// a viewer at `theta` degrees, in front or behind, against
+/// `bsdf_eval`'s density over the sphere.
+fn density_outcome(
+    material: &Material,
+    textures: &[Texture],
+    theta: f64,
+    front: bool,
+    seed: u32,
+) -> Chi2Outcome {
+    use reference::material::bsdf_eval;
+    let ctx = TextureContext {
+        textures,
+        images: &[],
+    };
+    let (si, wo) = viewer(theta, front);
+    test_density(
+        &SPHERE,
+        samples(|i| {
+            scatter(material, ctx, -wo, &si, &u(seed, i)).map(|s| {
+                assert!(s.density);
+                s.direction.as_dvec3()
+            })
+        }),
+        &|wi| bsdf_eval(material, ctx, -wo, &si, wi.as_vec3()).unwrap().1 as f64,
+    )
 }
 
 pub(crate) type PrincipledCase = (f32, [Option<f32>; 5], f32, f64, bool);
@@ -773,26 +785,10 @@ pub(crate) const PRINCIPLED_CASES: [PrincipledCase; 5] = [
 fn principled_samples_its_density() {
     // Its four lobes drawn by probabilities that the specular normal's
     // Fresnel weighs, against bsdf_eval's density over the sphere.
-    use reference::material::bsdf_eval;
     let mut runs = Vec::new();
     for (k, &(roughness, lobes, eta, theta, front)) in PRINCIPLED_CASES.iter().enumerate() {
         let (material, textures) = principled(roughness, lobes, eta);
-        let ctx = TextureContext {
-            textures: &textures,
-            images: &[],
-        };
-        let (si, wo) = viewer(theta, front);
-        let seed = 580 + k as u32;
-        let o = test_density(
-            &SPHERE,
-            samples(|i| {
-                scatter(&material, ctx, -wo, &si, &u(seed, i)).map(|s| {
-                    assert!(s.density);
-                    s.direction.as_dvec3()
-                })
-            }),
-            &|wi| bsdf_eval(&material, ctx, -wo, &si, wi.as_vec3()).unwrap().1 as f64,
-        );
+        let o = density_outcome(&material, &textures, theta, front, 580 + k as u32);
         runs.push((
             format!(
                 "roughness {roughness}, lobes {lobes:?}, η {eta}, θo {theta}°, outside {front}"
