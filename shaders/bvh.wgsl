@@ -156,6 +156,15 @@ fn intersect_inline(r0: vec4<u32>, r1: vec4<u32>, r2: vec4<u32>, r3: vec4<u32>, 
             if !uses(FEATURE_TRIANGLES) { poison(); break; }
             h = intersect_triangle(a, b, c, ray, t_min, t_max);
         }
+        case PRIMITIVE_QUADRIC: {
+            // Its maps do not fit the entry: a's first float holds the
+            // record's index.
+            h = intersect_quadric_record(bitcast<u32>(a.x), ray, t_min, t_max);
+        }
+        case PRIMITIVE_SDF_VOXEL: {
+            // Its cell's record in `texels`: a's first float holds where.
+            h = intersect_sdf_record(bitcast<u32>(a.x), ray, t_min, t_max);
+        }
         default: {
             poison();
         }

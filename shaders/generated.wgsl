@@ -3,6 +3,12 @@
 const PRIMITIVE_SPHERE: u32 = 0u;
 const PRIMITIVE_QUAD: u32 = 1u;
 const PRIMITIVE_TRIANGLE: u32 = 2u;
+const PRIMITIVE_QUADRIC: u32 = 3u;
+const QUADRIC_DISK: u32 = 0u;
+const QUADRIC_CYLINDER: u32 = 1u;
+const PRIMITIVE_SDF_VOXEL: u32 = 4u;
+const SDF_REFINE_STEPS: u32 = 51u;
+const SDF_REFINE_BRACKET: f32 = 1e-5;
 const MATERIAL_LAMBERTIAN: u32 = 0u;
 const MATERIAL_METAL: u32 = 1u;
 const MATERIAL_CONDUCTOR: u32 = 5u;
@@ -126,8 +132,8 @@ const LEAVES_INDEXED: u32 = 0u;
 const LEAVES_INLINE: u32 = 1u;
 const LEAVES_INLINE_SOA: u32 = 2u;
 const INLINE_WORDS: u32 = 4u;
-const INLINE_TAG_SHIFT: u32 = 30u;
-const INLINE_ALPHA: u32 = 536870912u;
+const INLINE_TAG_SHIFT: u32 = 29u;
+const INLINE_ALPHA: u32 = 268435456u;
 const SLAB_FAR_SCALE: f32 = 1.0000004e0;
 const BOX_NEAR_SLACK: f32 = 9.9975586e-1;
 const BOX_T_PAD: f32 = 9.536743e-7;
@@ -188,6 +194,8 @@ const FEATURE_TANGENT_FRAME: vec2<u32> = vec2<u32>(1073741824u, 0u);
 const FEATURE_BLEND: vec2<u32> = vec2<u32>(2147483648u, 0u);
 const FEATURE_PRINCIPLED: vec2<u32> = vec2<u32>(0u, 1u);
 const FEATURE_PRINCIPLED_THIN: vec2<u32> = vec2<u32>(0u, 2u);
+const FEATURE_QUADRICS: vec2<u32> = vec2<u32>(0u, 4u);
+const FEATURE_SDF_GRIDS: vec2<u32> = vec2<u32>(0u, 8u);
 const INTEGRATOR_BSDF: u32 = 0u;
 const INTEGRATOR_MIS: u32 = 1u;
 const SMALL_CONE_SIN2: f32 = 6.8523e-4;
@@ -239,6 +247,40 @@ struct GpuQuad {
     v_y: f32,
     v_z: f32,
     _pad1: u32,
+}
+struct GpuQuadric {
+    l0_x: f32,
+    l0_y: f32,
+    l0_z: f32,
+    kind: u32,
+    l1_x: f32,
+    l1_y: f32,
+    l1_z: f32,
+    material: u32,
+    l2_x: f32,
+    l2_y: f32,
+    l2_z: f32,
+    flip: u32,
+    o_x: f32,
+    o_y: f32,
+    o_z: f32,
+    nx: u32,
+    i0_x: f32,
+    i0_y: f32,
+    i0_z: f32,
+    ny: u32,
+    i1_x: f32,
+    i1_y: f32,
+    i1_z: f32,
+    nz: u32,
+    i2_x: f32,
+    i2_y: f32,
+    i2_z: f32,
+    samples: u32,
+    io_x: f32,
+    io_y: f32,
+    io_z: f32,
+    smooth_normals: u32,
 }
 struct GpuTriangle {
     v0: u32,
@@ -477,4 +519,5 @@ struct BvhNode {
 @group(0) @binding(12) var<storage, read> emitters: array<GpuEmitter>;
 @group(0) @binding(13) var<storage, read> light_densities: array<GpuLightDensity>;
 @group(0) @binding(14) var<storage, read> vertex_extras: array<GpuVertexExtra>;
-@group(0) @binding(15) var<storage, read_write> film: array<u32>;
+@group(0) @binding(15) var<storage, read> quadrics: array<GpuQuadric>;
+@group(0) @binding(16) var<storage, read_write> film: array<u32>;

@@ -169,6 +169,16 @@ fn offset_on(prim: u32, uv: vec2<f32>, p: vec3<f32>) -> vec3<f32> {
             let c = vertex_position(t.v2);
             return (a - p) + uv.x * (b - a) + uv.y * (c - a);
         }
+        case PRIMITIVE_SDF_VOXEL: {
+            // No area: never drawn (reference::light::offset_on).
+            return vec3<f32>(0.0);
+        }
+        case PRIMITIVE_QUADRIC: {
+            if !uses(FEATURE_QUADRICS) { poison(); break; }
+            let q = quadric_record(pr.index);
+            let l = quadric_area_point(q.kind, uv);
+            return (q.o - p) + l.x * q.l0 + l.y * q.l1 + l.z * q.l2;
+        }
         default: {
             poison();
             return vec3<f32>(0.0);
@@ -343,6 +353,26 @@ fn light_set_pdf(prim: u32, p: vec3<f32>, x: vec3<f32>, n: vec3<f32>) -> f32 {
             return d.pmf * sphere_cone_pdf(sp.radius * sp.radius / dc2);
         }
     }
+    let pr = primitives[prim];
+    if uses(FEATURE_QUADRICS) && pr.tag == PRIMITIVE_QUADRIC {
+        let q = quadric_record(pr.index);
+        if q.kind != QUADRIC_DISK {
+            // Every point of the shape the direction reaches could have
+            // been the sample (reference::shapes::Quadric::crossings).
+            let ray = Ray(p, x - p);
+            let local = quadric_object_ray(q, ray);
+            var sum = 0.0;
+            let first = intersect_quadric(q.kind, local, 0.0, f32_infinity());
+            if first.hit {
+                sum += quadric_crossing_density(q, ray, first.t, p, d.area);
+                let second = intersect_quadric(q.kind, local, first.t, f32_infinity());
+                if second.hit {
+                    sum += quadric_crossing_density(q, ray, second.t, p, d.area);
+                }
+            }
+            return d.pmf * sum;
+        }
+    }
     let to = x - p;
     let d2 = dot(to, to);
     let cos_light = abs(dot(to, n) / sqrt(d2));
@@ -350,4 +380,16 @@ fn light_set_pdf(prim: u32, p: vec3<f32>, x: vec3<f32>, n: vec3<f32>) -> f32 {
         return 0.0;
     }
     return d.pmf * d2 / (d.area * cos_light);
+}
+
+// d² / (A·|cos|) at the crossing t of the ray from p (light_set_pdf).
+fn quadric_crossing_density(q: Quadric, ray: Ray, t: f32, p: vec3<f32>, area: f32) -> f32 {
+    let s = quadric_surface(q, ray, t);
+    let to = s.p - p;
+    let d2 = dot(to, to);
+    let cos_light = abs(dot(to, s.n) / sqrt(d2));
+    if cos_light > 0.0 && d2 > 0.0 {
+        return d2 / (area * cos_light);
+    }
+    return 0.0;
 }

@@ -112,6 +112,12 @@ fn intersect_shape(p: GpuPrimitive, ray: Ray, t_min: f32, t_max: f32) -> ShapeHi
         if p.tag == PRIMITIVE_TRIANGLE {
             return intersect_triangle_record(p.index, ray, t_min, t_max);
         }
+        if p.tag == PRIMITIVE_QUADRIC {
+            return intersect_quadric_record(p.index, ray, t_min, t_max);
+        }
+        if p.tag == PRIMITIVE_SDF_VOXEL {
+            return intersect_sdf_record(p.index, ray, t_min, t_max);
+        }
         poison();
         return no_hit();
     }
@@ -124,6 +130,12 @@ fn intersect_shape(p: GpuPrimitive, ray: Ray, t_min: f32, t_max: f32) -> ShapeHi
         }
         case PRIMITIVE_TRIANGLE: {
             return intersect_triangle_record(p.index, ray, t_min, t_max);
+        }
+        case PRIMITIVE_QUADRIC: {
+            return intersect_quadric_record(p.index, ray, t_min, t_max);
+        }
+        case PRIMITIVE_SDF_VOXEL: {
+            return intersect_sdf_record(p.index, ray, t_min, t_max);
         }
         default: {
             poison();
@@ -149,6 +161,55 @@ fn intersect_triangle_record(index: u32, ray: Ray, t_min: f32, t_max: f32) -> Sh
     if !uses(FEATURE_TRIANGLES) { poison(); return no_hit(); }
     let tri = triangles[index];
     return intersect_triangle(vertex_position(tri.v0), vertex_position(tri.v1), vertex_position(tri.v2), ray, t_min, t_max);
+}
+
+// A quadric's record, as its maps.
+fn quadric_record(index: u32) -> Quadric {
+    let g = quadrics[index];
+    return Quadric(
+        vec3<f32>(g.l0_x, g.l0_y, g.l0_z),
+        vec3<f32>(g.l1_x, g.l1_y, g.l1_z),
+        vec3<f32>(g.l2_x, g.l2_y, g.l2_z),
+        vec3<f32>(g.o_x, g.o_y, g.o_z),
+        vec3<f32>(g.i0_x, g.i0_y, g.i0_z),
+        vec3<f32>(g.i1_x, g.i1_y, g.i1_z),
+        vec3<f32>(g.i2_x, g.i2_y, g.i2_z),
+        vec3<f32>(g.io_x, g.io_y, g.io_z),
+        g.kind,
+        g.flip != 0u,
+        g.material,
+    );
+}
+
+fn intersect_quadric_record(index: u32, ray: Ray, t_min: f32, t_max: f32) -> ShapeHit {
+    if !uses(FEATURE_QUADRICS) { poison(); return no_hit(); }
+    let q = quadric_record(index);
+    return intersect_quadric(q.kind, quadric_object_ray(q, ray), t_min, t_max);
+}
+
+// A signed distance grid's record (a quadrics' record of kind
+// QUADRIC_SDF).
+fn sdf_grid_record(index: u32) -> SdfGrid {
+    let g = quadrics[index];
+    let dims = vec3<i32>(i32(g.nx), i32(g.ny), i32(g.nz));
+    return SdfGrid(quadric_record(index), dims, g.samples, g.smooth_normals != 0u);
+}
+
+// A grid cell's record in `texels`, at `at`: its grid's record, its cell.
+struct SdfCellRecord {
+    grid: u32,
+    cell: vec3<i32>,
+}
+
+fn sdf_cell_record(at: u32) -> SdfCellRecord {
+    return SdfCellRecord(u32(texels[at]), vec3<i32>(i32(texels[at + 1u]), i32(texels[at + 2u]), i32(texels[at + 3u])));
+}
+
+fn intersect_sdf_record(at: u32, ray: Ray, t_min: f32, t_max: f32) -> ShapeHit {
+    if !uses(FEATURE_SDF_GRIDS) { poison(); return no_hit(); }
+    let c = sdf_cell_record(at);
+    let g = sdf_grid_record(c.grid);
+    return sdf_grid_intersect_cell(g, c.cell, quadric_object_ray(g.q, ray), t_min, t_max);
 }
 
 fn surface_interaction(ray: Ray, hit: Hit) -> SurfaceInteraction {
@@ -183,6 +244,42 @@ fn surface_interaction(ray: Ray, hit: Hit) -> SurfaceInteraction {
             si.uv = vec2<f32>((atan2(-outward.z, outward.x) + PI) / (2.0 * PI), acos(clamp(-outward.y, -1.0, 1.0)) / PI);
             si.p_error = gamma(5.0) * (abs(s.radius) + max3(abs(c)) + max3(abs(si.p)));
             si.material = s.material;
+        }
+        case PRIMITIVE_SDF_VOXEL: {
+            if !uses(FEATURE_SDF_GRIDS) { poison(); break; }
+            let g = sdf_grid_record(sdf_cell_record(p.index).grid);
+            let s = sdf_grid_surface(g, ray, hit.t);
+            // The smooth normal on the gradient's side (reference).
+            var ns = s.shading_n;
+            if dot(ns, s.n) < 0.0 {
+                ns = -ns;
+            }
+            si.p = s.p;
+            si.geometric_normal = s.n;
+            si.shading_normal = ns;
+            frame_n = ns;
+            dp_du = vec3<f32>(0.0);
+            // Mitsuba's uv (0, 0), v flipped into twintrace's.
+            si.uv = vec2<f32>(0.0, 1.0);
+            si.p_error = s.p_error;
+            si.material = g.q.material;
+        }
+        case PRIMITIVE_QUADRIC: {
+            if !uses(FEATURE_QUADRICS) { poison(); break; }
+            let q = quadric_record(p.index);
+            let s = quadric_surface(q, ray, hit.t);
+            si.p = s.p;
+            si.geometric_normal = s.n;
+            si.shading_normal = s.n;
+            frame_n = s.n;
+            dp_du = s.dp_du;
+            if uses(FEATURE_TANGENT_FRAME) {
+                si.dp_du = s.dp_du;
+                si.dp_dv = s.dp_dv;
+            }
+            si.uv = s.uv;
+            si.p_error = s.p_error;
+            si.material = q.material;
         }
         case PRIMITIVE_QUAD: {
             if !uses(FEATURE_QUADS) { poison(); break; }

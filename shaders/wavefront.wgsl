@@ -275,6 +275,12 @@ fn primitive_material(prim: u32) -> u32 {
         case PRIMITIVE_TRIANGLE: {
             return triangles[p.index].material;
         }
+        case PRIMITIVE_QUADRIC: {
+            return quadrics[p.index].material;
+        }
+        case PRIMITIVE_SDF_VOXEL: {
+            return quadrics[sdf_cell_record(p.index).grid].material;
+        }
         default: {
             poison();
             return 0u;

@@ -232,6 +232,20 @@ const MUTANTS: &[GpuMutant] = &[
         cpu_twin: Some(Mutant::LightTextureUnflipped),
     },
     GpuMutant {
+        scene: "shapes",
+        what: "the quadric's v not flipped",
+        from: "    uv = vec2<f32>(uv.x, 1.0 - uv.y);",
+        to: "    uv = vec2<f32>(uv.x, uv.y);",
+        cpu_twin: Some(Mutant::QuadricVUnflipped),
+    },
+    GpuMutant {
+        scene: "shapes",
+        what: "the cylinder lamp's density from its first crossing alone",
+        from: "                let second = intersect_quadric(q.kind, local, first.t, f32_infinity());",
+        to: "                let second = no_hit();",
+        cpu_twin: Some(Mutant::QuadricDensityOneCrossing),
+    },
+    GpuMutant {
         // A vertex colour texture that reads its factor alone.
         scene: "attributes",
         what: "the vertex colour unread",

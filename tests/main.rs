@@ -25,6 +25,7 @@ mod light_sampling;
 mod mis_matches_bsdf;
 mod mitsuba_bsdfs;
 mod mitsuba_scenes;
+mod mitsuba_shapes;
 mod partial_film_roundtrip;
 mod perf_regression;
 mod progressive_render;

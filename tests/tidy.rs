@@ -131,6 +131,26 @@ const GPU_ONLY: &[(&str, &str)] = &[
         "the triangle arm of the shape match in LeafPrim::intersect",
     ),
     (
+        "intersect_quadric_record",
+        "the quadric arm of the shape match in LeafPrim::intersect (Objects::intersect)",
+    ),
+    (
+        "intersect_sdf_record",
+        "the grid cell arm of the shape match in LeafPrim::intersect (Objects::intersect)",
+    ),
+    (
+        "quadric_record",
+        "a quadrics' record read into the maps reference::shapes::Quadric holds",
+    ),
+    (
+        "sdf_grid_record",
+        "a grid's record (a quadrics' record of kind QUADRIC_SDF) read into what reference::sdf::SdfGrid holds",
+    ),
+    (
+        "sdf_cell_record",
+        "a grid cell's record in texels read into what reference::sdf::SdfVoxel holds",
+    ),
+    (
         "intersect_inline",
         "intersect_primitive on a leaf-ordered copy of the records it reads (gpu::traversal::LeafLayout::Inline)",
     ),

@@ -1,8 +1,9 @@
-//! Mitsuba 3 scene files and the mesh files their shapes read
+//! Mitsuba 3 scene files and the mesh and grid files their shapes read
 //! (`reference::loader::mitsuba`): the first byte picks the reader (the
-//! XML scene, made into a scene; OBJ; PLY; Mitsuba's serialized), the
-//! rest is the file. Any input gives a scene or an error, never a panic;
-//! a mesh read has its indices in range.
+//! XML scene, made into a scene; OBJ; PLY; Mitsuba's serialized; with bit
+//! 3 set, a `.vol` grid), the rest is the file. Any input gives a scene or
+//! an error, never a panic; a mesh read has its indices in range, a grid
+//! as many samples as its sizes say.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -18,6 +19,13 @@ fuzz_target!(|data: &[u8]| {
         flip_tex_coords: None,
         shape_index: u32::from(which >> 4),
     };
+    if which & 8 != 0 {
+        if let Ok(g) = meshes::parse_vol(rest) {
+            let n: usize = g.dims.iter().map(|&d| d as usize).product();
+            assert_eq!(g.values.len(), n);
+        }
+        return;
+    }
     let mesh = match which % 4 {
         0 => {
             let Ok(text) = std::str::from_utf8(rest) else {

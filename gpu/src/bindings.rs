@@ -52,9 +52,10 @@ pub const TEXELS: Binding = scene(11, "texels", "array<f32>");
 pub const EMITTERS: Binding = scene(12, "emitters", "array<GpuEmitter>");
 pub const LIGHT_DENSITIES: Binding = scene(13, "light_densities", "array<GpuLightDensity>");
 pub const VERTEX_EXTRAS: Binding = scene(14, "vertex_extras", "array<GpuVertexExtra>");
+pub const QUADRICS: Binding = scene(15, "quadrics", "array<GpuQuadric>");
 pub const FILM: Binding = Binding {
     group: 0,
-    slot: 15,
+    slot: 16,
     name: "film",
     // Word-major: gpu::records::film_words.
     wgsl_type: "array<u32>",
@@ -62,7 +63,7 @@ pub const FILM: Binding = Binding {
 };
 
 /// The scene's read-only arrays, in slot order.
-pub const SCENE_ARRAYS: [Binding; 14] = [
+pub const SCENE_ARRAYS: [Binding; 15] = [
     NODES,
     LEAF_ENTRIES,
     PRIMITIVES,
@@ -77,6 +78,7 @@ pub const SCENE_ARRAYS: [Binding; 14] = [
     EMITTERS,
     LIGHT_DENSITIES,
     VERTEX_EXTRAS,
+    QUADRICS,
 ];
 
 /// Group 0, shared by the render kernel and the test kernels.
@@ -399,7 +401,7 @@ mod tests {
                 path_megakernel_storage_buffers(false),
                 wavefront_storage_buffers(false)
             ),
-            (15, 17, 18)
+            (16, 18, 19)
         );
         assert_eq!(
             (
@@ -407,7 +409,7 @@ mod tests {
                 path_megakernel_storage_buffers(true),
                 wavefront_storage_buffers(true)
             ),
-            (16, 18, 19)
+            (17, 19, 20)
         );
     }
 }

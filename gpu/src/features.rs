@@ -88,6 +88,8 @@ feature_bits! {
     BLEND = 31,
     PRINCIPLED = 32,
     PRINCIPLED_THIN = 33,
+    QUADRICS = 34,
+    SDF_GRIDS = 35,
 }
 
 impl Kernel {
@@ -127,6 +129,8 @@ impl Features {
                 primitive_tag::SPHERE => feature::SPHERES,
                 primitive_tag::QUAD => feature::QUADS,
                 primitive_tag::TRIANGLE => feature::TRIANGLES,
+                primitive_tag::QUADRIC => feature::QUADRICS,
+                primitive_tag::SDF_VOXEL => feature::SDF_GRIDS,
                 // A kind this list does not know: the general kernel.
                 _ => u64::MAX,
             };

@@ -38,6 +38,27 @@ gpu_record! {
 }
 
 gpu_record! {
+    /// A disk, cylinder or textured sphere in its own object space
+    /// (`reference::shapes::Quadric`): object → world by columns `l0`,
+    /// `l1`, `l2` and origin `o`; world → object by columns `i0`, `i1`,
+    /// `i2` and origin `io`; `flip` 1 for an inward normal. A record of
+    /// kind `QUADRIC_SDF` holds a signed distance grid's maps
+    /// (`reference::sdf::SdfGrid`): `nx`, `ny`, `nz` its samples per
+    /// axis, `samples` where they start in `texels`, `smooth_normals` 1 for smooth
+    /// shading normals (all 0 in a quadric's).
+    GpuQuadric {
+        l0_x: f32, l0_y: f32, l0_z: f32, kind: u32,
+        l1_x: f32, l1_y: f32, l1_z: f32, material: u32,
+        l2_x: f32, l2_y: f32, l2_z: f32, flip: u32,
+        o_x: f32, o_y: f32, o_z: f32, nx: u32,
+        i0_x: f32, i0_y: f32, i0_z: f32, ny: u32,
+        i1_x: f32, i1_y: f32, i1_z: f32, nz: u32,
+        i2_x: f32, i2_y: f32, i2_z: f32, samples: u32,
+        io_x: f32, io_y: f32, io_z: f32, smooth_normals: u32,
+    }
+}
+
+gpu_record! {
     /// A triangle of the shared vertex array (`reference::shapes::Triangle`).
     GpuTriangle { v0: u32, v1: u32, v2: u32, material: u32, flags: u32, _pad0: u32, _pad1: u32, _pad2: u32 }
 }
@@ -379,6 +400,7 @@ pub fn wgsl_records() -> String {
     [
         GpuSphere::WGSL,
         GpuQuad::WGSL,
+        GpuQuadric::WGSL,
         GpuTriangle::WGSL,
         GpuVertex::WGSL,
         GpuVertexExtra::WGSL,
@@ -424,6 +446,8 @@ mod tests {
     fn sizes_are_multiples_of_16_where_arrays_need_it() {
         assert_eq!(std::mem::size_of::<GpuSphere>(), 32);
         assert_eq!(std::mem::size_of::<GpuQuad>(), 48);
+        // gpu::renderer binds 128 zero bytes for an empty array.
+        assert_eq!(std::mem::size_of::<GpuQuadric>(), 128);
         assert_eq!(std::mem::size_of::<GpuTriangle>(), 32);
         assert_eq!(std::mem::size_of::<GpuVertex>(), 32);
         assert_eq!(std::mem::size_of::<GpuPrimitive>(), 32);

@@ -422,8 +422,10 @@ impl<'a> GpuRenderer<'a> {
         let mut scene_buffers = Vec::with_capacity(arrays.len());
         for (binding, bytes) in arrays {
             ctx.check_binding_size(binding.name, bytes.len() as u64)?;
-            // Bindings may not be empty: an empty array gets one zero record.
-            let zeros = [0u8; 64]; // at least one of the largest record (48 bytes)
+            // Bindings may not be empty: an empty array gets one zero record
+            // of any of its kinds (the largest that can be empty,
+            // GpuQuadric, 128 bytes: records.rs's size test).
+            let zeros = [0u8; 128];
             let contents = if bytes.is_empty() {
                 &zeros[..]
             } else {

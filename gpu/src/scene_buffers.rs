@@ -41,6 +41,7 @@ pub struct PackedScene {
     pub primitives: Vec<GpuPrimitive>,
     pub spheres: Vec<GpuSphere>,
     pub quads: Vec<GpuQuad>,
+    pub quadrics: Vec<GpuQuadric>,
     pub triangles: Vec<GpuTriangle>,
     pub vertices: Vec<GpuVertex>,
     /// Empty when no triangle has colours, tangents or a second uv set.
@@ -503,7 +504,7 @@ fn with_sampler(t: GpuTexture, sampler: &Sampler) -> GpuTexture {
 impl PackedScene {
     /// Each array with the binding it is uploaded to (every one of
     /// [`bindings::SCENE_ARRAYS`], in slot order).
-    pub fn arrays(&self) -> [(Binding, std::borrow::Cow<'_, [u8]>); 14] {
+    pub fn arrays(&self) -> [(Binding, std::borrow::Cow<'_, [u8]>); 15] {
         use bytemuck::cast_slice;
         use std::borrow::Cow;
         fn bytes<T: bytemuck::Pod>(v: &[T]) -> Cow<'_, [u8]> {
@@ -546,6 +547,7 @@ impl PackedScene {
             (bindings::EMITTERS, bytes(&self.emitters)),
             (bindings::LIGHT_DENSITIES, bytes(&self.light_densities)),
             (bindings::VERTEX_EXTRAS, bytes(&self.vertex_extras)),
+            (bindings::QUADRICS, bytes(&self.quadrics)),
         ]
     }
 
@@ -617,6 +619,30 @@ impl PackedScene {
             };
             texels.extend_from_slice(bytemuck::cast_slice(&[record]));
         }
+        // The signed distance grids: each grid's maps a record after the
+        // quadrics', its samples in `texels`; each cell a record of four
+        // floats in `texels` (its grid's record, its x, y, z: exact
+        // integers), which its primitive's index points at.
+        let mut quadrics: Vec<GpuQuadric> = scene.quadrics().iter().map(pack_quadric).collect();
+        let mut sdf_cells = Vec::with_capacity(scene.sdf_voxels().len());
+        for (g, grid) in scene.sdf_grids().iter().enumerate() {
+            let samples = texels.len() as u32;
+            texels.extend_from_slice(&grid.values);
+            quadrics.push(GpuQuadric {
+                nx: grid.dims[0],
+                ny: grid.dims[1],
+                nz: grid.dims[2],
+                samples,
+                smooth_normals: u32::from(grid.smooth),
+                ..pack_quadric(&grid.map)
+            });
+            debug_assert_eq!(quadrics.len(), scene.quadrics().len() + g + 1);
+        }
+        for v in scene.sdf_voxels() {
+            sdf_cells.push(texels.len() as u32);
+            let record = (scene.quadrics().len() as u32 + v.grid) as f32;
+            texels.extend([record, v.cell[0] as f32, v.cell[1] as f32, v.cell[2] as f32]);
+        }
         let filter_table = match scene.filter_table() {
             None => NO_FILTER_TABLE,
             Some(t) => {
@@ -641,7 +667,12 @@ impl PackedScene {
                     let b = scene.primitive_bounds(i as u32);
                     GpuPrimitive {
                         tag: p.tag,
-                        index: p.index,
+                        // A grid cell's record in `texels`.
+                        index: if p.tag == reference::scene::primitive_tag::SDF_VOXEL {
+                            sdf_cells[p.index as usize]
+                        } else {
+                            p.index
+                        },
                         lo_x: b.min.x,
                         lo_y: b.min.y,
                         lo_z: b.min.z,
@@ -680,6 +711,7 @@ impl PackedScene {
                     ..Default::default()
                 })
                 .collect(),
+            quadrics,
             triangles: scene
                 .triangles()
                 .iter()
@@ -821,6 +853,19 @@ pub fn inline_entries(order: &[u32], p: &PackedScene) -> Result<Vec<[u32; 4]>, S
                     q.corner_x, q.corner_y, q.corner_z, q.u_x, q.u_y, q.u_z, q.v_x, q.v_y, q.v_z,
                 ]
             }
+            // The kernel reads the quadric's record (its maps do not fit
+            // nine floats): the first float holds its index's bits.
+            primitive_tag::QUADRIC | primitive_tag::SDF_VOXEL => [
+                f32::from_bits(g.index),
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+            ],
             _ => {
                 // Triangles, and any other tag: the kernel poisons an
                 // unknown tag whatever the floats.
@@ -838,14 +883,51 @@ pub fn inline_entries(order: &[u32], p: &PackedScene) -> Result<Vec<[u32; 4]>, S
             && p.triangles
                 .get(i)
                 .is_some_and(|t| t.flags & TRIANGLE_HAS_ALPHA != 0);
-        // An unknown tag stays unknown (3 is none): the kernel poisons it.
-        let head = prim | (g.tag.min(3) << INLINE_TAG_SHIFT) | if alpha { INLINE_ALPHA } else { 0 };
+        // An unknown tag stays unknown (7 is none): the kernel poisons it.
+        let head = prim | (g.tag.min(7) << INLINE_TAG_SHIFT) | if alpha { INLINE_ALPHA } else { 0 };
         out.push([head, f(g.lo_x), f(g.lo_y), f(g.lo_z)]);
         out.push([f(g.hi_x), f(g.hi_y), f(g.hi_z), f(shape[0])]);
         out.push([f(shape[1]), f(shape[2]), f(shape[3]), f(shape[4])]);
         out.push([f(shape[5]), f(shape[6]), f(shape[7]), f(shape[8])]);
     }
     Ok(out)
+}
+
+/// A quadric's record.
+fn pack_quadric(q: &reference::shapes::Quadric) -> GpuQuadric {
+    let [l0, l1, l2] = q.linear;
+    let [i0, i1, i2] = q.inv_linear;
+    let (o, io) = (q.origin, q.inv_origin);
+    GpuQuadric {
+        l0_x: l0.x,
+        l0_y: l0.y,
+        l0_z: l0.z,
+        kind: q.kind,
+        l1_x: l1.x,
+        l1_y: l1.y,
+        l1_z: l1.z,
+        material: q.material,
+        l2_x: l2.x,
+        l2_y: l2.y,
+        l2_z: l2.z,
+        flip: u32::from(q.flip),
+        o_x: o.x,
+        o_y: o.y,
+        o_z: o.z,
+        i0_x: i0.x,
+        i0_y: i0.y,
+        i0_z: i0.z,
+        i1_x: i1.x,
+        i1_y: i1.y,
+        i1_z: i1.z,
+        i2_x: i2.x,
+        i2_y: i2.y,
+        i2_z: i2.z,
+        io_x: io.x,
+        io_y: io.y,
+        io_z: io.z,
+        ..Default::default()
+    }
 }
 
 /// The background's part of the per-dispatch parameters.

@@ -42,11 +42,12 @@ pub const WORKGROUP: (u32, u32) = (8, 8);
 /// The WGSL library shared by the render kernel and the test kernels: one
 /// file per `reference/src` module (same file name, same function names),
 /// in the order they are joined.
-pub const LIBRARY_FILES: [(&str, &str); 14] = [
+pub const LIBRARY_FILES: [(&str, &str); 15] = [
     ("rng", include_str!("../../shaders/rng.wgsl")),
     ("sampling", include_str!("../../shaders/sampling.wgsl")),
     ("geometry", include_str!("../../shaders/geometry.wgsl")),
     ("shapes", include_str!("../../shaders/shapes.wgsl")),
+    ("sdf", include_str!("../../shaders/sdf.wgsl")),
     ("bvh", include_str!("../../shaders/bvh.wgsl")),
     ("scene", include_str!("../../shaders/scene.wgsl")),
     ("texture", include_str!("../../shaders/texture.wgsl")),
@@ -93,6 +94,12 @@ pub fn generate() -> String {
     s += &u("PRIMITIVE_SPHERE", primitive_tag::SPHERE);
     s += &u("PRIMITIVE_QUAD", primitive_tag::QUAD);
     s += &u("PRIMITIVE_TRIANGLE", primitive_tag::TRIANGLE);
+    s += &u("PRIMITIVE_QUADRIC", primitive_tag::QUADRIC);
+    s += &u("QUADRIC_DISK", reference::shapes::QUADRIC_DISK);
+    s += &u("QUADRIC_CYLINDER", reference::shapes::QUADRIC_CYLINDER);
+    s += &u("PRIMITIVE_SDF_VOXEL", primitive_tag::SDF_VOXEL);
+    s += &u("SDF_REFINE_STEPS", reference::sdf::SDF_REFINE_STEPS);
+    s += &f("SDF_REFINE_BRACKET", reference::sdf::SDF_REFINE_BRACKET);
     s += &u("MATERIAL_LAMBERTIAN", material_tag::LAMBERTIAN);
     s += &u("MATERIAL_METAL", material_tag::METAL);
     s += &u("MATERIAL_CONDUCTOR", material_tag::CONDUCTOR);

@@ -107,14 +107,14 @@ pub fn compressed_words(
 pub const INLINE_WORDS: usize = 4;
 
 /// An inline entry's first word holds the primitive's kind above this
-/// bit, [`INLINE_ALPHA`] and its id below (ids under 2^29:
+/// bit (three bits), [`INLINE_ALPHA`] and its id below (ids under 2^28:
 /// `scene_buffers::inline_entries` refuses more).
-pub const INLINE_TAG_SHIFT: u32 = 30;
+pub const INLINE_TAG_SHIFT: u32 = 29;
 
 /// The bit of an inline entry's first word that marks a triangle with an
 /// alpha (`reference::shapes::TRIANGLE_HAS_ALPHA`): only such entries read
 /// the triangle record, for the coverage test.
-pub const INLINE_ALPHA: u32 = 1 << 29;
+pub const INLINE_ALPHA: u32 = 1 << 28;
 
 /// The ids of `order` as the indexed layout holds them, four to a word.
 pub fn indexed_entries(order: &[u32]) -> Vec<[u32; 4]> {

@@ -194,7 +194,15 @@ impl EmbreeScene {
             match p.tag {
                 primitive_tag::SPHERE => spheres.push((id as u32, p.index)),
                 primitive_tag::QUAD => quads.push((id as u32, p.index)),
-                _ => tris.push((id as u32, p.index)),
+                primitive_tag::TRIANGLE => tris.push((id as u32, p.index)),
+                // Disks, cylinders and textured spheres would be Embree
+                // user geometry, which this oracle does not build.
+                _ => {
+                    return Err(EmbreeError {
+                        step: "a quadric or signed distance grid has no Embree geometry here",
+                        code: None,
+                    })
+                }
             }
         }
         if !tris.is_empty() {

@@ -124,9 +124,39 @@ pub fn intersect_quad_f64(
 /// The geometry of one primitive in f64.
 #[derive(Clone, Copy, Debug)]
 pub enum Shape64 {
-    Sphere { center: DVec3, radius: f64 },
-    Quad { corner: DVec3, u: DVec3, v: DVec3 },
-    Triangle { p: [DVec3; 3] },
+    Sphere {
+        center: DVec3,
+        radius: f64,
+    },
+    Quad {
+        corner: DVec3,
+        u: DVec3,
+        v: DVec3,
+    },
+    Triangle {
+        p: [DVec3; 3],
+    },
+    /// A [`crate::shapes::Quadric`]: its kind and its stored maps (f32
+    /// values, exact in f64), object → world (`linear` by columns,
+    /// `origin`) and world → object.
+    Quadric {
+        kind: u32,
+        linear: [DVec3; 3],
+        origin: DVec3,
+        inv_linear: [DVec3; 3],
+        inv_origin: DVec3,
+    },
+    /// A cell of a signed distance grid: the maps (as a quadric's), its
+    /// corner samples, its low corner and the grid's cells per axis.
+    SdfCell {
+        linear: [DVec3; 3],
+        origin: DVec3,
+        inv_linear: [DVec3; 3],
+        inv_origin: DVec3,
+        corners: [f64; 8],
+        cell: DVec3,
+        cells: DVec3,
+    },
 }
 
 impl Shape64 {
@@ -147,6 +177,30 @@ impl Shape64 {
                     corner: q.corner.as_dvec3(),
                     u: q.u.as_dvec3(),
                     v: q.v.as_dvec3(),
+                }
+            }
+            primitive_tag::QUADRIC => {
+                let q = &scene.quadrics()[p.index as usize];
+                Shape64::Quadric {
+                    kind: q.kind,
+                    linear: q.linear.map(|c| c.as_dvec3()),
+                    origin: q.origin.as_dvec3(),
+                    inv_linear: q.inv_linear.map(|c| c.as_dvec3()),
+                    inv_origin: q.inv_origin.as_dvec3(),
+                }
+            }
+            primitive_tag::SDF_VOXEL => {
+                let v = scene.sdf_voxels()[p.index as usize];
+                let g = &scene.sdf_grids()[v.grid as usize];
+                let m = &g.map;
+                Shape64::SdfCell {
+                    linear: m.linear.map(|c| c.as_dvec3()),
+                    origin: m.origin.as_dvec3(),
+                    inv_linear: m.inv_linear.map(|c| c.as_dvec3()),
+                    inv_origin: m.inv_origin.as_dvec3(),
+                    corners: g.corners(v.cell).map(f64::from),
+                    cell: glam::UVec3::from_array(v.cell).as_dvec3(),
+                    cells: g.cells().as_dvec3(),
                 }
             }
             _ => {
@@ -172,6 +226,17 @@ impl Shape64 {
             Shape64::Triangle { p } => {
                 intersect_triangle_f64(p[0], p[1], p[2], o, d, t_min, t_max).map(|h| h.0)
             }
+            Shape64::Quadric { kind, .. } => {
+                let (lo, ld) = self.object_ray(o, d);
+                quadric_roots(kind, lo, ld)
+                    .into_iter()
+                    .flatten()
+                    .find(|&t| t > t_min && t < t_max && quadric_bounded(kind, lo + t * ld))
+            }
+            Shape64::SdfCell { .. } => self
+                .sdf_roots(o, d)
+                .into_iter()
+                .find(|&t| t > t_min && t < t_max),
         }
     }
 
@@ -195,6 +260,17 @@ impl Shape64 {
             Shape64::Triangle { p } => {
                 plane_crossing(p[0], (p[1] - p[0]).cross(p[2] - p[0]), o, d).map(|h| h.0)
             }
+            Shape64::Quadric { kind, .. } => {
+                let (lo, ld) = self.object_ray(o, d);
+                quadric_roots(kind, lo, ld)
+                    .into_iter()
+                    .flatten()
+                    .min_by(|a, b| (a - guess).abs().total_cmp(&(b - guess).abs()))
+            }
+            Shape64::SdfCell { .. } => self
+                .sdf_roots(o, d)
+                .into_iter()
+                .min_by(|a, b| (a - guess).abs().total_cmp(&(b - guess).abs())),
         }
     }
 
@@ -206,6 +282,27 @@ impl Shape64 {
             Shape64::Sphere { center, radius } => ((x - center).length() - radius).abs(),
             Shape64::Quad { corner, u, v } => plane_distance(corner, u.cross(v), x),
             Shape64::Triangle { p } => plane_distance(p[0], (p[1] - p[0]).cross(p[2] - p[0]), x),
+            Shape64::Quadric { kind, .. } => {
+                // First order: the object-space residual over the world
+                // length of its gradient.
+                let l = self.object_point(x);
+                let (f, g) = quadric_residual(kind, l);
+                let gw = self.normal_of(g).length();
+                if gw == 0.0 {
+                    f.abs()
+                } else {
+                    f.abs() / gw
+                }
+            }
+            Shape64::SdfCell { .. } => {
+                let (f, g) = self.sdf_field(self.object_point(x));
+                let gw = self.normal_of(g).length();
+                if gw == 0.0 {
+                    f.abs()
+                } else {
+                    f.abs() / gw
+                }
+            }
         }
     }
 
@@ -229,6 +326,55 @@ impl Shape64 {
             Shape64::Triangle { p } => (0..3)
                 .map(|i| line_segment_distance(o, d, p[i], p[(i + 1) % 3]))
                 .fold(f64::INFINITY, f64::min),
+            Shape64::Quadric { kind, linear, .. } => {
+                // In object space, scaled by the map's largest stretch
+                // (an upper bound of the world distance is not needed:
+                // this is compared with a bound of rounding).
+                let (lo, ld) = self.object_ray(o, d);
+                let scale = linear[0]
+                    .length()
+                    .max(linear[1].length())
+                    .max(linear[2].length());
+                let along = |t: f64| lo + t * ld;
+                let gap = match kind {
+                    crate::shapes::QUADRIC_DISK => {
+                        if ld.z == 0.0 {
+                            f64::INFINITY
+                        } else {
+                            let p = along(-lo.z / ld.z);
+                            (p.truncate().length() - 1.0).abs()
+                                * self.cos_incidence(d, self.world_point(p))
+                        }
+                    }
+                    crate::shapes::QUADRIC_CYLINDER => {
+                        let flat = |v: DVec3| DVec3::new(v.x, v.y, 0.0);
+                        let silhouette =
+                            (line_point_distance(flat(lo), flat(ld), DVec3::ZERO) - 1.0).abs();
+                        let rims = quadric_roots(kind, lo, ld)
+                            .into_iter()
+                            .flatten()
+                            .map(|t| {
+                                let z = along(t).z;
+                                z.abs().min((z - 1.0).abs())
+                                    * self.cos_incidence(d, self.world_point(along(t)))
+                            })
+                            .fold(f64::INFINITY, f64::min);
+                        silhouette.min(rims)
+                    }
+                    _ => (line_point_distance(lo, ld, DVec3::ZERO) - 1.0).abs(),
+                };
+                gap * scale
+            }
+            Shape64::SdfCell { .. } => {
+                // The surface's silhouette: where the field along the ray
+                // turns (its derivative's roots within the cell), how far
+                // the field's value there is from zero, in world units.
+                let (lo, ld) = self.object_ray(o, d);
+                self.sdf_turns(lo, ld)
+                    .into_iter()
+                    .map(|t| self.surface_distance(self.world_point(lo + t * ld)))
+                    .fold(f64::INFINITY, f64::min)
+            }
         }
     }
 
@@ -243,6 +389,9 @@ impl Shape64 {
                 .map(|c| (*c - x).length())
                 .fold(0.0, f64::max),
             Shape64::Triangle { p } => p.iter().map(|c| (*c - x).length()).fold(0.0, f64::max),
+            Shape64::Quadric { linear, origin, .. } | Shape64::SdfCell { linear, origin, .. } => {
+                (origin - x).length() + linear.iter().map(|c| c.length()).sum::<f64>()
+            }
         }
     }
 
@@ -252,12 +401,253 @@ impl Shape64 {
             Shape64::Sphere { center, .. } => x - center,
             Shape64::Quad { u, v, .. } => u.cross(v),
             Shape64::Triangle { p } => (p[1] - p[0]).cross(p[2] - p[0]),
+            Shape64::Quadric { kind, .. } => {
+                self.normal_of(quadric_residual(kind, self.object_point(x)).1)
+            }
+            Shape64::SdfCell { .. } => self.normal_of(self.sdf_field(self.object_point(x)).1),
         };
         let len = n.length() * d.length();
         if len == 0.0 {
             0.0
         } else {
             (n.dot(d) / len).abs()
+        }
+    }
+}
+
+impl Shape64 {
+    /// A quadric's object-space ray (the same t); the ray itself for the
+    /// other shapes.
+    fn object_ray(&self, o: DVec3, d: DVec3) -> (DVec3, DVec3) {
+        match *self {
+            Shape64::Quadric {
+                inv_linear: m,
+                inv_origin,
+                ..
+            }
+            | Shape64::SdfCell {
+                inv_linear: m,
+                inv_origin,
+                ..
+            } => (
+                o.x * m[0] + o.y * m[1] + o.z * m[2] + inv_origin,
+                d.x * m[0] + d.y * m[1] + d.z * m[2],
+            ),
+            _ => (o, d),
+        }
+    }
+
+    fn object_point(&self, x: DVec3) -> DVec3 {
+        self.object_ray(x, DVec3::ZERO).0
+    }
+
+    fn world_point(&self, l: DVec3) -> DVec3 {
+        match *self {
+            Shape64::Quadric {
+                linear: m, origin, ..
+            }
+            | Shape64::SdfCell {
+                linear: m, origin, ..
+            } => l.x * m[0] + l.y * m[1] + l.z * m[2] + origin,
+            _ => l,
+        }
+    }
+
+    /// The world normal (not unit) of the object-space gradient `g`:
+    /// `L⁻ᵀ g`.
+    fn normal_of(&self, g: DVec3) -> DVec3 {
+        match *self {
+            Shape64::Quadric { inv_linear: m, .. } | Shape64::SdfCell { inv_linear: m, .. } => {
+                DVec3::new(m[0].dot(g), m[1].dot(g), m[2].dot(g))
+            }
+            _ => g,
+        }
+    }
+
+    /// A grid cell's field (its trilinear interpolant, not clamped: the
+    /// cell's own polynomial) at object point `l`, and its gradient.
+    fn sdf_field(&self, l: DVec3) -> (f64, DVec3) {
+        let Shape64::SdfCell {
+            corners: s,
+            cell,
+            cells,
+            ..
+        } = *self
+        else {
+            return (0.0, DVec3::ZERO);
+        };
+        let q = l * cells - cell;
+        let (x, y, z) = (q.x, q.y, q.z);
+        let lerp = |a: f64, b: f64, w: f64| a + (b - a) * w;
+        let f = |x: f64, y: f64, z: f64| {
+            lerp(
+                lerp(lerp(s[0], s[1], x), lerp(s[2], s[3], x), y),
+                lerp(lerp(s[4], s[5], x), lerp(s[6], s[7], x), y),
+                z,
+            )
+        };
+        let g = DVec3::new(
+            f(1.0, y, z) - f(0.0, y, z),
+            f(x, 1.0, z) - f(x, 0.0, z),
+            f(x, y, 1.0) - f(x, y, 0.0),
+        ) * cells;
+        (f(x, y, z), g)
+    }
+
+    /// The object-space segment `[tb, te]` of the ray within a grid cell's
+    /// box, or `None`.
+    fn sdf_segment(&self, o: DVec3, d: DVec3) -> Option<(f64, f64)> {
+        let Shape64::SdfCell { cell, cells, .. } = *self else {
+            return None;
+        };
+        let (lo, hi) = (cell / cells, (cell + DVec3::ONE) / cells);
+        let (mut tb, mut te) = (f64::NEG_INFINITY, f64::INFINITY);
+        for a in 0..3 {
+            if d[a] == 0.0 {
+                if o[a] < lo[a] || o[a] > hi[a] {
+                    return None;
+                }
+                continue;
+            }
+            let (t0, t1) = ((lo[a] - o[a]) / d[a], (hi[a] - o[a]) / d[a]);
+            tb = tb.max(t0.min(t1));
+            te = te.min(t0.max(t1));
+        }
+        (tb <= te).then_some((tb, te))
+    }
+
+    /// Where the field along the (object-space) ray turns within the cell:
+    /// the roots of its derivative there.
+    fn sdf_turns(&self, o: DVec3, d: DVec3) -> Vec<f64> {
+        let Some((tb, te)) = self.sdf_segment(o, d) else {
+            return Vec::new();
+        };
+        let f = |t: f64| self.sdf_field(o + t * d).0;
+        // The field along the ray is a cubic: its derivative's roots from
+        // four exact samples (Lagrange through tb + k·h), in f64.
+        let h = (te - tb) / 3.0;
+        if h <= 0.0 {
+            return Vec::new();
+        }
+        let y = [f(tb), f(tb + h), f(tb + 2.0 * h), f(te)];
+        // Cubic coefficients in s = (t − tb)/h by finite differences.
+        let c3 = (y[3] - 3.0 * y[2] + 3.0 * y[1] - y[0]) / 6.0;
+        let c2 = (y[2] - 2.0 * y[1] + y[0]) / 2.0 - 3.0 * c3;
+        let c1 = y[1] - y[0] - c2 - c3;
+        let (a, b, c) = (3.0 * c3, 2.0 * c2, c1);
+        let mut out = Vec::new();
+        if a == 0.0 {
+            if b != 0.0 {
+                out.push(-c / b);
+            }
+        } else {
+            let disc = b * b - 4.0 * a * c;
+            if disc >= 0.0 {
+                let q = -0.5 * (b + disc.sqrt().copysign(b));
+                out.push(q / a);
+                if q != 0.0 {
+                    out.push(c / q);
+                }
+            }
+        }
+        out.retain(|s| (0.0..=3.0).contains(s));
+        out.iter_mut().for_each(|s| *s = tb + *s * h);
+        out.sort_by(f64::total_cmp);
+        out
+    }
+
+    /// Every root of the field along the ray within the cell, in order:
+    /// bisection, to f64's resolution, of each monotone piece between the
+    /// segment's ends and the field's turns whose ends differ in sign.
+    fn sdf_roots(&self, o: DVec3, d: DVec3) -> Vec<f64> {
+        let (lo, ld) = self.object_ray(o, d);
+        let Some((tb, te)) = self.sdf_segment(lo, ld) else {
+            return Vec::new();
+        };
+        let f = |t: f64| self.sdf_field(lo + t * ld).0;
+        let mut cuts = vec![tb];
+        cuts.extend(self.sdf_turns(lo, ld));
+        cuts.push(te);
+        let mut roots = Vec::new();
+        for w in cuts.windows(2) {
+            let (mut a, mut b) = (w[0], w[1]);
+            let (fa, fb) = (f(a), f(b));
+            if fa == 0.0 {
+                roots.push(a);
+                continue;
+            }
+            if fa * fb > 0.0 {
+                continue;
+            }
+            for _ in 0..200 {
+                let m = 0.5 * (a + b);
+                if m <= a || m >= b {
+                    break;
+                }
+                if f(m) * fa <= 0.0 {
+                    b = m;
+                } else {
+                    a = m;
+                }
+            }
+            roots.push(0.5 * (a + b));
+        }
+        roots.dedup();
+        roots
+    }
+}
+
+/// The roots, on the object-space ray `o + t·d`, of a quadric's unbounded
+/// surface: the disk's plane z = 0, the cylinder's `x² + y² = 1`, the
+/// sphere's `|p| = 1` (smaller first; `None` where there is none).
+fn quadric_roots(kind: u32, o: DVec3, d: DVec3) -> [Option<f64>; 2] {
+    let (a, b, c) = match kind {
+        crate::shapes::QUADRIC_DISK => {
+            return [(d.z != 0.0).then(|| -o.z / d.z), None];
+        }
+        crate::shapes::QUADRIC_CYLINDER => (
+            d.x * d.x + d.y * d.y,
+            2.0 * (o.x * d.x + o.y * d.y),
+            o.x * o.x + o.y * o.y - 1.0,
+        ),
+        _ => (d.length_squared(), 2.0 * o.dot(d), o.length_squared() - 1.0),
+    };
+    let disc = b * b - 4.0 * a * c;
+    if a == 0.0 || disc < 0.0 {
+        return [None, None];
+    }
+    let q = -0.5 * (b + disc.sqrt().copysign(b));
+    let (t0, t1) = if q == 0.0 { (0.0, 0.0) } else { (q / a, c / q) };
+    [Some(t0.min(t1)), Some(t0.max(t1))]
+}
+
+/// Whether an object-space point on a quadric's unbounded surface lies on
+/// the shape: within the disk's circle, between the cylinder's ends.
+fn quadric_bounded(kind: u32, p: DVec3) -> bool {
+    match kind {
+        crate::shapes::QUADRIC_DISK => p.x * p.x + p.y * p.y <= 1.0,
+        crate::shapes::QUADRIC_CYLINDER => (0.0..=1.0).contains(&p.z),
+        _ => true,
+    }
+}
+
+/// A quadric's implicit residual at object-space point `l` (zero on the
+/// surface) and its gradient there.
+fn quadric_residual(kind: u32, l: DVec3) -> (f64, DVec3) {
+    match kind {
+        crate::shapes::QUADRIC_DISK => (l.z, DVec3::Z),
+        crate::shapes::QUADRIC_CYLINDER => {
+            let r = (l.x * l.x + l.y * l.y).sqrt();
+            let g = if r > 0.0 {
+                DVec3::new(l.x / r, l.y / r, 0.0)
+            } else {
+                DVec3::X
+            };
+            (r - 1.0, g)
+        }
+        _ => {
+            let r = l.length();
+            (r - 1.0, if r > 0.0 { l / r } else { DVec3::Z })
         }
     }
 }

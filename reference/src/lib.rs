@@ -34,6 +34,7 @@ pub mod procedural;
 pub mod rng;
 pub mod sampling;
 pub mod scene;
+pub mod sdf;
 pub mod shapes;
 pub mod texture;
 

@@ -178,6 +178,28 @@ pub enum Mutant {
     /// twintrace's coordinates, without the v flip
     /// (`light::PunctualLight`).
     LightTextureUnflipped,
+    /// A quadric's texture coordinates left in Mitsuba's convention (v = 0
+    /// at an image's top) instead of twintrace's
+    /// (`shapes::Quadric::surface`).
+    QuadricVUnflipped,
+    /// A `cylinder` given by `p0` and `p1` placed with its frame's
+    /// tangents swapped, not Mitsuba's `coordinate_system` (the Mitsuba
+    /// reader): its uv turns by a quarter.
+    CylinderFrameSwapped,
+    /// A signed distance grid's smooth shading normal replaced by its
+    /// geometric one (`sdf::SdfGrid::object_normals`).
+    SdfSmoothNormalsIgnored,
+    /// A grid cell's trilinear expansion with its xz and yz terms swapped
+    /// (`sdf::cubic_along`).
+    SdfCubicTermsSwapped,
+    /// A cylinder's or a quadric sphere's light density from the point a
+    /// direction meets first alone, not summed over both points it
+    /// reaches (`light::LightSet::pdf`): its direct light counted up to
+    /// twice.
+    QuadricDensityOneCrossing,
+    /// A Mitsuba `rotate`'s axis normalized, which Mitsuba 3 does not do
+    /// (the Mitsuba reader's `rotation`).
+    MitsubaRotateAxisNormalized,
 }
 
 #[cfg(feature = "mutants")]

@@ -4,8 +4,9 @@
 //! They are written for robustness first; the WGSL twins keep the same
 //! names and the same arithmetic.
 
-use crate::geometry::{add_round_down, add_round_up, Aabb, Ray};
+use crate::geometry::{add_round_down, add_round_up, gamma, Aabb, Ray};
 use glam::{Vec2, Vec3, Vec4};
+use std::f32::consts::PI;
 
 /// A sphere. A negative radius keeps the same surface but flips the normal
 /// inward (the hollow-glass bubble of Ray Tracing in One Weekend).
@@ -144,24 +145,32 @@ pub fn intersect_sphere(
         return None;
     }
     let c = f.length_squared() - r2;
-    let q = b_half + disc.sqrt().copysign(b_half);
-    let (t0, t1) = if q == 0.0 {
-        (0.0, 0.0)
-    } else {
-        let ta = c / q;
-        let tb = q / a;
-        if ta <= tb {
-            (ta, tb)
-        } else {
-            (tb, ta)
-        }
-    };
+    let (t0, t1) = stable_roots(a, b_half, c, disc);
     if t0 > t_min && t0 < t_max {
         Some(t0)
     } else if t1 > t_min && t1 < t_max {
         Some(t1)
     } else {
         None
+    }
+}
+
+/// The roots, in order, of `a·t² − 2·b_half·t + c` whose discriminant is
+/// `disc` (≥ 0, `4·disc` in the usual form): the smaller from the stable
+/// form `c / q`, `q = b_half + sign(b_half)·√disc` (the sign bit's: −0
+/// takes the negative root); both 0 where `q` is.
+#[inline]
+pub fn stable_roots(a: f32, b_half: f32, c: f32, disc: f32) -> (f32, f32) {
+    let q = b_half + disc.sqrt().copysign(b_half);
+    if q == 0.0 {
+        return (0.0, 0.0);
+    }
+    let ta = c / q;
+    let tb = q / a;
+    if ta <= tb {
+        (ta, tb)
+    } else {
+        (tb, ta)
     }
 }
 
@@ -1058,5 +1067,376 @@ mod tests {
             let h2 = intersect_triangle(a, c, d, &r, 0.0, 9.0);
             assert!(h1.is_some() || h2.is_some(), "leak at x = {x}");
         }
+    }
+}
+
+/// [`Quadric::kind`]: a disk (Mitsuba's `disk`: the unit disk of the
+/// object's z = 0 plane, normal +z).
+pub const QUADRIC_DISK: u32 = 0;
+/// [`Quadric::kind`]: an open cylinder (Mitsuba's `cylinder`: radius 1
+/// about the object's z axis, from z = 0 to z = 1, normal outward).
+pub const QUADRIC_CYLINDER: u32 = 1;
+/// [`Quadric::kind`]: a sphere with Mitsuba's texture coordinates (the
+/// unit sphere of the object's frame; u the azimuth about +z from +x, v
+/// the polar angle from +z).
+pub const QUADRIC_SPHERE: u32 = 2;
+/// [`Quadric::kind`] of a record that holds a signed distance grid's maps
+/// (`crate::sdf::SdfGrid::map`): not a primitive of its own.
+pub const QUADRIC_SDF: u32 = 3;
+
+/// A shape defined in its own object space and placed by an affine map
+/// (pbrt's quadrics, Mitsuba's `disk`, `cylinder` and textured `sphere`):
+/// rays are intersected in object space (an affine map keeps a ray's `t`)
+/// and the hit's point, normal, uv and ∂p/∂u, ∂p/∂v are Mitsuba's.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Quadric {
+    /// `QUADRIC_*`.
+    pub kind: u32,
+    /// Object → world: `p = linear · local + origin` (columns).
+    pub linear: [Vec3; 3],
+    pub origin: Vec3,
+    /// World → object, the inverse map (computed in f64, then rounded).
+    pub inv_linear: [Vec3; 3],
+    pub inv_origin: Vec3,
+    /// The normal points inward (Mitsuba's `flip_normals`).
+    pub flip: bool,
+    pub material: u32,
+    /// [`Quadric::bounds_f64`] of its f64 placement.
+    pub bounds: Aabb,
+}
+
+/// `m · v` for the 3×3 matrix of columns `m`, summed in the order both
+/// twins use (`x·c0 + y·c1 + z·c2`).
+#[inline]
+pub fn mat_vec(m: &[Vec3; 3], v: Vec3) -> Vec3 {
+    v.x * m[0] + v.y * m[1] + v.z * m[2]
+}
+
+impl Quadric {
+    /// The quadric of kind `kind` (`QUADRIC_*`) placed by the f64 map
+    /// `to_world` (object → world), each part rounded from f64: the map,
+    /// its inverse, and the box. `None` where the map is singular or a
+    /// part is not finite in f32.
+    pub fn placed(kind: u32, to_world: glam::DAffine3, flip: bool, material: u32) -> Option<Self> {
+        let m = to_world.matrix3;
+        let det = m.determinant();
+        if !(det.is_finite() && det != 0.0) {
+            return None;
+        }
+        let inv = to_world.inverse();
+        let cols = |m: glam::DMat3| [m.x_axis, m.y_axis, m.z_axis].map(|c| c.as_vec3());
+        let q = Quadric {
+            kind,
+            linear: cols(m),
+            origin: to_world.translation.as_vec3(),
+            inv_linear: cols(inv.matrix3),
+            inv_origin: inv.translation.as_vec3(),
+            flip,
+            material,
+            bounds: Self::bounds_f64(kind, m, to_world.translation),
+        };
+        let finite = (q.linear.iter().chain(&q.inv_linear))
+            .chain([&q.origin, &q.inv_origin, &q.bounds.min, &q.bounds.max])
+            .all(|v| v.is_finite());
+        finite.then_some(q)
+    }
+
+    /// The ray in object space (the same `t`).
+    #[inline]
+    pub fn object_ray(&self, ray: &Ray) -> Ray {
+        Ray {
+            origin: mat_vec(&self.inv_linear, ray.origin) + self.inv_origin,
+            direction: mat_vec(&self.inv_linear, ray.direction),
+        }
+    }
+
+    /// The world point of object-space point `local`.
+    #[inline]
+    pub fn to_world(&self, local: Vec3) -> Vec3 {
+        mat_vec(&self.linear, local) + self.origin
+    }
+
+    /// Nearest hit in `(t_min, t_max)`: `t`, on the ray as given.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<f32> {
+        intersect_quadric(self.kind, &self.object_ray(ray), t_min, t_max)
+    }
+
+    /// The world-space box of the shape, from its f64 placement: for each
+    /// axis, the extent of the unit disk (cylinder ends, sphere) under
+    /// the map, `√(Σ_j m_kj²)` over the columns the shape spans, widened
+    /// by 10⁻⁵ of the coordinates' size and rounded outward. The
+    /// widening covers the hit's rounding: `t` comes from the object-space
+    /// ray (a transform of a few ulps) and `Bvh::admits` checks the point
+    /// `o + t·d` against this box; 10⁻⁵ is about 80 ulps of f32.
+    pub fn bounds_f64(kind: u32, linear: glam::DMat3, origin: glam::DVec3) -> Aabb {
+        let (c0, c1, c2) = (linear.x_axis, linear.y_axis, linear.z_axis);
+        let (lo, hi) = match kind {
+            QUADRIC_DISK => {
+                let e = (c0 * c0 + c1 * c1).map(f64::sqrt);
+                (origin - e, origin + e)
+            }
+            QUADRIC_CYLINDER => {
+                let e = (c0 * c0 + c1 * c1).map(f64::sqrt);
+                let top = origin + c2;
+                ((origin - e).min(top - e), (origin + e).max(top + e))
+            }
+            _ => {
+                let e = (c0 * c0 + c1 * c1 + c2 * c2).map(f64::sqrt);
+                (origin - e, origin + e)
+            }
+        };
+        outward_box(lo, hi)
+    }
+
+    /// The area of the surface (Mitsuba's `surface_area`): a disk
+    /// `π·|c0 × c1|`, a cylinder `2π·|c0|·|c2|` (exact for a round
+    /// cylinder, which an emitting one must be), a sphere `4π·|c0|²`.
+    pub fn area(&self) -> f32 {
+        let [c0, c1, c2] = self.linear;
+        match self.kind {
+            QUADRIC_DISK => PI * c0.cross(c1).length(),
+            QUADRIC_CYLINDER => 2.0 * PI * c0.length() * c2.length(),
+            _ => 4.0 * PI * c0.length_squared(),
+        }
+    }
+
+    /// The object-space point uniform by area at `u` (Mitsuba's
+    /// `sample_position`): a disk's concentric map, a cylinder's
+    /// `(cos 2πu.y, sin 2πu.y, u.x)`, a sphere's `z = 1 − 2u.x`,
+    /// `φ = 2πu.y`.
+    pub fn area_point(kind: u32, u: glam::DVec2) -> glam::DVec3 {
+        use glam::DVec3;
+        use std::f64::consts::{FRAC_PI_4, PI as PI64, TAU};
+        match kind {
+            QUADRIC_DISK => {
+                let (a, b) = (2.0 * u.x - 1.0, 2.0 * u.y - 1.0);
+                if a == 0.0 && b == 0.0 {
+                    return DVec3::ZERO;
+                }
+                let (r, phi) = if a.abs() > b.abs() {
+                    (a, FRAC_PI_4 * (b / a))
+                } else {
+                    (b, 0.5 * PI64 - FRAC_PI_4 * (a / b))
+                };
+                DVec3::new(r * phi.cos(), r * phi.sin(), 0.0)
+            }
+            QUADRIC_CYLINDER => {
+                let phi = TAU * u.y;
+                DVec3::new(phi.cos(), phi.sin(), u.x)
+            }
+            _ => {
+                let z = 1.0 - 2.0 * u.x;
+                let r = (1.0 - z * z).max(0.0).sqrt();
+                let phi = TAU * u.y;
+                DVec3::new(r * phi.cos(), r * phi.sin(), z)
+            }
+        }
+    }
+}
+
+/// What shading reads of a hit on a [`Quadric`] (Mitsuba's
+/// `compute_surface_interaction` of its `disk`, `cylinder` and `sphere`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct QuadricPoint {
+    /// The hit re-projected onto the surface (in object space), in world
+    /// space.
+    pub p: Vec3,
+    /// The normal (unit; inward where the quadric is flipped).
+    pub n: Vec3,
+    pub uv: Vec2,
+    pub dp_du: Vec3,
+    pub dp_dv: Vec3,
+    /// Bound on the absolute error of each coordinate of `p`.
+    pub p_error: f32,
+}
+
+impl Quadric {
+    /// The surface at the hit `t` of `ray`: the object-space point
+    /// `o' + t·d'` put back on the surface (the disk's plane, the
+    /// cylinder's and the sphere's radius 1), then Mitsuba's parameters
+    /// (its v flipped into twintrace's, `1 − v`, and ∂p/∂v with it).
+    /// The disk: `uv = (r, φ/2π)`, `∂p/∂u = L(cos φ, sin φ, 0)`, `∂p/∂v =
+    /// 2πr·L(−sin φ, cos φ, 0)`, normal `L⁻ᵀ ẑ`. The cylinder: `uv =
+    /// (φ/2π, z)`, `∂p/∂u = 2π·L(−y, x, 0)`, `∂p/∂v = L ẑ`, normal
+    /// `∂p/∂u × ∂p/∂v`. The sphere: `uv = (φ/2π, θ/π)`, `∂p/∂u =
+    /// 2π·L(−y, x, 0)`, `∂p/∂v = π·L(z cos φ, z sin φ, −sin θ)` (`π·L x̂` at
+    /// the poles), normal along `L·local`. φ is `atan2(y, x)` in [0, 2π).
+    pub fn surface(&self, ray: &Ray, t: f32) -> QuadricPoint {
+        let r = self.object_ray(ray);
+        let mut local = r.origin + t * r.direction;
+        let lin = &self.linear;
+        let phi_of = azimuth;
+        let (n, uv, dp_du, dp_dv) = match self.kind {
+            QUADRIC_DISK => {
+                local.z = 0.0;
+                let r2 = local.x * local.x + local.y * local.y;
+                let inv_r = if r2 != 0.0 { 1.0 / r2.sqrt() } else { 0.0 };
+                let rad = r2 * inv_r;
+                let (c, s) = (local.x * inv_r, local.y * inv_r);
+                let inv = &self.inv_linear;
+                let n = Vec3::new(inv[0].z, inv[1].z, inv[2].z).normalize_or(Vec3::Z);
+                let uv = Vec2::new(rad, phi_of(local.x, local.y) / (2.0 * PI));
+                let dp_du = mat_vec(lin, Vec3::new(c, s, 0.0));
+                let dp_dv = (2.0 * PI * rad) * mat_vec(lin, Vec3::new(-s, c, 0.0));
+                (n, uv, dp_du, dp_dv)
+            }
+            QUADRIC_CYLINDER => {
+                let rxy = (local.x * local.x + local.y * local.y).sqrt();
+                if rxy > 0.0 {
+                    local.x /= rxy;
+                    local.y /= rxy;
+                }
+                let dp_du = (2.0 * PI) * mat_vec(lin, Vec3::new(-local.y, local.x, 0.0));
+                let dp_dv = lin[2];
+                let n = dp_du.cross(dp_dv).normalize_or(Vec3::Z);
+                let uv = Vec2::new(phi_of(local.x, local.y) / (2.0 * PI), local.z);
+                (n, uv, dp_du, dp_dv)
+            }
+            _ => {
+                local = local.normalize_or(Vec3::Z);
+                let n = mat_vec(lin, local).normalize_or(Vec3::Z);
+                let theta = local.z.clamp(-1.0, 1.0).acos();
+                let uv = Vec2::new(phi_of(local.x, local.y) / (2.0 * PI), theta / PI);
+                let dp_du = (2.0 * PI) * mat_vec(lin, Vec3::new(-local.y, local.x, 0.0));
+                let rd = (local.x * local.x + local.y * local.y).sqrt();
+                let v = if rd > 0.0 {
+                    Vec3::new(local.z * (local.x / rd), local.z * (local.y / rd), -rd)
+                } else {
+                    Vec3::X
+                };
+                let dp_dv = PI * mat_vec(lin, v);
+                (n, uv, dp_du, dp_dv)
+            }
+        };
+        let p = self.to_world(local);
+        // twintrace's texture coordinates put v = 0 at the bottom of an
+        // image, Mitsuba's at the top (its readers flip a mesh's v the
+        // same way): v is Mitsuba's flipped, ∂p/∂v turned with it.
+        let (uv, dp_dv) = if crate::mutants::is(crate::mutants::Mutant::QuadricVUnflipped) {
+            (uv, dp_dv)
+        } else {
+            (Vec2::new(uv.x, 1.0 - uv.y), -dp_dv)
+        };
+        // The map's sum of three products and a translation: a few ulps of
+        // the terms' sizes (pbrt-v4's bound for a transformed point).
+        let p_error = gamma(5)
+            * ((local.x * lin[0]).abs()
+                + (local.y * lin[1]).abs()
+                + (local.z * lin[2]).abs()
+                + self.origin.abs()
+                + p.abs())
+            .max_element();
+        QuadricPoint {
+            p,
+            n: if self.flip { -n } else { n },
+            uv,
+            dp_du,
+            dp_dv,
+            p_error,
+        }
+    }
+}
+
+/// The f32 box that holds the f64 box `[lo, hi]`, widened by 10⁻⁵ of its
+/// coordinates' size (see [`Quadric::bounds_f64`]) and rounded outward.
+pub fn outward_box(lo: glam::DVec3, hi: glam::DVec3) -> Aabb {
+    let size = lo.abs().max(hi.abs()).max_element().max(f64::MIN_POSITIVE);
+    let slack = glam::DVec3::splat(1e-5 * size);
+    let (lo, hi) = (lo - slack, hi + slack);
+    let down = |x: f64| {
+        let f = x as f32;
+        if (f as f64) > x {
+            crate::geometry::next_down(f)
+        } else {
+            f
+        }
+    };
+    let up = |x: f64| {
+        let f = x as f32;
+        if (f as f64) < x {
+            crate::geometry::next_up(f)
+        } else {
+            f
+        }
+    };
+    Aabb {
+        min: Vec3::new(down(lo.x), down(lo.y), down(lo.z)),
+        max: Vec3::new(up(hi.x), up(hi.y), up(hi.z)),
+    }
+}
+
+impl Quadric {
+    /// Every crossing of `ray` with the shape beyond `t_min` (at most two:
+    /// a disk is met once, a cylinder or a sphere up to twice): `t`, in
+    /// order, `None` where there is none. Area sampling draws a point of
+    /// the surface; a direction toward a cylinder or a sphere from outside
+    /// can reach it at two points, and its density in solid angle is the
+    /// sum over them ([`crate::light::LightSet::pdf`]).
+    pub fn crossings(&self, ray: &Ray, t_min: f32) -> [Option<f32>; 2] {
+        let first = self.intersect(ray, t_min, f32::INFINITY);
+        let second = first.and_then(|t| self.intersect(ray, t, f32::INFINITY));
+        [first, second]
+    }
+}
+
+/// The azimuth `atan2(y, x)` in [0, 2π) (Mitsuba's shapes' φ).
+#[inline]
+pub fn azimuth(x: f32, y: f32) -> f32 {
+    let phi = y.atan2(x);
+    if phi < 0.0 {
+        phi + 2.0 * PI
+    } else {
+        phi
+    }
+}
+
+/// Ray/quadric in object space (`ray` already mapped there): the nearest
+/// `t` in `(t_min, t_max)`. The disk: the z = 0 plane within the unit
+/// circle. The cylinder: `x² + y² = 1` between z = 0 and 1, roots in the
+/// stable form of [`intersect_sphere`] (Haines et al.'s discriminant, in
+/// the xy plane), the nearer first. The sphere: [`intersect_sphere`] on
+/// the unit sphere.
+#[inline]
+pub fn intersect_quadric(kind: u32, ray: &Ray, t_min: f32, t_max: f32) -> Option<f32> {
+    let (o, d) = (ray.origin, ray.direction);
+    match kind {
+        QUADRIC_DISK => {
+            if d.z == 0.0 {
+                return None;
+            }
+            let t = -o.z / d.z;
+            if !(t > t_min && t < t_max) {
+                return None;
+            }
+            let (x, y) = (o.x + t * d.x, o.y + t * d.y);
+            (x * x + y * y <= 1.0).then_some(t)
+        }
+        QUADRIC_CYLINDER => {
+            let a = d.x * d.x + d.y * d.y;
+            if a == 0.0 {
+                return None;
+            }
+            let b_half = -(o.x * d.x + o.y * d.y);
+            let (px, py) = (o.x + (b_half / a) * d.x, o.y + (b_half / a) * d.y);
+            let disc = a * (1.0 - (px * px + py * py));
+            if disc < 0.0 {
+                return None;
+            }
+            let c = o.x * o.x + o.y * o.y - 1.0;
+            let (t0, t1) = stable_roots(a, b_half, c, disc);
+            let on = |t: f32| {
+                let z = o.z + t * d.z;
+                t > t_min && t < t_max && (0.0..=1.0).contains(&z)
+            };
+            if on(t0) {
+                Some(t0)
+            } else if on(t1) {
+                Some(t1)
+            } else {
+                None
+            }
+        }
+        _ => intersect_sphere(Vec3::ZERO, 1.0, ray, t_min, t_max),
     }
 }

@@ -67,7 +67,10 @@ fn min_altitude(shape: &Shape64) -> f64 {
             (a, b, a.length().max(b.length()).max((b - a).length()))
         }
         Shape64::Quad { u, v, .. } => (u, v, u.length().max(v.length())),
-        Shape64::Sphere { .. } => return f64::INFINITY,
+        // Their hit records carry no surface parameters.
+        Shape64::Sphere { .. } | Shape64::Quadric { .. } | Shape64::SdfCell { .. } => {
+            return f64::INFINITY
+        }
     };
     a.cross(b).length() / longest
 }

@@ -226,6 +226,11 @@ impl LightSet {
             let material = match p.tag {
                 primitive_tag::SPHERE => scene.spheres()[p.index as usize].material,
                 primitive_tag::QUAD => scene.quads()[p.index as usize].material,
+                primitive_tag::QUADRIC => scene.quadrics()[p.index as usize].material,
+                primitive_tag::SDF_VOXEL => {
+                    let v = scene.sdf_voxels()[p.index as usize];
+                    scene.sdf_grids()[v.grid as usize].map.material
+                }
                 _ => scene.triangles()[p.index as usize].material,
             };
             let Some(emission) = scene.emission(material) else {
@@ -434,6 +439,17 @@ impl LightSet {
             }
         }
         let area = self.area_by_prim[prim as usize];
+        if let Some(q) =
+            quadric_of(scene, prim).filter(|_| !mutants::is(Mutant::QuadricDensityOneCrossing))
+        {
+            // Every point of the shape the direction reaches could have
+            // been the sample (shapes::Quadric::crossings).
+            let ray = Ray::new(p, x - p);
+            let sum: f32 = (q.crossings(&ray, 0.0).into_iter().flatten())
+                .map(|t| quadric_crossing_density(q, &ray, t, p, area))
+                .sum();
+            return pmf * sum;
+        }
         let to = x - p;
         let d2 = to.length_squared();
         let cos = (to.dot(n) / d2.sqrt()).abs();
@@ -600,6 +616,36 @@ fn sphere_of(scene: &Scene, prim: u32) -> Option<(Vec3, f32)> {
     })
 }
 
+/// The quadric when `prim` is a cylinder or a sphere of Mitsuba's (a
+/// direction may reach it twice; a disk is planar).
+fn quadric_of(scene: &Scene, prim: u32) -> Option<&crate::shapes::Quadric> {
+    let p = scene.primitives()[prim as usize];
+    (p.tag == primitive_tag::QUADRIC)
+        .then(|| &scene.quadrics()[p.index as usize])
+        .filter(|q| q.kind != crate::shapes::QUADRIC_DISK)
+}
+
+/// `d² / (A·|cos θ|)` at the crossing `t` of `ray` (from `p`) with quadric
+/// `q` of area `area`: one point's share of a direction's density
+/// (`LightSet::pdf`); 0 where the ray grazes it.
+pub fn quadric_crossing_density(
+    q: &crate::shapes::Quadric,
+    ray: &Ray,
+    t: f32,
+    p: Vec3,
+    area: f32,
+) -> f32 {
+    let s = q.surface(ray, t);
+    let to = s.p - p;
+    let d2 = to.length_squared();
+    let cos = (to.dot(s.n) / d2.sqrt()).abs();
+    if cos > 0.0 && d2 > 0.0 {
+        d2 / (area * cos)
+    } else {
+        0.0
+    }
+}
+
 /// The surface area of a primitive.
 pub fn primitive_area(scene: &Scene, prim: u32) -> f32 {
     let p = scene.primitives()[prim as usize];
@@ -612,6 +658,10 @@ pub fn primitive_area(scene: &Scene, prim: u32) -> f32 {
             let q = &scene.quads()[p.index as usize];
             q.u.cross(q.v).length()
         }
+        primitive_tag::QUADRIC => scene.quadrics()[p.index as usize].area(),
+        // Mitsuba's sdfgrid has no area to sample: seen where a ray hits
+        // it, never drawn as a light.
+        primitive_tag::SDF_VOXEL => 0.0,
         _ => {
             let [a, b, c] = triangle_vertices(scene, p.index);
             0.5 * (b - a).cross(c - a).length()
@@ -626,7 +676,8 @@ fn triangle_vertices(scene: &Scene, index: u32) -> [Vec3; 3] {
 
 /// Maps `u` to the surface parameters that make the point uniform by area:
 /// a quad's `(s, t)`, a triangle's barycentrics `(b1, b2)` by the square-root
-/// map, a sphere's `(cos θ, φ)` folded into `[0, 1]²`.
+/// map, a sphere's `(cos θ, φ)` folded into `[0, 1]²`, a quadric's `u`
+/// ([`crate::shapes::Quadric::area_point`] maps it).
 fn uniform_area_parameters(scene: &Scene, prim: u32, u: Vec2) -> Vec2 {
     match scene.primitives()[prim as usize].tag {
         primitive_tag::TRIANGLE => {
@@ -639,7 +690,8 @@ fn uniform_area_parameters(scene: &Scene, prim: u32, u: Vec2) -> Vec2 {
 
 /// `x − p` in f64 for the point `x` of `prim` at surface parameters `uv`:
 /// a quad's `(s, t)`, a triangle's barycentrics `(b1, b2)` (the hit
-/// record's `uv` of both), a sphere's `(cos θ, φ)` folded into `[0, 1]²`.
+/// record's `uv` of both), a sphere's `(cos θ, φ)` folded into `[0, 1]²`,
+/// a quadric's [`crate::shapes::Quadric::area_point`] (mapped in f64).
 fn offset_on(scene: &Scene, prim: u32, uv: Vec2, p: Vec3) -> DVec3 {
     let pr = scene.primitives()[prim as usize];
     let p = p.as_dvec3();
@@ -656,6 +708,14 @@ fn offset_on(scene: &Scene, prim: u32, uv: Vec2, p: Vec3) -> DVec3 {
         primitive_tag::QUAD => {
             let q = &scene.quads()[pr.index as usize];
             (q.corner.as_dvec3() - p) + s * q.u.as_dvec3() + t * q.v.as_dvec3()
+        }
+        // Never drawn (no area).
+        primitive_tag::SDF_VOXEL => DVec3::ZERO,
+        primitive_tag::QUADRIC => {
+            let q = &scene.quadrics()[pr.index as usize];
+            let l = crate::shapes::Quadric::area_point(q.kind, uv.as_dvec2());
+            let [c0, c1, c2] = q.linear.map(|c| c.as_dvec3());
+            (q.origin.as_dvec3() - p) + l.x * c0 + l.y * c1 + l.z * c2
         }
         _ => {
             let [a, b, c] = triangle_vertices(scene, pr.index).map(|v| v.as_dvec3());

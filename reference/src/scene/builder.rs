@@ -1,6 +1,6 @@
 //! Building a scene: every parameter checked, then the BVH built.
 
-use super::leaf::{batched, primitive_bounds};
+use super::leaf::{batched, primitive_bounds, Objects};
 use super::primitive::{primitive_tag, Primitive};
 use super::render_space::{RenderOrigin, RenderSpace};
 use super::settings::RenderSettings;
@@ -15,9 +15,11 @@ use crate::geometry::Aabb;
 use crate::light::punctual::{punctual_tag, PunctualLight};
 use crate::material::{Alpha, AlphaMode, Material, Wrappers};
 use crate::mutants::{self, Mutant};
+use crate::sdf::{SdfGrid, SdfVoxel, MAX_SDF_SAMPLES};
 use crate::shapes::{
-    MeshData, Quad, Sphere, Triangle, TRIANGLE_HAS_ALPHA, TRIANGLE_HAS_COLORS,
-    TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_TANGENTS, TRIANGLE_HAS_UV1, TRIANGLE_HAS_UVS,
+    MeshData, Quad, Quadric, Sphere, Triangle, QUADRIC_SDF, QUADRIC_SPHERE, TRIANGLE_HAS_ALPHA,
+    TRIANGLE_HAS_COLORS, TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_TANGENTS, TRIANGLE_HAS_UV1,
+    TRIANGLE_HAS_UVS,
 };
 use crate::texture::{ImageData, Sampler, Texture};
 use glam::{DVec3, Vec2, Vec3, Vec4};
@@ -114,6 +116,8 @@ pub struct SceneBuilder {
     /// and the mesh positions, which `build` translates and rounds.
     sphere_centers: Vec<DVec3>,
     quad_corners: Vec<DVec3>,
+    /// The quadrics' f64 object-to-world maps.
+    quadric_maps: Vec<glam::DAffine3>,
     positions: Vec<DVec3>,
     pub render: RenderSettings,
     /// How each pixel's camera samples are spread (the box by default).
@@ -131,6 +135,9 @@ pub struct SceneBuilder {
     pub sources: Vec<PathBuf>,
     spheres: Vec<Sphere>,
     quads: Vec<Quad>,
+    quadrics: Vec<Quadric>,
+    sdf_grids: Vec<SdfGrid>,
+    sdf_voxels: Vec<SdfVoxel>,
     triangles: Vec<Triangle>,
     mesh: MeshData,
     materials: Vec<Material>,
@@ -1296,6 +1303,97 @@ impl SceneBuilder {
         Ok(())
     }
 
+    /// A [`Quadric`] of kind `kind` (`QUADRIC_DISK`, `QUADRIC_CYLINDER`,
+    /// `QUADRIC_SPHERE`: the unit shape of its object space) placed by
+    /// `transform`, its normal inward where `flip`.
+    pub fn add_quadric(
+        &mut self,
+        kind: u32,
+        flip: bool,
+        material: u32,
+        transform: &Transform,
+    ) -> Result<(), SceneError> {
+        self.check_material(material)?;
+        if kind > QUADRIC_SPHERE {
+            return Err(SceneError::invalid(
+                "kind",
+                format!("no quadric kind {kind}"),
+            ));
+        }
+        let q = Quadric::placed(kind, transform.matrix, flip, material).ok_or_else(|| {
+            SceneError::invalid(
+                "transform",
+                "the shape's transform is singular or not finite in f32".into(),
+            )
+        })?;
+        self.quadrics.push(q);
+        self.quadric_maps.push(transform.matrix);
+        self.push_primitive(primitive_tag::QUADRIC, self.quadrics.len() - 1);
+        Ok(())
+    }
+
+    /// A signed distance grid ([`crate::sdf`]): `dims` samples per axis
+    /// (x fastest in `values`) over [0, 1]³ of its object space, placed by
+    /// `transform`; `smooth` for Mitsuba's smooth shading normals. Each
+    /// cell the surface may cross becomes a primitive.
+    pub fn add_sdf_grid(
+        &mut self,
+        dims: [u32; 3],
+        values: Vec<f32>,
+        smooth: bool,
+        material: u32,
+        transform: &Transform,
+    ) -> Result<(), SceneError> {
+        self.check_material(material)?;
+        if dims.iter().any(|&n| !(2..=MAX_SDF_SAMPLES).contains(&n)) {
+            return Err(SceneError::invalid(
+                "grid",
+                format!("{dims:?} samples: each axis needs 2 to {MAX_SDF_SAMPLES}"),
+            ));
+        }
+        let count = dims.iter().map(|&n| n as usize).product::<usize>();
+        if values.len() != count {
+            return Err(SceneError::invalid(
+                "grid",
+                format!("{} values for {dims:?} samples", values.len()),
+            ));
+        }
+        if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+            return Err(SceneError::invalid(
+                "grid",
+                format!("sample {i} is {}", values[i]),
+            ));
+        }
+        let map =
+            Quadric::placed(QUADRIC_SDF, transform.matrix, false, material).ok_or_else(|| {
+                SceneError::invalid(
+                    "transform",
+                    "the grid's transform is singular or not finite in f32".into(),
+                )
+            })?;
+        let grid = SdfGrid {
+            map,
+            map_f64: transform.matrix,
+            dims,
+            values,
+            smooth,
+        };
+        let cells = grid.occupied();
+        if cells.is_empty() {
+            return Err(SceneError::invalid(
+                "grid",
+                "no cell has a surface (every sample has one strict sign)".into(),
+            ));
+        }
+        let index = self.sdf_grids.len() as u32;
+        for cell in cells {
+            self.sdf_voxels.push(SdfVoxel { grid: index, cell });
+            self.push_primitive(primitive_tag::SDF_VOXEL, self.sdf_voxels.len() - 1);
+        }
+        self.sdf_grids.push(grid);
+        Ok(())
+    }
+
     /// An axis-aligned box in its own frame (six quads, outward normals).
     pub fn add_box(
         &mut self,
@@ -1568,11 +1666,13 @@ impl SceneBuilder {
         let has_alpha = |m: u32| alphas[m as usize].is_some();
         if let Some(m) = (self.spheres.iter().map(|s| s.material))
             .chain(self.quads.iter().map(|q| q.material))
+            .chain(self.quadrics.iter().map(|q| q.material))
+            .chain(self.sdf_grids.iter().map(|g| g.map.material))
             .find(|&m| has_alpha(m))
         {
             return Err(SceneError::invalid(
                 "alpha",
-                format!("material {m} has an alpha (coverage), which only triangles can have, but a sphere or quad uses it"),
+                format!("material {m} has an alpha (coverage), which only triangles can have, but a sphere, quad or quadric uses it"),
             ));
         }
         let mut triangles = self.triangles;
@@ -1590,6 +1690,8 @@ impl SceneBuilder {
         let textures = render_textures(&space, &self.textures)?;
         let mut spheres = self.spheres;
         let mut quads = self.quads;
+        let mut quadrics = self.quadrics;
+        let mut sdf_grids = self.sdf_grids;
         let mut mesh = self.mesh;
         let mut punctual_lights = self.punctual_lights;
         if origin != DVec3::ZERO {
@@ -1609,6 +1711,29 @@ impl SceneBuilder {
             }
             for (q, &c) in quads.iter_mut().zip(&self.quad_corners) {
                 q.corner = to_render("objects.corner", c)?;
+            }
+            for g in &mut sdf_grids {
+                g.map_f64.translation -= origin;
+                g.map = Quadric::placed(QUADRIC_SDF, g.map_f64, false, g.map.material).ok_or_else(
+                    || {
+                        SceneError::invalid(
+                            "objects.transform",
+                            format!(
+                                "a grid is not finite in f32 in render space (origin {origin})"
+                            ),
+                        )
+                    },
+                )?;
+            }
+            for (q, m) in quadrics.iter_mut().zip(&self.quadric_maps) {
+                let mut m = *m;
+                m.translation -= origin;
+                *q = Quadric::placed(q.kind, m, q.flip, q.material).ok_or_else(|| {
+                    SceneError::invalid(
+                        "objects.transform",
+                        format!("a quadric is not finite in f32 in render space (origin {origin})"),
+                    )
+                })?;
             }
             for (m, &p) in mesh.positions.iter_mut().zip(&self.positions) {
                 *m = to_render("objects.positions", p)?;
@@ -1634,7 +1759,14 @@ impl SceneBuilder {
         let bounds: Vec<Aabb> = self
             .primitives
             .iter()
-            .map(|&p| primitive_bounds(p, &spheres, &quads, &triangles, &mesh))
+            .map(|&p| {
+                let objects = Objects {
+                    quadrics: &quadrics,
+                    grids: &sdf_grids,
+                    voxels: &self.sdf_voxels,
+                };
+                primitive_bounds(p, &spheres, &quads, objects, &triangles, &mesh)
+            })
             .collect();
         let batched: Vec<bool> = self.primitives.iter().map(|p| batched(p.tag)).collect();
         let (bvh, bvh_stats) = Bvh::build_batched(&bounds, &batched);
@@ -1653,6 +1785,9 @@ impl SceneBuilder {
             background,
             spheres,
             quads,
+            quadrics,
+            sdf_grids,
+            sdf_voxels: self.sdf_voxels,
             triangles,
             mesh,
             materials: self.materials,
@@ -1773,6 +1908,8 @@ impl Scene {
         }
         let used = (self.spheres.iter().map(|s| s.material))
             .chain(self.quads.iter().map(|q| q.material))
+            .chain(self.quadrics.iter().map(|q| q.material))
+            .chain(self.sdf_grids.iter().map(|g| g.map.material))
             .chain(self.triangles.iter().map(|t| t.material))
             .max();
         if let Some(m) = used.filter(|&m| m as usize >= look.materials.len()) {

@@ -9,11 +9,48 @@ use crate::bvh::Bvh;
 use crate::bvh::{intersect_aabb_padded, intersect_entries, Closest, LeafRef, Leaves, LEAF_BATCH};
 use crate::geometry::{Aabb, Hit, Ray};
 use crate::mutants::{self, Mutant};
+use crate::sdf::{SdfGrid, SdfVoxel};
 use crate::shapes::{
-    intersect_quads4, intersect_triangles4, MeshData, Quad, Quads4, RayShear, Sphere, Triangle,
-    Triangles4,
+    intersect_quads4, intersect_triangles4, MeshData, Quad, Quadric, Quads4, RayShear, Sphere,
+    Triangle, Triangles4,
 };
 use glam::{Vec2, Vec3};
+
+/// The scene's shapes placed by a map, which a leaf entry reads through
+/// its index: quadrics, and signed distance grids with their cells.
+#[derive(Clone, Copy)]
+pub(super) struct Objects<'a> {
+    pub(super) quadrics: &'a [Quadric],
+    pub(super) grids: &'a [SdfGrid],
+    pub(super) voxels: &'a [SdfVoxel],
+}
+
+impl Objects<'_> {
+    /// The box of object primitive `p` (a quadric or a grid cell).
+    fn bounds(&self, p: Primitive) -> Aabb {
+        match p.tag {
+            primitive_tag::QUADRIC => self.quadrics[p.index as usize].bounds,
+            _ => {
+                let v = self.voxels[p.index as usize];
+                let g = &self.grids[v.grid as usize];
+                g.cell_bounds(v.cell, g.map_f64)
+            }
+        }
+    }
+
+    /// Object primitive `tag` `index`'s hit on `ray`.
+    #[inline]
+    fn intersect(&self, tag: u32, index: u32, ray: &Ray, t_min: f32, t_max: f32) -> Option<f32> {
+        match tag {
+            primitive_tag::QUADRIC => self.quadrics[index as usize].intersect(ray, t_min, t_max),
+            _ => {
+                let v = self.voxels[index as usize];
+                let g = &self.grids[v.grid as usize];
+                g.intersect_cell(v.cell, &g.map.object_ray(ray), t_min, t_max)
+            }
+        }
+    }
+}
 
 /// A primitive's bounding box: the BVH build and [`Bvh::admits`] must see
 /// the same bits, so both come here.
@@ -22,12 +59,14 @@ pub(super) fn primitive_bounds(
     p: Primitive,
     spheres: &[Sphere],
     quads: &[Quad],
+    objects: Objects,
     triangles: &[Triangle],
     mesh: &MeshData,
 ) -> Aabb {
     match p.tag {
         primitive_tag::SPHERE => spheres[p.index as usize].bounds(),
         primitive_tag::QUAD => quads[p.index as usize].bounds(),
+        primitive_tag::QUADRIC | primitive_tag::SDF_VOXEL => objects.bounds(p),
         _ => triangles[p.index as usize].bounds(mesh),
     }
 }
@@ -41,7 +80,8 @@ pub(super) fn primitive_bounds(
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct LeafPrim {
     /// Sphere: center, (radius, 0, 0). Quad: corner, u, v. Triangle: its
-    /// three vertices.
+    /// three vertices. Quadric: its box's corners and (its index's bits,
+    /// 0, 0): its test reads the scene's record.
     p: [Vec3; 3],
     prim: u32,
     /// The primitive's tag in the low 16 bits; [`LeafPrim::ALPHA`] set
@@ -96,6 +136,7 @@ impl LeafPrim {
                 material: 0,
             }
             .bounds(),
+            primitive_tag::QUADRIC | primitive_tag::SDF_VOXEL => Aabb { min: a, max: b },
             _ => Aabb::from_points(&[a, b, c]),
         }
     }
@@ -108,10 +149,11 @@ impl LeafPrim {
         &self,
         ray: &Ray,
         k: &RayConstants,
+        objects: Objects,
         t_min: f32,
         t_max: f32,
     ) -> Option<Hit> {
-        self.intersect_in(self.bounds(), ray, k, t_min, t_max)
+        self.intersect_in(self.bounds(), ray, k, objects, t_min, t_max)
     }
 
     /// [`LeafPrim::intersect`] with the box given (`bounds`: what
@@ -122,16 +164,24 @@ impl LeafPrim {
         bounds: Aabb,
         ray: &Ray,
         k: &RayConstants,
+        objects: Objects,
         t_min: f32,
         t_max: f32,
     ) -> Option<Hit> {
-        let hit = self.intersect_shape(ray, k, t_min, t_max)?;
+        let hit = self.intersect_shape(ray, k, objects, t_min, t_max)?;
         k.admits(bounds, ray, hit.t).then_some(hit)
     }
 
     /// The shape's test alone (no [`Bvh::admits`]).
     #[inline]
-    fn intersect_shape(&self, ray: &Ray, k: &RayConstants, t_min: f32, t_max: f32) -> Option<Hit> {
+    fn intersect_shape(
+        &self,
+        ray: &Ray,
+        k: &RayConstants,
+        objects: Objects,
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<Hit> {
         use crate::shapes::{intersect_quad, intersect_sphere, intersect_triangle_sheared};
         let [a, b, c] = self.p;
         let prim = self.prim;
@@ -144,6 +194,13 @@ impl LeafPrim {
             primitive_tag::QUAD => {
                 intersect_quad(a, b, c, ray, t_min, t_max).map(|(t, uv)| Hit { t, prim, uv })
             }
+            tag @ (primitive_tag::QUADRIC | primitive_tag::SDF_VOXEL) => objects
+                .intersect(tag, c.x.to_bits(), ray, t_min, t_max)
+                .map(|t| Hit {
+                    t,
+                    prim,
+                    uv: Vec2::ZERO,
+                }),
             _ => intersect_triangle_sheared(a, b, c, ray, k.shear.as_ref()?, t_min, t_max)
                 .map(|(t, uv)| Hit { t, prim, uv }),
         }
@@ -241,6 +298,7 @@ pub(super) struct LeafTests<'a, C: Coverage> {
     pub(super) bounds: &'a [Aabb],
     pub(super) blocks: &'a [LeafBlock],
     pub(super) quad_blocks: &'a [Quads4],
+    pub(super) objects: Objects<'a>,
     pub(super) ray: &'a Ray,
     pub(super) constants: RayConstants,
     pub(super) t_min: f32,
@@ -263,6 +321,7 @@ impl<C: Coverage> Leaves for LeafTests<'_, C> {
             self.bounds[entry],
             self.ray,
             &self.constants,
+            self.objects,
             self.t_min,
             t_max,
         )?;

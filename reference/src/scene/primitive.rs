@@ -6,6 +6,11 @@ pub mod primitive_tag {
     pub const SPHERE: u32 = 0;
     pub const QUAD: u32 = 1;
     pub const TRIANGLE: u32 = 2;
+    /// A [`crate::shapes::Quadric`] (a disk, cylinder or sphere in its
+    /// own object space).
+    pub const QUADRIC: u32 = 3;
+    /// A cell of a signed distance grid ([`crate::sdf::SdfVoxel`]).
+    pub const SDF_VOXEL: u32 = 4;
 }
 
 /// One entry of the scene's primitive list: a kind and an index into that

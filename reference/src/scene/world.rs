@@ -2,7 +2,9 @@
 //! valid, with its BVH and the traversal's copies of the geometry, and the
 //! queries the twins make of it.
 
-use super::leaf::{primitive_bounds, Coverage, LeafBlock, LeafPrim, LeafTests, RayConstants};
+use super::leaf::{
+    primitive_bounds, Coverage, LeafBlock, LeafPrim, LeafTests, Objects, RayConstants,
+};
 use super::primitive::{primitive_tag, Primitive};
 use super::render_space::RenderSpace;
 use super::settings::RenderSettings;
@@ -15,9 +17,11 @@ use crate::geometry::{gamma, tangent_frame, Aabb, Hit, Onb, Ray, SurfaceInteract
 use crate::light::punctual::PunctualLight;
 use crate::material::{alpha_hash, normal_mapped, Alpha, Material, Wrappers};
 use crate::mutants::{self, Mutant};
+use crate::sdf::{SdfGrid, SdfVoxel};
 use crate::shapes::{
-    MeshData, Quad, Quads4, RayShear, Sphere, Triangle, TRIANGLE_HAS_ALPHA, TRIANGLE_HAS_COLORS,
-    TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_TANGENTS, TRIANGLE_HAS_UV1, TRIANGLE_HAS_UVS,
+    MeshData, Quad, Quadric, Quads4, RayShear, Sphere, Triangle, TRIANGLE_HAS_ALPHA,
+    TRIANGLE_HAS_COLORS, TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_TANGENTS, TRIANGLE_HAS_UV1,
+    TRIANGLE_HAS_UVS,
 };
 use crate::texture::{evaluate_texture, ImageData, Texture};
 use glam::{DVec3, Vec2, Vec3, Vec4};
@@ -107,6 +111,9 @@ pub struct Scene {
     pub(super) background: Background,
     pub(super) spheres: Vec<Sphere>,
     pub(super) quads: Vec<Quad>,
+    pub(super) quadrics: Vec<Quadric>,
+    pub(super) sdf_grids: Vec<SdfGrid>,
+    pub(super) sdf_voxels: Vec<SdfVoxel>,
     pub(super) triangles: Vec<Triangle>,
     pub(super) mesh: MeshData,
     pub(super) materials: Vec<Material>,
@@ -216,6 +223,13 @@ impl Scene {
         }
         for q in &self.quads {
             let _ = write!(h, "{q:?}");
+        }
+        for q in &self.quadrics {
+            let _ = write!(h, "{q:?}");
+        }
+        for g in &self.sdf_grids {
+            let _ = write!(h, "{:?}{:?}{:?}{}", g.map, g.map_f64, g.dims, g.smooth);
+            h.floats(g.values.iter().copied());
         }
         for t in &self.triangles {
             let _ = write!(h, "{t:?}");
@@ -367,6 +381,31 @@ impl Scene {
         &self.quads
     }
 
+    /// The disks, cylinders and Mitsuba-textured spheres.
+    pub fn quadrics(&self) -> &[Quadric] {
+        &self.quadrics
+    }
+
+    /// The signed distance grids ([`crate::sdf`]).
+    pub fn sdf_grids(&self) -> &[SdfGrid] {
+        &self.sdf_grids
+    }
+
+    /// The grids' cells the surface may cross: the primitives of tag
+    /// `SDF_VOXEL` index this list.
+    pub fn sdf_voxels(&self) -> &[SdfVoxel] {
+        &self.sdf_voxels
+    }
+
+    /// What a leaf entry reads through an index: quadrics and grids.
+    pub(super) fn objects(&self) -> Objects<'_> {
+        Objects {
+            quadrics: &self.quadrics,
+            grids: &self.sdf_grids,
+            voxels: &self.sdf_voxels,
+        }
+    }
+
     pub fn triangles(&self) -> &[Triangle] {
         &self.triangles
     }
@@ -480,6 +519,7 @@ impl Scene {
             self.primitives[prim as usize],
             &self.spheres,
             &self.quads,
+            self.objects(),
             &self.triangles,
             &self.mesh,
         )
@@ -492,7 +532,7 @@ impl Scene {
     #[inline]
     pub fn intersect_primitive(&self, prim: u32, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
         let leaf = self.leaf_prim(prim);
-        let hit = leaf.intersect(ray, &self.ray_constants(ray)?, t_min, t_max)?;
+        let hit = leaf.intersect(ray, &self.ray_constants(ray)?, self.objects(), t_min, t_max)?;
         (!leaf.has_alpha() || self.alpha_covers(ray, &hit)).then_some(hit)
     }
 
@@ -521,6 +561,10 @@ impl Scene {
                 let q = &self.quads[p.index as usize];
                 [q.corner, q.u, q.v]
             }
+            primitive_tag::QUADRIC | primitive_tag::SDF_VOXEL => {
+                let b = self.primitive_bounds(prim);
+                [b.min, b.max, Vec3::new(f32::from_bits(p.index), 0.0, 0.0)]
+            }
             _ => self.triangles[p.index as usize]
                 .vertices
                 .map(|i| self.mesh.positions[i as usize]),
@@ -540,6 +584,7 @@ impl Scene {
             bounds: &self.leaf_bounds,
             blocks: &self.leaf_blocks,
             quad_blocks: &self.quad_blocks,
+            objects: self.objects(),
             ray,
             constants: c,
             t_min,
@@ -556,7 +601,7 @@ impl Scene {
         let mut best: Option<Hit> = None;
         for prim in 0..self.primitives.len() as u32 {
             let leaf = self.leaf_prim(prim);
-            if let Some(h) = leaf.intersect(ray, &c, t_min, t_max) {
+            if let Some(h) = leaf.intersect(ray, &c, self.objects(), t_min, t_max) {
                 let covered = !leaf.has_alpha() || self.alpha_covers(ray, &h);
                 if covered && best.is_none_or(|b| h.t < b.t) {
                     best = Some(h);
@@ -659,6 +704,46 @@ impl Scene {
                 let dp_du = Vec3::new(outward.z, 0.0, -outward.x);
                 let dp_duv = sphere_dp_duv(outward, s.radius.abs());
                 (pos, n, n, uv, s.material, err, n, dp_du, dp_duv)
+            }
+            primitive_tag::QUADRIC => {
+                let q = &self.quadrics[p.index as usize];
+                let s = q.surface(ray, hit.t);
+                (
+                    s.p,
+                    s.n,
+                    s.n,
+                    s.uv,
+                    q.material,
+                    s.p_error,
+                    s.n,
+                    s.dp_du,
+                    (s.dp_du, s.dp_dv),
+                )
+            }
+            primitive_tag::SDF_VOXEL => {
+                let g = &self.sdf_grids[self.sdf_voxels[p.index as usize].grid as usize];
+                let s = g.surface(ray, hit.t);
+                // The smooth normal within a few degrees of the gradient:
+                // on its side (as a mesh's interpolated normal).
+                let ns = if s.shading_n.dot(s.n) < 0.0 {
+                    -s.shading_n
+                } else {
+                    s.shading_n
+                };
+                // Mitsuba's uv (0, 0), v flipped into twintrace's; no
+                // ∂p/∂u: the tangent frame is the normal's own.
+                let uv = Vec2::new(0.0, 1.0);
+                (
+                    s.p,
+                    s.n,
+                    ns,
+                    uv,
+                    g.map.material,
+                    s.p_error,
+                    ns,
+                    Vec3::ZERO,
+                    (Vec3::ZERO, Vec3::ZERO),
+                )
             }
             primitive_tag::QUAD => {
                 let q = &self.quads[p.index as usize];

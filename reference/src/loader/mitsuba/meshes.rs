@@ -236,6 +236,64 @@ pub fn read_serialized(path: &Path, opts: &MeshOptions) -> Result<Mesh, String> 
     parse_serialized(&read_file(path)?, opts)
 }
 
+/// A grid of one channel of f32 samples read from a Mitsuba `.vol` file
+/// (as its `sdfgrid` reads it): samples per axis and the values, x
+/// fastest, then y, then z. The header's bounding box is ignored, as
+/// Mitsuba's `sdfgrid` ignores it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VolGrid {
+    pub dims: [u32; 3],
+    pub values: Vec<f32>,
+}
+
+/// Reads a `.vol` grid file: `VOL`, version 3, encoding 1 (f32), the
+/// three sizes and the channel count (i32, little endian), six f32 of
+/// bounding box, then the samples.
+pub fn read_vol(path: &Path) -> Result<VolGrid, String> {
+    parse_vol(&read_file(path)?)
+}
+
+/// [`read_vol`] of a file's bytes.
+pub fn parse_vol(b: &[u8]) -> Result<VolGrid, String> {
+    if b.len() < 48 || &b[..3] != b"VOL" {
+        return Err("not a .vol grid (no \"VOL\" header)".into());
+    }
+    if b[3] != 3 {
+        return Err(format!("a .vol of version {}, not 3", b[3]));
+    }
+    let int = |at: usize| i32::from_le_bytes([b[at], b[at + 1], b[at + 2], b[at + 3]]);
+    if int(4) != 1 {
+        return Err(format!("a .vol of encoding {}, not 1 (float32)", int(4)));
+    }
+    let (nx, ny, nz, channels) = (int(8), int(12), int(16), int(20));
+    if channels != 1 {
+        return Err(format!("{channels} channels; an sdfgrid takes 1"));
+    }
+    let dims = [nx, ny, nz].map(|n| u32::try_from(n).unwrap_or(0));
+    if dims.contains(&0) {
+        return Err(format!("sizes {nx} x {ny} x {nz}"));
+    }
+    let count = dims
+        .iter()
+        .try_fold(1usize, |a, &n| a.checked_mul(n as usize));
+    let need = count
+        .and_then(|c| c.checked_mul(4))
+        .and_then(|n| n.checked_add(48));
+    match need {
+        Some(n) if n <= b.len() => {}
+        _ => {
+            return Err(format!(
+                "{nx} x {ny} x {nz} samples, more than the file holds"
+            ))
+        }
+    }
+    let values = b[48..need.unwrap_or(48)]
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
+    Ok(VolGrid { dims, values })
+}
+
 fn read_file(path: &Path) -> Result<Vec<u8>, String> {
     std::fs::read(path).map_err(|e| format!("cannot read the file: {e}"))
 }
@@ -1541,6 +1599,50 @@ fn read_floats<const N: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A `.vol` file of `dims` and `values` (the header's box zero).
+    fn vol(version: u8, encoding: i32, dims: [i32; 3], channels: i32, values: &[f32]) -> Vec<u8> {
+        let mut b = b"VOL".to_vec();
+        b.push(version);
+        for v in [encoding, dims[0], dims[1], dims[2], channels] {
+            b.extend(v.to_le_bytes());
+        }
+        b.extend([0u8; 24]);
+        for v in values {
+            b.extend(v.to_le_bytes());
+        }
+        b
+    }
+
+    #[test]
+    fn a_vol_grid_reads_its_samples_x_fastest() {
+        let values: Vec<f32> = (0..12).map(|i| i as f32 - 5.5).collect();
+        let g = parse_vol(&vol(3, 1, [3, 2, 2], 1, &values)).unwrap();
+        assert_eq!(g.dims, [3, 2, 2]);
+        assert_eq!(g.values, values);
+    }
+
+    #[test]
+    fn malformed_vol_grids_are_refused_in_one_line() {
+        let ok = vec![0.5f32; 8];
+        for (bytes, says) in [
+            (b"VOX".to_vec(), "not a .vol grid"),
+            (vol(2, 1, [2, 2, 2], 1, &ok), "version 2"),
+            (vol(3, 2, [2, 2, 2], 1, &ok), "encoding 2"),
+            (vol(3, 1, [2, 2, 2], 3, &ok), "3 channels"),
+            (vol(3, 1, [2, 0, 2], 1, &ok), "sizes 2 x 0 x 2"),
+            (vol(3, 1, [2, -1, 2], 1, &ok), "sizes 2 x -1 x 2"),
+            (vol(3, 1, [2, 2, 3], 1, &ok), "more than the file holds"),
+            (
+                vol(3, 1, [i32::MAX, i32::MAX, 2], 1, &ok),
+                "more than the file holds",
+            ),
+        ] {
+            let err = parse_vol(&bytes).unwrap_err();
+            assert!(err.contains(says), "{says}: {err}");
+            assert!(!err.contains('\n'), "{err}");
+        }
+    }
     use std::io::Write;
     use std::path::PathBuf;
 

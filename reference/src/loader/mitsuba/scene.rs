@@ -31,6 +31,7 @@ use crate::scene::RenderOrigin;
 use crate::scene::{EmitterWeights, LightInput};
 use crate::scene::{MeshInput, SceneBuilder};
 use crate::scene::{RenderSettings, Scene, Transform, MAX_DEPTH};
+use crate::shapes::{QUADRIC_CYLINDER, QUADRIC_DISK, QUADRIC_SPHERE};
 use crate::texture::{Sampler, Texture, Wrap};
 use glam::{DAffine3, DMat3, DMat4, DVec2, DVec3, Vec2, Vec3};
 use std::cell::Cell;
@@ -2102,17 +2103,8 @@ impl Reader<'_> {
             "sphere" => {
                 let center = props.point("center")?.unwrap_or(DVec3::ZERO);
                 let radius = props.float("radius", 1.0)?;
-                if flip && emitter.is_some() {
-                    return Err(unsupported(o, " with flip_normals and an emitter"));
-                }
-                if let Some(b) = &bsdf {
-                    if uses_texture(b) {
-                        return Err(unsupported(
-                            o,
-                            " with a texture (twintrace's sphere has other texture coordinates)",
-                        ));
-                    }
-                }
+                let mut framed =
+                    self.reads_uv(material) || bsdf.as_deref().is_some_and(uses_texture);
                 if let Some((m, w, _)) = self.builder.material_parts(material) {
                     let anisotropic = |m: &Material| {
                         matches!(
@@ -2130,15 +2122,125 @@ impl Reader<'_> {
                         .blend
                         .and_then(|b| self.builder.material_parts(b.second))
                         .is_some_and(|(m, ..)| anisotropic(&m));
-                    if anisotropic(&m) || second || w.normal_map.is_some() {
+                    framed |= anisotropic(&m) || second || w.normal_map.is_some();
+                }
+                if framed {
+                    // Mitsuba's texture coordinates and tangent frame: the
+                    // unit sphere of the object's own frame.
+                    if transform.uniform_scale().is_none() {
                         return Err(unsupported(
                             o,
-                            " with an anisotropic or normal-mapped material (twintrace's sphere has another tangent frame)",
+                            " with a texture or tangent frame and a to_world that is not a similarity (uniform scale, no shear)",
+                        ));
+                    }
+                    let to_world = transform.matrix
+                        * DAffine3::from_translation(center)
+                        * DAffine3::from_scale(DVec3::splat(radius));
+                    self.builder
+                        .add_quadric(
+                            QUADRIC_SPHERE,
+                            flip,
+                            material,
+                            &Transform { matrix: to_world },
+                        )
+                        .map_err(place)?;
+                } else {
+                    if flip && emitter.is_some() {
+                        return Err(unsupported(o, " with flip_normals and an emitter"));
+                    }
+                    self.builder
+                        .add_sphere(center, radius as f32, material, &transform)
+                        .map_err(place)?;
+                }
+            }
+            "sdfgrid" => {
+                if emitter.is_some() {
+                    // Mitsuba's sdfgrid has no area: seen when hit, never
+                    // sampled; refused rather than half supported.
+                    return Err(unsupported(o, " with an emitter"));
+                }
+                let name = props
+                    .string("filename")?
+                    .ok_or_else(|| fail(&o.at, format!("{} has no filename", o.describe())))?;
+                let smooth = match props.string("normals")?.unwrap_or("smooth") {
+                    "smooth" => true,
+                    "analytic" => false,
+                    other => {
+                        return Err(fail(
+                            &o.at,
+                            format!("normals \"{other}\" is not smooth or analytic"),
+                        ))
+                    }
+                };
+                let path = self.doc.resolve(name);
+                let grid = meshes::read_vol(&path).map_err(|e| {
+                    fail(&o.at, format!("{}: {}: {e}", o.describe(), path.display()))
+                })?;
+                self.builder.sources.push(path.clone());
+                self.builder
+                    .add_sdf_grid(grid.dims, grid.values, smooth, material, &transform)
+                    .map_err(place)?;
+            }
+            "disk" => {
+                self.builder
+                    .add_quadric(QUADRIC_DISK, flip, material, &transform)
+                    .map_err(place)?;
+            }
+            "cylinder" => {
+                let radius = props.float("radius", 1.0)?;
+                let p0 = props.point("p0")?.unwrap_or(DVec3::ZERO);
+                let p1 = props.point("p1")?.unwrap_or(DVec3::Z);
+                let axis = p1 - p0;
+                let length = axis.length();
+                if !(length > 0.0 && length.is_finite() && radius > 0.0 && radius.is_finite()) {
+                    return Err(fail(
+                        &o.at,
+                        format!(
+                            "{}: p0 and p1 must differ and the radius be positive",
+                            o.describe()
+                        ),
+                    ));
+                }
+                // Mitsuba's placement: translate(p0) · to_frame(Frame(axis))
+                // · scale(r, r, length), the frame's tangents from the
+                // axis as its `coordinate_system` makes them.
+                let n = axis / length;
+                let sign = 1.0f64.copysign(n.z);
+                let a = -1.0 / (sign + n.z);
+                let b = n.x * n.y * a;
+                let s_axis = DVec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+                let t_axis = DVec3::new(b, sign + n.y * n.y * a, -n.y);
+                let (s_axis, t_axis) = if mutants::is(Mutant::CylinderFrameSwapped) {
+                    (t_axis, s_axis)
+                } else {
+                    (s_axis, t_axis)
+                };
+                let frame = DAffine3::from_cols(s_axis * radius, t_axis * radius, n * length, p0);
+                let to_world = transform.matrix * frame;
+                if emitter.is_some() {
+                    // Mitsuba's area and sampling assume a round section:
+                    // its sample_position is uniform in (φ, z).
+                    let m = to_world.matrix3;
+                    let (c0, c1, c2) = (m.x_axis, m.y_axis, m.z_axis);
+                    let tol = 1e-4 * c0.length().max(c1.length());
+                    let round = (c0.length() - c1.length()).abs() <= tol
+                        && c0.dot(c1).abs() <= tol * c1.length()
+                        && c0.dot(c2).abs() <= tol * c2.length()
+                        && c1.dot(c2).abs() <= tol * c2.length();
+                    if !round {
+                        return Err(unsupported(
+                            o,
+                            " with an emitter and a to_world that does not keep its section round (non-uniform scale across its axis, or shear)",
                         ));
                     }
                 }
                 self.builder
-                    .add_sphere(center, radius as f32, material, &transform)
+                    .add_quadric(
+                        QUADRIC_CYLINDER,
+                        flip,
+                        material,
+                        &Transform { matrix: to_world },
+                    )
                     .map_err(place)?;
             }
             "rectangle" | "cube" => {
@@ -2147,7 +2249,7 @@ impl Reader<'_> {
                 } else {
                     cube()
                 };
-                let mesh = oriented(&mesh_input(&mesh), flip);
+                let mesh = oriented(&mesh_input(&mesh), flip, &transform);
                 self.builder
                     .add_mesh(&mesh, material, &transform)
                     .map_err(place)?;
@@ -2237,7 +2339,7 @@ impl Reader<'_> {
                 if input.uvs.is_none() && self.reads_uv(material) {
                     input = barycentric_uvs(input);
                 }
-                let input = oriented(&input, flip);
+                let input = oriented(&input, flip, &transform);
                 self.builder
                     .add_mesh(&input, material, &transform)
                     .map_err(place)?;
@@ -2724,16 +2826,26 @@ fn pick<T: Copy>(v: &Option<Vec<T>>, corners: &[u32]) -> Option<Vec<T>> {
 
 /// `flip_normals`: the triangles wound the other way and the normals
 /// reversed, so the surface faces the other side.
-fn oriented(mesh: &MeshInput, flip: bool) -> MeshInput {
-    if !flip {
-        return mesh.clone();
-    }
+/// `mesh` as Mitsuba orients it: `flip_normals` negates its normals and
+/// turns its faces; and a mesh with vertex normals placed by a mirroring
+/// `transform` has its faces turned. Mitsuba keeps a mirrored mesh's face
+/// normal the edges' cross product (now opposite the normals the inverse
+/// transpose carries) and shades by the vertex normals, while twintrace
+/// puts the shading normal on the face normal's side: turning the faces
+/// keeps the two on one side, so the shading is Mitsuba's (and a
+/// `rectangle`'s face normal is Mitsuba's `L⁻ᵀ ẑ`).
+fn oriented(mesh: &MeshInput, flip: bool, transform: &Transform) -> MeshInput {
+    let turn = flip != (transform.mirrors() && mesh.normals.is_some());
     let mut m = mesh.clone();
-    for t in m.indices.chunks_exact_mut(3) {
-        t.swap(1, 2);
+    if turn {
+        for t in m.indices.chunks_exact_mut(3) {
+            t.swap(1, 2);
+        }
     }
-    if let Some(n) = &mut m.normals {
-        n.iter_mut().for_each(|n| *n = -*n);
+    if flip {
+        if let Some(n) = &mut m.normals {
+            n.iter_mut().for_each(|n| *n = -*n);
+        }
     }
     m
 }
@@ -2831,6 +2943,50 @@ mod tests {
     }
 
     #[test]
+    fn shapes_twintrace_cannot_take_as_mitsuba_does_are_refused_by_name() {
+        let vol = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../fixtures/mitsuba_shapes/blob.vol"
+        );
+        for (shape, says) in [
+            (
+                format!(
+                    r#"<shape type="sdfgrid"><string name="filename" value="{vol}"/><emitter type="area"/></shape>"#
+                ),
+                "shape \"sdfgrid\" is not supported with an emitter",
+            ),
+            (
+                format!(
+                    r#"<shape type="sdfgrid"><string name="filename" value="{vol}"/><string name="normals" value="flat"/></shape>"#
+                ),
+                "normals \"flat\" is not smooth or analytic",
+            ),
+            (
+                r#"<shape type="sdfgrid"><string name="filename" value="/nonexistent/g.vol"/></shape>"#.into(),
+                "cannot read the file",
+            ),
+            (
+                r#"<shape type="cylinder"><emitter type="area"/><transform name="to_world"><scale x="2" y="1" z="1"/></transform></shape>"#.into(),
+                "does not keep its section round",
+            ),
+            (
+                r#"<shape type="cylinder"><point name="p0" x="1" y="1" z="1"/><point name="p1" x="1" y="1" z="1"/></shape>"#.into(),
+                "p0 and p1 must differ",
+            ),
+            (
+                r#"<shape type="disk"><transform name="to_world"><scale x="0" y="1" z="1"/></transform></shape>"#.into(),
+                "singular",
+            ),
+        ] {
+            let err = scene(&format!(r#"<sensor type="perspective">{FILM}</sensor>{shape}"#))
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains(says), "{shape}: {err}");
+            assert!(!err.contains('\n'), "{err}");
+        }
+    }
+
+    #[test]
     fn what_the_frame_does_not_support_is_refused_by_name() {
         for (body, says) in [
             (
@@ -2854,16 +3010,10 @@ mod tests {
                 "inside twosided around a model that takes both sides itself",
             ),
             (
-                r#"<bsdf type="roughconductor"><float name="alpha_u" value="0.2"/><float name="alpha_v" value="0.1"/></bsdf>"#,
-                "sphere\" is not supported with an anisotropic or normal-mapped material",
-            ),
-            (
-                concat!(
-                    r#"<bsdf type="bumpmap"><texture name="h" type="bitmap"><string name="filename" value=""#,
-                    env!("CARGO_MANIFEST_DIR"),
-                    r#"/../fixtures/mitsuba/bumps/textures/height.png"/></texture><bsdf type="diffuse"/></bsdf>"#
-                ),
-                "sphere\" is not supported with a texture",
+                // Mitsuba's textured sphere is a quadric of its own frame,
+                // which a shear would turn into an ellipsoid.
+                r#"<bsdf type="roughconductor"><float name="alpha_u" value="0.2"/><float name="alpha_v" value="0.1"/></bsdf><transform name="to_world"><scale x="2" y="1" z="1"/></transform>"#,
+                "sphere\" is not supported with a texture or tangent frame and a to_world that is not a similarity",
             ),
         ] {
             let err = scene(&format!(

@@ -729,7 +729,7 @@ impl Reader {
                     if axis.length_squared() == 0.0 || !axis.is_finite() {
                         return Err(fail("rotate needs a non-zero axis".into()));
                     }
-                    DMat4::from_axis_angle(axis.normalize(), angle.to_radians())
+                    rotation(axis, angle.to_radians())
                 }
                 "matrix" => {
                     self.check_attributes(file, op, &["value"])?;
@@ -855,6 +855,38 @@ impl FileCtx<'_, '_> {
             column: pos.col,
         }
     }
+}
+
+/// Mitsuba 3's rotation by `angle` (radians) about `axis` as the file
+/// gives it: Rodrigues' matrix `cos θ·I + (1 − cos θ)·a aᵀ + sin θ·[a]×`
+/// of the axis unnormalized (Dr.Jit's `rotate`, which Mitsuba's reader and
+/// `Transform4f::rotate` call; an axis a little off unit length then also
+/// scales a little, as in Mitsuba).
+fn rotation(axis: DVec3, angle: f64) -> DMat4 {
+    let a = if crate::mutants::is(crate::mutants::Mutant::MitsubaRotateAxisNormalized) {
+        axis.normalize()
+    } else {
+        axis
+    };
+    let (s, c) = angle.sin_cos();
+    let k = 1.0 - c;
+    DMat4::from_mat3(DMat3::from_cols(
+        DVec3::new(
+            c + a.x * a.x * k,
+            a.x * a.y * k + a.z * s,
+            a.x * a.z * k - a.y * s,
+        ),
+        DVec3::new(
+            a.x * a.y * k - a.z * s,
+            c + a.y * a.y * k,
+            a.y * a.z * k + a.x * s,
+        ),
+        DVec3::new(
+            a.x * a.z * k + a.y * s,
+            a.y * a.z * k - a.x * s,
+            c + a.z * a.z * k,
+        ),
+    ))
 }
 
 #[cfg(test)]
