@@ -309,6 +309,25 @@ fn emitters_are_picked_by_their_sampling_weights() {
     assert!((lights.punctual_pmf(0) - 1.0 / 3.0).abs() < 1e-6);
 }
 
+/// A scene with Mitsuba's disks, cylinders, textured spheres or grids is
+/// refused by export-mitsuba in one line, nothing written (its materials
+/// are placed for the reference's own shapes' texture coordinates).
+#[test]
+fn export_mitsuba_refuses_quadrics_and_grids_rather_than_dropping_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let root = twintrace::compare::gate::workspace_root();
+    for name in ["quadrics", "grids"] {
+        let scene = root.join(format!("fixtures/mitsuba_shapes/{name}.xml"));
+        let out = format!("exported-{name}");
+        let (code, _, err) = twintrace(d, &["export-mitsuba", scene.to_str().unwrap(), "-o", &out]);
+        assert!(code.is_some_and(|c| c != 0), "{name}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(err.contains("not exported"), "{err}");
+        assert!(!d.join(&out).exists(), "{name}: an export was written");
+    }
+}
+
 /// Mitsuba's spot and projector (textured and not) exported by
 /// export-mitsuba as Mitsuba's own (a to_world matrix, the projector's
 /// field of view along y, its texture at Mitsuba's coordinates) and read

@@ -227,6 +227,15 @@ struct Mesh {
 
 impl<'s> MitsubaScene<'s> {
     fn new(scene: &'s Scene) -> Result<Self> {
+        // Mitsuba's disks, cylinders, textured spheres and grids: the
+        // export's materials are placed for the reference's own shapes'
+        // texture coordinates, not these (refused, not dropped).
+        let (quadrics, grids) = (scene.quadrics().len(), scene.sdf_grids().len());
+        if quadrics + grids > 0 {
+            bail!(
+                "the scene has {quadrics} disk, cylinder or Mitsuba-textured sphere shapes and {grids} signed distance grids, which export-mitsuba does not write (not exported)"
+            );
+        }
         let surfaces = (0..scene.materials().len())
             .map(|i| materials::surface(scene, i))
             .collect::<Result<Vec<_>>>()?;

@@ -1178,11 +1178,13 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
     }
     say!("scene: {name}");
     say!(
-        "primitives: {} ({} spheres, {} quads, {} triangles; {} mesh vertices)",
+        "primitives: {} ({} spheres, {} quads, {} triangles, {} quadrics, {} grid cells; {} mesh vertices)",
         scene.primitives().len(),
         scene.spheres().len(),
         scene.quads().len(),
         scene.triangles().len(),
+        scene.quadrics().len(),
+        scene.sdf_voxels().len(),
         scene.mesh().positions.len()
     );
     // The box in the file's coordinates (the scene is traced in render

@@ -233,6 +233,15 @@ fn offset_scale(scene: &Scene, prim: u32, p: Vec3) -> (f64, f64) {
             let m = (q.corner - p).length() + q.u.length() + q.v.length();
             (m as f64, 0.0)
         }
+        // The map's columns times a point of the unit shape (through
+        // `sin`/`cos` on all of them but the cylinder's axis).
+        primitive_tag::QUADRIC => {
+            let q = &scene.quadrics()[pr.index as usize];
+            let cols: f32 = q.linear.iter().map(|c| c.length()).sum();
+            (((q.origin - p).length() + cols) as f64, cols as f64)
+        }
+        // A grid has no area: never drawn.
+        primitive_tag::SDF_VOXEL => (0.0, 0.0),
         _ => {
             let t = &scene.triangles()[pr.index as usize];
             let [a, b, c] = t.vertices.map(|i| scene.mesh().positions[i as usize]);

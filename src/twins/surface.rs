@@ -348,6 +348,20 @@ fn tangent_magnification(
             1.0 / (n.x * n.x + n.z * n.z).sqrt()
         }
         primitive_tag::QUAD => 1.0,
+        // A quadric's ∂p/∂u shrinks only on a Mitsuba sphere, toward its
+        // poles (its length 2π·r·sin θ in the object's frame); a grid's
+        // frame is its normal's own.
+        primitive_tag::QUADRIC => {
+            let q = &scene.quadrics()[p.index as usize];
+            if q.kind == reference::shapes::QUADRIC_SPHERE {
+                let l = reference::shapes::mat_vec(&q.inv_linear, si.p) + q.inv_origin;
+                let l = l.normalize_or_zero();
+                1.0 / (l.x * l.x + l.y * l.y).sqrt()
+            } else {
+                1.0
+            }
+        }
+        primitive_tag::SDF_VOXEL => 1.0,
         _ => {
             let tri = &scene.triangles()[p.index as usize];
             let dp = scene.triangle_dp_duv(tri, si.geometric_normal).0;
