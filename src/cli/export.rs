@@ -50,7 +50,10 @@
 //! lights under shading normals (the metals test their reflection against
 //! the geometric normal, the reference's light faces its geometric front,
 //! Mitsuba's its shading normal), alpha on a dielectric or a light, a
-//! texture of the second uv set on a sphere.
+//! texture of the second uv set on a sphere, and the shapes read from
+//! Mitsuba files alone: disks, cylinders, textured Mitsuba spheres
+//! (quadrics) and signed distance grids (refused: the scene is not
+//! written).
 //!
 //! Mitsuba's `path` integrator samples emitters with MIS, where twintrace
 //! samples the BSDF only: a different estimator of the same integral, so
