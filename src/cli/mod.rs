@@ -24,6 +24,7 @@
 pub mod common;
 pub mod diff;
 pub mod export;
+pub mod info;
 pub mod interrupt;
 pub mod mitsuba_tests;
 pub mod outputs;
@@ -39,7 +40,8 @@ use common::{
     Device,
 };
 pub use common::{one_line, Refused};
-use reference::{RenderSettings, Scene};
+pub use info::InfoArgs;
+use reference::RenderSettings;
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::PathBuf;
@@ -239,13 +241,6 @@ pub struct MergeArgs {
     pub tonemap: Tonemap,
 }
 
-#[derive(Debug, Args)]
-pub struct InfoArgs {
-    /// A scene file (.json, .gltf, .glb, Mitsuba .xml) or a built-in scene name; without
-    /// one, only the GPU adapters are listed.
-    pub scene: Option<String>,
-}
-
 /// Runs one command.
 pub fn run(cli: Cli) -> Result<()> {
     use reference::loader::gltf::{GltfLightUnits, GltfOptions};
@@ -260,7 +255,7 @@ pub fn run(cli: Cli) -> Result<()> {
     });
     match cli.command {
         Command::Render(args) => render(&args),
-        Command::Info(args) => info(&args),
+        Command::Info(args) => info::info(&args),
         Command::Diff(args) => diff::run(&args),
         Command::Merge(args) => merge(&args),
         Command::Selftest(args) => match selftest::execute(&args)? {
@@ -1127,250 +1122,6 @@ fn render_outputs(
         outputs::output(arg.clone(), &paths.exr),
         outputs::output(arg, &paths.png),
     ]
-}
-
-fn info(args: &InfoArgs) -> Result<()> {
-    let mut text = String::new();
-    if let Some(spec) = &args.scene {
-        let scene = load_scene(spec)?;
-        text += &scene_summary(spec, &scene);
-    }
-    text += &adapter_summary(&gpu::list_adapters());
-    print_stdout(&text)
-}
-
-/// The adapter list `twintrace info` prints.
-pub fn adapter_summary(adapters: &[gpu::AdapterSummary]) -> String {
-    if adapters.is_empty() {
-        return "GPU adapters: none (the gpu backend needs a Vulkan, Metal, DX12 or GL driver; Mesa lavapipe is one: apt-get install mesa-vulkan-drivers)\n"
-            .into();
-    }
-    let mut o = format!("GPU adapters: {}\n", adapters.len());
-    for (i, a) in adapters.iter().enumerate() {
-        let _ = writeln!(
-            o,
-            "  {i}: {} ({}, {}; {}): max storage buffer binding {} MiB, max buffer {} MiB, {} storage buffers per stage, {} invocations per workgroup, timestamps {}",
-            a.name,
-            a.backend,
-            a.device_type,
-            a.driver,
-            a.max_storage_buffer_binding_size >> 20,
-            a.max_buffer_size >> 20,
-            a.max_storage_buffers_per_shader_stage,
-            a.max_compute_invocations_per_workgroup,
-            if a.timestamp_queries { "yes" } else { "no" }
-        );
-    }
-    o
-}
-
-/// The text `twintrace info` prints.
-pub fn scene_summary(name: &str, scene: &Scene) -> String {
-    use reference::background::Background;
-    use reference::material::Material;
-    use reference::texture::Texture;
-    let mut o = String::new();
-    // Writing to a String cannot fail.
-    macro_rules! say {
-        ($($t:tt)*) => {{
-            let _ = writeln!(o, $($t)*);
-        }};
-    }
-    say!("scene: {name}");
-    say!(
-        "primitives: {} ({} spheres, {} quads, {} triangles, {} quadrics, {} grid cells; {} mesh vertices)",
-        scene.primitives().len(),
-        scene.spheres().len(),
-        scene.quads().len(),
-        scene.triangles().len(),
-        scene.quadrics().len(),
-        scene.sdf_voxels().len(),
-        scene.mesh().positions.len()
-    );
-    // The box in the file's coordinates (the scene is traced in render
-    // space, about the camera).
-    let b = scene.bounds();
-    let (lo, hi) = (scene.to_world(b.min), scene.to_world(b.max));
-    say!("bounds: {} .. {}", lo.as_vec3(), hi.as_vec3());
-    let count = |names: &[&'static str], of: &dyn Fn(usize) -> &'static str, n: usize| {
-        let kinds: Vec<String> = names
-            .iter()
-            .filter_map(|&k| {
-                let c = (0..n).filter(|&i| of(i) == k).count();
-                (c > 0).then(|| format!("{c} {k}"))
-            })
-            .collect();
-        if kinds.is_empty() {
-            n.to_string()
-        } else {
-            format!("{n} ({})", kinds.join(", "))
-        }
-    };
-    let material_kind = |i: usize| match scene.materials()[i] {
-        Material::Lambertian { .. } => "lambertian",
-        Material::Metal { .. } => "metal",
-        Material::Dielectric { .. } => "dielectric",
-        Material::DiffuseLight { .. } => "diffuse light",
-        Material::Conductor { .. } => "conductor",
-        Material::RoughConductor { .. } => "rough conductor",
-        Material::SmoothDielectric { .. } => "smooth dielectric",
-        Material::ThinDielectric { .. } => "thin dielectric",
-        Material::RoughDielectric { .. } => "rough dielectric",
-        Material::Plastic { .. } => "plastic",
-        Material::RoughPlastic { .. } => "rough plastic",
-        Material::Ggx { .. } => "ggx",
-        Material::Principled { thin: false, .. } => "principled",
-        Material::Principled { thin: true, .. } => "thin principled",
-    };
-    say!(
-        "materials: {}",
-        count(
-            &[
-                "lambertian",
-                "metal",
-                "dielectric",
-                "diffuse light",
-                "conductor",
-                "rough conductor",
-                "smooth dielectric",
-                "thin dielectric",
-                "rough dielectric",
-                "plastic",
-                "rough plastic",
-                "ggx",
-                "principled",
-                "thin principled"
-            ],
-            &material_kind,
-            scene.materials().len()
-        )
-    );
-    // Mitsuba's wrappers, where some material has one.
-    let n = scene.materials().len() as u32;
-    let masked = (0..n)
-        .filter(|&m| scene.wrappers(m).opacity.is_some())
-        .count();
-    let one_sided = (0..n).filter(|&m| scene.wrappers(m).one_sided).count();
-    let blends = (0..n)
-        .filter(|&m| scene.wrappers(m).blend.is_some())
-        .count();
-    if masked + one_sided + blends > 0 {
-        say!("  of which {one_sided} one-sided, {masked} masked, {blends} blends (each blend's second BSDF is one of the materials)");
-    }
-    let texture_kind = |i: usize| match scene.textures()[i] {
-        Texture::Constant(_) => "constant",
-        Texture::Checker { .. } => "checker",
-        Texture::UvChecker { .. } => "uv checker",
-        Texture::Image { .. } => "image",
-        Texture::VertexColor { .. } => "vertex colour",
-    };
-    say!(
-        "textures: {}",
-        count(
-            &[
-                "constant",
-                "checker",
-                "uv checker",
-                "image",
-                "vertex colour"
-            ],
-            &texture_kind,
-            scene.textures().len()
-        )
-    );
-    let sizes: Vec<String> = scene
-        .images()
-        .iter()
-        .map(|im| format!("{}x{}", im.width, im.height))
-        .collect();
-    if sizes.is_empty() {
-        say!("images: 0");
-    } else {
-        say!("images: {} ({})", sizes.len(), sizes.join(", "));
-    }
-    let light_kind = |i: usize| match scene.punctual_lights()[i].tag {
-        reference::light::punctual_tag::POINT => "point",
-        reference::light::punctual_tag::SPOT => "spot",
-        reference::light::punctual_tag::SPOT_LINEAR => "Mitsuba spot",
-        reference::light::punctual_tag::PROJECTOR => "projector",
-        _ => "directional",
-    };
-    say!(
-        "punctual lights: {}",
-        count(
-            &["point", "spot", "Mitsuba spot", "projector", "directional"],
-            &light_kind,
-            scene.punctual_lights().len()
-        )
-    );
-    match scene.background() {
-        Background::Solid(c) => say!("background: solid {c}"),
-        Background::Sky { horizon, zenith } => {
-            say!("background: sky gradient, horizon {horizon}, zenith {zenith}")
-        }
-        Background::Envmap {
-            image,
-            intensity,
-            to_map,
-            rows,
-        } => {
-            let size = scene
-                .images()
-                .get(image as usize)
-                .map(|im| format!("{}x{}", im.width, im.height))
-                .unwrap_or_default();
-            let turn = match reference::background::angle_about_y(to_map) {
-                Some(a) => format!("rotated {a}° about +y"),
-                None => format!("rotated into its frame by {to_map}"),
-            };
-            let rows = match rows {
-                reference::background::EnvRows::Bands => "",
-                reference::background::EnvRows::Poles => ", rows at the poles (Mitsuba's envmap)",
-            };
-            say!("background: environment map, image {image} ({size}), intensity {intensity}, {turn}{rows}");
-        }
-    }
-    let c = &scene.camera_settings();
-    match c.projection {
-        reference::camera::Projection::Perspective => say!(
-            "camera: from {} looking at {}, up {}, vfov {}°, aperture {}, focus distance {}",
-            c.look_from,
-            c.look_at,
-            c.up,
-            c.vfov,
-            c.aperture,
-            c.focus_distance
-        ),
-        reference::camera::Projection::Orthographic { height } => say!(
-            "camera: orthographic, from {} looking at {}, up {}, window {height} high",
-            c.look_from,
-            c.look_at,
-            c.up
-        ),
-    }
-    let r = &scene.render_settings();
-    say!(
-        "render defaults: {}x{}, {} spp, max depth {}, seed {}, Russian roulette from depth {}, {} sampler",
-        r.width,
-        r.height,
-        r.spp,
-        r.max_depth,
-        r.seed,
-        r.roulette_depth,
-        r.sampler.name()
-    );
-    let s = &scene.bvh_stats();
-    say!(
-        "bvh: built in {:.3} ms, {} primitives, {} nodes, {} leaves, max depth {}, max leaf size {}, SAH cost {:.3}",
-        s.build_time.as_secs_f64() * 1e3,
-        s.primitives,
-        s.nodes,
-        s.leaves,
-        s.max_depth,
-        s.max_leaf_size,
-        s.sah_cost
-    );
-    o
 }
 
 /// Prints a panic as one `error:` line (no backtrace): a panic is a bug,
