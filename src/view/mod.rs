@@ -11,10 +11,12 @@
 //! writes it, and the tests hold it to `render`).
 //!
 //! The view itself is in `session` (re-exported here); the window, its
-//! saves and the twin comparison are the modules below, which use it.
+//! panel, its saves and the twin comparison are the modules below, which
+//! use it.
 
 pub mod camera;
 pub mod compare;
+mod panel;
 pub mod save;
 mod session;
 pub mod window;
