@@ -404,3 +404,42 @@ pub fn first_root(c: &[f32; 4], end: f32) -> Option<f32> {
     }
     s.is_finite().then_some(s)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shapes::QUADRIC_SDF;
+    use glam::DAffine3;
+
+    #[test]
+    fn a_grids_record_bounds_the_image_of_its_unit_cube() {
+        let m = DAffine3::from_cols(
+            DVec3::new(0.3, 2.1, -2.1),
+            DVec3::new(-2.3, -1.2, -1.5),
+            DVec3::new(-1.9, 1.8, 1.5),
+            DVec3::new(4.9, 18.6, -1.9),
+        );
+        let q = Quadric::placed(QUADRIC_SDF, m, false, 0).unwrap();
+        let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+        for k in 0..8 {
+            let c = DVec3::new((k & 1) as f64, ((k >> 1) & 1) as f64, ((k >> 2) & 1) as f64);
+            let w = m.transform_point3(c);
+            (lo, hi) = (lo.min(w), hi.max(w));
+            assert!(
+                w.cmpge(q.bounds.min.as_dvec3()).all(),
+                "{w} below {:?}",
+                q.bounds
+            );
+            assert!(
+                w.cmple(q.bounds.max.as_dvec3()).all(),
+                "{w} above {:?}",
+                q.bounds
+            );
+        }
+        // Tight but for the widening (10⁻⁵ of the coordinates' size) and
+        // the rounding outward.
+        let slack = 2e-5 * lo.abs().max(hi.abs()).max_element();
+        assert!((q.bounds.min.as_dvec3() - lo).abs().max_element() <= slack);
+        assert!((q.bounds.max.as_dvec3() - hi).abs().max_element() <= slack);
+    }
+}

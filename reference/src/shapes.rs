@@ -1164,7 +1164,8 @@ impl Quadric {
 
     /// The world-space box of the shape, from its f64 placement: for each
     /// axis, the extent of the unit disk (cylinder ends, sphere) under
-    /// the map, `√(Σ_j m_kj²)` over the columns the shape spans, widened
+    /// the map, `√(Σ_j m_kj²)` over the columns the shape spans (a grid's
+    /// record: the image of [0, 1]³), widened
     /// by 10⁻⁵ of the coordinates' size and rounded outward. The
     /// widening covers the hit's rounding: `t` comes from the object-space
     /// ray (a transform of a few ulps) and `Bvh::admits` checks the point
@@ -1180,6 +1181,14 @@ impl Quadric {
                 let e = (c0 * c0 + c1 * c1).map(f64::sqrt);
                 let top = origin + c2;
                 ((origin - e).min(top - e), (origin + e).max(top + e))
+            }
+            // A grid's [0, 1]³: each axis's extremes over the corners.
+            QUADRIC_SDF => {
+                let z = glam::DVec3::ZERO;
+                (
+                    origin + c0.min(z) + c1.min(z) + c2.min(z),
+                    origin + c0.max(z) + c1.max(z) + c2.max(z),
+                )
             }
             _ => {
                 let e = (c0 * c0 + c1 * c1 + c2 * c2).map(f64::sqrt);
