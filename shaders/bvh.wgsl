@@ -101,6 +101,7 @@ fn intersect_leaf(first: u32, count: u32, ray: Ray, inv_dir: vec3<f32>, pad: f32
         var prim: u32;
         var h: ShapeHit;
         var alpha = false;
+        instance_sub = 0u;
         if LEAVES == LEAVES_INDEXED {
             prim = leaf_entries[entry >> 2u][entry & 3u];
             h = intersect_primitive(prim, ray, inv_dir, pad, t_min, limit);
@@ -129,7 +130,7 @@ fn intersect_leaf(first: u32, count: u32, ray: Ray, inv_dir: vec3<f32>, pad: f32
             }
         }
         if h.hit && (!best.hit || h.t < best.t || (h.t == best.t && prim < best.prim)) {
-            best = Hit(true, h.t, prim, h.uv);
+            best = Hit(true, h.t, prim, h.uv, instance_sub);
         }
     }
     return best;
@@ -164,6 +165,11 @@ fn intersect_inline(r0: vec4<u32>, r1: vec4<u32>, r2: vec4<u32>, r3: vec4<u32>, 
         case PRIMITIVE_SDF_VOXEL: {
             // Its cell's record in `texels`: a's first float holds where.
             h = intersect_sdf_record(bitcast<u32>(a.x), ray, t_min, t_max);
+        }
+        case PRIMITIVE_INSTANCE: {
+            // Its record among the quadrics': a's first float holds the
+            // index.
+            h = intersect_instance_record(bitcast<u32>(a.x), ray, t_min, t_max);
         }
         default: {
             poison();
@@ -212,7 +218,7 @@ fn wide_lane(record: u32, origin: vec3<f32>, inv_dir: vec3<f32>, pad: f32, t_max
 // them (gpu::traversal::wide_records checks that the stack holds every
 // deferred lane).
 fn bvh_intersect_wide(ray: Ray, t_min: f32, t_max: f32) -> Hit {
-    var best = Hit(false, t_max, 0u, vec2<f32>(0.0));
+    var best = Hit(false, t_max, 0u, vec2<f32>(0.0), 0u);
     let inv_dir = safe_inv_dir(ray.direction);
     let root = bvh_node(0u);
     let pad = box_pad(node_min(root), node_max(root), ray.origin, ray.direction);
@@ -342,7 +348,7 @@ fn cw_slot(n: CwNode, s: u32, oct: u32, origin: vec3<f32>, inv_dir: vec3<f32>, p
 // a node's hit leaf children are tested at once, in the same order,
 // before its interior children are entered.
 fn bvh_intersect_compressed(ray: Ray, t_min: f32, t_max: f32) -> Hit {
-    var best = Hit(false, t_max, 0u, vec2<f32>(0.0));
+    var best = Hit(false, t_max, 0u, vec2<f32>(0.0), 0u);
     let inv_dir = safe_inv_dir(ray.direction);
     let root_min = bitcast<vec3<f32>>(nodes[0].xyz);
     let root_max = bitcast<vec3<f32>>(nodes[1].xyz);
@@ -399,7 +405,7 @@ fn bvh_intersect_compressed(ray: Ray, t_min: f32, t_max: f32) -> Hit {
 // again, measured no faster on the H100: 9.5e8 against 9.8e8 rays/s on
 // the 10^6-triangle torus, docs/benchmarks.md.)
 fn bvh_intersect_binary(ray: Ray, t_min: f32, t_max: f32) -> Hit {
-    var best = Hit(false, t_max, 0u, vec2<f32>(0.0));
+    var best = Hit(false, t_max, 0u, vec2<f32>(0.0), 0u);
     let inv_dir = safe_inv_dir(ray.direction);
     let root = bvh_node(0u);
     let pad = box_pad(node_min(root), node_max(root), ray.origin, ray.direction);

@@ -169,8 +169,9 @@ fn offset_on(prim: u32, uv: vec2<f32>, p: vec3<f32>) -> vec3<f32> {
             let c = vertex_position(t.v2);
             return (a - p) + uv.x * (b - a) + uv.y * (c - a);
         }
-        case PRIMITIVE_SDF_VOXEL: {
-            // No area: never drawn (reference::light::offset_on).
+        case PRIMITIVE_SDF_VOXEL, PRIMITIVE_INSTANCE: {
+            // No area, or never a light: never drawn
+            // (reference::light::offset_on).
             return vec3<f32>(0.0);
         }
         case PRIMITIVE_QUADRIC: {

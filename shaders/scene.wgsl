@@ -24,7 +24,15 @@ struct Hit {
     t: f32,
     prim: u32,
     uv: vec2<f32>,
+    // On an instance (prim's tag PRIMITIVE_INSTANCE), the triangle of its
+    // group that was hit; 0 otherwise (reference::geometry::Hit::sub).
+    sub: u32,
 }
+
+// The triangle intersect_instance_record's last hit was on: set with
+// its ShapeHit (which has no room for it), read by the leaf test that
+// called it, before any other instance is tested.
+var<private> instance_sub: u32;
 
 fn vertex_position(i: u32) -> vec3<f32> {
     let v = vertices[i];
@@ -118,6 +126,9 @@ fn intersect_shape(p: GpuPrimitive, ray: Ray, t_min: f32, t_max: f32) -> ShapeHi
         if p.tag == PRIMITIVE_SDF_VOXEL {
             return intersect_sdf_record(p.index, ray, t_min, t_max);
         }
+        if p.tag == PRIMITIVE_INSTANCE {
+            return intersect_instance_record(p.index, ray, t_min, t_max);
+        }
         poison();
         return no_hit();
     }
@@ -136,6 +147,9 @@ fn intersect_shape(p: GpuPrimitive, ray: Ray, t_min: f32, t_max: f32) -> ShapeHi
         }
         case PRIMITIVE_SDF_VOXEL: {
             return intersect_sdf_record(p.index, ray, t_min, t_max);
+        }
+        case PRIMITIVE_INSTANCE: {
+            return intersect_instance_record(p.index, ray, t_min, t_max);
         }
         default: {
             poison();
@@ -210,6 +224,121 @@ fn intersect_sdf_record(at: u32, ray: Ray, t_min: f32, t_max: f32) -> ShapeHit {
     let c = sdf_cell_record(at);
     let g = sdf_grid_record(c.grid);
     return sdf_grid_intersect_cell(g, c.cell, quadric_object_ray(g.q, ray), t_min, t_max);
+}
+
+// Node i of an instanced group's binary tree, whose nodes start at `at`
+// in `texels` (gpu::scene_buffers::instance_node: box minimum, index,
+// box maximum, meta bits; the integers exact as floats).
+fn instance_node(at: u32, i: u32) -> BvhNode {
+    let k = at + INSTANCE_NODE_FLOATS * i;
+    return BvhNode(texels[k], texels[k + 1u], texels[k + 2u], u32(texels[k + 3u]), texels[k + 4u], texels[k + 5u], texels[k + 6u], u32(texels[k + 7u]));
+}
+
+// reference::Scene's instance hit: instance record `index`'s group
+// walked (its binary tree, near child first) on the ray mapped into the
+// group's object space, which keeps t. Each triangle is tested as a leaf
+// entry of the scene's own tree is, with the admits rule against its
+// vertices' box and the pad of the group's root; ties in t go to the
+// smaller triangle index, as in every walk. The hit triangle goes to
+// instance_sub.
+fn intersect_instance_record(index: u32, ray: Ray, t_min: f32, t_max: f32) -> ShapeHit {
+    if !uses(FEATURE_INSTANCES) { poison(); return no_hit(); }
+    let g = quadrics[index];
+    let local = quadric_object_ray(quadric_record(index), ray);
+    let inv_dir = safe_inv_dir(local.direction);
+    let root = instance_node(g.nx, 0u);
+    let pad = box_pad(node_min(root), node_max(root), local.origin, local.direction);
+    var best = no_hit();
+    best.t = t_max;
+    var best_tri = 0u;
+    if intersect_aabb(node_min(root), node_max(root), local.origin, inv_dir, pad, best.t) < 0.0 {
+        return no_hit();
+    }
+    var deferred: array<u32, BVH_STACK_SIZE>;
+    var pending = 0u;
+    var node = 0u;
+    loop {
+        let n = instance_node(g.nx, node);
+        if (n.meta_bits & 3u) == BVH_LEAF {
+            for (var i = 0u; i < (n.meta_bits >> 2u); i++) {
+                let tri = g.ny + u32(texels[g.nz + n.index + i]);
+                var limit = best.t;
+                if best.hit {
+                    limit = next_up(best.t);
+                }
+                let t = triangles[tri];
+                let a = vertex_position(t.v0);
+                let b = vertex_position(t.v1);
+                let c = vertex_position(t.v2);
+                let h = intersect_triangle(a, b, c, local, t_min, limit);
+                if h.hit && intersect_aabb(min(min(a, b), c), max(max(a, b), c), local.origin, inv_dir, pad, h.t) >= 0.0 {
+                    if !best.hit || h.t < best.t || (h.t == best.t && tri < best_tri) {
+                        best = h;
+                        best_tri = tri;
+                    }
+                }
+            }
+        } else {
+            let l = node + 1u;
+            let r = n.index;
+            let nl = instance_node(g.nx, l);
+            let nr = instance_node(g.nx, r);
+            let tl = intersect_aabb(node_min(nl), node_max(nl), local.origin, inv_dir, pad, best.t);
+            let tr = intersect_aabb(node_min(nr), node_max(nr), local.origin, inv_dir, pad, best.t);
+            if tl >= 0.0 && tr >= 0.0 {
+                var near = l;
+                var far = r;
+                if tr < tl {
+                    near = r;
+                    far = l;
+                }
+                deferred[pending] = far;
+                pending += 1u;
+                node = near;
+                continue;
+            }
+            if tl >= 0.0 {
+                node = l;
+                continue;
+            }
+            if tr >= 0.0 {
+                node = r;
+                continue;
+            }
+        }
+        if pending == 0u {
+            break;
+        }
+        pending -= 1u;
+        node = deferred[pending];
+    }
+    instance_sub = best_tri;
+    return best;
+}
+
+// reference::scene::map_mirrors: the map's linear part has a negative
+// determinant.
+fn map_mirrors(q: Quadric) -> bool {
+    return dot(q.l0, cross(q.l1, q.l2)) < 0.0;
+}
+
+// A normal through an instance's map: its inverse transpose (the rows of
+// the inverse are the columns i0, i1, i2), not normalized.
+fn inverse_transposed(q: Quadric, n: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(dot(q.i0, n), dot(q.i1, n), dot(q.i2, n));
+}
+
+// A tangent through an instance's map: its direction by the linear part,
+// its handedness turned where the map mirrors.
+fn mapped_tangent(q: Quadric, t: vec4<f32>) -> vec4<f32> {
+    return vec4<f32>(mat_vec(q.l0, q.l1, q.l2, t.xyz), select(1.0, -1.0, map_mirrors(q)) * t.w);
+}
+
+// The error of an instance's vertex `o` (object space) once mapped, as
+// reference::Scene::surface_interaction bounds it: γ(5) times its terms'
+// largest sum.
+fn instance_vertex_error(q: Quadric, o: vec3<f32>) -> f32 {
+    return gamma(5.0) * max3(abs(o.x * q.l0) + abs(o.y * q.l1) + abs(o.z * q.l2) + abs(q.o));
 }
 
 fn surface_interaction(ray: Ray, hit: Hit) -> SurfaceInteraction {
@@ -299,27 +428,57 @@ fn surface_interaction(ray: Ray, hit: Hit) -> SurfaceInteraction {
             si.p_error = gamma(4.0) * max3(abs(corner) + abs(hit.uv.x * u) + abs(hit.uv.y * v) + abs(si.p));
             si.material = q.material;
         }
-        case PRIMITIVE_TRIANGLE: {
-            if !uses(FEATURE_TRIANGLES) { poison(); break; }
-            let tri = triangles[p.index];
+        case PRIMITIVE_TRIANGLE, PRIMITIVE_INSTANCE: {
+            // A triangle of the scene, or one of an instance's group seen
+            // through the instance's map (reference::Scene::
+            // triangle_vertices): positions by the map, normals by its
+            // inverse transpose, tangents' directions by its linear part.
+            var tri_index = p.index;
+            var mapped = false;
+            var q: Quadric;
+            if p.tag == PRIMITIVE_INSTANCE {
+                if !uses(FEATURE_INSTANCES) { poison(); break; }
+                tri_index = hit.sub;
+                mapped = true;
+                q = quadric_record(p.index);
+            } else if !uses(FEATURE_TRIANGLES) { poison(); break; }
+            let tri = triangles[tri_index];
             let a = vertices[tri.v0];
             let b = vertices[tri.v1];
             let c = vertices[tri.v2];
-            let pa = vec3<f32>(a.p_x, a.p_y, a.p_z);
-            let pb = vec3<f32>(b.p_x, b.p_y, b.p_z);
-            let pc = vec3<f32>(c.p_x, c.p_y, c.p_z);
+            var pa = vec3<f32>(a.p_x, a.p_y, a.p_z);
+            var pb = vec3<f32>(b.p_x, b.p_y, b.p_z);
+            var pc = vec3<f32>(c.p_x, c.p_y, c.p_z);
+            var na = vec3<f32>(a.n_x, a.n_y, a.n_z);
+            var nb = vec3<f32>(b.n_x, b.n_y, b.n_z);
+            var nc = vec3<f32>(c.n_x, c.n_y, c.n_z);
+            var map_error = 0.0;
+            if mapped {
+                map_error = instance_vertex_error(q, pa) + instance_vertex_error(q, pb) + instance_vertex_error(q, pc);
+                pa = mat_vec(q.l0, q.l1, q.l2, pa) + q.o;
+                pb = mat_vec(q.l0, q.l1, q.l2, pb) + q.o;
+                pc = mat_vec(q.l0, q.l1, q.l2, pc) + q.o;
+                na = inverse_transposed(q, na);
+                nb = inverse_transposed(q, nb);
+                nc = inverse_transposed(q, nc);
+            }
             let b1 = hit.uv.x;
             let b2 = hit.uv.y;
             let b0 = 1.0 - b1 - b2;
             si.p = b0 * pa + b1 * pb + b2 * pc;
-            si.p_error = gamma(7.0) * max3(abs(b0 * pa) + abs(b1 * pb) + abs(b2 * pc));
-            let ng = normalize_or(cross(pb - pa, pc - pa), vec3<f32>(0.0, 1.0, 0.0));
+            si.p_error = gamma(7.0) * max3(abs(b0 * pa) + abs(b1 * pb) + abs(b2 * pc)) + map_error;
+            var ng = normalize_or(cross(pb - pa, pc - pa), vec3<f32>(0.0, 1.0, 0.0));
+            // An instance's face normal is its group's turned by the
+            // map's inverse transpose (Mitsuba's instance).
+            if mapped && map_mirrors(q) {
+                ng = -ng;
+            }
             // The interpolated normal, and the flip that puts it on the
             // geometric normal's side.
             var n = ng;
             var side = 1.0;
             if (tri.flags & TRIANGLE_HAS_NORMALS) != 0u {
-                n = normalize_or(b0 * vec3<f32>(a.n_x, a.n_y, a.n_z) + b1 * vec3<f32>(b.n_x, b.n_y, b.n_z) + b2 * vec3<f32>(c.n_x, c.n_y, c.n_z), ng);
+                n = normalize_or(b0 * na + b1 * nb + b2 * nc, ng);
                 side = select(1.0, -1.0, dot(n, ng) < 0.0);
             }
             var uv = hit.uv;
@@ -343,7 +502,15 @@ fn surface_interaction(ray: Ray, hit: Hit) -> SurfaceInteraction {
                     if !uses(FEATURE_NORMAL_MAPS) {
                         poison();
                     } else {
-                        let tangent = b0 * vec4<f32>(ea.t_x, ea.t_y, ea.t_z, ea.t_w) + b1 * vec4<f32>(eb.t_x, eb.t_y, eb.t_z, eb.t_w) + b2 * vec4<f32>(ec.t_x, ec.t_y, ec.t_z, ec.t_w);
+                        var ta = vec4<f32>(ea.t_x, ea.t_y, ea.t_z, ea.t_w);
+                        var tb = vec4<f32>(eb.t_x, eb.t_y, eb.t_z, eb.t_w);
+                        var tc = vec4<f32>(ec.t_x, ec.t_y, ec.t_z, ec.t_w);
+                        if mapped {
+                            ta = mapped_tangent(q, ta);
+                            tb = mapped_tangent(q, tb);
+                            tc = mapped_tangent(q, tc);
+                        }
+                        let tangent = b0 * ta + b1 * tb + b2 * tc;
                         let texel = evaluate_texture(m.texture3, si.p, uv, si.uv1, si.color);
                         ns = normal_mapped(n, side, ng, tangent, texel, m.p2);
                     }

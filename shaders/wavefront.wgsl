@@ -62,6 +62,10 @@ const PATH_POISONED: u32 = 4u;  // the path met code its kernel left out
 // A hit record's first word.
 const HIT_FOUND: u32 = 1u;
 const HIT_POISONED: u32 = 2u;
+// The rest of the word: the hit's triangle within an instance (Hit::sub,
+// a triangle index: under 2^30 while the triangle records, 32 bytes
+// each, fit one 32 GiB binding).
+const HIT_SUB_SHIFT: u32 = 2u;
 
 // wave_queues.entries: the two queues of live paths (the one the next
 // wf_shade reads, the one it appends to), then the rays to trace (at most
@@ -130,7 +134,7 @@ fn set_path_v(slot: u32, field: u32, v: vec3<f32>) {
 }
 
 fn store_hit(slot: u32, field: u32, h: Hit) {
-    set_path_u(slot, field, select(0u, HIT_FOUND, h.hit) | select(0u, HIT_POISONED, poisoned));
+    set_path_u(slot, field, select(0u, HIT_FOUND, h.hit) | select(0u, HIT_POISONED, poisoned) | (h.sub << HIT_SUB_SHIFT));
     set_path_f(slot, field + 1u, h.t);
     set_path_u(slot, field + 2u, h.prim);
     set_path_f(slot, field + 3u, h.uv.x);
@@ -143,7 +147,7 @@ fn load_hit(slot: u32, field: u32) -> Hit {
     if (bits & HIT_POISONED) != 0u {
         poisoned = true;
     }
-    return Hit((bits & HIT_FOUND) != 0u, path_f(slot, field + 1u), path_u(slot, field + 2u), vec2<f32>(path_f(slot, field + 3u), path_f(slot, field + 4u)));
+    return Hit((bits & HIT_FOUND) != 0u, path_f(slot, field + 1u), path_u(slot, field + 2u), vec2<f32>(path_f(slot, field + 3u), path_f(slot, field + 4u)), bits >> HIT_SUB_SHIFT);
 }
 
 fn store_shadow(slot: u32, q: ShadowQuery) {

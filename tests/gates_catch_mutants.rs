@@ -739,6 +739,48 @@ fn gpu_swapped_barycentrics_in_the_wgsl_fail_the_hit_record_gate() {
     println!("barycentrics swapped: {e}");
 }
 
+/// Defects of the walk within an instance's group, each of which the
+/// hit-record gate fails on the instances gate scene: the ray not mapped
+/// into the group's object space, the group's triangle indices read
+/// without its first triangle, the admits test of a triangle against the
+/// ray's world origin.
+#[test]
+fn gpu_walk_defects_within_an_instance_fail_the_hit_record_gate() {
+    use twintrace::twins::hits::hit_records;
+    let scene = reference::load_scene(
+        &twintrace::compare::gate::workspace_root()
+            .join("fixtures/mitsuba/instances/test_instances_path.xml")
+            .display()
+            .to_string(),
+    )
+    .unwrap();
+    let library = gpu::shader::library_source();
+    let ctx = crate::common::gpu();
+    hit_records(ctx, "instances", &scene, &library).unwrap();
+    for (what, from, to) in [
+        (
+            "the ray left in the scene's space",
+            "let local = quadric_object_ray(quadric_record(index), ray);",
+            "let local = ray;",
+        ),
+        (
+            "the group's first triangle dropped",
+            "let tri = g.ny + u32(texels[g.nz + n.index + i]);",
+            "let tri = u32(texels[g.nz + n.index + i]);",
+        ),
+        (
+            "the admits test of the ray's world origin",
+            "max(max(a, b), c), local.origin, inv_dir, pad, h.t) >= 0.0",
+            "max(max(a, b), c), ray.origin, inv_dir, pad, h.t) >= 0.0",
+        ),
+    ] {
+        let mutant = patched(&library, from, to);
+        let e = hit_records(ctx, "instances", &scene, &mutant)
+            .expect_err(&format!("{what}: passed the hit-record gate"));
+        println!("{what}: {e}");
+    }
+}
+
 /// The Bernoulli furnace rendered by the production kernel with one line
 /// of its film update replaced.
 fn bernoulli_furnace_with_film_line(line: &str, mutant: &str) -> furnace::FurnaceOutcome {

@@ -41,7 +41,7 @@ fn head_on_hit_on_a_small_far_sphere() {
         entry: "hits_main",
         input: &input,
         invocations: 1,
-        output_words: 5,
+        output_words: hits::HIT_WORDS,
         params: None,
         film: None,
     };

@@ -246,6 +246,20 @@ const MUTANTS: &[GpuMutant] = &[
         cpu_twin: Some(Mutant::QuadricDensityOneCrossing),
     },
     GpuMutant {
+        scene: "instances",
+        what: "a mirroring instance's faces not turned back",
+        from: "            if mapped && map_mirrors(q) {",
+        to: "            if false {",
+        cpu_twin: Some(Mutant::InstanceMirrorIgnored),
+    },
+    GpuMutant {
+        scene: "instances",
+        what: "an instance's normals mapped by its linear part",
+        from: "    return vec3<f32>(dot(q.i0, n), dot(q.i1, n), dot(q.i2, n));",
+        to: "    return mat_vec(q.l0, q.l1, q.l2, n);",
+        cpu_twin: Some(Mutant::InstanceNormalsByLinearPart),
+    },
+    GpuMutant {
         // A vertex colour texture that reads its factor alone.
         scene: "attributes",
         what: "the vertex colour unread",

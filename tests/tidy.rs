@@ -139,6 +139,10 @@ const GPU_ONLY: &[(&str, &str)] = &[
         "the grid cell arm of the shape match in LeafPrim::intersect (Objects::intersect)",
     ),
     (
+        "instance_node",
+        "a group's node read from texels as reference::bvh::BvhNode holds it (the reference reads the node itself)",
+    ),
+    (
         "quadric_record",
         "a quadrics' record read into the maps reference::shapes::Quadric holds",
     ),
@@ -359,6 +363,11 @@ const GPU_ONLY_PREFIXES: &[(&str, &str)] = &[
 
 /// WGSL name, Rust name, why they differ.
 const RENAMED: &[(&str, &str, &str)] = &[
+    (
+        "intersect_instance_record",
+        "instance_hit_by",
+        "an instance's hit by its group's tree (the Rust walks the group's Accel, or scans it for the brute-force oracle)",
+    ),
     (
         "camera_sample",
         "camera_ray",

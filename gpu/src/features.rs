@@ -90,6 +90,7 @@ feature_bits! {
     PRINCIPLED_THIN = 33,
     QUADRICS = 34,
     SDF_GRIDS = 35,
+    INSTANCES = 36,
 }
 
 impl Kernel {
@@ -131,6 +132,7 @@ impl Features {
                 primitive_tag::TRIANGLE => feature::TRIANGLES,
                 primitive_tag::QUADRIC => feature::QUADRICS,
                 primitive_tag::SDF_VOXEL => feature::SDF_GRIDS,
+                primitive_tag::INSTANCE => feature::INSTANCES,
                 // A kind this list does not know: the general kernel.
                 _ => u64::MAX,
             };

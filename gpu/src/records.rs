@@ -45,7 +45,11 @@ gpu_record! {
     /// kind `QUADRIC_SDF` holds a signed distance grid's maps
     /// (`reference::sdf::SdfGrid`): `nx`, `ny`, `nz` its samples per
     /// axis, `samples` where they start in `texels`, `smooth_normals` 1 for smooth
-    /// shading normals (all 0 in a quadric's).
+    /// shading normals (all 0 in a quadric's). A record of kind
+    /// `QUADRIC_INSTANCE` holds an instance's maps
+    /// (`reference::shapes::Instance`): `nx` where its group's nodes
+    /// start in `texels`, `ny` the group's first triangle, `nz` where its
+    /// leaves' entries start in `texels`.
     GpuQuadric {
         l0_x: f32, l0_y: f32, l0_z: f32, kind: u32,
         l1_x: f32, l1_y: f32, l1_z: f32, material: u32,

@@ -643,6 +643,32 @@ impl PackedScene {
             let record = (scene.quadrics().len() as u32 + v.grid) as f32;
             texels.extend([record, v.cell[0] as f32, v.cell[1] as f32, v.cell[2] as f32]);
         }
+        // The instanced groups: each one's tree in `texels` (its binary
+        // nodes, then its leaves' entries: group-relative triangle
+        // indices), each instance's maps a record after the grids', which
+        // its primitive's index names.
+        let group_trees: Vec<(u32, u32)> = scene
+            .groups()
+            .iter()
+            .map(|g| {
+                let nodes = texels.len() as u32;
+                texels.extend(g.bvh().nodes().iter().flat_map(instance_node));
+                let entries = texels.len() as u32;
+                texels.extend(g.bvh().prim_order().iter().map(|&i| i as f32));
+                (nodes, entries)
+            })
+            .collect();
+        let first_instance = quadrics.len() as u32;
+        for inst in scene.instances() {
+            let g = &scene.groups()[inst.group as usize];
+            let (nodes, entries) = group_trees[inst.group as usize];
+            quadrics.push(GpuQuadric {
+                nx: nodes,
+                ny: g.triangles().start,
+                nz: entries,
+                ..pack_quadric(&inst.map)
+            });
+        }
         let filter_table = match scene.filter_table() {
             None => NO_FILTER_TABLE,
             Some(t) => {
@@ -667,11 +693,14 @@ impl PackedScene {
                     let b = scene.primitive_bounds(i as u32);
                     GpuPrimitive {
                         tag: p.tag,
-                        // A grid cell's record in `texels`.
-                        index: if p.tag == reference::scene::primitive_tag::SDF_VOXEL {
-                            sdf_cells[p.index as usize]
-                        } else {
-                            p.index
+                        // A grid cell's record in `texels`, an instance's
+                        // among the quadrics'.
+                        index: match p.tag {
+                            reference::scene::primitive_tag::SDF_VOXEL => {
+                                sdf_cells[p.index as usize]
+                            }
+                            reference::scene::primitive_tag::INSTANCE => first_instance + p.index,
+                            _ => p.index,
                         },
                         lo_x: b.min.x,
                         lo_y: b.min.y,
@@ -855,7 +884,7 @@ pub fn inline_entries(order: &[u32], p: &PackedScene) -> Result<Vec<[u32; 4]>, S
             }
             // The kernel reads the quadric's record (its maps do not fit
             // nine floats): the first float holds its index's bits.
-            primitive_tag::QUADRIC | primitive_tag::SDF_VOXEL => [
+            primitive_tag::QUADRIC | primitive_tag::SDF_VOXEL | primitive_tag::INSTANCE => [
                 f32::from_bits(g.index),
                 0.0,
                 0.0,
@@ -891,6 +920,25 @@ pub fn inline_entries(order: &[u32], p: &PackedScene) -> Result<Vec<[u32; 4]>, S
         out.push([f(shape[5]), f(shape[6]), f(shape[7]), f(shape[8])]);
     }
     Ok(out)
+}
+
+/// The floats of an instanced group's node in `texels`: its box's
+/// minimum, its index, its box's maximum, its meta bits (the index and
+/// the meta bits as exact integers: `reference`'s groups are small
+/// enough, `reference::scene::MAX_GROUP_TRIANGLES`).
+pub const INSTANCE_NODE_FLOATS: u32 = 8;
+
+fn instance_node(n: &reference::bvh::BvhNode) -> [f32; INSTANCE_NODE_FLOATS as usize] {
+    [
+        n.min[0],
+        n.min[1],
+        n.min[2],
+        n.index as f32,
+        n.max[0],
+        n.max[1],
+        n.max[2],
+        n.meta as f32,
+    ]
 }
 
 /// A quadric's record.

@@ -98,6 +98,11 @@ pub fn generate() -> String {
     s += &u("QUADRIC_DISK", reference::shapes::QUADRIC_DISK);
     s += &u("QUADRIC_CYLINDER", reference::shapes::QUADRIC_CYLINDER);
     s += &u("PRIMITIVE_SDF_VOXEL", primitive_tag::SDF_VOXEL);
+    s += &u("PRIMITIVE_INSTANCE", primitive_tag::INSTANCE);
+    s += &u(
+        "INSTANCE_NODE_FLOATS",
+        crate::scene_buffers::INSTANCE_NODE_FLOATS,
+    );
     s += &u("SDF_REFINE_STEPS", reference::sdf::SDF_REFINE_STEPS);
     s += &f("SDF_REFINE_BRACKET", reference::sdf::SDF_REFINE_BRACKET);
     s += &u("MATERIAL_LAMBERTIAN", material_tag::LAMBERTIAN);

@@ -112,11 +112,7 @@ unsafe extern "C" fn alpha_filter(args: *const sys::RTCFilterFunctionNArguments)
             origin: Vec3::new(ray.org_x, ray.org_y, ray.org_z),
             direction: Vec3::new(ray.dir_x, ray.dir_y, ray.dir_z),
         };
-        let h = crate::geometry::Hit {
-            t: ray.tfar,
-            prim,
-            uv: Vec2::new(hit.u, hit.v),
-        };
+        let h = crate::geometry::Hit::new(ray.tfar, prim, Vec2::new(hit.u, hit.v));
         if !data.scene.alpha_covers(&r, &h) {
             *args.valid = 0;
         }
@@ -196,13 +192,12 @@ impl EmbreeScene {
                 primitive_tag::QUAD => quads.push((id as u32, p.index)),
                 primitive_tag::TRIANGLE => tris.push((id as u32, p.index)),
                 // Disks, cylinders and textured spheres would be Embree
-                // user geometry, which this oracle does not build.
-                _ => {
-                    return Err(EmbreeError {
-                        step: "a quadric or signed distance grid has no Embree geometry here",
-                        code: None,
-                    })
-                }
+                // user geometry, and instances Embree instances, which
+                // this oracle does not build.
+                _ => return Err(EmbreeError {
+                    step: "a quadric, signed distance grid or instance has no Embree geometry here",
+                    code: None,
+                }),
             }
         }
         if !tris.is_empty() {

@@ -31,6 +31,22 @@ pub struct Hit {
     /// Surface parameters: barycentrics (b1, b2) for triangles, (s, t) for
     /// quads, unused for spheres (their uv is computed from the point).
     pub uv: Vec2,
+    /// On an instance (`prim`'s tag `INSTANCE`), the triangle of its
+    /// group that was hit (an index into `Scene::triangles`); 0 otherwise.
+    pub sub: u32,
+}
+
+impl Hit {
+    /// A hit on primitive `prim` itself (not through an instance).
+    #[inline(always)]
+    pub fn new(t: f32, prim: u32, uv: Vec2) -> Self {
+        Hit {
+            t,
+            prim,
+            uv,
+            sub: 0,
+        }
+    }
 }
 
 /// A fully evaluated surface point.

@@ -200,6 +200,13 @@ pub enum Mutant {
     /// A Mitsuba `rotate`'s axis normalized, which Mitsuba 3 does not do
     /// (the Mitsuba reader's `rotation`).
     MitsubaRotateAxisNormalized,
+    /// A mirroring instance's face normal left as its mapped triangle's
+    /// (not turned back to the group's through the inverse transpose,
+    /// `Scene::surface_interaction`): its faces point inward.
+    InstanceMirrorIgnored,
+    /// An instance's vertex normals mapped by the map's linear part, not
+    /// its inverse transpose (`Scene::triangle_vertices`).
+    InstanceNormalsByLinearPart,
 }
 
 #[cfg(feature = "mutants")]

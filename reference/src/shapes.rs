@@ -1083,6 +1083,47 @@ pub const QUADRIC_SPHERE: u32 = 2;
 /// [`Quadric::kind`] of a record that holds a signed distance grid's maps
 /// (`crate::sdf::SdfGrid::map`): not a primitive of its own.
 pub const QUADRIC_SDF: u32 = 3;
+/// [`Quadric::kind`] of a record that holds an instance's maps
+/// ([`Instance::map`]): not a shape of its own.
+pub const QUADRIC_INSTANCE: u32 = 4;
+
+/// One placement of an instanced group (Mitsuba's `instance` of a
+/// `shapegroup`): the group's triangles, kept once in their own object
+/// space, seen through `map` (a record of kind [`QUADRIC_INSTANCE`]: the
+/// object → scene map and its inverse, as a quadric holds them, and the
+/// box of the group's box under the map, [`Instance::placed`]). Rays are
+/// intersected in object space, as a quadric's.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Instance {
+    pub map: Quadric,
+    /// Its group (an index into the scene's groups).
+    pub group: u32,
+}
+
+impl Instance {
+    /// Group `group`, whose triangles' box in object space is
+    /// `group_box`, placed by the f64 map `to_world`. The box holds the
+    /// images of the group box's eight corners in f64, widened and
+    /// rounded outward as a quadric's ([`outward_box`]). `None` where the
+    /// map is singular or a part is not finite in f32.
+    pub fn placed(to_world: glam::DAffine3, group: u32, group_box: Aabb) -> Option<Self> {
+        let mut map = Quadric::placed(QUADRIC_INSTANCE, to_world, false, 0)?;
+        let (lo, hi) = (group_box.min.as_dvec3(), group_box.max.as_dvec3());
+        let mut b = (glam::DVec3::INFINITY, glam::DVec3::NEG_INFINITY);
+        for i in 0..8 {
+            let corner = glam::DVec3::new(
+                if i & 1 == 0 { lo.x } else { hi.x },
+                if i & 2 == 0 { lo.y } else { hi.y },
+                if i & 4 == 0 { lo.z } else { hi.z },
+            );
+            let p = to_world.transform_point3(corner);
+            b = (b.0.min(p), b.1.max(p));
+        }
+        map.bounds = outward_box(b.0, b.1);
+        (map.bounds.min.is_finite() && map.bounds.max.is_finite())
+            .then_some(Instance { map, group })
+    }
+}
 
 /// A shape defined in its own object space and placed by an affine map
 /// (pbrt's quadrics, Mitsuba's `disk`, `cylinder` and textured `sphere`):

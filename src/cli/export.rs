@@ -52,8 +52,8 @@
 //! Mitsuba's its shading normal), alpha on a dielectric or a light, a
 //! texture of the second uv set on a sphere, and the shapes read from
 //! Mitsuba files alone: disks, cylinders, textured Mitsuba spheres
-//! (quadrics) and signed distance grids (refused: the scene is not
-//! written).
+//! (quadrics), signed distance grids and instances of shape groups
+//! (refused: the scene is not written).
 //!
 //! Mitsuba's `path` integrator samples emitters with MIS, where twintrace
 //! samples the BSDF only: a different estimator of the same integral, so
@@ -237,6 +237,14 @@ impl<'s> MitsubaScene<'s> {
         if quadrics + grids > 0 {
             bail!(
                 "the scene has {quadrics} disk, cylinder or Mitsuba-textured sphere shapes and {grids} signed distance grids, which export-mitsuba does not write (not exported)"
+            );
+        }
+        // Instances: the export writes the scene's own triangles, which
+        // a group's are not (refused, not dropped).
+        if !scene.instances().is_empty() {
+            bail!(
+                "the scene has {} instances of shape groups, which export-mitsuba does not write (not exported)",
+                scene.instances().len()
             );
         }
         let surfaces = (0..scene.materials().len())

@@ -74,6 +74,20 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
         scene.sdf_voxels().len(),
         scene.mesh().positions.len()
     );
+    // A group's triangles are counted once above, however many instances
+    // draw them.
+    if !scene.instances().is_empty() {
+        let grouped: u32 = scene
+            .groups()
+            .iter()
+            .map(|g| g.triangles().len() as u32)
+            .sum();
+        say!(
+            "instances: {} of {} groups ({grouped} of the triangles, kept once)",
+            scene.instances().len(),
+            scene.groups().len()
+        );
+    }
     // The box in the file's coordinates (the scene is traced in render
     // space, about the camera).
     let b = scene.bounds();

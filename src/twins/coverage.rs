@@ -114,14 +114,7 @@ fn cases(scene: &Scene) -> Vec<(Ray, Hit)> {
             let prim = ((r(2) * prims as f32) as u32).min(prims - 1);
             let o = Vec3::new(r(3), r(4), 2.0 + r(5));
             let d = (Vec3::new(r(6), r(7), -4.0) - o).normalize();
-            (
-                Ray::new(o, d),
-                Hit {
-                    t: 1.0,
-                    prim,
-                    uv: Vec2::new(b1, b2),
-                },
-            )
+            (Ray::new(o, d), Hit::new(1.0, prim, Vec2::new(b1, b2)))
         })
         .collect()
 }

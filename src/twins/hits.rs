@@ -27,11 +27,11 @@ use reference::f64_oracle::{self, ray_f64, Shape64, EDGE_ERROR_ULPS, F32_UNIT_RO
 use reference::geometry::Ray;
 use reference::material::Material;
 use reference::rng::random_f32;
-use reference::scene::{SceneBuilder, Transform};
+use reference::scene::{primitive_tag, SceneBuilder, Transform};
 use reference::Scene;
 
-/// The kernel of [`hit_records`]: six words per ray in, five out (hit,
-/// primitive, t, u, v).
+/// The kernel of [`hit_records`]: six words per ray in, six out (hit,
+/// primitive, t, u, v, and the triangle of an instance's group).
 pub const SNIPPET: &str = "
 @compute @workgroup_size(64)
 fn hits_main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -42,11 +42,12 @@ fn hits_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let o = vec3<f32>(bitcast<f32>(input[6u * i]), bitcast<f32>(input[6u * i + 1u]), bitcast<f32>(input[6u * i + 2u]));
     let d = vec3<f32>(bitcast<f32>(input[6u * i + 3u]), bitcast<f32>(input[6u * i + 4u]), bitcast<f32>(input[6u * i + 5u]));
     let h = bvh_intersect(Ray(o, d), 0.0, F32_MAX);
-    output[5u * i] = select(0u, 1u, h.hit);
-    output[5u * i + 1u] = h.prim;
-    output[5u * i + 2u] = bitcast<u32>(h.t);
-    output[5u * i + 3u] = bitcast<u32>(h.uv.x);
-    output[5u * i + 4u] = bitcast<u32>(h.uv.y);
+    output[6u * i] = select(0u, 1u, h.hit);
+    output[6u * i + 1u] = h.prim;
+    output[6u * i + 2u] = bitcast<u32>(h.t);
+    output[6u * i + 3u] = bitcast<u32>(h.uv.x);
+    output[6u * i + 4u] = bitcast<u32>(h.uv.y);
+    output[6u * i + 5u] = h.sub;
 }
 ";
 
@@ -83,16 +84,51 @@ fn uv_bound(shape: &Shape64, ray: &Ray, t: f64) -> f64 {
     position / min_altitude(shape)
 }
 
+/// Words a ray's record takes in the kernel's output.
+pub const HIT_WORDS: usize = 6;
+
+/// What a hit (primitive `prim`, `sub`: [`reference::geometry::Hit`]'s)
+/// is on and the ray it was tested with: the primitive and `ray`, or,
+/// through an instance, the group's triangle in its object space and the
+/// ray mapped there as both twins map it (the same t).
+pub fn hit_shape(scene: &Scene, ray: &Ray, prim: u32, sub: u32) -> (Shape64, Ray) {
+    let p = scene.primitives()[prim as usize];
+    if p.tag != primitive_tag::INSTANCE {
+        return (Shape64::of(scene, prim), *ray);
+    }
+    let map = scene.instances()[p.index as usize].map;
+    let tri = scene.triangles()[sub as usize];
+    let points = tri
+        .vertices
+        .map(|i| scene.mesh().positions[i as usize].as_dvec3());
+    (Shape64::Triangle { p: points }, map.object_ray(ray))
+}
+
+/// A hit as the check compares it: primitive, the triangle of an
+/// instance's group, t.
+type Found = (u32, u32, f32);
+
 /// Whether a disagreement in hit or primitive at this hit is one the
 /// error model allows: near a boundary of a hit primitive, or a tie.
-fn excused(scene: &Scene, ray: &Ray, (prim, t): (u32, f32), other: Option<(u32, f32)>) -> bool {
-    let shape = Shape64::of(scene, prim);
-    if f64_oracle::near_boundary(&shape, ray, t) {
+fn excused(scene: &Scene, ray: &Ray, (prim, sub, t): Found, other: Option<Found>) -> bool {
+    let (shape, r) = hit_shape(scene, ray, prim, sub);
+    if f64_oracle::near_boundary(&shape, &r, t) {
         return true;
     }
-    other.is_some_and(|(q, tq)| {
-        let s = Shape64::of(scene, q);
-        f64_oracle::near_boundary(&s, ray, tq) || f64_oracle::near_tie((&shape, t), (&s, tq), ray)
+    other.is_some_and(|(q, q_sub, tq)| {
+        let (s, rq) = hit_shape(scene, ray, q, q_sub);
+        if f64_oracle::near_boundary(&s, &rq, tq) {
+            return true;
+        }
+        // Their own rays share t: a tie within both t error bounds.
+        match (shape.t_near(&r, t as f64), s.t_near(&rq, tq as f64)) {
+            (Some(xa), Some(xb)) => {
+                (xa - xb).abs()
+                    <= f64_oracle::t_error_bound(&shape, &r, xa)
+                        + f64_oracle::t_error_bound(&s, &rq, xb)
+            }
+            _ => false,
+        }
     })
 }
 
@@ -107,20 +143,21 @@ pub fn hit_records(ctx: &GpuContext, name: &str, scene: &Scene, library: &str) -
         scene,
         (SNIPPET, "hits_main"),
         &ray_words(&rays),
-        (rays.len(), rays.len() * 5),
+        (rays.len(), rays.len() * HIT_WORDS),
         library,
     )?;
     let (mut same, mut explained) = (0, 0);
     let (mut worst_t, mut worst_uv) = (0.0f64, 0.0f64);
-    for (i, ray) in rays.iter().enumerate() {
-        let g = &out[5 * i..5 * i + 5];
-        let gpu_hit = (g[0] == 1).then(|| (g[1], f32::from_bits(g[2])));
+    for (i, world_ray) in rays.iter().enumerate() {
+        let g = &out[HIT_WORDS * i..HIT_WORDS * (i + 1)];
+        let gpu_hit = (g[0] == 1).then(|| (g[1], g[5], f32::from_bits(g[2])));
         let gpu_uv = Vec2::new(f32::from_bits(g[3]), f32::from_bits(g[4]));
-        let cpu_hit = scene.intersect(ray, 0.0, f32::INFINITY);
+        let cpu_hit = scene.intersect(world_ray, 0.0, f32::INFINITY);
         match (cpu_hit, gpu_hit) {
             (None, None) => same += 1,
-            (Some(c), Some((prim, t))) if c.prim == prim => {
-                let shape = Shape64::of(scene, prim);
+            (Some(c), Some((prim, sub, t))) if (c.prim, c.sub) == (prim, sub) => {
+                let (shape, ray) = hit_shape(scene, world_ray, prim, sub);
+                let ray = &ray;
                 let exact = shape.t_near(ray, c.t as f64).unwrap_or(c.t as f64);
                 let bound = f64_oracle::t_error_bound(&shape, ray, exact);
                 let ratio = (t as f64 - c.t as f64).abs() / bound;
@@ -130,7 +167,15 @@ pub fn hit_records(ctx: &GpuContext, name: &str, scene: &Scene, library: &str) -
                     c.t
                 );
                 worst_t = worst_t.max(ratio);
-                if !matches!(shape, Shape64::Sphere { .. }) {
+                // The other shapes' hit records carry no surface
+                // parameters: zero on both.
+                if !matches!(shape, Shape64::Triangle { .. } | Shape64::Quad { .. }) {
+                    ensure!(
+                        gpu_uv == c.uv,
+                        "{name} ray {i}: uv {} (cpu) vs {gpu_uv} (gpu) on a shape without",
+                        c.uv
+                    );
+                } else {
                     let duv = (gpu_uv - c.uv).abs().max_element() as f64;
                     let ratio = duv / uv_bound(&shape, ray, exact);
                     ensure!(
@@ -144,7 +189,7 @@ pub fn hit_records(ctx: &GpuContext, name: &str, scene: &Scene, library: &str) -
             }
             (Some(c), gpu) => {
                 ensure!(
-                    excused(scene, ray, (c.prim, c.t), gpu),
+                    excused(scene, world_ray, (c.prim, c.sub, c.t), gpu),
                     "{name} ray {i}: cpu prim {} t {} uv {} vs gpu {gpu:?}",
                     c.prim,
                     c.t,
@@ -154,7 +199,7 @@ pub fn hit_records(ctx: &GpuContext, name: &str, scene: &Scene, library: &str) -
             }
             (None, Some(g)) => {
                 ensure!(
-                    excused(scene, ray, g, None),
+                    excused(scene, world_ray, g, None),
                     "{name} ray {i}: cpu miss vs gpu {g:?}"
                 );
                 explained += 1;
@@ -207,7 +252,8 @@ pub fn far_small_shapes(count: u32) -> Scene {
 }
 
 /// The scenes of [`all_scenes`]: spheres, quads and boxes, a triangle
-/// mesh, textured quads, and small shapes far from the origin.
+/// mesh, textured quads, small shapes far from the origin, and a group's
+/// triangles through four instances (a mirror and a shear among them).
 pub fn scenes() -> Result<Vec<(String, Scene)>, String> {
     let load = |spec: &str| reference::load_scene(spec).map_err(|e| e.to_string());
     Ok(vec![
@@ -216,6 +262,15 @@ pub fn scenes() -> Result<Vec<(String, Scene)>, String> {
         ("gltf-mesh".into(), load(&fixture_scene("gltf-mesh.json"))?),
         ("textures".into(), load(&fixture_scene("textures.json"))?),
         ("far small shapes".into(), far_small_shapes(200)),
+        (
+            "instances".into(),
+            load(
+                &crate::compare::gate::workspace_root()
+                    .join("fixtures/mitsuba/instances/test_instances_path.xml")
+                    .display()
+                    .to_string(),
+            )?,
+        ),
     ])
 }
 

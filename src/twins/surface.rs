@@ -56,14 +56,14 @@ const SI_SNIPPET: &str = "
 @compute @workgroup_size(64)
 fn si_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
-    if i >= arrayLength(&input) / 10u {
+    if i >= arrayLength(&input) / 11u {
         return;
     }
-    let w = 10u * i;
+    let w = 11u * i;
     let o = vec3<f32>(bitcast<f32>(input[w]), bitcast<f32>(input[w + 1u]), bitcast<f32>(input[w + 2u]));
     let d = vec3<f32>(bitcast<f32>(input[w + 3u]), bitcast<f32>(input[w + 4u]), bitcast<f32>(input[w + 5u]));
     let uv = vec2<f32>(bitcast<f32>(input[w + 8u]), bitcast<f32>(input[w + 9u]));
-    let si = surface_interaction(Ray(o, d), Hit(true, bitcast<f32>(input[w + 6u]), input[w + 7u], uv));
+    let si = surface_interaction(Ray(o, d), Hit(true, bitcast<f32>(input[w + 6u]), input[w + 7u], uv, input[w + 10u]));
     let r = 31u * i;
     output[r] = bitcast<u32>(si.p.x);
     output[r + 1u] = bitcast<u32>(si.p.y);
@@ -170,7 +170,7 @@ pub fn surface_interactions_with_library(
                 .chain([h.t])
                 .map(f32::to_bits)
                 .chain([h.prim])
-                .chain([h.uv.x.to_bits(), h.uv.y.to_bits()])
+                .chain([h.uv.x.to_bits(), h.uv.y.to_bits(), h.sub])
                 .collect::<Vec<_>>()
         })
         .collect();
@@ -209,6 +209,24 @@ pub fn surface_interactions_with_library(
             let sin_theta = (1.0 - cpu.geometric_normal.y.powi(2)).max(0.0).sqrt();
             let uv = SPHERE_UV_TOL + tol / (std::f32::consts::PI * sin_theta.max(1e-6));
             (tol, uv, cpu.p_error + p_error + r * tol)
+        } else if prim.tag == primitive_tag::INSTANCE {
+            // Each twin maps the group's vertices (a sum of three products
+            // and the origin: within δ of each other, δ the map's error
+            // bound as p_error counts it); the face normal, a cross
+            // product of mapped edges, turns by up to 2δ(|e1| + |e2|) /
+            // |e1 × e2|.
+            let map = scene.instances()[prim.index as usize].map;
+            let tri = scene.triangles()[hit.sub as usize];
+            let local = tri.vertices.map(|v| scene.mesh().positions[v as usize]);
+            let delta = local
+                .iter()
+                .map(|&o| reference::scene::instance_vertex_error(&map, o))
+                .fold(0.0f32, f32::max);
+            let [a, b, c] = local.map(|o| map.to_world(o));
+            let (e1, e2) = (b - a, c - a);
+            let turn = 2.0 * delta * (e1.length() + e2.length()) / e1.cross(e2).length();
+            let uv = NORMAL_TOL * cpu.uv.abs().max_element().max(1.0);
+            (NORMAL_TOL + turn, uv, cpu.p_error + p_error)
         } else {
             let uv = NORMAL_TOL * cpu.uv.abs().max_element().max(1.0);
             (NORMAL_TOL, uv, cpu.p_error + p_error)
@@ -263,7 +281,7 @@ pub fn surface_interactions_with_library(
         // The frame's conditioning: how much of the normalized derivative
         // survives the projection (the shading normal's error enters the
         // tangent through it, magnified by its inverse).
-        let tangent_tol = (TANGENT_TOL + normal_tol) * tangent_magnification(scene, hit.prim, &cpu);
+        let tangent_tol = (TANGENT_TOL + normal_tol) * tangent_magnification(scene, hit, &cpu);
         let dt = (tangent - cpu.tangent)
             .abs()
             .max_element()
@@ -338,10 +356,10 @@ pub fn surface_interactions_with_library(
 /// its exact edge, square to its normal.
 fn tangent_magnification(
     scene: &Scene,
-    prim: u32,
+    hit: &reference::geometry::Hit,
     si: &reference::geometry::SurfaceInteraction,
 ) -> f32 {
-    let p = scene.primitives()[prim as usize];
+    let p = scene.primitives()[hit.prim as usize];
     let m = match p.tag {
         primitive_tag::SPHERE => {
             let n = si.geometric_normal;
@@ -363,8 +381,14 @@ fn tangent_magnification(
         }
         primitive_tag::SDF_VOXEL => 1.0,
         _ => {
-            let tri = &scene.triangles()[p.index as usize];
-            let dp = scene.triangle_dp_duv(tri, si.geometric_normal).0;
+            // A triangle, or one of an instance's group (its mapped ∂p/∂u
+            // is the interaction's).
+            let (tri, dp) = if p.tag == primitive_tag::INSTANCE {
+                (&scene.triangles()[hit.sub as usize], si.dp_du)
+            } else {
+                let tri = &scene.triangles()[p.index as usize];
+                (tri, scene.triangle_dp_duv(tri, si.geometric_normal).0)
+            };
             let n = si.shading_normal;
             let survives = (dp - n * n.dot(dp)).length() / dp.length();
             let det_terms = if tri.flags & reference::shapes::TRIANGLE_HAS_UVS != 0 {
@@ -391,7 +415,8 @@ fn tangent_magnification(
 /// with vertex colours, a second uv set and normal maps (the glTF
 /// materials fixture), and the tangent frames and ∂p/∂u, ∂p/∂v of
 /// Mitsuba's gate scenes frames and bumps (meshes with and without
-/// texture coordinates, quads).
+/// texture coordinates, quads), and its instances gate scene (a group's
+/// triangles through a translation, a scale, a mirror and a shear).
 pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let load = |spec: &str| reference::load_scene(spec).map_err(|e| e.to_string());
     let mut lines = Vec::new();
@@ -416,6 +441,14 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
             load(
                 &crate::compare::gate::workspace_root()
                     .join("fixtures/mitsuba/bumps/test_bumps_path.xml")
+                    .to_string_lossy(),
+            )?,
+        ),
+        (
+            "mitsuba instances",
+            load(
+                &crate::compare::gate::workspace_root()
+                    .join("fixtures/mitsuba/instances/test_instances_path.xml")
                     .to_string_lossy(),
             )?,
         ),

@@ -23,7 +23,7 @@
 
 use super::film_words::compare_words;
 use super::harness::{camera_and_random_rays, run_kernel_walking, Outcome};
-use super::hits::{ray_words, scenes, SNIPPET};
+use super::hits::{ray_words, scenes, HIT_WORDS, SNIPPET};
 use super::specialization::{
     every_variant, gate_kernel_words, gate_scenes, own_oracle, packed_film_bits, variant_film,
     Build, SIZE,
@@ -107,7 +107,7 @@ pub fn packed(scene: &Scene, (traversal, nodes, leaves): Walk) -> Result<PackedS
     }
 }
 
-/// The hit-record kernel's output (five words a ray) for `scene`'s
+/// The hit-record kernel's output ([`HIT_WORDS`] a ray) for `scene`'s
 /// records as packed, over `library` (the production WGSL, or an edit).
 pub fn hit_words(
     ctx: &GpuContext,
@@ -121,7 +121,7 @@ pub fn hit_words(
         (scene, packed),
         (SNIPPET, "hits_main"),
         &ray_words(&rays),
-        (rays.len(), rays.len() * 5),
+        (rays.len(), rays.len() * HIT_WORDS),
         library,
     )
 }
@@ -159,13 +159,18 @@ pub fn compare_hits_with(
 ) -> Result<usize, String> {
     let words = hit_words(ctx, scene, packed, library)?;
     let walk = walk_name((packed.traversal, packed.node_layout, packed.leaves));
-    for (i, (b, w)) in oracle.chunks(5).zip(words.chunks(5)).enumerate() {
+    for (i, (b, w)) in oracle
+        .chunks(HIT_WORDS)
+        .zip(words.chunks(HIT_WORDS))
+        .enumerate()
+    {
         if b != w {
             let show = |r: &[u32]| {
                 format!(
-                    "hit {} prim {} t {} uv ({}, {})",
+                    "hit {} prim {} (triangle {}) t {} uv ({}, {})",
                     r[0],
                     r[1],
+                    r[5],
                     f32::from_bits(r[2]),
                     f32::from_bits(r[3]),
                     f32::from_bits(r[4])
@@ -178,7 +183,7 @@ pub fn compare_hits_with(
             ));
         }
     }
-    Ok(oracle.chunks(5).filter(|r| r[0] == 1).count())
+    Ok(oracle.chunks(HIT_WORDS).filter(|r| r[0] == 1).count())
 }
 
 /// A walk's films of `scene` against the binary walk's (the

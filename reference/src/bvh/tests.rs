@@ -199,22 +199,10 @@ fn wide_box_test_is_the_binary_test_per_lane() {
 fn closest_sees_ties_at_every_t() {
     for t in [-1.0f32, -f32::MIN_POSITIVE, -0.0, 0.0, 1e-30, 2.5, f32::MAX] {
         let mut c = Closest::new(f32::INFINITY);
-        c.offer(Hit {
-            t,
-            prim: 5,
-            uv: glam::Vec2::ZERO,
-        });
+        c.offer(Hit::new(t, 5, glam::Vec2::ZERO));
         assert!(t < c.limit(), "{t}: the limit {} cuts off a tie", c.limit());
-        c.offer(Hit {
-            t,
-            prim: 3,
-            uv: glam::Vec2::ZERO,
-        });
-        c.offer(Hit {
-            t,
-            prim: 4,
-            uv: glam::Vec2::ZERO,
-        });
+        c.offer(Hit::new(t, 3, glam::Vec2::ZERO));
+        c.offer(Hit::new(t, 4, glam::Vec2::ZERO));
         assert_eq!(c.hit().map(|h| h.prim), Some(3), "{t}");
     }
 }

@@ -231,6 +231,8 @@ impl LightSet {
                     let v = scene.sdf_voxels()[p.index as usize];
                     scene.sdf_grids()[v.grid as usize].map.material
                 }
+                // An instance's triangles never emit (the builder refuses).
+                primitive_tag::INSTANCE => continue,
                 _ => scene.triangles()[p.index as usize].material,
             };
             let Some(emission) = scene.emission(material) else {
@@ -256,11 +258,7 @@ impl LightSet {
             for i in 0..16 {
                 let uv = Vec2::new((i % 4) as f32 + 0.5, (i / 4) as f32 + 0.5) / 4.0;
                 let point = offset_on(scene, id as u32, uv, Vec3::ZERO).as_vec3();
-                let hit = Hit {
-                    t: 0.0,
-                    prim: id as u32,
-                    uv,
-                };
+                let hit = Hit::new(0.0, id as u32, uv);
                 let si = scene.surface_interaction(&Ray::new(point, Vec3::Y), &hit);
                 sum += luminance(ctx.eval(emission, &si)).max(0.0);
             }
@@ -662,6 +660,8 @@ pub fn primitive_area(scene: &Scene, prim: u32) -> f32 {
         // Mitsuba's sdfgrid has no area to sample: seen where a ray hits
         // it, never drawn as a light.
         primitive_tag::SDF_VOXEL => 0.0,
+        // Never a light (its triangles are its group's).
+        primitive_tag::INSTANCE => 0.0,
         _ => {
             let [a, b, c] = triangle_vertices(scene, p.index);
             0.5 * (b - a).cross(c - a).length()
@@ -709,8 +709,8 @@ fn offset_on(scene: &Scene, prim: u32, uv: Vec2, p: Vec3) -> DVec3 {
             let q = &scene.quads()[pr.index as usize];
             (q.corner.as_dvec3() - p) + s * q.u.as_dvec3() + t * q.v.as_dvec3()
         }
-        // Never drawn (no area).
-        primitive_tag::SDF_VOXEL => DVec3::ZERO,
+        // Never drawn (no area; an instance is never a light).
+        primitive_tag::SDF_VOXEL | primitive_tag::INSTANCE => DVec3::ZERO,
         primitive_tag::QUADRIC => {
             let q = &scene.quadrics()[pr.index as usize];
             let l = crate::shapes::Quadric::area_point(q.kind, uv.as_dvec2());

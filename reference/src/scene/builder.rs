@@ -1,13 +1,13 @@
 //! Building a scene: every parameter checked, then the BVH built.
 
-use super::leaf::{batched, primitive_bounds, Objects};
+use super::leaf::{batched, primitive_bounds, Accel, Group, Objects};
 use super::primitive::{primitive_tag, Primitive};
 use super::render_space::{RenderOrigin, RenderSpace};
 use super::settings::RenderSettings;
 use super::transform::Transform;
 use super::world::{EmitterWeights, Scene};
 use crate::background::Background;
-use crate::bvh::Bvh;
+use crate::bvh::{Bvh, BvhBuildStats};
 use crate::camera::CameraSettings;
 use crate::error::SceneError;
 use crate::filter::PixelFilter;
@@ -17,9 +17,9 @@ use crate::material::{Alpha, AlphaMode, Material, Wrappers};
 use crate::mutants::{self, Mutant};
 use crate::sdf::{SdfGrid, SdfVoxel, MAX_SDF_SAMPLES};
 use crate::shapes::{
-    MeshData, Quad, Quadric, Sphere, Triangle, QUADRIC_SDF, QUADRIC_SPHERE, TRIANGLE_HAS_ALPHA,
-    TRIANGLE_HAS_COLORS, TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_TANGENTS, TRIANGLE_HAS_UV1,
-    TRIANGLE_HAS_UVS,
+    Instance, MeshData, Quad, Quadric, Sphere, Triangle, QUADRIC_SDF, QUADRIC_SPHERE,
+    TRIANGLE_HAS_ALPHA, TRIANGLE_HAS_COLORS, TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_TANGENTS,
+    TRIANGLE_HAS_UV1, TRIANGLE_HAS_UVS,
 };
 use crate::texture::{ImageData, Sampler, Texture};
 use glam::{DVec3, Vec2, Vec3, Vec4};
@@ -158,6 +158,26 @@ pub struct SceneBuilder {
     /// which `build` translates and rounds.
     punctual_lights: Vec<PunctualLight>,
     light_positions: Vec<DVec3>,
+    /// Instanced groups: each one's triangles and vertices (object space,
+    /// never moved into render space).
+    groups: Vec<GroupInput>,
+    /// The group being filled ([`SceneBuilder::begin_group`]): where its
+    /// triangles and vertices start.
+    open_group: Option<(u32, u32)>,
+    /// The instances' groups and f64 object-to-world maps.
+    instances: Vec<(u32, glam::DAffine3)>,
+}
+
+/// Most triangles an instanced group may hold: 2^23, so that its tree's
+/// node and entry indices (fewer than 2^24) are exact f32 integers, as
+/// the GPU twin's records hold them (`gpu::scene_buffers`).
+pub const MAX_GROUP_TRIANGLES: usize = 1 << 23;
+
+/// A group's triangles and vertices (ranges of the builder's).
+#[derive(Clone, Debug)]
+struct GroupInput {
+    triangles: std::ops::Range<u32>,
+    vertices: std::ops::Range<u32>,
 }
 
 fn check_finite_vec(field: &str, v: Vec3) -> Result<(), SceneError> {
@@ -995,8 +1015,85 @@ impl SceneBuilder {
         });
     }
 
+    /// Refuses `what` while a group is open: a group holds meshes only.
+    fn outside_group(&self, what: &str) -> Result<(), SceneError> {
+        match self.open_group {
+            None => Ok(()),
+            Some(_) => Err(SceneError::invalid(
+                "group",
+                format!("{what} cannot be instanced: a group holds triangle meshes only"),
+            )),
+        }
+    }
+
+    /// Opens an instanced group: the meshes added until
+    /// [`SceneBuilder::end_group`] are kept once, in their own object
+    /// space (placed by their own transforms within it), and drawn only by
+    /// the group's instances ([`SceneBuilder::add_instance`]). Only meshes
+    /// can be added meanwhile.
+    pub fn begin_group(&mut self) -> Result<(), SceneError> {
+        self.outside_group("a group")?;
+        self.open_group = Some((
+            self.triangles.len() as u32,
+            self.mesh.positions.len() as u32,
+        ));
+        Ok(())
+    }
+
+    /// Closes the open group; returns its id for
+    /// [`SceneBuilder::add_instance`]. An empty group is refused.
+    pub fn end_group(&mut self) -> Result<u32, SceneError> {
+        let Some((tri, vertex)) = self.open_group.take() else {
+            return Err(SceneError::invalid("group", "no group is open".into()));
+        };
+        if tri as usize == self.triangles.len() {
+            return Err(SceneError::invalid(
+                "group",
+                "the group has no triangles".into(),
+            ));
+        }
+        let count = self.triangles.len() - tri as usize;
+        if count > MAX_GROUP_TRIANGLES {
+            self.open_group = Some((tri, vertex));
+            return Err(SceneError::invalid(
+                "group",
+                format!("the group has {count} triangles, more than the {MAX_GROUP_TRIANGLES} an instanced group may hold"),
+            ));
+        }
+        self.groups.push(GroupInput {
+            triangles: tri..self.triangles.len() as u32,
+            vertices: vertex..self.mesh.positions.len() as u32,
+        });
+        Ok(self.groups.len() as u32 - 1)
+    }
+
+    /// An instance of group `group` ([`SceneBuilder::end_group`]) placed
+    /// by `transform`: a primitive that shows the group's triangles
+    /// through the map, their one copy shared by every instance.
+    pub fn add_instance(&mut self, group: u32, transform: &Transform) -> Result<(), SceneError> {
+        self.outside_group("an instance")?;
+        if group as usize >= self.groups.len() {
+            return Err(SceneError::invalid(
+                "group",
+                format!("group {group} does not exist"),
+            ));
+        }
+        let m = transform.matrix;
+        let det = m.matrix3.determinant();
+        if !(det.is_finite() && det != 0.0 && m.translation.is_finite()) {
+            return Err(SceneError::invalid(
+                "transform",
+                "an instance's transform is singular or not finite".into(),
+            ));
+        }
+        self.instances.push((group, m));
+        self.push_primitive(primitive_tag::INSTANCE, self.instances.len() - 1);
+        Ok(())
+    }
+
     /// A punctual light (see [`LightInput`]), every value checked.
     pub fn add_light(&mut self, light: LightInput) -> Result<(), SceneError> {
+        self.outside_group("a light")?;
         if self.punctual_lights.len() >= MAX_PUNCTUAL_LIGHTS {
             return Err(SceneError::invalid(
                 "lights",
@@ -1227,6 +1324,7 @@ impl SceneBuilder {
         material: u32,
         transform: &Transform,
     ) -> Result<(), SceneError> {
+        self.outside_group("a sphere")?;
         let center = center.into();
         self.check_material(material)?;
         if !center.is_finite() {
@@ -1272,6 +1370,7 @@ impl SceneBuilder {
         material: u32,
         transform: &Transform,
     ) -> Result<(), SceneError> {
+        self.outside_group("a quad")?;
         let corner = corner.into();
         self.check_material(material)?;
         if !corner.is_finite() {
@@ -1313,6 +1412,7 @@ impl SceneBuilder {
         material: u32,
         transform: &Transform,
     ) -> Result<(), SceneError> {
+        self.outside_group("a quadric")?;
         self.check_material(material)?;
         if kind > QUADRIC_SPHERE {
             return Err(SceneError::invalid(
@@ -1344,6 +1444,7 @@ impl SceneBuilder {
         material: u32,
         transform: &Transform,
     ) -> Result<(), SceneError> {
+        self.outside_group("a signed distance grid")?;
         self.check_material(material)?;
         if dims.iter().any(|&n| !(2..=MAX_SDF_SAMPLES).contains(&n)) {
             return Err(SceneError::invalid(
@@ -1579,7 +1680,10 @@ impl SceneBuilder {
                 material,
                 flags,
             });
-            self.push_primitive(primitive_tag::TRIANGLE, self.triangles.len() - 1);
+            // A group's triangles are drawn by its instances alone.
+            if self.open_group.is_none() {
+                self.push_primitive(primitive_tag::TRIANGLE, self.triangles.len() - 1);
+            }
         }
         Ok(())
     }
@@ -1647,6 +1751,12 @@ impl SceneBuilder {
 
     /// Checks the camera and settings and builds the BVH.
     pub fn build(self) -> Result<Scene, SceneError> {
+        if self.open_group.is_some() {
+            return Err(SceneError::invalid(
+                "group",
+                "a group was begun and never ended".into(),
+            ));
+        }
         if self.primitives.is_empty() {
             return Err(SceneError::invalid(
                 "objects",
@@ -1675,6 +1785,13 @@ impl SceneBuilder {
                 format!("material {m} has an alpha (coverage), which only triangles can have, but a sphere, quad or quadric uses it"),
             ));
         }
+        check_groups(
+            &self.groups,
+            &self.triangles,
+            &self.materials,
+            &alphas,
+            &emissions,
+        )?;
         let mut triangles = self.triangles;
         for tri in triangles.iter_mut().filter(|t| has_alpha(t.material)) {
             tri.flags |= TRIANGLE_HAS_ALPHA;
@@ -1735,8 +1852,15 @@ impl SceneBuilder {
                     )
                 })?;
             }
-            for (m, &p) in mesh.positions.iter_mut().zip(&self.positions) {
-                *m = to_render("objects.positions", p)?;
+            // A group's vertices stay in its object space.
+            let mut grouped = vec![false; self.positions.len()];
+            for g in &self.groups {
+                grouped[g.vertices.start as usize..g.vertices.end as usize].fill(true);
+            }
+            for ((m, &p), grouped) in mesh.positions.iter_mut().zip(&self.positions).zip(grouped) {
+                if !grouped {
+                    *m = to_render("objects.positions", p)?;
+                }
             }
             for (i, (l, &p)) in punctual_lights
                 .iter_mut()
@@ -1756,6 +1880,36 @@ impl SceneBuilder {
         if origin != DVec3::ZERO {
             render_camera.validate()?;
         }
+        // The groups' trees (over their triangles, in object space), then
+        // each instance's box: its group's root box under its map.
+        let group_trees: Vec<(Bvh, BvhBuildStats)> = self
+            .groups
+            .iter()
+            .map(|g| {
+                let bounds: Vec<Aabb> = triangles
+                    [g.triangles.start as usize..g.triangles.end as usize]
+                    .iter()
+                    .map(|t| t.bounds(&mesh))
+                    .collect();
+                Bvh::build_batched(&bounds, &vec![true; bounds.len()])
+            })
+            .collect();
+        let instances = self
+            .instances
+            .iter()
+            .map(|&(group, mut m)| {
+                m.translation -= origin;
+                let root = group_trees[group as usize].0.nodes()[0].bounds();
+                Instance::placed(m, group, root).ok_or_else(|| {
+                    SceneError::invalid(
+                        "objects.transform",
+                        format!(
+                            "an instance is not finite in f32 in render space (origin {origin})"
+                        ),
+                    )
+                })
+            })
+            .collect::<Result<Vec<Instance>, SceneError>>()?;
         let bounds: Vec<Aabb> = self
             .primitives
             .iter()
@@ -1764,6 +1918,7 @@ impl SceneBuilder {
                     quadrics: &quadrics,
                     grids: &sdf_grids,
                     voxels: &self.sdf_voxels,
+                    instances: &instances,
                 };
                 primitive_bounds(p, &spheres, &quads, objects, &triangles, &mesh)
             })
@@ -1798,12 +1953,10 @@ impl SceneBuilder {
             images: self.images,
             punctual_lights,
             primitives: self.primitives,
-            bvh: Bvh::default(),
+            groups: Vec::new(),
+            instances,
+            accel: Accel::default(),
             bvh_stats,
-            leaf_prims: Vec::new(),
-            leaf_bounds: Vec::new(),
-            leaf_blocks: Vec::new(),
-            quad_blocks: Vec::new(),
             warnings: self.warnings,
             sources: {
                 let mut seen = std::collections::HashSet::new();
@@ -1813,9 +1966,53 @@ impl SceneBuilder {
                     .collect()
             },
         };
+        scene.groups = self
+            .groups
+            .iter()
+            .zip(group_trees)
+            .map(|(g, (tree, _))| {
+                let first = g.triangles.start;
+                Group {
+                    triangles: g.triangles.clone(),
+                    accel: Accel::new(tree, |i| scene.group_leaf_prim(first + i)),
+                }
+            })
+            .collect();
         scene.put_bvh(bvh);
         Ok(scene)
     }
+}
+
+/// A group's triangles have no coverage (an alpha) and emit nothing: the
+/// walk within a group tests no coverage, and a light is sampled as a
+/// primitive of the scene, which a group's triangle is not.
+fn check_groups(
+    groups: &[GroupInput],
+    triangles: &[Triangle],
+    materials: &[Material],
+    alphas: &[Option<Alpha>],
+    emissions: &[Option<u32>],
+) -> Result<(), SceneError> {
+    for g in groups {
+        for t in &triangles[g.triangles.start as usize..g.triangles.end as usize] {
+            let m = t.material as usize;
+            if alphas[m].is_some() {
+                return Err(SceneError::invalid(
+                    "group",
+                    format!(
+                        "material {m} has an alpha (coverage), which an instanced mesh cannot have"
+                    ),
+                ));
+            }
+            if emissions[m].is_some() || matches!(materials[m], Material::DiffuseLight { .. }) {
+                return Err(SceneError::invalid(
+                    "group",
+                    format!("material {m} emits, and an instanced mesh cannot be a light"),
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// `textures` (world meaning) as render space `space` evaluates them, or

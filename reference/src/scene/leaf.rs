@@ -4,32 +4,36 @@
 //! [`Bvh::intersect`] calls.
 
 use super::primitive::{primitive_tag, Primitive};
-#[cfg(doc)]
-use crate::bvh::Bvh;
-use crate::bvh::{intersect_aabb_padded, intersect_entries, Closest, LeafRef, Leaves, LEAF_BATCH};
+use crate::bvh::{
+    box_pad, intersect_aabb_padded, intersect_entries, Bvh, Closest, LeafRef, Leaves, LEAF_BATCH,
+};
 use crate::geometry::{Aabb, Hit, Ray};
 use crate::mutants::{self, Mutant};
 use crate::sdf::{SdfGrid, SdfVoxel};
 use crate::shapes::{
-    intersect_quads4, intersect_triangles4, MeshData, Quad, Quadric, Quads4, RayShear, Sphere,
-    Triangle, Triangles4,
+    intersect_quads4, intersect_triangles4, Instance, MeshData, Quad, Quadric, Quads4, RayShear,
+    Sphere, Triangle, Triangles4,
 };
 use glam::{Vec2, Vec3};
 
 /// The scene's shapes placed by a map, which a leaf entry reads through
-/// its index: quadrics, and signed distance grids with their cells.
+/// its index: quadrics, signed distance grids with their cells, and
+/// instances.
 #[derive(Clone, Copy)]
 pub(super) struct Objects<'a> {
     pub(super) quadrics: &'a [Quadric],
     pub(super) grids: &'a [SdfGrid],
     pub(super) voxels: &'a [SdfVoxel],
+    pub(super) instances: &'a [Instance],
 }
 
 impl Objects<'_> {
-    /// The box of object primitive `p` (a quadric or a grid cell).
+    /// The box of object primitive `p` (a quadric, a grid cell or an
+    /// instance).
     fn bounds(&self, p: Primitive) -> Aabb {
         match p.tag {
             primitive_tag::QUADRIC => self.quadrics[p.index as usize].bounds,
+            primitive_tag::INSTANCE => self.instances[p.index as usize].map.bounds,
             _ => {
                 let v = self.voxels[p.index as usize];
                 let g = &self.grids[v.grid as usize];
@@ -66,7 +70,9 @@ pub(super) fn primitive_bounds(
     match p.tag {
         primitive_tag::SPHERE => spheres[p.index as usize].bounds(),
         primitive_tag::QUAD => quads[p.index as usize].bounds(),
-        primitive_tag::QUADRIC | primitive_tag::SDF_VOXEL => objects.bounds(p),
+        primitive_tag::QUADRIC | primitive_tag::SDF_VOXEL | primitive_tag::INSTANCE => {
+            objects.bounds(p)
+        }
         _ => triangles[p.index as usize].bounds(mesh),
     }
 }
@@ -80,8 +86,8 @@ pub(super) fn primitive_bounds(
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct LeafPrim {
     /// Sphere: center, (radius, 0, 0). Quad: corner, u, v. Triangle: its
-    /// three vertices. Quadric: its box's corners and (its index's bits,
-    /// 0, 0): its test reads the scene's record.
+    /// three vertices. Quadric, grid cell, instance: its box's corners
+    /// and (its index's bits, 0, 0): its test reads the scene's record.
     p: [Vec3; 3],
     prim: u32,
     /// The primitive's tag in the low 16 bits; [`LeafPrim::ALPHA`] set
@@ -136,49 +142,55 @@ impl LeafPrim {
                 material: 0,
             }
             .bounds(),
-            primitive_tag::QUADRIC | primitive_tag::SDF_VOXEL => Aabb { min: a, max: b },
+            primitive_tag::QUADRIC | primitive_tag::SDF_VOXEL | primitive_tag::INSTANCE => {
+                Aabb { min: a, max: b }
+            }
             _ => Aabb::from_points(&[a, b, c]),
         }
     }
 
     /// The shape's test, then [`Bvh::admits`] with the ray's inverse
     /// direction and pad from `k`, against the box [`LeafPrim::bounds`]
-    /// computes.
+    /// computes. An instance's test is `covers`' walk of its group.
     #[inline]
-    pub(super) fn intersect(
+    pub(super) fn intersect<C: Coverage>(
         &self,
         ray: &Ray,
         k: &RayConstants,
         objects: Objects,
+        covers: &C,
         t_min: f32,
         t_max: f32,
     ) -> Option<Hit> {
-        self.intersect_in(self.bounds(), ray, k, objects, t_min, t_max)
+        self.intersect_in(self.bounds(), ray, k, objects, covers, t_min, t_max)
     }
 
     /// [`LeafPrim::intersect`] with the box given (`bounds`: what
     /// [`LeafPrim::bounds`] computes, kept by the caller).
     #[inline]
-    fn intersect_in(
+    #[allow(clippy::too_many_arguments)]
+    fn intersect_in<C: Coverage>(
         &self,
         bounds: Aabb,
         ray: &Ray,
         k: &RayConstants,
         objects: Objects,
+        covers: &C,
         t_min: f32,
         t_max: f32,
     ) -> Option<Hit> {
-        let hit = self.intersect_shape(ray, k, objects, t_min, t_max)?;
+        let hit = self.intersect_shape(ray, k, objects, covers, t_min, t_max)?;
         k.admits(bounds, ray, hit.t).then_some(hit)
     }
 
     /// The shape's test alone (no [`Bvh::admits`]).
     #[inline]
-    fn intersect_shape(
+    fn intersect_shape<C: Coverage>(
         &self,
         ray: &Ray,
         k: &RayConstants,
         objects: Objects,
+        covers: &C,
         t_min: f32,
         t_max: f32,
     ) -> Option<Hit> {
@@ -186,23 +198,26 @@ impl LeafPrim {
         let [a, b, c] = self.p;
         let prim = self.prim;
         match self.kind() {
-            primitive_tag::SPHERE => intersect_sphere(a, b.x, ray, t_min, t_max).map(|t| Hit {
-                t,
-                prim,
-                uv: Vec2::ZERO,
-            }),
+            primitive_tag::SPHERE => {
+                intersect_sphere(a, b.x, ray, t_min, t_max).map(|t| Hit::new(t, prim, Vec2::ZERO))
+            }
             primitive_tag::QUAD => {
-                intersect_quad(a, b, c, ray, t_min, t_max).map(|(t, uv)| Hit { t, prim, uv })
+                intersect_quad(a, b, c, ray, t_min, t_max).map(|(t, uv)| Hit::new(t, prim, uv))
             }
             tag @ (primitive_tag::QUADRIC | primitive_tag::SDF_VOXEL) => objects
                 .intersect(tag, c.x.to_bits(), ray, t_min, t_max)
-                .map(|t| Hit {
-                    t,
+                .map(|t| Hit::new(t, prim, Vec2::ZERO)),
+            primitive_tag::INSTANCE => {
+                let inner = covers.instance_hit(c.x.to_bits(), ray, t_min, t_max)?;
+                Some(Hit {
+                    t: inner.t,
                     prim,
-                    uv: Vec2::ZERO,
-                }),
+                    uv: inner.uv,
+                    sub: inner.prim,
+                })
+            }
             _ => intersect_triangle_sheared(a, b, c, ray, k.shear.as_ref()?, t_min, t_max)
-                .map(|(t, uv)| Hit { t, prim, uv }),
+                .map(|(t, uv)| Hit::new(t, prim, uv)),
         }
     }
 }
@@ -307,10 +322,15 @@ pub(super) struct LeafTests<'a, C: Coverage> {
     pub(super) covers: &'a C,
 }
 
-/// What decides whether a hit on a triangle with an alpha stands: the
-/// scene's coverage (`Scene::alpha_covers`).
+/// What a leaf test asks of the scene: whether a hit on a triangle with
+/// an alpha stands (the scene's coverage, `Scene::alpha_covers`), and an
+/// instance's hit (the walk of its group).
 pub(super) trait Coverage {
     fn covers(&self, ray: &Ray, hit: &Hit) -> bool;
+    /// The closest hit in `(t_min, t_max)` of `ray` (in the scene's
+    /// space) with instance `index`'s group: `prim` the group's triangle
+    /// (an index into the scene's triangles), `t` on `ray`.
+    fn instance_hit(&self, index: u32, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit>;
 }
 
 impl<C: Coverage> Leaves for LeafTests<'_, C> {
@@ -322,6 +342,7 @@ impl<C: Coverage> Leaves for LeafTests<'_, C> {
             self.ray,
             &self.constants,
             self.objects,
+            self.covers,
             self.t_min,
             t_max,
         )?;
@@ -368,11 +389,7 @@ impl<C: Coverage> Leaves for LeafTests<'_, C> {
                 _ => self.bounds[first + lane],
             };
             if t < closest.limit() && self.constants.admits(bounds, self.ray, t) {
-                let hit = Hit {
-                    t,
-                    prim: block.prim[lane],
-                    uv: Vec2::new(hits.b1[lane], hits.b2[lane]),
-                };
+                let hit = Hit::new(t, block.prim[lane], Vec2::new(hits.b1[lane], hits.b2[lane]));
                 if block.alpha & (1 << lane) == 0
                     || mutants::is(Mutant::AlphaIgnoredInLeafBlocks)
                     || self.covers.covers(self.ray, &hit)
@@ -422,5 +439,103 @@ impl RayConstants {
             t,
         )
         .is_some()
+    }
+}
+
+/// A BVH with the traversal's copies of what it holds: the scene's, over
+/// its primitive list, or an instanced group's, over its triangles.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(super) struct Accel {
+    pub(super) bvh: Bvh,
+    /// Every entry's geometry in leaf order (`bvh.prim_order()`).
+    pub(super) prims: Vec<LeafPrim>,
+    /// The box of each of `prims` ([`LeafPrim::bounds`], the bits the BVH
+    /// build saw), for [`Bvh::admits`].
+    pub(super) bounds: Vec<Aabb>,
+    /// By BVH leaf ([`Bvh::leaves`]): one to four triangles by lane for
+    /// the four-wide triangle test, the index of one to four quads' lanes
+    /// in `quad_blocks`, or a mark that the leaf is tested entry by entry
+    /// from `prims`.
+    pub(super) blocks: Vec<LeafBlock>,
+    /// The lanes of the leaves of quads, by [`LeafBlock`]'s index.
+    pub(super) quad_blocks: Vec<Quads4>,
+}
+
+impl Accel {
+    /// `bvh` with entry `i`'s geometry `leaf(bvh.prim_order()[i])`.
+    pub(super) fn new(bvh: Bvh, leaf: impl Fn(u32) -> LeafPrim) -> Self {
+        let prims: Vec<LeafPrim> = bvh.prim_order().iter().map(|&p| leaf(p)).collect();
+        let bounds = prims.iter().map(LeafPrim::bounds).collect();
+        let mut quad_blocks = Vec::new();
+        let blocks = bvh
+            .leaves()
+            .map(|entries| LeafBlock::of(&prims, entries, &mut quad_blocks))
+            .collect();
+        Accel {
+            bvh,
+            prims,
+            bounds,
+            blocks,
+            quad_blocks,
+        }
+    }
+
+    /// The per-ray constants of the primitive tests (the pad from this
+    /// tree's root); `None` for an empty tree.
+    #[inline]
+    pub(super) fn constants(&self, ray: &Ray) -> Option<RayConstants> {
+        let root = self.bvh.nodes().first()?;
+        Some(RayConstants {
+            shear: RayShear::new(ray.direction),
+            inv_dir: ray.direction.recip(),
+            pad: box_pad(Vec3::from(root.min), Vec3::from(root.max), ray),
+        })
+    }
+
+    /// Closest hit in `(t_min, t_max)` through the tree.
+    #[inline]
+    pub(super) fn intersect<C: Coverage>(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        objects: Objects,
+        covers: &C,
+    ) -> Option<Hit> {
+        let leaves = LeafTests {
+            prims: &self.prims,
+            bounds: &self.bounds,
+            blocks: &self.blocks,
+            quad_blocks: &self.quad_blocks,
+            objects,
+            ray,
+            constants: self.constants(ray)?,
+            t_min,
+            covers,
+        };
+        self.bvh.intersect(ray, t_max, leaves)
+    }
+}
+
+/// A group of triangles kept once, in its own object space, and drawn by
+/// its instances (Mitsuba's `shapegroup`): the second level of the
+/// scene's two-level tree.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Group {
+    /// Its triangles: this range of the scene's triangles.
+    pub(super) triangles: std::ops::Range<u32>,
+    pub(super) accel: Accel,
+}
+
+impl Group {
+    /// Its triangles' indices in the scene's triangles.
+    pub fn triangles(&self) -> std::ops::Range<u32> {
+        self.triangles.clone()
+    }
+
+    /// Its BVH, over its triangles in order (entry `i` of the tree is
+    /// triangle `triangles().start + i`).
+    pub fn bvh(&self) -> &Bvh {
+        &self.accel.bvh
     }
 }

@@ -15,6 +15,8 @@
 //! - `world`: [`Scene`] itself and its queries.
 
 mod builder;
+#[cfg(test)]
+mod instance_tests;
 mod leaf;
 mod primitive;
 mod render_space;
@@ -24,7 +26,8 @@ mod tests;
 mod transform;
 mod world;
 
-pub use builder::{Appearance, LightInput, MeshInput, SceneBuilder};
+pub use builder::{Appearance, LightInput, MeshInput, SceneBuilder, MAX_GROUP_TRIANGLES};
+pub use leaf::Group;
 pub use primitive::{primitive_tag, Primitive};
 pub use render_space::{RenderOrigin, RenderSpace};
 pub use settings::{RenderSettings, MAX_DEPTH, MAX_IMAGE_SIDE, MAX_SPP};

@@ -11,6 +11,8 @@ pub mod primitive_tag {
     pub const QUADRIC: u32 = 3;
     /// A cell of a signed distance grid ([`crate::sdf::SdfVoxel`]).
     pub const SDF_VOXEL: u32 = 4;
+    /// A [`crate::shapes::Instance`]: a group's triangles placed by a map.
+    pub const INSTANCE: u32 = 5;
 }
 
 /// One entry of the scene's primitive list: a kind and an index into that

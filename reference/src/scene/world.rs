@@ -2,14 +2,12 @@
 //! valid, with its BVH and the traversal's copies of the geometry, and the
 //! queries the twins make of it.
 
-use super::leaf::{
-    primitive_bounds, Coverage, LeafBlock, LeafPrim, LeafTests, Objects, RayConstants,
-};
+use super::leaf::{primitive_bounds, Accel, Coverage, Group, LeafPrim, Objects};
 use super::primitive::{primitive_tag, Primitive};
 use super::render_space::RenderSpace;
 use super::settings::RenderSettings;
 use crate::background::Background;
-use crate::bvh::{box_pad, Bvh, BvhBuildStats};
+use crate::bvh::{Bvh, BvhBuildStats};
 use crate::camera::{Camera, CameraSettings};
 use crate::error::SceneError;
 use crate::filter::{FilterTable, PixelFilter};
@@ -19,7 +17,7 @@ use crate::material::{alpha_hash, normal_mapped, Alpha, Material, Wrappers};
 use crate::mutants::{self, Mutant};
 use crate::sdf::{SdfGrid, SdfVoxel};
 use crate::shapes::{
-    MeshData, Quad, Quadric, Quads4, RayShear, Sphere, Triangle, TRIANGLE_HAS_ALPHA,
+    mat_vec, Instance, MeshData, Quad, Quadric, Sphere, Triangle, TRIANGLE_HAS_ALPHA,
     TRIANGLE_HAS_COLORS, TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_TANGENTS, TRIANGLE_HAS_UV1,
     TRIANGLE_HAS_UVS,
 };
@@ -35,6 +33,53 @@ struct TrianglePoint {
     p: Vec3,
     uvs: [Vec2; 2],
     color: Vec4,
+}
+
+/// A triangle's vertices as shading reads them
+/// ([`Scene::triangle_vertices`]).
+struct TriangleVertices {
+    p: [Vec3; 3],
+    n: [Vec3; 3],
+    tangents: [Vec4; 3],
+}
+
+/// Whether an instance's map mirrors (its linear part's determinant, in
+/// f32 as both twins compute it, is negative).
+#[inline]
+pub fn map_mirrors(map: &Quadric) -> bool {
+    let [c0, c1, c2] = map.linear;
+    c0.dot(c1.cross(c2)) < 0.0
+}
+
+/// A normal `n` through an instance's map: its inverse transpose (the
+/// rows of the inverse are the columns `inv_linear`), not normalized.
+#[inline]
+pub fn inverse_transposed(map: &Quadric, n: Vec3) -> Vec3 {
+    if mutants::is(Mutant::InstanceNormalsByLinearPart) {
+        return mat_vec(&map.linear, n);
+    }
+    let inv = &map.inv_linear;
+    Vec3::new(inv[0].dot(n), inv[1].dot(n), inv[2].dot(n))
+}
+
+/// A tangent through an instance's map: its direction by the linear
+/// part, its handedness (`w`) turned where the map mirrors.
+#[inline]
+pub fn mapped_tangent(map: &Quadric, t: Vec4) -> Vec4 {
+    let side = if map_mirrors(map) { -1.0 } else { 1.0 };
+    mat_vec(&map.linear, t.truncate()).extend(side * t.w)
+}
+
+/// The error bound of an instance's vertex `o` (object space) once
+/// mapped, a sum of three products and the origin: γ(5) times its terms'
+/// largest sum, as a quadric's point (`Quadric::surface`).
+#[inline]
+pub fn instance_vertex_error(map: &Quadric, o: Vec3) -> f32 {
+    let terms = (o.x * map.linear[0]).abs()
+        + (o.y * map.linear[1]).abs()
+        + (o.z * map.linear[2]).abs()
+        + map.origin.abs();
+    gamma(5) * terms.max_element()
 }
 
 /// Emitter selection by weights a scene file gives, as Mitsuba selects
@@ -130,24 +175,16 @@ pub struct Scene {
     pub(super) punctual_lights: Vec<PunctualLight>,
     /// All primitives in scene order; the index is the primitive id.
     pub(super) primitives: Vec<Primitive>,
-    /// `leaf_prims` and `leaf_blocks` are derived from it
-    /// ([`Scene::put_bvh`]).
-    pub(super) bvh: Bvh,
+    /// Instanced groups: triangles kept once in object space, each with
+    /// its own tree (the second level), drawn by `instances`.
+    pub(super) groups: Vec<Group>,
+    /// Placements of `groups`, each a primitive of the scene's own tree.
+    pub(super) instances: Vec<Instance>,
+    /// The BVH over `primitives` with the traversal's copies of their
+    /// geometry in its leaf order (made by [`Scene::put_bvh`]).
+    pub(super) accel: Accel,
     /// What [`super::SceneBuilder::build`]'s BVH build reported.
     pub(super) bvh_stats: BvhBuildStats,
-    /// The traversal's copy of every primitive's geometry in BVH leaf
-    /// order (`bvh.prim_order()`), made by [`Scene::put_bvh`].
-    pub(super) leaf_prims: Vec<LeafPrim>,
-    /// The box of each of `leaf_prims` ([`LeafPrim::bounds`], the bits the
-    /// BVH build saw), for [`Bvh::admits`].
-    pub(super) leaf_bounds: Vec<Aabb>,
-    /// By BVH leaf ([`Bvh::leaves`]): one to four triangles by lane for
-    /// the four-wide triangle test, the index of one to four quads' lanes
-    /// in `quad_blocks`, or a mark that the leaf is tested entry by entry
-    /// from `leaf_prims`. Made by [`Scene::put_bvh`].
-    pub(super) leaf_blocks: Vec<LeafBlock>,
-    /// The lanes of the leaves of quads, by [`LeafBlock`]'s index.
-    pub(super) quad_blocks: Vec<Quads4>,
     /// What the loaders ignored ([`super::SceneBuilder::warnings`]).
     pub(super) warnings: Vec<String>,
     /// The files the scene was read from ([`super::SceneBuilder::sources`]).
@@ -233,6 +270,14 @@ impl Scene {
         }
         for t in &self.triangles {
             let _ = write!(h, "{t:?}");
+        }
+        // Only where there are instances, so that scenes without keep
+        // their fingerprints.
+        for g in &self.groups {
+            let _ = write!(h, "{:?}", g.triangles);
+        }
+        for i in &self.instances {
+            let _ = write!(h, "{i:?}");
         }
         let m = &self.mesh;
         h.floats(
@@ -398,11 +443,24 @@ impl Scene {
     }
 
     /// What a leaf entry reads through an index: quadrics and grids.
+    /// Instanced groups (Mitsuba's `shapegroup`s): their triangles, kept
+    /// once in object space, and their trees.
+    pub fn groups(&self) -> &[Group] {
+        &self.groups
+    }
+
+    /// Placements of [`Scene::groups`] (each a primitive of tag
+    /// `INSTANCE`).
+    pub fn instances(&self) -> &[Instance] {
+        &self.instances
+    }
+
     pub(super) fn objects(&self) -> Objects<'_> {
         Objects {
             quadrics: &self.quadrics,
             grids: &self.sdf_grids,
             voxels: &self.sdf_voxels,
+            instances: &self.instances,
         }
     }
 
@@ -476,7 +534,7 @@ impl Scene {
 
     /// The BVH over `primitives` (what the GPU uploads).
     pub fn bvh(&self) -> &Bvh {
-        &self.bvh
+        &self.accel.bvh
     }
 
     /// What [`super::SceneBuilder::build`]'s BVH build reported.
@@ -487,25 +545,14 @@ impl Scene {
     /// Installs `bvh` and copies the geometry into its leaf order. The
     /// caller has checked that `bvh` indexes only primitives of this scene.
     pub(super) fn put_bvh(&mut self, bvh: Bvh) {
-        self.leaf_prims = bvh
-            .prim_order()
-            .iter()
-            .map(|&prim| self.leaf_prim(prim))
-            .collect();
-        self.leaf_bounds = self.leaf_prims.iter().map(LeafPrim::bounds).collect();
-        let mut quad_blocks = Vec::new();
-        self.leaf_blocks = bvh
-            .leaves()
-            .map(|entries| LeafBlock::of(&self.leaf_prims, entries, &mut quad_blocks))
-            .collect();
-        self.quad_blocks = quad_blocks;
-        self.bvh = bvh;
+        self.accel = Accel::new(bvh, |prim| self.leaf_prim(prim));
     }
 
     /// The bounds of every primitive in render space (where rays are
     /// aimed); [`Scene::to_world`] takes its corners to world coordinates.
     pub fn bounds(&self) -> Aabb {
-        self.bvh
+        self.accel
+            .bvh
             .nodes()
             .first()
             .map(|n| n.bounds())
@@ -532,20 +579,9 @@ impl Scene {
     #[inline]
     pub fn intersect_primitive(&self, prim: u32, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
         let leaf = self.leaf_prim(prim);
-        let hit = leaf.intersect(ray, &self.ray_constants(ray)?, self.objects(), t_min, t_max)?;
+        let k = self.accel.constants(ray)?;
+        let hit = leaf.intersect(ray, &k, self.objects(), self, t_min, t_max)?;
         (!leaf.has_alpha() || self.alpha_covers(ray, &hit)).then_some(hit)
-    }
-
-    /// The per-ray constants of the primitive tests; `None` for an empty
-    /// scene.
-    #[inline]
-    fn ray_constants(&self, ray: &Ray) -> Option<RayConstants> {
-        let root = self.bvh.nodes().first()?;
-        Some(RayConstants {
-            shear: RayShear::new(ray.direction),
-            inv_dir: ray.direction.recip(),
-            pad: box_pad(Vec3::from(root.min), Vec3::from(root.max), ray),
-        })
     }
 
     /// Primitive `prim`'s entry of the traversal's copy of the geometry
@@ -561,7 +597,7 @@ impl Scene {
                 let q = &self.quads[p.index as usize];
                 [q.corner, q.u, q.v]
             }
-            primitive_tag::QUADRIC | primitive_tag::SDF_VOXEL => {
+            primitive_tag::QUADRIC | primitive_tag::SDF_VOXEL | primitive_tag::INSTANCE => {
                 let b = self.primitive_bounds(prim);
                 [b.min, b.max, Vec3::new(f32::from_bits(p.index), 0.0, 0.0)]
             }
@@ -578,30 +614,21 @@ impl Scene {
     /// leaf-ordered copies in `leaf_prims`.
     #[inline]
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-        let c = self.ray_constants(ray)?;
-        let leaves = LeafTests {
-            prims: &self.leaf_prims,
-            bounds: &self.leaf_bounds,
-            blocks: &self.leaf_blocks,
-            quad_blocks: &self.quad_blocks,
-            objects: self.objects(),
-            ray,
-            constants: c,
-            t_min,
-            covers: self,
-        };
-        self.bvh.intersect(ray, t_max, leaves)
+        self.accel
+            .intersect(ray, t_min, t_max, self.objects(), self)
     }
 
-    /// Closest hit by testing every primitive: the oracle for the BVH.
-    /// Ties in t go to the smaller primitive id, as in the BVH traversal.
-    /// Reads the scene's own arrays, not the traversal's copies.
+    /// Closest hit by testing every primitive (and every triangle of an
+    /// instance's group): the oracle for the BVH. Ties in t go to the
+    /// smaller primitive id, as in the BVH traversal. Reads the scene's
+    /// own arrays, not the traversal's copies.
     pub fn intersect_brute_force(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-        let c = self.ray_constants(ray)?;
+        let c = self.accel.constants(ray)?;
         let mut best: Option<Hit> = None;
+        let brute = BruteForce(self);
         for prim in 0..self.primitives.len() as u32 {
             let leaf = self.leaf_prim(prim);
-            if let Some(h) = leaf.intersect(ray, &c, self.objects(), t_min, t_max) {
+            if let Some(h) = leaf.intersect(ray, &c, self.objects(), &brute, t_min, t_max) {
                 let covered = !leaf.has_alpha() || self.alpha_covers(ray, &h);
                 if covered && best.is_none_or(|b| h.t < b.t) {
                     best = Some(h);
@@ -609,6 +636,48 @@ impl Scene {
             }
         }
         best
+    }
+
+    /// Instance `index`'s hit: its group's closest hit on the ray mapped
+    /// into object space (the same `t`), by the group's tree where
+    /// `brute` is false, else by testing each triangle.
+    fn instance_hit_by(
+        &self,
+        index: u32,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        brute: bool,
+    ) -> Option<Hit> {
+        let instance = &self.instances[index as usize];
+        let group = &self.groups[instance.group as usize];
+        let local = instance.map.object_ray(ray);
+        let inner = InstanceTests(self);
+        if !brute {
+            return group
+                .accel
+                .intersect(&local, t_min, t_max, self.objects(), &inner);
+        }
+        let c = group.accel.constants(&local)?;
+        let mut best: Option<Hit> = None;
+        for tri in group.triangles.clone() {
+            let leaf = self.group_leaf_prim(tri);
+            if let Some(h) = leaf.intersect(&local, &c, self.objects(), &inner, t_min, t_max) {
+                if best.is_none_or(|b| h.t < b.t) {
+                    best = Some(h);
+                }
+            }
+        }
+        best
+    }
+
+    /// Triangle `tri` of a group as its tree's leaves hold it (its
+    /// object-space vertices; `prim` the triangle's index).
+    pub(super) fn group_leaf_prim(&self, tri: u32) -> LeafPrim {
+        let vertices = self.triangles[tri as usize]
+            .vertices
+            .map(|i| self.mesh.positions[i as usize]);
+        LeafPrim::new(tri, primitive_tag::TRIANGLE, vertices, false)
     }
 
     /// Whether the surface covers the point `hit` found on `ray`: false
@@ -630,7 +699,7 @@ impl Scene {
         else {
             return true;
         };
-        let at = self.triangle_point(tri, hit);
+        let at = self.triangle_point(tri, &self.triangle_vertices(tri, None).p, hit);
         let a = evaluate_texture(
             &self.textures,
             &self.images,
@@ -643,10 +712,36 @@ impl Scene {
         alpha.covers(a * at.color.w, alpha_hash(ray, hit.prim))
     }
 
-    /// What a hit on triangle `tri` interpolates for texturing, as both
+    /// Triangle `tri`'s vertices as shading reads them: positions, normals
+    /// and tangents as stored (in render space), or, for a triangle of an
+    /// instanced group, mapped by the instance's `map` from the group's
+    /// object space: a position by the map, a normal by its inverse
+    /// transpose (not normalized: [`Scene::surface_interaction`]
+    /// normalizes what it interpolates), a tangent's direction by its
+    /// linear part (its handedness turned where the map mirrors).
+    #[inline]
+    fn triangle_vertices(&self, tri: &Triangle, map: Option<&Quadric>) -> TriangleVertices {
+        let m = &self.mesh;
+        let [i0, i1, i2] = tri.vertices.map(|i| i as usize);
+        let (p, n, t) = (
+            [m.positions[i0], m.positions[i1], m.positions[i2]],
+            [m.normals[i0], m.normals[i1], m.normals[i2]],
+            [i0, i1, i2].map(|i| m.tangents.get(i).copied().unwrap_or(Vec4::ZERO)),
+        );
+        let Some(map) = map else {
+            return TriangleVertices { p, n, tangents: t };
+        };
+        TriangleVertices {
+            p: p.map(|p| map.to_world(p)),
+            n: n.map(|n| inverse_transposed(map, n)),
+            tangents: t.map(|t| mapped_tangent(map, t)),
+        }
+    }
+
+    /// What a hit on triangle `tri` (of vertices `p`, [`Scene::triangle_vertices`]) interpolates for texturing, as both
     /// [`Scene::surface_interaction`] and [`Scene::alpha_covers`] read it.
     #[inline]
-    fn triangle_point(&self, tri: &Triangle, hit: &Hit) -> TrianglePoint {
+    fn triangle_point(&self, tri: &Triangle, p: &[Vec3; 3], hit: &Hit) -> TrianglePoint {
         let [i0, i1, i2] = tri.vertices.map(|i| i as usize);
         let m = &self.mesh;
         let (b1, b2) = (hit.uv.x, hit.uv.y);
@@ -667,7 +762,7 @@ impl Scene {
             Vec4::ONE
         };
         TrianglePoint {
-            p: b0 * m.positions[i0] + b1 * m.positions[i1] + b2 * m.positions[i2],
+            p: b0 * p[0] + b1 * p[1] + b2 * p[2],
             uvs: [uv, uv1],
             color,
         }
@@ -758,28 +853,44 @@ impl Scene {
                 (pos, n, n, hit.uv, q.material, err, n, q.u, (q.u, q.v))
             }
             _ => {
-                let tri = &self.triangles[p.index as usize];
-                let [i0, i1, i2] = tri.vertices.map(|i| i as usize);
-                let m = &self.mesh;
+                // A triangle of the scene, or one of an instance's group
+                // seen through the instance's map.
+                let (tri, map) = if p.tag == primitive_tag::INSTANCE {
+                    let instance = &self.instances[p.index as usize];
+                    (&self.triangles[hit.sub as usize], Some(&instance.map))
+                } else {
+                    (&self.triangles[p.index as usize], None)
+                };
+                let v = self.triangle_vertices(tri, map);
                 let (b1, b2) = (hit.uv.x, hit.uv.y);
                 let b0 = 1.0 - b1 - b2;
-                let at = self.triangle_point(tri, hit);
+                let at = self.triangle_point(tri, &v.p, hit);
                 let pos = at.p;
-                // pbrt-v4's bound for barycentric interpolation.
-                let err = gamma(7)
-                    * ((b0 * m.positions[i0]).abs()
-                        + (b1 * m.positions[i1]).abs()
-                        + (b2 * m.positions[i2]).abs())
-                    .max_element();
-                let ng = (m.positions[i1] - m.positions[i0])
-                    .cross(m.positions[i2] - m.positions[i0])
+                // pbrt-v4's bound for barycentric interpolation, and for
+                // an instance the error of its mapped vertices (as a
+                // quadric's point, `Quadric::surface`).
+                let mut err = gamma(7)
+                    * ((b0 * v.p[0]).abs() + (b1 * v.p[1]).abs() + (b2 * v.p[2]).abs())
+                        .max_element();
+                if let Some(map) = map {
+                    for i in tri.vertices {
+                        err += instance_vertex_error(map, self.mesh.positions[i as usize]);
+                    }
+                }
+                // An instance's face normal is its group's turned by the
+                // map's inverse transpose (Mitsuba's instance): the mapped
+                // edges' cross product, turned back where the map mirrors.
+                let mut ng = (v.p[1] - v.p[0])
+                    .cross(v.p[2] - v.p[0])
                     .normalize_or(Vec3::Y);
+                if map.is_some_and(map_mirrors) && !mutants::is(Mutant::InstanceMirrorIgnored) {
+                    ng = -ng;
+                }
                 // The interpolated normal, and the flip that puts it on
                 // the geometric normal's side.
                 let (mut n, mut side) = (ng, 1.0);
                 if tri.flags & TRIANGLE_HAS_NORMALS != 0 {
-                    n = (b0 * m.normals[i0] + b1 * m.normals[i1] + b2 * m.normals[i2])
-                        .normalize_or(ng);
+                    n = (b0 * v.n[0] + b1 * v.n[1] + b2 * v.n[2]).normalize_or(ng);
                     side = if n.dot(ng) < 0.0 { -1.0 } else { 1.0 };
                 }
                 let [uv, second] = at.uvs;
@@ -796,7 +907,8 @@ impl Scene {
                     tri.flags & TRIANGLE_HAS_TANGENTS != 0,
                     self.materials[tri.material as usize],
                 ) {
-                    let tangent = b0 * m.tangents[i0] + b1 * m.tangents[i1] + b2 * m.tangents[i2];
+                    let t = &v.tangents;
+                    let tangent = b0 * t[0] + b1 * t[1] + b2 * t[2];
                     let texel = evaluate_texture(
                         &self.textures,
                         &self.images,
@@ -807,7 +919,7 @@ impl Scene {
                     );
                     ns = normal_mapped(n, side, ng, tangent, texel, map.scale);
                 }
-                let dp_duv = self.triangle_dp_duv(tri, ng);
+                let dp_duv = self.triangle_dp_duv_at(tri, &v.p, ng);
                 (
                     pos,
                     ng,
@@ -846,12 +958,15 @@ impl Scene {
     /// `p2 − p0` (u and v the barycentrics `b1`, `b2`).
     #[inline]
     pub fn triangle_dp_duv(&self, tri: &Triangle, ng: Vec3) -> (Vec3, Vec3) {
+        self.triangle_dp_duv_at(tri, &self.triangle_vertices(tri, None).p, ng)
+    }
+
+    /// [`Scene::triangle_dp_duv`] with the triangle's vertices at `p`.
+    #[inline]
+    fn triangle_dp_duv_at(&self, tri: &Triangle, p: &[Vec3; 3], ng: Vec3) -> (Vec3, Vec3) {
         let [i0, i1, i2] = tri.vertices.map(|i| i as usize);
         let m = &self.mesh;
-        let (dp0, dp1) = (
-            m.positions[i1] - m.positions[i0],
-            m.positions[i2] - m.positions[i0],
-        );
+        let (dp0, dp1) = (p[1] - p[0], p[2] - p[0]);
         if tri.flags & TRIANGLE_HAS_UVS == 0 {
             return (dp0, dp1);
         }
@@ -889,5 +1004,40 @@ impl Coverage for Scene {
     #[inline]
     fn covers(&self, ray: &Ray, hit: &Hit) -> bool {
         self.alpha_covers(ray, hit)
+    }
+
+    #[inline]
+    fn instance_hit(&self, index: u32, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        self.instance_hit_by(index, ray, t_min, t_max, false)
+    }
+}
+
+/// The brute-force oracle's leaf tests: an instance's group is scanned
+/// triangle by triangle too.
+struct BruteForce<'a>(&'a Scene);
+
+impl Coverage for BruteForce<'_> {
+    fn covers(&self, ray: &Ray, hit: &Hit) -> bool {
+        self.0.alpha_covers(ray, hit)
+    }
+
+    fn instance_hit(&self, index: u32, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        self.0.instance_hit_by(index, ray, t_min, t_max, true)
+    }
+}
+
+/// The leaf tests within a group: its triangles have no alpha (the
+/// builder refuses one) and a group holds no instance.
+struct InstanceTests<'a>(#[allow(dead_code)] &'a Scene);
+
+impl Coverage for InstanceTests<'_> {
+    #[inline]
+    fn covers(&self, _: &Ray, _: &Hit) -> bool {
+        true
+    }
+
+    #[inline]
+    fn instance_hit(&self, _: u32, _: &Ray, _: f32, _: f32) -> Option<Hit> {
+        None
     }
 }

@@ -563,6 +563,15 @@ struct Reader<'d> {
     /// By material: the mesh attributes its textures read (a shape's mesh
     /// gives them as its vertex colours).
     material_attributes: HashMap<u32, Vec<(String, bool)>>,
+    /// The instanced group of each `shapegroup` drawn so far (by where it
+    /// is in the file): its meshes' one copy, `None` where it has none.
+    groups: HashMap<String, Option<u32>>,
+}
+
+/// Whether a shape plugin is a triangle mesh (what an instanced group
+/// keeps one copy of).
+fn is_mesh(kind: &str) -> bool {
+    matches!(kind, "obj" | "ply" | "serialized" | "rectangle" | "cube")
 }
 
 /// Loads a Mitsuba 3 scene file with the command line's `-D` parameters.
@@ -582,6 +591,7 @@ pub fn build(doc: &Document) -> Result<Scene, SceneError> {
         sensor_seen: false,
         attributes_read: Vec::new(),
         material_attributes: HashMap::new(),
+        groups: HashMap::new(),
     };
     r.builder.render_origin = RenderOrigin::Camera;
     r.builder.background = Some(Background::Solid(Vec3::ZERO));
@@ -2023,10 +2033,17 @@ impl Reader<'_> {
         let props = Props::new(o);
         match o.kind.as_str() {
             "shapegroup" => {
-                // Defined here, drawn by its instances.
+                // Defined here, drawn by its instances. Mitsuba instances
+                // neither groups nor emitters.
                 for c in props.children("shape") {
                     if matches!(c.object.kind.as_str(), "shapegroup" | "instance") {
                         return Err(unsupported(&c.object, " inside a shapegroup"));
+                    }
+                    if let Some(e) = Props::new(&c.object).child("emitter")? {
+                        return Err(unsupported(
+                            &e.object,
+                            " on a shape of a shapegroup (Mitsuba cannot instance an emitter)",
+                        ));
                     }
                 }
                 return props.finish();
@@ -2044,8 +2061,17 @@ impl Reader<'_> {
                 };
                 let m = self.placement(&props, outer)?;
                 props.finish()?;
+                // The group's meshes: one copy in the group's own space,
+                // made at its first instance, seen through each; its
+                // analytic shapes (a map and a few numbers each) placed
+                // by each instance.
+                if let Some(g) = self.mesh_group(&group)? {
+                    self.builder
+                        .add_instance(g, &m)
+                        .map_err(|e| fail(&o.at, format!("{}: {e}", o.describe())))?;
+                }
                 for c in &group.children {
-                    if c.object.tag == "shape" {
+                    if c.object.tag == "shape" && !is_mesh(&c.object.kind) {
                         self.shape(&c.object, &m)?;
                     }
                 }
@@ -2065,6 +2091,31 @@ impl Reader<'_> {
             self.weights().shapes.push((first..end, w));
         }
         Ok(())
+    }
+
+    /// The instanced group of `group`'s meshes (made once: at its first
+    /// instance), `None` where it has none.
+    fn mesh_group(&mut self, group: &Object) -> Result<Option<u32>, SceneError> {
+        let key = format!("{:?}", group.at);
+        if let Some(&g) = self.groups.get(&key) {
+            return Ok(g);
+        }
+        let meshes: Vec<&Object> = (group.children.iter())
+            .filter(|c| c.object.tag == "shape" && is_mesh(&c.object.kind))
+            .map(|c| &*c.object)
+            .collect();
+        let g = if meshes.is_empty() {
+            None
+        } else {
+            let place = |e: SceneError| fail(&group.at, format!("{}: {e}", group.describe()));
+            self.builder.begin_group().map_err(place)?;
+            for m in meshes {
+                self.shape(m, &Transform::default())?;
+            }
+            Some(self.builder.end_group().map_err(place)?)
+        };
+        self.groups.insert(key, g);
+        Ok(g)
     }
 
     /// A shape that is not a group or an instance: its primitives.
