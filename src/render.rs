@@ -201,7 +201,9 @@ fn check(settings: &RenderSettings) -> Result<()> {
 }
 
 /// Where a progressive render runs: the CPU reference (in a thread pool
-/// where one is given), one GPU, or several.
+/// where one is given), one GPU, or several. `Copy`: a caller keeps it to
+/// open the render again (the viewer, on a change of spec).
+#[derive(Clone, Copy)]
 pub enum Devices<'a> {
     Cpu(Option<&'a rayon::ThreadPool>),
     Gpu(&'a gpu::GpuContext),

@@ -87,7 +87,7 @@ const MAX_GROWTH: u32 = 4;
 /// The viewer's state: a scene, a render spec, settings and a camera, and
 /// the progressive render they are traced into.
 pub struct View<'a> {
-    devices: DevicesRef<'a>,
+    devices: Devices<'a>,
     scene: &'a Scene,
     spec: RenderSpec,
     settings: RenderSettings,
@@ -111,24 +111,6 @@ pub struct View<'a> {
 /// each new count up to it (1, 2, 4, … 16).
 pub const AOV_SAMPLES: u32 = 16;
 
-/// [`Devices`] kept to reopen the render on a change of spec.
-#[derive(Clone, Copy)]
-enum DevicesRef<'a> {
-    Cpu(Option<&'a rayon::ThreadPool>),
-    Gpu(&'a gpu::GpuContext),
-    Gpus(&'a [gpu::GpuContext]),
-}
-
-impl<'a> DevicesRef<'a> {
-    fn devices(self) -> Devices<'a> {
-        match self {
-            DevicesRef::Cpu(p) => Devices::Cpu(p),
-            DevicesRef::Gpu(c) => Devices::Gpu(c),
-            DevicesRef::Gpus(c) => Devices::Gpus(c),
-        }
-    }
-}
-
 impl<'a> View<'a> {
     /// Opens the view of `scene` from its own camera (or `settings`'
     /// camera where it has one) on `devices`.
@@ -139,15 +121,10 @@ impl<'a> View<'a> {
         settings: RenderSettings,
         pace: Pace,
     ) -> Result<Self> {
-        let devices = match devices {
-            Devices::Cpu(p) => DevicesRef::Cpu(p),
-            Devices::Gpu(c) => DevicesRef::Gpu(c),
-            Devices::Gpus(c) => DevicesRef::Gpus(c),
-        };
         // The camera is the scene's (or the settings') exactly until it is
         // moved: the view camera's angles would round its position.
         let camera = ViewCamera::from_settings(&scene.camera_settings_for(&settings));
-        let render = render::open(devices.devices(), scene, &spec, settings)?;
+        let render = render::open(devices, scene, &spec, settings)?;
         let next = match pace {
             Pace::Fixed(n) => n.max(1),
             Pace::Hold(_) => 1,
@@ -279,7 +256,7 @@ impl<'a> View<'a> {
         validate_settings(&settings)?;
         if spec != self.spec {
             // New kernels (from the pipeline cache where compiled before).
-            self.render = render::open(self.devices.devices(), self.scene, &spec, settings)?;
+            self.render = render::open(self.devices, self.scene, &spec, settings)?;
         } else {
             self.render.reset(settings)?;
         }
