@@ -2093,6 +2093,25 @@ impl Scene {
             }
         }
         check_blends(&look.materials, &self.wraps)?;
+        // A group's triangles emit nothing (`check_groups`): an edit may
+        // not make their material a light.
+        for g in &self.groups {
+            let range = g.triangles.start as usize..g.triangles.end as usize;
+            if let Some(t) = self.triangles[range].iter().find(|t| {
+                matches!(
+                    look.materials.get(t.material as usize),
+                    Some(Material::DiffuseLight { .. })
+                )
+            }) {
+                return Err(SceneError::invalid(
+                    "group",
+                    format!(
+                        "material {} would emit, and an instanced mesh cannot be a light",
+                        t.material
+                    ),
+                ));
+            }
+        }
         // An edit may make an emissive material a light, whose own
         // emission is then the one read (`Scene::added_emission`).
         for (i, emission) in self.emissions.iter().enumerate() {

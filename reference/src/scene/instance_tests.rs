@@ -332,4 +332,14 @@ fn a_group_refuses_what_it_cannot_hold() {
     let g = b.end_group().unwrap();
     b.add_instance(g, &id).unwrap();
     assert!(refusal(b.build().unwrap_err()).contains("alpha"));
+    // Nor may an edit make them a light.
+    let e = scene(true)
+        .edited(|look| {
+            let white = look.textures.len() as u32;
+            look.textures
+                .push(crate::texture::Texture::Constant(Vec3::ONE));
+            look.materials[0] = Material::DiffuseLight { emission: white };
+        })
+        .unwrap_err();
+    assert!(refusal(e).contains("cannot be a light"));
 }
