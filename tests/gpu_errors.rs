@@ -79,7 +79,12 @@ fn a_lost_device_is_reported() {
 /// A tag the kernels do not know (a Rust tag added without its WGSL
 /// `case`, which tidy also catches) poisons the sample: it is counted as
 /// non-finite, which the renderer reports and every gate compares, instead
-/// of being absorbed or taken for another tag.
+/// of being absorbed or taken for another tag. The kernel is the one
+/// renders build, specialized to the scene's features: a switch's default
+/// arm (where an unknown tag goes) is the same code in every kernel, and
+/// the general kernel costs lavapipe about 130 s more to build cold
+/// (docs/benchmarks.md, "CI's time: what the general kernel costs"; the
+/// specialization gate builds it as its oracle).
 #[test]
 fn an_unknown_tag_poisons_its_samples() {
     use gpu::scene_buffers::PackedScene;
@@ -93,7 +98,15 @@ fn an_unknown_tag_poisons_its_samples() {
     };
     let total = 8 * 8 * 2;
     let render = |packed: &PackedScene| {
-        let r = gpu::GpuRenderer::from_packed(ctx, packed, &scene).unwrap();
+        let r = gpu::GpuRenderer::build(
+            ctx,
+            packed,
+            &scene,
+            &gpu::shader::render_source(),
+            reference::integrator::Integrator::Bsdf,
+            gpu::features::Features::of(&scene),
+        )
+        .unwrap();
         r.render(&settings, &|_, _| {}).unwrap().film
     };
     let clean = PackedScene::new(&scene);

@@ -308,27 +308,9 @@ impl<'a> GpuRenderer<'a> {
         Self::build_scheduled(ctx, &packed, scene, program, spec)
     }
 
-    /// Uploads already packed records (tests overwrite some first); `scene`
-    /// supplies the camera and background. The general kernel: the
-    /// records may no longer be what the scene's features say.
-    pub fn from_packed(
-        ctx: &'a GpuContext,
-        packed: &PackedScene,
-        scene: &'a Scene,
-    ) -> Result<Self, GpuError> {
-        Self::build(
-            ctx,
-            packed,
-            scene,
-            &shader::render_source(),
-            Integrator::Bsdf,
-            Features::ALL,
-        )
-    }
-
     /// Uploads `packed` (records of `scene` itself: the kernel is
     /// specialized to the scene's features, so edited records belong with
-    /// [`Self::from_packed`] or [`Self::build`]) and compiles `program`
+    /// [`Self::build`] and the features they need) and compiles `program`
     /// for `integrator` (the gates' tests compile the production WGSL with
     /// one deliberate defect).
     pub fn with_program(
