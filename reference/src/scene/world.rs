@@ -652,7 +652,7 @@ impl Scene {
         let instance = &self.instances[index as usize];
         let group = &self.groups[instance.group as usize];
         let local = instance.map.object_ray(ray);
-        let inner = InstanceTests(self);
+        let inner = InstanceTests;
         if !brute {
             return group
                 .accel
@@ -1028,9 +1028,9 @@ impl Coverage for BruteForce<'_> {
 
 /// The leaf tests within a group: its triangles have no alpha (the
 /// builder refuses one) and a group holds no instance.
-struct InstanceTests<'a>(#[allow(dead_code)] &'a Scene);
+struct InstanceTests;
 
-impl Coverage for InstanceTests<'_> {
+impl Coverage for InstanceTests {
     #[inline]
     fn covers(&self, _: &Ray, _: &Hit) -> bool {
         true
