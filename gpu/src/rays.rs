@@ -82,7 +82,9 @@ pub fn trace_closest(
             max_groups as u64 * WORKGROUP as u64
         )));
     }
-    let renderer = GpuRenderer::with_variant(ctx, scene, variant)?;
+    // The scene's records and bindings for the variant; the render kernel
+    // is never run here, so none is compiled.
+    let renderer = GpuRenderer::upload_variant(ctx, scene, variant)?;
     let source = [
         crate::shader::library_source().as_str(),
         &bindings::wgsl_declarations(&bindings::TEST_IO_GROUP),

@@ -228,6 +228,30 @@ pub fn bind_group_layout(ctx: &GpuContext) -> wgpu::BindGroupLayout {
     crate::pipeline::scene_layout(ctx)
 }
 
+/// `scene`'s records for `variant`'s walk and leaves, and the kernel
+/// description the variant asks for.
+fn variant_parts(scene: &Scene, variant: Variant) -> (PackedScene, KernelSpec) {
+    let Variant {
+        integrator,
+        kernel,
+        schedule,
+        traversal,
+        nodes,
+        leaves,
+        dispatch,
+        checks,
+    } = variant;
+    let packed = PackedScene::for_walk(scene, traversal, leaves).with_node_layout(nodes);
+    let spec = KernelSpec {
+        integrator,
+        features: kernel.features(scene),
+        schedule,
+        dispatch,
+        checks,
+    };
+    (packed, spec)
+}
+
 impl<'a> GpuRenderer<'a> {
     /// Packs and uploads `scene`, compiles the render kernel with BSDF
     /// sampling only.
@@ -287,25 +311,21 @@ impl<'a> GpuRenderer<'a> {
         variant: Variant,
         program: &str,
     ) -> Result<Self, GpuError> {
-        let Variant {
-            integrator,
-            kernel,
-            schedule,
-            traversal,
-            nodes,
-            leaves,
-            dispatch,
-            checks,
-        } = variant;
-        let packed = PackedScene::for_walk(scene, traversal, leaves).with_node_layout(nodes);
-        let spec = KernelSpec {
-            integrator,
-            features: kernel.features(scene),
-            schedule,
-            dispatch,
-            checks,
-        };
+        let (packed, spec) = variant_parts(scene, variant);
         Self::build_scheduled(ctx, &packed, scene, program, spec)
+    }
+
+    /// `scene` packed for `variant`'s walk, leaves and dispatch and
+    /// uploaded, with no render kernel compiled: for a kernel of the
+    /// caller's own over the scene's bindings (`rays::trace_closest`),
+    /// which takes [`Self::shared_constants`] and the variant's features.
+    pub fn upload_variant(
+        ctx: &'a GpuContext,
+        scene: &'a Scene,
+        variant: Variant,
+    ) -> Result<Self, GpuError> {
+        let (packed, spec) = variant_parts(scene, variant);
+        Self::upload(ctx, &packed, scene, None, spec)
     }
 
     /// Uploads `packed` (records of `scene` itself: the kernel is
