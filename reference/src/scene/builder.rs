@@ -1786,7 +1786,7 @@ impl SceneBuilder {
             ));
         }
         check_groups(
-            &self.groups,
+            self.groups.iter().map(|g| g.triangles.clone()),
             &self.triangles,
             &self.materials,
             &alphas,
@@ -1987,14 +1987,14 @@ impl SceneBuilder {
 /// walk within a group tests no coverage, and a light is sampled as a
 /// primitive of the scene, which a group's triangle is not.
 fn check_groups(
-    groups: &[GroupInput],
+    groups: impl IntoIterator<Item = std::ops::Range<u32>>,
     triangles: &[Triangle],
     materials: &[Material],
     alphas: &[Option<Alpha>],
     emissions: &[Option<u32>],
 ) -> Result<(), SceneError> {
     for g in groups {
-        for t in &triangles[g.triangles.start as usize..g.triangles.end as usize] {
+        for t in &triangles[g.start as usize..g.end as usize] {
             let m = t.material as usize;
             if alphas[m].is_some() {
                 return Err(SceneError::invalid(
@@ -2093,25 +2093,6 @@ impl Scene {
             }
         }
         check_blends(&look.materials, &self.wraps)?;
-        // A group's triangles emit nothing (`check_groups`): an edit may
-        // not make their material a light.
-        for g in &self.groups {
-            let range = g.triangles.start as usize..g.triangles.end as usize;
-            if let Some(t) = self.triangles[range].iter().find(|t| {
-                matches!(
-                    look.materials.get(t.material as usize),
-                    Some(Material::DiffuseLight { .. })
-                )
-            }) {
-                return Err(SceneError::invalid(
-                    "group",
-                    format!(
-                        "material {} would emit, and an instanced mesh cannot be a light",
-                        t.material
-                    ),
-                ));
-            }
-        }
         // An edit may make an emissive material a light, whose own
         // emission is then the one read (`Scene::added_emission`).
         for (i, emission) in self.emissions.iter().enumerate() {
@@ -2137,6 +2118,15 @@ impl Scene {
                 ),
             ));
         }
+        // What the builder refuses of a group's triangles, under the
+        // edited materials (an edit may make theirs a light).
+        check_groups(
+            self.groups.iter().map(|g| g.triangles()),
+            &self.triangles,
+            &look.materials,
+            &self.alphas,
+            &self.emissions,
+        )?;
         self.camera_settings = look.camera;
         self.render_camera = render_camera;
         self.render = look.render;
