@@ -782,18 +782,7 @@ mod tests {
             let a = scene.intersect(&ray, 0.0, f32::INFINITY);
             let h = e.intersect(&ray, 0.0, f32::INFINITY);
             // What a hit is on, and the ray it was tested with.
-            let shape = |prim: u32, sub: u32| {
-                let p = scene.primitives()[prim as usize];
-                if p.tag != primitive_tag::INSTANCE {
-                    return (Shape64::of(&scene, prim), ray);
-                }
-                let map = scene.instances()[p.index as usize].map;
-                let tri = scene.triangles()[sub as usize];
-                let points = tri
-                    .vertices
-                    .map(|v| scene.mesh().positions[v as usize].as_dvec3());
-                (Shape64::Triangle { p: points }, map.object_ray(&ray))
-            };
+            let shape = |prim: u32, sub: u32| Shape64::of_hit(&scene, &ray, prim, sub);
             let near_edge = |prim: u32, sub: u32, t: f32| {
                 let (s, r) = shape(prim, sub);
                 f64_oracle::near_boundary(&s, &r, t)

@@ -160,7 +160,25 @@ pub enum Shape64 {
 }
 
 impl Shape64 {
-    /// Primitive `prim` of `scene`, exactly.
+    /// What a hit (primitive `prim`, `sub`: [`crate::geometry::Hit`]'s)
+    /// is on and the ray it was tested with: the primitive and `ray`, or,
+    /// through an instance, the group's triangle in its object space and
+    /// the ray mapped there as both twins map it (the same t).
+    pub fn of_hit(scene: &Scene, ray: &Ray, prim: u32, sub: u32) -> (Self, Ray) {
+        let p = scene.primitives()[prim as usize];
+        if p.tag != primitive_tag::INSTANCE {
+            return (Self::of(scene, prim), *ray);
+        }
+        let map = scene.instances()[p.index as usize].map;
+        let tri = scene.triangles()[sub as usize];
+        let points = tri
+            .vertices
+            .map(|i| scene.mesh().positions[i as usize].as_dvec3());
+        (Shape64::Triangle { p: points }, map.object_ray(ray))
+    }
+
+    /// Primitive `prim` of `scene`, exactly (not an instance, whose hits
+    /// are on its group's triangles: [`Shape64::of_hit`]).
     pub fn of(scene: &Scene, prim: u32) -> Self {
         let p = scene.primitives()[prim as usize];
         match p.tag {

@@ -27,7 +27,7 @@ use reference::f64_oracle::{self, ray_f64, Shape64, EDGE_ERROR_ULPS, F32_UNIT_RO
 use reference::geometry::Ray;
 use reference::material::Material;
 use reference::rng::random_f32;
-use reference::scene::{primitive_tag, SceneBuilder, Transform};
+use reference::scene::{SceneBuilder, Transform};
 use reference::Scene;
 
 /// The kernel of [`hit_records`]: six words per ray in, six out (hit,
@@ -87,23 +87,6 @@ fn uv_bound(shape: &Shape64, ray: &Ray, t: f64) -> f64 {
 /// Words a ray's record takes in the kernel's output.
 pub const HIT_WORDS: usize = 6;
 
-/// What a hit (primitive `prim`, `sub`: [`reference::geometry::Hit`]'s)
-/// is on and the ray it was tested with: the primitive and `ray`, or,
-/// through an instance, the group's triangle in its object space and the
-/// ray mapped there as both twins map it (the same t).
-pub fn hit_shape(scene: &Scene, ray: &Ray, prim: u32, sub: u32) -> (Shape64, Ray) {
-    let p = scene.primitives()[prim as usize];
-    if p.tag != primitive_tag::INSTANCE {
-        return (Shape64::of(scene, prim), *ray);
-    }
-    let map = scene.instances()[p.index as usize].map;
-    let tri = scene.triangles()[sub as usize];
-    let points = tri
-        .vertices
-        .map(|i| scene.mesh().positions[i as usize].as_dvec3());
-    (Shape64::Triangle { p: points }, map.object_ray(ray))
-}
-
 /// A hit as the check compares it: primitive, the triangle of an
 /// instance's group, t.
 type Found = (u32, u32, f32);
@@ -111,12 +94,12 @@ type Found = (u32, u32, f32);
 /// Whether a disagreement in hit or primitive at this hit is one the
 /// error model allows: near a boundary of a hit primitive, or a tie.
 fn excused(scene: &Scene, ray: &Ray, (prim, sub, t): Found, other: Option<Found>) -> bool {
-    let (shape, r) = hit_shape(scene, ray, prim, sub);
+    let (shape, r) = Shape64::of_hit(scene, ray, prim, sub);
     if f64_oracle::near_boundary(&shape, &r, t) {
         return true;
     }
     other.is_some_and(|(q, q_sub, tq)| {
-        let (s, rq) = hit_shape(scene, ray, q, q_sub);
+        let (s, rq) = Shape64::of_hit(scene, ray, q, q_sub);
         if f64_oracle::near_boundary(&s, &rq, tq) {
             return true;
         }
@@ -156,7 +139,7 @@ pub fn hit_records(ctx: &GpuContext, name: &str, scene: &Scene, library: &str) -
         match (cpu_hit, gpu_hit) {
             (None, None) => same += 1,
             (Some(c), Some((prim, sub, t))) if (c.prim, c.sub) == (prim, sub) => {
-                let (shape, ray) = hit_shape(scene, world_ray, prim, sub);
+                let (shape, ray) = Shape64::of_hit(scene, world_ray, prim, sub);
                 let ray = &ray;
                 let exact = shape.t_near(ray, c.t as f64).unwrap_or(c.t as f64);
                 let bound = f64_oracle::t_error_bound(&shape, ray, exact);
