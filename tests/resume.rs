@@ -22,7 +22,8 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 use twintrace::partial::Part;
 use twintrace::render::{
-    add_chunked, held_film, Added, Chunking, CpuProgressive, Layers, Progressive, RenderSpec,
+    add_chunked, held_film, Added, Chunking, CpuProgressive, Hooks, Job, JobOptions, Layers,
+    Phases, Progressive, RenderSpec,
 };
 
 /// A finished `twintrace` process.
@@ -755,6 +756,98 @@ fn the_cpu_reference_abandons_the_chunk_in_flight() {
     let never = || false;
     assert!(p.add_until(2..40, &|_| {}, &never).unwrap().is_some());
     assert_eq!(p.ranges(), std::slice::from_ref(&(0..40)));
+}
+
+/// The library's render job ([`Job`]), with no process around it. With a
+/// checkpoint after every chunk (an interval of zero: chunks of one
+/// sample), a job stopped by its hook after a few chunks writes the
+/// samples done as its partial film; a job resuming that part writes the
+/// image of a job never stopped, bit for bit. A job whose render fails in
+/// its third chunk (a device lost) saves the two chunks before it and
+/// names the part and how to continue (the hook's words); one that fails in its first saves
+/// nothing and says so.
+#[test]
+fn a_job_stopped_and_resumed_writes_the_whole_render_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let dir = dir.path();
+    let scene = reference::load_scene("cornell").unwrap();
+    let spec = RenderSpec::DEFAULT;
+    let settings = tiny();
+    let every_chunk = JobOptions {
+        checkpoint: Some(Duration::ZERO),
+        ..JobOptions::default()
+    };
+    let never = || false;
+    let resume_hint = |p: &Path| format!("RESUME {}", p.display());
+    let run = |job: &Job, render: &mut dyn Progressive, stop: &(dyn Fn() -> bool + Sync)| {
+        let hooks = Hooks {
+            stop,
+            progress: &|_| {},
+            status: &mut |_, _, _| {},
+            continue_with: &resume_hint,
+        };
+        job.render(render, hooks)
+    };
+    let cpu = || CpuProgressive::new(&scene, &spec, settings, None).unwrap();
+    let job = |name: &str, options: JobOptions| {
+        Job::new(&scene, "cornell", spec, settings, &dir.join(name), options).unwrap()
+    };
+    let failing = |fail_at| Failing {
+        inner: cpu(),
+        adds: 0,
+        fail_at,
+    };
+
+    let whole = job("whole", JobOptions::default());
+    let mut p = cpu();
+    let done = run(&whole, &mut p, &never).unwrap();
+    assert_eq!((done.end, done.interrupted.clone()), (64, None));
+    whole
+        .write(&mut p, done.end, &mut Phases::default())
+        .unwrap();
+
+    let stopped = job("out", every_chunk.clone());
+    let chunks = AtomicUsize::new(0);
+    let stop = || chunks.fetch_add(1, Ordering::SeqCst) >= 6;
+    let mut p = cpu();
+    let done = run(&stopped, &mut p, &stop).unwrap();
+    let part = stopped.partial_paths().exr.clone();
+    assert_eq!(done.interrupted, Some(Some(part.clone())));
+    assert!((1..64).contains(&done.end), "stopped at {}", done.end);
+    let read = Part::read(&part).unwrap();
+    assert_eq!(read.samples, 0..done.end);
+
+    let mut resumed = job("resumed", JobOptions::default());
+    resumed.resume(&part, read).unwrap();
+    assert_eq!(resumed.todo(), done.end..64);
+    let mut p = cpu();
+    let rest = run(&resumed, &mut p, &never).unwrap();
+    assert_eq!((rest.end, rest.interrupted), (64, None));
+    resumed
+        .write(&mut p, rest.end, &mut Phases::default())
+        .unwrap();
+    same_film(&dir.join("resumed.exr"), &dir.join("whole.exr")).unwrap();
+
+    let lost = job("lost", every_chunk.clone());
+    let mut f = failing(3);
+    let e = format!("{:#}", run(&lost, &mut f, &never).unwrap_err());
+    let saved = lost.partial_paths().exr.clone();
+    assert!(e.contains("the device was lost (a test's)"), "{e}");
+    let held = Part::read(&saved).unwrap().samples;
+    assert!(held.start == 0 && (1..64).contains(&held.end), "{held:?}");
+    let said = format!(
+        "samples 0..{} of 0..64 are saved in `{}`: continue with: RESUME {}",
+        held.end,
+        saved.display(),
+        saved.display()
+    );
+    assert!(e.contains(&said), "{e}");
+
+    let first = job("first", every_chunk);
+    let mut f = failing(1);
+    let e = format!("{:#}", run(&first, &mut f, &never).unwrap_err());
+    assert!(e.contains("nothing was saved (no sample was done;"), "{e}");
+    assert!(!first.partial_paths().exr.exists());
 }
 
 /// A second signal ends the render at once, with 130, while its chunk is

@@ -157,12 +157,4 @@ pub(crate) fn print_stdout(text: &str) -> Result<()> {
     }
 }
 
-/// Joins a possibly multi-line message into one line.
-pub fn one_line(message: &str) -> String {
-    message
-        .lines()
-        .map(str::trim)
-        .filter(|l| !l.is_empty())
-        .collect::<Vec<_>>()
-        .join(" ")
-}
+pub use twintrace::render::one_line;

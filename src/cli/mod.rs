@@ -45,8 +45,8 @@ use reference::RenderSettings;
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::PathBuf;
-use std::time::Instant;
-use twintrace::image_io::{self, AtomicFile, RenderImage, RenderMetadata};
+use twintrace::image_io::{self, AtomicFile};
+use twintrace::render::{Job, JobOptions, Phases};
 use twintrace::tonemap::Tonemap;
 
 #[derive(Debug, Parser)]
@@ -365,27 +365,6 @@ impl std::fmt::Display for Interrupted {
 
 impl std::error::Error for Interrupted {}
 
-/// Where a render writes the samples done when it stops early (a signal,
-/// a lost device, a checkpoint): `OUT.partial.exr` and `OUT.partial.png`.
-struct PartialPaths {
-    /// `OUT.partial`, as [`twintrace::partial::Part::write`] takes it.
-    base: PathBuf,
-    exr: PathBuf,
-    png: PathBuf,
-}
-
-fn partial_paths(paths: &image_io::OutputPaths) -> Result<PartialPaths> {
-    let mut base = paths.exr.with_extension("").into_os_string();
-    base.push(".partial");
-    let base = PathBuf::from(base);
-    let p = image_io::output_paths(&base)?;
-    Ok(PartialPaths {
-        base,
-        exr: p.exr,
-        png: p.png,
-    })
-}
-
 /// This process's command line with `--resume PART` in place of any
 /// `--resume` it had, quoted for a POSIX shell: the command that continues
 /// the render from `part`.
@@ -419,186 +398,186 @@ fn shell_quote(word: &str) -> String {
     }
 }
 
-/// The wall time of a command's phases, each from the end of the one
-/// before (`render --timings`).
-struct Phases {
-    last: Instant,
-    done: Vec<(&'static str, f64)>,
+/// What `render`'s arguments say, checked before the scene is loaded: a
+/// bad option or an output that would overwrite an input fails before any
+/// work.
+struct RenderPlan {
+    checkpoint: Option<std::time::Duration>,
+    samples: Option<std::ops::Range<u32>>,
+    aovs: Vec<twintrace::aov::AovLayer>,
+    /// The files read: the scene's, then the files the scene reads.
+    read: Vec<outputs::Named>,
+    resume_input: Option<outputs::Named>,
+    /// The image's files, and the partial film's.
+    written: Vec<outputs::Named>,
+    partial_written: Vec<outputs::Named>,
 }
 
-impl Phases {
-    fn new() -> Self {
-        Phases {
-            last: Instant::now(),
-            done: Vec::new(),
+impl RenderPlan {
+    fn new(args: &RenderArgs) -> Result<Self> {
+        if args.threads == Some(0) {
+            bail!("--threads 0: at least one thread is needed");
         }
+        // Fail on an unusable output path or option now, not after a long render.
+        let paths = image_io::output_paths(&args.output)?;
+        let partial = twintrace::render::PartialPaths::of(&paths)?;
+        let arg = format!("-o {} (its partial film)", args.output.display());
+        let mut plan = RenderPlan {
+            checkpoint: None,
+            samples: None,
+            aovs: Vec::new(),
+            read: Vec::new(),
+            resume_input: args
+                .resume
+                .as_ref()
+                .map(|p| outputs::input_file("resume part", p)),
+            written: render_outputs("-o", &args.output, &paths),
+            partial_written: vec![
+                outputs::output(arg.clone(), &partial.exr),
+                outputs::output(arg, &partial.png),
+            ],
+        };
+        let scene_file = std::path::Path::new(&args.scene);
+        if scene_file.exists() {
+            plan.read.push(outputs::input_file("scene", scene_file));
+        }
+        plan.check_outputs()?;
+        drop(AtomicFile::create(&paths.exr)?);
+        if let Some(size) = &args.size {
+            size_arg(size)?;
+        }
+        if let Some(t) = &args.time {
+            parse_duration(t)?;
+        }
+        plan.checkpoint = args
+            .checkpoint
+            .as_deref()
+            .map(|t| parse_duration_for("--checkpoint", t))
+            .transpose()
+            .map_err(|e| Refused(e.to_string()))?;
+        // The film's band limit (tests force small bands): refused now, by name.
+        gpu::film::band_pixels_from_env().map_err(Refused)?;
+        plan.samples = args
+            .samples
+            .as_deref()
+            .map(twintrace::partial::parse_samples)
+            .transpose()
+            .map_err(|e| Refused(e.to_string()))?;
+        plan.aovs = args
+            .aov
+            .as_deref()
+            .map(twintrace::aov::AovLayer::parse_list)
+            .transpose()
+            .map_err(|e| Refused(e.to_string()))?
+            .unwrap_or_default();
+        if !plan.aovs.is_empty() && plan.samples.is_some() {
+            return Err(Refused(
+                "--aov with --samples: a partial film holds the image's sums only; render the AOVs with the whole render (or a render of their own)".into(),
+            )
+            .into());
+        }
+        Ok(plan)
     }
 
-    /// Ends the phase called `name`; returns its seconds.
-    fn end(&mut self, name: &'static str) -> f64 {
-        let now = Instant::now();
-        let s = (now - self.last).as_secs_f64();
-        self.last = now;
-        self.done.push((name, s));
-        s
-    }
-
-    fn report(&self) -> String {
-        let total: f64 = self.done.iter().map(|(_, s)| s).sum();
-        let parts: Vec<String> = self
-            .done
+    /// The outputs never overwrite an input; the image's files never the
+    /// resume part either, but the partial film may (it holds the part's
+    /// samples and more, and replaces it whole).
+    fn check_outputs(&self) -> Result<()> {
+        let mut inputs = self.read.clone();
+        inputs.extend(self.resume_input.clone());
+        outputs::check(&inputs, &self.written)?;
+        let all: Vec<outputs::Named> = self
+            .written
             .iter()
-            .map(|(n, s)| format!("{n} {s:.3} s"))
+            .chain(&self.partial_written)
+            .cloned()
             .collect();
-        format!("timings: {} = {total:.3} s", parts.join(", "))
+        outputs::check(&self.read, &all)?;
+        Ok(())
+    }
+
+    /// The job of `args` on `scene`: settings resolved, its samples, its
+    /// budget, and the part it resumes.
+    fn job<'s>(&self, args: &RenderArgs, scene: &'s reference::Scene) -> Result<Job<'s>> {
+        let settings = resolve_settings(scene.render_settings(), args)?;
+        if let Some(range) = &self.samples {
+            if args.spp.is_some_and(|spp| range.end > spp) {
+                bail!(
+                    "--samples {}..{} reaches past --spp {}",
+                    range.start,
+                    range.end,
+                    args.spp.unwrap_or_default()
+                );
+            }
+        }
+        let options = JobOptions {
+            samples: self.samples.clone(),
+            budget: budget(args, &settings)?,
+            checkpoint: self.checkpoint,
+            aovs: self.aovs.clone(),
+        };
+        let spec = spec::spec(&args.look, &args.variant);
+        let mut job = Job::new(scene, &args.scene, spec, settings, &args.output, options)?;
+        if let Some(path) = &args.resume {
+            let part = twintrace::partial::Part::read(path)
+                .map_err(|e| Refused(format!("--resume: {}", one_line(&format!("{e:#}")))))?;
+            job.resume(path, part).map_err(|e| Refused(e.to_string()))?;
+        }
+        Ok(job)
     }
 }
 
-/// The EXR channels of the AOV layers `layers` of a render of `spp`
-/// samples a pixel (none: no channels).
-fn aov_extras(
-    progressive: &mut dyn twintrace::render::Progressive,
-    layers: &[twintrace::aov::AovLayer],
-    scene: &reference::Scene,
-    (spp, rejected): (u32, u64),
-    sums: Option<&reference::film::FilmSums>,
-) -> Result<image_io::ExrExtras> {
-    let mut extras = image_io::ExrExtras::default();
-    if layers.iter().any(|l| l.traced()) {
-        let aovs = progressive.aovs(0..spp)?.layers();
-        extras.f32_channels = twintrace::aov::float_channels(layers, &aovs, scene.render_origin());
-    }
-    if layers.contains(&twintrace::aov::AovLayer::Samples) {
-        // With no sample rejected, every pixel holds all `spp`; else the
-        // counts come from the film's sums (the whole film read back).
-        let (w, h) = (progressive.settings().width, progressive.settings().height);
-        extras.u32_channels.push(if rejected == 0 {
-            twintrace::aov::samples_channel_uniform(w as usize * h as usize, spp)
+/// An image this machine cannot hold: refused before the render, in one
+/// line.
+fn check_memory(job: &Job, device: &Device) -> Result<()> {
+    use twintrace::host_memory as mem;
+    // A software adapter's film (lavapipe's) is in host memory too.
+    let software = match device {
+        Device::Cpu => 0,
+        Device::Gpu(ctx) => ctx.is_software as u64,
+        Device::Gpus(ctxs) => ctxs.iter().filter(|c| c.is_software).count() as u64,
+    };
+    let (backend, base) = match device {
+        Device::Cpu => ("cpu", mem::CPU_BYTES_PER_PIXEL),
+        Device::Gpu(_) | Device::Gpus(_) => (
+            "gpu",
+            mem::GPU_BYTES_PER_PIXEL + software * mem::DEVICE_FILM_BYTES_PER_PIXEL,
+        ),
+    };
+    let aovs = !job.aovs().is_empty();
+    let per_pixel = base
+        + if aovs { mem::AOV_BYTES_PER_PIXEL } else { 0 }
+        + if job.reads_sums() {
+            mem::SUMS_BYTES_PER_PIXEL
         } else {
-            match sums {
-                Some(sums) => twintrace::aov::samples_channel(sums),
-                None => twintrace::aov::samples_channel(&progressive.sums()?),
-            }
-        });
-    }
-    Ok(extras)
+            0
+        };
+    let settings = job.settings();
+    let what = format!(
+        "a {}x{} render on the {backend}",
+        settings.width, settings.height
+    );
+    let pixels = settings.width as u64 * settings.height as u64;
+    let available = mem::available().map_err(Refused)?;
+    mem::check(&what, pixels, per_pixel, available).map_err(|e| anyhow!(e))?;
+    Ok(())
 }
 
 fn render(args: &RenderArgs) -> Result<()> {
     // First: a Ctrl-C from here on is answered with the samples done.
     interrupt::install()?;
-    let mut phases = Phases::new();
-    if args.threads == Some(0) {
-        bail!("--threads 0: at least one thread is needed");
-    }
-    // Fail on an unusable output path or option now, not after a long render.
-    let paths = image_io::output_paths(&args.output)?;
-    let partial = partial_paths(&paths)?;
-    let written = render_outputs("-o", &args.output, &paths);
-    let partial_written = {
-        let arg = format!("-o {} (its partial film)", args.output.display());
-        vec![
-            outputs::output(arg.clone(), &partial.exr),
-            outputs::output(arg, &partial.png),
-        ]
-    };
-    let scene_file = std::path::Path::new(&args.scene);
-    let mut read = Vec::new();
-    if scene_file.exists() {
-        read.push(outputs::input_file("scene", scene_file));
-    }
-    let resume_input = args
-        .resume
-        .as_ref()
-        .map(|p| outputs::input_file("resume part", p));
-    // The output never overwrites the resume part; the partial film may
-    // (it holds the part's samples and more, and replaces it whole).
-    let check_outputs = |read: &[outputs::Named]| -> Result<()> {
-        let mut inputs = read.to_vec();
-        inputs.extend(resume_input.clone());
-        outputs::check(&inputs, &written)?;
-        let all: Vec<outputs::Named> = written.iter().chain(&partial_written).cloned().collect();
-        outputs::check(read, &all)?;
-        Ok(())
-    };
-    check_outputs(&read)?;
-    drop(AtomicFile::create(&paths.exr)?);
-    if let Some(size) = &args.size {
-        size_arg(size)?;
-    }
-    if let Some(t) = &args.time {
-        parse_duration(t)?;
-    }
-    let checkpoint = args
-        .checkpoint
-        .as_deref()
-        .map(|t| parse_duration_for("--checkpoint", t))
-        .transpose()
-        .map_err(|e| Refused(e.to_string()))?;
-    // The film's band limit (tests force small bands): refused now, by name.
-    gpu::film::band_pixels_from_env().map_err(Refused)?;
-    let samples = args
-        .samples
-        .as_deref()
-        .map(twintrace::partial::parse_samples)
-        .transpose()
-        .map_err(|e| Refused(e.to_string()))?;
-    let aovs = args
-        .aov
-        .as_deref()
-        .map(twintrace::aov::AovLayer::parse_list)
-        .transpose()
-        .map_err(|e| Refused(e.to_string()))?
-        .unwrap_or_default();
-    if !aovs.is_empty() && samples.is_some() {
-        return Err(Refused(
-            "--aov with --samples: a partial film holds the image's sums only; render the AOVs with the whole render (or a render of their own)".into(),
-        )
-        .into());
-    }
+    let mut phases = Phases::default();
+    let mut plan = RenderPlan::new(args)?;
     let scene = load_scene(&args.scene)?;
-    read.extend(scene.sources().iter().map(|f| {
+    plan.read.extend(scene.sources().iter().map(|f| {
         outputs::input(
             format!("`{}`, which the scene reads", f.display()),
             f.clone(),
         )
     }));
-    check_outputs(&read)?;
+    plan.check_outputs()?;
     phases.end("scene");
-    let mut settings = resolve_settings(scene.render_settings(), args)?;
-    if let Some(range) = &samples {
-        if args.spp.is_some_and(|spp| range.end > spp) {
-            bail!(
-                "--samples {}..{} reaches past --spp {}",
-                range.start,
-                range.end,
-                args.spp.unwrap_or_default()
-            );
-        }
-        // The range, not spp, says which samples are traced.
-        settings.spp = range.end - range.start;
-    }
-    let budget = budget(args, &settings)?;
-    let spec = spec::spec(&args.look, &args.variant);
-    // The samples this command renders, whole: a budget's cap.
-    let range = match (&samples, &budget) {
-        (Some(r), _) => r.clone(),
-        (None, Some(b)) => 0..b.max_samples,
-        (None, None) => 0..settings.spp,
-    };
-    let key = twintrace::partial::RenderKey::new(&scene, &settings, spec.integrator());
-    let base = match &args.resume {
-        Some(path) => {
-            let part = twintrace::partial::Part::read(path)
-                .map_err(|e| Refused(format!("--resume: {}", one_line(&format!("{e:#}")))))?;
-            part.resume_check(path, &key, &range)
-                .map_err(|e| Refused(e.to_string()))?;
-            Some(part)
-        }
-        None => None,
-    };
-    // The samples left to trace.
-    let todo = base.as_ref().map_or(range.start, |p| p.samples.end)..range.end;
+    let job = plan.job(args, &scene)?;
     let pool = match args.threads {
         Some(n) => Some(
             rayon::ThreadPoolBuilder::new()
@@ -610,39 +589,9 @@ fn render(args: &RenderArgs) -> Result<()> {
     };
     let (device, _, why) = open_device(args)?;
     phases.end("device");
-    // An image this machine cannot hold: refused now, in one line.
-    {
-        use twintrace::host_memory as mem;
-        // A software adapter's film (lavapipe's) is in host memory too.
-        let software = match &device {
-            Device::Cpu => 0,
-            Device::Gpu(ctx) => ctx.is_software as u64,
-            Device::Gpus(ctxs) => ctxs.iter().filter(|c| c.is_software).count() as u64,
-        };
-        let (backend, base) = match &device {
-            Device::Cpu => ("cpu", mem::CPU_BYTES_PER_PIXEL),
-            Device::Gpu(_) | Device::Gpus(_) => (
-                "gpu",
-                mem::GPU_BYTES_PER_PIXEL + software * mem::DEVICE_FILM_BYTES_PER_PIXEL,
-            ),
-        };
-        let sums = samples.is_some() || checkpoint.is_some() || args.resume.is_some();
-        let per_pixel =
-            base + if aovs.is_empty() {
-                0
-            } else {
-                mem::AOV_BYTES_PER_PIXEL
-            } + if sums { mem::SUMS_BYTES_PER_PIXEL } else { 0 };
-        let what = format!(
-            "a {}x{} render on the {backend}",
-            settings.width, settings.height
-        );
-        let pixels = settings.width as u64 * settings.height as u64;
-        let available = mem::available().map_err(Refused)?;
-        mem::check(&what, pixels, per_pixel, available).map_err(|e| anyhow!(e))?;
-    }
+    check_memory(&job, &device)?;
     let devices = device.devices(pool.as_ref());
-    let mut progressive = twintrace::render::open(devices, &scene, &spec, settings)?;
+    let mut progressive = twintrace::render::open(devices, &scene, job.spec(), *job.settings())?;
     phases.end("kernels and upload");
     for note in progressive.notes() {
         eprintln!("warning: {note}");
@@ -653,310 +602,146 @@ fn render(args: &RenderArgs) -> Result<()> {
         // prints nothing but its error line.
         eprintln!("backend auto: {device_name}{why}");
     }
-
-    let pixels = settings.width as u64 * settings.height as u64;
-    let start = Instant::now();
-    let mut stopped_by: Option<(&'static str, Option<f64>)> = None;
-    let film_settings = settings;
-    // The partial film of the samples `range.start..end` the render holds
-    // (the resume part's and the film's, added).
-    let make_part =
-        |mut sums: reference::film::FilmSums, end: u32| -> Result<twintrace::partial::Part> {
-            let mut devices = device_name.clone();
-            if let Some(base) = &base {
-                sums.merge(&base.sums).map_err(|e| anyhow!(e))?;
-                if !base.devices.split(", ").any(|d| d == device_name) {
-                    devices = format!("{}, {device_name}", base.devices);
-                }
-            }
-            Ok(twintrace::partial::Part {
-                key: key.clone(),
-                samples: range.start..end,
-                devices,
-                sums,
-                metadata: RenderMetadata::for_render(
-                    &args.scene,
-                    &film_settings,
-                    end - range.start,
-                    &device_name,
-                    spec.integrator(),
-                ),
-                target: Some(range.clone()),
-            })
-        };
-    // The partial film of the samples `range.start..` the render holds
-    // (the resume part's and the film's, added).
-    let part_of = |progressive: &mut dyn twintrace::render::Progressive| {
-        let (end, sums) = twintrace::render::held_film(progressive, todo.start)?;
-        make_part(sums, end)
-    };
-    // The end of the samples the last checkpoint wrote.
-    let checkpointed = std::cell::Cell::new(None::<u32>);
-    let mut last_checkpoint = Instant::now();
-    let mut after_chunk = |progressive: &mut dyn twintrace::render::Progressive| -> Result<()> {
-        let Some(every) = checkpoint else {
-            return Ok(());
-        };
-        if last_checkpoint.elapsed() < every {
-            return Ok(());
+    let rendered = run_job(&job, progressive.as_mut())?;
+    if let Some(saved) = &rendered.interrupted {
+        return interrupted(args, &job, &rendered, saved.as_deref(), &device_name);
+    }
+    phases.end("rendering");
+    let written = job.write(progressive.as_mut(), rendered.end, &mut phases)?;
+    let compiled = save_caches(&device);
+    // The film and the device are left to the end of the process (the
+    // driver frees them when it exits), which is at hand: tearing them
+    // down took 0.07–0.11 s on the H200.
+    std::mem::forget(progressive);
+    std::mem::forget(device);
+    phases.end("teardown");
+    if args.timings {
+        let file_times = written.times.as_ref().map_or(String::new(), |t| {
+            format!(
+                " (EXR {:.3} s, PNG {:.3} s, at once)",
+                t.exr.as_secs_f64(),
+                t.png.as_secs_f64()
+            )
+        });
+        eprintln!("{}{file_times}", phases.report());
+        for line in compiled {
+            eprintln!("{line}");
         }
-        let part = part_of(progressive)?;
-        part.write(&partial.base, spec.tonemap)?;
-        checkpointed.set(Some(part.samples.end));
-        last_checkpoint = Instant::now();
-        Ok(())
+    }
+    let done = Done {
+        job: &job,
+        rendered: &rendered,
+        written: &written,
+        phases: &phases,
+        device: &device_name,
     };
-    let stop = || interrupt::received().is_some();
-    let mut chunking =
-        twintrace::render::Chunking::new(twintrace::render::CHUNK_TIME, &stop, &mut after_chunk)
-            .with_span(checkpoint);
-    let bar = match &budget {
+    match args.json {
+        true => print_stdout(&format!("{}\n", done.json(args))),
+        false => print_stdout(&done.line(args)),
+    }
+}
+
+/// Runs `job` on `render` with a progress bar (a spinner for a budget),
+/// stopped by an interrupt; prints each device's share where several
+/// shared the samples.
+fn run_job(
+    job: &Job,
+    render: &mut dyn twintrace::render::Progressive,
+) -> Result<twintrace::render::Rendered> {
+    let todo = job.todo();
+    let pixels = job.settings().width as u64 * job.settings().height as u64;
+    let bar = match job.budget() {
         None => progress_bar(pixels * (todo.end - todo.start) as u64),
         Some(_) => indicatif::ProgressBar::new_spinner(),
     };
-    // The samples done: `range.start..end`.
-    // The samples done, whether a signal stopped them, the GPU time, why
-    // a budget stopped, and each device's share where several shared them.
-    type Rendered = (
-        u32,
-        bool,
-        Option<std::time::Duration>,
-        String,
-        Vec<gpu::devices::DeviceShare>,
-    );
-    let rendered: Result<Rendered> = match &budget {
-        _ if todo.is_empty() => Ok((todo.end, false, None, String::new(), Vec::new())),
-        None => twintrace::render::add_chunked(
-            progressive.as_mut(),
-            todo.clone(),
-            Some(&mut chunking),
-            &|n| bar.inc(n),
-        )
-        .map(|added| {
-            bar.finish_and_clear();
-            // An interrupted render says one line (its samples saved).
-            let shares = if added.stopped {
-                &[][..]
-            } else {
-                &added.shares[..]
-            };
-            for (i, share) in shares.iter().enumerate() {
-                eprintln!(
-                    "device {i} `{}`: {} samples a pixel ({:.0} %)",
-                    share.adapter,
-                    share.samples,
-                    100.0 * share.samples as f64 / (todo.end - todo.start) as f64
-                );
-            }
-            (
-                added.end,
-                added.stopped,
-                added.gpu_time,
-                String::new(),
-                added.shares,
-            )
-        }),
-        Some(budget) => {
-            let mut status = |spp: u32, relmse: Option<f64>, left: Option<std::time::Duration>| {
-                let mut m = format!("{spp} spp");
-                if let Some(e) = relmse {
-                    let _ = write!(m, ", relMSE ~{e:.2e}");
-                }
-                if let Some(l) = left {
-                    let _ = write!(m, ", {:.1} s left", l.as_secs_f64());
-                }
-                bar.set_message(m);
-                bar.tick();
-            };
-            twintrace::render::run_budget_with(
-                progressive.as_mut(),
-                budget,
-                todo.start,
-                base.as_ref().map(|p| &p.sums),
-                Some(&mut chunking),
-                &mut status,
-                &|_| {},
-            )
-            .map(|out| {
-                bar.finish_and_clear();
-                let interrupted = out.stopped == twintrace::render::INTERRUPTED;
-                if !interrupted {
-                    stopped_by = Some((out.stopped, out.relmse));
-                }
-                let relmse = out
-                    .relmse
-                    .map(|e| format!(", predicted relMSE {e:.2e}"))
-                    .unwrap_or_default();
-                (
-                    out.samples,
-                    interrupted,
-                    out.gpu_time,
-                    format!(" (stopped by {}{relmse})", out.stopped),
-                    Vec::new(),
-                )
-            })
+    let mut status = |spp: u32, relmse: Option<f64>, left: Option<std::time::Duration>| {
+        let mut m = format!("{spp} spp");
+        if let Some(e) = relmse {
+            let _ = write!(m, ", relMSE ~{e:.2e}");
         }
+        if let Some(l) = left {
+            let _ = write!(m, ", {:.1} s left", l.as_secs_f64());
+        }
+        bar.set_message(m);
+        bar.tick();
     };
+    let hooks = twintrace::render::Hooks {
+        stop: &|| interrupt::received().is_some(),
+        progress: &|n| bar.inc(n),
+        status: &mut status,
+        continue_with: &continue_command,
+    };
+    let rendered = job.render(render, hooks);
     bar.finish_and_clear();
-    let (end, interrupted, gpu_time, stopped, shares) = match rendered {
-        Ok(r) => r,
-        Err(e) => {
-            // A device lost (or any failure) mid-render: the chunks done
-            // are what the film holds, if it can still be read.
-            let held = twintrace::render::held_film(progressive.as_mut(), todo.start);
-            let saved = match held {
-                Ok((end, sums)) if end > todo.start => make_part(sums, end).and_then(|part| {
-                    part.write(&partial.base, spec.tonemap)?;
-                    Ok((partial.exr.clone(), end))
-                }),
-                Ok(_) => Err(anyhow!("no sample was done")),
-                Err(e) => Err(e),
-            };
-            let what = match (saved, checkpointed.get(), &args.resume) {
-                (Ok((p, end)), _, _) => format!(
-                    "samples {}..{end} of {}..{} are saved in `{}`: continue with: {}",
-                    range.start,
-                    range.start,
-                    range.end,
-                    p.display(),
-                    continue_command(&p)
-                ),
-                (Err(why), Some(c), _) => format!(
-                    "the film could not be read ({}); the last checkpoint `{}` holds samples {}..{c}: continue with: {}",
-                    one_line(&format!("{why:#}")),
-                    partial.exr.display(),
-                    range.start,
-                    continue_command(&partial.exr)
-                ),
-                (Err(why), None, Some(resume)) => format!(
-                    "nothing new was saved ({}); `{}` still holds samples {}..{}: continue with: {}",
-                    one_line(&format!("{why:#}")),
-                    resume.display(),
-                    range.start,
-                    todo.start,
-                    continue_command(resume)
-                ),
-                (Err(why), None, None) => format!(
-                    "nothing was saved ({}; --checkpoint DURATION saves the samples done as the render goes)",
-                    one_line(&format!("{why:#}"))
-                ),
-            };
-            return Err(anyhow!("{}; {what}", one_line(&format!("{e:#}"))));
-        }
-    };
-    if interrupted {
-        let signal = interrupt::received().expect("stopped by a signal");
-        let resume_from = if end > todo.start {
-            part_of(progressive.as_mut())?.write(&partial.base, spec.tonemap)?;
-            Some(partial.exr.clone())
-        } else {
-            args.resume.clone()
-        };
-        let line = match &resume_from {
-            Some(p) => format!(
-                "interrupted by {}: samples {}..{end} of {}..{} are saved in `{}`; continue with: {}",
-                signal.name(),
-                range.start,
-                range.start,
-                range.end,
-                p.display(),
-                continue_command(p)
-            ),
-            None => format!(
-                "interrupted by {} before the first samples were done; nothing was written",
-                signal.name()
-            ),
-        };
-        if args.json {
-            let json = serde_json::json!({
-                "scene": args.scene,
-                "interrupted": signal.name(),
-                "samples": [range.start, end],
-                "target_samples": [range.start, range.end],
-                "partial": resume_from,
-                "resume_command": resume_from.as_deref().map(continue_command),
-                "device": device_name,
-                "render_s": start.elapsed().as_secs_f64(),
-            });
-            print_stdout(&format!("{json}\n"))?;
-        }
-        return Err(Interrupted {
-            code: signal.exit_code(),
-            line,
-        }
-        .into());
-    }
-    if budget.is_some() {
-        settings.spp = end;
-    }
-    let seconds = start.elapsed().as_secs_f64();
-    phases.end("rendering");
-    let mut file_times = String::new();
-
-    let metadata = RenderMetadata::for_render(
-        &args.scene,
-        &settings,
-        settings.spp,
-        &device_name,
-        spec.integrator(),
-    );
-    let nonfinite = match samples.clone() {
-        Some(_) => {
-            let mut part = part_of(progressive.as_mut())?;
-            phases.end("image read");
-            let nonfinite = part.sums.pixels.iter().map(|p| p.rejected as u64).sum();
-            part.metadata = metadata;
-            // Whole: a part of any render of its range or more.
-            part.target = None;
-            part.write(&args.output, spec.tonemap)?;
-            nonfinite
-        }
-        None => {
-            let (layers, merged) = match &base {
-                // A resumed render's layers, from its sums and the part's.
-                Some(_) => {
-                    let part = part_of(progressive.as_mut())?;
-                    (
-                        twintrace::render::Layers::from_sums(&part.sums),
-                        Some(part.sums),
-                    )
-                }
-                None => (progressive.layers()?, None),
-            };
-            phases.end("image read");
-            let nonfinite = layers.rejected;
-            let image = RenderImage::from_layers(layers, metadata);
-            let extras = aov_extras(
-                progressive.as_mut(),
-                &aovs,
-                &scene,
-                (settings.spp, nonfinite),
-                merged.as_ref(),
-            )?;
-            if !aovs.is_empty() {
-                phases.end("AOVs");
-            }
-            let times = image_io::write_render_outputs_with(&paths, &image, &extras, spec.tonemap)?;
-            file_times = format!(
-                " (EXR {:.3} s, PNG {:.3} s, at once)",
-                times.exr.as_secs_f64(),
-                times.png.as_secs_f64()
+    let rendered = rendered?;
+    if rendered.interrupted.is_none() {
+        for (i, share) in rendered.shares.iter().enumerate() {
+            eprintln!(
+                "device {i} `{}`: {} samples a pixel ({:.0} %)",
+                share.adapter,
+                share.samples,
+                100.0 * share.samples as f64 / (todo.end - todo.start) as f64
             );
-            nonfinite
         }
+    }
+    Ok(rendered)
+}
+
+/// A render stopped by a signal, its samples saved in `saved` (none: it
+/// traced none and continued no part): one line, and the JSON summary.
+fn interrupted(
+    args: &RenderArgs,
+    job: &Job,
+    rendered: &twintrace::render::Rendered,
+    saved: Option<&std::path::Path>,
+    device: &str,
+) -> Result<()> {
+    let signal = interrupt::received().expect("stopped by a signal");
+    let (range, end) = (job.range(), rendered.end);
+    let line = match saved {
+        Some(p) => format!(
+            "interrupted by {}: samples {}..{end} of {}..{} are saved in `{}`; continue with: {}",
+            signal.name(),
+            range.start,
+            range.start,
+            range.end,
+            p.display(),
+            continue_command(p)
+        ),
+        None => format!(
+            "interrupted by {} before the first samples were done; nothing was written",
+            signal.name()
+        ),
     };
-    let written = phases.end("files written");
-    let read = phases
-        .done
-        .iter()
-        .find(|p| p.0 == "image read")
-        .map_or(0.0, |p| p.1);
-    let contexts: Vec<&gpu::GpuContext> = match &device {
+    if args.json {
+        let json = serde_json::json!({
+            "scene": args.scene,
+            "interrupted": signal.name(),
+            "samples": [range.start, end],
+            "target_samples": [range.start, range.end],
+            "partial": saved,
+            "resume_command": saved.map(continue_command),
+            "device": device,
+            "render_s": rendered.seconds,
+        });
+        print_stdout(&format!("{json}\n"))?;
+    }
+    Err(Interrupted {
+        code: signal.exit_code(),
+        line,
+    }
+    .into())
+}
+
+/// Saves each device's pipeline cache; returns the `--timings` line of
+/// each device's kernel builds.
+fn save_caches(device: &Device) -> Vec<String> {
+    let contexts: Vec<&gpu::GpuContext> = match device {
         Device::Cpu => Vec::new(),
         Device::Gpu(ctx) => vec![ctx],
         Device::Gpus(contexts) => contexts.iter().collect(),
     };
-    let compiled: Vec<String> = contexts
+    let compiled = contexts
         .iter()
         .enumerate()
         .map(|(i, ctx)| {
@@ -969,53 +754,38 @@ fn render(args: &RenderArgs) -> Result<()> {
             )
         })
         .collect();
-    // The pipeline cache is saved now; the film and the device are left
-    // to the end of the process (the driver frees them when it exits),
-    // which is at hand: tearing them down took 0.07–0.11 s on the H200.
     for ctx in &contexts {
         if let Err(e) = ctx.save_pipeline_cache() {
             eprintln!("warning: {e}");
         }
     }
-    drop(contexts);
-    std::mem::forget(progressive);
-    std::mem::forget(device);
-    phases.end("teardown");
-    if args.timings {
-        eprintln!("{}{file_times}", phases.report());
-        for line in compiled {
-            eprintln!("{line}");
-        }
+    compiled
+}
+
+/// A render done and written: its summary, as a line or as JSON.
+struct Done<'a> {
+    job: &'a Job<'a>,
+    rendered: &'a twintrace::render::Rendered,
+    written: &'a twintrace::render::Written,
+    phases: &'a Phases,
+    device: &'a str,
+}
+
+impl Done<'_> {
+    /// The samples this run traced (a resumed render's part traced the
+    /// rest).
+    fn traced(&self) -> f64 {
+        let s = self.job.settings();
+        let pixels = s.width as u64 * s.height as u64;
+        (pixels * (self.rendered.end - self.job.todo().start) as u64) as f64
     }
-    // The samples this run traced (a resumed render's part traced the rest).
-    let traced = (pixels * (end - todo.start) as u64) as f64;
-    let gpu_note = match gpu_time {
-        Some(t) => format!(
-            " (GPU time {:.3} s: {:.2e} samples/s)",
-            t.as_secs_f64(),
-            traced / t.as_secs_f64().max(1e-9)
-        ),
-        None => String::new(),
-    };
-    let mut range_note = match &samples {
-        Some(r) => format!(" (samples {}..{}, a partial film)", r.start, r.end),
-        None => String::new(),
-    };
-    if let Some(part) = &base {
-        let _ = write!(
-            range_note,
-            " (resumed: samples {}..{} from `{}`, {}..{end} traced now)",
-            part.samples.start,
-            part.samples.end,
-            args.resume
-                .as_deref()
-                .unwrap_or(std::path::Path::new(""))
-                .display(),
-            todo.start
-        );
-    }
-    if args.json {
-        let json = serde_json::json!({
+
+    fn json(&self, args: &RenderArgs) -> serde_json::Value {
+        let (job, rendered) = (self.job, self.rendered);
+        let settings = &self.written.settings;
+        let paths = job.paths();
+        let shares = &rendered.shares;
+        serde_json::json!({
             "scene": args.scene,
             "width": settings.width,
             "height": settings.height,
@@ -1024,49 +794,97 @@ fn render(args: &RenderArgs) -> Result<()> {
             "roulette_depth": settings.roulette_depth,
             "seed": settings.seed,
             "sampler": settings.sampler.name(),
-            "integrator": spec.integrator().name(),
-            "device": device_name,
+            "integrator": job.spec().integrator().name(),
+            "device": self.device,
             "device_shares": (!shares.is_empty()).then(|| {
                 shares
                     .iter()
                     .map(|s| serde_json::json!({ "adapter": s.adapter, "samples": s.samples }))
                     .collect::<Vec<_>>()
             }),
-            "samples": samples.as_ref().map(|r| [r.start, r.end]),
-            "resumed": base.as_ref().map(|p| serde_json::json!({
-                "part": args.resume,
+            "samples": args.samples.is_some().then(|| {
+                let r = job.range();
+                [r.start, r.end]
+            }),
+            "resumed": job.resumed().map(|(path, p)| serde_json::json!({
+                "part": path,
                 "samples": [p.samples.start, p.samples.end],
             })),
-            "stopped_by": stopped_by.map(|(why, _)| why),
-            "predicted_relmse": stopped_by.and_then(|(_, e)| e),
-            "render_s": seconds,
-            "gpu_time_s": gpu_time.map(|t| t.as_secs_f64()),
-            "samples_per_second": traced / seconds.max(1e-9),
-            "nonfinite_samples": nonfinite,
-            "aovs": aovs.iter().map(|l| l.name()).collect::<Vec<_>>(),
+            "stopped_by": rendered.stopped_by.map(|(why, _)| why),
+            "predicted_relmse": rendered.stopped_by.and_then(|(_, e)| e),
+            "render_s": rendered.seconds,
+            "gpu_time_s": rendered.gpu_time.map(|t| t.as_secs_f64()),
+            "samples_per_second": self.traced() / rendered.seconds.max(1e-9),
+            "nonfinite_samples": self.written.nonfinite,
+            "aovs": self.job.aovs().iter().map(|l| l.name()).collect::<Vec<_>>(),
             "outputs": { "exr": paths.exr, "png": paths.png },
-            "phases_s": phases
-                .done
+            "phases_s": self
+                .phases
+                .done()
                 .iter()
                 .map(|(name, t)| (name.to_string(), serde_json::json!(t)))
                 .collect::<serde_json::Map<_, _>>(),
-        });
-        return print_stdout(&format!("{json}\n"));
+        })
     }
-    print_stdout(&format!(
-        "rendered {} {}x{}, {} spp{range_note}{stopped}, depth {} on {device_name} in {:.2} s{gpu_note}: {:.2e} samples/s, {} NaN/Inf samples -> {}, {} (image read in {read:.2} s, written in {:.2} s)\n",
-        args.scene,
-        settings.width,
-        settings.height,
-        settings.spp,
-        settings.max_depth,
-        seconds,
-        traced / seconds.max(1e-9),
-        nonfinite,
-        paths.exr.display(),
-        paths.png.display(),
-        written
-    ))
+
+    fn line(&self, args: &RenderArgs) -> String {
+        let (job, rendered) = (self.job, self.rendered);
+        let settings = &self.written.settings;
+        let seconds = rendered.seconds;
+        let traced = self.traced();
+        let gpu_note = match rendered.gpu_time {
+            Some(t) => format!(
+                " (GPU time {:.3} s: {:.2e} samples/s)",
+                t.as_secs_f64(),
+                traced / t.as_secs_f64().max(1e-9)
+            ),
+            None => String::new(),
+        };
+        let mut range_note = match args.samples.is_some() {
+            true => {
+                let r = job.range();
+                format!(" (samples {}..{}, a partial film)", r.start, r.end)
+            }
+            false => String::new(),
+        };
+        if let Some((path, part)) = job.resumed() {
+            let _ = write!(
+                range_note,
+                " (resumed: samples {}..{} from `{}`, {}..{} traced now)",
+                part.samples.start,
+                part.samples.end,
+                path.display(),
+                job.todo().start,
+                rendered.end
+            );
+        }
+        let stopped = match rendered.stopped_by {
+            Some((why, relmse)) => format!(
+                " (stopped by {why}{})",
+                relmse
+                    .map(|e| format!(", predicted relMSE {e:.2e}"))
+                    .unwrap_or_default()
+            ),
+            None => String::new(),
+        };
+        let paths = job.paths();
+        format!(
+            "rendered {} {}x{}, {} spp{range_note}{stopped}, depth {} on {} in {:.2} s{gpu_note}: {:.2e} samples/s, {} NaN/Inf samples -> {}, {} (image read in {:.2} s, written in {:.2} s)\n",
+            args.scene,
+            settings.width,
+            settings.height,
+            settings.spp,
+            settings.max_depth,
+            self.device,
+            seconds,
+            traced / seconds.max(1e-9),
+            self.written.nonfinite,
+            paths.exr.display(),
+            paths.png.display(),
+            self.phases.seconds("image read"),
+            self.phases.seconds("files written")
+        )
+    }
 }
 
 /// The render's progress bar over `total` pixel-samples.

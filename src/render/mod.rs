@@ -17,13 +17,15 @@
 //! By part: [`RenderSpec`] (spec.rs), the [`Progressive`] trait and its
 //! film's ranges (progressive.rs), its backends (cpu.rs, gpu.rs,
 //! group.rs), where a render runs and how it is opened ([`open`],
-//! devices.rs), and budgets and chunks (budget.rs).
+//! devices.rs), budgets and chunks (budget.rs), and a render from its
+//! first sample to its files ([`Job`], job.rs).
 
 mod budget;
 mod cpu;
 mod devices;
 mod gpu;
 mod group;
+mod job;
 mod progressive;
 mod spec;
 
@@ -35,5 +37,6 @@ pub use cpu::CpuProgressive;
 pub use devices::{open, Devices};
 pub use gpu::GpuProgressive;
 pub use group::GroupProgressive;
+pub use job::{one_line, Hooks, Job, JobOptions, PartialPaths, Phases, Rendered, Written};
 pub use progressive::{render_film, Added, Layers, Progressive, Ranges};
 pub use spec::RenderSpec;
