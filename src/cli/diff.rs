@@ -207,55 +207,17 @@ fn default_report(a: &Path) -> PathBuf {
     std::env::temp_dir().join(format!("twintrace-diff-{stem}.html"))
 }
 
-/// Compares, writes the report and returns what to print.
-pub fn execute(args: &DiffArgs) -> Result<DiffOutcome> {
-    let report_path = args
-        .report
-        .clone()
-        .unwrap_or_else(|| default_report(&args.a));
-    let mut inputs = vec![
-        outputs::input_file("image", &args.a),
-        outputs::input_file("image", &args.b),
-    ];
-    for v in [&args.variance_a, &args.variance_b].into_iter().flatten() {
-        inputs.push(outputs::input_file("variance image", v));
-    }
-    for r in args.runs_a.iter().chain(&args.runs_b) {
-        inputs.push(outputs::input_file("run", r));
-    }
-    let report_arg = match &args.report {
-        Some(r) => format!("--report {}", r.display()),
-        None => "the report".to_string(),
-    };
-    outputs::check(&inputs, &[outputs::output(report_arg, &report_path)])?;
-    let a = load_side(
-        &args.a,
-        &args.runs_a,
-        args.variance_a.as_deref(),
-        args.spp_a,
-        "a",
-    )?;
-    let b = load_side(
-        &args.b,
-        &args.runs_b,
-        args.variance_b.as_deref(),
-        args.spp_b,
-        "b",
-    )?;
-    let runs = !args.runs_a.is_empty() || !args.runs_b.is_empty();
-    if (a.width, a.height) != (b.width, b.height) {
-        bail!(
-            "`{}` is {}x{} but `{}` is {}x{}",
-            args.a.display(),
-            a.width,
-            a.height,
-            args.b.display(),
-            b.width,
-            b.height
-        );
-    }
-    let differ = Method::same_estimator(&a, &b) == Some(false);
-    let method = match args.method {
+/// The test `--method` asks for, or `auto`'s choice for images `a` and
+/// `b` (`runs`: a side is a set of runs); `None`: no test (neither has a
+/// variance). Refuses a method the images cannot take.
+fn choose_method(
+    args: &DiffArgs,
+    a: &NoisyImage,
+    b: &NoisyImage,
+    runs: bool,
+) -> Result<Option<Method>> {
+    let differ = Method::same_estimator(a, b) == Some(false);
+    Ok(match args.method {
         // A side of runs counts runs, not samples: only Welch's test,
         // each side with its own variance, reads that right.
         DiffMethod::Auto if runs && a.variance.is_some() && b.variance.is_some() => {
@@ -267,11 +229,11 @@ pub fn execute(args: &DiffArgs) -> Result<DiffOutcome> {
             )
             .into())
         }
-        DiffMethod::Auto => match Method::for_images(&a, &b) {
+        DiffMethod::Auto => match Method::for_images(a, b) {
             Some(Method::KnownVariance(side)) => {
                 let (path, name, img) = match side {
-                    Side::A => (&args.b, "b", &b),
-                    Side::B => (&args.a, "a", &a),
+                    Side::A => (&args.b, "b", b),
+                    Side::B => (&args.a, "a", a),
                 };
                 return Err(super::common::Refused(needs(path, name, img)).into());
             }
@@ -319,7 +281,57 @@ pub fn execute(args: &DiffArgs) -> Result<DiffOutcome> {
                 .into())
             }
         },
+    })
+}
+
+/// Compares, writes the report and returns what to print.
+pub fn execute(args: &DiffArgs) -> Result<DiffOutcome> {
+    let report_path = args
+        .report
+        .clone()
+        .unwrap_or_else(|| default_report(&args.a));
+    let mut inputs = vec![
+        outputs::input_file("image", &args.a),
+        outputs::input_file("image", &args.b),
+    ];
+    for v in [&args.variance_a, &args.variance_b].into_iter().flatten() {
+        inputs.push(outputs::input_file("variance image", v));
+    }
+    for r in args.runs_a.iter().chain(&args.runs_b) {
+        inputs.push(outputs::input_file("run", r));
+    }
+    let report_arg = match &args.report {
+        Some(r) => format!("--report {}", r.display()),
+        None => "the report".to_string(),
     };
+    outputs::check(&inputs, &[outputs::output(report_arg, &report_path)])?;
+    let a = load_side(
+        &args.a,
+        &args.runs_a,
+        args.variance_a.as_deref(),
+        args.spp_a,
+        "a",
+    )?;
+    let b = load_side(
+        &args.b,
+        &args.runs_b,
+        args.variance_b.as_deref(),
+        args.spp_b,
+        "b",
+    )?;
+    let runs = !args.runs_a.is_empty() || !args.runs_b.is_empty();
+    if (a.width, a.height) != (b.width, b.height) {
+        bail!(
+            "`{}` is {}x{} but `{}` is {}x{}",
+            args.a.display(),
+            a.width,
+            a.height,
+            args.b.display(),
+            b.width,
+            b.height
+        );
+    }
+    let method = choose_method(args, &a, &b, runs)?;
     let verdict = method
         .map(|m| compare(&a, &b, m, &TestSettings::default()))
         .transpose()?;

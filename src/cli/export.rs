@@ -228,6 +228,156 @@ struct Mesh {
     vertices: Vec<Vertex>,
 }
 
+/// Refuses a spot light whose inner cone does not hold the whole scene:
+/// outside it glTF's falloff (t² of a ramp in the cosine) and Mitsuba's
+/// spot (linear in the angle) differ.
+fn check_spots(scene: &Scene) -> Result<()> {
+    let b = scene.bounds();
+    for (i, l) in scene.punctual_lights().iter().enumerate() {
+        if l.tag != reference::light::punctual_tag::SPOT {
+            continue;
+        }
+        let corners = (0..8).map(|k| {
+            Vec3::new(
+                if k & 1 == 0 { b.min.x } else { b.max.x },
+                if k & 2 == 0 { b.min.y } else { b.max.y },
+                if k & 4 == 0 { b.min.z } else { b.max.z },
+            )
+        });
+        let outside = corners
+            .filter(|&c| {
+                let to = (c - l.position).as_dvec3();
+                let cos = to.dot(l.direction.as_dvec3()) / to.length();
+                cos.is_nan() || cos <= l.cos_inner as f64
+            })
+            .count();
+        if outside > 0 {
+            bail!(
+                "spot light {i}: {outside} of the 8 corners of the scene's bounds lie outside its inner cone, where glTF's falloff (t² of a ramp in the cosine) and Mitsuba's spot (linear in the angle) differ"
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The scene's quads and triangles as Mitsuba meshes, one for each
+/// material and set of vertex attributes; refuses shading normals under a
+/// material that cannot take them.
+fn meshes(
+    scene: &Scene,
+    surfaces: &[Surface],
+    coverages: &[Option<materials::Coverage>],
+) -> Result<Vec<Mesh>> {
+    let mut meshes: Vec<Mesh> = Vec::new();
+    let mut add = |material: u32, attributes: (bool, bool, bool, bool), tri: [Vertex; 3]| {
+        let (normals, colors, tangents, alpha) = attributes;
+        let uv1 = surfaces[material as usize].uses_uv1()
+            || (alpha
+                && coverages[material as usize]
+                    .as_ref()
+                    .is_some_and(|c| c.uses_uv1()));
+        match meshes.iter_mut().find(|m| {
+            (m.material, m.normals, m.colors, m.tangents, m.alpha)
+                == (material, normals, colors, tangents, alpha)
+        }) {
+            Some(m) => m.vertices.extend(tri),
+            None => meshes.push(Mesh {
+                material,
+                normals,
+                colors,
+                tangents,
+                uv1,
+                alpha,
+                vertices: tri.to_vec(),
+            }),
+        }
+    };
+    let vertex = |p: Vec3, uv: glam::Vec2| Vertex {
+        p,
+        uv,
+        n: Vec3::ZERO,
+        color: Vec3::ONE,
+        tangent: glam::Vec4::ZERO,
+        uv1: glam::Vec2::ZERO,
+        alpha: 1.0,
+    };
+    use glam::Vec2;
+    for q in scene.quads() {
+        let (c, u, v) = (q.corner, q.u, q.v);
+        // Both triangles wind as (u, v), so their normal is u × v; the
+        // uv is the quad's (α, β), linear over each triangle.
+        let (c0, c1, c2, c3) = (
+            vertex(c, Vec2::ZERO),
+            vertex(c + u, Vec2::X),
+            vertex(c + u + v, Vec2::ONE),
+            vertex(c + v, Vec2::Y),
+        );
+        add(q.material, (false, false, false, false), [c0, c1, c2]);
+        add(q.material, (false, false, false, false), [c0, c2, c3]);
+    }
+    use reference::shapes::{
+        TRIANGLE_HAS_ALPHA, TRIANGLE_HAS_COLORS, TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_TANGENTS,
+        TRIANGLE_HAS_UV1, TRIANGLE_HAS_UVS,
+    };
+    let m = scene.mesh();
+    for (i, t) in scene.triangles().iter().enumerate() {
+        let surface = &surfaces[t.material as usize];
+        let normals = t.flags & TRIANGLE_HAS_NORMALS != 0;
+        if let (true, Some(why)) = (normals, surface.shading_normals_refused()) {
+            bail!("triangle {i} has shading normals under {why} (not exported)");
+        }
+        // The vertex colour scales only `ggx`'s base colour.
+        let colors = t.flags & TRIANGLE_HAS_COLORS != 0 && matches!(surface, Surface::Ggx { .. });
+        // Coverage applies to the triangles that carry alpha.
+        let alpha = t.flags & TRIANGLE_HAS_ALPHA != 0 && coverages[t.material as usize].is_some();
+        // Tangents matter only to a normal map.
+        let tangents = t.flags & TRIANGLE_HAS_TANGENTS != 0
+            && matches!(
+                surface,
+                Surface::Ggx {
+                    normal_map: Some(_),
+                    ..
+                }
+            );
+        // Without uvs the reference's uv is the barycentrics (b1, b2).
+        let corners = [Vec2::ZERO, Vec2::X, Vec2::Y];
+        let tri = std::array::from_fn(|k| {
+            let v = t.vertices[k] as usize;
+            Vertex {
+                p: m.positions[v],
+                uv: if t.flags & TRIANGLE_HAS_UVS != 0 {
+                    m.uvs[v]
+                } else {
+                    corners[k]
+                },
+                n: if normals { m.normals[v] } else { Vec3::ZERO },
+                color: if colors {
+                    m.colors[v].truncate()
+                } else {
+                    Vec3::ONE
+                },
+                tangent: if tangents {
+                    m.tangents[v]
+                } else {
+                    glam::Vec4::ZERO
+                },
+                uv1: if t.flags & TRIANGLE_HAS_UV1 != 0 {
+                    m.uvs1[v]
+                } else {
+                    Vec2::ZERO
+                },
+                alpha: if t.flags & TRIANGLE_HAS_COLORS != 0 {
+                    m.colors[v].w
+                } else {
+                    1.0
+                },
+            }
+        });
+        add(t.material, (normals, colors, tangents, alpha), tri);
+    }
+    Ok(meshes)
+}
+
 impl<'s> MitsubaScene<'s> {
     fn new(scene: &'s Scene) -> Result<Self> {
         // Mitsuba's disks, cylinders, textured spheres and grids: the
@@ -254,143 +404,11 @@ impl<'s> MitsubaScene<'s> {
             .map(|i| materials::wrapping(scene, i, &surfaces[i]))
             .collect::<Result<Vec<_>>>()?;
         // Refused here, before `write` creates any file.
-        let b = scene.bounds();
-        for (i, l) in scene.punctual_lights().iter().enumerate() {
-            if l.tag != reference::light::punctual_tag::SPOT {
-                continue;
-            }
-            let corners = (0..8).map(|k| {
-                Vec3::new(
-                    if k & 1 == 0 { b.min.x } else { b.max.x },
-                    if k & 2 == 0 { b.min.y } else { b.max.y },
-                    if k & 4 == 0 { b.min.z } else { b.max.z },
-                )
-            });
-            let outside = corners
-                .filter(|&c| {
-                    let to = (c - l.position).as_dvec3();
-                    let cos = to.dot(l.direction.as_dvec3()) / to.length();
-                    cos.is_nan() || cos <= l.cos_inner as f64
-                })
-                .count();
-            if outside > 0 {
-                bail!(
-                    "spot light {i}: {outside} of the 8 corners of the scene's bounds lie outside its inner cone, where glTF's falloff (t² of a ramp in the cosine) and Mitsuba's spot (linear in the angle) differ"
-                );
-            }
-        }
+        check_spots(scene)?;
         let coverages = (0..scene.materials().len())
             .map(|i| materials::coverage(scene, i))
             .collect::<Result<Vec<_>>>()?;
-        let mut meshes: Vec<Mesh> = Vec::new();
-        let mut add = |material: u32, attributes: (bool, bool, bool, bool), tri: [Vertex; 3]| {
-            let (normals, colors, tangents, alpha) = attributes;
-            let uv1 = surfaces[material as usize].uses_uv1()
-                || (alpha
-                    && coverages[material as usize]
-                        .as_ref()
-                        .is_some_and(|c| c.uses_uv1()));
-            match meshes.iter_mut().find(|m| {
-                (m.material, m.normals, m.colors, m.tangents, m.alpha)
-                    == (material, normals, colors, tangents, alpha)
-            }) {
-                Some(m) => m.vertices.extend(tri),
-                None => meshes.push(Mesh {
-                    material,
-                    normals,
-                    colors,
-                    tangents,
-                    uv1,
-                    alpha,
-                    vertices: tri.to_vec(),
-                }),
-            }
-        };
-        let vertex = |p: Vec3, uv: glam::Vec2| Vertex {
-            p,
-            uv,
-            n: Vec3::ZERO,
-            color: Vec3::ONE,
-            tangent: glam::Vec4::ZERO,
-            uv1: glam::Vec2::ZERO,
-            alpha: 1.0,
-        };
-        use glam::Vec2;
-        for q in scene.quads() {
-            let (c, u, v) = (q.corner, q.u, q.v);
-            // Both triangles wind as (u, v), so their normal is u × v; the
-            // uv is the quad's (α, β), linear over each triangle.
-            let (c0, c1, c2, c3) = (
-                vertex(c, Vec2::ZERO),
-                vertex(c + u, Vec2::X),
-                vertex(c + u + v, Vec2::ONE),
-                vertex(c + v, Vec2::Y),
-            );
-            add(q.material, (false, false, false, false), [c0, c1, c2]);
-            add(q.material, (false, false, false, false), [c0, c2, c3]);
-        }
-        use reference::shapes::{
-            TRIANGLE_HAS_ALPHA, TRIANGLE_HAS_COLORS, TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_TANGENTS,
-            TRIANGLE_HAS_UV1, TRIANGLE_HAS_UVS,
-        };
-        let m = scene.mesh();
-        for (i, t) in scene.triangles().iter().enumerate() {
-            let surface = &surfaces[t.material as usize];
-            let normals = t.flags & TRIANGLE_HAS_NORMALS != 0;
-            if let (true, Some(why)) = (normals, surface.shading_normals_refused()) {
-                bail!("triangle {i} has shading normals under {why} (not exported)");
-            }
-            // The vertex colour scales only `ggx`'s base colour.
-            let colors =
-                t.flags & TRIANGLE_HAS_COLORS != 0 && matches!(surface, Surface::Ggx { .. });
-            // Coverage applies to the triangles that carry alpha.
-            let alpha =
-                t.flags & TRIANGLE_HAS_ALPHA != 0 && coverages[t.material as usize].is_some();
-            // Tangents matter only to a normal map.
-            let tangents = t.flags & TRIANGLE_HAS_TANGENTS != 0
-                && matches!(
-                    surface,
-                    Surface::Ggx {
-                        normal_map: Some(_),
-                        ..
-                    }
-                );
-            // Without uvs the reference's uv is the barycentrics (b1, b2).
-            let corners = [Vec2::ZERO, Vec2::X, Vec2::Y];
-            let tri = std::array::from_fn(|k| {
-                let v = t.vertices[k] as usize;
-                Vertex {
-                    p: m.positions[v],
-                    uv: if t.flags & TRIANGLE_HAS_UVS != 0 {
-                        m.uvs[v]
-                    } else {
-                        corners[k]
-                    },
-                    n: if normals { m.normals[v] } else { Vec3::ZERO },
-                    color: if colors {
-                        m.colors[v].truncate()
-                    } else {
-                        Vec3::ONE
-                    },
-                    tangent: if tangents {
-                        m.tangents[v]
-                    } else {
-                        glam::Vec4::ZERO
-                    },
-                    uv1: if t.flags & TRIANGLE_HAS_UV1 != 0 {
-                        m.uvs1[v]
-                    } else {
-                        Vec2::ZERO
-                    },
-                    alpha: if t.flags & TRIANGLE_HAS_COLORS != 0 {
-                        m.colors[v].w
-                    } else {
-                        1.0
-                    },
-                }
-            });
-            add(t.material, (normals, colors, tangents, alpha), tri);
-        }
+        let meshes = meshes(scene, &surfaces, &coverages)?;
         if let Some(s) = scene
             .spheres()
             .iter()
@@ -486,7 +504,6 @@ impl<'s> MitsubaScene<'s> {
         max_depth: u32,
         spp: u32,
     ) -> Result<String> {
-        let cam = &self.scene.render_camera_settings();
         let mut x = String::from("<?xml version=\"1.0\" encoding=\"utf-8\"?>\n");
         writeln!(
             x,
@@ -524,6 +541,17 @@ impl<'s> MitsubaScene<'s> {
             x,
             r#"  <integrator type="{integrator}"><integer name="max_depth" value="{max_depth}"/><integer name="rr_depth" value="{rr_depth}"/></integrator>"#
         )?;
+        self.sensor_xml(&mut x, (width, height), spp)?;
+        self.shapes_xml(&mut x, dir)?;
+        self.lights_xml(&mut x)?;
+        self.background_xml(&mut x, dir)?;
+        x += "</scene>\n";
+        Ok(x)
+    }
+
+    /// The sensor: the camera, its sampler and its film.
+    fn sensor_xml(&self, x: &mut String, (width, height): (u32, u32), spp: u32) -> Result<()> {
+        let cam = &self.scene.render_camera_settings();
         let lens = if cam.aperture > 0.0 {
             format!(
                 r#"<float name="aperture_radius" value="{:?}"/><float name="focus_distance" value="{:?}"/>"#,
@@ -580,7 +608,13 @@ impl<'s> MitsubaScene<'s> {
             x,
             r#"    <film type="hdrfilm"><integer name="width" value="{width}"/><integer name="height" value="{height}"/><string name="pixel_format" value="rgb"/>{rfilter}</film>"#
         )?;
-        x += "  </sensor>\n";
+        *x += "  </sensor>\n";
+        Ok(())
+    }
+
+    /// The shapes, each with its material; writes their meshes and
+    /// textures into `dir`.
+    fn shapes_xml(&self, x: &mut String, dir: &Path) -> Result<()> {
         for &id in &self.images {
             materials::write_texture(self.scene, id, dir)?;
         }
@@ -633,6 +667,11 @@ impl<'s> MitsubaScene<'s> {
                 wrapping.wrap(&surface.xml(at), at.uv)
             )?;
         }
+        Ok(())
+    }
+
+    /// The punctual lights.
+    fn lights_xml(&self, x: &mut String) -> Result<()> {
         for (i, l) in self.scene.punctual_lights().iter().enumerate() {
             use reference::light::punctual_tag;
             let rgb =
@@ -722,6 +761,12 @@ impl<'s> MitsubaScene<'s> {
                 }
             }
         }
+        Ok(())
+    }
+
+    /// The background as an emitter (none where it is black); writes its
+    /// map into `dir`.
+    fn background_xml(&self, x: &mut String, dir: &Path) -> Result<()> {
         match self.scene.background() {
             Background::Solid(c) if c == Vec3::ZERO => {}
             Background::Solid(c) => writeln!(
@@ -766,8 +811,7 @@ impl<'s> MitsubaScene<'s> {
                 )?;
             }
         }
-        x += "</scene>\n";
-        Ok(x)
+        Ok(())
     }
 }
 

@@ -51,20 +51,44 @@ pub fn adapter_summary(adapters: &[gpu::AdapterSummary]) -> String {
     o
 }
 
+/// `writeln!` into a `String`, which cannot fail.
+macro_rules! say {
+    ($o:expr, $($t:tt)*) => {{
+        let _ = writeln!($o, $($t)*);
+    }};
+}
+
 /// The text `twintrace info` prints.
 pub fn scene_summary(name: &str, scene: &Scene) -> String {
-    use reference::background::Background;
-    use reference::material::Material;
-    use reference::texture::Texture;
     let mut o = String::new();
-    // Writing to a String cannot fail.
-    macro_rules! say {
-        ($($t:tt)*) => {{
-            let _ = writeln!(o, $($t)*);
-        }};
+    say!(o, "scene: {name}");
+    geometry_summary(&mut o, scene);
+    material_summary(&mut o, scene);
+    light_summary(&mut o, scene);
+    view_summary(&mut o, scene);
+    o
+}
+
+/// `n`, and how many of each kind in `names` (`of(i)` names the `i`-th's
+/// kind) where any.
+fn count_kinds(names: &[&'static str], of: &dyn Fn(usize) -> &'static str, n: usize) -> String {
+    let kinds: Vec<String> = names
+        .iter()
+        .filter_map(|&k| {
+            let c = (0..n).filter(|&i| of(i) == k).count();
+            (c > 0).then(|| format!("{c} {k}"))
+        })
+        .collect();
+    if kinds.is_empty() {
+        n.to_string()
+    } else {
+        format!("{n} ({})", kinds.join(", "))
     }
-    say!("scene: {name}");
-    say!(
+}
+
+/// The primitives, the instances and the bounds.
+fn geometry_summary(o: &mut String, scene: &Scene) {
+    say!(o,
         "primitives: {} ({} spheres, {} quads, {} triangles, {} quadrics, {} grid cells; {} mesh vertices)",
         scene.primitives().len(),
         scene.spheres().len(),
@@ -83,6 +107,7 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
             .map(|g| g.triangles().len() as u32)
             .sum();
         say!(
+            o,
             "instances: {} of {} groups ({grouped} of the triangles, kept once)",
             scene.instances().len(),
             scene.groups().len()
@@ -92,21 +117,13 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
     // space, about the camera).
     let b = scene.bounds();
     let (lo, hi) = (scene.to_world(b.min), scene.to_world(b.max));
-    say!("bounds: {} .. {}", lo.as_vec3(), hi.as_vec3());
-    let count = |names: &[&'static str], of: &dyn Fn(usize) -> &'static str, n: usize| {
-        let kinds: Vec<String> = names
-            .iter()
-            .filter_map(|&k| {
-                let c = (0..n).filter(|&i| of(i) == k).count();
-                (c > 0).then(|| format!("{c} {k}"))
-            })
-            .collect();
-        if kinds.is_empty() {
-            n.to_string()
-        } else {
-            format!("{n} ({})", kinds.join(", "))
-        }
-    };
+    say!(o, "bounds: {} .. {}", lo.as_vec3(), hi.as_vec3());
+}
+
+/// The materials, their wrappers, the textures and the images.
+fn material_summary(o: &mut String, scene: &Scene) {
+    use reference::material::Material;
+    use reference::texture::Texture;
     let material_kind = |i: usize| match scene.materials()[i] {
         Material::Lambertian { .. } => "lambertian",
         Material::Metal { .. } => "metal",
@@ -124,8 +141,9 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
         Material::Principled { thin: true, .. } => "thin principled",
     };
     say!(
+        o,
         "materials: {}",
-        count(
+        count_kinds(
             &[
                 "lambertian",
                 "metal",
@@ -156,7 +174,7 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
         .filter(|&m| scene.wrappers(m).blend.is_some())
         .count();
     if masked + one_sided + blends > 0 {
-        say!("  of which {one_sided} one-sided, {masked} masked, {blends} blends (each blend's second BSDF is one of the materials)");
+        say!(o, "  of which {one_sided} one-sided, {masked} masked, {blends} blends (each blend's second BSDF is one of the materials)");
     }
     let texture_kind = |i: usize| match scene.textures()[i] {
         Texture::Constant(_) => "constant",
@@ -166,8 +184,9 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
         Texture::VertexColor { .. } => "vertex colour",
     };
     say!(
+        o,
         "textures: {}",
-        count(
+        count_kinds(
             &[
                 "constant",
                 "checker",
@@ -185,10 +204,15 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
         .map(|im| format!("{}x{}", im.width, im.height))
         .collect();
     if sizes.is_empty() {
-        say!("images: 0");
+        say!(o, "images: 0");
     } else {
-        say!("images: {} ({})", sizes.len(), sizes.join(", "));
+        say!(o, "images: {} ({})", sizes.len(), sizes.join(", "));
     }
+}
+
+/// The punctual lights and the background.
+fn light_summary(o: &mut String, scene: &Scene) {
+    use reference::background::Background;
     let light_kind = |i: usize| match scene.punctual_lights()[i].tag {
         reference::light::punctual_tag::POINT => "point",
         reference::light::punctual_tag::SPOT => "spot",
@@ -197,17 +221,21 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
         _ => "directional",
     };
     say!(
+        o,
         "punctual lights: {}",
-        count(
+        count_kinds(
             &["point", "spot", "Mitsuba spot", "projector", "directional"],
             &light_kind,
             scene.punctual_lights().len()
         )
     );
     match scene.background() {
-        Background::Solid(c) => say!("background: solid {c}"),
+        Background::Solid(c) => say!(o, "background: solid {c}"),
         Background::Sky { horizon, zenith } => {
-            say!("background: sky gradient, horizon {horizon}, zenith {zenith}")
+            say!(
+                o,
+                "background: sky gradient, horizon {horizon}, zenith {zenith}"
+            )
         }
         Background::Envmap {
             image,
@@ -228,12 +256,17 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
                 reference::background::EnvRows::Bands => "",
                 reference::background::EnvRows::Poles => ", rows at the poles (Mitsuba's envmap)",
             };
-            say!("background: environment map, image {image} ({size}), intensity {intensity}, {turn}{rows}");
+            say!(o, "background: environment map, image {image} ({size}), intensity {intensity}, {turn}{rows}");
         }
     }
+}
+
+/// The camera, the render defaults and the BVH.
+fn view_summary(o: &mut String, scene: &Scene) {
     let c = &scene.camera_settings();
     match c.projection {
         reference::camera::Projection::Perspective => say!(
+            o,
             "camera: from {} looking at {}, up {}, vfov {}°, aperture {}, focus distance {}",
             c.look_from,
             c.look_at,
@@ -243,6 +276,7 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
             c.focus_distance
         ),
         reference::camera::Projection::Orthographic { height } => say!(
+            o,
             "camera: orthographic, from {} looking at {}, up {}, window {height} high",
             c.look_from,
             c.look_at,
@@ -250,7 +284,7 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
         ),
     }
     let r = &scene.render_settings();
-    say!(
+    say!(o,
         "render defaults: {}x{}, {} spp, max depth {}, seed {}, Russian roulette from depth {}, {} sampler",
         r.width,
         r.height,
@@ -261,7 +295,7 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
         r.sampler.name()
     );
     let s = &scene.bvh_stats();
-    say!(
+    say!(o,
         "bvh: built in {:.3} ms, {} primitives, {} nodes, {} leaves, max depth {}, max leaf size {}, SAH cost {:.3}",
         s.build_time.as_secs_f64() * 1e3,
         s.primitives,
@@ -271,5 +305,4 @@ pub fn scene_summary(name: &str, scene: &Scene) -> String {
         s.max_leaf_size,
         s.sah_cost
     );
-    o
 }

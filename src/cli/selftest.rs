@@ -63,8 +63,9 @@ pub struct SelftestArgs {
     pub first_seed: u32,
 }
 
-/// Runs the command; `Ok(false)` when a gate failed.
-pub fn execute(args: &SelftestArgs) -> Result<bool> {
+/// `--root`, or the tree the binary was built in: it must hold the
+/// gates' manifest.
+fn check_root(args: &SelftestArgs) -> Result<()> {
     if let Some(root) = &args.root {
         if !root.join(MANIFEST).exists() {
             bail!(
@@ -81,6 +82,88 @@ pub fn execute(args: &SelftestArgs) -> Result<bool> {
             workspace_root().display()
         );
     }
+    Ok(())
+}
+
+/// `--calibrate-budget COUNT`: where `--target-relmse` lands, fixture by
+/// fixture, over COUNT renders each.
+fn calibrate_budget(args: &SelftestArgs, renderer: &Progressively, count: u32) -> Result<bool> {
+    if count == 0 || !(args.target_relmse.is_finite() && args.target_relmse > 0.0) {
+        bail!("--calibrate-budget needs at least 1 render and a positive --target-relmse");
+    }
+    let mut rows = Vec::new();
+    for fixture in read_manifest()? {
+        if args.only.as_ref().is_some_and(|o| *o != fixture.name) {
+            continue;
+        }
+        let reference = load_reference_in(refs_for(args.integrator), &fixture)?;
+        let scene = load_scene(&fixture)?;
+        let settings = gate_settings(&reference, &scene, 1, args.first_seed);
+        let mut render = open(renderer.devices(), &scene, &renderer.1, settings)?;
+        let row = selftest::calibrate_budget(
+            &reference,
+            render.as_mut(),
+            args.target_relmse,
+            args.first_seed..args.first_seed + count,
+            reference::scene::MAX_SPP,
+            &mut |_| {},
+        )?;
+        eprintln!(
+            "calibrate-budget {}: {} renders",
+            fixture.name,
+            row.ratios.len()
+        );
+        rows.push(row);
+    }
+    if rows.is_empty() {
+        bail!(
+            "no fixture is called `{}`",
+            args.only.as_deref().unwrap_or("")
+        );
+    }
+    print!("{}", selftest::budget_table(&rows));
+    Ok(true)
+}
+
+/// `--calibrate COUNT`: the image gate's false alarms over COUNT seeds of
+/// each fixture.
+fn calibrate(args: &SelftestArgs, renderer: &Progressively, count: u32) -> Result<bool> {
+    let mut rows = Vec::new();
+    for spec in read_manifest()? {
+        if args.only.as_ref().is_some_and(|o| *o != spec.name) {
+            continue;
+        }
+        let row = selftest::calibrate(
+            &spec,
+            renderer,
+            args.spp,
+            (args.first_seed, count),
+            &[],
+            &mut |done| {
+                if done % 50 == 0 {
+                    eprintln!("calibrate {}: {done} of {count}", spec.name);
+                }
+            },
+        )?;
+        eprintln!(
+            "calibrate {}: {} false alarms in {} renders",
+            spec.name, row.false_alarms, row.renders
+        );
+        rows.push(row);
+    }
+    if rows.is_empty() {
+        bail!(
+            "no fixture is called `{}`",
+            args.only.as_deref().unwrap_or("")
+        );
+    }
+    print!("{}", selftest::calibration_table(&rows));
+    Ok(true)
+}
+
+/// Runs the command; `Ok(false)` when a gate failed.
+pub fn execute(args: &SelftestArgs) -> Result<bool> {
+    check_root(args)?;
     if args.spp == 0 || args.calibrate == Some(0) {
         bail!("--spp and --calibrate need at least 1");
     }
@@ -97,74 +180,10 @@ pub fn execute(args: &SelftestArgs) -> Result<bool> {
         RenderSpec::DEFAULT.with_integrator(args.integrator),
     );
     if let Some(count) = args.calibrate_budget {
-        if count == 0 || !(args.target_relmse.is_finite() && args.target_relmse > 0.0) {
-            bail!("--calibrate-budget needs at least 1 render and a positive --target-relmse");
-        }
-        let mut rows = Vec::new();
-        for fixture in read_manifest()? {
-            if args.only.as_ref().is_some_and(|o| *o != fixture.name) {
-                continue;
-            }
-            let reference = load_reference_in(refs_for(args.integrator), &fixture)?;
-            let scene = load_scene(&fixture)?;
-            let settings = gate_settings(&reference, &scene, 1, args.first_seed);
-            let mut render = open(renderer.devices(), &scene, &renderer.1, settings)?;
-            let row = selftest::calibrate_budget(
-                &reference,
-                render.as_mut(),
-                args.target_relmse,
-                args.first_seed..args.first_seed + count,
-                reference::scene::MAX_SPP,
-                &mut |_| {},
-            )?;
-            eprintln!(
-                "calibrate-budget {}: {} renders",
-                fixture.name,
-                row.ratios.len()
-            );
-            rows.push(row);
-        }
-        if rows.is_empty() {
-            bail!(
-                "no fixture is called `{}`",
-                args.only.as_deref().unwrap_or("")
-            );
-        }
-        print!("{}", selftest::budget_table(&rows));
-        return Ok(true);
+        return calibrate_budget(args, &renderer, count);
     }
     if let Some(count) = args.calibrate {
-        let mut rows = Vec::new();
-        for spec in read_manifest()? {
-            if args.only.as_ref().is_some_and(|o| *o != spec.name) {
-                continue;
-            }
-            let row = selftest::calibrate(
-                &spec,
-                &renderer,
-                args.spp,
-                (args.first_seed, count),
-                &[],
-                &mut |done| {
-                    if done % 50 == 0 {
-                        eprintln!("calibrate {}: {done} of {count}", spec.name);
-                    }
-                },
-            )?;
-            eprintln!(
-                "calibrate {}: {} false alarms in {} renders",
-                spec.name, row.false_alarms, row.renders
-            );
-            rows.push(row);
-        }
-        if rows.is_empty() {
-            bail!(
-                "no fixture is called `{}`",
-                args.only.as_deref().unwrap_or("")
-            );
-        }
-        print!("{}", selftest::calibration_table(&rows));
-        return Ok(true);
+        return calibrate(args, &renderer, count);
     }
     // The kernel-level twin checks first: they take seconds, and a GPU that
     // fails them will not pass the image gates for the right reasons.

@@ -19,7 +19,7 @@ use super::harness::{
 use crate::compare::gate::fixture_scene;
 use glam::{Vec2, Vec3};
 use gpu::GpuContext;
-use reference::geometry::{gamma, spawn_origin, Ray};
+use reference::geometry::{gamma, spawn_origin, Hit, Ray, SurfaceInteraction};
 use reference::material::Material;
 use reference::rng::random_f32;
 use reference::scene::primitive_tag;
@@ -196,41 +196,7 @@ pub fn surface_interactions_with_library(
         let (dp_du, dp_dv) = (v3(&w[25..28]), v3(&w[28..31]));
         let p_error = f32::from_bits(w[11]);
         let at = format!("{name} case {i} (prim {}, t {})", hit.prim, hit.t);
-        let prim = scene.primitives()[hit.prim as usize];
-        // A sphere's normal is its hit point's offset from the centre over
-        // r: the twins' o + t·d may round differently (a contracted fma on
-        // hardware), by at most 2γ(2) of its magnitude per coordinate,
-        // which turns the normal by √3 times that over r.
-        let (normal_tol, uv_tol, p_tol) = if prim.tag == primitive_tag::SPHERE {
-            let r = scene.spheres()[prim.index as usize].radius.abs();
-            let at_t = (ray.origin.abs() + (hit.t * ray.direction).abs()).max_element();
-            let tol = NORMAL_TOL + 3f32.sqrt() * 2.0 * gamma(2) * at_t / r;
-            // u and v turn by the normal's change over π·sin θ.
-            let sin_theta = (1.0 - cpu.geometric_normal.y.powi(2)).max(0.0).sqrt();
-            let uv = SPHERE_UV_TOL + tol / (std::f32::consts::PI * sin_theta.max(1e-6));
-            (tol, uv, cpu.p_error + p_error + r * tol)
-        } else if prim.tag == primitive_tag::INSTANCE {
-            // Each twin maps the group's vertices (a sum of three products
-            // and the origin: within δ of each other, δ the map's error
-            // bound as p_error counts it); the face normal, a cross
-            // product of mapped edges, turns by up to 2δ(|e1| + |e2|) /
-            // |e1 × e2|.
-            let map = scene.instances()[prim.index as usize].map;
-            let tri = scene.triangles()[hit.sub as usize];
-            let local = tri.vertices.map(|v| scene.mesh().positions[v as usize]);
-            let delta = local
-                .iter()
-                .map(|&o| reference::scene::instance_vertex_error(&map, o))
-                .fold(0.0f32, f32::max);
-            let [a, b, c] = local.map(|o| map.to_world(o));
-            let (e1, e2) = (b - a, c - a);
-            let turn = 2.0 * delta * (e1.length() + e2.length()) / e1.cross(e2).length();
-            let uv = NORMAL_TOL * cpu.uv.abs().max_element().max(1.0);
-            (NORMAL_TOL + turn, uv, cpu.p_error + p_error)
-        } else {
-            let uv = NORMAL_TOL * cpu.uv.abs().max_element().max(1.0);
-            (NORMAL_TOL, uv, cpu.p_error + p_error)
-        };
+        let (normal_tol, uv_tol, p_tol) = bounds(scene, ray, hit, &cpu, p_error);
         let mut fail = |what: String| failures.push(format!("{at}: {what}"));
         if w[13] != cpu.material {
             fail(format!("material {} vs {}", w[13], cpu.material));
@@ -345,6 +311,53 @@ pub fn surface_interactions_with_library(
         worst[2],
         worst[3]
     ))
+}
+
+/// The bounds of a hit's normal, uv and point (the GPU's `p_error`
+/// given): a sphere's from its normal's rounding, an instance's from its
+/// mapped vertices', a triangle's and a quad's from three-term sums.
+fn bounds(
+    scene: &Scene,
+    ray: &Ray,
+    hit: &Hit,
+    cpu: &SurfaceInteraction,
+    p_error: f32,
+) -> (f32, f32, f32) {
+    let prim = scene.primitives()[hit.prim as usize];
+    // A sphere's normal is its hit point's offset from the centre over
+    // r: the twins' o + t·d may round differently (a contracted fma on
+    // hardware), by at most 2γ(2) of its magnitude per coordinate,
+    // which turns the normal by √3 times that over r.
+    if prim.tag == primitive_tag::SPHERE {
+        let r = scene.spheres()[prim.index as usize].radius.abs();
+        let at_t = (ray.origin.abs() + (hit.t * ray.direction).abs()).max_element();
+        let tol = NORMAL_TOL + 3f32.sqrt() * 2.0 * gamma(2) * at_t / r;
+        // u and v turn by the normal's change over π·sin θ.
+        let sin_theta = (1.0 - cpu.geometric_normal.y.powi(2)).max(0.0).sqrt();
+        let uv = SPHERE_UV_TOL + tol / (std::f32::consts::PI * sin_theta.max(1e-6));
+        (tol, uv, cpu.p_error + p_error + r * tol)
+    } else if prim.tag == primitive_tag::INSTANCE {
+        // Each twin maps the group's vertices (a sum of three products
+        // and the origin: within δ of each other, δ the map's error
+        // bound as p_error counts it); the face normal, a cross
+        // product of mapped edges, turns by up to 2δ(|e1| + |e2|) /
+        // |e1 × e2|.
+        let map = scene.instances()[prim.index as usize].map;
+        let tri = scene.triangles()[hit.sub as usize];
+        let local = tri.vertices.map(|v| scene.mesh().positions[v as usize]);
+        let delta = local
+            .iter()
+            .map(|&o| reference::scene::instance_vertex_error(&map, o))
+            .fold(0.0f32, f32::max);
+        let [a, b, c] = local.map(|o| map.to_world(o));
+        let (e1, e2) = (b - a, c - a);
+        let turn = 2.0 * delta * (e1.length() + e2.length()) / e1.cross(e2).length();
+        let uv = NORMAL_TOL * cpu.uv.abs().max_element().max(1.0);
+        (NORMAL_TOL + turn, uv, cpu.p_error + p_error)
+    } else {
+        let uv = NORMAL_TOL * cpu.uv.abs().max_element().max(1.0);
+        (NORMAL_TOL, uv, cpu.p_error + p_error)
+    }
 }
 
 /// How much the tangent frame magnifies rounding at a hit (1 where it is

@@ -121,14 +121,17 @@ pub(super) fn draw_ui(
     image: (egui::TextureId, (u32, u32)),
     events: &mut Vec<Event>,
 ) -> bool {
-    let (image_id, image_size) = image;
-    let mut close = false;
     let now = Instant::now();
     let dt = now.duration_since(panel.last_draw).as_secs_f32().min(0.1);
     panel.last_draw = now;
-    let settings = *view.settings();
-    let spec = *view.spec();
-    let camera = *view.camera();
+    load_textures(ui, panel);
+    status_panel(ui, view, panel, events);
+    image_ui(ui, panel, image, events);
+    keys_ui(ui, panel, view.camera().distance, dt, events)
+}
+
+/// The textures made from the last comparison and the last AOV layer.
+fn load_textures(ui: &mut egui::Ui, panel: &mut Panel) {
     if let Some(c) = panel.compared.as_mut() {
         if let Some((rgb, z)) = c.pending.take() {
             let size = [c.cpu.layers.width as usize, c.cpu.layers.height as usize];
@@ -152,6 +155,11 @@ pub(super) fn draw_ui(
             None => panel.layer_texture = Some(ui.ctx().load_texture("aov layer", image, options)),
         }
     }
+}
+
+/// The panel on the right: buttons, the film's state, and the settings.
+fn status_panel(ui: &mut egui::Ui, view: &View<'_>, panel: &mut Panel, events: &mut Vec<Event>) {
+    let settings = *view.settings();
     egui::Panel::right("settings")
         .resizable(false)
         .default_size(280.0)
@@ -199,100 +207,114 @@ pub(super) fn draw_ui(
                 Some((e, _)) => ui.label(format!("relMSE (estimated) {e:.3e}")),
                 None => ui.label("relMSE (estimated) …"),
             };
-            egui::ScrollArea::vertical().show(ui, |ui| {
-                ui.separator();
-                ui.label("Estimator");
-                let mut integrator = spec.integrator();
-                egui::ComboBox::from_label("estimator")
-                    .selected_text(integrator.name())
-                    .show_ui(ui, |ui| {
-                        for i in Integrator::ALL {
-                            ui.selectable_value(&mut integrator, i, i.name());
-                        }
-                    });
-                if integrator != spec.integrator() {
-                    events.push(Event::Integrator(integrator));
-                }
-                let mut depth = settings.max_depth;
-                if ui
-                    .add(egui::Slider::new(&mut depth, 1..=128).text("max depth"))
-                    .changed()
-                {
-                    events.push(Event::MaxDepth(depth));
-                }
-                ui.separator();
-                ui.label("Display");
-                egui::ComboBox::from_label("tone map")
-                    .selected_text(tonemap_name(panel.tonemap))
-                    .show_ui(ui, |ui| {
-                        for t in [Tonemap::Aces, Tonemap::None] {
-                            ui.selectable_value(&mut panel.tonemap, t, tonemap_name(t));
-                        }
-                    });
-                ui.add(
-                    egui::Slider::new(&mut panel.exposure_stops, -8.0..=8.0)
-                        .text("exposure (stops)"),
-                );
-                let name = |l: Option<AovLayer>| l.map_or("image", AovLayer::name);
-                let mut layer = panel.layer;
-                egui::ComboBox::from_label("layer")
-                    .selected_text(name(layer))
-                    .show_ui(ui, |ui| {
-                        ui.selectable_value(&mut layer, None, "image");
-                        for l in AovLayer::ALL {
-                            ui.selectable_value(&mut layer, Some(l), l.name());
-                        }
-                    })
-                    .response
-                    .on_hover_text(format!(
-                        "first-hit layers (AOVs), traced from the film's first {} samples",
-                        super::session::AOV_SAMPLES
-                    ));
-                if layer != panel.layer {
-                    panel.layer = layer;
-                    panel.layer_dirty = true;
-                }
-                ui.separator();
-                ui.label("Camera");
-                let mut fov = camera.vfov;
-                if ui
-                    .add(
-                        egui::Slider::new(&mut fov, camera::FOV_RANGE.0..=camera::FOV_RANGE.1)
-                            .text("field of view"),
-                    )
-                    .changed()
-                {
-                    events.push(Event::Fov(fov));
-                }
-                let mut aperture = camera.aperture;
-                let largest = (camera.distance * 0.5).max(aperture);
-                if ui
-                    .add(egui::Slider::new(&mut aperture, 0.0..=largest).text("aperture"))
-                    .changed()
-                {
-                    events.push(Event::Aperture(aperture));
-                }
-                let mut focus = camera.focus_distance;
-                let far = (4.0 * camera.distance).max(focus);
-                if ui
-                    .add(
-                        egui::Slider::new(&mut focus, camera::MIN_DISTANCE..=far)
-                            .logarithmic(true)
-                            .text("focus distance (double-click: pick)"),
-                    )
-                    .changed()
-                {
-                    events.push(Event::FocusDistance(focus));
-                }
-                if ui.button("scene camera (R)").clicked() {
-                    events.push(Event::SceneCamera);
-                }
-                ui.separator();
-                compare_ui(ui, panel, &settings);
-                ui.separator();
-                variant_ui(ui, spec.variant, events);
-            });
+            egui::ScrollArea::vertical().show(ui, |ui| settings_ui(ui, view, panel, events));
         });
+}
+
+/// The panel's settings: the estimator, the display, the camera, the
+/// comparison and the GPU variant.
+fn settings_ui(ui: &mut egui::Ui, view: &View<'_>, panel: &mut Panel, events: &mut Vec<Event>) {
+    let settings = *view.settings();
+    let spec = *view.spec();
+    let camera = *view.camera();
+    ui.separator();
+    ui.label("Estimator");
+    let mut integrator = spec.integrator();
+    egui::ComboBox::from_label("estimator")
+        .selected_text(integrator.name())
+        .show_ui(ui, |ui| {
+            for i in Integrator::ALL {
+                ui.selectable_value(&mut integrator, i, i.name());
+            }
+        });
+    if integrator != spec.integrator() {
+        events.push(Event::Integrator(integrator));
+    }
+    let mut depth = settings.max_depth;
+    if ui
+        .add(egui::Slider::new(&mut depth, 1..=128).text("max depth"))
+        .changed()
+    {
+        events.push(Event::MaxDepth(depth));
+    }
+    ui.separator();
+    ui.label("Display");
+    egui::ComboBox::from_label("tone map")
+        .selected_text(tonemap_name(panel.tonemap))
+        .show_ui(ui, |ui| {
+            for t in [Tonemap::Aces, Tonemap::None] {
+                ui.selectable_value(&mut panel.tonemap, t, tonemap_name(t));
+            }
+        });
+    ui.add(egui::Slider::new(&mut panel.exposure_stops, -8.0..=8.0).text("exposure (stops)"));
+    let name = |l: Option<AovLayer>| l.map_or("image", AovLayer::name);
+    let mut layer = panel.layer;
+    egui::ComboBox::from_label("layer")
+        .selected_text(name(layer))
+        .show_ui(ui, |ui| {
+            ui.selectable_value(&mut layer, None, "image");
+            for l in AovLayer::ALL {
+                ui.selectable_value(&mut layer, Some(l), l.name());
+            }
+        })
+        .response
+        .on_hover_text(format!(
+            "first-hit layers (AOVs), traced from the film's first {} samples",
+            super::session::AOV_SAMPLES
+        ));
+    if layer != panel.layer {
+        panel.layer = layer;
+        panel.layer_dirty = true;
+    }
+    ui.separator();
+    ui.label("Camera");
+    let mut fov = camera.vfov;
+    if ui
+        .add(
+            egui::Slider::new(&mut fov, camera::FOV_RANGE.0..=camera::FOV_RANGE.1)
+                .text("field of view"),
+        )
+        .changed()
+    {
+        events.push(Event::Fov(fov));
+    }
+    let mut aperture = camera.aperture;
+    let largest = (camera.distance * 0.5).max(aperture);
+    if ui
+        .add(egui::Slider::new(&mut aperture, 0.0..=largest).text("aperture"))
+        .changed()
+    {
+        events.push(Event::Aperture(aperture));
+    }
+    let mut focus = camera.focus_distance;
+    let far = (4.0 * camera.distance).max(focus);
+    if ui
+        .add(
+            egui::Slider::new(&mut focus, camera::MIN_DISTANCE..=far)
+                .logarithmic(true)
+                .text("focus distance (double-click: pick)"),
+        )
+        .changed()
+    {
+        events.push(Event::FocusDistance(focus));
+    }
+    if ui.button("scene camera (R)").clicked() {
+        events.push(Event::SceneCamera);
+    }
+    ui.separator();
+    compare_ui(ui, panel, &settings);
+    ui.separator();
+    variant_ui(ui, spec.variant, events);
+}
+
+/// The image (the film, the CPU twin's, the z map or a layer), and the
+/// mouse on it as camera events.
+fn image_ui(
+    ui: &mut egui::Ui,
+    panel: &mut Panel,
+    (image_id, image_size): (egui::TextureId, (u32, u32)),
+    events: &mut Vec<Event>,
+) {
     egui::CentralPanel::default().show(ui, |ui| {
         let avail = ui.available_size();
         let (w, h) = (image_size.0 as f32, image_size.1 as f32);
@@ -396,13 +418,25 @@ pub(super) fn draw_ui(
                 });
         }
     });
-    // Keys, unless a widget takes the keyboard.
+}
+
+/// The keys, unless a widget takes the keyboard: flying (a second crosses
+/// `distance`, the distance to the target), looking, and the commands.
+/// `true` where the user asked to close.
+fn keys_ui(
+    ui: &mut egui::Ui,
+    panel: &mut Panel,
+    distance: f32,
+    dt: f32,
+    events: &mut Vec<Event>,
+) -> bool {
+    let mut close = false;
     if !ui.ctx().egui_wants_keyboard_input() {
         use egui::Key;
         ui.input(|i| {
             let fast = if i.modifiers.shift { 10.0 } else { 1.0 };
             // A second of flying crosses the distance to the target.
-            let step = camera.distance * dt * fast;
+            let step = distance * dt * fast;
             let axis =
                 |plus: Key, minus: Key| (i.key_down(plus) as i32 - i.key_down(minus) as i32) as f32;
             // Not while Ctrl (save) is held.
