@@ -1023,15 +1023,20 @@ fn imports(dir: &str, root_file: &str) -> BTreeMap<String, BTreeSet<String>> {
         })
         .collect();
     files.retain(|f| !test_files.contains(f));
+    // The file of module `name` in folder `dir` (`dir/name.rs`, or a
+    // folder module's `dir/name/mod.rs`), if there is one.
+    let file_of = |dir: &str, name: &str| -> Option<String> {
+        [format!("{dir}{name}.rs"), format!("{dir}{name}/mod.rs")]
+            .into_iter()
+            .find(|f| files.contains(f))
+    };
     // The module file of `a` or `a::b`, as far as files go.
     let module = |parts: &[String]| -> Option<String> {
         let first = parts.first()?;
-        if parts.len() > 1 && files.contains(&format!("{first}/{}.rs", parts[1])) {
-            return Some(format!("{first}/{}.rs", parts[1]));
-        }
-        [format!("{first}.rs"), format!("{first}/mod.rs")]
-            .into_iter()
-            .find(|f| files.contains(f))
+        parts
+            .get(1)
+            .and_then(|second| file_of(&format!("{first}/"), second))
+            .or_else(|| file_of("", first))
     };
     // Root re-exports: item -> the module path it comes from.
     let mut reexports: BTreeMap<String, Vec<String>> = BTreeMap::new();
@@ -1077,7 +1082,10 @@ fn imports(dir: &str, root_file: &str) -> BTreeMap<String, BTreeSet<String>> {
                         .trim_start_matches("pub(crate) ");
                     if let Some(name) = decl.strip_prefix("mod ").and_then(|n| n.strip_suffix(';'))
                     {
-                        uses.insert(format!("{dir}/{name}.rs"));
+                        uses.insert(
+                            file_of(&format!("{dir}/"), name)
+                                .unwrap_or_else(|| format!("{dir}/{name}.rs")),
+                        );
                     }
                 }
             }
@@ -1165,6 +1173,11 @@ fn the_crates_modules_import_each_other_in_no_cycle() {
             && reference["scene/world.rs"].contains("scene/leaf.rs"),
         "the import graph misses uses of a sibling: {reference:?}"
     );
+    assert!(
+        reference["loader/json.rs"].contains("loader/gltf/mod.rs")
+            && reference["loader/mod.rs"].contains("loader/gltf/mod.rs"),
+        "the import graph misses uses of a folder module: {reference:?}"
+    );
     // Test code is left out: a module's tests may use anything.
     assert!(
         !gpu["pipeline/cache.rs"].contains("pipeline/mod.rs")
@@ -1179,6 +1192,7 @@ fn the_crates_modules_import_each_other_in_no_cycle() {
         (&twintrace, "perf/run.rs", "perf/measure.rs"),
         (&twintrace, "view/session.rs", "view/save.rs"),
         (&reference, "scene/leaf.rs", "scene/world.rs"),
+        (&reference, "loader/gltf/meshes.rs", "loader/gltf/mod.rs"),
     ] {
         let mut g = graph.clone();
         g.get_mut(from).unwrap().insert(to.to_string());

@@ -70,7 +70,7 @@ impl UvTransform {
     }
 }
 
-/// `KHR_texture_transform` as the renderer's uv map (see `super::sampler`),
+/// `KHR_texture_transform` as the renderer's uv map (see `super::textures::sampler`),
 /// composed in f64 and rounded to f32.
 pub(super) fn uv_matrix(t: &UvTransform) -> [f32; 6] {
     let ([ox, oy], [sx, sy]) = (t.offset.map(f64::from), t.scale.map(f64::from));
