@@ -13,8 +13,9 @@ use twintrace::twins::film_words::counts;
 use twintrace::twins::specialization::{all_scenes, film_bits, gate_specs, scene_specs};
 
 /// On a software adapter (CI) the scenes that each bring a feature the
-/// earlier ones lack (`gate_specs`); every scene on hardware (the H100
-/// suite) and in `selftest` there.
+/// earlier ones lack (`gate_specs`), against the kernel of every gate
+/// scene's features (`gate_oracle_features`); every scene against the
+/// general kernel on hardware (the H100 suite) and in `selftest` there.
 #[test]
 fn specialized_kernels_render_every_scene_as_the_general_kernel() {
     let specs = scene_specs().unwrap();
