@@ -3,7 +3,7 @@
 //! Renders a fixture with every constant Lambertian albedo scaled by a
 //! factor (the "albedo ×1.02" mutant of the gate suite, at smaller and
 //! larger factors) at the gate's budget with several seeds, runs the same
-//! gate as tests/reference_images.rs against the stored reference, and
+//! gate as tests/reference/reference_images.rs against the stored reference, and
 //! prints, per factor, how many seeds were caught and the image-sum z
 //! scores. The closing notes and docs/benchmarks.md quote its output.
 //!

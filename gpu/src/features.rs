@@ -16,7 +16,7 @@
 //! rather than a wrong image. The default, [`Features::ALL`], is the general kernel:
 //! the oracle the specialized one is gated against (every fixture, under
 //! the GPU-against-GPU rule of `twintrace::twins::film_words`:
-//! tests/gpu_specialization.rs).
+//! tests/gpu/gpu_specialization.rs).
 //!
 //! The kernel axis itself ([`Kernel`]) and the dispatch axis ([`Dispatch`],
 //! with its constant) are defined in `crate::variants` and re-exported

@@ -1,7 +1,7 @@
 //! GPU records: one `#[repr(C)]` `Pod` struct per record, defined once
 //! here. The [`gpu_record!`] macro emits the Rust struct and its WGSL
 //! mirror from the same field list, so the two cannot drift; a layout test
-//! (tests/gpu_buffer_layout.rs) still checks what the shader reads. Fields are
+//! (tests/gpu/gpu_buffer_layout.rs) still checks what the shader reads. Fields are
 //! scalar `f32`/`u32` only: no `vec3` in storage structs, so WGSL's layout
 //! equals C's (align 4, stride = size).
 

@@ -12,7 +12,7 @@
 //! what the megakernel's computes from the same keyed randoms: the films
 //! are equal, bit for bit or with means a few ulp apart where a driver
 //! contracts the two programs differently (`twintrace::twins::wavefront`,
-//! tests/gpu_wavefront.rs).
+//! tests/gpu/gpu_wavefront.rs).
 //!
 //! The schedules themselves ([`Schedule`], [`PathLayout`]) and the
 //! [`Variant`] are defined in `crate::variants` and re-exported here.

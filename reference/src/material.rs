@@ -1852,7 +1852,7 @@ pub fn normal_mapped(n: Vec3, side: f32, ng: Vec3, tangent: Vec4, texel: Vec3, s
 /// 2a cos sin² + sin⁴)`, where `a² + b² = √((η² − κ² − sin²)² + 4η²κ²)`
 /// and `a = √((a² + b² + η² − κ² − sin²) / 2)` (Born and Wolf's
 /// closed form for an absorbing medium). Held to Mitsuba 3.9.1's
-/// `conductor` by tests/mitsuba_bsdfs.rs.
+/// `conductor` by tests/reference/mitsuba_bsdfs.rs.
 #[inline]
 pub fn fresnel_conductor(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
     let (eta, k) = if mutants::is(Mutant::ConductorEtaKSwapped) {
@@ -1885,7 +1885,7 @@ pub fn fresnel_conductor(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
 /// and p-polarized reflectances `((cos_i − η cos_t) / (cos_i + η
 /// cos_t))²` and `((η cos_i − cos_t) / (η cos_i + cos_t))²`, `cos_t` from
 /// Snell's law; 1 past the critical angle. Held to Mitsuba 3.9.1's
-/// `dielectric` by tests/mitsuba_bsdfs.rs.
+/// `dielectric` by tests/reference/mitsuba_bsdfs.rs.
 #[inline]
 pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
     let eta = if mutants::is(Mutant::DielectricEtaInverted) {
@@ -1908,7 +1908,7 @@ pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
 /// ([`fresnel_dielectric`]), the light reflected at the first face plus
 /// what comes back out after any number of inner reflections,
 /// `F + (1 − F)² F / (1 − F²) = 2F / (1 + F)`. Held to Mitsuba 3.9.1's
-/// `thindielectric` by tests/mitsuba_bsdfs.rs.
+/// `thindielectric` by tests/reference/mitsuba_bsdfs.rs.
 #[inline]
 pub fn thin_dielectric_reflectance(cos_i: f32, eta: f32) -> f32 {
     let f = fresnel_dielectric(cos_i, eta);

@@ -1,5 +1,5 @@
 //! Mutation points: deliberate defects in the production code, switched on
-//! only by the gates' own tests (tests/gates_catch_mutants.rs), to prove
+//! only by the gates' own tests (tests/tools/gates_catch_mutants.rs), to prove
 //! that some gate fails on each. Compiled in only with the cargo feature
 //! `mutants`, which the workspace's integration tests enable; without it
 //! [`active`] is the constant [`Mutant::None`] and every point folds away.

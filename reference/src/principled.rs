@@ -21,7 +21,7 @@
 //! `wo` toward the light (Mitsuba's names). [`Principled::eval`] is
 //! `f·|cos θ_o|`, [`Principled::pdf`] the density of
 //! [`Principled::sample`]'s directions. Held to Mitsuba's own
-//! plugin by tests/mitsuba_bsdfs.rs.
+//! plugin by tests/reference/mitsuba_bsdfs.rs.
 
 use crate::geometry::reflect;
 use crate::microfacet::{distribution, Microfacet, MICROFACET_D_MIN};

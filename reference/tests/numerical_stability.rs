@@ -13,7 +13,7 @@
 //!   spheres, rays starting exactly on surfaces: no NaN, no Inf, no panic.
 //!
 //! Scale invariance (a statistical gate) is in the workspace's
-//! tests/scale_invariance.rs, beside the statistics it uses.
+//! tests/reference/scale_invariance.rs, beside the statistics it uses.
 
 use crate::common;
 use crate::common::{build_scene_placed, Rng, ShapeSpec};

@@ -48,7 +48,7 @@ pub const GATE_REFS: RefSet = RefSet {
 /// [`GATE_REFS`], which are BSDF-sampled): a render is gated against the
 /// set of its own estimator ([`refs_for`]), whose per-sample variance
 /// then predicts its noise; the two sets are held to each other by
-/// Welch's test (tests/mis_matches_bsdf.rs).
+/// Welch's test (tests/reference/mis_matches_bsdf.rs).
 pub const MIS_REFS: RefSet = RefSet {
     manifest: MANIFEST,
     dir: "fixtures/refs/mis",
@@ -313,7 +313,7 @@ impl GateRun {
 /// only (stored references are rendered with it for the same reason). A
 /// stratified sequence's mean varies less than that spread says, so a gate
 /// on it would pass more and catch less; the Sobol' sampler has gates of
-/// its own (tests/sobol_sampler.rs) and its twin, and the two samplers
+/// its own (tests/reference/sobol_sampler.rs) and its twin, and the two samplers
 /// share every other line of the estimator.
 pub const GATE_SAMPLER: reference::rng::Sampler = reference::rng::Sampler::Independent;
 

@@ -1,5 +1,5 @@
-//! Known answers of Mitsuba's models (tests/furnace.rs and
-//! tests/gpu_furnace.rs run them on both twins; the checks are
+//! Known answers of Mitsuba's models (tests/reference/furnace.rs and
+//! tests/gpu/gpu_furnace.rs run them on both twins; the checks are
 //! [`super::furnace`]'s):
 //!
 //! - **White rough conductor** ([`rough_conductor_plane`]): a plane of
@@ -108,7 +108,7 @@ pub fn rough_mirror_albedo(dist: u32, alpha: f64, theta_o_deg: f64, n: usize) ->
 
 /// Quadrature resolution of [`rough_mirror_albedo`]: at `alpha` ≥ 0.1 and
 /// `θ_o` ≤ 75° the result moves by less than 2·10⁻⁵ from 1024 to 2048
-/// cells a side (tests/furnace.rs checks it at the extremes).
+/// cells a side (tests/reference/furnace.rs checks it at the extremes).
 pub const ROUGH_QUADRATURE: usize = 1024;
 
 /// The camera of a plane seen from far away at `theta_deg` from its

@@ -43,7 +43,7 @@ use std::time::Instant;
 /// batch re-traces a tenth of its rays. Real work, not a sleep, so that
 /// instruction counts see it as wall time does. The regression rule must
 /// flag it and must not flag a plain repeat (the self-test,
-/// tests/perf_regression.rs).
+/// tests/tools/perf_regression.rs).
 pub const INJECTED_SLOWDOWN: f64 = 0.10;
 
 /// The every-`n`th path the injected slowdown re-traces.
@@ -541,7 +541,7 @@ fn measure_workload(
                         });
                     }
                     // The hit records against the reference's: a sanity
-                    // figure (the exact gate is tests/gpu_hits_match_reference.rs).
+                    // figure (the exact gate is tests/gpu/gpu_hits_match_reference.rs).
                     let same = batch
                         .par_iter()
                         .zip(&t.hits)

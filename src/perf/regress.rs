@@ -42,7 +42,7 @@ use anyhow::{bail, Result};
 use std::fmt::Write as _;
 
 /// The smallest drop reported as a regression, whatever the noise: 3 %.
-/// Instruction counts repeat to within 10^-4 (tests/perf_regression.rs
+/// Instruction counts repeat to within 10^-4 (tests/tools/perf_regression.rs
 /// measures it), so without a floor a change of a few instructions would
 /// count; 3 % is below the 10 % the self-test must catch and above the
 /// run-to-run drift of a saved baseline's instruction counts.

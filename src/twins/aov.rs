@@ -48,7 +48,7 @@ const DISTANCE_TOL: f32 = 256.0 * EPS;
 /// coverage, drawn from a hash of the ray's bits. Measured on lavapipe
 /// (24x16 × 4 samples): rtow-final 1 pixel of 384, textures 11 (the
 /// image-textured sphere), gltf-materials 13 (3.4 %; BLEND). 8 % leaves
-/// room for another adapter's rounding; each mutant of tests/gpu_aov.rs
+/// room for another adapter's rounding; each mutant of tests/gpu/gpu_aov.rs
 /// puts 21 % or more of its scene's pixels off.
 pub const MAX_OFF_FRACTION: f64 = 0.08;
 

@@ -16,7 +16,7 @@
 //!
 //! The primitive boxes (what the admits rule tests) are the reference's
 //! own: the host packs them into `GpuPrimitive`, so the GPU admits the
-//! hits the reference admits (tests/gpu_buffer_layout.rs checks the
+//! hits the reference admits (tests/gpu/gpu_buffer_layout.rs checks the
 //! fields the kernel reads).
 
 use super::harness::{camera_and_random_rays, ensure, run_kernel_with_library, Outcome};

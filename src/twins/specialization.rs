@@ -37,7 +37,7 @@ pub fn scene_specs() -> Result<Vec<String>, String> {
 
 /// Width, height and samples per pixel of the compared renders (depth 8):
 /// 384 paths a scene reach every feature each of these scenes uses
-/// (tests/gpu_specialization.rs leaves each one out in turn and sees the
+/// (tests/gpu/gpu_specialization.rs leaves each one out in turn and sees the
 /// film change); the comparison is exact, so more samples would only
 /// reach rarer paths.
 pub const SIZE: (u32, u32, u32) = (16, 12, 2);

@@ -8,8 +8,8 @@ pub mod punctual;
 
 /// Every stored reference of fixtures/refs/manifest.txt, once, with the
 /// budgets of its two image gates: `test_name: "manifest-name", cpu_spp,
-/// gpu_spp;`. tests/reference_images.rs (the CPU gates) and
-/// tests/gpu_matches_reference.rs (the GPU gates) expand `$gates!` over
+/// gpu_spp;`. tests/reference/reference_images.rs (the CPU gates) and
+/// tests/gpu/gpu_matches_reference.rs (the GPU gates) expand `$gates!` over
 /// it, one `#[test]` per reference each, and the first checks the list
 /// against the manifest. Budgets: 1024 spp (a 64x64 Cornell box at 1024
 /// against 16384 is the measurement behind the aggregate tests), except

@@ -1,5 +1,5 @@
 """Writes what Mitsuba 3's own BSDF plugins give on a fixed set of
-inputs, for twintrace's tests to hold its models to (tests/mitsuba_bsdfs.rs
+inputs, for twintrace's tests to hold its models to (tests/reference/mitsuba_bsdfs.rs
 regenerates the same inputs and compares).
 
     python3 xtask/mitsuba/bsdf_values.py CASE  [--out fixtures/mitsuba/bsdf]

@@ -1,6 +1,6 @@
 """Writes what Mitsuba 3's own shape plugins give for rays shot at
 twintrace's shape fixtures (fixtures/mitsuba_shapes/*.xml), for
-tests/mitsuba_shapes.rs to hold twintrace's shapes to.
+tests/reference/mitsuba_shapes.rs to hold twintrace's shapes to.
 
     python3 xtask/mitsuba/shape_values.py [--out fixtures/mitsuba_shapes]
 

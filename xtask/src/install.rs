@@ -54,7 +54,7 @@ pub fn ensure_vulkan() -> Result<(), String> {
 }
 
 /// Makes sure Valgrind is installed: the regression rule's self-test
-/// (tests/perf_regression.rs) counts instructions with its callgrind tool,
+/// (tests/tools/perf_regression.rs) counts instructions with its callgrind tool,
 /// where wall time on a shared CI machine is too noisy to show 10 %.
 pub fn ensure_valgrind() -> Result<(), String> {
     let works = || {
@@ -97,7 +97,7 @@ fn has_library(name: &str) -> bool {
 }
 
 /// Makes sure Xvfb and the X client libraries are installed: the
-/// viewer's window test (tests/view.rs) opens its window on a virtual
+/// viewer's window test (tests/view/view.rs) opens its window on a virtual
 /// display, as a headless CI machine has no other.
 pub fn ensure_xvfb() -> Result<(), String> {
     let xvfb = || {

@@ -27,7 +27,7 @@
 //!
 //! `--import DIR` copies each `NAME.exr` that `run.sh` wrote into
 //! `fixtures/refs/mitsuba/` with a provenance note (renderer, versions,
-//! passes, timings, the GPU). tests/reference_images.rs then requires
+//! passes, timings, the GPU). tests/reference/reference_images.rs then requires
 //! every stored reference to agree with its Mitsuba render under
 //! `twintrace diff`'s defaults.
 

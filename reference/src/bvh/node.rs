@@ -63,7 +63,7 @@ pub const SLAB_FAR_SCALE: f32 =
 /// slack. Primitive routines compute t with their own rounding, which can
 /// fall below the box's computed entry distance for a surface lying in the
 /// box's face (a Cornell floor quad under a box bottom: found by
-/// tests/bvh_matches_brute_force.rs, cornell ray 3092, where culling hid
+/// tests/reference/bvh_matches_brute_force.rs, cornell ray 3092, where culling hid
 /// the floor's equal-t hit). 2^-12 relative covers dot products whose
 /// condition number reaches ~10^3, far beyond what rounding gave there.
 pub const BOX_NEAR_SLACK: f32 = 1.0 - 1.0 / 4096.0;

@@ -37,7 +37,7 @@ fn interrupted_gpu_renders_resume_to_the_whole_render_bit_for_bit() {
 /// its range whole and asks for the signal before each device's unit, so
 /// an interrupt in the middle saves the prefix of samples its devices
 /// finished, and the resumed film is the whole two-device render's (the
-/// one-device render's, tests/gpu_split_render.rs) bit for bit.
+/// one-device render's, tests/gpu/gpu_split_render.rs) bit for bit.
 #[test]
 fn interrupted_group_renders_resume_to_the_whole_render_bit_for_bit() {
     let i = crate::common::test_adapter_index();

@@ -2,7 +2,7 @@
 //! seen head-on (the albedo its colour, the normal facing the camera, the
 //! hit points on its plane, the depth their distance, the sky's pixels
 //! zero and +∞), the `render --aov` layers in the EXR without a bit of the
-//! image changed, and the refusals. The GPU's twin: tests/gpu_aov.rs.
+//! image changed, and the refusals. The GPU's twin: tests/gpu/gpu_aov.rs.
 
 use crate::common::twintrace_bin;
 use glam::{Vec3, Vec3Swizzles};

@@ -2,7 +2,7 @@
 //! - every fixture, GPU vs its stored reference (`fixtures/refs/`, made by
 //!   the CPU reference at 16384 spp): per-pixel z-test (Šidák,
 //!   failing pixels ≤ 0.25 % of the tests) plus image-sum and 8x8 tile-sum tests (sharing α = 0.01), as in
-//!   tests/reference_images.rs but with the GPU as the renderer;
+//!   tests/reference/reference_images.rs but with the GPU as the renderer;
 //! - GPU vs CPU at equal budgets: Welch's t-test (Jung et al. 2020);
 //! - and the gate can fail: a GPU render of a scene with albedo ×1.02 is
 //!   caught. A failure writes its evidence under target/diff/.
@@ -30,7 +30,7 @@ fn gpu_render(scene: &Scene, settings: &RenderSettings) -> Result<Film> {
 }
 
 /// One GPU gate per reference (the list and its budgets:
-/// `common::for_each_reference`, which tests/reference_images.rs checks
+/// `common::for_each_reference`, which tests/reference/reference_images.rs checks
 /// against the manifest).
 macro_rules! gpu_gates {
     ($($test:ident: $name:literal, $cpu_spp:expr, $gpu_spp:expr;)*) => {

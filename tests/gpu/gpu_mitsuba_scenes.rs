@@ -1,5 +1,5 @@
 //! The GPU twin on the Mitsuba gate scenes of fixtures/mitsuba, judged
-//! as Mitsuba's render tests judge an image (tests/mitsuba_scenes.rs has
+//! as Mitsuba's render tests judge an image (tests/reference/mitsuba_scenes.rs has
 //! the CPU twin, the mutant and the false-alarm rate).
 
 use reference::mutants::Mutant;
@@ -63,7 +63,7 @@ struct GpuMutant {
     /// The production WGSL replaced (found once) and its replacement.
     from: &'static str,
     to: &'static str,
-    /// The CPU twin's mutant of the same defect, which tests/mitsuba_scenes.rs
+    /// The CPU twin's mutant of the same defect, which tests/reference/mitsuba_scenes.rs
     /// renders on the same scene in CI: that the scene and the judge see
     /// the defect is shown there whichever twin has it.
     cpu_twin: Option<Mutant>,

@@ -1,6 +1,6 @@
 //! The GPU's sampling routines, run in a compute shader, draw from the
 //! densities the reference states (chi-square goodness of fit, same
-//! domains and sample counts as tests/sampling_chi2.rs, Šidák over all
+//! domains and sample counts as tests/reference/sampling_chi2.rs, Šidák over all
 //! runs at α = 0.01), and the GPU's delta and density-less lobes (mirror,
 //! dielectric, fuzzy metal) produce the CPU's distribution (two-sample
 //! chi-square, independent seeds). A GPU lobe with a 0.7 % change in the
@@ -26,7 +26,7 @@ const SPHERE: Domain = Domain::Sphere {
     phi_bins: 64,
 };
 /// The base colour of texture 0 in the kernel's scene (the GGX material
-/// cases use it, as tests/sampling_chi2.rs does).
+/// cases use it, as tests/reference/sampling_chi2.rs does).
 const BASE: Vec3 = Vec3::new(0.9, 0.6, 0.3);
 
 const SNIPPET: &str = "

@@ -552,7 +552,7 @@ fn environment_defects_fail_the_known_answer() {
 
 /// Directions drawn from the environment light follow the density MIS
 /// weighs them with (chi-square, 10^6 samples per run, three runs, Šidák
-/// at α = 0.01, as tests/sampling_chi2.rs); the density without its
+/// at α = 0.01, as tests/reference/sampling_chi2.rs); the density without its
 /// `sin θ` fails.
 #[test]
 fn environment_samples_follow_their_density() {

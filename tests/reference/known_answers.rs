@@ -129,7 +129,7 @@ fn russian_roulette_keeps_the_expectation() {
 /// fraction of the bound: the point lies within `p_error` of the surface
 /// in each coordinate, which turns the radial direction by at most
 /// √3·p_error / r, and the f32 normalize adds a few ε (8, as in
-/// tests/gpu_surface_match_reference.rs). Rays: from random points of the
+/// tests/gpu/gpu_surface_match_reference.rs). Rays: from random points of the
 /// scene's bounds in uniform directions.
 pub(crate) fn sphere_normal_error(scene: &reference::Scene) -> f64 {
     use reference::rng::random_f32;

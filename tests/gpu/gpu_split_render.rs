@@ -212,7 +212,7 @@ const DEVICES_SEED: u32 = 13;
 
 /// A render whose samples come from several devices: the stored
 /// reference's statistical gate judges it (as it judges a one-device GPU
-/// render in tests/gpu_matches_reference.rs), every device having traced
+/// render in tests/gpu/gpu_matches_reference.rs), every device having traced
 /// some of them. The mutant: one device renders its half of the samples
 /// with albedo x1.08 (about 4 % bias in the merged image; the
 /// cornell-boxes gate catches 2 % at 512 spp on one device) and must fail.

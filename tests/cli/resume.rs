@@ -11,7 +11,7 @@
 //! that fails leaves the chunks before it to be saved, and the CPU
 //! reference drops a chunk in flight when stopped between its tiles.
 //!
-//! The GPU's runs are in tests/gpu_resume.rs, through the helpers here.
+//! The GPU's runs are in tests/gpu/gpu_resume.rs, through the helpers here.
 
 use reference::film::FilmSums;
 use reference::RenderSettings;

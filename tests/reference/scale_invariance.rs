@@ -186,7 +186,7 @@ fn a_scene_scaled_by_1e_3_and_1e3_renders_the_same_image() {
 }
 
 /// The gate above can fail: walls 5 % darker (an albedo change of the kind
-/// tests/gates_catch_mutants.rs uses) are caught at the same budget.
+/// tests/tools/gates_catch_mutants.rs uses) are caught at the same budget.
 #[test]
 fn the_scale_invariance_gate_catches_a_changed_scene() {
     let base = render_scaled(1.0, 0.73, 1);
@@ -264,7 +264,7 @@ fn far_matches_origin(
 
 /// precision-far.json traced in world coordinates: its `render_origin`
 /// pinned at the world's origin, so that its f32 numbers are 2·10^4 out
-/// as before render space (tests/render_space.rs checks render space
+/// as before render space (tests/reference/render_space.rs checks render space
 /// itself).
 fn far_scene_in_world_space() -> Scene {
     let root = twintrace::compare::gate::workspace_root();

@@ -6,7 +6,7 @@
 //! another seed; the GPU gets the same cases later.
 //!
 //! The light samplers (area lights, spheres' cones, the environment map)
-//! are tested in tests/light_sampling.rs.
+//! are tested in tests/reference/light_sampling.rs.
 
 use crate::common::gates::assert_family_passes;
 use glam::{DVec3, Vec2, Vec3};

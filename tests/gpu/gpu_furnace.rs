@@ -1,4 +1,4 @@
-//! The furnace scenes of tests/furnace.rs on the GPU backend: exact cases
+//! The furnace scenes of tests/reference/furnace.rs on the GPU backend: exact cases
 //! bit for bit, the others within the z-tests against the known value.
 
 use crate::common;
@@ -68,7 +68,7 @@ fn concentric_spheres_and_ggx_metal_match_their_answers_on_the_gpu() {
     }
 }
 
-/// The known answers of Mitsuba's models (tests/furnace.rs) on the GPU: a
+/// The known answers of Mitsuba's models (tests/reference/furnace.rs) on the GPU: a
 /// white rough conductor of each distribution, a dielectric slab and a
 /// thin sheet head-on and at 60°.
 #[test]

@@ -7,13 +7,13 @@
 //! - every fixture rendered with the MIS path tracer, on the CPU reference
 //!   and on the GPU, passes the stored-reference gate of its MIS reference:
 //!   per-pixel z-tests (Šidák, failing pixels ≤ 0.25 % of the tests) plus image-sum and 8x8 tile-sum
-//!   tests, as tests/reference_images.rs holds BSDF renders to the BSDF
+//!   tests, as tests/reference/reference_images.rs holds BSDF renders to the BSDF
 //!   references (the reference's per-sample variance predicts the render's
 //!   noise, so each estimator meets its own set);
 //! - Welch's test between the two backends' MIS renders at equal budgets.
 //!
-//! The MIS defects that must fail are in tests/light_sampling.rs (CPU) and
-//! tests/gpu_light_sampling.rs (GPU).
+//! The MIS defects that must fail are in tests/reference/light_sampling.rs (CPU) and
+//! tests/gpu/gpu_light_sampling.rs (GPU).
 
 use crate::common;
 use crate::common::for_each_reference;

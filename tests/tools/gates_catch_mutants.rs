@@ -262,7 +262,7 @@ fn the_copied_tracer_is_the_reference_bit_for_bit_and_the_exact_gate_sees_a_drop
 
 // ---------------------------------------------------------------- images
 
-/// The Cornell-box image gate exactly as tests/reference_images.rs runs it.
+/// The Cornell-box image gate exactly as tests/reference/reference_images.rs runs it.
 const CORNELL: &str = "cornell-boxes";
 const CORNELL_SPP: u32 = 1024;
 const TEST_SEED: u32 = 7;
@@ -404,7 +404,7 @@ fn welch_passes_two_seeds_and_fails_albedo_times_1_02() {
 
 // -------------------------------------------------------------- sampling
 
-/// Samples per run, as in tests/sampling_chi2.rs.
+/// Samples per run, as in tests/reference/sampling_chi2.rs.
 const N: u32 = 1_000_000;
 const SPHERE: Domain = Domain::Sphere {
     theta_bins: 64,
@@ -412,7 +412,7 @@ const SPHERE: Domain = Domain::Sphere {
 };
 
 /// A mutant is caught when its run fails at the Šidák level of a family of
-/// up to 16 runs (the largest family in tests/sampling_chi2.rs has 12).
+/// up to 16 runs (the largest family in tests/reference/sampling_chi2.rs has 12).
 fn assert_rejected(what: &str, o: &Chi2Outcome) {
     let level = sidak(0.01, 16);
     println!("{what}: {}", o.summary());

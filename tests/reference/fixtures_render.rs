@@ -1,7 +1,7 @@
 //! Rules the fixture scenes must keep so that the CPU-vs-GPU gates judge
 //! the renderers and not rounding. (That every scene renders complete and
 //! NaN-free on the CPU, with an image mean its GPU twin agrees with, is
-//! tests/gpu_renders_fixtures.rs.)
+//! tests/gpu/gpu_renders_fixtures.rs.)
 
 use crate::common;
 use reference::f64_oracle;

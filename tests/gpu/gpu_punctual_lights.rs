@@ -130,7 +130,7 @@ fn wgsl_punctual_light_mutants_fail_the_known_answers_and_the_twin() {
 
 /// A BSDF kernel specialized without `PUNCTUAL_LIGHTS` on a scene with
 /// punctual lights poisons its samples rather than render without their
-/// light (the MIS kernel's is caught by tests/gpu_specialization.rs).
+/// light (the MIS kernel's is caught by tests/gpu/gpu_specialization.rs).
 #[test]
 fn a_bsdf_kernel_built_without_punctual_lights_poisons_its_samples() {
     use gpu::features::{feature, Features};

@@ -1,5 +1,5 @@
 //! Render space on the GPU: the lamp-lit plane far from the origin
-//! (tests/render_space.rs's known answers, 2·10^4, 10^5 and 10^6 out, the
+//! (tests/reference/render_space.rs's known answers, 2·10^4, 10^5 and 10^6 out, the
 //! camera near it) gives its integral with either estimator, |z| < 4, at
 //! 2^22 samples a case on a hardware adapter (2^18 on a software one,
 //! where the CPU's 2^20-sample cases carry the power); render space off,

@@ -167,7 +167,7 @@ fn rough_conductors_of_beckmann_facets_where_ggx_is_asked_fail_the_rough_gate() 
     // At seed 0: 88.6 % of the pixel tests pass, image-sum z +107, +104,
     // +76. (Beckmann's sampler drawing the distribution's normals rather
     // than the visible ones moved a draft of this scene too little for
-    // this gate, 99.8 %: tests/sampling_chi2.rs catches it.)
+    // this gate, 99.8 %: tests/reference/sampling_chi2.rs catches it.)
     mutant_fails("rough", Mutant::RoughBeckmannForGgx);
 }
 

@@ -39,11 +39,11 @@ fn films_and_aovs_beyond_the_buffer_limit_are_banded() {
     );
     let scene = reference::load_scene("cornell").unwrap();
     let r = gpu::GpuRenderer::new(ctx, &scene).unwrap();
-    // The film is held in bands (tests/gpu_film_bands.rs renders such films).
+    // The film is held in bands (tests/gpu/gpu_film_bands.rs renders such films).
     let film_bytes = pixels * std::mem::size_of::<gpu::records::GpuPixel>() as u64;
     let bands = r.film_bands(&settings).len() as u64;
     assert!(bands >= film_bytes.div_ceil(limit), "{bands} bands");
-    // So are the AOVs (tests/gpu_film_bands.rs renders them in bands).
+    // So are the AOVs (tests/gpu/gpu_film_bands.rs renders them in bands).
     let aov_bands = r.aov_bands(&settings).len() as u64;
     assert!(
         aov_bands >= aov_bytes.div_ceil(limit),

@@ -6,10 +6,10 @@
 //!   against the same box at the origin, both estimators, by `twintrace
 //!   diff`'s default gate; with render space switched off
 //!   (`Mutant::NoRenderSpace`) the same comparison fails;
-//! - known answers: the lamp-lit plane of tests/light_sampling.rs at
+//! - known answers: the lamp-lit plane of tests/reference/light_sampling.rs at
 //!   2·10^4, 10^5 and 10^6 from the origin, the camera near it, both
 //!   estimators, |z| < 4 against the integral (CPU here at 2^20 samples
-//!   a case; the GPU's in tests/gpu_render_space.rs); render space off,
+//!   a case; the GPU's in tests/gpu/gpu_render_space.rs); render space off,
 //!   the BSDF estimate is far off;
 //! - every stored reference's fixture moved, camera included, by a random
 //!   offset of up to 10^5 passes its stored reference's gate.
@@ -191,7 +191,7 @@ fn a_cornell_box_far_from_the_origin_renders_as_it_does_at_the_origin() {
     }
 }
 
-/// The plane under a lamp of tests/light_sampling.rs (a grey plane 1 below
+/// The plane under a lamp of tests/reference/light_sampling.rs (a grey plane 1 below
 /// a 1x1 lamp, a pinhole of 0.001° looking at one point of it) moved by
 /// `offset`, its camera 2.2 from the point it sees, in render space; its
 /// target point relative to the scene (where the answer is computed).
