@@ -77,6 +77,9 @@ mod sampling_chi2;
 mod scale_invariance;
 #[path = "reference/scene_loading_errors.rs"]
 mod scene_loading_errors;
+#[cfg(target_os = "linux")]
+#[path = "cli/slurm.rs"]
+mod slurm;
 #[path = "reference/sobol_sampler.rs"]
 mod sobol_sampler;
 #[path = "cli/split_render.rs"]

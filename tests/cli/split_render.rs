@@ -135,13 +135,13 @@ fn floating_point_accumulation_would_fail_the_merge_gate() {
     );
 }
 
-struct Outcome {
-    ok: bool,
-    stdout: String,
-    stderr: String,
+pub(crate) struct Outcome {
+    pub(crate) ok: bool,
+    pub(crate) stdout: String,
+    pub(crate) stderr: String,
 }
 
-fn twintrace(dir: &Path, args: &[&str]) -> Outcome {
+pub(crate) fn twintrace(dir: &Path, args: &[&str]) -> Outcome {
     let out = Command::new(common::twintrace_bin())
         .args(args)
         .current_dir(dir)
@@ -181,7 +181,7 @@ fn render_seeded(dir: &Path, out: &str, seed: &str, extra: &[&str]) -> Outcome {
     twintrace(dir, &args)
 }
 
-fn layer_bits(image: &twintrace::RenderImage) -> Vec<u32> {
+pub(crate) fn layer_bits(image: &twintrace::RenderImage) -> Vec<u32> {
     let layers = [
         Some(&image.mean),
         image.variance.as_ref(),
@@ -309,7 +309,7 @@ fn the_cli_merges_parts_into_the_whole_render_and_refuses_what_is_not_one() {
 
 /// A tiny Cornell box as a scene file (12x10, depth 6, seed 5), so that the
 /// recipes' scripts, which pass no size, render it quickly.
-fn tiny_scene(dir: &Path) -> std::path::PathBuf {
+pub(crate) fn tiny_scene(dir: &Path) -> std::path::PathBuf {
     let root = twintrace::compare::gate::workspace_root();
     let text = std::fs::read_to_string(root.join("fixtures/scenes/cornell-spheres.json")).unwrap();
     let mut scene: serde_json::Value = serde_json::from_str(&text).unwrap();
@@ -374,40 +374,6 @@ fn the_batch_recipes_render_parts_as_separate_tasks_and_merge_them() {
     let root = twintrace::compare::gate::workspace_root();
     let recipes = root.join("docs/recipes");
 
-    // Slurm: the array's batch script, once per task id, all at once;
-    // then the merge batch script.
-    let out = d.join("slurm").display().to_string();
-    let common_env = |extra: &[(&'static str, String)]| {
-        let mut env = vec![
-            ("SLURM_SUBMIT_DIR", root.display().to_string()),
-            ("SCENE", scene_arg.clone()),
-            ("SPP", "24".to_string()),
-            ("PARTS", "3".to_string()),
-            ("OUTDIR", out.clone()),
-            ("OUT", d.join("slurm-render").display().to_string()),
-        ];
-        env.extend_from_slice(extra);
-        env
-    };
-    let tasks: Vec<_> = (0..3)
-        .map(|i| {
-            task(
-                &recipes.join("slurm/parts.sbatch"),
-                &[],
-                &common_env(&[("SLURM_ARRAY_TASK_ID", i.to_string())]),
-            )
-        })
-        .collect();
-    for (i, t) in tasks.into_iter().enumerate() {
-        finish(t, &format!("slurm task {i}"));
-    }
-    finish(
-        task(&recipes.join("slurm/merge.sbatch"), &[], &common_env(&[])),
-        "slurm merge",
-    );
-    let merged = read_exr(&d.join("slurm-render.exr")).unwrap();
-    assert_eq!(layer_bits(&merged), whole, "slurm");
-
     // Kubernetes: the Indexed Job's container command, its paths mapped
     // into this folder and its sample count lowered, once per completion
     // index; then the merge Job's command.
@@ -464,6 +430,7 @@ fn the_batch_recipes_render_parts_as_separate_tasks_and_merge_them() {
 
     // A task without an index, and a merge with a part missing, fail
     // with one line naming what is wrong.
+    let out = d.join("k8s/parts").display().to_string();
     let no_index = task(
         &recipes.join("part.sh"),
         &[scene_arg.clone(), "24".into(), "3".into(), out.clone()],
@@ -471,17 +438,22 @@ fn the_batch_recipes_render_parts_as_separate_tasks_and_merge_them() {
     );
     let o = no_index.wait_with_output().unwrap();
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("task index"));
-    std::fs::remove_file(d.join("slurm/part-1.exr")).unwrap();
+    std::fs::remove_file(d.join("k8s/parts/part-1.exr")).unwrap();
     let o = task(
         &recipes.join("merge.sh"),
-        &[out.clone(), "3".into(), d.join("x").display().to_string()],
+        &[
+            out.clone(),
+            completions.to_string(),
+            d.join("x").display().to_string(),
+        ],
         &[],
     )
     .wait_with_output()
     .unwrap();
     assert!(
         !o.status.success()
-            && String::from_utf8_lossy(&o.stderr).contains("part 1 of 3 is missing")
+            && String::from_utf8_lossy(&o.stderr)
+                .contains(&format!("part 1 of {completions} is missing"))
     );
     assert!(!d.join("x.exr").exists());
 }

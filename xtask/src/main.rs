@@ -21,7 +21,8 @@ cargo xtask <command>
 
 Commands:
   test       install what the tests need (Mesa lavapipe when no Vulkan driver
-             is present, Valgrind for the perf self-test), then run the whole suite:
+             is present, Valgrind for the perf self-test, Xvfb, libclang, a
+             single-node Slurm with munge), then run the whole suite:
              cargo fmt --check, then cargo test --workspace built with clippy's
              lints (-D warnings; its driver as the workspace's compiler wrapper,
              every target; extra arguments go to cargo test), then `fuzz` for
@@ -89,10 +90,7 @@ fn main() -> ExitCode {
         std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir());
     }
     let result = match args.first().map(String::as_str) {
-        Some("test") => install::ensure_vulkan()
-            .and_then(|()| install::ensure_valgrind())
-            .and_then(|()| install::ensure_xvfb())
-            .and_then(|()| test::run(&args[1..])),
+        Some("test") => install::ensure_test_needs().and_then(|()| test::run(&args[1..])),
         Some("gpu-suite") => gpu_suite::run(&args[1..]),
         Some("codegen") => codegen::run_codegen(),
         Some("fixtures") => fixtures::run(),

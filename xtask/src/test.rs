@@ -31,7 +31,6 @@ const WHEEL_PLATFORM: &str = "manylinux_2_28_x86_64";
 
 pub fn run(extra: &[String]) -> Result<(), String> {
     let lib = ensure_embree()?;
-    ensure_libclang()?;
     sh("cargo", &["fmt", "--all", "--check"])?;
     let mut env = embree_env(&lib);
     // A CI build starts from nothing and is never rebuilt: incremental
@@ -237,45 +236,6 @@ fn find_python() -> Result<String, String> {
     } else {
         Err("installed python3-pip but `python3 -m pip` still does not run".into())
     }
-}
-
-/// bindgen (in embree4-sys's build script) loads libclang at build time.
-fn ensure_libclang() -> Result<(), String> {
-    if has_libclang() {
-        return Ok(());
-    }
-    eprintln!(
-        "xtask: libclang not found (embree4-sys's bindgen needs it); installing libclang-dev"
-    );
-    apt_install(&["libclang-dev"])?;
-    if has_libclang() {
-        Ok(())
-    } else {
-        Err("installed libclang-dev but found no libclang.so".into())
-    }
-}
-
-/// A libclang library and clang's own headers (`stddef.h`, which
-/// Embree's headers include) under some `/usr/lib/llvm-*`, as
-/// `libclang-dev` installs them; or an explicit `LIBCLANG_PATH`.
-fn has_libclang() -> bool {
-    if std::env::var_os("LIBCLANG_PATH").is_some() {
-        return true;
-    }
-    let Ok(entries) = std::fs::read_dir("/usr/lib") else {
-        return false;
-    };
-    entries
-        .filter_map(|e| e.ok())
-        .filter(|e| e.file_name().to_string_lossy().starts_with("llvm-"))
-        .any(|llvm| {
-            let lib = llvm.path().join("lib");
-            let has_lib = lib.join("libclang.so").exists() || lib.join("libclang.so.1").exists();
-            let has_headers = std::fs::read_dir(lib.join("clang")).is_ok_and(|mut versions| {
-                versions.any(|v| v.is_ok_and(|v| v.path().join("include/stddef.h").exists()))
-            });
-            has_lib && has_headers
-        })
 }
 
 #[cfg(test)]
