@@ -217,7 +217,9 @@ impl<'a> DeviceGroup<'a> {
         let built: Vec<Result<GpuRenderer<'a>, GpuError>> = std::thread::scope(|s| {
             let handles: Vec<_> = contexts
                 .iter()
-                .map(|ctx| s.spawn(move || GpuRenderer::with_variant(ctx, scene, variant)))
+                .map(|ctx| {
+                    s.spawn(move || GpuRenderer::new(ctx, scene, crate::RendererBuild::of(variant)))
+                })
                 .collect();
             join_all(handles, "build")
         });

@@ -34,7 +34,7 @@ pub mod wavefront;
 pub use context::{list_adapters, AdapterSummary, GpuContext};
 pub use error::GpuError;
 pub use features::Features;
-pub use renderer::{Accumulated, GpuRender, GpuRenderer, GpuSums, KernelSpec};
+pub use renderer::{Accumulated, GpuRender, GpuRenderer, GpuSums, RendererBuild};
 pub use variants::{
     Checks, Dispatch, Kernel, LeafLayout, NodeLayout, PathLayout, Schedule, ShadeOrder, Traversal,
     Variant,

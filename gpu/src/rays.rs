@@ -84,7 +84,14 @@ pub fn trace_closest(
     }
     // The scene's records and bindings for the variant; the render kernel
     // is never run here, so none is compiled.
-    let renderer = GpuRenderer::upload_variant(ctx, scene, variant)?;
+    let renderer = GpuRenderer::new(
+        ctx,
+        scene,
+        crate::RendererBuild {
+            records_only: true,
+            ..crate::RendererBuild::of(variant)
+        },
+    )?;
     let source = [
         crate::shader::library_source().as_str(),
         &bindings::wgsl_declarations(&bindings::TEST_IO_GROUP),

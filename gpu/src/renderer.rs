@@ -16,8 +16,8 @@ use crate::scene_buffers::{pack_background, PackedScene};
 use crate::schedule::{self, Plan};
 use crate::shader;
 use crate::variants::{
-    Checks, Dispatch, Kernel, LeafLayout, NodeLayout, Schedule, Traversal, Variant,
-    DISPATCH_CONSTANT, LEAVES_CONSTANT, NODE_LAYOUT_CONSTANT, TRAVERSAL_CONSTANT,
+    Checks, Dispatch, LeafLayout, NodeLayout, Schedule, Traversal, Variant, DISPATCH_CONSTANT,
+    LEAVES_CONSTANT, NODE_LAYOUT_CONSTANT, TRAVERSAL_CONSTANT,
 };
 use crate::wavefront;
 use reference::camera::projection_tag;
@@ -115,7 +115,7 @@ pub struct GpuRender {
 /// What a render's kernels are compiled for (besides the records' layout,
 /// which the packed scene says).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct KernelSpec {
+struct KernelSpec {
     pub integrator: Integrator,
     pub features: Features,
     pub schedule: Schedule,
@@ -125,7 +125,7 @@ pub struct KernelSpec {
     pub checks: Checks,
 }
 
-/// Why a renderer made by [`GpuRenderer::for_test_kernels`] does not render.
+/// Why a renderer made with [`RendererBuild::records_only`] does not render.
 const NO_RENDER_KERNEL: &str =
     "this renderer holds a scene for test kernels and has no render kernel";
 
@@ -134,7 +134,7 @@ enum Kernels {
     Megakernel(wgpu::ComputePipeline),
     Wavefront(Box<wavefront::Pipelines>),
     /// None: the scene's records only, for test kernels
-    /// ([`GpuRenderer::for_test_kernels`]); a render is refused.
+    /// ([`RendererBuild::records_only`]); a render is refused.
     None,
 }
 
@@ -228,174 +228,121 @@ pub fn bind_group_layout(ctx: &GpuContext) -> wgpu::BindGroupLayout {
     crate::pipeline::scene_layout(ctx)
 }
 
-/// `scene`'s records for `variant`'s walk and leaves, and the kernel
-/// description the variant asks for.
-fn variant_parts(scene: &Scene, variant: Variant) -> (PackedScene, KernelSpec) {
-    let Variant {
-        integrator,
-        kernel,
-        schedule,
-        traversal,
-        nodes,
-        leaves,
-        dispatch,
-        checks,
-    } = variant;
-    let packed = PackedScene::for_walk(scene, traversal, leaves).with_node_layout(nodes);
-    let spec = KernelSpec {
-        integrator,
-        features: kernel.features(scene),
-        schedule,
-        dispatch,
-        checks,
+/// How a [`GpuRenderer`] is made: a variant's kernels over a scene. The
+/// default is what `twintrace render` runs ([`Variant::DEFAULT`], the
+/// schedule's own WGSL, the scene packed for the variant's walk, node
+/// layout and leaves, the kernels specialized as the variant's `kernel`
+/// says); a gate replaces a part of it: the WGSL (a mutant), the records
+/// (a test's edit of them), the features the kernels hold, or the render
+/// kernels altogether (a scene held for test kernels).
+#[derive(Clone, Copy, Default)]
+pub struct RendererBuild<'p> {
+    pub variant: Variant,
+    /// The WGSL the kernels are compiled from; `None`: the schedule's
+    /// (`shader::schedule_source`).
+    pub program: Option<&'p str>,
+    /// The scene's records, which decide the walk, node layout and leaves
+    /// the kernels run (the variant's are then unused); `None`: `scene`
+    /// packed for the variant's.
+    pub packed: Option<&'p PackedScene>,
+    /// The features the kernels hold; `None`: the variant's `kernel`
+    /// decides.
+    pub features: Option<Features>,
+    /// No render kernel: the scene's records only, for the test kernels
+    /// of [`crate::testing`] and `rays::trace_closest`, which bind them
+    /// and take their walk's constants ([`GpuRenderer::shared_constants`]).
+    /// Compiling a render kernel they never run cost each such test a
+    /// megakernel build (on lavapipe, 72 of the 81 pipelines the
+    /// traversal gate's hit records built). A render is refused.
+    pub records_only: bool,
+}
+
+impl<'p> RendererBuild<'p> {
+    /// `variant` as a render runs it.
+    pub fn of(variant: Variant) -> Self {
+        RendererBuild {
+            variant,
+            ..RendererBuild::default()
+        }
+    }
+
+    /// The per-pixel megakernel for `integrator`, checked by wgpu at run
+    /// time, compiled from `program` (the production WGSL, or a gate's
+    /// edit of it) over `packed` (records of `scene` itself, or a test's
+    /// edit of them), specialized to the scene's features.
+    pub fn megakernel(packed: &'p PackedScene, program: &'p str, integrator: Integrator) -> Self {
+        RendererBuild {
+            variant: Variant {
+                checks: Checks::Checked,
+                ..Variant::plain(integrator, Schedule::Megakernel)
+            },
+            program: Some(program),
+            packed: Some(packed),
+            ..RendererBuild::default()
+        }
+    }
+
+    /// The scene packed for the default variant, with no render kernel
+    /// ([`Self::records_only`]): for what needs a renderer's film on the
+    /// device but renders nothing (the film's, the merge's and the
+    /// display's twins load a film and run their own kernels).
+    pub const RECORDS: RendererBuild<'static> = RendererBuild {
+        variant: Variant::DEFAULT,
+        program: None,
+        packed: None,
+        features: None,
+        records_only: true,
     };
-    (packed, spec)
+
+    /// `packed` held for test kernels, with no render kernel
+    /// ([`Self::records_only`]).
+    pub fn records(packed: &'p PackedScene) -> Self {
+        RendererBuild {
+            variant: Variant {
+                checks: Checks::Checked,
+                ..Variant::plain(Integrator::Bsdf, Schedule::Megakernel)
+            },
+            packed: Some(packed),
+            records_only: true,
+            ..RendererBuild::default()
+        }
+    }
 }
 
 impl<'a> GpuRenderer<'a> {
-    /// Packs and uploads `scene`, compiles the render kernel with BSDF
-    /// sampling only.
-    pub fn new(ctx: &'a GpuContext, scene: &'a Scene) -> Result<Self, GpuError> {
-        Self::with_integrator(ctx, scene, Integrator::Bsdf)
-    }
-
-    /// Packs and uploads `scene`, compiles the render kernel for
-    /// `integrator` (the WGSL constant `INTEGRATOR`, so the kernel holds
-    /// one estimator's code), specialized to the scene's features.
-    pub fn with_integrator(
+    /// Packs and uploads `scene` as `build` says and compiles its kernels:
+    /// the estimator, the specialization, the paths' schedule (the
+    /// megakernel, or a wave schedule) and the walk ([`Self::traversal`]
+    /// says which one the kernels run: the binary one where the wide
+    /// records were refused).
+    pub fn new(
         ctx: &'a GpuContext,
         scene: &'a Scene,
-        integrator: Integrator,
+        build: RendererBuild,
     ) -> Result<Self, GpuError> {
-        Self::with_kernel(ctx, scene, integrator, Kernel::Specialized)
-    }
-
-    /// [`Self::with_integrator`], with the kernel's specialization given
-    /// ([`Kernel::General`]: every feature's code, the oracle).
-    pub fn with_kernel(
-        ctx: &'a GpuContext,
-        scene: &'a Scene,
-        integrator: Integrator,
-        kernel: Kernel,
-    ) -> Result<Self, GpuError> {
-        Self::with_variant(
-            ctx,
-            scene,
-            Variant {
-                kernel,
-                ..Variant::plain(integrator, Schedule::Megakernel)
-            },
-        )
-    }
-
-    /// Packs and uploads `scene` for the variant's walk, compiles its
-    /// kernels: the estimator, the specialization, the paths' schedule
-    /// (the megakernel, or a wave schedule) and the walk
-    /// ([`Self::traversal`] says which one the kernels run: the binary one
-    /// where the wide records were refused).
-    pub fn with_variant(
-        ctx: &'a GpuContext,
-        scene: &'a Scene,
-        variant: Variant,
-    ) -> Result<Self, GpuError> {
-        let program = shader::schedule_source(variant.schedule);
-        Self::with_variant_program(ctx, scene, variant, &program)
-    }
-
-    /// [`Self::with_variant`] with the kernels compiled from `program`,
-    /// the schedule's WGSL (`shader::schedule_source`) or a test's edit
-    /// of it (the statistical gates' mutants of the default variant).
-    pub fn with_variant_program(
-        ctx: &'a GpuContext,
-        scene: &'a Scene,
-        variant: Variant,
-        program: &str,
-    ) -> Result<Self, GpuError> {
-        let (packed, spec) = variant_parts(scene, variant);
-        Self::build_scheduled(ctx, &packed, scene, program, spec)
-    }
-
-    /// `scene` packed for `variant`'s walk, leaves and dispatch and
-    /// uploaded, with no render kernel compiled: for a kernel of the
-    /// caller's own over the scene's bindings (`rays::trace_closest`),
-    /// which takes [`Self::shared_constants`] and the variant's features.
-    pub fn upload_variant(
-        ctx: &'a GpuContext,
-        scene: &'a Scene,
-        variant: Variant,
-    ) -> Result<Self, GpuError> {
-        let (packed, spec) = variant_parts(scene, variant);
-        Self::upload(ctx, &packed, scene, None, spec)
-    }
-
-    /// Uploads `packed` (records of `scene` itself: the kernel is
-    /// specialized to the scene's features, so edited records belong with
-    /// [`Self::build`] and the features they need) and compiles `program`
-    /// for `integrator` (the gates' tests compile the production WGSL with
-    /// one deliberate defect).
-    pub fn with_program(
-        ctx: &'a GpuContext,
-        packed: &PackedScene,
-        scene: &'a Scene,
-        program: &str,
-        integrator: Integrator,
-    ) -> Result<Self, GpuError> {
-        Self::build(ctx, packed, scene, program, integrator, Features::of(scene))
-    }
-
-    /// Uploads `packed` and compiles `program` (the megakernel's) with the
-    /// constants `INTEGRATOR` and `FEATURES`, checked by wgpu at run time
-    /// (the records or the program may be a test's edit).
-    pub fn build(
-        ctx: &'a GpuContext,
-        packed: &PackedScene,
-        scene: &'a Scene,
-        program: &str,
-        integrator: Integrator,
-        features: Features,
-    ) -> Result<Self, GpuError> {
-        let spec = KernelSpec {
-            integrator,
-            features,
-            schedule: Schedule::Megakernel,
-            dispatch: Dispatch::Switch,
-            checks: Checks::Checked,
+        let v = build.variant;
+        let packed_here;
+        let packed = match build.packed {
+            Some(packed) => packed,
+            None => {
+                packed_here =
+                    PackedScene::for_walk(scene, v.traversal, v.leaves).with_node_layout(v.nodes);
+                &packed_here
+            }
         };
-        Self::build_scheduled(ctx, packed, scene, program, spec)
-    }
-
-    /// `packed` uploaded for the test kernels of [`crate::testing`], with
-    /// no render kernel compiled: a test kernel binds the scene's records
-    /// and takes their walk's constants ([`Self::shared_constants`]), and
-    /// compiling a render kernel it never runs cost each such test a
-    /// megakernel build (on lavapipe, 72 of the 81 pipelines the
-    /// traversal gate's hit records built). A render with it is refused.
-    pub fn for_test_kernels(
-        ctx: &'a GpuContext,
-        packed: &PackedScene,
-        scene: &'a Scene,
-    ) -> Result<Self, GpuError> {
         let spec = KernelSpec {
-            integrator: Integrator::Bsdf,
-            features: Features::of(scene),
-            schedule: Schedule::Megakernel,
-            dispatch: Dispatch::Switch,
-            checks: Checks::Checked,
+            integrator: v.integrator,
+            features: build.features.unwrap_or_else(|| v.kernel.features(scene)),
+            schedule: v.schedule,
+            dispatch: v.dispatch,
+            checks: v.checks,
         };
-        Self::upload(ctx, packed, scene, None, spec)
-    }
-
-    /// [`Self::build`] for a schedule: `program` is the megakernel's
-    /// (`shader::render_source`) or the wavefront's
-    /// (`shader::wavefront_source`), or a test's edit of one.
-    pub fn build_scheduled(
-        ctx: &'a GpuContext,
-        packed: &PackedScene,
-        scene: &'a Scene,
-        program: &str,
-        spec: KernelSpec,
-    ) -> Result<Self, GpuError> {
-        Self::upload(ctx, packed, scene, Some(program), spec)
+        let program = match (build.records_only, build.program) {
+            (true, _) => None,
+            (false, Some(program)) => Some(std::borrow::Cow::Borrowed(program)),
+            (false, None) => Some(std::borrow::Cow::Owned(shader::schedule_source(v.schedule))),
+        };
+        Self::upload(ctx, packed, scene, program.as_deref(), spec)
     }
 
     /// Uploads `packed` and, where `program` is given, compiles the

@@ -9,7 +9,7 @@ use reference::{RenderSettings, Scene};
 use std::ops::Range;
 
 /// One GPU as a [`Progressive`] render: the scene uploaded and the
-/// spec's kernels compiled once ([`gpu::GpuRenderer::with_variant`]);
+/// spec's kernels compiled once ([`gpu::GpuRenderer::new`]);
 /// each range's dispatches add to the film in the device's memory, which
 /// is read back only when the sums or the image are asked for.
 pub struct GpuProgressive<'a> {
@@ -25,7 +25,7 @@ impl<'a> GpuProgressive<'a> {
         spec: &RenderSpec,
         settings: RenderSettings,
     ) -> Result<Self> {
-        let renderer = gpu::GpuRenderer::with_variant(ctx, scene, spec.variant)?;
+        let renderer = gpu::GpuRenderer::new(ctx, scene, gpu::RendererBuild::of(spec.variant))?;
         Self::from_renderer(renderer, settings)
     }
 

@@ -183,7 +183,15 @@ fn pixel_off(g: &[u32], r: &[u32]) -> Option<String> {
 
 /// The check on one scene with `program` as the AOV kernel.
 pub fn scene_with_program(ctx: &GpuContext, name: &str, scene: &Scene, program: &str) -> Outcome {
-    let renderer = gpu::GpuRenderer::new(ctx, scene).map_err(|e| format!("{name}: {e}"))?;
+    let renderer = gpu::GpuRenderer::new(
+        ctx,
+        scene,
+        gpu::RendererBuild::of(gpu::Variant::plain(
+            reference::integrator::Integrator::Bsdf,
+            gpu::Schedule::Megakernel,
+        )),
+    )
+    .map_err(|e| format!("{name}: {e}"))?;
     let settings = settings(scene);
     let gpu = renderer
         .render_aovs_with(program, &settings, SAMPLES)

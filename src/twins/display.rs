@@ -215,7 +215,8 @@ pub fn with_program(ctx: &GpuContext, program: &str) -> Outcome {
         "the display kernel's ACES coefficients or saturation are not the host's"
     );
     let scene = reference::load_scene("cornell").map_err(|e| e.to_string())?;
-    let renderer = GpuRenderer::new(ctx, &scene).map_err(|e| e.to_string())?;
+    let renderer =
+        GpuRenderer::new(ctx, &scene, gpu::RendererBuild::RECORDS).map_err(|e| e.to_string())?;
     let display = Display::with_program(ctx, program).map_err(|e| e.to_string())?;
     let film = display_film();
     let settings = RenderSettings {

@@ -175,8 +175,8 @@ pub fn sums_with_library(ctx: &GpuContext, library: &str) -> Outcome {
         });
     }
     let packed = gpu::scene_buffers::PackedScene::new(&scene);
-    let renderer =
-        gpu::GpuRenderer::for_test_kernels(ctx, &packed, &scene).map_err(|e| e.to_string())?;
+    let renderer = gpu::GpuRenderer::new(ctx, &scene, gpu::RendererBuild::records(&packed))
+        .map_err(|e| e.to_string())?;
     // One row of the test's pixels: film_at's word-major places.
     let params = renderer.params(&reference::RenderSettings {
         width: pixels.len() as u32,
@@ -327,7 +327,8 @@ pub fn layer_films() -> FilmSums {
 /// the same sums bit for bit.
 pub fn layers_with_program(ctx: &GpuContext, program: &str) -> Outcome {
     let scene = reference::load_scene("cornell").map_err(|e| e.to_string())?;
-    let renderer = gpu::GpuRenderer::new(ctx, &scene).map_err(|e| e.to_string())?;
+    let renderer = gpu::GpuRenderer::new(ctx, &scene, gpu::RendererBuild::RECORDS)
+        .map_err(|e| e.to_string())?;
     let film = layer_films();
     let settings = reference::RenderSettings {
         width: film.width,
@@ -395,8 +396,10 @@ const MERGE_TWIN_BAND: u32 = 300;
 /// near 2^32, which no render reaches) replaced by an empty pixel.
 pub fn merge_with_program(ctx: &GpuContext, program: &str) -> Outcome {
     let scene = reference::load_scene("cornell").map_err(|e| e.to_string())?;
-    let into = gpu::GpuRenderer::new(ctx, &scene).map_err(|e| e.to_string())?;
-    let from = gpu::GpuRenderer::new(ctx, &scene).map_err(|e| e.to_string())?;
+    let into = gpu::GpuRenderer::new(ctx, &scene, gpu::RendererBuild::RECORDS)
+        .map_err(|e| e.to_string())?;
+    let from = gpu::GpuRenderer::new(ctx, &scene, gpu::RendererBuild::RECORDS)
+        .map_err(|e| e.to_string())?;
     let a = layer_films();
     let n = a.pixels.len();
     let mut b = FilmSums::new(a.width, a.height);

@@ -99,7 +99,8 @@ pub(crate) fn run_kernel_walking(
     (invocations, output_words): (usize, usize),
     library: &str,
 ) -> Result<Vec<u32>, String> {
-    let renderer = GpuRenderer::for_test_kernels(ctx, packed, scene).map_err(|e| e.to_string())?;
+    let renderer = GpuRenderer::new(ctx, scene, gpu::RendererBuild::records(packed))
+        .map_err(|e| e.to_string())?;
     let invocations = u32::try_from(invocations).map_err(|_| "too many invocations".to_string())?;
     let kernel = TestKernel {
         snippet,

@@ -321,15 +321,20 @@ pub fn packed_film_bits(
     build: Build,
     wave_slots: &[Option<u32>],
 ) -> Result<Vec<Vec<u64>>, String> {
-    let spec = gpu::KernelSpec {
-        integrator: build.integrator,
-        features: build.features,
-        schedule: build.schedule,
-        dispatch: build.dispatch,
-        checks: build.checks,
+    let made = gpu::RendererBuild {
+        variant: gpu::Variant {
+            integrator: build.integrator,
+            schedule: build.schedule,
+            dispatch: build.dispatch,
+            checks: build.checks,
+            ..gpu::Variant::DEFAULT
+        },
+        program: Some(build.program),
+        packed: Some(packed),
+        features: Some(build.features),
+        records_only: false,
     };
-    let mut renderer = gpu::GpuRenderer::build_scheduled(ctx, packed, scene, build.program, spec)
-        .map_err(|e| e.to_string())?;
+    let mut renderer = gpu::GpuRenderer::new(ctx, scene, made).map_err(|e| e.to_string())?;
     // The renderer runs the walk and layouts it was given: a film that
     // equals the binary walk's says nothing of a walk never run.
     let runs = (

@@ -89,7 +89,11 @@ pub fn default_renderer<'a>(
     scene: &'a reference::Scene,
     integrator: reference::integrator::Integrator,
 ) -> Result<gpu::GpuRenderer<'a>, gpu::GpuError> {
-    gpu::GpuRenderer::with_variant(gpu(), scene, default_variant(integrator))
+    gpu::GpuRenderer::new(
+        gpu(),
+        scene,
+        gpu::RendererBuild::of(default_variant(integrator)),
+    )
 }
 
 /// [`default_renderer`] compiled from `program`: [`default_program`] with
@@ -99,7 +103,24 @@ pub fn default_renderer_from<'a>(
     integrator: reference::integrator::Integrator,
     program: &str,
 ) -> Result<gpu::GpuRenderer<'a>, gpu::GpuError> {
-    gpu::GpuRenderer::with_variant_program(gpu(), scene, default_variant(integrator), program)
+    gpu::GpuRenderer::new(
+        gpu(),
+        scene,
+        gpu::RendererBuild {
+            program: Some(program),
+            ..gpu::RendererBuild::of(default_variant(integrator))
+        },
+    )
+}
+
+/// The per-pixel megakernel with BSDF sampling, specialized to the scene:
+/// what the tests of the film, the display and the error paths render
+/// with (the CPU twin of BSDF sampling is the simplest to hold them to).
+pub fn per_pixel_bsdf() -> gpu::RendererBuild<'static> {
+    gpu::RendererBuild::of(gpu::Variant::plain(
+        reference::integrator::Integrator::Bsdf,
+        gpu::Schedule::Megakernel,
+    ))
 }
 
 /// The default variant with `integrator`.

@@ -56,7 +56,7 @@ fn read_back_with(
 ) -> Vec<u32> {
     let ctx = common::gpu();
     let scene = reference::load_scene("cornell").unwrap();
-    let renderer = gpu::GpuRenderer::for_test_kernels(ctx, packed, &scene).unwrap();
+    let renderer = gpu::GpuRenderer::new(ctx, &scene, gpu::RendererBuild::records(packed)).unwrap();
     let body: String = fields
         .iter()
         .enumerate()
@@ -186,7 +186,8 @@ fn film_words_are_the_pixels_words() {
     let ctx = common::gpu();
     let scene = reference::load_scene("cornell").unwrap();
     let packed = base();
-    let renderer = gpu::GpuRenderer::for_test_kernels(ctx, &packed, &scene).unwrap();
+    let renderer =
+        gpu::GpuRenderer::new(ctx, &scene, gpu::RendererBuild::records(&packed)).unwrap();
     let snippet = "@compute @workgroup_size(64)
 fn layout_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = gid.x;

@@ -51,7 +51,7 @@ fn a_display_kernel_with_a_defect_fails_the_display_twin() {
 fn a_target_of_another_size_is_an_error() {
     let ctx = common::gpu();
     let scene = reference::load_scene("cornell").unwrap();
-    let renderer = gpu::GpuRenderer::new(ctx, &scene).unwrap();
+    let renderer = gpu::GpuRenderer::new(ctx, &scene, common::per_pixel_bsdf()).unwrap();
     let settings = RenderSettings {
         width: 12,
         height: 9,
@@ -95,7 +95,7 @@ fn a_rendered_film_is_drawn_as_the_host_shows_it_and_draws_build_no_pipeline() {
     // beside this one.
     let ctx = &common::own_gpu();
     let scene = reference::load_scene("cornell-spheres").unwrap();
-    let renderer = gpu::GpuRenderer::new(ctx, &scene).unwrap();
+    let renderer = gpu::GpuRenderer::new(ctx, &scene, common::per_pixel_bsdf()).unwrap();
     let settings = RenderSettings {
         width: 70,
         height: 50,

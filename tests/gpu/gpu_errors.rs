@@ -15,7 +15,7 @@ fn a_broken_shader_is_a_shader_error() {
     assert!(matches!(err, GpuError::Shader(_)), "{err}");
     // The library still compiles afterwards: the error did not poison the device.
     let scene = reference::load_scene("cornell").unwrap();
-    assert!(gpu::GpuRenderer::new(ctx, &scene).is_ok());
+    assert!(gpu::GpuRenderer::new(ctx, &scene, common::per_pixel_bsdf()).is_ok());
 }
 
 #[test]
@@ -38,7 +38,7 @@ fn films_and_aovs_beyond_the_buffer_limit_are_banded() {
         "this adapter allows {limit} bytes: pick a larger image for the test"
     );
     let scene = reference::load_scene("cornell").unwrap();
-    let r = gpu::GpuRenderer::new(ctx, &scene).unwrap();
+    let r = gpu::GpuRenderer::new(ctx, &scene, common::per_pixel_bsdf()).unwrap();
     // The film is held in bands (tests/gpu/gpu_film_bands.rs renders such films).
     let film_bytes = pixels * std::mem::size_of::<gpu::records::GpuPixel>() as u64;
     let bands = r.film_bands(&settings).len() as u64;
@@ -56,7 +56,7 @@ fn a_lost_device_is_reported() {
     // A context of its own: destroying the shared one would break the others.
     let ctx = gpu::GpuContext::new().expect("an adapter (cargo xtask test installs lavapipe)");
     let scene = reference::load_scene("cornell").unwrap();
-    let r = gpu::GpuRenderer::new(&ctx, &scene).unwrap();
+    let r = gpu::GpuRenderer::new(&ctx, &scene, common::per_pixel_bsdf()).unwrap();
     ctx.device.destroy();
     let settings = RenderSettings {
         width: 8,
@@ -98,13 +98,17 @@ fn an_unknown_tag_poisons_its_samples() {
     };
     let total = 8 * 8 * 2;
     let render = |packed: &PackedScene| {
-        let r = gpu::GpuRenderer::build(
+        let r = gpu::GpuRenderer::new(
             ctx,
-            packed,
             &scene,
-            &gpu::shader::render_source(),
-            reference::integrator::Integrator::Bsdf,
-            gpu::features::Features::of(&scene),
+            gpu::RendererBuild {
+                features: Some(gpu::features::Features::of(&scene)),
+                ..gpu::RendererBuild::megakernel(
+                    packed,
+                    &gpu::shader::render_source(),
+                    reference::integrator::Integrator::Bsdf,
+                )
+            },
         )
         .unwrap();
         r.render(&settings, &|_, _| {}).unwrap().film
@@ -139,7 +143,7 @@ fn an_unknown_tag_poisons_its_samples() {
     }
     // The background is a parameter: checked through a test kernel.
     let packed = gpu::scene_buffers::PackedScene::new(&scene);
-    let r = gpu::GpuRenderer::for_test_kernels(ctx, &packed, &scene).unwrap();
+    let r = gpu::GpuRenderer::new(ctx, &scene, gpu::RendererBuild::records(&packed)).unwrap();
     let mut params = r.params(&RenderSettings {
         width: 1,
         height: 1,

@@ -102,7 +102,7 @@ fn variant(integrator: Integrator, schedule: Schedule) -> Variant {
 
 /// The one-band film of `settings` by the production kernels.
 fn whole_film(scene: &Scene, v: Variant, settings: &RenderSettings) -> FilmSums {
-    let mut r = GpuRenderer::with_variant(common::gpu(), scene, v).unwrap();
+    let mut r = GpuRenderer::new(common::gpu(), scene, gpu::RendererBuild::of(v)).unwrap();
     r.set_film_band_pixels(None);
     assert_eq!(r.film_bands(settings).len(), 1);
     r.render(settings, &|_, _| {}).unwrap().sums
@@ -127,7 +127,7 @@ fn films_in_bands_are_the_one_band_film_bit_for_bit() {
         let s = settings(&scene);
         let v = variant(integrator, schedule);
         let whole = whole_film(&scene, v, &s);
-        let mut banded = GpuRenderer::with_variant(ctx, &scene, v).unwrap();
+        let mut banded = GpuRenderer::new(ctx, &scene, gpu::RendererBuild::of(v)).unwrap();
         let what = format!("{spec} ({}, {})", integrator.name(), schedule.name());
         match banded_film_is_the_whole(&whole, &mut banded, &s, band) {
             Ok(bands) => println!("{what}: {bands} bands of at most {band} pixels, bit for bit"),
@@ -171,17 +171,16 @@ fn bands_keyed_by_the_band_fail_the_band_gate() {
         assert_eq!(program.matches(from).count(), 1, "{slip}: `{from}`");
         let v = variant(Integrator::Bsdf, schedule);
         let whole = whole_film(&scene, v, &s);
-        let packed = gpu::scene_buffers::PackedScene::for_walk(&scene, v.traversal, v.leaves)
-            .with_node_layout(v.nodes);
-        let spec = gpu::KernelSpec {
-            integrator: v.integrator,
-            features: v.kernel.features(&scene),
-            schedule,
-            dispatch: v.dispatch,
-            checks: gpu::Checks::Checked,
-        };
         let mutant = program.replace(from, to);
-        let mut banded = GpuRenderer::build_scheduled(ctx, &packed, &scene, &mutant, spec).unwrap();
+        let build = gpu::RendererBuild {
+            variant: gpu::Variant {
+                checks: gpu::Checks::Checked,
+                ..v
+            },
+            program: Some(&mutant),
+            ..gpu::RendererBuild::default()
+        };
+        let mut banded = GpuRenderer::new(ctx, &scene, build).unwrap();
         // One band: the mutant is the production kernel.
         banded.set_film_band_pixels(None);
         let one = banded.render(&s, &|_, _| {}).unwrap().sums;
@@ -225,7 +224,7 @@ fn a_film_in_bands_is_drawn_as_the_one_band_film() {
     let v = variant(Integrator::Bsdf, Schedule::Megakernel);
     let display = gpu::display::Display::new(ctx).unwrap();
     let draw = |band: Option<u64>| -> Vec<[u8; 4]> {
-        let mut r = GpuRenderer::with_variant(ctx, &scene, v).unwrap();
+        let mut r = GpuRenderer::new(ctx, &scene, gpu::RendererBuild::of(v)).unwrap();
         r.set_film_band_pixels(band);
         r.accumulate(&s, 0..SPP, &|_, _| {}, true).unwrap();
         let target = gpu::display::target_texture(ctx, s.width, s.height);
@@ -347,7 +346,7 @@ fn the_cli_renders_a_film_past_the_adapters_binding() {
         max_depth: 1,
         ..scene.render_settings()
     };
-    let mut r = GpuRenderer::with_variant(ctx, &scene, Variant::DEFAULT).unwrap();
+    let mut r = GpuRenderer::new(ctx, &scene, gpu::RendererBuild::of(Variant::DEFAULT)).unwrap();
     r.set_film_band_pixels(None);
     assert!(r.film_bands(&s).len() > 1, "{width}x{height}: one band");
     let dir = tempfile::tempdir().unwrap();
@@ -378,7 +377,7 @@ fn aovs_in_bands_are_the_one_band_aovs_word_for_word() {
     let scene = load("textures");
     let s = settings(&scene);
     let samples = 1..SPP + 1;
-    let whole = GpuRenderer::with_variant(ctx, &scene, Variant::DEFAULT)
+    let whole = GpuRenderer::new(ctx, &scene, gpu::RendererBuild::of(Variant::DEFAULT))
         .unwrap()
         .render_aovs(&s, samples.clone())
         .unwrap();
@@ -399,7 +398,8 @@ fn aovs_in_bands_are_the_one_band_aovs_word_for_word() {
         (40, &program, true),
         (100, &by_band, false),
     ] {
-        let mut r = GpuRenderer::with_variant(ctx, &scene, Variant::DEFAULT).unwrap();
+        let mut r =
+            GpuRenderer::new(ctx, &scene, gpu::RendererBuild::of(Variant::DEFAULT)).unwrap();
         r.set_film_band_pixels(Some(band));
         assert!(
             r.aov_bands(&s).len() > 1,

@@ -34,7 +34,8 @@ fn head_on_hit_on_a_small_far_sphere() {
     assert_eq!(cpu.prim, 0);
     let ctx = common::gpu();
     let packed = gpu::scene_buffers::PackedScene::new(&scene);
-    let renderer = gpu::GpuRenderer::for_test_kernels(ctx, &packed, &scene).unwrap();
+    let renderer =
+        gpu::GpuRenderer::new(ctx, &scene, gpu::RendererBuild::records(&packed)).unwrap();
     let input = hits::ray_words(&[ray]);
     let kernel = TestKernel {
         snippet: hits::SNIPPET,

@@ -48,10 +48,14 @@ fn gpu_estimate(
         camera: None,
     };
     let packed = gpu::scene_buffers::PackedScene::new(scene);
-    let film = gpu::GpuRenderer::with_program(common::gpu(), &packed, scene, program, integrator)
-        .and_then(|r| r.render(&st, &|_, _| {}))
-        .unwrap_or_else(|e| panic!("{e}"))
-        .film;
+    let film = gpu::GpuRenderer::new(
+        common::gpu(),
+        scene,
+        gpu::RendererBuild::megakernel(&packed, program, integrator),
+    )
+    .and_then(|r| r.render(&st, &|_, _| {}))
+    .unwrap_or_else(|e| panic!("{e}"))
+    .film;
     let img = NoisyImage::from_film(&film);
     let n = img.mean.len() as f64;
     let mean = img.mean.iter().map(|m| m[channel]).sum::<f64>() / n;

@@ -48,9 +48,8 @@ fn mutant_verdict(name: &str, from: &str, to: &str) -> twintrace::compare::mitsu
     let program = program.replace(from, to);
     let packed = gpu::scene_buffers::PackedScene::new(&scene);
     let integrator = twintrace::render::RenderSpec::DEFAULT.integrator();
-    let renderer =
-        gpu::GpuRenderer::with_program(crate::common::gpu(), &packed, &scene, &program, integrator)
-            .unwrap();
+    let build = gpu::RendererBuild::megakernel(&packed, &program, integrator);
+    let renderer = gpu::GpuRenderer::new(crate::common::gpu(), &scene, build).unwrap();
     let film = renderer.render(&settings, &|_, _| {}).unwrap().film;
     mitsuba_tests::judge_render(&case, &film.mean(), settings.spp).unwrap()
 }

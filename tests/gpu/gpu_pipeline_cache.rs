@@ -30,9 +30,9 @@ fn a_second_renderer_of_the_same_spec_builds_no_pipeline() {
     let ctx = &common::own_gpu();
     let scene = reference::load_scene("cornell").unwrap();
     let v = gpu::Variant::DEFAULT;
-    let first = gpu::GpuRenderer::with_variant(ctx, &scene, v).unwrap();
+    let first = gpu::GpuRenderer::new(ctx, &scene, gpu::RendererBuild::of(v)).unwrap();
     let built = ctx.pipelines_built();
-    let second = gpu::GpuRenderer::with_variant(ctx, &scene, v).unwrap();
+    let second = gpu::GpuRenderer::new(ctx, &scene, gpu::RendererBuild::of(v)).unwrap();
     assert_eq!(
         ctx.pipelines_built(),
         built,
@@ -46,7 +46,7 @@ fn a_second_renderer_of_the_same_spec_builds_no_pipeline() {
         integrator: reference::integrator::Integrator::Bsdf,
         ..v
     };
-    gpu::GpuRenderer::with_variant(ctx, &scene, other).unwrap();
+    gpu::GpuRenderer::new(ctx, &scene, gpu::RendererBuild::of(other)).unwrap();
     assert!(ctx.pipelines_built() > built);
 }
 
@@ -59,14 +59,14 @@ fn renderers_made_at_once_build_their_kernels_once() {
     let v = gpu::Variant::DEFAULT;
     let alone = {
         let ctx = common::own_gpu();
-        gpu::GpuRenderer::with_variant(&ctx, &scene, v).unwrap();
+        gpu::GpuRenderer::new(&ctx, &scene, gpu::RendererBuild::of(v)).unwrap();
         ctx.pipelines_built()
     };
     assert!(alone > 0);
     let ctx = common::own_gpu();
     std::thread::scope(|s| {
         for _ in 0..4 {
-            s.spawn(|| gpu::GpuRenderer::with_variant(&ctx, &scene, v).unwrap());
+            s.spawn(|| gpu::GpuRenderer::new(&ctx, &scene, gpu::RendererBuild::of(v)).unwrap());
         }
     });
     assert_eq!(
@@ -81,7 +81,7 @@ fn the_pipeline_cache_file_is_written_loaded_and_a_bad_one_replaced() {
     let dir = tempfile::tempdir().unwrap();
     let scene = reference::load_scene("cornell").unwrap();
     let render = |ctx: &gpu::GpuContext| {
-        gpu::GpuRenderer::with_variant(ctx, &scene, gpu::Variant::DEFAULT)
+        gpu::GpuRenderer::new(ctx, &scene, gpu::RendererBuild::of(gpu::Variant::DEFAULT))
             .unwrap()
             .render(&settings(), &|_, _| {})
             .unwrap()

@@ -15,15 +15,19 @@ const SEED: u32 = 41;
 fn gpu_film(case: &Case, integrator: Integrator, program: &str) -> Film {
     let scene = punctual::scene(case);
     let packed = gpu::scene_buffers::PackedScene::new(&scene);
-    gpu::GpuRenderer::with_program(common::gpu(), &packed, &scene, program, integrator)
-        .and_then(|r| {
-            r.render(
-                &punctual::settings(case, common::seed(SEED + 1)),
-                &|_, _| {},
-            )
-        })
-        .unwrap_or_else(|e| panic!("{}: {e}", case.name))
-        .film
+    gpu::GpuRenderer::new(
+        common::gpu(),
+        &scene,
+        gpu::RendererBuild::megakernel(&packed, program, integrator),
+    )
+    .and_then(|r| {
+        r.render(
+            &punctual::settings(case, common::seed(SEED + 1)),
+            &|_, _| {},
+        )
+    })
+    .unwrap_or_else(|e| panic!("{}: {e}", case.name))
+    .film
 }
 
 /// Every case against its known answer with each of `integrators`, with

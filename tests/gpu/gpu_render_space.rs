@@ -38,10 +38,14 @@ fn gpu_estimate(scene: &Scene, integrator: Integrator, spp: u32, seed: u32) -> (
         sampler: twintrace::compare::gate::GATE_SAMPLER,
         camera: None,
     };
-    let film = gpu::GpuRenderer::with_integrator(common::gpu(), scene, integrator)
-        .and_then(|r| r.render(&st, &|_, _| {}))
-        .unwrap_or_else(|e| panic!("{e}"))
-        .film;
+    let film = gpu::GpuRenderer::new(
+        common::gpu(),
+        scene,
+        gpu::RendererBuild::of(gpu::Variant::plain(integrator, gpu::Schedule::Megakernel)),
+    )
+    .and_then(|r| r.render(&st, &|_, _| {}))
+    .unwrap_or_else(|e| panic!("{e}"))
+    .film;
     let img = NoisyImage::from_film(&film);
     let n = img.mean.len() as f64;
     let mean = img.mean.iter().map(|m| m[0]).sum::<f64>() / n;

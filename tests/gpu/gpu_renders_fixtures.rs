@@ -20,7 +20,8 @@ fn every_scene_renders_on_both_twins_alike() {
             max_depth: 8,
             ..scene.render_settings()
         };
-        let renderer = gpu::GpuRenderer::new(ctx, &scene).unwrap_or_else(|e| panic!("{spec}: {e}"));
+        let renderer = gpu::GpuRenderer::new(ctx, &scene, common::per_pixel_bsdf())
+            .unwrap_or_else(|e| panic!("{spec}: {e}"));
         let out = renderer
             .render(&settings, &|_, _| {})
             .unwrap_or_else(|e| panic!("{spec}: {e}"));

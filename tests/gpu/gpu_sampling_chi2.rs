@@ -145,7 +145,8 @@ fn gpu_samples(job: &Job) -> Vec<Option<DVec3>> {
     b.camera.look_from = Vec3::new(0.0, 0.0, 5.0);
     let scene = b.build().unwrap();
     let packed = gpu::scene_buffers::PackedScene::new(&scene);
-    let renderer = gpu::GpuRenderer::for_test_kernels(ctx, &packed, &scene).unwrap();
+    let renderer =
+        gpu::GpuRenderer::new(ctx, &scene, gpu::RendererBuild::records(&packed)).unwrap();
     let mat = job
         .material
         .map(|m| pack_material(&m, None, None))

@@ -75,7 +75,8 @@ fn gpu_sample_ranges_merge_into_the_whole_gpu_render_bit_for_bit() {
         ..RenderSettings::default()
     };
     for schedule in common::gate_schedules(ctx) {
-        let r = gpu::GpuRenderer::with_variant(ctx, &scene, variant(schedule)).unwrap();
+        let r =
+            gpu::GpuRenderer::new(ctx, &scene, gpu::RendererBuild::of(variant(schedule))).unwrap();
         let whole = r.render(&settings, &|_, _| {}).unwrap().sums;
         for cuts in [
             &[0u32, 17, 24][..],
@@ -133,7 +134,7 @@ fn two_devices_on_one_adapter_render_the_one_device_image_bit_for_bit() {
         ..RenderSettings::default()
     };
     let v = variant(gpu::Schedule::Megakernel);
-    let one = gpu::GpuRenderer::with_variant(ctx, &scene, v)
+    let one = gpu::GpuRenderer::new(ctx, &scene, gpu::RendererBuild::of(v))
         .unwrap()
         .render(&settings, &|_, _| {})
         .unwrap()
@@ -172,7 +173,7 @@ fn all_devices_render_the_one_device_image_where_they_are_of_one_kind() {
         println!("adapters of different kinds ({names:?}): the statistical gates judge them");
         return;
     }
-    let one = gpu::GpuRenderer::with_variant(&contexts[0], &scene, v)
+    let one = gpu::GpuRenderer::new(&contexts[0], &scene, gpu::RendererBuild::of(v))
         .unwrap()
         .render(&settings, &|_, _| {})
         .unwrap()
@@ -253,10 +254,10 @@ fn devices_of_different_kinds_render_the_reference_image_and_a_biased_device_fai
     let mutant = |scene: &Scene, settings: &RenderSettings| -> Result<Film> {
         let half = settings.spp / 2;
         let (first, last) = (&contexts[0], &contexts[contexts.len() - 1]);
-        let mut sums = gpu::GpuRenderer::with_variant(first, scene, v)?
+        let mut sums = gpu::GpuRenderer::new(first, scene, gpu::RendererBuild::of(v))?
             .render_samples(settings, 0..half, &|_, _| {})?
             .sums;
-        let other = gpu::GpuRenderer::with_variant(last, &biased, v)?
+        let other = gpu::GpuRenderer::new(last, &biased, gpu::RendererBuild::of(v))?
             .render_samples(settings, half..settings.spp, &|_, _| {})?
             .sums;
         sums.merge(&other).map_err(anyhow::Error::msg)?;

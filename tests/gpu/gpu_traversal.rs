@@ -491,7 +491,8 @@ fn renderers_report_the_walk_they_run() {
                     dispatch: gpu::Dispatch::Switch,
                     checks: gpu::Checks::Trusted,
                 };
-                let r = gpu::GpuRenderer::with_variant(ctx, &small, variant).unwrap();
+                let r =
+                    gpu::GpuRenderer::new(ctx, &small, gpu::RendererBuild::of(variant)).unwrap();
                 assert_eq!(r.traversal(), (traversal, None));
                 assert_eq!(r.node_layout(), nodes);
                 assert_eq!(r.leaves(), leaves);
@@ -535,7 +536,7 @@ fn brute_force_is_refused_beyond_tiny_scenes_and_llvmpipes_loop_limit() {
         dispatch: gpu::Dispatch::Switch,
         checks: gpu::Checks::Trusted,
     };
-    let r = gpu::GpuRenderer::with_variant(ctx, &scene, variant).unwrap();
+    let r = gpu::GpuRenderer::new(ctx, &scene, gpu::RendererBuild::of(variant)).unwrap();
     let settings = reference::RenderSettings {
         width: 4,
         height: 4,
@@ -580,7 +581,7 @@ fn many_samples_of_a_tiny_image_are_all_traced() {
             dispatch: gpu::Dispatch::Switch,
             checks: gpu::Checks::Trusted,
         };
-        let r = gpu::GpuRenderer::with_variant(ctx, &scene, variant).unwrap();
+        let r = gpu::GpuRenderer::new(ctx, &scene, gpu::RendererBuild::of(variant)).unwrap();
         twintrace::twins::film_words::film_words(&r.render(&settings, &|_, _| {}).unwrap().film)
     };
     let mega = film(gpu::Schedule::Megakernel);

@@ -231,7 +231,7 @@ fn a_wave_dispatched_as_a_two_dimensional_grid_renders_as_the_megakernel() {
     assert!(gpu::wavefront::grid(paths as u64).1 == 2);
     let film = |schedule| {
         let variant = gpu::Variant::plain(Integrator::Bsdf, schedule);
-        let mut r = gpu::GpuRenderer::with_variant(ctx, &scene, variant).unwrap();
+        let mut r = gpu::GpuRenderer::new(ctx, &scene, gpu::RendererBuild::of(variant)).unwrap();
         r.set_wave_slots(Some(paths));
         let out = r.render(&settings, &|_, _| {}).unwrap();
         twintrace::twins::film_words::film_words(&out.film)
@@ -270,14 +270,14 @@ fn shaded(ctx: &gpu::GpuContext, program: &str) -> (Vec<u32>, Result<(), String>
         gpu::Traversal::Binary,
         gpu::LeafLayout::Indexed,
     );
-    let spec = gpu::KernelSpec {
-        integrator: Integrator::Bsdf,
-        features: Features::of(&scene),
-        schedule: Schedule::Wavefront(PathLayout::Aos, ShadeOrder::Material),
-        dispatch: gpu::Dispatch::Switch,
-        checks: gpu::Checks::Trusted,
+    let sorted = Schedule::Wavefront(PathLayout::Aos, ShadeOrder::Material);
+    let build = gpu::RendererBuild {
+        program: Some(program),
+        packed: Some(&packed),
+        features: Some(Features::of(&scene)),
+        ..gpu::RendererBuild::of(gpu::Variant::plain(Integrator::Bsdf, sorted))
     };
-    let r = gpu::GpuRenderer::build_scheduled(ctx, &packed, &scene, program, spec).unwrap();
+    let r = gpu::GpuRenderer::new(ctx, &scene, build).unwrap();
     let settings = reference::RenderSettings {
         width: 48,
         height: 32,

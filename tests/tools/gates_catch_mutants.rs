@@ -789,7 +789,11 @@ fn bernoulli_furnace_with_film_line(line: &str, mutant: &str) -> furnace::Furnac
     let ctx = crate::common::gpu();
     let render = |scene: &Scene, settings: &RenderSettings| -> anyhow::Result<Film> {
         let packed = gpu::scene_buffers::PackedScene::new(scene);
-        let r = gpu::GpuRenderer::with_program(ctx, &packed, scene, &program, Integrator::Bsdf)?;
+        let r = gpu::GpuRenderer::new(
+            ctx,
+            scene,
+            gpu::RendererBuild::megakernel(&packed, &program, Integrator::Bsdf),
+        )?;
         Ok(r.render(settings, &|_, _| {})?.film)
     };
     let out = furnace::check(&case, &render).unwrap();

@@ -593,7 +593,7 @@ fn the_viewers_layers_are_the_aovs_of_the_films_first_samples() {
     .unwrap();
     gpu_view.frame().unwrap();
     let (l, _) = gpu_view.aovs().unwrap();
-    let renderer = gpu::GpuRenderer::new(ctx, &scene).unwrap();
+    let renderer = gpu::GpuRenderer::new(ctx, &scene, crate::common::per_pixel_bsdf()).unwrap();
     assert_eq!(*l, renderer.render_aovs(&settings, 0..2).unwrap().layers());
 }
 
