@@ -71,7 +71,8 @@ fn compare_with(
     }
 }
 
-/// The scenes `specs` (fixture paths or built-in names), both estimators:
+/// The scenes `specs` (fixture paths or built-in names), under
+/// [`super::specialization::gate_estimators`]:
 /// trusted == checked, word for word, with the kernels the all-scenes
 /// gates build ([`super::specialization::gate_features`]: on a software
 /// adapter their checked films are those gates' oracles); the first
@@ -81,7 +82,7 @@ pub fn some_scenes(ctx: &GpuContext, specs: &[&str]) -> Outcome {
     let used = features_used(&scene_specs()?)?;
     for spec in specs {
         let scene = reference::load_scene(spec).map_err(|e| format!("{spec}: {e}"))?;
-        for integrator in Integrator::ALL {
+        for &integrator in super::specialization::gate_estimators(ctx) {
             let features = gate_features(ctx, &scene, used);
             let (build, oracle) = oracle_build(
                 (ctx, spec, &scene),
@@ -93,18 +94,20 @@ pub fn some_scenes(ctx: &GpuContext, specs: &[&str]) -> Outcome {
         }
     }
     Ok(format!(
-        "{} scenes × 2 estimators: the trusted kernel's films equal the checked kernel's word for word ({})",
+        "{} scenes × {}: the trusted kernel's films equal the checked kernel's word for word ({})",
         specs.len(),
+        super::specialization::estimator_words(ctx),
         gate_kernel_words(ctx)
     ))
 }
 
-/// Every fixture and built-in scene, both estimators: trusted == checked,
+/// Every fixture and built-in scene, under
+/// [`super::specialization::gate_estimators`]: trusted == checked,
 /// word for word. Every scene is compared; the error lists each failure.
 pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let program = gpu::shader::render_source();
     let scenes = gate_scenes(ctx, "the checked kernel")?;
-    every_variant(&scenes, &[()], |s, integrator, ()| {
+    let (films, _) = every_variant(&scenes, &[()], |s, integrator, ()| {
         Some(compare_with(
             (ctx, &s.spec, &s.scene),
             s.oracle(integrator),
@@ -113,9 +116,10 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     })?;
     let (width, height, _) = SIZE;
     Ok(format!(
-        "{} scenes × 2 estimators: the trusted kernel's films equal the checked kernel's word for word ({} pixels; {})",
+        "{} scenes × {}: the trusted kernel's films equal the checked kernel's word for word ({} pixels; {})",
         scenes.len(),
-        scenes.len() * 2 * (width * height) as usize,
+        super::specialization::estimator_words(ctx),
+        films * (width * height) as usize,
         gate_kernel_words(ctx)
     ))
 }

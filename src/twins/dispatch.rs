@@ -48,7 +48,8 @@ fn compare_with(
         .map_err(|e| format!("{spec} ({}, branch dispatch): {e}", integrator.name()))
 }
 
-/// Every fixture and built-in scene, both estimators: branches == switch
+/// Every fixture and built-in scene, under
+/// [`super::specialization::gate_estimators`]: branches == switch
 /// under the rule. Every scene is compared; the error lists each failure.
 pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     let program = gpu::shader::render_source();
@@ -62,8 +63,9 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     })?;
     let (width, height, _) = SIZE;
     Ok(format!(
-        "{} scenes × 2 estimators: the branch-dispatch kernel's films equal the switch kernel's {} ({})",
+        "{} scenes × {}: the branch-dispatch kernel's films equal the switch kernel's {} ({})",
         scenes.len(),
+        super::specialization::estimator_words(ctx),
         inexact.exactness(films * (width * height) as usize),
         gate_kernel_words(ctx)
     ))

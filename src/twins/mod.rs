@@ -147,22 +147,22 @@ pub const CHECKS: &[Check] = &[
         variant: false,
     },
     Check {
-        name: "specialized kernel == general kernel (every scene on a GPU, those that bring a feature each on a software adapter; both estimators)",
+        name: "specialized kernel == general kernel (every scene and both estimators on a GPU; on a software adapter the scenes that bring a feature each, MIS only)",
         run: specialization::all_scenes,
         variant: true,
     },
     Check {
-        name: "wavefront and path megakernel == megakernel (every scene, both estimators)",
+        name: "wavefront and path megakernel == megakernel (every scene; both estimators on a GPU, MIS on a software adapter)",
         run: wavefront::all_scenes,
         variant: true,
     },
     Check {
-        name: "trusted kernel == checked kernel (every scene, both estimators)",
+        name: "trusted kernel == checked kernel (every scene; both estimators on a GPU, MIS on a software adapter)",
         run: checks::all_scenes,
         variant: true,
     },
     Check {
-        name: "branch dispatch == switch dispatch (every scene, both estimators)",
+        name: "branch dispatch == switch dispatch (every scene; both estimators on a GPU, MIS on a software adapter)",
         run: dispatch::all_scenes,
         variant: true,
     },

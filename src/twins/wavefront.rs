@@ -155,7 +155,8 @@ pub fn compare_poisoned(
     Ok(())
 }
 
-/// Every scene of [`super::specialization::scene_specs`], both estimators: wavefront == megakernel
+/// Every scene of [`super::specialization::scene_specs`], under
+/// [`super::specialization::gate_estimators`]: wavefront == megakernel
 /// under [`super::film_words`]. Every scene is compared; the error lists each
 /// one that fails.
 pub fn all_scenes(ctx: &GpuContext) -> Outcome {
@@ -175,7 +176,8 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
     })?;
     let (width, height, _) = SIZE;
     let renders: usize = schedules.iter().map(|&s| wave_slots(s).len()).sum();
-    let compared = scenes.len() * 2 * renders * (width * height) as usize;
+    let estimators = super::specialization::gate_estimators(ctx).len();
+    let compared = scenes.len() * estimators * renders * (width * height) as usize;
     let names: Vec<String> = schedules
         .iter()
         .map(|&s| {
@@ -184,8 +186,9 @@ pub fn all_scenes(ctx: &GpuContext) -> Outcome {
         })
         .collect();
     Ok(format!(
-        "{} scenes × 2 estimators × the wave schedules {}: their films equal the megakernel's {} ({})",
+        "{} scenes × {} × the wave schedules {}: their films equal the megakernel's {} ({})",
         scenes.len(),
+        super::specialization::estimator_words(ctx),
         names.join(", "),
         inexact.exactness(compared),
         gate_kernel_words(ctx)

@@ -32,8 +32,9 @@ fn gpu_the_gpu_twin_passes_mitsubas_render_test_protocol_on_the_gate_scenes() {
     }
 }
 
-/// Gate scene `name` rendered on the GPU by the production render program
-/// with `from` replaced by `to` (once), judged at the protocol's budget.
+/// Gate scene `name` rendered on the GPU by the default variant's program
+/// (what `render` runs, and what the protocol's gate above renders) with
+/// `from` replaced by `to` (once), judged at the protocol's budget.
 fn mutant_verdict(name: &str, from: &str, to: &str) -> twintrace::compare::mitsuba::Verdict {
     let dir = twintrace::compare::gate::workspace_root().join("fixtures/mitsuba");
     let case = mitsuba_tests::cases(&dir)
@@ -43,13 +44,11 @@ fn mutant_verdict(name: &str, from: &str, to: &str) -> twintrace::compare::mitsu
         .unwrap();
     let scene = mitsuba_tests::load(&case).unwrap().unwrap();
     let settings = mitsuba_tests::settings(&case, &scene, Budget::default()).unwrap();
-    let program = gpu::shader::render_source();
+    let program = crate::common::default_program();
     assert_eq!(program.matches(from).count(), 1, "`{from}` not found once");
     let program = program.replace(from, to);
-    let packed = gpu::scene_buffers::PackedScene::new(&scene);
     let integrator = twintrace::render::RenderSpec::DEFAULT.integrator();
-    let build = gpu::RendererBuild::megakernel(&packed, &program, integrator);
-    let renderer = gpu::GpuRenderer::new(crate::common::gpu(), &scene, build).unwrap();
+    let renderer = crate::common::default_renderer_from(&scene, integrator, &program).unwrap();
     let film = renderer.render(&settings, &|_, _| {}).unwrap().film;
     mitsuba_tests::judge_render(&case, &film.mean(), settings.spp).unwrap()
 }
@@ -271,7 +270,7 @@ const MUTANTS: &[GpuMutant] = &[
 /// Every mutant fails its gate scene at the protocol's budget. On a GPU
 /// (the H100 suite, `TWINTRACE_GATES=full`) all of them; on a software
 /// adapter (CI's lavapipe, where each is a cold compile and a render of
-/// 2·10^6 samples: 525 s of test time for the twelve) those without a CPU
+/// 2·10^6 samples: the three below 122 s alone, 2026-12-07) those without a CPU
 /// twin: a mutant with one shows in CI that its scene and the judge see
 /// the defect, and what the GPU's mutant adds (that the kernel reaches
 /// the code) is what the specialization gate shows for every feature.
