@@ -41,10 +41,15 @@ fn program(name: &str) -> PathBuf {
         })
 }
 
-/// A port nobody listens on now.
-fn free_port() -> u16 {
-    let l = TcpListener::bind("127.0.0.1:0").unwrap();
-    l.local_addr().unwrap().port()
+/// Two ports nobody listens on now (both held while the second is
+/// found, so they differ).
+fn free_ports() -> (u16, u16) {
+    let a = TcpListener::bind("127.0.0.1:0").unwrap();
+    let b = TcpListener::bind("127.0.0.1:0").unwrap();
+    (
+        a.local_addr().unwrap().port(),
+        b.local_addr().unwrap().port(),
+    )
 }
 
 fn text(o: &Output) -> String {
@@ -119,6 +124,7 @@ impl Cluster {
         let user = String::from_utf8_lossy(&Command::new("id").arg("-un").output().unwrap().stdout)
             .trim()
             .to_string();
+        let (ctld, slurmd) = free_ports();
         let conf = format!(
             "ClusterName=twintrace\n\
              SlurmctldHost={name}(127.0.0.1)\n\
@@ -145,8 +151,6 @@ impl Cluster {
              ReturnToService=2\n\
              {node} NodeAddr=127.0.0.1 State=UNKNOWN\n\
              PartitionName=main Nodes=ALL Default=YES MaxTime=INFINITE State=UP\n",
-            ctld = free_port(),
-            slurmd = free_port(),
             socket = socket.display(),
             d = d.display(),
         );
