@@ -73,15 +73,15 @@ pub fn film_estimators((traversal, nodes, leaves): Walk) -> &'static [Integrator
 
 /// The estimators a walk's films are compared under on this adapter:
 /// [`film_estimators`] where the gates specialize; on a software adapter
-/// MIS alone, whose paths trace both kinds of ray through the walk (each
-/// estimator's film is a kernel of tens of seconds to compile there; the
-/// hit records hold every walk to the binary one ray by ray whatever the
-/// estimator).
+/// those of every GPU-against-GPU gate there
+/// ([`super::specialization::gate_estimators`]: MIS alone, whose paths
+/// trace both kinds of ray through the walk; the hit records hold every
+/// walk to the binary one ray by ray whatever the estimator).
 pub fn gate_estimators(ctx: &GpuContext, walk: Walk) -> &'static [Integrator] {
     if super::harness::full_gates(ctx) {
         film_estimators(walk)
     } else {
-        &[Integrator::Mis]
+        super::specialization::gate_estimators(ctx)
     }
 }
 
