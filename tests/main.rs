@@ -103,6 +103,8 @@ mod gpu_film_bands;
 mod gpu_furnace;
 #[path = "gpu/gpu_hits_match_reference.rs"]
 mod gpu_hits_match_reference;
+#[path = "gpu/gpu_kernel_inspection.rs"]
+mod gpu_kernel_inspection;
 #[path = "gpu/gpu_light_sampling.rs"]
 mod gpu_light_sampling;
 #[path = "gpu/gpu_matches_reference.rs"]

@@ -17,6 +17,8 @@ pub enum GpuError {
     },
     #[error("the WGSL shaders failed to compile: {0}")]
     Shader(String),
+    #[error("`{adapter}` cannot report its kernels' statistics: {reason}")]
+    NoInspection { adapter: String, reason: String },
     #[error("GPU validation error: {0}")]
     Validation(String),
     #[error("the GPU device was lost: {0}")]

@@ -76,6 +76,15 @@ pub(crate) enum Device {
 }
 
 impl Device {
+    /// The GPUs (none for the CPU reference).
+    pub fn contexts(&self) -> Vec<&gpu::GpuContext> {
+        match self {
+            Device::Cpu => Vec::new(),
+            Device::Gpu(ctx) => vec![ctx],
+            Device::Gpus(contexts) => contexts.iter().collect(),
+        }
+    }
+
     /// The render boundary's name for this device (the CPU reference in
     /// `pool` where one is given).
     pub fn devices<'a>(

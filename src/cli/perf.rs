@@ -435,17 +435,47 @@ fn run_suite(a: &RunArgs) -> Result<()> {
         let _ = print_stdout(&format!("{line}\n"));
     };
     let result = measure::run(&options, &mut metric)?;
+    if let Some(ctx) = &ctx {
+        print_kernels(ctx);
+    }
+    let json_path = write_run(a, &result, &inputs)?;
+    if let (Some(base), Some(path)) = (&baseline, &a.baseline) {
+        judge(&result, &json_path.display().to_string(), base, path)?;
+    }
+    Ok(())
+}
+
+/// What the driver made of each kernel measured (registers, spills,
+/// shared memory: `gpu::pipeline::inspect`), a line each on stderr.
+fn print_kernels(ctx: &gpu::GpuContext) {
+    match gpu::pipeline::inspect::kernels(ctx, false) {
+        Ok(found) => match &found.unavailable {
+            Some(why) => eprintln!("perf: {why}"),
+            None => {
+                for k in &found.kernels {
+                    eprintln!("perf: kernel {}", k.line());
+                }
+            }
+        },
+        Err(e) => eprintln!("perf: {e}"),
+    }
+}
+
+/// Writes a run's JSON, markdown and plots into `--out` (and its JSON to
+/// `--save`), none unless all can be, and prints the markdown; returns
+/// the JSON's path.
+fn write_run(a: &RunArgs, result: &PerfRun, inputs: &[outputs::Named]) -> Result<PathBuf> {
     let stamp = result.date.replace(':', "-");
-    let json = serde_json::to_string_pretty(&result).context("cannot encode the run")?;
+    let json = serde_json::to_string_pretty(result).context("cannot encode the run")?;
     let json_path = a.out.join(format!("{stamp}.json"));
-    let md = plot::markdown(&result);
+    let md = plot::markdown(result);
     let md_path = a.out.join(format!("{stamp}.md"));
     let mut files = vec![
         (json_path.clone(), json.clone()),
         (md_path.clone(), md.clone()),
     ];
-    for case in plot::cases(&result) {
-        match plot::plot_case(&result, &case) {
+    for case in plot::cases(result) {
+        match plot::plot_case(result, &case) {
             Ok(svg) => files.push((a.out.join(format!("{stamp}-{case}.svg")), svg)),
             Err(e) => eprintln!("perf: no plot: {e:#}"),
         }
@@ -461,7 +491,7 @@ fn run_suite(a: &RunArgs) -> Result<()> {
     if let Some(save) = &a.save {
         written.push(outputs::output(format!("--save {}", save.display()), save));
     }
-    outputs::check(&inputs, &written)?;
+    outputs::check(inputs, &written)?;
     for (path, text) in &files {
         write_file(path, text.as_bytes())?;
     }
@@ -478,8 +508,5 @@ fn run_suite(a: &RunArgs) -> Result<()> {
         md_path.display(),
         a.out.display()
     );
-    if let (Some(base), Some(path)) = (&baseline, &a.baseline) {
-        judge(&result, &json_path.display().to_string(), base, path)?;
-    }
-    Ok(())
+    Ok(json_path)
 }

@@ -130,6 +130,14 @@ pub struct RenderArgs {
     /// job or a lost GPU loses at most that much (`--resume` it).
     #[arg(long, value_name = "DURATION", allow_hyphen_values = true)]
     pub checkpoint: Option<String>,
+    /// Write each kernel the render built into DIR (made if missing): the
+    /// SPIR-V handed to the driver (N-ENTRY-CHECKS.spv) and what the
+    /// driver says of it (N-ENTRY-CHECKS.txt: its statistics, such as
+    /// registers and spills, and its internal representations, where
+    /// the Vulkan driver has VK_KHR_pipeline_executable_properties).
+    /// GPU renders only.
+    #[arg(long, value_name = "DIR")]
+    pub dump_kernels: Option<PathBuf>,
     #[command(flatten)]
     pub variant: spec::VariantArgs,
 }
@@ -285,6 +293,14 @@ impl RenderPlan {
         }
         // Fail on an unusable output path or option now, not after a long render.
         let paths = image_io::output_paths(&args.output)?;
+        if let Some(dir) = &args.dump_kernels {
+            std::fs::create_dir_all(dir).map_err(|e| {
+                Refused(format!(
+                    "--dump-kernels {}: cannot make the folder: {e}",
+                    dir.display()
+                ))
+            })?;
+        }
         let partial = twintrace::render::PartialPaths::of(&paths)?;
         let arg = format!("-o {} (its partial film)", args.output.display());
         let mut plan = RenderPlan {
@@ -453,6 +469,25 @@ pub(super) fn render(args: &RenderArgs) -> Result<()> {
         None => None,
     };
     let (device, _, why) = open_device(args)?;
+    if args.dump_kernels.is_some() {
+        if device.contexts().is_empty() {
+            return Err(Refused(
+                "--dump-kernels: the render runs on the CPU reference, which builds no kernels (use --backend gpu)".into(),
+            )
+            .into());
+        }
+        if let Some(ctx) = device
+            .contexts()
+            .iter()
+            .find(|c| c.adapter.backend != "Vulkan")
+        {
+            return Err(Refused(format!(
+                "--dump-kernels: `{}` runs on {}, not Vulkan: its kernels are not SPIR-V",
+                ctx.adapter.name, ctx.adapter.backend
+            ))
+            .into());
+        }
+    }
     phases.end("device");
     check_memory(&job, &device)?;
     let devices = device.devices(pool.as_ref());
@@ -478,8 +513,14 @@ pub(super) fn render(args: &RenderArgs) -> Result<()> {
     // driver frees them when it exits), which is at hand: tearing them
     // down took 0.07–0.11 s on the H200.
     std::mem::forget(progressive);
-    std::mem::forget(device);
     phases.end("teardown");
+    // After the phases: the kernels are built again to be inspected.
+    let kernels = if args.timings || args.dump_kernels.is_some() {
+        inspect_kernels(&device, args.dump_kernels.as_deref())?
+    } else {
+        Vec::new()
+    };
+    std::mem::forget(device);
     if args.timings {
         let file_times = written.times.as_ref().map_or(String::new(), |t| {
             format!(
@@ -489,7 +530,7 @@ pub(super) fn render(args: &RenderArgs) -> Result<()> {
             )
         });
         eprintln!("{}{file_times}", phases.report());
-        for line in compiled {
+        for line in compiled.iter().chain(&kernels) {
             eprintln!("{line}");
         }
     }
@@ -601,11 +642,7 @@ fn interrupted(
 /// Saves each device's pipeline cache; returns the `--timings` line of
 /// each device's kernel builds.
 fn save_caches(device: &Device) -> Vec<String> {
-    let contexts: Vec<&gpu::GpuContext> = match device {
-        Device::Cpu => Vec::new(),
-        Device::Gpu(ctx) => vec![ctx],
-        Device::Gpus(contexts) => contexts.iter().collect(),
-    };
+    let contexts = device.contexts();
     let compiled = contexts
         .iter()
         .enumerate()
@@ -625,6 +662,76 @@ fn save_caches(device: &Device) -> Vec<String> {
         }
     }
     compiled
+}
+
+/// The `--timings` lines of each device's kernels (what the driver says
+/// of each: `gpu::pipeline::inspect`), and with `dump` each kernel's
+/// SPIR-V and report written there.
+fn inspect_kernels(device: &Device, dump: Option<&std::path::Path>) -> Result<Vec<String>> {
+    let mut lines = Vec::new();
+    for (i, ctx) in device.contexts().into_iter().enumerate() {
+        // A kernel that cannot be inspected is a line of `--timings`, but
+        // an error where `--dump-kernels` asked for the files.
+        let found = match gpu::pipeline::inspect::kernels(ctx, dump.is_some()) {
+            Ok(found) => found,
+            Err(e) if dump.is_none() => {
+                lines.push(format!("timings: device {i}: kernels not inspected: {e}"));
+                continue;
+            }
+            Err(e) => return Err(anyhow!("--dump-kernels: device {i}: {e}")),
+        };
+        if let Some(why) = &found.unavailable {
+            lines.push(format!("timings: device {i}: {why}"));
+        }
+        for (n, k) in found.kernels.iter().enumerate() {
+            if found.unavailable.is_none() {
+                lines.push(format!("timings: device {i}: kernel {}", k.line()));
+            }
+            if let Some(dir) = dump {
+                let stem = if device.contexts().len() > 1 {
+                    format!("{i}-{n:02}-{}-{}", k.entry, k.checks.name())
+                } else {
+                    format!("{n:02}-{}-{}", k.entry, k.checks.name())
+                };
+                write_kernel(dir, &stem, k, found.unavailable.as_deref())?;
+            }
+        }
+    }
+    Ok(lines)
+}
+
+/// One kernel's SPIR-V and report, each written whole or not at all.
+fn write_kernel(
+    dir: &std::path::Path,
+    stem: &str,
+    k: &gpu::pipeline::inspect::KernelReport,
+    unavailable: Option<&str>,
+) -> Result<()> {
+    use std::io::Write as _;
+    let spv = dir.join(format!("{stem}.spv"));
+    image_io::write_atomic(&spv, |f| {
+        let bytes: Vec<u8> = k.spirv.iter().flat_map(|w| w.to_le_bytes()).collect();
+        f.write_all(&bytes)
+            .with_context(|| format!("cannot write {}", spv.display()))
+    })?;
+    let mut text = format!("{}\n", k.line());
+    if let Some(why) = unavailable {
+        text += &format!("{why}\n");
+    }
+    for e in &k.executables {
+        text += &format!("\n# executable {}: {}\n", e.name, e.description);
+        for st in &e.statistics {
+            text += &format!("{}: {} ({})\n", st.name, st.value, st.description);
+        }
+        for (name, body) in &e.representations {
+            text += &format!("\n## {name}\n{body}\n");
+        }
+    }
+    let txt = dir.join(format!("{stem}.txt"));
+    image_io::write_atomic(&txt, |f| {
+        f.write_all(text.as_bytes())
+            .with_context(|| format!("cannot write {}", txt.display()))
+    })
 }
 
 /// A render done and written: its summary, as a line or as JSON.

@@ -77,6 +77,13 @@ impl<K: std::hash::Hash + Eq + Clone, V: Clone> Lru<K, V> {
         self.entries.insert(key, (value, self.clock));
     }
 
+    /// The keys, the most recently used first.
+    pub(super) fn keys_by_use(&self) -> Vec<&K> {
+        let mut keys: Vec<(&K, u64)> = self.entries.iter().map(|(k, (_, t))| (k, *t)).collect();
+        keys.sort_by_key(|(_, t)| std::cmp::Reverse(*t));
+        keys.into_iter().map(|(k, _)| k).collect()
+    }
+
     pub(super) fn remove<Q>(&mut self, key: &Q)
     where
         K: std::borrow::Borrow<Q>,

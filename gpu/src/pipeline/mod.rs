@@ -31,6 +31,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 pub(crate) mod cache;
+pub mod inspect;
 
 pub use cache::{cache_dir, CompileStats};
 use cache::{ModuleCell, PipelineKey};
