@@ -459,10 +459,11 @@ fn records_packed_wrong_fail_the_hit_records() {
     println!("brute force over half: {e}");
 }
 
-/// Every walk and layout builds and reports itself: those the gate
-/// renders (`twins::traversal::VARIANTS` and the binary walk, its oracle)
-/// are checked where it builds them (`twins::specialization::packed_film_bits`,
-/// in `every_walk_finds_the_binary_walks_hits_and_renders_its_films`), the
+/// Every walk and layout builds and reports itself: those whose films
+/// the gate renders on this adapter (`twins::traversal::VARIANTS` where
+/// `films_judged`, and the binary walk, its oracle) are checked where it
+/// builds them (`twins::specialization::packed_film_bits`, in
+/// `every_walk_finds_the_binary_walks_hits_and_renders_its_films`), the
 /// others here, one kernel each; and the brute-force records: one leaf of
 /// every primitive, in id order.
 #[test]
@@ -473,12 +474,17 @@ fn renderers_report_the_walk_they_run() {
     // its cache empty (2 cores), against 119 s specialized to rtow.
     let small = twintrace::twins::hits::far_small_shapes(16);
     let oracle = (Traversal::Binary, NodeLayout::Aos, LeafLayout::Indexed);
+    let gate_renders = |walk| {
+        walk == oracle
+            || (twintrace::twins::traversal::VARIANTS.contains(&walk)
+                && twintrace::twins::traversal::films_judged(ctx, walk))
+    };
     let mut built = 0;
     for traversal in Traversal::ALL {
         for leaves in LeafLayout::ALL {
             for nodes in NodeLayout::ALL {
                 let walk = (traversal, nodes, leaves);
-                if walk == oracle || twintrace::twins::traversal::VARIANTS.contains(&walk) {
+                if gate_renders(walk) {
                     continue;
                 }
                 let variant = gpu::Variant {
@@ -500,7 +506,11 @@ fn renderers_report_the_walk_they_run() {
             }
         }
     }
-    assert_eq!(built, 24 - 1 - twintrace::twins::traversal::VARIANTS.len());
+    let judged = twintrace::twins::traversal::VARIANTS
+        .into_iter()
+        .filter(|&w| twintrace::twins::traversal::films_judged(ctx, w))
+        .count();
+    assert_eq!(built, 24 - 1 - judged);
     let scene = rtow();
     let p = PackedScene::for_walk(&scene, Traversal::BruteForce, LeafLayout::Indexed);
     assert_eq!(p.nodes[0].count() as usize, scene.primitives().len());
