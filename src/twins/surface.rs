@@ -186,113 +186,13 @@ pub fn surface_interactions_with_library(
     let mut mapped = 0;
     let mut failures = Vec::new();
     for (i, (ray, hit)) in cases.iter().enumerate() {
-        let cpu = scene.surface_interaction(ray, hit);
         let w = &out[SI_WORDS * i..SI_WORDS * (i + 1)];
-        let (p, ng, ns) = (v3(&w[0..3]), v3(&w[3..6]), v3(&w[6..9]));
-        let uv = Vec2::new(f32::from_bits(w[9]), f32::from_bits(w[10]));
-        let uv1 = Vec2::new(f32::from_bits(w[14]), f32::from_bits(w[15]));
-        let color = v3(&w[16..19]);
-        let (tangent, bitangent) = (v3(&w[19..22]), v3(&w[22..25]));
-        let (dp_du, dp_dv) = (v3(&w[25..28]), v3(&w[28..31]));
-        let p_error = f32::from_bits(w[11]);
         let at = format!("{name} case {i} (prim {}, t {})", hit.prim, hit.t);
-        let (normal_tol, uv_tol, p_tol) = bounds(scene, ray, hit, &cpu, p_error);
-        let mut fail = |what: String| failures.push(format!("{at}: {what}"));
-        if w[13] != cpu.material {
-            fail(format!("material {} vs {}", w[13], cpu.material));
-        }
-        let dp = (p - cpu.p).abs().max_element();
-        if dp > p_tol {
-            fail(format!("p {p} vs {} (bound {p_tol})", cpu.p));
-        }
-        let dn = (ng - cpu.geometric_normal).abs().max_element();
-        if dn > normal_tol {
-            fail(format!(
-                "normal {ng} vs {} (bound {normal_tol})",
-                cpu.geometric_normal
-            ));
-        }
-        let shading_tol = if normal_mapped(scene, hit.prim) {
-            mapped += 1;
-            NORMAL_MAPPED_TOL
-        } else {
-            normal_tol
-        };
-        let ds = (ns - cpu.shading_normal).abs().max_element();
-        if ds > shading_tol {
-            fail(format!(
-                "shading normal {ns} vs {} (bound {shading_tol})",
-                cpu.shading_normal
-            ));
-        }
-        let duv = (uv - cpu.uv).abs().max_element();
-        if duv > uv_tol {
-            fail(format!("uv {uv} vs {} (bound {uv_tol})", cpu.uv));
-        }
-        // The second set and the colour are three-term sums, as triangle
-        // uv (zero and one where the surface has none: exact).
-        let uv1_tol = NORMAL_TOL * cpu.uv1.abs().max_element().max(1.0);
-        let duv1 = (uv1 - cpu.uv1).abs().max_element();
-        if duv1 > uv1_tol {
-            fail(format!("uv1 {uv1} vs {} (bound {uv1_tol})", cpu.uv1));
-        }
-        let color_tol = NORMAL_TOL * cpu.color.abs().max_element().max(1.0);
-        let dc = (color - cpu.color).abs().max_element();
-        if dc > color_tol {
-            fail(format!(
-                "colour {color} vs {} (bound {color_tol})",
-                cpu.color
-            ));
-        }
-        // The frame's conditioning: how much of the normalized derivative
-        // survives the projection (the shading normal's error enters the
-        // tangent through it, magnified by its inverse).
-        let tangent_tol = (TANGENT_TOL + normal_tol) * tangent_magnification(scene, hit, &cpu);
-        let dt = (tangent - cpu.tangent)
-            .abs()
-            .max_element()
-            .max((bitangent - cpu.bitangent).abs().max_element());
-        if dt > tangent_tol {
-            fail(format!(
-                "tangent frame {tangent}, {bitangent} vs {}, {} (bound {tangent_tol})",
-                cpu.tangent, cpu.bitangent
-            ));
-        }
-        // ∂p/∂u and ∂p/∂v (a bump map's): the same computation as the
-        // tangent's before its projection and normalization, so its bound
-        // relative to their size (a sphere's from its normal, through the
-        // same magnification).
-        let dp_tol = tangent_tol * cpu.dp_du.length().max(cpu.dp_dv.length());
-        let ddp = (dp_du - cpu.dp_du)
-            .abs()
-            .max_element()
-            .max((dp_dv - cpu.dp_dv).abs().max_element());
-        if ddp > dp_tol {
-            fail(format!(
-                "dp/du, dp/dv {dp_du}, {dp_dv} vs {}, {} (bound {dp_tol})",
-                cpu.dp_du, cpu.dp_dv
-            ));
-        }
-        let de = (p_error - cpu.p_error).abs() / cpu.p_error;
-        if de > P_ERROR_REL_TOL {
-            fail(format!("p_error {p_error} vs {}", cpu.p_error));
-        }
-        let cos = ray.direction.dot(cpu.geometric_normal) / ray.direction.length();
-        if cos.abs() > normal_tol && (w[12] == 1) != cpu.front_face {
-            fail(format!("front_face (cos {cos})"));
-        }
-        for (k, x) in [
-            dp / p_tol,
-            (dn / normal_tol)
-                .max(ds / shading_tol)
-                .max(dt / tangent_tol)
-                .max(ddp / dp_tol),
-            (duv / uv_tol).max(duv1 / uv1_tol).max(dc / color_tol),
-            de / P_ERROR_REL_TOL,
-        ]
-        .into_iter()
-        .enumerate()
-        {
+        mapped += normal_mapped(scene, hit.prim) as usize;
+        let ratios = judge_case(scene, ray, hit, w, &mut |what| {
+            failures.push(format!("{at}: {what}"))
+        });
+        for (k, x) in ratios.into_iter().enumerate() {
             worst[k] = worst[k].max(x);
         }
     }
@@ -311,6 +211,119 @@ pub fn surface_interactions_with_library(
         worst[2],
         worst[3]
     ))
+}
+
+/// One hit's surface interaction, the GPU's words `w` against the
+/// reference's: each value outside its bound told to `fail`; returns
+/// each group's largest difference as a share of its bound (point,
+/// normals and frame, surface parameters and colour, `p_error`).
+fn judge_case(
+    scene: &Scene,
+    ray: &Ray,
+    hit: &Hit,
+    w: &[u32],
+    fail: &mut dyn FnMut(String),
+) -> [f32; 4] {
+    let cpu = scene.surface_interaction(ray, hit);
+    let (p, ng, ns) = (v3(&w[0..3]), v3(&w[3..6]), v3(&w[6..9]));
+    let uv = Vec2::new(f32::from_bits(w[9]), f32::from_bits(w[10]));
+    let uv1 = Vec2::new(f32::from_bits(w[14]), f32::from_bits(w[15]));
+    let color = v3(&w[16..19]);
+    let (tangent, bitangent) = (v3(&w[19..22]), v3(&w[22..25]));
+    let (dp_du, dp_dv) = (v3(&w[25..28]), v3(&w[28..31]));
+    let p_error = f32::from_bits(w[11]);
+    let (normal_tol, uv_tol, p_tol) = bounds(scene, ray, hit, &cpu, p_error);
+    if w[13] != cpu.material {
+        fail(format!("material {} vs {}", w[13], cpu.material));
+    }
+    let dp = (p - cpu.p).abs().max_element();
+    if dp > p_tol {
+        fail(format!("p {p} vs {} (bound {p_tol})", cpu.p));
+    }
+    let dn = (ng - cpu.geometric_normal).abs().max_element();
+    if dn > normal_tol {
+        fail(format!(
+            "normal {ng} vs {} (bound {normal_tol})",
+            cpu.geometric_normal
+        ));
+    }
+    let shading_tol = if normal_mapped(scene, hit.prim) {
+        NORMAL_MAPPED_TOL
+    } else {
+        normal_tol
+    };
+    let ds = (ns - cpu.shading_normal).abs().max_element();
+    if ds > shading_tol {
+        fail(format!(
+            "shading normal {ns} vs {} (bound {shading_tol})",
+            cpu.shading_normal
+        ));
+    }
+    let duv = (uv - cpu.uv).abs().max_element();
+    if duv > uv_tol {
+        fail(format!("uv {uv} vs {} (bound {uv_tol})", cpu.uv));
+    }
+    // The second set and the colour are three-term sums, as triangle
+    // uv (zero and one where the surface has none: exact).
+    let uv1_tol = NORMAL_TOL * cpu.uv1.abs().max_element().max(1.0);
+    let duv1 = (uv1 - cpu.uv1).abs().max_element();
+    if duv1 > uv1_tol {
+        fail(format!("uv1 {uv1} vs {} (bound {uv1_tol})", cpu.uv1));
+    }
+    let color_tol = NORMAL_TOL * cpu.color.abs().max_element().max(1.0);
+    let dc = (color - cpu.color).abs().max_element();
+    if dc > color_tol {
+        fail(format!(
+            "colour {color} vs {} (bound {color_tol})",
+            cpu.color
+        ));
+    }
+    // The frame's conditioning: how much of the normalized derivative
+    // survives the projection (the shading normal's error enters the
+    // tangent through it, magnified by its inverse).
+    let tangent_tol = (TANGENT_TOL + normal_tol) * tangent_magnification(scene, hit, &cpu);
+    let dt = (tangent - cpu.tangent)
+        .abs()
+        .max_element()
+        .max((bitangent - cpu.bitangent).abs().max_element());
+    if dt > tangent_tol {
+        fail(format!(
+            "tangent frame {tangent}, {bitangent} vs {}, {} (bound {tangent_tol})",
+            cpu.tangent, cpu.bitangent
+        ));
+    }
+    // ∂p/∂u and ∂p/∂v (a bump map's): the same computation as the
+    // tangent's before its projection and normalization, so its bound
+    // relative to their size (a sphere's from its normal, through the
+    // same magnification).
+    let dp_tol = tangent_tol * cpu.dp_du.length().max(cpu.dp_dv.length());
+    let ddp = (dp_du - cpu.dp_du)
+        .abs()
+        .max_element()
+        .max((dp_dv - cpu.dp_dv).abs().max_element());
+    if ddp > dp_tol {
+        fail(format!(
+            "dp/du, dp/dv {dp_du}, {dp_dv} vs {}, {} (bound {dp_tol})",
+            cpu.dp_du, cpu.dp_dv
+        ));
+    }
+    let de = (p_error - cpu.p_error).abs() / cpu.p_error;
+    if de > P_ERROR_REL_TOL {
+        fail(format!("p_error {p_error} vs {}", cpu.p_error));
+    }
+    let cos = ray.direction.dot(cpu.geometric_normal) / ray.direction.length();
+    if cos.abs() > normal_tol && (w[12] == 1) != cpu.front_face {
+        fail(format!("front_face (cos {cos})"));
+    }
+    [
+        dp / p_tol,
+        (dn / normal_tol)
+            .max(ds / shading_tol)
+            .max(dt / tangent_tol)
+            .max(ddp / dp_tol),
+        (duv / uv_tol).max(duv1 / uv1_tol).max(dc / color_tol),
+        de / P_ERROR_REL_TOL,
+    ]
 }
 
 /// The bounds of a hit's normal, uv and point (the GPU's `p_error`
