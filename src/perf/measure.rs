@@ -27,6 +27,7 @@ use super::run::{median, Adapter, Curve, Host, PerfRun, Point, RunSettings, Thro
 use super::suite::{curves, workloads, CurveCase, Suite, Workload, PERF_SEED};
 use crate::compare::gate::{load_reference_in, load_scene, workspace_root};
 use crate::compare::image::NoisyImage;
+use crate::render::{Devices, RenderSpec};
 use anyhow::{anyhow, bail, Context, Result};
 use gpu::{GpuContext, Variant};
 use rayon::prelude::*;
@@ -71,19 +72,42 @@ pub struct Options<'a> {
     pub only: Vec<String>,
 }
 
-/// A renderer of the run: the CPU reference with one of its estimators,
-/// or the GPU.
+/// A renderer of the run: where it renders (the CPU reference in the
+/// run's pool, or the GPU: the render boundary's [`Devices`]) and what
+/// ([`RenderSpec`]: the estimator; on the GPU the variant).
 #[derive(Clone, Copy)]
-enum Backend<'a> {
-    Cpu(&'a rayon::ThreadPool, Integrator),
-    Gpu(&'a GpuContext, Variant),
+struct Renderer<'a> {
+    devices: Devices<'a>,
+    spec: RenderSpec,
 }
 
-impl Backend<'_> {
+impl<'a> Renderer<'a> {
+    fn cpu(pool: &'a rayon::ThreadPool, integrator: Integrator) -> Self {
+        Renderer {
+            devices: Devices::Cpu(Some(pool)),
+            spec: RenderSpec::DEFAULT.with_integrator(integrator),
+        }
+    }
+
+    fn gpu(ctx: &'a GpuContext, variant: Variant) -> Self {
+        Renderer {
+            devices: Devices::Gpu(ctx),
+            spec: RenderSpec {
+                variant,
+                ..RenderSpec::DEFAULT
+            },
+        }
+    }
+
+    fn is_gpu(self) -> bool {
+        !matches!(self.devices, Devices::Cpu(_))
+    }
+
     fn name(self) -> &'static str {
-        match self {
-            Backend::Cpu(..) => "cpu",
-            Backend::Gpu(..) => "gpu",
+        if self.is_gpu() {
+            "gpu"
+        } else {
+            "cpu"
         }
     }
 
@@ -91,10 +115,10 @@ impl Backend<'_> {
     /// (light sampling with MIS), and the GPU's by `gpu::Variant::name`
     /// (`megakernel`, `megakernel-mis`, `wavefront-soa-mis-general`, ...).
     fn variant(self) -> String {
-        match self {
-            Backend::Cpu(_, Integrator::Bsdf) => "reference".into(),
-            Backend::Cpu(_, Integrator::Mis) => "reference-mis".into(),
-            Backend::Gpu(_, v) => v.name(),
+        match (self.is_gpu(), self.spec.integrator()) {
+            (false, Integrator::Bsdf) => "reference".into(),
+            (false, Integrator::Mis) => "reference-mis".into(),
+            (true, _) => self.spec.variant.name(),
         }
     }
 
@@ -125,26 +149,19 @@ struct Prepared<'a> {
 }
 
 impl<'a> Prepared<'a> {
-    fn new(backend: Backend<'a>, scene: &'a Scene) -> Result<Self> {
-        use crate::render::{open, Devices, RenderSpec};
+    fn new(renderer: Renderer<'a>, scene: &'a Scene) -> Result<Self> {
         let settings = scene.render_settings();
-        let (devices, spec, cpu) = match backend {
-            Backend::Cpu(pool, integrator) => (
-                Devices::Cpu(Some(pool)),
-                RenderSpec::DEFAULT.with_integrator(integrator),
-                Some((pool, scene)),
-            ),
-            Backend::Gpu(ctx, variant) => (
-                Devices::Gpu(ctx),
-                RenderSpec {
-                    variant,
-                    ..RenderSpec::DEFAULT
-                },
-                None,
-            ),
+        let cpu = match renderer.devices {
+            Devices::Cpu(Some(pool)) => Some((pool, scene)),
+            _ => None,
         };
         Ok(Prepared {
-            render: std::cell::RefCell::new(open(devices, scene, &spec, settings)?),
+            render: std::cell::RefCell::new(crate::render::open(
+                renderer.devices,
+                scene,
+                &renderer.spec,
+                settings,
+            )?),
             cpu,
         })
     }
@@ -221,12 +238,12 @@ pub fn run(options: &Options, metric: &mut dyn FnMut(&str)) -> Result<PerfRun> {
     let mut backends = Vec::new();
     if let Some(pool) = options.cpu {
         for &integrator in &options.cpu_integrators {
-            backends.push(Backend::Cpu(pool, integrator));
+            backends.push(Renderer::cpu(pool, integrator));
         }
     }
     if let Some(ctx) = options.gpu {
         for &v in &options.gpu_variants {
-            backends.push(Backend::Gpu(ctx, v));
+            backends.push(Renderer::gpu(ctx, v));
         }
     }
     if backends.is_empty() {
@@ -268,17 +285,15 @@ pub fn run(options: &Options, metric: &mut dyn FnMut(&str)) -> Result<PerfRun> {
             // and leaf layout and dispatch (from the first variant measured with
             // them).
             if let Workload::Rays { .. } = load {
-                match backend {
-                    Backend::Cpu(_, Integrator::Mis) => continue,
-                    Backend::Gpu(_, v)
-                        if options.gpu_variants.iter().find(|w| {
-                            (w.kernel, w.traversal, w.nodes, w.leaves, w.dispatch)
-                                == (v.kernel, v.traversal, v.nodes, v.leaves, v.dispatch)
-                        }) != Some(&v) =>
-                    {
-                        continue
-                    }
-                    _ => {}
+                let v = backend.spec.variant;
+                let first_of_its_walk = options.gpu_variants.iter().find(|w| {
+                    (w.kernel, w.traversal, w.nodes, w.leaves, w.dispatch)
+                        == (v.kernel, v.traversal, v.nodes, v.leaves, v.dispatch)
+                }) == Some(&v);
+                if (backend.is_gpu() && !first_of_its_walk)
+                    || (!backend.is_gpu() && v.integrator == Integrator::Mis)
+                {
+                    continue;
                 }
             }
             let row = measure_workload(load, backend, options, metric)
@@ -322,7 +337,7 @@ fn measure_curve(
     case: &CurveCase,
     reference: &NoisyImage,
     scene: &Scene,
-    backend: Backend,
+    backend: Renderer,
     options: &Options,
     metric: &mut dyn FnMut(&str),
 ) -> Result<Curve> {
@@ -341,7 +356,7 @@ fn measure_curve(
     // measured region (instructions) sees the injected share.
     prepared.warm_up(&base, options.inject_slowdown)?;
     let mut points = Vec::new();
-    for spp in case.ladder(matches!(backend, Backend::Gpu(..))) {
+    for spp in case.ladder(backend.is_gpu()) {
         let settings = RenderSettings { spp, ..base };
         let mut walls = Vec::new();
         let mut gpus = Some(Vec::new());
@@ -441,7 +456,7 @@ pub fn ray_workload(segments: (u32, u32), rays: u32) -> Result<(Scene, Vec<Ray>)
 
 fn measure_workload(
     load: &Workload,
-    backend: Backend,
+    backend: Renderer,
     options: &Options,
     metric: &mut dyn FnMut(&str),
 ) -> Result<Throughput> {
@@ -457,10 +472,7 @@ fn measure_workload(
             ..
         } => {
             let scene_data = workload_scene(scene)?;
-            let spp = match backend {
-                Backend::Cpu(..) => spp_cpu,
-                Backend::Gpu(..) => spp_gpu,
-            };
+            let spp = if backend.is_gpu() { spp_gpu } else { spp_cpu };
             let settings = RenderSettings {
                 width,
                 height,
@@ -498,8 +510,8 @@ fn measure_workload(
         Workload::Rays { segments, rays, .. } => {
             let (scene, batch) = ray_workload(segments, rays)?;
             let triangles = scene.triangles().len();
-            match backend {
-                Backend::Cpu(pool, _) => {
+            match backend.devices {
+                Devices::Cpu(Some(pool)) => {
                     let trace = |rays: &[Ray]| {
                         pool.install(|| {
                             rays.par_iter()
@@ -525,7 +537,8 @@ fn measure_workload(
                     );
                     ("rays", batch.len() as u64, walls, None, note)
                 }
-                Backend::Gpu(ctx, v) => {
+                Devices::Gpu(ctx) => {
+                    let v = backend.spec.variant;
                     let t = gpu::rays::trace_closest(ctx, &scene, &batch, reps, v)?;
                     let mut walls: Vec<f64> = t.wall.iter().map(|d| d.as_secs_f64()).collect();
                     let mut gpus: Option<Vec<f64>> =
@@ -556,6 +569,10 @@ fn measure_workload(
                         100.0 * same as f64 / batch.len() as f64
                     );
                     ("rays", batch.len() as u64, walls, gpus, note)
+                }
+                // A run measures its one pool or one GPU (`run` makes no other).
+                Devices::Cpu(None) | Devices::Gpus(_) => {
+                    bail!("a ray workload runs on the run's CPU pool or one GPU")
                 }
             }
         }
