@@ -202,7 +202,8 @@ impl Target {
                     .is_ok_and(|n| n == ash::ext::robustness2::NAME)
             });
         let mut robustness2 = vk::PhysicalDeviceRobustness2FeaturesEXT::default();
-        if has_robustness2 {
+        // vkGetPhysicalDeviceFeatures2 is Vulkan 1.1's.
+        if has_robustness2 && properties.api_version >= vk::API_VERSION_1_1 {
             let mut features2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut robustness2);
             instance.get_physical_device_features2(physical, &mut features2);
         }
@@ -343,6 +344,9 @@ impl Inspector {
                 ctx,
                 "its driver lacks VK_KHR_pipeline_executable_properties",
             ));
+        }
+        if target.api_version < vk::API_VERSION_1_1 {
+            return Err(unavailable(ctx, "its Vulkan is 1.0"));
         }
         let mut exec = vk::PhysicalDevicePipelineExecutablePropertiesFeaturesKHR::default();
         {
