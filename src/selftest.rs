@@ -30,15 +30,15 @@
 use crate::compare::furnace::{self, FurnaceCase};
 use crate::compare::gate::{
     gate_settings, load_reference_in, load_scene, read_manifest, refs_for, RefSet, RefSpec,
-    RenderFn, StoredReference, GATE_REFS,
+    RenderFn, StoredReference,
 };
 use crate::compare::image::{compare, Method, NoisyImage, Side, TestSettings, Verdict};
+use crate::render::Renderer;
 use crate::stats;
 use anyhow::Result;
 use glam::DVec3;
-use reference::integrator::Integrator;
 use reference::material::LUMINANCE_WEIGHTS;
-use reference::{Film, RenderSettings, Scene};
+use reference::{RenderSettings, Scene};
 use std::fmt::Write as _;
 use std::time::Instant;
 
@@ -47,66 +47,6 @@ use std::time::Instant;
 pub const GATE_SPP: u32 = 1024;
 /// The seed of the gate renders; the references use 1.
 pub const GATE_SEED: u32 = 11;
-
-/// A renderer under test that prepares once per scene (the GPU uploads
-/// the scene and builds its pipeline once, then renders many seeds).
-pub trait Renderer {
-    /// A function rendering `scene` with any settings.
-    fn prepare<'s>(&'s self, scene: &'s Scene) -> Result<PreparedRender<'s>>;
-
-    /// The stored references of this renderer's estimator.
-    fn refs(&self) -> &'static RefSet {
-        &GATE_REFS
-    }
-}
-
-/// What [`Renderer::prepare`] returns.
-pub type PreparedRender<'s> = Box<dyn Fn(&RenderSettings) -> Result<Film> + 's>;
-
-/// A spec on a device (a GPU, or the CPU reference where `None`) as a
-/// [`Renderer`]: a progressive render ([`crate::render::open`]) opened
-/// once a scene, its film emptied for each render.
-pub struct Progressively<'a>(
-    pub Option<&'a gpu::GpuContext>,
-    pub crate::render::RenderSpec,
-);
-
-impl Progressively<'_> {
-    /// The CPU reference with `integrator`.
-    pub fn cpu(integrator: Integrator) -> Self {
-        Progressively(
-            None,
-            crate::render::RenderSpec::DEFAULT.with_integrator(integrator),
-        )
-    }
-
-    /// The device a render opens on.
-    pub fn devices(&self) -> crate::render::Devices<'_> {
-        match self.0 {
-            Some(ctx) => crate::render::Devices::Gpu(ctx),
-            None => crate::render::Devices::Cpu(None),
-        }
-    }
-}
-
-impl Renderer for Progressively<'_> {
-    fn refs(&self) -> &'static RefSet {
-        refs_for(self.1.integrator())
-    }
-
-    fn prepare<'s>(&'s self, scene: &'s Scene) -> Result<PreparedRender<'s>> {
-        use crate::render::{open, render_film, Devices};
-        let devices = match self.0 {
-            Some(ctx) => Devices::Gpu(ctx),
-            None => Devices::Cpu(None),
-        };
-        let render =
-            std::cell::RefCell::new(open(devices, scene, &self.1, scene.render_settings())?);
-        Ok(Box::new(move |settings: &RenderSettings| -> Result<Film> {
-            render_film(render.borrow_mut().as_mut(), settings)
-        }))
-    }
-}
 
 /// The verdict of one gate.
 #[derive(Clone, Debug)]
@@ -208,7 +148,7 @@ pub const FURNACE_GATES: usize = 3;
 /// Runs every gate with `render`, reporting each as it starts and ends;
 /// an error (a missing reference, a device lost) ends the run.
 pub fn run_gates(
-    renderer: &dyn Renderer,
+    renderer: Renderer,
     spp: u32,
     seed: u32,
     only: Option<&str>,
@@ -216,13 +156,14 @@ pub fn run_gates(
 ) -> Result<Vec<GateOutcome>> {
     let render = |scene: &Scene, settings: &RenderSettings| renderer.prepare(scene)?(settings);
     let render: RenderFn = &render;
+    let refs = refs_for(renderer.spec.integrator());
     let mut out = Vec::new();
     for spec in read_manifest()? {
         if only.is_some_and(|o| o != spec.name) {
             continue;
         }
         report(GateEvent::Started(&spec.name));
-        let g = stored_gate(renderer.refs(), &spec, render, spp, seed)?;
+        let g = stored_gate(refs, &spec, render, spp, seed)?;
         report(GateEvent::Finished(&g));
         out.push(g);
     }
@@ -441,13 +382,13 @@ impl Calibration {
 /// `progress` is told after each render.
 pub fn calibrate(
     fixture: &RefSpec,
-    renderer: &dyn Renderer,
+    renderer: Renderer,
     spp: u32,
     (first, count): (u32, u32),
     others: &[TestSettings],
     progress: &mut dyn FnMut(u32),
 ) -> Result<Calibration> {
-    let reference = load_reference_in(renderer.refs(), fixture)?;
+    let reference = load_reference_in(refs_for(renderer.spec.integrator()), fixture)?;
     let scene = load_scene(fixture)?;
     let render = renderer.prepare(&scene)?;
     let settings = TestSettings::default();

@@ -13,8 +13,8 @@ use std::path::PathBuf;
 use twintrace::compare::gate::{
     gate_settings, load_reference_in, load_scene, read_manifest, refs_for, workspace_root, MANIFEST,
 };
-use twintrace::render::{open, RenderSpec};
-use twintrace::selftest::{self, GateEvent, Progressively};
+use twintrace::render::{Devices, RenderSpec, Renderer};
+use twintrace::selftest::{self, GateEvent};
 
 #[derive(Debug, Args)]
 pub struct SelftestArgs {
@@ -87,7 +87,7 @@ fn check_root(args: &SelftestArgs) -> Result<()> {
 
 /// `--calibrate-budget COUNT`: where `--target-relmse` lands, fixture by
 /// fixture, over COUNT renders each.
-fn calibrate_budget(args: &SelftestArgs, renderer: &Progressively, count: u32) -> Result<bool> {
+fn calibrate_budget(args: &SelftestArgs, renderer: Renderer, count: u32) -> Result<bool> {
     if count == 0 || !(args.target_relmse.is_finite() && args.target_relmse > 0.0) {
         bail!("--calibrate-budget needs at least 1 render and a positive --target-relmse");
     }
@@ -99,7 +99,7 @@ fn calibrate_budget(args: &SelftestArgs, renderer: &Progressively, count: u32) -
         let reference = load_reference_in(refs_for(args.integrator), &fixture)?;
         let scene = load_scene(&fixture)?;
         let settings = gate_settings(&reference, &scene, 1, args.first_seed);
-        let mut render = open(renderer.devices(), &scene, &renderer.1, settings)?;
+        let mut render = renderer.open(&scene, settings)?;
         let row = selftest::calibrate_budget(
             &reference,
             render.as_mut(),
@@ -127,7 +127,7 @@ fn calibrate_budget(args: &SelftestArgs, renderer: &Progressively, count: u32) -
 
 /// `--calibrate COUNT`: the image gate's false alarms over COUNT seeds of
 /// each fixture.
-fn calibrate(args: &SelftestArgs, renderer: &Progressively, count: u32) -> Result<bool> {
+fn calibrate(args: &SelftestArgs, renderer: Renderer, count: u32) -> Result<bool> {
     let mut rows = Vec::new();
     for spec in read_manifest()? {
         if args.only.as_ref().is_some_and(|o| *o != spec.name) {
@@ -175,15 +175,18 @@ pub fn execute(args: &SelftestArgs) -> Result<bool> {
         Device::Gpus(contexts) => contexts.first(),
         Device::Cpu => None,
     };
-    let renderer = Progressively(
-        gpu_ctx,
-        RenderSpec::DEFAULT.with_integrator(args.integrator),
-    );
+    let renderer = Renderer {
+        devices: match gpu_ctx {
+            Some(ctx) => Devices::Gpu(ctx),
+            None => Devices::Cpu(None),
+        },
+        spec: RenderSpec::DEFAULT.with_integrator(args.integrator),
+    };
     if let Some(count) = args.calibrate_budget {
-        return calibrate_budget(args, &renderer, count);
+        return calibrate_budget(args, renderer, count);
     }
     if let Some(count) = args.calibrate {
-        return calibrate(args, &renderer, count);
+        return calibrate(args, renderer, count);
     }
     // The kernel-level twin checks first: they take seconds, and a GPU that
     // fails them will not pass the image gates for the right reasons.
@@ -229,7 +232,7 @@ pub fn execute(args: &SelftestArgs) -> Result<bool> {
         _ => Vec::new(),
     };
     gates.extend(selftest::run_gates(
-        &renderer,
+        renderer,
         args.spp,
         args.seed,
         args.only.as_deref(),

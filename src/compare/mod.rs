@@ -25,8 +25,8 @@
 //!
 //! Renderers plug in as a [`gate::RenderFn`], a function that renders a
 //! `Film` for a scene and settings: [`gate::cpu_reference`], or any backend
-//! as a progressive render (`crate::render::open` and
-//! `crate::render::render_film`, as `crate::selftest::Progressively` does).
+//! as a progressive render opened once a scene
+//! (`crate::render::Renderer::prepare`, as `selftest` does).
 //! The lobe cases of [`lobes`] and the furnace cases of [`furnace`] are the
 //! CPU halves of the CPU-vs-GPU sampling and furnace gates.
 //!

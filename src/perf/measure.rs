@@ -27,7 +27,7 @@ use super::run::{median, Adapter, Curve, Host, PerfRun, Point, RunSettings, Thro
 use super::suite::{curves, workloads, CurveCase, Suite, Workload, PERF_SEED};
 use crate::compare::gate::{load_reference_in, load_scene, workspace_root};
 use crate::compare::image::NoisyImage;
-use crate::render::{Devices, RenderSpec};
+use crate::render::{Devices, RenderSpec, Renderer};
 use anyhow::{anyhow, bail, Context, Result};
 use gpu::{GpuContext, Variant};
 use rayon::prelude::*;
@@ -72,15 +72,9 @@ pub struct Options<'a> {
     pub only: Vec<String>,
 }
 
-/// A renderer of the run: where it renders (the CPU reference in the
-/// run's pool, or the GPU: the render boundary's [`Devices`]) and what
-/// ([`RenderSpec`]: the estimator; on the GPU the variant).
-#[derive(Clone, Copy)]
-struct Renderer<'a> {
-    devices: Devices<'a>,
-    spec: RenderSpec,
-}
-
+/// perf's renderers ([`Renderer`]: the CPU reference in the run's pool
+/// with one estimator, or the GPU with one variant) and their names in
+/// the run's rows.
 impl<'a> Renderer<'a> {
     fn cpu(pool: &'a rayon::ThreadPool, integrator: Integrator) -> Self {
         Renderer {
@@ -156,12 +150,7 @@ impl<'a> Prepared<'a> {
             _ => None,
         };
         Ok(Prepared {
-            render: std::cell::RefCell::new(crate::render::open(
-                renderer.devices,
-                scene,
-                &renderer.spec,
-                settings,
-            )?),
+            render: std::cell::RefCell::new(renderer.open(scene, settings)?),
             cpu,
         })
     }

@@ -1,5 +1,6 @@
-//! Where a render runs ([`Devices`]) and the one place a backend is
-//! chosen for it ([`open`]).
+//! Where a render runs ([`Devices`]), the one place a backend is chosen
+//! for it ([`open`]), and a renderer as its clients hold one: where and
+//! what ([`Renderer`]).
 
 use super::cpu::CpuProgressive;
 use super::gpu::GpuProgressive;
@@ -34,4 +35,43 @@ pub fn open<'a>(
             Box::new(GroupProgressive::new(contexts, scene, spec, settings)?)
         }
     })
+}
+
+/// A renderer: where it renders and what ([`RenderSpec`]). `Copy`, like
+/// [`Devices`]: selftest's gates and calibrations and perf's rows each
+/// open renders of many scenes with one.
+#[derive(Clone, Copy)]
+pub struct Renderer<'a> {
+    pub devices: Devices<'a>,
+    pub spec: RenderSpec,
+}
+
+impl<'a> Renderer<'a> {
+    /// A progressive render of `scene` ([`open`]).
+    pub fn open<'s>(
+        &self,
+        scene: &'s Scene,
+        settings: RenderSettings,
+    ) -> Result<Box<dyn Progressive + 's>>
+    where
+        'a: 's,
+    {
+        open(self.devices, scene, &self.spec, settings)
+    }
+
+    /// A function rendering `scene` with any settings: the scene opened
+    /// once (a GPU uploads it and builds its kernels once), its film
+    /// emptied for each render.
+    pub fn prepare<'s>(
+        &self,
+        scene: &'s Scene,
+    ) -> Result<impl Fn(&RenderSettings) -> Result<reference::Film> + 's>
+    where
+        'a: 's,
+    {
+        let render = std::cell::RefCell::new(self.open(scene, scene.render_settings())?);
+        Ok(move |settings: &RenderSettings| {
+            super::progressive::render_film(render.borrow_mut().as_mut(), settings)
+        })
+    }
 }

@@ -34,7 +34,7 @@ pub use budget::{
     Chunked, Chunking, CHUNK_TIME, INTERRUPTED, MIN_BUDGET_SAMPLES,
 };
 pub use cpu::CpuProgressive;
-pub use devices::{open, Devices};
+pub use devices::{open, Devices, Renderer};
 pub use gpu::GpuProgressive;
 pub use group::GroupProgressive;
 pub use job::{one_line, Hooks, Job, JobOptions, PartialPaths, Phases, Rendered, Written};

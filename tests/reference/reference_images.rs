@@ -12,7 +12,8 @@ use crate::common::gates::gate_fixture;
 use reference::integrator::Integrator;
 use twintrace::compare::gate::{cpu_reference, manifest_entry, read_manifest};
 use twintrace::compare::image::TestSettings;
-use twintrace::selftest::{self, Progressively};
+use twintrace::render::{Devices, RenderSpec, Renderer};
+use twintrace::selftest;
 
 /// The seed of every test render; the references use seed 1.
 const TEST_SEED: u32 = 7;
@@ -85,7 +86,10 @@ fn a_sample_of_the_calibration_stays_within_its_false_alarm_rate() {
     };
     let cal = selftest::calibrate(
         &spec,
-        &Progressively::cpu(Integrator::Bsdf),
+        Renderer {
+            devices: Devices::Cpu(None),
+            spec: RenderSpec::DEFAULT.with_integrator(Integrator::Bsdf),
+        },
         1024,
         (2000, 20),
         &[loose],
