@@ -449,14 +449,11 @@ fn run_suite(a: &RunArgs) -> Result<()> {
 /// shared memory: `gpu::pipeline::inspect`), a line each on stderr.
 fn print_kernels(ctx: &gpu::GpuContext) {
     match gpu::pipeline::inspect::kernels(ctx, false) {
-        Ok(found) => match &found.unavailable {
-            Some(why) => eprintln!("perf: {why}"),
-            None => {
-                for k in &found.kernels {
-                    eprintln!("perf: kernel {}", k.line());
-                }
+        Ok(found) => {
+            for line in found.lines() {
+                eprintln!("perf: {line}");
             }
-        },
+        }
         Err(e) => eprintln!("perf: {e}"),
     }
 }

@@ -669,7 +669,9 @@ fn save_caches(device: &Device) -> Vec<String> {
 /// SPIR-V and report written there.
 fn inspect_kernels(device: &Device, dump: Option<&std::path::Path>) -> Result<Vec<String>> {
     let mut lines = Vec::new();
-    for (i, ctx) in device.contexts().into_iter().enumerate() {
+    let contexts = device.contexts();
+    let several = contexts.len() > 1;
+    for (i, ctx) in contexts.into_iter().enumerate() {
         // A kernel that cannot be inspected is a line of `--timings`, but
         // an error where `--dump-kernels` asked for the files.
         let found = match gpu::pipeline::inspect::kernels(ctx, dump.is_some()) {
@@ -680,15 +682,15 @@ fn inspect_kernels(device: &Device, dump: Option<&std::path::Path>) -> Result<Ve
             }
             Err(e) => return Err(anyhow!("--dump-kernels: device {i}: {e}")),
         };
-        if let Some(why) = &found.unavailable {
-            lines.push(format!("timings: device {i}: {why}"));
-        }
+        lines.extend(
+            found
+                .lines()
+                .into_iter()
+                .map(|l| format!("timings: device {i}: {l}")),
+        );
         for (n, k) in found.kernels.iter().enumerate() {
-            if found.unavailable.is_none() {
-                lines.push(format!("timings: device {i}: kernel {}", k.line()));
-            }
             if let Some(dir) = dump {
-                let stem = if device.contexts().len() > 1 {
+                let stem = if several {
                     format!("{i}-{n:02}-{}-{}", k.entry, k.checks.name())
                 } else {
                     format!("{n:02}-{}-{}", k.entry, k.checks.name())

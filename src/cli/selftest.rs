@@ -4,7 +4,7 @@
 //! `--calibrate N` measures the stored-reference gate's false alarms and
 //! power over N seeds per fixture instead.
 
-use super::common::{choose_device, Backend, Device};
+use super::common::{choose_device, Backend};
 use super::spec::axis;
 use anyhow::{bail, Result};
 use clap::Args;
@@ -13,7 +13,7 @@ use std::path::PathBuf;
 use twintrace::compare::gate::{
     gate_settings, load_reference_in, load_scene, read_manifest, refs_for, workspace_root, MANIFEST,
 };
-use twintrace::render::{Devices, RenderSpec, Renderer};
+use twintrace::render::{RenderSpec, Renderer};
 use twintrace::selftest::{self, GateEvent};
 
 #[derive(Debug, Args)]
@@ -169,17 +169,10 @@ pub fn execute(args: &SelftestArgs) -> Result<bool> {
     }
     let (device, name, why) = choose_device(args.backend)?;
     eprintln!("selftest on {name}{why}");
-    let gpu_ctx = match &device {
-        Device::Gpu(ctx) => Some(&**ctx),
-        // choose_device opens one device at most.
-        Device::Gpus(contexts) => contexts.first(),
-        Device::Cpu => None,
-    };
+    // choose_device opens one device at most.
+    let gpu_ctx = device.contexts().first().copied();
     let renderer = Renderer {
-        devices: match gpu_ctx {
-            Some(ctx) => Devices::Gpu(ctx),
-            None => Devices::Cpu(None),
-        },
+        devices: device.devices(None),
         spec: RenderSpec::DEFAULT.with_integrator(args.integrator),
     };
     if let Some(count) = args.calibrate_budget {

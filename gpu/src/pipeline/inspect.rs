@@ -117,6 +117,21 @@ pub struct Inspection {
     pub unavailable: Option<String>,
 }
 
+impl Inspection {
+    /// One line a kernel ([`KernelReport::line`]), or the one line saying
+    /// why the driver cannot report.
+    pub fn lines(&self) -> Vec<String> {
+        match &self.unavailable {
+            Some(why) => vec![why.clone()],
+            None => self
+                .kernels
+                .iter()
+                .map(|k| format!("kernel {}", k.line()))
+                .collect(),
+        }
+    }
+}
+
 /// Every kernel `ctx` has built and still holds (its pipeline cache's
 /// keys, the most recently used first), built again for inspection;
 /// `representations` also asks for the driver's internal representations.
