@@ -9,8 +9,7 @@ use reference::camera::CameraSettings;
 use reference::RenderSettings;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
-use twintrace::image_io::{self, RenderImage, RenderMetadata};
-use twintrace::render::{Devices, RenderSpec};
+use twintrace::render::{Devices, Job, JobOptions, RenderSpec};
 use twintrace::view::{Event, Pace, View};
 
 #[derive(Debug, Args)]
@@ -193,6 +192,7 @@ pub fn view(args: &ViewArgs) -> Result<()> {
         write(
             out,
             "view",
+            closed.scene,
             &closed.layers,
             &closed.settings,
             &spec,
@@ -245,6 +245,7 @@ fn headless(
         write(
             out,
             &name,
+            scene,
             &layers,
             &s,
             view.spec(),
@@ -271,6 +272,7 @@ fn headless(
             write(
                 out,
                 &cpu_name,
+                scene,
                 &cpu_layers,
                 &twin_settings,
                 view.spec(),
@@ -303,22 +305,30 @@ fn headless(
     Ok(())
 }
 
-/// The film as `render` writes it: DIR/NAME.exr and DIR/NAME.png.
+/// The film as `render` writes it ([`Job::write_layers`]): DIR/NAME.exr
+/// and DIR/NAME.png.
 #[allow(clippy::too_many_arguments)]
 fn write(
     dir: &Path,
     name: &str,
+    scene: &reference::Scene,
     layers: &twintrace::render::Layers,
     settings: &RenderSettings,
     spec: &RenderSpec,
     spp: u32,
     device: &str,
-    scene: &str,
+    scene_name: &str,
 ) -> Result<()> {
-    let metadata = RenderMetadata::for_render(scene, settings, spp, device, spec.integrator());
-    let paths = image_io::output_paths(&dir.join(name))?;
-    let image = RenderImage::from_layers(layers.clone(), metadata);
-    image_io::write_render_outputs(&paths, &image, spec.tonemap)?;
+    let settings = RenderSettings { spp, ..*settings };
+    let job = Job::new(
+        scene,
+        scene_name,
+        *spec,
+        settings,
+        &dir.join(name),
+        JobOptions::default(),
+    )?;
+    job.write_layers(layers.clone(), device)?;
     Ok(())
 }
 

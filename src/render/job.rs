@@ -507,7 +507,6 @@ impl<'a> Job<'a> {
                 };
                 phases.end("image read");
                 let nonfinite = layers.rejected;
-                let image = RenderImage::from_layers(layers, metadata);
                 let extras = aov_extras(
                     render,
                     &self.options.aovs,
@@ -518,12 +517,7 @@ impl<'a> Job<'a> {
                 if !self.options.aovs.is_empty() {
                     phases.end("AOVs");
                 }
-                times = Some(image_io::write_render_outputs_with(
-                    &self.paths,
-                    &image,
-                    &extras,
-                    self.spec.tonemap,
-                )?);
+                times = Some(self.write_image(layers, metadata, &extras)?);
                 nonfinite
             }
         };
@@ -533,6 +527,32 @@ impl<'a> Job<'a> {
             nonfinite,
             times,
         })
+    }
+
+    /// Writes `layers`, a film of the job's `spp` samples a pixel rendered
+    /// on `device` (its name), as the job's image, as [`Job::write`] writes
+    /// a whole render's: the viewer's saves, whose film is rendered frame
+    /// by frame rather than by [`Job::render`].
+    pub fn write_layers(&self, layers: Layers, device: &str) -> Result<WriteTimes> {
+        let metadata = RenderMetadata::for_render(
+            &self.scene_name,
+            &self.settings,
+            self.settings.spp,
+            device,
+            self.spec.integrator(),
+        );
+        self.write_image(layers, metadata, &image_io::ExrExtras::default())
+    }
+
+    /// The image's files: the EXR (with `extras`) and the PNG.
+    fn write_image(
+        &self,
+        layers: Layers,
+        metadata: RenderMetadata,
+        extras: &image_io::ExrExtras,
+    ) -> Result<WriteTimes> {
+        let image = RenderImage::from_layers(layers, metadata);
+        image_io::write_render_outputs_with(&self.paths, &image, extras, self.spec.tonemap)
     }
 }
 

@@ -4,9 +4,11 @@
 //! a scene, so that a view worth keeping is a fixture in one step.
 
 use super::session::View;
-use crate::image_io::{self, RenderImage, RenderMetadata};
+use crate::image_io;
+use crate::render::{Job, JobOptions, RenderSpec};
 use crate::tonemap::Tonemap;
 use anyhow::{bail, Context as _, Result};
+use reference::RenderSettings;
 use std::path::{Component, Path, PathBuf};
 
 /// The files of one save.
@@ -43,17 +45,29 @@ pub fn save(
             break n;
         }
     };
-    let settings = *view.settings();
-    let spec = *view.spec();
     let spp = view.spp();
+    let settings = RenderSettings {
+        spp,
+        ..*view.settings()
+    };
+    let spec = RenderSpec {
+        tonemap,
+        ..*view.spec()
+    };
     let device = view.render().device();
-    let layers = view.layers()?;
-    let metadata = RenderMetadata::for_render(scene, &settings, spp, &device, spec.integrator());
     let base = dir.join(&name);
-    let paths = image_io::output_paths(&base)?;
+    let job = Job::new(
+        view.scene(),
+        scene,
+        spec,
+        settings,
+        &base,
+        JobOptions::default(),
+    )?;
+    let paths = job.paths();
+    let layers = view.layers()?;
     let mean = layers.mean.clone();
-    let image = RenderImage::from_layers(layers, metadata);
-    image_io::write_render_outputs(&paths, &image, tonemap)?;
+    job.write_layers(layers, &device)?;
     if exposure_stops != 0.0 {
         let rgb = tonemap.to_srgb8_image_exposed(&mean, exposure_stops);
         image_io::write_atomic(&paths.png, |f| {

@@ -145,6 +145,12 @@ impl<'a> View<'a> {
         })
     }
 
+    /// The scene viewed (its camera as loaded; [`View::settings`] holds
+    /// the one the film is traced from).
+    pub fn scene(&self) -> &'a Scene {
+        self.scene
+    }
+
     pub fn settings(&self) -> &RenderSettings {
         &self.settings
     }

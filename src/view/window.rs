@@ -59,6 +59,8 @@ pub struct Options {
 
 /// What the window left when it closed.
 pub struct Closed {
+    /// The scene viewed (it lives as long as the process).
+    pub scene: &'static Scene,
     /// Frames drawn.
     pub frames: u64,
     /// The film's samples a pixel, its settings and spec at the close,
@@ -182,6 +184,7 @@ impl App {
     fn close(&mut self, event_loop: &ActiveEventLoop) {
         if let Some(mut r) = self.running.take() {
             let out = r.view.layers().map(|layers| Closed {
+                scene: self.scene,
                 frames: r.view.frames(),
                 spp: r.view.spp(),
                 settings: *r.view.settings(),
