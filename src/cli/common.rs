@@ -67,69 +67,39 @@ pub fn load_scene(spec: &str) -> Result<Scene> {
     Ok(scene)
 }
 
-/// The device a render runs on, once chosen.
-pub(crate) enum Device {
-    Cpu,
-    Gpu(Box<gpu::GpuContext>),
-    /// `--devices`: several devices sharing the samples.
-    Gpus(Vec<gpu::GpuContext>),
-}
-
-impl Device {
-    /// The GPUs (none for the CPU reference).
-    pub fn contexts(&self) -> Vec<&gpu::GpuContext> {
-        match self {
-            Device::Cpu => Vec::new(),
-            Device::Gpu(ctx) => vec![ctx],
-            Device::Gpus(contexts) => contexts.iter().collect(),
-        }
-    }
-
-    /// The render boundary's name for this device (the CPU reference in
-    /// `pool` where one is given).
-    pub fn devices<'a>(
-        &'a self,
-        pool: Option<&'a rayon::ThreadPool>,
-    ) -> twintrace::render::Devices<'a> {
-        match self {
-            Device::Cpu => twintrace::render::Devices::Cpu(pool),
-            Device::Gpu(ctx) => twintrace::render::Devices::Gpu(ctx),
-            Device::Gpus(contexts) => twintrace::render::Devices::Gpus(contexts),
-        }
-    }
-}
-
 /// `gpu` must open a device; `auto` takes a hardware GPU if there is one
 /// and otherwise the CPU reference (on a machine without a GPU, Mesa's
 /// software Vulkan is 12x slower than the reference there: docs/benchmarks.md).
-/// Returns the device, its name for the summary line, and why it was
-/// chosen (for `auto`'s note).
-pub(crate) fn choose_device(backend: Backend) -> Result<(Device, String, String)> {
+/// Returns the GPU opened (none: the render runs on the CPU reference;
+/// [`twintrace::render::Devices::of`]), its name for the summary line,
+/// and why it was chosen (for `auto`'s note).
+pub(crate) fn choose_device(backend: Backend) -> Result<(Vec<gpu::GpuContext>, String, String)> {
     let gpu_name = |ctx: &gpu::GpuContext| {
         print_warnings(ctx);
         format!("gpu `{}` ({})", ctx.adapter.name, ctx.adapter.backend)
     };
+    let cpu = "cpu reference".to_string();
     match backend {
-        Backend::Cpu => Ok((Device::Cpu, "cpu reference".into(), String::new())),
+        Backend::Cpu => Ok((Vec::new(), cpu, String::new())),
         Backend::Gpu => {
             let ctx = gpu::GpuContext::new().map_err(|e| anyhow!("--backend gpu: {e}"))?;
             let name = gpu_name(&ctx);
-            Ok((Device::Gpu(Box::new(ctx)), name, String::new()))
+            Ok((vec![ctx], name, String::new()))
         }
         Backend::Auto => match gpu::GpuContext::new() {
             Ok(ctx) if !ctx.is_software => {
                 let name = gpu_name(&ctx);
-                Ok((Device::Gpu(Box::new(ctx)), name, String::new()))
+                Ok((vec![ctx], name, String::new()))
             }
             Ok(ctx) => Ok((
-                Device::Cpu,
-                "cpu reference".into(),
+                Vec::new(),
+                cpu,
                 format!(
                     " (the only GPU adapter is the software `{}`; use --backend gpu to run on it)",
                     ctx.adapter.name
                 ),
             )),
-            Err(e) => Ok((Device::Cpu, "cpu reference".into(), format!(" ({e})"))),
+            Err(e) => Ok((Vec::new(), cpu, format!(" ({e})"))),
         },
     }
 }

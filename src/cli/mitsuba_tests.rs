@@ -9,6 +9,7 @@ use anyhow::{bail, Result};
 use clap::Args;
 use std::path::PathBuf;
 use twintrace::mitsuba_tests::{self, Budget, Outcome};
+use twintrace::render::Devices;
 
 #[derive(Debug, Args)]
 pub struct MitsubaTestsArgs {
@@ -46,7 +47,7 @@ pub fn run(args: &MitsubaTestsArgs) -> Result<()> {
         if backend == Backend::Auto {
             bail!("--backend takes cpu or gpu");
         }
-        let (device, name, _) = choose_device(backend)?;
+        let (gpus, name, _) = choose_device(backend)?;
         let twin = if backend == Backend::Cpu {
             "cpu"
         } else {
@@ -54,7 +55,7 @@ pub fn run(args: &MitsubaTestsArgs) -> Result<()> {
         };
         println!("# {twin}: {name}");
         for case in &cases {
-            match mitsuba_tests::run(case, device.devices(None), budget) {
+            match mitsuba_tests::run(case, Devices::of(&gpus, None), budget) {
                 Ok(Outcome::Refused(line)) => {
                     println!(
                         "{:<52} {twin} REFUSED {}",

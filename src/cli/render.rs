@@ -3,7 +3,7 @@
 
 use super::common::{
     choose_device, load_scene, one_line, print_stdout, print_warnings, sampler_parser, size_arg,
-    Backend, Device, Refused,
+    Backend, Refused,
 };
 use super::{interrupt, outputs, spec};
 use anyhow::{anyhow, bail, Context, Result};
@@ -105,7 +105,8 @@ pub struct RenderArgs {
     /// adapter indices as `twintrace info` lists them (e.g. 0,1; an index
     /// may repeat). Each device takes chunks of samples from a shared
     /// queue, and their films' exact sums are added: on devices of one
-    /// kind, the one-device image bit for bit.
+    /// kind, the one-device image bit for bit (one device selected
+    /// renders as without --devices).
     #[arg(long, value_name = "all|LIST")]
     pub devices: Option<String>,
     /// Also write first-hit layers (AOVs) into the EXR, from the image's
@@ -174,9 +175,10 @@ pub fn resolve_settings(
     Ok(s)
 }
 
-/// Opens the device `--backend` and `--devices` name; the device, its
-/// name for the summary line, and why it was chosen (for `auto`'s note).
-fn open_device(args: &RenderArgs) -> Result<(Device, String, String)> {
+/// Opens the devices `--backend` and `--devices` name; the GPUs (none:
+/// the CPU reference), their name for the summary line, and why they
+/// were chosen (for `auto`'s note).
+fn open_device(args: &RenderArgs) -> Result<(Vec<gpu::GpuContext>, String, String)> {
     let Some(list) = &args.devices else {
         return choose_device(args.backend);
     };
@@ -188,7 +190,7 @@ fn open_device(args: &RenderArgs) -> Result<(Device, String, String)> {
         .open()
         .map_err(|e| anyhow!("--devices {list}: {e}"))?;
     contexts.iter().for_each(print_warnings);
-    Ok((Device::Gpus(contexts), String::new(), String::new()))
+    Ok((contexts, String::new(), String::new()))
 }
 
 pub use readers::text::{parse_duration, parse_duration_for};
@@ -410,17 +412,13 @@ impl RenderPlan {
 
 /// An image this machine cannot hold: refused before the render, in one
 /// line.
-fn check_memory(job: &Job, device: &Device) -> Result<()> {
+fn check_memory(job: &Job, gpus: &[gpu::GpuContext]) -> Result<()> {
     use twintrace::host_memory as mem;
     // A software adapter's film (lavapipe's) is in host memory too.
-    let software = match device {
-        Device::Cpu => 0,
-        Device::Gpu(ctx) => ctx.is_software as u64,
-        Device::Gpus(ctxs) => ctxs.iter().filter(|c| c.is_software).count() as u64,
-    };
-    let (backend, base) = match device {
-        Device::Cpu => ("cpu", mem::CPU_BYTES_PER_PIXEL),
-        Device::Gpu(_) | Device::Gpus(_) => (
+    let software = gpus.iter().filter(|c| c.is_software).count() as u64;
+    let (backend, base) = match gpus {
+        [] => ("cpu", mem::CPU_BYTES_PER_PIXEL),
+        _ => (
             "gpu",
             mem::GPU_BYTES_PER_PIXEL + software * mem::DEVICE_FILM_BYTES_PER_PIXEL,
         ),
@@ -468,19 +466,15 @@ pub(super) fn render(args: &RenderArgs) -> Result<()> {
         ),
         None => None,
     };
-    let (device, _, why) = open_device(args)?;
+    let (gpus, _, why) = open_device(args)?;
     if args.dump_kernels.is_some() {
-        if device.contexts().is_empty() {
+        if gpus.is_empty() {
             return Err(Refused(
                 "--dump-kernels: the render runs on the CPU reference, which builds no kernels (use --backend gpu)".into(),
             )
             .into());
         }
-        if let Some(ctx) = device
-            .contexts()
-            .iter()
-            .find(|c| c.adapter.backend != "Vulkan")
-        {
+        if let Some(ctx) = gpus.iter().find(|c| c.adapter.backend != "Vulkan") {
             return Err(Refused(format!(
                 "--dump-kernels: `{}` runs on {}, not Vulkan: its kernels are not SPIR-V",
                 ctx.adapter.name, ctx.adapter.backend
@@ -489,8 +483,8 @@ pub(super) fn render(args: &RenderArgs) -> Result<()> {
         }
     }
     phases.end("device");
-    check_memory(&job, &device)?;
-    let devices = device.devices(pool.as_ref());
+    check_memory(&job, &gpus)?;
+    let devices = twintrace::render::Devices::of(&gpus, pool.as_ref());
     let mut progressive = twintrace::render::open(devices, &scene, job.spec(), *job.settings())?;
     phases.end("kernels and upload");
     for note in progressive.notes() {
@@ -508,7 +502,7 @@ pub(super) fn render(args: &RenderArgs) -> Result<()> {
     }
     phases.end("rendering");
     let written = job.write(progressive.as_mut(), rendered.end, &mut phases)?;
-    let compiled = save_caches(&device);
+    let compiled = save_caches(&gpus);
     // The film and the device are left to the end of the process (the
     // driver frees them when it exits), which is at hand: tearing them
     // down took 0.07–0.11 s on the H200.
@@ -516,11 +510,11 @@ pub(super) fn render(args: &RenderArgs) -> Result<()> {
     phases.end("teardown");
     // After the phases: the kernels are built again to be inspected.
     let kernels = if args.timings || args.dump_kernels.is_some() {
-        inspect_kernels(&device, args.dump_kernels.as_deref())?
+        inspect_kernels(&gpus, args.dump_kernels.as_deref())?
     } else {
         Vec::new()
     };
-    std::mem::forget(device);
+    std::mem::forget(gpus);
     if args.timings {
         let file_times = written.times.as_ref().map_or(String::new(), |t| {
             format!(
@@ -641,8 +635,7 @@ fn interrupted(
 
 /// Saves each device's pipeline cache; returns the `--timings` line of
 /// each device's kernel builds.
-fn save_caches(device: &Device) -> Vec<String> {
-    let contexts = device.contexts();
+fn save_caches(contexts: &[gpu::GpuContext]) -> Vec<String> {
     let compiled = contexts
         .iter()
         .enumerate()
@@ -656,7 +649,7 @@ fn save_caches(device: &Device) -> Vec<String> {
             )
         })
         .collect();
-    for ctx in &contexts {
+    for ctx in contexts {
         if let Err(e) = ctx.save_pipeline_cache() {
             eprintln!("warning: {e}");
         }
@@ -667,11 +660,13 @@ fn save_caches(device: &Device) -> Vec<String> {
 /// The `--timings` lines of each device's kernels (what the driver says
 /// of each: `gpu::pipeline::inspect`), and with `dump` each kernel's
 /// SPIR-V and report written there.
-fn inspect_kernels(device: &Device, dump: Option<&std::path::Path>) -> Result<Vec<String>> {
+fn inspect_kernels(
+    contexts: &[gpu::GpuContext],
+    dump: Option<&std::path::Path>,
+) -> Result<Vec<String>> {
     let mut lines = Vec::new();
-    let contexts = device.contexts();
     let several = contexts.len() > 1;
-    for (i, ctx) in contexts.into_iter().enumerate() {
+    for (i, ctx) in contexts.iter().enumerate() {
         // A kernel that cannot be inspected is a line of `--timings`, but
         // an error where `--dump-kernels` asked for the files.
         let found = match gpu::pipeline::inspect::kernels(ctx, dump.is_some()) {

@@ -13,7 +13,7 @@ use std::path::PathBuf;
 use twintrace::compare::gate::{
     gate_settings, load_reference_in, load_scene, read_manifest, refs_for, workspace_root, MANIFEST,
 };
-use twintrace::render::{RenderSpec, Renderer};
+use twintrace::render::{Devices, RenderSpec, Renderer};
 use twintrace::selftest::{self, GateEvent};
 
 #[derive(Debug, Args)]
@@ -167,12 +167,12 @@ pub fn execute(args: &SelftestArgs) -> Result<bool> {
     if args.spp == 0 || args.calibrate == Some(0) {
         bail!("--spp and --calibrate need at least 1");
     }
-    let (device, name, why) = choose_device(args.backend)?;
+    let (gpus, name, why) = choose_device(args.backend)?;
     eprintln!("selftest on {name}{why}");
     // choose_device opens one device at most.
-    let gpu_ctx = device.contexts().first().copied();
+    let gpu_ctx = gpus.first();
     let renderer = Renderer {
-        devices: device.devices(None),
+        devices: Devices::of(&gpus, None),
         spec: RenderSpec::DEFAULT.with_integrator(args.integrator),
     };
     if let Some(count) = args.calibrate_budget {

@@ -1,7 +1,7 @@
 //! `twintrace view`: the interactive viewer ([`twintrace::view`]), in a
 //! window or headless.
 
-use super::common::{choose_device, load_scene, size_arg, Backend, Device, Refused};
+use super::common::{choose_device, load_scene, size_arg, Backend, Refused};
 use super::spec;
 use anyhow::{anyhow, bail, Context as _, Result};
 use clap::Args;
@@ -214,8 +214,8 @@ fn headless(
     cameras: Option<Vec<CameraSettings>>,
 ) -> Result<()> {
     let out = args.out.as_deref().unwrap_or(Path::new("."));
-    let (device, _, _) = choose_device(args.backend)?;
-    let devices = device.devices(None);
+    let (gpus, _, _) = choose_device(args.backend)?;
+    let devices = Devices::of(&gpus, None);
     let frames = args.frames.unwrap_or(16);
     let pace = Pace::Fixed(args.spp_per_frame.unwrap_or(1));
     let mut view = View::open(devices, scene, spec, settings, pace)?;
@@ -294,7 +294,7 @@ fn headless(
         // The next camera starts an empty film.
         view.restart()?;
     }
-    if let Device::Gpu(ctx) = &device {
+    for ctx in &gpus {
         if let Err(e) = ctx.save_pipeline_cache() {
             eprintln!("warning: {e}");
         }

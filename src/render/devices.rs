@@ -20,6 +20,20 @@ pub enum Devices<'a> {
     Gpus(&'a [gpu::GpuContext]),
 }
 
+impl<'a> Devices<'a> {
+    /// Where a render on `gpus` runs: the CPU reference (in `pool`, where
+    /// one is given) when there is none, the one GPU, or the group of
+    /// several (whose image is the one GPU's, bit for bit, on devices of
+    /// one kind).
+    pub fn of(gpus: &'a [gpu::GpuContext], pool: Option<&'a rayon::ThreadPool>) -> Self {
+        match gpus {
+            [] => Devices::Cpu(pool),
+            [one] => Devices::Gpu(one),
+            several => Devices::Gpus(several),
+        }
+    }
+}
+
 /// Opens a progressive render of `scene` with `spec` on `devices`: the
 /// one place a backend is chosen for a render.
 pub fn open<'a>(
