@@ -9,7 +9,8 @@ use reference::camera::CameraSettings;
 use reference::RenderSettings;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
-use twintrace::render::{Devices, Job, JobOptions, RenderSpec};
+use twintrace::render::{Devices, RenderSpec};
+use twintrace::view::save::write_film;
 use twintrace::view::{Event, Pace, View};
 
 #[derive(Debug, Args)]
@@ -189,16 +190,12 @@ pub fn view(args: &ViewArgs) -> Result<()> {
             tonemap: closed.tonemap,
             ..closed.spec
         };
-        write(
-            out,
-            "view",
-            closed.scene,
-            &closed.layers,
-            &closed.settings,
+        write_film(
+            &out.join("view"),
+            (closed.scene, &args.scene),
+            (&closed.layers, &closed.settings, closed.spp),
             &spec,
-            closed.spp,
             &closed.device,
-            &args.scene,
         )?;
     }
     Ok(())
@@ -242,16 +239,12 @@ fn headless(
         let layers = view.layers()?;
         let device_name = view.render().device();
         let s = *view.settings();
-        write(
-            out,
-            &name,
-            scene,
-            &layers,
-            &s,
+        write_film(
+            &out.join(&name),
+            (scene, &args.scene),
+            (&layers, &s, view.spp()),
             view.spec(),
-            view.spp(),
             &device_name,
-            &args.scene,
         )?;
         println!(
             "{name}: {frames} frames, {} spp on {device_name} in {:.3} s of rendering; relMSE (estimated) {:.3e}",
@@ -269,16 +262,12 @@ fn headless(
             cpu.add(0..view.spp(), &|_| {})?;
             let cpu_layers = cpu.layers()?;
             let cpu_name = format!("{name}-cpu");
-            write(
-                out,
-                &cpu_name,
-                scene,
-                &cpu_layers,
-                &twin_settings,
+            write_film(
+                &out.join(&cpu_name),
+                (scene, &args.scene),
+                (&cpu_layers, &twin_settings, view.spp()),
                 view.spec(),
-                view.spp(),
                 "cpu reference",
-                &args.scene,
             )?;
             let judged =
                 twintrace::view::compare::judge(&layers, view.spp(), &cpu_layers, view.spp())?;
@@ -302,33 +291,6 @@ fn headless(
     if differ {
         bail!("the GPU's film and the CPU twin's differ (the verdict above)");
     }
-    Ok(())
-}
-
-/// The film as `render` writes it ([`Job::write_layers`]): DIR/NAME.exr
-/// and DIR/NAME.png.
-#[allow(clippy::too_many_arguments)]
-fn write(
-    dir: &Path,
-    name: &str,
-    scene: &reference::Scene,
-    layers: &twintrace::render::Layers,
-    settings: &RenderSettings,
-    spec: &RenderSpec,
-    spp: u32,
-    device: &str,
-    scene_name: &str,
-) -> Result<()> {
-    let settings = RenderSettings { spp, ..*settings };
-    let job = Job::new(
-        scene,
-        scene_name,
-        *spec,
-        settings,
-        &dir.join(name),
-        JobOptions::default(),
-    )?;
-    job.write_layers(layers.clone(), device)?;
     Ok(())
 }
 

@@ -282,10 +282,7 @@ fn judge_case(
     // survives the projection (the shading normal's error enters the
     // tangent through it, magnified by its inverse).
     let tangent_tol = (TANGENT_TOL + normal_tol) * tangent_magnification(scene, hit, &cpu);
-    let dt = (tangent - cpu.tangent)
-        .abs()
-        .max_element()
-        .max((bitangent - cpu.bitangent).abs().max_element());
+    let dt = pair_error((tangent, bitangent), (cpu.tangent, cpu.bitangent));
     if dt > tangent_tol {
         fail(format!(
             "tangent frame {tangent}, {bitangent} vs {}, {} (bound {tangent_tol})",
@@ -297,10 +294,7 @@ fn judge_case(
     // relative to their size (a sphere's from its normal, through the
     // same magnification).
     let dp_tol = tangent_tol * cpu.dp_du.length().max(cpu.dp_dv.length());
-    let ddp = (dp_du - cpu.dp_du)
-        .abs()
-        .max_element()
-        .max((dp_dv - cpu.dp_dv).abs().max_element());
+    let ddp = pair_error((dp_du, dp_dv), (cpu.dp_du, cpu.dp_dv));
     if ddp > dp_tol {
         fail(format!(
             "dp/du, dp/dv {dp_du}, {dp_dv} vs {}, {} (bound {dp_tol})",
@@ -329,6 +323,15 @@ fn judge_case(
 /// The bounds of a hit's normal, uv and point (the GPU's `p_error`
 /// given): a sphere's from its normal's rounding, an instance's from its
 /// mapped vertices', a triangle's and a quad's from three-term sums.
+/// The largest component difference between two pairs of vectors (a
+/// tangent frame, a pair of derivatives) and the reference's.
+fn pair_error((a, b): (Vec3, Vec3), (ref_a, ref_b): (Vec3, Vec3)) -> f32 {
+    (a - ref_a)
+        .abs()
+        .max_element()
+        .max((b - ref_b).abs().max_element())
+}
+
 fn bounds(
     scene: &Scene,
     ray: &Ray,

@@ -5,10 +5,10 @@
 
 use super::session::View;
 use crate::image_io;
-use crate::render::{Job, JobOptions, RenderSpec};
+use crate::render::{Job, JobOptions, Layers, RenderSpec};
 use crate::tonemap::Tonemap;
 use anyhow::{bail, Context as _, Result};
-use reference::RenderSettings;
+use reference::{RenderSettings, Scene};
 use std::path::{Component, Path, PathBuf};
 
 /// The files of one save.
@@ -18,6 +18,30 @@ pub struct Saved {
     /// folder, `NAME` without them.
     pub base: PathBuf,
     pub spp: u32,
+}
+
+/// Writes a film of `spp` samples a pixel of `scene` (as the user named
+/// it: a file, or a built-in name), traced with `settings` and `spec` on
+/// `device` (its name), as `render` writes a render ([`Job::write_layers`]):
+/// `base.exr` and `base.png`. Returns the paths written.
+pub fn write_film(
+    base: &Path,
+    (scene, scene_name): (&Scene, &str),
+    (layers, settings, spp): (&Layers, &RenderSettings, u32),
+    spec: &RenderSpec,
+    device: &str,
+) -> Result<image_io::OutputPaths> {
+    let settings = RenderSettings { spp, ..*settings };
+    let job = Job::new(
+        scene,
+        scene_name,
+        *spec,
+        settings,
+        base,
+        JobOptions::default(),
+    )?;
+    job.write_layers(layers.clone(), device)?;
+    Ok(job.paths().clone())
 }
 
 /// Writes `dir/view-NNNN.{exr,png,camera.json,json}` for the first free
@@ -46,28 +70,22 @@ pub fn save(
         }
     };
     let spp = view.spp();
-    let settings = RenderSettings {
-        spp,
-        ..*view.settings()
-    };
     let spec = RenderSpec {
         tonemap,
         ..*view.spec()
     };
     let device = view.render().device();
-    let base = dir.join(&name);
-    let job = Job::new(
-        view.scene(),
-        scene,
-        spec,
-        settings,
-        &base,
-        JobOptions::default(),
-    )?;
-    let paths = job.paths();
     let layers = view.layers()?;
-    let mean = layers.mean.clone();
-    job.write_layers(layers, &device)?;
+    let settings = *view.settings();
+    let base = dir.join(&name);
+    let paths = write_film(
+        &base,
+        (view.scene(), scene),
+        (&layers, &settings, spp),
+        &spec,
+        &device,
+    )?;
+    let mean = layers.mean;
     if exposure_stops != 0.0 {
         let rgb = tonemap.to_srgb8_image_exposed(&mean, exposure_stops);
         image_io::write_atomic(&paths.png, |f| {
